@@ -1,0 +1,99 @@
+"""Robot models as plain data, shared by every backend and by the checker.
+
+A model says which sensor channels a robot offers (the names a behaviour may read), how its
+wheels drive it, and where its sensors sit. Nothing here imports a simulator: the pymunk
+backend turns these numbers into bodies and ray casts, the CoppeliaSim backend into object
+paths, and the checker into the set of known sensor names.
+
+Frames: x forward, y to the left, angles counter-clockwise from x, in radians. SI units.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+
+class Kind(Enum):
+    """What a channel's value is."""
+
+    DISTANCE = "distance"  # metres; math.inf when nothing is detected
+    NUMBER = "number"
+    BOOL = "bool"
+
+
+@dataclass(frozen=True)
+class Sonar:
+    """One ultrasonic sensor, modelled as a single ray from its mount along its axis."""
+
+    name: str  # channel name, 1-based as CoppeliaSim's legacy API: sonar1..sonar16
+    x_m: float
+    y_m: float
+    angle_rad: float
+    range_m: float
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    name: str
+    description: str
+    wheel_radius_m: float
+    axle_length_m: float  # distance between the two wheels' contact points
+    max_wheel_speed_rad_s: float  # wheel commands beyond this are clamped (and counted)
+    mass_kg: float
+    footprint: tuple[tuple[float, float], ...]  # convex outline in the robot frame, metres
+    sonars: tuple[Sonar, ...]
+
+    def channels(self) -> dict[str, Kind]:
+        """Every channel a behaviour may read from a robot of this model, in a stable order."""
+        out: dict[str, Kind] = {s.name: Kind.DISTANCE for s in self.sonars}
+        out.update(POSE_CHANNELS)
+        out["collided"] = Kind.BOOL
+        return out
+
+
+# Every robot reports its pose; the runtime also writes it to the trace.
+POSE_CHANNELS: dict[str, Kind] = {"x": Kind.NUMBER, "y": Kind.NUMBER, "heading": Kind.NUMBER}
+
+
+# --- Pioneer P3DX ---------------------------------------------------------------------------
+# Sources, in order of trust (see ../shared/reference/coppeliasim-zmq-protocol.md, section 6):
+# * Sonar poses and angles: course code reproducing CoppeliaSim's model (`robot_p3dx.py`,
+#   SENSORS list); the angles match the real robot's sonar ring (90, 50, 30, 10, -10, ...).
+# * Wheel radius 0.0975 m (wheel diameter 195 mm): the same course code and the Pioneer 3
+#   datasheet agree.
+# * Axle length 0.331 m: uncertain, third-party figures range 0.311..0.381; 0.331 is the
+#   half-axle 0.1655 seen in code written against CoppeliaSim's model.
+# * Sonar range 1.0 m: uncertain (the course code's SENSOR_RANGE); the model's own
+#   Braitenberg script needs only 0.5 m.
+# * Max wheel speed 12.3 rad/s: the real P3DX's 1.2 m/s top speed / 0.0975 m. CoppeliaSim's
+#   model sets no joint velocity limit that could be confirmed, so this is the real robot's.
+# * Mass 9 kg: the Pioneer 3 datasheet (robot without batteries).
+# * Footprint: the chassis outline through the sonar mounts (which sit on its edge) plus the
+#   wheels, 0.42 m long and 0.38 m wide (datasheet: 455 x 381 mm including the bumpers).
+_P3DX_SONARS = (
+    (0.1067, 0.1382, 90), (0.1557, 0.1250, 50), (0.1909, 0.0831, 30), (0.2095, 0.0273, 10),
+    (0.2095, -0.0273, -10), (0.1909, -0.0785, -30), (0.1558, -0.1203, -50), (0.1067, -0.1382, -90),
+    (-0.1100, -0.1382, -90), (-0.1593, -0.1203, -130), (-0.1943, -0.0785, -150), (-0.2129, -0.0273, -170),
+    (-0.2129, 0.0273, 170), (-0.1943, 0.0785, 150), (-0.1593, 0.1203, 130), (-0.1100, 0.1382, 90),
+)
+
+PIONEER_P3DX = RobotModel(
+    name="pioneer_p3dx",
+    description="Pioneer P3DX: differential drive, 16 ultrasonic sonars",
+    wheel_radius_m=0.0975,
+    axle_length_m=0.331,
+    max_wheel_speed_rad_s=12.3,
+    mass_kg=9.0,
+    footprint=(
+        (0.2095, 0.0273), (0.2095, -0.0273), (0.1909, -0.0831), (0.1558, -0.1250),
+        (0.0975, -0.19), (-0.0975, -0.19), (-0.1593, -0.1203), (-0.1943, -0.0785),
+        (-0.2129, -0.0273), (-0.2129, 0.0273), (-0.1943, 0.0785), (-0.1593, 0.1203),
+        (-0.0975, 0.19), (0.0975, 0.19), (0.1557, 0.1250), (0.1909, 0.0831),
+    ),
+    sonars=tuple(
+        Sonar(f"sonar{i + 1}", x, y, math.radians(a), 1.0) for i, (x, y, a) in enumerate(_P3DX_SONARS)
+    ),
+)
+
+MODELS: dict[str, RobotModel] = {m.name: m for m in (PIONEER_P3DX,)}

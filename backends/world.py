@@ -1,0 +1,95 @@
+"""Worlds as plain data: walls, blocks and spawn poses, in metres.
+
+A world file (``labsim.dsl.world`` reads it, with positions for its errors) becomes a frozen
+``World``. Backends build their scenes from it, the runtime draws spawn poses from it, and
+``labsim plot`` draws it. Nothing here imports a simulator.
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+from pathlib import Path
+
+BUILTIN_DIR = Path(__file__).parent / "worlds"
+
+
+@dataclass(frozen=True)
+class Pose:
+    x_m: float
+    y_m: float
+    heading_rad: float
+
+
+@dataclass(frozen=True)
+class Wall:
+    """A straight wall: the segment a-b, thickness_m wide (centred on the segment)."""
+
+    a: tuple[float, float]
+    b: tuple[float, float]
+    thickness_m: float
+
+
+@dataclass(frozen=True)
+class Block:
+    """A solid convex polygon (a box, a pillar), corners counter-clockwise, world frame."""
+
+    corners: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class World:
+    name: str
+    description: str
+    bounds: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax: where robots may be
+    walls: tuple[Wall, ...] = ()
+    blocks: tuple[Block, ...] = ()
+    spawns: tuple[Pose, ...] = ()
+    source: str = field(default="", compare=False)  # the file it came from
+
+    def clearance(self, x: float, y: float) -> float:
+        """Distance in metres from (x, y) to the nearest wall or block surface (<0 inside)."""
+        best = math.inf
+        for w in self.walls:
+            best = min(best, _segment_distance(x, y, w.a, w.b) - w.thickness_m / 2)
+        for bl in self.blocks:
+            best = min(best, _polygon_distance(x, y, bl.corners))
+        return best
+
+    def random_pose(self, rng: random.Random, clearance_m: float) -> Pose:
+        """A pose inside the bounds at least clearance_m from every obstacle.
+
+        Rejection sampling from the caller's generator, so a seed gives the same pose.
+        """
+        xmin, ymin, xmax, ymax = self.bounds
+        for _ in range(10_000):
+            x = rng.uniform(xmin + clearance_m, xmax - clearance_m)
+            y = rng.uniform(ymin + clearance_m, ymax - clearance_m)
+            heading = rng.uniform(-math.pi, math.pi)
+            if self.clearance(x, y) >= clearance_m:
+                return Pose(x, y, heading)
+        raise ValueError(f"world '{self.name}' has no free spot {clearance_m} m clear of obstacles")
+
+
+def builtin_worlds() -> dict[str, Path]:
+    """Names of the worlds shipped with labsim, and their files."""
+    return {p.stem: p for p in sorted(BUILTIN_DIR.glob("*.yaml"))}
+
+
+def _segment_distance(px: float, py: float, a: tuple[float, float], b: tuple[float, float]) -> float:
+    ax, ay = a
+    dx, dy = b[0] - ax, b[1] - ay
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / length2))
+    return math.hypot(px - ax - t * dx, py - ay - t * dy)
+
+
+def _polygon_distance(px: float, py: float, corners: tuple[tuple[float, float], ...]) -> float:
+    n = len(corners)
+    edge = min(_segment_distance(px, py, corners[i], corners[(i + 1) % n]) for i in range(n))
+    inside = all(
+        (corners[(i + 1) % n][0] - corners[i][0]) * (py - corners[i][1])
+        - (corners[(i + 1) % n][1] - corners[i][1]) * (px - corners[i][0]) >= 0
+        for i in range(n)
+    )
+    return -edge if inside else edge

@@ -1,0 +1,175 @@
+"""Interpreter overhead on the wall-following lab: labsim against a hand-written pymunk loop.
+
+Both sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
+for the lab's 30,000 ticks: the same six sonar rays per tick, the same random numbers, the
+same rules, wheel clamping and metrics. The hand loop is what a competent student would
+write in plain Python against pymunk; labsim runs ``behaviours/wall_follow.yaml``. They must
+end at the same pose (bit for bit), which shows they did the same work.
+
+    python benchmarks/bench_wall.py [--repeat 5]
+
+Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x hand).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import random
+import statistics
+import time
+from pathlib import Path
+
+import pymunk
+
+from labsim.backends import load_backend
+from labsim.runtime.run import compile_behaviour
+
+LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
+
+
+def labsim_run() -> tuple[float, tuple[float, float, float]]:
+    behaviour = compile_behaviour(LAB)
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend, warn=lambda m: None)
+    start = time.perf_counter()
+    run.run()
+    elapsed = time.perf_counter() - start
+    pose = backend.pose(0)
+    run.close()
+    return elapsed, pose
+
+
+def hand_run() -> tuple[float, tuple[float, float, float]]:
+    # The scene: built exactly as labsim builds it (same start pose from the same seed).
+    behaviour = compile_behaviour(LAB)
+    p = behaviour.program
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend, warn=lambda m: None)
+    space: pymunk.Space = backend.space
+    body: pymunk.Body = backend.bodies[0]
+    model = p.models["pioneer"]
+
+    # --- from here on, a hand-written controller on raw pymunk ---
+    dt = 0.05
+    front, side, hold, cruise = 0.5, 0.3, 0.45, 4.0
+    radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
+    rng = random.Random(f"{p.seed}/pioneer")
+    sonars = {s.name: s for s in model.sonars}
+    rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
+             sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
+    ray_filter = pymunk.ShapeFilter(group=1)
+    drive = [0.0, 0.0]  # forward speed m/s, turn rate rad/s
+
+    def velocity(b: pymunk.Body, gravity: object, damping: float, step: float) -> None:
+        a = b.angle
+        b.velocity = (drive[0] * math.cos(a), drive[0] * math.sin(a))
+        b.angular_velocity = drive[1]
+
+    body.velocity_func = velocity
+    touching = [0]
+    contacts = [0]
+
+    def begin(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        if touching[0] == 0:
+            contacts[0] += 1
+        touching[0] += 1
+
+    def separate(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        touching[0] -= 1
+
+    space.on_collision(None, None, begin=begin, separate=separate)
+    query = space.segment_query_first
+    inf = math.inf
+
+    start = time.perf_counter()
+    following = False
+    left_cmd = right_cmd = 0.0
+    sent = (math.nan, math.nan)
+    near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, inf
+    contact_time = 0.0
+    tick = 0
+    while tick * dt < 25 * 60:
+        x, y = body.position
+        a = body.angle
+        c, s = math.cos(a), math.sin(a)
+        d = []
+        for mx, my, ux, uy, reach in rays:
+            ox, oy = x + c * mx - s * my, y + s * mx + c * my
+            hit = query((ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach), 0.0, ray_filter)
+            d.append(inf if hit is None else hit.alpha * reach)
+        s2, s5, s8, s9, s14, s15 = d
+        r = rng.randint(0, 100)
+        ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
+        steer = 4 * (s9 - s8) + 3 * (hold - right) if s8 < inf and s9 < inf else 0
+
+        was_following = following
+        if not following:
+            if ahead <= front or right <= front:
+                following = True
+            else:
+                left_cmd, right_cmd = r - 1, r + 1
+        elif ahead <= front:
+            left_cmd, right_cmd = -2, 2
+        elif right <= side:
+            left_cmd, right_cmd = cruise - 2, cruise
+        elif left <= side:
+            left_cmd, right_cmd = cruise, cruise - 1
+        elif s8 < inf and s9 < inf:
+            left_cmd, right_cmd = cruise - steer, cruise + steer
+        elif s8 < inf or s9 < inf:
+            left_cmd = right_cmd = cruise
+        else:
+            left_cmd, right_cmd = cruise, cruise / 3
+
+        if (left_cmd, right_cmd) != sent:
+            sent = (left_cmd, right_cmd)
+            wl = max(-limit, min(limit, left_cmd))
+            wr = max(-limit, min(limit, right_cmd))
+            drive[0] = radius / 2 * (wl + wr)
+            drive[1] = radius / axle * (wr - wl)
+            if touching[0] == 0:
+                body.velocity = (drive[0] * c, drive[0] * s)
+                body.angular_velocity = drive[1]
+
+        near = min(ahead, right, left) < 0.25
+        if near and not was_near:
+            near_misses += 1
+        was_near = near
+        if was_following and s8 == inf and s9 == inf:
+            overshoot_ticks += 1
+        if was_following and (s8 < inf or s9 < inf):
+            following_ticks += 1
+        closest = min(closest, ahead, right, left)
+
+        space.step(dt)
+        if touching[0]:
+            contact_time += dt
+        tick += 1
+    elapsed = time.perf_counter() - start
+    x, y = body.position
+    pose = (x, y, math.remainder(body.angle, 2 * math.pi))
+    run.close()
+    return elapsed, pose
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    labsim_times, hand_times = [], []
+    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
+        t, labsim_pose = labsim_run()
+        labsim_times.append(t)
+        t, hand_pose = hand_run()
+        hand_times.append(t)
+    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12) for a, b in zip(labsim_pose, hand_pose))
+    lab, hand = statistics.median(labsim_times), statistics.median(hand_times)
+    print(f"wall lab, 30000 ticks, median of {args.repeat}:")
+    print(f"  hand-written pymunk loop  {hand:.3f} s   ({', '.join(f'{t:.3f}' for t in hand_times)})")
+    print(f"  labsim                    {lab:.3f} s   ({', '.join(f'{t:.3f}' for t in labsim_times)})")
+    print(f"  ratio labsim / hand       {lab / hand:.3f}   (goal <= 1.05)")
+    print(f"  same final pose: {'yes' if same else 'NO'}  labsim {labsim_pose}  hand {hand_pose}")
+
+
+if __name__ == "__main__":
+    main()

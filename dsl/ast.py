@@ -1,0 +1,117 @@
+"""The abstract syntax of rule and expression strings.
+
+``labsim.dsl.parse`` builds these frozen dataclasses from lark's tree; nothing of lark leaks
+past it. Every node carries ``span``, the (start, end) character offsets of its text inside
+the string it came from; spans are excluded from equality and repr so tests can compare trees
+by structure. ``labsim.dsl.source.Text`` maps a span back to the file's line and column.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+Span = tuple[int, int]
+
+
+def _span() -> Span:
+    return field(default=(0, 0), compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True)
+class Expr:
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Number(Expr):
+    value: float
+
+
+@dataclass(frozen=True)
+class Bool(Expr):
+    value: bool
+
+
+@dataclass(frozen=True)
+class Name(Expr):
+    id: str
+
+
+@dataclass(frozen=True)
+class Neg(Expr):
+    operand: Expr
+
+
+@dataclass(frozen=True)
+class Not(Expr):
+    operand: Expr
+
+
+@dataclass(frozen=True)
+class Binary(Expr):
+    op: str  # + - * / % **
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class Compare(Expr):
+    """``a < b <= c``: operands and the operators between them; true when every pair holds."""
+
+    operands: tuple[Expr, ...]
+    ops: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class BoolOp(Expr):
+    op: str  # and, or
+    values: tuple[Expr, ...]
+
+
+@dataclass(frozen=True)
+class IfExp(Expr):
+    """``body if test else orelse``."""
+
+    body: Expr
+    test: Expr
+    orelse: Expr
+
+
+@dataclass(frozen=True)
+class Call(Expr):
+    func: str
+    args: tuple[Expr, ...]
+    func_span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Attribute(Expr):
+    value: Expr
+    attr: str
+    attr_span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Action:
+    """``arc(l, r)`` in a rule's action list."""
+
+    name: str
+    args: tuple[Expr, ...]
+    span: Span = _span()
+    name_span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Goto:
+    """``goto follow``: switch the robot's rule state from the next tick on."""
+
+    state: str
+    span: Span = _span()
+    state_span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Rule:
+    kind: str  # "if", "else", "always"
+    condition: Expr | None
+    actions: tuple[Action | Goto, ...]
+    span: Span = _span()

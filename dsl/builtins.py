@@ -1,0 +1,135 @@
+"""The built-in functions, actions and names of the language, with their types.
+
+The checker reads signatures from here; the compiler reads implementations. A function that
+can fail on some inputs (``sqrt(-1)``, ``log(0)``) raises, and the compiled call turns that
+into the documented result (see ``FAULT_RESULTS`` in docs/language.md) and a warning.
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+from enum import Enum
+from typing import Callable
+
+
+class Type(Enum):
+    NUMBER = "number"
+    BOOL = "boolean"
+    STATE = "state"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+N, B = Type.NUMBER, Type.BOOL
+
+
+@dataclass(frozen=True)
+class Function:
+    name: str
+    params: tuple[Type, ...]
+    returns: Type
+    impl: Callable[..., object]
+    doc: str
+    variadic: bool = False  # the last parameter repeats; at least len(params) arguments
+    uses_rng: bool = False  # impl takes the robot's random.Random as its first argument
+
+    def signature(self) -> str:
+        args = ", ".join(str(p) for p in self.params)
+        return f"{self.name}({args}{', ...' if self.variadic else ''})"
+
+
+def _randint(rng: random.Random, a: float, b: float) -> float:
+    lo, hi = math.ceil(a), math.floor(b)
+    if lo > hi:
+        raise ValueError(f"randint({a:g}, {b:g}) has no integer between its bounds")
+    return rng.randint(lo, hi)
+
+
+def _sign(x: float) -> float:
+    return (x > 0) - (x < 0) if x == x else math.nan
+
+
+def _clamp(x: float, lo: float, hi: float) -> float:
+    return lo if x < lo else hi if x > hi else x
+
+
+def _round(x: float) -> float:
+    return float(round(x))
+
+
+def _log(x: float) -> float:
+    if x == 0:
+        return -math.inf
+    return math.log(x)
+
+
+FUNCTIONS: dict[str, Function] = {f.name: f for f in (
+    Function("abs", (N,), N, abs, "absolute value"),
+    Function("min", (N, N), N, min, "smallest of two or more values", variadic=True),
+    Function("max", (N, N), N, max, "largest of two or more values", variadic=True),
+    Function("clamp", (N, N, N), N, _clamp, "clamp(x, lo, hi): x limited to [lo, hi]"),
+    Function("sqrt", (N,), N, math.sqrt, "square root"),
+    Function("hypot", (N, N), N, math.hypot, "hypot(x, y): length of the vector (x, y)"),
+    Function("sin", (N,), N, math.sin, "sine of an angle in radians"),
+    Function("cos", (N,), N, math.cos, "cosine of an angle in radians"),
+    Function("tan", (N,), N, math.tan, "tangent of an angle in radians"),
+    Function("atan2", (N, N), N, math.atan2, "atan2(y, x): angle of (x, y) in radians"),
+    Function("exp", (N,), N, math.exp, "e to the power x"),
+    Function("log", (N,), N, _log, "natural logarithm"),
+    Function("floor", (N,), N, math.floor, "largest integer <= x"),
+    Function("ceil", (N,), N, math.ceil, "smallest integer >= x"),
+    Function("round", (N,), N, _round, "nearest integer (halves to even)"),
+    Function("sign", (N,), N, _sign, "-1, 0 or 1"),
+    Function("deg", (N,), N, math.degrees, "radians to degrees"),
+    Function("rad", (N,), N, math.radians, "degrees to radians"),
+    Function("randint", (N, N), N, _randint, "randint(a, b): a random integer n, a <= n <= b",
+             uses_rng=True),
+    Function("random", (), N, random.Random.random, "a random number in [0, 1)", uses_rng=True),
+    Function("uniform", (N, N), N, random.Random.uniform, "uniform(a, b): a random number in [a, b]",
+             uses_rng=True),
+    Function("gauss", (N, N), N, random.Random.gauss, "gauss(mean, sd): a normally distributed number",
+             uses_rng=True),
+)}
+
+# detected(sonar5) takes a distance sensor's *name*, not its value.
+DETECTED = "detected"
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    name: str
+    params: tuple[str, ...]  # parameter names, all numbers
+    doc: str
+
+
+ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
+    ActionSpec("arc", ("left", "right"), "wheel target velocities in rad/s (left, right)"),
+    ActionSpec("move", ("speed",), "both wheels at the same velocity, rad/s"),
+    ActionSpec("stop", (), "both wheels at 0"),
+)}
+
+
+class Aggregate(Enum):
+    """How a metric folds a per-tick value over the run."""
+
+    COUNT = "count"  # rising edges of a condition
+    DURATION = "duration"  # seconds a condition held
+    MEAN = "mean"
+    MAXIMUM = "maximum"
+    MINIMUM = "minimum"
+    FINAL = "final"  # value at the last tick
+
+    @property
+    def argument(self) -> Type:
+        return B if self in (Aggregate.COUNT, Aggregate.DURATION) else N
+
+
+AGGREGATES: dict[str, Aggregate] = {a.value: a for a in Aggregate}
+
+# Names every expression may use besides sensors, params and lets.
+CONSTANTS: dict[str, float] = {"pi": math.pi, "inf": math.inf}
+VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE}
+
+KEYWORDS = frozenset({"if", "then", "else", "always", "and", "or", "not", "goto", "true", "false"})

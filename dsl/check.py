@@ -1,0 +1,403 @@
+"""Names and types: the checker, between reading and compiling.
+
+Every name in every expression is resolved before a run — sensors of the robots' models,
+parameters (after ``--set`` overrides), ``let`` signals defined earlier, built-in variables and
+functions, rule states — and every expression gets a type (number, boolean, state). Arity,
+action arguments, ``goto`` targets, unreachable rules and metric aggregates are checked too.
+Every problem goes to the report with a did-you-mean where one helps; the result, ``Checked``,
+is what the compiler needs and nothing more.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from labsim.backends.models import MODELS, Kind, RobotModel
+from labsim.backends.world import World, builtin_worlds
+from labsim.dsl import ast
+from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, VARIABLES,
+                                 Aggregate, Type)
+from labsim.dsl.errors import Diagnostic, Report, did_you_mean
+from labsim.dsl.read import BehaviourFile, Parsed, RuleDecl
+from labsim.dsl.source import Text
+
+_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL}
+
+
+@dataclass(frozen=True)
+class Metric:
+    name: str
+    aggregate: Aggregate
+    expr: ast.Expr
+    text: Text
+
+
+@dataclass
+class Checked:
+    """A behaviour whose every name and type is known: the compiler's input."""
+
+    file: BehaviourFile
+    world: World | None
+    models: dict[str, RobotModel]  # robot group -> model
+    params: dict[str, float | bool]  # after overrides
+    channels: tuple[str, ...]  # sensor channels the behaviour reads, in model order
+    distance_channels: frozenset[str]
+    lets: list[tuple[str, Parsed]]
+    states: dict[str, list[RuleDecl]]
+    metrics: list[Metric]
+    overridden: tuple[str, ...] = ()
+    used_channels: set[str] = field(default_factory=set)
+
+
+def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
+    c = _Checker(bf, report)
+    return c.run(overrides or {})
+
+
+class _Checker:
+    def __init__(self, bf: BehaviourFile, report: Report):
+        self.bf = bf
+        self.report = report
+        self.types: dict[str, Type] = {}  # every name in scope
+        self.kinds: dict[str, str] = {}  # name -> what it is, for messages
+        self.used: set[str] = set()
+        self.later: dict[str, object] = {}  # lets not yet defined while checking one, for messages
+
+    # -- reporting ---------------------------------------------------------------------------
+    def error(self, text: Text, span: ast.Span, message: str, notes: tuple[str, ...] = ()) -> None:
+        self.report.add(text.diagnostic(span[0], span[1], message, notes=notes))
+
+    # -- the whole file ----------------------------------------------------------------------
+    def run(self, overrides: dict[str, str]) -> Checked:
+        bf = self.bf
+        world = self.world()
+        models = self.models()
+        channels: dict[str, Kind] = {}
+        if models:
+            # one behaviour drives every robot: only channels all its models offer are readable
+            offered = [m.channels() for m in models.values()]
+            channels = {k: v for k, v in offered[0].items() if all(k in o for o in offered[1:])}
+        for name, kind in channels.items():
+            self.declare(name, _KIND_TYPES[kind], "sensor")
+        for name, t in VARIABLES.items():
+            self.declare(name, t, "built-in variable")
+        for name in CONSTANTS:
+            self.declare(name, Type.NUMBER, "constant")
+        for name in bf.states:
+            if name in self.types:
+                _, key = bf.states[name]
+                if key is not None:
+                    self.report.add(bf.doc.diagnostic(key, f"state '{name}' has the name of a {self.kinds[name]}"))
+            self.declare(name, Type.STATE, "state")
+        params = self.params(overrides)
+        lets = self.lets()
+        if bf.stop is not None:
+            self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
+        states = self.rules()
+        metrics = self.metrics()
+        used_channels = tuple(ch for ch in channels if ch in self.used)
+        return Checked(bf, world, models, params, used_channels,
+                       frozenset(k for k, v in channels.items() if v is Kind.DISTANCE),
+                       lets, states, metrics, tuple(overrides))
+
+    def declare(self, name: str, t: Type, kind: str) -> None:
+        self.types[name] = t
+        self.kinds[name] = kind
+
+    def world(self) -> World | None:
+        from labsim.dsl.world import load_world  # late: world files use this package too
+
+        bf = self.bf
+        if not bf.world or bf.world_node is None:
+            return None
+        known = builtin_worlds()
+        if bf.world in known:
+            path = known[bf.world]
+        elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
+            path = Path(bf.doc.path).parent / bf.world
+            if not path.is_file():
+                self.report.add(bf.doc.diagnostic(bf.world_node, f"world file '{bf.world}' not found "
+                                                  f"(looked for {path})"))
+                return None
+        else:
+            self.report.add(bf.doc.diagnostic(
+                bf.world_node, f"unknown world '{bf.world}'{did_you_mean(bf.world, known)}",
+                notes=("built-in worlds: " + ", ".join(known) + "; or give a path to a world file",)))
+            return None
+        return load_world(path, self.report)
+
+    def models(self) -> dict[str, RobotModel]:
+        out = {}
+        for r in self.bf.robots:
+            model = MODELS.get(r.model)
+            if model is None:
+                node = r.model_node if r.model_node is not None else r.key
+                self.report.add(self.bf.doc.diagnostic(
+                    node, f"unknown robot model '{r.model}'{did_you_mean(r.model, MODELS)}",
+                    notes=("models: " + ", ".join(MODELS),)))
+            else:
+                out[r.name] = model
+        return out
+
+    def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
+        values: dict[str, float | bool] = {}
+        for name, (value, node) in self.bf.params.items():
+            if name in self.types:
+                self.report.add(self.bf.doc.diagnostic(node, f"parameter '{name}' has the name of a {self.kinds[name]}"))
+                continue
+            values[name] = value
+            self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
+        for name, raw in overrides.items():
+            where = f"--set {name}={raw}"
+            if name not in values:
+                known = ", ".join(values) or "none"
+                self.report.add(Diagnostic(where, f"unknown parameter '{name}'{did_you_mean(name, values)}",
+                                           notes=(f"parameters of {self.bf.path}: {known}",)))
+                continue
+            values[name] = _override_value(name, raw, values[name], where, self.report)
+        return values
+
+    def lets(self) -> list[tuple[str, Parsed]]:
+        out = []
+        later = {name: key for name, _, key in self.bf.lets}
+        for name, parsed, key in self.bf.lets:
+            if name in self.types:
+                self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a {self.kinds[name]}"))
+                continue
+            del later[name]
+            self.later = later
+            t = self.infer(parsed.node, parsed.text)
+            if t is not None:
+                self.declare(name, t, "signal")
+                out.append((name, parsed))
+            else:
+                self.declare(name, Type.NUMBER, "signal")  # keep checking the rest quietly
+        self.later = {}
+        return out
+
+    def rules(self) -> dict[str, list[RuleDecl]]:
+        states = {name: rules for name, (rules, _) in self.bf.states.items()}
+        for name, rules in states.items():
+            unconditional: RuleDecl | None = None
+            for decl in rules:
+                rule = decl.rule
+                if unconditional is not None:
+                    line = unconditional.text.node.start_mark.line + 1
+                    self.error(decl.text, rule.span, f"this rule can never fire: the '{unconditional.rule.kind}' "
+                               f"rule on line {line} fires first, every tick")
+                if rule.condition is not None:
+                    self.expect(Parsed(rule.condition, decl.text), rule.condition, Type.BOOL, "a rule's condition")
+                elif unconditional is None:
+                    unconditional = decl
+                self.actions(decl, states)
+        return states
+
+    def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
+        text = decl.text
+        drives = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
+        gotos = [a for a in decl.rule.actions if isinstance(a, ast.Goto)]
+        if len(drives) > 1:
+            self.error(text, drives[1].span, "a rule can drive the wheels once: this action would override "
+                       f"'{drives[0].name}(...)'")
+        if len(gotos) > 1:
+            self.error(text, gotos[1].span, "a rule can 'goto' one state")
+        for action in drives:
+            spec = ACTIONS.get(action.name)
+            if spec is None:
+                hint = did_you_mean(action.name, ACTIONS)
+                what = "function, not an action" if action.name in FUNCTIONS else "action"
+                self.error(text, action.name_span, f"unknown action '{action.name}'{hint}" if what == "action"
+                           else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(
+                               f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()) + ", goto STATE",))
+                continue
+            if len(action.args) != len(spec.params):
+                self.error(text, action.span, _arity(action.name, spec.params, len(action.args)))
+            for arg in action.args:
+                self.expect(Parsed(arg, text), arg, Type.NUMBER, f"an argument of {action.name}()")
+        for goto in gotos:
+            if goto.state not in states:
+                if list(states) == ["main"]:
+                    notes = ("to use states, write 'rules:' as a mapping from state names to lists of rules",)
+                else:
+                    notes = ("states: " + ", ".join(states),)
+                self.error(text, goto.state_span, f"no state named '{goto.state}'{did_you_mean(goto.state, states)}",
+                           notes=notes)
+
+    def metrics(self) -> list[Metric]:
+        out = []
+        names = ", ".join(f"{a}(...)" for a in AGGREGATES)
+        for name, parsed, key in self.bf.metrics:
+            e = parsed.node
+            if not (isinstance(e, ast.Call) and e.func in AGGREGATES):
+                hint = ""
+                if isinstance(e, ast.Call) and e.func in ("max", "min", "sum", "avg", "average", "time"):
+                    hint = did_you_mean({"max": "maximum", "min": "minimum", "avg": "mean", "average": "mean",
+                                         "time": "duration", "sum": "count"}[e.func], AGGREGATES)
+                self.error(parsed.text, e.span, f"metric '{name}' must be an aggregate over the run{hint}",
+                           notes=(f"aggregates: {names}",))
+                continue
+            agg = AGGREGATES[e.func]
+            if len(e.args) != 1:
+                self.error(parsed.text, e.span, f"{e.func}() takes 1 argument, given {len(e.args)}")
+                continue
+            what = "a condition" if agg.argument is Type.BOOL else "a number"
+            if self.expect(Parsed(e.args[0], parsed.text), e.args[0], agg.argument, f"{e.func}() needs {what}: its argument"):
+                out.append(Metric(name, agg, e.args[0], parsed.text))
+        return out
+
+    # -- expressions -------------------------------------------------------------------------
+    def expect(self, parsed: Parsed, e: ast.Expr, want: Type, what: str) -> bool:
+        t = self.infer(e, parsed.text)
+        if t is None:
+            return False
+        if t is not want:
+            hint = ()
+            if want is Type.BOOL and t is Type.NUMBER:
+                hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
+            self.error(parsed.text, e.span, f"{what} must be a {want}, but this is a {t}", notes=hint)
+            return False
+        return True
+
+    def infer(self, e: ast.Expr, text: Text) -> Type | None:
+        """The type of an expression, or None after reporting why it has none."""
+        if isinstance(e, ast.Number):
+            return Type.NUMBER
+        if isinstance(e, ast.Bool):
+            return Type.BOOL
+        if isinstance(e, ast.Name):
+            return self.name(e, text)
+        if isinstance(e, ast.Neg):
+            return self.operands(text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
+        if isinstance(e, ast.Not):
+            return self.operands(text, "not", [e.operand], Type.BOOL, Type.BOOL)
+        if isinstance(e, ast.Binary):
+            return self.operands(text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
+        if isinstance(e, ast.BoolOp):
+            return self.operands(text, e.op, list(e.values), Type.BOOL, Type.BOOL)
+        if isinstance(e, ast.Compare):
+            return self.compare(e, text)
+        if isinstance(e, ast.IfExp):
+            self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
+            a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+            if a is not None and b is not None and a is not b:
+                self.error(text, e.span, f"both sides of 'a if condition else b' must have one type, not {a} and {b}")
+                return None
+            return a if a is not None else b
+        if isinstance(e, ast.Call):
+            return self.call(e, text)
+        if isinstance(e, ast.Attribute):
+            t = self.infer(e.value, text)
+            if t is not None:
+                self.error(text, e.attr_span, f"a {t} has no field '.{e.attr}'")
+            return None
+        raise AssertionError(f"unknown node {e!r}")
+
+    def name(self, e: ast.Name, text: Text) -> Type | None:
+        if e.id in self.types:
+            self.used.add(e.id)
+            return self.types[e.id]
+        if e.id in self.later:
+            line = self.later[e.id].start_mark.line + 1
+            self.error(text, e.span, f"signal '{e.id}' is used before it is defined (on line {line}); "
+                       "'let' signals are evaluated in order")
+            return None
+        if e.id in FUNCTIONS or e.id in ACTIONS:
+            self.error(text, e.span, f"'{e.id}' is a function: call it as {e.id}(...)")
+            return None
+        hint = did_you_mean(e.id, self.types)
+        notes: tuple[str, ...] = ()
+        if e.id.startswith("sonar") and e.id[5:].isdigit():
+            notes = ("the robot's sonars are sonar1 .. sonar16, numbered as in CoppeliaSim",)
+        self.error(text, e.span, f"unknown name '{e.id}'{hint}", notes=notes)
+        return None
+
+    def operands(self, text: Text, op: str, args: list[ast.Expr], want: Type, result: Type) -> Type | None:
+        ok = True
+        for arg in args:
+            t = self.infer(arg, text)
+            if t is None:
+                ok = False
+            elif t is not want:
+                self.error(text, arg.span, f"'{op}' needs a {want}, but this is a {t}")
+                ok = False
+        return result if ok else None
+
+    def compare(self, e: ast.Compare, text: Text) -> Type | None:
+        types = [self.infer(o, text) for o in e.operands]
+        if any(t is None for t in types):
+            return None
+        if Type.STATE in types:
+            if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
+                self.error(text, e.span, "a state can only be compared with ==/!= to another state, "
+                           "as in 'state == follow'")
+                return None
+            return Type.BOOL
+        for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
+            if op in ("==", "!=") and ta is tb:
+                continue
+            for node, t in ((a, ta), (b, tb)):
+                if t is not Type.NUMBER:
+                    self.error(text, node.span, f"'{op}' compares numbers, but this is a {t}")
+                    return None
+        return Type.BOOL
+
+    def call(self, e: ast.Call, text: Text) -> Type | None:
+        if e.func == DETECTED:
+            if len(e.args) != 1 or not isinstance(e.args[0], ast.Name):
+                self.error(text, e.span, "detected() takes one distance sensor's name, as in detected(sonar5)")
+                return None
+            arg = e.args[0]
+            t = self.name(arg, text)
+            if t is not None and self.kinds.get(arg.id) != "sensor":
+                self.error(text, arg.span, f"detected() takes a distance sensor's name, and '{arg.id}' is a "
+                           f"{self.kinds.get(arg.id, 'name')}")
+                return None
+            return Type.BOOL if t is not None else None
+        f = FUNCTIONS.get(e.func)
+        if f is None:
+            if e.func in AGGREGATES:
+                message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
+            elif e.func in ACTIONS:
+                message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+            else:
+                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
+            self.error(text, e.func_span, message)
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
+        n = len(e.args)
+        if (n != len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
+            self.error(text, e.span, _arity(f.name, tuple(str(p) for p in f.params), n, f.variadic))
+            return None
+        ok = True
+        for i, arg in enumerate(e.args):
+            want = f.params[min(i, len(f.params) - 1)]
+            ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
+        return f.returns if ok else None
+
+
+def _arity(name: str, params: tuple[str, ...], given: int, variadic: bool = False) -> str:
+    n = len(params)
+    if variadic:
+        return f"{name}() takes at least {n} arguments, given {given}"
+    plural = "argument" if n == 1 else "arguments"
+    listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
+    return f"{name}() takes {n} {plural}{listed}, given {given}"
+
+
+def _override_value(name: str, raw: str, current: float | bool, where: str, report: Report) -> float | bool:
+    if isinstance(current, bool):
+        if raw.lower() in ("true", "false"):
+            return raw.lower() == "true"
+        report.add(Diagnostic(where, f"parameter '{name}' is true or false, not '{raw}'"))
+        return current
+    try:
+        value = float(raw)
+    except ValueError:
+        report.add(Diagnostic(where, f"parameter '{name}' is a number, not '{raw}'"))
+        return current
+    if not math.isfinite(value):
+        report.add(Diagnostic(where, f"parameter '{name}' must be a finite number"))
+        return current
+    return int(value) if isinstance(current, int) and value == int(value) else value

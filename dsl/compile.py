@@ -1,0 +1,489 @@
+"""Checked behaviour to plain Python callables: the last stage of the language.
+
+``compile_file`` runs the whole front end (load, read, check) and returns a ``Program``: the
+behaviour's settings plus everything needed to build one robot's callables. ``Program.robot``
+builds them for one robot, bound to that robot's ``Slots`` (its snapshot of sensor values,
+signals, time and state), its random generator and its fault sink, so that each robot has its
+own state and the callables take no arguments.
+
+The compiler generates Python source from the checked AST, as Jinja2's compiler does, and
+compiles it once per robot: a run evaluates the rules tens of thousands of times, and one
+generated function per tick phase costs almost nothing over a hand-written loop (a tree of
+closures cost 1.45x; see docs/compiler.md). No user text reaches ``exec``: names become slot
+indices, numbers ``repr`` literals, operators come from the grammar's fixed set.
+
+Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 is
+nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power inf. Each
+produces a warning naming the site and the tick, through ``Faults``.
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from labsim.backends.models import RobotModel
+from labsim.backends.world import World
+from labsim.dsl import ast
+from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FUNCTIONS, Aggregate
+from labsim.dsl.check import Checked, check
+from labsim.dsl.errors import Diagnostic, Report
+from labsim.dsl.read import RobotDecl, read
+from labsim.dsl.source import Text, load
+
+Fn = Callable[[], object]
+INF = math.inf
+
+# Fixed slots at the start of every robot's slot list; channels and signals follow.
+TIME, TICK, STATE = 0, 1, 2
+FIRST_CHANNEL = 3
+
+
+def compile_file(path: str | Path, overrides: dict[str, str] | None = None) -> Program:
+    """Load, read, check and compile a behaviour file; LabsimError lists every problem."""
+    doc = load(path)
+    report = Report()
+    bf = read(doc, report)
+    checked = check(bf, report, overrides)
+    report.raise_if_errors()
+    return Program(checked, [d for d in report.diagnostics if d.severity == "warning"])
+
+
+@dataclass(frozen=True)
+class RuleLabel:
+    """A rule as the summary and the trace name it: ``wander:2``."""
+
+    state: str
+    number: int
+    text: str
+    line: int
+
+    @property
+    def id(self) -> str:
+        return f"{self.state}:{self.number}"
+
+
+@dataclass(frozen=True)
+class FaultSite:
+    where: str  # "rule wander:2", "signal 'r'", ...
+    diagnostic: Diagnostic  # points at the faulting expression
+
+
+class Faults:
+    """Collects runtime faults; the first at each site is reported at once, the rest counted."""
+
+    def __init__(self, emit: Callable[[str], None] | None = None):
+        self.emit = emit
+        self.counts: dict[tuple[FaultSite, str], int] = {}
+        self.first: dict[tuple[FaultSite, str], tuple[int, str]] = {}
+
+    def report(self, site: FaultSite, what: str, tick: int, robot: str) -> None:
+        key = (site, what)
+        n = self.counts.get(key, 0)
+        self.counts[key] = n + 1
+        if n == 0:
+            self.first[key] = (tick, robot)
+            if self.emit is not None:
+                self.emit(self.describe(site, what, tick, robot))
+
+    @staticmethod
+    def describe(site: FaultSite, what: str, tick: int, robot: str) -> str:
+        d = site.diagnostic
+        head = Diagnostic(d.path, f"{what} in {site.where}, robot {robot}, tick {tick}", d.line, d.col,
+                          d.end_col, "warning", d.source_line,
+                          ("the run goes on with the result above; later occurrences are counted in the summary",))
+        return head.format()
+
+
+class Slots(list):
+    """One robot's values for the current tick: time, tick, state, channels, then signals."""
+
+
+@dataclass
+class RobotProgram:
+    """One robot's compiled behaviour: functions bound to its slots, generator and faults.
+
+    ``signals()`` evaluates the ``let`` signals into the slots and returns whether the stop
+    condition holds; ``decide()`` runs the first rule that holds (writing ``command``: left
+    and right wheel rad/s and the next state) and folds the metrics, returning the index of
+    the rule that fired, or -1.
+    """
+
+    slots: Slots
+    command: list  # [left rad/s, right rad/s, next state index]
+    signals: Callable[[], bool]
+    decide: Callable[[], int]
+    metric_values: list[list[float]]  # per metric accumulator, read by metric_result
+    events: list[str]  # names of count metrics that rose this tick (cleared by the runtime)
+    source: str  # the generated Python, for `labsim check --show-code` and for debugging
+
+
+@dataclass
+class Program:
+    checked: Checked
+    warnings: list[Diagnostic] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        c = self.checked
+        bf = c.file
+        self.name: str = bf.name
+        self.path: str = bf.path
+        self.sha256: str = bf.sha256
+        self.dt_s: float = bf.dt_s
+        self.seed: int = bf.seed
+        self.world: World = c.world  # type: ignore[assignment]
+        self.params = dict(c.params)
+        self.channels: tuple[str, ...] = c.channels
+        self.let_names: tuple[str, ...] = tuple(name for name, _ in c.lets)
+        self.state_names: tuple[str, ...] = tuple(c.states)
+        self.rules: list[RuleLabel] = [
+            RuleLabel(r.state, r.number, r.text.value.strip().replace("\n", " "), r.text.node.start_mark.line + 1)
+            for rules in c.states.values() for r in rules]
+        self.metric_names: tuple[str, ...] = tuple(m.name for m in c.metrics)
+        self.metric_aggregates: tuple[Aggregate, ...] = tuple(m.aggregate for m in c.metrics)
+        self.robot_decls: list[RobotDecl] = list(bf.robots)
+        self.models: dict[str, RobotModel] = dict(c.models)
+        self.slot_of = {"time": TIME, "tick": TICK, "state": STATE}
+        self.slot_of.update({name: FIRST_CHANNEL + i for i, name in enumerate(self.channels)})
+        for i, name in enumerate(self.let_names):
+            self.slot_of[name] = FIRST_CHANNEL + len(self.channels) + i
+        self._source: tuple[str, list[tuple[str, object]]] | None = None
+
+    def source(self) -> tuple[str, list[tuple[str, object]]]:
+        """The generated module (shared by every robot) and the fault sites it refers to."""
+        if self._source is None:
+            self._source = _Generator(self).module()
+        return self._source
+
+    def robot(self, name: str, rng: random.Random, faults: Faults) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator and fault sink."""
+        source, sites = self.source()
+        slots = Slots([0.0] * (FIRST_CHANNEL + len(self.channels) + len(self.let_names)))
+        slots[STATE] = 0
+        command = [0.0, 0.0, 0]
+        events: list[str] = []
+        metric_values = [_initial(a) for a in self.metric_aggregates]
+        bindings = _namespace(rng)
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values)
+        for i, (kind, site) in enumerate(sites):
+            bindings[f"_g{i}"] = _guard(kind, site, faults, slots, name, rng)  # type: ignore[arg-type]
+        # Only generated text reaches exec: user names became slot indices, numbers are
+        # repr(float), operators come from a fixed table (see _Generator). The functions are
+        # made by a factory so that everything they use is a closure cell, not a global.
+        namespace: dict[str, object] = {"__builtins__": {}}
+        exec(compile(source, f"<behaviour {self.path}>", "exec"), namespace)
+        signals, decide = namespace["make"](**bindings)  # type: ignore[operator]
+        return RobotProgram(slots, command, signals, decide, metric_values, events, source)
+
+
+def _initial(aggregate: Aggregate) -> list:
+    if aggregate is Aggregate.COUNT:
+        return [0, False]  # rising edges so far, the condition at the previous tick
+    if aggregate is Aggregate.DURATION:
+        return [0]  # ticks the condition held; times dt at the end
+    if aggregate is Aggregate.MEAN:
+        return [0.0, 0]  # sum and count of finite values
+    if aggregate is Aggregate.MAXIMUM:
+        return [-INF]
+    if aggregate is Aggregate.MINIMUM:
+        return [INF]
+    return [math.nan]
+
+
+def _namespace(rng: random.Random) -> dict[str, object]:
+    """What generated code may call: total functions directly, the robot's generator."""
+    ns: dict[str, object] = {"_inf": INF, "_nan": math.nan}
+    for name, f in FUNCTIONS.items():
+        if name in _TOTAL:
+            ns["_" + name] = f.impl
+    ns["_randint"] = rng.randint
+    ns["_random"] = rng.random
+    ns["_uniform"] = rng.uniform
+    ns["_gauss"] = rng.gauss
+    return ns
+
+
+# Functions that return a number for every number (inf and nan included): called directly.
+# The others may raise (sqrt(-1), log(-1), floor(inf), exp(1000), randint(3, 2)) and go through
+# a guard that turns the exception into nan and a warning.
+_TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "sin", "cos", "tan", "atan2",
+                    "sign", "deg", "rad", "random", "uniform", "gauss"})
+
+
+def _guard(kind: str, site: object, faults: Faults, slots: Slots, robot: str, rng: random.Random) -> Callable:
+    """A fault-checked operation for one site of generated code."""
+    assert isinstance(site, FaultSite)
+
+    def report(what: str) -> None:
+        faults.report(site, what, int(slots[TICK]), robot)
+
+    if kind == "/":
+        def divide(x: float, y: float) -> float:
+            try:
+                return x / y
+            except ZeroDivisionError:
+                report("division by zero")
+                return math.copysign(INF, x) if x else math.nan
+        return divide
+    if kind == "%":
+        def modulo(x: float, y: float) -> float:
+            try:
+                return x % y
+            except ZeroDivisionError:
+                report("modulo by zero")
+                return math.nan
+        return modulo
+    if kind == "**":
+        def power(x: float, y: float) -> float:
+            try:
+                r = x ** y
+            except ZeroDivisionError:
+                report("zero to a negative power")
+                return INF
+            except OverflowError:
+                report("overflow in '**'")
+                return INF
+            if isinstance(r, complex):
+                report("a negative number to a fractional power")
+                return math.nan
+            return r
+        return power
+    f = FUNCTIONS[kind]
+    impl = f.impl.__get__(rng) if f.uses_rng and kind != "randint" else f.impl
+    if kind == "randint":
+        impl = lambda a, b: FUNCTIONS["randint"].impl(rng, a, b)  # noqa: E731
+
+    def call(*args: float) -> float:
+        try:
+            return impl(*args)
+        except (ValueError, OverflowError, ZeroDivisionError) as exc:
+            report(f"{kind}(): {exc}" if str(exc) else f"{kind}() failed")
+            return math.nan
+    return call
+
+
+def metric_result(aggregate: Aggregate, acc: list[float], dt_s: float) -> float:
+    """The value of a metric from its accumulator (see _Builder.metric)."""
+    if aggregate is Aggregate.COUNT:
+        return acc[0]
+    if aggregate is Aggregate.DURATION:
+        return acc[0] * dt_s
+    if aggregate is Aggregate.MEAN:
+        return acc[0] / acc[1] if acc[1] else math.nan
+    return acc[0]
+
+
+class _NotConstant(Exception):
+    pass
+
+
+class _Generator:
+    """Checked AST to the Python source of ``signals()`` and ``decide()``.
+
+    Every expression is emitted fully parenthesised from a fixed set of forms: ``s[N]`` for a
+    sensor, signal or built-in variable, a literal made by ``repr`` of a number, an operator
+    from the grammar's fixed set, ``_name(...)`` for a built-in function (the namespace maps
+    it), and ``_gN(...)`` for an operation that can fault, bound to its site. Parameters and
+    other constants are folded, so ``time >= minutes * 60`` becomes ``(s[0] >= 1500)``.
+    """
+
+    def __init__(self, program: Program):
+        self.p = program
+        self.sites: list[tuple[str, FaultSite]] = []
+
+    def module(self) -> tuple[str, list[tuple[str, FaultSite]]]:
+        c = self.p.checked
+        out = ["def signals():"]
+        for name, parsed in c.lets:
+            out.append(f"    s[{self.p.slot_of[name]}] = {self.expr(parsed.node, parsed.text, 'signal ' + repr(name))}")
+        assert c.file.stop is not None
+        out.append(f"    return {self.expr(c.file.stop.node, c.file.stop.text, 'the stop condition')}")
+        out.append("")
+        out.append("def decide():")
+        states = list(c.states.values())
+        index = 0
+        for k, rules in enumerate(states):
+            indent = "    "
+            if len(states) > 1:
+                out.append(f"    {'if' if k == 0 else 'elif'} s[{STATE}] == {k}:")
+                indent = "        "
+            has_default = False
+            for n, r in enumerate(rules):
+                where = f"rule {r.state}:{r.number}"
+                if r.rule.condition is None:
+                    out.append(f"{indent}{'else:' if n else 'if True:'}")
+                    has_default = True
+                else:
+                    test = self.expr(r.rule.condition, r.text, where)
+                    out.append(f"{indent}{'elif' if n else 'if'} {test}:")
+                out += [f"{indent}    {line}" for line in self.actions(r.rule.actions, r.text, where)]
+                out.append(f"{indent}    rule = {index}")
+                index += 1
+                if has_default:
+                    index += len(rules) - n - 1  # the checker refused rules after it
+                    break
+            if not has_default:
+                out.append(f"{indent}else:")
+                out.append(f"{indent}    rule = -1")
+        if len(states) > 1:
+            out.append("    else:")
+            out.append("        rule = -1")
+        for i, metric in enumerate(c.metrics):
+            e = self.expr(metric.expr, metric.text, f"metric {metric.name!r}")
+            out += ["    " + line for line in _METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()]
+        out.append("    return rule")
+        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss"]
+        params += sorted("_" + f for f in _TOTAL if not FUNCTIONS[f].uses_rng)
+        params += [f"_g{i}" for i in range(len(self.sites))]
+        body = "\n".join("    " + line if line else "" for line in out)
+        return f"def make({', '.join(params)}):\n{body}\n    return signals, decide\n", self.sites
+
+    def actions(self, actions: tuple, text: Text, where: str) -> list[str]:
+        lines = []
+        for action in actions:
+            if isinstance(action, ast.Goto):
+                lines.append(f"cmd[2] = {self.p.state_names.index(action.state)}")
+            elif action.name == "stop":
+                lines.append("cmd[0] = cmd[1] = 0.0")
+            elif action.name == "move":
+                lines.append(f"cmd[0] = cmd[1] = {self.expr(action.args[0], text, where)}")
+            else:
+                assert action.name == "arc"
+                lines.append(f"cmd[0] = {self.expr(action.args[0], text, where)}")
+                lines.append(f"cmd[1] = {self.expr(action.args[1], text, where)}")
+        return lines
+
+    def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
+        self.sites.append((kind, FaultSite(where, text.diagnostic(span[0], span[1], ""))))
+        return f"_g{len(self.sites) - 1}"
+
+    # -- expressions -------------------------------------------------------------------------
+    def expr(self, e: ast.Expr, text: Text, where: str) -> str:
+        try:
+            return _literal(self.fold(e))
+        except _NotConstant:
+            return self.emit(e, text, where)
+
+    def fold(self, e: ast.Expr) -> object:
+        """The value of a subtree that reads nothing at run time; _NotConstant otherwise."""
+        p = self.p
+        if isinstance(e, (ast.Number, ast.Bool)):
+            return e.value
+        if isinstance(e, ast.Name):
+            if e.id in p.params:
+                return p.params[e.id]
+            if e.id in CONSTANTS:
+                return CONSTANTS[e.id]
+            if e.id == "dt":
+                return p.dt_s
+            if e.id in p.state_names and e.id not in p.slot_of:
+                return p.state_names.index(e.id)
+            raise _NotConstant
+        try:
+            if isinstance(e, ast.Neg):
+                return -self.fold(e.operand)  # type: ignore[operator]
+            if isinstance(e, ast.Not):
+                return not self.fold(e.operand)
+            if isinstance(e, ast.Binary):
+                return _BINARY[e.op](self.fold(e.left), self.fold(e.right))
+            if isinstance(e, ast.Compare):
+                values = [self.fold(o) for o in e.operands]
+                return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
+            if isinstance(e, ast.BoolOp):
+                values = [self.fold(v) for v in e.values]
+                return all(values) if e.op == "and" else any(values)
+            if isinstance(e, ast.IfExp):
+                return self.fold(e.body) if self.fold(e.test) else self.fold(e.orelse)
+            if isinstance(e, ast.Call) and e.func in _TOTAL and not FUNCTIONS[e.func].uses_rng:
+                return FUNCTIONS[e.func].impl(*(self.fold(a) for a in e.args))
+        except (ArithmeticError, ValueError, TypeError):
+            raise _NotConstant from None  # leave it to run time, where it warns at its site
+        raise _NotConstant
+
+    def emit(self, e: ast.Expr, text: Text, where: str) -> str:
+        x = lambda sub: self.expr(sub, text, where)  # noqa: E731
+        if isinstance(e, ast.Name):
+            return f"s[{self.p.slot_of[e.id]}]"
+        if isinstance(e, ast.Neg):
+            return f"(-{x(e.operand)})"
+        if isinstance(e, ast.Not):
+            return f"(not {x(e.operand)})"
+        if isinstance(e, ast.Binary):
+            a, b = x(e.left), x(e.right)
+            if e.op in ("+", "-", "*"):
+                return f"({a} {e.op} {b})"
+            try:
+                divisor = self.fold(e.right)
+                if e.op in ("/", "%") and isinstance(divisor, (int, float)) and divisor != 0:
+                    return f"({a} {e.op} {b})"
+            except _NotConstant:
+                pass
+            return f"{self.site(e.op, text, e.span, where)}({a}, {b})"
+        if isinstance(e, ast.Compare):
+            parts = [x(e.operands[0])]
+            for op, operand in zip(e.ops, e.operands[1:]):
+                parts += [op, x(operand)]
+            return "(" + " ".join(parts) + ")"
+        if isinstance(e, ast.BoolOp):
+            return "(" + f" {e.op} ".join(x(v) for v in e.values) + ")"
+        if isinstance(e, ast.IfExp):
+            return f"({x(e.body)} if {x(e.test)} else {x(e.orelse)})"
+        if isinstance(e, ast.Call):
+            if e.func == DETECTED:
+                assert isinstance(e.args[0], ast.Name)
+                return f"(s[{self.p.slot_of[e.args[0].id]}] < _inf)"
+            args = ", ".join(x(a) for a in e.args)
+            if e.func == "randint":
+                try:
+                    lo, hi = (self.fold(a) for a in e.args)
+                    if all(isinstance(v, (int, float)) and float(v).is_integer() for v in (lo, hi)) and lo <= hi:
+                        return f"_randint({int(lo)}, {int(hi)})"  # type: ignore[arg-type]
+                except _NotConstant:
+                    pass
+            if e.func in _TOTAL:
+                return f"_{e.func}({args})"
+            return f"{self.site(e.func, text, e.span, where)}({args})"
+        raise AssertionError(f"cannot compile {e!r}")
+
+
+def _literal(value: object) -> str:
+    if isinstance(value, bool):
+        return "True" if value else "False"
+    if isinstance(value, int):
+        return repr(value)
+    assert isinstance(value, float)
+    if value != value:
+        return "_nan"
+    if value in (INF, -INF):
+        return "_inf" if value > 0 else "(-_inf)"
+    return repr(value) if value >= 0 else f"({value!r})"
+
+
+_BINARY: dict[str, Callable[[object, object], object]] = {
+    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,  # type: ignore[operator]
+    "/": lambda a, b: a / b, "%": lambda a, b: a % b,  # type: ignore[operator]
+    "**": lambda a, b: _real(a ** b),  # type: ignore[operator]
+}
+_COMPARE: dict[str, Callable[[object, object], bool]] = {
+    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,  # type: ignore[operator]
+    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,  # type: ignore[operator]
+}
+
+
+def _real(value: object) -> object:
+    if isinstance(value, complex):
+        raise ValueError("complex result")
+    return value
+
+
+# How each aggregate folds its value in decide(); `events` gets the metric's index.
+_METRIC_CODE = {
+    Aggregate.COUNT: "v = {e}\nif v and not m[{i}][1]:\n    m[{i}][0] += 1\n    events.append({i})\nm[{i}][1] = v",
+    Aggregate.DURATION: "if {e}:\n    m[{i}][0] += 1",
+    Aggregate.MEAN: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v\n    m[{i}][1] += 1",
+    Aggregate.MAXIMUM: "v = {e}\nif v > m[{i}][0]:\n    m[{i}][0] = v",
+    Aggregate.MINIMUM: "v = {e}\nif v < m[{i}][0]:\n    m[{i}][0] = v",
+    Aggregate.FINAL: "m[{i}][0] = {e}",
+}

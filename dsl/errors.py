@@ -1,0 +1,74 @@
+"""User-facing diagnostics: one format for every mistake a user can make.
+
+Every stage (YAML loading, parsing, checking, world files, ``--set``) reports problems as
+``Diagnostic`` values in the gcc style editors can jump to::
+
+    behaviours/wall.yaml:14:12: error: unknown name 'sonr5' (did you mean 'sonar5'?)
+       14 |   - if sonr5 <= front then arc(-2, 2)
+          |        ^~~~~
+
+Stages collect diagnostics in a ``Report`` so that all problems of a file are shown at once;
+``LabsimError`` carries them to the command line, which prints them and exits with code 2.
+Internal errors (bugs in labsim) are ordinary Python exceptions and never use this module.
+"""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from typing import Iterable
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    path: str
+    message: str
+    line: int = 0  # 1-based; 0 when the problem has no position (a missing file, a --set)
+    col: int = 0  # 1-based
+    end_col: int = 0  # exclusive, same line; 0 for a single caret
+    severity: str = "error"
+    source_line: str = ""
+    notes: tuple[str, ...] = ()
+
+    def format(self) -> str:
+        where = f"{self.path}:{self.line}:{self.col}" if self.line else self.path
+        out = [f"{where}: {self.severity}: {self.message}"]
+        if self.line and self.source_line:
+            gutter = f"{self.line:>5} | "
+            text = self.source_line.rstrip("\n").replace("\t", " ")
+            out.append(gutter + text)
+            width = max(1, (self.end_col or self.col + 1) - self.col)
+            out.append(" " * (len(gutter) - 2) + "| " + " " * (self.col - 1) + "^" + "~" * (width - 1))
+        out.extend(f"      = {note}" for note in self.notes)
+        return "\n".join(out)
+
+
+class LabsimError(Exception):
+    """A user's mistake, with every diagnostic found; the CLI prints them and exits 2."""
+
+    def __init__(self, diagnostics: Iterable[Diagnostic]):
+        self.diagnostics = list(diagnostics)
+        super().__init__("\n".join(d.format() for d in self.diagnostics))
+
+
+@dataclass
+class Report:
+    """Collects the diagnostics of one stage run so they can be reported together."""
+
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    def add(self, diagnostic: Diagnostic) -> None:
+        self.diagnostics.append(diagnostic)
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity == "error"]
+
+    def raise_if_errors(self) -> None:
+        if self.errors:
+            raise LabsimError(sorted(self.diagnostics, key=lambda d: (d.path, d.line, d.col)))
+
+
+def did_you_mean(word: str, candidates: Iterable[str]) -> str:
+    """' (did you mean 'x'?)' for the closest candidate, or '' when nothing is close."""
+    matches = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)
+    return f" (did you mean '{matches[0]}'?)" if matches else ""

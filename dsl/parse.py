@@ -1,0 +1,243 @@
+"""Rule and expression strings to AST: the lark grammar in ``grammar.lark``, LALR.
+
+``parse_rule`` and ``parse_expr`` return ``labsim.dsl.ast`` nodes whose spans are offsets into
+the string; ``ParseError`` carries the offsets of a problem and a message saying what was
+expected. No lark type escapes this module.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+from lark import Lark, Token, Transformer, Tree, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from labsim.dsl import ast
+
+MAX_DEPTH = 100  # deeper expressions are refused: nobody writes them, and they'd exhaust the stack
+
+
+@dataclass(frozen=True)
+class ParseError(Exception):
+    start: int
+    end: int
+    message: str
+    notes: tuple[str, ...] = ()
+
+
+@functools.lru_cache(maxsize=1)
+def _parser() -> Lark:
+    # The basic lexer keeps keywords keywords everywhere: lark's contextual lexer would read
+    # `then` in `if a and then ...` as a name.
+    return Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic",
+                     start=["rule", "expr"], propagate_positions=True, maybe_placeholders=True)
+
+
+def parse_rule(text: str) -> ast.Rule:
+    result = _parse(text, "rule")
+    assert isinstance(result, ast.Rule)
+    return result
+
+
+def parse_expr(text: str) -> ast.Expr:
+    result = _parse(text, "expr")
+    assert isinstance(result, ast.Expr)
+    return result
+
+
+def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
+    if not text.strip():
+        what = "rule" if start == "rule" else "expression"
+        raise ParseError(0, max(1, len(text)), f"empty {what}")
+    _check_brackets(text)
+    try:
+        tree = _parser().parse(text, start=start)
+    except UnexpectedInput as e:
+        raise _translate(e, text, start) from None
+    _check_depth(tree)
+    return _ToAst().transform(tree)
+
+
+def _check_brackets(text: str) -> None:
+    opened: list[int] = []
+    for i, ch in enumerate(text):
+        if ch == "(":
+            opened.append(i)
+        elif ch == ")":
+            if not opened:
+                raise ParseError(i, i + 1, "unmatched ')'")
+            opened.pop()
+    if opened:
+        raise ParseError(opened[-1], opened[-1] + 1, "unclosed '(': no matching ')'")
+
+
+def _check_depth(tree: Tree) -> None:
+    stack: list[tuple[Tree, int]] = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            start = getattr(node.meta, "start_pos", 0) or 0
+            raise ParseError(start, start + 1,
+                             f"expression nested too deeply (more than {MAX_DEPTH} levels)",
+                             ("hint: split it into named signals under 'let:'",))
+        stack.extend((child, depth + 1) for child in node.children if isinstance(child, Tree))
+
+
+def _found(token: Token) -> str:
+    if token.type == "$END":
+        return "the end of the text"
+    return f"'{token.value}'"
+
+
+def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
+    pos = e.pos_in_stream if getattr(e, "pos_in_stream", None) is not None else len(text)
+    if isinstance(e, UnexpectedCharacters):
+        return _bad_character(text, pos)
+    if isinstance(e, UnexpectedEOF):
+        expected = set(e.expected)
+        token_text, end = "the end of the text", pos + 1
+        pos = len(text.rstrip())
+        end = pos + 1
+    else:
+        assert isinstance(e, UnexpectedToken)
+        expected = set(e.expected)
+        token_text = _found(e.token)
+        if e.token.type == "$END":
+            pos = len(text.rstrip())
+            end = pos + 1
+        else:
+            end = pos + len(str(e.token.value))
+    expected.discard("__IGNORE_0")
+    # LALR's expected sets are broad, so the message is chosen by where we are in the text.
+    words = text[:pos].split()
+    if start == "rule" and (not words or pos == 0):
+        word = text.split()[0] if text.split() else ""
+        return ParseError(0, max(1, len(word)),
+                          f"a rule starts with 'if', 'else' or 'always', not '{word}'",
+                          ("e.g. 'if sonar5 <= 0.5 then arc(-2, 2)' or 'else move(2)'",))
+    if text[:pos].count("(") > text[:pos].count(")"):
+        if {"NAME", "NUMBER"} <= expected:
+            return ParseError(pos, end, f"expected a value or an expression, found {token_text}")
+        return ParseError(pos, end, f"expected ',' or ')', found {token_text}")
+    if start == "rule":
+        in_actions = words[0] in ("else", "always") or "then" in words
+        if not in_actions and "THEN" in expected and not {"NAME", "NUMBER"} <= expected:
+            return ParseError(pos, end, f"expected 'then' after the condition, found {token_text}")
+        if in_actions:
+            if "COMMA" in expected and words[-1] not in ("then", "else", "always", ","):
+                return ParseError(pos, end, f"expected ',' between actions, found {token_text}")
+            if words[-1] == "goto":
+                return ParseError(pos, end, f"expected a state name after 'goto', found {token_text}")
+            return ParseError(pos, end, "expected an action such as arc(...), move(...), stop() "
+                                        f"or goto STATE, found {token_text}")
+    if {"NAME", "NUMBER"} <= expected:
+        return ParseError(pos, end, f"expected a value or an expression, found {token_text}")
+    if "ELSE" in expected and "if" in words:
+        return ParseError(pos, end, f"expected 'else' in 'a if condition else b', found {token_text}")
+    if expected == {"NAME"}:
+        return ParseError(pos, end, f"expected a name, found {token_text}")
+    where = "the condition" if start == "rule" else "the expression"
+    return ParseError(pos, end, f"unexpected {token_text}: expected an operator or the end of {where}")
+
+
+_CHARACTER_HINTS = {
+    "=<": ("'=<' is not an operator; write '<='", 2),
+    "=>": ("'=>' is not an operator; write '>='", 2),
+    "=": ("'=' is not a comparison; write '==' to compare", 1),
+    "&&": ("'&&' is not an operator; write 'and'", 2),
+    "||": ("'||' is not an operator; write 'or'", 2),
+    "&": ("'&' is not an operator; write 'and'", 1),
+    "|": ("'|' is not an operator; write 'or'", 1),
+    "!": ("'!' is not an operator; write 'not' (or '!=' for 'not equal')", 1),
+    "^": ("'^' is not an operator; write '**' for a power", 1),
+    ":": ("unexpected ':': a rule reads 'if CONDITION then ACTION'", 1),
+}
+
+
+def _bad_character(text: str, pos: int) -> ParseError:
+    for prefix in sorted(_CHARACTER_HINTS, key=len, reverse=True):
+        if text.startswith(prefix, pos):
+            message, length = _CHARACTER_HINTS[prefix]
+            return ParseError(pos, pos + length, message)
+    return ParseError(pos, pos + 1, f"unexpected character '{text[pos]}'")
+
+
+def _span(meta) -> ast.Span:  # type: ignore[no-untyped-def]
+    return (meta.start_pos, meta.end_pos)
+
+
+def _tspan(token: Token) -> ast.Span:
+    return (token.start_pos, token.end_pos)
+
+
+@v_args(meta=True)
+class _ToAst(Transformer):
+    """lark tree to frozen dataclasses; tokens become str and float here."""
+
+    def if_rule(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Rule("if", c[0], c[1], span=_span(meta))
+
+    def else_rule(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Rule("else", None, c[0], span=_span(meta))
+
+    def always_rule(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Rule("always", None, c[0], span=_span(meta))
+
+    def actions(self, meta, c):  # type: ignore[no-untyped-def]
+        return tuple(c)
+
+    def goto(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Goto(str(c[0]), span=_span(meta), state_span=_tspan(c[0]))
+
+    def action(self, meta, c):  # type: ignore[no-untyped-def]
+        args = c[1] if c[1] is not None else ()
+        return ast.Action(str(c[0]), args, span=_span(meta), name_span=_tspan(c[0]))
+
+    def arguments(self, meta, c):  # type: ignore[no-untyped-def]
+        return tuple(c)
+
+    def ifexp(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.IfExp(c[0], c[1], c[2], span=_span(meta))
+
+    def or_(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.BoolOp("or", tuple(c), span=_span(meta))
+
+    def and_(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.BoolOp("and", tuple(c), span=_span(meta))
+
+    def not_(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Not(c[0], span=_span(meta))
+
+    def compare(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Compare(tuple(c[0::2]), tuple(str(t) for t in c[1::2]), span=_span(meta))
+
+    def binary(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Binary(str(c[1]), c[0], c[2], span=_span(meta))
+
+    def power(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Binary("**", c[0], c[1], span=_span(meta))
+
+    def neg(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Neg(c[1], span=_span(meta))
+
+    def pos(self, meta, c):  # type: ignore[no-untyped-def]
+        return c[1]
+
+    def number(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Number(float(c[0]), span=_span(meta))
+
+    def true(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Bool(True, span=_span(meta))
+
+    def false(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Bool(False, span=_span(meta))
+
+    def name(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Name(str(c[0]), span=_span(meta))
+
+    def call(self, meta, c):  # type: ignore[no-untyped-def]
+        args = c[1] if c[1] is not None else ()
+        return ast.Call(str(c[0]), args, span=_span(meta), func_span=_tspan(c[0]))
+
+    def attribute(self, meta, c):  # type: ignore[no-untyped-def]
+        return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))

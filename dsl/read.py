@@ -1,0 +1,338 @@
+"""Behaviour file structure: the YAML document read into a ``BehaviourFile``.
+
+This stage knows the top-level keys and their shapes (``robots`` is a mapping of robot
+groups, ``rules`` a list or a mapping of states, ...), converts plain values, and parses every
+rule and expression string with ``labsim.dsl.parse``. It reports every problem it finds into a
+``Report`` and keeps going, so that one run of ``labsim check`` shows them all. Names and
+types are the checker's business, not this module's.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any
+
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+
+from labsim.dsl import ast
+from labsim.dsl.errors import Report, did_you_mean
+from labsim.dsl.parse import ParseError, parse_expr, parse_rule
+from labsim.dsl.source import Document, Text, scalar_value
+
+FORMAT_VERSION = 1
+
+TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
+            "let", "rules", "metrics")
+REQUIRED = ("labsim", "world", "stop", "robots", "rules")
+ROBOT_KEYS = ("model", "count", "at")
+
+
+@dataclass(frozen=True)
+class Parsed:
+    """A parsed string and where it came from."""
+
+    node: Any  # ast.Expr or ast.Rule
+    text: Text
+
+
+@dataclass(frozen=True)
+class RobotDecl:
+    name: str
+    model: str
+    count: int
+    at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
+    key: Node  # for diagnostics
+    model_node: Node | None
+
+
+@dataclass(frozen=True)
+class RuleDecl:
+    state: str
+    number: int  # 1-based within its state
+    rule: ast.Rule
+    text: Text
+
+
+@dataclass
+class BehaviourFile:
+    doc: Document
+    sha256: str
+    version: int = FORMAT_VERSION
+    name: str = ""
+    description: str = ""
+    world: str = ""
+    world_node: Node | None = None
+    dt_s: float = 0.05
+    seed: int = 0
+    stop: Parsed | None = None
+    robots: list[RobotDecl] = field(default_factory=list)
+    params: dict[str, tuple[float | bool, Node]] = field(default_factory=dict)
+    lets: list[tuple[str, Parsed, Node]] = field(default_factory=list)
+    states: dict[str, tuple[list[RuleDecl], Node | None]] = field(default_factory=dict)
+    metrics: list[tuple[str, Parsed, Node]] = field(default_factory=list)
+
+    @property
+    def path(self) -> str:
+        return self.doc.path
+
+
+def read(doc: Document, report: Report) -> BehaviourFile:
+    bf = BehaviourFile(doc, hashlib.sha256(doc.text.encode()).hexdigest())
+    root = doc.root
+    if not isinstance(root, MappingNode):
+        where = root if root is not None else None
+        message = "a behaviour file is a YAML mapping of keys such as 'world:', 'robots:' and 'rules:'"
+        report.add(doc.diagnostic(where, message) if where is not None
+                   else doc.diagnostic_at(0, "the file is empty: " + message))
+        return bf
+    r = _Reader(doc, report)
+    keys = {}
+    for key, value in root.value:
+        k = key.value
+        if k not in TOP_KEYS:
+            report.add(doc.diagnostic(key, f"unknown key '{k}'{did_you_mean(k, TOP_KEYS)}",
+                                      notes=("known keys: " + ", ".join(TOP_KEYS),)))
+            continue
+        keys[k] = (key, value)
+    for k in REQUIRED:
+        if k not in keys:
+            report.add(doc.diagnostic_at(0, f"missing required key '{k}:'", notes=(_REQUIRED_HINTS[k],)))
+
+    if "labsim" in keys:
+        v = r.number(keys["labsim"][1], "labsim", integer=True)
+        if v is not None and v != FORMAT_VERSION:
+            report.add(doc.diagnostic(keys["labsim"][1],
+                                      f"this labsim reads format version {FORMAT_VERSION}, not {v:g}"))
+    bf.name = r.string(keys["name"][1], "name") if "name" in keys else doc.path
+    if "description" in keys:
+        bf.description = r.string(keys["description"][1], "description") or ""
+    if "world" in keys:
+        bf.world = r.string(keys["world"][1], "world") or ""
+        bf.world_node = keys["world"][1]
+    if "dt" in keys:
+        dt = r.number(keys["dt"][1], "dt")
+        if dt is not None and not 0 < dt <= 1:
+            report.add(doc.diagnostic(keys["dt"][1], f"dt must be between 0 and 1 second, not {dt:g}"))
+        elif dt is not None:
+            bf.dt_s = float(dt)
+    if "seed" in keys:
+        seed = r.number(keys["seed"][1], "seed", integer=True)
+        if seed is not None and seed < 0:
+            report.add(doc.diagnostic(keys["seed"][1], "seed must be 0 or a positive whole number"))
+        elif seed is not None:
+            bf.seed = int(seed)
+    if "stop" in keys:
+        bf.stop = r.expr(keys["stop"][1], "stop")
+    if "robots" in keys:
+        bf.robots = r.robots(keys["robots"][1])
+    if "params" in keys:
+        bf.params = r.params(keys["params"][1])
+    if "let" in keys:
+        bf.lets = r.named_exprs(keys["let"][1], "let")
+    if "rules" in keys:
+        bf.states = r.states(keys["rules"][1])
+    if "metrics" in keys:
+        bf.metrics = r.named_exprs(keys["metrics"][1], "metrics")
+    return bf
+
+
+_REQUIRED_HINTS = {
+    "labsim": "start the file with 'labsim: 1' (the format version)",
+    "world": "e.g. 'world: walls_lab4' (a built-in world) or a path to a world file",
+    "stop": "when the run ends, e.g. 'stop: time >= 60'",
+    "robots": "e.g. 'robots: {pioneer: {model: pioneer_p3dx, at: spawn}}'",
+    "rules": "e.g. 'rules: [\"always move(2)\"]'",
+}
+
+
+class _Reader:
+    def __init__(self, doc: Document, report: Report):
+        self.doc = doc
+        self.report = report
+
+    def error(self, node: Node, message: str, notes: tuple[str, ...] = ()) -> None:
+        self.report.add(self.doc.diagnostic(node, message, notes=notes))
+
+    def scalar(self, node: Node, what: str) -> object:
+        if not isinstance(node, ScalarNode):
+            self.error(node, f"{what} must be a single value, not a {_shape(node)}")
+            return None
+        return scalar_value(node)
+
+    def string(self, node: Node, what: str) -> str | None:
+        v = self.scalar(node, what)
+        if v is None:
+            return None
+        if isinstance(v, (dict, list, bool)):
+            self.error(node, f"{what} must be text")
+            return None
+        return node.value  # type: ignore[union-attr]
+
+    def number(self, node: Node, what: str, integer: bool = False) -> float | None:
+        v = self.scalar(node, what)
+        if v is None and isinstance(node, ScalarNode):
+            self.error(node, f"{what} needs a value")
+            return None
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and v != int(v)):
+            if isinstance(node, ScalarNode):
+                kind = "a whole number" if integer else "a number"
+                self.error(node, f"{what} must be {kind}, not '{node.value}'")
+            return None
+        return v
+
+    def expr(self, node: Node, what: str) -> Parsed | None:
+        if not isinstance(node, ScalarNode) or node.tag.endswith(":null"):
+            self.error(node, f"{what} must be an expression written as text, not a {_shape(node)}",
+                       notes=_mapping_hint(node))
+            return None
+        text = self.doc.text_of(node)
+        try:
+            return Parsed(parse_expr(text.value), text)
+        except ParseError as e:
+            self.report.add(text.diagnostic(e.start, e.end, e.message, notes=e.notes))
+            return None
+
+    def mapping(self, node: Node, what: str) -> list[tuple[ScalarNode, Node]]:
+        if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
+            return []
+        if not isinstance(node, MappingNode):
+            self.error(node, f"{what} must be a mapping of names to values, not a {_shape(node)}")
+            return []
+        return list(node.value)
+
+    def names(self, key: ScalarNode, what: str) -> str | None:
+        name = key.value
+        if not name.isidentifier() or not name.isascii():
+            self.error(key, f"'{name}' is not a valid {what} name: use letters, digits and '_', "
+                            "starting with a letter")
+            return None
+        return name
+
+    def robots(self, node: Node) -> list[RobotDecl]:
+        out = []
+        for key, value in self.mapping(node, "robots"):
+            name = self.names(key, "robot")
+            if name is None:
+                continue
+            fields = {}
+            for k, v in self.mapping(value, f"robot '{name}'"):
+                if k.value not in ROBOT_KEYS:
+                    self.error(k, f"unknown robot key '{k.value}'{did_you_mean(k.value, ROBOT_KEYS)}",
+                               notes=("robot keys: model, count, at",))
+                else:
+                    fields[k.value] = v
+            if "model" not in fields:
+                self.error(key, f"robot '{name}' needs a 'model:' (e.g. model: pioneer_p3dx)")
+                continue
+            model = self.string(fields["model"], "model") or ""
+            count = 1
+            if "count" in fields:
+                c = self.number(fields["count"], "count", integer=True)
+                if c is not None and not 1 <= c <= 100:
+                    self.error(fields["count"], f"count must be between 1 and 100, not {c:g}")
+                elif c is not None:
+                    count = int(c)
+            at = self.placement(fields.get("at"))
+            if at is not None:
+                out.append(RobotDecl(name, model, count, at, key, fields["model"]))
+        return out
+
+    def placement(self, node: Node | None) -> str | tuple[float, float, float] | None:
+        if node is None:
+            return "spawn"
+        if isinstance(node, ScalarNode):
+            if node.value in ("spawn", "random"):
+                return node.value
+            self.error(node, f"'at' is 'spawn', 'random' or [x, y, heading_deg], not '{node.value}'")
+            return None
+        if isinstance(node, SequenceNode) and len(node.value) in (2, 3):
+            nums = [self.number(n, "a coordinate") for n in node.value]
+            if any(n is None for n in nums):
+                return None
+            x, y, *h = nums
+            return (float(x), float(y), float(h[0]) if h else 0.0)  # type: ignore[arg-type]
+        self.error(node, "'at' is 'spawn', 'random' or [x, y, heading_deg]")
+        return None
+
+    def params(self, node: Node) -> dict[str, tuple[float | bool, Node]]:
+        out: dict[str, tuple[float | bool, Node]] = {}
+        for key, value in self.mapping(node, "params"):
+            name = self.names(key, "parameter")
+            v = self.scalar(value, f"parameter '{key.value}'")
+            if name is None:
+                continue
+            if isinstance(v, bool) or (isinstance(v, (int, float))):
+                out[name] = (v, value)
+            elif isinstance(value, ScalarNode):
+                self.error(value, f"parameter '{name}' must be a number or true/false, not '{value.value}'",
+                           notes=("computed values belong under 'let:'",))
+        return out
+
+    def named_exprs(self, node: Node, what: str) -> list[tuple[str, Parsed, Node]]:
+        out = []
+        for key, value in self.mapping(node, what):
+            name = self.names(key, "signal" if what == "let" else "metric")
+            parsed = self.expr(value, f"'{key.value}'")
+            if name is not None and parsed is not None:
+                out.append((name, parsed, key))
+        return out
+
+    def states(self, node: Node) -> dict[str, tuple[list[RuleDecl], Node | None]]:
+        if isinstance(node, SequenceNode):
+            return {"main": (self.rule_list(node, "main"), None)}
+        if isinstance(node, MappingNode):
+            out = {}
+            for key, value in node.value:
+                name = self.names(key, "state")
+                if name is None:
+                    continue
+                if not isinstance(value, SequenceNode):
+                    self.error(value, f"state '{name}' must hold a list of rules (lines starting with '- ')")
+                    continue
+                out[name] = (self.rule_list(value, name), key)
+            if not out and not node.value:
+                self.error(node, "'rules' is empty")
+            return out
+        self.error(node, "'rules' must be a list of rules, or a mapping from state names to lists of rules",
+                   notes=("e.g. rules:\n          - if sonar5 <= 0.5 then arc(-2, 2)\n          - else move(2)",))
+        return {}
+
+    def rule_list(self, node: SequenceNode, state: str) -> list[RuleDecl]:
+        out = []
+        if not node.value:
+            self.error(node, f"state '{state}' has no rules" if state != "main" else "'rules' is empty")
+        for i, item in enumerate(node.value, 1):
+            if not isinstance(item, ScalarNode) or item.tag.endswith(":null"):
+                self.error(item, f"a rule must be text such as 'if COND then ACTION', not a {_shape(item)}",
+                           notes=_mapping_hint(item))
+                continue
+            text = self.doc.text_of(item)
+            try:
+                out.append(RuleDecl(state, i, parse_rule(text.value), text))
+            except ParseError as e:
+                notes = e.notes
+                if text.spans_lines:
+                    second = item.start_mark.line + 2
+                    notes += (f"hint: YAML joined line {second} onto this rule; if line {second} is a "
+                              "rule of its own, indent its '-' like the one above",)
+                self.report.add(text.diagnostic(e.start, e.end, e.message, notes=notes))
+        return out
+
+
+def _shape(node: Node | None) -> str:
+    if isinstance(node, MappingNode):
+        return "mapping"
+    if isinstance(node, SequenceNode):
+        return "list"
+    if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
+        return "empty value"
+    return "value"
+
+
+def _mapping_hint(node: Node | None) -> tuple[str, ...]:
+    if isinstance(node, MappingNode) and node.value:
+        key = node.value[0][0]
+        if isinstance(key, ScalarNode):
+            return (f"YAML read '{key.value}: ...' as a mapping because of the ': '; "
+                    "remove the colon (a rule reads 'if COND then ACTION'), or quote the whole text",)
+    return ()

@@ -1,0 +1,118 @@
+"""Golden traces: a stored trace that turns a behaviour into a regression test.
+
+``behaviours/X.yaml`` is tested against ``behaviours/X.golden.csv``. ``compare`` walks both
+traces row by row and stops at the first difference, which it reports the way a person
+reads it: the tick, the robot, the column, expected against actual, the tolerance, and a few
+ticks of context on either side.
+
+Tolerance: numbers match when ``|actual - expected| <= ABS_TOL + REL_TOL * |expected|``
+(inf matches inf, nan matches nan); text columns (robot, state, rule, events) must be equal.
+The trace stores 6 significant digits, so the tolerance is the last digit's worth: enough to
+absorb a different rounding of the same run, never a real change in behaviour.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from labsim.runtime.trace import Trace
+
+ABS_TOL = 1e-6
+REL_TOL = 1e-5
+CONTEXT_BEFORE, CONTEXT_AFTER = 3, 2
+
+
+def golden_path(behaviour: str | Path) -> Path:
+    p = Path(behaviour)
+    return p.with_name(p.name.rsplit(".", 1)[0] + ".golden.csv")
+
+
+def tolerance(expected: float) -> float:
+    return ABS_TOL + REL_TOL * abs(expected)
+
+
+def _number(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _same(expected: str, actual: str) -> bool:
+    if expected == actual:
+        return True
+    e, a = _number(expected), _number(actual)
+    if e is None or a is None:
+        return False
+    if math.isnan(e) or math.isnan(a) or math.isinf(e) or math.isinf(a):
+        return (math.isnan(e) and math.isnan(a)) or e == a
+    return abs(a - e) <= tolerance(e)
+
+
+@dataclass(frozen=True)
+class Difference:
+    lines: list[str]
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines)
+
+
+def compare(expected: Trace, actual: Trace) -> Difference | None:
+    """None when the traces agree within the tolerance; else the first difference, explained."""
+    notes = []
+    if expected.header.get("sha256") != actual.header.get("sha256"):
+        notes.append("note: the behaviour file has changed since the golden was recorded")
+    if expected.header.get("params") != actual.header.get("params"):
+        notes.append(f"note: parameters differ: golden {expected.header.get('params')}, "
+                     f"this run {actual.header.get('params')}")
+    if expected.columns != actual.columns:
+        missing = [c for c in expected.columns if c not in actual.columns]
+        extra = [c for c in actual.columns if c not in expected.columns]
+        lines = ["the trace columns differ:"]
+        if missing:
+            lines.append(f"  only in the golden: {', '.join(missing)}")
+        if extra:
+            lines.append(f"  only in this run:   {', '.join(extra)}")
+        if not missing and not extra:
+            lines.append("  the same columns in another order")
+        return Difference(lines + notes)
+    cols = expected.columns
+    for i, (erow, arow) in enumerate(zip(expected.rows, actual.rows)):
+        for j, (e, a) in enumerate(zip(erow, arow)):
+            if not _same(e, a):
+                return Difference(_explain(expected, actual, i, j) + notes)
+    if len(expected.rows) != len(actual.rows):
+        last = lambda t: t.rows[-1][cols.index("tick")] if t.rows else "-"  # noqa: E731
+        return Difference([f"the golden has {len(expected.rows)} rows (last tick {last(expected)}), "
+                           f"this run {len(actual.rows)} (last tick {last(actual)}): the run stopped at "
+                           "another tick"] + notes)
+    return None
+
+
+def _explain(expected: Trace, actual: Trace, i: int, j: int) -> list[str]:
+    cols = expected.columns
+    erow, arow = expected.rows[i], actual.rows[i]
+    col = cols[j]
+    e, a = erow[j], arow[j]
+    where = f"tick {erow[cols.index('tick')]} (time {erow[cols.index('time')]} s), robot {erow[cols.index('robot')]}"
+    lines = [f"first difference at {where}, column '{col}':"]
+    en, an = _number(e), _number(a)
+    if en is not None and an is not None and math.isfinite(en) and math.isfinite(an):
+        lines.append(f"  expected {e}, actual {a}: off by {abs(an - en):.3g}, tolerance {tolerance(en):.3g} "
+                     f"({ABS_TOL:g} + {REL_TOL:g} x |expected|)")
+    else:
+        lines.append(f"  expected {e!r}, actual {a!r} (must be equal)")
+    show = [c for c in ("tick", "time") if c in cols]
+    show += [c for c in ("rule", col) if c not in show]
+    table = [["", *show]]
+    for k in range(max(0, i - CONTEXT_BEFORE), min(len(expected.rows), len(actual.rows), i + CONTEXT_AFTER + 1)):
+        cells = [">" if k == i else ""]
+        for c in show:
+            x, y = expected.rows[k][cols.index(c)], actual.rows[k][cols.index(c)]
+            cells.append(x if x == y else f"{x} | {y}")
+        table.append(cells)
+    widths = [max(len(r[n]) for r in table) for n in range(len(table[0]))]
+    lines.append("  context (golden | this run where they differ):")
+    lines += ["  " + "  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in table]
+    return lines

@@ -1,0 +1,101 @@
+"""What a person sees during and after a run: the progress bar and the summary."""
+from __future__ import annotations
+
+import math
+import sys
+import time as clock
+from typing import TextIO
+
+from labsim.dsl.builtins import Aggregate
+from labsim.runtime.run import Run, Summary
+
+
+class ProgressBar:
+    """A one-line bar on a terminal, redrawn at most ten times a second."""
+
+    def __init__(self, horizon_s: float | None, stream: TextIO = sys.stderr):
+        self.horizon = horizon_s
+        self.stream = stream
+        self.started = clock.perf_counter()
+        self.last = 0.0
+        self.drawn = False
+
+    def __call__(self, tick: int, sim_time_s: float) -> None:
+        now = clock.perf_counter()
+        if now - self.last < 0.1:
+            return
+        self.last = now
+        rate = tick / max(now - self.started, 1e-9)
+        if self.horizon:
+            done = min(1.0, sim_time_s / self.horizon)
+            bar = "#" * int(done * 30)
+            text = f"\r  [{bar:<30}] {done:4.0%}  {sim_time_s:8.1f} / {self.horizon:.1f} s  {rate:7.0f} ticks/s"
+        else:
+            text = f"\r  {sim_time_s:8.1f} s simulated  {rate:7.0f} ticks/s"
+        self.stream.write(text)
+        self.stream.flush()
+        self.drawn = True
+
+    def clear(self) -> None:
+        if self.drawn:
+            self.stream.write("\r" + " " * 78 + "\r")
+            self.stream.flush()
+
+
+def _metric(value: float, aggregate: Aggregate) -> str:
+    if aggregate is Aggregate.COUNT:
+        return f"{value:g}"
+    if aggregate is Aggregate.DURATION:
+        return f"{value:.2f} s"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return f"{value:.4g}"
+
+
+def format_summary(s: Summary, run: Run) -> str:
+    p = run.program
+    lines = [f"{p.name}  ({p.path}, {s.backend}, seed {p.seed})"]
+    status = "interrupted" if s.interrupted else "done"
+    rtf = f"{s.real_time_factor:,.0f}x real time" if math.isfinite(s.real_time_factor) else ""
+    lines.append(f"  {status}: {s.ticks} ticks, {s.sim_time_s:.2f} s simulated in {s.wall_time_s:.2f} s"
+                 + (f" ({rtf})" if rtf else ""))
+    if p.params:
+        shown = [f"{k}={v}{'*' if k in p.checked.overridden else ''}" for k, v in p.params.items()]
+        lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if p.checked.overridden else ""))
+    if s.trace:
+        lines.append(f"  trace: {s.trace}")
+    for name, r in s.robots.items():
+        limit = next(x.limit for x in run.robots if x.name == name)
+        contacts = r["contacts"]
+        line = f"robot {name}: {contacts} collision{'s' if contacts != 1 else ''}"
+        if contacts:
+            line += f" ({r['contact_time_s']:.2f} s in contact)"
+        if r["clamped_ticks"]:
+            line += f"; wheel commands clamped to {limit:g} rad/s on {r['clamped_ticks']} ticks"
+        lines.append(line)
+        width = max((len(m) for m in r["metrics"]), default=0)
+        for (m, value), agg in zip(r["metrics"].items(), p.metric_aggregates):
+            lines.append(f"  {m:<{width}}  {_metric(value, agg)}")
+    lines.append("rules (ticks fired):")
+    ids = list(s.rule_counts)
+    width = max((len(i) for i in ids), default=0)
+    text_width = min(60, max((len(t) for t in s.rule_labels.values()), default=0))
+    never = []
+    for rid in ids:
+        n = s.rule_counts[rid]
+        text = s.rule_labels[rid]
+        if len(text) > text_width:
+            text = text[:text_width - 3] + "..."
+        lines.append(f"  {rid:<{width}}  {text:<{text_width}}  {n:>8}")
+        if n == 0:
+            never.append(rid)
+    if s.idle_ticks:
+        lines.append(f"  {'(none)':<{width}}  {'no rule held':<{text_width}}  {s.idle_ticks:>8}")
+    if never:
+        lines.append(f"  never fired: {', '.join(never)}")
+    if s.faults:
+        lines.append("runtime warnings:")
+        lines += [f"  {f}" for f in s.faults]
+    return "\n".join(lines)

@@ -1,0 +1,341 @@
+"""The tick loop: a compiled behaviour driving a backend, one fixed step at a time.
+
+``compile_behaviour(path) -> Behaviour``, ``Behaviour.bind(backend) -> Run``, ``Run.tick()``:
+compile once, tick many times. A tick is, for every robot at once:
+
+1. sense: the backend returns one consistent snapshot of every channel the behaviour reads;
+2. the ``let`` signals are evaluated in order;
+3. the stop condition: when it holds for any robot, the run ends before acting;
+4. the first rule of the robot's current state whose condition holds acts; wheel commands
+   are clamped to the model's limit (and counted) and sent only when they change;
+5. metrics fold the tick's values; the trace gets one row per robot;
+6. ``goto`` takes effect (the next tick uses the new state); the backend steps ``dt``.
+
+Each robot owns its slots, command, random generator (seeded from the behaviour's seed and
+the robot's name) and metric accumulators; nothing is shared between robots or runs.
+"""
+from __future__ import annotations
+
+import math
+import random
+import time as clock
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from labsim import __version__
+from labsim.backends.protocol import Backend, RobotRequest
+from labsim.backends.models import RobotModel
+from labsim.backends.world import Pose
+from labsim.dsl import ast
+from labsim.dsl.compile import FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file, metric_result
+from labsim.dsl.errors import Diagnostic, LabsimError
+from labsim.runtime.trace import FORMAT, TraceWriter
+
+PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
+
+
+def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None) -> Behaviour:
+    """Compile a behaviour file; raises LabsimError listing every problem in it."""
+    return Behaviour(compile_file(path, overrides))
+
+
+@dataclass
+class Behaviour:
+    program: Program
+
+    def bind(self, backend: Backend, *, trace: str | Path | None = None,
+             warn: Callable[[str], None] | None = None) -> Run:
+        """Open the behaviour's world on a backend, ready to tick."""
+        return Run(self.program, backend, trace_path=trace, warn=warn)
+
+
+@dataclass
+class RobotRun:
+    """A robot during a run: its compiled program and what the runtime tracks for it."""
+
+    index: int
+    name: str
+    model: RobotModel
+    program: RobotProgram
+    limit: float  # wheel speed limit, rad/s
+    sent_left: float = math.nan  # the last command sent to the backend, rad/s
+    sent_right: float = math.nan
+    clamping: bool = False  # whether the command now held exceeds the limit
+    clamped_ticks: int = 0
+    start: Pose | None = None
+
+
+@dataclass
+class Summary:
+    """What a run did; the CLI prints it, tests read it."""
+
+    behaviour: str
+    backend: str
+    ticks: int
+    sim_time_s: float
+    wall_time_s: float
+    interrupted: bool
+    robots: dict[str, dict] = field(default_factory=dict)  # name -> contacts, clamps, metrics
+    rule_counts: dict[str, int] = field(default_factory=dict)  # rule id -> ticks it fired
+    rule_labels: dict[str, str] = field(default_factory=dict)  # rule id -> its text
+    idle_ticks: int = 0  # robot-ticks on which no rule fired
+    faults: list[str] = field(default_factory=list)  # "site: what (n times)"
+    trace: str | None = None
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+
+class Run:
+    def __init__(self, program: Program, backend: Backend, *, trace_path: str | Path | None = None,
+                 warn: Callable[[str], None] | None = None):
+        self.program = program
+        self.backend = backend
+        self.dt = program.dt_s
+        self.tick_index = 0
+        self.finished = False
+        self.faults = Faults(warn)
+        self.fired = [0] * len(program.rules)
+        self.idle = 0
+        self.trace: TraceWriter | None = None
+        self.robots = self._robots()
+        self._nch = len(program.channels)
+        self._actuator_sites = [
+            FaultSite(f"rule {r.id}", Diagnostic(program.path, "", r.line, 1, 0, "warning", ""))
+            for r in program.rules]
+        # the trace records every robot's pose and contact state (read after the behaviour's
+        # own channels); without a trace they are not read at all
+        self._extra: tuple[str, ...] = ("x", "y", "heading", "collided") if trace_path is not None else ()
+        requests = [RobotRequest(r.name, r.model, r.start, program.channels + self._extra)
+                    for r in self.robots]
+        backend.open(program.world, requests, self.dt, program.seed)
+        self._sense, self._act, self._step = backend.sense, backend.act, backend.step
+        if trace_path is not None:
+            self.trace = TraceWriter(trace_path, self.header(), self.columns())
+        self.tick = self._make_tick()
+
+    # -- set-up ------------------------------------------------------------------------------
+    def _robots(self) -> list[RobotRun]:
+        p = self.program
+        placement = random.Random(f"{p.seed}/placement")
+        spawns = list(p.world.spawns)
+        taken: list[Pose] = []
+        robots = []
+        for decl in p.robot_decls:
+            model = p.models[decl.name]
+            for k in range(decl.count):
+                name = decl.name if decl.count == 1 else f"{decl.name}[{k}]"
+                if decl.at == "spawn":
+                    if not spawns:
+                        raise LabsimError([p.checked.file.doc.diagnostic(
+                            decl.key, f"world '{p.world.name}' has {len(p.world.spawns)} spawn poses, "
+                            f"too few for robot '{name}'", notes=("use 'at: random', or fewer robots",))])
+                    pose = spawns.pop(0)
+                elif decl.at == "random":
+                    pose = _free_pose(p.world, placement, taken)
+                else:
+                    x, y, heading_deg = decl.at  # type: ignore[misc]
+                    pose = Pose(x, y, math.radians(heading_deg))
+                taken.append(pose)
+                rng = random.Random(f"{p.seed}/{name}")
+                program = p.robot(name, rng, self.faults)
+                robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose))
+        return robots
+
+    def header(self) -> dict:
+        p = self.program
+        return {
+            "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
+            "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
+            "world_file": p.world.source, "dt": self.dt, "seed": p.seed, "params": p.params,
+            "robots": {r.name: r.model.name for r in self.robots},
+            "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
+        }
+
+    def columns(self) -> list[str]:
+        p = self.program
+        return (["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule"]
+                + [c for c in p.channels if c not in ("x", "y", "heading", "collided")]
+                + list(p.let_names) + ["left", "right", "events"])
+
+    # -- the loop ----------------------------------------------------------------------------
+    def _make_tick(self) -> Callable[[], bool]:
+        """Build ``tick()``: one tick of the run, False once the stop condition has held.
+
+        A closure over locals, because it is the hot path: an attribute lookup per robot per
+        tick costs as much as a rule.
+        """
+        robots = [(r.index, r.program.slots, r.program.signals, r.program.decide, r.program.command,
+                   r.program.events, r) for r in self.robots]
+        sense, step, send = self._sense, self._step, self._send
+        fired = self.fired
+        first, n = FIRST_CHANNEL, self._nch
+        end = first + n
+        dt = self.dt
+        trace, trace_row = self.trace, self._trace_row
+
+        def tick() -> bool:
+            if self.finished:
+                return False
+            t = self.tick_index
+            now = t * dt
+            readings = sense()
+            stop = False
+            # every robot senses and evaluates its signals before any acts, and the stop
+            # condition ends the run before anyone acts
+            for i, s, signals, _, _, _, _ in robots:
+                s[0] = now
+                s[1] = t
+                values = readings[i]
+                s[first:end] = values if len(values) == n else values[:n]
+                if signals():  # the lets, then the stop condition
+                    stop = True
+            if stop:
+                self.finished = True
+                return False
+            for i, s, _, decide, cmd, events, r in robots:
+                rule = decide()  # the rule, the command, the metrics
+                if rule >= 0:
+                    fired[rule] += 1
+                else:
+                    self.idle += 1
+                if cmd[0] != r.sent_left or cmd[1] != r.sent_right:
+                    send(r, cmd[0], cmd[1], rule)
+                if r.clamping:
+                    r.clamped_ticks += 1
+                if trace is not None:
+                    trace_row(r, readings[i], rule)
+                if events:
+                    events.clear()
+                s[STATE] = cmd[2]  # a goto takes effect from the next tick
+            step()
+            self.tick_index = t + 1
+            return True
+
+        return tick
+
+    def _send(self, r: RobotRun, left: float, right: float, rule: int) -> None:
+        r.sent_left, r.sent_right = left, right  # what the behaviour asked, to notice a change
+        limit = r.limit
+        if -limit <= left <= limit and -limit <= right <= limit:  # false for nan too
+            r.clamping = False
+            self._act(r.index, left, right)
+            return
+        out = []
+        for v in (left, right):
+            if v != v:
+                self._actuator_fault(r, rule, "nan wheel command (the wheel is stopped)")
+                v = 0.0
+            elif v > limit or v < -limit:
+                if v in (math.inf, -math.inf):
+                    self._actuator_fault(r, rule, "infinite wheel command (clamped to the speed limit)")
+                v = limit if v > 0 else -limit
+            out.append(v)
+        # nan is stopped, not clamped: only a real excess counts as clamping
+        r.clamping = any(abs(v) > limit for v in (left, right))
+        self._act(r.index, out[0], out[1])
+
+    def _actuator_fault(self, r: RobotRun, rule: int, what: str) -> None:
+        if rule >= 0:
+            site = self._actuator_sites[rule]
+        else:
+            site = FaultSite("no rule", Diagnostic(self.program.path, ""))
+        self.faults.report(site, what, self.tick_index, r.name)
+
+    def _trace_row(self, r: RobotRun, values: list, rule: int) -> None:
+        assert self.trace is not None
+        p = self.program
+        prog = r.program
+        s = prog.slots
+        x, y, heading, collided = values[-4:]
+        extra = [s[FIRST_CHANNEL + i] for i, c in enumerate(p.channels)
+                 if c not in ("x", "y", "heading", "collided")]
+        lets = s[FIRST_CHANNEL + self._nch:]
+        label = p.rules[rule].id if rule >= 0 else ""
+        cmd = prog.command
+        self.trace.write([self.tick_index, round(self.tick_index * self.dt, 9), r.name, x, y, heading,
+                          collided, p.state_names[s[STATE]], label, *extra, *lets,
+                          cmd[0], cmd[1], ";".join(p.metric_names[i] for i in prog.events)])
+
+    def run(self, progress: Callable[[int, float], None] | None = None,
+            max_ticks: int | None = None) -> Summary:
+        """Tick until the stop condition holds (or max_ticks); always closes the trace."""
+        start = clock.perf_counter()
+        interrupted = False
+        try:
+            if progress is None and max_ticks is None:
+                tick = self.tick
+                while tick():
+                    pass
+            else:
+                while self.tick():
+                    if max_ticks is not None and self.tick_index >= max_ticks:
+                        break
+                    if progress is not None and self.tick_index & 255 == 0:
+                        progress(self.tick_index, self.tick_index * self.dt)
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            if self.trace is not None:
+                self.trace.close()
+        return self.summary(clock.perf_counter() - start, interrupted)
+
+    def summary(self, wall_time_s: float, interrupted: bool = False) -> Summary:
+        p = self.program
+        out = Summary(p.name, getattr(self.backend, "name", "?"), self.tick_index,
+                      self.tick_index * self.dt, wall_time_s, interrupted,
+                      trace=str(self.trace.path) if self.trace is not None else None)
+        for r in self.robots:
+            contacts = self.backend.contacts(r.index)
+            metrics = {name: metric_result(agg, acc, self.dt) for name, agg, acc in
+                       zip(p.metric_names, p.metric_aggregates, r.program.metric_values)}
+            out.robots[r.name] = {"contacts": contacts.count, "contact_time_s": contacts.time_s,
+                                  "clamped_ticks": r.clamped_ticks, "metrics": metrics}
+        out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
+        out.rule_labels = {rule.id: rule.text for rule in p.rules}
+        out.idle_ticks = self.idle
+        for (site, what), n in self.faults.counts.items():
+            tick, robot = self.faults.first[(site, what)]
+            out.faults.append(f"{site.where}: {what}: {n} time{'s' if n != 1 else ''} "
+                              f"(first at tick {tick}, robot {robot})")
+        return out
+
+    def close(self) -> None:
+        if self.trace is not None:
+            self.trace.close()
+        self.backend.close()
+
+
+def _free_pose(world, rng: random.Random, taken: list[Pose]) -> Pose:  # type: ignore[no-untyped-def]
+    for _ in range(1000):
+        pose = world.random_pose(rng, PLACEMENT_CLEARANCE_M)
+        if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * PLACEMENT_CLEARANCE_M for o in taken):
+            return pose
+    raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
+
+
+def stop_horizon(program: Program) -> float | None:
+    """Sim time at which the stop condition surely holds, when it says so plainly.
+
+    ``time >= 1500`` or ``... or tick >= 30000`` give a horizon for the progress bar; any other
+    condition gives None (the bar then shows elapsed sim time only).
+    """
+    stop = program.checked.file.stop
+    if stop is None:
+        return None
+    best = None
+    nodes = [stop.node]
+    while nodes:
+        e = nodes.pop()
+        if isinstance(e, ast.BoolOp) and e.op == "or":
+            nodes.extend(e.values)
+        elif isinstance(e, ast.Compare) and len(e.ops) == 1 and e.ops[0] in (">=", ">"):
+            left, right = e.operands
+            if isinstance(left, ast.Name) and left.id in ("time", "tick"):
+                value = right.value if isinstance(right, ast.Number) else program.params.get(getattr(right, "id", ""))
+                if isinstance(value, (int, float)) and not isinstance(value, bool):
+                    seconds = float(value) * (program.dt_s if left.id == "tick" else 1.0)
+                    best = seconds if best is None else min(best, seconds)
+    return best
