@@ -1,0 +1,596 @@
+"""Trace plots: ``labsim plot TRACE -o out.png`` draws a finished run as one picture.
+
+This is the last stage of the pipeline: ``labsim.runtime.run`` writes a trace (see
+``labsim.runtime.trace``), and this module reads it back with the world it names and draws,
+to scale and with OpenCV only, the room's walls and blocks, every robot's path with its start,
+end and heading, the ticks it collided and the metric events it raised, and a legend and title
+that say which behaviour, world, seed and backend made the run. ``render_figure`` builds the
+image in memory (tests and other front ends use it); ``plot_trace`` also writes the file.
+"""
+from __future__ import annotations
+
+import colorsys
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from labsim.backends.world import World, builtin_worlds
+from labsim.dsl.errors import Report
+from labsim.dsl.world import load_world
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+
+MIN_WIDTH_PX = 400
+
+# Colours are BGR, as OpenCV wants them. Robots take the Tableau palette without its red, so
+# that red means one thing only in the figure: a collision.
+_ROBOT_RGB = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189),
+              (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207)]
+_EVENT_RGB = [(255, 193, 7), (0, 150, 136), (156, 39, 176), (233, 30, 99),
+              (63, 81, 181), (139, 195, 74), (121, 85, 72), (0, 188, 212)]
+PAPER = (255, 255, 255)
+MAP_BG = (246, 247, 248)
+GRID = (222, 222, 222)
+FRAME = (150, 150, 150)
+WALL = (55, 55, 55)
+BLOCK_FILL = (185, 185, 185)
+BLOCK_EDGE = (95, 95, 95)
+INK = (35, 35, 35)
+MUTED = (120, 120, 120)
+COLLISION = (30, 30, 220)
+WARNING = (20, 20, 170)
+
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+TITLE_FONT = cv2.FONT_HERSHEY_DUPLEX
+AA = cv2.LINE_AA
+SHIFT = 4  # polylines take fixed-point coordinates: 4 fractional bits keep paths smooth
+ONE = 1 << SHIFT
+
+
+def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+    return (rgb[2], rgb[1], rgb[0])
+
+
+def robot_colour(i: int) -> tuple[int, int, int]:
+    """The i-th robot's colour (BGR); past the palette, hues spaced by the golden angle."""
+    if i < len(_ROBOT_RGB):
+        return _bgr(_ROBOT_RGB[i])
+    hue = (0.1 + (i - len(_ROBOT_RGB)) * 0.618034) % 1.0
+    hue = 0.06 + hue * 0.88  # keep clear of red at both ends of the hue circle
+    r, g, b = colorsys.hsv_to_rgb(hue, 0.75, 0.8)
+    return (int(b * 255), int(g * 255), int(r * 255))
+
+
+def event_colour(i: int) -> tuple[int, int, int]:
+    return _bgr(_EVENT_RGB[i % len(_EVENT_RGB)])
+
+
+def _darker(c: tuple[int, int, int], f: float = 0.6) -> tuple[int, int, int]:
+    return (int(c[0] * f), int(c[1] * f), int(c[2] * f))
+
+
+def _ascii(text: object) -> str:
+    # OpenCV's Hershey fonts have ASCII glyphs only; anything else would print as '?' anyway
+    return str(text).encode("ascii", "replace").decode("ascii")
+
+
+# -- the data ----------------------------------------------------------------------------------
+
+@dataclass
+class RobotPath:
+    name: str
+    model: str
+    colour: tuple[int, int, int]
+    xy: np.ndarray  # (n, 2) metres, non-finite poses dropped
+    heading: float  # at the last pose, radians; nan when the trace has none
+    collisions: np.ndarray  # (k, 2) metres: where collided went 0 -> 1
+    events: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (k, 2) metres
+
+
+def _floats(trace: Trace, name: str) -> np.ndarray:
+    i = trace.columns.index(name)
+    try:
+        return np.array([r[i] for r in trace.rows], dtype=float)
+    except ValueError:
+        bad = next(r[i] for r in trace.rows if not _is_float(r[i]))
+        raise TraceFormatError(f"{trace.path}: column '{name}' holds '{bad}', not a number") from None
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def robot_paths(trace: Trace) -> list[RobotPath]:
+    """Split the rows by robot (header order first) and pick out collisions and events."""
+    for needed in ("robot", "x", "y"):
+        if needed not in trace.columns:
+            raise TraceFormatError(f"{trace.path}: the trace has no '{needed}' column")
+    xs, ys = _floats(trace, "x"), _floats(trace, "y")
+    heading = _floats(trace, "heading") if "heading" in trace.columns else np.full(len(xs), np.nan)
+    collided = (_floats(trace, "collided") > 0.5) if "collided" in trace.columns else np.zeros(len(xs), bool)
+    names = np.array(trace.column("robot"), dtype=object)
+    models = trace.header.get("robots") or {}
+    order = list(dict.fromkeys([*(n for n in models if n in set(names)), *names]))
+    ei = trace.columns.index("events") if "events" in trace.columns else -1
+
+    paths = []
+    for k, name in enumerate(order):
+        idx = np.flatnonzero(names == name)  # rows are tick-ordered, so this is the path in time
+        x, y = xs[idx], ys[idx]
+        ok = np.isfinite(x) & np.isfinite(y)
+        c = collided[idx]
+        # a collision is its first tick; the robot grinding along a wall is one collision
+        onset = c & ~np.concatenate(([False], c[:-1]))
+        hit = onset & ok
+        events: dict[str, list[int]] = {}
+        if ei >= 0:
+            for j in idx:
+                cell = trace.rows[j][ei]
+                if cell:  # most rows have no events: skip them without splitting
+                    for ev in cell.split(";"):
+                        if ev:
+                            events.setdefault(ev, []).append(j)
+        h = heading[idx][ok]
+        paths.append(RobotPath(
+            name=str(name), model=str(models.get(name, "")), colour=robot_colour(k),
+            xy=np.column_stack((x[ok], y[ok])), heading=float(h[-1]) if len(h) else math.nan,
+            collisions=np.column_stack((x[hit], y[hit])),
+            events={ev: np.column_stack((xs[js], ys[js]))[np.isfinite(xs[js]) & np.isfinite(ys[js])]
+                    for ev, js in events.items()},
+        ))
+    return paths
+
+
+def resolve_world(trace: Trace) -> tuple[World | None, str]:
+    """The world the run used, and a note for the title when it can't be drawn.
+
+    The recorded file comes first (it is exactly what ran); a built-in of the same name is
+    the fallback, as a trace copied to another machine names a path that isn't there.
+    """
+    header = trace.header
+    name = str(header.get("world") or "")
+    candidates = []
+    wf = header.get("world_file")
+    if wf:
+        candidates.append(Path(wf))
+        if not Path(wf).is_absolute():
+            candidates.append(Path(trace.path).parent / wf)  # relative to where the trace lives
+    if name in builtin_worlds():
+        candidates.append(builtin_worlds()[name])
+    broken = ""
+    for path in candidates:
+        if path.is_file():
+            world = load_world(path, Report())
+            if world is not None:
+                return world, ""
+            broken = f" ({path} has errors)"
+    if not name and not wf:
+        return None, "the trace names no world: drawn without walls"
+    what = f"world '{name}'" if name else f"world file {wf}"
+    return None, f"{what} not found{broken}: drawn without walls"
+
+
+# -- the layout --------------------------------------------------------------------------------
+
+@dataclass
+class Figure:
+    """A rendered plot and the mapping from world metres to its pixels."""
+
+    image: np.ndarray  # BGR, uint8
+    xmin: float
+    ymax: float
+    m_per_px: float
+    left: int  # pixel column of xmin
+    top: int  # pixel row of ymax
+
+    def to_px(self, x: float, y: float) -> tuple[float, float]:
+        """Pixel (column, row) of world point (x, y); y grows up in the world, down in images."""
+        return (self.left + (x - self.xmin) / self.m_per_px, self.top + (self.ymax - y) / self.m_per_px)
+
+
+def _nice_step(at_least: float) -> float:
+    """The smallest 1-2-5 x 10^k not below at_least."""
+    exp = math.floor(math.log10(at_least))
+    for m in (1, 2, 5, 10):
+        if m * 10 ** exp >= at_least - 1e-12:
+            return m * 10 ** exp
+    return 10 ** (exp + 1)
+
+
+def _nice_below(at_most: float) -> float:
+    """The largest 1-2-5 x 10^k not above at_most."""
+    exp = math.floor(math.log10(at_most))
+    for m in (5, 2, 1):
+        if m * 10 ** exp <= at_most + 1e-12:
+            return m * 10 ** exp
+    return 5 * 10 ** (exp - 1)
+
+
+def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float, float, float]:
+    xs: list[float] = []
+    ys: list[float] = []
+    if world is not None:
+        xs += [world.bounds[0], world.bounds[2]]
+        ys += [world.bounds[1], world.bounds[3]]
+        for w in world.walls:
+            r = w.thickness_m / 2
+            xs += [w.a[0] - r, w.a[0] + r, w.b[0] - r, w.b[0] + r]
+            ys += [w.a[1] - r, w.a[1] + r, w.b[1] - r, w.b[1] + r]
+        for b in world.blocks:
+            xs += [c[0] for c in b.corners]
+            ys += [c[1] for c in b.corners]
+    for p in paths:
+        if len(p.xy):
+            xs += [float(p.xy[:, 0].min()), float(p.xy[:, 0].max())]
+            ys += [float(p.xy[:, 1].min()), float(p.xy[:, 1].max())]
+    if not xs:
+        return (-1.0, -1.0, 1.0, 1.0)
+    x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+    # a margin so markers at the edge stay whole, and a floor so a robot that never moved
+    # still gets a readable few metres around it
+    margin = max(0.04 * max(x1 - x0, y1 - y0), 0.3)
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    hw, hh = max((x1 - x0) / 2 + margin, 1.0), max((y1 - y0) / 2 + margin, 1.0)
+    return (cx - hw, cy - hh, cx + hw, cy + hh)
+
+
+class _Painter:
+    """Sizes scaled to the requested width, and the text/marker primitives that use them."""
+
+    def __init__(self, width_px: int):
+        # sizes follow the width, but not below what stays legible: small plots get
+        # relatively bigger text and markers, and a smaller share for the map
+        self.s = s = max(width_px / 1000, 0.8)
+        self.lw = max(1, round(s))  # hairline width for text and frames
+        self.pad = round(14 * s)
+        self.text = 0.45 * s
+        self.small = 0.4 * s
+        self.title = 0.72 * s
+        self.line_h = round(22 * s)
+
+    def size(self, text: str, scale: float, font: int = FONT, thick: int | None = None) -> tuple[int, int]:
+        (w, h), _ = cv2.getTextSize(text, font, scale, thick or self.lw)
+        return w, h
+
+    def put(self, img: np.ndarray, text: str, org: tuple[float, float], scale: float,
+            colour: tuple[int, int, int] = INK, font: int = FONT, thick: int | None = None,
+            align: str = "left", max_w: int | None = None) -> None:
+        text = _ascii(text)
+        if max_w is not None and self.size(text, scale, font, thick)[0] > max_w:
+            while len(text) > 1 and self.size(text + "...", scale, font, thick)[0] > max_w:
+                text = text[:-1]
+            text += "..."
+        w, h = self.size(text, scale, font, thick)
+        x, y = org
+        if align == "center":
+            x -= w / 2
+        elif align == "right":
+            x -= w
+        cv2.putText(img, text, (round(x), round(y)), font, scale, colour, thick or self.lw, AA)
+
+    # markers, centred on pixel points; used on the map and, the same, in the legend
+    def start(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
+        r = round(6 * self.s)
+        for u, v in np.round(pts).astype(int):
+            cv2.circle(img, (u, v), r, PAPER, -1, AA)
+            cv2.circle(img, (u, v), r, colour, max(2, round(2.5 * self.s)), AA)
+
+    def end(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
+        r = round(5 * self.s)
+        for u, v in np.round(pts).astype(int):
+            cv2.rectangle(img, (u - r, v - r), (u + r, v + r), colour, -1, AA)
+            cv2.rectangle(img, (u - r, v - r), (u + r, v + r), _darker(colour, 0.5), self.lw, AA)
+
+    def crosses(self, img: np.ndarray, pts: np.ndarray) -> None:
+        if not len(pts):
+            return
+        r = 6 * self.s * ONE
+        c = pts * ONE
+        # both strokes of every X in one polylines call: thousands of collisions stay cheap
+        d1 = np.stack((c + (-r, -r), c + (r, r)), axis=1)
+        d2 = np.stack((c + (-r, r), c + (r, -r)), axis=1)
+        strokes = np.round(np.concatenate((d1, d2))).astype(np.int32)
+        cv2.polylines(img, list(strokes), False, PAPER, max(4, round(5 * self.s)), AA, SHIFT)
+        cv2.polylines(img, list(strokes), False, COLLISION, max(2, round(2.5 * self.s)), AA, SHIFT)
+
+    def triangles(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
+        if not len(pts):
+            return
+        r = 6.5 * self.s * ONE
+        shape = np.array([(0, -r), (0.87 * r, 0.5 * r), (-0.87 * r, 0.5 * r)])
+        tris = np.round(pts[:, None, :] * ONE + shape[None, :, :]).astype(np.int32)
+        cv2.fillPoly(img, list(tris), colour, AA, SHIFT)
+        cv2.polylines(img, list(tris), True, _darker(colour, 0.45), self.lw, AA, SHIFT)
+
+
+# -- drawing -----------------------------------------------------------------------------------
+
+def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = None,
+                  world_note: str | None = None) -> Figure:
+    """Draw a trace; the world is looked up from its header unless given."""
+    if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
+        raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
+    if world is None and world_note is None:
+        world, world_note = resolve_world(trace)
+    world_note = world_note or ""
+    paths = robot_paths(trace)
+    P = _Painter(width_px)
+    s, pad = P.s, P.pad
+
+    # title block: behaviour name, then the run's particulars, then a note if any
+    header = trace.header
+    title = header.get("name") or Path(str(header.get("behaviour") or trace.path)).stem
+    subtitle = "  |  ".join(_run_facts(trace, world, paths))
+    title_lines = 3 if world_note else 2
+    title_h = round((20 + 24 * title_lines) * s)
+
+    # the map: equal metres per pixel on both axes, sized by the width left after the axis
+    # labels and the legend column; very tall worlds are capped so the image stays sane
+    left_axis, bottom_axis = round(50 * s), round(46 * s)
+    legend_w = round(235 * s)
+    x0, y0, x1, y1 = _extents(world, paths)
+    avail_w = width_px - left_axis - legend_w - pad
+    mpp = (x1 - x0) / avail_w
+    if (y1 - y0) / mpp > 1.5 * avail_w:
+        mpp = (y1 - y0) / (1.5 * avail_w)
+    map_w, map_h = round((x1 - x0) / mpp), round((y1 - y0) / mpp)
+    map_left = left_axis + (avail_w - map_w) // 2
+    map_top = title_h
+
+    events = _event_names(header, paths)
+    legend_h = P.line_h * (len(paths) + len(events) + 9)
+    height = max(map_top + map_h + bottom_axis, map_top + legend_h) + pad
+    img = np.full((height, width_px, 3), PAPER, np.uint8)
+    fig = Figure(img, x0, y1, mpp, map_left, map_top)
+
+    def px(xy: np.ndarray) -> np.ndarray:
+        out = np.empty_like(xy, dtype=float)
+        out[:, 0] = map_left + (xy[:, 0] - x0) / mpp
+        out[:, 1] = map_top + (y1 - xy[:, 1]) / mpp
+        return out
+
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), MAP_BG, -1)
+    _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1))
+
+    # the world under everything: blocks filled, walls at their real thickness (round ends,
+    # as the physics backend models a wall as a thick segment)
+    if world is not None:
+        for b in world.blocks:
+            poly = np.round(px(np.array(b.corners, float)) * ONE).astype(np.int32)
+            cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
+            cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
+        for w in world.walls:
+            _wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
+
+    # paths: one polylines call per robot, however long the run
+    line_w = max(2, round(2 * s))
+    for p in paths:
+        if len(p.xy) > 1:
+            pts = np.round(px(p.xy) * ONE).astype(np.int32).reshape(-1, 1, 2)
+            cv2.polylines(img, [pts], False, p.colour, line_w, AA, SHIFT)
+    for k, ev in enumerate(events):
+        for p in paths:
+            if ev in p.events:
+                P.triangles(img, px(p.events[ev]), event_colour(k))
+    for p in paths:
+        P.crosses(img, px(p.collisions))
+    for p in paths:
+        if not len(p.xy):
+            continue
+        ends = px(p.xy[[0, -1]])
+        P.start(img, ends[:1], p.colour)
+        if math.isfinite(p.heading):
+            # the arrow is the robot's last heading: a fixed on-screen length reads better
+            # than a metric one, which vanishes in big worlds and swamps small ones
+            n = 26 * s
+            tip = ends[1] + n * np.array([math.cos(p.heading), -math.sin(p.heading)])
+            cv2.arrowedLine(img, tuple(np.round(ends[1] * ONE).astype(int)),
+                            tuple(np.round(tip * ONE).astype(int)), _darker(p.colour),
+                            max(2, round(2 * s)), AA, SHIFT, 0.35)
+        P.end(img, ends[1:], p.colour)
+
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
+
+    # title
+    tx = map_left
+    title_w = width_px - tx - pad
+    P.put(img, title, (tx, round(34 * s)), P.title, INK, TITLE_FONT, max_w=title_w)
+    P.put(img, subtitle, (tx, round(58 * s)), P.text, MUTED, max_w=title_w)
+    if world_note:
+        P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
+
+    _legend(img, P, paths, events, map_left + map_w + round(22 * s), map_top, map_h, mpp)
+    return fig
+
+
+def _wall(img: np.ndarray, ab: np.ndarray, thick_px: float) -> None:
+    """A wall as a filled band, its ends extended by half the thickness.
+
+    The extension closes the corners where walls meet (the physics gives its thick segments
+    round ends of that radius). A polygon rather than a thick cv2.line, whose antialiased ends
+    come out pointed and whose width is rounded to whole pixels.
+    """
+    a, b = ab
+    r = thick_px / 2
+    d = b - a
+    n = float(np.hypot(*d))
+    along = d / n * r if n > 0 else np.array([r, 0.0])
+    across = np.array([-along[1], along[0]])
+    a, b = a - along, b + along
+    band = np.round(np.array([a + across, b + across, b - across, a - across]) * ONE).astype(np.int32)
+    cv2.fillPoly(img, [band], WALL, AA, SHIFT)
+
+
+def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> list[str]:
+    h = trace.header
+    facts = [f"world {h.get('world') or (world.name if world else '?')}"]
+    if "seed" in h:
+        facts.append(f"seed {h['seed']}")
+    if h.get("backend"):
+        facts.append(f"backend {h['backend']}")
+    duration = _duration(trace)
+    if duration is not None:
+        facts.append(f"{duration:.1f} s simulated")
+    facts.append(f"{len(paths)} robot{'s' if len(paths) != 1 else ''}")
+    return facts
+
+
+def _duration(trace: Trace) -> float | None:
+    """Simulated time: the last row's time plus the tick it stood for."""
+    if not trace.rows or "time" not in trace.columns:
+        return None
+    try:
+        last = float(trace.rows[-1][trace.columns.index("time")])
+    except ValueError:
+        return None
+    dt = trace.header.get("dt")
+    return last + (float(dt) if isinstance(dt, (int, float)) else 0.0)
+
+
+def _event_names(header: dict, paths: list[RobotPath]) -> list[str]:
+    """Count metrics in the header's order (even those that never rose), then any others."""
+    declared = [m for m, agg in (header.get("metrics") or {}).items() if agg == "count"]
+    seen = [ev for p in paths for ev in p.events]
+    return list(dict.fromkeys(declared + seen))
+
+
+def _grid(img: np.ndarray, P: _Painter, fig: Figure, map_w: int, map_h: int,
+          ext: tuple[float, float, float, float]) -> None:
+    """A 1 m grid (coarser only when 1 m would be a smear), labelled without crowding."""
+    x0, y0, x1, y1 = ext
+    mpp, s = fig.m_per_px, P.s
+    step = _nice_step(max(1.0, 12 * s * mpp))
+    label_step = step * max(1, round(_nice_step(38 * s * mpp / step)))
+    right, bottom = fig.left + map_w, fig.top + map_h
+    for axis, (lo, hi) in enumerate(((x0, x1), (y0, y1))):
+        k = math.ceil(lo / step - 1e-9)
+        while k * step <= hi + 1e-9:
+            v = k * step
+            k += 1
+            if axis == 0:
+                u = round(fig.to_px(v, 0)[0])
+                if not fig.left < u < right:
+                    continue
+                cv2.line(img, (u, fig.top), (u, bottom), GRID, P.lw)
+            else:
+                r = round(fig.to_px(0, v)[1])
+                if not fig.top < r < bottom:
+                    continue
+                cv2.line(img, (fig.left, r), (right, r), GRID, P.lw)
+            if abs(v / label_step - round(v / label_step)) > 1e-6:
+                continue
+            text = f"{v:g}" if abs(v) > 1e-9 else "0"
+            tick = round(5 * s)
+            if axis == 0:
+                cv2.line(img, (u, bottom), (u, bottom + tick), FRAME, P.lw)
+                P.put(img, text, (u, bottom + tick + round(15 * s)), P.small, MUTED, align="center")
+            else:
+                cv2.line(img, (fig.left - tick, r), (fig.left, r), FRAME, P.lw)
+                P.put(img, text, (fig.left - tick - round(4 * s), r + round(5 * s)), P.small, MUTED,
+                      align="right")
+    P.put(img, "x (m)", (right, bottom + round(38 * s)), P.small, MUTED, align="right")
+    P.put(img, "y (m)", (fig.left - round(9 * s), fig.top - round(8 * s)), P.small, MUTED, align="right")
+
+
+def _legend(img: np.ndarray, P: _Painter, paths: list[RobotPath], events: list[str],
+            x: int, top: int, map_h: int, mpp: float) -> None:
+    s, lh = P.s, P.line_h
+    w = img.shape[1] - x - P.pad
+    sym = x + round(12 * s)  # centre column of the symbols
+    tx = x + round(32 * s)  # where the words start
+    y = top + round(12 * s)
+
+    def heading(text: str) -> None:
+        nonlocal y
+        P.put(img, text, (x, y + round(5 * s)), P.text, INK, thick=max(1, round(1.6 * s)))
+        y += lh
+
+    def row(text: str, colour: tuple[int, int, int] = INK) -> None:
+        nonlocal y
+        P.put(img, text, (tx, y + round(5 * s)), P.text, colour, max_w=w - (tx - x))
+        y += lh
+
+    heading("robots")
+    for p in paths:
+        u = round(11 * s)
+        cv2.line(img, (sym - u, y), (sym + u, y), p.colour, max(3, round(3 * s)), AA)
+        label = p.name + (f" ({p.model})" if p.model and p.model != p.name else "")
+        row(label)
+    if not paths:
+        row("(no rows in the trace)", MUTED)
+    y += lh // 2
+
+    heading("markers")
+    pt = np.array([[sym, y]], float)
+    P.start(img, pt, MUTED)
+    row("start")
+    pt = np.array([[sym - round(3 * s), y]], float)
+    cv2.arrowedLine(img, (int(pt[0, 0]), y), (int(pt[0, 0] + 17 * s), y), _darker(MUTED),
+                    max(2, round(2 * s)), AA, 0, 0.4)
+    P.end(img, pt, MUTED)
+    row("end, heading")
+    P.crosses(img, np.array([[sym, y]], float))
+    n_coll = sum(len(p.collisions) for p in paths)
+    row(f"collision ({n_coll})")
+    if events:
+        y += lh // 2
+        heading("events")
+        for k, ev in enumerate(events):
+            P.triangles(img, np.array([[sym, y]], float), event_colour(k))
+            n = sum(len(p.events.get(ev, ())) for p in paths)
+            row(f"{ev} ({n})")
+
+    # scale bar at the foot of the map: the longest 1-2-5 length that fits in ~110 px
+    length = _nice_below(110 * s * mpp)
+    bar = round(length / mpp)
+    yb = top + map_h - round(8 * s)
+    yb = max(yb, y + round(20 * s))
+    tick = round(4 * s)
+    cv2.line(img, (x, yb), (x + bar, yb), INK, max(2, round(2 * s)))
+    for u in (x, x + bar):
+        cv2.line(img, (u, yb - tick), (u, yb + tick), INK, max(2, round(2 * s)))
+    P.put(img, f"{length:g} m", (x + bar + round(8 * s), yb + round(5 * s)), P.text, INK)
+
+
+# -- writing -----------------------------------------------------------------------------------
+
+def check_output(out_path: str | Path) -> Path:
+    """Fail before any drawing if the image could not be written where asked."""
+    out = Path(out_path)
+    if out.suffix == "":
+        raise ValueError(f"{out}: no image extension; name the file .png (or .jpg, .bmp, ...)")
+    if not cv2.haveImageWriter(str(out.with_name("x" + out.suffix.lower()))):
+        raise ValueError(f"{out}: OpenCV cannot write '{out.suffix}' images; use .png (or .jpg, .bmp, ...)")
+    if out.is_dir():
+        raise ValueError(f"{out}: is a directory; give an image file name")
+    parent = out.parent
+    if not parent.is_dir():
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise ValueError(f"{out}: cannot write the plot: directory {parent} {what}")
+    return out
+
+
+def plot_trace(trace_path: str | Path, out_path: str | Path, *, width_px: int = 1000) -> Path:
+    """Draw a trace file to an image file; returns the image's path.
+
+    Raises TraceFormatError for an unreadable trace and ValueError for an unwritable output
+    (a missing directory, an extension OpenCV can't encode, ...), both with printable messages.
+    """
+    out = check_output(out_path)
+    fig = render_figure(read_trace(trace_path), width_px=width_px)
+    # imencode + an ordinary write rather than cv2.imwrite: imwrite reports every failure as a
+    # bare False, while Python's write says why (permissions, full disk) and takes any path
+    ok, data = cv2.imencode(out.suffix.lower(), fig.image)
+    if not ok:
+        raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
+    try:
+        out.write_bytes(data.tobytes())
+    except OSError as e:
+        raise ValueError(f"{out}: cannot write the plot: {e.strerror or e}") from None
+    return out

@@ -1,0 +1,394 @@
+"""labsim.backends.pymunk: sonar geometry, differential drive, contacts, determinism, call order."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from labsim.backends import load_backend
+from labsim.backends.models import PIONEER_P3DX, RobotModel
+from labsim.backends.protocol import BackendError, BackendStateError, RobotRequest
+from labsim.backends.pymunk.backend import PymunkBackend
+from labsim.backends.world import Block, Pose, Wall, World
+
+M = PIONEER_P3DX
+R = M.wheel_radius_m
+DT = 0.05
+SONARS = tuple(s.name for s in M.sonars)
+ALL = SONARS + ("x", "y", "heading", "collided")
+FRONT = max(x for x, _ in M.footprint)  # robot origin to its front edge, 0.2095 m
+
+FACE = 1.0  # the room's inner walls are at x, y = +-FACE
+THICK = 0.1
+
+
+def room(face: float = FACE, blocks: tuple[Block, ...] = ()) -> World:
+    """A square room whose wall faces are at +-face; the walls overlap at the corners."""
+    c = face + THICK / 2  # wall centre lines
+    e = face + THICK  # wall ends, past the corners so they are closed
+    walls = (
+        Wall((-e, -c), (e, -c), THICK), Wall((c, -e), (c, e), THICK),
+        Wall((e, c), (-e, c), THICK), Wall((-c, e), (-c, -e), THICK),
+    )
+    return World("room", "test room", (-face, -face, face, face), walls, blocks)
+
+
+EMPTY = World("empty", "nothing at all", (-10.0, -10.0, 10.0, 10.0))
+
+
+def req(pose: Pose, channels: tuple[str, ...] = ALL, name: str = "pioneer",
+        model: RobotModel = M) -> RobotRequest:
+    return RobotRequest(name, model, pose, channels)
+
+
+def opened(world: World, *poses: Pose, channels: tuple[str, ...] = ALL, **kw: int) -> PymunkBackend:
+    b = PymunkBackend(**kw)
+    b.open(world, [req(p, channels, f"pioneer[{i}]") for i, p in enumerate(poses)], DT, seed=1)
+    return b
+
+
+def expected_in_room(pose: Pose, sonar_name: str, face: float = FACE) -> float:
+    """Distance from a sonar's mount along its ray to the nearest face of ``room(face)``."""
+    s = next(s for s in M.sonars if s.name == sonar_name)
+    c, si = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
+    ox = pose.x_m + c * s.x_m - si * s.y_m
+    oy = pose.y_m + si * s.x_m + c * s.y_m
+    a = pose.heading_rad + s.angle_rad
+    dx, dy = math.cos(a), math.sin(a)
+    ts = []
+    if abs(dx) > 1e-12:
+        ts.append(((face if dx > 0 else -face) - ox) / dx)
+    if abs(dy) > 1e-12:
+        ts.append(((face if dy > 0 else -face) - oy) / dy)
+    t = min(ts)
+    return t if t <= s.range_m else math.inf
+
+
+def run(b: PymunkBackend, ticks: int, left: float, right: float, robot: int = 0) -> None:
+    b.act(robot, left, right)
+    for _ in range(ticks):
+        b.step()
+
+
+# --- sonars -----------------------------------------------------------------------------------
+
+def test_sonars_read_the_wall_distance_from_their_mount() -> None:
+    pose = Pose(0.3, 0.2, 0.0)
+    b = opened(room(), pose)
+    got = dict(zip(ALL, b.sense()[0]))
+    # By hand: sonar1 (+90 deg) sits at y = 0.2 + 0.1382 and looks straight at the wall face
+    # at y = 1; sonar5 (-10 deg) sits at x = 0.3 + 0.2095 and looks at x = 1 at 10 degrees.
+    assert got["sonar1"] == pytest.approx(1.0 - 0.3382, abs=0.01)
+    assert got["sonar5"] == pytest.approx((1.0 - 0.5095) / math.cos(math.radians(10)), abs=0.01)
+    assert got["sonar4"] == pytest.approx((1.0 - 0.5095) / math.cos(math.radians(10)), abs=0.01)
+    assert got["sonar8"] == math.inf  # the wall below is 1.06 m away, beyond the 1 m range
+    for name in SONARS:
+        want = expected_in_room(pose, name)
+        if want == math.inf:
+            assert got[name] == math.inf, name
+        else:
+            assert got[name] == pytest.approx(want, abs=0.01), name
+    b.close()
+
+
+@pytest.mark.parametrize(
+    "pose", [Pose(-0.2, 0.1, 2.0), Pose(0.35, -0.4, -0.7), Pose(0.0, 0.0, math.pi)]
+)
+def test_sonars_match_the_geometry_at_any_heading(pose: Pose) -> None:
+    b = opened(room(), pose, channels=SONARS)
+    readings = b.sense()[0]
+    finite = 0
+    for name, got in zip(SONARS, readings):
+        want = expected_in_room(pose, name)
+        if want == math.inf:
+            assert got == math.inf, name
+        else:
+            finite += 1
+            assert got == pytest.approx(want, abs=0.01), name
+    assert finite >= 3  # the poses are chosen so that several sonars see a wall
+    b.close()
+
+
+def test_a_block_is_seen() -> None:
+    block = Block(((0.6, -0.3), (0.8, -0.3), (0.8, 0.3), (0.6, 0.3)))
+    b = opened(room(blocks=(block,)), Pose(0.0, 0.0, 0.0), channels=("sonar4", "sonar5"))
+    want = (0.6 - FRONT) / math.cos(math.radians(10))
+    assert b.sense()[0] == [pytest.approx(want, abs=0.01), pytest.approx(want, abs=0.01)]
+
+
+def test_nothing_in_range_reads_inf_and_the_own_body_is_invisible() -> None:
+    b = opened(EMPTY, Pose(0.0, 0.0, 0.3), channels=SONARS)
+    readings = b.sense()[0]
+    assert readings == [math.inf] * len(SONARS)  # never 0, though every ray starts on the body
+    assert all(isinstance(v, float) for v in readings)
+
+
+def test_another_robot_is_detected() -> None:
+    # B stands 1 m ahead of A, turned sideways: its left flank (a flat edge at 0.81 m from A's
+    # origin) faces A, and A's front right corner region faces B's left-side sonar.
+    a_pose, b_pose = Pose(0.0, 0.0, 0.0), Pose(1.0, 0.0, math.pi / 2)
+    b = opened(EMPTY, a_pose, b_pose, channels=("sonar1", "sonar4", "sonar5"))
+    ra, rb = b.sense()
+    assert 0.6 < ra[1] < 0.7 and 0.6 < ra[2] < 0.7  # sonar4 / sonar5 see B's flank
+    # B's sonar1 (+90 deg, pointing at world -x) starts at x = 1 - 0.1382, y = 0.1067 and hits
+    # A's footprint edge (0.1557, 0.1250)-(0.1909, 0.0831) at that height.
+    y = 0.1067
+    edge_x = 0.1557 + (0.1250 - y) / (0.1250 - 0.0831) * (0.1909 - 0.1557)
+    assert rb[0] == pytest.approx((1.0 - 0.1382) - edge_x, abs=0.01)
+    alone = opened(EMPTY, a_pose, channels=("sonar1", "sonar4", "sonar5"))
+    assert alone.sense() == [[math.inf] * 3]
+
+
+def test_channels_come_back_in_the_requested_order() -> None:
+    pose = Pose(0.3, 0.2, 0.0)
+    b = opened(room(), pose, channels=("collided", "sonar5", "y", "sonar1", "x", "heading"))
+    collided, s5, y, s1, x, heading = b.sense()[0]
+    assert collided is False
+    assert (x, y, heading) == (0.3, 0.2, 0.0)
+    assert s5 == pytest.approx(expected_in_room(pose, "sonar5"), abs=0.01)
+    assert s1 == pytest.approx(expected_in_room(pose, "sonar1"), abs=0.01)
+    assert opened(room(), pose, channels=()).sense() == [[]]
+
+
+# --- drive ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("substeps", [1, 4])
+@pytest.mark.parametrize("heading", [0.0, 1.0])
+def test_both_wheels_forward_drive_straight_ahead(heading: float, substeps: int) -> None:
+    b = opened(EMPTY, Pose(0.5, -0.25, heading), substeps=substeps)
+    w = 5.0
+    run(b, round(1.0 / DT), w, w)
+    x, y, h = b.pose(0)
+    moved = R * w * 1.0
+    assert math.hypot(x - 0.5, y + 0.25) == pytest.approx(moved, rel=0.01)
+    assert x - 0.5 == pytest.approx(moved * math.cos(heading), abs=0.01 * moved)
+    assert y + 0.25 == pytest.approx(moved * math.sin(heading), abs=0.01 * moved)
+    assert h == pytest.approx(heading, abs=1e-9)
+    assert b.sense()[0][-4:] == [x, y, h, False]
+
+
+def test_opposite_wheels_turn_in_place_counter_clockwise_when_right_is_faster() -> None:
+    b = opened(EMPTY, Pose(0.0, 0.0, 0.0))
+    w = 2.0
+    run(b, round(1.0 / DT), -w, w)
+    x, y, h = b.pose(0)
+    assert h == pytest.approx(R * 2 * w / M.axle_length_m, rel=0.01)  # 1.18 rad, CCW
+    assert math.hypot(x, y) < 1e-9
+    run(b, round(1.0 / DT), w, -w)  # and back, clockwise
+    assert b.pose(0)[2] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_an_arc_turns_left_when_the_right_wheel_is_faster() -> None:
+    b = opened(EMPTY, Pose(0.0, 0.0, 0.0))
+    run(b, 10, 3.0, 4.0)
+    x, y, h = b.pose(0)
+    assert x > 0 and y > 0 and h == pytest.approx(R * 1.0 / M.axle_length_m * 0.5, rel=1e-6)
+
+
+def test_heading_stays_wrapped() -> None:
+    b = opened(EMPTY, Pose(0.0, 0.0, 3.0), channels=("heading",))
+    b.act(0, -10.0, 10.0)  # 5.9 rad/s: more than a turn in the run below
+    seen = []
+    for _ in range(60):
+        b.step()
+        seen.append(b.sense()[0][0])
+        assert seen[-1] == b.pose(0)[2]
+    assert all(-math.pi < h <= math.pi for h in seen)
+    assert min(seen) < -3 and max(seen) > 3  # it did cross the +-pi seam
+
+
+# --- contacts ---------------------------------------------------------------------------------
+
+def test_driving_into_a_wall_stops_there_and_counts_one_contact() -> None:
+    b = opened(room(), Pose(0.0, 0.0, 0.0))
+    b.act(0, 12.0, 12.0)  # 1.17 m/s; the wall face is 0.79 m ahead of the front edge
+    for _ in range(30):
+        b.step()
+    assert b.sense()[0][-1] is True
+    t_then = b.contacts(0).time_s
+    assert t_then > 0
+    for _ in range(70):  # keep pushing for 3.5 s
+        b.step()
+        x = b.pose(0)[0]
+        assert x + FRONT <= FACE + 0.005  # does not sink into or pass through the wall
+    assert x + FRONT > FACE - 0.01  # it is at the wall, not short of it
+    stats = b.contacts(0)
+    assert stats.count == 1
+    assert stats.time_s == pytest.approx(t_then + 70 * DT, abs=1e-9)
+    assert b.sense()[0][-1] is True
+
+    run(b, 10, -5.0, -5.0)  # back off
+    assert b.sense()[0][-1] is False
+    left = b.contacts(0)
+    run(b, 10, -5.0, -5.0)
+    assert b.contacts(0) == left  # no new contact, no more contact time
+    assert left.count == 1
+
+    run(b, 30, 5.0, 5.0)  # and bump again: a second contact
+    assert b.contacts(0).count == 2
+
+
+def test_driving_into_a_corner_is_one_contact() -> None:
+    # Straight into the corner: the chamfered front ends up against both walls at once.
+    b = opened(room(), Pose(0.3, 0.3, math.pi / 4))
+    run(b, 60, 8.0, 8.0)
+    x, y, h = b.pose(0)
+    assert x == pytest.approx(y, abs=1e-6) and x > 0.75
+    assert h == pytest.approx(math.pi / 4, abs=1e-3)
+    assert b.contacts(0).count == 1
+    assert b.sense()[0][-1] is True
+
+
+def test_two_robots_driven_into_each_other_collide() -> None:
+    b = opened(EMPTY, Pose(-0.6, 0.0, 0.0), Pose(0.6, 0.0, math.pi))
+    b.act(0, 5.0, 5.0)
+    b.act(1, 5.0, 5.0)
+    for _ in range(40):
+        b.step()
+    (xa, _, _), (xb, _, _) = b.pose(0), b.pose(1)
+    assert xb - xa >= 2 * FRONT - 0.01  # they meet front to front and stop there
+    for i in (0, 1):
+        assert b.contacts(i).count == 1
+        assert b.contacts(i).time_s > 0
+        assert b.sense()[i][-1] is True
+
+
+def test_contacts_survive_close() -> None:
+    b = opened(room(), Pose(0.5, 0.0, 0.0))
+    run(b, 10, 8.0, 8.0)
+    stats = b.contacts(0)
+    assert stats.count == 1
+    b.close()
+    assert b.contacts(0) == stats
+
+
+# --- determinism ------------------------------------------------------------------------------
+
+def _scenario(ticks: int = 200) -> list[list[list[object]]]:
+    """Two robots wandering a room with a pillar, steering on their own sonars."""
+    pillar = Block(((0.1, 0.3), (0.4, 0.3), (0.4, 0.6), (0.1, 0.6)))
+    b = PymunkBackend()
+    b.open(room(1.5, (pillar,)), [req(Pose(-0.8, -0.5, 0.4), name="a"),
+                                  req(Pose(0.8, 0.2, 2.5), name="b")], DT, seed=3)
+    history = []
+    for tick in range(ticks):
+        readings = b.sense()
+        history.append(readings)
+        for i, r in enumerate(readings):
+            ahead = min(r[3], r[4])
+            if ahead < 0.4:
+                b.act(i, -3.0, 3.0)
+            else:
+                b.act(i, 6.0 + (tick % 7) * 0.5, 6.0 + (tick % 5) * 0.6)
+        b.step()
+    history.append([[b.contacts(i).count, b.contacts(i).time_s] for i in range(2)])
+    b.close()
+    return history
+
+
+def _hexed(history: list) -> str:
+    def enc(v: object) -> object:
+        if isinstance(v, list):
+            return [enc(e) for e in v]
+        return float.hex(v) if isinstance(v, float) else v
+    return json.dumps(enc(history))
+
+
+def test_same_inputs_give_identical_readings() -> None:
+    first, second = _scenario(), _scenario()
+    assert first == second
+    assert any(r[-1] is True for tick in first[:-1] for r in tick)  # it did bump into things
+
+
+def test_identical_readings_in_another_process() -> None:
+    here = __file__.rsplit("/", 1)[0]
+    code = (
+        f"import sys; sys.path[:0] = {[here] + sys.path!r}\n"
+        "from test_backend_pymunk import _scenario, _hexed\n"
+        "print(_hexed(_scenario()))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == _hexed(_scenario())
+
+
+# --- call order and errors --------------------------------------------------------------------
+
+CALLS = {
+    "sense": lambda b: b.sense(),
+    "act": lambda b: b.act(0, 1.0, 1.0),
+    "step": lambda b: b.step(),
+    "pose": lambda b: b.pose(0),
+}
+
+
+@pytest.mark.parametrize("call", sorted(CALLS))
+def test_calls_before_open_raise(call: str) -> None:
+    b = PymunkBackend()
+    with pytest.raises(BackendStateError, match=f"{call}.*before open"):
+        CALLS[call](b)
+
+
+@pytest.mark.parametrize("call", sorted(CALLS))
+def test_calls_after_close_raise(call: str) -> None:
+    b = opened(room(), Pose(0.0, 0.0, 0.0))
+    b.close()
+    b.close()  # idempotent
+    with pytest.raises(BackendStateError, match=f"{call}.*after close"):
+        CALLS[call](b)
+
+
+def test_contacts_before_open_and_open_twice_raise() -> None:
+    b = PymunkBackend()
+    with pytest.raises(BackendStateError):
+        b.contacts(0)
+    b.close()  # closing what was never opened is fine too
+    b.open(room(), [req(Pose(0.0, 0.0, 0.0))], DT, seed=1)
+    with pytest.raises(BackendStateError, match="twice"):
+        b.open(room(), [req(Pose(0.0, 0.0, 0.0))], DT, seed=1)
+
+
+def test_reopen_after_close_starts_afresh() -> None:
+    b = opened(room(), Pose(0.5, 0.0, 0.0))
+    run(b, 10, 8.0, 8.0)
+    b.close()
+    b.open(room(), [req(Pose(0.0, 0.0, 0.0))], DT, seed=1)
+    assert b.pose(0) == (0.0, 0.0, 0.0)
+    assert b.contacts(0).count == 0
+    assert b.sense()[0][-1] is False
+
+
+def test_unknown_channel_raises_naming_channel_and_robot() -> None:
+    b = PymunkBackend()
+    with pytest.raises(BackendError, match=r"pioneer\[1\].*'sonar17'") as info:
+        b.open(room(), [
+            req(Pose(0.0, 0.0, 0.0), name="pioneer[0]"),
+            req(Pose(0.5, 0.0, 0.0), ALL + ("sonar17",), name="pioneer[1]"),
+        ], DT, seed=1)
+    assert not isinstance(info.value, BackendStateError)
+    assert b.space is None  # nothing half-built
+    b.open(room(), [req(Pose(0.0, 0.0, 0.0))], DT, seed=1)  # and it is still usable
+
+
+def test_bad_options_raise() -> None:
+    with pytest.raises(BackendError, match="substeps"):
+        PymunkBackend(substeps=0)
+    with pytest.raises(BackendError, match="dt_s"):
+        PymunkBackend().open(room(), [req(Pose(0.0, 0.0, 0.0))], 0.0, seed=1)
+
+
+def test_registered_as_the_default_backend() -> None:
+    b = load_backend("pymunk", substeps=2)
+    assert isinstance(b, PymunkBackend) and b.name == "pymunk" and b.substeps == 2
+
+
+def test_public_space_and_bodies() -> None:
+    b = opened(room(), Pose(0.1, 0.2, 0.3), Pose(-0.5, 0.0, 0.0))
+    assert b.space is not None and len(b.bodies) == 2
+    assert tuple(b.bodies[0].position) == (0.1, 0.2) and b.bodies[0].angle == 0.3
+    assert all(body.space is b.space for body in b.bodies)
+    b.close()
+    assert b.space is None and b.bodies == []

@@ -1,0 +1,178 @@
+"""labsim.runtime.plot: traces drawn to scale over their world, checked pixel by pixel."""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from labsim.backends.world import builtin_worlds
+from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_colour, robot_paths
+from labsim.runtime.trace import FORMAT, TraceFormatError, TraceWriter, read_trace
+
+COLUMNS = ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",
+           "left", "right", "events"]
+DT = 0.05
+
+
+def header(**changes: object) -> dict:
+    h = {"format": FORMAT, "labsim": "0.1.0", "backend": "pymunk", "behaviour": "behaviours/test.yaml",
+         "name": "Plot test", "world": "walls_lab4", "world_file": str(builtin_worlds()["walls_lab4"]),
+         "dt": DT, "seed": 7, "params": {}, "robots": {"pioneer": "pioneer_p3dx"},
+         "metrics": {"bumps": "count", "busy": "duration"}}
+    h.update(changes)
+    return h
+
+
+def write_trace(path: Path, poses: dict[str, list[tuple[float, float, float, int, str]]],
+                **header_changes: object) -> Path:
+    """A trace of the given (x, y, heading, collided, events) per robot, ticks interleaved."""
+    h = header(**header_changes)
+    h["robots"] = {name: "pioneer_p3dx" for name in poses}
+    w = TraceWriter(path, h, COLUMNS)
+    try:
+        for t in range(max(len(p) for p in poses.values())):
+            for name, p in poses.items():
+                if t < len(p):
+                    x, y, heading, collided, events = p[t]
+                    w.write([t, round(t * DT, 9), name, x, y, heading, collided, "go", "go:1",
+                             1.0, 1.0, events])
+    finally:
+        w.close()
+    return path
+
+
+def straight(x0: float, y0: float, x1: float, y1: float, n: int = 50) -> list:
+    heading = math.atan2(y1 - y0, x1 - x0)
+    return [(x0 + (x1 - x0) * i / (n - 1), y0 + (y1 - y0) * i / (n - 1), heading, 0, "")
+            for i in range(n)]
+
+
+def pixel(img: np.ndarray, fig, x: float, y: float) -> np.ndarray:
+    u, v = fig.to_px(x, y)
+    return img[round(v), round(u)].astype(int)
+
+
+def test_png_to_scale_with_walls_and_path(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "run.csv", {"pioneer": straight(-5.0, -5.0, -1.0, -5.0)})
+    out = plot_trace(trace, tmp_path / "run.png", width_px=800)
+    assert out == tmp_path / "run.png" and out.is_file()
+    img = cv2.imread(str(out))
+    assert img.shape[1] == 800
+    fig = render_figure(read_trace(trace), width_px=800)
+    assert fig.image.shape == img.shape
+    # same metres per pixel both ways: a 4 m square is as tall as it is wide
+    (u0, v0), (u1, v1) = fig.to_px(0, 0), fig.to_px(4, 4)
+    assert abs((u1 - u0) - (v0 - v1)) < 1e-9 and u1 > u0 and v1 < v0
+    # the south wall (y = -7.5) and the inner wall from the west (y = 1.5) are dark
+    for x, y in [(0.0, -7.5), (-3.0, 1.5), (3.0, -5.0)]:
+        assert pixel(img, fig, x, y).max() < 100, (x, y)
+    # the path, away from its start and end markers, is the robot's colour
+    colour = np.array(robot_colour(0))
+    for x in (-4.0, -3.0, -2.3):
+        assert np.abs(pixel(img, fig, x, -5.0) - colour).max() < 40, x
+    # open floor is light
+    assert pixel(img, fig, 4.5, 2.5).min() > 200
+
+
+def test_collision_marked_red_once_per_contact(tmp_path: Path) -> None:
+    path = straight(-2.0, -3.0, 2.0, -3.0, n=40)
+    # in contact for five ticks from the 20th: one collision, at its first tick
+    for i in range(20, 25):
+        x, y, h, _, _ = path[i]
+        path[i] = (x, y, h, 1, "bumps" if i == 20 else "")
+    trace = write_trace(tmp_path / "hit.csv", {"pioneer": path})
+    paths = robot_paths(read_trace(trace))
+    assert len(paths[0].collisions) == 1
+    cx, cy = paths[0].collisions[0]
+    assert (cx, cy) == pytest.approx(path[20][:2])
+    assert len(paths[0].events["bumps"]) == 1
+
+    out = plot_trace(trace, tmp_path / "hit.png")
+    img = cv2.imread(str(out)).astype(int)
+    fig = render_figure(read_trace(trace))
+    u, v = (round(c) for c in fig.to_px(cx, cy))
+    near = img[v - 8:v + 9, u - 8:u + 9]
+    b, g, r = near[..., 0], near[..., 1], near[..., 2]
+    assert np.count_nonzero((r > 170) & (g < 90) & (b < 90)) >= 15
+    # and no red at a point of the path without a collision
+    u, v = (round(c) for c in fig.to_px(-1.0, -3.0))
+    far = img[v - 5:v + 6, u - 5:u + 6]
+    assert np.count_nonzero((far[..., 2] > 170) & (far[..., 1] < 90) & (far[..., 0] < 90)) == 0
+
+
+def test_robots_get_distinct_colours(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "two.csv", {"a": straight(-5, -5, -1, -5), "b": straight(-5, 4, -1, 4)})
+    paths = robot_paths(read_trace(trace))
+    assert [p.name for p in paths] == ["a", "b"]
+    assert paths[0].colour != paths[1].colour
+    out = plot_trace(trace, tmp_path / "two.png")
+    img = cv2.imread(str(out))
+    fig = render_figure(read_trace(trace))
+    assert np.abs(pixel(img, fig, -3, -5) - robot_colour(0)).max() < 40
+    assert np.abs(pixel(img, fig, -3, 4) - robot_colour(1)).max() < 40
+
+
+def test_builtin_world_when_the_recorded_file_is_gone(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "moved.csv", {"pioneer": straight(-5, -5, -1, -5)},
+                        world_file="/no/such/dir/walls_lab4.yaml")
+    world, note = resolve_world(read_trace(trace))
+    assert world is not None and world.name == "walls_lab4" and note == ""
+
+
+def test_unknown_world_is_drawn_without_walls(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "lost.csv", {"pioneer": straight(10, 10, 14, 12)},
+                        world="atrium", world_file="/no/such/atrium.yaml")
+    world, note = resolve_world(read_trace(trace))
+    assert world is None and "atrium" in note and "without walls" in note
+    out = plot_trace(trace, tmp_path / "lost.png", width_px=600)
+    img = cv2.imread(str(out))
+    assert img.shape[1] == 600
+    fig = render_figure(read_trace(trace), width_px=600)
+    # the view follows the path, which the walls_lab4 room would not contain
+    assert np.abs(pixel(img, fig, 12, 11) - robot_colour(0)).max() < 40
+
+
+@pytest.mark.parametrize("name", ["plot.xyz", "plot", "missing_dir/plot.png"])
+def test_unwritable_output_is_a_value_error(tmp_path: Path, name: str) -> None:
+    trace = write_trace(tmp_path / "run.csv", {"pioneer": straight(-5, -5, -1, -5)})
+    with pytest.raises(ValueError, match="plot"):
+        plot_trace(trace, tmp_path / name)
+    assert not (tmp_path / name).exists()
+
+
+def test_output_that_is_a_directory_is_a_value_error(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "run.csv", {"pioneer": straight(-5, -5, -1, -5)})
+    (tmp_path / "out.png").mkdir()
+    with pytest.raises(ValueError, match="directory"):
+        plot_trace(trace, tmp_path / "out.png")
+
+
+def test_too_narrow_is_a_value_error(tmp_path: Path) -> None:
+    trace = write_trace(tmp_path / "run.csv", {"pioneer": straight(-5, -5, -1, -5)})
+    with pytest.raises(ValueError, match="width"):
+        plot_trace(trace, tmp_path / "run.png", width_px=50)
+
+
+def test_not_a_trace(tmp_path: Path) -> None:
+    (tmp_path / "junk.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(TraceFormatError):
+        plot_trace(tmp_path / "junk.csv", tmp_path / "junk.png")
+
+
+def test_long_trace_is_fast(tmp_path: Path) -> None:
+    n = 30_000
+    t = np.arange(n) * 0.01
+    poses = [(5 * math.cos(a), 5 * math.sin(a) * math.cos(3 * a), a + math.pi / 2,
+              int(k % 1000 in (1, 2)), "bumps" if k % 1000 == 1 else "")
+             for k, a in enumerate(t)]
+    trace = write_trace(tmp_path / "long.csv", {"pioneer": poses})
+    start = time.perf_counter()
+    out = plot_trace(trace, tmp_path / "long.png")
+    elapsed = time.perf_counter() - start
+    assert out.is_file()
+    assert len(robot_paths(read_trace(trace))[0].collisions) == n // 1000
+    assert elapsed < 3.0, f"a {n}-row trace took {elapsed:.2f} s to plot"
