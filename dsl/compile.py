@@ -105,16 +105,19 @@ class Slots(list):
 class RobotProgram:
     """One robot's compiled behaviour: functions bound to its slots, generator and faults.
 
-    ``signals()`` evaluates the ``let`` signals into the slots and returns whether the stop
+    ``signals(time_s, tick, values)`` takes the tick's channel values (in ``channels``
+    order), evaluates the ``let`` signals into the slots and returns whether the stop
     condition holds; ``decide()`` runs the first rule that holds (writing ``command``: left
     and right wheel rad/s and the next state) and folds the metrics, returning the index of
-    the rule that fired, or -1.
+    the rule that fired, or -1. ``both(time_s, tick, values)`` does the two in one call and
+    returns -2 when the stop condition holds; a run with a single robot uses it.
     """
 
     slots: Slots
     command: list  # [left rad/s, right rad/s, next state index]
-    signals: Callable[[], bool]
+    signals: Callable[[float, int, list], bool]
     decide: Callable[[], int]
+    both: Callable[[float, int, list], int]
     metric_values: list[list[float]]  # per metric accumulator, read by metric_result
     events: list[str]  # names of count metrics that rose this tick (cleared by the runtime)
     source: str  # the generated Python, for `labsim check --show-code` and for debugging
@@ -174,8 +177,8 @@ class Program:
         # made by a factory so that everything they use is a closure cell, not a global.
         namespace: dict[str, object] = {"__builtins__": {}}
         exec(compile(source, f"<behaviour {self.path}>", "exec"), namespace)
-        signals, decide = namespace["make"](**bindings)  # type: ignore[operator]
-        return RobotProgram(slots, command, signals, decide, metric_values, events, source)
+        signals, decide, both = namespace["make"](**bindings)  # type: ignore[operator]
+        return RobotProgram(slots, command, signals, decide, both, metric_values, events, source)
 
 
 def _initial(aggregate: Aggregate) -> list:
@@ -282,8 +285,8 @@ class _NotConstant(Exception):
 class _Generator:
     """Checked AST to the Python source of ``signals()`` and ``decide()``.
 
-    Every expression is emitted fully parenthesised from a fixed set of forms: ``s[N]`` for a
-    sensor, signal or built-in variable, a literal made by ``repr`` of a number, an operator
+    Every expression is emitted fully parenthesised from a fixed set of forms: ``vN`` (slot N,
+    read into a local once per function) for a sensor, signal or built-in variable, a literal made by ``repr`` of a number, an operator
     from the grammar's fixed set, ``_name(...)`` for a built-in function (the namespace maps
     it), and ``_gN(...)`` for an operation that can fault, bound to its site. Parameters and
     other constants are folded, so ``time >= minutes * 60`` becomes ``(s[0] >= 1500)``.
@@ -292,23 +295,64 @@ class _Generator:
     def __init__(self, program: Program):
         self.p = program
         self.sites: list[tuple[str, FaultSite]] = []
+        self.used: set[int] = set()  # slots the function being generated reads
 
     def module(self) -> tuple[str, list[tuple[str, FaultSite]]]:
+        """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``.
+
+        ``signals(time, tick, values)`` evaluates the signals and returns the stop condition;
+        ``decide()`` picks and runs the rule and folds the metrics; ``both`` is the two in one
+        function for a run with a single robot, returning -2 when the run stops. Each reads
+        the values it uses into locals (v<slot>) once: the same rule reads the same sensor
+        several times, and a local costs a third of a slot read.
+        """
         c = self.p.checked
-        out = ["def signals():"]
-        for name, parsed in c.lets:
-            out.append(f"    s[{self.p.slot_of[name]}] = {self.expr(parsed.node, parsed.text, 'signal ' + repr(name))}")
+        n = len(self.p.channels)
+        channel_slots = set(range(FIRST_CHANNEL, FIRST_CHANNEL + n))
+        let_slots = {self.p.slot_of[name] for name, _ in c.lets}
+        unpack = [", ".join(f"v{i}" for i in sorted(channel_slots)) + ", = values"] if n else []
+        self.used = set()
+        lets = [f"s[{self.p.slot_of[name]}] = v{self.p.slot_of[name]} = "
+                + self.expr(parsed.node, parsed.text, "signal " + repr(name)) for name, parsed in c.lets]
         assert c.file.stop is not None
-        out.append(f"    return {self.expr(c.file.stop.node, c.file.stop.text, 'the stop condition')}")
-        out.append("")
-        out.append("def decide():")
+        stop = self.expr(c.file.stop.node, c.file.stop.text, "the stop condition")
+        signal_loads = self.loads(self.used - channel_slots - let_slots - {TIME, TICK})
+        self.used = set()
+        rules = self.decide(c)
+        decide_used = self.used
+        out = (["def signals(v0, v1, values):", "    s[0] = v0", "    s[1] = v1"]
+               + ([f"    s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}] = values"] if n else [])
+               + ["    " + line for line in unpack] + signal_loads
+               + ["    " + line for line in lets] + [f"    return {stop}", ""])
+        out += ["def decide():"] + self.loads(decide_used) + ["    " + line for line in rules] + [""]
+        out += (["def both(v0, v1, values):"] + ["    " + line for line in unpack] + signal_loads
+                + ["    " + line for line in lets] + [f"    if {stop}:", "        return -2"]
+                + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
+                + ["    " + line for line in rules])
+        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss"]
+        params += sorted("_" + f for f in _TOTAL if not FUNCTIONS[f].uses_rng)
+        params += [f"_g{i}" for i in range(len(self.sites))]
+        text = "\n".join("    " + line if line else "" for line in out)
+        return f"def make({', '.join(params)}):\n{text}\n    return signals, decide, both\n", self.sites
+
+    @staticmethod
+    def loaded(loads: list[str]) -> set[int]:
+        return {int(line.split("=")[0].strip()[1:]) for line in loads}
+
+    @staticmethod
+    def loads(slots: set[int]) -> list[str]:
+        return [f"    v{i} = s[{i}]" for i in sorted(slots)]
+
+    def decide(self, c: Checked) -> list[str]:
+        out = []
         states = list(c.states.values())
         index = 0
         for k, rules in enumerate(states):
-            indent = "    "
+            indent = ""
             if len(states) > 1:
-                out.append(f"    {'if' if k == 0 else 'elif'} s[{STATE}] == {k}:")
-                indent = "        "
+                self.used.add(STATE)
+                out.append(f"{'if' if k == 0 else 'elif'} v{STATE} == {k}:")
+                indent = "    "
             has_default = False
             for n, r in enumerate(rules):
                 where = f"rule {r.state}:{r.number}"
@@ -328,17 +372,13 @@ class _Generator:
                 out.append(f"{indent}else:")
                 out.append(f"{indent}    rule = -1")
         if len(states) > 1:
-            out.append("    else:")
-            out.append("        rule = -1")
+            out.append("else:")
+            out.append("    rule = -1")
         for i, metric in enumerate(c.metrics):
             e = self.expr(metric.expr, metric.text, f"metric {metric.name!r}")
-            out += ["    " + line for line in _METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()]
-        out.append("    return rule")
-        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss"]
-        params += sorted("_" + f for f in _TOTAL if not FUNCTIONS[f].uses_rng)
-        params += [f"_g{i}" for i in range(len(self.sites))]
-        body = "\n".join("    " + line if line else "" for line in out)
-        return f"def make({', '.join(params)}):\n{body}\n    return signals, decide\n", self.sites
+            out += _METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
+        out.append("return rule")
+        return out
 
     def actions(self, actions: tuple, text: Text, where: str) -> list[str]:
         lines = []
@@ -405,7 +445,9 @@ class _Generator:
     def emit(self, e: ast.Expr, text: Text, where: str) -> str:
         x = lambda sub: self.expr(sub, text, where)  # noqa: E731
         if isinstance(e, ast.Name):
-            return f"s[{self.p.slot_of[e.id]}]"
+            slot = self.p.slot_of[e.id]
+            self.used.add(slot)
+            return f"v{slot}"
         if isinstance(e, ast.Neg):
             return f"(-{x(e.operand)})"
         if isinstance(e, ast.Not):
@@ -433,7 +475,7 @@ class _Generator:
         if isinstance(e, ast.Call):
             if e.func == DETECTED:
                 assert isinstance(e.args[0], ast.Name)
-                return f"(s[{self.p.slot_of[e.args[0].id]}] < _inf)"
+                return f"({self.emit(e.args[0], text, where)} < _inf)"
             args = ", ".join(x(a) for a in e.args)
             if e.func == "randint":
                 try:

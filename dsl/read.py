@@ -15,7 +15,7 @@ from typing import Any
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.dsl import ast
-from labsim.dsl.errors import Report, did_you_mean
+from labsim.dsl.errors import Diagnostic, Report, did_you_mean
 from labsim.dsl.parse import ParseError, parse_expr, parse_rule
 from labsim.dsl.source import Document, Text, scalar_value
 
@@ -96,7 +96,7 @@ def read(doc: Document, report: Report) -> BehaviourFile:
         keys[k] = (key, value)
     for k in REQUIRED:
         if k not in keys:
-            report.add(doc.diagnostic_at(0, f"missing required key '{k}:'", notes=(_REQUIRED_HINTS[k],)))
+            report.add(Diagnostic(doc.path, f"missing required key '{k}:'", notes=(_REQUIRED_HINTS[k],)))
 
     if "labsim" in keys:
         v = r.number(keys["labsim"][1], "labsim", integer=True)

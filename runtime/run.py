@@ -165,16 +165,57 @@ class Run:
         """Build ``tick()``: one tick of the run, False once the stop condition has held.
 
         A closure over locals, because it is the hot path: an attribute lookup per robot per
-        tick costs as much as a rule.
+        tick costs as much as a rule. A fleet senses and evaluates every robot's signals
+        before any robot acts, so that the stop condition can end the run before anyone
+        acts; a single robot does both in one generated function.
         """
         robots = [(r.index, r.program.slots, r.program.signals, r.program.decide, r.program.command,
                    r.program.events, r) for r in self.robots]
         sense, step, send = self._sense, self._step, self._send
         fired = self.fired
-        first, n = FIRST_CHANNEL, self._nch
-        end = first + n
+        n = self._nch
         dt = self.dt
         trace, trace_row = self.trace, self._trace_row
+
+        def act(r: RobotRun, s: list, cmd: list, events: list, rule: int, values: list) -> None:
+            if rule >= 0:
+                fired[rule] += 1
+            else:
+                self.idle += 1
+            if cmd[0] != r.sent_left or cmd[1] != r.sent_right:
+                send(r, cmd[0], cmd[1], rule)
+            if r.clamping:
+                r.clamped_ticks += 1
+            if trace is not None:
+                trace_row(r, values, rule)
+            if events:
+                events.clear()
+            s[STATE] = cmd[2]  # a goto takes effect from the next tick
+
+        if len(robots) == 1:
+            (_, s1, _, _, cmd1, events1, r1), = robots
+            both = r1.program.both
+
+            def tick_one() -> bool:
+                if self.finished:
+                    return False
+                t = self.tick_index
+                values = sense()[0]
+                rule = both(t * dt, t, values if len(values) == n else values[:n])
+                if rule == -2:
+                    self.finished = True
+                    return False
+                if rule >= 0 and trace is None and not events1 and not r1.clamping:
+                    fired[rule] += 1  # the common case, inline
+                    if cmd1[0] != r1.sent_left or cmd1[1] != r1.sent_right:
+                        send(r1, cmd1[0], cmd1[1], rule)
+                    s1[STATE] = cmd1[2]
+                else:
+                    act(r1, s1, cmd1, events1, rule, values)
+                step()
+                self.tick_index = t + 1
+                return True
+            return tick_one
 
         def tick() -> bool:
             if self.finished:
@@ -183,33 +224,15 @@ class Run:
             now = t * dt
             readings = sense()
             stop = False
-            # every robot senses and evaluates its signals before any acts, and the stop
-            # condition ends the run before anyone acts
-            for i, s, signals, _, _, _, _ in robots:
-                s[0] = now
-                s[1] = t
+            for i, _, signals, _, _, _, _ in robots:
                 values = readings[i]
-                s[first:end] = values if len(values) == n else values[:n]
-                if signals():  # the lets, then the stop condition
+                if signals(now, t, values if len(values) == n else values[:n]):
                     stop = True
             if stop:
                 self.finished = True
                 return False
             for i, s, _, decide, cmd, events, r in robots:
-                rule = decide()  # the rule, the command, the metrics
-                if rule >= 0:
-                    fired[rule] += 1
-                else:
-                    self.idle += 1
-                if cmd[0] != r.sent_left or cmd[1] != r.sent_right:
-                    send(r, cmd[0], cmd[1], rule)
-                if r.clamping:
-                    r.clamped_ticks += 1
-                if trace is not None:
-                    trace_row(r, readings[i], rule)
-                if events:
-                    events.clear()
-                s[STATE] = cmd[2]  # a goto takes effect from the next tick
+                act(r, s, cmd, events, decide(), readings[i])
             step()
             self.tick_index = t + 1
             return True
@@ -250,8 +273,7 @@ class Run:
         prog = r.program
         s = prog.slots
         x, y, heading, collided = values[-4:]
-        extra = [s[FIRST_CHANNEL + i] for i, c in enumerate(p.channels)
-                 if c not in ("x", "y", "heading", "collided")]
+        extra = [values[i] for i, c in enumerate(p.channels) if c not in ("x", "y", "heading", "collided")]
         lets = s[FIRST_CHANNEL + self._nch:]
         label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
