@@ -210,6 +210,11 @@ def _yaml_diagnostic(doc: Document, e: yaml.MarkedYAMLError) -> Diagnostic:
             notes = ("hint: a ': ' inside a value starts a mapping; quote the value, or remove the colon",)
         elif "expected <block end>" in problem or "did not find expected" in problem:
             notes = ("hint: check the indentation of this line and the one before it",)
+        if (e.context and "flow" in e.context and e.context_mark is not None and mark is not None
+                and e.context_mark.line != mark.line):
+            opened = doc.text[e.context_mark.index] if e.context_mark.index < len(doc.text) else "bracket"
+            notes += (f"hint: the '{opened}' on line {e.context_mark.line + 1}, column "
+                      f"{e.context_mark.column + 1} is never closed",)
     if mark is None:
         return Diagnostic(doc.path, message, notes=notes)
     return doc.diagnostic_at(index, message, None, notes=notes)

@@ -1,0 +1,107 @@
+"""The compiler: generated code computes what the language says, and faults are defined."""
+from __future__ import annotations
+
+import math
+import random
+import re
+
+import pytest
+
+from labsim.dsl.compile import FIRST_CHANNEL, Faults, compile_file
+
+
+def program(write, lets: str, params: str = "{}", stop: str = "time >= 1"):
+    path = write(f"labsim: 1\nworld: walls_lab4\nstop: {stop}\nrobots:\n  p: {{model: pioneer_p3dx}}\n"
+                 f"params: {params}\nlet:\n{lets}\nrules:\n  - always stop()\n")
+    return compile_file(path)
+
+
+def evaluate(write, expr: str, params: str = "{a: 3, flag: true}"):
+    """The value of `expr` as a signal (sonar1 0.5 m, sonar2 2 m, sonar3 sees nothing) and the warnings."""
+    p = program(write, f"  probe: {expr}\n  keep: sonar1 + sonar2 + sonar3\n", params)
+    warnings: list[str] = []
+    robot = p.robot("p", random.Random(0), Faults(warnings.append))
+    values = [{"sonar1": 0.5, "sonar2": 2.0, "sonar3": math.inf}[c] for c in p.channels]
+    robot.signals(0.0, 0, values)
+    return robot.slots[p.slot_of["probe"]], warnings
+
+
+@pytest.mark.parametrize("expr, value", [
+    ("1 + 2 * 3", 7.0),
+    ("-2 ** 2", -4.0),
+    ("7 % 3", 1.0),
+    ("a * sonar1", 1.5),
+    ("0.3 < sonar1 <= 1", True),
+    ("0.3 < sonar2 <= 1", False),
+    ("sonar1 < 1 and not flag", False),
+    ("sonar1 < 1 or flag", True),
+    ("sonar1 if flag else sonar2", 0.5),
+    ("min(sonar1, sonar2, a)", 0.5),
+    ("max(sonar1, sonar2)", 2.0),
+    ("clamp(sonar2, 0, 1)", 1.0),
+    ("abs(-sonar2)", 2.0),
+    ("hypot(3, 4)", 5.0),
+    ("deg(pi)", 180.0),
+    ("sign(-sonar1)", -1),
+    ("detected(sonar1)", True),
+    ("detected(sonar3)", False),
+    ("sonar3", math.inf),
+    ("round(2.5) + floor(sonar2 + 0.5)", 4.0),
+])
+def test_expressions(write, expr: str, value: object) -> None:
+    got, warnings = evaluate(write, expr)
+    assert got == value
+    assert warnings == []
+
+
+@pytest.mark.parametrize("expr, value, fault", [
+    ("sonar1 / (sonar1 - 0.5)", math.inf, "division by zero"),
+    ("-sonar1 / (sonar1 - 0.5)", -math.inf, "division by zero"),
+    ("(sonar1 - 0.5) / (sonar1 - 0.5)", math.nan, "division by zero"),
+    ("sonar2 % (sonar1 - 0.5)", math.nan, "modulo by zero"),
+    ("sqrt(-sonar1)", math.nan, "sqrt(): math domain error"),
+    ("log(sonar1 - 0.5)", -math.inf, None),
+    ("(-sonar1) ** 0.5", math.nan, "a negative number to a fractional power"),
+    ("10 ** (sonar2 * 400)", math.inf, "overflow in '**'"),
+    ("randint(sonar2, sonar1)", math.nan, "randint(): randint(2, 0.5) has no integer between its bounds"),
+])
+def test_faults_have_defined_results_and_warn_once(write, expr: str, value: float, fault: str | None) -> None:
+    got, warnings = evaluate(write, expr)
+    assert got == value or (math.isnan(value) and math.isnan(got))
+    if fault is None:
+        assert warnings == []
+    else:
+        (w,) = warnings
+        assert f"warning: {fault} in signal 'probe', robot p, tick 0" in w
+        assert "  probe: " in w and "^" in w  # the source line and a caret under the expression
+
+
+def test_constants_are_folded(write) -> None:
+    p = program(write, "  scaled: sonar1 * (a * 60)\n", params="{a: 25}", stop="time >= a * 60")
+    source, _ = p.source()
+    assert "return (v0 >= 1500.0)" in source
+    assert "(v3 * 1500.0)" in source
+
+
+def test_no_user_text_reaches_the_generated_code(write) -> None:
+    p = program(write, "  __import__: sonar1\n  open_file: __import__ + 1\n", params="{system: 2}")
+    source, _ = p.source()
+    for word in ("__import__", "open_file", "system", "sonar1"):
+        assert word not in source
+    # everything in it comes from a fixed vocabulary: slots, literals, operators, bound helpers
+    assert set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source)) <= {
+        "def", "make", "signals", "decide", "both", "return", "if", "elif", "else", "and", "or", "not",
+        "s", "cmd", "events", "m", "v", "rule", "values", "True", "False", "append",
+    } | {w for w in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source) if re.fullmatch(r"(v\d+|_[a-z0-9]+)", w)}
+
+
+def test_each_robot_has_its_own_random_stream_and_slots(write) -> None:
+    p = program(write, "  r: randint(0, 1000000)\n")
+    a = p.robot("a", random.Random("1/a"), Faults())
+    b = p.robot("b", random.Random("1/b"), Faults())
+    a2 = p.robot("a", random.Random("1/a"), Faults())
+    draws = []
+    for robot in (a, b, a2):
+        robot.signals(0.0, 0, [])
+        draws.append(robot.slots[FIRST_CHANNEL])
+    assert draws[0] == draws[2] != draws[1]
