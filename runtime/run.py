@@ -205,10 +205,12 @@ class Run:
                 if rule == -2:
                     self.finished = True
                     return False
-                if rule >= 0 and trace is None and not events1 and not r1.clamping:
+                if rule >= 0 and trace is None and not events1:
                     fired[rule] += 1  # the common case, inline
                     if cmd1[0] != r1.sent_left or cmd1[1] != r1.sent_right:
                         send(r1, cmd1[0], cmd1[1], rule)
+                    if r1.clamping:
+                        r1.clamped_ticks += 1
                     s1[STATE] = cmd1[2]
                 else:
                     act(r1, s1, cmd1, events1, rule, values)
