@@ -175,6 +175,7 @@ def cmd_test(args: argparse.Namespace) -> int:
             os.close(fd)
             try:
                 summary = _record(f, tmp)
+                os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
                 os.replace(tmp, golden)
             finally:
                 if os.path.exists(tmp):

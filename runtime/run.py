@@ -26,7 +26,7 @@ from typing import Callable
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.models import RobotModel
-from labsim.backends.world import Pose
+from labsim.backends.world import BUILTIN_DIR, Pose, World
 from labsim.dsl import ast
 from labsim.dsl.compile import FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file, metric_result
 from labsim.dsl.errors import Diagnostic, LabsimError
@@ -149,7 +149,7 @@ class Run:
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
-            "world_file": p.world.source, "dt": self.dt, "seed": p.seed, "params": p.params,
+            "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": p.params,
             "robots": {r.name: r.model.name for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
@@ -330,6 +330,17 @@ class Run:
         if self.trace is not None:
             self.trace.close()
         self.backend.close()
+
+
+def _world_file(world: World) -> str:
+    """Where the world came from, for the trace: '' for a built-in (its name says it all)."""
+    source = Path(world.source)
+    if source.parent == BUILTIN_DIR:
+        return ""
+    try:
+        return str(source.resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(source)
 
 
 def _free_pose(world, rng: random.Random, taken: list[Pose]) -> Pose:  # type: ignore[no-untyped-def]
