@@ -132,4 +132,7 @@ AGGREGATES: dict[str, Aggregate] = {a.value: a for a in Aggregate}
 CONSTANTS: dict[str, float] = {"pi": math.pi, "inf": math.inf}
 VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE}
 
+# Names the trace uses for its own columns: no signal may take them.
+TRACE_COLUMNS = frozenset({"robot", "rule", "events", "wheel_left", "wheel_right"})
+
 KEYWORDS = frozenset({"if", "then", "else", "always", "and", "or", "not", "goto", "true", "false"})

@@ -16,8 +16,8 @@ from pathlib import Path
 from labsim.backends.models import MODELS, Kind, RobotModel
 from labsim.backends.world import World, builtin_worlds
 from labsim.dsl import ast
-from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, VARIABLES,
-                                 Aggregate, Type)
+from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, TRACE_COLUMNS,
+                                 VARIABLES, Aggregate, Type)
 from labsim.dsl.errors import Diagnostic, Report, did_you_mean
 from labsim.dsl.read import BehaviourFile, Parsed, RuleDecl
 from labsim.dsl.source import Text
@@ -164,6 +164,10 @@ class _Checker:
         for name, parsed, key in self.bf.lets:
             if name in self.types:
                 self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a {self.kinds[name]}"))
+                continue
+            if name in TRACE_COLUMNS:
+                self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a trace column; "
+                                                       "choose another name"))
                 continue
             del later[name]
             self.later = later

@@ -63,9 +63,11 @@ def compare(expected: Trace, actual: Trace) -> Difference | None:
     notes = []
     if expected.header.get("sha256") != actual.header.get("sha256"):
         notes.append("note: the behaviour file has changed since the golden was recorded")
-    if expected.header.get("params") != actual.header.get("params"):
-        notes.append(f"note: parameters differ: golden {expected.header.get('params')}, "
-                     f"this run {actual.header.get('params')}")
+    before, after = expected.header.get("params") or {}, actual.header.get("params") or {}
+    changed = [f"{k} {before.get(k, '(none)')} -> {after.get(k, '(none)')}"
+               for k in sorted(set(before) | set(after)) if before.get(k) != after.get(k)]
+    if changed:
+        notes.append("note: parameters differ from the golden's: " + ", ".join(changed))
     if expected.columns != actual.columns:
         missing = [c for c in expected.columns if c not in actual.columns]
         extra = [c for c in actual.columns if c not in expected.columns]

@@ -158,7 +158,7 @@ class Run:
         p = self.program
         return (["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule"]
                 + [c for c in p.channels if c not in ("x", "y", "heading", "collided")]
-                + list(p.let_names) + ["left", "right", "events"])
+                + list(p.let_names) + ["wheel_left", "wheel_right", "events"])
 
     # -- the loop ----------------------------------------------------------------------------
     def _make_tick(self) -> Callable[[], bool]:

@@ -14,7 +14,7 @@ from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_
 from labsim.runtime.trace import FORMAT, TraceFormatError, TraceWriter, read_trace
 
 COLUMNS = ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",
-           "left", "right", "events"]
+           "wheel_left", "wheel_right", "events"]
 DT = 0.05
 
 

@@ -110,7 +110,7 @@ def test_trace_rows(write, tmp_path) -> None:
     trace = read_trace(path)
     assert trace.header["format"] == 1 and trace.header["backend"] == "fake" and trace.header["seed"] == 3
     assert trace.columns == ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",
-                             "sonar5", "near", "left", "right", "events"]
+                             "sonar5", "near", "wheel_left", "wheel_right", "events"]
     assert trace.rows == [
         ["0", "0", "p", "0", "0", "0", "0", "main", "main:2", "2", "0", "1", "1", ""],
         ["1", "0.5", "p", "1", "0", "0", "0", "main", "main:1", "0.5", "1", "-2", "2", "hits"],
