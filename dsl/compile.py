@@ -282,6 +282,14 @@ class _NotConstant(Exception):
     pass
 
 
+def constant_value(program: Program, e: ast.Expr) -> object | None:
+    """The value of an expression that reads nothing at run time (params folded), else None."""
+    try:
+        return _Generator(program).fold(e)
+    except _NotConstant:
+        return None
+
+
 class _Generator:
     """Checked AST to the Python source of ``signals()`` and ``decide()``.
 

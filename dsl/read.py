@@ -333,6 +333,6 @@ def _mapping_hint(node: Node | None) -> tuple[str, ...]:
     if isinstance(node, MappingNode) and node.value:
         key = node.value[0][0]
         if isinstance(key, ScalarNode):
-            return (f"YAML read '{key.value}: ...' as a mapping because of the ': '; "
+            return (f"hint: YAML read '{key.value}: ...' as a mapping because of the ': '; "
                     "remove the colon (a rule reads 'if COND then ACTION'), or quote the whole text",)
     return ()

@@ -28,7 +28,8 @@ from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.models import RobotModel
 from labsim.backends.world import BUILTIN_DIR, Pose, World
 from labsim.dsl import ast
-from labsim.dsl.compile import FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file, metric_result
+from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
+                                constant_value, metric_result)
 from labsim.dsl.errors import Diagnostic, LabsimError
 from labsim.runtime.trace import FORMAT, TraceWriter
 
@@ -354,8 +355,8 @@ def _free_pose(world, rng: random.Random, taken: list[Pose]) -> Pose:  # type: i
 def stop_horizon(program: Program) -> float | None:
     """Sim time at which the stop condition surely holds, when it says so plainly.
 
-    ``time >= 1500`` or ``... or tick >= 30000`` give a horizon for the progress bar; any other
-    condition gives None (the bar then shows elapsed sim time only).
+    ``time >= minutes * 60`` or ``... or tick >= 30000`` give a horizon for the progress bar;
+    any other condition gives None (the bar then shows elapsed sim time only).
     """
     stop = program.checked.file.stop
     if stop is None:
@@ -369,7 +370,7 @@ def stop_horizon(program: Program) -> float | None:
         elif isinstance(e, ast.Compare) and len(e.ops) == 1 and e.ops[0] in (">=", ">"):
             left, right = e.operands
             if isinstance(left, ast.Name) and left.id in ("time", "tick"):
-                value = right.value if isinstance(right, ast.Number) else program.params.get(getattr(right, "id", ""))
+                value = constant_value(program, right)
                 if isinstance(value, (int, float)) and not isinstance(value, bool):
                     seconds = float(value) * (program.dt_s if left.id == "tick" else 1.0)
                     best = seconds if best is None else min(best, seconds)

@@ -131,3 +131,12 @@ def test_interrupt_keeps_the_trace(write, tmp_path) -> None:
                               trace=path)
     assert summary.interrupted and summary.ticks == 3
     assert [row[0] for row in read_trace(path).rows] == ["0", "1", "2"]
+
+
+def test_stop_horizon_for_the_progress_bar(write) -> None:
+    from labsim.runtime.run import stop_horizon
+    horizon = lambda stop: stop_horizon(compile_behaviour(write(  # noqa: E731
+        HEAD + f"params: {{minutes: 2}}\nstop: {stop}\nrules:\n  - always stop()\n")).program)
+    assert horizon("time >= minutes * 60") == 120.0
+    assert horizon("collided or tick >= 40") == 20.0
+    assert horizon("collided") is None
