@@ -20,6 +20,7 @@ class Kind(Enum):
     DISTANCE = "distance"  # metres; math.inf when nothing is detected
     NUMBER = "number"
     BOOL = "bool"
+    IMAGE = "image"  # numpy uint8 array, height x width x 3, RGB; row 0 is the far edge
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,29 @@ class Sonar:
 
 
 @dataclass(frozen=True)
+class Camera:
+    """A forward-looking vision sensor on a robot, seeing the world's ground.
+
+    The image is RGB, ``height_px`` rows by ``width_px`` columns, oriented as a person sees
+    it: row 0 is the far edge, column 0 the left. The camera sits ``x_m`` ahead of the robot's
+    origin, ``height_m`` above the floor, looking forward and down by ``pitch_deg``.
+    """
+
+    name: str  # channel name, e.g. "camera"
+    width_px: int
+    height_px: int
+    fov_deg: float  # horizontal field of view
+    height_m: float
+    pitch_deg: float  # below the horizontal
+    x_m: float = 0.2
+
+    @property
+    def vertical_fov_deg(self) -> float:
+        half = math.atan(math.tan(math.radians(self.fov_deg) / 2) * self.height_px / self.width_px)
+        return math.degrees(2 * half)
+
+
+@dataclass(frozen=True)
 class RobotModel:
     name: str
     description: str
@@ -43,11 +67,14 @@ class RobotModel:
     mass_kg: float
     footprint: tuple[tuple[float, float], ...]  # convex outline in the robot frame, metres
     sonars: tuple[Sonar, ...]
+    cameras: tuple[Camera, ...] = ()  # none on the stock model; a behaviour file adds them
 
     def channels(self) -> dict[str, Kind]:
         """Every channel a behaviour may read from a robot of this model, in a stable order."""
         out: dict[str, Kind] = {s.name: Kind.DISTANCE for s in self.sonars}
+        out.update({c.name: Kind.IMAGE for c in self.cameras})
         out.update(POSE_CHANNELS)
+        out["forward_speed"] = Kind.NUMBER  # m/s along the heading
         out["collided"] = Kind.BOOL
         return out
 

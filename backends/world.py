@@ -46,6 +46,11 @@ class World:
     blocks: tuple[Block, ...] = ()
     spawns: tuple[Pose, ...] = ()
     source: str = field(default="", compare=False)  # the file it came from
+    # What a camera sees: labsim.backends.ground.Ground (floor colour, roads, lines, patches).
+    ground: object | None = None
+    # An articulated model (bodies, joints, force sensors) seen from the side, with gravity:
+    # labsim.backends.mechanism.Mechanism.
+    mechanism: object | None = None
 
     def clearance(self, x: float, y: float) -> float:
         """Distance in metres from (x, y) to the nearest wall or block surface (<0 inside)."""
