@@ -17,12 +17,24 @@ class Type(Enum):
     NUMBER = "number"
     BOOL = "boolean"
     STATE = "state"
+    IMAGE = "image"
+    CENTROID = "centroid"  # a record: .x, .y (pixels), .found
 
     def __str__(self) -> str:
         return self.value
 
+    @property
+    def a(self) -> str:
+        """The type with its article, for messages: 'a number', 'an image'."""
+        return ("an " if self.value[0] in "aeiou" else "a ") + self.value
 
-N, B = Type.NUMBER, Type.BOOL
+
+N, B, I = Type.NUMBER, Type.BOOL, Type.IMAGE
+
+# The fields of record types, and what generated code indexes for each.
+FIELDS: dict[Type, dict[str, tuple[int, Type]]] = {
+    Type.CENTROID: {"x": (0, N), "y": (1, N), "found": (2, B)},
+}
 
 
 @dataclass(frozen=True)
@@ -30,14 +42,24 @@ class Function:
     name: str
     params: tuple[Type, ...]
     returns: Type
-    impl: Callable[..., object]
+    impl: Callable[..., object] | str  # a callable, or "module:name" imported when first compiled
     doc: str
     variadic: bool = False  # the last parameter repeats; at least len(params) arguments
     uses_rng: bool = False  # impl takes the robot's random.Random as its first argument
+    optional: int = 0  # how many of the last params may be left out
+    stateful: bool = False  # keeps state per robot and per call site (pid)
 
     def signature(self) -> str:
         args = ", ".join(str(p) for p in self.params)
         return f"{self.name}({args}{', ...' if self.variadic else ''})"
+
+    def resolve(self) -> Callable[..., object]:
+        if isinstance(self.impl, str):
+            import importlib
+
+            module, name = self.impl.split(":")
+            return getattr(importlib.import_module(module), name)
+        return self.impl
 
 
 def _randint(rng: random.Random, a: float, b: float) -> float:
@@ -91,6 +113,23 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
              uses_rng=True),
     Function("gauss", (N, N), N, random.Random.gauss, "gauss(mean, sd): a normally distributed number",
              uses_rng=True),
+    # images (labsim.dsl.images; OpenCV is imported only when a behaviour uses them)
+    Function("gray", (I,), I, "labsim.dsl.images:gray", "RGB to gray"),
+    Function("threshold", (I, N), I, "labsim.dsl.images:threshold",
+             "threshold(img, level): 255 where the gray pixel is > level, else 0 (OpenCV THRESH_BINARY)"),
+    Function("invert", (I,), I, "labsim.dsl.images:invert", "255 - each pixel"),
+    Function("crop", (I, N, N, N, N), I, "labsim.dsl.images:crop",
+             "crop(img, x, y, w, h): the rectangle with top-left pixel (x, y)"),
+    Function("mean", (I,), N, "labsim.dsl.images:mean", "mean pixel value, 0..255"),
+    Function("area", (I,), N, "labsim.dsl.images:area", "number of set (non-zero) pixels"),
+    Function("width", (I,), N, "labsim.dsl.images:width", "image width in pixels"),
+    Function("height", (I,), N, "labsim.dsl.images:height", "image height in pixels"),
+    Function("centroid", (I,), Type.CENTROID, "labsim.dsl.images:centroid",
+             "centroid(img): .x, .y of the set pixels (from the left and the top), .found"),
+    # controllers
+    Function("pid", (N, N, N, N, N), N, "labsim.dsl.compile:pid_step",
+             "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
+             optional=1, stateful=True),
 )}
 
 # detected(sonar5) takes a distance sensor's *name*, not its value.
@@ -106,7 +145,9 @@ class ActionSpec:
 
 ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
     ActionSpec("arc", ("left", "right"), "wheel target velocities in rad/s (left, right)"),
+    ActionSpec("wheels", ("left", "right"), "the same as arc: wheel target velocities in rad/s"),
     ActionSpec("move", ("speed",), "both wheels at the same velocity, rad/s"),
+    ActionSpec("drive", ("v", "w"), "forward speed v in m/s and turn rate w in rad/s (counter-clockwise)"),
     ActionSpec("stop", (), "both wheels at 0"),
 )}
 
@@ -119,6 +160,7 @@ class Aggregate(Enum):
     MEAN = "mean"
     MAXIMUM = "maximum"
     MINIMUM = "minimum"
+    RMS = "rms"  # root mean square
     FINAL = "final"  # value at the last tick
 
     @property

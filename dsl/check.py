@@ -9,6 +9,7 @@ is what the compiler needs and nothing more.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,13 +17,14 @@ from pathlib import Path
 from labsim.backends.models import MODELS, Kind, RobotModel
 from labsim.backends.world import World, builtin_worlds
 from labsim.dsl import ast
-from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, TRACE_COLUMNS,
-                                 VARIABLES, Aggregate, Type)
+from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS,
+                                 TRACE_COLUMNS, VARIABLES, Aggregate, Type)
 from labsim.dsl.errors import Diagnostic, Report, did_you_mean
 from labsim.dsl.read import BehaviourFile, Parsed, RuleDecl
 from labsim.dsl.source import Text
 
-_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL}
+_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
+               Kind.IMAGE: Type.IMAGE}
 
 
 @dataclass(frozen=True)
@@ -47,7 +49,9 @@ class Checked:
     states: dict[str, list[RuleDecl]]
     metrics: list[Metric]
     overridden: tuple[str, ...] = ()
-    used_channels: set[str] = field(default_factory=set)
+    let_types: dict[str, Type] = field(default_factory=dict)
+    channel_kinds: dict[str, Kind] = field(default_factory=dict)
+    node_types: dict[int, Type] = field(default_factory=dict)  # id(AST node) -> its type
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -63,6 +67,7 @@ class _Checker:
         self.kinds: dict[str, str] = {}  # name -> what it is, for messages
         self.used: set[str] = set()
         self.later: dict[str, object] = {}  # lets not yet defined while checking one, for messages
+        self.node_types: dict[int, Type] = {}
 
     # -- reporting ---------------------------------------------------------------------------
     def error(self, text: Text, span: ast.Span, message: str, notes: tuple[str, ...] = ()) -> None:
@@ -78,6 +83,9 @@ class _Checker:
             # one behaviour drives every robot: only channels all its models offer are readable
             offered = [m.channels() for m in models.values()]
             channels = {k: v for k, v in offered[0].items() if all(k in o for o in offered[1:])}
+            if world is not None:
+                channels.update(_world_channels(world))
+        self.spawns(world)
         for name, kind in channels.items():
             self.declare(name, _KIND_TYPES[kind], "sensor")
         for name, t in VARIABLES.items():
@@ -99,7 +107,25 @@ class _Checker:
         used_channels = tuple(ch for ch in channels if ch in self.used)
         return Checked(bf, world, models, params, used_channels,
                        frozenset(k for k, v in channels.items() if v is Kind.DISTANCE),
-                       lets, states, metrics, tuple(overrides))
+                       lets, states, metrics, tuple(overrides),
+                       {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
+                       self.node_types)
+
+    def spawns(self, world: World | None) -> None:
+        """Robots placed 'at: spawn' need as many spawn poses as there are of them."""
+        if world is None:
+            return
+        needed = 0
+        for r in self.bf.robots:
+            if r.at == "spawn":
+                needed += r.count
+                if needed > len(world.spawns):
+                    node = r.at_node if r.at_node is not None else r.key
+                    self.report.add(self.bf.doc.diagnostic(
+                        node, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
+                        f"{needed} robots placed 'at: spawn'",
+                        notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",)))
+                    return
 
     def declare(self, name: str, t: Type, kind: str) -> None:
         self.types[name] = t
@@ -137,7 +163,7 @@ class _Checker:
                     node, f"unknown robot model '{r.model}'{did_you_mean(r.model, MODELS)}",
                     notes=("models: " + ", ".join(MODELS),)))
             else:
-                out[r.name] = model
+                out[r.name] = dataclasses.replace(model, cameras=(r.camera,)) if r.camera else model
         return out
 
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
@@ -259,12 +285,18 @@ class _Checker:
             hint = ()
             if want is Type.BOOL and t is Type.NUMBER:
                 hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
-            self.error(parsed.text, e.span, f"{what} must be a {want}, but this is a {t}", notes=hint)
+            self.error(parsed.text, e.span, f"{what} must be {want.a}, but this is {t.a}", notes=hint)
             return False
         return True
 
     def infer(self, e: ast.Expr, text: Text) -> Type | None:
         """The type of an expression, or None after reporting why it has none."""
+        t = self._infer(e, text)
+        if t is not None:
+            self.node_types[id(e)] = t
+        return t
+
+    def _infer(self, e: ast.Expr, text: Text) -> Type | None:
         if isinstance(e, ast.Number):
             return Type.NUMBER
         if isinstance(e, ast.Bool):
@@ -285,16 +317,25 @@ class _Checker:
             self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
             a, b = self.infer(e.body, text), self.infer(e.orelse, text)
             if a is not None and b is not None and a is not b:
-                self.error(text, e.span, f"both sides of 'a if condition else b' must have one type, not {a} and {b}")
+                self.error(text, e.span, f"both sides of 'a if condition else b' must have one type, not {a.a} and {b.a}")
                 return None
             return a if a is not None else b
         if isinstance(e, ast.Call):
             return self.call(e, text)
         if isinstance(e, ast.Attribute):
             t = self.infer(e.value, text)
-            if t is not None:
-                self.error(text, e.attr_span, f"a {t} has no field '.{e.attr}'")
-            return None
+            if t is None:
+                return None
+            fields = FIELDS.get(t)
+            if fields is None:
+                self.error(text, e.attr_span, f"{t.a} has no field '.{e.attr}'")
+                return None
+            if e.attr not in fields:
+                names = ", ".join("." + f for f in fields)
+                self.error(text, e.attr_span, f"{t.a} has the fields {names}; not '.{e.attr}'"
+                           f"{did_you_mean(e.attr, fields)}")
+                return None
+            return fields[e.attr][1]
         raise AssertionError(f"unknown node {e!r}")
 
     def name(self, e: ast.Name, text: Text) -> Type | None:
@@ -313,6 +354,11 @@ class _Checker:
         notes: tuple[str, ...] = ()
         if e.id.startswith("sonar") and e.id[5:].isdigit():
             notes = ("the robot's sonars are sonar1 .. sonar16, numbered as in CoppeliaSim",)
+        elif e.id == "camera":
+            notes = ("this robot has no camera: add one to it, e.g. "
+                     "camera: {resolution: [128, 128], fov_deg: 60, height_m: 0.3, pitch_deg: 45}",)
+        elif e.id in ("road_offset", "on_road", "laps"):
+            notes = ("this world has no road",)
         self.error(text, e.span, f"unknown name '{e.id}'{hint}", notes=notes)
         return None
 
@@ -323,7 +369,7 @@ class _Checker:
             if t is None:
                 ok = False
             elif t is not want:
-                self.error(text, arg.span, f"'{op}' needs a {want}, but this is a {t}")
+                self.error(text, arg.span, f"'{op}' needs {want.a}, but this is {t.a}")
                 ok = False
         return result if ok else None
 
@@ -338,11 +384,11 @@ class _Checker:
                 return None
             return Type.BOOL
         for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
-            if op in ("==", "!=") and ta is tb:
+            if op in ("==", "!=") and ta is tb is Type.BOOL:
                 continue
             for node, t in ((a, ta), (b, tb)):
                 if t is not Type.NUMBER:
-                    self.error(text, node.span, f"'{op}' compares numbers, but this is a {t}")
+                    self.error(text, node.span, f"'{op}' compares numbers, but this is {t.a}")
                     return None
         return Type.BOOL
 
@@ -371,8 +417,9 @@ class _Checker:
                 self.infer(arg, text)
             return None
         n = len(e.args)
-        if (n != len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
-            self.error(text, e.span, _arity(f.name, tuple(str(p) for p in f.params), n, f.variadic))
+        fixed = len(f.params) - f.optional
+        if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
+            self.error(text, e.span, _arity(f.name, tuple(str(p) for p in f.params), n, f.variadic, f.optional))
             return None
         ok = True
         for i, arg in enumerate(e.args):
@@ -381,10 +428,12 @@ class _Checker:
         return f.returns if ok else None
 
 
-def _arity(name: str, params: tuple[str, ...], given: int, variadic: bool = False) -> str:
+def _arity(name: str, params: tuple[str, ...], given: int, variadic: bool = False, optional: int = 0) -> str:
     n = len(params)
     if variadic:
         return f"{name}() takes at least {n} arguments, given {given}"
+    if optional:
+        return f"{name}() takes {n - optional} to {n} arguments, given {given}"
     plural = "argument" if n == 1 else "arguments"
     listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
     return f"{name}() takes {n} {plural}{listed}, given {given}"
@@ -405,3 +454,12 @@ def _override_value(name: str, raw: str, current: float | bool, where: str, repo
         report.add(Diagnostic(where, f"parameter '{name}' must be a finite number"))
         return current
     return int(value) if isinstance(current, int) and value == int(value) else value
+
+
+def _world_channels(world: World) -> dict[str, Kind]:
+    """Channels a world offers every robot (a road's offset, laps, ...)."""
+    try:
+        from labsim.backends.ground import world_channels
+    except ImportError:
+        return {}
+    return world_channels(world)

@@ -27,7 +27,7 @@ from typing import Callable
 from labsim.backends.models import RobotModel
 from labsim.backends.world import World
 from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FUNCTIONS, Aggregate
+from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, Aggregate, Type
 from labsim.dsl.check import Checked, check
 from labsim.dsl.errors import Diagnostic, Report
 from labsim.dsl.read import RobotDecl, read
@@ -74,12 +74,16 @@ class FaultSite:
 class Faults:
     """Collects runtime faults; the first at each site is reported at once, the rest counted."""
 
-    def __init__(self, emit: Callable[[str], None] | None = None):
+    def __init__(self, emit: Callable[[str], None] | None = None, clock: Callable[[], int] | None = None):
         self.emit = emit
+        # the tick a fault happens on; the run sets it (slots hold the tick only in fleets)
+        self.clock = clock
         self.counts: dict[tuple[FaultSite, str], int] = {}
         self.first: dict[tuple[FaultSite, str], tuple[int, str]] = {}
 
     def report(self, site: FaultSite, what: str, tick: int, robot: str) -> None:
+        if self.clock is not None:
+            tick = self.clock()
         key = (site, what)
         n = self.counts.get(key, 0)
         self.counts[key] = n + 1
@@ -153,6 +157,11 @@ class Program:
         for i, name in enumerate(self.let_names):
             self.slot_of[name] = FIRST_CHANNEL + len(self.channels) + i
         self._source: tuple[str, list[tuple[str, object]]] | None = None
+        self._generated_functions: tuple[str, ...] = ()
+
+    def checked_type(self, e: ast.Expr) -> Type:
+        """The type the checker gave an expression."""
+        return self.checked.node_types[id(e)]
 
     def source(self) -> tuple[str, list[tuple[str, object]]]:
         """The generated module (shared by every robot) and the fault sites it refers to."""
@@ -160,15 +169,15 @@ class Program:
             self._source = _Generator(self).module()
         return self._source
 
-    def robot(self, name: str, rng: random.Random, faults: Faults) -> RobotProgram:
-        """Bind the generated functions to one robot's slots, generator and fault sink."""
+    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator, model and fault sink."""
         source, sites = self.source()
         slots = Slots([0.0] * (FIRST_CHANNEL + len(self.channels) + len(self.let_names)))
         slots[STATE] = 0
         command = [0.0, 0.0, 0]
         events: list[str] = []
         metric_values = [_initial(a) for a in self.metric_aggregates]
-        bindings = _namespace(rng)
+        bindings = _namespace(rng, model or next(iter(self.models.values()), None), self._functions)
         bindings.update(s=slots, cmd=command, events=events, m=metric_values)
         for i, (kind, site) in enumerate(sites):
             bindings[f"_g{i}"] = _guard(kind, site, faults, slots, name, rng)  # type: ignore[arg-type]
@@ -180,14 +189,18 @@ class Program:
         signals, decide, both = namespace["make"](**bindings)  # type: ignore[operator]
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, source)
 
+    @property
+    def _functions(self) -> tuple[str, ...]:
+        return self._generated_functions
+
 
 def _initial(aggregate: Aggregate) -> list:
     if aggregate is Aggregate.COUNT:
         return [0, False]  # rising edges so far, the condition at the previous tick
     if aggregate is Aggregate.DURATION:
         return [0]  # ticks the condition held; times dt at the end
-    if aggregate is Aggregate.MEAN:
-        return [0.0, 0]  # sum and count of finite values
+    if aggregate in (Aggregate.MEAN, Aggregate.RMS):
+        return [0.0, 0]  # sum (of squares) and count of finite values
     if aggregate is Aggregate.MAXIMUM:
         return [-INF]
     if aggregate is Aggregate.MINIMUM:
@@ -195,28 +208,49 @@ def _initial(aggregate: Aggregate) -> list:
     return [math.nan]
 
 
-def _namespace(rng: random.Random) -> dict[str, object]:
-    """What generated code may call: total functions directly, the robot's generator."""
-    ns: dict[str, object] = {"_inf": INF, "_nan": math.nan}
-    for name, f in FUNCTIONS.items():
-        if name in _TOTAL:
-            ns["_" + name] = f.impl
-    ns["_randint"] = rng.randint
-    ns["_random"] = rng.random
-    ns["_uniform"] = rng.uniform
-    ns["_gauss"] = rng.gauss
+def _namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str, ...]) -> dict[str, object]:
+    """What generated code may use: the functions it calls, the robot's generator and model."""
+    ns: dict[str, object] = {"_inf": INF, "_nan": math.nan, "_randint": rng.randint,
+                             "_random": rng.random, "_uniform": rng.uniform, "_gauss": rng.gauss}
+    for name in functions:
+        ns["_" + name] = FUNCTIONS[name].resolve()
+    # drive(v, w) turns m/s and rad/s into wheel rad/s with the robot's own geometry
+    ns["_radius"] = model.wheel_radius_m if model else 1.0
+    ns["_half_axle"] = model.axle_length_m / 2 if model else 0.5
     return ns
 
 
-# Functions that return a number for every number (inf and nan included): called directly.
-# The others may raise (sqrt(-1), log(-1), floor(inf), exp(1000), randint(3, 2)) and go through
-# a guard that turns the exception into nan and a warning.
+# Functions that return a value for every argument (inf and nan included): called directly.
+# The others may raise (sqrt(-1), log(-1), floor(inf), exp(1000), randint(3, 2), crop outside
+# the image) and go through a guard that turns the exception into a defined result and a
+# warning; centroid and pid have guards of their own.
 _TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "sin", "cos", "tan", "atan2",
-                    "sign", "deg", "rad", "random", "uniform", "gauss"})
+                    "sign", "deg", "rad", "random", "uniform", "gauss",
+                    "gray", "threshold", "invert", "area", "width", "height"})
+_FOLDABLE = frozenset(f for f in _TOTAL if callable(FUNCTIONS[f].impl) and not FUNCTIONS[f].uses_rng)
+
+
+def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
+    """One tick of the lab's discrete PID: integral += e, derivative = e - previous e.
+
+    ``state`` is [integral, previous error], starting at [0, 0]. With ``limit`` the output is
+    clamped to [-limit, limit], and the integral does not grow while the output is saturated
+    in the direction the error pushes (clamping anti-windup).
+    """
+    integral = state[0] + e
+    out = kp * e + ki * integral + kd * (e - state[1])
+    if limit is not None and abs(out) > limit:
+        if (out > 0) == (e > 0):
+            integral = state[0]  # do not wind up further
+            out = kp * e + ki * integral + kd * (e - state[1])
+        out = max(-limit, min(limit, out))
+    state[0] = integral
+    state[1] = e
+    return out
 
 
 def _guard(kind: str, site: object, faults: Faults, slots: Slots, robot: str, rng: random.Random) -> Callable:
-    """A fault-checked operation for one site of generated code."""
+    """A fault-checked (or stateful) operation for one site of generated code."""
     assert isinstance(site, FaultSite)
 
     def report(what: str) -> None:
@@ -253,17 +287,37 @@ def _guard(kind: str, site: object, faults: Faults, slots: Slots, robot: str, rn
                 return math.nan
             return r
         return power
-    f = FUNCTIONS[kind]
-    impl = f.impl.__get__(rng) if f.uses_rng and kind != "randint" else f.impl
-    if kind == "randint":
-        impl = lambda a, b: FUNCTIONS["randint"].impl(rng, a, b)  # noqa: E731
+    if kind == "pid":
+        state = [0.0, 0.0]  # this robot's integral and previous error at this call site
 
-    def call(*args: float) -> float:
+        def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
+            return pid_step(state, e, kp, ki, kd, limit)
+        return pid
+    if kind == "centroid":
+        from labsim.dsl.images import EmptyCentroid, centroid
+
+        def centroid_of(img: object) -> tuple[float, float, bool]:
+            try:
+                return centroid(img)  # type: ignore[arg-type]
+            except EmptyCentroid as empty:
+                report("centroid of an image with no set pixel (the result is the image centre, .found false)")
+                return empty.result
+        return centroid_of
+    f = FUNCTIONS[kind]
+    impl = f.resolve()
+    if f.uses_rng:
+        impl = impl.__get__(rng) if kind != "randint" else (lambda a, b, _f=impl: _f(rng, a, b))
+    fallback: object = math.nan
+    if f.returns is Type.IMAGE:
+        from labsim.dsl.images import EMPTY
+        fallback = EMPTY
+
+    def call(*args: float) -> object:
         try:
             return impl(*args)
         except (ValueError, OverflowError, ZeroDivisionError) as exc:
             report(f"{kind}(): {exc}" if str(exc) else f"{kind}() failed")
-            return math.nan
+            return fallback
     return call
 
 
@@ -275,6 +329,8 @@ def metric_result(aggregate: Aggregate, acc: list[float], dt_s: float) -> float:
         return acc[0] * dt_s
     if aggregate is Aggregate.MEAN:
         return acc[0] / acc[1] if acc[1] else math.nan
+    if aggregate is Aggregate.RMS:
+        return math.sqrt(acc[0] / acc[1]) if acc[1] else math.nan
     return acc[0]
 
 
@@ -304,6 +360,7 @@ class _Generator:
         self.p = program
         self.sites: list[tuple[str, FaultSite]] = []
         self.used: set[int] = set()  # slots the function being generated reads
+        self.functions: set[str] = set()  # built-ins called directly
 
     def module(self) -> tuple[str, list[tuple[str, FaultSite]]]:
         """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``.
@@ -337,8 +394,10 @@ class _Generator:
                 + ["    " + line for line in lets] + [f"    if {stop}:", "        return -2"]
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
                 + ["    " + line for line in rules])
-        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss"]
-        params += sorted("_" + f for f in _TOTAL if not FUNCTIONS[f].uses_rng)
+        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
+                  "_radius", "_half_axle"]
+        self.p._generated_functions = tuple(sorted(self.functions))
+        params += ["_" + f for f in self.p._generated_functions]
         params += [f"_g{i}" for i in range(len(self.sites))]
         text = "\n".join("    " + line if line else "" for line in out)
         return f"def make({', '.join(params)}):\n{text}\n    return signals, decide, both\n", self.sites
@@ -397,8 +456,14 @@ class _Generator:
                 lines.append("cmd[0] = cmd[1] = 0.0")
             elif action.name == "move":
                 lines.append(f"cmd[0] = cmd[1] = {self.expr(action.args[0], text, where)}")
+            elif action.name == "drive":
+                # v m/s and w rad/s to wheel rad/s: (v -/+ w * axle / 2) / wheel radius
+                lines.append(f"_v = {self.expr(action.args[0], text, where)}")
+                lines.append(f"_w = {self.expr(action.args[1], text, where)}")
+                lines.append("cmd[0] = (_v - _w * _half_axle) / _radius")
+                lines.append("cmd[1] = (_v + _w * _half_axle) / _radius")
             else:
-                assert action.name == "arc"
+                assert action.name in ("arc", "wheels")
                 lines.append(f"cmd[0] = {self.expr(action.args[0], text, where)}")
                 lines.append(f"cmd[1] = {self.expr(action.args[1], text, where)}")
         return lines
@@ -444,8 +509,8 @@ class _Generator:
                 return all(values) if e.op == "and" else any(values)
             if isinstance(e, ast.IfExp):
                 return self.fold(e.body) if self.fold(e.test) else self.fold(e.orelse)
-            if isinstance(e, ast.Call) and e.func in _TOTAL and not FUNCTIONS[e.func].uses_rng:
-                return FUNCTIONS[e.func].impl(*(self.fold(a) for a in e.args))
+            if isinstance(e, ast.Call) and e.func in _FOLDABLE:
+                return FUNCTIONS[e.func].impl(*(self.fold(a) for a in e.args))  # type: ignore[operator]
         except (ArithmeticError, ValueError, TypeError):
             raise _NotConstant from None  # leave it to run time, where it warns at its site
         raise _NotConstant
@@ -480,6 +545,10 @@ class _Generator:
             return "(" + f" {e.op} ".join(x(v) for v in e.values) + ")"
         if isinstance(e, ast.IfExp):
             return f"({x(e.body)} if {x(e.test)} else {x(e.orelse)})"
+        if isinstance(e, ast.Attribute):
+            value_type = self.p.checked_type(e.value)
+            index = FIELDS[value_type][e.attr][0]
+            return f"{x(e.value)}[{index}]"
         if isinstance(e, ast.Call):
             if e.func == DETECTED:
                 assert isinstance(e.args[0], ast.Name)
@@ -492,7 +561,10 @@ class _Generator:
                         return f"_randint({int(lo)}, {int(hi)})"  # type: ignore[arg-type]
                 except _NotConstant:
                     pass
-            if e.func in _TOTAL:
+            if e.func in _TOTAL and not FUNCTIONS[e.func].uses_rng:
+                self.functions.add(e.func)
+                return f"_{e.func}({args})"
+            if e.func in ("random", "uniform", "gauss"):
                 return f"_{e.func}({args})"
             return f"{self.site(e.func, text, e.span, where)}({args})"
         raise AssertionError(f"cannot compile {e!r}")
@@ -535,5 +607,6 @@ _METRIC_CODE = {
     Aggregate.MEAN: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v\n    m[{i}][1] += 1",
     Aggregate.MAXIMUM: "v = {e}\nif v > m[{i}][0]:\n    m[{i}][0] = v",
     Aggregate.MINIMUM: "v = {e}\nif v < m[{i}][0]:\n    m[{i}][0] = v",
+    Aggregate.RMS: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v * v\n    m[{i}][1] += 1",
     Aggregate.FINAL: "m[{i}][0] = {e}",
 }

@@ -14,6 +14,7 @@ from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from labsim.backends.models import Camera
 from labsim.dsl import ast
 from labsim.dsl.errors import Diagnostic, Report, did_you_mean
 from labsim.dsl.parse import ParseError, parse_expr, parse_rule
@@ -24,7 +25,9 @@ FORMAT_VERSION = 1
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
             "let", "rules", "metrics")
 REQUIRED = ("labsim", "world", "stop", "robots", "rules")
-ROBOT_KEYS = ("model", "count", "at")
+ROBOT_KEYS = ("model", "count", "at", "camera")
+CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m")
+MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,8 @@ class RobotDecl:
     at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
     key: Node  # for diagnostics
     model_node: Node | None
+    camera: Camera | None = None
+    at_node: Node | None = None
 
 
 @dataclass(frozen=True)
@@ -218,7 +223,7 @@ class _Reader:
             for k, v in self.mapping(value, f"robot '{name}'"):
                 if k.value not in ROBOT_KEYS:
                     self.error(k, f"unknown robot key '{k.value}'{did_you_mean(k.value, ROBOT_KEYS)}",
-                               notes=("robot keys: model, count, at",))
+                               notes=("robot keys: " + ", ".join(ROBOT_KEYS),))
                 else:
                     fields[k.value] = v
             if "model" not in fields:
@@ -233,9 +238,60 @@ class _Reader:
                 elif c is not None:
                     count = int(c)
             at = self.placement(fields.get("at"))
+            camera = self.camera(fields["camera"]) if "camera" in fields else None
             if at is not None:
-                out.append(RobotDecl(name, model, count, at, key, fields["model"]))
+                out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at")))
         return out
+
+    def camera(self, node: Node) -> Camera | None:
+        """camera: {resolution: [w, h], fov_deg: 60, height_m: 0.3, pitch_deg: 45, x_m: 0.2}"""
+        fields = {}
+        for k, v in self.mapping(node, "camera"):
+            if k.value not in CAMERA_KEYS:
+                self.error(k, f"unknown camera key '{k.value}'{did_you_mean(k.value, CAMERA_KEYS)}",
+                           notes=("camera keys: " + ", ".join(CAMERA_KEYS),))
+            else:
+                fields[k.value] = v
+        ok = True
+        size = (128, 128)
+        if "resolution" in fields:
+            res = fields["resolution"]
+            values = res.value if isinstance(res, SequenceNode) else []
+            nums = [self.number(v, "a resolution", integer=True) for v in values] if len(values) == 2 else []
+            if len(nums) != 2 or any(n is None for n in nums):
+                if len(values) != 2:
+                    self.error(res, "resolution is [width, height] in pixels")
+                ok = False
+            elif not all(1 <= n <= MAX_CAMERA_PX for n in nums):  # type: ignore[operator]
+                self.error(res, f"camera resolution must be 1 to {MAX_CAMERA_PX} pixels a side, "
+                                f"not {nums[0]:g} x {nums[1]:g}")
+                ok = False
+            else:
+                size = (int(nums[0]), int(nums[1]))  # type: ignore[arg-type]
+        values = {"fov_deg": 60.0, "height_m": 0.3, "pitch_deg": 45.0, "x_m": 0.2}
+        limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0.1, 90), "x_m": (-1, 1)}
+        for key in values:
+            if key in fields:
+                v = self.number(fields[key], key)
+                lo, hi = limits[key]
+                if v is None:
+                    ok = False
+                elif not lo <= v <= hi:
+                    self.error(fields[key], f"{key} must be between {lo:g} and {hi:g}, not {v:g}")
+                    ok = False
+                else:
+                    values[key] = float(v)
+        if not ok:
+            return None
+        camera = Camera("camera", size[0], size[1], values["fov_deg"], values["height_m"], values["pitch_deg"],
+                        values["x_m"])
+        if camera.pitch_deg <= camera.vertical_fov_deg / 2:
+            where = fields.get("pitch_deg", node)
+            self.error(where, f"the camera would see the horizon: pitch_deg must exceed half the vertical "
+                              f"field of view ({camera.vertical_fov_deg / 2:.1f} deg)",
+                       notes=("the camera sees only the floor; tilt it further down or narrow fov_deg",))
+            return None
+        return camera
 
     def placement(self, node: Node | None) -> str | tuple[float, float, float] | None:
         if node is None:

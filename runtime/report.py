@@ -54,6 +54,37 @@ def _metric(value: float, aggregate: Aggregate) -> str:
     return f"{value:.4g}"
 
 
+def _robot_line(name: str, r: dict, run: Run) -> str:
+    limit = next(x.limit for x in run.robots if x.name == name)
+    contacts = r["contacts"]
+    line = f"robot {name}: {contacts} collision{'s' if contacts != 1 else ''}"
+    if contacts:
+        line += f" ({r['contact_time_s']:.2f} s in contact)"
+    if r["clamped_ticks"]:
+        line += f"; wheel commands clamped to {limit:g} rad/s on {r['clamped_ticks']} ticks"
+    return line
+
+
+def _fleet_table(s: Summary, names: tuple[str, ...], aggregates: tuple[Aggregate, ...]) -> list[str]:
+    """Metrics as a table: a row per robot and one for the fleet."""
+    if not names:
+        return []
+    header = ["metrics", *names]
+    rows = [[robot, *(_metric(r["metrics"][n], a) for n, a in zip(names, aggregates))]
+            for robot, r in s.robots.items()]
+    rows.append(["fleet", *(_metric(s.fleet[n], a) + _FLEET_MARK[a] for n, a in zip(names, aggregates))])
+    widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header))]
+    out = ["  " + "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths)))
+           for row in [header, *rows]]
+    out.append("  (fleet: + total over robots, ^ highest, _ lowest, ~ mean of the robots, "
+               "rms pooled over every robot)")
+    return out
+
+
+_FLEET_MARK = {Aggregate.COUNT: "+", Aggregate.DURATION: "+", Aggregate.MAXIMUM: "^", Aggregate.MINIMUM: "_",
+               Aggregate.MEAN: "~", Aggregate.FINAL: "~", Aggregate.RMS: ""}
+
+
 def format_summary(s: Summary, run: Run) -> str:
     p = run.program
     lines = [f"{p.name}  ({p.path}, {s.backend}, seed {p.seed})"]
@@ -66,18 +97,15 @@ def format_summary(s: Summary, run: Run) -> str:
         lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if p.checked.overridden else ""))
     if s.trace:
         lines.append(f"  trace: {s.trace}")
-    for name, r in s.robots.items():
-        limit = next(x.limit for x in run.robots if x.name == name)
-        contacts = r["contacts"]
-        line = f"robot {name}: {contacts} collision{'s' if contacts != 1 else ''}"
-        if contacts:
-            line += f" ({r['contact_time_s']:.2f} s in contact)"
-        if r["clamped_ticks"]:
-            line += f"; wheel commands clamped to {limit:g} rad/s on {r['clamped_ticks']} ticks"
-        lines.append(line)
-        width = max((len(m) for m in r["metrics"]), default=0)
-        for (m, value), agg in zip(r["metrics"].items(), p.metric_aggregates):
-            lines.append(f"  {m:<{width}}  {_metric(value, agg)}")
+    if len(s.robots) == 1:
+        for name, r in s.robots.items():
+            lines.append(_robot_line(name, r, run))
+            width = max((len(m) for m in r["metrics"]), default=0)
+            for (m, value), agg in zip(r["metrics"].items(), p.metric_aggregates):
+                lines.append(f"  {m:<{width}}  {_metric(value, agg)}")
+    else:
+        lines += [_robot_line(name, r, run) for name, r in s.robots.items()]
+        lines += _fleet_table(s, p.metric_names, p.metric_aggregates)
     lines.append("rules (ticks fired):")
     ids = list(s.rule_counts)
     width = max((len(i) for i in ids), default=0)

@@ -25,9 +25,10 @@ from typing import Callable
 
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
-from labsim.backends.models import RobotModel
+from labsim.backends.models import Kind, RobotModel
 from labsim.backends.world import BUILTIN_DIR, Pose, World
 from labsim.dsl import ast
+from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
                                 constant_value, metric_result)
 from labsim.dsl.errors import Diagnostic, LabsimError
@@ -83,6 +84,7 @@ class Summary:
     idle_ticks: int = 0  # robot-ticks on which no rule fired
     faults: list[str] = field(default_factory=list)  # "site: what (n times)"
     trace: str | None = None
+    fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
 
     @property
     def real_time_factor(self) -> float:
@@ -97,7 +99,7 @@ class Run:
         self.dt = program.dt_s
         self.tick_index = 0
         self.finished = False
-        self.faults = Faults(warn)
+        self.faults = Faults(warn, clock=lambda: self.tick_index)
         self.fired = [0] * len(program.rules)
         self.idle = 0
         self.trace: TraceWriter | None = None
@@ -113,6 +115,7 @@ class Run:
                     for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
+        self._trace_fields = self._traced()
         if trace_path is not None:
             self.trace = TraceWriter(trace_path, self.header(), self.columns())
         self.tick = self._make_tick()
@@ -141,7 +144,7 @@ class Run:
                     pose = Pose(x, y, math.radians(heading_deg))
                 taken.append(pose)
                 rng = random.Random(f"{p.seed}/{name}")
-                program = p.robot(name, rng, self.faults)
+                program = p.robot(name, rng, self.faults, model)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose))
         return robots
 
@@ -155,11 +158,26 @@ class Run:
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
 
+    def _traced(self) -> tuple[list[int], list[int]]:
+        """Which channel values and which signal slots the trace records: numbers and booleans.
+
+        Images and records have no CSV cell; a behaviour traces what it derives from them
+        (``cx: centroid(lane).x`` is a column).
+        """
+        p = self.program
+        kinds = p.checked.channel_kinds
+        channels = [i for i, c in enumerate(p.channels)
+                    if c not in ("x", "y", "heading", "collided") and kinds.get(c) is not Kind.IMAGE]
+        lets = [p.slot_of[n] for n in p.let_names if p.checked.let_types.get(n) in (Type.NUMBER, Type.BOOL)]
+        return channels, lets
+
     def columns(self) -> list[str]:
         p = self.program
+        channels, lets = self._traced()
+        names = {slot: name for name, slot in p.slot_of.items()}
         return (["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule"]
-                + [c for c in p.channels if c not in ("x", "y", "heading", "collided")]
-                + list(p.let_names) + ["wheel_left", "wheel_right", "events"])
+                + [p.channels[i] for i in channels] + [names[i] for i in lets]
+                + ["wheel_left", "wheel_right", "events"])
 
     # -- the loop ----------------------------------------------------------------------------
     def _make_tick(self) -> Callable[[], bool]:
@@ -276,8 +294,9 @@ class Run:
         prog = r.program
         s = prog.slots
         x, y, heading, collided = values[-4:]
-        extra = [values[i] for i, c in enumerate(p.channels) if c not in ("x", "y", "heading", "collided")]
-        lets = s[FIRST_CHANNEL + self._nch:]
+        channels, slots = self._trace_fields
+        extra = [values[i] for i in channels]
+        lets = [s[i] for i in slots]
         label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
         self.trace.write([self.tick_index, round(self.tick_index * self.dt, 9), r.name, x, y, heading,
@@ -318,6 +337,9 @@ class Run:
                        zip(p.metric_names, p.metric_aggregates, r.program.metric_values)}
             out.robots[r.name] = {"contacts": contacts.count, "contact_time_s": contacts.time_s,
                                   "clamped_ticks": r.clamped_ticks, "metrics": metrics}
+        if len(self.robots) > 1:
+            for name, agg in zip(p.metric_names, p.metric_aggregates):
+                out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
@@ -331,6 +353,26 @@ class Run:
         if self.trace is not None:
             self.trace.close()
         self.backend.close()
+
+
+def fleet_value(aggregate: Aggregate, values: list[float]) -> float:
+    """A metric over the whole fleet from the robots' values.
+
+    Counts and durations add up (total events, robot-seconds); maximum and minimum take the
+    extreme; rms pools the squares (every robot runs the same ticks); mean and final average.
+    """
+    finite = [v for v in values if v == v]
+    if not finite:
+        return math.nan
+    if aggregate in (Aggregate.COUNT, Aggregate.DURATION):
+        return sum(finite)
+    if aggregate is Aggregate.MAXIMUM:
+        return max(finite)
+    if aggregate is Aggregate.MINIMUM:
+        return min(finite)
+    if aggregate is Aggregate.RMS:
+        return math.sqrt(sum(v * v for v in finite) / len(finite))
+    return sum(finite) / len(finite)
 
 
 def _world_file(world: World) -> str:

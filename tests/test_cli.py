@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BEHAVIOURS, FIXTURES
+from conftest import BEHAVIOURS, FIXTURES, expectations
 from labsim.runtime.cli import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
@@ -63,8 +63,9 @@ def test_check_reports_every_error_of_every_file(capsys) -> None:
     code, out, err = cli(capsys, "check", str(FIXTURES / "minimal.yaml"), *files)
     assert code == 2
     assert "minimal.yaml: ok" in out
-    assert err.count(": error: ") == 17  # the fixtures' '# expect:' lines
-    assert "17 errors" in err
+    expected = sum(len(expectations(FIXTURES / Path(f).name)) for f in files)
+    assert err.count(": error: ") == expected
+    assert f"{expected} errors" in err
 
 
 def test_golden_pass_fail_and_missing(capsys, tmp_path: Path) -> None:

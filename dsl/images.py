@@ -1,0 +1,80 @@
+"""Image functions of the language, on NumPy arrays with OpenCV.
+
+Images are uint8 arrays, height x width (gray) or height x width x 3 (RGB), oriented as a
+person sees them: row 0 is the far edge, column 0 the left. Every function here is a few
+OpenCV or NumPy calls; none loops over pixels in Python.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+EMPTY = np.zeros((0, 0), np.uint8)
+
+
+class EmptyCentroid(Exception):
+    """centroid() of an image with no set pixel; carries the defined result."""
+
+    def __init__(self, result: tuple[float, float, bool]):
+        super().__init__("centroid of an image with no set pixel")
+        self.result = result
+
+
+def gray(img: np.ndarray) -> np.ndarray:
+    """RGB to gray (ITU-R BT.601 weights, as OpenCV); a gray image is returned as it is."""
+    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 else img
+
+
+def threshold(img: np.ndarray, level: float) -> np.ndarray:
+    """OpenCV THRESH_BINARY on the gray image: 255 where a pixel is > level, else 0."""
+    return cv2.threshold(gray(img), level, 255, cv2.THRESH_BINARY)[1]
+
+
+def invert(img: np.ndarray) -> np.ndarray:
+    """255 - each pixel."""
+    return cv2.bitwise_not(img)
+
+
+def crop(img: np.ndarray, x: float, y: float, w: float, h: float) -> np.ndarray:
+    """The w x h rectangle whose top-left pixel is (x, y), clipped to the image."""
+    x0, y0 = max(0, int(x)), max(0, int(y))
+    x1, y1 = min(img.shape[1], int(x + w)), min(img.shape[0], int(y + h))
+    if x1 <= x0 or y1 <= y0:
+        raise ValueError(f"the rectangle ({x:g}, {y:g}, {w:g}, {h:g}) holds no pixel of the "
+                         f"{img.shape[1]} x {img.shape[0]} image")
+    return img[y0:y1, x0:x1]
+
+
+def mean(img: np.ndarray) -> float:
+    """Mean pixel value, 0..255 (over all channels of a colour image); nan for no pixel."""
+    if img.size == 0:
+        raise ValueError("mean of an image with no pixel")
+    return float(img.mean())
+
+
+def area(img: np.ndarray) -> float:
+    """How many pixels are set (non-zero) in the gray image."""
+    return float(cv2.countNonZero(gray(img))) if img.size else 0.0
+
+
+def width(img: np.ndarray) -> float:
+    return float(img.shape[1]) if img.ndim >= 2 else 0.0
+
+
+def height(img: np.ndarray) -> float:
+    return float(img.shape[0])
+
+
+def centroid(img: np.ndarray) -> tuple[float, float, bool]:
+    """(x, y, found): the centre of mass of the set pixels, from the image moments.
+
+    x counts columns from the left, y rows from the top (far edge), in pixels. An image with
+    no set pixel has no centroid: the result is the image centre with found = false, and
+    EmptyCentroid says so (the compiled call turns it into one warning).
+    """
+    g = gray(img)
+    m = cv2.moments(g, binaryImage=True)
+    if m["m00"] == 0:
+        h, w = g.shape[:2]
+        raise EmptyCentroid(((w - 1) / 2, (h - 1) / 2, False))
+    return (m["m10"] / m["m00"], m["m01"] / m["m00"], True)
