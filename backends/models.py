@@ -21,6 +21,9 @@ class Kind(Enum):
     NUMBER = "number"
     BOOL = "bool"
     IMAGE = "image"  # numpy uint8 array, height x width x 3, RGB; row 0 is the far edge
+    JOINT = "joint"  # (position m or rad, velocity m/s or rad/s)
+    FORCE = "force"  # (tension N,)
+    BODY = "body"  # (x_m, z_m, angle_rad) in a mechanism's vertical plane
 
 
 @dataclass(frozen=True)

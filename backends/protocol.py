@@ -34,9 +34,9 @@ class BackendStateError(BackendError):
 class RobotRequest:
     """One robot the runtime wants in the world."""
 
-    name: str  # as in traces: "pioneer", or "pioneer[2]" in a fleet
-    model: RobotModel
-    pose: Pose  # where it starts
+    name: str  # as in traces: "pioneer", or "pioneer[2]" in a fleet; the world's name for a mechanism
+    model: RobotModel | None  # None: the world's mechanism (its joints, force sensors and bodies)
+    pose: Pose  # where it starts (unused for a mechanism)
     channels: tuple[str, ...]  # what sense() returns for it, in this order
 
 
@@ -56,11 +56,20 @@ class Backend(Protocol):
         """One list per robot, the values of its requested channels in order.
 
         Distances read ``math.inf`` when nothing is detected; ``collided`` is a bool that is
-        true while the robot touches something; ``x``, ``y``, ``heading`` are its pose.
+        true while the robot touches something; ``x``, ``y``, ``heading`` are its pose. For a
+        mechanism: a joint reads (position, velocity), a force sensor (tension N,), a body
+        (x, z, angle) in the mechanism's plane; ``x``, ``y`` are the last body's position in the
+        plane (x along, y up) and ``heading`` the slew angle, so that a trace can follow it.
         """
 
     def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
         """Set the wheels' target velocities; they hold until the next ``act``."""
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        """Set a mechanism joint's target: mode "velocity" (m/s or rad/s) or "position" (m or rad).
+
+        The target holds until the next command for the same joint.
+        """
 
     def step(self) -> None:
         """Advance the simulation by dt_s."""

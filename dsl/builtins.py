@@ -19,6 +19,9 @@ class Type(Enum):
     STATE = "state"
     IMAGE = "image"
     CENTROID = "centroid"  # a record: .x, .y (pixels), .found
+    JOINT = "joint"  # .position (m or rad), .velocity (m/s or rad/s)
+    FORCE = "force sensor"  # .force (N)
+    BODY = "body"  # .x, .z (m, in the mechanism's plane), .angle (rad)
 
     def __str__(self) -> str:
         return self.value
@@ -34,6 +37,9 @@ N, B, I = Type.NUMBER, Type.BOOL, Type.IMAGE
 # The fields of record types, and what generated code indexes for each.
 FIELDS: dict[Type, dict[str, tuple[int, Type]]] = {
     Type.CENTROID: {"x": (0, N), "y": (1, N), "found": (2, B)},
+    Type.JOINT: {"position": (0, N), "velocity": (1, N)},
+    Type.FORCE: {"force": (0, N)},
+    Type.BODY: {"x": (0, N), "z": (1, N), "angle": (2, N)},
 }
 
 
@@ -149,7 +155,12 @@ ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
     ActionSpec("move", ("speed",), "both wheels at the same velocity, rad/s"),
     ActionSpec("drive", ("v", "w"), "forward speed v in m/s and turn rate w in rad/s (counter-clockwise)"),
     ActionSpec("stop", (), "both wheels at 0"),
+    ActionSpec("set_velocity", ("joint", "velocity"), "a joint's target velocity, m/s or rad/s"),
+    ActionSpec("set_position", ("joint", "position"), "a joint's target position, m or rad"),
 )}
+
+# Actions whose first argument names a joint rather than giving a value.
+JOINT_ACTIONS = {"set_velocity": "velocity", "set_position": "position"}
 
 
 class Aggregate(Enum):

@@ -14,17 +14,20 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from yaml.nodes import MappingNode
+
 from labsim.backends.models import MODELS, Kind, RobotModel
 from labsim.backends.world import World, builtin_worlds
 from labsim.dsl import ast
-from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS,
+from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS,
                                  TRACE_COLUMNS, VARIABLES, Aggregate, Type)
 from labsim.dsl.errors import Diagnostic, Report, did_you_mean
-from labsim.dsl.read import BehaviourFile, Parsed, RuleDecl
+from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
 from labsim.dsl.source import Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
-               Kind.IMAGE: Type.IMAGE}
+               Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
+_KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body"}
 
 
 @dataclass(frozen=True)
@@ -52,6 +55,10 @@ class Checked:
     let_types: dict[str, Type] = field(default_factory=dict)
     channel_kinds: dict[str, Kind] = field(default_factory=dict)
     node_types: dict[int, Type] = field(default_factory=dict)  # id(AST node) -> its type
+    sliders: list[SliderDecl] = field(default_factory=list)
+    labels: list[tuple[str, tuple]] = field(default_factory=list)  # slider -> label parts
+    binds: list[BindDecl] = field(default_factory=list)
+    mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -78,6 +85,7 @@ class _Checker:
         bf = self.bf
         world = self.world()
         models = self.models()
+        mechanism = getattr(world, "mechanism", None) if world is not None else None
         channels: dict[str, Kind] = {}
         if models:
             # one behaviour drives every robot: only channels all its models offer are readable
@@ -85,9 +93,12 @@ class _Checker:
             channels = {k: v for k, v in offered[0].items() if all(k in o for o in offered[1:])}
             if world is not None:
                 channels.update(_world_channels(world))
+        elif mechanism is not None:
+            channels = mechanism_channels(mechanism)
+        self.presence(world, mechanism)
         self.spawns(world)
         for name, kind in channels.items():
-            self.declare(name, _KIND_TYPES[kind], "sensor")
+            self.declare(name, _KIND_TYPES[kind], _KIND_WORDS.get(kind, "sensor"))
         for name, t in VARIABLES.items():
             self.declare(name, t, "built-in variable")
         for name in CONSTANTS:
@@ -99,17 +110,108 @@ class _Checker:
                     self.report.add(bf.doc.diagnostic(key, f"state '{name}' has the name of a {self.kinds[name]}"))
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
+        sliders = self.sliders()
         lets = self.lets()
+        labels = self.labels()
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
+        self.motors = _motors(mechanism)
         states = self.rules()
+        binds = self.binds()
+        self.timeline(sliders)
         metrics = self.metrics()
         used_channels = tuple(ch for ch in channels if ch in self.used)
         return Checked(bf, world, models, params, used_channels,
                        frozenset(k for k, v in channels.items() if v is Kind.DISTANCE),
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
-                       self.node_types)
+                       self.node_types, sliders, labels, binds, mechanism is not None and not models)
+
+    def presence(self, world: World | None, mechanism: object | None) -> None:
+        """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
+        bf = self.bf
+        if not isinstance(bf.doc.root, MappingNode):
+            return  # the reader said what the file should be
+        if mechanism is not None and bf.has_robots:
+            self.report.add(bf.doc.diagnostic(bf.robots[0].key if bf.robots else bf.doc.root,
+                                              f"world '{world.name}' is a mechanism: it has no place for robots"))
+        if not bf.has_robots and mechanism is None and world is not None:
+            self.report.add(Diagnostic(bf.path, "missing required key 'robots:'",
+                                       notes=("e.g. 'robots: {pioneer: {model: pioneer_p3dx, at: spawn}}'",)))
+        if not bf.has_rules and not bf.binds and not bf.states:
+            self.report.add(Diagnostic(bf.path, "missing required key 'rules:'",
+                                       notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",)))
+
+    def sliders(self) -> list[SliderDecl]:
+        out = []
+        for slider in self.bf.sliders:
+            if slider.name in self.types:
+                self.report.add(self.bf.doc.diagnostic(slider.key, f"slider '{slider.name}' has the name of a "
+                                                       f"{self.kinds[slider.name]}"))
+                continue
+            self.declare(slider.name, Type.NUMBER, "slider")
+            out.append(slider)
+        return out
+
+    def labels(self) -> list[tuple[str, tuple]]:
+        """Each slider's label fields must be numbers or booleans."""
+        out = []
+        for slider in self.bf.sliders:
+            if slider.label is None:
+                continue
+            for part in slider.label.parts:
+                if isinstance(part, tuple):
+                    parsed, _ = part
+                    t = self.infer(parsed.node, parsed.text)
+                    if t is not None and t not in (Type.NUMBER, Type.BOOL):
+                        self.error(parsed.text, parsed.node.span, f"a label shows numbers and booleans, not {t.a}")
+            out.append((slider.name, slider.label.parts))
+        return out
+
+    def binds(self) -> list[BindDecl]:
+        out = []
+        for b in self.bf.binds:
+            if not self.joint_target(b.joint, b.mode, lambda m, notes=(): self.report.add(
+                    self.bf.doc.diagnostic(b.key, m, notes=notes))):
+                continue
+            if self.expect(b.expr, b.expr.node, Type.NUMBER, f"the {b.mode} bound to {b.joint}"):
+                out.append(b)
+        return out
+
+    def joint_target(self, joint: str, mode: str, fail) -> bool:  # type: ignore[no-untyped-def]
+        """Whether a joint exists and its motor takes targets of this mode; else fail(message)."""
+        motors = self.motors
+        if joint not in motors:
+            known = [j for j in motors]
+            fail(f"no joint named '{joint}'{did_you_mean(joint, known)}",
+                 ("joints of this world: " + (", ".join(known) or "none"),))
+            return False
+        accepts = motors[joint]
+        if not accepts:
+            fail(f"joint '{joint}' has no motor: nothing can set its {mode}")
+            return False
+        if mode not in accepts:
+            fail(f"joint '{joint}' takes target {' and '.join(sorted(accepts))}s, not {mode}s")
+            return False
+        return True
+
+    def timeline(self, sliders: list[SliderDecl]) -> None:
+        by_name = {s.name: s for s in sliders}
+        last = -math.inf
+        for event in self.bf.timeline:
+            if event.time_s < last:
+                self.report.add(self.bf.doc.diagnostic(event.node, f"timeline entries go forward in time: "
+                                                       f"{event.time_s:g} s comes after {last:g} s"))
+            last = max(last, event.time_s)
+            for name, value, start in event.settings:
+                end = start + len(name)
+                slider = by_name.get(name)
+                if slider is None:
+                    self.report.add(event.text.diagnostic(start, end, f"no slider named '{name}'"
+                                                          f"{did_you_mean(name, by_name)}"))
+                elif not slider.lo <= value <= slider.hi:
+                    self.report.add(event.text.diagnostic(start, end, f"{name} = {value:g} is outside the slider's "
+                                                          f"range {slider.lo:g} .. {slider.hi:g}"))
 
     def spawns(self, world: World | None) -> None:
         """Robots placed 'at: spawn' need as many spawn poses as there are of them."""
@@ -225,7 +327,11 @@ class _Checker:
 
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
         text = decl.text
-        drives = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
+        actions = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
+        drives = [a for a in actions if a.name not in JOINT_ACTIONS]
+        for action in actions:
+            if action.name in JOINT_ACTIONS:
+                self.joint_action(action, text)
         gotos = [a for a in decl.rule.actions if isinstance(a, ast.Goto)]
         if len(drives) > 1:
             self.error(text, drives[1].span, "a rule can drive the wheels once: this action would override "
@@ -233,6 +339,9 @@ class _Checker:
         if len(gotos) > 1:
             self.error(text, gotos[1].span, "a rule can 'goto' one state")
         for action in drives:
+            if action.name in JOINT_ACTIONS:
+                self.joint_action(action, text)
+                continue
             spec = ACTIONS.get(action.name)
             if spec is None:
                 hint = did_you_mean(action.name, ACTIONS)
@@ -253,6 +362,20 @@ class _Checker:
                     notes = ("states: " + ", ".join(states),)
                 self.error(text, goto.state_span, f"no state named '{goto.state}'{did_you_mean(goto.state, states)}",
                            notes=notes)
+
+    def joint_action(self, action: ast.Action, text: Text) -> None:
+        """set_velocity(Joint, v), set_position(Joint, p)."""
+        if len(action.args) != 2:
+            self.error(text, action.span, _arity(action.name, ACTIONS[action.name].params, len(action.args)))
+            return
+        joint, value = action.args
+        if not isinstance(joint, ast.Name):
+            self.error(text, joint.span, f"{action.name}() takes a joint's name first, as in "
+                       f"{action.name}(Hoist_Actuator, 0.5)")
+            return
+        self.joint_target(joint.id, JOINT_ACTIONS[action.name],
+                          lambda m, notes=(): self.error(text, joint.span, m, notes))
+        self.expect(Parsed(value, text), value, Type.NUMBER, f"the {JOINT_ACTIONS[action.name]} in {action.name}()")
 
     def metrics(self) -> list[Metric]:
         out = []
@@ -463,3 +586,29 @@ def _world_channels(world: World) -> dict[str, Kind]:
     except ImportError:
         return {}
     return world_channels(world)
+
+
+def mechanism_channels(mechanism: object) -> dict[str, Kind]:
+    """What a behaviour reads from a mechanism: its joints, force sensors and moving bodies."""
+    out: dict[str, Kind] = {}
+    for j in getattr(mechanism, "joints", ()):
+        if j.kind != "fixed":
+            out[j.name] = Kind.JOINT
+    for f in getattr(mechanism, "force_sensors", ()):
+        out[f.name] = Kind.FORCE
+    for b in getattr(mechanism, "bodies", ()):
+        if not b.static:
+            out[b.name] = Kind.BODY
+    return out
+
+
+def _motors(mechanism: object | None) -> dict[str, set[str]]:
+    """Joint name -> the target modes its motor accepts (empty: no motor)."""
+    out: dict[str, set[str]] = {}
+    for j in getattr(mechanism, "joints", ()) if mechanism is not None else ():
+        if j.kind == "fixed":
+            continue
+        m = j.motor
+        out[j.name] = set() if m is None else {mode for mode, ok in (("velocity", m.velocity),
+                                                                        ("position", m.position)) if ok}
+    return out

@@ -27,7 +27,7 @@ from typing import Callable
 from labsim.backends.models import RobotModel
 from labsim.backends.world import World
 from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, Aggregate, Type
+from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, Aggregate, Type
 from labsim.dsl.check import Checked, check
 from labsim.dsl.errors import Diagnostic, Report
 from labsim.dsl.read import RobotDecl, read
@@ -125,6 +125,7 @@ class RobotProgram:
     metric_values: list[list[float]]  # per metric accumulator, read by metric_result
     events: list[str]  # names of count metrics that rose this tick (cleared by the runtime)
     source: str  # the generated Python, for `labsim check --show-code` and for debugging
+    joint_command: list[float] = field(default_factory=list)  # per Program.targets, nan: none yet
 
 
 @dataclass
@@ -156,6 +157,38 @@ class Program:
         self.slot_of.update({name: FIRST_CHANNEL + i for i, name in enumerate(self.channels)})
         for i, name in enumerate(self.let_names):
             self.slot_of[name] = FIRST_CHANNEL + len(self.channels) + i
+        # sliders, then the fields of their labels, after the signals
+        self.slider_names: tuple[str, ...] = tuple(sl.name for sl in c.sliders)
+        self.slider_ranges = {sl.name: (sl.lo, sl.hi) for sl in c.sliders}
+        self.slider_start = {sl.name: sl.value for sl in c.sliders}
+        base = FIRST_CHANNEL + len(self.channels) + len(self.let_names) + len(self.slider_names)
+        for k, name in enumerate(self.slider_names):
+            self.slot_of[name] = base - len(self.slider_names) + k
+        self.labels: list[tuple[str, list[str | tuple[int, str]]]] = []  # slider -> text and (slot, format)
+        self.label_fields: list[tuple[int, object]] = []  # slot, parsed expression
+        for slider, parts in c.labels:
+            compiled: list[str | tuple[int, str]] = []
+            for part in parts:
+                if isinstance(part, tuple):
+                    slot = base + len(self.label_fields)
+                    self.label_fields.append((slot, part[0]))
+                    compiled.append((slot, part[1]))
+                else:
+                    compiled.append(part)
+            self.labels.append((slider, compiled))
+        self.slot_count = base + len(self.label_fields)
+        # joint targets set by bind: and by set_velocity/set_position, in a fixed order
+        self.targets: list[tuple[str, str]] = []
+        for b in c.binds:
+            if (b.joint, b.mode) not in self.targets:
+                self.targets.append((b.joint, b.mode))
+        for rules in c.states.values():
+            for r in rules:
+                for a in r.rule.actions:
+                    if isinstance(a, ast.Action) and a.name in JOINT_ACTIONS:
+                        target = (a.args[0].id, JOINT_ACTIONS[a.name])  # type: ignore[union-attr]
+                        if target not in self.targets:
+                            self.targets.append(target)
         self._source: tuple[str, list[tuple[str, object]]] | None = None
         self._generated_functions: tuple[str, ...] = ()
 
@@ -172,13 +205,16 @@ class Program:
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None) -> RobotProgram:
         """Bind the generated functions to one robot's slots, generator, model and fault sink."""
         source, sites = self.source()
-        slots = Slots([0.0] * (FIRST_CHANNEL + len(self.channels) + len(self.let_names)))
+        slots = Slots([0.0] * self.slot_count)
         slots[STATE] = 0
+        for name in self.slider_names:
+            slots[self.slot_of[name]] = self.slider_start[name]
         command = [0.0, 0.0, 0]
+        joint_command = [math.nan] * len(self.targets)
         events: list[str] = []
         metric_values = [_initial(a) for a in self.metric_aggregates]
         bindings = _namespace(rng, model or next(iter(self.models.values()), None), self._functions)
-        bindings.update(s=slots, cmd=command, events=events, m=metric_values)
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command)
         for i, (kind, site) in enumerate(sites):
             bindings[f"_g{i}"] = _guard(kind, site, faults, slots, name, rng)  # type: ignore[arg-type]
         # Only generated text reaches exec: user names became slot indices, numbers are
@@ -187,7 +223,24 @@ class Program:
         namespace: dict[str, object] = {"__builtins__": {}}
         exec(compile(source, f"<behaviour {self.path}>", "exec"), namespace)
         signals, decide, both = namespace["make"](**bindings)  # type: ignore[operator]
-        return RobotProgram(slots, command, signals, decide, both, metric_values, events, source)
+        return RobotProgram(slots, command, signals, decide, both, metric_values, events, source, joint_command)
+
+    def label_text(self, slots: list) -> dict[str, str]:
+        """Each slider's label, formatted from the label fields' values in the slots."""
+        out = {}
+        for slider, parts in self.labels:
+            text = []
+            for part in parts:
+                if isinstance(part, tuple):
+                    slot, spec = part
+                    try:
+                        text.append(format(slots[slot], spec))
+                    except (ValueError, TypeError):
+                        text.append(str(slots[slot]))
+                else:
+                    text.append(part)
+            out[slider] = "".join(text)
+        return out
 
     @property
     def _functions(self) -> tuple[str, ...]:
@@ -379,6 +432,8 @@ class _Generator:
         self.used = set()
         lets = [f"s[{self.p.slot_of[name]}] = v{self.p.slot_of[name]} = "
                 + self.expr(parsed.node, parsed.text, "signal " + repr(name)) for name, parsed in c.lets]
+        lets += [f"s[{slot}] = {self.expr(parsed.node, parsed.text, 'a label')}"
+                 for slot, parsed in self.p.label_fields]
         assert c.file.stop is not None
         stop = self.expr(c.file.stop.node, c.file.stop.text, "the stop condition")
         signal_loads = self.loads(self.used - channel_slots - let_slots - {TIME, TICK})
@@ -394,7 +449,7 @@ class _Generator:
                 + ["    " + line for line in lets] + [f"    if {stop}:", "        return -2"]
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
                 + ["    " + line for line in rules])
-        params = ["s", "cmd", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
+        params = ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
                   "_radius", "_half_axle"]
         self.p._generated_functions = tuple(sorted(self.functions))
         params += ["_" + f for f in self.p._generated_functions]
@@ -412,8 +467,14 @@ class _Generator:
 
     def decide(self, c: Checked) -> list[str]:
         out = []
+        # bindings first: a rule's set_velocity/set_position can override one for a tick
+        for b in c.binds:
+            k = self.p.targets.index((b.joint, b.mode))
+            out.append(f"jc[{k}] = {self.expr(b.expr.node, b.expr.text, 'the binding of ' + b.joint)}")
         states = list(c.states.values())
         index = 0
+        if not states:
+            out.append("rule = -1")
         for k, rules in enumerate(states):
             indent = ""
             if len(states) > 1:
@@ -452,6 +513,11 @@ class _Generator:
         for action in actions:
             if isinstance(action, ast.Goto):
                 lines.append(f"cmd[2] = {self.p.state_names.index(action.state)}")
+            elif action.name in JOINT_ACTIONS:
+                joint = action.args[0]
+                assert isinstance(joint, ast.Name)
+                k = self.p.targets.index((joint.id, JOINT_ACTIONS[action.name]))
+                lines.append(f"jc[{k}] = {self.expr(action.args[1], text, where)}")
             elif action.name == "stop":
                 lines.append("cmd[0] = cmd[1] = 0.0")
             elif action.name == "move":

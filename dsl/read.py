@@ -9,6 +9,7 @@ types are the checker's business, not this module's.
 from __future__ import annotations
 
 import hashlib
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,8 +24,9 @@ from labsim.dsl.source import Document, Text, scalar_value
 FORMAT_VERSION = 1
 
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
-            "let", "rules", "metrics")
-REQUIRED = ("labsim", "world", "stop", "robots", "rules")
+            "let", "rules", "metrics", "sliders", "bind", "timeline")
+REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
+SLIDER_KEYS = ("min", "max", "value", "label")
 ROBOT_KEYS = ("model", "count", "at", "camera")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
@@ -58,6 +60,43 @@ class RuleDecl:
     text: Text
 
 
+@dataclass(frozen=True)
+class Label:
+    """A slider's label: literal text and {expression:format} fields, in order."""
+
+    parts: tuple[str | tuple[Parsed, str], ...]
+
+
+@dataclass(frozen=True)
+class SliderDecl:
+    name: str
+    lo: float
+    hi: float
+    value: float
+    label: Label | None
+    key: Node
+
+
+@dataclass(frozen=True)
+class BindDecl:
+    """``Joint.velocity: expression`` under ``bind:``."""
+
+    joint: str
+    mode: str  # "velocity" or "position"
+    expr: Parsed
+    key: Node
+
+
+@dataclass(frozen=True)
+class Event:
+    """One timeline entry: at time_s, the sliders take these values."""
+
+    time_s: float
+    settings: tuple[tuple[str, float, int], ...]  # slider, value, offset of the setting in text
+    node: Node
+    text: Text
+
+
 @dataclass
 class BehaviourFile:
     doc: Document
@@ -75,6 +114,11 @@ class BehaviourFile:
     lets: list[tuple[str, Parsed, Node]] = field(default_factory=list)
     states: dict[str, tuple[list[RuleDecl], Node | None]] = field(default_factory=dict)
     metrics: list[tuple[str, Parsed, Node]] = field(default_factory=list)
+    sliders: list[SliderDecl] = field(default_factory=list)
+    binds: list[BindDecl] = field(default_factory=list)
+    timeline: list[Event] = field(default_factory=list)
+    has_robots: bool = False
+    has_rules: bool = False
 
     @property
     def path(self) -> str:
@@ -130,14 +174,22 @@ def read(doc: Document, report: Report) -> BehaviourFile:
         bf.stop = r.expr(keys["stop"][1], "stop")
     if "robots" in keys:
         bf.robots = r.robots(keys["robots"][1])
+        bf.has_robots = True
     if "params" in keys:
         bf.params = r.params(keys["params"][1])
     if "let" in keys:
         bf.lets = r.named_exprs(keys["let"][1], "let")
     if "rules" in keys:
         bf.states = r.states(keys["rules"][1])
+        bf.has_rules = True
     if "metrics" in keys:
         bf.metrics = r.named_exprs(keys["metrics"][1], "metrics")
+    if "sliders" in keys:
+        bf.sliders = r.sliders(keys["sliders"][1])
+    if "bind" in keys:
+        bf.binds = r.binds(keys["bind"][1])
+    if "timeline" in keys:
+        bf.timeline = r.timeline(keys["timeline"][1])
     return bf
 
 
@@ -333,6 +385,138 @@ class _Reader:
                 out.append((name, parsed, key))
         return out
 
+    def sliders(self, node: Node) -> list[SliderDecl]:
+        out = []
+        for key, value in self.mapping(node, "sliders"):
+            name = self.names(key, "slider")
+            fields = {}
+            for k, v in self.mapping(value, f"slider '{key.value}'"):
+                if k.value not in SLIDER_KEYS:
+                    self.error(k, f"unknown slider key '{k.value}'{did_you_mean(k.value, SLIDER_KEYS)}",
+                               notes=("slider keys: " + ", ".join(SLIDER_KEYS),))
+                else:
+                    fields[k.value] = v
+            if name is None or "min" not in fields or "max" not in fields:
+                if name is not None:
+                    self.error(key, f"slider '{name}' needs 'min:' and 'max:'")
+                continue
+            lo, hi = self.number(fields["min"], "min"), self.number(fields["max"], "max")
+            if lo is None or hi is None:
+                continue
+            if lo >= hi:
+                self.error(fields["max"], f"a slider's max must exceed its min ({lo:g})")
+                continue
+            start = 0.0 if lo <= 0 <= hi else float(lo)
+            if "value" in fields:
+                v = self.number(fields["value"], "value")
+                if v is not None and not lo <= v <= hi:
+                    self.error(fields["value"], f"value {v:g} is outside the slider's range {lo:g} .. {hi:g}")
+                elif v is not None:
+                    start = float(v)
+            label = self.label(fields["label"]) if "label" in fields else None
+            out.append(SliderDecl(name, float(lo), float(hi), start, label, key))
+        return out
+
+    def label(self, node: Node) -> Label | None:
+        """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields."""
+        if not isinstance(node, ScalarNode):
+            self.error(node, "a label is text, with {expression} or {expression:.2f} fields")
+            return None
+        text = self.doc.text_of(node)
+        value = text.value
+        parts: list[str | tuple[Parsed, str]] = []
+        i, literal = 0, ""
+        while i < len(value):
+            ch = value[i]
+            if ch in "{}" and value[i:i + 2] in ("{{", "}}"):
+                literal += ch
+                i += 2
+                continue
+            if ch == "}":
+                self.report.add(text.diagnostic(i, i + 1, "unmatched '}' in a label (write '}}' for a brace)"))
+                return None
+            if ch != "{":
+                literal += ch
+                i += 1
+                continue
+            end = value.find("}", i)
+            if end < 0:
+                self.report.add(text.diagnostic(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)"))
+                return None
+            field_text = value[i + 1:end]
+            expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
+            if colon and not _FORMAT_SPEC.fullmatch(spec):
+                start = i + 1 + len(expr_text) + 1
+                self.report.add(text.diagnostic(start, start + len(spec),
+                                                f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d"))
+                return None
+            try:
+                expr = parse_expr(expr_text)
+            except ParseError as e:
+                self.report.add(text.diagnostic(i + 1 + e.start, i + 1 + e.end, e.message))
+                return None
+            if literal:
+                parts.append(literal)
+                literal = ""
+            parts.append((Parsed(_shift(expr, i + 1), text), spec))
+            i = end + 1
+        if literal:
+            parts.append(literal)
+        return Label(tuple(parts))
+
+    def binds(self, node: Node) -> list[BindDecl]:
+        out = []
+        for key, value in self.mapping(node, "bind"):
+            joint, dot, mode = key.value.partition(".")
+            if not dot or mode not in ("velocity", "position") or not joint.isidentifier():
+                self.error(key, f"a binding is JOINT.velocity or JOINT.position, not '{key.value}'",
+                           notes=("e.g. Arm_Actuator.velocity: 0.02 * arm",))
+                continue
+            parsed = self.expr(value, f"'{key.value}'")
+            if parsed is not None:
+                out.append(BindDecl(joint, mode, parsed, key))
+        return out
+
+    def timeline(self, node: Node) -> list[Event]:
+        """- at 2.5: arm = 0, crab = -3"""
+        if not isinstance(node, SequenceNode):
+            self.error(node, "'timeline' is a list of entries such as '- at 2: arm = 5, crab = -3'")
+            return []
+        out = []
+        for item in node.value:
+            if not (isinstance(item, MappingNode) and len(item.value) == 1):
+                self.error(item, "a timeline entry reads 'at TIME: slider = value, ...'",
+                           notes=("e.g. - at 2: arm = 0, crab = -3",))
+                continue
+            key, value = item.value[0]
+            m = _AT.fullmatch(key.value.strip())
+            if not m:
+                self.error(key, f"a timeline entry starts with 'at' and a time in seconds, not '{key.value}'")
+                continue
+            if not isinstance(value, ScalarNode) or not value.value.strip():
+                self.error(value, "after 'at TIME:' come slider settings such as 'arm = 5, crab = -3'")
+                continue
+            text = self.doc.text_of(value)
+            settings = []
+            offset = 0
+            for piece in text.value.split(","):
+                sm = _SETTING.fullmatch(piece)
+                start = offset + len(piece) - len(piece.lstrip())
+                offset += len(piece) + 1
+                number = None
+                if sm:
+                    try:
+                        number = float(sm.group(2))
+                    except ValueError:
+                        number = None
+                if sm is None or number is None:
+                    self.report.add(text.diagnostic(start, start + len(piece.strip()),
+                                                    f"a setting reads 'slider = number', not '{piece.strip()}'"))
+                    continue
+                settings.append((sm.group(1), number, start))
+            out.append(Event(float(m.group(1)), tuple(settings), item, text))
+        return out
+
     def states(self, node: Node) -> dict[str, tuple[list[RuleDecl], Node | None]]:
         if isinstance(node, SequenceNode):
             return {"main": (self.rule_list(node, "main"), None)}
@@ -375,6 +559,11 @@ class _Reader:
         return out
 
 
+_FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
+_AT = re.compile(r"at\s+([0-9]*\.?[0-9]+(?:[eE][+-]?\d+)?)\s*$")
+_SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
+
+
 def _shape(node: Node | None) -> str:
     if isinstance(node, MappingNode):
         return "mapping"
@@ -392,3 +581,19 @@ def _mapping_hint(node: Node | None) -> tuple[str, ...]:
             return (f"hint: YAML read '{key.value}: ...' as a mapping because of the ': '; "
                     "remove the colon (a rule reads 'if COND then ACTION'), or quote the whole text",)
     return ()
+
+
+def _shift(e, offset: int):  # type: ignore[no-untyped-def]
+    """An expression parsed from part of a string, its spans moved to the whole string's."""
+    import dataclasses
+
+    changes = {}
+    for f in dataclasses.fields(e):
+        v = getattr(e, f.name)
+        if f.name.endswith("span") and isinstance(v, tuple) and len(v) == 2:
+            changes[f.name] = (v[0] + offset, v[1] + offset)
+        elif isinstance(v, ast.Expr):
+            changes[f.name] = _shift(v, offset)
+        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
+            changes[f.name] = tuple(_shift(x, offset) for x in v)
+    return dataclasses.replace(e, **changes)

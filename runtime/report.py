@@ -55,6 +55,10 @@ def _metric(value: float, aggregate: Aggregate) -> str:
 
 
 def _robot_line(name: str, r: dict, run: Run) -> str:
+    if r.get("mechanism"):
+        lines = [f"mechanism {name}"]
+        lines += [f"  label {slider}: {text}" for slider, text in r["labels"].items()]
+        return "\n".join(lines)
     limit = next(x.limit for x in run.robots if x.name == name)
     contacts = r["contacts"]
     line = f"robot {name}: {contacts} collision{'s' if contacts != 1 else ''}"
@@ -62,6 +66,8 @@ def _robot_line(name: str, r: dict, run: Run) -> str:
         line += f" ({r['contact_time_s']:.2f} s in contact)"
     if r["clamped_ticks"]:
         line += f"; wheel commands clamped to {limit:g} rad/s on {r['clamped_ticks']} ticks"
+    for slider, text in r.get("labels", {}).items():
+        line += f"\n  label {slider}: {text}"
     return line
 
 

@@ -58,11 +58,12 @@ class RobotRun:
 
     index: int
     name: str
-    model: RobotModel
+    model: RobotModel | None  # None: the world's mechanism
     program: RobotProgram
     limit: float  # wheel speed limit, rad/s
     sent_left: float = math.nan  # the last command sent to the backend, rad/s
     sent_right: float = math.nan
+    sent_joints: list[float] = field(default_factory=list)  # per Program.targets
     clamping: bool = False  # whether the command now held exceeds the limit
     clamped_ticks: int = 0
     start: Pose | None = None
@@ -115,7 +116,10 @@ class Run:
                     for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
+        self._command = getattr(backend, "command", None)
         self._trace_fields = self._traced()
+        self._timeline = self._schedule()
+        self._slider_events: list[str] = []  # the timeline's settings applied this tick, for the trace
         if trace_path is not None:
             self.trace = TraceWriter(trace_path, self.header(), self.columns())
         self.tick = self._make_tick()
@@ -127,6 +131,10 @@ class Run:
         spawns = list(p.world.spawns)
         taken: list[Pose] = []
         robots = []
+        if p.checked.mechanism_agent:  # no robots: one agent reads and drives the mechanism
+            program = p.robot(p.world.name, random.Random(f"{p.seed}/{p.world.name}"), self.faults, None)
+            return [RobotRun(0, p.world.name, None, program, math.inf, start=Pose(0.0, 0.0, 0.0),
+                             sent_joints=[math.nan] * len(p.targets))]
         for decl in p.robot_decls:
             model = p.models[decl.name]
             for k in range(decl.count):
@@ -145,7 +153,8 @@ class Run:
                 taken.append(pose)
                 rng = random.Random(f"{p.seed}/{name}")
                 program = p.robot(name, rng, self.faults, model)
-                robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose))
+                robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
+                                       sent_joints=[math.nan] * len(p.targets)))
         return robots
 
     def header(self) -> dict:
@@ -157,6 +166,26 @@ class Run:
             "robots": {r.name: r.model.name for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
+
+    def _schedule(self) -> dict[int, list[tuple[int, float, str]]]:
+        """The timeline by tick: an event at time t applies at the first tick whose time >= t."""
+        p = self.program
+        out: dict[int, list[tuple[int, float, str]]] = {}
+        for event in p.checked.file.timeline:
+            tick = max(0, math.ceil(event.time_s / self.dt - 1e-9))
+            for name, value, _ in event.settings:
+                out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
+        return out
+
+    def set_slider(self, name: str, value: float) -> None:
+        """Move a slider now (from the next tick's signals on): what a live view's drag does.
+
+        The move is recorded in the trace's events column, as the timeline's are.
+        """
+        p = self.program
+        lo, hi = p.slider_ranges[name]
+        value = min(hi, max(lo, value))
+        self._timeline.setdefault(self.tick_index, []).append((p.slot_of[name], value, f"{name}={value:g}"))
 
     def _traced(self) -> tuple[list[int], list[int]]:
         """Which channel values and which signal slots the trace records: numbers and booleans.
@@ -176,7 +205,8 @@ class Run:
         channels, lets = self._traced()
         names = {slot: name for name, slot in p.slot_of.items()}
         return (["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule"]
-                + [p.channels[i] for i in channels] + [names[i] for i in lets]
+                + [p.channels[i] for i in channels] + [names[i] for i in lets] + list(p.slider_names)
+                + [f"label:{slider}" for slider, _ in p.labels]
                 + ["wheel_left", "wheel_right", "events"])
 
     # -- the loop ----------------------------------------------------------------------------
@@ -195,16 +225,34 @@ class Run:
         n = self._nch
         dt = self.dt
         trace, trace_row = self.trace, self._trace_row
+        timeline = self._timeline
+        has_sliders = bool(self.program.slider_names) or bool(timeline)
+        targets = self.program.targets
+        command = self._command
+
+        def inputs(t: int) -> None:
+            """The timeline's slider settings for this tick, before anything reads them."""
+            self._slider_events = []
+            for slot, value, text in timeline.pop(t, ()):
+                for _, s, *_ in robots:
+                    s[slot] = value
+                self._slider_events.append(text)
 
         def act(r: RobotRun, s: list, cmd: list, events: list, rule: int, values: list) -> None:
             if rule >= 0:
                 fired[rule] += 1
             else:
                 self.idle += 1
-            if cmd[0] != r.sent_left or cmd[1] != r.sent_right:
+            if r.model is not None and (cmd[0] != r.sent_left or cmd[1] != r.sent_right):
                 send(r, cmd[0], cmd[1], rule)
             if r.clamping:
                 r.clamped_ticks += 1
+            if targets:
+                joints, sent = r.program.joint_command, r.sent_joints
+                for k, value in enumerate(joints):
+                    if value != sent[k] and value == value:
+                        sent[k] = value
+                        command(r.index, targets[k][0], targets[k][1], value)
             if trace is not None:
                 trace_row(r, values, rule)
             if events:
@@ -219,12 +267,14 @@ class Run:
                 if self.finished:
                     return False
                 t = self.tick_index
+                if has_sliders:
+                    inputs(t)
                 values = sense()[0]
                 rule = both(t * dt, t, values if len(values) == n else values[:n])
                 if rule == -2:
                     self.finished = True
                     return False
-                if rule >= 0 and trace is None and not events1:
+                if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None:
                     fired[rule] += 1  # the common case, inline
                     if cmd1[0] != r1.sent_left or cmd1[1] != r1.sent_right:
                         send(r1, cmd1[0], cmd1[1], rule)
@@ -242,6 +292,8 @@ class Run:
             if self.finished:
                 return False
             t = self.tick_index
+            if has_sliders:
+                inputs(t)
             now = t * dt
             readings = sense()
             stop = False
@@ -299,9 +351,13 @@ class Run:
         lets = [s[i] for i in slots]
         label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
+        sliders = [s[p.slot_of[name]] for name in p.slider_names]
+        labels = list(p.label_text(s).values()) if p.labels else []
+        events = [p.metric_names[i] for i in prog.events] + self._slider_events
+        state = p.state_names[s[STATE]] if p.state_names else ""
         self.trace.write([self.tick_index, round(self.tick_index * self.dt, 9), r.name, x, y, heading,
-                          collided, p.state_names[s[STATE]], label, *extra, *lets,
-                          cmd[0], cmd[1], ";".join(p.metric_names[i] for i in prog.events)])
+                          collided, state, label, *extra, *lets, *sliders, *labels,
+                          cmd[0], cmd[1], ";".join(events)])
 
     def run(self, progress: Callable[[int, float], None] | None = None,
             max_ticks: int | None = None) -> Summary:
@@ -336,7 +392,9 @@ class Run:
             metrics = {name: metric_result(agg, acc, self.dt) for name, agg, acc in
                        zip(p.metric_names, p.metric_aggregates, r.program.metric_values)}
             out.robots[r.name] = {"contacts": contacts.count, "contact_time_s": contacts.time_s,
-                                  "clamped_ticks": r.clamped_ticks, "metrics": metrics}
+                                  "clamped_ticks": r.clamped_ticks, "metrics": metrics,
+                                  "labels": p.label_text(r.program.slots) if p.labels else {},
+                                  "mechanism": r.model is None}
         if len(self.robots) > 1:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
