@@ -1,8 +1,10 @@
 """World files: YAML with positions to a ``labsim.backends.world.World``.
 
 A world file describes a scene once for every backend: the room's walls, solid blocks, the
-area robots may be placed in, and numbered spawn poses. Its errors are reported like a
-behaviour file's, with the world file's path, line and column.
+area robots may be placed in, numbered spawn poses and, optionally, what is painted on the
+floor for cameras to see (``ground``, to ``labsim.backends.ground.Ground``) and an articulated
+``mechanism`` (read by ``labsim.dsl.world_mechanism``). Its errors are reported like a
+behaviour file's, with the world file's path, line and column, all of them at once.
 
     labsim-world: 1
     name: walls_lab4
@@ -13,6 +15,32 @@ behaviour file's, with the world file's path, line and column.
       - {center: [6.5, 6.5], size: [2, 2]}
     spawns:                                  # [x, y, heading_deg]
       - [0, 0, 90]
+    ground:                                  # what cameras see (optional)
+      floor: [205, 205, 200]                 # RGB 0..255 (default [205, 205, 200])
+      px_per_m: 100                          # texture resolution (default 100, at most 1000)
+      roads:
+        - width: 0.8                         # metres, > 0 (required)
+          color: [25, 25, 25]                # default [25, 25, 25]
+          closed: true                       # the last point joins the first (default false)
+          path:                              # the centreline, in the road's direction of travel
+            - [-3, -2]                       # a point [x, y]
+            - [3, -2]
+            - {arc: {center: [3, 0], radius: 2, to_deg: 90}}
+      lines:                                 # painted, square ends; width (default 0.05) and
+        - {from: [0, -2.4], to: [0, -1.6], width: 0.05, color: [255, 255, 255]}   # color optional
+      patches:                               # painted boxes; color (default [25, 25, 25]) and
+        - {center: [5, 5], size: [1, 0.5], color: [200, 30, 30], angle_deg: 0}   # angle optional
+    mechanism: ...                           # read by labsim.dsl.world_mechanism
+
+A road's path is points and arcs. An arc continues from the previous point around ``center``
+with ``radius`` to the angle ``to_deg`` (degrees, counter-clockwise from +x): its start angle
+is where the previous point lies on the circle, in (-180, 180], and the previous point must be
+on the circle within 1 cm. It turns counter-clockwise if ``to_deg`` is greater than the start
+angle, clockwise if smaller, by at most one full turn; so ``to_deg: 270`` from the circle's
+left point (180) goes counter-clockwise through the bottom. Arcs become chords within 0.5 mm of
+the circle. A road needs at least two points (three when closed); a closed road whose path
+ends where it began is joined there. The first road is the one ``road_offset``, ``on_road``
+and ``laps`` refer to (labsim.backends.ground).
 """
 from __future__ import annotations
 
@@ -21,11 +49,25 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from labsim.backends.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
 from labsim.backends.world import Block, Pose, Wall, World
 from labsim.dsl.errors import LabsimError, Report, did_you_mean
 from labsim.dsl.source import Document, load, scalar_value
 
-KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns")
+KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
+        "ground", "mechanism")
+GROUND_KEYS = ("floor", "px_per_m", "roads", "lines", "patches")
+ROAD_KEYS = ("width", "color", "closed", "path")
+LINE_KEYS = ("from", "to", "width", "color")
+PATCH_KEYS = ("center", "size", "color", "angle_deg")
+
+ARC_ON_CIRCLE_M = 0.01  # how far an arc's start may be off its circle
+CHORD_SAGITTA_M = 0.0005  # arcs become chords no further than this from the circle
+CLOSE_M = 0.001  # a closed road's last point this near its first is the same point
+MAX_PX_PER_M = 1000.0
+LINE_WIDTH_M = 0.05
+LINE_RGB = (255, 255, 255)
+PATCH_RGB = DEFAULT_ROAD_RGB
 
 
 def load_world(path: str | Path, report: Report) -> World | None:
@@ -133,7 +175,188 @@ class _WorldReader:
             p = self.numbers(item, (2, 3), "a spawn pose [x, y, heading_deg]")
             if p:
                 spawns.append(Pose(p[0], p[1], math.radians(p[2]) if len(p) == 3 else 0.0))
-        return World(name, description, bounds, tuple(walls), tuple(blocks), tuple(spawns), self.doc.path)
+        ground = self.ground(f["ground"]) if "ground" in f else None
+        mechanism = self.mechanism(root, f["mechanism"]) if "mechanism" in f else None
+        return World(name, description, bounds, tuple(walls), tuple(blocks), tuple(spawns), self.doc.path,
+                     ground=ground, mechanism=mechanism)
+
+    # --- mechanism: a colleague's reader, imported only when a file has the key ---------------
+
+    def mechanism(self, root: MappingNode, node: Node) -> object | None:
+        try:
+            from labsim.dsl.world_mechanism import read_mechanism
+        except ModuleNotFoundError as e:
+            if e.name not in ("labsim.dsl.world_mechanism", "labsim.dsl", "labsim"):
+                raise  # the module exists but is broken: a bug, not the user's mistake
+            key = next((k for k, v in root.value if v is node), node)
+            self.error(key, "'mechanism' is not supported yet by this labsim")
+            return None
+        return read_mechanism(node, self.doc, self.report)
+
+    # --- ground ---------------------------------------------------------------------------------
+
+    def colour(self, node: Node, what: str) -> tuple[int, int, int]:
+        msg = f"{what} must be three numbers 0..255: [red, green, blue]"
+        if not isinstance(node, SequenceNode) or len(node.value) != 3:
+            self.error(node, msg)
+            return (0, 0, 0)
+        out = []
+        for v in node.value:
+            x = scalar_value(v) if isinstance(v, ScalarNode) else None
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 <= x <= 255:
+                self.error(v, msg)
+                return (0, 0, 0)
+            out.append(int(round(x)))
+        return (out[0], out[1], out[2])
+
+    def positive(self, node: Node, what: str) -> float:
+        before = len(self.report.errors)
+        v = self.number(node, what)
+        if v <= 0 and len(self.report.errors) == before:  # not twice for what is no number at all
+            self.error(node, f"{what} must be positive")
+        return v
+
+    def ground(self, node: Node) -> Ground | None:
+        before = len(self.report.errors)
+        if not isinstance(node, MappingNode):
+            self.error(node, "'ground' is a mapping: floor, px_per_m, roads, lines, patches")
+            return None
+        g = self.fields(node, GROUND_KEYS, "ground")
+        floor = self.colour(g["floor"], "floor") if "floor" in g else DEFAULT_FLOOR_RGB
+        ppm = DEFAULT_PX_PER_M
+        if "px_per_m" in g:
+            ppm = self.positive(g["px_per_m"], "px_per_m")
+            if ppm > MAX_PX_PER_M:
+                self.error(g["px_per_m"], f"px_per_m must be at most {MAX_PX_PER_M:g} (1 mm per pixel)")
+        roads = [r for item in (self.items(g["roads"], "roads") if "roads" in g else [])
+                 if (r := self.road(item)) is not None]
+        lines = []
+        for item in self.items(g["lines"], "lines") if "lines" in g else []:
+            ln = self.fields(item, LINE_KEYS, "lines")
+            if not isinstance(item, MappingNode):
+                continue
+            if "from" not in ln or "to" not in ln:
+                self.error(item, "a line needs 'from: [x, y]' and 'to: [x, y]'")
+                continue
+            a, b = self.numbers(ln["from"], (2,), "from"), self.numbers(ln["to"], (2,), "to")
+            width = self.positive(ln["width"], "a line's width") if "width" in ln else LINE_WIDTH_M
+            rgb = self.colour(ln["color"], "color") if "color" in ln else LINE_RGB
+            if a and b:
+                if a == b:
+                    self.error(item, "a line's 'from' and 'to' must differ")
+                lines.append(Line((a[0], a[1]), (b[0], b[1]), width, rgb))
+        patches = []
+        for item in self.items(g["patches"], "patches") if "patches" in g else []:
+            pa = self.fields(item, PATCH_KEYS, "patches")
+            if not isinstance(item, MappingNode):
+                continue
+            if "center" not in pa or "size" not in pa:
+                self.error(item, "a patch needs 'center: [x, y]' and 'size: [width, depth]'")
+                continue
+            c, sz = self.numbers(pa["center"], (2,), "center"), self.numbers(pa["size"], (2,), "size")
+            angle = math.radians(self.number(pa["angle_deg"], "angle_deg")) if "angle_deg" in pa else 0.0
+            rgb = self.colour(pa["color"], "color") if "color" in pa else PATCH_RGB
+            if c and sz:
+                if sz[0] <= 0 or sz[1] <= 0:
+                    self.error(pa["size"], "a patch's size must be positive")
+                    continue
+                patches.append(Patch(_box(c[0], c[1], sz[0], sz[1], angle), rgb))
+        if len(self.report.errors) != before:
+            return None
+        return Ground(floor, tuple(roads), tuple(lines), tuple(patches), ppm)
+
+    def road(self, item: Node) -> Road | None:
+        r = self.fields(item, ROAD_KEYS, "roads")
+        if not isinstance(item, MappingNode):
+            return None
+        if "path" not in r or "width" not in r:
+            missing = " and ".join(f"'{k}'" for k in ("width", "path") if k not in r)
+            self.error(item, f"a road needs {missing} (width: metres, path: a list of points [x, y] and arcs)")
+            if "path" not in r:
+                return None
+        width = self.positive(r["width"], "a road's width") if "width" in r else 0.0
+        rgb = self.colour(r["color"], "color") if "color" in r else DEFAULT_ROAD_RGB
+        closed = False
+        if "closed" in r:
+            v = scalar_value(r["closed"]) if isinstance(r["closed"], ScalarNode) else None
+            if not isinstance(v, bool):
+                self.error(r["closed"], "closed must be true or false")
+            closed = v is True
+        points = self.path(r["path"])
+        if points is None:
+            return None
+        if closed and len(points) > 2 and math.dist(points[0], points[-1]) <= CLOSE_M:
+            points.pop()  # the path came back to its start: the closing segment joins them
+        if len(points) < 2:
+            self.error(r["path"], "a road needs at least two points")
+            return None
+        if closed and len(points) < 3:
+            self.error(r["path"], "a closed road needs at least three points")
+            return None
+        return Road(tuple(points), closed, width, rgb)
+
+    def path(self, node: Node) -> list[tuple[float, float]] | None:
+        """The points of a road's path, arcs expanded into chords; None after an error."""
+        if not isinstance(node, SequenceNode):
+            self.error(node, "a road's 'path' must be a list of points [x, y] and arcs")
+            return None
+        before = len(self.report.errors)
+        points: list[tuple[float, float]] = []
+        for item in node.value:
+            if isinstance(item, MappingNode):
+                arc = self.fields(item, ("arc",), "a path")
+                if "arc" not in arc:
+                    if not item.value:
+                        self.error(item, "a path item is a point [x, y] or {arc: {center, radius, to_deg}}")
+                    continue
+                if not points:
+                    self.error(item, "an arc continues from the previous point: start the path with a point [x, y]")
+                    continue
+                points += self.arc(arc["arc"], points[-1])
+            else:
+                p = self.numbers(item, (2,), "a path point [x, y]")
+                if p is not None:
+                    points.append((p[0], p[1]))
+        return points if len(self.report.errors) == before else None
+
+    def arc(self, node: Node, start: tuple[float, float]) -> list[tuple[float, float]]:
+        """The chord end points of an arc from start (exclusive) to its end (inclusive)."""
+        before = len(self.report.errors)
+        a = self.fields(node, ("center", "radius", "to_deg"), "an arc")
+        if not isinstance(node, MappingNode):
+            return []
+        missing = [k for k in ("center", "radius", "to_deg") if k not in a]
+        if missing:
+            if len(self.report.errors) == before:  # after a misspelt key, did-you-mean says enough
+                self.error(node, "an arc needs " + ", ".join(f"'{k}'" for k in missing)
+                           + " ({center: [x, y], radius: metres, to_deg: degrees})")
+            return []
+        c = self.numbers(a["center"], (2,), "center")
+        radius = self.positive(a["radius"], "an arc's radius")
+        to_deg = self.number(a["to_deg"], "to_deg")
+        if c is None or len(self.report.errors) != before:
+            return []
+        # + 0.0 turns -0.0 into 0.0, so a point written [x, -0] starts at 180, not -180
+        dx, dy = start[0] - c[0] + 0.0, start[1] - c[1] + 0.0
+        off = math.hypot(dx, dy) - radius
+        if abs(off) > ARC_ON_CIRCLE_M:
+            self.error(a["center"], f"the arc starts at the previous point ({start[0]:g}, {start[1]:g}), "
+                       f"which is {math.hypot(dx, dy):.4g} m from the centre, not on the circle of "
+                       f"radius {radius:g} (allowed: {ARC_ON_CIRCLE_M * 100:g} cm)")
+            return []
+        from_deg = math.degrees(math.atan2(dy, dx))
+        sweep = math.radians(to_deg - from_deg)
+        if abs(sweep) < 1e-9:
+            self.error(a["to_deg"], f"the arc ends where it starts ({from_deg:g} degrees on its circle)")
+            return []
+        if abs(sweep) > 2 * math.pi + 1e-9:
+            self.error(a["to_deg"], f"an arc turns at most one full circle; it starts at {from_deg:.4g} degrees")
+            return []
+        step = min(math.radians(5), 2 * math.acos(max(-1.0, 1 - CHORD_SAGITTA_M / radius)))
+        n = max(1, math.ceil(abs(sweep) / step))
+        start_rad = math.atan2(dy, dx)
+        return [(c[0] + radius * math.cos(start_rad + sweep * i / n),
+                 c[1] + radius * math.sin(start_rad + sweep * i / n)) for i in range(1, n + 1)]
 
 
 def _box(cx: float, cy: float, w: float, d: float, angle: float) -> tuple[tuple[float, float], ...]:

@@ -2,7 +2,8 @@
 
 This is the last stage of the pipeline: ``labsim.runtime.run`` writes a trace (see
 ``labsim.runtime.trace``), and this module reads it back with the world it names and draws,
-to scale and with OpenCV only, the room's walls and blocks, every robot's path with its start,
+to scale and with OpenCV only, the floor and what is painted on it (roads, lines, patches, when
+the world has a ground), the room's walls and blocks, every robot's path with its start,
 end and heading, the ticks it collided and the metric events it raised, and a legend and title
 that say which behaviour, world, seed and backend made the run. ``render_figure`` builds the
 image in memory (tests and other front ends use it); ``plot_trace`` also writes the file.
@@ -17,6 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from labsim.backends.ground import Ground
 from labsim.backends.world import World, builtin_worlds
 from labsim.dsl.errors import Report
 from labsim.dsl.world import load_world
@@ -225,6 +227,10 @@ def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float,
         for b in world.blocks:
             xs += [c[0] for c in b.corners]
             ys += [c[1] for c in b.corners]
+        ground_ext = world.ground.extent() if isinstance(world.ground, Ground) else None
+        if ground_ext is not None:
+            xs += [ground_ext[0], ground_ext[2]]
+            ys += [ground_ext[1], ground_ext[3]]
     for p in paths:
         if len(p.xy):
             xs += [float(p.xy[:, 0].min()), float(p.xy[:, 0].max())]
@@ -355,11 +361,17 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
         out[:, 1] = map_top + (y1 - xy[:, 1]) / mpp
         return out
 
-    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), MAP_BG, -1)
+    ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
+    # a ground's floor colour replaces the map's background; the grid stays visible on it
+    floor = _bgr(ground.floor_rgb) if ground is not None else MAP_BG
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
     _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1))
 
-    # the world under everything: blocks filled, walls at their real thickness (round ends,
-    # as the physics backend models a wall as a thick segment)
+    # the world under everything: what is painted on the floor, then blocks filled, and walls
+    # at their real thickness (round ends, as the physics backend models a wall as a thick
+    # segment)
+    if ground is not None:
+        _ground(img, ground, px, mpp)
     if world is not None:
         for b in world.blocks:
             poly = np.round(px(np.array(b.corners, float)) * ONE).astype(np.int32)
@@ -407,6 +419,30 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
 
     _legend(img, P, paths, events, map_left + map_w + round(22 * s), map_top, map_h, mpp)
     return fig
+
+
+def _ground(img: np.ndarray, ground: Ground, px: object, mpp: float) -> None:
+    """Patches, roads and lines to scale, in the order a camera sees them drawn.
+
+    Roads are thick polylines (OpenCV gives their joints round caps, so the band keeps its
+    width around corners), at least a pixel wide; lines are filled bands with square ends.
+    ``px`` maps an (n, 2) array of metres to pixel coordinates.
+    """
+    for patch in ground.patches:
+        poly = np.round(px(np.array(patch.corners, float)) * ONE).astype(np.int32)
+        cv2.fillPoly(img, [poly], _bgr(patch.rgb), AA, SHIFT)
+    for road in ground.roads:
+        pts = np.round(px(np.array(road.points, float)) * ONE).astype(np.int32)
+        cv2.polylines(img, [pts], road.closed, _bgr(road.rgb), max(1, round(road.width_m / mpp)), AA, SHIFT)
+    for line in ground.lines:
+        a, b = px(np.array([line.a, line.b], float))
+        d = b - a
+        n = float(np.hypot(*d))
+        if n == 0:
+            continue
+        across = np.array([-d[1], d[0]]) / n * max(line.width_m / mpp, 1.0) / 2
+        band = np.round(np.array([a + across, b + across, b - across, a - across]) * ONE).astype(np.int32)
+        cv2.fillPoly(img, [band], _bgr(line.rgb), AA, SHIFT)
 
 
 def _wall(img: np.ndarray, ab: np.ndarray, thick_px: float) -> None:

@@ -392,3 +392,99 @@ def test_public_space_and_bodies() -> None:
     assert all(body.space is b.space for body in b.bodies)
     b.close()
     assert b.space is None and b.bodies == []
+
+
+# --- forward speed and road channels ----------------------------------------------------------
+
+def road_loop() -> World:
+    from labsim.backends.world import builtin_worlds
+    from labsim.dsl.errors import Report
+    from labsim.dsl.world import load_world
+    world = load_world(builtin_worlds()["road_loop"], Report())
+    assert world is not None
+    return world
+
+
+def test_forward_speed_is_the_velocity_along_the_heading() -> None:
+    b = opened(EMPTY, Pose(0.0, 0.0, 2.0), channels=("forward_speed", "heading"))
+    assert b.sense()[0][0] == 0.0
+    run(b, 10, 6.0, 6.0)
+    assert b.sense()[0][0] == pytest.approx(6.0 * R, rel=1e-9)
+    run(b, 10, -4.0, -4.0)
+    assert b.sense()[0][0] == pytest.approx(-4.0 * R, rel=1e-9)
+    run(b, 10, -3.0, 3.0)  # turning on the spot: no speed along the heading
+    assert b.sense()[0][0] == pytest.approx(0.0, abs=1e-9)
+    run(b, 10, 3.0, 5.0)  # an arc: the mean of the wheels
+    assert b.sense()[0][0] == pytest.approx(4.0 * R, rel=1e-6)
+
+
+def test_forward_speed_against_a_wall_is_what_the_wall_leaves() -> None:
+    b = opened(room(), Pose(0.0, 0.0, 0.0), channels=("forward_speed", "collided"))
+    run(b, 60, 10.0, 10.0)  # long enough to reach the wall and push
+    speed, collided = b.sense()[0]
+    assert collided and abs(speed) < 0.05
+
+
+def test_road_channels_on_and_off_the_road() -> None:
+    world = road_loop()
+    start = world.spawns[0]  # on the bottom straight, heading east
+    left = Pose(start.x_m, start.y_m + 0.5, 0.0)
+    right = Pose(start.x_m + 2.0, start.y_m - 0.3, 0.0)
+    b = PymunkBackend()
+    b.open(world, [req(p, ("road_offset", "on_road", "x"), f"p[{i}]") for i, p in enumerate((start, left, right))],
+           DT, seed=1)
+    (o0, on0, _), (o1, on1, _), (o2, on2, _) = b.sense()
+    assert o0 == pytest.approx(0.0, abs=1e-9) and on0 is True
+    assert o1 == pytest.approx(0.5) and on1 is False  # half the road is 0.4 m
+    assert o2 == pytest.approx(-0.3) and on2 is True
+
+
+def test_laps_counted_driving_round_the_loop() -> None:
+    world = road_loop()
+    road = world.ground.roads[0]
+    b = PymunkBackend()
+    b.open(world, [req(world.spawns[0], ("laps", "x", "y"))], DT, seed=1)
+    body = b.bodies[0]
+    # teleport the robot along the centreline, from the point after its start, tick by tick
+    pts = list(road.points)
+    k0 = min(range(len(pts)), key=lambda k: math.dist(pts[k], (world.spawns[0].x_m, world.spawns[0].y_m)))
+    order = pts[k0 + 1:] + pts[:k0 + 1]
+    seen = []
+    for lap in range(2):
+        for x, y in order[::3] + [order[-1]]:
+            body.position = (x, y)
+            b.step()
+            seen.append(b.sense()[0][0])
+        # the start spawn lies just past points[k0]: a little short of each lap
+        assert b.sense()[0][0] == lap
+        body.position = (world.spawns[0].x_m + 0.1, world.spawns[0].y_m)
+        b.step()
+        assert b.sense()[0][0] == lap + 1
+    assert seen == sorted(seen)  # it never counted down
+    # and backwards: back over the start counts down, and so does a whole loop backwards
+    body.position = (world.spawns[0].x_m - 0.1, world.spawns[0].y_m)
+    b.step()
+    assert b.sense()[0][0] == 1
+    for x, y in (order[::-3] + [order[0]]):
+        body.position = (x, y)
+        b.step()
+    body.position = (world.spawns[0].x_m - 0.2, world.spawns[0].y_m)
+    b.step()
+    assert b.sense()[0][0] == 0
+
+
+def test_road_channels_need_a_road() -> None:
+    b = PymunkBackend()
+    with pytest.raises(BackendError, match=r"'road_offset'.*no road") as info:
+        b.open(room(), [req(Pose(0.0, 0.0, 0.0), ("x", "road_offset"))], DT, seed=1)
+    assert "pioneer" in str(info.value)
+    assert b.space is None
+    with pytest.raises(BackendError, match=r"'laps'"):
+        b.open(room(), [req(Pose(0.0, 0.0, 0.0), ("laps",))], DT, seed=1)
+
+
+def test_sonar_only_sense_computes_nothing_else() -> None:
+    b = opened(road_loop(), Pose(0.0, -4.0, 0.0), channels=("sonar5", "sonar8", "collided"))
+    names = set(b._sense.__code__.co_names)
+    assert not names & {"render", "offset", "laps", "velocity"}
+    assert b._lap_robots == []

@@ -7,6 +7,20 @@ collision callbacks. It needs nothing but pymunk, runs in-process, and is determ
 same world, robots, commands and dt give bit-identical readings in every run and process.
 The runtime reaches it only through ``labsim.backends.protocol.Backend``; ``space`` and
 ``bodies`` are public so that a benchmark can drive the very same scene by hand.
+
+Beyond sonars, pose and ``collided``, a robot may read:
+
+* a camera (a name from ``RobotModel.cameras``): an RGB image of the world's ground from
+  ``labsim.backends.pymunk.camera`` (walls and robots are not in it); OpenCV is imported, and
+  the ground drawn, only when some robot reads a camera;
+* ``forward_speed``: m/s, the body's velocity along its heading, as the last step moved it;
+* in a world with a road (``labsim.backends.ground.world_channels``): ``road_offset``,
+  ``on_road`` and ``laps``, measured at the robot's origin against the first road. Laps are
+  counted in ``step()``, once per tick after the physics (not per sub-step), for the robots
+  that read them, so they do not depend on how often ``sense()`` is called.
+
+Nothing is computed for a channel no robot reads: sense() for a sonar-only behaviour is the
+same code as before these channels existed.
 """
 from __future__ import annotations
 
@@ -15,6 +29,7 @@ from typing import Callable, Sequence
 
 import pymunk
 
+from labsim.backends.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
 from labsim.backends.protocol import BackendError, BackendStateError, ContactStats, RobotRequest
 from labsim.backends.world import World
 
@@ -32,6 +47,7 @@ COLLISION_SLOP_M = 0.0005
 _STATIC_TYPE = 0
 
 _SONAR = "sonar"  # tags a sonar's channel spec in _compile_sense
+_CAMERA = "camera"  # tags a camera's channel spec (a camera's own name could be anything)
 
 _TWO_PI = 2.0 * math.pi
 
@@ -68,6 +84,9 @@ def _compile_sense(
     query: Callable[..., pymunk.SegmentQueryInfo | None],
     robots: list[tuple[pymunk.Body, pymunk.ShapeFilter, list[tuple]]],
     touching: list[int],
+    render: Callable[..., object] | None = None,
+    tracker: RoadTracker | None = None,
+    laps: list[int] | None = None,
 ) -> Callable[[], list[list[object]]]:
     """Generate ``sense()`` as straight-line code for these robots and channels.
 
@@ -88,28 +107,44 @@ def _compile_sense(
             return [[v0_0, touching[0] > 0]]
 
     ``robots`` holds per robot its body, its rays' shape filter, and its channels in the
-    requested order: ``(_SONAR, mount_x, mount_y, end_dx, end_dy, range)`` or ``(name,)``.
-    repr() of a float reads back as the same float, so the literals change no reading.
+    requested order: ``(_SONAR, mount_x, mount_y, end_dx, end_dy, range)``,
+    ``(_CAMERA, camera)`` or ``(name,)``. repr() of a float reads back as the same float, so
+    the literals change no reading. Cameras call ``render(x, y, angle, camera)``; road
+    channels call ``tracker.offset`` once per robot; ``laps`` reads the list ``step()`` keeps.
     """
     env: dict[str, object] = {
         "query": query, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": _wrap,
-        "touching": touching,
+        "touching": touching, "abs": abs, "render": render, "laps": laps,
+        "offset": tracker.offset if tracker is not None else None,
     }
+    half_width = tracker.half_width_m if tracker is not None else 0.0
     lines = ["def sense():"]
     rows = []
     for r, (body, flt, specs) in enumerate(robots):
         env[f"body{r}"] = body
         env[f"filter{r}"] = flt
         kinds = {spec[0] for spec in specs}
-        if kinds & {_SONAR, "x", "y"}:
+        if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road"}:
             lines.append(f"    x{r}, y{r} = body{r}.position")
-        if kinds & {_SONAR, "heading"}:
+        if kinds & {_SONAR, "heading", _CAMERA, "forward_speed"}:
             lines.append(f"    a{r} = body{r}.angle")
         if _SONAR in kinds:
             lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
+        if kinds & {"road_offset", "on_road"}:
+            lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
         values = []
         for k, spec in enumerate(specs):
-            if spec[0] == _SONAR:
+            if spec[0] == _CAMERA:
+                env[f"cam{r}_{k}"] = spec[1]
+                lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k})")
+                values.append(f"v{r}_{k}")
+            elif spec[0] == "forward_speed":
+                lines += [
+                    f"    vx, vy = body{r}.velocity",
+                    f"    v{r}_{k} = vx * cos(a{r}) + vy * sin(a{r})",
+                ]
+                values.append(f"v{r}_{k}")
+            elif spec[0] == _SONAR:
                 _, mx, my, ex, ey, rng = spec
                 lines += [
                     f"    ox = x{r} + c * {mx!r} - s * {my!r}",
@@ -123,6 +158,8 @@ def _compile_sense(
                 values.append({
                     "x": f"x{r}", "y": f"y{r}", "heading": f"wrap(a{r})",
                     "collided": f"touching[{r}] > 0",
+                    "road_offset": f"ro{r}", "on_road": f"abs(ro{r}) <= {half_width!r}",
+                    "laps": f"laps[{r}]",
                 }[spec[0]])
         rows.append(f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
@@ -169,6 +206,10 @@ class PymunkBackend:
         self._touching: list[int] = []  # contacts in progress, per robot
         self._count: list[int] = []
         self._time_s: list[float] = []
+        # Laps: the first road's tracker, the robots that read laps, their completed laps.
+        self._tracker: RoadTracker | None = None
+        self._lap_robots: list[int] = []
+        self._laps: list[int] = []
         self._opened = False
 
     # --- protocol ---------------------------------------------------------------------------
@@ -180,14 +221,32 @@ class PymunkBackend:
         if not dt_s > 0:
             raise BackendError(f"pymunk backend: dt_s must be positive, not {dt_s!r}")
         # Check every channel before building anything, so a bad request leaves no half scene.
+        from_world = world_channels(world)
+        if world.ground is not None and not isinstance(world.ground, Ground):
+            raise BackendError(f"world '{world.name}': its ground is not a labsim Ground "
+                               f"({type(world.ground).__name__})")
+        cameras_read = False
         for req in robots:
             offered = req.model.channels()
+            cameras = {c.name: c for c in req.model.cameras}
             for ch in req.channels:
-                if ch not in offered:
+                if ch in ROAD_CHANNELS and ch not in from_world and ch not in offered:
+                    raise BackendError(
+                        f"robot '{req.name}' asks for '{ch}', but world '{world.name}' has no "
+                        f"road; '{ch}' needs a world whose ground has roads"
+                    )
+                if ch not in offered and ch not in from_world:
                     raise BackendError(
                         f"robot '{req.name}' asks for unknown channel '{ch}'; model "
-                        f"'{req.model.name}' offers: {', '.join(offered)}"
+                        f"'{req.model.name}' offers: {', '.join([*offered, *from_world])}"
                     )
+                if ch in cameras:
+                    cameras_read = True
+                    from labsim.backends.pymunk.camera import check_camera  # OpenCV: only now
+                    try:
+                        check_camera(cameras[ch])
+                    except ValueError as e:
+                        raise BackendError(f"robot '{req.name}', model '{req.model.name}': {e}") from None
             for s in req.model.sonars:
                 # A ray needs finite ends (and sense() writes these numbers as literals).
                 if not all(math.isfinite(v) for v in (s.x_m, s.y_m, s.angle_rad, s.range_m)) \
@@ -235,11 +294,14 @@ class PymunkBackend:
             bodies.append(body)
 
             sonars_by_name = {s.name: s for s in model.sonars}
+            cameras_by_name = {c.name: c for c in model.cameras}
             specs: list[tuple] = []
             for ch in req.channels:
                 s = sonars_by_name.get(ch)
-                if s is None:
-                    specs.append((ch,))  # a pose channel or "collided", checked above
+                if ch in cameras_by_name and s is None:
+                    specs.append((_CAMERA, cameras_by_name[ch]))
+                elif s is None:
+                    specs.append((ch,))  # pose, collided, forward_speed, road: checked above
                 else:
                     # The ray's end offset from the mount in the robot frame is the whole
                     # range along the axis, so the hit's alpha times range is the distance.
@@ -272,10 +334,32 @@ class PymunkBackend:
 
         space.on_collision(None, None, begin=begin, separate=separate)
 
+        # Cameras and roads: built only when some robot reads them.
+        render = None
+        if cameras_read:
+            try:
+                from labsim.backends.pymunk.camera import ground_view
+                render = ground_view(world.ground if world.ground is not None else Ground()).render
+            except ValueError as e:
+                raise BackendError(f"world '{world.name}': {e}") from None
+        road = first_road(world)
+        try:
+            tracker = RoadTracker(road) if road is not None else None
+        except ValueError as e:  # only a Ground built in code can get here: files are checked
+            raise BackendError(f"world '{world.name}': {e}") from None
+        lap_robots = [i for i, req in enumerate(robots) if "laps" in req.channels]
+        laps = [0] * n
+        if tracker is not None:
+            for i in lap_robots:
+                tracker.start(i, robots[i].pose.x_m, robots[i].pose.y_m)
+
         self.space = space
         self.bodies = bodies
         self._substep_s = dt_s / self.substeps
-        self._sense = _compile_sense(space.segment_query_first, plans, touching)
+        self._sense = _compile_sense(space.segment_query_first, plans, touching, render, tracker, laps)
+        self._tracker = tracker
+        self._lap_robots = lap_robots
+        self._laps = laps
         self._half_r = [req.model.wheel_radius_m / 2.0 for req in robots]
         self._r_over_axle = [req.model.wheel_radius_m / req.model.axle_length_m for req in robots]
         self._v = vs
@@ -320,6 +404,11 @@ class PymunkBackend:
                 for r, t in enumerate(touching):
                     if t:
                         time_s[r] += h
+        if self._lap_robots:  # once per tick, after the physics: see the module docstring
+            tracker, laps, bodies = self._tracker, self._laps, self.bodies
+            for r in self._lap_robots:
+                x, y = bodies[r].position
+                laps[r] = tracker.update(r, x, y)
 
     def pose(self, robot: int) -> tuple[float, float, float]:
         if self._sense is None:
@@ -341,6 +430,8 @@ class PymunkBackend:
         self.space = None
         self.bodies = []
         self._sense = None
+        self._tracker = None
+        self._lap_robots = []
 
     # --- helpers ----------------------------------------------------------------------------
 

@@ -1,0 +1,241 @@
+"""What a camera sees on the floor: roads, painted lines and patches, as plain data and geometry.
+
+A world file's ``ground:`` section (``labsim.dsl.world`` reads it) becomes a frozen ``Ground``
+stored in ``World.ground``. Backends draw it (the pymunk backend's camera renders it from a
+texture, ``labsim.backends.pymunk.camera``), ``labsim plot`` draws it under the trajectories,
+and ``RoadTracker`` measures a robot against a road: its signed lateral offset from the
+centreline, its arc-length position along it, and the laps it has driven. ``world_channels``
+names the channels a world with a road offers every robot, for the checker and the backends.
+
+Nothing here imports a simulator or OpenCV. Frames and units as everywhere in labsim: x east,
+y north, metres, angles counter-clockwise; colours are RGB 0..255.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Hashable
+
+import numpy as np
+
+from labsim.backends.models import Kind
+
+if TYPE_CHECKING:
+    from labsim.backends.world import World
+
+RGB = tuple[int, int, int]
+Point = tuple[float, float]
+
+DEFAULT_FLOOR_RGB: RGB = (205, 205, 200)  # a light floor; also what a camera sees in a world without ground
+DEFAULT_ROAD_RGB: RGB = (25, 25, 25)
+DEFAULT_PX_PER_M = 100.0  # texture resolution: 1 cm per texture pixel
+
+
+@dataclass(frozen=True)
+class Road:
+    """A road of constant width along a centreline polyline.
+
+    ``points`` (metres, at least two) are the centreline in the road's direction of travel:
+    offsets are positive to the left of that direction, and laps count in it. A closed road
+    joins its last point back to its first (a last point equal to the first is allowed and
+    adds nothing). Arcs in world files arrive here as many short chords (within 0.5 mm of
+    the circle).
+    """
+
+    points: tuple[Point, ...]
+    closed: bool
+    width_m: float
+    rgb: RGB = DEFAULT_ROAD_RGB
+
+
+@dataclass(frozen=True)
+class Line:
+    """A painted straight line from a to b, width_m wide; its ends are cut square at a and b."""
+
+    a: Point
+    b: Point
+    width_m: float
+    rgb: RGB
+
+
+@dataclass(frozen=True)
+class Patch:
+    """A painted polygon on the floor, corners in order, world frame."""
+
+    corners: tuple[Point, ...]
+    rgb: RGB
+
+
+@dataclass(frozen=True)
+class Ground:
+    """The floor's colour and what is painted on it.
+
+    Drawn in this order, each kind in file order: patches, then roads, then lines (so a
+    start line crosses a road, and a road crosses a patch). ``px_per_m`` is the resolution of
+    the texture a backend may draw this into.
+    """
+
+    floor_rgb: RGB = DEFAULT_FLOOR_RGB
+    roads: tuple[Road, ...] = ()
+    lines: tuple[Line, ...] = ()
+    patches: tuple[Patch, ...] = ()
+    px_per_m: float = DEFAULT_PX_PER_M
+
+    def extent(self) -> tuple[float, float, float, float] | None:
+        """xmin, ymin, xmax, ymax (metres) of everything painted, widths included; None if bare."""
+        xs: list[float] = []
+        ys: list[float] = []
+        for r in self.roads:
+            h = r.width_m / 2
+            xs += [min(p[0] for p in r.points) - h, max(p[0] for p in r.points) + h]
+            ys += [min(p[1] for p in r.points) - h, max(p[1] for p in r.points) + h]
+        for ln in self.lines:
+            h = ln.width_m / 2  # square ends: no corner lies further out than this
+            xs += [min(ln.a[0], ln.b[0]) - h, max(ln.a[0], ln.b[0]) + h]
+            ys += [min(ln.a[1], ln.b[1]) - h, max(ln.a[1], ln.b[1]) + h]
+        for pa in self.patches:
+            xs += [c[0] for c in pa.corners]
+            ys += [c[1] for c in pa.corners]
+        if not xs:
+            return None
+        return (min(xs), min(ys), max(xs), max(ys))
+
+
+# --- channels ---------------------------------------------------------------------------------
+
+# What a world with a road offers every robot, measured at the robot's origin (the middle of
+# its wheel axle) against the world's FIRST road.
+ROAD_CHANNELS: dict[str, Kind] = {
+    "road_offset": Kind.NUMBER,  # metres from the centreline, positive = left of the road's direction
+    "on_road": Kind.BOOL,  # |road_offset| <= width / 2
+    "laps": Kind.NUMBER,  # completed laps since the start (RoadTracker.laps)
+}
+
+
+def world_channels(world: World) -> dict[str, Kind]:
+    """The channels a world offers robots beyond their model's own: the road's, or none."""
+    ground = world.ground
+    if isinstance(ground, Ground) and ground.roads:
+        return dict(ROAD_CHANNELS)
+    return {}
+
+
+def first_road(world: World) -> Road | None:
+    """The road the road channels refer to, or None when the world has none."""
+    ground = world.ground
+    if isinstance(ground, Ground) and ground.roads:
+        return ground.roads[0]
+    return None
+
+
+# --- geometry ---------------------------------------------------------------------------------
+
+class RoadTracker:
+    """Where points are relative to one road, and how many laps each robot has driven on it.
+
+    * ``locate(x, y)`` -> ``(offset_m, s_m)``: the nearest point of the centreline (over all
+      its segments, so it is right wherever the robot is), the signed distance to it
+      (positive to the left of the road's direction) and its arc length from the first point.
+      At a corner of the polyline the side is judged against the bisector of the two segments'
+      directions; past an end of an open road the offset is the distance to that end.
+    * Laps, per robot (any hashable key): ``start(robot, x, y)`` marks where it starts,
+      ``update(robot, x, y)`` must then be called after every move (each tick) and adds the
+      change of ``s`` to the robot's progress. On a closed road the change is taken modulo the
+      road's length, the short way round, so crossing the seam between the last point and the
+      first is continuous; a robot must therefore move less than half the loop between two
+      updates. ``laps(robot)`` is the progress in whole loops, truncated toward zero: 0 until
+      one full loop forward (or backward) from the start, then 1 (or -1), and so on; a robot
+      that backs up a little from its start has 0 laps, and driving backwards counts down.
+      On an open road laps stay 0. Progress follows the nearest centreline point, so a robot
+      cutting across off the road is credited with the arc length it skipped.
+    """
+
+    def __init__(self, road: Road):
+        pts = np.asarray(road.points, dtype=float).reshape(-1, 2)
+        if len(pts) < 2 or not np.isfinite(pts).all():
+            raise ValueError("a road needs at least two finite points")
+        starts = pts
+        ends = np.roll(pts, -1, axis=0) if road.closed else pts[1:]
+        starts = starts[: len(ends)]
+        d = ends - starts
+        length = np.hypot(d[:, 0], d[:, 1])
+        keep = length > 1e-9  # a repeated point (or a closed road's repeated first point) adds nothing
+        if not keep.any():
+            raise ValueError("a road's points must not all be the same")
+        self.road = road
+        self.closed = road.closed
+        self.half_width_m = road.width_m / 2
+        self._ax = starts[keep, 0].copy()
+        self._ay = starts[keep, 1].copy()
+        self._dx = d[keep, 0].copy()
+        self._dy = d[keep, 1].copy()
+        self._len = length[keep]
+        self._len2 = self._len * self._len
+        self._ux = self._dx / self._len
+        self._uy = self._dy / self._len
+        self._s0 = np.concatenate(([0.0], np.cumsum(self._len)[:-1]))
+        self.length_m = float(self._len.sum())
+        self._n = len(self._len)
+        self._last_s: dict[Hashable, float] = {}
+        self._progress: dict[Hashable, float] = {}
+
+    def locate(self, x: float, y: float) -> tuple[float, float]:
+        """(signed lateral offset in metres, arc length in metres) of the nearest centreline point."""
+        px = x - self._ax
+        py = y - self._ay
+        t = (px * self._dx + py * self._dy) / self._len2
+        np.clip(t, 0.0, 1.0, out=t)
+        qx = px - t * self._dx  # from the nearest point of each segment to (x, y)
+        qy = py - t * self._dy
+        k = int(np.argmin(qx * qx + qy * qy))
+        tk = float(t[k])
+        ex, ey = float(qx[k]), float(qy[k])
+        ux, uy = float(self._ux[k]), float(self._uy[k])
+        # At a corner the nearest point is the vertex; the side is judged against the bisector,
+        # as neither segment's own direction says which side of the corner the point is on.
+        if tk <= 0.0 and (k > 0 or self.closed):
+            j = k - 1
+            ux, uy = ux + float(self._ux[j]), uy + float(self._uy[j])
+        elif tk >= 1.0 and (k < self._n - 1 or self.closed):
+            j = (k + 1) % self._n
+            ux, uy = ux + float(self._ux[j]), uy + float(self._uy[j])
+        dist = math.hypot(ex, ey)
+        side = ux * ey - uy * ex  # z of tangent x (point - nearest): > 0 on the left
+        offset = dist if side > 0 else -dist if side < 0 else 0.0
+        return offset, float(self._s0[k] + tk * self._len[k])
+
+    def offset(self, x: float, y: float) -> float:
+        """Signed lateral offset in metres from the centreline, positive to the left."""
+        return self.locate(x, y)[0]
+
+    def on_road(self, x: float, y: float) -> bool:
+        return abs(self.locate(x, y)[0]) <= self.half_width_m
+
+    # laps --------------------------------------------------------------------------------------
+
+    def start(self, robot: Hashable, x: float, y: float) -> None:
+        """Start counting laps for robot from (x, y); its progress is 0 there."""
+        self._last_s[robot] = self.locate(x, y)[1]
+        self._progress[robot] = 0.0
+
+    def update(self, robot: Hashable, x: float, y: float) -> int:
+        """Record the robot's new position; returns its completed laps."""
+        s = self.locate(x, y)[1]
+        ds = s - self._last_s[robot]
+        if self.closed:
+            ds = math.remainder(ds, self.length_m)  # the short way round the seam
+        self._last_s[robot] = s
+        self._progress[robot] += ds
+        return self.laps(robot)
+
+    def progress_m(self, robot: Hashable) -> float:
+        """Metres driven along the road since start(), forward positive."""
+        return self._progress[robot]
+
+    def laps(self, robot: Hashable) -> int:
+        """Completed laps since start(): whole loops of progress, truncated toward zero."""
+        if not self.closed:
+            return 0
+        loops = self._progress[robot] / self.length_m
+        # A robot put back exactly on its start after a loop may sum to 0.9999999999 loops.
+        return math.trunc(loops + math.copysign(1e-9, loops))
