@@ -321,7 +321,7 @@ class _Reader:
             else:
                 size = (int(nums[0]), int(nums[1]))  # type: ignore[arg-type]
         values = {"fov_deg": 60.0, "height_m": 0.3, "pitch_deg": 45.0, "x_m": 0.2}
-        limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0.1, 90), "x_m": (-1, 1)}
+        limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0, 90), "x_m": (-1, 1)}
         for key in values:
             if key in fields:
                 v = self.number(fields[key], key)
@@ -335,15 +335,8 @@ class _Reader:
                     values[key] = float(v)
         if not ok:
             return None
-        camera = Camera("camera", size[0], size[1], values["fov_deg"], values["height_m"], values["pitch_deg"],
-                        values["x_m"])
-        if camera.pitch_deg <= camera.vertical_fov_deg / 2:
-            where = fields.get("pitch_deg", node)
-            self.error(where, f"the camera would see the horizon: pitch_deg must exceed half the vertical "
-                              f"field of view ({camera.vertical_fov_deg / 2:.1f} deg)",
-                       notes=("the camera sees only the floor; tilt it further down or narrow fov_deg",))
-            return None
-        return camera
+        return Camera("camera", size[0], size[1], values["fov_deg"], values["height_m"], values["pitch_deg"],
+                      values["x_m"])
 
     def placement(self, node: Node | None) -> str | tuple[float, float, float] | None:
         if node is None:

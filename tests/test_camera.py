@@ -173,16 +173,18 @@ def test_ground_views_are_shared_and_read_only() -> None:
 
 # --- cameras that cannot work -----------------------------------------------------------------
 
-def test_a_camera_looking_at_the_horizon_is_refused() -> None:
+def test_a_camera_looking_at_the_horizon_sees_sky_above_it() -> None:
+    from labsim.backends.pymunk.camera import SKY_RGB
     half = CAM.vertical_fov_deg / 2  # 30 degrees for a square 60-degree camera
-    assert half == pytest.approx(30.0)
-    for pitch in (half, 20.0, 0.0, -10.0):
-        with pytest.raises(ValueError, match="horizon"):
-            check_camera(dataclasses.replace(CAM, pitch_deg=pitch))
-        with pytest.raises(ValueError, match="horizon"):
-            GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(CAM, pitch_deg=pitch))
-    check_camera(dataclasses.replace(CAM, pitch_deg=half + 0.1))
-    check_camera(dataclasses.replace(CAM, pitch_deg=90.0))
+    level = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(CAM, pitch_deg=0.0))
+    h = CAM.height_px
+    # looking straight ahead, the upper half is sky and the lower half floor and road
+    assert (level[: h // 2 - 1] == SKY_RGB).all()
+    assert not (level[h // 2 + 1:] == SKY_RGB).all(axis=2).any()
+    tilted = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(CAM, pitch_deg=half + 5))
+    assert not (tilted == SKY_RGB).all(axis=2).any()  # all floor once the top row looks down
+    with pytest.raises(ValueError, match="pitch_deg"):
+        check_camera(dataclasses.replace(CAM, pitch_deg=-10.0))
 
 
 @pytest.mark.parametrize("change, words", [
@@ -259,10 +261,10 @@ def test_backend_renders_only_when_a_camera_is_read() -> None:
     assert "render" in b._sense.__code__.co_names
 
 
-def test_backend_refuses_a_camera_that_sees_the_horizon() -> None:
-    bad = dataclasses.replace(PIONEER_P3DX, cameras=(dataclasses.replace(CAM, pitch_deg=10.0),))
+def test_backend_refuses_a_camera_it_cannot_render() -> None:
+    bad = dataclasses.replace(PIONEER_P3DX, cameras=(dataclasses.replace(CAM, pitch_deg=-10.0),))
     b = PymunkBackend()
-    with pytest.raises(BackendError, match=r"robot 'p'.*camera 'camera'.*horizon"):
+    with pytest.raises(BackendError, match=r"robot 'p'.*camera 'camera'.*pitch_deg"):
         b.open(road_world(), [RobotRequest("p", bad, Pose(0.0, -4.0, 0.0), ("camera",))], 0.05, 1)
     assert b.space is None
     # not read, not checked: the model may carry a camera the behaviour ignores

@@ -12,8 +12,8 @@ What the image shows, and what it does not:
 * RGB, ``height_px`` x ``width_px``, row 0 the far edge, column 0 the left: as a person sees it.
 * Only the ground. Walls, blocks and robots (this one and the others) are not drawn: the
   scene has no heights, and the labs that use cameras look down at the road.
-* The horizon must stay out of the frame: a camera whose upper rays would miss the floor
-  (``pitch_deg <= vertical_fov_deg / 2``) is refused with ``ValueError``.
+* Above the floor's horizon (and beyond ``FAR_M`` of floor) the image shows ``SKY_RGB``, a
+  light gray: a camera may look straight ahead. Only the rows that see floor are warped.
 * Bilinear sampling, no mipmapping: detail finer than a camera pixel aliases in the far rows.
 
 ``GroundView.render`` is called from the backend's generated ``sense()`` for each camera
@@ -35,6 +35,8 @@ _ONE = 1 << _SHIFT
 _MARGIN_M = 0.25  # texture beyond the painted extent, so antialiased edges are not cut
 _MAX_SIDE_PX = 32_000  # OpenCV's warps address the source with 16-bit coordinates
 _MAX_TEXTURE_PX = 64_000_000  # 192 MB of RGB; beyond this, a lower px_per_m is the answer
+FAR_M = 30.0  # floor farther than this is drawn as sky: at a few pixels a metre it is noise
+SKY_RGB = (225, 228, 232)  # light, so that a threshold for a dark road reads it as not-road
 
 
 def check_camera(camera: Camera) -> None:
@@ -51,15 +53,9 @@ def check_camera(camera: Camera) -> None:
         raise ValueError(f"{name}: fov_deg must be between 0 and 180, not {camera.fov_deg}")
     if camera.height_m <= 0:
         raise ValueError(f"{name}: height_m must be above the floor (> 0), not {camera.height_m}")
-    if camera.pitch_deg > 90:
-        raise ValueError(f"{name}: pitch_deg must be at most 90 (straight down), not {camera.pitch_deg}")
-    half_v = camera.vertical_fov_deg / 2
-    if camera.pitch_deg <= half_v:
-        raise ValueError(
-            f"{name}: the top of the image would look at or above the horizon (pitch_deg "
-            f"{camera.pitch_deg:g} <= half the vertical field of view, {half_v:.4g}); the camera "
-            f"sees only the floor, so tilt it down by more than {half_v:.4g} degrees"
-        )
+    if not 0 <= camera.pitch_deg <= 90:
+        raise ValueError(f"{name}: pitch_deg must be 0 (straight ahead) to 90 (straight down), "
+                         f"not {camera.pitch_deg}")
 
 
 def draw_ground(ground: Ground) -> tuple[np.ndarray, float, float]:
@@ -233,7 +229,19 @@ class GroundView:
         # up = (sp, 0, cp). As a matrix applied to (c, r, 1):
         k_inv = np.array([[1 / f, 0, (0.5 - w / 2) / f], [0, 1 / f, (0.5 - h / 2) / f], [0, 0, 1]])
         axes = np.array([[0.0, -sp, cp], [-1.0, 0.0, 0.0], [0.0, -cp, -sp]])  # columns: right, -up, forward
-        plan = (axes @ k_inv, (w, h), float(camera.x_m), float(camera.height_m))
+        # The first row that sees floor nearer than FAR_M: the rows above it are sky. The ray
+        # through row r (at the centre column) falls dz = -(sp + yn cp) per unit and goes
+        # forward (cp - yn sp); it meets the floor at horizontal distance h * forward / -dz.
+        first = 0
+        for r in range(h):
+            yn = (r + 0.5 - h / 2) / f
+            dz = -(sp + yn * cp)
+            if dz < 0 and camera.height_m * (cp - yn * sp) / -dz <= FAR_M:
+                break
+            first = r + 1
+        # Warping only the floor rows: shift the output's rows down by `first`.
+        shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(first)], [0.0, 0.0, 1.0]])
+        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first)
         self._cameras[camera] = plan
         return plan
 
@@ -242,7 +250,7 @@ class GroundView:
         return self._homography(self._cameras.get(camera) or self._plan(camera), x_m, y_m, heading_rad)
 
     def _homography(self, plan: tuple, x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
-        b, _, mount_x, height = plan
+        b, _, mount_x, height, _ = plan
         ch, sh = math.cos(heading_rad), math.sin(heading_rad)
         cx, cy = x_m + mount_x * ch, y_m + mount_x * sh  # the camera's centre over the floor
         ppm = self._ppm
@@ -258,12 +266,21 @@ class GroundView:
     def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera) -> np.ndarray:
         """The camera's RGB image for a robot at (x_m, y_m) heading heading_rad."""
         plan = self._cameras.get(camera) or self._plan(camera)
+        first = plan[4]
+        if first >= camera.height_px:  # looking up at the sky
+            return np.full((camera.height_px, camera.width_px, 3), SKY_RGB, np.uint8)
         rgba = cv2.warpPerspective(
             self._rgba, self._homography(plan, x_m, y_m, heading_rad), plan[1],
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
             borderMode=cv2.BORDER_CONSTANT, borderValue=self._border,
         )
-        return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+        floor = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+        if not first:
+            return floor
+        image = np.empty((camera.height_px, camera.width_px, 3), np.uint8)
+        image[:first] = SKY_RGB
+        image[first:] = floor
+        return image
 
     @property
     def texture(self) -> np.ndarray:
