@@ -428,14 +428,14 @@ def test_forward_speed_against_a_wall_is_what_the_wall_leaves() -> None:
 def test_road_channels_on_and_off_the_road() -> None:
     world = road_loop()
     start = world.spawns[0]  # on the bottom straight, heading east
-    left = Pose(start.x_m, start.y_m + 0.5, 0.0)
+    left = Pose(start.x_m, start.y_m + 1.2, 0.0)
     right = Pose(start.x_m + 2.0, start.y_m - 0.3, 0.0)
     b = PymunkBackend()
     b.open(world, [req(p, ("road_offset", "on_road", "x"), f"p[{i}]") for i, p in enumerate((start, left, right))],
            DT, seed=1)
     (o0, on0, _), (o1, on1, _), (o2, on2, _) = b.sense()
     assert o0 == pytest.approx(0.0, abs=1e-9) and on0 is True
-    assert o1 == pytest.approx(0.5) and on1 is False  # half the road is 0.4 m
+    assert o1 == pytest.approx(1.2) and on1 is False  # half the road is 1 m
     assert o2 == pytest.approx(-0.3) and on2 is True
 
 

@@ -198,10 +198,10 @@ def test_road_loop_world() -> None:
     ground = world.ground
     assert isinstance(ground, Ground) and len(ground.roads) == 1
     road = ground.roads[0]
-    assert road.closed and road.width_m == 0.8
+    assert road.closed and road.width_m == 2.0
     assert ground.floor_rgb[0] > 180 and road.rgb[0] < 50
     t = RoadTracker(road)
-    assert 30.0 <= t.length_m <= 40.0
+    assert 120.0 <= t.length_m <= 125.0
     # five spawns on the centreline, heading along the road, well apart, clear of the walls
     assert len(world.spawns) >= 5
     positions = []

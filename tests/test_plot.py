@@ -180,22 +180,22 @@ def test_long_trace_is_fast(tmp_path: Path) -> None:
 
 def test_ground_is_drawn_under_the_paths(tmp_path: Path) -> None:
     world_file = builtin_worlds()["road_loop"]
-    trace = write_trace(tmp_path / "road.csv", {"pioneer": straight(-1.5, -4.0, 3.5, -4.0)},
+    trace = write_trace(tmp_path / "road.csv", {"pioneer": straight(-5.0, -15.0, 0.0, -15.0)},
                         world="road_loop", world_file=str(world_file))
     out = plot_trace(trace, tmp_path / "road.png", width_px=900)
     img = cv2.imread(str(out))
     fig = render_figure(read_trace(trace), width_px=900)
-    # the road is dark (the left straight at x = -3.6, the top one at y = 4.17), the floor its
-    # colour (BGR of [205, 205, 200]) inside the loop and outside it
-    for x, y in [(-3.6, 0.0), (0.0, 4.17157), (7.5, 0.2), (-2.0, -4.3)]:
+    # the road is dark (the left straight at x = -17, the top one at y = 20, the right one at
+    # x = 20), the floor its colour (BGR of [205, 205, 200]) inside the loop and outside it
+    for x, y in [(-17.0, 2.3), (0.3, 20.0), (20.0, 0.4), (5.3, -15.0)]:
         assert pixel(img, fig, x, y).max() < 60, (x, y)
-    for x, y in [(1.3, 0.4), (-5.3, -5.6), (9.2, 5.4)]:  # off the 1 m grid lines
+    for x, y in [(1.3, 0.4), (-20.3, -17.6), (10.2, 5.4)]:  # off the 1 m grid lines
         assert np.abs(pixel(img, fig, x, y) - (200, 205, 205)).max() <= 3, (x, y)
-    # to scale: 0.8 m wide across the left straight
-    row = round(fig.to_px(0.0, 0.0)[1])
-    u0, u1 = round(fig.to_px(-4.3, 0.0)[0]), round(fig.to_px(-2.9, 0.0)[0])
+    # to scale: 2 m wide across the left straight
+    row = round(fig.to_px(0.0, 2.3)[1])
+    u0, u1 = round(fig.to_px(-19.0, 0.0)[0]), round(fig.to_px(-15.0, 0.0)[0])
     dark_px = int((img[row, u0:u1].max(axis=1) < 110).sum())
-    assert dark_px * fig.m_per_px == pytest.approx(0.8, abs=2.5 * fig.m_per_px)
+    assert dark_px * fig.m_per_px == pytest.approx(2.0, abs=2.5 * fig.m_per_px)
     # the path is drawn over the road, and the walls still on top of the floor
-    assert np.abs(pixel(img, fig, 1.0, -4.0) - robot_colour(0)).max() < 40
-    assert pixel(img, fig, 0.0, -7.0).max() < 100
+    assert np.abs(pixel(img, fig, -2.0, -15.0) - robot_colour(0)).max() < 40
+    assert pixel(img, fig, 0.3, -20.0).max() < 100  # the south wall
