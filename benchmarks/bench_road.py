@@ -1,0 +1,165 @@
+"""Interpreter overhead on the road-following lab: labsim against a hand-written loop.
+
+Five robots, 600 ticks (30 s), a 128 x 128 camera each. Both sides drive the same pymunk scene
+(built by the pymunk backend from ``road_loop``) and render with the same ground renderer; the
+hand loop then does by hand what ``behaviours/road_follow.yaml`` says: gray, threshold at 20,
+invert, the centroid from the image moments, the PID, the wheel speeds, and the lab's five
+metrics. Both must end with the same poses, bit for bit, which shows they did the same work.
+
+    python benchmarks/bench_road.py [--repeat 7]
+
+Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x hand).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+from pathlib import Path
+
+import cv2
+import pymunk
+
+from labsim.backends import load_backend
+from labsim.backends.ground import RoadTracker
+from labsim.backends.pymunk.camera import ground_view
+from labsim.runtime.run import compile_behaviour
+
+LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
+
+
+def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
+    behaviour = compile_behaviour(LAB)
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend, warn=lambda m: None)
+    start = time.perf_counter()
+    run.run()
+    elapsed = time.perf_counter() - start
+    poses = [backend.pose(i) for i in range(5)]
+    run.close()
+    return elapsed, poses
+
+
+def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
+    # The scene: built exactly as labsim builds it.
+    behaviour = compile_behaviour(LAB)
+    p = behaviour.program
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend, warn=lambda m: None)
+    space: pymunk.Space = backend.space
+    bodies: list[pymunk.Body] = list(backend.bodies)
+    model = p.models["pioneer"]
+    camera = model.cameras[0]
+    world = p.world
+
+    # --- from here on, a hand-written controller on raw pymunk, OpenCV and the renderer ---
+    dt, speed, kp, ki, kd, scale = 0.05, 5.0, 0.05, 0.01, 0.0, 0.5
+    radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
+    render = ground_view(world.ground).render
+    road = world.ground.roads[0]
+    tracker = RoadTracker(road)
+    half_width = road.width_m / 2
+    n = len(bodies)
+    for i, b in enumerate(bodies):
+        tracker.start(i, b.position.x, b.position.y)
+    drive = [[0.0, 0.0] for _ in range(n)]  # forward speed m/s, turn rate rad/s
+
+    def wheel_drive(i: int):  # type: ignore[no-untyped-def]
+        def velocity(b: pymunk.Body, gravity: object, damping: float, step: float) -> None:
+            a = b.angle
+            b.velocity = (drive[i][0] * math.cos(a), drive[i][0] * math.sin(a))
+            b.angular_velocity = drive[i][1]
+        return velocity
+
+    for i, b in enumerate(bodies):
+        b.velocity_func = wheel_drive(i)
+    touching = [0] * n
+
+    def begin(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        for shape in arbiter.shapes:
+            if shape.collision_type > 0:
+                touching[shape.collision_type - 1] += 1
+
+    def separate(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        for shape in arbiter.shapes:
+            if shape.collision_type > 0:
+                touching[shape.collision_type - 1] -= 1
+
+    space.on_collision(None, None, begin=begin, separate=separate)
+
+    integral = [0.0] * n
+    previous = [0.0] * n
+    sent = [(math.nan, math.nan)] * n
+    laps = [0] * n
+    sum_sq, count_sq, worst, off_ticks, speed_sum, speed_count = [0.0] * n, [0] * n, [-math.inf] * n, [0] * n, [0.0] * n, [0] * n
+    start = time.perf_counter()
+    tick = 0
+    while tick * dt < 30:
+        sensed = []
+        for b in bodies:  # every robot senses before any acts
+            x, y = b.position
+            a = b.angle
+            image = render(x, y, a, camera)
+            vx, vy = b.velocity
+            sensed.append((image, vx * math.cos(a) + vy * math.sin(a), tracker.offset(x, y)))
+        for i, b in enumerate(bodies):
+            image, forward, offset = sensed[i]
+            gray = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
+            lane = cv2.bitwise_not(cv2.threshold(gray, 20, 255, cv2.THRESH_BINARY)[1])
+            m = cv2.moments(lane, binaryImage=True)
+            cx = m["m10"] / m["m00"] if m["m00"] else 63.5
+            error = 64 - cx
+            integral[i] += error
+            angle = scale * (kp * error + ki * integral[i] + kd * (error - previous[i]))
+            previous[i] = error
+            left, right = speed - angle / 180 * speed, speed + angle / 180 * speed
+            if (left, right) != sent[i]:
+                sent[i] = (left, right)
+                wl, wr = max(-limit, min(limit, left)), max(-limit, min(limit, right))
+                drive[i] = [radius / 2 * (wl + wr), radius / axle * (wr - wl)]
+                if touching[i] == 0:
+                    a = b.angle
+                    b.velocity = (drive[i][0] * math.cos(a), drive[i][0] * math.sin(a))
+                    b.angular_velocity = drive[i][1]
+            sum_sq[i] += offset * offset
+            count_sq[i] += 1
+            worst[i] = max(worst[i], abs(offset))
+            off_ticks[i] += abs(offset) > half_width
+            speed_sum[i] += forward
+            speed_count[i] += 1
+        space.step(dt)
+        for i, b in enumerate(bodies):
+            laps[i] = tracker.update(i, b.position.x, b.position.y)
+        tick += 1
+    elapsed = time.perf_counter() - start
+    poses = [(b.position.x, b.position.y, math.remainder(b.angle, 2 * math.pi)) for b in bodies]
+    run.close()
+    return elapsed, poses
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    args = parser.parse_args()
+    labsim_times, hand_times = [], []
+    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
+        t, labsim_poses = labsim_run()
+        labsim_times.append(t)
+        t, hand_poses = hand_run()
+        hand_times.append(t)
+    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
+               for p, q in zip(labsim_poses, hand_poses) for a, b in zip(p, q))
+    lab, hand = statistics.median(labsim_times), statistics.median(hand_times)
+    print(f"road lab, 5 robots x 600 ticks with cameras, median of {args.repeat}:")
+    print(f"  hand-written loop  {hand:.3f} s   ({', '.join(f'{t:.3f}' for t in hand_times)})")
+    print(f"  labsim             {lab:.3f} s   ({', '.join(f'{t:.3f}' for t in labsim_times)})")
+    print(f"  ratio labsim / hand  {lab / hand:.3f}   (goal <= 1.05)")
+    print(f"  same final poses: {'yes' if same else 'NO'}")
+    if not same:
+        for p, q in zip(labsim_poses, hand_poses):
+            print(f"    labsim {p}  hand {q}")
+
+
+if __name__ == "__main__":
+    main()
