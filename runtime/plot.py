@@ -227,6 +227,9 @@ def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float,
         for b in world.blocks:
             xs += [c[0] for c in b.corners]
             ys += [c[1] for c in b.corners]
+        for b in getattr(world.mechanism, "bodies", ()):
+            xs += [c[0] for c in b.corners()]
+            ys += [c[1] for c in b.corners()]
         ground_ext = world.ground.extent() if isinstance(world.ground, Ground) else None
         if ground_ext is not None:
             xs += [ground_ext[0], ground_ext[2]]
@@ -365,7 +368,8 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     # a ground's floor colour replaces the map's background; the grid stays visible on it
     floor = _bgr(ground.floor_rgb) if ground is not None else MAP_BG
     cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
-    _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1))
+    _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
+          "z (m)" if world is not None and world.mechanism is not None else "y (m)")
 
     # the world under everything: what is painted on the floor, then blocks filled, and walls
     # at their real thickness (round ends, as the physics backend models a wall as a thick
@@ -379,6 +383,8 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
             cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
         for w in world.walls:
             _wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
+        if world.mechanism is not None:
+            _mechanism(img, world.mechanism, px, P)
 
     # paths: one polylines call per robot, however long the run
     line_w = max(2, round(2 * s))
@@ -397,7 +403,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
             continue
         ends = px(p.xy[[0, -1]])
         P.start(img, ends[:1], p.colour)
-        if math.isfinite(p.heading):
+        if math.isfinite(p.heading) and (world is None or world.mechanism is None):
             # the arrow is the robot's last heading: a fixed on-screen length reads better
             # than a metric one, which vanishes in big worlds and swamps small ones
             n = 26 * s
@@ -445,6 +451,27 @@ def _ground(img: np.ndarray, ground: Ground, px: object, mpp: float) -> None:
         cv2.fillPoly(img, [band], _bgr(line.rgb), AA, SHIFT)
 
 
+def _mechanism(img: np.ndarray, mechanism: object, px: object, P: "_Painter") -> None:
+    """A mechanism seen from the side, as it stood at the start: fixed bodies filled, moving
+    ones outlined, the floor, and each rope from its anchor to the body hanging on it."""
+    floor = getattr(mechanism, "floor_z_m", None)
+    if floor is not None:
+        xs = [c[0] for b in mechanism.bodies for c in b.corners()]  # type: ignore[attr-defined]
+        ends = px(np.array([[min(xs) - 1.0, floor], [max(xs) + 1.0, floor]]))  # type: ignore[operator]
+        cv2.line(img, tuple(np.round(ends[0]).astype(int)), tuple(np.round(ends[1]).astype(int)),
+                 BLOCK_EDGE, max(2, P.lw), AA)
+    for j in mechanism.joints:  # type: ignore[attr-defined]
+        if getattr(j, "rope", False):
+            child = next(b for b in mechanism.bodies if b.name == j.child)  # type: ignore[attr-defined]
+            a = px(np.array([j.anchor, (child.center[0], child.center[1] + child.size[1] / 2)], float))  # type: ignore[operator]
+            cv2.line(img, tuple(np.round(a[0]).astype(int)), tuple(np.round(a[1]).astype(int)), MUTED, 1, AA)
+    for b in mechanism.bodies:  # type: ignore[attr-defined]
+        poly = np.round(px(np.array(b.corners(), float)) * ONE).astype(np.int32)  # type: ignore[operator]
+        if b.static:
+            cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
+        cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
+
+
 def _wall(img: np.ndarray, ab: np.ndarray, thick_px: float) -> None:
     """A wall as a filled band, its ends extended by half the thickness.
 
@@ -473,7 +500,10 @@ def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> lis
     duration = _duration(trace)
     if duration is not None:
         facts.append(f"{duration:.1f} s simulated")
-    facts.append(f"{len(paths)} robot{'s' if len(paths) != 1 else ''}")
+    if world is not None and world.mechanism is not None:
+        facts.append("side view, the path of the last moving body")
+    else:
+        facts.append(f"{len(paths)} robot{'s' if len(paths) != 1 else ''}")
     return facts
 
 
@@ -497,7 +527,7 @@ def _event_names(header: dict, paths: list[RobotPath]) -> list[str]:
 
 
 def _grid(img: np.ndarray, P: _Painter, fig: Figure, map_w: int, map_h: int,
-          ext: tuple[float, float, float, float]) -> None:
+          ext: tuple[float, float, float, float], vertical: str = "y (m)") -> None:
     """A 1 m grid (coarser only when 1 m would be a smear), labelled without crowding."""
     x0, y0, x1, y1 = ext
     mpp, s = fig.m_per_px, P.s
@@ -531,7 +561,7 @@ def _grid(img: np.ndarray, P: _Painter, fig: Figure, map_w: int, map_h: int,
                 P.put(img, text, (fig.left - tick - round(4 * s), r + round(5 * s)), P.small, MUTED,
                       align="right")
     P.put(img, "x (m)", (right, bottom + round(38 * s)), P.small, MUTED, align="right")
-    P.put(img, "y (m)", (fig.left - round(9 * s), fig.top - round(8 * s)), P.small, MUTED, align="right")
+    P.put(img, vertical, (fig.left - round(9 * s), fig.top - round(8 * s)), P.small, MUTED, align="right")
 
 
 def _legend(img: np.ndarray, P: _Painter, paths: list[RobotPath], events: list[str],

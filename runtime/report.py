@@ -112,6 +112,8 @@ def format_summary(s: Summary, run: Run) -> str:
     else:
         lines += [_robot_line(name, r, run) for name, r in s.robots.items()]
         lines += _fleet_table(s, p.metric_names, p.metric_aggregates)
+    if not s.rule_counts:  # driven by bind: alone
+        return "\n".join(lines + _fault_lines(s))
     lines.append("rules (ticks fired):")
     ids = list(s.rule_counts)
     width = max((len(i) for i in ids), default=0)
@@ -129,7 +131,8 @@ def format_summary(s: Summary, run: Run) -> str:
         lines.append(f"  {'(none)':<{width}}  {'no rule held':<{text_width}}  {s.idle_ticks:>8}")
     if never:
         lines.append(f"  never fired: {', '.join(never)}")
-    if s.faults:
-        lines.append("runtime warnings:")
-        lines += [f"  {f}" for f in s.faults]
-    return "\n".join(lines)
+    return "\n".join(lines + _fault_lines(s))
+
+
+def _fault_lines(s: Summary) -> list[str]:
+    return ["runtime warnings:", *(f"  {f}" for f in s.faults)] if s.faults else []

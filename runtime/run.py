@@ -163,7 +163,7 @@ class Run:
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
             "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": p.params,
-            "robots": {r.name: r.model.name for r in self.robots},
+            "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
 

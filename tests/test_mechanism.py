@@ -66,12 +66,12 @@ def test_crane_world_builds_the_lab_model(crane: Mechanism) -> None:
     s = MechanismScene(crane)
     assert s.joint_position(CRAB) == pytest.approx(3.0)  # crab 3 m from the tower's axis
     assert s.joint_position(HOIST) == pytest.approx(5.15)  # guide's end z 6.95 to hook z 1.8
-    assert s.body_pose("tower") == pytest.approx((-2, 4.15, 0))
-    assert s.body_pose("load") == pytest.approx((1, 0.3, 0))
-    assert s.body_pose("upper_guide") == pytest.approx((1, 7.3, 0))
+    assert s.body_pose("Tower") == pytest.approx((-2, 4.15, 0))
+    assert s.body_pose("Load") == pytest.approx((1, 0.3, 0))
+    assert s.body_pose("Upper_guide") == pytest.approx((1, 7.3, 0))
     run(s, 2.0)  # nothing commanded: everything stays where it is
-    assert s.body_pose("crab") == pytest.approx((1, 7.825, 0), abs=1e-6)
-    assert s.body_pose("load")[:2] == pytest.approx((1, 0.3), abs=1e-3)
+    assert s.body_pose("Crab") == pytest.approx((1, 7.825, 0), abs=1e-6)
+    assert s.body_pose("Load")[:2] == pytest.approx((1, 0.3), abs=1e-3)
 
 
 # -- each joint under a velocity target -------------------------------------------------------
@@ -85,7 +85,7 @@ def test_crab_moves_at_the_commanded_velocity_along_the_arm(crane: Mechanism) ->
     x0 = s.joint_position(CRAB)
     run(s, 1.5)
     assert s.joint_position(CRAB) - x0 == pytest.approx(1.2, abs=1e-4)
-    x, z, angle = s.body_pose("crab")
+    x, z, angle = s.body_pose("Crab")
     assert x == pytest.approx(-2 + s.joint_position(CRAB), abs=1e-6)  # position is along the arm
     assert z == pytest.approx(7.825, abs=1e-4) and angle == pytest.approx(0, abs=1e-6)
 
@@ -104,10 +104,10 @@ def test_hoist_rope_length_changes_at_the_commanded_velocity(crane: Mechanism) -
     s.set_target_velocity(HOIST, -0.4)  # negative: a shorter rope, the hook goes up
     run(s, 1.0)  # up to speed after 0.8 s
     assert s.joint_velocity(HOIST) == pytest.approx(-0.4)
-    rope0, hook0 = s.joint_position(HOIST), s.body_pose("gripper")[1]
+    rope0, hook0 = s.joint_position(HOIST), s.body_pose("Gripper")[1]
     run(s, 2.0)
     assert s.joint_position(HOIST) - rope0 == pytest.approx(-0.8, abs=1e-9)
-    assert s.body_pose("gripper")[1] - hook0 == pytest.approx(0.8, abs=2e-3)  # the hook follows
+    assert s.body_pose("Gripper")[1] - hook0 == pytest.approx(0.8, abs=2e-3)  # the hook follows
 
 
 def test_slew_angle_integrates_the_commanded_velocity(crane: Mechanism) -> None:
@@ -122,11 +122,11 @@ def test_slew_angle_integrates_the_commanded_velocity(crane: Mechanism) -> None:
     run(s, 3.0)
     assert s.joint_velocity(SLEW) == pytest.approx(0.5)  # its max speed
     # The plane does not move in 2D; world_position turns it about the tower's axis (x = -2).
-    x, z, _ = s.body_pose("crab")
+    x, z, _ = s.body_pose("Crab")
     assert (x, z) == pytest.approx((1, 7.825), abs=1e-3)
     a = s.slew_angle
-    assert s.world_position("crab") == pytest.approx((-2 + 3 * math.cos(a), 3 * math.sin(a), z), abs=1e-3)
-    assert s.world_position("tower") == pytest.approx((-2, 0, 4.15))  # on the axis
+    assert s.world_position("Crab") == pytest.approx((-2 + 3 * math.cos(a), 3 * math.sin(a), z), abs=1e-3)
+    assert s.world_position("Tower") == pytest.approx((-2, 0, 4.15))  # on the axis
 
 
 # -- limits -----------------------------------------------------------------------------------
@@ -138,7 +138,7 @@ def test_crab_stops_at_both_ends_of_its_rail(crane: Mechanism) -> None:
     out = run(s, 12.0, lambda s: s.joint_position(CRAB))
     assert max(out) <= 7.2 + 1e-3
     assert s.joint_position(CRAB) == pytest.approx(7.2, abs=1e-3)  # the arm's tip
-    assert s.body_pose("crab")[0] + 0.55 / 2 <= 5.5 + 1e-3  # still on the arm
+    assert s.body_pose("Crab")[0] + 0.55 / 2 <= 5.5 + 1e-3  # still on the arm
     s.set_target_velocity(CRAB, -1.0)
     out = run(s, 14.0, lambda s: s.joint_position(CRAB))
     assert min(out) >= 0.6 - 1e-3 and s.joint_position(CRAB) == pytest.approx(0.6, abs=1e-3)
@@ -173,7 +173,7 @@ def test_hook_never_goes_through_the_floor(crane: Mechanism) -> None:
     """Lowering past the load's landing: the load stands on the floor, the rope goes slack."""
     s = MechanismScene(crane)
     s.set_target_velocity(HOIST, 0.5)
-    low = run(s, 20.0, lambda s: (s.body_pose("gripper")[1], s.body_pose("load")[1], s.force(SENSOR)))
+    low = run(s, 20.0, lambda s: (s.body_pose("Gripper")[1], s.body_pose("Load")[1], s.force(SENSOR)))
     assert s.joint_position(HOIST) == 6.85
     assert min(h for h, _, _ in low) >= 0.1 - 0.005  # the hook's centre, 0.1 above its bottom
     assert min(z for _, z, _ in low) >= 0.3 - 0.005  # the load's centre, 0.3 above its bottom
@@ -186,15 +186,15 @@ def test_hook_never_goes_into_the_arm_even_while_swinging(crane: Mechanism) -> N
     s.set_target_velocity(HOIST, -0.5)
 
     def gap(s: MechanismScene) -> float:  # from the hook's top to the guide's lower end
-        guide_bottom = s.body_pose("upper_guide")[1] - 0.35
-        return guide_bottom - (s.body_pose("gripper")[1] + 0.1)
+        guide_bottom = s.body_pose("Upper_guide")[1] - 0.35
+        return guide_bottom - (s.body_pose("Gripper")[1] + 0.1)
 
     gaps = run(s, 6.0, gap)
     s.set_target_velocity(CRAB, -1.0)  # reverse at full speed: the load swings hard
     gaps += run(s, 10.0, gap)
     assert s.joint_position(HOIST) == 0.3
     assert min(gaps) > 0.15
-    assert max(s.body_pose("gripper")[1], s.body_pose("load")[1]) < 8.0  # below the arm
+    assert max(s.body_pose("Gripper")[1], s.body_pose("Load")[1]) < 8.0  # below the arm
 
 
 # -- position targets -------------------------------------------------------------------------
@@ -256,7 +256,7 @@ def test_load_swings_after_the_crab_stops_and_the_swing_decays(crane: Mechanism)
     run(s, 2.0)  # braking at 0.5 m/s^2
 
     def offset(s: MechanismScene) -> float:  # the load's horizontal offset from the crab
-        return s.body_pose("load")[0] - s.body_pose("crab")[0]
+        return s.body_pose("Load")[0] - s.body_pose("Crab")[0]
 
     swing = run(s, 60.0, offset)
     assert abs(s.joint_velocity(CRAB)) < 1e-3  # the crab holds still while the load swings
@@ -281,7 +281,7 @@ def test_two_scenes_with_the_same_commands_read_the_same(crane: Mechanism) -> No
         for t, (joint, v) in enumerate([(HOIST, -0.5), (CRAB, 1.0), (SLEW, 0.3), (CRAB, -0.7), (HOIST, 0.2)]):
             s.set_target_velocity(joint, v)
             out += run(s, 3.0 + t, lambda s: (s.joint_position(CRAB), s.joint_position(HOIST), s.slew_angle,
-                                              s.force(SENSOR), s.body_pose("load"), s.world_position("gripper")))
+                                              s.force(SENSOR), s.body_pose("Load"), s.world_position("Gripper")))
         return out
 
     assert session() == session()
@@ -368,14 +368,14 @@ def test_scene_errors_name_the_joint(crane: Mechanism) -> None:
         s.set_target_position("guide_mount", 1.0)
     with pytest.raises(MechanismError, match="no force sensor 'Force'"):
         s.force("Force")
-    with pytest.raises(MechanismError, match="no body 'lod'.*'load'"):
-        s.body_pose("lod")
+    with pytest.raises(MechanismError, match="no body 'Lod'.*'Load'"):
+        s.body_pose("Lod")
     only_position = dataclasses.replace(crane.joint(CRAB), motor=MotorSpec(2000, 1.0, velocity=False))
     m = dataclasses.replace(crane, joints=tuple(only_position if j.name == CRAB else j for j in crane.joints))
     with pytest.raises(MechanismError, match="joint 'Crab_Actuator' takes position targets only"):
         MechanismScene(m).set_target_velocity(CRAB, 1.0)
     moving_parent = dataclasses.replace(
-        crane, joints=crane.joints + (JointSpec("extra", "prismatic", "crab", "load", (1, 0.3), motor=MotorSpec(1, 1)),))
+        crane, joints=crane.joints + (JointSpec("extra", "prismatic", "Crab", "Load", (1, 0.3), motor=MotorSpec(1, 1)),))
     with pytest.raises(MechanismError, match="joint 'extra': a motorised prismatic joint needs a static parent"):
         MechanismScene(moving_parent)
 

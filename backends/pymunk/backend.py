@@ -211,6 +211,8 @@ class PymunkBackend:
         self._lap_robots: list[int] = []
         self._laps: list[int] = []
         self._opened = False
+        self._scene = None  # a mechanism world's MechanismScene (then there are no robots)
+        self._tracked: str | None = None
 
     # --- protocol ---------------------------------------------------------------------------
 
@@ -220,6 +222,9 @@ class PymunkBackend:
             raise BackendStateError("pymunk backend: open() called twice; close() it first")
         if not dt_s > 0:
             raise BackendError(f"pymunk backend: dt_s must be positive, not {dt_s!r}")
+        if world.mechanism is not None:
+            self._open_mechanism(world, robots, dt_s)
+            return
         # Check every channel before building anything, so a bad request leaves no half scene.
         from_world = world_channels(world)
         if world.ground is not None and not isinstance(world.ground, Ground):
@@ -369,6 +374,70 @@ class PymunkBackend:
         self._time_s = [0.0] * n
         self._opened = True
 
+    def _open_mechanism(self, world: World, robots: Sequence[RobotRequest], dt_s: float) -> None:
+        """A side view with gravity: the world's mechanism, read and driven by one agent.
+
+        Channels: a joint reads (position, velocity), a force sensor (tension N,), a moving
+        body (x, z, angle) in the plane; x, y are the last moving body's (x, z) and heading the
+        slew angle, so that a trace follows the load; collided is always False.
+        """
+        from labsim.backends.pymunk.mechanism import MechanismError, MechanismScene
+
+        mechanism = world.mechanism
+        if any(req.model is not None for req in robots):
+            raise BackendError(f"world '{world.name}' is a mechanism: it has no place for robots")
+        try:
+            scene = MechanismScene(mechanism, dt_s)  # type: ignore[arg-type]
+        except MechanismError as e:
+            raise BackendError(f"world '{world.name}': {e}") from None
+        joints = {j.name for j in mechanism.joints if j.kind != "fixed"}  # type: ignore[union-attr]
+        sensors = {f.name for f in mechanism.force_sensors}  # type: ignore[union-attr]
+        moving = [b.name for b in mechanism.bodies if not b.static]  # type: ignore[union-attr]
+        tracked = moving[-1] if moving else None
+
+        def getter(name: str, ch: str) -> Callable[[], object]:
+            if ch in joints:
+                return lambda: (scene.joint_position(ch), scene.joint_velocity(ch))
+            if ch in sensors:
+                return lambda: (scene.force(ch),)
+            if ch in moving:
+                return lambda: scene.body_pose(ch)
+            if tracked is not None and ch in ("x", "y"):
+                index = 0 if ch == "x" else 1
+                return lambda: scene.body_pose(tracked)[index]
+            if ch == "heading":
+                return lambda: scene.slew_angle
+            if ch == "collided":
+                return lambda: False
+            raise BackendError(f"'{name}' asks for unknown channel '{ch}'; world '{world.name}' offers: "
+                               + ", ".join(sorted(joints | sensors | set(moving))))
+
+        getters = [[getter(req.name, ch) for ch in req.channels] for req in robots]
+        self._sense = lambda: [[g() for g in row] for row in getters]
+        self._scene = scene
+        self._tracked = tracked
+        self.space = scene.space
+        self.bodies = []
+        n = len(robots)
+        self._touching, self._count, self._time_s = [0] * n, [0] * n, [0.0] * n
+        self._lap_robots = []
+        self._opened = True
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        """A mechanism joint's target velocity or position (see the protocol)."""
+        from labsim.backends.pymunk.mechanism import MechanismError
+
+        scene = getattr(self, "_scene", None)
+        if scene is None:
+            raise self._state_error("command")
+        try:
+            if mode == "velocity":
+                scene.set_target_velocity(joint, value)
+            else:
+                scene.set_target_position(joint, value)
+        except MechanismError as e:
+            raise BackendError(str(e)) from None
+
     def sense(self) -> list[list[object]]:
         fn = self._sense
         if fn is None:
@@ -396,6 +465,9 @@ class PymunkBackend:
         space = self.space
         if space is None:
             raise self._state_error("step")
+        if self._scene is not None:
+            self._scene.step()
+            return
         touching, h = self._touching, self._substep_s
         for _ in self._substep_range:
             space.step(h)  # each body's velocity_func applies its wheel commands
@@ -413,6 +485,9 @@ class PymunkBackend:
     def pose(self, robot: int) -> tuple[float, float, float]:
         if self._sense is None:
             raise self._state_error("pose")
+        if self._scene is not None:
+            x, z, _ = self._scene.body_pose(self._tracked) if self._tracked else (0.0, 0.0, 0.0)
+            return (x, z, _wrap(self._scene.slew_angle))
         body = self.bodies[robot]
         x, y = body.position
         return (x, y, _wrap(body.angle))
@@ -430,6 +505,7 @@ class PymunkBackend:
         self.space = None
         self.bodies = []
         self._sense = None
+        self._scene = None
         self._tracker = None
         self._lap_robots = []
 
