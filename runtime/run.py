@@ -32,7 +32,7 @@ from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
                                 constant_value, metric_result)
 from labsim.dsl.errors import Diagnostic, LabsimError
-from labsim.runtime.trace import FORMAT, TraceWriter
+from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
 
@@ -47,9 +47,14 @@ class Behaviour:
     program: Program
 
     def bind(self, backend: Backend, *, trace: str | Path | None = None,
-             warn: Callable[[str], None] | None = None) -> Run:
-        """Open the behaviour's world on a backend, ready to tick."""
-        return Run(self.program, backend, trace_path=trace, warn=warn)
+             warn: Callable[[str], None] | None = None,
+             replay: dict[int, list[tuple[str, float]]] | None = None) -> Run:
+        """Open the behaviour's world on a backend, ready to tick.
+
+        ``replay`` (tick -> slider settings, see ``slider_events``) replaces the file's
+        timeline: a recorded run's slider moves, fed back.
+        """
+        return Run(self.program, backend, trace_path=trace, warn=warn, replay=replay)
 
 
 @dataclass
@@ -94,7 +99,8 @@ class Summary:
 
 class Run:
     def __init__(self, program: Program, backend: Backend, *, trace_path: str | Path | None = None,
-                 warn: Callable[[str], None] | None = None):
+                 warn: Callable[[str], None] | None = None,
+                 replay: dict[int, list[tuple[str, float]]] | None = None):
         self.program = program
         self.backend = backend
         self.dt = program.dt_s
@@ -118,7 +124,7 @@ class Run:
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
         self._command = getattr(backend, "command", None)
         self._trace_fields = self._traced()
-        self._timeline = self._schedule()
+        self._timeline = self._schedule(replay)
         self._slider_events: list[str] = []  # the timeline's settings applied this tick, for the trace
         if trace_path is not None:
             self.trace = TraceWriter(trace_path, self.header(), self.columns())
@@ -167,10 +173,19 @@ class Run:
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
 
-    def _schedule(self) -> dict[int, list[tuple[int, float, str]]]:
+    def _schedule(self, replay: dict[int, list[tuple[str, float]]] | None = None
+                  ) -> dict[int, list[tuple[int, float, str]]]:
         """The timeline by tick: an event at time t applies at the first tick whose time >= t."""
         p = self.program
         out: dict[int, list[tuple[int, float, str]]] = {}
+        if replay is not None:
+            for tick, settings in replay.items():
+                for name, value in settings:
+                    if name not in p.slot_of or name not in p.slider_ranges:
+                        raise LabsimError([Diagnostic(p.path, f"the replayed trace moves slider '{name}', "
+                                                      "which this behaviour does not have")])
+                    out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
+            return out
         for event in p.checked.file.timeline:
             tick = max(0, math.ceil(event.time_s / self.dt - 1e-9))
             for name, value, _ in event.settings:
@@ -411,6 +426,20 @@ class Run:
         if self.trace is not None:
             self.trace.close()
         self.backend.close()
+
+
+def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
+    """The slider moves a trace recorded (its events column), by tick, for a replay."""
+    out: dict[int, list[tuple[str, float]]] = {}
+    ticks, events = trace.column("tick"), trace.column("events")
+    for tick, text in zip(ticks, events):
+        for event in text.split(";") if text else ():
+            name, eq, value = event.partition("=")
+            if eq:
+                settings = out.setdefault(int(tick), [])
+                if (name, float(value)) not in settings:  # one row per robot repeats them
+                    settings.append((name, float(value)))
+    return out
 
 
 def fleet_value(aggregate: Aggregate, values: list[float]) -> float:

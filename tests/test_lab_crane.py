@@ -113,3 +113,30 @@ def test_a_live_slider_move_is_an_event_like_the_timeline(tmp_path: Path) -> Non
 def test_the_golden_trace_holds(capsys) -> None:
     assert main(["test", str(LAB)]) == 0
     assert "1 passed, 0 failed" in capsys.readouterr().out
+
+
+def test_a_trace_replays_its_slider_moves(lab, tmp_path: Path) -> None:
+    from labsim.runtime.run import slider_events
+    _, trace = lab
+    moves = slider_events(trace)
+    assert moves[160] == [("crab", 6.0)]
+    # replayed into a behaviour without a timeline, the run is the same run
+    text = LAB.read_text()
+    no_timeline = tmp_path / "crane.yaml"
+    no_timeline.write_text(text[:text.index("timeline:")] + text[text.index("let:"):])
+    path = tmp_path / "replayed.csv"
+    run = compile_behaviour(no_timeline).bind(load_backend("pymunk"), trace=path, replay=moves,
+                                              warn=lambda m: None)
+    run.run()
+    run.close()
+    assert read_trace(path).rows == trace.rows
+
+
+def test_set_position_from_a_rule_reaches_its_target(write) -> None:
+    path = write("labsim: 1\nworld: crane\nstop: time >= 12\nlet:\n  crab: Crab_Actuator.position\n"
+                 "rules:\n  - if time < 1 then set_position(Crab_Actuator, 5.0)\n  - else set_velocity(Hoist_Actuator, 0)\n"
+                 "metrics:\n  where: final(crab)\n")
+    run = compile_behaviour(path).bind(load_backend("pymunk"))
+    summary = run.run()
+    run.close()
+    assert summary.robots["crane"]["metrics"]["where"] == pytest.approx(5.0, abs=0.005)
