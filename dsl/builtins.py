@@ -2,7 +2,7 @@
 
 The checker reads signatures from here; the compiler reads implementations. A function that
 can fail on some inputs (``sqrt(-1)``, ``log(0)``) raises, and the compiled call turns that
-into the documented result (see ``FAULT_RESULTS`` in docs/language.md) and a warning.
+into the documented result (docs/language.md, "Runtime faults") and a warning.
 """
 from __future__ import annotations
 
@@ -53,11 +53,6 @@ class Function:
     variadic: bool = False  # the last parameter repeats; at least len(params) arguments
     uses_rng: bool = False  # impl takes the robot's random.Random as its first argument
     optional: int = 0  # how many of the last params may be left out
-    stateful: bool = False  # keeps state per robot and per call site (pid)
-
-    def signature(self) -> str:
-        args = ", ".join(str(p) for p in self.params)
-        return f"{self.name}({args}{', ...' if self.variadic else ''})"
 
     def resolve(self) -> Callable[..., object]:
         if isinstance(self.impl, str):
@@ -106,8 +101,8 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("atan2", (N, N), N, math.atan2, "atan2(y, x): angle of (x, y) in radians"),
     Function("exp", (N,), N, math.exp, "e to the power x"),
     Function("log", (N,), N, _log, "natural logarithm"),
-    Function("floor", (N,), N, math.floor, "largest integer <= x"),
-    Function("ceil", (N,), N, math.ceil, "smallest integer >= x"),
+    Function("floor", (N,), N, lambda x: float(math.floor(x)), "largest integer <= x"),
+    Function("ceil", (N,), N, lambda x: float(math.ceil(x)), "smallest integer >= x"),
     Function("round", (N,), N, _round, "nearest integer (halves to even)"),
     Function("sign", (N,), N, _sign, "-1, 0 or 1"),
     Function("deg", (N,), N, math.degrees, "radians to degrees"),
@@ -135,7 +130,7 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     # controllers
     Function("pid", (N, N, N, N, N), N, "labsim.dsl.compile:pid_step",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
-             optional=1, stateful=True),
+             optional=1),
 )}
 
 # detected(sonar5) takes a distance sensor's *name*, not its value.
@@ -186,6 +181,7 @@ CONSTANTS: dict[str, float] = {"pi": math.pi, "inf": math.inf}
 VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE}
 
 # Names the trace uses for its own columns: no signal may take them.
-TRACE_COLUMNS = frozenset({"robot", "rule", "events", "wheel_left", "wheel_right"})
+TRACE_COLUMNS = frozenset({"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",
+                           "events", "wheel_left", "wheel_right"})
 
 KEYWORDS = frozenset({"if", "then", "else", "always", "and", "or", "not", "goto", "true", "false"})

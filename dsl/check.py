@@ -20,7 +20,7 @@ from labsim.backends.models import MODELS, Kind, RobotModel
 from labsim.backends.world import World, builtin_worlds
 from labsim.dsl import ast
 from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS,
-                                 TRACE_COLUMNS, VARIABLES, Aggregate, Type)
+                                 KEYWORDS, TRACE_COLUMNS, VARIABLES, Aggregate, Type)
 from labsim.dsl.errors import Diagnostic, Report, did_you_mean
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
 from labsim.dsl.source import Text
@@ -75,6 +75,9 @@ class _Checker:
         self.used: set[str] = set()
         self.later: dict[str, object] = {}  # lets not yet defined while checking one, for messages
         self.node_types: dict[int, Type] = {}
+        self.distance: set[str] = set()  # distance sensors, for detected()
+        self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
+        self.world_failed = False  # names the world would have given are not reported unknown
 
     # -- reporting ---------------------------------------------------------------------------
     def error(self, text: Text, span: ast.Span, message: str, notes: tuple[str, ...] = ()) -> None:
@@ -99,11 +102,15 @@ class _Checker:
         self.spawns(world)
         for name, kind in channels.items():
             self.declare(name, _KIND_TYPES[kind], _KIND_WORDS.get(kind, "sensor"))
+        self.distance = {name for name, kind in channels.items() if kind is Kind.DISTANCE}
+        self.poisoned = set(self.bf.failed_names)
         for name, t in VARIABLES.items():
             self.declare(name, t, "built-in variable")
         for name in CONSTANTS:
             self.declare(name, Type.NUMBER, "constant")
         for name in bf.states:
+            if bf.states[name][1] is not None and self.reserved(name, bf.states[name][1], "state"):
+                continue
             if name in self.types:
                 _, key = bf.states[name]
                 if key is not None:
@@ -142,9 +149,24 @@ class _Checker:
             self.report.add(Diagnostic(bf.path, "missing required key 'rules:'",
                                        notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",)))
 
+    def reserved(self, name: str, node: object, what: str) -> bool:
+        """Report a name the language or the trace already uses; True if it was one."""
+        if name in KEYWORDS:
+            why = "is a keyword of the language"
+        elif name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
+            why = "is the name of a built-in function or action"
+        elif name in TRACE_COLUMNS:
+            why = "is the name of a trace column"
+        else:
+            return False
+        self.report.add(self.bf.doc.diagnostic(node, f"{what} '{name}' {why}; choose another name"))  # type: ignore[arg-type]
+        return True
+
     def sliders(self) -> list[SliderDecl]:
         out = []
         for slider in self.bf.sliders:
+            if self.reserved(slider.name, slider.key, "slider"):
+                continue
             if slider.name in self.types:
                 self.report.add(self.bf.doc.diagnostic(slider.key, f"slider '{slider.name}' has the name of a "
                                                        f"{self.kinds[slider.name]}"))
@@ -214,9 +236,17 @@ class _Checker:
                                                           f"range {slider.lo:g} .. {slider.hi:g}"))
 
     def spawns(self, world: World | None) -> None:
-        """Robots placed 'at: spawn' need as many spawn poses as there are of them."""
+        """Robots placed 'at: spawn' need as many spawn poses as there are of them; robots
+        placed at [x, y] must be inside the world's bounds."""
         if world is None:
             return
+        xmin, ymin, xmax, ymax = world.bounds
+        for r in self.bf.robots:
+            if isinstance(r.at, tuple) and not (xmin <= r.at[0] <= xmax and ymin <= r.at[1] <= ymax):
+                self.report.add(self.bf.doc.diagnostic(
+                    r.at_node if r.at_node is not None else r.key,
+                    f"({r.at[0]:g}, {r.at[1]:g}) is outside world '{world.name}' "
+                    f"({xmin:g}..{xmax:g} x {ymin:g}..{ymax:g})"))
         needed = 0
         for r in self.bf.robots:
             if r.at == "spawn":
@@ -237,7 +267,13 @@ class _Checker:
         from labsim.dsl.world import load_world  # late: world files use this package too
 
         bf = self.bf
-        if not bf.world or bf.world_node is None:
+        if bf.world_node is None:
+            return None
+        if not bf.world.strip():
+            known = ", ".join(builtin_worlds())
+            self.report.add(bf.doc.diagnostic(bf.world_node, "'world' needs a built-in world's name or a path "
+                                              "to a world file", notes=(f"built-in worlds: {known}",)))
+            self.world_failed = True
             return None
         known = builtin_worlds()
         if bf.world in known:
@@ -247,13 +283,17 @@ class _Checker:
             if not path.is_file():
                 self.report.add(bf.doc.diagnostic(bf.world_node, f"world file '{bf.world}' not found "
                                                   f"(looked for {path})"))
+                self.world_failed = True
                 return None
         else:
             self.report.add(bf.doc.diagnostic(
                 bf.world_node, f"unknown world '{bf.world}'{did_you_mean(bf.world, known)}",
                 notes=("built-in worlds: " + ", ".join(known) + "; or give a path to a world file",)))
+            self.world_failed = True
             return None
-        return load_world(path, self.report)
+        world = load_world(path, self.report)
+        self.world_failed = world is None
+        return world
 
     def models(self) -> dict[str, RobotModel]:
         out = {}
@@ -271,6 +311,8 @@ class _Checker:
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
+            if self.reserved(name, node, "parameter"):
+                continue
             if name in self.types:
                 self.report.add(self.bf.doc.diagnostic(node, f"parameter '{name}' has the name of a {self.kinds[name]}"))
                 continue
@@ -293,9 +335,7 @@ class _Checker:
             if name in self.types:
                 self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a {self.kinds[name]}"))
                 continue
-            if name in TRACE_COLUMNS:
-                self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a trace column; "
-                                                       "choose another name"))
+            if self.reserved(name, key, "signal"):
                 continue
             del later[name]
             self.later = later
@@ -304,7 +344,7 @@ class _Checker:
                 self.declare(name, t, "signal")
                 out.append((name, parsed))
             else:
-                self.declare(name, Type.NUMBER, "signal")  # keep checking the rest quietly
+                self.poisoned.add(name)  # already reported: its uses stay quiet
         self.later = {}
         return out
 
@@ -465,6 +505,8 @@ class _Checker:
         if e.id in self.types:
             self.used.add(e.id)
             return self.types[e.id]
+        if e.id in self.poisoned or self.world_failed:
+            return None  # its definition (or the world) is already reported: say nothing more
         if e.id in self.later:
             line = self.later[e.id].start_mark.line + 1
             self.error(text, e.span, f"signal '{e.id}' is used before it is defined (on line {line}); "
@@ -522,9 +564,9 @@ class _Checker:
                 return None
             arg = e.args[0]
             t = self.name(arg, text)
-            if t is not None and self.kinds.get(arg.id) != "sensor":
-                self.error(text, arg.span, f"detected() takes a distance sensor's name, and '{arg.id}' is a "
-                           f"{self.kinds.get(arg.id, 'name')}")
+            if t is not None and arg.id not in self.distance:
+                self.error(text, arg.span, f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
+                           f"and '{arg.id}' is not one")
                 return None
             return Type.BOOL if t is not None else None
         f = FUNCTIONS.get(e.func)

@@ -9,7 +9,7 @@ own state and the callables take no arguments.
 The compiler generates Python source from the checked AST, as Jinja2's compiler does, and
 compiles it once per robot: a run evaluates the rules tens of thousands of times, and one
 generated function per tick phase costs almost nothing over a hand-written loop (a tree of
-closures cost 1.45x; see docs/compiler.md). No user text reaches ``exec``: names become slot
+closures cost 1.45x; see docs/decisions.md, section 3). No user text reaches ``exec``: names become slot
 indices, numbers ``repr`` literals, operators come from the grammar's fixed set.
 
 Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 is
@@ -124,7 +124,7 @@ class RobotProgram:
     both: Callable[[float, int, list], int]
     metric_values: list[list[float]]  # per metric accumulator, read by metric_result
     events: list[str]  # names of count metrics that rose this tick (cleared by the runtime)
-    source: str  # the generated Python, for `labsim check --show-code` and for debugging
+    source: str  # the generated Python, for debugging
     joint_command: list[float] = field(default_factory=list)  # per Program.targets, nan: none yet
 
 
@@ -233,10 +233,13 @@ class Program:
             for part in parts:
                 if isinstance(part, tuple):
                     slot, spec = part
+                    value = slots[slot]
+                    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
+                        value = int(value)  # sliders hold floats; {arm:d} shows 5, not 5.0
                     try:
-                        text.append(format(slots[slot], spec))
+                        text.append(format(value, spec))
                     except (ValueError, TypeError):
-                        text.append(str(slots[slot]))
+                        text.append(str(value))
                 else:
                     text.append(part)
             out[slider] = "".join(text)
@@ -277,7 +280,7 @@ def _namespace(rng: random.Random, model: RobotModel | None, functions: tuple[st
 # The others may raise (sqrt(-1), log(-1), floor(inf), exp(1000), randint(3, 2), crop outside
 # the image) and go through a guard that turns the exception into a defined result and a
 # warning; centroid and pid have guards of their own.
-_TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "sin", "cos", "tan", "atan2",
+_TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "atan2",
                     "sign", "deg", "rad", "random", "uniform", "gauss",
                     "gray", "threshold", "invert", "area", "width", "height"})
 _FOLDABLE = frozenset(f for f in _TOTAL if callable(FUNCTIONS[f].impl) and not FUNCTIONS[f].uses_rng)
@@ -328,7 +331,7 @@ def _guard(kind: str, site: object, faults: Faults, slots: Slots, robot: str, rn
     if kind == "**":
         def power(x: float, y: float) -> float:
             try:
-                r = x ** y
+                r = float(x) ** y  # floats: an int power would grow without bound
             except ZeroDivisionError:
                 report("zero to a negative power")
                 return INF
@@ -368,14 +371,17 @@ def _guard(kind: str, site: object, faults: Faults, slots: Slots, robot: str, rn
     def call(*args: float) -> object:
         try:
             return impl(*args)
-        except (ValueError, OverflowError, ZeroDivisionError) as exc:
+        except OverflowError:  # exp(1000), floor(inf): the number is too large
+            report(f"{kind}(): overflow")
+            return INF if f.returns is Type.NUMBER else fallback
+        except (ValueError, ZeroDivisionError) as exc:
             report(f"{kind}(): {exc}" if str(exc) else f"{kind}() failed")
             return fallback
     return call
 
 
 def metric_result(aggregate: Aggregate, acc: list[float], dt_s: float) -> float:
-    """The value of a metric from its accumulator (see _Builder.metric)."""
+    """The value of a metric from its accumulator (see _initial and _METRIC_CODE)."""
     if aggregate is Aggregate.COUNT:
         return acc[0]
     if aggregate is Aggregate.DURATION:
@@ -384,6 +390,8 @@ def metric_result(aggregate: Aggregate, acc: list[float], dt_s: float) -> float:
         return acc[0] / acc[1] if acc[1] else math.nan
     if aggregate is Aggregate.RMS:
         return math.sqrt(acc[0] / acc[1]) if acc[1] else math.nan
+    if aggregate in (Aggregate.MAXIMUM, Aggregate.MINIMUM) and acc[0] in (INF, -INF):
+        return math.nan  # no finite value all run
     return acc[0]
 
 
@@ -671,8 +679,8 @@ _METRIC_CODE = {
     Aggregate.COUNT: "v = {e}\nif v and not m[{i}][1]:\n    m[{i}][0] += 1\n    events.append({i})\nm[{i}][1] = v",
     Aggregate.DURATION: "if {e}:\n    m[{i}][0] += 1",
     Aggregate.MEAN: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v\n    m[{i}][1] += 1",
-    Aggregate.MAXIMUM: "v = {e}\nif v > m[{i}][0]:\n    m[{i}][0] = v",
-    Aggregate.MINIMUM: "v = {e}\nif v < m[{i}][0]:\n    m[{i}][0] = v",
+    Aggregate.MAXIMUM: "v = {e}\nif m[{i}][0] < v < _inf:\n    m[{i}][0] = v",
+    Aggregate.MINIMUM: "v = {e}\nif -_inf < v < m[{i}][0]:\n    m[{i}][0] = v",
     Aggregate.RMS: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v * v\n    m[{i}][1] += 1",
     Aggregate.FINAL: "m[{i}][0] = {e}",
 }

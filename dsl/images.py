@@ -21,18 +21,20 @@ class EmptyCentroid(Exception):
 
 
 def gray(img: np.ndarray) -> np.ndarray:
-    """RGB to gray (ITU-R BT.601 weights, as OpenCV); a gray image is returned as it is."""
-    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 else img
+    """RGB to gray (ITU-R BT.601 weights, as OpenCV); a gray or empty image is returned as it is."""
+    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 and img.size else img
 
 
 def threshold(img: np.ndarray, level: float) -> np.ndarray:
     """OpenCV THRESH_BINARY on the gray image: 255 where a pixel is > level, else 0."""
+    if not img.size:
+        return EMPTY  # OpenCV gives None for an empty image
     return cv2.threshold(gray(img), level, 255, cv2.THRESH_BINARY)[1]
 
 
 def invert(img: np.ndarray) -> np.ndarray:
     """255 - each pixel."""
-    return cv2.bitwise_not(img)
+    return cv2.bitwise_not(img) if img.size else EMPTY
 
 
 def crop(img: np.ndarray, x: float, y: float, w: float, h: float) -> np.ndarray:
@@ -73,7 +75,7 @@ def centroid(img: np.ndarray) -> tuple[float, float, bool]:
     EmptyCentroid says so (the compiled call turns it into one warning).
     """
     g = gray(img)
-    m = cv2.moments(g, binaryImage=True)
+    m = cv2.moments(g, binaryImage=True) if g.size else {"m00": 0}
     if m["m00"] == 0:
         h, w = g.shape[:2]
         raise EmptyCentroid(((w - 1) / 2, (h - 1) / 2, False))

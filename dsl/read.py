@@ -9,6 +9,7 @@ types are the checker's business, not this module's.
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any
@@ -119,6 +120,7 @@ class BehaviourFile:
     timeline: list[Event] = field(default_factory=list)
     has_robots: bool = False
     has_rules: bool = False
+    failed_names: set[str] = field(default_factory=set)  # lets and metrics that did not parse
 
     @property
     def path(self) -> str:
@@ -179,6 +181,7 @@ def read(doc: Document, report: Report) -> BehaviourFile:
         bf.params = r.params(keys["params"][1])
     if "let" in keys:
         bf.lets = r.named_exprs(keys["let"][1], "let")
+        bf.failed_names = {k.value for k, _ in r.mapping(keys["let"][1], "let")} - {n for n, _, _ in bf.lets}
     if "rules" in keys:
         bf.states = r.states(keys["rules"][1])
         bf.has_rules = True
@@ -230,10 +233,16 @@ class _Reader:
         if v is None and isinstance(node, ScalarNode):
             self.error(node, f"{what} needs a value")
             return None
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and v != int(v)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
             if isinstance(node, ScalarNode):
                 kind = "a whole number" if integer else "a number"
                 self.error(node, f"{what} must be {kind}, not '{node.value}'")
+            return None
+        if not math.isfinite(v):
+            self.error(node, f"{what} must be a finite number, not '{node.value}'")
+            return None
+        if integer and v != int(v):
+            self.error(node, f"{what} must be a whole number, not '{node.value}'")
             return None
         return v
 
@@ -267,7 +276,10 @@ class _Reader:
 
     def robots(self, node: Node) -> list[RobotDecl]:
         out = []
-        for key, value in self.mapping(node, "robots"):
+        entries = self.mapping(node, "robots")
+        if not entries and isinstance(node, (ScalarNode, MappingNode)):
+            self.error(node, "'robots' names no robot", notes=("e.g. robots: {pioneer: {model: pioneer_p3dx}}",))
+        for key, value in entries:
             name = self.names(key, "robot")
             if name is None:
                 continue
@@ -362,8 +374,10 @@ class _Reader:
             v = self.scalar(value, f"parameter '{key.value}'")
             if name is None:
                 continue
-            if isinstance(v, bool) or (isinstance(v, (int, float))):
-                out[name] = (v, value)
+            if isinstance(v, float) and not math.isfinite(v):
+                self.error(value, f"parameter '{name}' must be a finite number, not '{value.value}'")
+            elif isinstance(v, bool) or isinstance(v, (int, float)):
+                out[name] = (v if isinstance(v, bool) else float(v), value)  # floats: see check.params
             elif isinstance(value, ScalarNode):
                 self.error(value, f"parameter '{name}' must be a number or true/false, not '{value.value}'",
                            notes=("computed values belong under 'let:'",))
@@ -483,7 +497,7 @@ class _Reader:
                 continue
             key, value = item.value[0]
             m = _AT.fullmatch(key.value.strip())
-            if not m:
+            if not m or not math.isfinite(float(m.group(1))):
                 self.error(key, f"a timeline entry starts with 'at' and a time in seconds, not '{key.value}'")
                 continue
             if not isinstance(value, ScalarNode) or not value.value.strip():

@@ -83,7 +83,7 @@ def _fleet_table(s: Summary, names: tuple[str, ...], aggregates: tuple[Aggregate
     out = ["  " + "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths)))
            for row in [header, *rows]]
     out.append("  (fleet: + total over robots, ^ highest, _ lowest, ~ mean of the robots, "
-               "rms pooled over every robot)")
+               "rms of the robots' values)")
     return out
 
 
@@ -99,7 +99,8 @@ def format_summary(s: Summary, run: Run) -> str:
     lines.append(f"  {status}: {s.ticks} ticks, {s.sim_time_s:.2f} s simulated in {s.wall_time_s:.2f} s"
                  + (f" ({rtf})" if rtf else ""))
     if p.params:
-        shown = [f"{k}={v}{'*' if k in p.checked.overridden else ''}" for k, v in p.params.items()]
+        shown = [f"{k}={str(v).lower() if isinstance(v, bool) else format(v, 'g')}"
+                 f"{'*' if k in p.checked.overridden else ''}" for k, v in p.params.items()]
         lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if p.checked.overridden else ""))
     if s.trace:
         lines.append(f"  trace: {s.trace}")

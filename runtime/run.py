@@ -211,7 +211,7 @@ class Run:
         p = self.program
         kinds = p.checked.channel_kinds
         channels = [i for i, c in enumerate(p.channels)
-                    if c not in ("x", "y", "heading", "collided") and kinds.get(c) is not Kind.IMAGE]
+                    if c not in ("x", "y", "heading", "collided") and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
         lets = [p.slot_of[n] for n in p.let_names if p.checked.let_types.get(n) in (Type.NUMBER, Type.BOOL)]
         return channels, lets
 
@@ -446,7 +446,7 @@ def fleet_value(aggregate: Aggregate, values: list[float]) -> float:
     """A metric over the whole fleet from the robots' values.
 
     Counts and durations add up (total events, robot-seconds); maximum and minimum take the
-    extreme; rms pools the squares (every robot runs the same ticks); mean and final average.
+    extreme; rms is the root mean square of the robots' values; mean and final average.
     """
     finite = [v for v in values if v == v]
     if not finite:

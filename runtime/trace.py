@@ -91,8 +91,15 @@ def read_trace(path: str | Path) -> Trace:
         header = json.loads(first[len(MAGIC):])
     except json.JSONDecodeError as e:
         raise TraceFormatError(f"{path}:1: damaged trace header: {e}") from None
+    if not isinstance(header, dict):
+        raise TraceFormatError(f"{path}:1: damaged trace header: not a JSON object")
     if header.get("format") != FORMAT:
         raise TraceFormatError(f"{path}: trace format {header.get('format')} is not {FORMAT}")
+    for key, kind in (("world", str), ("world_file", str), ("name", str), ("behaviour", str),
+                      ("robots", dict), ("metrics", dict), ("params", dict)):
+        if key in header and not isinstance(header[key], kind):
+            raise TraceFormatError(f"{path}:1: damaged trace header: '{key}' should be a "
+                                   f"{'mapping' if kind is dict else 'text'}")
     reader = csv.reader(io.StringIO(rest))
     try:
         columns = next(reader)

@@ -68,7 +68,7 @@ def test_set_overrides_are_type_checked(tmp_path: Path) -> None:
     ("  - if state == 3 then stop()\n  - else stop()",
      "a state can only be compared with ==/!= to another state, as in 'state == follow'"),
     ("  - if detected(time) then stop()\n  - else stop()",
-     "detected() takes a distance sensor's name, and 'time' is a built-in variable"),
+     "detected() takes a distance sensor's name (sonar1 .. sonar16), and 'time' is not one"),
     ("  - if count(time > 1) then stop()\n  - else stop()",
      "'count' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"),
 ])
