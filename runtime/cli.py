@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, worlds.
+"""The ``labsim`` command line: run, check, test, plot, worlds, serve.
 
 Exit codes: 0 success; 1 a golden trace differs (or is missing); 2 a user's mistake (a bad
 behaviour file, an unknown option or parameter, an unreachable simulator), reported as
@@ -16,6 +16,7 @@ from typing import Sequence
 
 from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
+from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.world import builtin_worlds
 from labsim.dsl.errors import Diagnostic, LabsimError
@@ -46,6 +47,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=int, help="override the file's seed")
     run.add_argument("--trace", metavar="PATH", help="write the trace (CSV) to PATH")
     run.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
+    _remote_options(run)
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show a progress bar (default: when stderr is a terminal)")
     run.add_argument("--quiet", "-q", action="store_true", help="print no summary")
@@ -57,20 +59,66 @@ def _parser() -> argparse.ArgumentParser:
     test.add_argument("paths", nargs="*", default=["behaviours"],
                       help="behaviour files or folders (default: behaviours)")
     test.add_argument("--update-goldens", action="store_true", help="record the golden traces anew")
+    test.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY),
+                      help="simulator to re-run them on (default: %(default)s)")
+    _remote_options(test)
 
     plot = sub.add_parser("plot", help="draw a trace: the world to scale and every trajectory")
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
 
     sub.add_parser("worlds", help="list the built-in worlds")
+
+    serve = sub.add_parser("serve", help="stand in for CoppeliaSim: answer its ZMQ remote API from the "
+                                         "embedded simulator")
+    serve.add_argument("world", nargs="?", default=None,
+                       help="a built-in world (labsim worlds) or a world file (default: walls_lab4, "
+                            "or the world of --for)")
+    serve.add_argument("--port", type=int, default=DEFAULT_PORT,
+                       help="port to listen on; 0 picks a free one (default: %(default)s)")
+    serve.add_argument("--host", default="127.0.0.1",
+                       help="address to listen on (default: %(default)s, this computer only)")
+    serve.add_argument("--robots", type=int, default=None, metavar="N",
+                       help="Pioneer P3DX robots, at the world's spawn poses (default: 1; 0 for a "
+                            "world with a mechanism)")
+    serve.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                       help="simulation time step (default: 0.05, CoppeliaSim's, or the dt of --for)")
+    serve.add_argument("--for", dest="behaviour", metavar="FILE",
+                       help="serve the scene a behaviour file needs: its world, dt and robots, with "
+                            "their cameras")
+    serve.add_argument("--quiet", "-q", action="store_true", help="do not log clients and simulations")
     return p
+
+
+def _remote_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
+                                                "(default: 127.0.0.1)")
+    p.add_argument("--port", type=int, default=None,
+                   help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
+    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+                   help="give up when CoppeliaSim does not answer within this, with --backend coppeliasim "
+                        "(default: 5)")
+
+
+def _backend_options(args: argparse.Namespace) -> dict[str, object]:
+    """--host/--port/--timeout as options of the chosen backend (only coppeliasim takes them)."""
+    given = {k: v for k, v in (("host", args.host), ("port", args.port), ("timeout_s", args.timeout))
+             if v is not None}
+    if args.backend != "coppeliasim":
+        if given:
+            flags = ", ".join("--" + k.removesuffix("_s") for k in given)
+            raise LabsimError([Diagnostic(flags, f"only --backend coppeliasim takes {flags}")])
+        return {}
+    if args.timeout is not None and not args.timeout > 0:
+        raise LabsimError([Diagnostic("--timeout", "give a positive number of seconds")])
+    return given
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot,
-                "worlds": cmd_worlds}[args.command](args)
+                "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -112,7 +160,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         behaviour.program.seed = args.seed
     if args.trace:
         _check_writable(args.trace)
-    backend = load_backend(args.backend)
+    backend = load_backend(args.backend, **_backend_options(args))
     run = behaviour.bind(backend, trace=args.trace, warn=_warn)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
@@ -124,7 +172,21 @@ def cmd_run(args: argparse.Namespace) -> int:
         run.close()
     if not args.quiet:
         print(format_summary(summary, run))
+        trips = _round_trips(backend, summary.ticks)
+        if trips:
+            print(trips)
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
+
+
+def _round_trips(backend: object, ticks: int) -> str:
+    """A remote backend's requests per tick (what bounds its speed), or '' for an embedded one."""
+    total = getattr(backend, "round_trips", None)
+    if not isinstance(total, int) or not ticks:
+        return ""
+    during = total - getattr(backend, "round_trips_open", 0)
+    where = getattr(backend, "where", "")
+    return (f"  {during / ticks:.2f} round trips per tick"
+            f" ({total} requests in all{' to ' + where if where else ''})")
 
 
 def _check_writable(path: str) -> None:
@@ -167,6 +229,10 @@ def cmd_test(args: argparse.Namespace) -> int:
     files = _behaviour_files(args.paths)
     if not files:
         raise LabsimError([Diagnostic(" ".join(args.paths), "no behaviour files (*.yaml) here")])
+    options = _backend_options(args)
+    if args.update_goldens and args.backend != DEFAULT:
+        raise LabsimError([Diagnostic("--update-goldens", f"goldens are recorded on the {DEFAULT} backend; "
+                                      f"drop --backend {args.backend}")])
     failed = 0
     for f in files:
         golden = golden_path(f)
@@ -174,7 +240,7 @@ def cmd_test(args: argparse.Namespace) -> int:
             fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
             os.close(fd)
             try:
-                summary = _record(f, tmp)
+                summary = _record(f, tmp, args.backend, options)
                 os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
                 os.replace(tmp, golden)
             finally:
@@ -188,7 +254,7 @@ def cmd_test(args: argparse.Namespace) -> int:
             continue
         with tempfile.TemporaryDirectory() as d:
             actual = Path(d) / "actual.csv"
-            _record(f, actual)
+            _record(f, actual, args.backend, options)
             try:
                 expected_trace = read_trace(golden)
             except TraceFormatError as e:
@@ -206,9 +272,10 @@ def cmd_test(args: argparse.Namespace) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _record(behaviour_path: Path, trace_path: str | Path):  # type: ignore[no-untyped-def]
+def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT,  # type: ignore[no-untyped-def]
+            options: dict[str, object] | None = None):
     behaviour = compile_behaviour(behaviour_path)
-    run = behaviour.bind(load_backend(DEFAULT), trace=trace_path, warn=lambda m: None)
+    run = behaviour.bind(load_backend(backend, **(options or {})), trace=trace_path, warn=lambda m: None)
     try:
         summary = run.run()
     finally:
@@ -239,6 +306,70 @@ def cmd_worlds(args: argparse.Namespace) -> int:
         world = load_world(path, Report())
         print(f"{name:<16} {world.description if world else '(damaged world file)'}")
     return EXIT_OK
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    """Serve CoppeliaSim's ZMQ remote API until Ctrl-C; see docs/coppeliasim.md."""
+    from labsim.backends.coppeliasim.server import Server, serve
+    from labsim.backends.protocol import RobotRequest
+
+    requests: list[RobotRequest] | None = None
+    world = None
+    dt = args.dt
+    if args.behaviour is not None:
+        program = compile_behaviour(args.behaviour).program
+        world = program.world
+        dt = dt if dt is not None else program.dt_s
+        # the behaviour's robots (models with their cameras); the backend places them itself
+        models = [program.models[d.name] for d in program.robot_decls
+                  if program.models.get(d.name) is not None for _ in range(d.count)]
+        poses = [pose for _, pose in Server.robot_specs(world, len(models))]
+        requests = [RobotRequest(f"PioneerP3DX[{i}]", m, pose, ()) for i, (m, pose) in enumerate(zip(models, poses))]
+    if args.world is not None or world is None:
+        world = _load_world_arg(args.world or "walls_lab4")
+    robots: int | list[RobotRequest]
+    if requests is not None and args.robots is None:
+        robots = requests
+    else:
+        robots = args.robots if args.robots is not None else (0 if world.mechanism is not None else 1)
+        if robots < 0:
+            raise LabsimError([Diagnostic("--robots", "give 0 or more robots")])
+    dt = dt if dt is not None else 0.05
+    if not 0 <= args.port < 65536:
+        raise LabsimError([Diagnostic("--port", "give a port from 1 to 65535, or 0 for a free one")])
+    if not dt > 0:
+        raise LabsimError([Diagnostic("--dt", "give a positive time step in seconds")])
+
+    def ready(server) -> None:  # type: ignore[no-untyped-def]
+        print(f"labsim serve: world {world.name} ({server.describe()}), dt {dt:g} s, listening on "
+              f"tcp://{args.host}:{server.port}; Ctrl-C stops", flush=True)
+
+    log = None if args.quiet else _warn
+    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready)
+    print("labsim serve: stopped", flush=True)
+    return EXIT_OK
+
+
+def _load_world_arg(name: str):  # type: ignore[no-untyped-def]
+    """A world named on the command line: built-in, or a world file."""
+    from labsim.dsl.errors import Report, did_you_mean
+    from labsim.dsl.world import load_world
+
+    known = builtin_worlds()
+    if name in known:
+        path = known[name]
+    elif Path(name).is_file():
+        path = Path(name)
+    else:
+        raise LabsimError([Diagnostic(name, f"no built-in world or world file '{name}'"
+                                      f"{did_you_mean(name, known)}",
+                                      notes=("built-in worlds: " + ", ".join(known),))])
+    report = Report()
+    world = load_world(path, report)
+    if world is None:
+        report.raise_if_errors()
+        raise LabsimError([Diagnostic(str(path), "could not read this world")])
+    return world
 
 
 if __name__ == "__main__":

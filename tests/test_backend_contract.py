@@ -1,4 +1,9 @@
-"""Every registered backend keeps the protocol, and the same inputs give the same readings."""
+"""Every registered backend keeps the protocol, and the same inputs give the same readings.
+
+The coppeliasim backend runs against ``labsim serve`` (a ``Server`` in a thread, started once
+for this module), which simulates the same world with the pymunk backend: both backends must
+then give the very same readings, float for float.
+"""
 from __future__ import annotations
 
 import math
@@ -7,7 +12,7 @@ import pytest
 
 from labsim.backends import REGISTRY, load_backend
 from labsim.backends.models import PIONEER_P3DX
-from labsim.backends.protocol import BackendStateError, ContactStats, RobotRequest
+from labsim.backends.protocol import Backend, BackendStateError, ContactStats, RobotRequest
 from labsim.backends.world import Pose, Wall, World
 
 WORLD = World("box", "a 6 m box", (-3, -3, 3, 3), walls=(
@@ -17,13 +22,28 @@ ROBOTS = [RobotRequest("a", PIONEER_P3DX, Pose(2.2, 0, 0), CHANNELS),  # 0.55 m 
           RobotRequest("b", PIONEER_P3DX, Pose(-1.5, 1.5, math.pi / 2), CHANNELS)]
 
 
+@pytest.fixture(scope="module")
+def server():
+    """labsim serve for WORLD with two robots, on a free port, for the coppeliasim backend."""
+    pytest.importorskip("zmq")
+    pytest.importorskip("cbor2")
+    pytest.importorskip("coppeliasim_zmqremoteapi_client")
+    from labsim.backends.coppeliasim.server import Server
+
+    with Server(WORLD, 2, port=0) as srv:
+        yield srv
+
+
 @pytest.fixture(params=sorted(REGISTRY))
-def backend_name(request) -> str:
-    return request.param
+def make(request):
+    """make() -> a new backend of each registered kind (coppeliasim: against the server)."""
+    if request.param == "coppeliasim":
+        srv = request.getfixturevalue("server")
+        return lambda: load_backend("coppeliasim", port=srv.port, timeout_s=5.0)
+    return lambda: load_backend(request.param)
 
 
-def drive(name: str, ticks: int = 100) -> list[list[list[object]]]:
-    backend = load_backend(name)
+def drive(backend: Backend, ticks: int = 100) -> list[list[list[object]]]:
     backend.open(WORLD, ROBOTS, 0.05, seed=7)
     out = []
     try:
@@ -37,8 +57,8 @@ def drive(name: str, ticks: int = 100) -> list[list[list[object]]]:
     return out
 
 
-def test_contract(backend_name: str) -> None:
-    backend = load_backend(backend_name)
+def test_contract(make) -> None:
+    backend = make()
     with pytest.raises(BackendStateError):
         backend.sense()
     backend.open(WORLD, ROBOTS, 0.05, seed=1)
@@ -62,5 +82,12 @@ def test_contract(backend_name: str) -> None:
         backend.step()
 
 
-def test_same_inputs_same_readings(backend_name: str) -> None:
-    assert drive(backend_name) == drive(backend_name)
+def test_same_inputs_same_readings(make) -> None:
+    assert drive(make()) == drive(make())
+
+
+def test_coppeliasim_reads_what_pymunk_computes(server) -> None:
+    """Through labsim serve, every reading is the embedded backend's, bit for bit."""
+    remote = drive(load_backend("coppeliasim", port=server.port))
+    assert remote == drive(load_backend("pymunk"))
+    assert any(r[1] != math.inf for tick in remote for r in tick)  # the sonars did see walls

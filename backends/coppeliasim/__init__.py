@@ -1,0 +1,41 @@
+"""CoppeliaSim through its ZeroMQ remote API: the backend, and a stand-in server for it.
+
+Two halves that meet on the wire (docs/coppeliasim.md):
+
+* ``backend.CoppeliaSimBackend`` drives a real CoppeliaSim (4.6 or newer, the ZMQ remote API
+  add-on running) with the unmodified client ``coppeliasim_zmqremoteapi_client``. The runtime
+  reaches it through ``labsim.backends.protocol.Backend``, like the embedded backend.
+* ``server.Server`` (``labsim serve``) answers the same protocol from labsim's pymunk backend,
+  so the backend can be tested without CoppeliaSim, and scripts written for CoppeliaSim run
+  against labsim.
+
+This module holds only what both halves agree on: the scene object names of each robot model.
+It imports nothing, so loading the package costs nothing and needs neither pyzmq nor cbor2.
+"""
+from __future__ import annotations
+
+DEFAULT_PORT = 23000  # CoppeliaSim's default (before 4.8 adds the process id to it)
+
+# Object paths of a model in a CoppeliaSim scene (CoppeliaSim 4.3+ aliases). ``robot`` is
+# absolute and formatted with ``i``, the robot's number among the robots of that model;
+# the others are relative to the robot (resolved with the ``proxy`` option of sim.getObject)
+# and ``sonar`` is formatted with ``k`` = sonar number - 1 (channel sonar1 is
+# ultrasonicSensor[0]). A camera channel ``c`` is ``cameras[c]``, or ``./c`` when absent.
+# ``collision``: what sim.checkCollision tests the robot against; None is sim.handle_all.
+MODEL_PATHS: dict[str, dict[str, object]] = {
+    "pioneer_p3dx": {
+        "robot": "/PioneerP3DX[{i}]",
+        "left_motor": "./leftMotor",
+        "right_motor": "./rightMotor",
+        "sonar": "./ultrasonicSensor[{k}]",
+        "cameras": {"camera": "./Vision_sensor"},  # the alias CoppeliaSim gives a new vision sensor
+        "collision": None,
+    },
+}
+
+
+def camera_alias(model: str, channel: str) -> str:
+    """The alias of a robot's camera object for a camera channel (``camera`` -> Vision_sensor)."""
+    cameras = MODEL_PATHS.get(model, {}).get("cameras", {})
+    path = cameras.get(channel, f"./{channel}") if isinstance(cameras, dict) else f"./{channel}"
+    return str(path).rsplit("/", 1)[-1]
