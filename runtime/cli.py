@@ -22,7 +22,7 @@ from labsim.backends.world import builtin_worlds
 from labsim.dsl.errors import Diagnostic, LabsimError
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import Run, compile_behaviour, stop_horizon
+from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -46,6 +46,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="override a parameter from the file's 'params:' (repeatable)")
     run.add_argument("--seed", type=int, help="override the file's seed")
     run.add_argument("--trace", metavar="PATH", help="write the trace (CSV) to PATH")
+    run.add_argument("--replay", metavar="TRACE", help="move the sliders as a recorded trace did "
+                                                       "(instead of the file's timeline)")
     run.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
     _remote_options(run)
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -128,6 +130,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write("labsim: interrupted\n")
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `labsim run ... | head`: the reader has what it wanted
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
 
 
 def _print_diagnostics(diagnostics: list[Diagnostic]) -> None:
@@ -159,9 +164,15 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
         behaviour.program.seed = args.seed
     if args.trace:
-        _check_writable(args.trace)
+        _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
+    replay = None
+    if args.replay:
+        try:
+            replay = slider_events(read_trace(args.replay))
+        except TraceFormatError as e:
+            raise LabsimError([Diagnostic(args.replay, str(e).removeprefix(f"{args.replay}: "))]) from None
     backend = load_backend(args.backend, **_backend_options(args))
-    run = behaviour.bind(backend, trace=args.trace, warn=_warn)
+    run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
     try:
@@ -189,8 +200,11 @@ def _round_trips(backend: object, ticks: int) -> str:
             f" ({total} requests in all{' to ' + where if where else ''})")
 
 
-def _check_writable(path: str) -> None:
+def _check_writable(path: str, inputs: list[Path]) -> None:
     p = Path(path)
+    if p.exists() and any(p.resolve() == i.resolve() for i in inputs if str(i)):
+        raise LabsimError([Diagnostic(f"--trace {path}", "would overwrite an input of this run; give the "
+                                      "trace its own file, such as run.csv")])
     if p.is_dir():
         raise LabsimError([Diagnostic(f"--trace {path}", "is a folder; give a file name such as run.csv")])
     if not p.parent.exists():
@@ -217,12 +231,24 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     files: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            files += sorted(f for f in p.glob("*.yaml") if not f.name.endswith("_with_error.yaml"))
+            files += sorted(f for f in p.glob("*.yaml") if not _is_world_file(f))
         elif p.exists():
             files.append(p)
         else:
             raise LabsimError([Diagnostic(str(p), "no such file or folder")])
     return files
+
+
+def _is_world_file(path: Path) -> bool:
+    """A world file (its first key is labsim-world), not a behaviour: labsim test skips it."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            for line in f:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return line.startswith("labsim-world:")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return False
 
 
 def cmd_test(args: argparse.Namespace) -> int:
@@ -233,43 +259,54 @@ def cmd_test(args: argparse.Namespace) -> int:
     if args.update_goldens and args.backend != DEFAULT:
         raise LabsimError([Diagnostic("--update-goldens", f"goldens are recorded on the {DEFAULT} backend; "
                                       f"drop --backend {args.backend}")])
-    failed = 0
+    failed = bad = 0
     for f in files:
-        golden = golden_path(f)
-        if args.update_goldens:
-            fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
-            os.close(fd)
-            try:
-                summary = _record(f, tmp, args.backend, options)
-                os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
-                os.replace(tmp, golden)
-            finally:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
-            print(f"recorded {golden} ({summary.ticks} ticks)")
+        try:
+            ok = _test_one(f, args, options)
+        except LabsimError as e:  # a broken behaviour: say why, and test the others
+            print(f"FAIL {f}: it does not compile (errors below)")
+            _print_diagnostics(e.diagnostics)
+            bad += 1
             continue
-        if not golden.exists():
-            print(f"FAIL {f}: no golden trace {golden}; record one with: labsim test {f} --update-goldens")
-            failed += 1
-            continue
-        with tempfile.TemporaryDirectory() as d:
-            actual = Path(d) / "actual.csv"
-            _record(f, actual, args.backend, options)
-            try:
-                expected_trace = read_trace(golden)
-            except TraceFormatError as e:
-                print(f"FAIL {f}: {e}")
-                failed += 1
-                continue
-            difference = compare(expected_trace, read_trace(actual))
-        if difference is None:
-            print(f"ok   {f}")
-        else:
-            failed += 1
-            print(f"FAIL {f} (golden {golden})")
-            print("\n".join("  " + line for line in str(difference).splitlines()))
-    print(f"{len(files) - failed} passed, {failed} failed")
-    return EXIT_FAILED if failed else EXIT_OK
+        failed += not ok
+    print(f"{len(files) - failed - bad} passed, {failed + bad} failed")
+    return EXIT_USAGE if bad else EXIT_FAILED if failed else EXIT_OK
+
+
+def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> bool:
+    """Record, or compare with, one behaviour's golden; False when it fails."""
+    compile_behaviour(f)  # a broken file is reported as broken, not as missing its golden
+    golden = golden_path(f)
+    if args.update_goldens:
+        fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
+        os.close(fd)
+        try:
+            summary = _record(f, tmp, args.backend, options)
+            os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
+            os.replace(tmp, golden)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        print(f"recorded {golden} ({summary.ticks} ticks)")
+        return True
+    if not golden.exists():
+        print(f"FAIL {f}: no golden trace {golden}; record one with: labsim test {f} --update-goldens")
+        return False
+    with tempfile.TemporaryDirectory() as d:
+        actual = Path(d) / "actual.csv"
+        _record(f, actual, args.backend, options)
+        try:
+            expected_trace = read_trace(golden)
+        except TraceFormatError as e:
+            print(f"FAIL {f}: {e}")
+            return False
+        difference = compare(expected_trace, read_trace(actual))
+    if difference is None:
+        print(f"ok   {f}")
+        return True
+    print(f"FAIL {f} (golden {golden})")
+    print("\n".join("  " + line for line in str(difference).splitlines()))
+    return False
 
 
 def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT,  # type: ignore[no-untyped-def]
@@ -286,14 +323,18 @@ def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from labsim.runtime.plot import plot_trace
+    from labsim.runtime.plot import check_output, plot_trace
 
+    try:
+        check_output(args.output)
+    except ValueError as e:
+        raise LabsimError([Diagnostic(args.output, str(e))]) from None
     try:
         out = plot_trace(args.trace, args.output)
     except TraceFormatError as e:
         raise LabsimError([Diagnostic(args.trace, str(e).removeprefix(f"{args.trace}: "))]) from None
-    except ValueError as e:
-        raise LabsimError([Diagnostic(args.output, str(e))]) from None
+    except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
+        raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
     print(f"wrote {out}")
     return EXIT_OK
 

@@ -93,3 +93,38 @@ def test_python_dash_m_and_version() -> None:
     assert result.returncode == 2
     assert "missing_then_with_error.yaml:10:22: error: expected 'then' after the condition" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_a_trace_never_overwrites_an_input(capsys, tmp_path: Path) -> None:
+    lab = tmp_path / "lab.yaml"
+    shutil.copy(LAB, lab)
+    code, _, err = cli(capsys, "run", str(lab), "--trace", str(lab))
+    assert code == 2 and "would overwrite an input of this run" in err
+    assert lab.read_text() == LAB.read_text()
+
+
+def test_test_goes_on_past_a_broken_behaviour_and_skips_world_files(capsys, tmp_path: Path) -> None:
+    shutil.copy(FIXTURES / "types_with_error.yaml", tmp_path / "a_broken.yaml")
+    shutil.copy(FIXTURES / "pendulum_world.yaml", tmp_path / "pendulum_world.yaml")
+    lab = tmp_path / "lab.yaml"
+    lab.write_text(LAB.read_text().replace("minutes: 25 ", "minutes: 0.2"))
+    assert cli(capsys, "test", str(lab), "--update-goldens")[0] == 0
+    code, out, err = cli(capsys, "test", str(tmp_path))
+    assert code == 2  # a file that does not compile is bad input, reported after the others ran
+    assert "FAIL" in out and "a_broken.yaml: it does not compile" in out and "ok   " in out
+    assert "pendulum_world" not in out
+    assert "types_with_error" not in err and "a_broken.yaml:11:8: error:" in err
+
+
+def test_output_to_a_closed_pipe_is_not_an_error() -> None:
+    result = subprocess.run(f"{sys.executable} -m labsim run {LAB} --set minutes=0.1 | head -1",
+                            shell=True, capture_output=True, text=True)
+    assert "Traceback" not in result.stderr and result.stdout.startswith("Wall following")
+
+
+def test_replay_flag_feeds_a_traces_slider_moves_back(capsys, tmp_path: Path) -> None:
+    crane = BEHAVIOURS / "crane.yaml"
+    first, second = tmp_path / "first.csv", tmp_path / "second.csv"
+    assert cli(capsys, "run", str(crane), "-q", "--trace", str(first))[0] == 0
+    assert cli(capsys, "run", str(crane), "-q", "--trace", str(second), "--replay", str(first))[0] == 0
+    assert first.read_text().splitlines()[1:] == second.read_text().splitlines()[1:]
