@@ -38,6 +38,9 @@ class RobotRequest:
     model: RobotModel | None  # None: the world's mechanism (its joints, force sensors and bodies)
     pose: Pose  # where it starts (unused for a mechanism)
     channels: tuple[str, ...]  # what sense() returns for it, in this order
+    # Names of the robot's objects in a simulator's scene, overriding the backend's defaults
+    # for the model (CoppeliaSim: {"robot": "/MyPioneer", "left_motor": "./leftMotor", ...}).
+    paths: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)

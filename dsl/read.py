@@ -28,7 +28,8 @@ TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "rob
             "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
-ROBOT_KEYS = ("model", "count", "at", "camera")
+ROBOT_KEYS = ("model", "count", "at", "camera", "paths")
+PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
 
@@ -51,6 +52,7 @@ class RobotDecl:
     model_node: Node | None
     camera: Camera | None = None
     at_node: Node | None = None
+    paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
 
 
 @dataclass(frozen=True)
@@ -303,9 +305,24 @@ class _Reader:
                     count = int(c)
             at = self.placement(fields.get("at"))
             camera = self.camera(fields["camera"]) if "camera" in fields else None
+            paths = self.paths(fields["paths"]) if "paths" in fields else ()
             if at is not None:
-                out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at")))
+                out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths))
         return out
+
+    def paths(self, node: Node) -> tuple[tuple[str, str], ...]:
+        """paths: {robot: "/MyPioneer[{i}]", left_motor: ./leftMotor, sonar: "./sonar[{k}]"}"""
+        out = []
+        for k, v in self.mapping(node, "paths"):
+            if k.value not in PATH_KEYS:
+                self.error(k, f"unknown path key '{k.value}'{did_you_mean(k.value, PATH_KEYS)}",
+                           notes=("path keys: " + ", ".join(PATH_KEYS) + " ({i} is the robot's index among all "
+                                  "robots, from 0; {k} the sonar's, from 0)",))
+                continue
+            text = self.string(v, k.value)
+            if text:
+                out.append((k.value, text))
+        return tuple(out)
 
     def camera(self, node: Node) -> Camera | None:
         """camera: {resolution: [w, h], fov_deg: 60, height_m: 0.3, pitch_deg: 45, x_m: 0.2}"""

@@ -72,6 +72,7 @@ class RobotRun:
     clamping: bool = False  # whether the command now held exceeds the limit
     clamped_ticks: int = 0
     start: Pose | None = None
+    paths: tuple[tuple[str, str], ...] = ()  # the behaviour file's scene names for it
 
 
 @dataclass
@@ -118,7 +119,7 @@ class Run:
         # the trace records every robot's pose and contact state (read after the behaviour's
         # own channels); without a trace they are not read at all
         self._extra: tuple[str, ...] = ("x", "y", "heading", "collided") if trace_path is not None else ()
-        requests = [RobotRequest(r.name, r.model, r.start, program.channels + self._extra)
+        requests = [RobotRequest(r.name, r.model, r.start, program.channels + self._extra, r.paths)
                     for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
@@ -160,7 +161,7 @@ class Run:
                 rng = random.Random(f"{p.seed}/{name}")
                 program = p.robot(name, rng, self.faults, model)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
-                                       sent_joints=[math.nan] * len(p.targets)))
+                                       sent_joints=[math.nan] * len(p.targets), paths=decl.paths))
         return robots
 
     def header(self) -> dict:

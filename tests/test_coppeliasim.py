@@ -284,3 +284,18 @@ def test_the_embedded_path_never_imports_the_client() -> None:
     code = ("import sys, labsim.runtime.cli, labsim.backends.pymunk.backend, labsim.backends.coppeliasim; "
             "assert not {'zmq', 'cbor2', 'coppeliasim_zmqremoteapi_client'} & set(sys.modules)")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+
+
+def test_scene_paths_from_the_behaviour_file(served: int, tmp_path: Path, capsys) -> None:
+    text = LAB.read_text().replace("minutes: 25 ", "minutes: 0.1")
+    good = tmp_path / "good.yaml"
+    good.write_text(text.replace("pioneer: {model: pioneer_p3dx, at: random}",
+                                 'pioneer: {model: pioneer_p3dx, at: random, paths: {robot: "/PioneerP3DX[{i}]", '
+                                 'sonar: "./ultrasonicSensor[{k}]"}}'))
+    assert main(["run", str(good), "-q", "--backend", "coppeliasim", "--port", str(served)]) == 0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace("pioneer: {model: pioneer_p3dx, at: random}",
+                                'pioneer: {model: pioneer_p3dx, at: random, paths: {robot: "/MyPioneer"}}'))
+    capsys.readouterr()
+    assert main(["run", str(bad), "-q", "--backend", "coppeliasim", "--port", str(served)]) == 2
+    assert "/MyPioneer" in capsys.readouterr().err

@@ -264,6 +264,7 @@ class CoppeliaSimBackend:
                     f"robot '{req.name}': the coppeliasim backend knows no scene object names for model "
                     f"'{req.model.name}'; pass paths={{'robot': ..., 'left_motor': ..., ...}}")
             paths.update(self.paths)
+            paths.update(dict(req.paths))  # the behaviour file's, for this robot
             offered = req.model.channels()
             for ch in req.channels:
                 if ch not in offered and ch not in from_world:
