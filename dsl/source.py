@@ -21,7 +21,7 @@ from typing import Iterator
 import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.dsl.errors import Diagnostic, LabsimError
+from labsim.dsl.errors import Diagnostic, LabsimError, Report
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 
@@ -257,6 +257,24 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
                 yield doc.diagnostic(key, f"duplicate key '{key.value}' (first given on line {first})")
             else:
                 seen[key.value] = key
+
+
+def known_fields(doc: Document, report: "Report", node: Node, allowed: tuple[str, ...],
+                 what: str) -> dict[str, Node] | None:
+    """The values of a mapping's known keys; unknown keys (with did-you-mean) and a node that
+    is not a mapping are reported, the latter giving None."""
+    from labsim.dsl.errors import did_you_mean
+
+    if not isinstance(node, MappingNode):
+        report.add(doc.diagnostic(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}"))
+        return None
+    out = {}
+    for k, v in node.value:
+        if k.value not in allowed:
+            report.add(doc.diagnostic(k, f"unknown key '{k.value}' in {what}{did_you_mean(k.value, allowed)}"))
+        else:
+            out[k.value] = v
+    return out
 
 
 def scalar_value(node: ScalarNode) -> object:

@@ -52,7 +52,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
 from labsim.backends.world import Block, Pose, Wall, World
 from labsim.dsl.errors import LabsimError, Report, did_you_mean
-from labsim.dsl.source import Document, load, scalar_value
+from labsim.dsl.source import Document, known_fields, load, scalar_value
 
 KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
         "ground", "mechanism")
@@ -112,16 +112,7 @@ class _WorldReader:
         return list(node.value)
 
     def fields(self, node: Node, allowed: tuple[str, ...], what: str) -> dict[str, Node]:
-        if not isinstance(node, MappingNode):
-            self.error(node, f"each of '{what}' is a mapping such as {{{allowed[0]}: ...}}")
-            return {}
-        out = {}
-        for k, v in node.value:
-            if k.value not in allowed:
-                self.error(k, f"unknown key '{k.value}' in {what}{did_you_mean(k.value, allowed)}")
-            else:
-                out[k.value] = v
-        return out
+        return known_fields(self.doc, self.report, node, allowed, what) or {}
 
     def read(self) -> World:
         root = self.doc.root

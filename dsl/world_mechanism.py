@@ -44,7 +44,7 @@ from labsim.backends.mechanism import (
     start_position,
 )
 from labsim.dsl.errors import Report, did_you_mean
-from labsim.dsl.source import Document, scalar_value
+from labsim.dsl.source import Document, known_fields, scalar_value
 
 KEYS = ("gravity", "damping", "floor", "bodies", "joints", "force_sensors")
 BODY_KEYS = ("shape", "center", "size", "depth", "mass", "density", "static", "angle_deg")
@@ -116,16 +116,7 @@ class _Reader:
         return None if a is None or b is None else (a, b)
 
     def fields(self, node: Node, allowed: tuple[str, ...], what: str) -> dict[str, Node] | None:
-        if not isinstance(node, MappingNode):
-            self.error(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}")
-            return None
-        out = {}
-        for k, v in node.value:
-            if k.value not in allowed:
-                self.error(k, f"unknown key '{k.value}' in {what}{did_you_mean(k.value, allowed)}")
-            else:
-                out[k.value] = v
-        return out
+        return known_fields(self.doc, self.report, node, allowed, what)
 
     def entries(self, node: Node, what: str) -> list[tuple[ScalarNode, Node]]:
         if not isinstance(node, MappingNode):
