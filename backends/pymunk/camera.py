@@ -116,8 +116,9 @@ def _blend(img: np.ndarray, top: int, left: int, cover: np.ndarray, rgb: tuple[i
     """Paint rgb over img[top:, left:] with per-pixel coverage 0..1."""
     h, w = cover.shape
     region = img[top:top + h, left:left + w]
-    c = cover[:, :, None]
-    region[...] = np.rint(region * (1.0 - c) + np.asarray(rgb, float) * c).astype(np.uint8)
+    touched = cover > 0  # a road's bounding box is mostly floor: blend only what it covers
+    c = cover[touched][:, None]
+    region[touched] = np.rint(region[touched] * (1.0 - c) + np.asarray(rgb, float) * c).astype(np.uint8)
 
 
 def _window(img: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[int, int, int, int] | None:
