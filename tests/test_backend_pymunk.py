@@ -396,11 +396,11 @@ def test_public_space_and_bodies() -> None:
 
 # --- forward speed and road channels ----------------------------------------------------------
 
-def road_loop() -> World:
+def road_compact() -> World:
     from labsim.backends.world import builtin_worlds
     from labsim.dsl.errors import Report
     from labsim.dsl.world import load_world
-    world = load_world(builtin_worlds()["road_loop"], Report())
+    world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
     return world
 
@@ -426,7 +426,7 @@ def test_forward_speed_against_a_wall_is_what_the_wall_leaves() -> None:
 
 
 def test_road_channels_on_and_off_the_road() -> None:
-    world = road_loop()
+    world = road_compact()
     start = world.spawns[0]  # on the bottom straight, heading east
     left = Pose(start.x_m, start.y_m + 1.2, 0.0)
     right = Pose(start.x_m + 2.0, start.y_m - 0.3, 0.0)
@@ -440,7 +440,7 @@ def test_road_channels_on_and_off_the_road() -> None:
 
 
 def test_laps_counted_driving_round_the_loop() -> None:
-    world = road_loop()
+    world = road_compact()
     road = world.ground.roads[0]
     b = PymunkBackend()
     b.open(world, [req(world.spawns[0], ("laps", "x", "y"))], DT, seed=1)
@@ -484,7 +484,7 @@ def test_road_channels_need_a_road() -> None:
 
 
 def test_sonar_only_sense_computes_nothing_else() -> None:
-    b = opened(road_loop(), Pose(0.0, -4.0, 0.0), channels=("sonar5", "sonar8", "collided"))
+    b = opened(road_compact(), Pose(0.0, -4.0, 0.0), channels=("sonar5", "sonar8", "collided"))
     names = set(b._sense.__code__.co_names)
     assert not names & {"render", "offset", "laps", "velocity"}
     assert b._lap_robots == []

@@ -206,7 +206,7 @@ def test_looking_straight_down() -> None:
 # --- speed --------------------------------------------------------------------------------------
 
 def test_a_frame_is_fast() -> None:
-    world = load_world(builtin_worlds()["road_loop"], Report())
+    world = load_world(builtin_worlds()["road_compact"], Report())
     view = ground_view(world.ground)
     view.render(0.0, -4.0, 0.0, CAM)
     times = timeit.repeat(lambda: view.render(0.0, -4.0, 0.1, CAM), number=200, repeat=5)
@@ -217,7 +217,7 @@ def test_a_frame_is_fast() -> None:
 # --- through the backend ------------------------------------------------------------------------
 
 def road_world() -> World:
-    world = load_world(builtin_worlds()["road_loop"], Report())
+    world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
     return world
 

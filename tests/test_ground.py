@@ -1,6 +1,7 @@
 """labsim.backends.ground and the ground section of world files: road geometry, laps, errors."""
 from __future__ import annotations
 
+import collections
 import math
 import sys
 import types
@@ -191,17 +192,18 @@ def test_ground_extent() -> None:
 
 # --- the built-in road world ------------------------------------------------------------------
 
-def test_road_loop_world() -> None:
+@pytest.mark.parametrize("name, width_m, length_m", [("road_loop", 3.0, 408.0), ("road_compact", 2.0, 123.0)])
+def test_road_worlds(name: str, width_m: float, length_m: float) -> None:
     report = Report()
-    world = load_world(builtin_worlds()["road_loop"], report)
+    world = load_world(builtin_worlds()[name], report)
     assert world is not None, [d.format() for d in report.diagnostics]
     ground = world.ground
     assert isinstance(ground, Ground) and len(ground.roads) == 1
     road = ground.roads[0]
-    assert road.closed and road.width_m == 2.0
+    assert road.closed and road.width_m == width_m
     assert ground.floor_rgb[0] > 180 and road.rgb[0] < 50
     t = RoadTracker(road)
-    assert 120.0 <= t.length_m <= 125.0
+    assert t.length_m == pytest.approx(length_m, abs=1.0)
     # five spawns on the centreline, heading along the road, well apart, clear of the walls
     assert len(world.spawns) >= 5
     positions = []
@@ -235,14 +237,15 @@ def road_radii(road: Road) -> list[float]:
     return out
 
 
-def test_road_loop_has_straights_and_curves_of_different_radii() -> None:
-    road = first_road(load_world(builtin_worlds()["road_loop"], Report()))
-    radii = [r for r in road_radii(road) if r < 100]
-    assert min(radii) >= 1.5 - 0.01
-    distinct = {round(r, 1) for r in radii}
-    assert len(distinct) >= 2 and max(distinct) - min(distinct) >= 1.0
+@pytest.mark.parametrize("name, radii_m", [("road_loop", {50, 55, 60}), ("road_compact", {10, 12, 15})])
+def test_road_worlds_have_straights_and_curves_of_different_radii(name: str, radii_m: set[int]) -> None:
+    road = first_road(load_world(builtin_worlds()[name], Report()))
+    # the arcs' chords give their radius; a triple across an arc's end gives something between
+    counts = collections.Counter(round(r) for r in road_radii(road) if r < 1000)
+    assert {r for r, n in counts.items() if n >= 10} == radii_m
     segs = [math.dist(a, b) for a, b in zip(road.points, road.points[1:] + road.points[:1])]
-    assert sum(s for s in segs if s > 1.0) > 10  # long straights
+    straights = [s for s in segs if s > 5.0]
+    assert len(straights) == 4 and min(straights) >= 8.0
 
 
 # --- world files: the ground section ----------------------------------------------------------

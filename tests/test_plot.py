@@ -179,9 +179,9 @@ def test_long_trace_is_fast(tmp_path: Path) -> None:
 
 
 def test_ground_is_drawn_under_the_paths(tmp_path: Path) -> None:
-    world_file = builtin_worlds()["road_loop"]
+    world_file = builtin_worlds()["road_compact"]
     trace = write_trace(tmp_path / "road.csv", {"pioneer": straight(-5.0, -15.0, 0.0, -15.0)},
-                        world="road_loop", world_file=str(world_file))
+                        world="road_compact", world_file=str(world_file))
     out = plot_trace(trace, tmp_path / "road.png", width_px=900)
     img = cv2.imread(str(out))
     fig = render_figure(read_trace(trace), width_px=900)

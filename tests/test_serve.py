@@ -169,7 +169,7 @@ def test_wheels_drive_the_robot_and_turn_their_joints(wire: Wire) -> None:
 
 
 def test_camera_images_are_rgb_bottom_row_first() -> None:
-    world = load_world(builtin_worlds()["road_loop"], Report())
+    world = load_world(builtin_worlds()["road_compact"], Report())
     cam = Camera("camera", 32, 24, 60.0, 0.3, 45.0)
     model = dataclasses.replace(PIONEER_P3DX, cameras=(cam,))
     pose = world.spawns[0] if world.spawns else Pose(0.0, 0.0, 0.0)
