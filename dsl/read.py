@@ -122,7 +122,7 @@ class BehaviourFile:
     timeline: list[Event] = field(default_factory=list)
     has_robots: bool = False
     has_rules: bool = False
-    failed_names: set[str] = field(default_factory=set)  # lets and metrics that did not parse
+    failed_names: set[str] = field(default_factory=set)  # lets, metrics and cameras that were reported as wrong
 
     @property
     def path(self) -> str:
@@ -195,6 +195,7 @@ def read(doc: Document, report: Report) -> BehaviourFile:
         bf.binds = r.binds(keys["bind"][1])
     if "timeline" in keys:
         bf.timeline = r.timeline(keys["timeline"][1])
+    bf.failed_names |= r.failed_names
     return bf
 
 
@@ -211,6 +212,7 @@ class _Reader:
     def __init__(self, doc: Document, report: Report):
         self.doc = doc
         self.report = report
+        self.failed_names: set[str] = set()  # declared, but reported as wrong: uses stay quiet
 
     def error(self, node: Node, message: str, notes: tuple[str, ...] = ()) -> None:
         self.report.add(self.doc.diagnostic(node, message, notes=notes))
@@ -305,6 +307,8 @@ class _Reader:
                     count = int(c)
             at = self.placement(fields.get("at"))
             camera = self.camera(fields["camera"]) if "camera" in fields else None
+            if "camera" in fields and camera is None:
+                self.failed_names.add("camera")
             paths = self.paths(fields["paths"]) if "paths" in fields else ()
             if at is not None:
                 out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths))
