@@ -78,6 +78,32 @@ def _clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
+def _min(a: float, b: float, *rest: float) -> float:
+    """Smallest value; nan if any argument is nan (Python's min would depend on the order)."""
+    if a != a or b != b:
+        return math.nan
+    m = b if b < a else a
+    for x in rest:
+        if x != x:
+            return math.nan
+        if x < m:
+            m = x
+    return m
+
+
+def _max(a: float, b: float, *rest: float) -> float:
+    """Largest value; nan if any argument is nan."""
+    if a != a or b != b:
+        return math.nan
+    m = b if b > a else a
+    for x in rest:
+        if x != x:
+            return math.nan
+        if x > m:
+            m = x
+    return m
+
+
 def _round(x: float) -> float:
     return float(round(x))
 
@@ -90,8 +116,8 @@ def _log(x: float) -> float:
 
 FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("abs", (N,), N, abs, "absolute value"),
-    Function("min", (N, N), N, min, "smallest of two or more values", variadic=True),
-    Function("max", (N, N), N, max, "largest of two or more values", variadic=True),
+    Function("min", (N, N), N, _min, "smallest of two or more values", variadic=True),
+    Function("max", (N, N), N, _max, "largest of two or more values", variadic=True),
     Function("clamp", (N, N, N), N, _clamp, "clamp(x, lo, hi): x limited to [lo, hi]"),
     Function("sqrt", (N,), N, math.sqrt, "square root"),
     Function("hypot", (N, N), N, math.hypot, "hypot(x, y): length of the vector (x, y)"),

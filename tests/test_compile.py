@@ -76,6 +76,24 @@ def test_faults_have_defined_results_and_warn_once(write, expr: str, value: floa
         assert "  probe: " in w and "^" in w  # the source line and a caret under the expression
 
 
+@pytest.mark.parametrize("expr", [
+    "min(sqrt(-sonar1), 1)", "min(1, sqrt(-sonar1))", "min(1, 2, sqrt(-sonar1))",
+    "max(sqrt(-sonar1), 1)", "max(1, sqrt(-sonar1))", "max(sonar3, 2, sqrt(-sonar1))",
+])
+def test_min_and_max_of_a_nan_are_nan_wherever_it_stands(write, expr: str) -> None:
+    got, warnings = evaluate(write, expr)
+    assert math.isnan(got) and len(warnings) == 1  # the sqrt's warning, nothing more
+
+
+@pytest.mark.parametrize("expr, value", [
+    ("min(sonar3, 1)", 1.0), ("max(sonar3, 1)", math.inf), ("min(-sonar3, sonar3)", -math.inf),
+    ("min(2, 1, 3)", 1.0), ("max(2, 1, 3)", 3.0), ("min(0, 1)", 0.0), ("max(-1, 0)", 0.0),
+])
+def test_min_and_max_with_infinities_and_folded(write, expr: str, value: float) -> None:
+    got, warnings = evaluate(write, expr)
+    assert got == value and warnings == []
+
+
 def test_constants_are_folded(write) -> None:
     p = program(write, "  scaled: sonar1 * (a * 60)\n", params="{a: 25}", stop="time >= a * 60")
     source, _ = p.source()
