@@ -29,6 +29,9 @@ Point = tuple[float, float]
 DEFAULT_FLOOR_RGB: RGB = (205, 205, 200)  # a light floor; also what a camera sees in a world without ground
 DEFAULT_ROAD_RGB: RGB = (25, 25, 25)
 DEFAULT_PX_PER_M = 100.0  # texture resolution: 1 cm per texture pixel
+TEXTURE_MARGIN_M = 0.25  # texture beyond the painted extent, so antialiased edges are not cut
+MAX_TEXTURE_SIDE_PX = 32_000  # OpenCV's warps address the source with 16-bit coordinates
+MAX_TEXTURE_PX = 64_000_000  # 192 MB of RGB; beyond this, a lower px_per_m is the answer
 
 
 @dataclass(frozen=True)
@@ -99,6 +102,31 @@ class Ground:
         if not xs:
             return None
         return (min(xs), min(ys), max(xs), max(ys))
+
+    def texture_box(self) -> tuple[float, float, float, float, int, int] | None:
+        """xmin, ymin, xmax, ymax (metres, margin included) and width, height (pixels) of the
+        top-down texture this ground draws into at ``px_per_m``; None if nothing is painted."""
+        ext = self.extent()
+        if ext is None:
+            return None
+        m = TEXTURE_MARGIN_M
+        xmin, ymin, xmax, ymax = ext[0] - m, ext[1] - m, ext[2] + m, ext[3] + m
+        ppm = float(self.px_per_m)
+        return xmin, ymin, xmax, ymax, math.ceil((xmax - xmin) * ppm), math.ceil((ymax - ymin) * ppm)
+
+    def texture_problem(self) -> str | None:
+        """Why this ground cannot be drawn as one texture (too large), or None."""
+        box = self.texture_box()
+        if box is None:
+            return None
+        xmin, ymin, xmax, ymax, w, h = box
+        if max(w, h) <= MAX_TEXTURE_SIDE_PX and w * h <= MAX_TEXTURE_PX:
+            return None
+        wm, hm = xmax - xmin, ymax - ymin
+        fits = min(MAX_TEXTURE_SIDE_PX / max(wm, hm), math.sqrt(MAX_TEXTURE_PX / (wm * hm)))
+        return (f"the ground would be a {w} x {h} px texture ({wm:.1f} x {hm:.1f} m at {self.px_per_m:g} "
+                f"px/m), more than a camera can render from; use px_per_m: {math.floor(fits * 0.99):g} "
+                f"or less")
 
 
 # --- channels ---------------------------------------------------------------------------------

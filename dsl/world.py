@@ -254,7 +254,12 @@ class _WorldReader:
                 patches.append(Patch(_box(c[0], c[1], sz[0], sz[1], angle), rgb))
         if len(self.report.errors) != before:
             return None
-        return Ground(floor, tuple(roads), tuple(lines), tuple(patches), ppm)
+        ground = Ground(floor, tuple(roads), tuple(lines), tuple(patches), ppm)
+        problem = ground.texture_problem()
+        if problem:
+            self.error(g.get("px_per_m", node), problem)
+            return None
+        return ground
 
     def road(self, item: Node) -> Road | None:
         r = self.fields(item, ROAD_KEYS, "roads")

@@ -443,3 +443,36 @@ def test_mechanism_key_goes_to_its_reader(tmp_path: Path, monkeypatch: pytest.Mo
     assert world is not None and world.mechanism == "the mechanism"
     (node, _, given), = seen
     assert given is report and node.start_mark.line == 4  # the section's own node (0-based line)
+
+
+def test_a_ground_too_large_to_render_is_an_error_with_the_px_per_m_that_fits(tmp_path: Path) -> None:
+    # 2 km of road at 100 px/m would be a 200,000 px texture: said when the world loads, so
+    # `labsim check` reports it, not the first camera frame
+    (err,) = errors(tmp_path, """\
+ground:
+  px_per_m: 100
+  roads:
+    - width: 2
+      path: [[0, 0], [2000, 0]]
+""")
+    line, col, message = err
+    assert (line, col) == (5, 13)
+    assert message.startswith("the ground would be a 200250 x 250 px texture (2002.5 x 2.5 m at 100 px/m)")
+    fits = int(message.rsplit("px_per_m: ", 1)[1].split()[0])
+    assert fits == 15  # 32,000 px a side / 2002.5 m, a little under
+    world, report = load(tmp_path, f"""\
+ground:
+  px_per_m: {fits}
+  roads:
+    - width: 2
+      path: [[0, 0], [2000, 0]]
+""")
+    assert world is not None and not report.errors
+    # without px_per_m, the default's problem is pointed at the ground section itself
+    (err,) = errors(tmp_path, """\
+ground:
+  roads:
+    - width: 2
+      path: [[0, 0], [2000, 0]]
+""")
+    assert err[:2] == (5, 3) and "px_per_m: 15 or less" in err[2]

@@ -32,9 +32,6 @@ from labsim.backends.models import Camera
 
 _SHIFT = 4  # fixed-point bits for OpenCV drawing: sub-pixel accurate edges
 _ONE = 1 << _SHIFT
-_MARGIN_M = 0.25  # texture beyond the painted extent, so antialiased edges are not cut
-_MAX_SIDE_PX = 32_000  # OpenCV's warps address the source with 16-bit coordinates
-_MAX_TEXTURE_PX = 64_000_000  # 192 MB of RGB; beyond this, a lower px_per_m is the answer
 FAR_M = 30.0  # floor farther than this is drawn as sky: at a few pixels a metre it is noise
 SKY_RGB = (225, 228, 232)  # light, so that a threshold for a dark road reads it as not-road
 
@@ -71,17 +68,13 @@ def draw_ground(ground: Ground) -> tuple[np.ndarray, float, float]:
     if not (math.isfinite(ppm) and ppm > 0):
         raise ValueError(f"ground px_per_m must be positive, not {ground.px_per_m!r}")
     floor = _colour(ground.floor_rgb)
-    ext = ground.extent()
-    if ext is None:  # a bare floor: the warp's border colour does all the work
+    box = ground.texture_box()
+    if box is None:  # a bare floor: the warp's border colour does all the work
         return np.full((2, 2, 3), floor, np.uint8), 0.0, 0.0
-    xmin, ymin, xmax, ymax = (ext[0] - _MARGIN_M, ext[1] - _MARGIN_M,
-                              ext[2] + _MARGIN_M, ext[3] + _MARGIN_M)
-    w, h = math.ceil((xmax - xmin) * ppm), math.ceil((ymax - ymin) * ppm)
-    if max(w, h) > _MAX_SIDE_PX or w * h > _MAX_TEXTURE_PX:
-        raise ValueError(
-            f"the ground texture would be {w} x {h} px ({xmax - xmin:.1f} x {ymax - ymin:.1f} m "
-            f"at {ppm:g} px/m), too large; lower px_per_m"
-        )
+    problem = ground.texture_problem()
+    if problem:
+        raise ValueError(problem)
+    xmin, ymin, xmax, ymax, w, h = box
     img = np.full((h, w, 3), floor, np.uint8)
 
     def px(points: object) -> np.ndarray:
