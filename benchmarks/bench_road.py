@@ -12,15 +12,14 @@ Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x
 """
 from __future__ import annotations
 
-import argparse
 import math
-import statistics
 import time
 from pathlib import Path
 
 import cv2
 import pymunk
 
+from compare import compare
 from labsim.backends import load_backend
 from labsim.backends.ground import RoadTracker
 from labsim.backends.pymunk.camera import ground_view
@@ -139,26 +138,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=7)
-    args = parser.parse_args()
-    labsim_times, hand_times = [], []
-    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
-        t, labsim_poses = labsim_run()
-        labsim_times.append(t)
-        t, hand_poses = hand_run()
-        hand_times.append(t)
-    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
-               for p, q in zip(labsim_poses, hand_poses) for a, b in zip(p, q))
-    lab, hand = statistics.median(labsim_times), statistics.median(hand_times)
-    print(f"road lab, 5 robots x 600 ticks with cameras, median of {args.repeat}:")
-    print(f"  hand-written loop  {hand:.3f} s   ({', '.join(f'{t:.3f}' for t in hand_times)})")
-    print(f"  labsim             {lab:.3f} s   ({', '.join(f'{t:.3f}' for t in labsim_times)})")
-    print(f"  ratio labsim / hand  {lab / hand:.3f}   (goal <= 1.05)")
-    print(f"  same final poses: {'yes' if same else 'NO'}")
-    if not same:
-        for p, q in zip(labsim_poses, hand_poses):
-            print(f"    labsim {p}  hand {q}")
+    compare(__doc__.splitlines()[0], "road lab, 5 robots x 600 ticks with cameras", labsim_run, hand_run, repeat=7)
 
 
 if __name__ == "__main__":

@@ -12,22 +12,21 @@ Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x
 """
 from __future__ import annotations
 
-import argparse
 import math
 import random
-import statistics
 import time
 from pathlib import Path
 
 import pymunk
 
+from compare import compare
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
-def labsim_run() -> tuple[float, tuple[float, float, float]]:
+def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
     behaviour = compile_behaviour(LAB)
     backend = load_backend("pymunk")
     run = behaviour.bind(backend, warn=lambda m: None)
@@ -36,10 +35,10 @@ def labsim_run() -> tuple[float, tuple[float, float, float]]:
     elapsed = time.perf_counter() - start
     pose = backend.pose(0)
     run.close()
-    return elapsed, pose
+    return elapsed, [pose]
 
 
-def hand_run() -> tuple[float, tuple[float, float, float]]:
+def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # The scene: built exactly as labsim builds it (same start pose from the same seed).
     behaviour = compile_behaviour(LAB)
     p = behaviour.program
@@ -149,26 +148,11 @@ def hand_run() -> tuple[float, tuple[float, float, float]]:
     x, y = body.position
     pose = (x, y, math.remainder(body.angle, 2 * math.pi))
     run.close()
-    return elapsed, pose
+    return elapsed, [pose]
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=5)
-    args = parser.parse_args()
-    labsim_times, hand_times = [], []
-    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
-        t, labsim_pose = labsim_run()
-        labsim_times.append(t)
-        t, hand_pose = hand_run()
-        hand_times.append(t)
-    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12) for a, b in zip(labsim_pose, hand_pose))
-    lab, hand = statistics.median(labsim_times), statistics.median(hand_times)
-    print(f"wall lab, 30000 ticks, median of {args.repeat}:")
-    print(f"  hand-written pymunk loop  {hand:.3f} s   ({', '.join(f'{t:.3f}' for t in hand_times)})")
-    print(f"  labsim                    {lab:.3f} s   ({', '.join(f'{t:.3f}' for t in labsim_times)})")
-    print(f"  ratio labsim / hand       {lab / hand:.3f}   (goal <= 1.05)")
-    print(f"  same final pose: {'yes' if same else 'NO'}  labsim {labsim_pose}  hand {hand_pose}")
+    compare(__doc__.splitlines()[0], "wall lab, 30000 ticks", labsim_run, hand_run, repeat=5)
 
 
 if __name__ == "__main__":

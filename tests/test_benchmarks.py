@@ -1,0 +1,29 @@
+"""The benchmarks still run, and their hand-written loops still do what the labs do.
+
+Speed is not checked here (shared machines are noisy): each benchmark runs once and must
+report that labsim and its hand-written loop ended with the same poses, bit for bit.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+
+
+@pytest.mark.parametrize("script", ["bench_wall.py", "bench_road.py"])
+def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "ratio labsim / hand" in done.stdout
+    assert "same final poses: yes" in done.stdout, done.stdout
+
+
+def test_crane_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_crane.py"), "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
