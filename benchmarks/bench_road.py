@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import pymunk
 
-from compare import compare
+from compare import compare, labsim_side
 from labsim.backends import load_backend
 from labsim.backends.ground import RoadTracker
 from labsim.backends.pymunk.camera import ground_view
@@ -29,15 +29,7 @@ LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
 
 
 def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
-    behaviour = compile_behaviour(LAB)
-    backend = load_backend("pymunk")
-    run = behaviour.bind(backend, warn=lambda m: None)
-    start = time.perf_counter()
-    run.run()
-    elapsed = time.perf_counter() - start
-    poses = [backend.pose(i) for i in range(5)]
-    run.close()
-    return elapsed, poses
+    return labsim_side(LAB, 5)
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:

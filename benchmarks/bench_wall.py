@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pymunk
 
-from compare import compare
+from compare import compare, labsim_side
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
 
@@ -27,15 +27,7 @@ LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
 def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
-    behaviour = compile_behaviour(LAB)
-    backend = load_backend("pymunk")
-    run = behaviour.bind(backend, warn=lambda m: None)
-    start = time.perf_counter()
-    run.run()
-    elapsed = time.perf_counter() - start
-    pose = backend.pose(0)
-    run.close()
-    return elapsed, [pose]
+    return labsim_side(LAB, 1)
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:

@@ -5,10 +5,28 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
+import time
+from pathlib import Path
 from typing import Callable
+
+from labsim.backends import load_backend
+from labsim.runtime.run import compile_behaviour
 
 Pose = tuple[float, float, float]
 Side = Callable[[], tuple[float, list[Pose]]]  # one run: (wall seconds, final poses)
+
+
+def labsim_side(lab: Path, robots: int) -> tuple[float, list[Pose]]:
+    """One labsim run of a behaviour file on the pymunk backend: its wall time and final poses."""
+    behaviour = compile_behaviour(lab)
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend, warn=lambda m: None)
+    start = time.perf_counter()
+    run.run()
+    elapsed = time.perf_counter() - start
+    poses = [backend.pose(i) for i in range(robots)]
+    run.close()
+    return elapsed, poses
 
 
 def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repeat: int = 7) -> float:
