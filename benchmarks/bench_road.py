@@ -19,11 +19,9 @@ from pathlib import Path
 import cv2
 import pymunk
 
-from compare import compare, labsim_side
-from labsim.backends import load_backend
+from compare import compare, labsim_scene, labsim_side
 from labsim.backends.ground import RoadTracker
 from labsim.backends.pymunk.camera import ground_view
-from labsim.runtime.run import compile_behaviour
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
 
@@ -34,10 +32,7 @@ def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # The scene: built exactly as labsim builds it.
-    behaviour = compile_behaviour(LAB)
-    p = behaviour.program
-    backend = load_backend("pymunk")
-    run = behaviour.bind(backend, warn=lambda m: None)
+    p, backend, run = labsim_scene(LAB)
     space: pymunk.Space = backend.space
     bodies: list[pymunk.Body] = list(backend.bodies)
     model = p.models["pioneer"]

@@ -19,9 +19,7 @@ from pathlib import Path
 
 import pymunk
 
-from compare import compare, labsim_side
-from labsim.backends import load_backend
-from labsim.runtime.run import compile_behaviour
+from compare import compare, labsim_scene, labsim_side
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -32,10 +30,7 @@ def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # The scene: built exactly as labsim builds it (same start pose from the same seed).
-    behaviour = compile_behaviour(LAB)
-    p = behaviour.program
-    backend = load_backend("pymunk")
-    run = behaviour.bind(backend, warn=lambda m: None)
+    p, backend, run = labsim_scene(LAB)
     space: pymunk.Space = backend.space
     body: pymunk.Body = backend.bodies[0]
     model = p.models["pioneer"]

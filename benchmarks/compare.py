@@ -29,6 +29,14 @@ def labsim_side(lab: Path, robots: int) -> tuple[float, list[Pose]]:
     return elapsed, poses
 
 
+def labsim_scene(lab: Path):
+    """The scene a hand-written loop drives: bound exactly as labsim binds it (same seed, same
+    start poses). Returns the compiled program, the pymunk backend and the bound run."""
+    behaviour = compile_behaviour(lab)
+    backend = load_backend("pymunk")
+    return behaviour.program, backend, behaviour.bind(backend, warn=lambda m: None)
+
+
 def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repeat: int = 7) -> float:
     """Parse --repeat, time both sides interleaved, print the figures; return the ratio."""
     parser = argparse.ArgumentParser(description=description)
