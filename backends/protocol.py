@@ -15,8 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
-from labsim.backends.models import RobotModel
-from labsim.backends.world import Pose, World
+from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.world import Pose, World
 
 
 class BackendError(Exception):

@@ -20,7 +20,7 @@ import cv2
 import pymunk
 
 from compare import compare, labsim_scene, labsim_side
-from labsim.backends.ground import RoadTracker
+from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.pymunk.camera import ground_view
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"

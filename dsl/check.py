@@ -16,14 +16,14 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode
 
-from labsim.backends.models import MODELS, Kind, RobotModel
-from labsim.backends.world import World, builtin_worlds
+from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import ast
 from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS,
                                  KEYWORDS, TRACE_COLUMNS, VARIABLES, Aggregate, Type)
-from labsim.dsl.errors import Diagnostic, Report, did_you_mean
+from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
-from labsim.dsl.source import Text
+from labsim.backends.scene.source import Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
@@ -264,7 +264,7 @@ class _Checker:
         self.kinds[name] = kind
 
     def world(self) -> World | None:
-        from labsim.dsl.world import load_world  # late: world files use this package too
+        from labsim.backends.scene.world_file import load_world  # late: world files use this package too
 
         bf = self.bf
         if bf.world_node is None:
@@ -624,7 +624,7 @@ def _override_value(name: str, raw: str, current: float | bool, where: str, repo
 def _world_channels(world: World) -> dict[str, Kind]:
     """Channels a world offers every robot (a road's offset, laps, ...)."""
     try:
-        from labsim.backends.ground import world_channels
+        from labsim.backends.scene.ground import world_channels
     except ImportError:
         return {}
     return world_channels(world)

@@ -24,14 +24,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from labsim.backends.models import RobotModel
-from labsim.backends.world import World
+from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.world import World
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, Aggregate, Type
 from labsim.dsl.check import Checked, check
-from labsim.dsl.errors import Diagnostic, Report
+from labsim.backends.scene.diagnostics import Diagnostic, Report
 from labsim.dsl.read import RobotDecl, read
-from labsim.dsl.source import Text, load
+from labsim.backends.scene.source import Text, load
 
 Fn = Callable[[], object]
 INF = math.inf

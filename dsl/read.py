@@ -16,11 +16,11 @@ from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.models import Camera
+from labsim.backends.scene.models import Camera
 from labsim.dsl import ast
-from labsim.dsl.errors import Diagnostic, Report, did_you_mean
+from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.dsl.parse import ParseError, parse_expr, parse_rule
-from labsim.dsl.source import Document, Text, scalar_value
+from labsim.backends.scene.source import Document, Text, scalar_value
 
 FORMAT_VERSION = 1
 

@@ -18,8 +18,8 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.world import builtin_worlds
-from labsim.dsl.errors import Diagnostic, LabsimError
+from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
@@ -340,8 +340,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_worlds(args: argparse.Namespace) -> int:
-    from labsim.dsl.errors import Report
-    from labsim.dsl.world import load_world
+    from labsim.backends.scene.diagnostics import Report
+    from labsim.backends.scene.world_file import load_world
 
     for name, path in builtin_worlds().items():
         world = load_world(path, Report())
@@ -393,8 +393,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 def _load_world_arg(name: str):  # type: ignore[no-untyped-def]
     """A world named on the command line: built-in, or a world file."""
-    from labsim.dsl.errors import Report, did_you_mean
-    from labsim.dsl.world import load_world
+    from labsim.backends.scene.diagnostics import Report, did_you_mean
+    from labsim.backends.scene.world_file import load_world
 
     known = builtin_worlds()
     if name in known:

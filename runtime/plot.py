@@ -18,10 +18,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from labsim.backends.ground import Ground
-from labsim.backends.world import World, builtin_worlds
-from labsim.dsl.errors import Report
-from labsim.dsl.world import load_world
+from labsim.backends.scene.ground import Ground
+from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.world_file import load_world
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 MIN_WIDTH_PX = 400

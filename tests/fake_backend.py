@@ -5,7 +5,7 @@ import math
 from typing import Callable, Sequence
 
 from labsim.backends.protocol import BackendStateError, ContactStats, RobotRequest
-from labsim.backends.world import World
+from labsim.backends.scene.world import World
 
 Script = Callable[[int, int, str], object]  # (tick, robot index, channel) -> value
 

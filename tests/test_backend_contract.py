@@ -11,9 +11,9 @@ import math
 import pytest
 
 from labsim.backends import REGISTRY, load_backend
-from labsim.backends.models import PIONEER_P3DX
+from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.backends.protocol import Backend, BackendStateError, ContactStats, RobotRequest
-from labsim.backends.world import Pose, Wall, World
+from labsim.backends.scene.world import Pose, Wall, World
 
 WORLD = World("box", "a 6 m box", (-3, -3, 3, 3), walls=(
     Wall((-3, -3), (3, -3), 0.1), Wall((3, -3), (3, 3), 0.1), Wall((3, 3), (-3, 3), 0.1), Wall((-3, 3), (-3, -3), 0.1)))

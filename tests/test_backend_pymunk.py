@@ -9,10 +9,10 @@ import sys
 import pytest
 
 from labsim.backends import load_backend
-from labsim.backends.models import PIONEER_P3DX, RobotModel
+from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.protocol import BackendError, BackendStateError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
-from labsim.backends.world import Block, Pose, Wall, World
+from labsim.backends.scene.world import Block, Pose, Wall, World
 
 M = PIONEER_P3DX
 R = M.wheel_radius_m
@@ -397,9 +397,9 @@ def test_public_space_and_bodies() -> None:
 # --- forward speed and road channels ----------------------------------------------------------
 
 def road_compact() -> World:
-    from labsim.backends.world import builtin_worlds
-    from labsim.dsl.errors import Report
-    from labsim.dsl.world import load_world
+    from labsim.backends.scene.world import builtin_worlds
+    from labsim.backends.scene.diagnostics import Report
+    from labsim.backends.scene.world_file import load_world
     world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
     return world

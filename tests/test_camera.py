@@ -9,14 +9,14 @@ import timeit
 import numpy as np
 import pytest
 
-from labsim.backends.ground import Ground, Line, Patch, Road
-from labsim.backends.models import PIONEER_P3DX, Camera
+from labsim.backends.scene.ground import Ground, Line, Patch, Road
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
 from labsim.backends.pymunk.camera import GroundView, check_camera, draw_ground, ground_view
-from labsim.backends.world import Pose, World, builtin_worlds
-from labsim.dsl.errors import Report
-from labsim.dsl.world import load_world
+from labsim.backends.scene.world import Pose, World, builtin_worlds
+from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.world_file import load_world
 
 FLOOR = (205, 205, 200)
 DARK = (25, 25, 25)

@@ -7,7 +7,7 @@ import pytest
 
 from conftest import FIXTURES, expectations
 from labsim.dsl.compile import compile_file
-from labsim.dsl.errors import LabsimError
+from labsim.backends.scene.diagnostics import LabsimError
 
 ERROR_FIXTURES = sorted(FIXTURES.glob("*_with_error.yaml"))
 

@@ -23,11 +23,11 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 from conftest import BEHAVIOURS  # noqa: E402
 from labsim.backends import load_backend  # noqa: E402
 from labsim.backends.coppeliasim.server import STOPPED, Server  # noqa: E402
-from labsim.backends.models import PIONEER_P3DX  # noqa: E402
+from labsim.backends.scene.models import PIONEER_P3DX  # noqa: E402
 from labsim.backends.protocol import BackendError, RobotRequest  # noqa: E402
-from labsim.backends.world import Pose, builtin_worlds  # noqa: E402
-from labsim.dsl.errors import Report  # noqa: E402
-from labsim.dsl.world import load_world  # noqa: E402
+from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
+from labsim.backends.scene.diagnostics import Report  # noqa: E402
+from labsim.backends.scene.world_file import load_world  # noqa: E402
 from labsim.runtime.cli import main  # noqa: E402
 from test_serve import PATH_ERROR, _serve  # noqa: E402
 

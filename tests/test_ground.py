@@ -1,4 +1,4 @@
-"""labsim.backends.ground and the ground section of world files: road geometry, laps, errors."""
+"""labsim.backends.scene.ground and the ground section of world files: road geometry, laps, errors."""
 from __future__ import annotations
 
 import collections
@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from labsim.backends.ground import (
+from labsim.backends.scene.ground import (
     ROAD_CHANNELS, Ground, Line, Patch, Road, RoadTracker, first_road, world_channels,
 )
-from labsim.backends.models import Kind
-from labsim.backends.world import World, builtin_worlds
-from labsim.dsl.errors import Report
-from labsim.dsl.world import load_world
+from labsim.backends.scene.models import Kind
+from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.world_file import load_world
 
 CHORD_M = 1e-3  # arcs are chords within 0.5 mm of their circle
 
@@ -425,7 +425,7 @@ ground:
 
 
 def test_mechanism_key_is_not_supported_without_its_reader(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "labsim.dsl.world_mechanism", None)  # as if not written yet
+    monkeypatch.setitem(sys.modules, "labsim.backends.scene.mechanism_file", None)  # as if not written yet
     assert errors(tmp_path, "mechanism:\n  bodies: {}\n") == [(4, 1, "'mechanism' is not supported yet by this labsim")]
 
 
@@ -436,9 +436,9 @@ def test_mechanism_key_goes_to_its_reader(tmp_path: Path, monkeypatch: pytest.Mo
         seen.append((node, doc, report))
         return "the mechanism"
 
-    fake = types.ModuleType("labsim.dsl.world_mechanism")
+    fake = types.ModuleType("labsim.backends.scene.mechanism_file")
     fake.read_mechanism = read_mechanism  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "labsim.dsl.world_mechanism", fake)
+    monkeypatch.setitem(sys.modules, "labsim.backends.scene.mechanism_file", fake)
     world, report = load(tmp_path, "mechanism:\n  bodies: {}\n")
     assert world is not None and world.mechanism == "the mechanism"
     (node, _, given), = seen

@@ -13,7 +13,7 @@ from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 
 LAB = BEHAVIOURS / "crane.yaml"
-WEIGHT_N = 200 * 9.81  # the load's mass in backends/worlds/crane.yaml
+WEIGHT_N = 200 * 9.81  # the load's mass in backends/scene/worlds/crane.yaml
 
 
 @pytest.fixture(scope="module")

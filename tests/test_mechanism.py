@@ -1,6 +1,6 @@
 """Mechanisms: the world file's ``mechanism:`` section and the pymunk scene that runs it.
 
-Most tests drive the tower-crane lab's world (backends/worlds/crane.yaml): each joint under
+Most tests drive the tower-crane lab's world (backends/scene/worlds/crane.yaml): each joint under
 velocity and position targets, its limits, the force sensor, the load's swing, the floor, and
 determinism. A pendulum and a tilted rail check the joint kinds the crane does not use. The
 last tests check that each mistake in a world file is reported at its line and column.
@@ -16,13 +16,13 @@ from typing import Any, Callable
 
 import pytest
 
-from labsim.backends.mechanism import BodySpec, JointSpec, Mechanism, MotorSpec
+from labsim.backends.scene.mechanism import BodySpec, JointSpec, Mechanism, MotorSpec
 from labsim.backends.pymunk.mechanism import MechanismError, MechanismScene
-from labsim.backends.world import builtin_worlds
-from labsim.dsl.errors import LabsimError, Report
-from labsim.dsl.source import loads
-from labsim.dsl.world import load_world
-from labsim.dsl.world_mechanism import read_mechanism
+from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.diagnostics import LabsimError, Report
+from labsim.backends.scene.source import loads
+from labsim.backends.scene.world_file import load_world
+from labsim.backends.scene.mechanism_file import read_mechanism
 
 G = 9.81
 LOAD_KG = 200.0

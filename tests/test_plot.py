@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from labsim.backends.world import builtin_worlds
+from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_colour, robot_paths
 from labsim.runtime.trace import FORMAT, TraceFormatError, TraceWriter, read_trace
 

@@ -24,11 +24,11 @@ zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from labsim.backends.coppeliasim.server import Server  # noqa: E402
-from labsim.backends.models import PIONEER_P3DX, Camera  # noqa: E402
+from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
 from labsim.backends.protocol import RobotRequest  # noqa: E402
-from labsim.backends.world import Pose, builtin_worlds  # noqa: E402
-from labsim.dsl.errors import Report  # noqa: E402
-from labsim.dsl.world import load_world  # noqa: E402
+from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
+from labsim.backends.scene.diagnostics import Report  # noqa: E402
+from labsim.backends.scene.world_file import load_world  # noqa: E402
 
 LAB = load_world(builtin_worlds()["walls_lab4"], Report())
 PATH_ERROR = "object does not exist, or alias/path is ill formatted."

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 
 from labsim.dsl.compile import compile_file
-from labsim.dsl.errors import LabsimError
-from labsim.dsl.source import MAX_BYTES, load, loads
+from labsim.backends.scene.diagnostics import LabsimError
+from labsim.backends.scene.source import MAX_BYTES, load, loads
 
 HEAD = "labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
 

@@ -36,9 +36,9 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, MODEL_PATHS
-from labsim.backends.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
+from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
 from labsim.backends.protocol import BackendError, BackendStateError, ContactStats, RobotRequest
-from labsim.backends.world import World
+from labsim.backends.scene.world import World
 
 try:
     import zmq

@@ -53,9 +53,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, camera_alias
-from labsim.backends.models import PIONEER_P3DX, RobotModel
+from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.protocol import BackendError, RobotRequest
-from labsim.backends.world import Pose, World
+from labsim.backends.scene.world import Pose, World
 
 try:
     import cbor2
@@ -988,7 +988,7 @@ class Server:
         """X, Y, Z of a mechanism part in 3D, the slew angle and its angle in the plane.
 
         A body's place in the vertical plane (x along, z up) turned by the slew angle about the
-        slew axis (labsim.backends.mechanism); a joint is where its child body is, a force
+        slew axis (labsim.backends.scene.mechanism); a joint is where its child body is, a force
         sensor where its second body is."""
         m = self.world.mechanism
         name = obj.name

@@ -14,7 +14,7 @@ Beyond sonars, pose and ``collided``, a robot may read:
   ``labsim.backends.pymunk.camera`` (walls and robots are not in it); OpenCV is imported, and
   the ground drawn, only when some robot reads a camera;
 * ``forward_speed``: m/s, the body's velocity along its heading, as the last step moved it;
-* in a world with a road (``labsim.backends.ground.world_channels``): ``road_offset``,
+* in a world with a road (``labsim.backends.scene.ground.world_channels``): ``road_offset``,
   ``on_road`` and ``laps``, measured at the robot's origin against the first road. Laps are
   counted in ``step()``, once per tick after the physics (not per sub-step), for the robots
   that read them, so they do not depend on how often ``sense()`` is called.
@@ -29,9 +29,9 @@ from typing import Callable, Sequence
 
 import pymunk
 
-from labsim.backends.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
+from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
 from labsim.backends.protocol import BackendError, BackendStateError, ContactStats, RobotRequest
-from labsim.backends.world import World
+from labsim.backends.scene.world import World
 
 # Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
 # along walls rather than sticking to them, yet a glancing contact still turns them a little.

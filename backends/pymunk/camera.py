@@ -1,7 +1,7 @@
 """Camera images for the pymunk backend: the world's ground seen through a pinhole camera.
 
 The pymunk scene is flat, so a camera can only see the floor. When a world loads, its
-``Ground`` (``labsim.backends.ground``: floor colour, roads, lines, patches) is drawn once into
+``Ground`` (``labsim.backends.scene.ground``: floor colour, roads, lines, patches) is drawn once into
 a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspective`` of that
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
 homography, which this module builds in closed form from the robot's pose and the camera's
@@ -27,8 +27,8 @@ import math
 import cv2
 import numpy as np
 
-from labsim.backends.ground import Ground
-from labsim.backends.models import Camera
+from labsim.backends.scene.ground import Ground
+from labsim.backends.scene.models import Camera
 
 _SHIFT = 4  # fixed-point bits for OpenCV drawing: sub-pixel accurate edges
 _ONE = 1 << _SHIFT

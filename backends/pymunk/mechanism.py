@@ -1,6 +1,6 @@
 """A ``Mechanism`` simulated in pymunk: the physics of side-view labs such as the tower crane.
 
-The backend builds one ``MechanismScene`` from a world's ``labsim.backends.mechanism.Mechanism``
+The backend builds one ``MechanismScene`` from a world's ``labsim.backends.scene.mechanism.Mechanism``
 and, every tick, sets joint targets, calls ``step()`` and reads joint positions, velocities
 and force sensors. Nothing here knows the language or the runtime.
 
@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 
 import pymunk
 
-from labsim.backends.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
+from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
 
 # 5 ms sub-steps at dt = 0.05 s. The crane's pendulum (about 6.5 m, period 5 s) needs far less;
 # the chain rope - 10 kg hook - sling - 200 kg load is what needs small steps and many

@@ -1,9 +1,9 @@
-"""World files: YAML with positions to a ``labsim.backends.world.World``.
+"""World files: YAML with positions to a ``labsim.backends.scene.world.World``.
 
 A world file describes a scene once for every backend: the room's walls, solid blocks, the
 area robots may be placed in, numbered spawn poses and, optionally, what is painted on the
-floor for cameras to see (``ground``, to ``labsim.backends.ground.Ground``) and an articulated
-``mechanism`` (read by ``labsim.dsl.world_mechanism``). Its errors are reported like a
+floor for cameras to see (``ground``, to ``labsim.backends.scene.ground.Ground``) and an articulated
+``mechanism`` (read by ``labsim.backends.scene.mechanism_file``). Its errors are reported like a
 behaviour file's, with the world file's path, line and column, all of them at once.
 
     labsim-world: 1
@@ -30,7 +30,7 @@ behaviour file's, with the world file's path, line and column, all of them at on
         - {from: [0, -2.4], to: [0, -1.6], width: 0.05, color: [255, 255, 255]}   # color optional
       patches:                               # painted boxes; color (default [25, 25, 25]) and
         - {center: [5, 5], size: [1, 0.5], color: [200, 30, 30], angle_deg: 0}   # angle optional
-    mechanism: ...                           # read by labsim.dsl.world_mechanism
+    mechanism: ...                           # read by labsim.backends.scene.mechanism_file
 
 A road's path is points and arcs. An arc continues from the previous point around ``center``
 with ``radius`` to the angle ``to_deg`` (degrees, counter-clockwise from +x): its start angle
@@ -40,7 +40,7 @@ angle, clockwise if smaller, by at most one full turn; so ``to_deg: 270`` from t
 left point (180) goes counter-clockwise through the bottom. Arcs become chords within 0.5 mm of
 the circle. A road needs at least two points (three when closed); a closed road whose path
 ends where it began is joined there. The first road is the one ``road_offset``, ``on_road``
-and ``laps`` refer to (labsim.backends.ground).
+and ``laps`` refer to (labsim.backends.scene.ground).
 """
 from __future__ import annotations
 
@@ -49,10 +49,10 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
-from labsim.backends.world import Block, Pose, Wall, World
-from labsim.dsl.errors import LabsimError, Report, did_you_mean
-from labsim.dsl.source import Document, known_fields, load, scalar_value
+from labsim.backends.scene.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
+from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.backends.scene.diagnostics import LabsimError, Report, did_you_mean
+from labsim.backends.scene.source import Document, known_fields, load, scalar_value
 
 KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
         "ground", "mechanism")
@@ -175,9 +175,9 @@ class _WorldReader:
 
     def mechanism(self, root: MappingNode, node: Node) -> object | None:
         try:
-            from labsim.dsl.world_mechanism import read_mechanism
+            from labsim.backends.scene.mechanism_file import read_mechanism
         except ModuleNotFoundError as e:
-            if e.name not in ("labsim.dsl.world_mechanism", "labsim.dsl", "labsim"):
+            if e.name not in ("labsim.backends.scene.mechanism_file", "labsim.dsl", "labsim"):
                 raise  # the module exists but is broken: a bug, not the user's mistake
             key = next((k for k, v in root.value if v is node), node)
             self.error(key, "'mechanism' is not supported yet by this labsim")

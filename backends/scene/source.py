@@ -21,7 +21,7 @@ from typing import Iterator
 import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.dsl.errors import Diagnostic, LabsimError, Report
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 
@@ -263,7 +263,7 @@ def known_fields(doc: Document, report: "Report", node: Node, allowed: tuple[str
                  what: str) -> dict[str, Node] | None:
     """The values of a mapping's known keys; unknown keys (with did-you-mean) and a node that
     is not a mapping are reported, the latter giving None."""
-    from labsim.dsl.errors import did_you_mean
+    from labsim.backends.scene.diagnostics import did_you_mean
 
     if not isinstance(node, MappingNode):
         report.add(doc.diagnostic(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}"))

@@ -1,6 +1,6 @@
 """Worlds as plain data: walls, blocks and spawn poses, in metres.
 
-A world file (``labsim.dsl.world`` reads it, with positions for its errors) becomes a frozen
+A world file (``labsim.backends.scene.world_file`` reads it, with positions for its errors) becomes a frozen
 ``World``. Backends build their scenes from it, the runtime draws spawn poses from it, and
 ``labsim plot`` draws it. Nothing here imports a simulator.
 """
@@ -46,10 +46,10 @@ class World:
     blocks: tuple[Block, ...] = ()
     spawns: tuple[Pose, ...] = ()
     source: str = field(default="", compare=False)  # the file it came from
-    # What a camera sees: labsim.backends.ground.Ground (floor colour, roads, lines, patches).
+    # What a camera sees: labsim.backends.scene.ground.Ground (floor colour, roads, lines, patches).
     ground: object | None = None
     # An articulated model (bodies, joints, force sensors) seen from the side, with gravity:
-    # labsim.backends.mechanism.Mechanism.
+    # labsim.backends.scene.mechanism.Mechanism.
     mechanism: object | None = None
 
     def clearance(self, x: float, y: float) -> float:

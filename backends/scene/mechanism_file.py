@@ -1,6 +1,6 @@
-"""A world file's ``mechanism:`` section to a ``labsim.backends.mechanism.Mechanism``.
+"""A world file's ``mechanism:`` section to a ``labsim.backends.scene.mechanism.Mechanism``.
 
-``labsim.dsl.world`` reads the rest of a world file and hands this section's node here. Like
+``labsim.backends.scene.world_file`` reads the rest of a world file and hands this section's node here. Like
 every reader it reports each mistake as a positioned diagnostic (file:line:col, caret under
 the value) into the ``Report`` and keeps going, so one ``labsim check`` shows them all. The
 frame is the mechanism's vertical plane: x along it, z up, metres; every coordinate is where
@@ -31,7 +31,7 @@ Body keys: ``shape`` (box | cylinder, upright; default box), ``center`` [x, z], 
 ``mass`` (kg) or ``density`` (kg/m^3) for a body that moves, ``static`` (true: fixed to the
 world), ``angle_deg``. A joint with ``rope: true`` (prismatic only) hangs its child from the
 anchor on a winch rope whose length is the joint's position. The meaning of every field is
-documented on the dataclasses in ``labsim.backends.mechanism``.
+documented on the dataclasses in ``labsim.backends.scene.mechanism``.
 """
 from __future__ import annotations
 
@@ -39,12 +39,12 @@ import math
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.mechanism import (
+from labsim.backends.scene.mechanism import (
     ANGULAR_KINDS, JOINT_KINDS, SHAPES, BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec,
     start_position,
 )
-from labsim.dsl.errors import Report, did_you_mean
-from labsim.dsl.source import Document, known_fields, scalar_value
+from labsim.backends.scene.diagnostics import Report, did_you_mean
+from labsim.backends.scene.source import Document, known_fields, scalar_value
 
 KEYS = ("gravity", "damping", "floor", "bodies", "joints", "force_sensors")
 BODY_KEYS = ("shape", "center", "size", "depth", "mass", "density", "static", "angle_deg")

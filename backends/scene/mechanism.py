@@ -1,6 +1,6 @@
 """Articulated mechanisms as plain data: bodies, joints and force sensors seen from the side.
 
-A world file's ``mechanism:`` section (``labsim.dsl.world_mechanism`` reads it, with positions
+A world file's ``mechanism:`` section (``labsim.backends.scene.mechanism_file`` reads it, with positions
 for its errors) becomes a frozen ``Mechanism``. A backend builds a scene from it
 (``labsim.backends.pymunk.mechanism.MechanismScene`` for the embedded one); nothing here
 imports a simulator.

@@ -1,6 +1,6 @@
 """What a camera sees on the floor: roads, painted lines and patches, as plain data and geometry.
 
-A world file's ``ground:`` section (``labsim.dsl.world`` reads it) becomes a frozen ``Ground``
+A world file's ``ground:`` section (``labsim.backends.scene.world_file`` reads it) becomes a frozen ``Ground``
 stored in ``World.ground``. Backends draw it (the pymunk backend's camera renders it from a
 texture, ``labsim.backends.pymunk.camera``), ``labsim plot`` draws it under the trajectories,
 and ``RoadTracker`` measures a robot against a road: its signed lateral offset from the
@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Hashable
 
 import numpy as np
 
-from labsim.backends.models import Kind
+from labsim.backends.scene.models import Kind
 
 if TYPE_CHECKING:
-    from labsim.backends.world import World
+    from labsim.backends.scene.world import World
 
 RGB = tuple[int, int, int]
 Point = tuple[float, float]
