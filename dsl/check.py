@@ -17,6 +17,7 @@ from pathlib import Path
 from yaml.nodes import MappingNode
 
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.ground import world_channels
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import ast
 from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS,
@@ -88,16 +89,16 @@ class _Checker:
         bf = self.bf
         world = self.world()
         models = self.models()
-        mechanism = getattr(world, "mechanism", None) if world is not None else None
+        mechanism = world.mechanism if world is not None else None
         channels: dict[str, Kind] = {}
         if models:
             # one behaviour drives every robot: only channels all its models offer are readable
             offered = [m.channels() for m in models.values()]
             channels = {k: v for k, v in offered[0].items() if all(k in o for o in offered[1:])}
             if world is not None:
-                channels.update(_world_channels(world))
+                channels.update(world_channels(world))
         elif mechanism is not None:
-            channels = mechanism_channels(mechanism)
+            channels = mechanism.channels()
         self.presence(world, mechanism)
         self.spawns(world)
         for name, kind in channels.items():
@@ -122,7 +123,7 @@ class _Checker:
         labels = self.labels()
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
-        self.motors = _motors(mechanism)
+        self.motors = mechanism.motor_modes() if mechanism is not None else {}
         states = self.rules()
         binds = self.binds()
         self.timeline(sliders)
@@ -619,38 +620,3 @@ def _override_value(name: str, raw: str, current: float | bool, where: str, repo
         report.add(Diagnostic(where, f"parameter '{name}' must be a finite number"))
         return current
     return int(value) if isinstance(current, int) and value == int(value) else value
-
-
-def _world_channels(world: World) -> dict[str, Kind]:
-    """Channels a world offers every robot (a road's offset, laps, ...)."""
-    try:
-        from labsim.backends.scene.ground import world_channels
-    except ImportError:
-        return {}
-    return world_channels(world)
-
-
-def mechanism_channels(mechanism: object) -> dict[str, Kind]:
-    """What a behaviour reads from a mechanism: its joints, force sensors and moving bodies."""
-    out: dict[str, Kind] = {}
-    for j in getattr(mechanism, "joints", ()):
-        if j.kind != "fixed":
-            out[j.name] = Kind.JOINT
-    for f in getattr(mechanism, "force_sensors", ()):
-        out[f.name] = Kind.FORCE
-    for b in getattr(mechanism, "bodies", ()):
-        if not b.static:
-            out[b.name] = Kind.BODY
-    return out
-
-
-def _motors(mechanism: object | None) -> dict[str, set[str]]:
-    """Joint name -> the target modes its motor accepts (empty: no motor)."""
-    out: dict[str, set[str]] = {}
-    for j in getattr(mechanism, "joints", ()) if mechanism is not None else ():
-        if j.kind == "fixed":
-            continue
-        m = j.motor
-        out[j.name] = set() if m is None else {mode for mode, ok in (("velocity", m.velocity),
-                                                                        ("position", m.position)) if ok}
-    return out

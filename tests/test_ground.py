@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import collections
 import math
-import sys
-import types
 from pathlib import Path
 
 import pytest
@@ -424,25 +422,14 @@ ground:
     ]
 
 
-def test_mechanism_key_is_not_supported_without_its_reader(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "labsim.backends.scene.mechanism_file", None)  # as if not written yet
-    assert errors(tmp_path, "mechanism:\n  bodies: {}\n") == [(4, 1, "'mechanism' is not supported yet by this labsim")]
-
-
-def test_mechanism_key_goes_to_its_reader(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    seen = []
-
-    def read_mechanism(node: object, doc: object, report: Report) -> object:
-        seen.append((node, doc, report))
-        return "the mechanism"
-
-    fake = types.ModuleType("labsim.backends.scene.mechanism_file")
-    fake.read_mechanism = read_mechanism  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "labsim.backends.scene.mechanism_file", fake)
-    world, report = load(tmp_path, "mechanism:\n  bodies: {}\n")
-    assert world is not None and world.mechanism == "the mechanism"
-    (node, _, given), = seen
-    assert given is report and node.start_mark.line == 4  # the section's own node (0-based line)
+def test_mechanism_key_goes_to_its_reader(tmp_path: Path) -> None:
+    world, report = load(tmp_path, """\
+mechanism:
+  bodies:
+    base: {center: [0, 0.5], size: [1, 1], static: true}
+""")
+    assert world is not None and world.mechanism is not None
+    assert [b.name for b in world.mechanism.bodies] == ["base"] and not report.errors
 
 
 def test_a_ground_too_large_to_render_is_an_error_with_the_px_per_m_that_fits(tmp_path: Path) -> None:

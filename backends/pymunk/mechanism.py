@@ -229,22 +229,7 @@ class MechanismScene:
     # -- building -------------------------------------------------------------------------
 
     def _build_groups(self, m: Mechanism, specs: dict[str, BodySpec]) -> tuple[list[_Group], dict[str, _Group]]:
-        root = {n: n for n in specs}
-
-        def find(n: str) -> str:
-            while root[n] != n:
-                root[n] = root[root[n]]
-                n = root[n]
-            return n
-
-        for j in m.joints:
-            if j.kind in ("fixed", "slew"):
-                a, b = find(j.parent), find(j.child)
-                if a != b:
-                    root[b] = a
-        members: dict[str, list[BodySpec]] = {}
-        for b in m.bodies:  # in file order, so insertion order (and so the run) is fixed
-            members.setdefault(find(b.name), []).append(b)
+        members = {bodies[0].name: bodies for bodies in m.weld_groups()}
         groups, group_of = [], {}
         for bodies in members.values():
             static = any(b.static for b in bodies)

@@ -142,18 +142,13 @@ ROAD_CHANNELS: dict[str, Kind] = {
 
 def world_channels(world: World) -> dict[str, Kind]:
     """The channels a world offers robots beyond their model's own: the road's, or none."""
-    ground = world.ground
-    if isinstance(ground, Ground) and ground.roads:
-        return dict(ROAD_CHANNELS)
-    return {}
+    return dict(ROAD_CHANNELS) if first_road(world) is not None else {}
 
 
 def first_road(world: World) -> Road | None:
     """The road the road channels refer to, or None when the world has none."""
     ground = world.ground
-    if isinstance(ground, Ground) and ground.roads:
-        return ground.roads[0]
-    return None
+    return ground.roads[0] if ground is not None and ground.roads else None
 
 
 # --- geometry ---------------------------------------------------------------------------------

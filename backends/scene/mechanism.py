@@ -19,9 +19,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from labsim.backends.scene.models import Kind
+
 SHAPES = ("box", "cylinder")
 JOINT_KINDS = ("revolute", "prismatic", "slew", "fixed")
 ANGULAR_KINDS = ("revolute", "slew")
+WELDING_KINDS = ("fixed", "slew")  # joints that join two bodies rigidly in the plane
 
 
 @dataclass(frozen=True)
@@ -188,6 +191,35 @@ class Mechanism:
         """A joint's position at the start, from the geometry (see ``JointSpec``)."""
         return start_position(joint, self.body(joint.child))
 
+    def channels(self) -> dict[str, Kind]:
+        """What a behaviour reads from this mechanism, in a stable order: every joint but the
+        fixed ones (position, velocity), every force sensor (tension), every moving body
+        (x, z, angle in the plane)."""
+        out: dict[str, Kind] = {j.name: Kind.JOINT for j in self.joints if j.kind != "fixed"}
+        out.update({f.name: Kind.FORCE for f in self.force_sensors})
+        out.update({b.name: Kind.BODY for b in self.bodies if not b.static})
+        return out
+
+    def motor_modes(self) -> dict[str, frozenset[str]]:
+        """Joint name -> the target modes ("velocity", "position") its motor accepts; an
+        empty set for a passive joint. Fixed joints are not listed."""
+        out: dict[str, frozenset[str]] = {}
+        for j in self.joints:
+            if j.kind == "fixed":
+                continue
+            m = j.motor
+            out[j.name] = frozenset() if m is None else frozenset(
+                mode for mode, ok in (("velocity", m.velocity), ("position", m.position)) if ok)
+        return out
+
+    def weld_groups(self) -> list[list[BodySpec]]:
+        """The bodies that move as one, in file order: ``fixed`` and ``slew`` joints weld
+        their parent and child together in the plane. Each group lists its bodies in file
+        order, and groups come in the order of their first body."""
+        return [[self.body(n) for n in names] for names in weld_groups(
+            [b.name for b in self.bodies],
+            [(j.parent, j.child) for j in self.joints if j.kind in WELDING_KINDS])]
+
 
 def start_position(joint: JointSpec, child: BodySpec) -> float:
     """A joint's position at the start: m along a rail or of rope, 0 for angular joints."""
@@ -197,3 +229,27 @@ def start_position(joint: JointSpec, child: BodySpec) -> float:
     if joint.rope:
         return math.hypot(dx, dz)
     return dx * joint.axis[0] + dz * joint.axis[1]
+
+
+def weld_groups(names: list[str], welds: list[tuple[str, str]]) -> list[list[str]]:
+    """Partition ``names`` into the groups the ``welds`` (pairs of names) join, by union-find.
+
+    Groups keep the order of ``names``, and so does each group's list: a run that builds
+    bodies from them is the same on every run.
+    """
+    root = {n: n for n in names}
+
+    def find(n: str) -> str:
+        while root[n] != n:
+            root[n] = root[root[n]]
+            n = root[n]
+        return n
+
+    for a, b in welds:
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            root[rb] = ra
+    members: dict[str, list[str]] = {}
+    for n in names:
+        members.setdefault(find(n), []).append(n)
+    return list(members.values())

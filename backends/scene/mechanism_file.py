@@ -40,8 +40,8 @@ import math
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.mechanism import (
-    ANGULAR_KINDS, JOINT_KINDS, SHAPES, BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec,
-    start_position,
+    ANGULAR_KINDS, JOINT_KINDS, SHAPES, WELDING_KINDS, BodySpec, ForceSensorSpec, JointSpec, Mechanism,
+    MotorSpec, start_position, weld_groups,
 )
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.source import Document, known_fields, scalar_value
@@ -442,26 +442,15 @@ class _Reader:
         if node is None or len(bodies) != len(self.declared):
             return  # a body is broken: its joints cannot be judged
         keys = {k.value: k for k, _ in node.value} if isinstance(node, MappingNode) else {}
-        root = {n: n for n in bodies}
-
-        def find(n: str) -> str:
-            while root[n] != n:
-                n = root[n]
-            return n
-
-        for j in joints:
-            if j.kind in ("fixed", "slew"):
-                a, b = find(j.parent), find(j.child)
-                if a != b:
-                    root[b] = a
-        static = {find(n) for n, b in bodies.items() if b.static}
+        group_of = {n: k for k, names in enumerate(weld_groups(
+            list(bodies), [(j.parent, j.child) for j in joints if j.kind in WELDING_KINDS])) for n in names}
+        static = {group_of[n] for n, b in bodies.items() if b.static}
         for j in joints:
             if j.kind not in ("revolute", "prismatic") or bodies[j.child].static:
                 continue
-            if find(j.parent) == find(j.child):
+            if group_of[j.parent] == group_of[j.child]:
                 self.error(keys[j.name], f"joint '{j.name}' joins '{j.parent}' and '{j.child}', which fixed or "
                                          f"slew joints already weld together")
-            elif find(j.child) in static:
+            elif group_of[j.child] in static:
                 self.error(keys[j.name], f"joint '{j.name}': '{j.child}' is welded to a static body, so it "
                                          f"cannot move")
-

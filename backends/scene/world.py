@@ -10,6 +10,11 @@ import math
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # ground and mechanism import this module's types at run time
+    from labsim.backends.scene.ground import Ground
+    from labsim.backends.scene.mechanism import Mechanism
 
 BUILTIN_DIR = Path(__file__).parent / "worlds"
 
@@ -46,11 +51,10 @@ class World:
     blocks: tuple[Block, ...] = ()
     spawns: tuple[Pose, ...] = ()
     source: str = field(default="", compare=False)  # the file it came from
-    # What a camera sees: labsim.backends.scene.ground.Ground (floor colour, roads, lines, patches).
-    ground: object | None = None
-    # An articulated model (bodies, joints, force sensors) seen from the side, with gravity:
-    # labsim.backends.scene.mechanism.Mechanism.
-    mechanism: object | None = None
+    # What a camera sees: floor colour, roads, lines, patches.
+    ground: Ground | None = None
+    # An articulated model (bodies, joints, force sensors) seen from the side, with gravity.
+    mechanism: Mechanism | None = None
 
     def clearance(self, x: float, y: float) -> float:
         """Distance in metres from (x, y) to the nearest wall or block surface (<0 inside)."""

@@ -51,6 +51,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
 from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.backends.scene.mechanism_file import read_mechanism
 from labsim.backends.scene.diagnostics import LabsimError, Report, did_you_mean
 from labsim.backends.scene.source import Document, known_fields, load, scalar_value
 
@@ -167,22 +168,9 @@ class _WorldReader:
             if p:
                 spawns.append(Pose(p[0], p[1], math.radians(p[2]) if len(p) == 3 else 0.0))
         ground = self.ground(f["ground"]) if "ground" in f else None
-        mechanism = self.mechanism(root, f["mechanism"]) if "mechanism" in f else None
+        mechanism = read_mechanism(f["mechanism"], self.doc, self.report) if "mechanism" in f else None
         return World(name, description, bounds, tuple(walls), tuple(blocks), tuple(spawns), self.doc.path,
                      ground=ground, mechanism=mechanism)
-
-    # --- mechanism: a colleague's reader, imported only when a file has the key ---------------
-
-    def mechanism(self, root: MappingNode, node: Node) -> object | None:
-        try:
-            from labsim.backends.scene.mechanism_file import read_mechanism
-        except ModuleNotFoundError as e:
-            if e.name not in ("labsim.backends.scene.mechanism_file", "labsim.dsl", "labsim"):
-                raise  # the module exists but is broken: a bug, not the user's mistake
-            key = next((k for k, v in root.value if v is node), node)
-            self.error(key, "'mechanism' is not supported yet by this labsim")
-            return None
-        return read_mechanism(node, self.doc, self.report)
 
     # --- ground ---------------------------------------------------------------------------------
 
