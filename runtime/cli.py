@@ -1,4 +1,7 @@
-"""The ``labsim`` command line: run, check, test, plot, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, labs, new, worlds, serve.
+
+A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
+``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
 
 Exit codes: 0 success; 1 a golden trace differs (or is missing); 2 a user's mistake (a bad
 behaviour file, an unknown option or parameter, an unreachable simulator), reported as
@@ -21,6 +24,7 @@ from labsim.backends.protocol import BackendError
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.golden import compare, golden_path
+from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
 from labsim.runtime.trace import TraceFormatError, read_trace
@@ -41,7 +45,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser("run", help="run a behaviour and print a summary")
-    run.add_argument("file", help="the behaviour file (.yaml)")
+    run.add_argument("file", help="the behaviour file (.yaml), or a lab's name (labsim labs)")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                      help="override a parameter from the file's 'params:' (repeatable)")
     run.add_argument("--seed", type=int, help="override the file's seed")
@@ -58,8 +62,9 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("files", nargs="+")
 
     test = sub.add_parser("test", help="re-run behaviours and compare them with their golden traces")
-    test.add_argument("paths", nargs="*", default=["behaviours"],
-                      help="behaviour files or folders (default: behaviours)")
+    test.add_argument("paths", nargs="*", default=None,
+                      help="behaviour files, folders or lab names (default: ./behaviours if there is "
+                           "one, else the labs labsim ships)")
     test.add_argument("--update-goldens", action="store_true", help="record the golden traces anew")
     test.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY),
                       help="simulator to re-run them on (default: %(default)s)")
@@ -68,6 +73,11 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="draw a trace: the world to scale and every trajectory")
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
+
+    sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
+    new = sub.add_parser("new", help="copy a lab and its golden trace into a folder, to edit and test")
+    new.add_argument("lab", help="the lab's name (labsim labs lists them)")
+    new.add_argument("folder", nargs="?", default=".", help="where to put it (default: this folder)")
 
     sub.add_parser("worlds", help="list the built-in worlds")
 
@@ -119,8 +129,9 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot,
-                "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
+        _name_labs(args)
+        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "labs": cmd_labs,
+                "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -133,6 +144,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # `labsim run ... | head`: the reader has what it wanted
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
+
+
+def _name_labs(args: argparse.Namespace) -> None:
+    """Behaviour arguments that name a lab (``wall_follow``) become that lab's file."""
+    if getattr(args, "file", None) is not None:
+        args.file = str(behaviour_path(args.file))
+    if getattr(args, "files", None):
+        args.files = [str(behaviour_path(f)) for f in args.files]
+    if getattr(args, "behaviour", None):
+        args.behaviour = str(behaviour_path(args.behaviour))
+    if args.command == "test":
+        if not args.paths:
+            args.paths = ["behaviours"] if Path("behaviours").is_dir() else [str(LABS_DIR)]
+        args.paths = [str(behaviour_path(p)) for p in args.paths]
 
 
 def _print_diagnostics(diagnostics: list[Diagnostic]) -> None:
@@ -336,6 +361,24 @@ def cmd_plot(args: argparse.Namespace) -> int:
     except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
         raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
     print(f"wrote {out}")
+    return EXIT_OK
+
+
+def cmd_labs(args: argparse.Namespace) -> int:
+    for lab in labs().values():
+        print(f"{lab.name:<14} {lab.title}")
+    print("\nrun one with: labsim run NAME;  copy one to edit: labsim new NAME [FOLDER]")
+    return EXIT_OK
+
+
+def cmd_new(args: argparse.Namespace) -> int:
+    folder = Path(args.folder)
+    written = copy_lab(args.lab, folder)
+    for path in written:
+        print(f"wrote {path}")
+    behaviour = written[0]
+    print(f"\nnext: labsim run {behaviour}      (edit it, then: labsim test {behaviour}; "
+          f"after a deliberate change: labsim test {behaviour} --update-goldens)")
     return EXIT_OK
 
 

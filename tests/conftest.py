@@ -1,10 +1,15 @@
-"""Shared helpers: paths, fixture expectations, a tiny in-memory behaviour writer."""
+"""Shared helpers: paths, fixture expectations, a tiny in-memory behaviour writer, and the
+labs' long runs, each run once per test session and shared by every test that reads it."""
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+
+from labsim.backends import load_backend
+from labsim.runtime.run import Summary, compile_behaviour
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
@@ -29,3 +34,29 @@ def write(tmp_path: Path):
         p.write_text(text)
         return p
     return _write
+
+
+LabRun = Callable[..., Summary]
+
+
+@pytest.fixture(scope="session")
+def lab_run() -> LabRun:
+    """lab_run(path, **overrides) -> the Summary of that behaviour run to its end on pymunk.
+
+    The labs' long runs (ten simulated minutes of five camera robots, 25 minutes of the wall
+    lab) cost seconds each: a run is made once per session and every test that asks for the
+    same file and settings reads the same summary. Summaries are read, never changed.
+    """
+    done: dict[tuple[str, tuple[tuple[str, str], ...]], Summary] = {}
+
+    def run(path: Path, **overrides: str) -> Summary:
+        key = (str(path), tuple(sorted(overrides.items())))
+        if key not in done:
+            r = compile_behaviour(path, overrides).bind(load_backend("pymunk"), warn=lambda m: None)
+            try:
+                done[key] = r.run()
+            finally:
+                r.close()
+        return done[key]
+
+    return run

@@ -5,24 +5,14 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import BEHAVIOURS
-from labsim.backends import load_backend
+from conftest import BEHAVIOURS, LabRun
 from labsim.runtime.cli import main
-from labsim.runtime.run import compile_behaviour
+from labsim.runtime.run import Summary
 
 LAB = BEHAVIOURS / "road_follow.yaml"
 
 
-def run_lab(lab: Path = LAB, **overrides: str):
-    behaviour = compile_behaviour(lab, overrides)
-    run = behaviour.bind(load_backend("pymunk"), warn=lambda m: None)
-    try:
-        return run.run()
-    finally:
-        run.close()
-
-
-def assert_all_on_the_road(summary, seconds: float, max_offset_m: float) -> None:
+def assert_all_on_the_road(summary: Summary, seconds: float, max_offset_m: float) -> None:
     assert summary.sim_time_s == seconds and len(summary.robots) == 5
     for name, robot in summary.robots.items():
         m = robot["metrics"]
@@ -32,32 +22,33 @@ def assert_all_on_the_road(summary, seconds: float, max_offset_m: float) -> None
     assert summary.faults == []  # every frame saw road
 
 
-def test_with_the_lab_constants_all_five_stay_on_the_road_for_30_s() -> None:
-    summary = run_lab()
+def test_with_the_lab_constants_all_five_stay_on_the_road_for_30_s(lab_run: LabRun) -> None:
+    summary = lab_run(LAB)
     assert_all_on_the_road(summary, 30.0, 0.75)  # the road is 3 m wide
     assert summary.fleet["lateral_rms"] < 0.2
 
 
-def test_with_the_lab_constants_all_five_stay_on_the_road_for_ten_minutes() -> None:
-    summary = run_lab(seconds="600")
+def test_with_the_lab_constants_all_five_stay_on_the_road_for_ten_minutes(lab_run: LabRun) -> None:
+    summary = lab_run(LAB, seconds="600")
     # in the curves the far-looking camera cuts corners by about 41 m^2 / radius: 0.82 m at
     # the 50 m curves, steady, not growing (docs/road-following.md)
     assert_all_on_the_road(summary, 600.0, 0.9)
     assert 0.6 < summary.fleet["lateral_rms"] < 0.7
 
 
-def test_a_camera_looking_just_ahead_lets_the_lab_gains_weave_off_the_road(tmp_path: Path) -> None:
+def test_a_camera_looking_just_ahead_lets_the_lab_gains_weave_off_the_road(tmp_path: Path,
+                                                                          lab_run: LabRun) -> None:
     # what the behaviour file's comment and docs/road-following.md say about its camera
     lab = tmp_path / "near_camera.yaml"
     text = LAB.read_text()
     near = text.replace("fov_deg: 40, height_m: 2.5, pitch_deg: 5", "fov_deg: 60, height_m: 0.5, pitch_deg: 30")
     assert near != text
     lab.write_text(near)
-    summary = run_lab(lab, seconds="600")
+    summary = lab_run(lab, seconds="600")
     assert summary.fleet["off_road"] > 60.0 and summary.fleet["lateral_max"] > 5.0
 
 
-def test_with_more_gain_the_near_camera_holds_the_compact_loop(tmp_path: Path) -> None:
+def test_with_more_gain_the_near_camera_holds_the_compact_loop(tmp_path: Path, lab_run: LabRun) -> None:
     # docs/road-following.md: road_compact is for controllers with real proportional gain
     lab = tmp_path / "compact.yaml"
     text = LAB.read_text()
@@ -65,7 +56,7 @@ def test_with_more_gain_the_near_camera_holds_the_compact_loop(tmp_path: Path) -
                .replace("fov_deg: 40, height_m: 2.5, pitch_deg: 5", "fov_deg: 60, height_m: 0.5, pitch_deg: 30"))
     assert compact.count("road_compact") == 1 and "pitch_deg: 30" in compact
     lab.write_text(compact)
-    summary = run_lab(lab, seconds="600", kp="1.5")
+    summary = lab_run(lab, seconds="600", kp="1.5")
     assert_all_on_the_road(summary, 600.0, 0.6)
     assert all(robot["metrics"]["laps"] == 2 for robot in summary.robots.values())
 

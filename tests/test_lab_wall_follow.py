@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import BEHAVIOURS
+from conftest import BEHAVIOURS, LabRun
 from labsim.backends import load_backend
 from labsim.runtime.cli import main
 from labsim.runtime.run import compile_behaviour
@@ -23,8 +23,8 @@ def run_lab(front: str, seed: int | None = None):
 
 
 @pytest.mark.parametrize("front", ["0.5", "1.0"])
-def test_25_minutes_without_a_collision(front: str) -> None:
-    summary = run_lab(front)
+def test_25_minutes_without_a_collision(front: str, lab_run: LabRun) -> None:
+    summary = lab_run(LAB, front=front)
     assert summary.ticks == 30_000 and summary.sim_time_s == 1500.0
     robot = summary.robots["pioneer"]
     assert robot["contacts"] == 0 and robot["contact_time_s"] == 0
@@ -37,9 +37,9 @@ def test_other_starts_do_not_collide_either() -> None:
         assert run_lab("0.5", seed).robots["pioneer"]["contacts"] == 0
 
 
-def test_the_larger_threshold_trades_near_misses_for_less_overshoot() -> None:
-    near = run_lab("0.5").robots["pioneer"]["metrics"]
-    far = run_lab("1.0").robots["pioneer"]["metrics"]
+def test_the_larger_threshold_trades_near_misses_for_less_overshoot(lab_run: LabRun) -> None:
+    near = lab_run(LAB, front="0.5").robots["pioneer"]["metrics"]
+    far = lab_run(LAB, front="1.0").robots["pioneer"]["metrics"]
     assert far["near_misses"] < near["near_misses"]
     assert far["closest"] > near["closest"]
 

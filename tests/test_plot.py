@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import cv2
@@ -163,19 +162,17 @@ def test_not_a_trace(tmp_path: Path) -> None:
         plot_trace(tmp_path / "junk.csv", tmp_path / "junk.png")
 
 
-def test_long_trace_is_fast(tmp_path: Path) -> None:
+def test_a_long_trace_plots_every_collision(tmp_path: Path) -> None:
+    # how long it takes is benchmarks/bench_plot.py's business
     n = 30_000
     t = np.arange(n) * 0.01
     poses = [(5 * math.cos(a), 5 * math.sin(a) * math.cos(3 * a), a + math.pi / 2,
               int(k % 1000 in (1, 2)), "bumps" if k % 1000 == 1 else "")
              for k, a in enumerate(t)]
     trace = write_trace(tmp_path / "long.csv", {"pioneer": poses})
-    start = time.perf_counter()
     out = plot_trace(trace, tmp_path / "long.png")
-    elapsed = time.perf_counter() - start
     assert out.is_file()
     assert len(robot_paths(read_trace(trace))[0].collisions) == n // 1000
-    assert elapsed < 3.0, f"a {n}-row trace took {elapsed:.2f} s to plot"
 
 
 def test_ground_is_drawn_under_the_paths(tmp_path: Path) -> None:

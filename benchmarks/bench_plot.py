@@ -1,0 +1,37 @@
+"""How long `labsim plot` takes to draw a long trace: the wall lab's golden, 30,000 rows.
+
+    python benchmarks/bench_plot.py [--repeat 5]
+
+Prints the median wall time of reading the trace and drawing it to a PNG (goal: <= 3 s).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from labsim.runtime.plot import plot_trace
+
+TRACE = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.golden.csv"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    times = []
+    with tempfile.TemporaryDirectory() as d:
+        for _ in range(args.repeat):
+            start = time.perf_counter()
+            plot_trace(TRACE, Path(d) / "wall.png")
+            times.append(time.perf_counter() - start)
+    rows = sum(1 for line in TRACE.open() if not line.startswith("#")) - 1
+    print(f"plot of {rows:,} rows: median {statistics.median(times):.3f} s over {args.repeat} runs "
+          f"(goal <= 3 s); load average {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

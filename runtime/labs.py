@@ -1,0 +1,94 @@
+"""The labs labsim ships: behaviour files a student runs by name, lists, and copies to edit.
+
+The labs live in ``behaviours/`` beside the package's subpackages, in a checkout and in an
+installed wheel alike (the wheel ships them as ``labsim/behaviours``). Each is a behaviour
+file with its golden trace beside it (``NAME.yaml``, ``NAME.golden.csv``). The command line
+resolves a behaviour argument through ``behaviour_path``: a file that exists is taken as it is,
+otherwise a lab's name (``labsim run wall_follow``) names that lab's file.
+"""
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+import labsim
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, did_you_mean
+
+LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
+GOLDEN_SUFFIX = ".golden.csv"
+
+
+@dataclass(frozen=True)
+class Lab:
+    name: str  # the file's stem: what `labsim run NAME` takes
+    title: str  # the file's `name:`
+    path: Path
+
+    @property
+    def golden(self) -> Path:
+        return self.path.with_name(self.name + GOLDEN_SUFFIX)
+
+
+def labs() -> dict[str, Lab]:
+    """The shipped labs by name, in name order."""
+    out = {}
+    for path in sorted(LABS_DIR.glob("*.yaml")):
+        out[path.stem] = Lab(path.stem, _title(path), path)
+    return out
+
+
+def _title(path: Path) -> str:
+    """A lab file's ``name:`` (its first line of that key), without reading the whole file as YAML."""
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if line.startswith("name:"):
+            value = yaml.safe_load(line.partition(":")[2] or "''")
+            return str(value) if value is not None else ""
+    return ""
+
+
+def behaviour_path(argument: str) -> Path:
+    """The behaviour file a command-line argument names: a path, or the name of a lab.
+
+    A path that does not exist and is no lab's name is returned as it is, so that the loader
+    reports it as a missing file (with a did-you-mean for a misspelt lab name when the
+    argument looks like one).
+    """
+    path = Path(argument)
+    if path.exists() or path.suffix or "/" in argument or "\\" in argument:
+        return path
+    known = labs()
+    if argument in known:
+        return known[argument].path
+    raise LabsimError([Diagnostic(argument, f"no such behaviour file or lab '{argument}'"
+                                  f"{did_you_mean(argument, known)}",
+                                  notes=("labs: " + ", ".join(known) + " (labsim labs lists them)",))])
+
+
+def copy_lab(name: str, folder: Path) -> list[Path]:
+    """Copy a lab's behaviour file and its golden trace into folder (made if missing).
+
+    Refuses to overwrite: a student's edited copy is never lost to a second ``labsim new``.
+    """
+    known = labs()
+    if name not in known:
+        raise LabsimError([Diagnostic(name, f"no lab '{name}'{did_you_mean(name, known)}",
+                                      notes=("labs: " + ", ".join(known),))])
+    lab = known[name]
+    sources = [p for p in (lab.path, lab.golden) if p.exists()]
+    targets = [folder / p.name for p in sources]
+    existing = [t for t in targets if t.exists()]
+    if existing:
+        raise LabsimError([Diagnostic(str(existing[0]), "already exists; labsim new does not overwrite "
+                                      "files (give another folder, or remove it first)")])
+    if folder.exists() and not folder.is_dir():
+        raise LabsimError([Diagnostic(str(folder), "is a file, not a folder")])
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for source, target in zip(sources, targets):
+            shutil.copyfile(source, target)
+    except OSError as e:
+        raise LabsimError([Diagnostic(str(folder), f"cannot write there: {e.strerror}")]) from None
+    return targets
