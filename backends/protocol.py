@@ -12,8 +12,9 @@ to the model's limit before ``act``, so every backend receives commands it can c
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Protocol
 
 from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World

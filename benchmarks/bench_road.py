@@ -18,10 +18,10 @@ from pathlib import Path
 
 import cv2
 import pymunk
-
 from compare import compare, labsim_scene, labsim_side
-from labsim.backends.scene.ground import RoadTracker
+
 from labsim.backends.pymunk.camera import ground_view
+from labsim.backends.scene.ground import RoadTracker
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
 
@@ -78,7 +78,8 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     previous = [0.0] * n
     sent = [(math.nan, math.nan)] * n
     laps = [0] * n
-    sum_sq, count_sq, worst, off_ticks, speed_sum, speed_count = [0.0] * n, [0] * n, [-math.inf] * n, [0] * n, [0.0] * n, [0] * n
+    sum_sq, count_sq, worst = [0.0] * n, [0] * n, [-math.inf] * n
+    off_ticks, speed_sum, speed_count = [0] * n, [0.0] * n, [0] * n
     start = time.perf_counter()
     tick = 0
     while tick * dt < 30:

@@ -18,7 +18,6 @@ import time
 from pathlib import Path
 
 import pymunk
-
 from compare import compare, labsim_scene, labsim_side
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"

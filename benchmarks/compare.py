@@ -6,8 +6,8 @@ import argparse
 import math
 import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour

@@ -105,7 +105,7 @@ def _explain(expected: Trace, actual: Trace, i: int, j: int) -> list[str]:
                      f"({ABS_TOL:g} + {REL_TOL:g} x |expected|)")
     else:
         lines.append(f"  expected {e!r}, actual {a!r} (must be equal)")
-    show = [c for c in ("tick", "time") if c in cols]
+    show: list[str] = [c for c in ("tick", "time") if c in cols]
     show += [c for c in ("rule", col) if c not in show]
     table = [["", *show]]
     for k in range(max(0, i - CONTEXT_BEFORE), min(len(expected.rows), len(actual.rows), i + CONTEXT_AFTER + 1)):

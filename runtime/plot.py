@@ -12,17 +12,21 @@ from __future__ import annotations
 
 import colorsys
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.ground import Ground
+from labsim.backends.scene.mechanism import Mechanism
+from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+
+PxMap = Callable[[np.ndarray], np.ndarray]  # an (n, 2) array of metres to pixel coordinates
 
 MIN_WIDTH_PX = 400
 
@@ -137,7 +141,7 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
                 if cell:  # most rows have no events: skip them without splitting
                     for ev in cell.split(";"):
                         if ev:
-                            events.setdefault(ev, []).append(j)
+                            events.setdefault(ev, []).append(int(j))
         h = heading[idx][ok]
         paths.append(RobotPath(
             name=str(name), model=str(models.get(name, "")), colour=robot_colour(k),
@@ -227,9 +231,9 @@ def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float,
         for b in world.blocks:
             xs += [c[0] for c in b.corners]
             ys += [c[1] for c in b.corners]
-        for b in getattr(world.mechanism, "bodies", ()):
-            xs += [c[0] for c in b.corners()]
-            ys += [c[1] for c in b.corners()]
+        for body in world.mechanism.bodies if world.mechanism is not None else ():
+            xs += [c[0] for c in body.corners()]
+            ys += [c[1] for c in body.corners()]
         ground_ext = world.ground.extent() if isinstance(world.ground, Ground) else None
         if ground_ext is not None:
             xs += [ground_ext[0], ground_ext[2]]
@@ -427,7 +431,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     return fig
 
 
-def _ground(img: np.ndarray, ground: Ground, px: object, mpp: float) -> None:
+def _ground(img: np.ndarray, ground: Ground, px: PxMap, mpp: float) -> None:
     """Patches, roads and lines to scale, in the order a camera sees them drawn.
 
     Roads are thick polylines (OpenCV gives their joints round caps, so the band keeps its
@@ -451,22 +455,22 @@ def _ground(img: np.ndarray, ground: Ground, px: object, mpp: float) -> None:
         cv2.fillPoly(img, [band], _bgr(line.rgb), AA, SHIFT)
 
 
-def _mechanism(img: np.ndarray, mechanism: object, px: object, P: "_Painter") -> None:
+def _mechanism(img: np.ndarray, mechanism: Mechanism, px: PxMap, P: _Painter) -> None:
     """A mechanism seen from the side, as it stood at the start: fixed bodies filled, moving
     ones outlined, the floor, and each rope from its anchor to the body hanging on it."""
-    floor = getattr(mechanism, "floor_z_m", None)
+    floor = mechanism.floor_z_m
     if floor is not None:
-        xs = [c[0] for b in mechanism.bodies for c in b.corners()]  # type: ignore[attr-defined]
-        ends = px(np.array([[min(xs) - 1.0, floor], [max(xs) + 1.0, floor]]))  # type: ignore[operator]
+        xs = [c[0] for b in mechanism.bodies for c in b.corners()]
+        ends = px(np.array([[min(xs) - 1.0, floor], [max(xs) + 1.0, floor]]))
         cv2.line(img, tuple(np.round(ends[0]).astype(int)), tuple(np.round(ends[1]).astype(int)),
                  BLOCK_EDGE, max(2, P.lw), AA)
-    for j in mechanism.joints:  # type: ignore[attr-defined]
-        if getattr(j, "rope", False):
-            child = next(b for b in mechanism.bodies if b.name == j.child)  # type: ignore[attr-defined]
-            a = px(np.array([j.anchor, (child.center[0], child.center[1] + child.size[1] / 2)], float))  # type: ignore[operator]
+    for j in mechanism.joints:
+        if j.rope:
+            child = mechanism.body(j.child)
+            a = px(np.array([j.anchor, (child.center[0], child.center[1] + child.size[1] / 2)], float))
             cv2.line(img, tuple(np.round(a[0]).astype(int)), tuple(np.round(a[1]).astype(int)), MUTED, 1, AA)
-    for b in mechanism.bodies:  # type: ignore[attr-defined]
-        poly = np.round(px(np.array(b.corners(), float)) * ONE).astype(np.int32)  # type: ignore[operator]
+    for b in mechanism.bodies:
+        poly = np.round(px(np.array(b.corners(), float)) * ONE).astype(np.int32)
         if b.static:
             cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
         cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)

@@ -46,7 +46,8 @@ class TraceWriter:
     def __init__(self, path: str | Path, header: dict, columns: list[str]):
         self.path = Path(path)
         self.columns = columns
-        self._file: TextIO = open(self.path, "w", newline="", encoding="utf-8")
+        # open for the life of the writer (close() ends it), not for one block
+        self._file: TextIO = open(self.path, "w", newline="", encoding="utf-8")  # noqa: SIM115
         self._file.write(MAGIC + json.dumps(header, sort_keys=True) + "\n")
         self._writer = csv.writer(self._file, lineterminator="\n")
         self._writer.writerow(columns)

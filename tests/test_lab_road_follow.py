@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from conftest import BEHAVIOURS, LabRun
+
 from labsim.runtime.cli import main
 from labsim.runtime.run import Summary
 

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import pytest
-
 from conftest import BEHAVIOURS, LabRun
+
 from labsim.backends import load_backend
 from labsim.runtime.cli import main
 from labsim.runtime.run import compile_behaviour

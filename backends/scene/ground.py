@@ -13,8 +13,9 @@ y north, metres, angles counter-clockwise; colours are RGB 0..255.
 from __future__ import annotations
 
 import math
+from collections.abc import Hashable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Hashable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
