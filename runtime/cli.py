@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, view, worlds, serve.
 
 Exit codes: 0 success; 1 a golden trace differs (or is missing); 2 a user's mistake (a bad
 behaviour file, an unknown option or parameter, an unreachable simulator), reported as
@@ -69,6 +69,19 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
 
+    view = sub.add_parser("view", help="watch and steer a run in the browser, or replay a trace")
+    view.add_argument("file", help="a behaviour file (.yaml), or a trace (.csv) to replay")
+    view.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      help="override a parameter from the file's 'params:' (repeatable)")
+    view.add_argument("--seed", type=int, help="override the file's seed")
+    view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
+    view.add_argument("--host", default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
+                                                        "this computer only)")
+    view.add_argument("--port", type=int, default=8765, help="port to serve the page on; 0 picks a free one "
+                                                            "(default: %(default)s)")
+    view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
+    view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
+
     sub.add_parser("worlds", help="list the built-in worlds")
 
     serve = sub.add_parser("serve", help="stand in for CoppeliaSim: answer its ZMQ remote API from the "
@@ -120,7 +133,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot,
-                "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
+                "view": cmd_view, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -337,6 +350,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """Serve the page of a live run or a replayed trace until Ctrl-C; see docs/view.md."""
+    from labsim.runtime.view import view
+
+    if args.trace:
+        _check_writable(args.trace, [Path(args.file)])
+    return view(args.file, overrides=_overrides(args.set), seed=args.seed, backend=args.backend,
+                host=args.host, port=args.port, trace=args.trace, open_browser=not args.no_browser,
+                warn=_warn, report=_print_diagnostics)
 
 
 def cmd_worlds(args: argparse.Namespace) -> int:
