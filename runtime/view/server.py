@@ -196,10 +196,10 @@ async def serve(session: Session, sock: socket.socket, url: str, *, log: Callabl
                 open_browser: bool = False, ready: Callable[[ViewServer], None] | None = None) -> None:
     """Serve until cancelled (Ctrl-C); the caller closes the session."""
     server = ViewServer(session, log)
-    runner = web.AppRunner(server.app, access_log=None, handle_signals=False)
+    runner = web.AppRunner(server.app, access_log=None, handle_signals=False, shutdown_timeout=0.5)
     await runner.setup()
     try:
-        await web.SockSite(runner, sock, shutdown_timeout=0.5).start()
+        await web.SockSite(runner, sock).start()
         if ready is not None:
             ready(server)
         if open_browser:

@@ -209,12 +209,14 @@ LV.WorldView = class {
       const [x, y, th] = r.pose, c = Math.cos(th), s = Math.sin(th);
       const local = (px, py) => [x + px * c - py * s, y + px * s + py * c];
       this._sonars(robot, r, local, th);
-      const outline = robot.footprint.length ? robot.footprint : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]];
+      let outline = robot.footprint.length ? robot.footprint : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]];
+      const tiny = 9 / this.scale;  // too small to see at this zoom: a marker of fixed size instead
+      if (0.4 < tiny) outline = [[1.4 * tiny, 0], [-tiny, tiny], [-0.5 * tiny, 0], [-tiny, -tiny]];
       this._poly(outline.map((p) => local(p[0], p[1])), true);
       ctx.fillStyle = colour; ctx.globalAlpha = 0.85; ctx.fill(); ctx.globalAlpha = 1;
       ctx.lineWidth = i === this.selected ? 3 : 1.5;
       ctx.strokeStyle = r.collided ? "#d62728" : (i === this.selected ? "#111" : "#333"); ctx.stroke();
-      const nose = local(0.35, 0);
+      const nose = local(Math.max(0.35, 1.4 * tiny), 0);
       this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke();
       const [px, py] = this.toPx(x, y);
       this.drawn[i] = [px, py];
