@@ -8,6 +8,7 @@ window.labsimView = state;
 
 const world = new LV.WorldView($("world"), (i) => selectRobot(i));
 const chart = new LV.Chart($("chart"));
+window.LV_world = world;  // what is drawn where (the browser tests read it)
 
 function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
