@@ -354,6 +354,7 @@ def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=20)
     assert p.returncode == 2
-    check = subprocess.run([sys.executable, "-m", "labsim", "check", str(bad)], capture_output=True, text=True, cwd=ROOT)
+    check = subprocess.run([sys.executable, "-m", "labsim", "check", str(bad)],
+                           capture_output=True, text=True, cwd=ROOT)
     assert check.stderr and check.stderr in err
     assert "\n".join(s.scene()["diagnostics"]) in check.stderr

@@ -13,8 +13,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import cv2
 import numpy as np
@@ -191,7 +192,8 @@ def test_replay_scrubs_to_a_tick_and_shows_its_pose(view: Any, tmp_path: Path) -
     row = rows.rows[250]
     pose = v.frame()["robots"][0]["pose"]
     assert pose[:2] == [float(row[rows.columns.index("x")]), float(row[rows.columns.index("y")])]
-    px = v.js("(() => { const p = window.labsimView.frame.robots[0].pose; return window.LV_world.toPx(p[0], p[1]); })()")
+    px = v.js("(() => { const p = window.labsimView.frame.robots[0].pose; "
+              "return window.LV_world.toPx(p[0], p[1]); })()")
     got = v.js("window.LV_world.drawn[0]")
     assert abs(px[0] - got[0]) < 0.5 and abs(px[1] - got[1]) < 0.5
     v.shot("replay")

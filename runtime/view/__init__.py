@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import asyncio
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.trace import MAGIC, TraceFormatError
@@ -40,14 +40,15 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
     diagnostics until it is fixed (the page's Check again) or the server is stopped; the exit
     code is then 2. Ctrl-C gives 130, the trace so far kept.
     """
+    from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.server import bind_socket, serve, url_of
 
     if not 0 <= port < 65536:
         raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
     session = _session(path, overrides, seed, backend, backend_options, trace, warn)
     broken = False
-    if hasattr(session, "load") and not session.load():  # type: ignore[attr-defined]
-        report(session.problems)  # type: ignore[attr-defined]
+    if isinstance(session, LiveSession) and not session.load():
+        report(session.problems)
         broken = True
     try:
         sock = bind_socket(host, port)

@@ -11,15 +11,24 @@ the page; ``recheck`` tries again.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.run import Behaviour, Run, compile_behaviour, stop_horizon
-from labsim.runtime.view.frames import (Json, channel_kinds, message, number, png_data_url, robot_doc,
-                                        sensor_columns, world_doc)
+from labsim.runtime.view.frames import (
+    Json,
+    channel_kinds,
+    message,
+    number,
+    png_data_url,
+    robot_doc,
+    sensor_columns,
+    world_doc,
+)
 from labsim.runtime.view.observe import ObservedBackend
 from labsim.runtime.view.session import BadMessage, Session, finite, name
 
@@ -78,7 +87,7 @@ class LiveSession(Session):
     def _bind(self, behaviour: Behaviour) -> None:
         program = behaviour.program
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
-        self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,  # type: ignore[arg-type]
+        self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
                                   replay=None if self.timeline else {})
         self.run.watch()
         self.pacer.dt_s = program.dt_s

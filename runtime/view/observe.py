@@ -11,8 +11,8 @@ last four) is unchanged.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
-from typing import Sequence
 
 from labsim.backends.protocol import Backend, ContactStats, RobotRequest
 from labsim.backends.scene.world import World

@@ -35,7 +35,8 @@ class ReplaySession(Session):
         cols = trace.columns
         self._i = {c: k for k, c in enumerate(cols)}
         self.numeric = [c for c in cols if c not in _TEXT and not c.startswith("label:")]
-        models = header.get("robots") if isinstance(header.get("robots"), dict) else {}
+        recorded = header.get("robots")
+        models: dict[str, object] = recorded if isinstance(recorded, dict) else {}
         names = list(dict.fromkeys([*(n for n in models), *trace.column("robot")])) if "robot" in cols else []
         seen = set(trace.column("robot")) if "robot" in cols else set()
         self.robot_names = [n for n in names if n in seen]
@@ -91,7 +92,7 @@ class ReplaySession(Session):
 
     def frame(self) -> Json:
         rows = self.rows[self.position] if self.rows else {}
-        robots = []
+        robots: list[Json | None] = []
         for n in self.robot_names:
             row = rows.get(n)
             if row is None:
@@ -108,8 +109,9 @@ class ReplaySession(Session):
                 "values": [_num(row, self._i, c) for c in self.numeric],
             })
         mech = None
-        if self.world is not None and self.world.mechanism is not None and robots and robots[0]:
-            x, z, slew = robots[0]["pose"]
+        first_robot = robots[0] if robots else None
+        if self.world is not None and self.world.mechanism is not None and first_robot is not None:
+            x, z, slew = first_robot["pose"]
             moving = [b.name for b in self.world.mechanism.bodies if not b.static]
             mech = {"bodies": {moving[-1]: [x, z, 0.0]} if moving else {}, "joints": {}, "targets": {},
                     "partial": True, "slew": slew}

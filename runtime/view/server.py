@@ -14,9 +14,10 @@ import asyncio
 import json
 import socket
 import webbrowser
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from aiohttp import WSMsgType, web
 
@@ -161,14 +162,30 @@ class ViewServer:
         task.add_done_callback(self._tasks.discard)
 
     async def pace(self) -> None:
-        """Tick and send frames until cancelled: at most one frame per 1/30 s."""
+        """Tick and send frames until cancelled: at most one frame per 1/30 s.
+
+        At a set speed the loop sleeps between frames; at "as fast as it goes" it ticks until
+        the next frame is due and only yields to the event loop in between, so the pages'
+        messages are still read.
+        """
         loop = asyncio.get_running_loop()
+        session = self.session
+        last_frame = -FRAME_INTERVAL_S
+        ran = 0
         while True:
-            start = loop.time()
-            ran = self.session.catch_up()
-            if (ran or self.dirty or self.session.playing) and self.pages:
-                await self.send_frame()
-            await asyncio.sleep(max(0.0, FRAME_INTERVAL_S - (loop.time() - start)))
+            now = loop.time()
+            flat_out = session.playing and session.pacer.speed is None
+            budget = max(0.004, last_frame + FRAME_INTERVAL_S - now) if flat_out else FRAME_INTERVAL_S * 0.8
+            ran += session.catch_up(budget)
+            now = loop.time()
+            if now - last_frame >= FRAME_INTERVAL_S:
+                if (ran or self.dirty or session.playing) and self.pages:
+                    await self.send_frame()
+                last_frame, ran = now, 0
+            if flat_out and session.playing:
+                await asyncio.sleep(0)
+            else:
+                await asyncio.sleep(max(0.0, last_frame + FRAME_INTERVAL_S - loop.time()))
 
 
 def bind_socket(host: str, port: int) -> socket.socket:

@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
 
@@ -126,9 +127,7 @@ class Session:
         if len(self._rate) < 2:
             return None
         now, tick = self._rate[-1]
-        for then, before in self._rate:
-            if now - then <= 1.5:
-                break
+        then, before = next(((t, k) for t, k in self._rate if now - t <= 1.5), self._rate[-1])
         if now - then <= 0:
             return None
         return (tick - before) * self.dt_s / (now - then)
