@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import math
 import statistics
@@ -23,10 +24,10 @@ from pathlib import Path
 import aiohttp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare import Pose, labsim_side  # noqa: E402
+from compare import Pose, labsim_side
 
-from labsim.runtime.view.live import LiveSession  # noqa: E402
-from labsim.runtime.view.server import bind_socket, serve  # noqa: E402
+from labsim.runtime.view.live import LiveSession
+from labsim.runtime.view.server import bind_socket, serve
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -60,10 +61,8 @@ async def _watched() -> tuple[float, list[Pose], int]:
         poses = [session.observed.pose(0)]
         await ws.close()
     server.cancel()
-    try:
+    with contextlib.suppress(asyncio.CancelledError):
         await server
-    except asyncio.CancelledError:
-        pass
     session.close()
     return elapsed, poses, frames
 
@@ -79,7 +78,8 @@ def main() -> None:
         t, view_poses, frames = asyncio.run(_watched())
         watched.append(t)
         rates.append(frames / t)
-    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12) for p, q in zip(run_poses, view_poses) for a, b in zip(p, q))
+    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
+               for p, q in zip(run_poses, view_poses) for a, b in zip(p, q))
     run_s, view_s = statistics.median(plain), statistics.median(watched)
     print(f"wall lab, 30,000 ticks at \"as fast as it goes\", median of {args.repeat}:")
     print(f"  labsim run           {run_s:.3f} s   ({', '.join(f'{t:.3f}' for t in plain)})")
