@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, labs, new, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, view, labs, new, worlds, serve.
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
@@ -74,6 +74,19 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
 
+    view = sub.add_parser("view", help="watch and steer a run in the browser, or replay a trace")
+    view.add_argument("file", help="a behaviour file (.yaml), or a trace (.csv) to replay")
+    view.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      help="override a parameter from the file's 'params:' (repeatable)")
+    view.add_argument("--seed", type=int, help="override the file's seed")
+    view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
+    view.add_argument("--host", default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
+                                                        "this computer only)")
+    view.add_argument("--port", type=int, default=8765, help="port to serve the page on; 0 picks a free one "
+                                                            "(default: %(default)s)")
+    view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
+    view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
+
     sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
     new = sub.add_parser("new", help="copy a lab and its golden trace into a folder, to edit and test")
     new.add_argument("lab", help="the lab's name (labsim labs lists them)")
@@ -130,8 +143,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         _name_labs(args)
-        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "labs": cmd_labs,
-                "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
+        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
+                "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -362,6 +375,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """Serve the page of a live run or a replayed trace until Ctrl-C; see docs/view.md."""
+    from labsim.runtime.view import view
+
+    if args.trace:
+        _check_writable(args.trace, [Path(args.file)])
+    return view(args.file, overrides=_overrides(args.set), seed=args.seed, backend=args.backend,
+                host=args.host, port=args.port, trace=args.trace, open_browser=not args.no_browser,
+                warn=_warn, report=_print_diagnostics)
 
 
 def cmd_labs(args: argparse.Namespace) -> int:

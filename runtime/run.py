@@ -112,6 +112,8 @@ class Run:
         self.idle = 0
         self.trace: TraceWriter | None = None
         self.robots = self._robots()
+        self.watched = False  # see watch()
+        self.last_rule: list[int] = [-1] * len(self.robots)
         self._nch = len(program.channels)
         self._actuator_sites = [
             FaultSite(f"rule {r.id}", Diagnostic(program.path, "", r.line, 1, 0, "warning", ""))
@@ -245,6 +247,7 @@ class Run:
         has_sliders = bool(self.program.slider_names) or bool(timeline)
         targets = self.program.targets
         command = self._command
+        watched, last_rule = self.watched, self.last_rule
 
         def inputs(t: int) -> None:
             """The timeline's slider settings for this tick, before anything reads them."""
@@ -259,6 +262,8 @@ class Run:
                 fired[rule] += 1
             else:
                 self.idle += 1
+            if watched:
+                last_rule[r.index] = rule
             if r.model is not None and (cmd[0] != r.sent_left or cmd[1] != r.sent_right):
                 send(r, cmd[0], cmd[1], rule)
             if r.clamping:
@@ -290,7 +295,8 @@ class Run:
                 if rule == -2:
                     self.finished = True
                     return False
-                if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None:
+                if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
+                        and not watched:
                     fired[rule] += 1  # the common case, inline
                     if cmd1[0] != r1.sent_left or cmd1[1] != r1.sent_right:
                         send(r1, cmd1[0], cmd1[1], rule)
@@ -327,6 +333,12 @@ class Run:
             return True
 
         return tick
+
+    def watch(self) -> None:
+        """Keep the rule each robot fired on the last tick in ``last_rule`` (-1: none), for a
+        live view. An unwatched run does not pay for it."""
+        self.watched = True
+        self.tick = self._make_tick()
 
     def _send(self, r: RobotRun, left: float, right: float, rule: int) -> None:
         r.sent_left, r.sent_right = left, right  # what the behaviour asked, to notice a change
