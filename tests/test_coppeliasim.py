@@ -258,7 +258,7 @@ def test_close_after_an_interrupted_call_still_stops_the_simulation(server: Serv
                                              "uuid": backend._client.uuid}))
     backend._busy = True
     backend.close()
-    assert server._state == STOPPED
+    assert server.simulation.state == STOPPED
     backend.close()
 
 
