@@ -254,9 +254,9 @@ def test_close_after_an_interrupted_call_still_stops_the_simulation(server: Serv
     backend = load_backend("coppeliasim", port=server.port)
     backend.open(WALLS, ONE, 0.05, 1)
     # As if Ctrl-C struck between a request and its answer: the socket awaits a reply.
-    backend._client.socket.send(cbor2.dumps({"func": "sim.getSimulationTime", "args": [],
-                                             "uuid": backend._client.uuid}))
-    backend._busy = True
+    client = backend._conn.client
+    client.socket.send(cbor2.dumps({"func": "sim.getSimulationTime", "args": [], "uuid": client.uuid}))
+    backend._conn.busy = True
     backend.close()
     assert server.simulation.state == STOPPED
     backend.close()

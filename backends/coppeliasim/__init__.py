@@ -13,10 +13,12 @@ This module holds only what both halves agree on: the scene object names of each
 and the few CoppeliaSim constants both use. It imports nothing, so loading the package costs
 nothing and needs neither pyzmq nor cbor2.
 
-The modules, client side: ``backend``. Server side: ``server`` (the wire loop), ``sim_api``
-(the ``sim.*`` functions), ``simulation`` (the pymunk backend behind the scene),
-``scene_tree`` (objects and CoppeliaSim's path language). Both: ``frames`` (3D frames and
-odometry, pure maths).
+The modules, client side: ``backend`` (the registered class: lifecycle and routing),
+``connection`` (the client's socket, calls, round trips and error explanations), ``fleet``
+(wheeled robots), ``mechanism`` (a world's mechanism, such as the tower crane). Server side:
+``server`` (the wire loop), ``sim_api`` (the ``sim.*`` functions), ``simulation`` (the pymunk
+backend behind the scene), ``scene_tree`` (objects and CoppeliaSim's path language). Both:
+``frames`` (3D frames and odometry, pure maths).
 """
 from __future__ import annotations
 
