@@ -485,6 +485,6 @@ def test_road_channels_need_a_road() -> None:
 
 def test_sonar_only_sense_computes_nothing_else() -> None:
     b = opened(road_compact(), Pose(0.0, -4.0, 0.0), channels=("sonar5", "sonar8", "collided"))
-    names = set(b._sense.__code__.co_names)
+    names = set(b._sim.sense.__code__.co_names)
     assert not names & {"render", "offset", "laps", "velocity"}
-    assert b._lap_robots == []
+    assert b._sim._lap_robots == []  # and step() counts no laps

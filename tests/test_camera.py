@@ -255,10 +255,10 @@ def test_backend_renders_only_when_a_camera_is_read() -> None:
     world = road_world()
     b = PymunkBackend()
     b.open(world, [RobotRequest("p", MODEL, world.spawns[0], ("sonar5", "x"))], 0.05, 1)
-    assert "render" not in b._sense.__code__.co_names  # the generated sense() never draws
+    assert "render" not in b._sim.sense.__code__.co_names  # the generated sense() never draws
     b.close()
     b.open(world, [RobotRequest("p", MODEL, world.spawns[0], ("camera",))], 0.05, 1)
-    assert "render" in b._sense.__code__.co_names
+    assert "render" in b._sim.sense.__code__.co_names
 
 
 def test_backend_refuses_a_camera_it_cannot_render() -> None:

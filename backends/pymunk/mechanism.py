@@ -1,9 +1,11 @@
-"""A ``Mechanism`` simulated in pymunk: the physics of side-view labs such as the tower crane.
+"""A ``Mechanism`` simulated in pymunk: the pymunk backend's simulator for side-view worlds.
 
-The backend builds one ``MechanismScene`` from a world's ``labsim.backends.scene.mechanism.Mechanism``
-and, every tick, sets joint targets, calls ``step()`` and reads joint positions, velocities
-and force sensors. The joint kinds and their planner are in ``labsim.backends.pymunk.joints``.
-Nothing here knows the language or the runtime.
+``labsim.backends.pymunk.backend.PymunkBackend`` opens a ``MechanismSimulator`` for a world
+with a mechanism (such as the tower crane). It builds one ``MechanismScene`` from the world's
+``labsim.backends.scene.mechanism.Mechanism`` and, every tick, sets joint targets, calls
+``step()`` and reads the channels the mechanism offers (``Mechanism.channels()``): joint
+positions and velocities, force sensors and moving bodies. The joint kinds and their planner
+are in ``labsim.backends.pymunk.joints``. Nothing here knows the language or the runtime.
 
 pymunk is 2D, so the scene is the mechanism's vertical plane: x along it, z up (pymunk's y),
 gravity (0, -g). How each joint becomes pymunk constraints, and why:
@@ -62,10 +64,12 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import pymunk
 
+from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.pymunk.joints import (
     LONG_M,
     Group,
@@ -76,9 +80,12 @@ from labsim.backends.pymunk.joints import (
     build_joint,
     control,
 )
+from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
 from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, Mechanism, MotorSpec
+from labsim.backends.scene.models import Kind
+from labsim.backends.scene.world import World
 
-__all__ = ["DEFAULT_SUBSTEPS", "MechanismError", "MechanismScene"]
+__all__ = ["DEFAULT_SUBSTEPS", "MechanismError", "MechanismScene", "MechanismSimulator"]
 
 # 5 ms sub-steps at dt = 0.05 s. The crane's pendulum (about 6.5 m, period 5 s) needs far less;
 # the chain rope - 10 kg hook - sling - 200 kg load is what needs small steps and many
@@ -89,8 +96,6 @@ __all__ = ["DEFAULT_SUBSTEPS", "MechanismError", "MechanismScene"]
 # nearly free (41 vs 37 us a tick at 4 sub-steps); sub-steps are the cost.
 DEFAULT_SUBSTEPS = 10
 SOLVER_ITERATIONS = 30
-# Allowed overlap between shapes, metres (pymunk's default 0.1 assumes pixels).
-COLLISION_SLOP_M = 0.0005
 FRICTION = 0.8
 # The winch pays out when the rope's mean tension over a tick reaches this fraction of its
 # max_force.
@@ -352,3 +357,74 @@ class MechanismScene:
         a = self._slew.value
         r = x - ax
         return (ax + r * math.cos(a), r * math.sin(a), z)
+
+
+class MechanismSimulator:
+    """A world's mechanism, read and driven by one agent; built open by the constructor.
+
+    Channels (``Mechanism.channels()``): a joint reads (position, velocity), a force sensor
+    (tension N,), a moving body (x, z, angle) in the plane; x, y are the last moving body's
+    (x, z) and heading the slew angle, so that a trace follows the load; collided is always
+    False, and there are no contacts.
+    """
+
+    def __init__(self, world: World, mechanism: Mechanism, robots: Sequence[RobotRequest], dt_s: float) -> None:
+        if any(req.model is not None for req in robots):
+            raise BackendError(f"world '{world.name}' is a mechanism: it has no place for robots")
+        try:
+            scene = MechanismScene(mechanism, dt_s)
+        except MechanismError as e:
+            raise BackendError(f"world '{world.name}': {e}") from None
+        offered = mechanism.channels()
+        moving = [name for name, kind in offered.items() if kind is Kind.BODY]
+        tracked = moving[-1] if moving else None
+
+        def getter(name: str, ch: str) -> Callable[[], object]:
+            kind = offered.get(ch)
+            if kind is Kind.JOINT:
+                return lambda: (scene.joint_position(ch), scene.joint_velocity(ch))
+            if kind is Kind.FORCE:
+                return lambda: (scene.force(ch),)
+            if kind is Kind.BODY:
+                return lambda: scene.body_pose(ch)
+            if tracked is not None and ch in ("x", "y"):
+                index = 0 if ch == "x" else 1
+                return lambda: scene.body_pose(tracked)[index]
+            if ch == "heading":
+                return lambda: scene.slew_angle
+            if ch == "collided":
+                return lambda: False
+            raise BackendError(f"'{name}' asks for unknown channel '{ch}'; world '{world.name}' offers: "
+                               + ", ".join(sorted(offered)))
+
+        getters = [[getter(req.name, ch) for ch in req.channels] for req in robots]
+        self.scene = scene
+        self.space = scene.space
+        self.bodies: list[pymunk.Body] = []  # a mechanism's bodies are no robots: see body channels
+        self.sense: Callable[[], list[list[object]]] = lambda: [[g() for g in row] for row in getters]
+        self.step = scene.step
+        self._world = world.name
+        self._tracked = tracked
+        self._contacts = [ContactStats(0, 0.0)] * len(robots)
+
+    def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
+        raise BackendError(f"pymunk backend: world '{self._world}' is a mechanism: it has no wheels; "
+                           f"its joints take command()")
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        """A joint's target velocity or position (see the protocol)."""
+        try:
+            if mode == "velocity":
+                self.scene.set_target_velocity(joint, value)
+            else:
+                self.scene.set_target_position(joint, value)
+        except MechanismError as e:
+            raise BackendError(str(e)) from None
+
+    def pose(self, robot: int) -> tuple[float, float, float]:
+        scene = self.scene
+        x, z, _ = scene.body_pose(self._tracked) if self._tracked is not None else (0.0, 0.0, 0.0)
+        return (x, z, wrap(scene.slew_angle))
+
+    def contacts(self, robot: int) -> ContactStats:
+        return self._contacts[robot]
