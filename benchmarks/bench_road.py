@@ -18,10 +18,10 @@ from pathlib import Path
 
 import cv2
 import pymunk
-
 from compare import compare, labsim_scene, labsim_side
-from labsim.backends.scene.ground import RoadTracker
+
 from labsim.backends.pymunk.camera import ground_view
+from labsim.backends.scene.ground import RoadTracker
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
 

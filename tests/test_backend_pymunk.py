@@ -9,9 +9,9 @@ import sys
 import pytest
 
 from labsim.backends import load_backend
-from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.protocol import BackendError, BackendStateError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
+from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.scene.world import Block, Pose, Wall, World
 
 M = PIONEER_P3DX
@@ -397,8 +397,8 @@ def test_public_space_and_bodies() -> None:
 # --- forward speed and road channels ----------------------------------------------------------
 
 def road_compact() -> World:
-    from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.diagnostics import Report
+    from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.world_file import load_world
     world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
