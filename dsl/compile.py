@@ -207,8 +207,8 @@ class Program:
         source, sites = self.source()
         slots = Slots([0.0] * self.slot_count)
         slots[STATE] = 0
-        for name in self.slider_names:
-            slots[self.slot_of[name]] = self.slider_start[name]
+        for slider in self.slider_names:
+            slots[self.slot_of[slider]] = self.slider_start[slider]
         command = [0.0, 0.0, 0]
         joint_command = [math.nan] * len(self.targets)
         events: list[str] = []

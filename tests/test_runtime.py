@@ -6,6 +6,7 @@ import math
 import pytest
 
 from fake_backend import FakeBackend
+from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 
@@ -140,3 +141,15 @@ def test_stop_horizon_for_the_progress_bar(write) -> None:
     assert horizon("time >= minutes * 60") == 120.0
     assert horizon("collided or tick >= 40") == 20.0
     assert horizon("collided") is None
+
+
+def test_a_fault_names_the_agent_that_ran_into_it_not_a_slider(write) -> None:
+    path = write("labsim: 1\nworld: crane\nstop: tick >= 2\nsliders:\n"
+                 "  arm: {min: -10, max: 10, label: 'root: {sqrt(arm - 100):.2f}'}\n  crab: {min: -10, max: 10}\n"
+                 "bind:\n  Arm_Actuator.velocity: 0.02 * arm\n")
+    warnings: list[str] = []
+    r = compile_behaviour(path).bind(load_backend("pymunk"), warn=warnings.append)
+    summary = r.run()
+    r.close()
+    assert "sqrt(): math domain error in a label, robot crane, tick 0" in warnings[0]
+    assert summary.faults == ["a label: sqrt(): math domain error: 3 times (first at tick 0, robot crane)"]
