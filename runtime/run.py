@@ -29,8 +29,8 @@ from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
 from labsim.dsl import ast
 from labsim.dsl.builtins import Aggregate, Type
-from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
-                                constant_value, metric_result)
+from labsim.dsl.compile import Program, RobotProgram, compile_file, constant_value
+from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 

@@ -7,7 +7,8 @@ import re
 
 import pytest
 
-from labsim.dsl.compile import FIRST_CHANNEL, Faults, compile_file
+from labsim.dsl.compile import compile_file
+from labsim.dsl.support import FIRST_CHANNEL, Faults
 
 
 def program(write, lets: str, params: str = "{}", stop: str = "time >= 1"):

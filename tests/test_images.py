@@ -9,7 +9,7 @@ import pytest
 from fake_backend import FakeBackend
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.dsl import images
-from labsim.dsl.compile import pid_step
+from labsim.dsl.support import pid_step
 from labsim.backends.scene.diagnostics import LabsimError
 from labsim.runtime.report import format_summary
 from labsim.runtime.run import compile_behaviour
