@@ -22,7 +22,7 @@ from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
+from labsim.runtime.run import compile_behaviour, slider_events
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -158,11 +158,10 @@ def _warn(message: str) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    behaviour = compile_behaviour(args.file, _overrides(args.set))
-    if args.seed is not None:
-        if args.seed < 0:
-            raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-        behaviour.program.seed = args.seed
+    overrides = _overrides(args.set)
+    if args.seed is not None and args.seed < 0:
+        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed)
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
     replay = None
@@ -174,7 +173,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     backend = load_backend(args.backend, **_backend_options(args))
     run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
+    bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
         summary = run.run(progress=bar)
     finally:
@@ -362,8 +361,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         world = program.world
         dt = dt if dt is not None else program.dt_s
         # the behaviour's robots (models with their cameras); the backend places them itself
-        models = [program.models[d.name] for d in program.robot_decls
-                  if program.models.get(d.name) is not None for _ in range(d.count)]
+        models = [group.model for group in program.robots for _ in range(group.count)]
         poses = [pose for _, pose in Server.robot_specs(world, len(models))]
         requests = [RobotRequest(f"PioneerP3DX[{i}]", m, pose, ()) for i, (m, pose) in enumerate(zip(models, poses))]
     if args.world is not None or world is None:

@@ -1,13 +1,21 @@
-"""The compiler: generated code computes what the language says, and faults are defined."""
+"""The compiler: generated code computes what the language says, faults are defined, and the
+program it hands the runtime is sealed."""
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 import re
+from collections.abc import Mapping
 
 import pytest
+import yaml
+from conftest import BEHAVIOURS
 
+from labsim.backends.scene.source import Document, Text
+from labsim.dsl.check import Checked
 from labsim.dsl.compile import compile_file
+from labsim.dsl.read import BehaviourFile, Parsed
 from labsim.dsl.support import FIRST_CHANNEL, Faults
 
 
@@ -97,14 +105,14 @@ def test_min_and_max_with_infinities_and_folded(write, expr: str, value: float) 
 
 def test_constants_are_folded(write) -> None:
     p = program(write, "  scaled: sonar1 * (a * 60)\n", params="{a: 25}", stop="time >= a * 60")
-    source, _ = p.source()
+    source = p.code.source
     assert "return (v0 >= 1500.0)" in source
     assert "(v3 * 1500.0)" in source
 
 
 def test_no_user_text_reaches_the_generated_code(write) -> None:
     p = program(write, "  __import__: sonar1\n  open_file: __import__ + 1\n", params="{system: 2}")
-    source, _ = p.source()
+    source = p.code.source
     for word in ("__import__", "open_file", "system", "sonar1"):
         assert word not in source
     # everything in it comes from a fixed vocabulary: slots, literals, operators, bound helpers
@@ -124,3 +132,36 @@ def test_each_robot_has_its_own_random_stream_and_slots(write) -> None:
         robot.signals(0.0, 0, [])
         draws.append(robot.slots[FIRST_CHANNEL])
     assert draws[0] == draws[2] != draws[1]
+
+
+def test_the_program_cannot_be_changed(write) -> None:
+    p = program(write, "  probe: sonar1\n", params="{a: 3}")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.seed = 2  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.code = p.code  # type: ignore[misc]
+    for mapping in (p.params, p.slot_of, p.models, p.channel_kinds, p.signal_types, p.slider_ranges):
+        with pytest.raises(TypeError):
+            mapping["a"] = 1  # type: ignore[index]
+    assert all(isinstance(getattr(p, f.name), (tuple, str, int, float, bool, Mapping, type(None)))
+               or f.name in ("world", "code") for f in dataclasses.fields(p))
+
+
+def test_nothing_of_the_file_or_the_front_end_is_reachable_from_the_program() -> None:
+    p = compile_file(BEHAVIOURS / "wall_follow.yaml")
+    front_end = (yaml.Node, Document, Text, Parsed, BehaviourFile, Checked)
+    seen: set[int] = set()
+    todo: list[object] = [p]
+    while todo:
+        value = todo.pop()
+        if id(value) in seen or isinstance(value, (str, int, float, bool, type(None))):
+            continue
+        seen.add(id(value))
+        assert not isinstance(value, front_end), f"{type(value).__name__} reachable from the program"
+        if dataclasses.is_dataclass(value):
+            todo += [getattr(value, f.name) for f in dataclasses.fields(value)]
+        elif isinstance(value, Mapping):
+            todo += [*value.keys(), *value.values()]
+        elif isinstance(value, (tuple, list, set, frozenset)):
+            todo += list(value)
+
