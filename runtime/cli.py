@@ -56,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
+    check.add_argument("--show-code", action="store_true",
+                       help="print the Python each file compiles to, each rule, signal and metric "
+                            "under a comment with its line in the file")
 
     test = sub.add_parser("test", help="re-run behaviours and compare them with their golden traces")
     test.add_argument("paths", nargs="*", default=["behaviours"],
@@ -213,12 +216,13 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok'."""
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
             behaviour = compile_behaviour(f)
             problems += behaviour.program.warnings
-            print(f"{f}: ok")
+            print(behaviour.program.code.listing if args.show_code else f"{f}: ok")
         except LabsimError as e:
             problems += e.diagnostics
     if problems:

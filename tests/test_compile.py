@@ -1,22 +1,26 @@
 """The compiler: generated code computes what the language says, faults are defined, and the
-program it hands the runtime is sealed."""
+program it hands the runtime is sealed and readable."""
 from __future__ import annotations
 
 import dataclasses
+import linecache
 import math
 import random
 import re
+import traceback
 from collections.abc import Mapping
 
 import pytest
 import yaml
-from conftest import BEHAVIOURS
+from conftest import BEHAVIOURS, FIXTURES
 
+import labsim.dsl.program
 from labsim.backends.scene.source import Document, Text
 from labsim.dsl.check import Checked
 from labsim.dsl.compile import compile_file
 from labsim.dsl.read import BehaviourFile, Parsed
 from labsim.dsl.support import FIRST_CHANNEL, Faults
+from labsim.runtime.cli import main
 
 
 def program(write, lets: str, params: str = "{}", stop: str = "time >= 1"):
@@ -165,3 +169,50 @@ def test_nothing_of_the_file_or_the_front_end_is_reachable_from_the_program() ->
         elif isinstance(value, (tuple, list, set, frozenset)):
             todo += list(value)
 
+
+def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys) -> None:
+    path = BEHAVIOURS / "wall_follow.yaml"
+    assert main(["check", "--show-code", str(path)]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    p = compile_file(path)
+    for rule in p.rules:
+        comment = f"# {path}:{rule.line}: rule {rule.id}: {rule.text}"
+        (i,) = [i for i, line in enumerate(lines) if line.strip() == comment][:1]
+        assert re.match(r" *(if|elif|else)\b", lines[i + 1]), lines[i + 1]  # the rule's own test follows
+    assert f"# {path}:36: rule wander:1: if ahead <= front or right <= front then goto follow" in out
+    assert f"# {path}:27: ahead: min(sonar5, sonar2)" in out
+    assert f"# {path}:47: near_misses: count(min(ahead, right, left) < 0.25)" in out
+    assert f"# {path}:13: stop: time >= minutes * 60" in out
+    compile(out, "listing", "exec")  # it is Python
+    # the listing is the compiled source with its markers explained, line for line
+    assert out == p.code.listing + "\n" and len(lines) == len(p.code.source.splitlines()) + 1
+
+
+def test_show_code_on_a_file_with_errors_reports_them(capsys) -> None:
+    assert main(["check", "--show-code", str(FIXTURES / "unknown_sensor_with_error.yaml")]) == 2
+    out, err = capsys.readouterr()
+    assert "def make(" not in out and "unknown name 'sonr5'" in err
+
+
+def test_a_traceback_through_generated_code_shows_the_generated_line(write, monkeypatch) -> None:
+    def broken_guard(*args: object) -> object:
+        def fail(*values: object) -> object:
+            raise RuntimeError("a guard that breaks")
+        return fail
+
+    p = program(write, "  probe: sqrt(sonar1) + 1\n")
+    monkeypatch.setattr(labsim.dsl.program, "guard", broken_guard)
+    robot = p.robot("p", random.Random(0), Faults())
+    with pytest.raises(RuntimeError):
+        try:
+            robot.signals(0.0, 0, [0.5])
+        except RuntimeError:
+            text = traceback.format_exc()
+            raise
+    assert p.code.filename == f"<labsim {p.path}>"
+    (line,) = re.findall(rf'File "{re.escape(p.code.filename)}", line (\d+), in signals', text)
+    generated = linecache.getline(p.code.filename, int(line))
+    assert generated.strip() == "s[4] = v4 = (_g0(v3) + 1.0)"
+    assert "    s[4] = v4 = (_g0(v3) + 1.0)" in text  # shown under its frame
+    assert linecache.getline(p.code.filename, int(line) - 1).strip() == f"# {p.path}:8: probe: sqrt(sonar1) + 1"
