@@ -11,15 +11,15 @@ import argparse
 import os
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import compile_behaviour, slider_events

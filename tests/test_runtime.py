@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import math
 
-import pytest
-
 from fake_backend import FakeBackend
+
 from labsim.backends import load_backend
 from labsim.runtime.cli import main
 from labsim.runtime.run import compile_behaviour
@@ -93,7 +92,8 @@ def test_fleet_robots_have_their_own_state(write) -> None:
     text = ("stop: tick >= 3\nrobots:\n  p: {model: pioneer_p3dx, count: 2, at: spawn}\n"
             "let:\n  r: randint(0, 1000000)\nrules:\n  wait:\n    - if sonar5 < 1 then goto go\n    - else stop()\n"
             "  go:\n    - always arc(r, 1)\n")
-    behaviour = compile_behaviour(write(HEAD.replace("robots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n", "") + text))
+    head = HEAD.replace("robots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n", "")
+    behaviour = compile_behaviour(write(head + text))
     # robot 0 sees a wall at tick 0, robot 1 never
     backend = FakeBackend(lambda tick, robot, ch: 0.5 if robot == 0 else 2.0)
     r = behaviour.bind(backend)
