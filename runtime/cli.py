@@ -14,19 +14,19 @@ import argparse
 import os
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
+from labsim.runtime.run import compile_behaviour, slider_events
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -60,6 +60,9 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
+    check.add_argument("--show-code", action="store_true",
+                       help="print the Python each file compiles to, each rule, signal and metric "
+                            "under a comment with its line in the file")
 
     test = sub.add_parser("test", help="re-run behaviours and compare them with their golden traces")
     test.add_argument("paths", nargs="*", default=None,
@@ -196,11 +199,10 @@ def _warn(message: str) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    behaviour = compile_behaviour(args.file, _overrides(args.set))
-    if args.seed is not None:
-        if args.seed < 0:
-            raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-        behaviour.program.seed = args.seed
+    overrides = _overrides(args.set)
+    if args.seed is not None and args.seed < 0:
+        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed)
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
     replay = None
@@ -212,7 +214,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     backend = load_backend(args.backend, **_backend_options(args))
     run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
+    bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
         summary = run.run(progress=bar)
     finally:
@@ -252,12 +254,13 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok'."""
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
             behaviour = compile_behaviour(f)
             problems += behaviour.program.warnings
-            print(f"{f}: ok")
+            print(behaviour.program.code.listing if args.show_code else f"{f}: ok")
         except LabsimError as e:
             problems += e.diagnostics
     if problems:
@@ -429,8 +432,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         world = program.world
         dt = dt if dt is not None else program.dt_s
         # the behaviour's robots (models with their cameras); the backend places them itself
-        models = [program.models[d.name] for d in program.robot_decls
-                  if program.models.get(d.name) is not None for _ in range(d.count)]
+        models = [group.model for group in program.robots for _ in range(group.count)]
         poses = [pose for _, pose in Server.robot_specs(world, len(models))]
         requests = [RobotRequest(f"PioneerP3DX[{i}]", m, pose, ()) for i, (m, pose) in enumerate(zip(models, poses))]
     if args.world is not None or world is None:
