@@ -18,7 +18,7 @@ from typing import Any
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.runtime.run import Behaviour, Run, compile_behaviour, stop_horizon
+from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.frames import (
     Json,
     channel_kinds,
@@ -64,9 +64,7 @@ class LiveSession(Session):
         """
         wanted = self.overrides if overrides is None else overrides
         try:
-            behaviour = compile_behaviour(self.path, wanted)
-            if self.seed is not None:
-                behaviour.program.seed = self.seed
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
         except LabsimError as e:
             self.refused = list(e.diagnostics)
             if self.run is None:
@@ -150,7 +148,7 @@ class LiveSession(Session):
             sliders=[{"name": n, "min": lo, "max": hi, "value": start[n]}
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
-            states=list(p.state_names), stop_s=stop_horizon(p), timeline=self.timeline,
+            states=list(p.state_names), stop_s=p.stop_horizon_s, timeline=self.timeline,
             trace=str(self.trace_path) if self.trace_path else None)
 
     def _slider_values(self) -> list[float]:
