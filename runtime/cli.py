@@ -40,6 +40,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
+    # long: one declaration per command and option, read top to bottom as the help is
     p = _Parser(prog="labsim", description="Run robotics labs written as behaviour files.")
     p.add_argument("--version", action="version", version=f"labsim {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)

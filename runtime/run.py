@@ -235,7 +235,7 @@ class Run:
     def _make_tick(self) -> Callable[[], bool]:
         """Build ``tick()``: one tick of the run, False once the stop condition has held.
 
-        A closure over locals, because it is the hot path: an attribute lookup per robot per
+        Long, as one closure over locals, because it is the hot path: an attribute lookup per robot per
         tick costs as much as a rule. A fleet senses and evaluates every robot's signals
         before any robot acts, so that the stop condition can end the run before anyone
         acts; a single robot does both in one generated function.
