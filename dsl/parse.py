@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.tree import Meta
 
 from labsim.dsl import ast
 
@@ -90,12 +92,13 @@ def _found(token: Token) -> str:
 
 
 def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
-    pos = e.pos_in_stream if getattr(e, "pos_in_stream", None) is not None else len(text)
+    pos = e.pos_in_stream if e.pos_in_stream is not None else len(text)
     if isinstance(e, UnexpectedCharacters):
         return _bad_character(text, pos)
+    expected: set[str]  # terminal names
     if isinstance(e, UnexpectedEOF):
-        expected = set(e.expected)
-        token_text, end = "the end of the text", pos + 1
+        expected = {str(t) for t in e.expected}
+        token_text = "the end of the text"
         pos = len(text.rstrip())
         end = pos + 1
     else:
@@ -162,11 +165,12 @@ def _bad_character(text: str, pos: int) -> ParseError:
     return ParseError(pos, pos + 1, f"unexpected character '{text[pos]}'")
 
 
-def _span(meta) -> ast.Span:  # type: ignore[no-untyped-def]
+def _span(meta: Meta) -> ast.Span:
     return (meta.start_pos, meta.end_pos)
 
 
 def _tspan(token: Token) -> ast.Span:
+    assert token.start_pos is not None and token.end_pos is not None  # the lexer places every token
     return (token.start_pos, token.end_pos)
 
 
@@ -174,70 +178,70 @@ def _tspan(token: Token) -> ast.Span:
 class _ToAst(Transformer):
     """lark tree to frozen dataclasses; tokens become str and float here."""
 
-    def if_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def if_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("if", c[0], c[1], span=_span(meta))
 
-    def else_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def else_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("else", None, c[0], span=_span(meta))
 
-    def always_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def always_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("always", None, c[0], span=_span(meta))
 
-    def actions(self, meta, c):  # type: ignore[no-untyped-def]
+    def actions(self, meta: Meta, c: list[Any]) -> tuple[ast.Action | ast.Goto, ...]:
         return tuple(c)
 
-    def goto(self, meta, c):  # type: ignore[no-untyped-def]
+    def goto(self, meta: Meta, c: list[Any]) -> ast.Goto:
         return ast.Goto(str(c[0]), span=_span(meta), state_span=_tspan(c[0]))
 
-    def action(self, meta, c):  # type: ignore[no-untyped-def]
+    def action(self, meta: Meta, c: list[Any]) -> ast.Action:
         args = c[1] if c[1] is not None else ()
         return ast.Action(str(c[0]), args, span=_span(meta), name_span=_tspan(c[0]))
 
-    def arguments(self, meta, c):  # type: ignore[no-untyped-def]
+    def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)
 
-    def ifexp(self, meta, c):  # type: ignore[no-untyped-def]
+    def ifexp(self, meta: Meta, c: list[Any]) -> ast.IfExp:
         return ast.IfExp(c[0], c[1], c[2], span=_span(meta))
 
-    def or_(self, meta, c):  # type: ignore[no-untyped-def]
+    def or_(self, meta: Meta, c: list[Any]) -> ast.BoolOp:
         return ast.BoolOp("or", tuple(c), span=_span(meta))
 
-    def and_(self, meta, c):  # type: ignore[no-untyped-def]
+    def and_(self, meta: Meta, c: list[Any]) -> ast.BoolOp:
         return ast.BoolOp("and", tuple(c), span=_span(meta))
 
-    def not_(self, meta, c):  # type: ignore[no-untyped-def]
+    def not_(self, meta: Meta, c: list[Any]) -> ast.Not:
         return ast.Not(c[0], span=_span(meta))
 
-    def compare(self, meta, c):  # type: ignore[no-untyped-def]
+    def compare(self, meta: Meta, c: list[Any]) -> ast.Compare:
         return ast.Compare(tuple(c[0::2]), tuple(str(t) for t in c[1::2]), span=_span(meta))
 
-    def binary(self, meta, c):  # type: ignore[no-untyped-def]
+    def binary(self, meta: Meta, c: list[Any]) -> ast.Binary:
         return ast.Binary(str(c[1]), c[0], c[2], span=_span(meta))
 
-    def power(self, meta, c):  # type: ignore[no-untyped-def]
+    def power(self, meta: Meta, c: list[Any]) -> ast.Binary:
         return ast.Binary("**", c[0], c[1], span=_span(meta))
 
-    def neg(self, meta, c):  # type: ignore[no-untyped-def]
+    def neg(self, meta: Meta, c: list[Any]) -> ast.Neg:
         return ast.Neg(c[1], span=_span(meta))
 
-    def pos(self, meta, c):  # type: ignore[no-untyped-def]
+    def pos(self, meta: Meta, c: list[Any]) -> ast.Expr:
         return c[1]
 
-    def number(self, meta, c):  # type: ignore[no-untyped-def]
+    def number(self, meta: Meta, c: list[Any]) -> ast.Number:
         return ast.Number(float(c[0]), span=_span(meta))
 
-    def true(self, meta, c):  # type: ignore[no-untyped-def]
+    def true(self, meta: Meta, c: list[Any]) -> ast.Bool:
         return ast.Bool(True, span=_span(meta))
 
-    def false(self, meta, c):  # type: ignore[no-untyped-def]
+    def false(self, meta: Meta, c: list[Any]) -> ast.Bool:
         return ast.Bool(False, span=_span(meta))
 
-    def name(self, meta, c):  # type: ignore[no-untyped-def]
+    def name(self, meta: Meta, c: list[Any]) -> ast.Name:
         return ast.Name(str(c[0]), span=_span(meta))
 
-    def call(self, meta, c):  # type: ignore[no-untyped-def]
+    def call(self, meta: Meta, c: list[Any]) -> ast.Call:
         args = c[1] if c[1] is not None else ()
         return ast.Call(str(c[0]), args, span=_span(meta), func_span=_tspan(c[0]))
 
-    def attribute(self, meta, c):  # type: ignore[no-untyped-def]
+    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute:
         return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))
