@@ -291,22 +291,6 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
                 seen[key.value] = key
 
 
-def known_fields(doc: Document, report: Report, node: Node, allowed: tuple[str, ...],
-                 what: str) -> dict[str, Node] | None:
-    """The values of a mapping's known keys; unknown keys (with did-you-mean) and a node that
-    is not a mapping are reported, the latter giving None."""
-    if not isinstance(node, MappingNode):
-        report.add(doc.diagnostic(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}"))
-        return None
-    out = {}
-    for k, v in node.value:
-        if k.value not in allowed:
-            report.add(doc.diagnostic(k, f"unknown key '{k.value}' in {what}{did_you_mean(k.value, allowed)}"))
-        else:
-            out[k.value] = v
-    return out
-
-
 def scalar_value(node: ScalarNode) -> object:
     """The Python value of a core-schema scalar: str, int, float, bool or None."""
     return yaml.SafeLoader("").construct_object(node, deep=False)
