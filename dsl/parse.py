@@ -2,13 +2,16 @@
 
 ``parse_rule`` and ``parse_expr`` return ``labsim.dsl.ast`` nodes whose spans are offsets into
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
-expected. No lark type escapes this module.
+expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
+around ``parse_expr``. No lark type escapes this module.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
+import re
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeAlias
 
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
@@ -45,6 +48,67 @@ def parse_expr(text: str) -> ast.Expr:
     result = _parse(text, "expr")
     assert isinstance(result, ast.Expr)
     return result
+
+
+LabelPart: TypeAlias = str | tuple[ast.Expr, str]  # literal text, or an expression and its format spec
+
+
+def parse_label(text: str) -> tuple[LabelPart, ...]:
+    """'Arm Speed: {0.02 * arm:.2f}': literal text and {expression:format} fields, in order.
+
+    ``{{`` and ``}}`` stand for braces. The expressions' spans are offsets into the whole text.
+    """
+    parts: list[LabelPart] = []
+    i, literal = 0, ""
+    while i < len(text):
+        ch = text[i]
+        if ch in "{}" and text[i:i + 2] in ("{{", "}}"):
+            literal += ch
+            i += 2
+            continue
+        if ch == "}":
+            raise ParseError(i, i + 1, "unmatched '}' in a label (write '}}' for a brace)")
+        if ch != "{":
+            literal += ch
+            i += 1
+            continue
+        end = text.find("}", i)
+        if end < 0:
+            raise ParseError(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)")
+        field_text = text[i + 1:end]
+        expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
+        if colon and not _FORMAT_SPEC.fullmatch(spec):
+            start = i + 1 + len(expr_text) + 1
+            raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
+        try:
+            expr = parse_expr(expr_text)
+        except ParseError as e:
+            raise ParseError(i + 1 + e.start, i + 1 + e.end, e.message, e.notes) from None
+        if literal:
+            parts.append(literal)
+            literal = ""
+        parts.append((_shift(expr, i + 1), spec))
+        i = end + 1
+    if literal:
+        parts.append(literal)
+    return tuple(parts)
+
+
+_FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
+
+
+def _shift(e: ast.Expr, offset: int) -> ast.Expr:
+    """An expression parsed from part of a string, its spans moved to the whole string's."""
+    changes: dict[str, Any] = {}
+    for f in dataclasses.fields(e):
+        v = getattr(e, f.name)
+        if f.name.endswith("span") and isinstance(v, tuple) and len(v) == 2:
+            changes[f.name] = (v[0] + offset, v[1] + offset)
+        elif isinstance(v, ast.Expr):
+            changes[f.name] = _shift(v, offset)
+        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
+            changes[f.name] = tuple(_shift(x, offset) for x in v)
+    return dataclasses.replace(e, **changes)
 
 
 def _parse(text: str, start: str) -> ast.Rule | ast.Expr:

@@ -19,7 +19,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene.models import Camera
 from labsim.dsl import ast
 from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
-from labsim.dsl.parse import ParseError, parse_expr, parse_rule
+from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_rule
 from labsim.backends.scene.source import Document, Text, scalar_value
 
 FORMAT_VERSION = 1
@@ -451,46 +451,12 @@ class _Reader:
             self.error(node, "a label is text, with {expression} or {expression:.2f} fields")
             return None
         text = self.doc.text_of(node)
-        value = text.value
-        parts: list[str | tuple[Parsed, str]] = []
-        i, literal = 0, ""
-        while i < len(value):
-            ch = value[i]
-            if ch in "{}" and value[i:i + 2] in ("{{", "}}"):
-                literal += ch
-                i += 2
-                continue
-            if ch == "}":
-                self.report.add(text.diagnostic(i, i + 1, "unmatched '}' in a label (write '}}' for a brace)"))
-                return None
-            if ch != "{":
-                literal += ch
-                i += 1
-                continue
-            end = value.find("}", i)
-            if end < 0:
-                self.report.add(text.diagnostic(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)"))
-                return None
-            field_text = value[i + 1:end]
-            expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
-            if colon and not _FORMAT_SPEC.fullmatch(spec):
-                start = i + 1 + len(expr_text) + 1
-                self.report.add(text.diagnostic(start, start + len(spec),
-                                                f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d"))
-                return None
-            try:
-                expr = parse_expr(expr_text)
-            except ParseError as e:
-                self.report.add(text.diagnostic(i + 1 + e.start, i + 1 + e.end, e.message))
-                return None
-            if literal:
-                parts.append(literal)
-                literal = ""
-            parts.append((Parsed(_shift(expr, i + 1), text), spec))
-            i = end + 1
-        if literal:
-            parts.append(literal)
-        return Label(tuple(parts))
+        try:
+            parts = parse_label(text.value)
+        except ParseError as e:
+            self.report.add(text.diagnostic(e.start, e.end, e.message))
+            return None
+        return Label(tuple(part if isinstance(part, str) else (Parsed(part[0], text), part[1]) for part in parts))
 
     def binds(self, node: Node) -> list[BindDecl]:
         out = []
@@ -587,7 +553,6 @@ class _Reader:
         return out
 
 
-_FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
 _AT = re.compile(r"at\s+([0-9]*\.?[0-9]+(?:[eE][+-]?\d+)?)\s*$")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
 
@@ -609,19 +574,3 @@ def _mapping_hint(node: Node | None) -> tuple[str, ...]:
             return (f"hint: YAML read '{key.value}: ...' as a mapping because of the ': '; "
                     "remove the colon (a rule reads 'if COND then ACTION'), or quote the whole text",)
     return ()
-
-
-def _shift(e, offset: int):  # type: ignore[no-untyped-def]
-    """An expression parsed from part of a string, its spans moved to the whole string's."""
-    import dataclasses
-
-    changes = {}
-    for f in dataclasses.fields(e):
-        v = getattr(e, f.name)
-        if f.name.endswith("span") and isinstance(v, tuple) and len(v) == 2:
-            changes[f.name] = (v[0] + offset, v[1] + offset)
-        elif isinstance(v, ast.Expr):
-            changes[f.name] = _shift(v, offset)
-        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
-            changes[f.name] = tuple(_shift(x, offset) for x in v)
-    return dataclasses.replace(e, **changes)
