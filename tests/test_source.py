@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from labsim.dsl.compile import compile_file
 from labsim.backends.scene.diagnostics import LabsimError
 from labsim.backends.scene.source import MAX_BYTES, load, loads
+from labsim.dsl.compile import compile_file
 
 HEAD = "labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
 
@@ -68,7 +68,8 @@ def test_file_over_the_size_cap(tmp_path: Path) -> None:
 
 
 def test_missing_file_and_folder(tmp_path: Path) -> None:
-    for path, message in ((tmp_path / "nope.yaml", "no such behaviour file"), (tmp_path, "is a folder, not a behaviour file")):
+    for path, message in ((tmp_path / "nope.yaml", "no such behaviour file"),
+                          (tmp_path, "is a folder, not a behaviour file")):
         with pytest.raises(LabsimError) as e:
             load(path)
         assert [(d.path, d.line, d.message) for d in e.value.diagnostics] == [(str(path), 0, message)]
