@@ -214,7 +214,8 @@ class _Reader(Reader):
             bf.params = self.params(keys["params"])
         if "let" in keys:
             bf.lets = self.named_exprs(keys["let"], "let")
-            bf.failed_names = {k.value for k, _ in self.mapping(keys["let"], "let")} - {n for n, _, _ in bf.lets}
+            declared = {k.value for k, _ in keys["let"].value} if isinstance(keys["let"], MappingNode) else set()
+            bf.failed_names = declared - {n for n, _, _ in bf.lets}
         if "rules" in keys:
             bf.states = self.states(keys["rules"])
             bf.has_rules = True

@@ -292,8 +292,18 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
 
 
 def scalar_value(node: ScalarNode) -> object:
-    """The Python value of a core-schema scalar: str, int, float, bool or None."""
-    return yaml.SafeLoader("").construct_object(node, deep=False)
+    """The Python value of a core-schema scalar: str, int, float, bool or None.
+
+    An integer beyond a float's range reads as an infinite float: every number labsim reads
+    becomes a float, and such a number is reported as not finite, not as a crash.
+    """
+    value = yaml.SafeLoader("").construct_object(node, deep=False)
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            float(value)
+        except OverflowError:
+            return math.inf if value > 0 else -math.inf
+    return value
 
 
 def shape_of(node: Node | None) -> str:
