@@ -130,16 +130,9 @@ class Simulation:
         return robot
 
     def _add_mechanism(self, world: World) -> None:
-        """Joints, force sensors and moving bodies of the world's mechanism, if the pymunk
-        backend can simulate it (a RobotRequest with model None, and ``command``)."""
+        """Joints, force sensors and moving bodies of the world's mechanism, if it has one."""
         m = world.mechanism
         if m is None:
-            return
-        from labsim.backends.pymunk.backend import PymunkBackend
-
-        if not callable(getattr(PymunkBackend, "command", None)):
-            self.log("labsim serve: this pymunk backend cannot simulate mechanisms; "
-                     f"the joints of '{world.name}' are not served")
             return
         channels = self.tree.add_mechanism(m)
         self.mech = len(self.robots)
