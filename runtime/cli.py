@@ -27,6 +27,7 @@ from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
+from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -57,6 +58,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show a progress bar (default: when stderr is a terminal)")
     run.add_argument("--quiet", "-q", action="store_true", help="print no summary")
+    run.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH|-",
+                     help="write the summary as JSON to PATH, or to standard output with - (the default; "
+                          "the text summary is then not printed); docs/summary-json.md")
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
@@ -183,13 +187,16 @@ def _warn(message: str) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    behaviour = compile_behaviour(args.file, _overrides(args.set))
+    overrides = _overrides(args.set)
+    behaviour = compile_behaviour(args.file, overrides)
     if args.seed is not None:
         if args.seed < 0:
             raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
         behaviour.program.seed = args.seed
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
+    if args.json not in (None, "-"):
+        check_json_output(args.json, [Path(args.file), Path(behaviour.program.world.source)])
     replay = None
     if args.replay:
         try:
@@ -197,7 +204,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         except TraceFormatError as e:
             raise LabsimError([Diagnostic(args.replay, str(e).removeprefix(f"{args.replay}: "))]) from None
     backend = load_backend(args.backend, **_backend_options(args))
-    run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
+    warnings: list[str] = []
+    run = behaviour.bind(backend, trace=args.trace, warn=lambda m: (warnings.append(m), _warn(m)), replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
     try:
@@ -206,7 +214,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.clear()
         run.close()
-    if not args.quiet:
+    if args.json is not None:
+        emit_json(summary_dict(summary, run, overridden=tuple(overrides), warnings=warnings), args.json)
+    if not args.quiet and args.json != "-":
         print(format_summary(summary, run))
         trips = _round_trips(backend, summary.ticks)
         if trips:
