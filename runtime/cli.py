@@ -205,7 +205,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise LabsimError([Diagnostic(args.replay, str(e).removeprefix(f"{args.replay}: "))]) from None
     backend = load_backend(args.backend, **_backend_options(args))
     warnings: list[str] = []
-    run = behaviour.bind(backend, trace=args.trace, warn=lambda m: (warnings.append(m), _warn(m)), replay=replay)
+
+    def warn(message: str) -> None:
+        warnings.append(message)
+        _warn(message)
+
+    run = behaviour.bind(backend, trace=args.trace, warn=warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
     try:
