@@ -21,8 +21,8 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
@@ -61,6 +61,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH|-",
                      help="write the summary as JSON to PATH, or to standard output with - (the default; "
                           "the text summary is then not printed); docs/summary-json.md")
+
+    _sweep_parser(sub)
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
@@ -106,6 +108,32 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _sweep_parser(sub: argparse._SubParsersAction) -> None:
+    """``labsim sweep``: its options; docs/sweep.md."""
+    sweep = sub.add_parser("sweep", help="run behaviours over a grid of parameters and seeds, in parallel, "
+                                         "and compare the settings")
+    sweep.add_argument("files", nargs="+", metavar="FILE", help="behaviour files or lab names (a class's "
+                                                                "submissions, or versions of one behaviour)")
+    sweep.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...|NAME=START:STOP:STEP",
+                       help="values of a parameter to try (repeatable; the grid is every combination)")
+    sweep.add_argument("--seeds", metavar="1-20", help="seeds to run each setting with: 1-20, 1,2,5 or 1-5,9 "
+                                                       "(default: the file's own seed)")
+    sweep.add_argument("-j", "--jobs", type=int, metavar="N", help="processes on this machine (default: the cores)")
+    sweep.add_argument("--executor", choices=("local", "dask"), default="local",
+                       help="where the runs go: this machine's processes, or a Dask cluster (default: %(default)s)")
+    sweep.add_argument("--scheduler", metavar="ADDRESS", help="the Dask scheduler, e.g. tcp://HOST:8786")
+    sweep.add_argument("-o", "--output", metavar="CSV", help="write one row per run to this CSV file")
+    sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
+    sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
+    sweep.add_argument("--timeout-per-run", type=float, metavar="S", dest="timeout",
+                       help="stop a run after S seconds of real time; its row says timeout")
+    sweep.add_argument("--traces", metavar="DIR", help="write each run's trace into this folder")
+    sweep.add_argument("--maximize", action="append", default=[], metavar="METRIC",
+                       help="mark the highest mean of this metric as best (default: the lowest)")
+    sweep.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                       help="show a progress bar (default: when stderr is a terminal)")
+
+
 def _remote_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
                                                 "(default: 127.0.0.1)")
@@ -135,7 +163,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "labs": cmd_labs,
-                "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
+                "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
+                "sweep": cmd_sweep}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -377,6 +406,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run a grid of runs and compare the settings; runtime/sweep_driver.py."""
+    from labsim.runtime.sweep_driver import SweepOptions, run_sweep
+
+    return run_sweep(SweepOptions(args.files, args.set, args.seeds, args.jobs, args.executor, args.scheduler,
+                                  args.output, args.json, args.plot, args.timeout, args.traces, args.maximize,
+                                  args.progress))
 
 
 def cmd_labs(args: argparse.Namespace) -> int:
