@@ -187,6 +187,8 @@ def _check_values(f: str, settings: list[Setting], params: dict[str, float | boo
 def first_error(e: LabsimError) -> str:
     """A compile failure on one line: the first error, ``path:line:col: error: message``."""
     errors = [d for d in e.diagnostics if d.severity == "error"] or e.diagnostics
+    own = [d for d in errors if not d.path.startswith("--")]  # the file's own before a --set it lacks
+    errors = own or errors
     return errors[0].format().splitlines()[0] if errors else str(e)
 
 
