@@ -209,3 +209,73 @@ def test_plot_draws_a_chart(capsys, tmp_path: Path) -> None:
     png = tmp_path / "c.png"
     code, out, _ = cli(capsys, "sweep", LAB, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2", "--plot", str(png))
     assert code == 0 and png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
+
+
+# -- the Dask executor ------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask cluster of two worker processes on this machine, for this module's tests."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as c:
+        yield c
+
+
+def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> None:
+    """Also a world file beside the behaviour, which travels with the task, and a broken file."""
+    (tmp_path / "worlds").mkdir()
+    (tmp_path / "labs").mkdir()
+    world = BEHAVIOURS.parent / "backends" / "scene" / "worlds" / "walls_lab4.yaml"
+    (tmp_path / "worlds" / "room.yaml").write_text(world.read_text())
+    own = tmp_path / "labs" / "own.yaml"
+    own.write_text(Path(LAB).read_text().replace("world: walls_lab4", "world: ../worlds/room.yaml"))
+    files = [LAB, str(own), str(FIXTURES / "structure_with_error.yaml")]
+    results = {}
+    for executor in ("local", "dask"):
+        path = tmp_path / f"{executor}.json"
+        extra = ["--executor", "dask", "--scheduler", cluster.scheduler_address] if executor == "dask" else ["-j", "2"]
+        code, out, _ = cli(capsys, "sweep", *files, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2",
+                           "--json", str(path), "--traces", str(tmp_path), *extra)
+        assert code == 1 and "12 runs: 8 ok, 4 compile error" in out
+        results[executor] = json.loads(path.read_text())["rows"]
+        if executor == "local":
+            traces = {p.name: p.read_text() for p in tmp_path.glob("*.csv")}
+    local, remote = results["local"], results["dask"]
+    assert [(r["status"], r["message"]) for r in local] == [(r["status"], r["message"]) for r in remote]
+    assert [r["summary"] and same(r["summary"]) for r in local] == [r["summary"] and same(r["summary"]) for r in remote]
+    assert all(r["worker"].startswith("tcp://") for r in remote if r["status"] == OK)
+    assert remote[4]["summary"]["world"] == "walls_lab4" and remote[4]["file"] == str(own)
+    assert {p.name: p.read_text() for p in tmp_path.glob("*.csv")} == traces  # byte for byte
+
+
+def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, cluster) -> None:
+    import os
+    import signal
+    import threading
+    import time
+
+    from distributed import Client
+
+    def kill_a_busy_worker() -> None:
+        with Client(cluster.scheduler_address, set_as_default=False) as client:
+            pids = client.run(os.getpid)
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline:
+                busy = [w for w, keys in client.processing().items() if keys]
+                if busy:
+                    time.sleep(0.3)  # into the run
+                    os.kill(pids[busy[0]], signal.SIGKILL)
+                    return
+                time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_a_busy_worker)
+    killer.start()
+    path = tmp_path / "r.json"
+    code, out, _ = cli(capsys, "sweep", LAB, "--set", "minutes=60", "--seeds", "1-4", "--executor", "dask",
+                       "--scheduler", cluster.scheduler_address, "--json", str(path))
+    killer.join()
+    rows = json.loads(path.read_text())["rows"]
+    assert code == 0 and [r["status"] for r in rows] == [OK] * 4
+    retried = [r for r in rows if r["retries"]]
+    assert retried and "retried 1 time(s) after a worker was lost" in retried[0]["message"]
