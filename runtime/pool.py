@@ -12,6 +12,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import threading
 import time as clock
 from collections import deque
 from collections.abc import Iterator
@@ -43,7 +44,11 @@ def _serve(conn: Connection) -> None:
             return
         if task is None:
             return
-        conn.send(run_task(task))
+        result = run_task(task)
+        try:
+            conn.send(result)
+        except (BrokenPipeError, OSError):  # the parent is gone: so is the reason to go on
+            return
 
 
 @dataclass
@@ -71,7 +76,16 @@ class LocalPool:
     def _start(self) -> _Worker:
         parent, child = self._context.Pipe()
         process = self._context.Process(target=_serve, args=(child,), daemon=True, name="labsim-sweep-worker")
-        process.start()
+        # a terminal's Ctrl-C reaches every process of the group: a worker ignores it from its
+        # first instruction (an ignored signal stays ignored across exec), so that it does not
+        # die with a traceback while still importing; the parent stops the workers itself
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            process.start()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
         child.close()
         return _Worker(process, parent)
 
