@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -64,7 +65,7 @@ class SweepOptions:
 class Executor(Protocol):
     in_flight: dict[int, Task]
 
-    def results(self, tasks: list[Task]) -> Any: ...  # an iterator of Row
+    def results(self, tasks: list[Task]) -> Iterator[Row]: ...
 
 
 def _fail(where: str, message: str, *notes: str) -> LabsimError:
@@ -158,6 +159,10 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
           + (f" (of {len(tasks)})" if interrupted else ""), file=text)
     for line in failures(rows):
         print(line, file=text)
+    retried = [r for r in rows if r.retries]
+    if retried:
+        print(f"{len(retried)} run{'s were' if len(retried) != 1 else ' was'} started again after a Dask worker "
+              f"was lost ({sum(r.retries for r in retried)} retries; the rows' retries column)", file=text)
     meta = {"files": o.files, "settings": {s.name: list(s.values) for s in settings},
             "seeds": list(seeds) if seeds is not None else None, "executor": o.executor,
             "timeout_per_run_s": o.timeout_s, "interrupted": interrupted}

@@ -279,3 +279,4 @@ def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, cluster) 
     assert code == 0 and [r["status"] for r in rows] == [OK] * 4
     retried = [r for r in rows if r["retries"]]
     assert retried and "retried 1 time(s) after a worker was lost" in retried[0]["message"]
+    assert "started again after a Dask worker was lost" in out
