@@ -76,7 +76,7 @@ def welch(file: str, metric: str, a: str, b: str, xs: list[float], ys: list[floa
     diff = math.fsum(ys) / len(ys) - math.fsum(xs) / len(xs)
     if max(xs) == min(xs) and max(ys) == min(ys):  # no spread at all: the t statistic is undefined
         verdict = "the same in every run" if diff == 0 else "different, and no spread over seeds in either"
-        return Test(file, metric, a, b, diff, 0.0 if diff else 1.0, verdict)
+        return Test(file, metric, a, b, diff, math.nan, verdict)
     p = float(st.ttest_ind(ys, xs, equal_var=False).pvalue)
     verdict = "larger than the seeds' noise" if p < ALPHA else "within the seeds' noise"
     return Test(file, metric, a, b, diff, p, verdict)

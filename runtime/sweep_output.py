@@ -103,6 +103,8 @@ def _test_line(t: Test, several_files: bool) -> str:
     where = f"{t.file}: " if several_files else ""
     if math.isnan(t.difference):
         return f"{where}{t.b} vs {t.a}: {t.verdict}"
+    if math.isnan(t.p):  # no spread in either: nothing to test
+        return f"{where}{t.b} vs {t.a}: {t.difference:+.4g}: {t.verdict}"
     p = f"p = {t.p:.2g}" if t.p >= 1e-4 else "p < 0.0001"
     return f"{where}{t.b} vs {t.a}: {t.difference:+.4g} (Welch's t-test, {p}): {t.verdict}"
 
