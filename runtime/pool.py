@@ -1,7 +1,10 @@
 """The local executor of a sweep: N worker processes on this machine, one run at a time each.
 
-A worker is a fresh interpreter (the ``spawn`` start method: nothing of the parent's state,
-signal handlers or open files is inherited) that compiles and runs the tasks it is sent
+A worker is a clean process (forked from multiprocessing's fork server, a fresh interpreter
+that has imported labsim and the simulator and never runs anything, so a new worker costs
+milliseconds, not the half second of imports; ``spawn`` where there is no fork server;
+nothing of the parent's state, threads or open files is inherited) that compiles and runs
+the tasks it is sent
 (runtime/sweep.py ``run_task``) and sends back each result. A run past its time limit, or a
 worker that dies, costs that one process: it is killed, the run becomes a ``timeout`` or
 ``runtime error`` row, and a new worker takes its place; the other workers carry on.
@@ -51,6 +54,18 @@ def _serve(conn: Connection) -> None:
             return
 
 
+PRELOAD = ["labsim.runtime.pool", "labsim.backends.pymunk.backend"]  # what every run imports
+
+
+def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.context.SpawnContext:
+    """The fork server, with labsim imported in it; ``spawn`` where there is none (Windows)."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    return context
+
+
 @dataclass
 class _Worker:
     process: multiprocessing.process.BaseProcess
@@ -70,7 +85,7 @@ class LocalPool:
         self.jobs = jobs
         self.timeout_s = timeout_s
         self.in_flight: dict[int, Task] = {}
-        self._context = multiprocessing.get_context("spawn")
+        self._context = _context()
         self._workers: list[_Worker] = []
 
     def _start(self) -> _Worker:
