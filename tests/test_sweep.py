@@ -14,7 +14,7 @@ from labsim.runtime import sweep_driver
 from labsim.runtime.cli import main
 from labsim.runtime.stats import describe, welch
 from labsim.runtime.summary_json import SCHEMA_VERSION, decode_number, number
-from labsim.runtime.sweep import INTERRUPTED, OK, Row, Task, parse_seeds, parse_setting
+from labsim.runtime.sweep import INTERRUPTED, OK, Row, Task, parse_seeds, parse_setting, run_task
 
 LAB = str(BEHAVIOURS / "wall_follow.yaml")
 SHORT = ["--set", "minutes=0.5"]  # 600 ticks: a few hundredths of a second a run
@@ -168,6 +168,21 @@ def test_a_run_past_its_time_is_killed_and_the_pool_goes_on(capsys, tmp_path: Pa
     with open(out_csv, newline="") as f:
         statuses = [(Path(r["file"]).name, r["status"]) for r in csv.DictReader(f)]
     assert statuses == [("slow.yaml", "timeout")] * 2 + [("minimal.yaml", "ok")] * 2
+
+
+def test_a_deadline_stops_a_run_from_inside_its_loop(write) -> None:
+    """What a Dask worker does instead of killing: the run is stopped between ticks."""
+    slow = write((FIXTURES / "minimal.yaml").read_text().replace("stop: time >= 1", "stop: time >= 1e9"), "slow.yaml")
+    result = run_task(Task(0, str(slow), (), 1), deadline_s=0.3)
+    assert result["status"] == "timeout" and result["message"].startswith("stopped after 0.3 s at tick ")
+    assert run_task(Task(0, str(FIXTURES / "minimal.yaml"), (("front", "0.4"),), 1), deadline_s=60)["status"] == OK
+
+
+def test_sweep_json_to_standard_output(capsys) -> None:
+    code, out, err = cli(capsys, "sweep", LAB, *SHORT, "--seeds", "1-2", "-j", "1", "--json", "-")
+    data = json.loads(out)
+    assert code == 0 and (data["schema"], data["version"], data["seeds"]) == ("labsim-sweep", 1, [1, 2])
+    assert [r["status"] for r in data["rows"]] == [OK, OK] and "2 runs: 2 ok" in err
 
 
 def test_ctrl_c_writes_the_rows_done_so_far(capsys, tmp_path: Path, monkeypatch) -> None:
