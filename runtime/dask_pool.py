@@ -146,7 +146,7 @@ class DaskPool:
                 while pending and len(running) < threads * PER_THREAD:
                     task = pending.pop()
                     bundle = bundles.get(task.file)
-                    if isinstance(bundle, str):  # the file cannot be read: nothing to send
+                    if isinstance(bundle, str):  # it does not compile here: it would not there either
                         done_rows.append(row_of(task, {"status": COMPILE_ERROR, "message": bundle,
                                                        "summary": None, "task_time_s": 0.0}))
                         continue
@@ -180,8 +180,12 @@ class DaskPool:
     def _bundles(self, tasks: list[Task]) -> dict[str, Bundle | str]:
         out: dict[str, Bundle | str] = {}
         for f in dict.fromkeys(t.file for t in tasks):
+            info = self.info.get(f) or FileInfo(f)
+            if info.error:  # its first error, as a worker would find it (the world file may not travel)
+                out[f] = info.error
+                continue
             try:
-                out[f] = make_bundle(self.info.get(f) or FileInfo(f))
+                out[f] = make_bundle(info)
             except OSError as e:
                 out[f] = f"{f}: error: cannot read the behaviour file: {e.strerror or e}"
         return out
