@@ -9,7 +9,8 @@ average with the figures, which this script prints), and reports:
 - the elapsed time with ``-j 1`` and ``-j 2``, and the speed-up (goal: >= 1.9x on 2 cores);
 - the overhead per run, against the mean run: in the worker (compile, open the world,
   summarise: ``task_time_s - wall_time_s``) and in all (elapsed x processes / runs - mean
-  run, which adds process start and the pipes) (goal: < 5% of a 25-minute run);
+  run, which adds starting the workers and the pipes) (goal: < 5% of a 25-minute run); the
+  fork server's start, once per sweep, is measured first and separately;
 - runs per second on a ``distributed.LocalCluster`` of two single-threaded worker processes,
   against ``-j 2`` (skipped without the dask extra).
 """
@@ -64,6 +65,9 @@ def main() -> None:
     work, info = tasks(args.runs, args.minutes)
     print(f"wall lab, {args.minutes:g} simulated minutes, {args.runs} seeds; "
           f"{os.cpu_count()} cores; load average before: {os.getloadavg()[0]:.2f}")
+    start = time.perf_counter()  # once per sweep: the fork server imports labsim; not counted per run
+    timed(LocalPool(1), tasks(1, 0.01)[0])
+    print(f"{'pool start (once)':<22} {time.perf_counter() - start:7.2f} s  (the fork server, a worker, one tiny run)")
     one = report("-j 1", *timed(LocalPool(1), work), 1)
     two = report("-j 2", *timed(LocalPool(2), work), 2)
     print(f"speed-up -j 2 over -j 1: {one / two:.2f}x   (load average now: {os.getloadavg()[0]:.2f})")
