@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
+from labsim.backends import DEFAULT, REGISTRY
 from labsim.runtime.sweep import RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
 
 POLL_S = 0.25  # how often the parent looks at the clock while every worker is busy
@@ -54,7 +55,8 @@ def _serve(conn: Connection) -> None:
             return
 
 
-PRELOAD = ["labsim.runtime.pool", "labsim.backends.pymunk.backend"]  # what every run imports
+# what every run imports: labsim and the default backend's module (named by the registry)
+PRELOAD = ["labsim.runtime.pool", REGISTRY[DEFAULT].partition(":")[0]]
 
 
 def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.context.SpawnContext:
