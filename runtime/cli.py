@@ -21,8 +21,8 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
@@ -59,8 +59,8 @@ def _parser() -> argparse.ArgumentParser:
                      help="show a progress bar (default: when stderr is a terminal)")
     run.add_argument("--quiet", "-q", action="store_true", help="print no summary")
     run.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH|-",
-                     help="write the summary as JSON to PATH, or to standard output with - (the default; "
-                          "the text summary is then not printed); docs/summary-json.md")
+                     help="write the summary as JSON to PATH; with - or no PATH to standard output, instead of "
+                          "the text summary (docs/summary-json.md)")
 
     _sweep_parser(sub)
 

@@ -25,22 +25,13 @@ from typing import Callable
 
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
 from labsim.dsl import ast
 from labsim.dsl.builtins import Aggregate, Type
-from labsim.dsl.compile import (
-    FIRST_CHANNEL,
-    STATE,
-    Faults,
-    FaultSite,
-    Program,
-    RobotProgram,
-    compile_file,
-    constant_value,
-    metric_result,
-)
+from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
+                                constant_value, metric_result)
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
