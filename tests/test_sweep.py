@@ -203,6 +203,21 @@ def test_ctrl_c_writes_the_rows_done_so_far(capsys, tmp_path: Path, monkeypatch)
         assert [r["status"] for r in csv.DictReader(f)] == [OK, INTERRUPTED]
 
 
+def test_the_progress_bar_counts_runs_and_failures() -> None:
+    import io
+
+    from labsim.runtime.sweep_output import SweepProgress
+
+    stream = io.StringIO()
+    bar = SweepProgress(4, stream)
+    task = Task(0, "f.yaml", (), 1)
+    bar.update(Row(task, OK))
+    bar.update(Row(task, "timeout", "killed"))
+    assert "2/4 runs, 1 failed, ETA " in stream.getvalue()
+    bar.clear()
+    assert stream.getvalue().endswith("\r")
+
+
 # -- the comparison ---------------------------------------------------------------------------
 
 def test_describe_gives_a_t_interval() -> None:
