@@ -11,6 +11,8 @@ average with the figures, which this script prints), and reports:
   summarise: ``task_time_s - wall_time_s``) and in all (elapsed x processes / runs - mean
   run, which adds starting the workers and the pipes) (goal: < 5% of a 25-minute run); the
   fork server's start, once per sweep, is measured first and separately;
+- runs in flight on average (the sum of the runs' times over the elapsed time): how well
+  the executor keeps its processes busy, apart from how fast the machine runs each of them;
 - runs per second on a ``distributed.LocalCluster`` of two single-threaded worker processes,
   against ``-j 2`` (skipped without the dask extra).
 """
@@ -50,7 +52,8 @@ def report(name: str, elapsed: float, rows: list[Row], jobs: int) -> float:
     overall = elapsed * jobs / len(rows) - mean_run
     print(f"{name:<22} {elapsed:7.2f} s for {len(rows)} runs  ({len(rows) / elapsed:5.2f} runs/s; "
           f"mean run {mean_run:.3f} s; overhead per run {in_worker * 1000:.1f} ms in the worker "
-          f"= {100 * in_worker / mean_run:.1f}%, {overall * 1000:.0f} ms in all = {100 * overall / mean_run:.1f}%)")
+          f"= {100 * in_worker / mean_run:.1f}%, {overall * 1000:.0f} ms in all = {100 * overall / mean_run:.1f}%; "
+          f"runs in flight on average {sum(r.task_time_s for r in rows) / elapsed:.2f})")
     return elapsed
 
 
