@@ -31,6 +31,7 @@ def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
+    # Long and flat on purpose: the hand-written baseline labsim is measured against.
     # The scene: built exactly as labsim builds it.
     p, backend, run = labsim_scene(LAB)
     space: pymunk.Space = backend.space

@@ -11,14 +11,13 @@ from dataclasses import dataclass, field
 
 Span = tuple[int, int]
 
-
-def _span() -> Span:
-    return field(default=(0, 0), compare=False, repr=False, kw_only=True)  # type: ignore[return-value]
+# Every span field is written out as ``field(default=(0, 0), compare=False, repr=False,
+# kw_only=True)``: type checkers only see through ``field`` called in the class body.
 
 
 @dataclass(frozen=True)
 class Expr:
-    span: Span = _span()
+    span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -80,14 +79,14 @@ class IfExp(Expr):
 class Call(Expr):
     func: str
     args: tuple[Expr, ...]
-    func_span: Span = _span()
+    func_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
 
 
 @dataclass(frozen=True)
 class Attribute(Expr):
     value: Expr
     attr: str
-    attr_span: Span = _span()
+    attr_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -96,8 +95,8 @@ class Action:
 
     name: str
     args: tuple[Expr, ...]
-    span: Span = _span()
-    name_span: Span = _span()
+    span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
+    name_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -105,8 +104,8 @@ class Goto:
     """``goto follow``: switch the robot's rule state from the next tick on."""
 
     state: str
-    span: Span = _span()
-    state_span: Span = _span()
+    span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
+    state_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -114,4 +113,4 @@ class Rule:
     kind: str  # "if", "else", "always"
     condition: Expr | None
     actions: tuple[Action | Goto, ...]
-    span: Span = _span()
+    span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)

@@ -1,16 +1,17 @@
 """The built-in functions, actions and names of the language, with their types.
 
-The checker reads signatures from here; the compiler reads implementations. A function that
-can fail on some inputs (``sqrt(-1)``, ``log(0)``) raises, and the compiled call turns that
-into the documented result (docs/language.md, "Runtime faults") and a warning.
+The checker reads signatures from here; the generated code calls the implementations (bound
+by ``labsim.dsl.support``). A function that can fail on some inputs (``sqrt(-1)``, ``log(0)``)
+raises, and the guarded call turns that into the documented result (docs/language.md,
+"Runtime faults") and a warning.
 """
 from __future__ import annotations
 
 import math
 import random
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable
 
 
 class Type(Enum):
@@ -32,7 +33,7 @@ class Type(Enum):
         return ("an " if self.value[0] in "aeiou" else "a ") + self.value
 
 
-N, B, I = Type.NUMBER, Type.BOOL, Type.IMAGE
+N, B, I = Type.NUMBER, Type.BOOL, Type.IMAGE  # noqa: E741 (one letter keeps the signature table readable)
 
 # The fields of record types, and what generated code indexes for each.
 FIELDS: dict[Type, dict[str, tuple[int, Type]]] = {
@@ -154,7 +155,7 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("centroid", (I,), Type.CENTROID, "labsim.dsl.images:centroid",
              "centroid(img): .x, .y of the set pixels (from the left and the top), .found"),
     # controllers
-    Function("pid", (N, N, N, N, N), N, "labsim.dsl.compile:pid_step",
+    Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:pid_step",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
              optional=1),
 )}

@@ -5,7 +5,8 @@ parameters (after ``--set`` overrides), ``let`` signals defined earlier, built-i
 functions, rule states — and every expression gets a type (number, boolean, state). Arity,
 action arguments, ``goto`` targets, unreachable rules and metric aggregates are checked too.
 Every problem goes to the report with a did-you-mean where one helps; the result, ``Checked``,
-is what the compiler needs and nothing more.
+is what the compiler needs and nothing more. This module declares the names and checks the
+file's parts; ``labsim.dsl.infer`` types each expression against the names declared.
 """
 from __future__ import annotations
 
@@ -14,17 +15,30 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from yaml.nodes import MappingNode
+from yaml.nodes import MappingNode, Node
 
-from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.backends.scene.ground import world_channels
+from labsim.backends.scene.mechanism import Mechanism
+from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.source import Place, Text
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import ast
-from labsim.dsl.builtins import (ACTIONS, AGGREGATES, CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS,
-                                 KEYWORDS, TRACE_COLUMNS, VARIABLES, Aggregate, Type)
-from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
+from labsim.dsl.builtins import (
+    ACTIONS,
+    AGGREGATES,
+    CONSTANTS,
+    DETECTED,
+    FUNCTIONS,
+    JOINT_ACTIONS,
+    KEYWORDS,
+    TRACE_COLUMNS,
+    VARIABLES,
+    Aggregate,
+    Type,
+)
+from labsim.dsl.infer import ExprChecker, arity_message
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
-from labsim.backends.scene.source import Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
@@ -67,22 +81,18 @@ def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = 
     return c.run(overrides or {})
 
 
-class _Checker:
-    def __init__(self, bf: BehaviourFile, report: Report):
-        self.bf = bf
-        self.report = report
-        self.types: dict[str, Type] = {}  # every name in scope
-        self.kinds: dict[str, str] = {}  # name -> what it is, for messages
-        self.used: set[str] = set()
-        self.later: dict[str, object] = {}  # lets not yet defined while checking one, for messages
-        self.node_types: dict[int, Type] = {}
-        self.distance: set[str] = set()  # distance sensors, for detected()
-        self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
-        self.world_failed = False  # names the world would have given are not reported unknown
+class _Checker(ExprChecker):
+    """Declares every name of the file, checks each part; reports through ``error`` (a place in
+    the file, or None) and ``setting_error`` (a ``--set`` override)."""
 
-    # -- reporting ---------------------------------------------------------------------------
-    def error(self, text: Text, span: ast.Span, message: str, notes: tuple[str, ...] = ()) -> None:
-        self.report.add(text.diagnostic(span[0], span[1], message, notes=notes))
+    def __init__(self, bf: BehaviourFile, report: Report) -> None:
+        super().__init__(bf.doc, report)
+        self.bf = bf
+        self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
+
+    def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
+        """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""
+        self.report.add(Diagnostic(setting, message, notes=notes))
 
     # -- the whole file ----------------------------------------------------------------------
     def run(self, overrides: dict[str, str]) -> Checked:
@@ -109,13 +119,11 @@ class _Checker:
             self.declare(name, t, "built-in variable")
         for name in CONSTANTS:
             self.declare(name, Type.NUMBER, "constant")
-        for name in bf.states:
-            if bf.states[name][1] is not None and self.reserved(name, bf.states[name][1], "state"):
+        for name, (_, key) in bf.states.items():
+            if key is not None and self.reserved(name, key, "state"):
                 continue
-            if name in self.types:
-                _, key = bf.states[name]
-                if key is not None:
-                    self.report.add(bf.doc.diagnostic(key, f"state '{name}' has the name of a {self.kinds[name]}"))
+            if name in self.types and key is not None:
+                self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         sliders = self.sliders()
@@ -135,22 +143,22 @@ class _Checker:
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models)
 
-    def presence(self, world: World | None, mechanism: object | None) -> None:
+    def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
         bf = self.bf
         if not isinstance(bf.doc.root, MappingNode):
             return  # the reader said what the file should be
-        if mechanism is not None and bf.has_robots:
-            self.report.add(bf.doc.diagnostic(bf.robots[0].key if bf.robots else bf.doc.root,
-                                              f"world '{world.name}' is a mechanism: it has no place for robots"))
+        if world is not None and mechanism is not None and bf.has_robots:
+            self.error(bf.robots[0].key if bf.robots else bf.doc.root,
+                       f"world '{world.name}' is a mechanism: it has no place for robots")
         if not bf.has_robots and mechanism is None and world is not None:
-            self.report.add(Diagnostic(bf.path, "missing required key 'robots:'",
-                                       notes=("e.g. 'robots: {pioneer: {model: pioneer_p3dx, at: spawn}}'",)))
+            self.error(None, "missing required key 'robots:'",
+                       notes=("e.g. 'robots: {pioneer: {model: pioneer_p3dx, at: spawn}}'",))
         if not bf.has_rules and not bf.binds and not bf.states:
-            self.report.add(Diagnostic(bf.path, "missing required key 'rules:'",
-                                       notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",)))
+            self.error(None, "missing required key 'rules:'",
+                       notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",))
 
-    def reserved(self, name: str, node: object, what: str) -> bool:
+    def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
         if name in KEYWORDS:
             why = "is a keyword of the language"
@@ -160,7 +168,7 @@ class _Checker:
             why = "is the name of a trace column"
         else:
             return False
-        self.report.add(self.bf.doc.diagnostic(node, f"{what} '{name}' {why}; choose another name"))  # type: ignore[arg-type]
+        self.error(node, f"{what} '{name}' {why}; choose another name")
         return True
 
     def sliders(self) -> list[SliderDecl]:
@@ -169,8 +177,7 @@ class _Checker:
             if self.reserved(slider.name, slider.key, "slider"):
                 continue
             if slider.name in self.types:
-                self.report.add(self.bf.doc.diagnostic(slider.key, f"slider '{slider.name}' has the name of a "
-                                                       f"{self.kinds[slider.name]}"))
+                self.error(slider.key, f"slider '{slider.name}' has the name of a {self.kinds[slider.name]}")
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
             out.append(slider)
@@ -187,34 +194,34 @@ class _Checker:
                     parsed, _ = part
                     t = self.infer(parsed.node, parsed.text)
                     if t is not None and t not in (Type.NUMBER, Type.BOOL):
-                        self.error(parsed.text, parsed.node.span, f"a label shows numbers and booleans, not {t.a}")
+                        self.error(parsed.text.at(parsed.node.span),
+                                   f"a label shows numbers and booleans, not {t.a}")
             out.append((slider.name, slider.label.parts))
         return out
 
     def binds(self) -> list[BindDecl]:
         out = []
         for b in self.bf.binds:
-            if not self.joint_target(b.joint, b.mode, lambda m, notes=(): self.report.add(
-                    self.bf.doc.diagnostic(b.key, m, notes=notes))):
+            if not self.joint_target(b.joint, b.mode, b.key):
                 continue
             if self.expect(b.expr, b.expr.node, Type.NUMBER, f"the {b.mode} bound to {b.joint}"):
                 out.append(b)
         return out
 
-    def joint_target(self, joint: str, mode: str, fail) -> bool:  # type: ignore[no-untyped-def]
-        """Whether a joint exists and its motor takes targets of this mode; else fail(message)."""
+    def joint_target(self, joint: str, mode: str, place: Place) -> bool:
+        """Whether a joint exists and its motor takes targets of this mode; else reported at place."""
         motors = self.motors
         if joint not in motors:
-            known = [j for j in motors]
-            fail(f"no joint named '{joint}'{did_you_mean(joint, known)}",
-                 ("joints of this world: " + (", ".join(known) or "none"),))
+            known = list(motors)
+            self.error(place, f"no joint named '{joint}'{did_you_mean(joint, known)}",
+                       ("joints of this world: " + (", ".join(known) or "none"),))
             return False
         accepts = motors[joint]
         if not accepts:
-            fail(f"joint '{joint}' has no motor: nothing can set its {mode}")
+            self.error(place, f"joint '{joint}' has no motor: nothing can set its {mode}")
             return False
         if mode not in accepts:
-            fail(f"joint '{joint}' takes target {' and '.join(sorted(accepts))}s, not {mode}s")
+            self.error(place, f"joint '{joint}' takes target {' and '.join(sorted(accepts))}s, not {mode}s")
             return False
         return True
 
@@ -223,18 +230,17 @@ class _Checker:
         last = -math.inf
         for event in self.bf.timeline:
             if event.time_s < last:
-                self.report.add(self.bf.doc.diagnostic(event.node, f"timeline entries go forward in time: "
-                                                       f"{event.time_s:g} s comes after {last:g} s"))
+                self.error(event.node, f"timeline entries go forward in time: "
+                                       f"{event.time_s:g} s comes after {last:g} s")
             last = max(last, event.time_s)
             for name, value, start in event.settings:
-                end = start + len(name)
+                where = event.text.at((start, start + len(name)))
                 slider = by_name.get(name)
                 if slider is None:
-                    self.report.add(event.text.diagnostic(start, end, f"no slider named '{name}'"
-                                                          f"{did_you_mean(name, by_name)}"))
+                    self.error(where, f"no slider named '{name}'{did_you_mean(name, by_name)}")
                 elif not slider.lo <= value <= slider.hi:
-                    self.report.add(event.text.diagnostic(start, end, f"{name} = {value:g} is outside the slider's "
-                                                          f"range {slider.lo:g} .. {slider.hi:g}"))
+                    self.error(where, f"{name} = {value:g} is outside the slider's "
+                                      f"range {slider.lo:g} .. {slider.hi:g}")
 
     def spawns(self, world: World | None) -> None:
         """Robots placed 'at: spawn' need as many spawn poses as there are of them; robots
@@ -244,25 +250,19 @@ class _Checker:
         xmin, ymin, xmax, ymax = world.bounds
         for r in self.bf.robots:
             if isinstance(r.at, tuple) and not (xmin <= r.at[0] <= xmax and ymin <= r.at[1] <= ymax):
-                self.report.add(self.bf.doc.diagnostic(
-                    r.at_node if r.at_node is not None else r.key,
-                    f"({r.at[0]:g}, {r.at[1]:g}) is outside world '{world.name}' "
-                    f"({xmin:g}..{xmax:g} x {ymin:g}..{ymax:g})"))
+                self.error(r.at_node if r.at_node is not None else r.key,
+                           f"({r.at[0]:g}, {r.at[1]:g}) is outside world '{world.name}' "
+                           f"({xmin:g}..{xmax:g} x {ymin:g}..{ymax:g})")
         needed = 0
         for r in self.bf.robots:
             if r.at == "spawn":
                 needed += r.count
                 if needed > len(world.spawns):
                     node = r.at_node if r.at_node is not None else r.key
-                    self.report.add(self.bf.doc.diagnostic(
-                        node, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
-                        f"{needed} robots placed 'at: spawn'",
-                        notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",)))
+                    self.error(node, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
+                                     f"{needed} robots placed 'at: spawn'",
+                               notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",))
                     return
-
-    def declare(self, name: str, t: Type, kind: str) -> None:
-        self.types[name] = t
-        self.kinds[name] = kind
 
     def world(self) -> World | None:
         from labsim.backends.scene.world_file import load_world  # late: world files use this package too
@@ -270,26 +270,23 @@ class _Checker:
         bf = self.bf
         if bf.world_node is None:
             return None
+        known = builtin_worlds()
         if not bf.world.strip():
-            known = ", ".join(builtin_worlds())
-            self.report.add(bf.doc.diagnostic(bf.world_node, "'world' needs a built-in world's name or a path "
-                                              "to a world file", notes=(f"built-in worlds: {known}",)))
+            self.error(bf.world_node, "'world' needs a built-in world's name or a path to a world file",
+                       notes=(f"built-in worlds: {', '.join(known)}",))
             self.world_failed = True
             return None
-        known = builtin_worlds()
         if bf.world in known:
             path = known[bf.world]
         elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
             path = Path(bf.doc.path).parent / bf.world
             if not path.is_file():
-                self.report.add(bf.doc.diagnostic(bf.world_node, f"world file '{bf.world}' not found "
-                                                  f"(looked for {path})"))
+                self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
                 return None
         else:
-            self.report.add(bf.doc.diagnostic(
-                bf.world_node, f"unknown world '{bf.world}'{did_you_mean(bf.world, known)}",
-                notes=("built-in worlds: " + ", ".join(known) + "; or give a path to a world file",)))
+            self.error(bf.world_node, f"unknown world '{bf.world}'{did_you_mean(bf.world, known)}",
+                       notes=("built-in worlds: " + ", ".join(known) + "; or give a path to a world file",))
             self.world_failed = True
             return None
         world = load_world(path, self.report)
@@ -302,9 +299,8 @@ class _Checker:
             model = MODELS.get(r.model)
             if model is None:
                 node = r.model_node if r.model_node is not None else r.key
-                self.report.add(self.bf.doc.diagnostic(
-                    node, f"unknown robot model '{r.model}'{did_you_mean(r.model, MODELS)}",
-                    notes=("models: " + ", ".join(MODELS),)))
+                self.error(node, f"unknown robot model '{r.model}'{did_you_mean(r.model, MODELS)}",
+                           notes=("models: " + ", ".join(MODELS),))
             else:
                 out[r.name] = dataclasses.replace(model, cameras=(r.camera,)) if r.camera else model
         return out
@@ -315,7 +311,7 @@ class _Checker:
             if self.reserved(name, node, "parameter"):
                 continue
             if name in self.types:
-                self.report.add(self.bf.doc.diagnostic(node, f"parameter '{name}' has the name of a {self.kinds[name]}"))
+                self.error(node, f"parameter '{name}' has the name of a {self.kinds[name]}")
                 continue
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
@@ -323,10 +319,10 @@ class _Checker:
             where = f"--set {name}={raw}"
             if name not in values:
                 known = ", ".join(values) or "none"
-                self.report.add(Diagnostic(where, f"unknown parameter '{name}'{did_you_mean(name, values)}",
-                                           notes=(f"parameters of {self.bf.path}: {known}",)))
+                self.setting_error(where, f"unknown parameter '{name}'{did_you_mean(name, values)}",
+                                   notes=(f"parameters of {self.bf.path}: {known}",))
                 continue
-            values[name] = _override_value(name, raw, values[name], where, self.report)
+            values[name] = self.override(name, raw, values[name], where)
         return values
 
     def lets(self) -> list[tuple[str, Parsed]]:
@@ -334,7 +330,7 @@ class _Checker:
         later = {name: key for name, _, key in self.bf.lets}
         for name, parsed, key in self.bf.lets:
             if name in self.types:
-                self.report.add(self.bf.doc.diagnostic(key, f"signal '{name}' has the name of a {self.kinds[name]}"))
+                self.error(key, f"signal '{name}' has the name of a {self.kinds[name]}")
                 continue
             if self.reserved(name, key, "signal"):
                 continue
@@ -351,14 +347,14 @@ class _Checker:
 
     def rules(self) -> dict[str, list[RuleDecl]]:
         states = {name: rules for name, (rules, _) in self.bf.states.items()}
-        for name, rules in states.items():
+        for rules in states.values():
             unconditional: RuleDecl | None = None
             for decl in rules:
                 rule = decl.rule
                 if unconditional is not None:
                     line = unconditional.text.node.start_mark.line + 1
-                    self.error(decl.text, rule.span, f"this rule can never fire: the '{unconditional.rule.kind}' "
-                               f"rule on line {line} fires first, every tick")
+                    self.error(decl.text.at(rule.span), f"this rule can never fire: the "
+                               f"'{unconditional.rule.kind}' rule on line {line} fires first, every tick")
                 if rule.condition is not None:
                     self.expect(Parsed(rule.condition, decl.text), rule.condition, Type.BOOL, "a rule's condition")
                 elif unconditional is None:
@@ -375,24 +371,21 @@ class _Checker:
                 self.joint_action(action, text)
         gotos = [a for a in decl.rule.actions if isinstance(a, ast.Goto)]
         if len(drives) > 1:
-            self.error(text, drives[1].span, "a rule can drive the wheels once: this action would override "
+            self.error(text.at(drives[1].span), "a rule can drive the wheels once: this action would override "
                        f"'{drives[0].name}(...)'")
         if len(gotos) > 1:
-            self.error(text, gotos[1].span, "a rule can 'goto' one state")
+            self.error(text.at(gotos[1].span), "a rule can 'goto' one state")
         for action in drives:
-            if action.name in JOINT_ACTIONS:
-                self.joint_action(action, text)
-                continue
             spec = ACTIONS.get(action.name)
             if spec is None:
                 hint = did_you_mean(action.name, ACTIONS)
                 what = "function, not an action" if action.name in FUNCTIONS else "action"
-                self.error(text, action.name_span, f"unknown action '{action.name}'{hint}" if what == "action"
+                self.error(text.at(action.name_span), f"unknown action '{action.name}'{hint}" if what == "action"
                            else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(
                                f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()) + ", goto STATE",))
                 continue
             if len(action.args) != len(spec.params):
-                self.error(text, action.span, _arity(action.name, spec.params, len(action.args)))
+                self.error(text.at(action.span), arity_message(action.name, spec.params, len(action.args)))
             for arg in action.args:
                 self.expect(Parsed(arg, text), arg, Type.NUMBER, f"an argument of {action.name}()")
         for goto in gotos:
@@ -401,222 +394,60 @@ class _Checker:
                     notes = ("to use states, write 'rules:' as a mapping from state names to lists of rules",)
                 else:
                     notes = ("states: " + ", ".join(states),)
-                self.error(text, goto.state_span, f"no state named '{goto.state}'{did_you_mean(goto.state, states)}",
-                           notes=notes)
+                self.error(text.at(goto.state_span),
+                           f"no state named '{goto.state}'{did_you_mean(goto.state, states)}", notes=notes)
 
     def joint_action(self, action: ast.Action, text: Text) -> None:
         """set_velocity(Joint, v), set_position(Joint, p)."""
         if len(action.args) != 2:
-            self.error(text, action.span, _arity(action.name, ACTIONS[action.name].params, len(action.args)))
+            self.error(text.at(action.span), arity_message(action.name, ACTIONS[action.name].params,
+                                                           len(action.args)))
             return
         joint, value = action.args
         if not isinstance(joint, ast.Name):
-            self.error(text, joint.span, f"{action.name}() takes a joint's name first, as in "
+            self.error(text.at(joint.span), f"{action.name}() takes a joint's name first, as in "
                        f"{action.name}(Hoist_Actuator, 0.5)")
             return
-        self.joint_target(joint.id, JOINT_ACTIONS[action.name],
-                          lambda m, notes=(): self.error(text, joint.span, m, notes))
+        self.joint_target(joint.id, JOINT_ACTIONS[action.name], text.at(joint.span))
         self.expect(Parsed(value, text), value, Type.NUMBER, f"the {JOINT_ACTIONS[action.name]} in {action.name}()")
 
     def metrics(self) -> list[Metric]:
         out = []
         names = ", ".join(f"{a}(...)" for a in AGGREGATES)
-        for name, parsed, key in self.bf.metrics:
+        for name, parsed, _ in self.bf.metrics:
             e = parsed.node
             if not (isinstance(e, ast.Call) and e.func in AGGREGATES):
                 hint = ""
                 if isinstance(e, ast.Call) and e.func in ("max", "min", "sum", "avg", "average", "time"):
                     hint = did_you_mean({"max": "maximum", "min": "minimum", "avg": "mean", "average": "mean",
                                          "time": "duration", "sum": "count"}[e.func], AGGREGATES)
-                self.error(parsed.text, e.span, f"metric '{name}' must be an aggregate over the run{hint}",
+                self.error(parsed.text.at(e.span), f"metric '{name}' must be an aggregate over the run{hint}",
                            notes=(f"aggregates: {names}",))
                 continue
             agg = AGGREGATES[e.func]
             if len(e.args) != 1:
-                self.error(parsed.text, e.span, f"{e.func}() takes 1 argument, given {len(e.args)}")
+                self.error(parsed.text.at(e.span), f"{e.func}() takes 1 argument, given {len(e.args)}")
                 continue
             what = "a condition" if agg.argument is Type.BOOL else "a number"
-            if self.expect(Parsed(e.args[0], parsed.text), e.args[0], agg.argument, f"{e.func}() needs {what}: its argument"):
-                out.append(Metric(name, agg, e.args[0], parsed.text))
+            argument = e.args[0]
+            if self.expect(Parsed(argument, parsed.text), argument, agg.argument,
+                           f"{e.func}() needs {what}: its argument"):
+                out.append(Metric(name, agg, argument, parsed.text))
         return out
 
-    # -- expressions -------------------------------------------------------------------------
-    def expect(self, parsed: Parsed, e: ast.Expr, want: Type, what: str) -> bool:
-        t = self.infer(e, parsed.text)
-        if t is None:
-            return False
-        if t is not want:
-            hint = ()
-            if want is Type.BOOL and t is Type.NUMBER:
-                hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
-            self.error(parsed.text, e.span, f"{what} must be {want.a}, but this is {t.a}", notes=hint)
-            return False
-        return True
-
-    def infer(self, e: ast.Expr, text: Text) -> Type | None:
-        """The type of an expression, or None after reporting why it has none."""
-        t = self._infer(e, text)
-        if t is not None:
-            self.node_types[id(e)] = t
-        return t
-
-    def _infer(self, e: ast.Expr, text: Text) -> Type | None:
-        if isinstance(e, ast.Number):
-            return Type.NUMBER
-        if isinstance(e, ast.Bool):
-            return Type.BOOL
-        if isinstance(e, ast.Name):
-            return self.name(e, text)
-        if isinstance(e, ast.Neg):
-            return self.operands(text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
-        if isinstance(e, ast.Not):
-            return self.operands(text, "not", [e.operand], Type.BOOL, Type.BOOL)
-        if isinstance(e, ast.Binary):
-            return self.operands(text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
-        if isinstance(e, ast.BoolOp):
-            return self.operands(text, e.op, list(e.values), Type.BOOL, Type.BOOL)
-        if isinstance(e, ast.Compare):
-            return self.compare(e, text)
-        if isinstance(e, ast.IfExp):
-            self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
-            a, b = self.infer(e.body, text), self.infer(e.orelse, text)
-            if a is not None and b is not None and a is not b:
-                self.error(text, e.span, f"both sides of 'a if condition else b' must have one type, not {a.a} and {b.a}")
-                return None
-            return a if a is not None else b
-        if isinstance(e, ast.Call):
-            return self.call(e, text)
-        if isinstance(e, ast.Attribute):
-            t = self.infer(e.value, text)
-            if t is None:
-                return None
-            fields = FIELDS.get(t)
-            if fields is None:
-                self.error(text, e.attr_span, f"{t.a} has no field '.{e.attr}'")
-                return None
-            if e.attr not in fields:
-                names = ", ".join("." + f for f in fields)
-                self.error(text, e.attr_span, f"{t.a} has the fields {names}; not '.{e.attr}'"
-                           f"{did_you_mean(e.attr, fields)}")
-                return None
-            return fields[e.attr][1]
-        raise AssertionError(f"unknown node {e!r}")
-
-    def name(self, e: ast.Name, text: Text) -> Type | None:
-        if e.id in self.types:
-            self.used.add(e.id)
-            return self.types[e.id]
-        if e.id in self.poisoned or self.world_failed:
-            return None  # its definition (or the world) is already reported: say nothing more
-        if e.id in self.later:
-            line = self.later[e.id].start_mark.line + 1
-            self.error(text, e.span, f"signal '{e.id}' is used before it is defined (on line {line}); "
-                       "'let' signals are evaluated in order")
-            return None
-        if e.id in FUNCTIONS or e.id in ACTIONS:
-            self.error(text, e.span, f"'{e.id}' is a function: call it as {e.id}(...)")
-            return None
-        hint = did_you_mean(e.id, self.types)
-        notes: tuple[str, ...] = ()
-        if e.id.startswith("sonar") and e.id[5:].isdigit():
-            notes = ("the robot's sonars are sonar1 .. sonar16, numbered as in CoppeliaSim",)
-        elif e.id == "camera":
-            notes = ("this robot has no camera: add one to it, e.g. "
-                     "camera: {resolution: [128, 128], fov_deg: 60, height_m: 0.3, pitch_deg: 45}",)
-        elif e.id in ("road_offset", "on_road", "laps"):
-            notes = ("this world has no road",)
-        self.error(text, e.span, f"unknown name '{e.id}'{hint}", notes=notes)
-        return None
-
-    def operands(self, text: Text, op: str, args: list[ast.Expr], want: Type, result: Type) -> Type | None:
-        ok = True
-        for arg in args:
-            t = self.infer(arg, text)
-            if t is None:
-                ok = False
-            elif t is not want:
-                self.error(text, arg.span, f"'{op}' needs {want.a}, but this is {t.a}")
-                ok = False
-        return result if ok else None
-
-    def compare(self, e: ast.Compare, text: Text) -> Type | None:
-        types = [self.infer(o, text) for o in e.operands]
-        if any(t is None for t in types):
-            return None
-        if Type.STATE in types:
-            if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
-                self.error(text, e.span, "a state can only be compared with ==/!= to another state, "
-                           "as in 'state == follow'")
-                return None
-            return Type.BOOL
-        for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
-            if op in ("==", "!=") and ta is tb is Type.BOOL:
-                continue
-            for node, t in ((a, ta), (b, tb)):
-                if t is not Type.NUMBER:
-                    self.error(text, node.span, f"'{op}' compares numbers, but this is {t.a}")
-                    return None
-        return Type.BOOL
-
-    def call(self, e: ast.Call, text: Text) -> Type | None:
-        if e.func == DETECTED:
-            if len(e.args) != 1 or not isinstance(e.args[0], ast.Name):
-                self.error(text, e.span, "detected() takes one distance sensor's name, as in detected(sonar5)")
-                return None
-            arg = e.args[0]
-            t = self.name(arg, text)
-            if t is not None and arg.id not in self.distance:
-                self.error(text, arg.span, f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
-                           f"and '{arg.id}' is not one")
-                return None
-            return Type.BOOL if t is not None else None
-        f = FUNCTIONS.get(e.func)
-        if f is None:
-            if e.func in AGGREGATES:
-                message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
-            elif e.func in ACTIONS:
-                message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
-            else:
-                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
-            self.error(text, e.func_span, message)
-            for arg in e.args:
-                self.infer(arg, text)
-            return None
-        n = len(e.args)
-        fixed = len(f.params) - f.optional
-        if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
-            self.error(text, e.span, _arity(f.name, tuple(str(p) for p in f.params), n, f.variadic, f.optional))
-            return None
-        ok = True
-        for i, arg in enumerate(e.args):
-            want = f.params[min(i, len(f.params) - 1)]
-            ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
-        return f.returns if ok else None
-
-
-def _arity(name: str, params: tuple[str, ...], given: int, variadic: bool = False, optional: int = 0) -> str:
-    n = len(params)
-    if variadic:
-        return f"{name}() takes at least {n} arguments, given {given}"
-    if optional:
-        return f"{name}() takes {n - optional} to {n} arguments, given {given}"
-    plural = "argument" if n == 1 else "arguments"
-    listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
-    return f"{name}() takes {n} {plural}{listed}, given {given}"
-
-
-def _override_value(name: str, raw: str, current: float | bool, where: str, report: Report) -> float | bool:
-    if isinstance(current, bool):
-        if raw.lower() in ("true", "false"):
-            return raw.lower() == "true"
-        report.add(Diagnostic(where, f"parameter '{name}' is true or false, not '{raw}'"))
-        return current
-    try:
-        value = float(raw)
-    except ValueError:
-        report.add(Diagnostic(where, f"parameter '{name}' is a number, not '{raw}'"))
-        return current
-    if not math.isfinite(value):
-        report.add(Diagnostic(where, f"parameter '{name}' must be a finite number"))
-        return current
-    return int(value) if isinstance(current, int) and value == int(value) else value
+    def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:
+        """A parameter's value given by ``--set`` (setting: 'NAME=VALUE'); the current one if wrong."""
+        if isinstance(current, bool):
+            if raw.lower() in ("true", "false"):
+                return raw.lower() == "true"
+            self.setting_error(setting, f"parameter '{name}' is true or false, not '{raw}'")
+            return current
+        try:
+            value = float(raw)
+        except ValueError:
+            self.setting_error(setting, f"parameter '{name}' is a number, not '{raw}'")
+            return current
+        if not math.isfinite(value):
+            self.setting_error(setting, f"parameter '{name}' must be a finite number")
+            return current
+        return int(value) if isinstance(current, int) and value == int(value) else value

@@ -2,15 +2,20 @@
 
 ``parse_rule`` and ``parse_expr`` return ``labsim.dsl.ast`` nodes whose spans are offsets into
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
-expected. No lark type escapes this module.
+expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
+around ``parse_expr``. No lark type escapes this module.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
+import re
 from dataclasses import dataclass
+from typing import Any, TypeAlias
 
 from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.tree import Meta
 
 from labsim.dsl import ast
 
@@ -43,6 +48,67 @@ def parse_expr(text: str) -> ast.Expr:
     result = _parse(text, "expr")
     assert isinstance(result, ast.Expr)
     return result
+
+
+LabelPart: TypeAlias = str | tuple[ast.Expr, str]  # literal text, or an expression and its format spec
+
+
+def parse_label(text: str) -> tuple[LabelPart, ...]:
+    """'Arm Speed: {0.02 * arm:.2f}': literal text and {expression:format} fields, in order.
+
+    ``{{`` and ``}}`` stand for braces. The expressions' spans are offsets into the whole text.
+    """
+    parts: list[LabelPart] = []
+    i, literal = 0, ""
+    while i < len(text):
+        ch = text[i]
+        if ch in "{}" and text[i:i + 2] in ("{{", "}}"):
+            literal += ch
+            i += 2
+            continue
+        if ch == "}":
+            raise ParseError(i, i + 1, "unmatched '}' in a label (write '}}' for a brace)")
+        if ch != "{":
+            literal += ch
+            i += 1
+            continue
+        end = text.find("}", i)
+        if end < 0:
+            raise ParseError(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)")
+        field_text = text[i + 1:end]
+        expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
+        if colon and not _FORMAT_SPEC.fullmatch(spec):
+            start = i + 1 + len(expr_text) + 1
+            raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
+        try:
+            expr = parse_expr(expr_text)
+        except ParseError as e:
+            raise ParseError(i + 1 + e.start, i + 1 + e.end, e.message, e.notes) from None
+        if literal:
+            parts.append(literal)
+            literal = ""
+        parts.append((_shift(expr, i + 1), spec))
+        i = end + 1
+    if literal:
+        parts.append(literal)
+    return tuple(parts)
+
+
+_FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
+
+
+def _shift(e: ast.Expr, offset: int) -> ast.Expr:
+    """An expression parsed from part of a string, its spans moved to the whole string's."""
+    changes: dict[str, Any] = {}
+    for f in dataclasses.fields(e):
+        v = getattr(e, f.name)
+        if f.name.endswith("span") and isinstance(v, tuple) and len(v) == 2:
+            changes[f.name] = (v[0] + offset, v[1] + offset)
+        elif isinstance(v, ast.Expr):
+            changes[f.name] = _shift(v, offset)
+        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
+            changes[f.name] = tuple(_shift(x, offset) for x in v)
+    return dataclasses.replace(e, **changes)
 
 
 def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
@@ -90,12 +156,13 @@ def _found(token: Token) -> str:
 
 
 def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
-    pos = e.pos_in_stream if getattr(e, "pos_in_stream", None) is not None else len(text)
+    pos = e.pos_in_stream if e.pos_in_stream is not None else len(text)
     if isinstance(e, UnexpectedCharacters):
         return _bad_character(text, pos)
+    expected: set[str]  # terminal names
     if isinstance(e, UnexpectedEOF):
-        expected = set(e.expected)
-        token_text, end = "the end of the text", pos + 1
+        expected = {str(t) for t in e.expected}
+        token_text = "the end of the text"
         pos = len(text.rstrip())
         end = pos + 1
     else:
@@ -162,11 +229,12 @@ def _bad_character(text: str, pos: int) -> ParseError:
     return ParseError(pos, pos + 1, f"unexpected character '{text[pos]}'")
 
 
-def _span(meta) -> ast.Span:  # type: ignore[no-untyped-def]
+def _span(meta: Meta) -> ast.Span:
     return (meta.start_pos, meta.end_pos)
 
 
 def _tspan(token: Token) -> ast.Span:
+    assert token.start_pos is not None and token.end_pos is not None  # the lexer places every token
     return (token.start_pos, token.end_pos)
 
 
@@ -174,70 +242,70 @@ def _tspan(token: Token) -> ast.Span:
 class _ToAst(Transformer):
     """lark tree to frozen dataclasses; tokens become str and float here."""
 
-    def if_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def if_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("if", c[0], c[1], span=_span(meta))
 
-    def else_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def else_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("else", None, c[0], span=_span(meta))
 
-    def always_rule(self, meta, c):  # type: ignore[no-untyped-def]
+    def always_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("always", None, c[0], span=_span(meta))
 
-    def actions(self, meta, c):  # type: ignore[no-untyped-def]
+    def actions(self, meta: Meta, c: list[Any]) -> tuple[ast.Action | ast.Goto, ...]:
         return tuple(c)
 
-    def goto(self, meta, c):  # type: ignore[no-untyped-def]
+    def goto(self, meta: Meta, c: list[Any]) -> ast.Goto:
         return ast.Goto(str(c[0]), span=_span(meta), state_span=_tspan(c[0]))
 
-    def action(self, meta, c):  # type: ignore[no-untyped-def]
+    def action(self, meta: Meta, c: list[Any]) -> ast.Action:
         args = c[1] if c[1] is not None else ()
         return ast.Action(str(c[0]), args, span=_span(meta), name_span=_tspan(c[0]))
 
-    def arguments(self, meta, c):  # type: ignore[no-untyped-def]
+    def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)
 
-    def ifexp(self, meta, c):  # type: ignore[no-untyped-def]
+    def ifexp(self, meta: Meta, c: list[Any]) -> ast.IfExp:
         return ast.IfExp(c[0], c[1], c[2], span=_span(meta))
 
-    def or_(self, meta, c):  # type: ignore[no-untyped-def]
+    def or_(self, meta: Meta, c: list[Any]) -> ast.BoolOp:
         return ast.BoolOp("or", tuple(c), span=_span(meta))
 
-    def and_(self, meta, c):  # type: ignore[no-untyped-def]
+    def and_(self, meta: Meta, c: list[Any]) -> ast.BoolOp:
         return ast.BoolOp("and", tuple(c), span=_span(meta))
 
-    def not_(self, meta, c):  # type: ignore[no-untyped-def]
+    def not_(self, meta: Meta, c: list[Any]) -> ast.Not:
         return ast.Not(c[0], span=_span(meta))
 
-    def compare(self, meta, c):  # type: ignore[no-untyped-def]
+    def compare(self, meta: Meta, c: list[Any]) -> ast.Compare:
         return ast.Compare(tuple(c[0::2]), tuple(str(t) for t in c[1::2]), span=_span(meta))
 
-    def binary(self, meta, c):  # type: ignore[no-untyped-def]
+    def binary(self, meta: Meta, c: list[Any]) -> ast.Binary:
         return ast.Binary(str(c[1]), c[0], c[2], span=_span(meta))
 
-    def power(self, meta, c):  # type: ignore[no-untyped-def]
+    def power(self, meta: Meta, c: list[Any]) -> ast.Binary:
         return ast.Binary("**", c[0], c[1], span=_span(meta))
 
-    def neg(self, meta, c):  # type: ignore[no-untyped-def]
+    def neg(self, meta: Meta, c: list[Any]) -> ast.Neg:
         return ast.Neg(c[1], span=_span(meta))
 
-    def pos(self, meta, c):  # type: ignore[no-untyped-def]
+    def pos(self, meta: Meta, c: list[Any]) -> ast.Expr:
         return c[1]
 
-    def number(self, meta, c):  # type: ignore[no-untyped-def]
+    def number(self, meta: Meta, c: list[Any]) -> ast.Number:
         return ast.Number(float(c[0]), span=_span(meta))
 
-    def true(self, meta, c):  # type: ignore[no-untyped-def]
+    def true(self, meta: Meta, c: list[Any]) -> ast.Bool:
         return ast.Bool(True, span=_span(meta))
 
-    def false(self, meta, c):  # type: ignore[no-untyped-def]
+    def false(self, meta: Meta, c: list[Any]) -> ast.Bool:
         return ast.Bool(False, span=_span(meta))
 
-    def name(self, meta, c):  # type: ignore[no-untyped-def]
+    def name(self, meta: Meta, c: list[Any]) -> ast.Name:
         return ast.Name(str(c[0]), span=_span(meta))
 
-    def call(self, meta, c):  # type: ignore[no-untyped-def]
+    def call(self, meta: Meta, c: list[Any]) -> ast.Call:
         args = c[1] if c[1] is not None else ()
         return ast.Call(str(c[0]), args, span=_span(meta), func_span=_tspan(c[0]))
 
-    def attribute(self, meta, c):  # type: ignore[no-untyped-def]
+    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute:
         return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))

@@ -6,6 +6,8 @@ rule and expression string with ``labsim.dsl.parse``. It reports every problem i
 ``Report`` and keeps going, so that one run of ``labsim check`` shows them all. Names and
 types are the checker's business, not this module's.
 """
+# Over 500 lines: the checker and the compiler import the declarations from here, and each
+# section's reader builds them, so readers and declarations cannot part without a cycle.
 from __future__ import annotations
 
 import hashlib
@@ -16,11 +18,11 @@ from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
+from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.dsl import ast
-from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
-from labsim.dsl.parse import ParseError, parse_expr, parse_rule
-from labsim.backends.scene.source import Document, Text, scalar_value
+from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_rule
 
 FORMAT_VERSION = 1
 
@@ -131,70 +133,21 @@ class BehaviourFile:
 
 def read(doc: Document, report: Report) -> BehaviourFile:
     bf = BehaviourFile(doc, hashlib.sha256(doc.text.encode()).hexdigest())
+    r = _Reader(doc, report)
     root = doc.root
     if not isinstance(root, MappingNode):
-        where = root if root is not None else None
         message = "a behaviour file is a YAML mapping of keys such as 'world:', 'robots:' and 'rules:'"
-        report.add(doc.diagnostic(where, message) if where is not None
-                   else doc.diagnostic_at(0, "the file is empty: " + message))
+        if root is not None:
+            r.error(root, message)
+        else:
+            r.error(0, "the file is empty: " + message)
         return bf
-    r = _Reader(doc, report)
-    keys = {}
-    for key, value in root.value:
-        k = key.value
-        if k not in TOP_KEYS:
-            report.add(doc.diagnostic(key, f"unknown key '{k}'{did_you_mean(k, TOP_KEYS)}",
-                                      notes=("known keys: " + ", ".join(TOP_KEYS),)))
-            continue
-        keys[k] = (key, value)
+    keys = r.known_keys(root, TOP_KEYS, "", "the file")
     for k in REQUIRED:
         if k not in keys:
-            report.add(Diagnostic(doc.path, f"missing required key '{k}:'", notes=(_REQUIRED_HINTS[k],)))
-
-    if "labsim" in keys:
-        v = r.number(keys["labsim"][1], "labsim", integer=True)
-        if v is not None and v != FORMAT_VERSION:
-            report.add(doc.diagnostic(keys["labsim"][1],
-                                      f"this labsim reads format version {FORMAT_VERSION}, not {v:g}"))
-    bf.name = r.string(keys["name"][1], "name") if "name" in keys else doc.path
-    if "description" in keys:
-        bf.description = r.string(keys["description"][1], "description") or ""
-    if "world" in keys:
-        bf.world = r.string(keys["world"][1], "world") or ""
-        bf.world_node = keys["world"][1]
-    if "dt" in keys:
-        dt = r.number(keys["dt"][1], "dt")
-        if dt is not None and not 0 < dt <= 1:
-            report.add(doc.diagnostic(keys["dt"][1], f"dt must be between 0 and 1 second, not {dt:g}"))
-        elif dt is not None:
-            bf.dt_s = float(dt)
-    if "seed" in keys:
-        seed = r.number(keys["seed"][1], "seed", integer=True)
-        if seed is not None and seed < 0:
-            report.add(doc.diagnostic(keys["seed"][1], "seed must be 0 or a positive whole number"))
-        elif seed is not None:
-            bf.seed = int(seed)
-    if "stop" in keys:
-        bf.stop = r.expr(keys["stop"][1], "stop")
-    if "robots" in keys:
-        bf.robots = r.robots(keys["robots"][1])
-        bf.has_robots = True
-    if "params" in keys:
-        bf.params = r.params(keys["params"][1])
-    if "let" in keys:
-        bf.lets = r.named_exprs(keys["let"][1], "let")
-        bf.failed_names = {k.value for k, _ in r.mapping(keys["let"][1], "let")} - {n for n, _, _ in bf.lets}
-    if "rules" in keys:
-        bf.states = r.states(keys["rules"][1])
-        bf.has_rules = True
-    if "metrics" in keys:
-        bf.metrics = r.named_exprs(keys["metrics"][1], "metrics")
-    if "sliders" in keys:
-        bf.sliders = r.sliders(keys["sliders"][1])
-    if "bind" in keys:
-        bf.binds = r.binds(keys["bind"][1])
-    if "timeline" in keys:
-        bf.timeline = r.timeline(keys["timeline"][1])
+            r.error(None, f"missing required key '{k}:'", notes=(_REQUIRED_HINTS[k],))
+    r.header(keys, bf)
+    r.sections(keys, bf)
     bf.failed_names |= r.failed_names
     return bf
 
@@ -208,75 +161,120 @@ _REQUIRED_HINTS = {
 }
 
 
-class _Reader:
-    def __init__(self, doc: Document, report: Report):
-        self.doc = doc
-        self.report = report
+class _Reader(Reader):
+    def __init__(self, doc: Document, report: Report) -> None:
+        super().__init__(doc, report)
         self.failed_names: set[str] = set()  # declared, but reported as wrong: uses stay quiet
 
-    def error(self, node: Node, message: str, notes: tuple[str, ...] = ()) -> None:
-        self.report.add(self.doc.diagnostic(node, message, notes=notes))
-
-    def scalar(self, node: Node, what: str) -> object:
+    def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
         if not isinstance(node, ScalarNode):
-            self.error(node, f"{what} must be a single value, not a {_shape(node)}")
-            return None
-        return scalar_value(node)
+            return f"{what} must be a single value, not a {shape_of(node)}", ()
+        value = scalar_value(node)
+        if value is None:
+            return f"{what} needs a value", ()
+        if isinstance(value, float) and not math.isfinite(value):
+            return f"{what} must be a finite number, not '{node.value}'", ()
+        return f"{what} must be {'a whole number' if integer else 'a number'}, not '{node.value}'", ()
 
-    def string(self, node: Node, what: str) -> str | None:
-        v = self.scalar(node, what)
-        if v is None:
-            return None
-        if isinstance(v, (dict, list, bool)):
-            self.error(node, f"{what} must be text")
-            return None
-        return node.value  # type: ignore[union-attr]
+    # -- the file's own keys ------------------------------------------------------------------
 
-    def number(self, node: Node, what: str, integer: bool = False) -> float | None:
-        v = self.scalar(node, what)
-        if v is None and isinstance(node, ScalarNode):
-            self.error(node, f"{what} needs a value")
-            return None
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            if isinstance(node, ScalarNode):
-                kind = "a whole number" if integer else "a number"
-                self.error(node, f"{what} must be {kind}, not '{node.value}'")
-            return None
-        if not math.isfinite(v):
-            self.error(node, f"{what} must be a finite number, not '{node.value}'")
-            return None
-        if integer and v != int(v):
-            self.error(node, f"{what} must be a whole number, not '{node.value}'")
-            return None
-        return v
+    def header(self, keys: dict[str, Node], bf: BehaviourFile) -> None:
+        """The format version, name, description, world, time step and seed."""
+        if "labsim" in keys:
+            v = self.number(keys["labsim"], "labsim", integer=True)
+            if v is not None and v != FORMAT_VERSION:
+                self.error(keys["labsim"], f"this labsim reads format version {FORMAT_VERSION}, not {v:g}")
+        bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
+        if "description" in keys:
+            bf.description = self.string(keys["description"], "description") or ""
+        if "world" in keys:
+            bf.world = self.string(keys["world"], "world") or ""
+            bf.world_node = keys["world"]
+        if "dt" in keys:
+            dt = self.number(keys["dt"], "dt")
+            if dt is not None and not 0 < dt <= 1:
+                self.error(keys["dt"], f"dt must be between 0 and 1 second, not {dt:g}")
+            elif dt is not None:
+                bf.dt_s = dt
+        if "seed" in keys:
+            seed = self.number(keys["seed"], "seed", integer=True)
+            if seed is not None and seed < 0:
+                self.error(keys["seed"], "seed must be 0 or a positive whole number")
+            elif seed is not None:
+                bf.seed = int(seed)
+
+    def sections(self, keys: dict[str, Node], bf: BehaviourFile) -> None:
+        """Everything after the header: stop, robots, params, let, rules, metrics and the controls."""
+        if "stop" in keys:
+            bf.stop = self.expr(keys["stop"], "stop")
+        if "robots" in keys:
+            bf.robots = self.robots(keys["robots"])
+            bf.has_robots = True
+        if "params" in keys:
+            bf.params = self.params(keys["params"])
+        if "let" in keys:
+            bf.lets = self.named_exprs(keys["let"], "let")
+            declared = {k.value for k, _ in keys["let"].value} if isinstance(keys["let"], MappingNode) else set()
+            bf.failed_names = declared - {n for n, _, _ in bf.lets}
+        if "rules" in keys:
+            bf.states = self.states(keys["rules"])
+            bf.has_rules = True
+        if "metrics" in keys:
+            bf.metrics = self.named_exprs(keys["metrics"], "metrics")
+        if "sliders" in keys:
+            bf.sliders = self.sliders(keys["sliders"])
+        if "bind" in keys:
+            bf.binds = self.binds(keys["bind"])
+        if "timeline" in keys:
+            bf.timeline = self.timeline(keys["timeline"])
+
+    # -- shapes a behaviour file uses ----------------------------------------------------------
 
     def expr(self, node: Node, what: str) -> Parsed | None:
         if not isinstance(node, ScalarNode) or node.tag.endswith(":null"):
-            self.error(node, f"{what} must be an expression written as text, not a {_shape(node)}",
+            self.error(node, f"{what} must be an expression written as text, not a {shape_of(node)}",
                        notes=_mapping_hint(node))
             return None
         text = self.doc.text_of(node)
         try:
             return Parsed(parse_expr(text.value), text)
         except ParseError as e:
-            self.report.add(text.diagnostic(e.start, e.end, e.message, notes=e.notes))
+            self.error(text.at((e.start, e.end)), e.message, e.notes)
             return None
 
     def mapping(self, node: Node, what: str) -> list[tuple[ScalarNode, Node]]:
+        """The entries of a mapping; none for an empty value."""
         if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
             return []
         if not isinstance(node, MappingNode):
-            self.error(node, f"{what} must be a mapping of names to values, not a {_shape(node)}")
+            self.error(node, f"{what} must be a mapping of names to values, not a {shape_of(node)}")
             return []
         return list(node.value)
 
-    def names(self, key: ScalarNode, what: str) -> str | None:
+    def known_keys(self, node: Node, allowed: tuple[str, ...], kind: str, what: str,
+                   more: str = "") -> dict[str, Node]:
+        """The values of a mapping's known keys; each unknown key is reported with the known ones
+        listed (``kind``: 'robot' for "unknown robot key", '' for the file's own keys)."""
+        fields = {}
+        for key, value in self.mapping(node, what):
+            if key.value not in allowed:
+                self.error(key, f"unknown {kind + ' ' if kind else ''}key '{key.value}'"
+                                f"{did_you_mean(key.value, allowed)}",
+                           notes=(f"{kind or 'known'} keys: " + ", ".join(allowed) + more,))
+            else:
+                fields[key.value] = value
+        return fields
+
+    def identifier(self, key: ScalarNode, what: str) -> str | None:
+        """A key that names something programs refer to."""
         name = key.value
         if not name.isidentifier() or not name.isascii():
             self.error(key, f"'{name}' is not a valid {what} name: use letters, digits and '_', "
                             "starting with a letter")
             return None
-        return name
+        return str(name)
+
+    # -- robots ---------------------------------------------------------------------------------
 
     def robots(self, node: Node) -> list[RobotDecl]:
         out = []
@@ -284,16 +282,10 @@ class _Reader:
         if not entries and isinstance(node, (ScalarNode, MappingNode)):
             self.error(node, "'robots' names no robot", notes=("e.g. robots: {pioneer: {model: pioneer_p3dx}}",))
         for key, value in entries:
-            name = self.names(key, "robot")
+            name = self.identifier(key, "robot")
             if name is None:
                 continue
-            fields = {}
-            for k, v in self.mapping(value, f"robot '{name}'"):
-                if k.value not in ROBOT_KEYS:
-                    self.error(k, f"unknown robot key '{k.value}'{did_you_mean(k.value, ROBOT_KEYS)}",
-                               notes=("robot keys: " + ", ".join(ROBOT_KEYS),))
-                else:
-                    fields[k.value] = v
+            fields = self.known_keys(value, ROBOT_KEYS, "robot", f"robot '{name}'")
             if "model" not in fields:
                 self.error(key, f"robot '{name}' needs a 'model:' (e.g. model: pioneer_p3dx)")
                 continue
@@ -317,42 +309,23 @@ class _Reader:
     def paths(self, node: Node) -> tuple[tuple[str, str], ...]:
         """paths: {robot: "/MyPioneer[{i}]", left_motor: ./leftMotor, sonar: "./sonar[{k}]"}"""
         out = []
-        for k, v in self.mapping(node, "paths"):
-            if k.value not in PATH_KEYS:
-                self.error(k, f"unknown path key '{k.value}'{did_you_mean(k.value, PATH_KEYS)}",
-                           notes=("path keys: " + ", ".join(PATH_KEYS) + " ({i} is the robot's index among all "
-                                  "robots, from 0; {k} the sonar's, from 0)",))
-                continue
-            text = self.string(v, k.value)
+        fields = self.known_keys(node, PATH_KEYS, "path", "paths",
+                                 " ({i} is the robot's index among all robots, from 0; {k} the sonar's, from 0)")
+        for key, value in fields.items():
+            text = self.string(value, key)
             if text:
-                out.append((k.value, text))
+                out.append((key, text))
         return tuple(out)
 
     def camera(self, node: Node) -> Camera | None:
         """camera: {resolution: [w, h], fov_deg: 60, height_m: 0.3, pitch_deg: 45, x_m: 0.2}"""
-        fields = {}
-        for k, v in self.mapping(node, "camera"):
-            if k.value not in CAMERA_KEYS:
-                self.error(k, f"unknown camera key '{k.value}'{did_you_mean(k.value, CAMERA_KEYS)}",
-                           notes=("camera keys: " + ", ".join(CAMERA_KEYS),))
-            else:
-                fields[k.value] = v
+        fields = self.known_keys(node, CAMERA_KEYS, "camera", "camera")
         ok = True
         size = (128, 128)
         if "resolution" in fields:
-            res = fields["resolution"]
-            values = res.value if isinstance(res, SequenceNode) else []
-            nums = [self.number(v, "a resolution", integer=True) for v in values] if len(values) == 2 else []
-            if len(nums) != 2 or any(n is None for n in nums):
-                if len(values) != 2:
-                    self.error(res, "resolution is [width, height] in pixels")
-                ok = False
-            elif not all(1 <= n <= MAX_CAMERA_PX for n in nums):  # type: ignore[operator]
-                self.error(res, f"camera resolution must be 1 to {MAX_CAMERA_PX} pixels a side, "
-                                f"not {nums[0]:g} x {nums[1]:g}")
-                ok = False
-            else:
-                size = (int(nums[0]), int(nums[1]))  # type: ignore[arg-type]
+            resolution = self.resolution(fields["resolution"])
+            ok = resolution is not None
+            size = resolution or size
         values = {"fov_deg": 60.0, "height_m": 0.3, "pitch_deg": 45.0, "x_m": 0.2}
         limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0, 90), "x_m": (-1, 1)}
         for key in values:
@@ -365,65 +338,80 @@ class _Reader:
                     self.error(fields[key], f"{key} must be between {lo:g} and {hi:g}, not {v:g}")
                     ok = False
                 else:
-                    values[key] = float(v)
+                    values[key] = v
         if not ok:
             return None
         return Camera("camera", size[0], size[1], values["fov_deg"], values["height_m"], values["pitch_deg"],
                       values["x_m"])
+
+    def resolution(self, node: Node) -> tuple[int, int] | None:
+        """A camera's [width, height] in pixels."""
+        values = node.value if isinstance(node, SequenceNode) else []
+        if len(values) != 2:
+            self.error(node, "resolution is [width, height] in pixels")
+            return None
+        width, height = (self.number(v, "a resolution", integer=True) for v in values)
+        if width is None or height is None:
+            return None
+        if not (1 <= width <= MAX_CAMERA_PX and 1 <= height <= MAX_CAMERA_PX):
+            self.error(node, f"camera resolution must be 1 to {MAX_CAMERA_PX} pixels a side, "
+                             f"not {width:g} x {height:g}")
+            return None
+        return (int(width), int(height))
 
     def placement(self, node: Node | None) -> str | tuple[float, float, float] | None:
         if node is None:
             return "spawn"
         if isinstance(node, ScalarNode):
             if node.value in ("spawn", "random"):
-                return node.value
+                return str(node.value)
             self.error(node, f"'at' is 'spawn', 'random' or [x, y, heading_deg], not '{node.value}'")
             return None
         if isinstance(node, SequenceNode) and len(node.value) in (2, 3):
             nums = [self.number(n, "a coordinate") for n in node.value]
-            if any(n is None for n in nums):
+            coordinates = [n for n in nums if n is not None]
+            if len(coordinates) != len(nums):
                 return None
-            x, y, *h = nums
-            return (float(x), float(y), float(h[0]) if h else 0.0)  # type: ignore[arg-type]
+            x, y, *h = coordinates
+            return (x, y, h[0] if h else 0.0)
         self.error(node, "'at' is 'spawn', 'random' or [x, y, heading_deg]")
         return None
+
+    # -- values and signals ---------------------------------------------------------------------
 
     def params(self, node: Node) -> dict[str, tuple[float | bool, Node]]:
         out: dict[str, tuple[float | bool, Node]] = {}
         for key, value in self.mapping(node, "params"):
-            name = self.names(key, "parameter")
-            v = self.scalar(value, f"parameter '{key.value}'")
+            name = self.identifier(key, "parameter")
+            scalar = self.scalar(value, f"parameter '{key.value}'")
             if name is None:
                 continue
+            v = scalar_value(scalar) if scalar is not None else None
             if isinstance(v, float) and not math.isfinite(v):
                 self.error(value, f"parameter '{name}' must be a finite number, not '{value.value}'")
-            elif isinstance(v, bool) or isinstance(v, (int, float)):
+            elif isinstance(v, (int, float)):
                 out[name] = (v if isinstance(v, bool) else float(v), value)  # floats: see check.params
-            elif isinstance(value, ScalarNode):
+            elif scalar is not None:
                 self.error(value, f"parameter '{name}' must be a number or true/false, not '{value.value}'",
                            notes=("computed values belong under 'let:'",))
         return out
 
     def named_exprs(self, node: Node, what: str) -> list[tuple[str, Parsed, Node]]:
-        out = []
+        out: list[tuple[str, Parsed, Node]] = []
         for key, value in self.mapping(node, what):
-            name = self.names(key, "signal" if what == "let" else "metric")
+            name = self.identifier(key, "signal" if what == "let" else "metric")
             parsed = self.expr(value, f"'{key.value}'")
             if name is not None and parsed is not None:
                 out.append((name, parsed, key))
         return out
 
+    # -- a mechanism's controls ----------------------------------------------------------------
+
     def sliders(self, node: Node) -> list[SliderDecl]:
         out = []
         for key, value in self.mapping(node, "sliders"):
-            name = self.names(key, "slider")
-            fields = {}
-            for k, v in self.mapping(value, f"slider '{key.value}'"):
-                if k.value not in SLIDER_KEYS:
-                    self.error(k, f"unknown slider key '{k.value}'{did_you_mean(k.value, SLIDER_KEYS)}",
-                               notes=("slider keys: " + ", ".join(SLIDER_KEYS),))
-                else:
-                    fields[k.value] = v
+            name = self.identifier(key, "slider")
+            fields = self.known_keys(value, SLIDER_KEYS, "slider", f"slider '{key.value}'")
             if name is None or "min" not in fields or "max" not in fields:
                 if name is not None:
                     self.error(key, f"slider '{name}' needs 'min:' and 'max:'")
@@ -434,15 +422,15 @@ class _Reader:
             if lo >= hi:
                 self.error(fields["max"], f"a slider's max must exceed its min ({lo:g})")
                 continue
-            start = 0.0 if lo <= 0 <= hi else float(lo)
+            start = 0.0 if lo <= 0 <= hi else lo
             if "value" in fields:
                 v = self.number(fields["value"], "value")
                 if v is not None and not lo <= v <= hi:
                     self.error(fields["value"], f"value {v:g} is outside the slider's range {lo:g} .. {hi:g}")
                 elif v is not None:
-                    start = float(v)
+                    start = v
             label = self.label(fields["label"]) if "label" in fields else None
-            out.append(SliderDecl(name, float(lo), float(hi), start, label, key))
+            out.append(SliderDecl(name, lo, hi, start, label, key))
         return out
 
     def label(self, node: Node) -> Label | None:
@@ -451,46 +439,12 @@ class _Reader:
             self.error(node, "a label is text, with {expression} or {expression:.2f} fields")
             return None
         text = self.doc.text_of(node)
-        value = text.value
-        parts: list[str | tuple[Parsed, str]] = []
-        i, literal = 0, ""
-        while i < len(value):
-            ch = value[i]
-            if ch in "{}" and value[i:i + 2] in ("{{", "}}"):
-                literal += ch
-                i += 2
-                continue
-            if ch == "}":
-                self.report.add(text.diagnostic(i, i + 1, "unmatched '}' in a label (write '}}' for a brace)"))
-                return None
-            if ch != "{":
-                literal += ch
-                i += 1
-                continue
-            end = value.find("}", i)
-            if end < 0:
-                self.report.add(text.diagnostic(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)"))
-                return None
-            field_text = value[i + 1:end]
-            expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
-            if colon and not _FORMAT_SPEC.fullmatch(spec):
-                start = i + 1 + len(expr_text) + 1
-                self.report.add(text.diagnostic(start, start + len(spec),
-                                                f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d"))
-                return None
-            try:
-                expr = parse_expr(expr_text)
-            except ParseError as e:
-                self.report.add(text.diagnostic(i + 1 + e.start, i + 1 + e.end, e.message))
-                return None
-            if literal:
-                parts.append(literal)
-                literal = ""
-            parts.append((Parsed(_shift(expr, i + 1), text), spec))
-            i = end + 1
-        if literal:
-            parts.append(literal)
-        return Label(tuple(parts))
+        try:
+            parts = parse_label(text.value)
+        except ParseError as e:
+            self.error(text.at((e.start, e.end)), e.message)
+            return None
+        return Label(tuple(part if isinstance(part, str) else (Parsed(part[0], text), part[1]) for part in parts))
 
     def binds(self, node: Node) -> list[BindDecl]:
         out = []
@@ -525,33 +479,40 @@ class _Reader:
                 self.error(value, "after 'at TIME:' come slider settings such as 'arm = 5, crab = -3'")
                 continue
             text = self.doc.text_of(value)
-            settings = []
-            offset = 0
-            for piece in text.value.split(","):
-                sm = _SETTING.fullmatch(piece)
-                start = offset + len(piece) - len(piece.lstrip())
-                offset += len(piece) + 1
-                number = None
-                if sm:
-                    try:
-                        number = float(sm.group(2))
-                    except ValueError:
-                        number = None
-                if sm is None or number is None:
-                    self.report.add(text.diagnostic(start, start + len(piece.strip()),
-                                                    f"a setting reads 'slider = number', not '{piece.strip()}'"))
-                    continue
-                settings.append((sm.group(1), number, start))
-            out.append(Event(float(m.group(1)), tuple(settings), item, text))
+            out.append(Event(float(m.group(1)), self.settings(text), item, text))
         return out
+
+    def settings(self, text: Text) -> tuple[tuple[str, float, int], ...]:
+        """'arm = 0, crab = -3': (slider, value, offset of the setting in the text); each
+        setting that is not 'slider = number' is reported and left out."""
+        settings = []
+        offset = 0
+        for piece in text.value.split(","):
+            sm = _SETTING.fullmatch(piece)
+            start = offset + len(piece) - len(piece.lstrip())
+            offset += len(piece) + 1
+            number = None
+            if sm:
+                try:
+                    number = float(sm.group(2))
+                except ValueError:
+                    number = None
+            if sm is None or number is None:
+                self.error(text.at((start, start + len(piece.strip()))),
+                           f"a setting reads 'slider = number', not '{piece.strip()}'")
+                continue
+            settings.append((sm.group(1), number, start))
+        return tuple(settings)
+
+    # -- rules ----------------------------------------------------------------------------------
 
     def states(self, node: Node) -> dict[str, tuple[list[RuleDecl], Node | None]]:
         if isinstance(node, SequenceNode):
             return {"main": (self.rule_list(node, "main"), None)}
         if isinstance(node, MappingNode):
-            out = {}
+            out: dict[str, tuple[list[RuleDecl], Node | None]] = {}
             for key, value in node.value:
-                name = self.names(key, "state")
+                name = self.identifier(key, "state")
                 if name is None:
                     continue
                 if not isinstance(value, SequenceNode):
@@ -571,7 +532,7 @@ class _Reader:
             self.error(node, f"state '{state}' has no rules" if state != "main" else "'rules' is empty")
         for i, item in enumerate(node.value, 1):
             if not isinstance(item, ScalarNode) or item.tag.endswith(":null"):
-                self.error(item, f"a rule must be text such as 'if COND then ACTION', not a {_shape(item)}",
+                self.error(item, f"a rule must be text such as 'if COND then ACTION', not a {shape_of(item)}",
                            notes=_mapping_hint(item))
                 continue
             text = self.doc.text_of(item)
@@ -583,23 +544,12 @@ class _Reader:
                     second = item.start_mark.line + 2
                     notes += (f"hint: YAML joined line {second} onto this rule; if line {second} is a "
                               "rule of its own, indent its '-' like the one above",)
-                self.report.add(text.diagnostic(e.start, e.end, e.message, notes=notes))
+                self.error(text.at((e.start, e.end)), e.message, notes)
         return out
 
 
-_FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
 _AT = re.compile(r"at\s+([0-9]*\.?[0-9]+(?:[eE][+-]?\d+)?)\s*$")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
-
-
-def _shape(node: Node | None) -> str:
-    if isinstance(node, MappingNode):
-        return "mapping"
-    if isinstance(node, SequenceNode):
-        return "list"
-    if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
-        return "empty value"
-    return "value"
 
 
 def _mapping_hint(node: Node | None) -> tuple[str, ...]:
@@ -609,19 +559,3 @@ def _mapping_hint(node: Node | None) -> tuple[str, ...]:
             return (f"hint: YAML read '{key.value}: ...' as a mapping because of the ': '; "
                     "remove the colon (a rule reads 'if COND then ACTION'), or quote the whole text",)
     return ()
-
-
-def _shift(e, offset: int):  # type: ignore[no-untyped-def]
-    """An expression parsed from part of a string, its spans moved to the whole string's."""
-    import dataclasses
-
-    changes = {}
-    for f in dataclasses.fields(e):
-        v = getattr(e, f.name)
-        if f.name.endswith("span") and isinstance(v, tuple) and len(v) == 2:
-            changes[f.name] = (v[0] + offset, v[1] + offset)
-        elif isinstance(v, ast.Expr):
-            changes[f.name] = _shift(v, offset)
-        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
-            changes[f.name] = tuple(_shift(x, offset) for x in v)
-    return dataclasses.replace(e, **changes)

@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, labs, new, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, view, labs, new, worlds, serve.
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
@@ -14,19 +14,19 @@ import argparse
 import os
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import Run, compile_behaviour, slider_events, stop_horizon
+from labsim.runtime.run import compile_behaviour, slider_events
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.trace import TraceFormatError, read_trace
 
@@ -41,6 +41,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
+    # long: one declaration per command and option, read top to bottom as the help is
     p = _Parser(prog="labsim", description="Run robotics labs written as behaviour files.")
     p.add_argument("--version", action="version", version=f"labsim {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -66,6 +67,9 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
+    check.add_argument("--show-code", action="store_true",
+                       help="print the Python each file compiles to, each rule, signal and metric "
+                            "under a comment with its line in the file")
 
     test = sub.add_parser("test", help="re-run behaviours and compare them with their golden traces")
     test.add_argument("paths", nargs="*", default=None,
@@ -79,6 +83,19 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="draw a trace: the world to scale and every trajectory")
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="PNG")
+
+    view = sub.add_parser("view", help="watch and steer a run in the browser, or replay a trace")
+    view.add_argument("file", help="a behaviour file (.yaml), or a trace (.csv) to replay")
+    view.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      help="override a parameter from the file's 'params:' (repeatable)")
+    view.add_argument("--seed", type=int, help="override the file's seed")
+    view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
+    view.add_argument("--host", default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
+                                                        "this computer only)")
+    view.add_argument("--port", type=int, default=8765, help="port to serve the page on; 0 picks a free one "
+                                                            "(default: %(default)s)")
+    view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
+    view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
 
     sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
     new = sub.add_parser("new", help="copy a lab and its golden trace into a folder, to edit and test")
@@ -162,8 +179,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         _name_labs(args)
-        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "labs": cmd_labs,
-                "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
+        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
+                "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
                 "sweep": cmd_sweep}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
@@ -217,11 +234,9 @@ def _warn(message: str) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     overrides = _overrides(args.set)
-    behaviour = compile_behaviour(args.file, overrides)
-    if args.seed is not None:
-        if args.seed < 0:
-            raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-        behaviour.program.seed = args.seed
+    if args.seed is not None and args.seed < 0:
+        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed)
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
     if args.json not in (None, "-"):
@@ -241,7 +256,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     run = behaviour.bind(backend, trace=args.trace, warn=warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar = ProgressBar(stop_horizon(behaviour.program)) if show else None
+    bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
         summary = run.run(progress=bar)
     finally:
@@ -249,7 +264,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             bar.clear()
         run.close()
     if args.json is not None:
-        emit_json(summary_dict(summary, run, overridden=tuple(overrides), warnings=warnings), args.json)
+        emit_json(summary_dict(summary, run, warnings=warnings), args.json)
     if not args.quiet and args.json != "-":
         print(format_summary(summary, run))
         trips = _round_trips(backend, summary.ticks)
@@ -283,12 +298,13 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok'."""
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
             behaviour = compile_behaviour(f)
             problems += behaviour.program.warnings
-            print(f"{f}: ok")
+            print(behaviour.program.code.listing if args.show_code else f"{f}: ok")
         except LabsimError as e:
             problems += e.diagnostics
     if problems:
@@ -408,6 +424,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    """Serve the page of a live run or a replayed trace until Ctrl-C; see docs/view.md."""
+    from labsim.runtime.view import view
+
+    if args.trace:
+        _check_writable(args.trace, [Path(args.file)])
+    return view(args.file, overrides=_overrides(args.set), seed=args.seed, backend=args.backend,
+                host=args.host, port=args.port, trace=args.trace, open_browser=not args.no_browser,
+                warn=_warn, report=_print_diagnostics)
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Run a grid of runs and compare the settings; runtime/sweep_driver.py."""
     from labsim.runtime.sweep_driver import SweepOptions, run_sweep
@@ -458,8 +485,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         world = program.world
         dt = dt if dt is not None else program.dt_s
         # the behaviour's robots (models with their cameras); the backend places them itself
-        models = [program.models[d.name] for d in program.robot_decls
-                  if program.models.get(d.name) is not None for _ in range(d.count)]
+        models = [group.model for group in program.robots for _ in range(group.count)]
         poses = [pose for _, pose in Server.robot_specs(world, len(models))]
         requests = [RobotRequest(f"PioneerP3DX[{i}]", m, pose, ()) for i, (m, pose) in enumerate(zip(models, poses))]
     if args.world is not None or world is None:

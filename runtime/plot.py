@@ -10,9 +10,7 @@ image in memory (tests and other front ends use it); ``plot_trace`` also writes 
 """
 from __future__ import annotations
 
-import colorsys
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,66 +19,35 @@ import numpy as np
 
 from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.runtime.paint import (
+    AA,
+    BLOCK_EDGE,
+    BLOCK_FILL,
+    FRAME,
+    GRID,
+    INK,
+    MAP_BG,
+    MUTED,
+    ONE,
+    PAPER,
+    SHIFT,
+    TITLE_FONT,
+    WARNING,
+    Painter,
+    PxMap,
+    bgr,
+    darker,
+    draw_ground,
+    draw_mechanism,
+    draw_wall,
+    event_colour,
+    robot_colour,
+)
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
-PxMap = Callable[[np.ndarray], np.ndarray]  # an (n, 2) array of metres to pixel coordinates
-
 MIN_WIDTH_PX = 400
-
-# Colours are BGR, as OpenCV wants them. Robots take the Tableau palette without its red, so
-# that red means one thing only in the figure: a collision.
-_ROBOT_RGB = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189),
-              (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207)]
-_EVENT_RGB = [(255, 193, 7), (0, 150, 136), (156, 39, 176), (233, 30, 99),
-              (63, 81, 181), (139, 195, 74), (121, 85, 72), (0, 188, 212)]
-PAPER = (255, 255, 255)
-MAP_BG = (246, 247, 248)
-GRID = (222, 222, 222)
-FRAME = (150, 150, 150)
-WALL = (55, 55, 55)
-BLOCK_FILL = (185, 185, 185)
-BLOCK_EDGE = (95, 95, 95)
-INK = (35, 35, 35)
-MUTED = (120, 120, 120)
-COLLISION = (30, 30, 220)
-WARNING = (20, 20, 170)
-
-FONT = cv2.FONT_HERSHEY_SIMPLEX
-TITLE_FONT = cv2.FONT_HERSHEY_DUPLEX
-AA = cv2.LINE_AA
-SHIFT = 4  # polylines take fixed-point coordinates: 4 fractional bits keep paths smooth
-ONE = 1 << SHIFT
-
-
-def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
-    return (rgb[2], rgb[1], rgb[0])
-
-
-def robot_colour(i: int) -> tuple[int, int, int]:
-    """The i-th robot's colour (BGR); past the palette, hues spaced by the golden angle."""
-    if i < len(_ROBOT_RGB):
-        return _bgr(_ROBOT_RGB[i])
-    hue = (0.1 + (i - len(_ROBOT_RGB)) * 0.618034) % 1.0
-    hue = 0.06 + hue * 0.88  # keep clear of red at both ends of the hue circle
-    r, g, b = colorsys.hsv_to_rgb(hue, 0.75, 0.8)
-    return (int(b * 255), int(g * 255), int(r * 255))
-
-
-def event_colour(i: int) -> tuple[int, int, int]:
-    return _bgr(_EVENT_RGB[i % len(_EVENT_RGB)])
-
-
-def _darker(c: tuple[int, int, int], f: float = 0.6) -> tuple[int, int, int]:
-    return (int(c[0] * f), int(c[1] * f), int(c[2] * f))
-
-
-def _ascii(text: object) -> str:
-    # OpenCV's Hershey fonts have ASCII glyphs only; anything else would print as '?' anyway
-    return str(text).encode("ascii", "replace").decode("ascii")
-
 
 # -- the data ----------------------------------------------------------------------------------
 
@@ -253,75 +220,6 @@ def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float,
     return (cx - hw, cy - hh, cx + hw, cy + hh)
 
 
-class _Painter:
-    """Sizes scaled to the requested width, and the text/marker primitives that use them."""
-
-    def __init__(self, width_px: int):
-        # sizes follow the width, but not below what stays legible: small plots get
-        # relatively bigger text and markers, and a smaller share for the map
-        self.s = s = max(width_px / 1000, 0.8)
-        self.lw = max(1, round(s))  # hairline width for text and frames
-        self.pad = round(14 * s)
-        self.text = 0.45 * s
-        self.small = 0.4 * s
-        self.title = 0.72 * s
-        self.line_h = round(22 * s)
-
-    def size(self, text: str, scale: float, font: int = FONT, thick: int | None = None) -> tuple[int, int]:
-        (w, h), _ = cv2.getTextSize(text, font, scale, thick or self.lw)
-        return w, h
-
-    def put(self, img: np.ndarray, text: str, org: tuple[float, float], scale: float,
-            colour: tuple[int, int, int] = INK, font: int = FONT, thick: int | None = None,
-            align: str = "left", max_w: int | None = None) -> None:
-        text = _ascii(text)
-        if max_w is not None and self.size(text, scale, font, thick)[0] > max_w:
-            while len(text) > 1 and self.size(text + "...", scale, font, thick)[0] > max_w:
-                text = text[:-1]
-            text += "..."
-        w, h = self.size(text, scale, font, thick)
-        x, y = org
-        if align == "center":
-            x -= w / 2
-        elif align == "right":
-            x -= w
-        cv2.putText(img, text, (round(x), round(y)), font, scale, colour, thick or self.lw, AA)
-
-    # markers, centred on pixel points; used on the map and, the same, in the legend
-    def start(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
-        r = round(6 * self.s)
-        for u, v in np.round(pts).astype(int):
-            cv2.circle(img, (u, v), r, PAPER, -1, AA)
-            cv2.circle(img, (u, v), r, colour, max(2, round(2.5 * self.s)), AA)
-
-    def end(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
-        r = round(5 * self.s)
-        for u, v in np.round(pts).astype(int):
-            cv2.rectangle(img, (u - r, v - r), (u + r, v + r), colour, -1, AA)
-            cv2.rectangle(img, (u - r, v - r), (u + r, v + r), _darker(colour, 0.5), self.lw, AA)
-
-    def crosses(self, img: np.ndarray, pts: np.ndarray) -> None:
-        if not len(pts):
-            return
-        r = 6 * self.s * ONE
-        c = pts * ONE
-        # both strokes of every X in one polylines call: thousands of collisions stay cheap
-        d1 = np.stack((c + (-r, -r), c + (r, r)), axis=1)
-        d2 = np.stack((c + (-r, r), c + (r, -r)), axis=1)
-        strokes = np.round(np.concatenate((d1, d2))).astype(np.int32)
-        cv2.polylines(img, list(strokes), False, PAPER, max(4, round(5 * self.s)), AA, SHIFT)
-        cv2.polylines(img, list(strokes), False, COLLISION, max(2, round(2.5 * self.s)), AA, SHIFT)
-
-    def triangles(self, img: np.ndarray, pts: np.ndarray, colour: tuple[int, int, int]) -> None:
-        if not len(pts):
-            return
-        r = 6.5 * self.s * ONE
-        shape = np.array([(0, -r), (0.87 * r, 0.5 * r), (-0.87 * r, 0.5 * r)])
-        tris = np.round(pts[:, None, :] * ONE + shape[None, :, :]).astype(np.int32)
-        cv2.fillPoly(img, list(tris), colour, AA, SHIFT)
-        cv2.polylines(img, list(tris), True, _darker(colour, 0.45), self.lw, AA, SHIFT)
-
-
 # -- drawing -----------------------------------------------------------------------------------
 
 def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = None,
@@ -333,7 +231,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
         world, world_note = resolve_world(trace)
     world_note = world_note or ""
     paths = robot_paths(trace)
-    P = _Painter(width_px)
+    P = Painter(width_px)
     s, pad = P.s, P.pad
 
     # title block: behaviour name, then the run's particulars, then a note if any
@@ -370,26 +268,52 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
 
     ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
     # a ground's floor colour replaces the map's background; the grid stays visible on it
-    floor = _bgr(ground.floor_rgb) if ground is not None else MAP_BG
+    floor = bgr(ground.floor_rgb) if ground is not None else MAP_BG
     cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
     _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
           "z (m)" if world is not None and world.mechanism is not None else "y (m)")
 
-    # the world under everything: what is painted on the floor, then blocks filled, and walls
-    # at their real thickness (round ends, as the physics backend models a wall as a thick
-    # segment)
+    _draw_world(img, P, world, ground, px, mpp)
+    _draw_paths(img, P, paths, events, px, world)
+
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
+
+    # title
+    tx = map_left
+    title_w = width_px - tx - pad
+    P.put(img, title, (tx, round(34 * s)), P.title, INK, TITLE_FONT, max_w=title_w)
+    P.put(img, subtitle, (tx, round(58 * s)), P.text, MUTED, max_w=title_w)
+    if world_note:
+        P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
+
+    _legend(img, P, paths, events, map_left + map_w + round(22 * s), map_top, map_h, mpp)
+    return fig
+
+
+def _draw_world(img: np.ndarray, P: Painter, world: World | None, ground: Ground | None, px: PxMap,
+                mpp: float) -> None:
+    """The world under everything: what is painted on the floor, then blocks filled, and walls
+    at their real thickness (round ends, as the physics backend models a wall as a thick
+    segment), and a mechanism from the side."""
     if ground is not None:
-        _ground(img, ground, px, mpp)
+        draw_ground(img, ground, px, mpp)
     if world is not None:
         for b in world.blocks:
             poly = np.round(px(np.array(b.corners, float)) * ONE).astype(np.int32)
             cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
             cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
         for w in world.walls:
-            _wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
+            draw_wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
         if world.mechanism is not None:
-            _mechanism(img, world.mechanism, px, P)
+            draw_mechanism(img, world.mechanism, px, P)
 
+
+
+def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str], px: PxMap,
+                world: World | None) -> None:
+    """Every robot's path, its metric events and collisions, its start, and its end with the
+    heading it ended on."""
+    s = P.s
     # paths: one polylines call per robot, however long the run
     line_w = max(2, round(2 * s))
     for p in paths:
@@ -413,85 +337,9 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
             n = 26 * s
             tip = ends[1] + n * np.array([math.cos(p.heading), -math.sin(p.heading)])
             cv2.arrowedLine(img, tuple(np.round(ends[1] * ONE).astype(int)),
-                            tuple(np.round(tip * ONE).astype(int)), _darker(p.colour),
+                            tuple(np.round(tip * ONE).astype(int)), darker(p.colour),
                             max(2, round(2 * s)), AA, SHIFT, 0.35)
         P.end(img, ends[1:], p.colour)
-
-    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
-
-    # title
-    tx = map_left
-    title_w = width_px - tx - pad
-    P.put(img, title, (tx, round(34 * s)), P.title, INK, TITLE_FONT, max_w=title_w)
-    P.put(img, subtitle, (tx, round(58 * s)), P.text, MUTED, max_w=title_w)
-    if world_note:
-        P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
-
-    _legend(img, P, paths, events, map_left + map_w + round(22 * s), map_top, map_h, mpp)
-    return fig
-
-
-def _ground(img: np.ndarray, ground: Ground, px: PxMap, mpp: float) -> None:
-    """Patches, roads and lines to scale, in the order a camera sees them drawn.
-
-    Roads are thick polylines (OpenCV gives their joints round caps, so the band keeps its
-    width around corners), at least a pixel wide; lines are filled bands with square ends.
-    ``px`` maps an (n, 2) array of metres to pixel coordinates.
-    """
-    for patch in ground.patches:
-        poly = np.round(px(np.array(patch.corners, float)) * ONE).astype(np.int32)
-        cv2.fillPoly(img, [poly], _bgr(patch.rgb), AA, SHIFT)
-    for road in ground.roads:
-        pts = np.round(px(np.array(road.points, float)) * ONE).astype(np.int32)
-        cv2.polylines(img, [pts], road.closed, _bgr(road.rgb), max(1, round(road.width_m / mpp)), AA, SHIFT)
-    for line in ground.lines:
-        a, b = px(np.array([line.a, line.b], float))
-        d = b - a
-        n = float(np.hypot(*d))
-        if n == 0:
-            continue
-        across = np.array([-d[1], d[0]]) / n * max(line.width_m / mpp, 1.0) / 2
-        band = np.round(np.array([a + across, b + across, b - across, a - across]) * ONE).astype(np.int32)
-        cv2.fillPoly(img, [band], _bgr(line.rgb), AA, SHIFT)
-
-
-def _mechanism(img: np.ndarray, mechanism: Mechanism, px: PxMap, P: _Painter) -> None:
-    """A mechanism seen from the side, as it stood at the start: fixed bodies filled, moving
-    ones outlined, the floor, and each rope from its anchor to the body hanging on it."""
-    floor = mechanism.floor_z_m
-    if floor is not None:
-        xs = [c[0] for b in mechanism.bodies for c in b.corners()]
-        ends = px(np.array([[min(xs) - 1.0, floor], [max(xs) + 1.0, floor]]))
-        cv2.line(img, tuple(np.round(ends[0]).astype(int)), tuple(np.round(ends[1]).astype(int)),
-                 BLOCK_EDGE, max(2, P.lw), AA)
-    for j in mechanism.joints:
-        if j.rope:
-            child = mechanism.body(j.child)
-            a = px(np.array([j.anchor, (child.center[0], child.center[1] + child.size[1] / 2)], float))
-            cv2.line(img, tuple(np.round(a[0]).astype(int)), tuple(np.round(a[1]).astype(int)), MUTED, 1, AA)
-    for b in mechanism.bodies:
-        poly = np.round(px(np.array(b.corners(), float)) * ONE).astype(np.int32)
-        if b.static:
-            cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
-        cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
-
-
-def _wall(img: np.ndarray, ab: np.ndarray, thick_px: float) -> None:
-    """A wall as a filled band, its ends extended by half the thickness.
-
-    The extension closes the corners where walls meet (the physics gives its thick segments
-    round ends of that radius). A polygon rather than a thick cv2.line, whose antialiased ends
-    come out pointed and whose width is rounded to whole pixels.
-    """
-    a, b = ab
-    r = thick_px / 2
-    d = b - a
-    n = float(np.hypot(*d))
-    along = d / n * r if n > 0 else np.array([r, 0.0])
-    across = np.array([-along[1], along[0]])
-    a, b = a - along, b + along
-    band = np.round(np.array([a + across, b + across, b - across, a - across]) * ONE).astype(np.int32)
-    cv2.fillPoly(img, [band], WALL, AA, SHIFT)
 
 
 def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> list[str]:
@@ -530,7 +378,7 @@ def _event_names(header: dict, paths: list[RobotPath]) -> list[str]:
     return list(dict.fromkeys(declared + seen))
 
 
-def _grid(img: np.ndarray, P: _Painter, fig: Figure, map_w: int, map_h: int,
+def _grid(img: np.ndarray, P: Painter, fig: Figure, map_w: int, map_h: int,
           ext: tuple[float, float, float, float], vertical: str = "y (m)") -> None:
     """A 1 m grid (coarser only when 1 m would be a smear), labelled without crowding."""
     x0, y0, x1, y1 = ext
@@ -568,7 +416,7 @@ def _grid(img: np.ndarray, P: _Painter, fig: Figure, map_w: int, map_h: int,
     P.put(img, vertical, (fig.left - round(9 * s), fig.top - round(8 * s)), P.small, MUTED, align="right")
 
 
-def _legend(img: np.ndarray, P: _Painter, paths: list[RobotPath], events: list[str],
+def _legend(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str],
             x: int, top: int, map_h: int, mpp: float) -> None:
     s, lh = P.s, P.line_h
     w = img.shape[1] - x - P.pad
@@ -601,7 +449,7 @@ def _legend(img: np.ndarray, P: _Painter, paths: list[RobotPath], events: list[s
     P.start(img, pt, MUTED)
     row("start")
     pt = np.array([[sym - round(3 * s), y]], float)
-    cv2.arrowedLine(img, (int(pt[0, 0]), y), (int(pt[0, 0] + 17 * s), y), _darker(MUTED),
+    cv2.arrowedLine(img, (int(pt[0, 0]), y), (int(pt[0, 0] + 17 * s), y), darker(MUTED),
                     max(2, round(2 * s)), AA, 0, 0.4)
     P.end(img, pt, MUTED)
     row("end, heading")

@@ -19,27 +19,31 @@ from __future__ import annotations
 import math
 import random
 import time as clock
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
-from labsim.dsl import ast
 from labsim.dsl.builtins import Aggregate, Type
-from labsim.dsl.compile import (FIRST_CHANNEL, STATE, Faults, FaultSite, Program, RobotProgram, compile_file,
-                                constant_value, metric_result)
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.dsl.compile import compile_file
+from labsim.dsl.program import Program, RobotProgram
+from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
 
 
-def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None) -> Behaviour:
-    """Compile a behaviour file; raises LabsimError listing every problem in it."""
-    return Behaviour(compile_file(path, overrides))
+def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
+                      seed: int | None = None) -> Behaviour:
+    """Compile a behaviour file; raises LabsimError listing every problem in it.
+
+    ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``.
+    """
+    return Behaviour(compile_file(path, overrides, seed))
 
 
 @dataclass
@@ -66,12 +70,12 @@ class RobotRun:
     model: RobotModel | None  # None: the world's mechanism
     program: RobotProgram
     limit: float  # wheel speed limit, rad/s
+    start: Pose  # where it was placed
     sent_left: float = math.nan  # the last command sent to the backend, rad/s
     sent_right: float = math.nan
     sent_joints: list[float] = field(default_factory=list)  # per Program.targets
     clamping: bool = False  # whether the command now held exceeds the limit
     clamped_ticks: int = 0
-    start: Pose | None = None
     paths: tuple[tuple[str, str], ...] = ()  # the behaviour file's scene names for it
 
 
@@ -112,6 +116,8 @@ class Run:
         self.idle = 0
         self.trace: TraceWriter | None = None
         self.robots = self._robots()
+        self.watched = False  # see watch()
+        self.last_rule: list[int] = [-1] * len(self.robots)
         self._nch = len(program.channels)
         self._actuator_sites = [
             FaultSite(f"rule {r.id}", Diagnostic(program.path, "", r.line, 1, 0, "warning", ""))
@@ -137,31 +143,31 @@ class Run:
         placement = random.Random(f"{p.seed}/placement")
         spawns = list(p.world.spawns)
         taken: list[Pose] = []
-        robots = []
-        if p.checked.mechanism_agent:  # no robots: one agent reads and drives the mechanism
+        robots: list[RobotRun] = []
+        if p.mechanism_agent:  # no robots: one agent reads and drives the mechanism
             program = p.robot(p.world.name, random.Random(f"{p.seed}/{p.world.name}"), self.faults, None)
             return [RobotRun(0, p.world.name, None, program, math.inf, start=Pose(0.0, 0.0, 0.0),
                              sent_joints=[math.nan] * len(p.targets))]
-        for decl in p.robot_decls:
-            model = p.models[decl.name]
-            for k in range(decl.count):
-                name = decl.name if decl.count == 1 else f"{decl.name}[{k}]"
-                if decl.at == "spawn":
+        for group in p.robots:
+            model = group.model
+            for k in range(group.count):
+                name = group.name if group.count == 1 else f"{group.name}[{k}]"
+                if group.at == "spawn":
                     if not spawns:
-                        raise LabsimError([p.checked.file.doc.diagnostic(
-                            decl.key, f"world '{p.world.name}' has {len(p.world.spawns)} spawn poses, "
-                            f"too few for robot '{name}'", notes=("use 'at: random', or fewer robots",))])
+                        assert p.spawn_shortage is not None  # the compiler found this robot short of one
+                        raise LabsimError([p.spawn_shortage])
                     pose = spawns.pop(0)
-                elif decl.at == "random":
+                elif group.at == "random":
                     pose = _free_pose(p.world, placement, taken)
                 else:
-                    x, y, heading_deg = decl.at  # type: ignore[misc]
+                    assert not isinstance(group.at, str)
+                    x, y, heading_deg = group.at
                     pose = Pose(x, y, math.radians(heading_deg))
                 taken.append(pose)
                 rng = random.Random(f"{p.seed}/{name}")
                 program = p.robot(name, rng, self.faults, model)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
-                                       sent_joints=[math.nan] * len(p.targets), paths=decl.paths))
+                                       sent_joints=[math.nan] * len(p.targets), paths=group.paths))
         return robots
 
     def header(self) -> dict:
@@ -169,7 +175,7 @@ class Run:
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
-            "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": p.params,
+            "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
@@ -180,16 +186,16 @@ class Run:
         p = self.program
         out: dict[int, list[tuple[int, float, str]]] = {}
         if replay is not None:
-            for tick, settings in replay.items():
-                for name, value in settings:
+            for tick, moves in replay.items():
+                for name, value in moves:
                     if name not in p.slot_of or name not in p.slider_ranges:
                         raise LabsimError([Diagnostic(p.path, f"the replayed trace moves slider '{name}', "
                                                       "which this behaviour does not have")])
                     out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
             return out
-        for event in p.checked.file.timeline:
-            tick = max(0, math.ceil(event.time_s / self.dt - 1e-9))
-            for name, value, _ in event.settings:
+        for time_s, settings in p.timeline:
+            tick = max(0, math.ceil(time_s / self.dt - 1e-9))
+            for name, value in settings:
                 out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
         return out
 
@@ -210,10 +216,10 @@ class Run:
         (``cx: centroid(lane).x`` is a column).
         """
         p = self.program
-        kinds = p.checked.channel_kinds
-        channels = [i for i, c in enumerate(p.channels)
-                    if c not in ("x", "y", "heading", "collided") and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
-        lets = [p.slot_of[n] for n in p.let_names if p.checked.let_types.get(n) in (Type.NUMBER, Type.BOOL)]
+        kinds = p.channel_kinds
+        channels = [i for i, c in enumerate(p.channels) if c not in ("x", "y", "heading", "collided")
+                    and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
+        lets = [p.slot_of[n] for n in p.let_names if p.signal_types.get(n) in (Type.NUMBER, Type.BOOL)]
         return channels, lets
 
     def columns(self) -> list[str]:
@@ -229,7 +235,7 @@ class Run:
     def _make_tick(self) -> Callable[[], bool]:
         """Build ``tick()``: one tick of the run, False once the stop condition has held.
 
-        A closure over locals, because it is the hot path: an attribute lookup per robot per
+        Long, as one closure over locals, because it is the hot path: an attribute lookup per robot per
         tick costs as much as a rule. A fleet senses and evaluates every robot's signals
         before any robot acts, so that the stop condition can end the run before anyone
         acts; a single robot does both in one generated function.
@@ -245,6 +251,7 @@ class Run:
         has_sliders = bool(self.program.slider_names) or bool(timeline)
         targets = self.program.targets
         command = self._command
+        watched, last_rule = self.watched, self.last_rule
 
         def inputs(t: int) -> None:
             """The timeline's slider settings for this tick, before anything reads them."""
@@ -259,11 +266,14 @@ class Run:
                 fired[rule] += 1
             else:
                 self.idle += 1
+            if watched:
+                last_rule[r.index] = rule
             if r.model is not None and (cmd[0] != r.sent_left or cmd[1] != r.sent_right):
                 send(r, cmd[0], cmd[1], rule)
             if r.clamping:
                 r.clamped_ticks += 1
             if targets:
+                assert command is not None  # a behaviour that moves joints runs on a backend with joints
                 joints, sent = r.program.joint_command, r.sent_joints
                 for k, value in enumerate(joints):
                     if value != sent[k] and value == value:
@@ -290,7 +300,8 @@ class Run:
                 if rule == -2:
                     self.finished = True
                     return False
-                if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None:
+                if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
+                        and not watched:
                     fired[rule] += 1  # the common case, inline
                     if cmd1[0] != r1.sent_left or cmd1[1] != r1.sent_right:
                         send(r1, cmd1[0], cmd1[1], rule)
@@ -327,6 +338,12 @@ class Run:
             return True
 
         return tick
+
+    def watch(self) -> None:
+        """Keep the rule each robot fired on the last tick in ``last_rule`` (-1: none), for a
+        live view. An unwatched run does not pay for it."""
+        self.watched = True
+        self.tick = self._make_tick()
 
     def _send(self, r: RobotRun, left: float, right: float, rule: int) -> None:
         r.sent_left, r.sent_right = left, right  # what the behaviour asked, to notice a change
@@ -481,27 +498,3 @@ def _free_pose(world, rng: random.Random, taken: list[Pose]) -> Pose:  # type: i
             return pose
     raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
 
-
-def stop_horizon(program: Program) -> float | None:
-    """Sim time at which the stop condition surely holds, when it says so plainly.
-
-    ``time >= minutes * 60`` or ``... or tick >= 30000`` give a horizon for the progress bar;
-    any other condition gives None (the bar then shows elapsed sim time only).
-    """
-    stop = program.checked.file.stop
-    if stop is None:
-        return None
-    best = None
-    nodes = [stop.node]
-    while nodes:
-        e = nodes.pop()
-        if isinstance(e, ast.BoolOp) and e.op == "or":
-            nodes.extend(e.values)
-        elif isinstance(e, ast.Compare) and len(e.ops) == 1 and e.ops[0] in (">=", ">"):
-            left, right = e.operands
-            if isinstance(left, ast.Name) and left.id in ("time", "tick"):
-                value = constant_value(program, right)
-                if isinstance(value, (int, float)) and not isinstance(value, bool):
-                    seconds = float(value) * (program.dt_s if left.id == "tick" else 1.0)
-                    best = seconds if best is None else min(best, seconds)
-    return best

@@ -44,12 +44,11 @@ def stop_reason(run: Run, summary: Summary) -> str:
     return "stop condition" if run.finished else "max ticks"
 
 
-def summary_dict(summary: Summary, run: Run, *, overridden: tuple[str, ...] = (),
-                 warnings: list[str] | None = None) -> dict[str, Any]:
+def summary_dict(summary: Summary, run: Run, *, warnings: list[str] | None = None) -> dict[str, Any]:
     """Every figure the text summary prints, as plain JSON-ready data.
 
-    ``overridden`` names the parameters set on the command line; ``warnings`` are the runtime
-    warnings the run emitted as it went (the compiler's warnings are added from the program).
+    ``warnings`` are the runtime warnings the run emitted as it went (the compiler's warnings
+    are added from the program).
     """
     p = run.program
     limits = {r.name: r.limit for r in run.robots}
@@ -75,7 +74,7 @@ def summary_dict(summary: Summary, run: Run, *, overridden: tuple[str, ...] = ()
         "dt_s": p.dt_s,
         "seed": p.seed,
         "params": {k: number(v) for k, v in p.params.items()},
-        "overridden": sorted(overridden),
+        "overridden": sorted(p.overridden),
         "ticks": summary.ticks,
         "sim_time_s": summary.sim_time_s,
         "wall_time_s": summary.wall_time_s,

@@ -16,7 +16,7 @@ import itertools
 import math
 import time as clock
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -165,7 +165,7 @@ def inspect_files(files: list[str], settings: list[Setting]) -> dict[str, FileIn
     return out
 
 
-def _check_values(f: str, settings: list[Setting], params: dict[str, float | bool]) -> list[Diagnostic]:
+def _check_values(f: str, settings: list[Setting], params: Mapping[str, float | bool]) -> list[Diagnostic]:
     """Each value of each setting must suit the parameter's type (number or true/false)."""
     problems = []
     for s in settings:
@@ -217,9 +217,7 @@ def trace_name(index: int, file: str, combo: tuple[tuple[str, str], ...], seed: 
 
 def compile_seeded(path: str, overrides: dict[str, str], seed: int) -> Behaviour:
     """Compile a file with its seed replaced, as ``labsim run --seed`` does."""
-    behaviour = compile_behaviour(path, overrides)
-    behaviour.program.seed = seed
-    return behaviour
+    return compile_behaviour(path, overrides, seed=seed)
 
 
 class RunTimeout(Exception):
@@ -267,8 +265,7 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
     finally:
         run.close()
     status = INTERRUPTED if summary.interrupted else OK
-    return done(status, "", summary_dict(summary, run, overridden=tuple(k for k, _ in task.settings),
-                                          warnings=warnings))
+    return done(status, "", summary_dict(summary, run, warnings=warnings))
 
 
 def _exception_line(e: BaseException) -> str:

@@ -9,9 +9,9 @@ import sys
 import pytest
 
 from labsim.backends import load_backend
-from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.protocol import BackendError, BackendStateError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
+from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
 from labsim.backends.scene.world import Block, Pose, Wall, World
 
 M = PIONEER_P3DX
@@ -397,8 +397,8 @@ def test_public_space_and_bodies() -> None:
 # --- forward speed and road channels ----------------------------------------------------------
 
 def road_compact() -> World:
-    from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.diagnostics import Report
+    from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.world_file import load_world
     world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
@@ -485,6 +485,6 @@ def test_road_channels_need_a_road() -> None:
 
 def test_sonar_only_sense_computes_nothing_else() -> None:
     b = opened(road_compact(), Pose(0.0, -4.0, 0.0), channels=("sonar5", "sonar8", "collided"))
-    names = set(b._sense.__code__.co_names)
+    names = set(b._sim.sense.__code__.co_names)
     assert not names & {"render", "offset", "laps", "velocity"}
-    assert b._lap_robots == []
+    assert b._sim._lap_robots == []  # and step() counts no laps

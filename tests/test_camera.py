@@ -9,13 +9,13 @@ import timeit
 import numpy as np
 import pytest
 
-from labsim.backends.scene.ground import Ground, Line, Patch, Road
-from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
 from labsim.backends.pymunk.camera import GroundView, check_camera, draw_ground, ground_view
-from labsim.backends.scene.world import Pose, World, builtin_worlds
 from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.ground import Ground, Line, Patch, Road
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
+from labsim.backends.scene.world import Pose, World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
 
 FLOOR = (205, 205, 200)
@@ -140,7 +140,8 @@ def test_known_layout_centroid() -> None:
 
 def test_painted_colours_lines_and_the_floor_beyond_the_texture() -> None:
     red = (200, 30, 30)
-    g = Ground(FLOOR, lines=(Line((1.0, -3.0), (1.0, 3.0), 0.1, (255, 255, 255)),), patches=(square(0.7, 0.0, 0.1, red),))
+    g = Ground(FLOOR, lines=(Line((1.0, -3.0), (1.0, 3.0), 0.1, (255, 255, 255)),),
+               patches=(square(0.7, 0.0, 0.1, red),))
     img = GroundView(g).render(0.0, 0.0, 0.0, CAM)
     _, r = project(0.0, 0.0, 0.0, CAM, 1.0, 0.0)
     assert tuple(img[round(r), 64]) == (255, 255, 255)  # the line across the view
@@ -246,7 +247,8 @@ def test_backend_returns_the_camera_image_for_the_robots_pose() -> None:
 
 def test_backend_camera_in_a_world_without_ground_sees_the_floor() -> None:
     b = PymunkBackend()
-    b.open(World("bare", "", (-5.0, -5.0, 5.0, 5.0)), [RobotRequest("p", MODEL, Pose(0.0, 0.0, 0.0), ("camera",))], 0.05, 1)
+    b.open(World("bare", "", (-5.0, -5.0, 5.0, 5.0)), [RobotRequest("p", MODEL, Pose(0.0, 0.0, 0.0), ("camera",))],
+           0.05, 1)
     img = b.sense()[0][0]
     assert img.shape == (128, 128, 3) and len(set(map(tuple, img.reshape(-1, 3)))) == 1
 
@@ -255,10 +257,10 @@ def test_backend_renders_only_when_a_camera_is_read() -> None:
     world = road_world()
     b = PymunkBackend()
     b.open(world, [RobotRequest("p", MODEL, world.spawns[0], ("sonar5", "x"))], 0.05, 1)
-    assert "render" not in b._sense.__code__.co_names  # the generated sense() never draws
+    assert "render" not in b._sim.sense.__code__.co_names  # the generated sense() never draws
     b.close()
     b.open(world, [RobotRequest("p", MODEL, world.spawns[0], ("camera",))], 0.05, 1)
-    assert "render" in b._sense.__code__.co_names
+    assert "render" in b._sim.sense.__code__.co_names
 
 
 def test_backend_refuses_a_camera_it_cannot_render() -> None:

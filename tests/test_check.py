@@ -4,10 +4,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 from conftest import FIXTURES, expectations
-from labsim.dsl.compile import compile_file
+
 from labsim.backends.scene.diagnostics import LabsimError
+from labsim.dsl.compile import compile_file
 
 ERROR_FIXTURES = sorted(FIXTURES.glob("*_with_error.yaml"))
 

@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from conftest import BEHAVIOURS, FIXTURES, expectations
+
 from labsim.runtime.cli import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
@@ -43,8 +43,10 @@ def test_run_writes_a_trace_and_plot_draws_it(capsys, tmp_path: Path) -> None:
     (["run", str(LAB), "--set", "fron=1.0"], "--set fron=1.0: error: unknown parameter 'fron' (did you mean 'front'?)"),
     (["run", str(LAB), "--set", "front=far"], "--set front=far: error: parameter 'front' is a number, not 'far'"),
     (["run", str(LAB), "--set", "front"], "--set front: error: --set takes NAME=VALUE, e.g. --set front=1.0"),
-    (["run", str(LAB), "--trace", "/no/such/dir/t.csv"], "--trace /no/such/dir/t.csv: error: folder '/no/such/dir' does not exist"),
-    (["run", str(FIXTURES / "structure_with_error.yaml")], "structure_with_error.yaml:6:8: error: unknown world 'walls_lab5'"),
+    (["run", str(LAB), "--trace", "/no/such/dir/t.csv"],
+     "--trace /no/such/dir/t.csv: error: folder '/no/such/dir' does not exist"),
+    (["run", str(FIXTURES / "structure_with_error.yaml")],
+     "structure_with_error.yaml:6:8: error: unknown world 'walls_lab5'"),
     (["plot", "nope.csv", "-o", "x.png"], "nope.csv: error: no such trace file"),
     (["plot", str(LAB), "-o", "x.png"], "error: not a labsim trace"),
     (["run"], "labsim: error: the following arguments are required: file"),
@@ -53,7 +55,7 @@ def test_bad_input_exits_2_with_a_clear_message(capsys, args: list[str], message
     try:
         code, out, err = cli(capsys, *args)
     except SystemExit as e:  # argparse's own usage errors
-        code, (out, err) = e.code, capsys.readouterr()
+        code, (_, err) = e.code, capsys.readouterr()
     assert code == 2
     assert message in err
 

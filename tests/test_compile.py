@@ -1,13 +1,26 @@
-"""The compiler: generated code computes what the language says, and faults are defined."""
+"""The compiler: generated code computes what the language says, faults are defined, and the
+program it hands the runtime is sealed and readable."""
 from __future__ import annotations
 
+import dataclasses
+import linecache
 import math
 import random
 import re
+import traceback
+from collections.abc import Mapping
 
 import pytest
+import yaml
+from conftest import BEHAVIOURS, FIXTURES
 
-from labsim.dsl.compile import FIRST_CHANNEL, Faults, compile_file
+import labsim.dsl.program
+from labsim.backends.scene.source import Document, Text
+from labsim.dsl.check import Checked
+from labsim.dsl.compile import compile_file
+from labsim.dsl.read import BehaviourFile, Parsed
+from labsim.dsl.support import FIRST_CHANNEL, Faults
+from labsim.runtime.cli import main
 
 
 def program(write, lets: str, params: str = "{}", stop: str = "time >= 1"):
@@ -96,14 +109,14 @@ def test_min_and_max_with_infinities_and_folded(write, expr: str, value: float) 
 
 def test_constants_are_folded(write) -> None:
     p = program(write, "  scaled: sonar1 * (a * 60)\n", params="{a: 25}", stop="time >= a * 60")
-    source, _ = p.source()
+    source = p.code.source
     assert "return (v0 >= 1500.0)" in source
     assert "(v3 * 1500.0)" in source
 
 
 def test_no_user_text_reaches_the_generated_code(write) -> None:
     p = program(write, "  __import__: sonar1\n  open_file: __import__ + 1\n", params="{system: 2}")
-    source, _ = p.source()
+    source = p.code.source
     for word in ("__import__", "open_file", "system", "sonar1"):
         assert word not in source
     # everything in it comes from a fixed vocabulary: slots, literals, operators, bound helpers
@@ -123,3 +136,83 @@ def test_each_robot_has_its_own_random_stream_and_slots(write) -> None:
         robot.signals(0.0, 0, [])
         draws.append(robot.slots[FIRST_CHANNEL])
     assert draws[0] == draws[2] != draws[1]
+
+
+def test_the_program_cannot_be_changed(write) -> None:
+    p = program(write, "  probe: sonar1\n", params="{a: 3}")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.seed = 2  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.code = p.code  # type: ignore[misc]
+    for mapping in (p.params, p.slot_of, p.models, p.channel_kinds, p.signal_types, p.slider_ranges):
+        with pytest.raises(TypeError):
+            mapping["a"] = 1  # type: ignore[index]
+    assert all(isinstance(getattr(p, f.name), (tuple, str, int, float, bool, Mapping, type(None)))
+               or f.name in ("world", "code") for f in dataclasses.fields(p))
+
+
+def test_nothing_of_the_file_or_the_front_end_is_reachable_from_the_program() -> None:
+    p = compile_file(BEHAVIOURS / "wall_follow.yaml")
+    front_end = (yaml.Node, Document, Text, Parsed, BehaviourFile, Checked)
+    seen: set[int] = set()
+    todo: list[object] = [p]
+    while todo:
+        value = todo.pop()
+        if id(value) in seen or isinstance(value, (str, int, float, bool, type(None))):
+            continue
+        seen.add(id(value))
+        assert not isinstance(value, front_end), f"{type(value).__name__} reachable from the program"
+        if dataclasses.is_dataclass(value):
+            todo += [getattr(value, f.name) for f in dataclasses.fields(value)]
+        elif isinstance(value, Mapping):
+            todo += [*value.keys(), *value.values()]
+        elif isinstance(value, (tuple, list, set, frozenset)):
+            todo += list(value)
+
+
+def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys) -> None:
+    path = BEHAVIOURS / "wall_follow.yaml"
+    assert main(["check", "--show-code", str(path)]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    p = compile_file(path)
+    for rule in p.rules:
+        comment = f"# {path}:{rule.line}: rule {rule.id}: {rule.text}"
+        (i,) = [i for i, line in enumerate(lines) if line.strip() == comment][:1]
+        assert re.match(r" *(if|elif|else)\b", lines[i + 1]), lines[i + 1]  # the rule's own test follows
+    assert f"# {path}:36: rule wander:1: if ahead <= front or right <= front then goto follow" in out
+    assert f"# {path}:27: ahead: min(sonar5, sonar2)" in out
+    assert f"# {path}:47: near_misses: count(min(ahead, right, left) < 0.25)" in out
+    assert f"# {path}:13: stop: time >= minutes * 60" in out
+    compile(out, "listing", "exec")  # it is Python
+    # the listing is the compiled source with its markers explained, line for line
+    assert out == p.code.listing + "\n" and len(lines) == len(p.code.source.splitlines()) + 1
+
+
+def test_show_code_on_a_file_with_errors_reports_them(capsys) -> None:
+    assert main(["check", "--show-code", str(FIXTURES / "unknown_sensor_with_error.yaml")]) == 2
+    out, err = capsys.readouterr()
+    assert "def make(" not in out and "unknown name 'sonr5'" in err
+
+
+def test_a_traceback_through_generated_code_shows_the_generated_line(write, monkeypatch) -> None:
+    def broken_guard(*args: object) -> object:
+        def fail(*values: object) -> object:
+            raise RuntimeError("a guard that breaks")
+        return fail
+
+    p = program(write, "  probe: sqrt(sonar1) + 1\n")
+    monkeypatch.setattr(labsim.dsl.program, "guard", broken_guard)
+    robot = p.robot("p", random.Random(0), Faults())
+    with pytest.raises(RuntimeError):
+        try:
+            robot.signals(0.0, 0, [0.5])
+        except RuntimeError:
+            text = traceback.format_exc()
+            raise
+    assert p.code.filename == f"<labsim {p.path}>"
+    (line,) = re.findall(rf'File "{re.escape(p.code.filename)}", line (\d+), in signals', text)
+    generated = linecache.getline(p.code.filename, int(line))
+    assert generated.strip() == "s[4] = v4 = (_g0(v3) + 1.0)"
+    assert "    s[4] = v4 = (_g0(v3) + 1.0)" in text  # shown under its frame
+    assert linecache.getline(p.code.filename, int(line) - 1).strip() == f"# {p.path}:8: probe: sqrt(sonar1) + 1"

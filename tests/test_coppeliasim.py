@@ -21,15 +21,16 @@ zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS  # noqa: E402
+from test_serve import PATH_ERROR, PATIENCE_S, _serve  # noqa: E402
+
 from labsim.backends import load_backend  # noqa: E402
 from labsim.backends.coppeliasim.server import STOPPED, Server  # noqa: E402
-from labsim.backends.scene.models import PIONEER_P3DX  # noqa: E402
 from labsim.backends.protocol import BackendError, RobotRequest  # noqa: E402
-from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.diagnostics import Report  # noqa: E402
+from labsim.backends.scene.models import PIONEER_P3DX  # noqa: E402
+from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
 from labsim.runtime.cli import main  # noqa: E402
-from test_serve import PATH_ERROR, _serve  # noqa: E402
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 WALLS = load_world(builtin_worlds()["walls_lab4"], Report())
@@ -43,7 +44,7 @@ def served():
     yield port
     proc.terminate()
     try:
-        proc.wait(10)
+        proc.wait(PATIENCE_S)
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
@@ -79,7 +80,7 @@ def test_wall_lab_gives_the_embedded_backends_trace(served: int, tmp_path: Path,
     # deterministic across processes too
     subprocess.run([sys.executable, "-m", "labsim", "run", str(LAB), "--set", "minutes=1", "-q",
                     "--trace", str(sub), "--backend", "coppeliasim", "--port", str(served)],
-                   check=True, timeout=120)
+                   check=True, timeout=4 * PATIENCE_S)
     assert sub.read_bytes() == remote.read_bytes()
 
 
@@ -95,13 +96,12 @@ def test_labsim_test_compares_a_coppeliasim_run_with_the_golden(served: int, tmp
 
 def test_no_server_is_a_clear_error_not_a_hang() -> None:
     port = _free_port()
-    start = time.monotonic()
     out = subprocess.run([sys.executable, "-m", "labsim", "run", str(LAB), "-q", "--backend", "coppeliasim",
-                          "--port", str(port), "--timeout", "0.5"], capture_output=True, text=True, timeout=30)
+                          "--port", str(port), "--timeout", "0.5"], capture_output=True, text=True,
+                         timeout=PATIENCE_S)  # a hang fails here
     assert out.returncode == 2, out.stderr
     assert f"no answer from CoppeliaSim at 127.0.0.1:{port} within 0.5 s" in out.stderr
     assert "Traceback" not in out.stderr
-    assert time.monotonic() - start < 15
 
 
 def test_a_server_killed_mid_run_keeps_the_trace_and_exits_2(tmp_path: Path) -> None:
@@ -109,22 +109,23 @@ def test_a_server_killed_mid_run_keeps_the_trace_and_exits_2(tmp_path: Path) -> 
     trace = tmp_path / "t.csv"
     run = subprocess.Popen([sys.executable, "-m", "labsim", "run", str(LAB), "--set", "minutes=5", "-q",
                             "--trace", str(trace), "--backend", "coppeliasim", "--port", str(port),
-                            "--timeout", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            "--timeout", "3"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + PATIENCE_S
         while not (trace.exists() and trace.stat().st_size > 20_000):
-            assert run.poll() is None and time.monotonic() < deadline, "the run ended too soon"
+            assert run.poll() is None, "the run ended before the server was killed"
+            assert time.monotonic() < deadline, "the run wrote no trace"
             time.sleep(0.02)
         proc.kill()
-        proc.wait(10)
-        _, err = run.communicate(timeout=30)
+        proc.wait(PATIENCE_S)
+        _, err = run.communicate(timeout=PATIENCE_S)
     finally:
         for p in (proc, run):
             if p.poll() is None:
                 p.kill()
                 p.wait()
     assert run.returncode == 2, err
-    assert f"CoppeliaSim at 127.0.0.1:{port} stopped answering" in err and "within 1 s" in err
+    assert f"CoppeliaSim at 127.0.0.1:{port} stopped answering" in err and "within 3 s" in err
     assert "Traceback" not in err
     lines = trace.read_text().split("\n")
     assert lines[0].startswith("# labsim-trace ") and lines[-1] == ""  # ends with a whole row
@@ -142,7 +143,7 @@ def _serve_and_run(tmp_path: Path, behaviour: Path, *serve_args: str) -> tuple[l
                      "--port", str(port)]) == 0
     finally:
         proc.terminate()
-        proc.wait(10)
+        proc.wait(PATIENCE_S)
     return _rows(ref), _rows(remote)
 
 
@@ -188,7 +189,7 @@ def test_unknown_function_and_wrong_path_with_the_real_client(server: Server) ->
 
     saved = dict(sys.modules["__main__"].__dict__)
     client = RemoteAPIClient("127.0.0.1", server.port)
-    client.socket.setsockopt(zmq.RCVTIMEO, 5000)
+    client.socket.setsockopt(zmq.RCVTIMEO, int(PATIENCE_S * 1000))
     client.socket.setsockopt(zmq.LINGER, 0)
     try:
         sim = client.require("sim")
@@ -231,7 +232,7 @@ def test_an_old_coppeliasim_gets_a_friendly_explanation() -> None:
     port = rep.bind_to_random_port("tcp://127.0.0.1")
 
     def old_server() -> None:
-        if rep.poll(10_000):
+        if rep.poll(int(PATIENCE_S * 1000)):
             req = cbor2.loads(rep.recv())
             rep.send(cbor2.dumps({"err": f"No such function: {req['func']}"}))
 
@@ -241,7 +242,7 @@ def test_an_old_coppeliasim_gets_a_friendly_explanation() -> None:
         with pytest.raises(BackendError) as e:
             load_backend("coppeliasim", port=port, timeout_s=5.0).open(WALLS, ONE, 0.05, 1)
     finally:
-        thread.join(15)
+        thread.join(PATIENCE_S)
         rep.close()
         ctx.term()
     assert "No such function: zmqRemoteApi.require" in str(e.value)
@@ -254,11 +255,11 @@ def test_close_after_an_interrupted_call_still_stops_the_simulation(server: Serv
     backend = load_backend("coppeliasim", port=server.port)
     backend.open(WALLS, ONE, 0.05, 1)
     # As if Ctrl-C struck between a request and its answer: the socket awaits a reply.
-    backend._client.socket.send(cbor2.dumps({"func": "sim.getSimulationTime", "args": [],
-                                             "uuid": backend._client.uuid}))
-    backend._busy = True
+    client = backend._conn.client
+    client.socket.send(cbor2.dumps({"func": "sim.getSimulationTime", "args": [], "uuid": client.uuid}))
+    backend._conn.busy = True
     backend.close()
-    assert server._state == STOPPED
+    assert server.simulation.state == STOPPED
     backend.close()
 
 
@@ -283,7 +284,7 @@ def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
 def test_the_embedded_path_never_imports_the_client() -> None:
     code = ("import sys, labsim.runtime.cli, labsim.backends.pymunk.backend, labsim.backends.coppeliasim; "
             "assert not {'zmq', 'cbor2', 'coppeliasim_zmqremoteapi_client'} & set(sys.modules)")
-    subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=PATIENCE_S)
 
 
 def test_scene_paths_from_the_behaviour_file(served: int, tmp_path: Path, capsys) -> None:

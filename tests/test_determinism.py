@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from conftest import BEHAVIOURS
+
 from labsim.runtime.cli import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"

@@ -7,12 +7,19 @@ from pathlib import Path
 
 import pytest
 
+from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import (
-    ROAD_CHANNELS, Ground, Line, Patch, Road, RoadTracker, first_road, world_channels,
+    ROAD_CHANNELS,
+    Ground,
+    Line,
+    Patch,
+    Road,
+    RoadTracker,
+    first_road,
+    world_channels,
 )
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.world import World, builtin_worlds
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.world_file import load_world
 
 CHORD_M = 1e-3  # arcs are chords within 0.5 mm of their circle
@@ -173,7 +180,8 @@ def test_open_road_has_no_laps() -> None:
 def test_world_channels() -> None:
     bare = World("w", "", (-1.0, -1.0, 1.0, 1.0))
     assert world_channels(bare) == {}
-    painted = World("w", "", (-1.0, -1.0, 1.0, 1.0), ground=Ground(patches=(Patch(((0, 0), (1, 0), (1, 1)), (0, 0, 0)),)))
+    triangle = Patch(((0, 0), (1, 0), (1, 1)), (0, 0, 0))
+    painted = World("w", "", (-1.0, -1.0, 1.0, 1.0), ground=Ground(patches=(triangle,)))
     assert world_channels(painted) == {}  # a ground without roads offers nothing
     road = World("w", "", (-1.0, -1.0, 1.0, 1.0), ground=Ground(roads=(SQUARE,)))
     assert world_channels(road) == {"road_offset": Kind.NUMBER, "on_road": Kind.BOOL, "laps": Kind.NUMBER}

@@ -1,16 +1,14 @@
 """Images, centroids, PID and the fleet: the language features of the road-following lab."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-
 from fake_backend import FakeBackend
+
+from labsim.backends.scene.diagnostics import LabsimError
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.dsl import images
-from labsim.dsl.compile import pid_step
-from labsim.backends.scene.diagnostics import LabsimError
+from labsim.dsl.support import pid_step
 from labsim.runtime.report import format_summary
 from labsim.runtime.run import compile_behaviour
 
@@ -90,7 +88,8 @@ def test_pid_limit_clamps_and_stops_winding_up() -> None:
 
 
 def test_pid_state_is_per_robot(write) -> None:
-    text = (HEAD.replace("  p: {model: pioneer_p3dx, at: [0, 0, 0], ", "  p: {model: pioneer_p3dx, count: 2, at: spawn, ")
+    text = (HEAD.replace("  p: {model: pioneer_p3dx, at: [0, 0, 0], ",
+                         "  p: {model: pioneer_p3dx, count: 2, at: spawn, ")
             + "stop: tick >= 4\nlet:\n  out: pid(sonar1, 1, 1, 0)\nrules:\n  - always arc(out, 0)\n")
     behaviour = compile_behaviour(write(text))
     backend = FakeBackend(lambda tick, robot, ch: 1.0 if robot == 0 else 0.0)

@@ -12,9 +12,7 @@ LAB = BEHAVIOURS / "wall_follow.yaml"
 
 
 def run_lab(front: str, seed: int | None = None):
-    behaviour = compile_behaviour(LAB, {"front": front})
-    if seed is not None:
-        behaviour.program.seed = seed
+    behaviour = compile_behaviour(LAB, {"front": front}, seed=seed)
     run = behaviour.bind(load_backend("pymunk"), warn=lambda m: None)
     try:
         return run.run()

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from labsim.backends.scene.world import builtin_worlds
-from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_colour, robot_paths
+from labsim.runtime.paint import robot_colour
+from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_paths
 from labsim.runtime.trace import FORMAT, TraceFormatError, TraceWriter, read_trace
 
 COLUMNS = ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",

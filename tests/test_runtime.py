@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import math
 
-import pytest
-
 from fake_backend import FakeBackend
+
+from labsim.backends import load_backend
+from labsim.runtime.cli import main
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 
@@ -91,7 +92,8 @@ def test_fleet_robots_have_their_own_state(write) -> None:
     text = ("stop: tick >= 3\nrobots:\n  p: {model: pioneer_p3dx, count: 2, at: spawn}\n"
             "let:\n  r: randint(0, 1000000)\nrules:\n  wait:\n    - if sonar5 < 1 then goto go\n    - else stop()\n"
             "  go:\n    - always arc(r, 1)\n")
-    behaviour = compile_behaviour(write(HEAD.replace("robots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n", "") + text))
+    head = HEAD.replace("robots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n", "")
+    behaviour = compile_behaviour(write(head + text))
     # robot 0 sees a wall at tick 0, robot 1 never
     backend = FakeBackend(lambda tick, robot, ch: 0.5 if robot == 0 else 2.0)
     r = behaviour.bind(backend)
@@ -134,9 +136,39 @@ def test_interrupt_keeps_the_trace(write, tmp_path) -> None:
 
 
 def test_stop_horizon_for_the_progress_bar(write) -> None:
-    from labsim.runtime.run import stop_horizon
-    horizon = lambda stop: stop_horizon(compile_behaviour(write(  # noqa: E731
-        HEAD + f"params: {{minutes: 2}}\nstop: {stop}\nrules:\n  - always stop()\n")).program)
+    horizon = lambda stop: compile_behaviour(write(  # noqa: E731
+        HEAD + f"params: {{minutes: 2}}\nstop: {stop}\nrules:\n  - always stop()\n")).program.stop_horizon_s
     assert horizon("time >= minutes * 60") == 120.0
     assert horizon("collided or tick >= 40") == 20.0
     assert horizon("collided") is None
+
+
+def test_a_fault_names_the_agent_that_ran_into_it_not_a_slider(write) -> None:
+    path = write("labsim: 1\nworld: crane\nstop: tick >= 2\nsliders:\n"
+                 "  arm: {min: -10, max: 10, label: 'root: {sqrt(arm - 100):.2f}'}\n  crab: {min: -10, max: 10}\n"
+                 "bind:\n  Arm_Actuator.velocity: 0.02 * arm\n")
+    warnings: list[str] = []
+    r = compile_behaviour(path).bind(load_backend("pymunk"), warn=warnings.append)
+    summary = r.run()
+    r.close()
+    assert "sqrt(): math domain error in a label, robot crane, tick 0" in warnings[0]
+    assert summary.faults == ["a label: sqrt(): math domain error: 3 times (first at tick 0, robot crane)"]
+
+
+def test_a_seed_given_to_the_runtime_gives_the_trace_of_that_seed_in_the_file(write, tmp_path) -> None:
+    body = ("stop: tick >= 20\nrobots:\n  p: {model: pioneer_p3dx, at: random}\nlet:\n  r: randint(0, 100)\n"
+            "rules:\n  - always arc(r - 1, r + 1)\n")
+    files = {seed: write(f"labsim: 1\nworld: walls_lab4\nseed: {seed}\n{body}", f"seed{seed}.yaml") for seed in (1, 7)}
+
+    def trace(file_seed: int, seed: int | None = None) -> tuple[object, list[list[str]]]:
+        path = tmp_path / f"{file_seed}-{seed}.csv"
+        r = compile_behaviour(files[file_seed], seed=seed).bind(load_backend("pymunk"), trace=path)
+        r.run()
+        r.close()
+        t = read_trace(path)
+        return t.header["seed"], t.rows
+
+    assert trace(1, seed=7) == trace(7)
+    assert trace(1) != trace(7)  # the seed decides the start pose and the random numbers
+    assert main(["run", str(files[1]), "--seed", "7", "--trace", str(tmp_path / "cli.csv"), "-q"]) == 0
+    assert read_trace(tmp_path / "cli.csv").rows == trace(7)[1]

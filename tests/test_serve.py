@@ -3,6 +3,9 @@
 Most tests call ``Server.handle`` with CBOR bytes, as the socket would (fast, no ports); the
 rest talk to a server in a thread, or a ``labsim serve`` process, with the real client
 ``coppeliasim_zmqremoteapi_client`` 2.0.4.
+
+No test measures how long something takes: on a loaded machine anything can be slow.
+``PATIENCE_S`` only keeps a broken test from hanging forever.
 """
 from __future__ import annotations
 
@@ -24,13 +27,14 @@ zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from labsim.backends.coppeliasim.server import Server  # noqa: E402
-from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
 from labsim.backends.protocol import RobotRequest  # noqa: E402
-from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.diagnostics import Report  # noqa: E402
+from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
+from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
 
 LAB = load_world(builtin_worlds()["walls_lab4"], Report())
+PATIENCE_S = 60.0  # how long a test waits for a process or an answer before calling it hung
 PATH_ERROR = "object does not exist, or alias/path is ill formatted."
 
 
@@ -282,10 +286,10 @@ def test_a_student_script_runs_unmodified(tmp_path: Path) -> None:
     script.write_text(STUDENT_SCRIPT)
     with Server(LAB, 2, port=0) as server:
         out = subprocess.run([sys.executable, str(script), str(server.port)], capture_output=True,
-                             text=True, timeout=60)
+                             text=True, timeout=2 * PATIENCE_S)
         assert out.returncode == 0, out.stderr
         again = subprocess.run([sys.executable, str(script), str(server.port)], capture_output=True,
-                               text=True, timeout=60)  # clients one after another
+                               text=True, timeout=2 * PATIENCE_S)  # clients one after another
     lines = out.stdout.split("\n")
     assert lines[-2] == "done at 5.00 s"
     for line in lines[:2]:  # 2 rad/s for 5 s is 0.98 m; the sonars may turn them a little
@@ -300,20 +304,23 @@ def test_free_running_follows_the_clock_and_survives_a_vanished_client() -> None
         main = sys.modules["__main__"].__dict__
         had = dict(main)
         a = RemoteAPIClient("127.0.0.1", server.port)
-        for c in (a,):
-            c.socket.setsockopt(zmq.RCVTIMEO, 5000)
-            c.socket.setsockopt(zmq.LINGER, 0)
+        a.socket.setsockopt(zmq.RCVTIMEO, int(PATIENCE_S * 1000))
+        a.socket.setsockopt(zmq.LINGER, 0)
         sim = a.require("sim")
-        sim.startSimulation()  # no stepping: it runs on its own, at about real time
-        time.sleep(0.4)
+        began = time.perf_counter()
+        sim.startSimulation()  # no stepping: it runs on its own, following the clock
         t = sim.getSimulationTime()
-        assert 0.2 <= t <= 0.8, t
+        while t == 0.0 and time.perf_counter() - began < PATIENCE_S:
+            time.sleep(0.01)
+            t = sim.getSimulationTime()
+        # it advances, and never ahead of real time (a slow machine only holds it back)
+        assert 0.0 < t <= time.perf_counter() - began, t
         sim.stopSimulation()
         sim.setStepping(True)
         sim.startSimulation()
         sim.step()
         time.sleep(0.1)
-        assert sim.getSimulationTime() == pytest.approx(0.05)  # stepping: it waits for sim.step
+        assert sim.getSimulationTime() == pytest.approx(0.05)  # stepping: it waits for sim.step, however long
         # A client that asks and vanishes without reading the answer...
         ctx = zmq.Context()
         ghost = ctx.socket(zmq.REQ)
@@ -322,10 +329,11 @@ def test_free_running_follows_the_clock_and_survives_a_vanished_client() -> None
         ghost.send(cbor2.dumps({"func": "sim.getSimulationTime", "args": [], "uuid": "ghost"}))
         ghost.close()
         ctx.term()
-        # ... and client a, stepping, goes silent: the next client finds a fresh scene.
+        # ... and client a, stepping, goes silent (longer than takeover_s): the next client
+        # finds a fresh scene.
         time.sleep(0.3)
         b = RemoteAPIClient("127.0.0.1", server.port)
-        b.socket.setsockopt(zmq.RCVTIMEO, 5000)
+        b.socket.setsockopt(zmq.RCVTIMEO, int(PATIENCE_S * 1000))
         b.socket.setsockopt(zmq.LINGER, 0)
         sim_b = b.require("sim")
         assert sim_b.getSimulationState() == sim_b.simulation_stopped
@@ -340,10 +348,10 @@ def test_free_running_follows_the_clock_and_survives_a_vanished_client() -> None
 def _serve(*args: str) -> tuple[subprocess.Popen, int]:
     proc = subprocess.Popen([sys.executable, "-m", "labsim", "serve", "--port", "0", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    ready, _, _ = select.select([proc.stdout], [], [], 15)
+    ready, _, _ = select.select([proc.stdout], [], [], PATIENCE_S)
     if not ready:
         proc.kill()
-        raise AssertionError("labsim serve did not start within 15 s")
+        raise AssertionError(f"labsim serve did not start within {PATIENCE_S:g} s")
     line = proc.stdout.readline()  # type: ignore[union-attr]
     assert "listening on tcp://127.0.0.1:" in line, line + proc.stderr.read()  # type: ignore[union-attr]
     return proc, int(line.split("127.0.0.1:")[1].split(";")[0])
@@ -353,7 +361,7 @@ def test_labsim_serve_stops_cleanly_on_ctrl_c() -> None:
     proc, port = _serve("--robots", "2", "-q")
     try:
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=10)
+        out, _ = proc.communicate(timeout=PATIENCE_S)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -371,10 +379,10 @@ def test_labsim_serve_stops_cleanly_on_ctrl_c() -> None:
 def test_labsim_serve_refuses_a_busy_port_and_an_unknown_world() -> None:
     with Server(LAB, 1, port=0) as server:
         out = subprocess.run([sys.executable, "-m", "labsim", "serve", "--port", str(server.port)],
-                             capture_output=True, text=True, timeout=30)
+                             capture_output=True, text=True, timeout=PATIENCE_S)
     assert out.returncode == 2 and "already uses it" in out.stderr
     out = subprocess.run([sys.executable, "-m", "labsim", "serve", "walls_lab5", "--port", "0"],
-                         capture_output=True, text=True, timeout=30)
+                         capture_output=True, text=True, timeout=PATIENCE_S)
     assert out.returncode == 2 and "did you mean 'walls_lab4'" in out.stderr
 
 

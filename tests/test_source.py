@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from labsim.dsl.compile import compile_file
 from labsim.backends.scene.diagnostics import LabsimError
 from labsim.backends.scene.source import MAX_BYTES, load, loads
+from labsim.dsl.compile import compile_file
 
 HEAD = "labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
 
@@ -68,7 +68,8 @@ def test_file_over_the_size_cap(tmp_path: Path) -> None:
 
 
 def test_missing_file_and_folder(tmp_path: Path) -> None:
-    for path, message in ((tmp_path / "nope.yaml", "no such behaviour file"), (tmp_path, "is a folder, not a behaviour file")):
+    for path, message in ((tmp_path / "nope.yaml", "no such behaviour file"),
+                          (tmp_path, "is a folder, not a behaviour file")):
         with pytest.raises(LabsimError) as e:
             load(path)
         assert [(d.path, d.line, d.message) for d in e.value.diagnostics] == [(str(path), 0, message)]
@@ -117,3 +118,19 @@ def test_deep_nesting_is_an_error_not_a_crash(write) -> None:
 def test_empty_and_non_mapping_files(write) -> None:
     assert compile_problems(write(""))[0][2].startswith("the file is empty")
     assert compile_problems(write("- a\n- b\n"))[0][2].startswith("a behaviour file is a YAML mapping")
+
+
+def test_a_number_too_large_for_a_float_is_not_finite_and_no_crash(write) -> None:
+    huge = "1" + "0" * 400
+    path = write(f"labsim: 1\nworld: walls_lab4\nstop: time >= 1\nseed: {huge}\n"
+                 f"robots: {{p: {{model: pioneer_p3dx}}}}\nrules: ['always move(1)']\nparams: {{front: -{huge}}}\n")
+    found = compile_problems(path)
+    assert [(line, col) for line, col, _, _ in found] == [(4, 7), (7, 17)]
+    assert found[0][2].startswith("seed must be a finite number")
+    assert found[1][2].startswith("parameter 'front' must be a finite number")
+
+
+def test_a_let_that_is_no_mapping_is_reported_once(write) -> None:
+    path = write("labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots: {p: {model: pioneer_p3dx}}\n"
+                 "rules: ['always move(1)']\nlet: [a, b]\n")
+    assert [m for _, _, m, _ in compile_problems(path)] == ["let must be a mapping of names to values, not a list"]

@@ -9,12 +9,26 @@ Two halves that meet on the wire (docs/coppeliasim.md):
   so the backend can be tested without CoppeliaSim, and scripts written for CoppeliaSim run
   against labsim.
 
-This module holds only what both halves agree on: the scene object names of each robot model.
-It imports nothing, so loading the package costs nothing and needs neither pyzmq nor cbor2.
+This module holds only what both halves agree on: the scene object names of each robot model,
+and the few CoppeliaSim constants both use. It imports nothing, so loading the package costs
+nothing and needs neither pyzmq nor cbor2.
+
+The modules, client side: ``backend`` (the registered class: lifecycle and routing),
+``connection`` (the client's socket, calls, round trips and error explanations), ``fleet``
+(wheeled robots), ``mechanism`` (a world's mechanism, such as the tower crane). Server side:
+``server`` (the wire loop), ``sim_api`` (the ``sim.*`` functions), ``simulation`` (the pymunk
+backend behind the scene), ``scene_tree`` (objects and CoppeliaSim's path language). Both:
+``frames`` (3D frames and odometry, pure maths).
 """
 from __future__ import annotations
 
 DEFAULT_PORT = 23000  # CoppeliaSim's default (before 4.8 adds the process id to it)
+
+# CoppeliaSim's values (simConst.h): sim.handle_world, sim.handle_all, sim.handle_parent, and
+# sim.simulation_stopped, sim.simulation_paused, sim.simulation_advancing_running. A client
+# reads them from zmqRemoteApi.info; the backend falls back on these when a server omits one.
+HANDLE_WORLD, HANDLE_ALL, HANDLE_PARENT = -1, -2, -11
+STOPPED, PAUSED, RUNNING = 0x00, 0x08, 0x11
 
 # Object paths of a model in a CoppeliaSim scene (CoppeliaSim 4.3+ aliases). ``robot`` is
 # absolute and formatted with ``i``, the robot's number among the robots of that model;

@@ -22,6 +22,7 @@ channel a behaviour reads; a 128 x 128 frame costs about 35-40 us (measured on t
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 
 import cv2
@@ -42,10 +43,10 @@ def check_camera(camera: Camera) -> None:
     for what, v in (("width_px", camera.width_px), ("height_px", camera.height_px)):
         if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 4096:
             raise ValueError(f"{name}: {what} must be a whole number from 1 to 4096, not {v!r}")
-    for what, v in (("fov_deg", camera.fov_deg), ("height_m", camera.height_m),
-                    ("pitch_deg", camera.pitch_deg), ("x_m", camera.x_m)):
-        if not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ValueError(f"{name}: {what} must be a finite number, not {v!r}")
+    for what, number in (("fov_deg", camera.fov_deg), ("height_m", camera.height_m),
+                         ("pitch_deg", camera.pitch_deg), ("x_m", camera.x_m)):
+        if not isinstance(number, (int, float)) or not math.isfinite(number):
+            raise ValueError(f"{name}: {what} must be a finite number, not {number!r}")
     if not 0 < camera.fov_deg < 180:
         raise ValueError(f"{name}: fov_deg must be between 0 and 180, not {camera.fov_deg}")
     if camera.height_m <= 0:
@@ -134,7 +135,7 @@ def _paint_band(img: np.ndarray, pts: np.ndarray, half_px: float, rgb: tuple[int
         return
     top, bottom, left, right = box
     cover = np.zeros((bottom - top, right - left), np.float32)
-    for (au, av), (bu, bv) in zip(pts[:-1], pts[1:]):
+    for (au, av), (bu, bv) in itertools.pairwise(pts):
         # Long segments in short pieces, so each works on a small window even when diagonal.
         pieces = max(1, math.ceil(math.hypot(bu - au, bv - av) / 64.0))
         for k in range(pieces):

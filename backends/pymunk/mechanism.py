@@ -1,8 +1,11 @@
-"""A ``Mechanism`` simulated in pymunk: the physics of side-view labs such as the tower crane.
+"""A ``Mechanism`` simulated in pymunk: the pymunk backend's simulator for side-view worlds.
 
-The backend builds one ``MechanismScene`` from a world's ``labsim.backends.scene.mechanism.Mechanism``
-and, every tick, sets joint targets, calls ``step()`` and reads joint positions, velocities
-and force sensors. Nothing here knows the language or the runtime.
+``labsim.backends.pymunk.backend.PymunkBackend`` opens a ``MechanismSimulator`` for a world
+with a mechanism (such as the tower crane). It builds one ``MechanismScene`` from the world's
+``labsim.backends.scene.mechanism.Mechanism`` and, every tick, sets joint targets, calls
+``step()`` and reads the channels the mechanism offers (``Mechanism.channels()``): joint
+positions and velocities, force sensors and moving bodies. The joint kinds and their planner
+are in ``labsim.backends.pymunk.joints``. Nothing here knows the language or the runtime.
 
 pymunk is 2D, so the scene is the mechanism's vertical plane: x along it, z up (pymunk's y),
 gravity (0, -g). How each joint becomes pymunk constraints, and why:
@@ -53,19 +56,36 @@ Stability and cost: ``DEFAULT_SUBSTEPS`` sub-steps of dt / substeps each and
 tick at dt = 0.05 s, some 550 times faster than real time (tests/test_mechanism.py measures
 it); the sub-steps are nearly all of it, about 8 us each.
 
-Joint targets are followed by a planner that runs once a tick (``_control``): speed clamped to
-max_speed, changed by at most max_accel * dt a tick, slowing down in time to stop exactly on a
-position target, and on a limit when driven at it.
+Joint targets are followed by a planner that runs once a tick (``joints.control``): speed
+clamped to max_speed, changed by at most max_accel * dt a tick, slowing down in time to stop
+exactly on a position target, and on a limit when driven at it.
 """
 from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import pymunk
 
-from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
+from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
+from labsim.backends.pymunk.joints import (
+    LONG_M,
+    Group,
+    Joint,
+    MechanismError,
+    Slew,
+    Winch,
+    build_joint,
+    control,
+)
+from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
+from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, Mechanism, MotorSpec
+from labsim.backends.scene.models import Kind
+from labsim.backends.scene.world import World
+
+__all__ = ["DEFAULT_SUBSTEPS", "MechanismError", "MechanismScene", "MechanismSimulator"]
 
 # 5 ms sub-steps at dt = 0.05 s. The crane's pendulum (about 6.5 m, period 5 s) needs far less;
 # the chain rope - 10 kg hook - sling - 200 kg load is what needs small steps and many
@@ -76,80 +96,15 @@ from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec
 # nearly free (41 vs 37 us a tick at 4 sub-steps); sub-steps are the cost.
 DEFAULT_SUBSTEPS = 10
 SOLVER_ITERATIONS = 30
-# Allowed overlap between shapes, metres (pymunk's default 0.1 assumes pixels).
-COLLISION_SLOP_M = 0.0005
 FRICTION = 0.8
-# A groove long enough to be a line: a prismatic joint without limits, and the driver's groove
-# across the axis.
-_LONG_M = 1.0e4
 # The winch pays out when the rope's mean tension over a tick reaches this fraction of its
 # max_force.
 _SATURATED = 0.999
 
 
-class MechanismError(ValueError):
-    """A mechanism this backend cannot build, or a call naming a joint or body wrongly."""
-
-
 def _did_you_mean(word: str, candidates: list[str]) -> str:
     m = difflib.get_close_matches(word, candidates, n=1, cutoff=0.6)
     return f" (did you mean '{m[0]}'?)" if m else ""
-
-
-def _clamp(v: float, lo: float, hi: float) -> float:
-    return lo if v < lo else hi if v > hi else v
-
-
-def _stop_speed(distance: float, amax: float | None, dt: float) -> float:
-    """The fastest speed from which ticks that each slow by amax * dt stop within distance.
-
-    Such a stop covers v^2 / 2a + v dt / 2 (whatever sub-step lag the joint has, see
-    ``_control``); planning every tick's speed by it never asks for more deceleration than amax.
-    """
-    if amax is None:
-        return math.inf
-    half = amax * dt / 2
-    return -half + math.sqrt(half * half + 2 * amax * max(distance, 0.0))
-
-
-@dataclass
-class _Group:
-    """Bodies welded together: one pymunk body."""
-
-    members: list[BodySpec]
-    body: pymunk.Body
-    static: bool
-
-
-@dataclass
-class _Joint:
-    """A joint's constraints and its controller's state."""
-
-    spec: JointSpec
-    parent: _Group | None = None
-    child: _Group | None = None
-    lo: float = -math.inf
-    hi: float = math.inf
-    mode: str = "velocity"  # what the last target set: "velocity" | "position"
-    target: float = 0.0
-    command: float = 0.0  # velocity commanded on the last tick, after speed/accel limits
-    # prismatic rail
-    child_local: tuple[float, float] = (0.0, 0.0)  # child's centre in its group body
-    anchor_local: tuple[float, float] = (0.0, 0.0)  # anchor in the parent's group body
-    axis: tuple[float, float] = (1.0, 0.0)
-    driver: pymunk.Body | None = None
-    # revolute
-    motor: pymunk.SimpleMotor | None = None
-    # rope and slew: integrated state
-    value: float = 0.0  # rope length (m) or slew angle (rad)
-    rope: pymunk.SlideJoint | None = None
-    impulse_sum: float = 0.0  # the rope's impulses over the current tick, N s
-    pulley: pymunk.Body | None = None  # a motorised rope's top end
-    rope_dir: tuple[float, float] = (0.0, -1.0)  # unit vector pulley -> hook this sub-step
-    pull: tuple[float, float] = (0.0, 0.0)  # the rope's force on the parent, N, for the next sub-step
-    target_value: float = 0.0  # the rope length at the end of the current sub-step, m
-    tick_start: float = 0.0  # a winch's or slew's position at the start of the tick
-    tick_end: float = 0.0  # ... and where the command takes it by the end
 
 
 @dataclass
@@ -164,8 +119,8 @@ class _Sensor:
 class _Plan:
     """Per-tick lists the step loop walks, so it does no dispatch on joint kinds."""
 
-    controlled: list[_Joint] = field(default_factory=list)
-    winches: list[_Joint] = field(default_factory=list)
+    controlled: list[tuple[Joint, MotorSpec]] = field(default_factory=list)
+    winches: list[Winch] = field(default_factory=list)
 
 
 class MechanismScene:
@@ -190,37 +145,28 @@ class MechanismScene:
         space.damping = math.exp(-mechanism.damping_1_s)
         space.iterations = SOLVER_ITERATIONS
         space.collision_slop = COLLISION_SLOP_M
-
-        names = [b.name for b in mechanism.bodies]
-        if len(set(names)) != len(names):
-            raise MechanismError("body names must be unique")
-        self._body_names = names
-        specs = {b.name: b for b in mechanism.bodies}
-        for j in mechanism.joints:
-            for role in ("parent", "child"):
-                n = getattr(j, role)
-                if n not in specs:
-                    raise MechanismError(f"joint '{j.name}': no body '{n}' as {role}{_did_you_mean(n, names)}")
-        for s in mechanism.force_sensors:
-            for n in s.between:
-                if n not in specs:
-                    raise MechanismError(f"force sensor '{s.name}': no body '{n}'{_did_you_mean(n, names)}")
-        if sum(j.kind == "slew" for j in mechanism.joints) > 1:
-            raise MechanismError("at most one slew joint: the plane turns about one axis")
+        self._body_names = self._check_names(mechanism)
 
         self._member_local: dict[str, tuple[float, float]] = {}  # each body's centre in its group body
-        self._groups, self._group_of = self._build_groups(mechanism, specs)
+        self._group_of = self._build_groups(mechanism)
         if mechanism.floor_z_m is not None:
             z = mechanism.floor_z_m
-            floor = pymunk.Segment(space.static_body, (-_LONG_M, z), (_LONG_M, z), 0.0)
+            floor = pymunk.Segment(space.static_body, (-LONG_M, z), (LONG_M, z), 0.0)
             floor.friction = FRICTION
             space.add(floor)
 
-        self._joints: dict[str, _Joint] = {}
-        self._slew: _Joint | None = None
+        self._joints: dict[str, Joint] = {}
+        self._slew: Slew | None = None
         self._plan = _Plan()
         for spec in mechanism.joints:
-            self._joints[spec.name] = self._build_joint(spec)
+            j = build_joint(spec, mechanism, self._group_of, space)
+            self._joints[spec.name] = j
+            if isinstance(j, Slew):
+                self._slew = j
+            if spec.motor is not None and spec.kind != "fixed":
+                self._plan.controlled.append((j, spec.motor))
+                if isinstance(j, Winch):
+                    self._plan.winches.append(j)
         self._sensors: dict[str, _Sensor] = {}
         for s in mechanism.force_sensors:
             self._sensors[s.name] = self._build_sensor(s)
@@ -228,10 +174,29 @@ class MechanismScene:
 
     # -- building -------------------------------------------------------------------------
 
-    def _build_groups(self, m: Mechanism, specs: dict[str, BodySpec]) -> tuple[list[_Group], dict[str, _Group]]:
-        members = {bodies[0].name: bodies for bodies in m.weld_groups()}
-        groups, group_of = [], {}
-        for bodies in members.values():
+    @staticmethod
+    def _check_names(mechanism: Mechanism) -> list[str]:
+        """The body names, once every name a joint or sensor uses is known to be one."""
+        names = [b.name for b in mechanism.bodies]
+        if len(set(names)) != len(names):
+            raise MechanismError("body names must be unique")
+        known = set(names)
+        for j in mechanism.joints:
+            for role, n in (("parent", j.parent), ("child", j.child)):
+                if n not in known:
+                    raise MechanismError(f"joint '{j.name}': no body '{n}' as {role}{_did_you_mean(n, names)}")
+        for s in mechanism.force_sensors:
+            for n in s.between:
+                if n not in known:
+                    raise MechanismError(f"force sensor '{s.name}': no body '{n}'{_did_you_mean(n, names)}")
+        if sum(j.kind == "slew" for j in mechanism.joints) > 1:
+            raise MechanismError("at most one slew joint: the plane turns about one axis")
+        return names
+
+    def _build_groups(self, m: Mechanism) -> dict[str, Group]:
+        """One pymunk body per weld group (``Mechanism.weld_groups``), by body name."""
+        group_of: dict[str, Group] = {}
+        for bodies in m.weld_groups():
             static = any(b.static for b in bodies)
             if static:
                 body = pymunk.Body(body_type=pymunk.Body.STATIC)
@@ -255,121 +220,11 @@ class MechanismScene:
                 shape.friction = FRICTION
                 shapes.append(shape)
             self.space.add(body, *shapes)
-            g = _Group(bodies, body, static)
-            groups.append(g)
+            g = Group(bodies, body, static)
             for b in bodies:
                 group_of[b.name] = g
                 self._member_local[b.name] = (b.center[0] - px, b.center[1] - pz)
-        return groups, group_of
-
-    def _local(self, g: _Group, point: tuple[float, float]) -> tuple[float, float]:
-        """A world point at the start in a group body's frame (every group starts at angle 0)."""
-        px, pz = g.body.position
-        return (point[0] - px, point[1] - pz)
-
-    def _build_joint(self, spec: JointSpec) -> _Joint:
-        m = self.mechanism
-        j = _Joint(spec)
-        if spec.limits is not None:
-            j.lo, j.hi = spec.limits
-            if not j.lo < j.hi:
-                raise MechanismError(f"joint '{spec.name}': limits must have lo < hi")
-        motor = spec.motor
-        if motor is not None and not (motor.max_force > 0 and motor.max_speed > 0):
-            raise MechanismError(f"joint '{spec.name}': the motor's max_force and max_speed must be positive")
-        if spec.kind == "fixed":
-            return j
-        if spec.kind == "slew":
-            j.value = 0.0
-            self._slew = j
-            if motor is not None:
-                self._plan.controlled.append(j)
-            return j
-        if spec.kind not in ("revolute", "prismatic"):
-            raise MechanismError(f"joint '{spec.name}': unknown kind '{spec.kind}'")
-        parent, child = self._group_of[spec.parent], self._group_of[spec.child]
-        j.parent, j.child = parent, child
-        if parent is child:
-            raise MechanismError(f"joint '{spec.name}': '{spec.parent}' and '{spec.child}' are welded together")
-        if child.static:
-            raise MechanismError(f"joint '{spec.name}': the child '{spec.child}' is static and cannot move")
-        start = m.initial_position(spec)
-        if not j.lo - 1e-9 <= start <= j.hi + 1e-9:
-            raise MechanismError(
-                f"joint '{spec.name}' starts at {start:g}, outside its limits [{j.lo:g}, {j.hi:g}]")
-        a, b = parent.body, child.body
-        child_centre = m.body(spec.child).center
-        j.child_local = self._local(child, child_centre)
-        j.anchor_local = self._local(parent, spec.anchor)
-        space = self.space
-
-        if spec.kind == "revolute":
-            pivot = pymunk.PivotJoint(a, b, spec.anchor)
-            pivot.collide_bodies = False
-            space.add(pivot)
-            if spec.limits is not None:
-                limit = pymunk.RotaryLimitJoint(a, b, j.lo, j.hi)
-                limit.collide_bodies = False
-                space.add(limit)
-            if motor is not None:
-                j.motor = pymunk.SimpleMotor(a, b, 0.0)
-                j.motor.max_force = motor.max_force  # N m
-                j.motor.collide_bodies = False
-                space.add(j.motor)
-                self._plan.controlled.append(j)
-            return j
-
-        if spec.rope:
-            j.value = start
-            if motor is None:  # a rope of fixed length
-                rope = pymunk.SlideJoint(a, b, j.anchor_local, j.child_local, 0.0, start)
-            else:
-                j.pulley = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-                j.pulley.position = spec.anchor
-                space.add(j.pulley)
-                rope = pymunk.SlideJoint(j.pulley, b, (0.0, 0.0), j.child_local, 0.0, start)
-                rope.max_force = motor.max_force
-            j.rope = rope
-            space.add(rope)
-            if motor is not None:
-                self._plan.controlled.append(j)
-                self._plan.winches.append(j)
-            return j
-
-        ax, az = spec.axis
-        n = math.hypot(ax, az)
-        if not n > 0:
-            raise MechanismError(f"joint '{spec.name}': the axis must not be zero")
-        j.axis = (ax / n, az / n)
-        ux, uz = j.axis
-        lo = j.lo if spec.limits is not None else -_LONG_M
-        hi = j.hi if spec.limits is not None else _LONG_M
-        # The groove passes through the child's centre, which sits at s = start on it; the
-        # child may sit off the line through the anchor (it is then offset across the axis).
-        off_x = j.anchor_local[0] + (child_centre[0] - spec.anchor[0]) - start * ux
-        off_z = j.anchor_local[1] + (child_centre[1] - spec.anchor[1]) - start * uz
-        groove = pymunk.GrooveJoint(
-            a, b, (off_x + lo * ux, off_z + lo * uz), (off_x + hi * ux, off_z + hi * uz), j.child_local)
-        groove.collide_bodies = False
-        gear = pymunk.GearJoint(a, b, 0.0, 1.0)
-        gear.collide_bodies = False
-        space.add(groove, gear)
-        if motor is not None:
-            if not parent.static:
-                raise MechanismError(
-                    f"joint '{spec.name}': a motorised prismatic joint needs a static parent in the pymunk "
-                    f"backend ('{spec.parent}' moves)")
-            driver = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            driver.position = child_centre
-            servo = pymunk.GrooveJoint(driver, b, (-uz * _LONG_M, ux * _LONG_M), (uz * _LONG_M, -ux * _LONG_M),
-                                       j.child_local)
-            servo.max_force = motor.max_force  # N
-            servo.max_bias = 0.0  # velocity only: the driver's position never matters
-            servo.collide_bodies = False
-            space.add(driver, servo)
-            j.driver = driver
-            self._plan.controlled.append(j)
-        return j
+        return group_of
 
     def _build_sensor(self, s: ForceSensorSpec) -> _Sensor:
         if s.between[0] == s.between[1]:
@@ -382,7 +237,7 @@ class MechanismScene:
         else:
             pa, pb = s.anchors
         length = math.hypot(pb[0] - pa[0], pb[1] - pa[1])
-        cable = pymunk.SlideJoint(ga.body, gb.body, self._local(ga, pa), self._local(gb, pb), 0.0, length)
+        cable = pymunk.SlideJoint(ga.body, gb.body, ga.local(pa), gb.local(pb), 0.0, length)
         self.space.add(cable)
         return _Sensor(s.name, cable)
 
@@ -391,21 +246,21 @@ class MechanismScene:
     def step(self) -> None:
         """Advance dt_s: plan each controlled joint's velocity, then run the sub-steps."""
         dt = self.dt_s
-        for j in self._plan.controlled:
-            self._control(j, dt)
         h = self._h
+        for j, motor in self._plan.controlled:
+            control(j, motor, dt, h)
         step = self.space.step
         sensors = self._sensor_list
         winches = self._plan.winches
         n = self.substeps
         for k in range(1, n + 1):
             for w in winches:
-                self._wind(w, h, k / n)
+                w.wind(h, k / n)
             step(h)
             for s in sensors:
                 s.impulse_sum += s.cable.impulse
             for w in winches:
-                j_ns = w.rope.impulse  # type: ignore[union-attr]
+                j_ns = w.rope.impulse
                 w.impulse_sum += j_ns
                 # The rope pulls the parent toward the hook; pymunk gives the size only.
                 w.pull = (w.rope_dir[0] * j_ns / h, w.rope_dir[1] * j_ns / h)
@@ -417,143 +272,37 @@ class MechanismScene:
             # Slip on the tick's mean tension, not on one sub-step: a swinging load gives the
             # solver single-sub-step peaks at max_force, and paying out on those would drop
             # the load a little every tick.
-            if w.impulse_sum >= _SATURATED * w.rope.max_force * dt:  # type: ignore[union-attr]
-                self._pay_out(w)
+            if w.impulse_sum >= _SATURATED * w.rope.max_force * dt:
+                w.pay_out()
             w.impulse_sum = 0.0
         self.time_s += dt
 
-    def _control(self, j: _Joint, dt: float) -> None:
-        """This tick's velocity command from the target, within the motor's limits."""
-        motor: MotorSpec = j.spec.motor  # type: ignore[assignment]
-        vmax, amax = motor.max_speed, motor.max_accel
-        pos = self._position(j)
-        kinematic = j.spec.kind == "slew" or j.rope is not None
-        # pymunk moves bodies before it solves velocities, so a simulated joint's first
-        # sub-step still runs at the last tick's velocity; plan from where that leaves it,
-        # over the rest of the tick. Integrated joints move exactly v * dt.
-        lag = 0.0 if kinematic else self._h
-        reach = pos + j.command * lag
-        rest = dt - lag
-        if j.mode == "position":
-            goal = _clamp(j.target, j.lo, j.hi)
-            e = goal - reach
-            # arrive within the tick when nothing else limits
-            v = math.copysign(min(abs(e) / rest, _stop_speed(abs(e), amax, dt), vmax), e)
-        else:
-            goal = math.nan
-            v = _clamp(j.target, -vmax, vmax)
-        # A limit is a place to stop, as a crane's limit switches slow it down before its end
-        # stop: driven at it, the joint brakes at amax and stops on it.
-        if j.hi < math.inf:
-            v = min(v, (j.hi - reach) / rest, _stop_speed(j.hi - reach, amax, dt))
-        if j.lo > -math.inf:
-            v = max(v, (j.lo - reach) / rest, -_stop_speed(reach - j.lo, amax, dt))
-        if amax is not None:
-            step = amax * dt
-            # The last tick of a stop may slow by a little more than one step, to end exactly
-            # on the target or limit rather than just past it.
-            landing = abs(j.command) <= 2 * step and v * j.command >= 0 and abs(v) < abs(j.command)
-            if not landing:
-                v = _clamp(v, j.command - step, j.command + step)
-        j.command = v
-        kind = j.spec.kind
-        if kinematic:
-            # Where the tick ends, exactly on a limit or target when it gets there (sums of
-            # v * h would miss it by a rounding error).
-            end = _clamp(pos + v * dt, j.lo, j.hi)
-            for exact in (goal, j.lo, j.hi):
-                if abs(end - exact) < 1e-9:
-                    end = exact
-            j.tick_start, j.tick_end = pos, end
-            if kind == "slew":
-                j.value = end
-        elif kind == "revolute":
-            j.motor.rate = -v  # type: ignore[union-attr]  # pymunk's rate is a.w - b.w
-        elif j.driver is not None:
-            ux, uz = j.axis
-            j.driver.velocity = (v * ux, v * uz)
-
-    def _wind(self, w: _Joint, h: float, done: float) -> None:
-        """Before a sub-step (``done`` of the tick when it ends): the pulley to the anchor,
-        moving at the winch's speed."""
-        parent = w.parent.body  # type: ignore[union-attr]
-        ax, az = w.anchor_local
-        top = parent.local_to_world((ax, az))
-        hook = w.child.body.local_to_world(w.child_local)  # type: ignore[union-attr]
-        dx, dz = hook.x - top.x, hook.y - top.y
-        d = math.hypot(dx, dz)
-        nx, nz = (dx / d, dz / d) if d > 1e-9 else (0.0, -1.0)
-        new = w.tick_end if done == 1.0 else w.tick_start + (w.tick_end - w.tick_start) * done
-        u = (new - w.value) / h
-        w.target_value = new
-        fx, fz = w.pull
-        if not w.parent.static and (fx or fz):  # type: ignore[union-attr]
-            parent.apply_force_at_world_point((fx, fz), top)
-        w.rope_dir = (nx, nz)
-        v = parent.velocity_at_world_point(top)
-        pulley = w.pulley
-        pulley.position = top  # type: ignore[union-attr]
-        pulley.velocity = (v.x + u * nx, v.y + u * nz)  # type: ignore[union-attr]
-        w.rope.max = w.value  # type: ignore[union-attr]  # the length at the start of the sub-step
-
-    def _pay_out(self, w: _Joint) -> None:
-        """The load pulls harder than the winch can hold: the rope runs out to where it is."""
-        top = w.parent.body.local_to_world(w.anchor_local)  # type: ignore[union-attr]
-        hook = w.child.body.local_to_world(w.child_local)  # type: ignore[union-attr]
-        d = (hook - top).length
-        if d > w.value:
-            w.value = min(d, w.hi)
-
     # -- reading and commanding -----------------------------------------------------------
 
-    def _joint(self, name: str) -> _Joint:
+    def _joint(self, name: str) -> Joint:
         try:
             return self._joints[name]
         except KeyError:
             raise MechanismError(f"no joint '{name}'{_did_you_mean(name, list(self._joints))}") from None
-
-    def _position(self, j: _Joint) -> float:
-        kind = j.spec.kind
-        if kind == "slew" or j.rope is not None:
-            return j.value
-        if kind == "revolute":
-            return j.child.body.angle - j.parent.body.angle  # type: ignore[union-attr]
-        if kind == "prismatic":
-            p = j.parent.body.world_to_local(j.child.body.local_to_world(j.child_local))  # type: ignore[union-attr]
-            return (p.x - j.anchor_local[0]) * j.axis[0] + (p.y - j.anchor_local[1]) * j.axis[1]
-        raise MechanismError(f"joint '{j.spec.name}' is fixed: it has no position")
 
     def joint_names(self) -> list[str]:
         return list(self._joints)
 
     def joint_position(self, name: str) -> float:
         """m (prismatic: along the axis, or a rope's length) or rad (revolute, slew)."""
-        return self._position(self._joint(name))
+        return self._joint(name).position()
 
     def joint_velocity(self, name: str) -> float:
         """m/s or rad/s: the child's motion relative to the parent (a winch's and the slew's
         velocity is the one integrated on the last tick)."""
-        j = self._joint(name)
-        kind = j.spec.kind
-        if kind == "slew" or j.rope is not None:
-            return j.command
-        if kind == "revolute":
-            return j.child.body.angular_velocity - j.parent.body.angular_velocity  # type: ignore[union-attr]
-        if kind == "prismatic":
-            a, b = j.parent.body, j.child.body  # type: ignore[union-attr]
-            p = b.local_to_world(j.child_local)
-            rel = b.velocity_at_world_point(p) - a.velocity_at_world_point(p)
-            ux, uz = j.axis
-            c, s = math.cos(a.angle), math.sin(a.angle)
-            return rel.x * (ux * c - uz * s) + rel.y * (ux * s + uz * c)
-        raise MechanismError(f"joint '{name}' is fixed: it has no velocity")
+        return self._joint(name).velocity()
 
-    def _motorised(self, name: str, target: str) -> _Joint:
+    def _motorised(self, name: str, target: str) -> Joint:
         j = self._joint(name)
         motor = j.spec.motor
         if motor is None:
             raise MechanismError(f"joint '{name}' has no motor: it cannot be driven")
-        if not getattr(motor, target):
+        if not (motor.velocity if target == "velocity" else motor.position):
             other = "position" if target == "velocity" else "velocity"
             raise MechanismError(f"joint '{name}' takes {other} targets only")
         return j
@@ -581,7 +330,7 @@ class MechanismScene:
             raise MechanismError(
                 f"no force sensor '{name}'{_did_you_mean(name, list(self._sensors))}") from None
 
-    def _member(self, name: str) -> tuple[_Group, BodySpec]:
+    def _member(self, name: str) -> tuple[Group, BodySpec]:
         g = self._group_of.get(name)
         if g is None:
             raise MechanismError(f"no body '{name}'{_did_you_mean(name, self._body_names)}")
@@ -608,3 +357,74 @@ class MechanismScene:
         a = self._slew.value
         r = x - ax
         return (ax + r * math.cos(a), r * math.sin(a), z)
+
+
+class MechanismSimulator:
+    """A world's mechanism, read and driven by one agent; built open by the constructor.
+
+    Channels (``Mechanism.channels()``): a joint reads (position, velocity), a force sensor
+    (tension N,), a moving body (x, z, angle) in the plane; x, y are the last moving body's
+    (x, z) and heading the slew angle, so that a trace follows the load; collided is always
+    False, and there are no contacts.
+    """
+
+    def __init__(self, world: World, mechanism: Mechanism, robots: Sequence[RobotRequest], dt_s: float) -> None:
+        if any(req.model is not None for req in robots):
+            raise BackendError(f"world '{world.name}' is a mechanism: it has no place for robots")
+        try:
+            scene = MechanismScene(mechanism, dt_s)
+        except MechanismError as e:
+            raise BackendError(f"world '{world.name}': {e}") from None
+        offered = mechanism.channels()
+        moving = [name for name, kind in offered.items() if kind is Kind.BODY]
+        tracked = moving[-1] if moving else None
+
+        def getter(name: str, ch: str) -> Callable[[], object]:
+            kind = offered.get(ch)
+            if kind is Kind.JOINT:
+                return lambda: (scene.joint_position(ch), scene.joint_velocity(ch))
+            if kind is Kind.FORCE:
+                return lambda: (scene.force(ch),)
+            if kind is Kind.BODY:
+                return lambda: scene.body_pose(ch)
+            if tracked is not None and ch in ("x", "y"):
+                index = 0 if ch == "x" else 1
+                return lambda: scene.body_pose(tracked)[index]
+            if ch == "heading":
+                return lambda: scene.slew_angle
+            if ch == "collided":
+                return lambda: False
+            raise BackendError(f"'{name}' asks for unknown channel '{ch}'; world '{world.name}' offers: "
+                               + ", ".join(sorted(offered)))
+
+        getters = [[getter(req.name, ch) for ch in req.channels] for req in robots]
+        self.scene = scene
+        self.space = scene.space
+        self.bodies: list[pymunk.Body] = []  # a mechanism's bodies are no robots: see body channels
+        self.sense: Callable[[], list[list[object]]] = lambda: [[g() for g in row] for row in getters]
+        self.step = scene.step
+        self._world = world.name
+        self._tracked = tracked
+        self._contacts = [ContactStats(0, 0.0)] * len(robots)
+
+    def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
+        raise BackendError(f"pymunk backend: world '{self._world}' is a mechanism: it has no wheels; "
+                           f"its joints take command()")
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        """A joint's target velocity or position (see the protocol)."""
+        try:
+            if mode == "velocity":
+                self.scene.set_target_velocity(joint, value)
+            else:
+                self.scene.set_target_position(joint, value)
+        except MechanismError as e:
+            raise BackendError(str(e)) from None
+
+    def pose(self, robot: int) -> tuple[float, float, float]:
+        scene = self.scene
+        x, z, _ = scene.body_pose(self._tracked) if self._tracked is not None else (0.0, 0.0, 0.0)
+        return (x, z, wrap(scene.slew_angle))
+
+    def contacts(self, robot: int) -> ContactStats:
+        return self._contacts[robot]

@@ -14,8 +14,8 @@ Internal errors (bugs in labsim) are ordinary Python exceptions and never use th
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable
 
 
 @dataclass(frozen=True)

@@ -35,16 +35,26 @@ documented on the dataclasses in ``labsim.backends.scene.mechanism``.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.mechanism import (
-    ANGULAR_KINDS, JOINT_KINDS, SHAPES, WELDING_KINDS, BodySpec, ForceSensorSpec, JointSpec, Mechanism,
-    MotorSpec, start_position, weld_groups,
-)
 from labsim.backends.scene.diagnostics import Report, did_you_mean
-from labsim.backends.scene.source import Document, known_fields, scalar_value
+from labsim.backends.scene.mechanism import (
+    ANGULAR_KINDS,
+    JOINT_KINDS,
+    SHAPES,
+    WELDING_KINDS,
+    BodySpec,
+    ForceSensorSpec,
+    JointSpec,
+    Mechanism,
+    MotorSpec,
+    start_position,
+    weld_groups,
+)
+from labsim.backends.scene.source import Document, Reader, scalar_value
 
 KEYS = ("gravity", "damping", "floor", "bodies", "joints", "force_sensors")
 BODY_KEYS = ("shape", "center", "size", "depth", "mass", "density", "static", "angle_deg")
@@ -61,68 +71,18 @@ def read_mechanism(node: Node, doc: Document, report: Report) -> Mechanism | Non
     return mechanism if len(report.errors) == before else None
 
 
-class _Reader:
-    def __init__(self, doc: Document, report: Report):
-        self.doc = doc
-        self.report = report
+class _Reader(Reader):
+    def __init__(self, doc: Document, report: Report) -> None:
+        super().__init__(doc, report)
         self.declared: set[str] = set()  # every body named, read or not
 
-    def error(self, node: Node, message: str, notes: tuple[str, ...] = ()) -> None:
-        self.report.add(self.doc.diagnostic(node, message, notes=notes))
-
-    # -- values ---------------------------------------------------------------------------
-
-    def number(self, node: Node, what: str) -> float | None:
-        v = scalar_value(node) if isinstance(node, ScalarNode) else None
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            notes: tuple[str, ...] = ()
-            if isinstance(v, str):
-                try:
-                    float(v)
-                    notes = (f"hint: YAML reads '{v}' as text; write it with a dot, such as "
-                             f"{float(v)!r}",)
-                except ValueError:
-                    pass
-            self.error(node, f"{what} must be a number", notes)
-            return None
-        return float(v)
-
-    def positive(self, node: Node, what: str) -> float | None:
-        v = self.number(node, what)
-        if v is not None and not v > 0:
-            self.error(node, f"{what} must be positive")
-            return None
-        return v
-
-    def flag(self, node: Node, what: str) -> bool:
-        v = scalar_value(node) if isinstance(node, ScalarNode) else None
-        if not isinstance(v, bool):
-            self.error(node, f"{what} must be true or false")
-            return False
-        return v
-
-    def name(self, node: Node, what: str) -> str | None:
-        v = scalar_value(node) if isinstance(node, ScalarNode) else None
-        if not isinstance(v, str) or not v:
-            self.error(node, f"{what} must be a name")
-            return None
-        return v
-
-    def pair(self, node: Node, what: str) -> tuple[float, float] | None:
-        if not isinstance(node, SequenceNode) or len(node.value) != 2:
-            self.error(node, f"{what} must be a list of 2 numbers")
-            return None
-        a, b = (self.number(v, what) for v in node.value)
-        return None if a is None or b is None else (a, b)
-
-    def fields(self, node: Node, allowed: tuple[str, ...], what: str) -> dict[str, Node] | None:
-        return known_fields(self.doc, self.report, node, allowed, what)
-
-    def entries(self, node: Node, what: str) -> list[tuple[ScalarNode, Node]]:
-        if not isinstance(node, MappingNode):
-            self.error(node, f"'{what}' must be a mapping of names to their descriptions")
-            return []
-        return list(node.value)
+    def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
+        message, notes = super().number_problem(node, what, integer)
+        value = scalar_value(node) if isinstance(node, ScalarNode) else None
+        if isinstance(value, str):
+            with contextlib.suppress(ValueError):  # text that is no number at all needs no hint
+                notes = (f"hint: YAML reads '{value}' as text; write it with a dot, such as {float(value)!r}",)
+        return message, notes
 
     def body_ref(self, node: Node, what: str) -> str | None:
         n = self.name(node, what)
@@ -131,26 +91,25 @@ class _Reader:
             return None
         return n
 
+    def not_negative(self, f: dict[str, Node], key: str, default: float, message: str) -> float:
+        """An optional number that must not be negative; the default when absent or wrong (reported)."""
+        if key not in f:
+            return default
+        value = self.number(f[key], key)
+        if value is not None and value < 0:
+            self.error(f[key], message)
+            return default
+        return default if value is None else value
+
     # -- sections -------------------------------------------------------------------------
 
     def read(self, node: Node) -> Mechanism | None:
         f = self.fields(node, KEYS, "mechanism")
         if f is None:
             return None
-        gravity = 9.81
-        if "gravity" in f:
-            g = self.number(f["gravity"], "gravity")
-            if g is not None and g < 0:
-                self.error(f["gravity"], "gravity is the size of g along -z (m/s^2) and must not be negative")
-            elif g is not None:
-                gravity = g
-        damping = 0.0
-        if "damping" in f:
-            d = self.number(f["damping"], "damping")
-            if d is not None and d < 0:
-                self.error(f["damping"], "damping (1/s) must not be negative")
-            elif d is not None:
-                damping = d
+        gravity = self.not_negative(f, "gravity", 9.81,
+                                    "gravity is the size of g along -z (m/s^2) and must not be negative")
+        damping = self.not_negative(f, "damping", 0.0, "damping (1/s) must not be negative")
         floor: float | None = 0.0
         if "floor" in f:
             v = f["floor"]
@@ -160,7 +119,7 @@ class _Reader:
             return None
         bodies: dict[str, BodySpec] = {}  # the bodies read without error
         declared: set[str] = set()  # so that a broken body is not also "unknown" to its joints
-        for key, value in self.entries(f["bodies"], "bodies"):
+        for key, value in self.entries(f["bodies"], "bodies") or []:
             declared.add(key.value)
             b = self.body(key.value, value)
             if b is not None:
@@ -168,11 +127,22 @@ class _Reader:
         if isinstance(f["bodies"], MappingNode) and not declared:
             self.error(f["bodies"], "a mechanism needs at least one body")
         self.declared = declared
-        joints: list[JointSpec] = []
         names: dict[str, Node] = {}
+        joints = self.joints(f["joints"], bodies, names) if "joints" in f else []
+        sensors = []
+        for key, value in (self.entries(f["force_sensors"], "force_sensors") or []) if "force_sensors" in f else []:
+            self.unique(key, names)
+            s = self.sensor(key.value, value, bodies)
+            if s is not None:
+                sensors.append(s)
+        self.check_welds(bodies, joints, f.get("joints"))
+        return Mechanism(tuple(bodies.values()), tuple(joints), tuple(sensors), gravity, damping, floor)
+
+    def joints(self, node: Node, bodies: dict[str, BodySpec], names: dict[str, Node]) -> list[JointSpec]:
+        joints: list[JointSpec] = []
         moved_by: dict[str, str] = {}  # child body -> the joint that moves it
         slew: str | None = None
-        for key, value in self.entries(f["joints"], "joints") if "joints" in f else []:
+        for key, value in self.entries(node, "joints") or []:
             self.unique(key, names)
             j = self.joint(key.value, value, bodies)
             if j is None:
@@ -188,14 +158,7 @@ class _Reader:
                 slew = j.name
             moved_by[j.child] = j.name
             joints.append(j)
-        sensors = []
-        for key, value in self.entries(f["force_sensors"], "force_sensors") if "force_sensors" in f else []:
-            self.unique(key, names)
-            s = self.sensor(key.value, value, bodies)
-            if s is not None:
-                sensors.append(s)
-        self.check_welds(bodies, joints, f.get("joints"))
-        return Mechanism(tuple(bodies.values()), tuple(joints), tuple(sensors), gravity, damping, floor)
+        return joints
 
     def unique(self, key: ScalarNode, names: dict[str, Node]) -> None:
         """Joints and force sensors share one namespace: both are names programs read."""
@@ -230,7 +193,7 @@ class _Reader:
             if size is not None and not (size[0] > 0 and size[1] > 0):
                 self.error(f["size"], "a body's size must be positive")
                 size = None
-        static = self.flag(f["static"], "static") if "static" in f else False
+        static = self.flag(f["static"], "static") is True if "static" in f else False
         depth = self.positive(f["depth"], "depth") if "depth" in f else None
         if depth is not None and shape == "cylinder":
             self.error(f["depth"], "a cylinder's depth is its diameter (the first number of 'size')")
@@ -274,7 +237,7 @@ class _Reader:
             ok = False
         if kind is None or parent is None or child is None:
             return None
-        rope = self.flag(f["rope"], "rope") if "rope" in f else False
+        rope = self.flag(f["rope"], "rope") is True if "rope" in f else False
         if rope and kind != "prismatic":
             self.error(f["rope"], "only a prismatic joint can be a rope (a winch)")
             ok = False
@@ -286,31 +249,13 @@ class _Reader:
         elif kind != "fixed":
             self.error(node, f"joint '{name}' needs 'anchor: [x, z]' (where the joint is, at the start)")
             ok = False
-        axis = (1.0, 0.0)
-        if "axis" in f:
-            if kind != "prismatic" or rope:
-                self.error(f["axis"], "only a prismatic rail has an axis" +
-                           (" (a rope hangs where gravity takes it)" if rope else ""))
-                ok = False
-            else:
-                ax = self.pair(f["axis"], "axis")
-                if ax is not None and math.hypot(*ax) == 0:
-                    self.error(f["axis"], "the axis must not be [0, 0]")
-                    ax = None
-                if ax is None:
-                    ok = False
-                else:
-                    n = math.hypot(*ax)
-                    axis = (ax[0] / n, ax[1] / n)
-        elif kind == "prismatic" and not rope:
-            self.error(node, f"joint '{name}' needs 'axis: [x, z]' (the direction it slides in)")
-            ok = False
+        axis = self.axis(f, node, name, kind, rope)
+        ok = ok and axis is not None
         if child in bodies and bodies[child].static and kind in ("revolute", "prismatic"):
             self.error(f["child"], f"'{child}' is static: a {kind} joint's child must be able to move")
             ok = False
-        limits = self.limits(f, kind)
-        if limits is False:
-            ok = False
+        limits_ok, limits = self.limits(f, kind)
+        ok = ok and limits_ok
         motor = None
         if "motor" in f:
             if kind == "fixed":
@@ -319,47 +264,75 @@ class _Reader:
             else:
                 motor = self.motor(f["motor"], name, kind)
                 ok = ok and motor is not None
-        if not ok:
+        if not ok or axis is None:
             return None
-        spec = JointSpec(name, kind, parent, child, anchor, axis, limits or None, motor, rope)
-        if limits and kind == "prismatic" and child in bodies:
-            start = start_position(spec, bodies[child])
-            if not limits[0] - 1e-9 <= start <= limits[1] + 1e-9:
-                where = f.get("limits") or f["limits_deg"]
-                self.error(where, f"'{child}' starts at {start:g} m along '{name}', outside its limits "
-                                  f"[{limits[0]:g}, {limits[1]:g}]")
-                return None
-        if limits and kind in ANGULAR_KINDS and not limits[0] <= 0 <= limits[1]:
-            self.error(f.get("limits") or f["limits_deg"],
-                       f"'{name}' starts at angle 0, so its limits must include 0")
-            return None
-        return spec
+        spec = JointSpec(name, kind, parent, child, anchor, axis, limits, motor, rope)
+        return spec if self.starts_within_limits(spec, f, bodies) else None
 
-    def limits(self, f: dict[str, Node], kind: str) -> tuple[float, float] | None | bool:
-        """(lo, hi) in SI, None when absent, False on an error (reported)."""
+    def axis(self, f: dict[str, Node], node: Node, name: str, kind: str, rope: bool) -> tuple[float, float] | None:
+        """A prismatic rail's direction as a unit vector, (1, 0) for other joints; None after an error."""
+        if "axis" not in f:
+            if kind == "prismatic" and not rope:
+                self.error(node, f"joint '{name}' needs 'axis: [x, z]' (the direction it slides in)")
+                return None
+            return (1.0, 0.0)
+        if kind != "prismatic" or rope:
+            self.error(f["axis"], "only a prismatic rail has an axis" +
+                       (" (a rope hangs where gravity takes it)" if rope else ""))
+            return None
+        ax = self.pair(f["axis"], "axis")
+        if ax is None:
+            return None
+        n = math.hypot(*ax)
+        if n == 0:
+            self.error(f["axis"], "the axis must not be [0, 0]")
+            return None
+        return (ax[0] / n, ax[1] / n)
+
+    def starts_within_limits(self, spec: JointSpec, f: dict[str, Node], bodies: dict[str, BodySpec]) -> bool:
+        """Whether a joint's start position is within its limits (else reported): a prismatic
+        joint's is where its child is, an angular joint's is 0."""
+        limits = spec.limits
+        if limits is None:
+            return True
+        where = f.get("limits") or f["limits_deg"]
+        if spec.kind == "prismatic" and spec.child in bodies:
+            start = start_position(spec, bodies[spec.child])
+            if not limits[0] - 1e-9 <= start <= limits[1] + 1e-9:
+                self.error(where, f"'{spec.child}' starts at {start:g} m along '{spec.name}', outside its limits "
+                                  f"[{limits[0]:g}, {limits[1]:g}]")
+                return False
+        if spec.kind in ANGULAR_KINDS and not limits[0] <= 0 <= limits[1]:
+            self.error(where, f"'{spec.name}' starts at angle 0, so its limits must include 0")
+            return False
+        return True
+
+    def limits(self, f: dict[str, Node], kind: str) -> tuple[bool, tuple[float, float] | None]:
+        """(whether they are right, (lo, hi) in SI or None): None when absent or null (unlimited)
+        and after an error (reported)."""
         if "limits" in f and "limits_deg" in f:
             self.error(f["limits_deg"], "give 'limits' (SI) or 'limits_deg', not both")
-            return False
+            return False, None
         key = "limits" if "limits" in f else "limits_deg" if "limits_deg" in f else None
         if key is None:
-            return None
+            return True, None
         node = f[key]
         if isinstance(node, ScalarNode) and scalar_value(node) is None:
-            return None  # written out as null: unlimited
+            return True, None  # written out as null: unlimited
         if kind == "fixed":
             self.error(node, "a fixed joint does not move, so it has no limits")
-            return False
+            return False, None
         if key == "limits_deg" and kind not in ANGULAR_KINDS:
             self.error(node, f"'limits_deg' is for revolute and slew joints; a {kind} joint's limits are in metres")
-            return False
+            return False, None
         p = self.pair(node, key)
         if p is None:
-            return False
+            return False, None
         lo, hi = (math.radians(p[0]), math.radians(p[1])) if key == "limits_deg" else p
         if not lo < hi:
             self.error(node, f"limits are [lo, hi] with lo < hi (got [{p[0]:g}, {p[1]:g}])")
-            return False
-        return (lo, hi)
+            return False, None
+        return True, (lo, hi)
 
     def motor(self, node: Node, joint: str, kind: str) -> MotorSpec | None:
         f = self.fields(node, MOTOR_KEYS, f"the motor of '{joint}'")
@@ -393,10 +366,10 @@ class _Reader:
                         ok = False
                     elif n is not None:
                         targets.add(n)
-        if not ok:
+        force, speed = values.get("max_force"), values.get("max_speed")
+        if not ok or force is None or speed is None:
             return None
-        return MotorSpec(values["max_force"], values["max_speed"], values.get("max_accel"),  # type: ignore[arg-type]
-                         "velocity" in targets, "position" in targets)
+        return MotorSpec(force, speed, values.get("max_accel"), "velocity" in targets, "position" in targets)
 
     def sensor(self, name: str, node: Node, bodies: dict[str, BodySpec]) -> ForceSensorSpec | None:
         f = self.fields(node, SENSOR_KEYS, f"force sensor '{name}'")

@@ -9,19 +9,25 @@ diagnostics a student can act on.
 ``Text`` maps a character of a scalar's *value* back to its line and column in the *file*,
 through quotes, escapes and block scalars, so that an error inside a rule string points at
 the right column of the YAML line.
+
+``Reader`` is the base of every reader that turns a composed file into labsim's values (the
+behaviour file, world files, a world's mechanism): one way to report a problem, and the value
+readers they share, with one contract.
 """
 from __future__ import annotations
 
 import bisect
+import math
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import TypeAlias
 
 import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 
@@ -32,14 +38,13 @@ _ALLOWED_TAGS = {_CORE + t for t in ("str", "int", "float", "bool", "null", "map
 class _Loader(yaml.SafeLoader):
     """Safe composer that refuses anchors and aliases where they appear."""
 
-
-    def compose_node(self, parent, index):  # type: ignore[no-untyped-def]
+    def compose_node(self, parent: Node | None, index: int) -> Node | None:
         event = self.peek_event()
         if isinstance(event, yaml.AliasEvent):
             raise yaml.composer.ComposerError(
                 None, None,
                 f"YAML aliases (*{event.anchor}) are not supported in labsim files: write the value out",
-                event.start_mark,
+                event.start_mark,  # type: ignore[arg-type]  # the stubs' Mark of the C loader is another class
             )
         if getattr(event, "anchor", None):
             raise yaml.composer.ComposerError(
@@ -90,15 +95,24 @@ class Document:
             end_col = end if end_line == line else len(self.source_line(line)) + 1
         return Diagnostic(self.path, message, line, col, end_col, severity, self.source_line(line), notes)
 
-    def diagnostic(self, node: Node, message: str, severity: str = "error",
+    def diagnostic(self, place: Place, message: str, severity: str = "error",
                    notes: tuple[str, ...] = ()) -> Diagnostic:
-        """A diagnostic underlining a node (a scalar whole, or the first line of a collection)."""
-        start, end = node.start_mark.index, node.end_mark.index
-        if not isinstance(node, ScalarNode):
+        """A diagnostic at a place of this file (see ``Place``).
+
+        A node is underlined whole if it is a scalar, by its first character if a collection.
+        """
+        if place is None:
+            return Diagnostic(self.path, message, severity=severity, notes=notes)
+        if isinstance(place, int):
+            return self.diagnostic_at(place, message, None, severity, notes)
+        if isinstance(place, TextSpan):
+            return place.text.diagnostic(place.start, place.end, message, severity, notes)
+        start, end = place.start_mark.index, place.end_mark.index
+        if not isinstance(place, ScalarNode):
             end = start + 1
         return self.diagnostic_at(start, message, end, severity, notes)
 
-    def text_of(self, node: ScalarNode) -> "Text":
+    def text_of(self, node: ScalarNode) -> Text:
         return Text(self, node)
 
 
@@ -125,9 +139,27 @@ class Text:
         e = self.index(end - 1) + 1 if end > start else None
         return self.doc.diagnostic_at(s, message, e, severity, notes)
 
+    def at(self, span: tuple[int, int]) -> TextSpan:
+        """Value characters span[0] up to span[1], as a place for a diagnostic."""
+        return TextSpan(self, span[0], span[1])
+
     @property
     def spans_lines(self) -> bool:
         return self.node.start_mark.line != self.node.end_mark.line and self.node.style is None
+
+
+@dataclass(frozen=True)
+class TextSpan:
+    """Characters start up to end of a scalar's value: where inside a rule string a problem is."""
+
+    text: Text
+    start: int
+    end: int
+
+
+# Where a diagnostic points: a YAML node, characters of a scalar's value, a character index of
+# the file (0: its start), or None for the file as a whole (no line, no caret).
+Place: TypeAlias = Node | TextSpan | int | None
 
 
 def _align(text: str, node: ScalarNode) -> list[int]:
@@ -259,24 +291,178 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
                 seen[key.value] = key
 
 
-def known_fields(doc: Document, report: "Report", node: Node, allowed: tuple[str, ...],
-                 what: str) -> dict[str, Node] | None:
-    """The values of a mapping's known keys; unknown keys (with did-you-mean) and a node that
-    is not a mapping are reported, the latter giving None."""
-    from labsim.backends.scene.diagnostics import did_you_mean
-
-    if not isinstance(node, MappingNode):
-        report.add(doc.diagnostic(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}"))
-        return None
-    out = {}
-    for k, v in node.value:
-        if k.value not in allowed:
-            report.add(doc.diagnostic(k, f"unknown key '{k.value}' in {what}{did_you_mean(k.value, allowed)}"))
-        else:
-            out[k.value] = v
-    return out
-
-
 def scalar_value(node: ScalarNode) -> object:
-    """The Python value of a core-schema scalar: str, int, float, bool or None."""
-    return yaml.SafeLoader("").construct_object(node, deep=False)
+    """The Python value of a core-schema scalar: str, int, float, bool or None.
+
+    An integer beyond a float's range reads as an infinite float: every number labsim reads
+    becomes a float, and such a number is reported as not finite, not as a crash.
+    """
+    value = yaml.SafeLoader("").construct_object(node, deep=False)
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            float(value)
+        except OverflowError:
+            return math.inf if value > 0 else -math.inf
+    return value
+
+
+def shape_of(node: Node | None) -> str:
+    """What a node is, for messages: 'mapping', 'list', 'empty value' or 'value'."""
+    if isinstance(node, MappingNode):
+        return "mapping"
+    if isinstance(node, SequenceNode):
+        return "list"
+    if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
+        return "empty value"
+    return "value"
+
+
+class Reader:
+    """The base of the readers that turn a composed file into labsim's values.
+
+    A reader reports every problem it finds into the ``Report`` and keeps going, so that one
+    ``labsim check`` shows them all; ``error`` is the one way it does so. The value readers
+    below share one contract: each returns the value and reports nothing, or reports what is
+    wrong and returns None — one diagnostic for the value, or, for a list of numbers, one for
+    each item that is no number. ``fields`` is the one exception: it reports unknown keys and
+    still gives the known ones, so that their values are checked too. ``what`` names the value
+    in messages ("dt", "a road's width").
+    """
+
+    def __init__(self, doc: Document, report: Report) -> None:
+        self.doc = doc
+        self.report = report
+
+    def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
+        self.report.add(self.doc.diagnostic(place, message, notes=notes))
+
+    @property
+    def error_count(self) -> int:
+        """How many errors the report holds: compare two counts to learn whether a part failed."""
+        return len(self.report.errors)
+
+    # -- single values ------------------------------------------------------------------------
+
+    def scalar(self, node: Node, what: str) -> ScalarNode | None:
+        """A single value, not a list or a mapping."""
+        if not isinstance(node, ScalarNode):
+            self.error(node, f"{what} must be a single value, not a {shape_of(node)}")
+            return None
+        return node
+
+    def string(self, node: Node, what: str) -> str | None:
+        """Text as it is written (a number reads as its digits); an empty value is ''."""
+        scalar = self.scalar(node, what)
+        if scalar is None:
+            return None
+        value = scalar_value(scalar)
+        if isinstance(value, bool):
+            self.error(node, f"{what} must be text")
+            return None
+        return "" if value is None else str(scalar.value)
+
+    def name(self, node: Node, what: str) -> str | None:
+        """A name: text that is not empty."""
+        value = scalar_value(node) if isinstance(node, ScalarNode) else None
+        if not isinstance(value, str) or not value:
+            self.error(node, f"{what} must be a name")
+            return None
+        return value
+
+    def flag(self, node: Node, what: str) -> bool | None:
+        value = scalar_value(node) if isinstance(node, ScalarNode) else None
+        if not isinstance(value, bool):
+            self.error(node, f"{what} must be true or false")
+            return None
+        return value
+
+    def number(self, node: Node, what: str, *, integer: bool = False) -> float | None:
+        """A finite number, as a float; with integer=True a whole one, as written (3 or 3.0)."""
+        value = scalar_value(node) if isinstance(node, ScalarNode) else None
+        if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+                or (integer and value != int(value))):
+            self.error(node, *self.number_problem(node, what, integer))
+            return None
+        return value if integer else float(value)
+
+    def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
+        """The message and notes for a value that is not the number asked for.
+
+        Each kind of file words this its own way; this is the plainest.
+        """
+        return f"{what} must be {'a whole number' if integer else 'a number'}", ()
+
+    def positive(self, node: Node, what: str) -> float | None:
+        value = self.number(node, what)
+        if value is not None and not value > 0:
+            self.error(node, f"{what} must be positive")
+            return None
+        return value
+
+    # -- lists and mappings -------------------------------------------------------------------
+
+    def number_list(self, node: Node, what: str, counts: tuple[int, ...] = (2,)) -> list[Node] | None:
+        """The items of a list that should hold one of ``counts`` numbers (not read yet)."""
+        if not isinstance(node, SequenceNode) or len(node.value) not in counts:
+            self.error(node, f"{what} must be a list of {' or '.join(str(n) for n in counts)} numbers")
+            return None
+        return list(node.value)
+
+    def numbers(self, node: Node, what: str, counts: tuple[int, ...] = (2,)) -> list[float] | None:
+        """A list of one of ``counts`` numbers, each reported if it is no number."""
+        items = self.number_list(node, what, counts)
+        if items is None:
+            return None
+        values = [self.number(item, what) for item in items]
+        out = [v for v in values if v is not None]
+        return out if len(out) == len(values) else None
+
+    def pair(self, node: Node, what: str) -> tuple[float, float] | None:
+        values = self.numbers(node, what, (2,))
+        return None if values is None else (values[0], values[1])
+
+    def colour(self, node: Node, what: str) -> tuple[int, int, int] | None:
+        """[red, green, blue], each 0..255 (rounded to whole numbers)."""
+        message = f"{what} must be three numbers 0..255: [red, green, blue]"
+        if not isinstance(node, SequenceNode) or len(node.value) != 3:
+            self.error(node, message)
+            return None
+        out = []
+        for item in node.value:
+            value = scalar_value(item) if isinstance(item, ScalarNode) else None
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value <= 255:
+                self.error(item, message)
+                return None
+            out.append(round(value))
+        return (out[0], out[1], out[2])
+
+    def items(self, node: Node, what: str) -> list[Node] | None:
+        """The items of a list."""
+        if not isinstance(node, SequenceNode):
+            self.error(node, f"'{what}' must be a list")
+            return None
+        return list(node.value)
+
+    def entries(self, node: Node, what: str) -> list[tuple[ScalarNode, Node]] | None:
+        """The (key, value) pairs of a mapping from names to descriptions."""
+        if not isinstance(node, MappingNode):
+            self.error(node, f"'{what}' must be a mapping of names to their descriptions")
+            return None
+        return list(node.value)
+
+    def fields(self, node: Node, allowed: tuple[str, ...], what: str) -> dict[str, Node] | None:
+        """The values of a mapping's known keys, by key.
+
+        Each unknown key is reported (with the closest known one), and the others still read:
+        the mapping fails only if it is no mapping.
+        """
+        if not isinstance(node, MappingNode):
+            self.error(node, f"{what} must be a mapping such as {{{allowed[0]}: ...}}")
+            return None
+        out = {}
+        for key, value in node.value:
+            if key.value not in allowed:
+                self.error(key, f"unknown key '{key.value}' in {what}{did_you_mean(key.value, allowed)}")
+            else:
+                out[key.value] = value
+        return out

@@ -49,11 +49,19 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.ground import DEFAULT_FLOOR_RGB, DEFAULT_PX_PER_M, DEFAULT_ROAD_RGB, Ground, Line, Patch, Road
-from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.backends.scene.diagnostics import LabsimError, Report
+from labsim.backends.scene.ground import (
+    DEFAULT_FLOOR_RGB,
+    DEFAULT_PX_PER_M,
+    DEFAULT_ROAD_RGB,
+    Ground,
+    Line,
+    Patch,
+    Road,
+)
 from labsim.backends.scene.mechanism_file import read_mechanism
-from labsim.backends.scene.diagnostics import LabsimError, Report, did_you_mean
-from labsim.backends.scene.source import Document, known_fields, load, scalar_value
+from labsim.backends.scene.source import Reader, load, scalar_value
+from labsim.backends.scene.world import Block, Pose, Wall, World
 
 KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
         "ground", "mechanism")
@@ -84,188 +92,170 @@ def load_world(path: str | Path, report: Report) -> World | None:
     return world if len(report.errors) == before else None
 
 
-class _WorldReader:
-    def __init__(self, doc: Document, report: Report):
-        self.doc = doc
-        self.report = report
+class _WorldReader(Reader):
+    """Reads a world file. A world with any error is dropped whole (``load_world`` gives None),
+    so the values built after an error only have to let the reading go on."""
 
-    def error(self, node: Node, message: str) -> None:
-        self.report.add(self.doc.diagnostic(node, message))
-
-    def number(self, node: Node, what: str) -> float:
-        v = scalar_value(node) if isinstance(node, ScalarNode) else None
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            self.error(node, f"{what} must be a number")
-            return 0.0
-        return float(v)
-
-    def numbers(self, node: Node, n: tuple[int, ...], what: str) -> list[float] | None:
-        if not isinstance(node, SequenceNode) or len(node.value) not in n:
-            counts = " or ".join(str(k) for k in n)
-            self.error(node, f"{what} must be a list of {counts} numbers")
+    def coordinates(self, node: Node, what: str, counts: tuple[int, ...] = (2,)) -> list[float] | None:
+        """``numbers``, but an item that is no number (reported) reads as 0.0 and the list is
+        still given, so that the checks on the whole value (bounds in order, a wall's two ends
+        apart, a size positive) run too."""
+        items = self.number_list(node, what, counts)
+        if items is None:
             return None
-        return [self.number(v, what) for v in node.value]
+        return [0.0 if v is None else v for v in (self.number(item, what) for item in items)]
 
-    def items(self, node: Node, what: str) -> list[Node]:
-        if not isinstance(node, SequenceNode):
-            self.error(node, f"'{what}' must be a list")
-            return []
-        return list(node.value)
+    def number_or_zero(self, node: Node, what: str) -> float:
+        """A number, or 0.0 after reporting that it is none, so that the checks after it run too."""
+        value = self.number(node, what)
+        return 0.0 if value is None else value
 
-    def fields(self, node: Node, allowed: tuple[str, ...], what: str) -> dict[str, Node]:
-        return known_fields(self.doc, self.report, node, allowed, what) or {}
+    def list_of(self, f: dict[str, Node], key: str) -> list[Node]:
+        """The items of an optional list field: none when it is absent or no list (reported)."""
+        return (self.items(f[key], key) or []) if key in f else []
 
     def read(self) -> World:
         root = self.doc.root
         if not isinstance(root, MappingNode):
-            self.report.add(self.doc.diagnostic_at(0, "a world file is a YAML mapping (labsim-world: 1, name: ..., walls: ...)"))
+            self.error(0, "a world file is a YAML mapping (labsim-world: 1, name: ..., walls: ...)")
             return World("", "", (0, 0, 0, 0))
-        f = self.fields(root, KEYS, "a world file")
+        f = self.fields(root, KEYS, "a world file") or {}
         if "labsim-world" not in f:
-            self.report.add(self.doc.diagnostic_at(0, "missing 'labsim-world: 1' (the world format version)"))
-        elif self.number(f["labsim-world"], "labsim-world") != 1:
+            self.error(0, "missing 'labsim-world: 1' (the world format version)")
+        elif self.number(f["labsim-world"], "labsim-world") != 1:  # also said after "must be a number"
             self.error(f["labsim-world"], "this labsim reads world format version 1")
-        name = str(scalar_value(f["name"])) if "name" in f and isinstance(f["name"], ScalarNode) else Path(self.doc.path).stem
-        description = str(scalar_value(f["description"])) if "description" in f and isinstance(f["description"], ScalarNode) else ""
-        thickness = self.number(f["wall_thickness"], "wall_thickness") if "wall_thickness" in f else 0.1
+        name = _text(f.get("name"), Path(self.doc.path).stem)
+        description = _text(f.get("description"), "")
+        thickness = self.number_or_zero(f["wall_thickness"], "wall_thickness") if "wall_thickness" in f else 0.1
         bounds = (-10.0, -10.0, 10.0, 10.0)
         if "bounds" in f:
-            b = self.numbers(f["bounds"], (4,), "bounds")
+            b = self.coordinates(f["bounds"], "bounds", (4,))
             if b is not None:
                 if b[0] >= b[2] or b[1] >= b[3]:
                     self.error(f["bounds"], "bounds are [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax")
                 bounds = (b[0], b[1], b[2], b[3])
+        walls, blocks = self.walls(f, thickness), self.blocks(f)
+        spawns = []
+        for item in self.list_of(f, "spawns"):
+            p = self.numbers(item, "a spawn pose [x, y, heading_deg]", (2, 3))
+            if p is not None:
+                spawns.append(Pose(p[0], p[1], math.radians(p[2]) if len(p) == 3 else 0.0))
+        ground = self.ground(f["ground"]) if "ground" in f else None
+        mechanism = read_mechanism(f["mechanism"], self.doc, self.report) if "mechanism" in f else None
+        return World(name, description, bounds, walls, blocks, tuple(spawns), self.doc.path,
+                     ground=ground, mechanism=mechanism)
+
+    def walls(self, f: dict[str, Node], thickness: float) -> tuple[Wall, ...]:
         walls = []
-        for item in self.items(f["walls"], "walls") if "walls" in f else []:
-            w = self.fields(item, ("from", "to", "thickness"), "walls")
+        for item in self.list_of(f, "walls"):
+            w = self.fields(item, ("from", "to", "thickness"), "walls") or {}
             if "from" not in w or "to" not in w:
                 self.error(item, "a wall needs 'from: [x, y]' and 'to: [x, y]'")
                 continue
-            a, b = self.numbers(w["from"], (2,), "from"), self.numbers(w["to"], (2,), "to")
-            t = self.number(w["thickness"], "thickness") if "thickness" in w else thickness
-            if a and b:
+            a, b = self.coordinates(w["from"], "from"), self.coordinates(w["to"], "to")
+            t = self.number_or_zero(w["thickness"], "thickness") if "thickness" in w else thickness
+            if a is not None and b is not None:
                 if a == b:
                     self.error(item, "a wall's 'from' and 'to' must differ")
                 elif t <= 0:
                     self.error(w.get("thickness", item), "a wall's thickness must be positive")
                 walls.append(Wall((a[0], a[1]), (b[0], b[1]), t))
+        return tuple(walls)
+
+    def blocks(self, f: dict[str, Node]) -> tuple[Block, ...]:
         blocks = []
-        for item in self.items(f["blocks"], "blocks") if "blocks" in f else []:
-            bl = self.fields(item, ("center", "size", "angle_deg"), "blocks")
+        for item in self.list_of(f, "blocks"):
+            bl = self.fields(item, ("center", "size", "angle_deg"), "blocks") or {}
             if "center" not in bl or "size" not in bl:
                 self.error(item, "a block needs 'center: [x, y]' and 'size: [width, depth]'")
                 continue
-            c, s = self.numbers(bl["center"], (2,), "center"), self.numbers(bl["size"], (2,), "size")
-            angle = math.radians(self.number(bl["angle_deg"], "angle_deg")) if "angle_deg" in bl else 0.0
-            if c and s:
+            c, s = self.coordinates(bl["center"], "center"), self.coordinates(bl["size"], "size")
+            angle = self.number(bl["angle_deg"], "angle_deg") if "angle_deg" in bl else 0.0
+            if c is not None and s is not None:
                 if s[0] <= 0 or s[1] <= 0:
                     self.error(bl["size"], "a block's size must be positive")
                     continue
-                blocks.append(Block(_box(c[0], c[1], s[0], s[1], angle)))
-        spawns = []
-        for item in self.items(f["spawns"], "spawns") if "spawns" in f else []:
-            p = self.numbers(item, (2, 3), "a spawn pose [x, y, heading_deg]")
-            if p:
-                spawns.append(Pose(p[0], p[1], math.radians(p[2]) if len(p) == 3 else 0.0))
-        ground = self.ground(f["ground"]) if "ground" in f else None
-        mechanism = read_mechanism(f["mechanism"], self.doc, self.report) if "mechanism" in f else None
-        return World(name, description, bounds, tuple(walls), tuple(blocks), tuple(spawns), self.doc.path,
-                     ground=ground, mechanism=mechanism)
+                if angle is not None:
+                    blocks.append(Block(_box(c[0], c[1], s[0], s[1], math.radians(angle))))
+        return tuple(blocks)
 
     # --- ground ---------------------------------------------------------------------------------
 
-    def colour(self, node: Node, what: str) -> tuple[int, int, int]:
-        msg = f"{what} must be three numbers 0..255: [red, green, blue]"
-        if not isinstance(node, SequenceNode) or len(node.value) != 3:
-            self.error(node, msg)
-            return (0, 0, 0)
-        out = []
-        for v in node.value:
-            x = scalar_value(v) if isinstance(v, ScalarNode) else None
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 <= x <= 255:
-                self.error(v, msg)
-                return (0, 0, 0)
-            out.append(int(round(x)))
-        return (out[0], out[1], out[2])
-
-    def positive(self, node: Node, what: str) -> float:
-        before = len(self.report.errors)
-        v = self.number(node, what)
-        if v <= 0 and len(self.report.errors) == before:  # not twice for what is no number at all
-            self.error(node, f"{what} must be positive")
-        return v
-
     def ground(self, node: Node) -> Ground | None:
-        before = len(self.report.errors)
+        before = self.error_count
         if not isinstance(node, MappingNode):
             self.error(node, "'ground' is a mapping: floor, px_per_m, roads, lines, patches")
             return None
-        g = self.fields(node, GROUND_KEYS, "ground")
+        g = self.fields(node, GROUND_KEYS, "ground") or {}
         floor = self.colour(g["floor"], "floor") if "floor" in g else DEFAULT_FLOOR_RGB
         ppm = DEFAULT_PX_PER_M
         if "px_per_m" in g:
-            ppm = self.positive(g["px_per_m"], "px_per_m")
-            if ppm > MAX_PX_PER_M:
+            value = self.positive(g["px_per_m"], "px_per_m")
+            if value is not None and value > MAX_PX_PER_M:
                 self.error(g["px_per_m"], f"px_per_m must be at most {MAX_PX_PER_M:g} (1 mm per pixel)")
-        roads = [r for item in (self.items(g["roads"], "roads") if "roads" in g else [])
-                 if (r := self.road(item)) is not None]
-        lines = []
-        for item in self.items(g["lines"], "lines") if "lines" in g else []:
-            ln = self.fields(item, LINE_KEYS, "lines")
-            if not isinstance(item, MappingNode):
-                continue
-            if "from" not in ln or "to" not in ln:
-                self.error(item, "a line needs 'from: [x, y]' and 'to: [x, y]'")
-                continue
-            a, b = self.numbers(ln["from"], (2,), "from"), self.numbers(ln["to"], (2,), "to")
-            width = self.positive(ln["width"], "a line's width") if "width" in ln else LINE_WIDTH_M
-            rgb = self.colour(ln["color"], "color") if "color" in ln else LINE_RGB
-            if a and b:
-                if a == b:
-                    self.error(item, "a line's 'from' and 'to' must differ")
-                lines.append(Line((a[0], a[1]), (b[0], b[1]), width, rgb))
-        patches = []
-        for item in self.items(g["patches"], "patches") if "patches" in g else []:
-            pa = self.fields(item, PATCH_KEYS, "patches")
-            if not isinstance(item, MappingNode):
-                continue
-            if "center" not in pa or "size" not in pa:
-                self.error(item, "a patch needs 'center: [x, y]' and 'size: [width, depth]'")
-                continue
-            c, sz = self.numbers(pa["center"], (2,), "center"), self.numbers(pa["size"], (2,), "size")
-            angle = math.radians(self.number(pa["angle_deg"], "angle_deg")) if "angle_deg" in pa else 0.0
-            rgb = self.colour(pa["color"], "color") if "color" in pa else PATCH_RGB
-            if c and sz:
-                if sz[0] <= 0 or sz[1] <= 0:
-                    self.error(pa["size"], "a patch's size must be positive")
-                    continue
-                patches.append(Patch(_box(c[0], c[1], sz[0], sz[1], angle), rgb))
-        if len(self.report.errors) != before:
+            ppm = DEFAULT_PX_PER_M if value is None else value
+        roads = [r for item in self.list_of(g, "roads") if (r := self.road(item)) is not None]
+        lines, patches = self.lines(g), self.patches(g)
+        if self.error_count != before or floor is None:
             return None
-        ground = Ground(floor, tuple(roads), tuple(lines), tuple(patches), ppm)
+        ground = Ground(floor, tuple(roads), lines, patches, ppm)
         problem = ground.texture_problem()
         if problem:
             self.error(g.get("px_per_m", node), problem)
             return None
         return ground
 
+    def lines(self, g: dict[str, Node]) -> tuple[Line, ...]:
+        lines = []
+        for item in self.list_of(g, "lines"):
+            ln = self.fields(item, LINE_KEYS, "lines")
+            if ln is None:
+                continue
+            if "from" not in ln or "to" not in ln:
+                self.error(item, "a line needs 'from: [x, y]' and 'to: [x, y]'")
+                continue
+            a, b = self.coordinates(ln["from"], "from"), self.coordinates(ln["to"], "to")
+            width = self.positive(ln["width"], "a line's width") if "width" in ln else LINE_WIDTH_M
+            rgb = self.colour(ln["color"], "color") if "color" in ln else LINE_RGB
+            if a is not None and b is not None:
+                if a == b:
+                    self.error(item, "a line's 'from' and 'to' must differ")
+                if width is not None and rgb is not None:
+                    lines.append(Line((a[0], a[1]), (b[0], b[1]), width, rgb))
+        return tuple(lines)
+
+    def patches(self, g: dict[str, Node]) -> tuple[Patch, ...]:
+        patches = []
+        for item in self.list_of(g, "patches"):
+            pa = self.fields(item, PATCH_KEYS, "patches")
+            if pa is None:
+                continue
+            if "center" not in pa or "size" not in pa:
+                self.error(item, "a patch needs 'center: [x, y]' and 'size: [width, depth]'")
+                continue
+            c, sz = self.coordinates(pa["center"], "center"), self.coordinates(pa["size"], "size")
+            angle = self.number(pa["angle_deg"], "angle_deg") if "angle_deg" in pa else 0.0
+            rgb = self.colour(pa["color"], "color") if "color" in pa else PATCH_RGB
+            if c is not None and sz is not None:
+                if sz[0] <= 0 or sz[1] <= 0:
+                    self.error(pa["size"], "a patch's size must be positive")
+                    continue
+                if angle is not None and rgb is not None:
+                    patches.append(Patch(_box(c[0], c[1], sz[0], sz[1], math.radians(angle)), rgb))
+        return tuple(patches)
+
     def road(self, item: Node) -> Road | None:
         r = self.fields(item, ROAD_KEYS, "roads")
-        if not isinstance(item, MappingNode):
+        if r is None:
             return None
         if "path" not in r or "width" not in r:
             missing = " and ".join(f"'{k}'" for k in ("width", "path") if k not in r)
             self.error(item, f"a road needs {missing} (width: metres, path: a list of points [x, y] and arcs)")
             if "path" not in r:
                 return None
-        width = self.positive(r["width"], "a road's width") if "width" in r else 0.0
+        width = self.positive(r["width"], "a road's width") if "width" in r else None
         rgb = self.colour(r["color"], "color") if "color" in r else DEFAULT_ROAD_RGB
-        closed = False
-        if "closed" in r:
-            v = scalar_value(r["closed"]) if isinstance(r["closed"], ScalarNode) else None
-            if not isinstance(v, bool):
-                self.error(r["closed"], "closed must be true or false")
-            closed = v is True
+        closed = self.flag(r["closed"], "closed") is True if "closed" in r else False
         points = self.path(r["path"])
         if points is None:
             return None
@@ -277,6 +267,8 @@ class _WorldReader:
         if closed and len(points) < 3:
             self.error(r["path"], "a closed road needs at least three points")
             return None
+        if width is None or rgb is None:
+            return None
         return Road(tuple(points), closed, width, rgb)
 
     def path(self, node: Node) -> list[tuple[float, float]] | None:
@@ -284,11 +276,11 @@ class _WorldReader:
         if not isinstance(node, SequenceNode):
             self.error(node, "a road's 'path' must be a list of points [x, y] and arcs")
             return None
-        before = len(self.report.errors)
+        before = self.error_count
         points: list[tuple[float, float]] = []
         for item in node.value:
             if isinstance(item, MappingNode):
-                arc = self.fields(item, ("arc",), "a path")
+                arc = self.fields(item, ("arc",), "a path") or {}
                 if "arc" not in arc:
                     if not item.value:
                         self.error(item, "a path item is a point [x, y] or {arc: {center, radius, to_deg}}")
@@ -298,27 +290,27 @@ class _WorldReader:
                     continue
                 points += self.arc(arc["arc"], points[-1])
             else:
-                p = self.numbers(item, (2,), "a path point [x, y]")
+                p = self.coordinates(item, "a path point [x, y]")
                 if p is not None:
                     points.append((p[0], p[1]))
-        return points if len(self.report.errors) == before else None
+        return points if self.error_count == before else None
 
     def arc(self, node: Node, start: tuple[float, float]) -> list[tuple[float, float]]:
         """The chord end points of an arc from start (exclusive) to its end (inclusive)."""
-        before = len(self.report.errors)
+        before = self.error_count
         a = self.fields(node, ("center", "radius", "to_deg"), "an arc")
-        if not isinstance(node, MappingNode):
+        if a is None:
             return []
         missing = [k for k in ("center", "radius", "to_deg") if k not in a]
         if missing:
-            if len(self.report.errors) == before:  # after a misspelt key, did-you-mean says enough
+            if self.error_count == before:  # after a misspelt key, did-you-mean says enough
                 self.error(node, "an arc needs " + ", ".join(f"'{k}'" for k in missing)
                            + " ({center: [x, y], radius: metres, to_deg: degrees})")
             return []
-        c = self.numbers(a["center"], (2,), "center")
+        c = self.numbers(a["center"], "center")
         radius = self.positive(a["radius"], "an arc's radius")
         to_deg = self.number(a["to_deg"], "to_deg")
-        if c is None or len(self.report.errors) != before:
+        if c is None or radius is None or to_deg is None or self.error_count != before:
             return []
         # + 0.0 turns -0.0 into 0.0, so a point written [x, -0] starts at 180, not -180
         dx, dy = start[0] - c[0] + 0.0, start[1] - c[1] + 0.0
@@ -341,6 +333,11 @@ class _WorldReader:
         start_rad = math.atan2(dy, dx)
         return [(c[0] + radius * math.cos(start_rad + sweep * i / n),
                  c[1] + radius * math.sin(start_rad + sweep * i / n)) for i in range(1, n + 1)]
+
+
+def _text(node: Node | None, default: str) -> str:
+    """An optional text field: a single value as Python writes it; else the default."""
+    return str(scalar_value(node)) if isinstance(node, ScalarNode) else default
 
 
 def _box(cx: float, cy: float, w: float, d: float, angle: float) -> tuple[tuple[float, float], ...]:

@@ -1,0 +1,236 @@
+"""The coppeliasim backend's robots: a fleet of wheeled robots (Pioneer P3DX) in a CoppeliaSim scene.
+
+Where it sits: ``backend.CoppeliaSimBackend`` hands the robots of a run (the requests with a
+model) to one ``Fleet``, which finds their objects, places them and reads and drives them
+through the backend's ``connection``. A world's mechanism is ``mechanism``'s business.
+
+* ``Fleet(...)`` checks every channel against ``RobotModel.channels()`` and the world's
+  (``labsim.backends.scene.ground.world_channels``) before anything is sent.
+* ``find`` looks the objects up by path (``MODEL_PATHS``: ``/PioneerP3DX[i]`` for the i-th
+  robot of its model, then ``./leftMotor``, ``./rightMotor``, ``./ultrasonicSensor[k]``
+  relative to it), and ``place`` moves each robot to the start pose the behaviour asks for,
+  keeping the scene's height and tilt.
+* ``sense`` reads only the channels the behaviour asked for, in one call per value: a sonar
+  is ``sim.readProximitySensor`` (nothing detected: ``math.inf``, where CoppeliaSim says 0),
+  ``x``/``y`` one ``sim.getObjectPosition``, ``heading`` one ``sim.getObjectOrientation``
+  (yaw), a camera ``sim.getVisionSensorImg`` flipped to row 0 = far edge. ``collided`` is
+  ``sim.checkCollision(robot, sim.handle_all)``, read every tick for every robot because the
+  contact count of the summary is built from it (a contact = a tick on which it turns true).
+  Road channels are computed here from the pose, as the embedded backend computes them.
+* ``act`` sends a wheel's target velocity only when that wheel's command changed.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from labsim.backends.coppeliasim import HANDLE_ALL, MODEL_PATHS
+from labsim.backends.coppeliasim.connection import Connection
+from labsim.backends.coppeliasim.frames import yaw
+from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
+from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
+from labsim.backends.scene.models import Kind
+from labsim.backends.scene.world import World
+
+
+@dataclass(eq=False)
+class _Rover:
+    """What sense() and act() need for one robot: handles and where each value goes."""
+
+    req: RobotRequest
+    paths: dict[str, object]  # MODEL_PATHS for its model, with the overrides
+    handle: int = -1
+    motors: tuple[int, int] = (-1, -1)
+    sonars: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot)
+    cameras: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot)
+    collide_with: int = HANDLE_ALL
+    slots: dict[str, int] = field(default_factory=dict)  # pose, collided, speed, road channels
+    read_position: bool = False
+    read_orientation: bool = False
+    read_velocity: bool = False
+    sent: list[float] = field(default_factory=lambda: [math.nan, math.nan])  # last wheel targets sent
+    # contacts, counted from collided (kept after close for the summary)
+    touching: bool = False
+    contacts: int = 0
+    contact_s: float = 0.0
+
+    @property
+    def name(self) -> str:
+        return self.req.name
+
+
+class Fleet:
+    """Wheeled robots, each of a model ``MODEL_PATHS`` (or ``paths``) names the objects of."""
+
+    def __init__(self, conn: Connection, world: World, requests: Sequence[RobotRequest],
+                 paths: dict[str, object]) -> None:
+        self.rovers = [_Rover(req, _paths(world, req, paths)) for req in requests]
+        self._conn = conn
+        self._road = first_road(world)
+        self._tracker: RoadTracker | None = None
+
+    @property
+    def primes(self) -> bool:
+        """Whether sensors need one step before the first tick: CoppeliaSim reads proximity
+        and vision sensors at the end of a step. A robot at rest does not move in it."""
+        return bool(self.rovers)
+
+    def find(self) -> None:
+        """Every robot's objects, by path; then the road tracker, if a robot reads the road."""
+        counts: dict[str, int] = {}
+        for r in self.rovers:
+            model = r.req.model
+            assert model is not None
+            i = counts.get(model.name, 0)
+            counts[model.name] = i + 1
+            self._find(r, i)
+        road = self._road
+        self._tracker = RoadTracker(road) if road is not None and any(
+            r.slots.keys() & ROAD_CHANNELS.keys() for r in self.rovers) else None
+        if self._tracker is not None:
+            for r in self.rovers:
+                if "laps" in r.req.channels:
+                    self._tracker.start(r.name, r.req.pose.x_m, r.req.pose.y_m)
+
+    def _find(self, r: _Rover, i: int) -> None:
+        conn = self._conn
+        req, paths, get = r.req, r.paths, conn.get
+        assert req.model is not None
+        offered = req.model.channels()
+        sonars = [name for name, kind in offered.items() if kind is Kind.DISTANCE]
+        camera_paths = paths.get("cameras")
+        h = r.handle = get(str(paths["robot"]).format(i=i), -1, f"robot '{req.name}'")
+        r.collide_with = conn.handle_all
+        r.motors = (get(str(paths["left_motor"]), h, f"robot '{req.name}', left motor"),
+                    get(str(paths["right_motor"]), h, f"robot '{req.name}', right motor"))
+        for slot, ch in enumerate(req.channels):
+            kind = offered.get(ch)
+            if kind is Kind.DISTANCE:
+                path = str(paths["sonar"]).format(k=sonars.index(ch))
+                r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
+            elif kind is Kind.IMAGE:
+                path = str(camera_paths.get(ch, f"./{ch}") if isinstance(camera_paths, dict) else f"./{ch}")
+                r.cameras.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
+            else:
+                r.slots[ch] = slot
+        r.read_position = bool(r.slots.keys() & {"x", "y", *ROAD_CHANNELS})
+        r.read_velocity = "forward_speed" in r.slots
+        r.read_orientation = "heading" in r.slots or r.read_velocity
+        target = paths.get("collision")
+        if target:
+            r.collide_with = get(str(target), -1, f"robot '{req.name}', collision target")
+
+    def place(self) -> None:
+        """Each robot at the behaviour's start pose, keeping the scene's height and tilt."""
+        call, world_h = self._conn.call, self._conn.world_h
+        for r in self.rovers:
+            pose = r.req.pose
+            _, _, z = call("sim.getObjectPosition", r.handle, world_h)
+            alpha, beta, _ = call("sim.getObjectOrientation", r.handle, world_h)
+            call("sim.setObjectPosition", r.handle, [pose.x_m, pose.y_m, z], world_h)
+            call("sim.setObjectOrientation", r.handle, [alpha, beta, pose.heading_rad], world_h)
+
+    # --- a tick ------------------------------------------------------------------------------
+
+    def sense(self, first: bool) -> list[list[object]]:
+        """Every robot's channels; ``first``: the first sense() since open (no contact time yet)."""
+        return [self._sense(r, first) for r in self.rovers]
+
+    def _sense(self, r: _Rover, first: bool) -> list[object]:
+        call, world_h = self._conn.call, self._conn.world_h
+        values: list[object] = [None] * len(r.req.channels)
+        slots = r.slots
+        x = y = heading = 0.0
+        if r.read_position:
+            x, y, _ = call("sim.getObjectPosition", r.handle, world_h)
+        if r.read_orientation:
+            heading = yaw(call("sim.getObjectOrientation", r.handle, world_h))
+        for h, slot in r.sonars:
+            res = call("sim.readProximitySensor", h)
+            # CoppeliaSim: (detected, distance, point, object, normal); distance 0 when
+            # nothing is detected, which labsim reads as inf (docs/decisions.md, 2).
+            values[slot] = float(res[1]) if res[0] > 0 else math.inf
+        for h, slot in r.cameras:
+            img, (w, hgt) = call("sim.getVisionSensorImg", h)
+            import numpy as np  # only a behaviour with a camera needs it
+
+            # CoppeliaSim's rows run from the bottom up; labsim's row 0 is the far edge.
+            values[slot] = np.ascontiguousarray(np.frombuffer(img, np.uint8).reshape(hgt, w, 3)[::-1])
+        self._collided(r, first)
+        if "collided" in slots:
+            values[slots["collided"]] = r.touching
+        for ch, value in (("x", x), ("y", y), ("heading", heading)):
+            if ch in slots:
+                values[slots[ch]] = value
+        if r.read_velocity:
+            (vx, vy, _), _ang = call("sim.getObjectVelocity", r.handle)
+            values[slots["forward_speed"]] = vx * math.cos(heading) + vy * math.sin(heading)
+        if self._tracker is not None and slots.keys() & ROAD_CHANNELS.keys():
+            self._road_channels(r, values, x, y)
+        return values
+
+    def _collided(self, r: _Rover, first: bool) -> None:
+        """Read ``collided`` and count contacts from it, as the embedded backend counts them."""
+        res = self._conn.call("sim.checkCollision", r.handle, r.collide_with)
+        hit = bool((res[0] if isinstance(res, (tuple, list)) else res) > 0)
+        if hit and not r.touching:
+            r.contacts += 1
+        if hit and not first:  # time after each step, as the embedded backend counts it
+            r.contact_s += self._conn.dt_s
+        r.touching = hit
+
+    def _road_channels(self, r: _Rover, values: list[object], x: float, y: float) -> None:
+        """Road channels from the pose, computed here as the embedded backend computes them."""
+        tracker, slots = self._tracker, r.slots
+        assert tracker is not None  # find() builds it when a robot reads a road channel
+        if "road_offset" in slots or "on_road" in slots:
+            offset = tracker.offset(x, y)
+            if "road_offset" in slots:
+                values[slots["road_offset"]] = offset
+            if "on_road" in slots:
+                values[slots["on_road"]] = abs(offset) <= tracker.half_width_m
+        if "laps" in slots:
+            values[slots["laps"]] = tracker.update(r.name, x, y)
+
+    def act(self, k: int, left_rad_s: float, right_rad_s: float) -> None:
+        r = self.rovers[k]
+        if left_rad_s != r.sent[0]:
+            self._conn.call("sim.setJointTargetVelocity", r.motors[0], left_rad_s)
+            r.sent[0] = left_rad_s
+        if right_rad_s != r.sent[1]:
+            self._conn.call("sim.setJointTargetVelocity", r.motors[1], right_rad_s)
+            r.sent[1] = right_rad_s
+
+    def command(self, k: int, joint: str, mode: str, value: float) -> None:
+        raise BackendError(f"'{self.rovers[k].name}' has no motorised joint '{joint}'")
+
+    def pose(self, k: int) -> tuple[float, float, float]:
+        r, call, world_h = self.rovers[k], self._conn.call, self._conn.world_h
+        x, y, _ = call("sim.getObjectPosition", r.handle, world_h)
+        return (x, y, yaw(call("sim.getObjectOrientation", r.handle, world_h)))
+
+    def contacts(self, k: int) -> ContactStats:
+        r = self.rovers[k]
+        return ContactStats(r.contacts, r.contact_s)
+
+
+def _paths(world: World, req: RobotRequest, overrides: dict[str, object]) -> dict[str, object]:
+    """A robot's object paths, after checking its channels; no connection needed."""
+    model = req.model
+    assert model is not None
+    paths = dict(MODEL_PATHS.get(model.name, {}))
+    if not paths and not overrides:
+        raise BackendError(
+            f"robot '{req.name}': the coppeliasim backend knows no scene object names for model "
+            f"'{model.name}'; pass paths={{'robot': ..., 'left_motor': ..., ...}}")
+    paths.update(overrides)
+    paths.update(dict(req.paths))  # the behaviour file's, for this robot
+    offered = model.channels()
+    from_world = world_channels(world)
+    for ch in req.channels:
+        if ch not in offered and ch not in from_world:
+            raise BackendError(
+                f"robot '{req.name}' asks for unknown channel '{ch}'; model "
+                f"'{model.name}' offers: {', '.join([*offered, *from_world])}")
+    return paths

@@ -1,0 +1,293 @@
+"""A fleet of rovers in a room, seen from above: the pymunk backend's simulator for robot worlds.
+
+``labsim.backends.pymunk.backend.PymunkBackend`` opens a ``FleetSimulator`` for every world
+without a mechanism. It builds a top-down pymunk scene from the ``World`` (walls as static
+segments, blocks as static polygons) and one dynamic body per robot, drives each body as a
+differential-drive robot without lateral slip, reads sonars as single ray casts, and counts
+contacts through collision callbacks. It is deterministic: the same world, robots, commands
+and dt give bit-identical readings in every run and process.
+
+Beyond sonars, pose and ``collided``, a robot may read:
+
+* a camera (a name from ``RobotModel.cameras``): an RGB image of the world's ground from
+  ``labsim.backends.pymunk.camera`` (walls and robots are not in it); OpenCV is imported, and
+  the ground drawn, only when some robot reads a camera;
+* ``forward_speed``: m/s, the body's velocity along its heading, as the last step moved it;
+* in a world with a road (``labsim.backends.scene.ground.world_channels``): ``road_offset``,
+  ``on_road`` and ``laps``, measured at the robot's origin against the first road. Laps are
+  counted in ``step()``, once per tick after the physics (not per sub-step), for the robots
+  that read them, so they do not depend on how often ``sense()`` is called.
+
+``sense()`` is generated for the channels read (``labsim.backends.pymunk.fleet_sense``):
+nothing is computed for a channel no robot reads.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import pymunk
+
+from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
+from labsim.backends.pymunk.fleet_sense import CameraRead, SensePlan, SonarRay, Spec, compile_sense
+from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
+from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
+from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.world import World
+
+# Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
+# along walls rather than sticking to them, yet a glancing contact still turns them a little.
+FRICTION = 0.5
+# A bumping robot must not bounce: the real one stops against the obstacle.
+ELASTICITY = 0.0
+
+# Collision type of walls and blocks; robot i gets i + 1, so a callback maps a shape to its
+# robot without a lookup table.
+_STATIC_TYPE = 0
+
+
+def _wheel_drive(
+    vs: list[float], ws: list[float], robot: int,
+) -> Callable[[pymunk.Body, object, float, float], None]:
+    """A body velocity_func that imposes robot's commanded speed along its heading.
+
+    pymunk calls it inside step(), after contacts are found and before they are solved, so
+    the solver can still take away the part of the motion an obstacle blocks, and the next
+    step moves the body with what is left. Setting the velocity before step() instead would
+    overwrite that corrected velocity, and a robot driving into a wall would sink into it by
+    about v * dt every step.
+    """
+    cos, sin = math.cos, math.sin
+
+    def drive(body: pymunk.Body, _gravity: object, _damping: float, _dt: float) -> None:
+        a = body.angle
+        v = vs[robot]
+        body.velocity = (v * cos(a), v * sin(a))
+        body.angular_velocity = ws[robot]
+
+    return drive
+
+
+class FleetSimulator:
+    """Robots on a floor among walls and blocks; built open by the constructor.
+
+    ``space`` is the ``pymunk.Space``; ``bodies`` the robots' bodies, in the order of the
+    requests. A body's position is the robot-frame origin (the middle of the wheel axle), its
+    angle the heading, and its ``velocity_func`` applies the wheel commands last given to
+    ``act`` (see ``PymunkBackend`` for driving the scene by hand).
+    """
+
+    def __init__(self, world: World, robots: Sequence[RobotRequest], dt_s: float, substeps: int) -> None:
+        """Check every request, then build the scene; raises BackendError, leaving nothing built."""
+        models = _check(world, robots)
+        space = pymunk.Space()
+        space.gravity = (0.0, 0.0)  # top-down: gravity points into the floor
+        space.collision_slop = COLLISION_SLOP_M
+        # Insertion order fixes pymunk's internal order, hence determinism: walls, blocks,
+        # then robots, each in the order given.
+        _add_obstacles(space, world)
+        n = len(robots)
+        vs = [0.0] * n  # commanded forward speed per robot, m/s (act() writes them)
+        ws = [0.0] * n  # commanded turn rate per robot, rad/s
+        plans = [_add_robot(space, i, req, model, vs, ws) for i, (req, model) in enumerate(zip(robots, models))]
+        touching = [0] * n  # contacts in progress, per robot
+        count = [0] * n
+        _count_contacts(space, touching, count)
+        render = _camera_renderer(world, models, robots)
+        tracker = _road_tracker(world)
+        lap_robots = [i for i, req in enumerate(robots) if "laps" in req.channels]
+        laps = [0] * n  # completed laps, for the robots that read them
+        if tracker is not None:
+            for i in lap_robots:
+                tracker.start(i, robots[i].pose.x_m, robots[i].pose.y_m)
+
+        self.space = space
+        self.bodies = [plan.body for plan in plans]
+        self.sense = compile_sense(space.segment_query_first, plans, touching, render, tracker, laps)
+        self._world = world.name
+        self._substep_s = dt_s / substeps
+        self._substep_range = range(substeps)
+        # Laps: the first road's tracker and the robots that read laps (a world without a
+        # road has no robot that reads them: _check refuses the channel).
+        self._tracker = tracker
+        self._lap_robots = lap_robots
+        self._laps = laps
+        self._half_r = [m.wheel_radius_m / 2.0 for m in models]  # R / 2: wheel speed sum to m/s
+        self._r_over_axle = [m.wheel_radius_m / m.axle_length_m for m in models]  # to rad/s
+        self._v = vs
+        self._w = ws
+        self._touching = touching
+        self._count = count
+        self._time_s = [0.0] * n  # simulated time spent touching something
+
+    def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
+        v = self._half_r[robot] * (left_rad_s + right_rad_s)
+        w = self._r_over_axle[robot] * (right_rad_s - left_rad_s)
+        self._v[robot] = v
+        self._w[robot] = w
+        # pymunk moves a body with the velocity it has when step() begins and only then calls
+        # the velocity_func, so a new command would show one step late. A free robot takes it
+        # at once; a touching one waits a step rather than lose its contact-corrected velocity
+        # (overwriting that would push it into the obstacle by up to v * dt).
+        if self._touching[robot] == 0:
+            body = self.bodies[robot]
+            a = body.angle
+            body.velocity = (v * math.cos(a), v * math.sin(a))
+            body.angular_velocity = w
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        raise BackendError(f"pymunk backend: world '{self._world}' has no mechanism, so no joint "
+                           f"'{joint}' to command")
+
+    def step(self) -> None:
+        space, touching, h = self.space, self._touching, self._substep_s
+        for _ in self._substep_range:
+            space.step(h)  # each body's velocity_func applies its wheel commands
+            if any(touching):
+                time_s = self._time_s
+                for r, t in enumerate(touching):
+                    if t:
+                        time_s[r] += h
+        if self._lap_robots:  # once per tick, after the physics: see the module docstring
+            tracker, laps, bodies = self._tracker, self._laps, self.bodies
+            assert tracker is not None  # laps are refused in a world without a road
+            for r in self._lap_robots:
+                x, y = bodies[r].position
+                laps[r] = tracker.update(r, x, y)
+
+    def pose(self, robot: int) -> tuple[float, float, float]:
+        body = self.bodies[robot]
+        x, y = body.position
+        return (x, y, wrap(body.angle))
+
+    def contacts(self, robot: int) -> ContactStats:
+        return ContactStats(self._count[robot], self._time_s[robot])
+
+
+def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
+    """Every request's model, once each channel and sonar is known to work; else BackendError."""
+    from_world = world_channels(world)
+    models = []
+    for req in robots:
+        model = req.model
+        if model is None:
+            raise BackendError(f"robot '{req.name}' has no model, and world '{world.name}' has no "
+                               f"mechanism for it to drive")
+        offered = model.channels()
+        cameras = {c.name: c for c in model.cameras}
+        for ch in req.channels:
+            if ch in ROAD_CHANNELS and ch not in from_world and ch not in offered:
+                raise BackendError(
+                    f"robot '{req.name}' asks for '{ch}', but world '{world.name}' has no "
+                    f"road; '{ch}' needs a world whose ground has roads"
+                )
+            if ch not in offered and ch not in from_world:
+                raise BackendError(
+                    f"robot '{req.name}' asks for unknown channel '{ch}'; model "
+                    f"'{model.name}' offers: {', '.join([*offered, *from_world])}"
+                )
+            if ch in cameras:
+                from labsim.backends.pymunk.camera import check_camera  # OpenCV: only now
+                try:
+                    check_camera(cameras[ch])
+                except ValueError as e:
+                    raise BackendError(f"robot '{req.name}', model '{model.name}': {e}") from None
+        for s in model.sonars:
+            # A ray needs finite ends (and sense() writes these numbers as literals).
+            if not all(math.isfinite(v) for v in (s.x_m, s.y_m, s.angle_rad, s.range_m)) or s.range_m <= 0:
+                raise BackendError(
+                    f"model '{model.name}': sonar '{s.name}' needs a finite mount and "
+                    f"angle and a positive finite range (got {s})"
+                )
+        models.append(model)
+    return models
+
+
+def _camera_renderer(world: World, models: list[RobotModel],
+                     robots: Sequence[RobotRequest]) -> Callable[..., object] | None:
+    """``GroundView.render`` for the world's ground, or None when no robot reads a camera (then
+    OpenCV is not imported and the ground not drawn)."""
+    if not any(c.name in req.channels for model, req in zip(models, robots) for c in model.cameras):
+        return None
+    try:
+        from labsim.backends.pymunk.camera import ground_view
+        return ground_view(world.ground if world.ground is not None else Ground()).render
+    except ValueError as e:
+        raise BackendError(f"world '{world.name}': {e}") from None
+
+
+def _road_tracker(world: World) -> RoadTracker | None:
+    """The tracker of the world's first road, which the road channels measure against."""
+    road = first_road(world)
+    try:
+        return RoadTracker(road) if road is not None else None
+    except ValueError as e:  # only a Ground built in code can get here: files are checked
+        raise BackendError(f"world '{world.name}': {e}") from None
+
+
+def _add_obstacles(space: pymunk.Space, world: World) -> None:
+    """The world's walls, then its blocks, as static shapes in file order."""
+    static = space.static_body
+    for wall in world.walls:
+        seg = pymunk.Segment(static, wall.a, wall.b, wall.thickness_m / 2.0)
+        seg.friction, seg.elasticity, seg.collision_type = FRICTION, ELASTICITY, _STATIC_TYPE
+        space.add(seg)
+    for block in world.blocks:
+        poly = pymunk.Poly(static, block.corners)
+        poly.friction, poly.elasticity, poly.collision_type = FRICTION, ELASTICITY, _STATIC_TYPE
+        space.add(poly)
+
+
+def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel,
+               vs: list[float], ws: list[float]) -> SensePlan:
+    """Robot i's body and shape, driven from vs[i] and ws[i]; what its sense() reads."""
+    moment = pymunk.moment_for_poly(model.mass_kg, model.footprint)
+    body = pymunk.Body(model.mass_kg, moment)
+    body.position = (req.pose.x_m, req.pose.y_m)
+    body.angle = req.pose.heading_rad
+    shape = pymunk.Poly(body, model.footprint)
+    shape.friction, shape.elasticity = FRICTION, ELASTICITY
+    shape.collision_type = i + 1
+    # Group i + 1: the robot's own rays skip its own shape (they start on or inside it) but
+    # still hit walls, blocks (group 0) and every other robot.
+    shape.filter = pymunk.ShapeFilter(group=i + 1)
+    body.velocity_func = _wheel_drive(vs, ws, i)
+    space.add(body, shape)
+
+    sonars = {s.name: s for s in model.sonars}
+    cameras = {c.name: c for c in model.cameras}
+    specs: list[Spec] = []
+    for ch in req.channels:
+        s = sonars.get(ch)
+        if s is not None:
+            specs.append(SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad),
+                                  s.range_m * math.sin(s.angle_rad), s.range_m))
+        elif ch in cameras:
+            specs.append(CameraRead(cameras[ch]))
+        else:
+            specs.append(ch)  # pose, collided, forward_speed, road: checked in _check
+    return SensePlan(body, pymunk.ShapeFilter(group=i + 1), tuple(specs))
+
+
+def _count_contacts(space: pymunk.Space, touching: list[int], count: list[int]) -> None:
+    """Keep touching[r] (contacts in progress) and count[r] (contacts begun) for each robot.
+
+    A contact is counted when a robot goes from touching nothing to touching something, so
+    pressing against a wall for many ticks, or sliding along it into a corner, is one contact.
+    Both shapes of a robot-robot contact are robots, so both count.
+    """
+    def begin(arbiter: pymunk.Arbiter, _space: pymunk.Space, _data: object) -> None:
+        for shape in arbiter.shapes:
+            r = shape.collision_type - 1
+            if r >= 0:
+                if touching[r] == 0:
+                    count[r] += 1
+                touching[r] += 1
+
+    def separate(arbiter: pymunk.Arbiter, _space: pymunk.Space, _data: object) -> None:
+        for shape in arbiter.shapes:
+            r = shape.collision_type - 1
+            if r >= 0 and touching[r] > 0:
+                touching[r] -= 1
+
+    space.on_collision(None, None, begin=begin, separate=separate)

@@ -1,0 +1,161 @@
+"""The rover fleet's ``sense()``, generated as straight-line Python for its robots and channels.
+
+``labsim.backends.pymunk.fleet.FleetSimulator`` describes, once at open, what each robot reads
+(``SensePlan``: its body, its rays' shape filter, one spec per channel in the requested order)
+and ``compile_sense`` turns that into one function. It runs every tick, so its cost beyond the
+ray casts and camera frames themselves must stay near zero.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import cast
+
+import pymunk
+
+from labsim.backends.pymunk.simulator import wrap
+from labsim.backends.scene.ground import RoadTracker
+from labsim.backends.scene.models import Camera
+
+SenseFn = Callable[[], list[list[object]]]
+
+
+@dataclass(frozen=True)
+class SonarRay:
+    """A sonar as a ray in the robot frame: its mount, and its end's offset from the mount.
+
+    The end is the whole range along the sonar's axis, so a hit's alpha times the range is
+    the distance.
+    """
+
+    mount_x_m: float
+    mount_y_m: float
+    end_dx_m: float
+    end_dy_m: float
+    range_m: float
+
+
+@dataclass(frozen=True)
+class CameraRead:
+    """A camera channel: the image ``render`` gives for the robot's pose."""
+
+    camera: Camera
+
+
+# A channel's spec: a sonar, a camera, or the name of a channel read from the body or the
+# backend's lists (x, y, heading, collided, forward_speed, road_offset, on_road, laps).
+Spec = SonarRay | CameraRead | str
+
+
+@dataclass(frozen=True)
+class SensePlan:
+    """One robot: its body, the filter that keeps its rays off its own shape, its channels."""
+
+    body: pymunk.Body
+    ray_filter: pymunk.ShapeFilter
+    specs: tuple[Spec, ...]
+
+
+_SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
+_CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
+
+
+def _kind(spec: Spec) -> str:
+    if isinstance(spec, SonarRay):
+        return _SONAR
+    if isinstance(spec, CameraRead):
+        return _CAMERA
+    return spec
+
+
+def compile_sense(
+    query: Callable[..., pymunk.SegmentQueryInfo | None],
+    robots: list[SensePlan],
+    touching: list[int],
+    render: Callable[..., object] | None = None,
+    tracker: RoadTracker | None = None,
+    laps: list[int] | None = None,
+) -> SenseFn:
+    """Generate ``sense()`` as straight-line code for these robots and channels.
+
+    Unrolled code with the sonar geometry as literals skips the per-sonar loop and tuple
+    unpacking, which makes it measurably cheaper than a hand-written loop over the same rays.
+    For one robot asking for sonar1 and collided it reads (numbers rounded)::
+
+        def sense():
+            x0, y0 = body0.position
+            a0 = body0.angle
+            c = cos(a0)
+            s = sin(a0)
+            ox = x0 + c * 0.1067 - s * 0.1382
+            oy = y0 + s * 0.1067 + c * 0.1382
+            hit = query((ox, oy), (ox + c * 0.0 - s * 1.0, oy + s * 0.0 + c * 1.0), 0.0, filter0)
+            v0_0 = inf if hit is None else hit.alpha * 1.0
+            return [[v0_0, touching[0] > 0]]
+
+    repr() of a float reads back as the same float, so the literals change no reading. Cameras
+    call ``render(x, y, angle, camera)``; road channels call ``tracker.offset`` once per robot;
+    ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
+    robot reads.
+    """
+    env: dict[str, object] = {
+        "query": query, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
+        "touching": touching, "abs": abs, "render": render, "laps": laps,
+        "offset": tracker.offset if tracker is not None else None,
+    }
+    half_width = tracker.half_width_m if tracker is not None else 0.0
+    lines = ["def sense():"]
+    rows = []
+    for r, plan in enumerate(robots):
+        env[f"body{r}"] = plan.body
+        env[f"filter{r}"] = plan.ray_filter
+        values = _robot_lines(r, plan.specs, env, lines, half_width)
+        rows.append(f"[{', '.join(values)}]")
+    lines.append(f"    return [{', '.join(rows)}]")
+    exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
+    return cast(SenseFn, env["sense"])
+
+
+def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines: list[str],
+                 half_width: float) -> list[str]:
+    """Append robot r's lines to ``lines``; return the expressions of its values, in order."""
+    kinds = {_kind(spec) for spec in specs}
+    if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road"}:
+        lines.append(f"    x{r}, y{r} = body{r}.position")
+    if kinds & {_SONAR, "heading", _CAMERA, "forward_speed"}:
+        lines.append(f"    a{r} = body{r}.angle")
+    if _SONAR in kinds:
+        lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
+    if kinds & {"road_offset", "on_road"}:
+        lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
+    values = []
+    for k, spec in enumerate(specs):
+        if isinstance(spec, CameraRead):
+            env[f"cam{r}_{k}"] = spec.camera
+            lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k})")
+            values.append(f"v{r}_{k}")
+        elif isinstance(spec, SonarRay):
+            mx, my, ex, ey, rng = spec.mount_x_m, spec.mount_y_m, spec.end_dx_m, spec.end_dy_m, spec.range_m
+            lines += [
+                f"    ox = x{r} + c * {mx!r} - s * {my!r}",
+                f"    oy = y{r} + s * {mx!r} + c * {my!r}",
+                f"    hit = query((ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
+                f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r})",
+                f"    v{r}_{k} = inf if hit is None else hit.alpha * {rng!r}",
+            ]
+            values.append(f"v{r}_{k}")
+        elif spec == "forward_speed":
+            lines += [
+                f"    vx, vy = body{r}.velocity",
+                f"    v{r}_{k} = vx * cos(a{r}) + vy * sin(a{r})",
+            ]
+            values.append(f"v{r}_{k}")
+        else:
+            values.append({
+                "x": f"x{r}", "y": f"y{r}", "heading": f"wrap(a{r})",
+                "collided": f"touching[{r}] > 0",
+                "road_offset": f"ro{r}", "on_road": f"abs(ro{r}) <= {half_width!r}",
+                "laps": f"laps[{r}]",
+            }[spec])
+    return values

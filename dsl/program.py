@@ -1,0 +1,189 @@
+"""The compiled behaviour the runtime reads: what the language hands over, sealed.
+
+``labsim.dsl.compile`` builds a ``Program`` from a checked behaviour file and the Python that
+``labsim.dsl.codegen`` generated for it. A Program is read-only plain data: settings, names,
+the slot layout, the timeline as (time_s, settings) pairs, the stop condition's horizon,
+diagnostics prepared for the runtime to raise, and the generated ``Code``. Nothing of the YAML
+file or of the front end (nodes, ``Checked``) is reachable from it, and nothing changes it
+after compilation: a different seed is a different compilation.
+
+``Program.robot`` binds the generated code to one robot's slots, random generator, model and
+fault sink (``labsim.dsl.support``) and returns that robot's ``RobotProgram``, the mutable
+per-robot half; each robot has its own state and its callables take no user data.
+"""
+from __future__ import annotations
+
+import linecache
+import math
+import random
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import CodeType
+
+from labsim.backends.scene.diagnostics import Diagnostic
+from labsim.backends.scene.models import Kind, RobotModel
+from labsim.backends.scene.world import World
+from labsim.dsl.builtins import Aggregate, Type
+from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
+
+Setting = tuple[str, float]  # a slider and the value it takes
+TimelineEvent = tuple[float, tuple[Setting, ...]]  # at time_s, these settings
+LabelPart = str | tuple[int, str]  # literal text, or (slot, format spec) of a field
+
+
+@dataclass(frozen=True)
+class RuleLabel:
+    """A rule as the summary and the trace name it: ``wander:2``."""
+
+    state: str
+    number: int
+    text: str
+    line: int
+
+    @property
+    def id(self) -> str:
+        return f"{self.state}:{self.number}"
+
+
+@dataclass(frozen=True)
+class RobotGroup:
+    """One entry of ``robots:``: ``count`` robots of one model, placed as ``at`` says."""
+
+    name: str
+    model: RobotModel
+    count: int
+    at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
+    paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
+
+
+@dataclass(frozen=True)
+class Code:
+    """The Python generated for a behaviour, compiled once and shared by every robot."""
+
+    source: str  # what was compiled: slots, literals, operators, bound names; no user text
+    listing: str  # the same lines, with each rule's, signal's and metric's file line and text as comments
+    filename: str  # what tracebacks name, e.g. "<labsim behaviours/wall_follow.yaml>"
+    compiled: CodeType
+    sites: tuple[tuple[str, FaultSite], ...]  # guard _gN: the operation it checks and where it is
+    functions: tuple[str, ...]  # built-ins the code calls directly, bound as _<name>
+
+
+@dataclass(frozen=True)
+class RobotProgram:
+    """One robot's compiled behaviour: functions bound to its slots, generator and faults.
+
+    ``signals(time_s, tick, values)`` takes the tick's channel values (in ``channels``
+    order), evaluates the ``let`` signals into the slots and returns whether the stop
+    condition holds; ``decide()`` runs the first rule that holds (writing ``command``: left
+    and right wheel rad/s and the next state) and folds the metrics, returning the index of
+    the rule that fired, or -1. ``both(time_s, tick, values)`` does the two in one call and
+    returns -2 when the stop condition holds; a run with a single robot uses it.
+    """
+
+    slots: Slots
+    command: list  # [left rad/s, right rad/s, next state index]
+    signals: Callable[[float, int, list], bool]
+    decide: Callable[[], int]
+    both: Callable[[float, int, list], int]
+    metric_values: list[list[float]]  # per metric accumulator, read by support.metric_result
+    events: list[int]  # indices of count metrics that rose this tick (cleared by the runtime)
+    source: str  # the generated Python, for debugging
+    joint_command: list[float] = field(default_factory=list)  # per Program.targets, nan: none yet
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A compiled behaviour: everything a run needs, read-only."""
+
+    # the file and its settings
+    name: str
+    path: str
+    sha256: str
+    dt_s: float
+    seed: int
+    world: World
+    params: Mapping[str, float | bool]  # after --set overrides
+    overridden: tuple[str, ...]  # the params set on the command line
+    warnings: tuple[Diagnostic, ...]
+    # who runs it
+    robots: tuple[RobotGroup, ...]
+    models: Mapping[str, RobotModel]  # robot group -> model
+    mechanism_agent: bool  # no robots: one agent reads and drives the world's mechanism
+    spawn_shortage: Diagnostic | None  # the error for the first robot left without a spawn pose
+    # what it reads and computes
+    channels: tuple[str, ...]  # sensor channels, in the order values are passed to signals()
+    channel_kinds: Mapping[str, Kind]
+    let_names: tuple[str, ...]
+    signal_types: Mapping[str, Type]  # let name -> its type
+    state_names: tuple[str, ...]
+    rules: tuple[RuleLabel, ...]  # in the order decide() numbers them
+    metric_names: tuple[str, ...]
+    metric_aggregates: tuple[Aggregate, ...]
+    stop_horizon_s: float | None  # sim time by which the stop condition surely holds, if it says so plainly
+    # sliders, their labels and the timeline that moves them
+    slider_names: tuple[str, ...]
+    slider_ranges: Mapping[str, tuple[float, float]]
+    slider_start: Mapping[str, float]
+    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> its label's parts
+    timeline: tuple[TimelineEvent, ...]
+    # where values live, and the generated code that reads and writes them
+    slot_of: Mapping[str, int]
+    slot_count: int
+    targets: tuple[tuple[str, str], ...]  # joint targets (joint, "velocity" | "position") in command order
+    code: Code
+
+    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator, model and fault sink."""
+        code = self.code
+        slots = Slots([0.0] * self.slot_count)
+        slots[STATE] = 0
+        for slider in self.slider_names:
+            slots[self.slot_of[slider]] = self.slider_start[slider]
+        command: list = [0.0, 0.0, 0]
+        joint_command = [math.nan] * len(self.targets)
+        events: list[int] = []
+        metric_values = [initial_accumulator(a) for a in self.metric_aggregates]
+        bindings = namespace(rng, model or next(iter(self.models.values()), None), code.functions)
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command)
+        for i, (kind, site) in enumerate(code.sites):
+            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng)
+        show_in_tracebacks(code)
+        # Only generated text reaches exec: user names became slot indices, numbers are
+        # repr(float), operators come from a fixed table (see labsim.dsl.codegen). The functions
+        # are made by a factory so that everything they use is a closure cell, not a global.
+        scope: dict[str, object] = {"__builtins__": {}}
+        exec(code.compiled, scope)
+        signals, decide, both = scope["make"](**bindings)  # type: ignore[operator]
+        return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
+                            joint_command)
+
+    def label_text(self, slots: list) -> dict[str, str]:
+        """Each slider's label, formatted from the label fields' values in the slots."""
+        out = {}
+        for slider, parts in self.labels:
+            text = []
+            for part in parts:
+                if isinstance(part, tuple):
+                    slot, spec = part
+                    value = slots[slot]
+                    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
+                        value = int(value)  # sliders hold floats; {arm:d} shows 5, not 5.0
+                    try:
+                        text.append(format(value, spec))
+                    except (ValueError, TypeError):
+                        text.append(str(value))
+                else:
+                    text.append(part)
+            out[slider] = "".join(text)
+        return out
+
+
+def show_in_tracebacks(code: Code) -> None:
+    """Give tracebacks through the generated functions their lines, with the listing's comments.
+
+    The listing has the source's lines at the same numbers. An entry without a modification
+    time is one ``linecache.checkcache`` keeps; binding a robot registers it again, so the
+    program being run is the one shown.
+    """
+    linecache.cache[code.filename] = (len(code.listing), None, code.listing.splitlines(keepends=True),
+                                      code.filename)

@@ -1,0 +1,102 @@
+"""``labsim view``: watch and steer a run, or replay a trace, in the browser.
+
+The command line (``labsim.runtime.cli.cmd_view``) calls ``view``. It builds a session, a
+live run (``live``) of a behaviour file or a replay (``replay``) of a trace, binds the web
+server's socket (``server``) on loopback unless told otherwise, prints the URL, opens it
+unless asked not to, and serves the page (``static/``) until Ctrl-C. Frames and messages are
+described in docs/view.md.
+"""
+from __future__ import annotations
+
+import asyncio
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.runtime.trace import MAGIC, TraceFormatError
+from labsim.runtime.view.session import Session
+
+DEFAULT_PORT = 8765
+EXIT_OK, EXIT_USAGE, EXIT_INTERRUPTED = 0, 2, 130
+
+
+def is_trace(path: str | Path) -> bool:
+    """Whether a file is a labsim trace (its first line), rather than a behaviour file."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.readline().startswith(MAGIC)
+    except OSError:
+        return False
+
+
+def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backend: str = "pymunk",
+         backend_options: dict[str, object] | None = None, host: str = "127.0.0.1",
+         port: int = DEFAULT_PORT, trace: str | None = None, open_browser: bool = True,
+         warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None]) -> int:
+    """Serve the page for a behaviour file or a trace until Ctrl-C; the exit code.
+
+    A behaviour that does not compile is reported (``report``) and the page shows the same
+    diagnostics until it is fixed (the page's Check again) or the server is stopped; the exit
+    code is then 2. Ctrl-C gives 130, the trace so far kept.
+    """
+    from labsim.runtime.view.live import LiveSession
+    from labsim.runtime.view.server import bind_socket, serve, url_of
+
+    if not 0 <= port < 65536:
+        raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
+    session = _session(path, overrides, seed, backend, backend_options, trace, warn)
+    broken = False
+    if isinstance(session, LiveSession) and not session.load():
+        report(session.problems)
+        broken = True
+    try:
+        sock = bind_socket(host, port)
+    except OSError as e:
+        session.close()
+        why = "is in use" if e.errno in (48, 98, 10048) else f"cannot be used: {e.strerror or e}"
+        raise LabsimError([Diagnostic(f"--port {port}", f"port {port} on {host} {why}",
+                                      notes=("pick another with --port, or --port 0 for a free one",))]) from None
+    url = url_of(sock, host)
+
+    def ready(_server: object) -> None:
+        what = "replaying" if not hasattr(session, "load") else "running"
+        print(f"labsim view: {what} {path} at {url}  (Ctrl-C stops)", flush=True)
+
+    interrupted = False
+    try:
+        asyncio.run(serve(session, sock, url, log=warn, open_browser=open_browser, ready=ready))
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        session.close()
+        sock.close()
+    broken = broken and not getattr(session, "ever_ran", False)
+    if broken:
+        return EXIT_USAGE
+    if interrupted:
+        sys.stderr.write("labsim view: stopped\n")
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
+def _session(path: str, overrides: dict[str, str], seed: int | None, backend: str,
+             backend_options: dict[str, object] | None, trace: str | None,
+             warn: Callable[[str], None]) -> Session:
+    from labsim.runtime.view.live import LiveSession
+    from labsim.runtime.view.replay import load_replay
+
+    if not Path(path).is_file():
+        raise LabsimError([Diagnostic(path, "no such file")])
+    if is_trace(path):
+        for flag, given in (("--set", overrides), ("--seed", seed is not None), ("--trace", trace)):
+            if given:
+                raise LabsimError([Diagnostic(flag, f"a replayed trace takes no {flag}")])
+        try:
+            return load_replay(path)
+        except TraceFormatError as e:
+            raise LabsimError([Diagnostic(path, str(e).removeprefix(f"{path}: "))]) from None
+    if seed is not None and seed < 0:
+        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+    return LiveSession(path, overrides, seed=seed, backend=backend, backend_options=backend_options,
+                       trace=trace, warn=warn)

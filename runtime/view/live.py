@@ -1,0 +1,294 @@
+"""A live run to watch and steer: the same compiled behaviour, backend and tick loop as ``labsim run``.
+
+``LiveSession`` compiles the behaviour (with the ``--set`` overrides and ``--seed``), binds
+it to the chosen backend through an ``ObservedBackend`` (what the page draws), and ticks the
+``Run`` when the server says ticks are due. A slider drag is ``Run.set_slider``, so it lands
+in the trace's events column as a timeline move does; a parameter change recompiles with the
+new overrides (the same checks as ``--set``) and restarts. A file that does not compile
+leaves the session without a run and its diagnostics in ``problems``, for the terminal and
+the page; ``recheck`` tries again.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from labsim.backends import load_backend
+from labsim.backends.protocol import BackendError
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.runtime.run import Behaviour, Run, compile_behaviour
+from labsim.runtime.view.frames import (
+    Json,
+    channel_kinds,
+    message,
+    number,
+    png_data_url,
+    robot_doc,
+    sensor_columns,
+    world_doc,
+)
+from labsim.runtime.view.observe import ObservedBackend
+from labsim.runtime.view.session import BadMessage, Session, finite, name
+
+
+class LiveSession(Session):
+    """See the module docstring. ``warn`` takes the run's runtime warnings."""
+
+    def __init__(self, path: str | Path, overrides: dict[str, str], *, seed: int | None = None,
+                 backend: str = "pymunk", backend_options: dict[str, object] | None = None,
+                 trace: str | Path | None = None, warn: Callable[[str], None] | None = None,
+                 timeline: bool = True, **session: Any):
+        super().__init__(0.05, **session)
+        self.path = str(path)
+        self.overrides = dict(overrides)
+        self.seed = seed
+        self.backend_name = backend
+        self.backend_options = dict(backend_options or {})
+        self.trace_path = trace
+        self.warn = warn
+        self.timeline = timeline
+        self.run: Run | None = None
+        self.observed: ObservedBackend | None = None
+        self.problems: list[Diagnostic] = []  # the file's warnings, or why there is no run
+        self.refused: list[Diagnostic] = []  # why the last change did not compile
+        self.ever_ran = False
+
+    # -- the run ------------------------------------------------------------------------
+    def load(self, overrides: dict[str, str] | None = None) -> bool:
+        """Compile and bind anew (the old run, if any, is closed only once the new one compiles).
+
+        False, with ``problems`` set, when the file (or an override) has errors; the old run
+        then goes on.
+        """
+        wanted = self.overrides if overrides is None else overrides
+        try:
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
+        except LabsimError as e:
+            self.refused = list(e.diagnostics)
+            if self.run is None:
+                self.problems = self.refused
+            return False
+        self.overrides = dict(wanted)
+        self.close()
+        try:
+            self._bind(behaviour)
+        except (LabsimError, BackendError) as e:
+            self.run = None
+            self.problems = list(e.diagnostics) if isinstance(e, LabsimError) else [Diagnostic(self.path, str(e))]
+            return False
+        self.problems = list(behaviour.program.warnings)
+        self.ever_ran = True
+        return True
+
+    def _bind(self, behaviour: Behaviour) -> None:
+        program = behaviour.program
+        self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
+        self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
+                                  replay=None if self.timeline else {})
+        self.run.watch()
+        self.pacer.dt_s = program.dt_s
+        self.pacer.anchor(self.clock(), 0)
+        self.playing = False
+        kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
+        self._sensors = sensor_columns(program.channels, kinds)
+        self._lets = [program.slot_of[n] for n in program.let_names]
+        self._state_slot = program.slot_of["state"]
+        self._sonars = [[program.channels.index(s.name) for s in r.model.sonars if s.name in program.channels]
+                        if r.model is not None else [] for r in self.run.robots]
+        self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
+                         if r.model is not None else [] for r in self.run.robots]
+
+    @property
+    def tick(self) -> int:
+        return self.run.tick_index if self.run is not None else 0
+
+    @property
+    def finished(self) -> bool:
+        return self.run is None or self.run.finished
+
+    def advance(self, n: int) -> int:
+        run = self.run
+        if run is None:
+            return 0
+        tick = run.tick
+        for k in range(n):
+            if not tick():
+                if run.trace is not None:
+                    run.trace.close()  # the stop condition held: the trace is complete
+                return k
+        return n
+
+    def restart(self) -> None:
+        self.load()
+
+    def close(self) -> None:
+        if self.run is not None:
+            self.run.close()
+            self.run = None
+
+    # -- documents ------------------------------------------------------------------------
+    def scene(self) -> Json:
+        problems = [d.format() for d in self.problems]
+        if self.run is None:
+            return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems)
+        p = self.run.program
+        columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
+                   + [{"name": n, "group": "signal"} for n in p.let_names]
+                   + [{"name": n, "group": "slider"} for n in p.slider_names]
+                   + [{"name": n, "group": "metric"} for n in p.metric_names])
+        start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
+        return message(
+            "scene", mode="live", ok=True, diagnostics=problems, path=p.path, name=p.name, dt=p.dt_s,
+            seed=p.seed, backend=self.observed.name if self.observed else "?", world=world_doc(p.world),
+            robots=[robot_doc(r.name, r.model, p.channels) for r in self.run.robots],
+            columns=columns, params={k: number(v) for k, v in p.params.items()},
+            overrides=self.overrides,
+            sliders=[{"name": n, "min": lo, "max": hi, "value": start[n]}
+                     for n, (lo, hi) in p.slider_ranges.items()],
+            rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
+            states=list(p.state_names), stop_s=p.stop_horizon_s, timeline=self.timeline,
+            trace=str(self.trace_path) if self.trace_path else None)
+
+    def _slider_values(self) -> list[float]:
+        assert self.run is not None
+        p = self.run.program
+        slots = self.run.robots[0].program.slots
+        return [slots[p.slot_of[n]] for n in p.slider_names]
+
+    def frame(self) -> Json:
+        """One moment of the run: see docs/view.md, "frame"."""
+        if self.run is None:
+            return message("frame", **self.controls(), robots=[], mechanism=None, sliders={}, labels={})
+        run, obs = self.run, self.observed
+        assert obs is not None
+        p = run.program
+        metrics = run.summary(0.0).robots if p.metric_names else {}
+        robots = []
+        for r in run.robots:
+            slots = r.program.slots
+            read = obs.last[r.index] if obs.last else None
+            values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
+            values += [number(slots[s]) for s in self._lets]
+            values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
+            if p.metric_names:
+                values += [number(metrics[r.name]["metrics"][m]) for m in p.metric_names]
+            rule = run.last_rule[r.index]
+            robots.append({
+                "pose": self._pose(r.index, r.start) if r.model is not None else None,
+                "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
+                "state": p.state_names[int(slots[self._state_slot])] if p.state_names else "",
+                "rule": p.rules[rule].id if rule >= 0 else None,
+                "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
+                "values": values,
+            })
+        first = run.robots[0].program.slots if run.robots else []
+        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
+                       sliders=dict(zip(p.slider_names, self._slider_values())),
+                       labels=p.label_text(first) if p.labels else {})
+
+    def _pose(self, robot: int, start: Any) -> list[float | str | None]:
+        obs = self.observed
+        assert obs is not None
+        if not obs.last:
+            return [number(start.x_m), number(start.y_m), number(start.heading_rad)]
+        return [number(obs.reading(robot, c)) for c in ("x", "y", "heading")]
+
+    def _mechanism(self) -> Json | None:
+        assert self.run is not None and self.observed is not None
+        world = self.run.program.world
+        m = world.mechanism
+        if m is None or not self.run.robots or self.run.robots[0].model is not None:
+            return None
+        obs = self.observed
+        bodies = {}
+        for b in m.bodies:
+            if not b.static:
+                pose = obs.reading(0, b.name)
+                if isinstance(pose, tuple):
+                    bodies[b.name] = [number(v) for v in pose]
+        joints = {}
+        for j in m.joints:
+            value = obs.reading(0, j.name) if j.kind != "fixed" else None
+            if isinstance(value, tuple):
+                joints[j.name] = [number(v) for v in value]
+        return {"bodies": bodies, "joints": joints,
+                "targets": {k: [mode, number(v)] for k, (mode, v) in obs.targets.items()}}
+
+    def images(self, robot: int) -> Json | None:
+        run, obs = self.run, self.observed
+        if run is None or obs is None or not obs.last or not 0 <= robot < len(run.robots):
+            return None
+        read = obs.last[robot]
+        out: Json = {"robot": robot, "camera": None, "derived": []}
+        for i in self._cameras[robot]:
+            out["camera"] = png_data_url(read[i])
+        slots = run.robots[robot].program.slots
+        for n in run.program.let_names:
+            url = png_data_url(slots[run.program.slot_of[n]])
+            if url is not None:
+                out["derived"].append([n, url])
+        return out if out["camera"] or out["derived"] else None
+
+    # -- messages -------------------------------------------------------------------------
+    def handle_other(self, kind: str, msg: dict) -> bool:
+        if kind == "slider":
+            self._slider(msg)
+            return False
+        if kind == "params":
+            return self._params(msg)
+        if kind == "timeline":
+            on = msg.get("on")
+            if not isinstance(on, bool):
+                raise BadMessage("'on' must be true or false")
+            self.timeline = on
+            return self.load()
+        if kind == "recheck":
+            self.load()
+            return True
+        raise BadMessage(f"unknown message type '{kind}'")
+
+    def _slider(self, msg: dict) -> None:
+        slider = name(msg.get("name"), "name")
+        value = finite(msg.get("value"), "value")
+        if self.run is None:
+            raise BadMessage("there is no run to move a slider in")
+        if slider not in self.run.program.slider_ranges:
+            raise BadMessage(f"no slider '{slider}'")
+        self.run.set_slider(slider, value)
+
+    def _params(self, msg: dict) -> bool:
+        values = msg.get("values")
+        if not isinstance(values, dict) or len(values) > 200:
+            raise BadMessage("'values' must be an object of parameter names and values")
+        wanted = dict(self.overrides)
+        for key, value in values.items():
+            key = name(key, "a parameter name")
+            if isinstance(value, bool) or not isinstance(value, (str, int, float)) or len(str(value)) > 100:
+                raise BadMessage(f"parameter '{key}' needs a number")
+            if isinstance(value, float) and not math.isfinite(value):
+                raise BadMessage(f"parameter '{key}' needs a finite number")
+            wanted[key] = str(value)
+        ok = self.load(wanted)
+        return True if ok else self._failed()
+
+    def _failed(self) -> bool:
+        """A change that did not compile: the page gets the diagnostics, the run goes on."""
+        raise ChangeRefused([d.format() for d in self.refused])
+
+
+class ChangeRefused(Exception):
+    """A page's change (a parameter) that the checks refused; the message lists why."""
+
+    def __init__(self, diagnostics: list[str]):
+        super().__init__("\n".join(diagnostics))
+        self.diagnostics = diagnostics
+
+
+def _part(value: object, part: int) -> float | str | None:
+    if part < 0:
+        return number(value)
+    if isinstance(value, tuple) and part < len(value):
+        return number(value[part])
+    return None

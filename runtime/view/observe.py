@@ -1,0 +1,89 @@
+"""What a live view sees of a run: a backend wrapped to keep each tick's readings.
+
+``labsim view`` binds a compiled behaviour to an ``ObservedBackend`` instead of the backend
+itself. The run cannot tell the difference: every call goes through to the real backend.
+The wrapper adds what the page draws and the behaviour may not read (a robot's pose, a
+mechanism's every moving body and joint) to the channels the run asks for, keeps the
+readings of the last ``sense()`` and the joint targets the run last commanded. The added
+channels sit between the behaviour's own channels and the ones a trace asks for, so the
+run's view of its readings (the first ``len(program.channels)`` values, and the trace's
+last four) is unchanged.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+from labsim.backends.protocol import Backend, ContactStats, RobotRequest
+from labsim.backends.scene.world import World
+
+ROBOT_EXTRA = ("x", "y", "heading", "collided")  # a robot's pose, drawn on the canvas
+TRACE_EXTRA = ("x", "y", "heading", "collided")  # what runtime.run appends when it traces
+
+
+def mechanism_extra(world: World) -> tuple[str, ...]:
+    """A mechanism's channels the view draws: every joint but the fixed ones, every force
+    sensor and every moving body (see ``Mechanism.channels``)."""
+    return tuple(world.mechanism.channels()) if world.mechanism is not None else ()
+
+
+class ObservedBackend:
+    """A backend that remembers what the run read and commanded; see the module docstring.
+
+    ``index[i][name]`` is where channel ``name`` sits in robot i's readings.
+    """
+
+    def __init__(self, inner: Backend, program_channels: Sequence[str]):
+        self.inner = inner
+        self.name = getattr(inner, "name", "?")
+        self._n = len(program_channels)
+        self.last: list[list[object]] = []
+        self.index: list[dict[str, int]] = []
+        self.targets: dict[str, tuple[str, float]] = {}  # joint -> (mode, value) last commanded
+
+    def open(self, world: World, robots: Sequence[RobotRequest], dt_s: float, seed: int) -> None:
+        out = []
+        self.index = []
+        for req in robots:
+            own = list(req.channels[:self._n])
+            rest = list(req.channels[self._n:])
+            wanted = ROBOT_EXTRA if req.model is not None else mechanism_extra(world)
+            added = [c for c in wanted if c not in own]
+            channels = own + added + rest
+            index: dict[str, int] = {}
+            for i, c in enumerate(own + added):
+                index.setdefault(c, i)
+            self.index.append(index)
+            out.append(replace(req, channels=tuple(channels)))
+        self.inner.open(world, out, dt_s, seed)
+        self.last = []
+
+    def sense(self) -> list[list[object]]:
+        self.last = self.inner.sense()
+        return self.last
+
+    def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
+        self.inner.act(robot, left_rad_s, right_rad_s)
+
+    def command(self, robot: int, joint: str, mode: str, value: float) -> None:
+        self.targets[joint] = (mode, value)
+        self.inner.command(robot, joint, mode, value)
+
+    def step(self) -> None:
+        self.inner.step()
+
+    def pose(self, robot: int) -> tuple[float, float, float]:
+        return self.inner.pose(robot)
+
+    def contacts(self, robot: int) -> ContactStats:
+        return self.inner.contacts(robot)
+
+    def close(self) -> None:
+        self.inner.close()
+
+    def reading(self, robot: int, channel: str) -> object:
+        """The last value of a channel for a robot, or None before the first tick."""
+        if not self.last:
+            return None
+        i = self.index[robot].get(channel)
+        return None if i is None else self.last[robot][i]

@@ -1,0 +1,156 @@
+"""A recorded trace on the same page: ``labsim view TRACE.csv``, with a time scrubber.
+
+``ReplaySession`` reads a trace (``labsim.runtime.trace.read_trace``) and the world it names
+(as ``labsim plot`` finds it), and plays its rows back tick by tick at the speed the page
+sets; a ``seek`` message jumps to a tick. A frame holds what the trace recorded: every
+robot's pose, state, rule and numeric columns. A trace holds no camera images and, of a
+mechanism, only its tracked body (the trace's x, y) and the slew angle (heading), so the rest
+of a mechanism is drawn as it stood at the start.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from labsim.backends.scene.models import MODELS
+from labsim.backends.scene.world import World
+from labsim.runtime.trace import Trace
+from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
+from labsim.runtime.view.session import BadMessage, Session
+
+_TEXT = {"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule", "events"}
+
+
+class ReplaySession(Session):
+    """See the module docstring."""
+
+    def __init__(self, trace: Trace, world: World | None, note: str = "", **session: Any):
+        header = trace.header
+        dt = header.get("dt")
+        super().__init__(float(dt) if isinstance(dt, (int, float)) and dt > 0 else 0.05, **session)
+        self.trace = trace
+        self.world = world
+        self.note = note
+        cols = trace.columns
+        self._i = {c: k for k, c in enumerate(cols)}
+        self.numeric = [c for c in cols if c not in _TEXT and not c.startswith("label:")]
+        recorded = header.get("robots")
+        models: dict[str, object] = recorded if isinstance(recorded, dict) else {}
+        names = list(dict.fromkeys([*(n for n in models), *trace.column("robot")])) if "robot" in cols else []
+        seen = set(trace.column("robot")) if "robot" in cols else set()
+        self.robot_names = [n for n in names if n in seen]
+        self.models = {n: models.get(n) for n in self.robot_names}
+        # rows by tick, in tick order: a trace has one row per robot per tick
+        self.rows: list[dict[str, list[str]]] = []
+        by_tick: dict[str, dict[str, list[str]]] = {}
+        for row in trace.rows:
+            t = row[self._i["tick"]] if "tick" in self._i else str(len(by_tick))
+            if t not in by_tick:
+                by_tick[t] = {}
+                self.rows.append(by_tick[t])
+            by_tick[t][row[self._i["robot"]] if "robot" in self._i else ""] = row
+        self.position = 0
+        self.labels = [c for c in cols if c.startswith("label:")]
+
+    @property
+    def tick(self) -> int:
+        return self.position
+
+    @property
+    def finished(self) -> bool:
+        return self.position >= len(self.rows) - 1
+
+    def advance(self, n: int) -> int:
+        ran = max(0, min(n, len(self.rows) - 1 - self.position))
+        self.position += ran
+        return ran
+
+    def restart(self) -> None:
+        self.position = 0
+        self.playing = False
+        self.pacer.anchor(self.clock(), 0)
+
+    def seek(self, tick: int) -> None:
+        self.position = max(0, min(tick, len(self.rows) - 1))
+        self.pacer.anchor(self.clock(), self.position)
+
+    def scene(self) -> Json:
+        h = self.trace.header
+        robots = []
+        for n in self.robot_names:
+            model = MODELS.get(str(self.models.get(n)))
+            robots.append(robot_doc(n, model, tuple(self.trace.columns)))
+        return message(
+            "scene", mode="replay", ok=True, diagnostics=[self.note] if self.note else [],
+            path=self.trace.path, name=str(h.get("name", "")), dt=self.dt_s, seed=h.get("seed"),
+            backend=str(h.get("backend", "?")), world=world_doc(self.world) if self.world else None,
+            robots=robots, columns=[{"name": c, "group": "trace"} for c in self.numeric],
+            params={k: number(v) for k, v in (h.get("params") or {}).items()}, overrides={},
+            sliders=[], rules=[], states=[], stop_s=None, timeline=False, trace=self.trace.path,
+            ticks=len(self.rows), end_s=round((len(self.rows) - 1) * self.dt_s, 9))
+
+    def frame(self) -> Json:
+        rows = self.rows[self.position] if self.rows else {}
+        robots: list[Json | None] = []
+        for n in self.robot_names:
+            row = rows.get(n)
+            if row is None:
+                robots.append(None)
+                continue
+            model = MODELS.get(str(self.models.get(n)))
+            sonars = [s.name for s in model.sonars if s.name in self._i] if model else []
+            robots.append({
+                "pose": [_num(row, self._i, c) for c in ("x", "y", "heading")],
+                "collided": _num(row, self._i, "collided") == 1.0,
+                "state": row[self._i["state"]] if "state" in self._i else "",
+                "rule": (row[self._i["rule"]] or None) if "rule" in self._i else None,
+                "sonars": [_num(row, self._i, s) for s in sonars],
+                "values": [_num(row, self._i, c) for c in self.numeric],
+            })
+        mech = None
+        first_robot = robots[0] if robots else None
+        if self.world is not None and self.world.mechanism is not None and first_robot is not None:
+            x, z, slew = first_robot["pose"]
+            moving = [b.name for b in self.world.mechanism.bodies if not b.static]
+            mech = {"bodies": {moving[-1]: [x, z, 0.0]} if moving else {}, "joints": {}, "targets": {},
+                    "partial": True, "slew": slew}
+        first = next(iter(rows.values()), None)
+        labels = {c.removeprefix("label:"): first[self._i[c]] for c in self.labels} if first else {}
+        return message("frame", **self.controls(), robots=robots, mechanism=mech, sliders={}, labels=labels)
+
+    def handle_other(self, kind: str, msg: dict) -> bool:
+        if kind == "seek":
+            t = msg.get("tick")
+            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+                raise BadMessage("'tick' must be a number")
+            self.seek(int(t))
+            return False
+        if kind in ("slider", "params", "timeline", "recheck"):
+            raise BadMessage(f"a replayed trace takes no '{kind}' messages")
+        raise BadMessage(f"unknown message type '{kind}'")
+
+
+def _num(row: list[str], index: dict[str, int], column: str) -> float | str | None:
+    k = index.get(column)
+    if k is None:
+        return None
+    cell = row[k]
+    if cell in ("True", "true"):
+        return 1.0
+    if cell in ("False", "false"):
+        return 0.0
+    try:
+        return number(float(cell))
+    except ValueError:
+        return None
+
+
+def load_replay(path: str | Path, **session: Any) -> ReplaySession:
+    """A replay of the trace at path; raises TraceFormatError for a damaged one."""
+    from labsim.runtime.plot import resolve_world
+    from labsim.runtime.trace import read_trace
+
+    trace = read_trace(path)
+    world, note = resolve_world(trace)
+    return ReplaySession(trace, world, note, **session)

@@ -1,0 +1,247 @@
+"""The web server of ``labsim view``: one page, its static files, and a WebSocket of frames.
+
+aiohttp serves HTTP and WebSockets from one event loop (docs/decisions.md says why). The
+session (a live run or a replayed trace) lives in this process; a pacing task calls
+``Session.catch_up`` and sends every open page one frame, at most 30 times a second. Pages
+send small JSON messages (docs/view.md); one that is malformed, unknown or hostile is logged
+and ignored, and never reaches the run. Every page sees the same run; each page picks which
+robot's camera it receives. A WebSocket must come from the page's own origin (or from a
+client that sends no Origin), so another web site open in the browser cannot steer the run.
+"""
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+import webbrowser
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from aiohttp import WSMsgType, web
+
+from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message, number
+from labsim.runtime.view.live import ChangeRefused
+from labsim.runtime.view.session import BadMessage, Session
+
+# resolved: an install may reach this module through links, and the static route serves only
+# files that really lie inside the folder it is given
+STATIC = Path(__file__).resolve().parent / "static"
+MAX_MESSAGE_BYTES = 64 * 1024
+LOG_LIMIT = 20  # ignored messages logged per page; after that, one line per hundred
+
+
+@dataclass(eq=False)
+class Page:
+    """One open page: its socket, the robot whose camera it shows, and whether a send is under way."""
+
+    ws: web.WebSocketResponse
+    peer: str
+    robot: int = 0
+    busy: bool = False
+    ignored: int = 0
+
+
+class ViewServer:
+    """See the module docstring. ``log`` takes one line per notable event."""
+
+    def __init__(self, session: Session, log: Callable[[str], None]):
+        self.session = session
+        self.log = log
+        self.pages: list[Page] = []
+        self.dirty = True  # something changed since the last frame
+        self.frames_sent = 0
+        self._tasks: set[asyncio.Task[None]] = set()
+        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES)
+        self.app.router.add_get("/", self._index)
+        self.app.router.add_get("/ws", self._socket)
+        self.app.router.add_get("/favicon.ico", self._no_icon)
+        self.app.router.add_static("/static/", STATIC)
+
+    # -- HTTP -------------------------------------------------------------------------------
+    async def _index(self, request: web.Request) -> web.StreamResponse:
+        return web.FileResponse(STATIC / "index.html", headers={
+            "Cache-Control": "no-store",
+            "Content-Security-Policy": "default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
+                                       "connect-src 'self' ws: wss:"})
+
+    async def _no_icon(self, request: web.Request) -> web.StreamResponse:
+        return web.Response(status=204)
+
+    async def _socket(self, request: web.Request) -> web.StreamResponse:
+        origin = request.headers.get("Origin")
+        if origin is not None and origin.split("://", 1)[-1] != request.host:
+            self.log(f"labsim view: refused a WebSocket from origin {origin[:80]}")
+            raise web.HTTPForbidden(text="this run only answers its own page")
+        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES, heartbeat=20)
+        await ws.prepare(request)
+        page = Page(ws, request.remote or "?")
+        self.pages.append(page)
+        try:
+            await ws.send_str(_dumps(self.session.scene()))
+            await ws.send_str(self._frame_text(page, self._frame_json()))
+            async for msg in ws:
+                if msg.type == WSMsgType.TEXT:
+                    await self._message(page, msg.data)
+                elif msg.type == WSMsgType.BINARY:
+                    self._ignore(page, "binary messages are not understood")
+                elif msg.type == WSMsgType.ERROR:
+                    self._ignore(page, f"the connection failed: {ws.exception()}")
+        finally:
+            if page in self.pages:
+                self.pages.remove(page)
+        return ws
+
+    async def _message(self, page: Page, text: str) -> None:
+        try:
+            msg = json.loads(text)
+        except (json.JSONDecodeError, RecursionError):
+            self._ignore(page, f"not JSON: {text[:60]!r}")
+            return
+        try:
+            if isinstance(msg, dict) and msg.get("type") == "select":
+                robot = msg.get("robot")
+                if isinstance(robot, bool) or not isinstance(robot, int) or robot < 0:
+                    raise BadMessage("'robot' must be a robot's index")
+                page.robot = robot
+            elif self.session.handle(msg):
+                await self.broadcast(_dumps(self.session.scene()))
+        except BadMessage as e:
+            self._ignore(page, str(e))
+            return
+        except ChangeRefused as e:  # the page that asked is told why; the run goes on
+            await self._send(page, _dumps(message("error", diagnostics=e.diagnostics)))
+        except Exception as e:  # a page must not be able to stop the run: say what failed, go on
+            self._ignore(page, f"it failed: {type(e).__name__}: {e}")
+        self.dirty = True
+
+    def _ignore(self, page: Page, why: str) -> None:
+        page.ignored += 1
+        if page.ignored <= LOG_LIMIT or page.ignored % 100 == 0:
+            self.log(f"labsim view: ignored a message from {page.peer} ({page.ignored} so far): {why}")
+
+    # -- frames -----------------------------------------------------------------------------
+    def _frame_json(self) -> str:
+        return _dumps(self.session.frame())
+
+    def _frame_text(self, page: Page, frame: str, cache: dict[int, str] | None = None) -> str:
+        """The frame for one page: the common part with that page's robot's images spliced in."""
+        if cache is not None and page.robot in cache:
+            images = cache[page.robot]
+        else:
+            images = _dumps(self.session.images(page.robot))
+            if cache is not None:
+                cache[page.robot] = images
+        return frame[:-1] + ',"images":' + images + "}"
+
+    async def send_frame(self) -> None:
+        frame = self._frame_json()
+        cache: dict[int, str] = {}
+        for page in list(self.pages):
+            if not page.busy:  # a page still receiving the last frame skips this one
+                self._spawn(self._send(page, self._frame_text(page, frame, cache)))
+        self.frames_sent += 1
+        self.dirty = False
+
+    async def broadcast(self, text: str) -> None:
+        for page in list(self.pages):
+            await self._send(page, text)
+
+    async def _send(self, page: Page, text: str) -> None:
+        page.busy = True
+        try:
+            await page.ws.send_str(text)
+        except (ConnectionError, RuntimeError):
+            if page in self.pages:
+                self.pages.remove(page)
+        finally:
+            page.busy = False
+
+    def _spawn(self, coro: Any) -> None:
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def pace(self) -> None:
+        """Tick and send frames until cancelled: at most one frame per 1/30 s.
+
+        At a set speed the loop sleeps between frames; at "as fast as it goes" it ticks until
+        the next frame is due and only yields to the event loop in between, so the pages'
+        messages are still read.
+        """
+        loop = asyncio.get_running_loop()
+        session = self.session
+        last_frame = -FRAME_INTERVAL_S
+        ran = 0
+        while True:
+            now = loop.time()
+            flat_out = session.playing and session.pacer.speed is None
+            budget = max(0.004, last_frame + FRAME_INTERVAL_S - now) if flat_out else FRAME_INTERVAL_S * 0.8
+            ran += session.catch_up(budget)
+            now = loop.time()
+            if now - last_frame >= FRAME_INTERVAL_S:
+                if (ran or self.dirty or session.playing) and self.pages:
+                    await self.send_frame()
+                last_frame, ran = now, 0
+            if flat_out and session.playing:
+                await asyncio.sleep(0)
+            else:
+                await asyncio.sleep(max(0.0, last_frame + FRAME_INTERVAL_S - loop.time()))
+
+
+def bind_socket(host: str, port: int) -> socket.socket:
+    """A listening socket on host:port (0: a free port); OSError when that cannot be."""
+    family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind(address)
+        sock.listen(16)
+    except OSError:
+        sock.close()
+        raise
+    sock.setblocking(False)
+    return sock
+
+
+def url_of(sock: socket.socket, host: str) -> str:
+    port = sock.getsockname()[1]
+    shown = f"[{host}]" if ":" in host else host
+    return f"http://{shown}:{port}/"
+
+
+async def serve(session: Session, sock: socket.socket, url: str, *, log: Callable[[str], None],
+                open_browser: bool = False, ready: Callable[[ViewServer], None] | None = None) -> None:
+    """Serve until cancelled (Ctrl-C); the caller closes the session."""
+    server = ViewServer(session, log)
+    runner = web.AppRunner(server.app, access_log=None, handle_signals=False, shutdown_timeout=0.5)
+    await runner.setup()
+    try:
+        await web.SockSite(runner, sock).start()
+        if ready is not None:
+            ready(server)
+        if open_browser:
+            asyncio.get_running_loop().run_in_executor(None, webbrowser.open, url)
+        await server.pace()
+    finally:
+        for page in list(server.pages):
+            await page.ws.close()
+        await runner.cleanup()
+
+
+def _dumps(doc: Json | None) -> str:
+    try:
+        return json.dumps(doc, separators=(",", ":"), allow_nan=False, default=str)
+    except ValueError:  # a nan or inf in a field that was not cleaned: clean them all
+        return json.dumps(_clean(doc), separators=(",", ":"), allow_nan=False, default=str)
+
+
+def _clean(value: object) -> object:
+    if isinstance(value, float):
+        return number(value)
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    return value

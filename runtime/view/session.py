@@ -1,0 +1,200 @@
+"""What every view of a run shares: the controls, the pacing and the page's messages.
+
+A ``Session`` is one thing being watched, a live run (``labsim.runtime.view.live``) or a
+recorded trace (``labsim.runtime.view.replay``). The server (``labsim.runtime.view.server``)
+owns one and calls ``catch_up`` about 30 times a second: it runs the ticks that are due, so
+that simulated time follows wall time times the speed the page set (or, at "as fast as it
+goes", runs for most of a frame's interval), and then sends one frame. Every tick is
+computed; only frames are dropped. ``handle`` checks and applies one message from a page;
+anything it cannot use raises ``BadMessage``, which the server logs and ignores.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
+
+MAX_SPEED = 1000.0  # beyond this a number is not a speed anyone means; "max" is the way to ask
+CHECK_EVERY = 16  # ticks between looks at the clock while catching up
+MAX_NAME = 200  # longest slider or parameter name a message may carry
+
+
+class BadMessage(ValueError):
+    """A page's message that cannot be used: malformed, unknown, or out of range."""
+
+
+class Pacer:
+    """How many ticks are due: simulated time = wall time x speed since the last anchor.
+
+    ``speed`` None means as fast as it goes. Times are the caller's clock, in seconds, so
+    tests drive it with a clock of their own.
+    """
+
+    def __init__(self, dt_s: float):
+        self.dt_s = dt_s
+        self.speed: float | None = 1.0
+        self._wall = 0.0
+        self._tick = 0
+
+    def anchor(self, now: float, tick: int) -> None:
+        self._wall, self._tick = now, tick
+
+    def due(self, now: float, tick: int) -> int:
+        """Ticks to run now to be on time (0 when ahead); unbounded at "max"."""
+        if self.speed is None:
+            return 1 << 62
+        target = self._tick + math.floor((now - self._wall) * self.speed / self.dt_s + 1e-9)
+        return max(0, target - tick)
+
+
+class Session:
+    """One watched run; subclasses provide the ticks and the documents. See the module."""
+
+    def __init__(self, dt_s: float, clock: Callable[[], float] = time.perf_counter):
+        self.clock = clock
+        self.pacer = Pacer(dt_s)
+        self.playing = False
+        self._rate: deque[tuple[float, int]] = deque(maxlen=64)  # (wall s, tick) samples
+
+    # -- what subclasses provide --------------------------------------------------------
+    @property
+    def dt_s(self) -> float:
+        return self.pacer.dt_s
+
+    @property
+    def tick(self) -> int:
+        raise NotImplementedError
+
+    @property
+    def finished(self) -> bool:
+        raise NotImplementedError
+
+    def advance(self, n: int) -> int:
+        """Run up to n ticks; how many ran (fewer once the run has ended)."""
+        raise NotImplementedError
+
+    def scene(self) -> Json:
+        raise NotImplementedError
+
+    def frame(self) -> Json:
+        raise NotImplementedError
+
+    def images(self, robot: int) -> Json | None:
+        """The robot's camera and derived images for the page, or None when it has none."""
+        return None
+
+    def restart(self) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the run (a live run's trace is closed and kept)."""
+
+    # -- pacing -----------------------------------------------------------------------------
+    def catch_up(self, budget_s: float = FRAME_INTERVAL_S * 0.8) -> int:
+        """Run the ticks that are due, for at most about ``budget_s`` of wall time.
+
+        A run that cannot keep up drops its backlog (re-anchors), so that a slow stretch does
+        not turn into a burst later: the real-time factor shows it instead.
+        """
+        if not self.playing or self.finished:
+            self.note_rate()
+            return 0
+        start = self.clock()
+        due = self.pacer.due(start, self.tick)
+        ran = 0
+        while ran < due:
+            n = self.advance(min(CHECK_EVERY, due - ran))
+            ran += n
+            if n == 0 or self.finished:
+                self.playing = False
+                break
+            if self.clock() - start >= budget_s:
+                if self.pacer.speed is not None:
+                    self.pacer.anchor(self.clock(), self.tick)
+                break
+        self.note_rate()
+        return ran
+
+    def note_rate(self) -> None:
+        self._rate.append((self.clock(), self.tick))
+
+    def real_time_factor(self) -> float | None:
+        """Simulated over wall time across the last second or so; None before there is any."""
+        if len(self._rate) < 2:
+            return None
+        now, tick = self._rate[-1]
+        then, before = next(((t, k) for t, k in self._rate if now - t <= 1.5), self._rate[-1])
+        if now - then <= 0:
+            return None
+        return (tick - before) * self.dt_s / (now - then)
+
+    def play(self) -> None:
+        if not self.finished:
+            self.playing = True
+            self.pacer.anchor(self.clock(), self.tick)
+
+    def set_speed(self, speed: float | None) -> None:
+        self.pacer.speed = speed
+        self.pacer.anchor(self.clock(), self.tick)
+
+    def controls(self) -> Json:
+        """The frame's fields every session has."""
+        rtf = self.real_time_factor() if self.playing else None
+        return {"tick": self.tick, "time": round(self.tick * self.dt_s, 9), "playing": self.playing,
+                "finished": self.finished, "speed": self.pacer.speed if self.pacer.speed is not None else "max",
+                "rtf": rtf if rtf is not None and math.isfinite(rtf) else None}
+
+    # -- the page's messages ----------------------------------------------------------------
+    def handle(self, msg: Any) -> bool:
+        """Apply one decoded message; True when the scene changed (a restart) and every page
+        needs it again. Raises BadMessage for anything malformed or out of range."""
+        if not isinstance(msg, dict):
+            raise BadMessage("a message is a JSON object")
+        kind = msg.get("type")
+        if kind == "play":
+            self.play()
+        elif kind == "pause":
+            self.playing = False
+        elif kind == "step":
+            self.playing = False
+            self.advance(1)
+        elif kind == "speed":
+            self.set_speed(_speed(msg.get("value")))
+        elif kind == "restart":
+            self.restart()
+            return True
+        elif kind == "select":
+            pass  # per page: the server keeps it
+        else:
+            return self.handle_other(str(kind)[:40], msg)
+        return False
+
+    def handle_other(self, kind: str, msg: dict) -> bool:
+        raise BadMessage(f"unknown message type '{kind}'")
+
+
+def _speed(value: object) -> float | None:
+    if value == "max":
+        return None
+    v = finite(value, "speed")
+    if not 0 < v <= MAX_SPEED:
+        raise BadMessage(f"speed {v:g} is out of range (more than 0, at most {MAX_SPEED:g}, or \"max\")")
+    return v
+
+
+def finite(value: object, what: str) -> float:
+    """A finite number from a message, or BadMessage."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise BadMessage(f"{what} must be a finite number")
+    return float(value)
+
+
+def name(value: object, what: str) -> str:
+    """A short string from a message, or BadMessage."""
+    if not isinstance(value, str) or not value or len(value) > MAX_NAME:
+        raise BadMessage(f"{what} must be a name")
+    return value

@@ -1,0 +1,319 @@
+// labsim view: the world on a canvas, to scale. World frame: x east (or along the arm), y north
+// (or z up), metres; the canvas' y grows down. Pan with a drag, zoom with the wheel.
+"use strict";
+window.LV = window.LV || {};
+
+LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
+LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
+const PATH_POINTS = 900;  // a robot's fading path: its last poses, one per frame
+
+LV.WorldView = class {
+  constructor(canvas, onPick) {
+    this.canvas = canvas;
+    this.ctx = canvas.getContext("2d");
+    this.onPick = onPick;
+    this.scene = null;
+    this.frame = null;
+    this.selected = 0;
+    this.paths = [];
+    this.drawn = [];  // each robot's pose on the canvas, CSS pixels (tests read it)
+    this.scale = 40; this.cx = 0; this.cy = 0;  // px per m, the world point at the centre
+    this._pointer();
+    new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
+  }
+
+  setScene(scene) {
+    this.scene = scene;
+    this.frame = null;
+    this.paths = (scene.robots || []).map(() => []);
+    this._resize();
+    this.fit();
+  }
+
+  setFrame(frame) {
+    const back = this.frame && frame.tick < this.frame.tick;
+    this.frame = frame;
+    (frame.robots || []).forEach((r, i) => {
+      if (!r || !r.pose || !this.paths[i]) return;
+      const [x, y] = r.pose;
+      if (typeof x !== "number" || typeof y !== "number") return;
+      if (back) this.paths[i] = [];
+      const p = this.paths[i];
+      const last = p[p.length - 1];
+      if (!last || last[0] !== x || last[1] !== y) p.push([x, y]);
+      if (p.length > PATH_POINTS) p.splice(0, p.length - PATH_POINTS);
+    });
+  }
+
+  bounds() {
+    const w = this.scene && this.scene.world;
+    if (!w) {  // no world: the robots' poses
+      const pts = (this.frame ? this.frame.robots : []).filter((r) => r && r.pose).map((r) => r.pose);
+      if (!pts.length) return [-5, -5, 5, 5];
+      const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+      return [Math.min(...xs) - 3, Math.min(...ys) - 3, Math.max(...xs) + 3, Math.max(...ys) + 3];
+    }
+    let [x0, y0, x1, y1] = w.bounds;
+    const g = w.ground;
+    if (g) for (const r of g.roads) for (const p of r.points) {
+      x0 = Math.min(x0, p[0] - r.width); x1 = Math.max(x1, p[0] + r.width);
+      y0 = Math.min(y0, p[1] - r.width); y1 = Math.max(y1, p[1] + r.width);
+    }
+    return [x0, y0, x1, y1];
+  }
+
+  fit() {
+    const [x0, y0, x1, y1] = this.bounds();
+    const w = this.canvas.clientWidth || 600, h = this.canvas.clientHeight || 400;
+    this.scale = Math.min(w / ((x1 - x0) * 1.08), h / ((y1 - y0) * 1.08));
+    this.cx = (x0 + x1) / 2; this.cy = (y0 + y1) / 2;
+    this.draw();
+  }
+
+  toPx(x, y) {
+    return [this.canvas.clientWidth / 2 + (x - this.cx) * this.scale,
+            this.canvas.clientHeight / 2 - (y - this.cy) * this.scale];
+  }
+
+  toWorld(px, py) {
+    return [this.cx + (px - this.canvas.clientWidth / 2) / this.scale,
+            this.cy - (py - this.canvas.clientHeight / 2) / this.scale];
+  }
+
+  _resize() {
+    const dpr = window.devicePixelRatio || 1;
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
+      this.canvas.width = Math.round(w * dpr); this.canvas.height = Math.round(h * dpr);
+    }
+    this.ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  }
+
+  _pointer() {
+    const c = this.canvas;
+    let drag = null;
+    c.addEventListener("pointerdown", (e) => {
+      drag = { x: e.offsetX, y: e.offsetY, cx: this.cx, cy: this.cy, moved: false };
+      c.setPointerCapture(e.pointerId);
+    });
+    c.addEventListener("pointermove", (e) => {
+      if (!drag) return;
+      const dx = e.offsetX - drag.x, dy = e.offsetY - drag.y;
+      if (Math.abs(dx) + Math.abs(dy) > 3) { drag.moved = true; c.classList.add("dragging"); }
+      this.cx = drag.cx - dx / this.scale; this.cy = drag.cy + dy / this.scale;
+      this.draw();
+    });
+    c.addEventListener("pointerup", (e) => {
+      if (drag && !drag.moved) this._pick(e.offsetX, e.offsetY);
+      drag = null; c.classList.remove("dragging");
+    });
+    c.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      const [wx, wy] = this.toWorld(e.offsetX, e.offsetY);
+      this.scale *= Math.exp(-e.deltaY * 0.0015);
+      this.scale = Math.min(5000, Math.max(0.5, this.scale));
+      const [nx, ny] = this.toWorld(e.offsetX, e.offsetY);
+      this.cx += wx - nx; this.cy += wy - ny;
+      this.draw();
+    }, { passive: false });
+    c.addEventListener("dblclick", () => this.fit());
+  }
+
+  _pick(px, py) {
+    let best = -1, bestD = 30;
+    this.drawn.forEach((p, i) => {
+      if (!p) return;
+      const d = Math.hypot(p[0] - px, p[1] - py);
+      if (d < bestD) { best = i; bestD = d; }
+    });
+    if (best >= 0 && this.onPick) this.onPick(best);
+  }
+
+  draw() {
+    const ctx = this.ctx, w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    ctx.fillStyle = "#fafafa"; ctx.fillRect(0, 0, w, h);
+    if (!this.scene) return;
+    const world = this.scene.world;
+    this._grid();
+    if (world && world.ground) this._ground(world.ground);
+    if (world) this._walls(world);
+    if (world && world.mechanism) this._mechanism(world.mechanism);
+    else this._robots();
+  }
+
+  _grid() {
+    const ctx = this.ctx, w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    const step = [0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50].find((s) => s * this.scale >= 40) || 100;
+    const [x0, y1] = this.toWorld(0, 0), [x1, y0] = this.toWorld(w, h);
+    ctx.strokeStyle = "#ececec"; ctx.lineWidth = 1; ctx.beginPath();
+    for (let x = Math.ceil(x0 / step) * step; x <= x1; x += step) { const [px] = this.toPx(x, 0); ctx.moveTo(px, 0); ctx.lineTo(px, h); }
+    for (let y = Math.ceil(y0 / step) * step; y <= y1; y += step) { const [, py] = this.toPx(0, y); ctx.moveTo(0, py); ctx.lineTo(w, py); }
+    ctx.stroke();
+    ctx.fillStyle = "#999"; ctx.font = "11px system-ui";
+    ctx.fillText(`grid ${step} m`, w - 70, 14);
+  }
+
+  _poly(points, close) {
+    const ctx = this.ctx;
+    ctx.beginPath();
+    points.forEach((p, i) => { const [x, y] = this.toPx(p[0], p[1]); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+    if (close) ctx.closePath();
+  }
+
+  _ground(g) {
+    const ctx = this.ctx, rgb = (c) => `rgb(${c[0]},${c[1]},${c[2]})`;
+    const [x0, y0, x1, y1] = this.bounds();
+    const [a, b] = this.toPx(x0, y1), [c, d] = this.toPx(x1, y0);
+    ctx.fillStyle = rgb(g.floor); ctx.fillRect(a, b, c - a, d - b);
+    for (const p of g.patches) { this._poly(p.corners, true); ctx.fillStyle = rgb(p.rgb); ctx.fill(); }
+    ctx.lineJoin = "round"; ctx.lineCap = "butt";
+    for (const r of g.roads) {
+      this._poly(r.points, r.closed);
+      ctx.strokeStyle = rgb(r.rgb); ctx.lineWidth = Math.max(1, r.width * this.scale); ctx.stroke();
+    }
+    for (const l of g.lines) {
+      this._poly([l.a, l.b], false);
+      ctx.strokeStyle = rgb(l.rgb); ctx.lineWidth = Math.max(1, l.width * this.scale); ctx.stroke();
+    }
+  }
+
+  _walls(world) {
+    const ctx = this.ctx;
+    ctx.lineCap = "square"; ctx.strokeStyle = "#373737";
+    for (const [ax, ay, bx, by, t] of world.walls) {
+      this._poly([[ax, ay], [bx, by]], false);
+      ctx.lineWidth = Math.max(2, t * this.scale); ctx.stroke();
+    }
+    for (const corners of world.blocks) {
+      this._poly(corners, true); ctx.fillStyle = "#b9b9b9"; ctx.fill();
+      ctx.strokeStyle = "#5f5f5f"; ctx.lineWidth = 1.5; ctx.stroke();
+    }
+  }
+
+  _robots() {
+    const ctx = this.ctx, scene = this.scene, frame = this.frame;
+    this.drawn = [];
+    scene.robots.forEach((robot, i) => {
+      const path = this.paths[i] || [];
+      const colour = LV.robotColour(i);
+      // the fading path: older segments lighter
+      const n = path.length, chunk = 30;
+      ctx.strokeStyle = colour; ctx.lineWidth = i === this.selected ? 2.5 : 1.5; ctx.lineJoin = "round";
+      for (let s = 0; s < n - 1; s += chunk) {
+        ctx.globalAlpha = 0.08 + 0.75 * ((s + chunk) / n);
+        this._poly(path.slice(s, Math.min(n, s + chunk + 1)), false); ctx.stroke();
+      }
+      ctx.globalAlpha = 1;
+      const r = frame && frame.robots[i];
+      if (!r || !r.pose || typeof r.pose[0] !== "number") return;
+      const [x, y, th] = r.pose, c = Math.cos(th), s = Math.sin(th);
+      const local = (px, py) => [x + px * c - py * s, y + px * s + py * c];
+      this._sonars(robot, r, local, th);
+      let outline = robot.footprint.length ? robot.footprint : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]];
+      const tiny = 9 / this.scale;  // too small to see at this zoom: a marker of fixed size instead
+      if (0.4 < tiny) outline = [[1.4 * tiny, 0], [-tiny, tiny], [-0.5 * tiny, 0], [-tiny, -tiny]];
+      this._poly(outline.map((p) => local(p[0], p[1])), true);
+      ctx.fillStyle = colour; ctx.globalAlpha = 0.85; ctx.fill(); ctx.globalAlpha = 1;
+      ctx.lineWidth = i === this.selected ? 3 : 1.5;
+      ctx.strokeStyle = r.collided ? "#d62728" : (i === this.selected ? "#111" : "#333"); ctx.stroke();
+      const nose = local(Math.max(0.35, 1.4 * tiny), 0);
+      this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke();
+      const [px, py] = this.toPx(x, y);
+      this.drawn[i] = [px, py];
+      if (scene.robots.length > 1) {
+        ctx.fillStyle = "#111"; ctx.font = "11px system-ui";
+        ctx.fillText(robot.name, px + 10, py - 10);
+      }
+    });
+  }
+
+  _sonars(robot, r, local, th) {
+    const ctx = this.ctx;
+    robot.sonars.forEach((sonar, k) => {
+      const d = r.sonars[k];
+      const hit = typeof d === "number";
+      const len = hit ? Math.min(d, sonar.range) : sonar.range;
+      const [ax, ay] = local(sonar.x, sonar.y);
+      const a = th + sonar.angle;
+      const bx = ax + len * Math.cos(a), by = ay + len * Math.sin(a);
+      this._poly([[ax, ay], [bx, by]], false);
+      if (hit) {  // near is red, far is green
+        const f = Math.max(0, Math.min(1, d / sonar.range));
+        ctx.strokeStyle = `hsl(${Math.round(f * 120)}, 85%, 42%)`; ctx.setLineDash([]); ctx.lineWidth = 2;
+      } else {
+        ctx.strokeStyle = "rgba(120,120,120,0.6)"; ctx.setLineDash([4, 4]); ctx.lineWidth = 1;
+      }
+      ctx.stroke(); ctx.setLineDash([]);
+      if (hit) {
+        const [px, py] = this.toPx(bx, by);
+        ctx.fillStyle = ctx.strokeStyle; ctx.beginPath(); ctx.arc(px, py, 3, 0, 2 * Math.PI); ctx.fill();
+      }
+    });
+  }
+
+  _bodyPose(m, name) {  // [x, z, angle] now, or the start pose
+    const f = this.frame && this.frame.mechanism;
+    if (f && f.bodies[name]) return f.bodies[name];
+    const b = m.bodies.find((q) => q.name === name);
+    return b ? [b.center[0], b.center[1], b.angle] : null;
+  }
+
+  _attached(m, bodyName, point) {  // a point fixed to a body, given where it was at the start
+    const b = m.bodies.find((q) => q.name === bodyName);
+    const now = this._bodyPose(m, bodyName);
+    if (!b || !now) return point;
+    const dx = point[0] - b.center[0], dz = point[1] - b.center[1], da = now[2] - b.angle;
+    const c = Math.cos(da), s = Math.sin(da);
+    return [now[0] + dx * c - dz * s, now[1] + dx * s + dz * c];
+  }
+
+  _mechanism(m) {
+    const ctx = this.ctx, f = this.frame && this.frame.mechanism;
+    const partial = f && f.partial;
+    if (m.floor_z !== null && m.floor_z !== undefined) {
+      const [x0, , x1] = this.bounds();
+      this._poly([[x0 - 100, m.floor_z], [x1 + 100, m.floor_z]], false);
+      ctx.strokeStyle = "#8a7f6a"; ctx.lineWidth = 3; ctx.stroke();
+    }
+    // ropes and cables first, under the bodies
+    const cable = (a, b, colour) => { this._poly([a, b], false); ctx.strokeStyle = colour; ctx.lineWidth = 1.5; ctx.stroke(); };
+    if (!partial) {
+      for (const j of m.joints.filter((q) => q.rope)) {
+        const child = m.bodies.find((q) => q.name === j.child);
+        cable(this._attached(m, j.parent, j.anchor),
+              this._attached(m, j.child, [child.center[0], child.center[1] + child.size[1] / 2]), "#444");
+      }
+      for (const s of m.force_sensors) {
+        const [a, b] = s.anchors || s.between.map((n) => m.bodies.find((q) => q.name === n).center);
+        cable(this._attached(m, s.between[0], a), this._attached(m, s.between[1], b), "#c47f00");
+      }
+    }
+    for (const b of m.bodies) {
+      if (partial && !b.static && !(f.bodies[b.name])) continue;
+      const pose = this._bodyPose(m, b.name);
+      const [w, h] = b.size, c = Math.cos(pose[2]), s = Math.sin(pose[2]);
+      const corners = [[-w / 2, -h / 2], [w / 2, -h / 2], [w / 2, h / 2], [-w / 2, h / 2]]
+        .map(([x, z]) => [pose[0] + x * c - z * s, pose[1] + x * s + z * c]);
+      this._poly(corners, true);
+      ctx.fillStyle = b.static ? "#9aa4ad" : (b.name === "Load" || b === m.bodies[m.bodies.length - 1] ? "#e07b39" : "#f2c12e");
+      ctx.fill(); ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.stroke();
+    }
+    this._slewDial(m);
+  }
+
+  _slewDial(m) {  // the slew angle, seen from above, in a corner
+    if (!m.slew) return;
+    const f = this.frame && this.frame.mechanism;
+    let a = 0;
+    if (f && f.joints && f.joints[m.slew]) a = f.joints[m.slew][0];
+    else if (f && typeof f.slew === "number") a = f.slew;
+    const ctx = this.ctx, x = this.canvas.clientWidth - 60, y = 70, r = 40;
+    ctx.fillStyle = "rgba(255,255,255,0.9)"; ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
+    ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
+    ctx.strokeStyle = "#e07b39"; ctx.lineWidth = 4;
+    ctx.beginPath(); ctx.moveTo(x, y); ctx.lineTo(x + r * 0.9 * Math.cos(a), y - r * 0.9 * Math.sin(a)); ctx.stroke();
+    ctx.fillStyle = "#333"; ctx.font = "11px system-ui"; ctx.textAlign = "center";
+    ctx.fillText(`slew ${(a * 180 / Math.PI).toFixed(1)}°`, x, y + r + 14);
+    ctx.fillText("from above", x, y - r - 6); ctx.textAlign = "start";
+  }
+};

@@ -1,0 +1,294 @@
+// labsim view: the page's connection and panels. The server sends a "scene" once per run and
+// then "frame"s (docs/view.md); the page sends small JSON messages back. `window.labsimView`
+// exposes the latest scene and frame (the browser tests read it).
+"use strict";
+const $ = (id) => document.getElementById(id);
+const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [] };
+window.labsimView = state;
+
+const world = new LV.WorldView($("world"), (i) => selectRobot(i));
+const chart = new LV.Chart($("chart"));
+window.LV_world = world;  // what is drawn where (the browser tests read it)
+
+function send(msg) {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
+}
+
+function connect() {
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  state.ws = ws;
+  ws.onopen = () => { setStatus("live", "ok"); send({ type: "select", robot: state.robot }); };
+  ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
+  ws.onmessage = (e) => {
+    let msg;
+    try { msg = JSON.parse(e.data); } catch (err) { return; }
+    if (msg.type === "scene") onScene(msg);
+    else if (msg.type === "frame") onFrame(msg);
+    else if (msg.type === "error") notice("That change was refused:", msg.diagnostics.join("\n"), true);
+  };
+}
+
+function setStatus(text, kind) { const s = $("status"); s.textContent = text; s.className = "status " + (kind || ""); }
+
+function notice(title, body, error) {
+  const n = $("notice");
+  n.hidden = !title;
+  n.className = "notice" + (error ? " error" : "");
+  n.innerHTML = "";
+  if (!title) return;
+  n.appendChild(document.createTextNode(title));
+  if (body) { const pre = document.createElement("pre"); pre.textContent = body; n.appendChild(pre); }
+}
+
+// -- the scene: once per run --------------------------------------------------------------
+function onScene(scene) {
+  state.scene = scene;
+  state.frame = null;
+  $("diagnostics").hidden = scene.ok;
+  $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
+  if (!scene.ok) { setStatus("does not compile", "bad"); return; }
+  notice(scene.diagnostics.length ? "Warnings:" : "", scene.diagnostics.join("\n"), false);
+  $("name").textContent = scene.name || "labsim view";
+  $("path").textContent = scene.path + (scene.mode === "replay" ? " (replay)" : "") + (scene.trace && scene.mode === "live" ? ` → ${scene.trace}` : "");
+  document.title = `${scene.name || scene.path} – labsim view`;
+  const replay = scene.mode === "replay";
+  $("scrubber-row").hidden = !replay;
+  if (replay) { $("scrubber").max = String(Math.max(0, scene.ticks - 1)); }
+  $("restart").textContent = replay ? "Rewind" : "Restart";
+  for (const row of document.querySelectorAll(".state-row, .rule-row")) row.hidden = !scene.rules.length && !replay;
+  buildRobots(scene);
+  buildSliders(scene);
+  buildParams(scene);
+  buildTable(scene);
+  chart.reset(scene.columns, scene.robots.length);
+  pickDefaultChart(scene);
+  world.setScene(scene);
+  if (state.robot >= scene.robots.length) selectRobot(0);
+}
+
+function buildRobots(scene) {
+  const sel = $("robot");
+  sel.innerHTML = "";
+  scene.robots.forEach((r, i) => {
+    const o = document.createElement("option");
+    o.value = String(i); o.textContent = r.model ? r.name : `${r.name} (mechanism)`;
+    sel.appendChild(o);
+  });
+  sel.value = String(state.robot);
+}
+
+function buildSliders(scene) {
+  const box = $("sliders");
+  box.innerHTML = "";
+  $("sliders-panel").hidden = !scene.sliders.length;
+  $("timeline").checked = !!scene.timeline;
+  $("timeline-row").hidden = scene.mode !== "live";
+  for (const s of scene.sliders) {
+    const div = document.createElement("div");
+    div.className = "slider";
+    div.innerHTML = `<div class="label"><span class="text"></span><span class="muted value"></span></div>`;
+    const input = document.createElement("input");
+    Object.assign(input, { type: "range", min: s.min, max: s.max, step: (s.max - s.min) / 200, value: s.value });
+    input.dataset.name = s.name;
+    input.setAttribute("aria-label", s.name);
+    input.addEventListener("pointerdown", () => { state.dragging = s.name; });
+    input.addEventListener("pointerup", () => { state.dragging = null; });
+    input.addEventListener("input", () => moveSlider(s.name, Number(input.value)));
+    input.addEventListener("change", () => { moveSlider(s.name, Number(input.value), true); state.dragging = null; });
+    div.appendChild(input);
+    div.querySelector(".text").textContent = s.name;
+    box.appendChild(div);
+  }
+}
+
+function moveSlider(name, value, force) {  // at most 20 messages a second while dragging
+  const now = performance.now(), last = state.sent[name] || 0;
+  clearTimeout(state.sent[name + ":t"]);
+  if (force || now - last > 50) { state.sent[name] = now; send({ type: "slider", name, value }); }
+  else state.sent[name + ":t"] = setTimeout(() => moveSlider(name, value, true), 50 - (now - last));
+}
+
+function buildParams(scene) {
+  const form = $("params");
+  form.innerHTML = "";
+  const names = Object.keys(scene.params || {});
+  $("params-panel").hidden = !names.length;
+  const live = scene.mode === "live";
+  for (const n of names) {
+    const label = document.createElement("label");
+    label.textContent = n; label.htmlFor = "param-" + n;
+    const input = document.createElement("input");
+    input.type = "text"; input.id = "param-" + n; input.name = n; input.disabled = !live;
+    input.value = n in scene.overrides ? scene.overrides[n] : String(scene.params[n]);
+    input.dataset.start = input.value;
+    form.appendChild(label); form.appendChild(input);
+  }
+  if (live && names.length) {
+    const b = document.createElement("button");
+    b.type = "submit"; b.className = "apply"; b.textContent = "Apply and restart";
+    form.appendChild(b);
+  }
+}
+
+$("params").addEventListener("submit", (e) => {
+  e.preventDefault();
+  const values = {};
+  for (const input of $("params").querySelectorAll("input")) {
+    if (input.value !== input.dataset.start) values[input.name] = input.value.trim();
+  }
+  notice("");
+  send({ type: "params", values });
+});
+
+function buildTable(scene) {
+  const body = $("table").querySelector("tbody");
+  body.innerHTML = "";
+  state.rows = [];
+  let group = null;
+  scene.columns.forEach((c, k) => {
+    if (c.group !== group) {
+      group = c.group;
+      const tr = body.insertRow();
+      tr.className = "group";
+      const td = tr.insertCell(); td.colSpan = 3;
+      td.textContent = { sensor: "sensors", signal: "signals", slider: "sliders", metric: "metrics", trace: "columns" }[group] || group;
+    }
+    const tr = body.insertRow();
+    const box = document.createElement("input");
+    box.type = "checkbox"; box.dataset.column = c.name;
+    box.addEventListener("change", () => chart.toggle(k, box.checked));
+    tr.insertCell().appendChild(box);
+    tr.insertCell().textContent = c.name;
+    const v = tr.insertCell(); v.className = "value";
+    state.rows.push({ tr, v, box });
+  });
+}
+
+function pickDefaultChart(scene) {
+  const wanted = new URLSearchParams(location.search).get("chart");
+  let picks;
+  if (wanted) picks = wanted.split(",").map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
+  else picks = scene.columns.map((c, k) => [c, k]).filter(([c]) => c.group === "signal" || c.group === "trace").map(([, k]) => k);
+  chart.picked = [];
+  state.pendingChart = wanted ? picks : null;  // without ?chart=: the last two numeric signals, once known
+  for (const k of (wanted ? picks : [])) { state.rows[k].box.checked = true; chart.toggle(k, true); }
+}
+
+// -- frames ---------------------------------------------------------------------------------
+function onFrame(frame) {
+  if (!state.scene || !state.scene.ok) return;
+  state.frame = frame;
+  state.frames += 1;
+  world.setFrame(frame);
+  chart.add(frame);
+  if (state.pendingChart === null) defaultChartFromValues(frame);
+  scheduleDraw();
+}
+
+function defaultChartFromValues(frame) {
+  const r = frame.robots[state.robot];
+  if (!r || frame.tick === 0) return;
+  const numeric = state.scene.columns.map((c, k) => [c, k])
+    .filter(([c, k]) => (c.group === "signal" || c.group === "trace") && typeof r.values[k] === "number").map(([, k]) => k);
+  const trace = state.scene.mode === "replay";
+  const picks = trace ? numeric.filter((k) => !["wheel_left", "wheel_right"].includes(state.scene.columns[k].name)).slice(-2) : numeric.slice(-2);
+  state.pendingChart = picks;
+  for (const k of picks) { state.rows[k].box.checked = true; chart.toggle(k, true); }
+}
+
+let drawPending = false;
+function scheduleDraw() {
+  if (drawPending) return;
+  drawPending = true;
+  requestAnimationFrame(() => { drawPending = false; render(); });
+}
+
+function fmt(v) {
+  if (v === null || v === undefined) return "–";
+  if (typeof v === "string") return v;
+  if (Number.isInteger(v)) return String(v);
+  const a = Math.abs(v);
+  return a !== 0 && (a < 1e-3 || a >= 1e6) ? v.toExponential(3) : v.toFixed(4);
+}
+
+function render() {
+  const f = state.frame, scene = state.scene;
+  if (!f || !scene) return;
+  $("play").textContent = f.playing ? "Pause" : "Play";
+  $("play").disabled = f.finished && !f.playing;
+  const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
+  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (tick ${f.tick})${f.finished ? " — ended" : ""}`;
+  $("rtf").textContent = f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "";
+  if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
+  if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
+    $("scrubber").value = String(f.tick);
+  }
+  $("scrub-time").textContent = scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "";
+  for (const input of $("sliders").querySelectorAll("input")) {
+    const n = input.dataset.name, div = input.parentElement;
+    if (n in f.sliders && state.dragging !== n) input.value = f.sliders[n];
+    div.querySelector(".text").textContent = f.labels[n] || n;
+    div.querySelector(".value").textContent = n in f.sliders ? fmt(f.sliders[n]) : "";
+  }
+  const r = f.robots[state.robot];
+  if (r) {
+    $("state").textContent = r.state || "–";
+    const rule = scene.rules.find((q) => q.id === r.rule);
+    $("rule").textContent = r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)";
+    r.values.forEach((v, k) => { if (state.rows[k]) state.rows[k].v.textContent = fmt(v); });
+  }
+  renderImages(f.images);
+  world.selected = state.robot;
+  world.draw();
+  chart.draw();
+}
+
+function renderImages(images) {
+  const box = $("images");
+  const want = images ? [["camera", images.camera]].concat(images.derived || []).filter(([, url]) => url) : [];
+  if (box.children.length !== want.length) {
+    box.innerHTML = "";
+    for (const [name] of want) {
+      const fig = document.createElement("figure");
+      fig.innerHTML = "<img alt=''><figcaption></figcaption>";
+      fig.querySelector("figcaption").textContent = name;
+      fig.querySelector("img").alt = name;
+      box.appendChild(fig);
+    }
+  }
+  want.forEach(([name, url], i) => {
+    const fig = box.children[i];
+    fig.querySelector("figcaption").textContent = name;
+    const img = fig.querySelector("img");
+    if (img.src !== url) img.src = url;
+  });
+}
+
+function selectRobot(i) {
+  state.robot = i;
+  $("robot").value = String(i);
+  send({ type: "select", robot: i });
+  chart.select(i);
+  scheduleDraw();
+}
+
+// -- controls ---------------------------------------------------------------------------------
+$("play").addEventListener("click", () => send({ type: state.frame && state.frame.playing ? "pause" : "play" }));
+$("step").addEventListener("click", () => send({ type: "step" }));
+$("restart").addEventListener("click", () => send({ type: "restart" }));
+$("speed").addEventListener("change", () => {
+  const v = $("speed").value;
+  send({ type: "speed", value: v === "max" ? "max" : Number(v) });
+  $("speed").blur();
+});
+$("robot").addEventListener("change", () => selectRobot(Number($("robot").value)));
+$("timeline").addEventListener("change", () => send({ type: "timeline", on: $("timeline").checked }));
+$("recheck").addEventListener("click", () => send({ type: "recheck" }));
+$("scrubber").addEventListener("input", () => send({ type: "seek", tick: Number($("scrubber").value) }));
+document.addEventListener("keydown", (e) => {
+  if (e.target.tagName === "INPUT" || e.target.tagName === "SELECT") return;
+  if (e.key === " ") { e.preventDefault(); $("play").click(); }
+  else if (e.key === ".") send({ type: "step" });
+});
+
+connect();
