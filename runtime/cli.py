@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, view, labs, new, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, view, sweep, labs, new, worlds, serve.
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
@@ -28,6 +28,7 @@ from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import compile_behaviour, slider_events
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
+from labsim.runtime.sweep_driver import add_sweep_parser
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -63,7 +64,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="write the summary as JSON to PATH; with - or no PATH to standard output, instead of "
                           "the text summary (docs/summary-json.md)")
 
-    _sweep_parser(sub)
+    add_sweep_parser(sub)
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
@@ -123,32 +124,6 @@ def _parser() -> argparse.ArgumentParser:
                             "their cameras")
     serve.add_argument("--quiet", "-q", action="store_true", help="do not log clients and simulations")
     return p
-
-
-def _sweep_parser(sub: argparse._SubParsersAction) -> None:
-    """``labsim sweep``: its options; docs/sweep.md."""
-    sweep = sub.add_parser("sweep", help="run behaviours over a grid of parameters and seeds, in parallel, "
-                                         "and compare the settings")
-    sweep.add_argument("files", nargs="+", metavar="FILE", help="behaviour files or lab names (a class's "
-                                                                "submissions, or versions of one behaviour)")
-    sweep.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...|NAME=START:STOP:STEP",
-                       help="values of a parameter to try (repeatable; the grid is every combination)")
-    sweep.add_argument("--seeds", metavar="1-20", help="seeds to run each setting with: 1-20, 1,2,5 or 1-5,9 "
-                                                       "(default: the file's own seed)")
-    sweep.add_argument("-j", "--jobs", type=int, metavar="N", help="processes on this machine (default: the cores)")
-    sweep.add_argument("--executor", choices=("local", "dask"), default="local",
-                       help="where the runs go: this machine's processes, or a Dask cluster (default: %(default)s)")
-    sweep.add_argument("--scheduler", metavar="ADDRESS", help="the Dask scheduler, e.g. tcp://HOST:8786")
-    sweep.add_argument("-o", "--output", metavar="CSV", help="write one row per run to this CSV file")
-    sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
-    sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
-    sweep.add_argument("--timeout-per-run", type=float, metavar="S", dest="timeout",
-                       help="stop a run after S seconds of real time; its row says timeout")
-    sweep.add_argument("--traces", metavar="DIR", help="write each run's trace into this folder")
-    sweep.add_argument("--maximize", action="append", default=[], metavar="METRIC",
-                       help="mark the highest mean of this metric as best (default: the lowest)")
-    sweep.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                       help="show a progress bar (default: when stderr is a terminal)")
 
 
 def _remote_options(p: argparse.ArgumentParser) -> None:
@@ -437,11 +412,9 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Run a grid of runs and compare the settings; runtime/sweep_driver.py."""
-    from labsim.runtime.sweep_driver import SweepOptions, run_sweep
+    from labsim.runtime.sweep_driver import run_sweep, sweep_options
 
-    return run_sweep(SweepOptions(args.files, args.set, args.seeds, args.jobs, args.executor, args.scheduler,
-                                  args.output, args.json, args.plot, args.timeout, args.traces, args.maximize,
-                                  args.progress))
+    return run_sweep(sweep_options(args))
 
 
 def cmd_labs(args: argparse.Namespace) -> int:

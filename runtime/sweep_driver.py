@@ -1,5 +1,8 @@
 """``labsim sweep`` from options to exit code: check everything, run the grid, show and write it.
 
+The command line's options for it (``add_sweep_parser``) live here too, so that
+runtime/cli.py only registers the command.
+
 Everything a user can get wrong (a ``--set`` the files do not take, an output that cannot be
 written, a missing optional extra) is found here before the first run starts, and reported
 as a LabsimError (exit 2). Then the tasks go to the chosen executor; each row as it comes
@@ -8,6 +11,7 @@ interrupted, and everything done so far is still written.
 """
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import os
 import sys
@@ -181,3 +185,35 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     if interrupted:
         return EXIT_INTERRUPTED
     return EXIT_SOME_FAILED if any(r.failed for r in rows) else EXIT_OK
+
+
+def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
+    """``labsim sweep``: its options; docs/sweep.md."""
+    sweep = sub.add_parser("sweep", help="run behaviours over a grid of parameters and seeds, in parallel, "
+                                         "and compare the settings")
+    sweep.add_argument("files", nargs="+", metavar="FILE", help="behaviour files or lab names (a class's "
+                                                                "submissions, or versions of one behaviour)")
+    sweep.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...|NAME=START:STOP:STEP",
+                       help="values of a parameter to try (repeatable; the grid is every combination)")
+    sweep.add_argument("--seeds", metavar="1-20", help="seeds to run each setting with: 1-20, 1,2,5 or 1-5,9 "
+                                                       "(default: the file's own seed)")
+    sweep.add_argument("-j", "--jobs", type=int, metavar="N", help="processes on this machine (default: the cores)")
+    sweep.add_argument("--executor", choices=("local", "dask"), default="local",
+                       help="where the runs go: this machine's processes, or a Dask cluster (default: %(default)s)")
+    sweep.add_argument("--scheduler", metavar="ADDRESS", help="the Dask scheduler, e.g. tcp://HOST:8786")
+    sweep.add_argument("-o", "--output", metavar="CSV", help="write one row per run to this CSV file")
+    sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
+    sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
+    sweep.add_argument("--timeout-per-run", type=float, metavar="S", dest="timeout",
+                       help="stop a run after S seconds of real time; its row says timeout")
+    sweep.add_argument("--traces", metavar="DIR", help="write each run's trace into this folder")
+    sweep.add_argument("--maximize", action="append", default=[], metavar="METRIC",
+                       help="mark the highest mean of this metric as best (default: the lowest)")
+    sweep.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                       help="show a progress bar (default: when stderr is a terminal)")
+
+
+def sweep_options(args: argparse.Namespace) -> SweepOptions:
+    """The parsed command line as SweepOptions."""
+    return SweepOptions(args.files, args.set, args.seeds, args.jobs, args.executor, args.scheduler, args.output,
+                        args.json, args.plot, args.timeout, args.traces, args.maximize, args.progress)
