@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, view, labs, new, worlds, serve.
+"""The ``labsim`` command line: run, check, test, plot, view, sweep, labs, new, worlds, serve.
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
@@ -27,6 +27,8 @@ from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import compile_behaviour, slider_events
+from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
+from labsim.runtime.sweep_driver import add_sweep_parser
 from labsim.runtime.trace import TraceFormatError, read_trace
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -58,6 +60,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                      help="show a progress bar (default: when stderr is a terminal)")
     run.add_argument("--quiet", "-q", action="store_true", help="print no summary")
+    run.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH|-",
+                     help="write the summary as JSON to PATH; with - or no PATH to standard output, instead of "
+                          "the text summary (docs/summary-json.md)")
+
+    add_sweep_parser(sub)
 
     check = sub.add_parser("check", help="check behaviour files without running them")
     check.add_argument("files", nargs="+")
@@ -148,7 +155,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
-                "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve}[args.command](args)
+                "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
+                "sweep": cmd_sweep}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -206,6 +214,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     behaviour = compile_behaviour(args.file, overrides, seed=args.seed)
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
+    if args.json not in (None, "-"):
+        check_json_output(args.json, [Path(args.file), Path(behaviour.program.world.source)])
     replay = None
     if args.replay:
         try:
@@ -213,7 +223,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         except TraceFormatError as e:
             raise LabsimError([Diagnostic(args.replay, str(e).removeprefix(f"{args.replay}: "))]) from None
     backend = load_backend(args.backend, **_backend_options(args))
-    run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
+    warnings: list[str] = []
+
+    def warn(message: str) -> None:
+        warnings.append(message)
+        _warn(message)
+
+    run = behaviour.bind(backend, trace=args.trace, warn=warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
@@ -222,7 +238,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.clear()
         run.close()
-    if not args.quiet:
+    if args.json is not None:
+        emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+    if not args.quiet and args.json != "-":
         print(format_summary(summary, run))
         trips = _round_trips(backend, summary.ticks)
         if trips:
@@ -390,6 +408,13 @@ def cmd_view(args: argparse.Namespace) -> int:
     return view(args.file, overrides=_overrides(args.set), seed=args.seed, backend=args.backend,
                 host=args.host, port=args.port, trace=args.trace, open_browser=not args.no_browser,
                 warn=_warn, report=_print_diagnostics)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run a grid of runs and compare the settings; runtime/sweep_driver.py."""
+    from labsim.runtime.sweep_driver import run_sweep, sweep_options
+
+    return run_sweep(sweep_options(args))
 
 
 def cmd_labs(args: argparse.Namespace) -> int:

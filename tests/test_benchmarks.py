@@ -29,3 +29,10 @@ def test_benchmark_runs(script: str) -> None:
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "median" in done.stdout
+
+
+def test_sweep_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_sweep.py"), "--runs", "2", "--minutes", "0.2",
+                           "--no-dask"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "speed-up -j 2 over -j 1" in done.stdout

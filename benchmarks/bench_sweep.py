@@ -1,0 +1,94 @@
+"""Sweep throughput: -j 1 against -j 2, the overhead per run, and a two-worker Dask cluster.
+
+    python benchmarks/bench_sweep.py [--runs 20] [--minutes 25] [--no-dask]
+
+Runs the wall lab ``--runs`` times (seeds 1..N, the full 25 simulated minutes by default)
+through ``labsim sweep``'s executors, once each (the machine is shared: quote the load
+average with the figures, which this script prints), and reports:
+
+- the elapsed time with ``-j 1`` and ``-j 2``, and the speed-up (goal: >= 1.9x on 2 cores);
+- the overhead per run, against the mean run: in the worker (compile, open the world,
+  summarise: ``task_time_s - wall_time_s``) and in all (elapsed x processes / runs - mean
+  run, which adds starting the workers and the pipes) (goal: < 5% of a 25-minute run); the
+  fork server's start, once per sweep, is measured first and separately;
+- runs in flight on average (the sum of the runs' times over the elapsed time): how well
+  the executor keeps its processes busy, apart from how fast the machine runs each of them;
+- runs per second on a ``distributed.LocalCluster`` of two single-threaded worker processes,
+  against ``-j 2`` (skipped without the dask extra).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+from pathlib import Path
+
+from labsim.runtime.sweep import Row, Task, grid, inspect_files, parse_setting
+
+LAB = str(Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml")
+
+
+def tasks(runs: int, minutes: float) -> tuple[list[Task], dict]:
+    settings = [parse_setting(f"minutes={minutes:g}")]
+    info = inspect_files([LAB], settings)
+    return grid([LAB], settings, tuple(range(1, runs + 1)), info), info
+
+
+def timed(executor: object, work: list[Task]) -> tuple[float, list[Row]]:
+    start = time.perf_counter()
+    rows = list(executor.results(work))  # type: ignore[attr-defined]
+    elapsed = time.perf_counter() - start
+    bad = [r for r in rows if r.failed]
+    if bad:
+        raise SystemExit(f"{len(bad)} runs failed: {bad[0].status}: {bad[0].message}")
+    return elapsed, rows
+
+
+def report(name: str, elapsed: float, rows: list[Row], jobs: int) -> float:
+    runs = [r.summary["wall_time_s"] for r in rows if r.summary]
+    mean_run = statistics.fmean(runs)
+    in_worker = statistics.fmean(r.task_time_s - r.summary["wall_time_s"] for r in rows if r.summary)
+    overall = elapsed * jobs / len(rows) - mean_run
+    print(f"{name:<22} {elapsed:7.2f} s for {len(rows)} runs  ({len(rows) / elapsed:5.2f} runs/s; "
+          f"mean run {mean_run:.3f} s; overhead per run {in_worker * 1000:.1f} ms in the worker "
+          f"= {100 * in_worker / mean_run:.1f}%, {overall * 1000:.0f} ms in all = {100 * overall / mean_run:.1f}%; "
+          f"runs in flight on average {sum(r.task_time_s for r in rows) / elapsed:.2f})")
+    return elapsed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=20)
+    parser.add_argument("--minutes", type=float, default=25)
+    parser.add_argument("--no-dask", action="store_true")
+    args = parser.parse_args()
+    from labsim.runtime.pool import LocalPool
+
+    work, info = tasks(args.runs, args.minutes)
+    print(f"wall lab, {args.minutes:g} simulated minutes, {args.runs} seeds; "
+          f"{os.cpu_count()} cores; load average before: {os.getloadavg()[0]:.2f}")
+    start = time.perf_counter()  # once per sweep: the fork server imports labsim; not counted per run
+    timed(LocalPool(1), tasks(1, 0.01)[0])
+    print(f"{'pool start (once)':<22} {time.perf_counter() - start:7.2f} s  (the fork server, a worker, one tiny run)")
+    one = report("-j 1", *timed(LocalPool(1), work), 1)
+    two = report("-j 2", *timed(LocalPool(2), work), 2)
+    print(f"speed-up -j 2 over -j 1: {one / two:.2f}x   (load average now: {os.getloadavg()[0]:.2f})")
+    if args.no_dask:
+        return
+    try:
+        from distributed import LocalCluster
+    except ImportError:
+        print("dask: skipped (pip install 'labsim[dask]')")
+        return
+    from labsim.runtime.dask_pool import DaskPool
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=50) as cluster:
+        elapsed, rows = timed(DaskPool(cluster.scheduler_address, info), work)
+        report("dask, 2 workers", elapsed, rows, 2)
+    print(f"dask / -j 2 runs per second: {two / elapsed:.2f}   (load average now: {os.getloadavg()[0]:.2f})")
+
+
+if __name__ == "__main__":
+    main()
