@@ -20,6 +20,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any
 
 from labsim.backends.scene.source import Text
 from labsim.dsl import ast
@@ -331,7 +332,8 @@ class _Generator:
             raise _NotConstant
         try:
             if isinstance(e, ast.Neg):
-                return -self.fold(e.operand)  # type: ignore[operator]
+                operand: Any = self.fold(e.operand)
+                return -operand
             if isinstance(e, ast.Not):
                 return not self.fold(e.operand)
             if isinstance(e, ast.Binary):
@@ -444,14 +446,15 @@ def _literal(value: object) -> str:
     return repr(value) if value >= 0 else f"({value!r})"
 
 
-_BINARY: dict[str, Callable[[object, object], object]] = {
-    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,  # type: ignore[operator]
-    "/": lambda a, b: a / b, "%": lambda a, b: a % b,  # type: ignore[operator]
-    "**": lambda a, b: _real(a ** b),  # type: ignore[operator]
+# folded values are numbers and booleans, which the checker has typed: Any, not object
+_BINARY: dict[str, Callable[[Any, Any], Any]] = {
+    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
+    "/": lambda a, b: a / b, "%": lambda a, b: a % b,
+    "**": lambda a, b: _real(a ** b),
 }
-_COMPARE: dict[str, Callable[[object, object], bool]] = {
-    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,  # type: ignore[operator]
-    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,  # type: ignore[operator]
+_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
+    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
+    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,
 }
 
 

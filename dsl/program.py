@@ -19,6 +19,7 @@ import random
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import CodeType
+from typing import Any, cast
 
 from labsim.backends.scene.diagnostics import Diagnostic
 from labsim.backends.scene.models import Kind, RobotModel
@@ -153,7 +154,8 @@ class Program:
         # are made by a factory so that everything they use is a closure cell, not a global.
         scope: dict[str, object] = {"__builtins__": {}}
         exec(code.compiled, scope)
-        signals, decide, both = scope["make"](**bindings)  # type: ignore[operator]
+        make = cast(Callable[..., tuple[Any, Any, Any]], scope["make"])
+        signals, decide, both = make(**bindings)
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
                             joint_command)
 

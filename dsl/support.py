@@ -16,6 +16,10 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
+    import numpy as np
 from dataclasses import dataclass
 
 from labsim.backends.scene.diagnostics import Diagnostic
@@ -150,9 +154,9 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     if kind == "centroid":
         from labsim.dsl.images import EmptyCentroid, centroid
 
-        def centroid_of(img: object) -> tuple[float, float, bool]:
+        def centroid_of(img: np.ndarray) -> tuple[float, float, bool]:
             try:
-                return centroid(img)  # type: ignore[arg-type]
+                return centroid(img)
             except EmptyCentroid as empty:
                 report("centroid of an image with no set pixel (the result is the image centre, .found false)")
                 return empty.result

@@ -16,26 +16,30 @@ import sys
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn
 
 from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import compile_behaviour, slider_events
+from labsim.runtime.run import Summary, compile_behaviour, slider_events
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.sweep_driver import add_sweep_parser
 from labsim.runtime.trace import TraceFormatError, read_trace
+
+if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
+    from labsim.backends.coppeliasim.server import Server
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         self.print_usage(sys.stderr)
         sys.stderr.write(f"labsim: error: {message}\n")
         raise SystemExit(EXIT_USAGE)
@@ -369,8 +373,8 @@ def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> 
     return False
 
 
-def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT,  # type: ignore[no-untyped-def]
-            options: dict[str, object] | None = None):
+def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT,
+            options: dict[str, object] | None = None) -> Summary:
     behaviour = compile_behaviour(behaviour_path)
     run = behaviour.bind(load_backend(backend, **(options or {})), trace=trace_path, warn=lambda m: None)
     try:
@@ -476,7 +480,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if not dt > 0:
         raise LabsimError([Diagnostic("--dt", "give a positive time step in seconds")])
 
-    def ready(server) -> None:  # type: ignore[no-untyped-def]
+    def ready(server: Server) -> None:
         print(f"labsim serve: world {world.name} ({server.describe()}), dt {dt:g} s, listening on "
               f"tcp://{args.host}:{server.port}; Ctrl-C stops", flush=True)
 
@@ -486,7 +490,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _load_world_arg(name: str):  # type: ignore[no-untyped-def]
+def _load_world_arg(name: str) -> World:
     """A world named on the command line: built-in, or a world file."""
     from labsim.backends.scene.diagnostics import Report, did_you_mean
     from labsim.backends.scene.world_file import load_world

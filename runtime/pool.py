@@ -21,7 +21,7 @@ from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
-from typing import Any
+from typing import Any, cast
 
 from labsim.backends import DEFAULT, REGISTRY
 from labsim.runtime.sweep import RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
@@ -148,7 +148,7 @@ class LocalPool:
         if self.timeout_s is not None and busy:
             wait_s = min(wait_s, max(0.0, min(w.started for w in busy.values()) + self.timeout_s - now))
         for conn in wait(list(busy), wait_s):
-            w = busy[conn]  # type: ignore[index]
+            w = busy[cast(Connection, conn)]  # wait() hands back the objects it was given
             task = w.task
             assert task is not None
             try:

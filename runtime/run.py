@@ -491,7 +491,7 @@ def _world_file(world: World) -> str:
         return str(source)
 
 
-def _free_pose(world, rng: random.Random, taken: list[Pose]) -> Pose:  # type: ignore[no-untyped-def]
+def _free_pose(world: World, rng: random.Random, taken: list[Pose]) -> Pose:
     for _ in range(1000):
         pose = world.random_pose(rng, PLACEMENT_CLEARANCE_M)
         if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * PLACEMENT_CLEARANCE_M for o in taken):
