@@ -16,15 +16,15 @@ from __future__ import annotations
 import math
 import random
 from collections.abc import Callable
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
-    import numpy as np
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from labsim.backends.scene.diagnostics import Diagnostic
 from labsim.backends.scene.models import RobotModel
 from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type
+
+if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
+    import numpy as np
 
 INF = math.inf
 
