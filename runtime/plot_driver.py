@@ -43,7 +43,6 @@ def add_plot_parser(sub: argparse._SubParsersAction) -> None:
                       help="start of the animation or chart, simulated seconds")
     plot.add_argument("--to", dest="t_to", type=float, default=None, metavar="S",
                       help="end of the animation or chart, simulated seconds")
-    plot.add_argument("--camera", metavar="ROBOT", help="add a strip of this robot's camera frames to the map")
 
 
 def _fail(where: str, message: str) -> LabsimError:
@@ -129,12 +128,7 @@ def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
     except ValueError as e:
         raise _fail(str(out), str(e)) from None
     fig = render_figure(trace, width_px=args.width or 1000)
-    image = fig.image
-    if args.camera:
-        from labsim.runtime.camera_strip import add_camera_strip
-
-        image = add_camera_strip(image, trace, args.camera)
-    ok, data = cv2.imencode(out.suffix.lower(), image)
+    ok, data = cv2.imencode(out.suffix.lower(), fig.image)
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
     try:

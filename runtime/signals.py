@@ -80,14 +80,14 @@ def _behaviour_lets(trace: Trace) -> tuple[dict[str, str], dict[str, str]]:
     if not isinstance(doc, dict):
         return {}, {}
     units: dict[str, str] = {}
-    lets = doc.get("let") if isinstance(doc.get("let"), dict) else {}
+    lets = doc["let"] if isinstance(doc.get("let"), dict) else {}
     for line in text.splitlines():
         key, _, rest = line.strip().partition(":")
         if key in lets and "#" in rest:
             m = _UNIT_WORD.match(rest.split("#", 1)[1])
             if m:
                 units[key] = m.group(1)
-    metrics = doc.get("metrics") if isinstance(doc.get("metrics"), dict) else {}
+    metrics = doc["metrics"] if isinstance(doc.get("metrics"), dict) else {}
     return units, {str(k): str(v) for k, v in metrics.items()}
 
 
@@ -173,7 +173,7 @@ def chart(trace: Trace, names: list[str], out: Path, *, width_px: int = 1000) ->
     units, _ = _behaviour_lets(trace)
     all_states = list(dict.fromkeys(s for r in data.robots for s in data.states[r] if s))
     multi = len(data.robots) > 1 and len(all_states) > 1
-    palette = plt.get_cmap("Pastel2").colors
+    palette = [plt.get_cmap("Pastel2")(k) for k in range(8)]
     state_colour = {s: palette[k % len(palette)] for k, s in enumerate(all_states)}
     rgb = {r: tuple(c / 255 for c in reversed(robot_colour(k))) for k, r in enumerate(data.robots)}
 
