@@ -26,6 +26,7 @@ from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.golden import compare, golden_path
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
+from labsim.runtime.plot_driver import add_plot_parser
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import Summary, compile_behaviour, slider_events
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
@@ -85,9 +86,7 @@ def _parser() -> argparse.ArgumentParser:
                       help="simulator to re-run them on (default: %(default)s)")
     _remote_options(test)
 
-    plot = sub.add_parser("plot", help="draw a trace: the world to scale and every trajectory")
-    plot.add_argument("trace")
-    plot.add_argument("-o", "--output", required=True, metavar="PNG")
+    add_plot_parser(sub)
 
     view = sub.add_parser("view", help="watch and steer a run in the browser, or replay a trace")
     view.add_argument("file", help="a behaviour file (.yaml), or a trace (.csv) to replay")
@@ -387,20 +386,10 @@ def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from labsim.runtime.plot import check_output, plot_trace
+    """The map, a signals chart or an animation of a trace; runtime/plot_driver.py."""
+    from labsim.runtime.plot_driver import run_plot
 
-    try:
-        check_output(args.output)
-    except ValueError as e:
-        raise LabsimError([Diagnostic(args.output, str(e))]) from None
-    try:
-        out = plot_trace(args.trace, args.output)
-    except TraceFormatError as e:
-        raise LabsimError([Diagnostic(args.trace, str(e).removeprefix(f"{args.trace}: "))]) from None
-    except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
-        raise LabsimError([Diagnostic(args.trace, f"cannot draw this trace: {e}")]) from None
-    print(f"wrote {out}")
-    return EXIT_OK
+    return run_plot(args)
 
 
 def cmd_view(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.runtime.mechanism_pose import draw_run_mechanism, has_slew, slew_inset
 from labsim.runtime.paint import (
     AA,
     BLOCK_EDGE,
@@ -40,7 +41,6 @@ from labsim.runtime.paint import (
     bgr,
     darker,
     draw_ground,
-    draw_mechanism,
     draw_wall,
     event_colour,
     robot_colour,
@@ -223,8 +223,12 @@ def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float,
 # -- drawing -----------------------------------------------------------------------------------
 
 def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = None,
-                  world_note: str | None = None) -> Figure:
-    """Draw a trace; the world is looked up from its header unless given."""
+                  world_note: str | None = None, backdrop: bool = False) -> Figure:
+    """Draw a trace; the world is looked up from its header unless given.
+
+    A ``backdrop`` is the figure without the run on it (no paths, a mechanism's fixed parts
+    only): what ``labsim.runtime.animate`` draws each frame on.
+    """
     if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
         raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
     if world is None and world_note is None:
@@ -256,6 +260,10 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
 
     events = _event_names(header, paths)
     legend_h = P.line_h * (len(paths) + len(events) + 9)
+    inset = 0  # a top view of the slew, under the legend, when the run turned the arm
+    if world is not None and world.mechanism is not None and not backdrop and has_slew(trace, world.mechanism):
+        inset = legend_w - pad
+        legend_h += inset + P.line_h
     height = max(map_top + map_h + bottom_axis, map_top + legend_h) + pad
     img = np.full((height, width_px, 3), PAPER, np.uint8)
     fig = Figure(img, x0, y1, mpp, map_left, map_top)
@@ -274,7 +282,10 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
           "z (m)" if world is not None and world.mechanism is not None else "y (m)")
 
     _draw_world(img, P, world, ground, px, mpp)
-    _draw_paths(img, P, paths, events, px, world)
+    if world is not None and world.mechanism is not None:
+        draw_run_mechanism(img, P, world.mechanism, trace, px, backdrop)
+    if not backdrop:
+        _draw_paths(img, P, paths, events, px, world)
 
     cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
 
@@ -286,7 +297,10 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     if world_note:
         P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
 
-    _legend(img, P, paths, events, map_left + map_w + round(22 * s), map_top, map_h, mpp)
+    legend_x = map_left + map_w + round(22 * s)
+    legend_end = _legend(img, P, paths, events, legend_x, map_top, map_h, mpp, inset)
+    if inset and world is not None and world.mechanism is not None:
+        slew_inset(img, P, world.mechanism, trace, (legend_x, legend_end, inset))
     return fig
 
 
@@ -304,9 +318,6 @@ def _draw_world(img: np.ndarray, P: Painter, world: World | None, ground: Ground
             cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
         for w in world.walls:
             draw_wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
-        if world.mechanism is not None:
-            draw_mechanism(img, world.mechanism, px, P)
-
 
 
 def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str], px: PxMap,
@@ -417,7 +428,8 @@ def _grid(img: np.ndarray, P: Painter, fig: Figure, map_w: int, map_h: int,
 
 
 def _legend(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str],
-            x: int, top: int, map_h: int, mpp: float) -> None:
+            x: int, top: int, map_h: int, mpp: float, reserve: int = 0) -> int:
+    """The legend column; returns the row where ``reserve`` pixels were left free under it."""
     s, lh = P.s, P.line_h
     w = img.shape[1] - x - P.pad
     sym = x + round(12 * s)  # centre column of the symbols
@@ -468,12 +480,14 @@ def _legend(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[st
     length = _nice_below(110 * s * mpp)
     bar = round(length / mpp)
     yb = top + map_h - round(8 * s)
-    yb = max(yb, y + round(20 * s))
+    free = y + lh // 2
+    yb = max(yb, y + round(20 * s) + (reserve + lh if reserve else 0))
     tick = round(4 * s)
     cv2.line(img, (x, yb), (x + bar, yb), INK, max(2, round(2 * s)))
     for u in (x, x + bar):
         cv2.line(img, (u, yb - tick), (u, yb + tick), INK, max(2, round(2 * s)))
     P.put(img, f"{length:g} m", (x + bar + round(8 * s), yb + round(5 * s)), P.text, INK)
+    return free
 
 
 # -- writing -----------------------------------------------------------------------------------

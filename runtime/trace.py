@@ -107,6 +107,8 @@ def read_trace(path: str | Path) -> Trace:
     except StopIteration:
         raise TraceFormatError(f"{path}: the trace has no column line") from None
     rows = [r for r in reader if r]
+    if rows and len(rows[-1]) < len(columns) and not text.endswith("\n"):
+        rows.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
     for n, r in enumerate(rows, 3):
         if len(r) != len(columns):
             raise TraceFormatError(f"{path}:{n}: {len(r)} fields where the header has {len(columns)} "

@@ -23,7 +23,7 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
     assert "same final poses: yes" in done.stdout, done.stdout
 
 
-@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py"])
+@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py"])
 def test_benchmark_runs(script: str) -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
                           capture_output=True, text=True, timeout=300)

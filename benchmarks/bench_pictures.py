@@ -1,0 +1,46 @@
+"""How long `labsim plot`'s other pictures take: the road lab's 30-second MP4, the wall lab's
+25-minute GIF, and a signals PNG of the wall lab's 30,000-row trace.
+
+    python benchmarks/bench_pictures.py [--repeat 3]
+
+Prints the median wall time of each, from the trace file to the written file, through the same
+command as a user types (goal for the signals PNG: < 2 s).
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from labsim.runtime.cli import main as labsim
+
+LABS = Path(__file__).resolve().parent.parent / "behaviours"
+CASES = [("road lab, 30 s, MP4", "road_follow.golden.csv", "road.mp4", []),
+         ("wall lab, 25 min, GIF", "wall_follow.golden.csv", "wall.gif", []),
+         ("wall lab, 30,000 rows, signals PNG", "wall_follow.golden.csv", "signals.png", ["--signals"])]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        for what, trace, out, extra in CASES:
+            times = []
+            for _ in range(args.repeat):
+                start = time.perf_counter()
+                with contextlib.redirect_stdout(io.StringIO()):
+                    code = labsim(["plot", str(LABS / trace), "-o", str(Path(d) / out), *extra])
+                times.append(time.perf_counter() - start)
+                assert code == 0, what
+            print(f"{what}: median {statistics.median(times):.2f} s over {args.repeat} runs; "
+                  f"load average {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

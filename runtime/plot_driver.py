@@ -1,0 +1,137 @@
+"""``labsim plot`` from options to a file: the map, a signals chart or an animation, by suffix.
+
+The command line (``labsim.runtime.cli``) registers the command with ``add_plot_parser`` and
+hands its options to ``run_plot``, which checks them all before drawing (an unknown column, an
+unsupported suffix, a bad time range: exit 2 with what would be accepted) and then calls the
+module that draws that kind of picture: ``labsim.runtime.plot`` for the still map (PNG, JPEG,
+...), ``labsim.runtime.signals`` for charts against time (PNG, SVG, PDF), and
+``labsim.runtime.animate`` for a GIF or MP4 of the run.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+
+MAP_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".webp", ".tif", ".tiff")
+CHART_SUFFIXES = (".png", ".svg", ".pdf")
+MOVIE_SUFFIXES = (".gif", ".mp4")
+ALL_SUFFIXES = tuple(dict.fromkeys(MAP_SUFFIXES + CHART_SUFFIXES + MOVIE_SUFFIXES))
+
+
+def add_plot_parser(sub: argparse._SubParsersAction) -> None:
+    plot = sub.add_parser(
+        "plot", help="draw a trace: the map of a run, its signals against time, or an animation",
+        description="The output's suffix says what is drawn: .png (the map, or with --signals a chart), "
+                    ".svg/.pdf (a chart of signals), .gif/.mp4 (an animation of the run).")
+    plot.add_argument("trace")
+    plot.add_argument("-o", "--output", required=True, metavar="FILE",
+                      help="run.png (the map), signals.png/.svg/.pdf with --signals, run.gif or run.mp4")
+    plot.add_argument("--signals", nargs="?", const="", default=None, metavar="COL,COL",
+                      help="chart these trace columns against time, one panel each (alone: the columns "
+                           "the behaviour's metrics read)")
+    plot.add_argument("--width", type=int, default=None, metavar="PX",
+                      help="image width in pixels (default: 1000 for pictures, 720 for animations)")
+    plot.add_argument("--fps", type=float, default=None, help="animation frames per second (default: 20 for "
+                                                              "MP4, 10 for GIF)")
+    plot.add_argument("--speed", type=float, default=None, metavar="X",
+                      help="simulated seconds per second of animation (default: 1, or faster so that the "
+                           "animation lasts at most 30 s)")
+    plot.add_argument("--from", dest="t_from", type=float, default=None, metavar="S",
+                      help="start of the animation or chart, simulated seconds")
+    plot.add_argument("--to", dest="t_to", type=float, default=None, metavar="S",
+                      help="end of the animation or chart, simulated seconds")
+
+
+def _fail(where: str, message: str) -> LabsimError:
+    return LabsimError([Diagnostic(where, message)])
+
+
+def _time_window(trace: Trace, t_from: float | None, t_to: float | None) -> Trace:
+    """The rows between two simulated times (both optional), as a trace of their own."""
+    if t_from is None and t_to is None:
+        return trace
+    lo = -float("inf") if t_from is None else t_from
+    hi = float("inf") if t_to is None else t_to
+    if lo >= hi:
+        raise _fail(trace.path, f"--from {lo:g} is not before --to {hi:g}")
+    ti = trace.columns.index("time")
+    rows = [r for r in trace.rows if lo <= float(r[ti]) <= hi]
+    if not rows:
+        raise _fail(trace.path, f"no ticks between {lo:g} s and {hi:g} s (the trace runs from "
+                                f"{trace.rows[0][ti]} s to {trace.rows[-1][ti]} s)")
+    return Trace(trace.path, trace.header, trace.columns, rows)
+
+
+def _check_suffix(out: Path, signals: bool) -> str:
+    """What the suffix asks for: "map", "chart" or "movie"."""
+    suffix = out.suffix.lower()
+    if suffix in MOVIE_SUFFIXES:
+        return "movie"
+    if signals or suffix in (".svg", ".pdf"):
+        if suffix not in CHART_SUFFIXES:
+            raise _fail(str(out), f"a signals chart is written as {', '.join(CHART_SUFFIXES)}, not '{out.suffix}'")
+        return "chart"
+    if suffix not in MAP_SUFFIXES:
+        raise _fail(str(out), f"'{out.suffix or out.name}' is not a kind of picture labsim plot writes; "
+                              f"use one of {', '.join(ALL_SUFFIXES)}")
+    return "map"
+
+
+def run_plot(args: argparse.Namespace) -> int:
+    """Check the options, draw, write; exit code 0, or a LabsimError (exit 2) for a mistake."""
+    out = Path(args.output)
+    kind = _check_suffix(out, args.signals is not None)
+    if out.is_dir() or not out.parent.is_dir():
+        where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
+        raise _fail(str(out), f"cannot write here: {where}")
+    for name, value, low in (("--width", args.width, 400), ("--fps", args.fps, 0.1), ("--speed", args.speed, 1e-6)):
+        if value is not None and value < low:
+            raise _fail("labsim plot", f"{name} must be at least {low:g} (got {value:g})")
+    try:
+        trace = read_trace(args.trace)
+        if not trace.rows:
+            raise _fail(args.trace, "the trace has no rows: nothing ran")
+        trace = _time_window(trace, args.t_from, args.t_to)
+        if kind == "chart":
+            from labsim.runtime.signals import chart, default_signals
+
+            names = [n.strip() for n in args.signals.split(",") if n.strip()] if args.signals else []
+            try:
+                chart(trace, names or default_signals(trace), out, width_px=args.width or 1000)
+            except ValueError as e:
+                raise _fail(args.trace, str(e)) from None
+        elif kind == "movie":
+            from labsim.runtime.animate import animate
+
+            n = animate(trace, out, width_px=args.width or 720, fps=args.fps, speed=args.speed)
+            print(f"{n} frames")
+        else:
+            _still(trace, out, args)
+    except TraceFormatError as e:
+        raise _fail(args.trace, str(e).removeprefix(f"{args.trace}: ")) from None
+    except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
+        raise _fail(args.trace, f"cannot draw this trace: {e}") from None
+    print(f"wrote {out}")
+    return 0
+
+
+def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
+    import cv2
+
+    from labsim.runtime.plot import check_output, render_figure
+
+    try:
+        check_output(out)
+    except ValueError as e:
+        raise _fail(str(out), str(e)) from None
+    fig = render_figure(trace, width_px=args.width or 1000)
+    ok, data = cv2.imencode(out.suffix.lower(), fig.image)
+    if not ok:
+        raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
+    try:
+        out.write_bytes(data.tobytes())
+    except OSError as e:
+        raise _fail(str(out), f"cannot write the plot: {e.strerror or e}") from None
