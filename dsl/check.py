@@ -32,6 +32,7 @@ from labsim.dsl.builtins import (
     FUNCTIONS,
     JOINT_ACTIONS,
     KEYWORDS,
+    SHADOWABLE,
     TRACE_COLUMNS,
     VARIABLES,
     Aggregate,
@@ -42,6 +43,7 @@ from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDec
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
+_SHADOWABLE_KIND = "built-in name"  # a name added after version 1, which a file's own name hides
 _KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body"}
 
 
@@ -74,6 +76,7 @@ class Checked:
     labels: list[tuple[str, tuple]] = field(default_factory=list)  # slider -> label parts
     binds: list[BindDecl] = field(default_factory=list)
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
+    used: frozenset[str] = frozenset()  # every name an expression reads
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -116,13 +119,13 @@ class _Checker(ExprChecker):
         self.distance = {name for name, kind in channels.items() if kind is Kind.DISTANCE}
         self.poisoned = set(self.bf.failed_names)
         for name, t in VARIABLES.items():
-            self.declare(name, t, "built-in variable")
+            self.declare(name, t, "built-in variable" if name not in SHADOWABLE else _SHADOWABLE_KIND)
         for name in CONSTANTS:
             self.declare(name, Type.NUMBER, "constant")
         for name, (_, key) in bf.states.items():
             if key is not None and self.reserved(name, key, "state"):
                 continue
-            if name in self.types and key is not None:
+            if self.taken(name) and key is not None:
                 self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
@@ -141,7 +144,8 @@ class _Checker(ExprChecker):
                        frozenset(k for k, v in channels.items() if v is Kind.DISTANCE),
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
-                       self.node_types, sliders, labels, binds, mechanism is not None and not models)
+                       self.node_types, sliders, labels, binds, mechanism is not None and not models,
+                       frozenset(self.used))
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
@@ -158,8 +162,14 @@ class _Checker(ExprChecker):
             self.error(None, "missing required key 'rules:'",
                        notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",))
 
+    def taken(self, name: str) -> bool:
+        """Whether a name is declared already; the names added after version 1 give way to the file's."""
+        return name in self.types and self.kinds[name] != _SHADOWABLE_KIND
+
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
+        if name in SHADOWABLE:
+            return False  # a version 1 file may use it for its own
         if name in KEYWORDS:
             why = "is a keyword of the language"
         elif name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
@@ -176,7 +186,7 @@ class _Checker(ExprChecker):
         for slider in self.bf.sliders:
             if self.reserved(slider.name, slider.key, "slider"):
                 continue
-            if slider.name in self.types:
+            if self.taken(slider.name):
                 self.error(slider.key, f"slider '{slider.name}' has the name of a {self.kinds[slider.name]}")
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
@@ -310,7 +320,7 @@ class _Checker(ExprChecker):
         for name, (value, node) in self.bf.params.items():
             if self.reserved(name, node, "parameter"):
                 continue
-            if name in self.types:
+            if self.taken(name):
                 self.error(node, f"parameter '{name}' has the name of a {self.kinds[name]}")
                 continue
             values[name] = value
@@ -329,7 +339,7 @@ class _Checker(ExprChecker):
         out = []
         later = {name: key for name, _, key in self.bf.lets}
         for name, parsed, key in self.bf.lets:
-            if name in self.types:
+            if self.taken(name):
                 self.error(key, f"signal '{name}' has the name of a {self.kinds[name]}")
                 continue
             if self.reserved(name, key, "signal"):

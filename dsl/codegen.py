@@ -23,7 +23,7 @@ from types import MappingProxyType
 
 from labsim.backends.scene.source import Text
 from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, Aggregate
+from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
 from labsim.dsl.check import Checked
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed
@@ -95,7 +95,13 @@ def layout(c: Checked) -> Layout:
                     assert isinstance(joint, ast.Name)
                     if (joint.id, JOINT_ACTIONS[a.name]) not in targets:
                         targets.append((joint.id, JOINT_ACTIONS[a.name]))
-    return Layout(MappingProxyType(slot_of), base + len(fields), tuple(labels), tuple(fields), tuple(targets))
+    # per-tick variables and per-robot constants, only for behaviours that read them
+    count = base + len(fields)
+    for name in (*STATE_CLOCK, "index"):
+        if name in c.used:
+            slot_of[name] = count
+            count += 1
+    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
 
 
 class _NotConstant(Exception):
@@ -138,7 +144,9 @@ class _Generator:
         let_slots = {self.slot_of[name] for name, _ in c.lets}
         unpack = [", ".join(f"v{i}" for i in sorted(channel_slots)) + ", = values"] if n else []
         self.used = set()
-        lets: list[str] = []
+        lets: list[str] = self.state_clock()
+        clock_slots = {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
+        let_slots |= clock_slots
         for name, parsed in c.lets:
             slot = self.slot_of[name]
             lets += [self.note(parsed.text, f"{name}: "),
@@ -163,13 +171,26 @@ class _Generator:
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
                 + ["    " + line for line in rules])
         params = ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                  "_radius", "_half_axle"]
+                  "_radius", "_half_axle", "_st"]
         params += ["_" + f for f in sorted(self.functions)]
         params += [f"_g{i}" for i in range(len(self.sites))]
         text = "\n".join("    " + line if line else "" for line in out)
         header = [self.mark(note) for note in self.header()]
         source = "\n".join(header) + f"\ndef make({', '.join(params)}):\n{text}\n    return signals, decide, both\n"
         return source, _MARKER.sub(lambda m: m.group(1) + "# " + self.notes[int(m.group(2))], source)
+
+    def state_clock(self) -> list[str]:
+        """``state_time`` and ``entered``, when read: _st holds the state and the tick it was entered on."""
+        if not any(name in self.slot_of for name in STATE_CLOCK):
+            return []
+        out = [f"if s[{STATE}] != _st[0]:", f"    _st[0] = s[{STATE}]", f"    _st[1] = v{TICK}"]
+        if "state_time" in self.slot_of:
+            k = self.slot_of["state_time"]
+            out.append(f"s[{k}] = v{k} = (v{TICK} - _st[1]) * {self.c.file.dt_s!r}")
+        if "entered" in self.slot_of:
+            k = self.slot_of["entered"]
+            out.append(f"s[{k}] = v{k} = v{TICK} == _st[1]")
+        return out
 
     @staticmethod
     def loaded(loads: list[str]) -> set[int]:

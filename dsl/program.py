@@ -144,9 +144,9 @@ class Program:
         events: list[int] = []
         metric_values = [initial_accumulator(a) for a in self.metric_aggregates]
         bindings = namespace(rng, model or next(iter(self.models.values()), None), code.functions)
-        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command)
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0])
         for i, (kind, site) in enumerate(code.sites):
-            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng)
+            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
         # Only generated text reaches exec: user names became slot indices, numbers are
         # repr(float), operators come from a fixed table (see labsim.dsl.codegen). The functions
