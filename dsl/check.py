@@ -77,6 +77,7 @@ class Checked:
     binds: list[BindDecl] = field(default_factory=list)
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
     used: frozenset[str] = frozenset()  # every name an expression reads
+    robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]] = field(default_factory=dict)
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -129,6 +130,7 @@ class _Checker(ExprChecker):
                 self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
+        robot_params = self.robot_params(params)
         sliders = self.sliders()
         lets = self.lets()
         labels = self.labels()
@@ -145,7 +147,7 @@ class _Checker(ExprChecker):
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
-                       frozenset(self.used))
+                       frozenset(self.used), robot_params)
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
@@ -334,6 +336,26 @@ class _Checker(ExprChecker):
                 continue
             values[name] = self.override(name, raw, values[name], where)
         return values
+
+    def robot_params(self, params: dict[str, float | bool]
+                     ) -> dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]:
+        """Each robot group's own values of parameters 'params:' declares, of the same type."""
+        out = {}
+        for r in self.bf.robots:
+            own = []
+            for name, values, key in r.params:
+                if name not in params:
+                    known = ", ".join(params) or "none"
+                    self.error(key, f"robot '{r.name}' sets parameter '{name}', which 'params:' does not declare"
+                               f"{did_you_mean(name, params)}", notes=(f"parameters: {known}",))
+                elif any(isinstance(v, bool) != isinstance(params[name], bool) for v in values):
+                    want = "true or false" if isinstance(params[name], bool) else "a number"
+                    self.error(key, f"parameter '{name}' is {want} in 'params:', and so must be robot "
+                               f"'{r.name}'s")
+                else:
+                    own.append((name, values))
+            out[r.name] = tuple(own)
+        return out
 
     def lets(self) -> list[tuple[str, Parsed]]:
         out = []

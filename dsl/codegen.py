@@ -97,8 +97,9 @@ def layout(c: Checked) -> Layout:
                         targets.append((joint.id, JOINT_ACTIONS[a.name]))
     # per-tick variables and per-robot constants, only for behaviours that read them
     count = base + len(fields)
-    for name in (*STATE_CLOCK, "index"):
-        if name in c.used:
+    per_robot = {name for own in c.robot_params.values() for name, _ in own}
+    for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
+        if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
     return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
@@ -341,7 +342,7 @@ class _Generator:
         if isinstance(e, (ast.Number, ast.Bool)):
             return e.value
         if isinstance(e, ast.Name):
-            if e.id in self.c.params:
+            if e.id in self.c.params and e.id not in self.slot_of:  # a robot's own value has a slot
                 return self.c.params[e.id]
             if e.id in CONSTANTS:
                 return CONSTANTS[e.id]

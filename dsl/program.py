@@ -54,6 +54,7 @@ class RobotGroup:
     count: int
     at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
+    params: tuple[tuple[str, tuple[float | bool, ...]], ...] = ()  # the group's own values, one per member
 
 
 @dataclass(frozen=True)
@@ -132,11 +133,22 @@ class Program:
     targets: tuple[tuple[str, str], ...]  # joint targets (joint, "velocity" | "position") in command order
     code: Code
 
-    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None) -> RobotProgram:
-        """Bind the generated functions to one robot's slots, generator, model and fault sink."""
+    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
+              group: RobotGroup | None = None, index: int = 0) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator, model and fault sink.
+
+        ``index`` is the robot's place in its ``group``, whose own parameter values it takes.
+        """
         code = self.code
         slots = Slots([0.0] * self.slot_count)
         slots[STATE] = 0
+        for param, slot in self.robot_slots.items():
+            slots[slot] = self.params[param]  # every robot starts from the file's (or --set's) value
+        if "index" in self.slot_of:
+            slots[self.slot_of["index"]] = float(index)
+        for param, values in group.params if group is not None else ():
+            if param in self.robot_slots:
+                slots[self.robot_slots[param]] = values[index]
         for slider in self.slider_names:
             slots[self.slot_of[slider]] = self.slider_start[slider]
         command: list = [0.0, 0.0, 0]
@@ -156,6 +168,11 @@ class Program:
         signals, decide, both = scope["make"](**bindings)  # type: ignore[operator]
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
                             joint_command)
+
+    @property
+    def robot_slots(self) -> dict[str, int]:
+        """Parameters that differ between robots, and their slots."""
+        return {p: slot for p, slot in self.slot_of.items() if p in self.params}
 
     def label_text(self, slots: list) -> dict[str, str]:
         """Each slider's label, formatted from the label fields' values in the slots."""

@@ -148,7 +148,8 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
             return pid_step(state, e, kp, ki, kd, limit)
         return pid
     if kind in FUNCTIONS and FUNCTIONS[kind].stateful:
-        return FUNCTIONS[kind].resolve()(dt_s)  # type: ignore[no-any-return]  # labsim.dsl.memory
+        factory: Callable[[float], Callable[..., object]] = FUNCTIONS[kind].resolve()  # type: ignore[assignment]
+        return factory(dt_s)  # labsim.dsl.memory
     if kind == "centroid":
         from labsim.dsl.images import EmptyCentroid, centroid
 

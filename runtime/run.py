@@ -165,7 +165,7 @@ class Run:
                     pose = Pose(x, y, math.radians(heading_deg))
                 taken.append(pose)
                 rng = random.Random(f"{p.seed}/{name}")
-                program = p.robot(name, rng, self.faults, model)
+                program = p.robot(name, rng, self.faults, model, group, k)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
                                        sent_joints=[math.nan] * len(p.targets), paths=group.paths))
         return robots
