@@ -53,6 +53,33 @@ def parse_expr(text: str) -> ast.Expr:
 LabelPart: TypeAlias = str | tuple[ast.Expr, str]  # literal text, or an expression and its format spec
 
 
+_PRINTF = re.compile(r"%([+\- 0]?\d{0,2}(?:\.\d{1,2})?)([dfeEgGi])")
+
+
+def parse_printf(text: str, name: str) -> tuple[LabelPart, ...] | None:
+    """'Arm Speed: %.2f', the form CoppeliaSim's scripts use: one field, the value ``name``.
+
+    None when the text has no printf field or has braces (then it is the brace form). ``%%``
+    is a percent sign; a second field is an error, since a label's printf form shows one value.
+    """
+    fields = list(_PRINTF.finditer(text.replace("%%", "\0\0")))
+    if not fields or "{" in text:
+        return None
+    if len(fields) > 1:
+        m = fields[1]
+        raise ParseError(m.start(), m.end(), "a label's printf form shows one value (the slider's); "
+                         "for more, use {expression:.2f} fields")
+    m = fields[0]
+    spec = m.group(1) + ("d" if m.group(2) == "i" else m.group(2))
+    parts: list[LabelPart] = []
+    if m.start():
+        parts.append(text[:m.start()].replace("%%", "%"))
+    parts.append((ast.Name(name, span=(m.start(), m.end())), spec))
+    if m.end() < len(text):
+        parts.append(text[m.end():].replace("%%", "%"))
+    return tuple(parts)
+
+
 def parse_label(text: str) -> tuple[LabelPart, ...]:
     """'Arm Speed: {0.02 * arm:.2f}': literal text and {expression:format} fields, in order.
 

@@ -22,7 +22,7 @@ from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.dsl import ast
-from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_rule
+from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 
 FORMAT_VERSION = 1
 
@@ -458,18 +458,18 @@ class _Reader(Reader):
                     self.error(fields["value"], f"value {v:g} is outside the slider's range {lo:g} .. {hi:g}")
                 elif v is not None:
                     start = v
-            label = self.label(fields["label"]) if "label" in fields else None
+            label = self.label(fields["label"], name or "") if "label" in fields else None
             out.append(SliderDecl(name, lo, hi, start, label, key))
         return out
 
-    def label(self, node: Node) -> Label | None:
-        """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields."""
+    def label(self, node: Node, slider: str = "") -> Label | None:
+        """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields; or 'Arm Speed: %.2f'."""
         if not isinstance(node, ScalarNode):
             self.error(node, "a label is text, with {expression} or {expression:.2f} fields")
             return None
         text = self.doc.text_of(node)
         try:
-            parts = parse_label(text.value)
+            parts = parse_printf(text.value, slider) or parse_label(text.value)
         except ParseError as e:
             self.error(text.at((e.start, e.end)), e.message)
             return None
