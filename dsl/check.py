@@ -397,6 +397,10 @@ class _Checker(ExprChecker):
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
         text = decl.text
         actions = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
+        for action in actions:
+            if action.name == "log" or action.text is not None:
+                self.log_action(action, text)
+        actions = [a for a in actions if a.name != "log" and a.text is None]
         drives = [a for a in actions if a.name not in JOINT_ACTIONS]
         for action in actions:
             if action.name in JOINT_ACTIONS:
@@ -428,6 +432,20 @@ class _Checker(ExprChecker):
                     notes = ("states: " + ", ".join(states),)
                 self.error(text.at(goto.state_span),
                            f"no state named '{goto.state}'{did_you_mean(goto.state, states)}", notes=notes)
+
+    def log_action(self, action: ast.Action, text: Text) -> None:
+        """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
+        if action.name != "log":
+            self.error(text.at(action.span), f"only log() takes text in quotes; {action.name}() takes numbers")
+            return
+        if action.text is None:
+            self.error(text.at(action.span), 'log() takes text in quotes, as in log("hit at {time:.1f} s")')
+            return
+        for part in action.text:
+            if isinstance(part, tuple):
+                t = self.infer(part[0], text)
+                if t is not None and t not in (Type.NUMBER, Type.BOOL):
+                    self.error(text.at(part[0].span), f"a log text shows numbers and booleans, not {t.a}")
 
     def joint_action(self, action: ast.Action, text: Text) -> None:
         """set_velocity(Joint, v), set_position(Joint, p)."""

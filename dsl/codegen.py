@@ -48,6 +48,7 @@ class Generated:
     layout: Layout
     code: Code
     stop_horizon_s: float | None
+    logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, and its text's parts
 
 
 def generate(checked: Checked, filename: str) -> Generated:
@@ -57,7 +58,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     source, listing = g.module()
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
                 tuple(sorted(g.functions)))
-    return Generated(slots, code, g.stop_horizon())
+    return Generated(slots, code, g.stop_horizon(), tuple(g.logs))
 
 
 def layout(c: Checked) -> Layout:
@@ -129,6 +130,7 @@ class _Generator:
         self.used: set[int] = set()  # slots the function being generated reads
         self.functions: set[str] = set()  # built-ins called directly
         self.notes: list[str] = []  # what each marker comment stands for in the listing
+        self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
 
     def module(self) -> tuple[str, str]:
         """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``, and its listing.
@@ -253,6 +255,19 @@ class _Generator:
         for action in actions:
             if isinstance(action, ast.Goto):
                 lines.append(f"cmd[2] = {self.state_names.index(action.state)}")
+            elif action.name == "log":
+                # the runtime formats, prints and traces it (events: ints are metrics, tuples logs)
+                assert action.text is not None
+                parts: list[LabelPart] = []
+                values = []
+                for part in action.text:
+                    if isinstance(part, tuple):
+                        parts.append((len(values), part[1]))
+                        values.append(self.expr(part[0], text, where))
+                    else:
+                        parts.append(part)
+                self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
+                lines.append(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)

@@ -68,7 +68,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slider_ranges=MappingProxyType({sl.name: (sl.lo, sl.hi) for sl in c.sliders}),
         slider_start=MappingProxyType({sl.name: sl.value for sl in c.sliders}),
         labels=layout.labels, timeline=_timeline(c),
-        slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code)
+        slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
+        logs=generated.logs)
 
 
 def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 from lark.tree import Meta
 
 from labsim.dsl import ast
@@ -148,7 +148,12 @@ def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
     except UnexpectedInput as e:
         raise _translate(e, text, start) from None
     _check_depth(tree)
-    return _ToAst().transform(tree)
+    try:
+        return _ToAst().transform(tree)
+    except VisitError as e:  # a log text's own mistake, raised while building its action
+        if isinstance(e.orig_exc, ParseError):
+            raise e.orig_exc from None
+        raise
 
 
 def _check_brackets(text: str) -> None:
@@ -287,6 +292,17 @@ class _ToAst(Transformer):
     def action(self, meta: Meta, c: list[Any]) -> ast.Action:
         args = c[1] if c[1] is not None else ()
         return ast.Action(str(c[0]), args, span=_span(meta), name_span=_tspan(c[0]))
+
+    def text_action(self, meta: Meta, c: list[Any]) -> ast.Action:
+        token = c[1]
+        start = token.start_pos + 1  # inside the quotes
+        try:
+            parts = parse_label(str(token)[1:-1])
+        except ParseError as e:
+            raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
+                             e.notes) from None
+        text = tuple(p if isinstance(p, str) else (_shift(p[0], start), p[1]) for p in parts)
+        return ast.Action(str(c[0]), (), span=_span(meta), name_span=_tspan(c[0]), text=text)
 
     def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)

@@ -132,6 +132,11 @@ class Program:
     slot_count: int
     targets: tuple[tuple[str, str], ...]  # joint targets (joint, "velocity" | "position") in command order
     code: Code
+    logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, text and (value, format)
+
+    def log_text(self, site: int, values: tuple) -> str:
+        """The text of a ``log(...)`` from the values of its fields."""
+        return "".join(p if isinstance(p, str) else _format(values[p[0]], p[1]) for p in self.logs[site][1])
 
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
               group: RobotGroup | None = None, index: int = 0) -> RobotProgram:
@@ -182,17 +187,21 @@ class Program:
             for part in parts:
                 if isinstance(part, tuple):
                     slot, spec = part
-                    value = slots[slot]
-                    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
-                        value = int(value)  # sliders hold floats; {arm:d} shows 5, not 5.0
-                    try:
-                        text.append(format(value, spec))
-                    except (ValueError, TypeError):
-                        text.append(str(value))
+                    text.append(_format(slots[slot], spec))
                 else:
                     text.append(part)
             out[slider] = "".join(text)
         return out
+
+
+def _format(value: object, spec: str) -> str:
+    """A label's or a log's field: ``format`` with the field's spec, or plain when it does not apply."""
+    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
+        value = int(value)  # slots hold floats; {arm:d} shows 5, not 5.0
+    try:
+        return format(value, spec)
+    except (ValueError, TypeError):
+        return str(value)
 
 
 def show_in_tracebacks(code: Code) -> None:
