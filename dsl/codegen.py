@@ -259,7 +259,7 @@ class _Generator:
                 # the runtime formats, prints and traces it (events: ints are metrics, tuples logs)
                 assert action.text is not None
                 parts: list[LabelPart] = []
-                values = []
+                values: list[str] = []
                 for part in action.text:
                     if isinstance(part, tuple):
                         parts.append((len(values), part[1]))

@@ -133,6 +133,7 @@ class Program:
     targets: tuple[tuple[str, str], ...]  # joint targets (joint, "velocity" | "position") in command order
     code: Code
     logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, text and (value, format)
+    stop_text: str = ""  # the stop condition as written, for the summary
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""

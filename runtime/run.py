@@ -96,6 +96,7 @@ class Summary:
     faults: list[str] = field(default_factory=list)  # "site: what (n times)"
     trace: str | None = None
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
+    stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
 
     @property
     def real_time_factor(self) -> float:
@@ -111,6 +112,7 @@ class Run:
         self.dt = program.dt_s
         self.tick_index = 0
         self.finished = False
+        self.stopped_by: str | None = None  # the first robot whose stop condition held
         self.faults = Faults(warn, clock=lambda: self.tick_index)
         self.fired = [0] * len(program.rules)
         self._log_windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
@@ -303,6 +305,7 @@ class Run:
                 values = sense()[0]
                 rule = both(t * dt, t, values if len(values) == n else values[:n])
                 if rule == -2:
+                    self.stopped_by = r1.name
                     self.finished = True
                     return False
                 if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
@@ -331,8 +334,9 @@ class Run:
             stop = False
             for i, _, signals, _, _, _, _ in robots:
                 values = readings[i]
-                if signals(now, t, values if len(values) == n else values[:n]):
+                if signals(now, t, values if len(values) == n else values[:n]) and not stop:
                     stop = True
+                    self.stopped_by = self.robots[i].name
             if stop:
                 self.finished = True
                 return False
@@ -455,6 +459,7 @@ class Run:
         if len(self.robots) > 1:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
+        out.stopped_by = self.stopped_by
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
