@@ -183,9 +183,9 @@ class _Reader(Reader):
     def header(self, keys: dict[str, Node], bf: BehaviourFile) -> None:
         """The format version, name, description, world, time step and seed."""
         if "labsim" in keys:
-            v = self.number(keys["labsim"], "labsim", integer=True)
-            if v is not None and v != FORMAT_VERSION:
-                self.error(keys["labsim"], f"this labsim reads format version {FORMAT_VERSION}, not {v:g}")
+            v = self.number(keys["labsim"], "labsim")
+            if v is not None and v not in (FORMAT_VERSION, 1.1):
+                self.error(keys["labsim"], f"this labsim reads format versions {FORMAT_VERSION} and 1.1, not {v:g}")
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
         if "description" in keys:
             bf.description = self.string(keys["description"], "description") or ""
