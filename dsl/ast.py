@@ -97,6 +97,8 @@ class Action:
     args: tuple[Expr, ...]
     span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
     name_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
+    # log("text {expr:.2f}"): literal text and (expression, format spec) fields; None without text
+    text: tuple[str | tuple[Expr, str], ...] | None = field(default=None, kw_only=True)
 
 
 @dataclass(frozen=True)

@@ -54,6 +54,7 @@ class Function:
     variadic: bool = False  # the last parameter repeats; at least len(params) arguments
     uses_rng: bool = False  # impl takes the robot's random.Random as its first argument
     optional: int = 0  # how many of the last params may be left out
+    stateful: bool = False  # keeps state per robot and call site: meaningful only if run every tick
 
     def resolve(self) -> Callable[..., object]:
         if isinstance(self.impl, str):
@@ -157,8 +158,33 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     # controllers
     Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:pid_step",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
-             optional=1),
+             optional=1, stateful=True),
+    # time and memory (labsim.dsl.memory): each call site keeps its own state per robot
+    Function("prev", (N, N), N, "labsim.dsl.memory:prev",
+             "prev(x, initial): x on the previous tick (initial on the first); x may be a boolean", stateful=True),
+    Function("rising", (B,), B, "labsim.dsl.memory:rising",
+             "rising(c): true on a tick where c holds and did not on the previous tick", stateful=True),
+    Function("falling", (B,), B, "labsim.dsl.memory:falling",
+             "falling(c): true on a tick where c does not hold and did on the previous tick", stateful=True),
+    Function("hold", (B, B), B, "labsim.dsl.memory:hold",
+             "hold(set, reset): a latch, true from a tick where set holds until one where reset holds",
+             stateful=True),
+    Function("rate", (N,), N, "labsim.dsl.memory:rate",
+             "rate(x): x's change per second since the previous tick (0 on the first)", stateful=True),
+    Function("held", (B,), N, "labsim.dsl.memory:held",
+             "held(c): seconds c has held without a break (0 while it does not)", stateful=True),
+    Function("remember", (N, B, N), N, "labsim.dsl.memory:remember",
+             "remember(x, when[, initial]): x at the last tick when 'when' held (initial, or nan, before)",
+             optional=1, stateful=True),
 )}
+
+# Names added in version 1.1: a version 1 file may have used them for its own parameters,
+# signals, states or sliders, which then hide them (calls are told apart by their parentheses).
+SHADOWABLE = frozenset({"prev", "rising", "falling", "hold", "rate", "held", "remember",
+                        "state_time", "entered", "index"})
+
+# Functions whose result depends on earlier ticks: each call site keeps state per robot.
+STATEFUL = frozenset(f.name for f in FUNCTIONS.values() if f.stateful)
 
 # detected(sonar5) takes a distance sensor's *name*, not its value.
 DETECTED = "detected"
@@ -179,6 +205,7 @@ ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
     ActionSpec("stop", (), "both wheels at 0"),
     ActionSpec("set_velocity", ("joint", "velocity"), "a joint's target velocity, m/s or rad/s"),
     ActionSpec("set_position", ("joint", "position"), "a joint's target position, m or rad"),
+    ActionSpec("log", ("text",), 'log("text {expr:.2f}"): print a line with the time and robot, and trace it'),
 )}
 
 # Actions whose first argument names a joint rather than giving a value.
@@ -205,7 +232,10 @@ AGGREGATES: dict[str, Aggregate] = {a.value: a for a in Aggregate}
 
 # Names every expression may use besides sensors, params and lets.
 CONSTANTS: dict[str, float] = {"pi": math.pi, "inf": math.inf}
-VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE}
+VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE,
+                              "state_time": N, "entered": B, "index": N}
+# Variables computed per tick only by behaviours that read them (codegen gives them slots).
+STATE_CLOCK = ("state_time", "entered")
 
 # Names the trace uses for its own columns: no signal may take them.
 TRACE_COLUMNS = frozenset({"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",

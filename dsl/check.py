@@ -32,6 +32,7 @@ from labsim.dsl.builtins import (
     FUNCTIONS,
     JOINT_ACTIONS,
     KEYWORDS,
+    SHADOWABLE,
     TRACE_COLUMNS,
     VARIABLES,
     Aggregate,
@@ -42,6 +43,7 @@ from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDec
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
+_SHADOWABLE_KIND = "built-in name"  # a name added after version 1, which a file's own name hides
 _KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body"}
 
 
@@ -74,6 +76,8 @@ class Checked:
     labels: list[tuple[str, tuple]] = field(default_factory=list)  # slider -> label parts
     binds: list[BindDecl] = field(default_factory=list)
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
+    used: frozenset[str] = frozenset()  # every name an expression reads
+    robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]] = field(default_factory=dict)
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -116,16 +120,17 @@ class _Checker(ExprChecker):
         self.distance = {name for name, kind in channels.items() if kind is Kind.DISTANCE}
         self.poisoned = set(self.bf.failed_names)
         for name, t in VARIABLES.items():
-            self.declare(name, t, "built-in variable")
+            self.declare(name, t, "built-in variable" if name not in SHADOWABLE else _SHADOWABLE_KIND)
         for name in CONSTANTS:
             self.declare(name, Type.NUMBER, "constant")
         for name, (_, key) in bf.states.items():
             if key is not None and self.reserved(name, key, "state"):
                 continue
-            if name in self.types and key is not None:
+            if self.taken(name) and key is not None:
                 self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
+        robot_params = self.robot_params(params)
         sliders = self.sliders()
         lets = self.lets()
         labels = self.labels()
@@ -141,7 +146,8 @@ class _Checker(ExprChecker):
                        frozenset(k for k, v in channels.items() if v is Kind.DISTANCE),
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
-                       self.node_types, sliders, labels, binds, mechanism is not None and not models)
+                       self.node_types, sliders, labels, binds, mechanism is not None and not models,
+                       frozenset(self.used), robot_params)
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
@@ -158,8 +164,14 @@ class _Checker(ExprChecker):
             self.error(None, "missing required key 'rules:'",
                        notes=("e.g. 'rules: [\"always move(2)\"]', or 'bind:' for a mechanism",))
 
+    def taken(self, name: str) -> bool:
+        """Whether a name is declared already; the names added after version 1 give way to the file's."""
+        return name in self.types and self.kinds[name] != _SHADOWABLE_KIND
+
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
+        if name in SHADOWABLE:
+            return False  # a version 1 file may use it for its own
         if name in KEYWORDS:
             why = "is a keyword of the language"
         elif name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
@@ -176,7 +188,7 @@ class _Checker(ExprChecker):
         for slider in self.bf.sliders:
             if self.reserved(slider.name, slider.key, "slider"):
                 continue
-            if slider.name in self.types:
+            if self.taken(slider.name):
                 self.error(slider.key, f"slider '{slider.name}' has the name of a {self.kinds[slider.name]}")
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
@@ -310,7 +322,7 @@ class _Checker(ExprChecker):
         for name, (value, node) in self.bf.params.items():
             if self.reserved(name, node, "parameter"):
                 continue
-            if name in self.types:
+            if self.taken(name):
                 self.error(node, f"parameter '{name}' has the name of a {self.kinds[name]}")
                 continue
             values[name] = value
@@ -325,11 +337,31 @@ class _Checker(ExprChecker):
             values[name] = self.override(name, raw, values[name], where)
         return values
 
+    def robot_params(self, params: dict[str, float | bool]
+                     ) -> dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]:
+        """Each robot group's own values of parameters 'params:' declares, of the same type."""
+        out = {}
+        for r in self.bf.robots:
+            own = []
+            for name, values, key in r.params:
+                if name not in params:
+                    known = ", ".join(params) or "none"
+                    self.error(key, f"robot '{r.name}' sets parameter '{name}', which 'params:' does not declare"
+                               f"{did_you_mean(name, params)}", notes=(f"parameters: {known}",))
+                elif any(isinstance(v, bool) != isinstance(params[name], bool) for v in values):
+                    want = "true or false" if isinstance(params[name], bool) else "a number"
+                    self.error(key, f"parameter '{name}' is {want} in 'params:', and so must be robot "
+                               f"'{r.name}'s")
+                else:
+                    own.append((name, values))
+            out[r.name] = tuple(own)
+        return out
+
     def lets(self) -> list[tuple[str, Parsed]]:
         out = []
         later = {name: key for name, _, key in self.bf.lets}
         for name, parsed, key in self.bf.lets:
-            if name in self.types:
+            if self.taken(name):
                 self.error(key, f"signal '{name}' has the name of a {self.kinds[name]}")
                 continue
             if self.reserved(name, key, "signal"):
@@ -365,6 +397,10 @@ class _Checker(ExprChecker):
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
         text = decl.text
         actions = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
+        for action in actions:
+            if action.name == "log" or action.text is not None:
+                self.log_action(action, text)
+        actions = [a for a in actions if a.name != "log" and a.text is None]
         drives = [a for a in actions if a.name not in JOINT_ACTIONS]
         for action in actions:
             if action.name in JOINT_ACTIONS:
@@ -396,6 +432,20 @@ class _Checker(ExprChecker):
                     notes = ("states: " + ", ".join(states),)
                 self.error(text.at(goto.state_span),
                            f"no state named '{goto.state}'{did_you_mean(goto.state, states)}", notes=notes)
+
+    def log_action(self, action: ast.Action, text: Text) -> None:
+        """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
+        if action.name != "log":
+            self.error(text.at(action.span), f"only log() takes text in quotes; {action.name}() takes numbers")
+            return
+        if action.text is None:
+            self.error(text.at(action.span), 'log() takes text in quotes, as in log("hit at {time:.1f} s")')
+            return
+        for part in action.text:
+            if isinstance(part, tuple):
+                t = self.infer(part[0], text)
+                if t is not None and t not in (Type.NUMBER, Type.BOOL):
+                    self.error(text.at(part[0].span), f"a log text shows numbers and booleans, not {t.a}")
 
     def joint_action(self, action: ast.Action, text: Text) -> None:
         """set_velocity(Joint, v), set_position(Joint, p)."""

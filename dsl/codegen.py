@@ -24,7 +24,7 @@ from typing import Any
 
 from labsim.backends.scene.source import Text
 from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, Aggregate
+from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
 from labsim.dsl.check import Checked
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed
@@ -49,6 +49,7 @@ class Generated:
     layout: Layout
     code: Code
     stop_horizon_s: float | None
+    logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, and its text's parts
 
 
 def generate(checked: Checked, filename: str) -> Generated:
@@ -58,7 +59,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     source, listing = g.module()
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
                 tuple(sorted(g.functions)))
-    return Generated(slots, code, g.stop_horizon())
+    return Generated(slots, code, g.stop_horizon(), tuple(g.logs))
 
 
 def layout(c: Checked) -> Layout:
@@ -96,7 +97,14 @@ def layout(c: Checked) -> Layout:
                     assert isinstance(joint, ast.Name)
                     if (joint.id, JOINT_ACTIONS[a.name]) not in targets:
                         targets.append((joint.id, JOINT_ACTIONS[a.name]))
-    return Layout(MappingProxyType(slot_of), base + len(fields), tuple(labels), tuple(fields), tuple(targets))
+    # per-tick variables and per-robot constants, only for behaviours that read them
+    count = base + len(fields)
+    per_robot = {name for own in c.robot_params.values() for name, _ in own}
+    for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
+        if name in c.used and name not in slot_of:
+            slot_of[name] = count
+            count += 1
+    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
 
 
 class _NotConstant(Exception):
@@ -123,6 +131,7 @@ class _Generator:
         self.used: set[int] = set()  # slots the function being generated reads
         self.functions: set[str] = set()  # built-ins called directly
         self.notes: list[str] = []  # what each marker comment stands for in the listing
+        self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
 
     def module(self) -> tuple[str, str]:
         """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``, and its listing.
@@ -139,7 +148,9 @@ class _Generator:
         let_slots = {self.slot_of[name] for name, _ in c.lets}
         unpack = [", ".join(f"v{i}" for i in sorted(channel_slots)) + ", = values"] if n else []
         self.used = set()
-        lets: list[str] = []
+        lets: list[str] = self.state_clock()
+        clock_slots = {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
+        let_slots |= clock_slots
         for name, parsed in c.lets:
             slot = self.slot_of[name]
             lets += [self.note(parsed.text, f"{name}: "),
@@ -164,13 +175,26 @@ class _Generator:
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
                 + ["    " + line for line in rules])
         params = ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                  "_radius", "_half_axle"]
+                  "_radius", "_half_axle", "_st"]
         params += ["_" + f for f in sorted(self.functions)]
         params += [f"_g{i}" for i in range(len(self.sites))]
         text = "\n".join("    " + line if line else "" for line in out)
         header = [self.mark(note) for note in self.header()]
         source = "\n".join(header) + f"\ndef make({', '.join(params)}):\n{text}\n    return signals, decide, both\n"
         return source, _MARKER.sub(lambda m: m.group(1) + "# " + self.notes[int(m.group(2))], source)
+
+    def state_clock(self) -> list[str]:
+        """``state_time`` and ``entered``, when read: _st holds the state and the tick it was entered on."""
+        if not any(name in self.slot_of for name in STATE_CLOCK):
+            return []
+        out = [f"if s[{STATE}] != _st[0]:", f"    _st[0] = s[{STATE}]", f"    _st[1] = v{TICK}"]
+        if "state_time" in self.slot_of:
+            k = self.slot_of["state_time"]
+            out.append(f"s[{k}] = v{k} = (v{TICK} - _st[1]) * {self.c.file.dt_s!r}")
+        if "entered" in self.slot_of:
+            k = self.slot_of["entered"]
+            out.append(f"s[{k}] = v{k} = v{TICK} == _st[1]")
+        return out
 
     @staticmethod
     def loaded(loads: list[str]) -> set[int]:
@@ -232,6 +256,19 @@ class _Generator:
         for action in actions:
             if isinstance(action, ast.Goto):
                 lines.append(f"cmd[2] = {self.state_names.index(action.state)}")
+            elif action.name == "log":
+                # the runtime formats, prints and traces it (events: ints are metrics, tuples logs)
+                assert action.text is not None
+                parts: list[LabelPart] = []
+                values: list[str] = []
+                for part in action.text:
+                    if isinstance(part, tuple):
+                        parts.append((len(values), part[1]))
+                        values.append(self.expr(part[0], text, where))
+                    else:
+                        parts.append(part)
+                self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
+                lines.append(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)
@@ -321,7 +358,7 @@ class _Generator:
         if isinstance(e, (ast.Number, ast.Bool)):
             return e.value
         if isinstance(e, ast.Name):
-            if e.id in self.c.params:
+            if e.id in self.c.params and e.id not in self.slot_of:  # a robot's own value has a slot
                 return self.c.params[e.id]
             if e.id in CONSTANTS:
                 return CONSTANTS[e.id]

@@ -55,7 +55,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
     return Program(
         name=bf.name, path=bf.path, sha256=bf.sha256, dt_s=bf.dt_s, seed=seed, world=world,
         params=MappingProxyType(dict(c.params)), overridden=tuple(c.overridden), warnings=warnings,
-        robots=tuple(RobotGroup(d.name, c.models[d.name], d.count, d.at, d.paths) for d in bf.robots),
+        robots=tuple(RobotGroup(d.name, c.models[d.name], d.count, d.at, d.paths,
+                                        c.robot_params.get(d.name, ())) for d in bf.robots),
         models=MappingProxyType(dict(c.models)), mechanism_agent=c.mechanism_agent,
         spawn_shortage=_spawn_shortage(c, world),
         channels=c.channels, channel_kinds=MappingProxyType(dict(c.channel_kinds)),
@@ -67,7 +68,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slider_ranges=MappingProxyType({sl.name: (sl.lo, sl.hi) for sl in c.sliders}),
         slider_start=MappingProxyType({sl.name: sl.value for sl in c.sliders}),
         labels=layout.labels, timeline=_timeline(c),
-        slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code)
+        slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
+        logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "")
 
 
 def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:

@@ -172,6 +172,8 @@ class ExprChecker:
                            f"and '{sensor.id}' is not one")
                 return None
             return Type.BOOL if t is not None else None
+        if e.func == "prev" and len(e.args) == 2:
+            return self.prev(e, text)
         f = FUNCTIONS.get(e.func)
         if f is None:
             if e.func in AGGREGATES:
@@ -195,6 +197,20 @@ class ExprChecker:
             want = f.params[min(i, len(f.params) - 1)]
             ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
         return f.returns if ok else None
+
+    def prev(self, e: ast.Call, text: Text) -> Type | None:
+        """prev(x, initial) takes a number or a boolean, and an initial value of the same type."""
+        a, b = (self.infer(arg, text) for arg in e.args)
+        if a is None or b is None:
+            return None
+        if a not in (Type.NUMBER, Type.BOOL):
+            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}")
+            return None
+        if b is not a:
+            self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.a} like its first "
+                       f"argument, but this is {b.a}")
+            return None
+        return a
 
 
 def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool = False,

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 from lark import Lark, Token, Transformer, Tree, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 from lark.tree import Meta
 
 from labsim.dsl import ast
@@ -51,6 +51,33 @@ def parse_expr(text: str) -> ast.Expr:
 
 
 LabelPart: TypeAlias = str | tuple[ast.Expr, str]  # literal text, or an expression and its format spec
+
+
+_PRINTF = re.compile(r"%([+\- 0]?\d{0,2}(?:\.\d{1,2})?)([dfeEgGi])")
+
+
+def parse_printf(text: str, name: str) -> tuple[LabelPart, ...] | None:
+    """'Arm Speed: %.2f', the form CoppeliaSim's scripts use: one field, the value ``name``.
+
+    None when the text has no printf field or has braces (then it is the brace form). ``%%``
+    is a percent sign; a second field is an error, since a label's printf form shows one value.
+    """
+    fields = list(_PRINTF.finditer(text.replace("%%", "\0\0")))
+    if not fields or "{" in text:
+        return None
+    if len(fields) > 1:
+        m = fields[1]
+        raise ParseError(m.start(), m.end(), "a label's printf form shows one value (the slider's); "
+                         "for more, use {expression:.2f} fields")
+    m = fields[0]
+    spec = m.group(1) + ("d" if m.group(2) == "i" else m.group(2))
+    parts: list[LabelPart] = []
+    if m.start():
+        parts.append(text[:m.start()].replace("%%", "%"))
+    parts.append((ast.Name(name, span=(m.start(), m.end())), spec))
+    if m.end() < len(text):
+        parts.append(text[m.end():].replace("%%", "%"))
+    return tuple(parts)
 
 
 def parse_label(text: str) -> tuple[LabelPart, ...]:
@@ -121,7 +148,12 @@ def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
     except UnexpectedInput as e:
         raise _translate(e, text, start) from None
     _check_depth(tree)
-    return _ToAst().transform(tree)
+    try:
+        return _ToAst().transform(tree)
+    except VisitError as e:  # a log text's own mistake, raised while building its action
+        if isinstance(e.orig_exc, ParseError):
+            raise e.orig_exc from None
+        raise
 
 
 def _check_brackets(text: str) -> None:
@@ -260,6 +292,17 @@ class _ToAst(Transformer):
     def action(self, meta: Meta, c: list[Any]) -> ast.Action:
         args = c[1] if c[1] is not None else ()
         return ast.Action(str(c[0]), args, span=_span(meta), name_span=_tspan(c[0]))
+
+    def text_action(self, meta: Meta, c: list[Any]) -> ast.Action:
+        token = c[1]
+        start = token.start_pos + 1  # inside the quotes
+        try:
+            parts = parse_label(str(token)[1:-1])
+        except ParseError as e:
+            raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
+                             e.notes) from None
+        text = tuple(p if isinstance(p, str) else (_shift(p[0], start), p[1]) for p in parts)
+        return ast.Action(str(c[0]), (), span=_span(meta), name_span=_tspan(c[0]), text=text)
 
     def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)

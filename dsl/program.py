@@ -55,6 +55,7 @@ class RobotGroup:
     count: int
     at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
+    params: tuple[tuple[str, tuple[float | bool, ...]], ...] = ()  # the group's own values, one per member
 
 
 @dataclass(frozen=True)
@@ -132,12 +133,29 @@ class Program:
     slot_count: int
     targets: tuple[tuple[str, str], ...]  # joint targets (joint, "velocity" | "position") in command order
     code: Code
+    logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, text and (value, format)
+    stop_text: str = ""  # the stop condition as written, for the summary
 
-    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None) -> RobotProgram:
-        """Bind the generated functions to one robot's slots, generator, model and fault sink."""
+    def log_text(self, site: int, values: tuple) -> str:
+        """The text of a ``log(...)`` from the values of its fields."""
+        return "".join(p if isinstance(p, str) else _format(values[p[0]], p[1]) for p in self.logs[site][1])
+
+    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
+              group: RobotGroup | None = None, index: int = 0) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator, model and fault sink.
+
+        ``index`` is the robot's place in its ``group``, whose own parameter values it takes.
+        """
         code = self.code
         slots = Slots([0.0] * self.slot_count)
         slots[STATE] = 0
+        for param, slot in self.robot_slots.items():
+            slots[slot] = self.params[param]  # every robot starts from the file's (or --set's) value
+        if "index" in self.slot_of:
+            slots[self.slot_of["index"]] = float(index)
+        for param, values in group.params if group is not None else ():
+            if param in self.robot_slots:
+                slots[self.robot_slots[param]] = values[index]
         for slider in self.slider_names:
             slots[self.slot_of[slider]] = self.slider_start[slider]
         command: list = [0.0, 0.0, 0]
@@ -145,9 +163,9 @@ class Program:
         events: list[int] = []
         metric_values = [initial_accumulator(a) for a in self.metric_aggregates]
         bindings = namespace(rng, model or next(iter(self.models.values()), None), code.functions)
-        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command)
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0])
         for i, (kind, site) in enumerate(code.sites):
-            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng)
+            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
         # Only generated text reaches exec: user names became slot indices, numbers are
         # repr(float), operators come from a fixed table (see labsim.dsl.codegen). The functions
@@ -159,6 +177,11 @@ class Program:
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
                             joint_command)
 
+    @property
+    def robot_slots(self) -> dict[str, int]:
+        """Parameters that differ between robots, and their slots."""
+        return {p: slot for p, slot in self.slot_of.items() if p in self.params}
+
     def label_text(self, slots: list) -> dict[str, str]:
         """Each slider's label, formatted from the label fields' values in the slots."""
         out = {}
@@ -167,17 +190,21 @@ class Program:
             for part in parts:
                 if isinstance(part, tuple):
                     slot, spec = part
-                    value = slots[slot]
-                    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
-                        value = int(value)  # sliders hold floats; {arm:d} shows 5, not 5.0
-                    try:
-                        text.append(format(value, spec))
-                    except (ValueError, TypeError):
-                        text.append(str(value))
+                    text.append(_format(slots[slot], spec))
                 else:
                     text.append(part)
             out[slider] = "".join(text)
         return out
+
+
+def _format(value: object, spec: str) -> str:
+    """A label's or a log's field: ``format`` with the field's spec, or plain when it does not apply."""
+    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
+        value = int(value)  # slots hold floats; {arm:d} shows 5, not 5.0
+    try:
+        return format(value, spec)
+    except (ValueError, TypeError):
+        return str(value)
 
 
 def show_in_tracebacks(code: Code) -> None:

@@ -22,7 +22,7 @@ from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.dsl import ast
-from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_rule
+from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 
 FORMAT_VERSION = 1
 
@@ -30,7 +30,7 @@ TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "rob
             "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
-ROBOT_KEYS = ("model", "count", "at", "camera", "paths")
+ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params")
 PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
@@ -55,6 +55,8 @@ class RobotDecl:
     camera: Camera | None = None
     at_node: Node | None = None
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
+    # parameters this group sets for itself: name, one value per member (or one for all), node
+    params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -181,9 +183,9 @@ class _Reader(Reader):
     def header(self, keys: dict[str, Node], bf: BehaviourFile) -> None:
         """The format version, name, description, world, time step and seed."""
         if "labsim" in keys:
-            v = self.number(keys["labsim"], "labsim", integer=True)
-            if v is not None and v != FORMAT_VERSION:
-                self.error(keys["labsim"], f"this labsim reads format version {FORMAT_VERSION}, not {v:g}")
+            v = self.number(keys["labsim"], "labsim")
+            if v is not None and v not in (FORMAT_VERSION, 1.1):
+                self.error(keys["labsim"], f"this labsim reads format versions {FORMAT_VERSION} and 1.1, not {v:g}")
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
         if "description" in keys:
             bf.description = self.string(keys["description"], "description") or ""
@@ -302,9 +304,36 @@ class _Reader(Reader):
             if "camera" in fields and camera is None:
                 self.failed_names.add("camera")
             paths = self.paths(fields["paths"]) if "paths" in fields else ()
+            own = self.robot_params(fields["params"], name, count) if "params" in fields else ()
             if at is not None:
-                out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths))
+                out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths,
+                                     own))
         return out
+
+    def robot_params(self, node: Node, robot: str, count: int
+                     ) -> tuple[tuple[str, tuple[float | bool, ...], Node], ...]:
+        """A group's own parameters: ``NAME: value`` for every member, or ``NAME: [v0, v1, ...]``, one each."""
+        out = []
+        for key, value in self.mapping(node, f"params of robot '{robot}'"):
+            name = self.identifier(key, "parameter")
+            if name is None:
+                continue
+            items = value.value if isinstance(value, SequenceNode) else [value]
+            if isinstance(value, SequenceNode) and len(items) != count:
+                self.error(value, f"robot '{robot}' has {count} member{'s' if count != 1 else ''}, so "
+                           f"'{name}' needs {count} value{'s' if count != 1 else ''} (or one for all), "
+                           f"not {len(items)}")
+                continue
+            values = []
+            for item in items:
+                v = scalar_value(item) if isinstance(item, ScalarNode) else None
+                if isinstance(v, bool) or (isinstance(v, (int, float)) and math.isfinite(v)):
+                    values.append(v if isinstance(v, bool) else float(v))
+                else:
+                    self.error(item, f"parameter '{name}' of robot '{robot}' must be a number or true/false")
+            if len(values) == len(items):
+                out.append((name, tuple(values) * (count if len(values) == 1 else 1), key))
+        return tuple(out)
 
     def paths(self, node: Node) -> tuple[tuple[str, str], ...]:
         """paths: {robot: "/MyPioneer[{i}]", left_motor: ./leftMotor, sonar: "./sonar[{k}]"}"""
@@ -429,18 +458,18 @@ class _Reader(Reader):
                     self.error(fields["value"], f"value {v:g} is outside the slider's range {lo:g} .. {hi:g}")
                 elif v is not None:
                     start = v
-            label = self.label(fields["label"]) if "label" in fields else None
+            label = self.label(fields["label"], name or "") if "label" in fields else None
             out.append(SliderDecl(name, lo, hi, start, label, key))
         return out
 
-    def label(self, node: Node) -> Label | None:
-        """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields."""
+    def label(self, node: Node, slider: str = "") -> Label | None:
+        """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields; or 'Arm Speed: %.2f'."""
         if not isinstance(node, ScalarNode):
             self.error(node, "a label is text, with {expression} or {expression:.2f} fields")
             return None
         text = self.doc.text_of(node)
         try:
-            parts = parse_label(text.value)
+            parts = parse_printf(text.value, slider) or parse_label(text.value)
         except ParseError as e:
             self.error(text.at((e.start, e.end)), e.message)
             return None

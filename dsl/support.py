@@ -137,7 +137,7 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
 
 
 def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
-          rng: random.Random) -> Callable[..., object]:
+          rng: random.Random, dt_s: float = 0.05) -> Callable[..., object]:
     """A fault-checked (or stateful) operation for one site of generated code."""
 
     def report(what: str) -> None:
@@ -151,6 +151,9 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
         def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
             return pid_step(state, e, kp, ki, kd, limit)
         return pid
+    if kind in FUNCTIONS and FUNCTIONS[kind].stateful:
+        factory: Callable[[float], Callable[..., object]] = FUNCTIONS[kind].resolve()  # type: ignore[assignment]
+        return factory(dt_s)  # labsim.dsl.memory
     if kind == "centroid":
         from labsim.dsl.images import EmptyCentroid, centroid
 

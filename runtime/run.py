@@ -96,6 +96,7 @@ class Summary:
     faults: list[str] = field(default_factory=list)  # "site: what (n times)"
     trace: str | None = None
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
+    stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
 
     @property
     def real_time_factor(self) -> float:
@@ -111,8 +112,11 @@ class Run:
         self.dt = program.dt_s
         self.tick_index = 0
         self.finished = False
+        self.stopped_by: str | None = None  # the first robot whose stop condition held
         self.faults = Faults(warn, clock=lambda: self.tick_index)
         self.fired = [0] * len(program.rules)
+        self._log_windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
+        self.logs_dropped: dict[int, int] = {}  # log site -> lines not printed (LOG_RATE)
         self.idle = 0
         self.trace: TraceWriter | None = None
         self.robots = self._robots()
@@ -165,7 +169,7 @@ class Run:
                     pose = Pose(x, y, math.radians(heading_deg))
                 taken.append(pose)
                 rng = random.Random(f"{p.seed}/{name}")
-                program = p.robot(name, rng, self.faults, model)
+                program = p.robot(name, rng, self.faults, model, group, k)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
                                        sent_joints=[math.nan] * len(p.targets), paths=group.paths))
         return robots
@@ -252,6 +256,7 @@ class Run:
         targets = self.program.targets
         command = self._command
         watched, last_rule = self.watched, self.last_rule
+        has_logs = bool(self.program.logs)
 
         def inputs(t: int) -> None:
             """The timeline's slider settings for this tick, before anything reads them."""
@@ -279,6 +284,8 @@ class Run:
                     if value != sent[k] and value == value:
                         sent[k] = value
                         command(r.index, targets[k][0], targets[k][1], value)
+            if events and has_logs:
+                self._print_logs(r, events)
             if trace is not None:
                 trace_row(r, values, rule)
             if events:
@@ -298,6 +305,7 @@ class Run:
                 values = sense()[0]
                 rule = both(t * dt, t, values if len(values) == n else values[:n])
                 if rule == -2:
+                    self.stopped_by = r1.name
                     self.finished = True
                     return False
                 if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
@@ -326,8 +334,9 @@ class Run:
             stop = False
             for i, _, signals, _, _, _, _ in robots:
                 values = readings[i]
-                if signals(now, t, values if len(values) == n else values[:n]):
+                if signals(now, t, values if len(values) == n else values[:n]) and not stop:
                     stop = True
+                    self.stopped_by = self.robots[i].name
             if stop:
                 self.finished = True
                 return False
@@ -366,6 +375,24 @@ class Run:
         r.clamping = any(abs(v) > limit for v in (left, right))
         self._act(r.index, out[0], out[1])
 
+    def _print_logs(self, r: RobotRun, events: list) -> None:
+        """Print each ``log(...)`` of this tick, at most ``LOG_RATE`` lines a simulated second per
+        log; the rest are counted for the summary (the trace records them all)."""
+        emit = self.faults.emit
+        second = int(self.tick_index * self.dt)
+        for e in events:
+            if isinstance(e, int):
+                continue
+            site = e[0]
+            window = self._log_windows.setdefault(site, [second, 0])
+            if window[0] != second:
+                window[:] = [second, 0]
+            window[1] += 1
+            if window[1] > LOG_RATE:
+                self.logs_dropped[site] = self.logs_dropped.get(site, 0) + 1
+            elif emit is not None:
+                emit(f"[{self.tick_index * self.dt:.2f} s] {r.name}: {self.program.log_text(*e)}")
+
     def _actuator_fault(self, r: RobotRun, rule: int, what: str) -> None:
         if rule >= 0:
             site = self._actuator_sites[rule]
@@ -386,7 +413,8 @@ class Run:
         cmd = prog.command
         sliders = [s[p.slot_of[name]] for name in p.slider_names]
         labels = list(p.label_text(s).values()) if p.labels else []
-        events = [p.metric_names[i] for i in prog.events] + self._slider_events
+        events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(p.log_text(*e))
+                  for e in prog.events] + self._slider_events
         state = p.state_names[s[STATE]] if p.state_names else ""
         self.trace.write([self.tick_index, round(self.tick_index * self.dt, 9), r.name, x, y, heading,
                           collided, state, label, *extra, *lets, *sliders, *labels,
@@ -431,9 +459,14 @@ class Run:
         if len(self.robots) > 1:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
+        out.stopped_by = self.stopped_by
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
+        for site_index, n in self.logs_dropped.items():
+            line = p.logs[site_index][0]
+            out.faults.append(f"log on line {line}: {n} line{'s' if n != 1 else ''} not printed "
+                              f"(at most {LOG_RATE} a simulated second; the trace has them all)")
         for (site, what), n in self.faults.counts.items():
             tick, robot = self.faults.first[(site, what)]
             out.faults.append(f"{site.where}: {what}: {n} time{'s' if n != 1 else ''} "
@@ -446,6 +479,16 @@ class Run:
         self.backend.close()
 
 
+# A log(...) prints at most this many lines per simulated second (per log in the file): a rule
+# that fires every tick cannot flood the terminal; the trace keeps every line.
+LOG_RATE = 5
+
+
+def _one_field(text: str) -> str:
+    """A log's text as one cell of the events column: no ';' (the separator) and no newline."""
+    return text.replace(";", ",").replace("\n", " ")
+
+
 def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
     """The slider moves a trace recorded (its events column), by tick, for a replay."""
     out: dict[int, list[tuple[str, float]]] = {}
@@ -453,7 +496,7 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
     for tick, text in zip(ticks, events):
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
-            if eq:
+            if eq and not event.startswith("log: "):
                 settings = out.setdefault(int(tick), [])
                 if (name, float(value)) not in settings:  # one row per robot repeats them
                     settings.append((name, float(value)))
