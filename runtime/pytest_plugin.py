@@ -12,11 +12,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from labsim.backends.scene.diagnostics import LabsimError
 from labsim.runtime.golden import check_golden, golden_path, record_golden
+
+if TYPE_CHECKING:
+    from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
 
 BEHAVIOUR_SUFFIXES = (".yaml", ".yml")
 
@@ -92,8 +96,8 @@ class GoldenItem(pytest.Item):
         except ValueError:
             return self.path
 
-    def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException],  # type: ignore[override]
-                     style: str | None = None) -> str:
+    def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException],
+                     style: TracebackStyle | None = None) -> str:
         if isinstance(excinfo.value, GoldenMismatch):
             return str(excinfo.value)
         if isinstance(excinfo.value, LabsimError):
