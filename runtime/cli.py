@@ -103,6 +103,9 @@ def _parser() -> argparse.ArgumentParser:
     new.add_argument("folder", nargs="?", default=".", help="where to put it (default: this folder)")
 
     sub.add_parser("worlds", help="list the built-in worlds")
+    schema = sub.add_parser("schema", help="print the JSON Schema of behaviour or world files, for editors "
+                                           "(docs/editors.md)")
+    schema.add_argument("kind", choices=("behaviour", "world"))
 
     serve = sub.add_parser("serve", help="stand in for CoppeliaSim: answer its ZMQ remote API from the "
                                          "embedded simulator")
@@ -155,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
                 "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
-                "sweep": cmd_sweep}[args.command](args)
+                "sweep": cmd_sweep, "schema": cmd_schema}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -404,6 +407,13 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     for name, path in builtin_worlds().items():
         world = load_world(path, Report())
         print(f"{name:<16} {world.description if world else '(damaged world file)'}")
+    return EXIT_OK
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    from labsim.runtime.schemas import schema_text
+
+    sys.stdout.write(schema_text(args.kind))
     return EXIT_OK
 
 
