@@ -7,4 +7,20 @@ summaries and plots.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 __version__ = "0.1.0"
+
+# The Python API (docs/api.md), imported on first use: `import labsim` stays cheap
+__all__ = ["Behaviour", "LabsimError", "compile_behaviour", "load_backend", "read_trace", "run"]
+
+if TYPE_CHECKING:
+    from labsim.runtime.api import Behaviour, LabsimError, compile_behaviour, load_backend, read_trace, run
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        from labsim.runtime import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'labsim' has no attribute {name!r}")

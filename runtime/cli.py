@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
@@ -24,11 +23,11 @@ from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.world import World, builtin_worlds
-from labsim.runtime.golden import compare, golden_path
+from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.plot_driver import add_plot_parser
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import Summary, compile_behaviour, slider_events
+from labsim.runtime.run import compile_behaviour, slider_events
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.sweep_driver import add_sweep_parser
 from labsim.runtime.trace import TraceFormatError, read_trace
@@ -107,6 +106,9 @@ def _parser() -> argparse.ArgumentParser:
     new.add_argument("folder", nargs="?", default=".", help="where to put it (default: this folder)")
 
     sub.add_parser("worlds", help="list the built-in worlds")
+    schema = sub.add_parser("schema", help="print the JSON Schema of behaviour or world files, for editors "
+                                           "(docs/editors.md)")
+    schema.add_argument("kind", choices=("behaviour", "world"))
 
     serve = sub.add_parser("serve", help="stand in for CoppeliaSim: answer its ZMQ remote API from the "
                                          "embedded simulator")
@@ -159,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
                 "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
-                "sweep": cmd_sweep}[args.command](args)
+                "sweep": cmd_sweep, "schema": cmd_schema}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -338,51 +340,14 @@ def cmd_test(args: argparse.Namespace) -> int:
 
 def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> bool:
     """Record, or compare with, one behaviour's golden; False when it fails."""
-    compile_behaviour(f)  # a broken file is reported as broken, not as missing its golden
-    golden = golden_path(f)
     if args.update_goldens:
-        fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
-        os.close(fd)
-        try:
-            summary = _record(f, tmp, args.backend, options)
-            os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
-            os.replace(tmp, golden)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        compile_behaviour(f)  # a broken file is reported as broken before anything is written
+        golden, summary = record_golden(f, args.backend, options)
         print(f"recorded {golden} ({summary.ticks} ticks)")
         return True
-    if not golden.exists():
-        print(f"FAIL {f}: no golden trace {golden}; record one with: labsim test {f} --update-goldens")
-        return False
-    with tempfile.TemporaryDirectory() as d:
-        actual = Path(d) / "actual.csv"
-        _record(f, actual, args.backend, options)
-        try:
-            expected_trace = read_trace(golden)
-        except TraceFormatError as e:
-            print(f"FAIL {f}: {e}")
-            return False
-        difference = compare(expected_trace, read_trace(actual))
-    if difference is None:
-        print(f"ok   {f}")
-        return True
-    print(f"FAIL {f} (golden {golden})")
-    print("\n".join("  " + line for line in str(difference).splitlines()))
-    return False
-
-
-def _record(behaviour_path: Path, trace_path: str | Path, backend: str = DEFAULT,
-            options: dict[str, object] | None = None) -> Summary:
-    behaviour = compile_behaviour(behaviour_path)
-    run = behaviour.bind(load_backend(backend, **(options or {})), trace=trace_path, warn=lambda m: None)
-    try:
-        summary = run.run()
-    finally:
-        run.close()
-    if summary.interrupted:
-        raise KeyboardInterrupt
-    return summary
+    verdict = check_golden(f, args.backend, options)
+    print(verdict)
+    return verdict.passed
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -435,6 +400,13 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     for name, path in builtin_worlds().items():
         world = load_world(path, Report())
         print(f"{name:<16} {world.description if world else '(damaged world file)'}")
+    return EXIT_OK
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    from labsim.runtime.schemas import schema_text
+
+    sys.stdout.write(schema_text(args.kind))
     return EXIT_OK
 
 

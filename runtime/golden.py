@@ -13,10 +13,14 @@ absorb a different rounding of the same run, never a real change in behaviour.
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from labsim.runtime.trace import Trace
+from labsim.backends import DEFAULT, load_backend
+from labsim.runtime.run import Summary, compile_behaviour
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 ABS_TOL = 1e-6
 REL_TOL = 1e-5
@@ -106,7 +110,9 @@ def _explain(expected: Trace, actual: Trace, i: int, j: int) -> list[str]:
     else:
         lines.append(f"  expected {e!r}, actual {a!r} (must be equal)")
     show: list[str] = [c for c in ("tick", "time") if c in cols]
-    show += [c for c in ("rule", col) if c not in show]
+    for c in ("rule", col):
+        if c not in show:
+            show.append(c)
     table = [["", *show]]
     for k in range(max(0, i - CONTEXT_BEFORE), min(len(expected.rows), len(actual.rows), i + CONTEXT_AFTER + 1)):
         cells = [">" if k == i else ""]
@@ -118,3 +124,70 @@ def _explain(expected: Trace, actual: Trace, i: int, j: int) -> list[str]:
     lines.append("  context (golden | this run where they differ):")
     lines += ["  " + "  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip() for r in table]
     return lines
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One behaviour against its golden: passed or not, and the lines ``labsim test`` prints."""
+
+    passed: bool
+    lines: list[str]
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines)
+
+
+def check_golden(behaviour: str | Path, backend: str = DEFAULT, options: dict[str, object] | None = None,
+                 *, record_with: str = "", shown_as: str | Path | None = None) -> Verdict:
+    """Re-run a behaviour and compare its trace with its golden (``labsim test`` and the pytest
+    plugin both report what this returns). ``record_with`` is the command that records a missing
+    golden (default: ``labsim test FILE --update-goldens``); ``shown_as`` is the file's name in
+    the text (default: the path as given). Raises LabsimError for a broken file."""
+    compile_behaviour(behaviour)  # a broken file is reported as broken, not as missing its golden
+    f = Path(shown_as if shown_as is not None else behaviour)
+    golden = golden_path(f)
+    if not golden_path(behaviour).exists():
+        how = record_with or f"labsim test {f} --update-goldens"
+        return Verdict(False, [f"FAIL {f}: no golden trace {golden}; record one with: {how}"])
+    with tempfile.TemporaryDirectory() as d:
+        actual = Path(d) / "actual.csv"
+        record_trace(behaviour, actual, backend, options)
+        try:
+            expected_trace = read_trace(golden_path(behaviour))
+        except TraceFormatError as e:
+            return Verdict(False, [f"FAIL {f}: {e}"])
+        difference = compare(expected_trace, read_trace(actual))
+    if difference is None:
+        return Verdict(True, [f"ok   {f}"])
+    return Verdict(False, [f"FAIL {f} (golden {golden})"] + ["  " + line for line in str(difference).splitlines()])
+
+
+def record_golden(behaviour: str | Path, backend: str = DEFAULT,
+                  options: dict[str, object] | None = None) -> tuple[Path, Summary]:
+    """Run a behaviour and store its trace as its golden, replacing the old one only once the
+    run has finished (an interrupted run leaves the old golden as it was)."""
+    golden = golden_path(behaviour)
+    fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
+    os.close(fd)
+    try:
+        summary = record_trace(behaviour, tmp, backend, options)
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
+        os.replace(tmp, golden)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return golden, summary
+
+
+def record_trace(behaviour: str | Path, trace_path: str | Path, backend: str = DEFAULT,
+                 options: dict[str, object] | None = None) -> Summary:
+    """Run a behaviour as its file says (no overrides), writing its trace to trace_path."""
+    compiled = compile_behaviour(behaviour)
+    run = compiled.bind(load_backend(backend, **(options or {})), trace=trace_path, warn=lambda m: None)
+    try:
+        summary = run.run()
+    finally:
+        run.close()
+    if summary.interrupted:
+        raise KeyboardInterrupt
+    return summary

@@ -19,6 +19,7 @@ from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, did_you_m
 
 LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
 GOLDEN_SUFFIX = ".golden.csv"
+SCHEMA_FILE = "behaviour.schema.json"
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,8 @@ def behaviour_path(argument: str) -> Path:
 
 
 def copy_lab(name: str, folder: Path) -> list[Path]:
-    """Copy a lab's behaviour file and its golden trace into folder (made if missing).
+    """Copy a lab's behaviour file and its golden trace into folder (made if missing), with the
+    behaviour schema its first line names, unless the folder has it already.
 
     Refuses to overwrite: a student's edited copy is never lost to a second ``labsim new``.
     """
@@ -89,6 +91,10 @@ def copy_lab(name: str, folder: Path) -> list[Path]:
         folder.mkdir(parents=True, exist_ok=True)
         for source, target in zip(sources, targets):
             shutil.copyfile(source, target)
+        schema = LABS_DIR / SCHEMA_FILE  # what the lab's first line points editors at
+        if schema.exists() and not (folder / SCHEMA_FILE).exists():
+            shutil.copyfile(schema, folder / SCHEMA_FILE)
+            targets.append(folder / SCHEMA_FILE)
     except OSError as e:
         raise LabsimError([Diagnostic(str(folder), f"cannot write there: {e.strerror}")]) from None
     return targets

@@ -180,10 +180,10 @@ def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys
         comment = f"# {path}:{rule.line}: rule {rule.id}: {rule.text}"
         (i,) = [i for i, line in enumerate(lines) if line.strip() == comment][:1]
         assert re.match(r" *(if|elif|else)\b", lines[i + 1]), lines[i + 1]  # the rule's own test follows
-    assert f"# {path}:36: rule wander:1: if ahead <= front or right <= front then goto follow" in out
-    assert f"# {path}:27: ahead: min(sonar5, sonar2)" in out
-    assert f"# {path}:47: near_misses: count(min(ahead, right, left) < 0.25)" in out
-    assert f"# {path}:13: stop: time >= minutes * 60" in out
+    assert f"# {path}:37: rule wander:1: if ahead <= front or right <= front then goto follow" in out
+    assert f"# {path}:28: ahead: min(sonar5, sonar2)" in out
+    assert f"# {path}:48: near_misses: count(min(ahead, right, left) < 0.25)" in out
+    assert f"# {path}:14: stop: time >= minutes * 60" in out
     compile(out, "listing", "exec")  # it is Python
     # the listing is the compiled source with its markers explained, line for line
     assert out == p.code.listing + "\n" and len(lines) == len(p.code.source.splitlines()) + 1

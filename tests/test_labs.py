@@ -48,7 +48,7 @@ def test_new_copies_a_lab_and_its_golden_which_then_passes(tmp_path: Path,
     assert main(["new", "crane", str(tmp_path / "mine")]) == 0
     out = capsys.readouterr().out
     copied = sorted(p.name for p in (tmp_path / "mine").iterdir())
-    assert copied == ["crane.golden.csv", "crane.yaml"]
+    assert copied == ["behaviour.schema.json", "crane.golden.csv", "crane.yaml"]  # docs/editors.md
     assert "labsim run" in out and "--update-goldens" in out
     assert main(["test", str(tmp_path / "mine")]) == 0
     assert "1 passed, 0 failed" in capsys.readouterr().out

@@ -69,6 +69,9 @@ GROUND_KEYS = ("floor", "px_per_m", "roads", "lines", "patches")
 ROAD_KEYS = ("width", "color", "closed", "path")
 LINE_KEYS = ("from", "to", "width", "color")
 PATCH_KEYS = ("center", "size", "color", "angle_deg")
+WALL_KEYS = ("from", "to", "thickness")
+BLOCK_KEYS = ("center", "size", "angle_deg")
+ARC_KEYS = ("center", "radius", "to_deg")
 
 ARC_ON_CIRCLE_M = 0.01  # how far an arc's start may be off its circle
 CHORD_SAGITTA_M = 0.0005  # arcs become chords no further than this from the circle
@@ -148,7 +151,7 @@ class _WorldReader(Reader):
     def walls(self, f: dict[str, Node], thickness: float) -> tuple[Wall, ...]:
         walls = []
         for item in self.list_of(f, "walls"):
-            w = self.fields(item, ("from", "to", "thickness"), "walls") or {}
+            w = self.fields(item, WALL_KEYS, "walls") or {}
             if "from" not in w or "to" not in w:
                 self.error(item, "a wall needs 'from: [x, y]' and 'to: [x, y]'")
                 continue
@@ -165,7 +168,7 @@ class _WorldReader(Reader):
     def blocks(self, f: dict[str, Node]) -> tuple[Block, ...]:
         blocks = []
         for item in self.list_of(f, "blocks"):
-            bl = self.fields(item, ("center", "size", "angle_deg"), "blocks") or {}
+            bl = self.fields(item, BLOCK_KEYS, "blocks") or {}
             if "center" not in bl or "size" not in bl:
                 self.error(item, "a block needs 'center: [x, y]' and 'size: [width, depth]'")
                 continue
@@ -298,10 +301,10 @@ class _WorldReader(Reader):
     def arc(self, node: Node, start: tuple[float, float]) -> list[tuple[float, float]]:
         """The chord end points of an arc from start (exclusive) to its end (inclusive)."""
         before = self.error_count
-        a = self.fields(node, ("center", "radius", "to_deg"), "an arc")
+        a = self.fields(node, ARC_KEYS, "an arc")
         if a is None:
             return []
-        missing = [k for k in ("center", "radius", "to_deg") if k not in a]
+        missing = [k for k in ARC_KEYS if k not in a]
         if missing:
             if self.error_count == before:  # after a misspelt key, did-you-mean says enough
                 self.error(node, "an arc needs " + ", ".join(f"'{k}'" for k in missing)

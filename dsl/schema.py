@@ -1,0 +1,87 @@
+"""The JSON Schema of a behaviour file, built from the key tables of ``labsim.dsl.read``.
+
+The language's half of the schemas (the world file's is ``labsim.backends.scene.schema``, whose
+builders this uses): every mapping here is made from the reader's own tuple of keys
+(``TOP_KEYS``, ``ROBOT_KEYS``, ``CAMERA_KEYS``, ...), and building fails when a key lacks a
+description or a description names no key, so the schema and the reader cannot drift. Rule and
+expression strings are only "text" here: whether they parse, and which names (sensors, models,
+worlds, functions) exist, is the checker's business (``labsim check``).
+"""
+from __future__ import annotations
+
+from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text, version
+from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
+
+EXPRESSION: Schema = {"type": ["string", "number", "boolean"]}
+
+
+def expression(description: str) -> Schema:
+    return {**EXPRESSION, "description": description + " (an expression: docs/language.md)"}
+
+
+def _robot() -> Schema:
+    camera = mapping(CAMERA_KEYS, {
+        "resolution": numbers(f"[width, height] in pixels, 1 to {MAX_CAMERA_PX} a side (default [128, 128])", 2,
+                              {"type": "integer", "minimum": 1, "maximum": MAX_CAMERA_PX}),
+        "fov_deg": number("horizontal field of view in degrees (default 60)", 1, 170),
+        "height_m": number("the camera's height above the floor in metres (default 0.3)", 0.01, 10),
+        "pitch_deg": number("how far it looks down, in degrees (default 45)", 0, 90),
+        "x_m": number("how far ahead of the robot's centre it sits, in metres (default 0.2)", -1, 1),
+    }, "a camera looking ahead and down at the floor")
+    paths = mapping(PATH_KEYS, {
+        "robot": text("the robot's path in a CoppeliaSim scene, e.g. /PioneerP3DX[{i}]"),
+        "left_motor": text("the left motor's path, e.g. ./leftMotor"),
+        "right_motor": text("the right motor's path, e.g. ./rightMotor"),
+        "sonar": text("the sonar's path, e.g. ./ultrasonicSensor[{k}]"),
+    }, "object paths in your own CoppeliaSim scene ({i}: the robot's index from 0; {k}: the sonar's)")
+    at = {"description": "where it starts: spawn (the world's spawn poses), random, or [x, y, heading_deg]",
+          "anyOf": [{"enum": ["spawn", "random"]}, numbers("[x, y] or [x, y, heading_deg]", (2, 3))]}
+    return mapping(ROBOT_KEYS, {
+        "model": text("the robot model, e.g. pioneer_p3dx (labsim check knows the models)"),
+        "count": number("how many robots of this group (default 1)", 1, 100, integer=True),
+        "at": at,
+        "camera": camera,
+        "paths": paths,
+    }, "a group of robots", required=("model",))
+
+
+def _controls() -> dict[str, Schema]:
+    slider = mapping(SLIDER_KEYS, {
+        "min": number("the slider's lowest value"),
+        "max": number("the slider's highest value"),
+        "value": number("where it starts (default 0 if within range, else min)"),
+        "label": text("its label: text with {expression} or {expression:.2f} fields"),
+    }, "a slider a person moves in labsim view", required=("min", "max"))
+    return {
+        "sliders": named(slider, "sliders, by name; programs read them by name"),
+        "bind": {"type": "object", "description": "JOINT.velocity or JOINT.position: the expression that drives it",
+                 "propertyNames": {"pattern": r"^[A-Za-z_][A-Za-z0-9_]*\.(velocity|position)$"},
+                 "additionalProperties": expression("the joint's target")},
+        "timeline": {"type": "array", "description": "slider moves: '- at 2.5: arm = 0, crab = -3'",
+                     "items": {"type": "object", "minProperties": 1, "maxProperties": 1,
+                               "propertyNames": {"pattern": r"^at\s+[0-9]*\.?[0-9]+([eE][+-]?\d+)?\s*$"},
+                               "additionalProperties": {"type": "string"}}},
+    }
+
+
+def behaviour_schema() -> Schema:
+    """The JSON Schema of a behaviour file."""
+    rules = {"type": "array", "minItems": 1, "items": {"type": "string"}}
+    return document("labsim behaviour file", mapping(TOP_KEYS, {
+        "labsim": version("labsim"),
+        "name": text("the lab's name, shown in summaries"),
+        "description": text("what the behaviour does"),
+        "world": text("a built-in world (labsim worlds) or the path of a world file"),
+        "dt": number("the time step in seconds (default 0.05)", maximum=1, exclusive_minimum=0),
+        "seed": number("the seed of every random choice (default 0)", minimum=0, integer=True),
+        "stop": expression("when the run ends, e.g. time >= 60"),
+        "robots": named(_robot(), "the robots, by group name"),
+        "params": {"type": "object", "description": "parameters, overridable with --set NAME=VALUE",
+                   "propertyNames": {"pattern": r"^[A-Za-z_][A-Za-z0-9_]*$"},
+                   "additionalProperties": {"type": ["number", "boolean"]}},
+        "let": named(expression("a signal"), "signals computed every tick, by name"),
+        "rules": {"description": "a list of rules ('if COND then ACTION'), or states mapping to lists of rules",
+                  "anyOf": [rules, {"type": "object", "additionalProperties": rules}]},
+        "metrics": named(expression("a metric"), "metrics reported at the end of the run, by name"),
+        **_controls(),
+    }, required=REQUIRED))

@@ -1,0 +1,88 @@
+"""The Python API for notebooks and scripts: what ``import labsim`` offers (docs/api.md).
+
+A thin layer over the runtime, at the same place in the pipeline as the command line:
+``run`` compiles a behaviour file, runs it and returns the summary ``labsim run --json``
+writes; ``read_trace`` reads a trace into a pandas DataFrame (pandas is the optional extra
+``labsim[pandas]``) with the trace's header in ``DataFrame.attrs``; ``compile_behaviour``
+compiles once for many runs (``Behaviour.bind(load_backend()).run()``). The package root
+imports these lazily, so ``import labsim`` (and ``labsim check``'s start) stays cheap.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.runtime.labs import behaviour_path
+from labsim.runtime.run import Behaviour
+from labsim.runtime.run import compile_behaviour as _compile
+from labsim.runtime.summary_json import summary_dict
+from labsim.runtime.trace import TraceFormatError
+from labsim.runtime.trace import read_trace as _read_trace
+
+if TYPE_CHECKING:
+    import pandas
+
+Setting = float | int | bool | str
+
+
+def _text(value: Setting) -> str:
+    return ("true" if value else "false") if isinstance(value, bool) else str(value)
+
+
+def compile_behaviour(behaviour: str | Path, *, params: dict[str, Setting] | None = None,
+                      seed: int | None = None) -> Behaviour:
+    """Compile a behaviour file, or a shipped lab by name ('wall_follow'), once for many runs:
+    ``labsim.run(compiled)``, or ``compiled.bind(labsim.load_backend()).run()`` to tick it
+    yourself. ``params`` and ``seed`` as for ``run``; raises ``LabsimError`` for a broken file."""
+    overrides = {k: _text(v) for k, v in (params or {}).items()}
+    return _compile(behaviour_path(str(behaviour)), overrides, seed=seed)
+
+
+def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None = None, seed: int | None = None,
+        backend: str = DEFAULT, trace: str | Path | None = None) -> dict[str, Any]:
+    """Run a behaviour file, a shipped lab by name, or a compiled ``Behaviour`` to its stop condition and return its
+    summary: the same figures as ``labsim run --json`` (docs/summary-json.md).
+
+    ``params`` override the file's ``params:`` as ``--set`` does; ``seed`` its seed; ``trace``
+    is where to write the trace. A mistake in the file raises ``LabsimError``, whose
+    ``diagnostics`` say where.
+    """
+    if isinstance(behaviour, Behaviour):
+        if params or seed is not None:
+            raise LabsimError([Diagnostic("run", "a compiled behaviour has its parameters and seed; "
+                                                 "give them to compile_behaviour")])
+        compiled = behaviour
+    else:
+        compiled = compile_behaviour(behaviour, params=params, seed=seed)
+    warnings: list[str] = []
+    bound = compiled.bind(load_backend(backend), trace=trace, warn=warnings.append)
+    try:
+        summary = bound.run()
+    finally:
+        bound.close()
+    return summary_dict(summary, bound, warnings=warnings)
+
+
+def read_trace(path: str | Path) -> pandas.DataFrame:
+    """A trace as a DataFrame, one row per robot per tick, numbers as numbers; the trace's JSON
+    header (behaviour, world, params, seed, ...) is ``df.attrs``. Needs pandas."""
+    try:
+        import pandas
+    except ImportError:  # pragma: no cover - the extra is installed in the tests
+        raise ImportError("labsim.read_trace needs pandas: pip install 'labsim[pandas]'") from None
+    try:
+        trace = _read_trace(path)
+    except TraceFormatError as e:
+        raise LabsimError([Diagnostic(str(path), str(e).removeprefix(f"{path}: "))]) from None
+    frame = pandas.DataFrame(trace.rows, columns=trace.columns)
+    for column in frame.columns:
+        converted = pandas.to_numeric(frame[column], errors="coerce")
+        if converted.notna().sum() == frame[column].ne("").sum():  # every non-empty cell is a number
+            frame[column] = converted
+    frame.attrs.update(trace.header)
+    return frame
+
+
+__all__ = ["Behaviour", "LabsimError", "compile_behaviour", "load_backend", "read_trace", "run"]

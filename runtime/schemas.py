@@ -1,0 +1,30 @@
+"""The JSON Schemas as files: what ``labsim schema`` prints and the shipped labs point editors at.
+
+The schemas are built by ``labsim.dsl.schema`` (behaviour files) and
+``labsim.backends.scene.schema`` (world files) from the readers' key tables; this module writes
+them as text, the same text as the copies shipped beside the labs (``behaviours/*.schema.json``,
+which tests/test_schema.py keeps equal to it). A lab file's first line,
+``# yaml-language-server: $schema=behaviour.schema.json``, points yaml-language-server (VS
+Code's YAML extension and others) at the copy beside it.
+"""
+from __future__ import annotations
+
+import json
+
+from labsim.backends.scene.schema import Schema, world_schema
+from labsim.dsl.schema import behaviour_schema
+
+KINDS = ("behaviour", "world")
+MODELINE = "# yaml-language-server: $schema="
+
+
+def schema(kind: str) -> Schema:
+    return behaviour_schema() if kind == "behaviour" else world_schema()
+
+
+def schema_text(kind: str) -> str:
+    return json.dumps(schema(kind), indent=2, ensure_ascii=False) + "\n"
+
+
+def file_name(kind: str) -> str:
+    return f"{kind}.schema.json"
