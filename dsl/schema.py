@@ -9,7 +9,7 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 """
 from __future__ import annotations
 
-from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text, version
+from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text
 from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
 
 EXPRESSION: Schema = {"type": ["string", "number", "boolean"]}
@@ -42,6 +42,13 @@ def _robot() -> Schema:
         "at": at,
         "camera": camera,
         "paths": paths,
+        "params": {"type": "object",
+                   "description": "this group's own values of the file's parameters (format 1.1): one value for "
+                                  "every robot of the group, or a list with one value per robot",
+                   "propertyNames": {"pattern": r"^[A-Za-z_][A-Za-z0-9_]*$"},
+                   "additionalProperties": {"anyOf": [{"type": ["number", "boolean"]},
+                                                      {"type": "array", "minItems": 1,
+                                                       "items": {"type": ["number", "boolean"]}}]}},
     }, "a group of robots", required=("model",))
 
 
@@ -68,7 +75,8 @@ def behaviour_schema() -> Schema:
     """The JSON Schema of a behaviour file."""
     rules = {"type": "array", "minItems": 1, "items": {"type": "string"}}
     return document("labsim behaviour file", mapping(TOP_KEYS, {
-        "labsim": version("labsim"),
+        "labsim": {"enum": [1, 1.1], "description": "the file format version: 'labsim: 1', or 'labsim: 1.1' "
+                                                    "for a file that uses the language's newer parts"},
         "name": text("the lab's name, shown in summaries"),
         "description": text("what the behaviour does"),
         "world": text("a built-in world (labsim worlds) or the path of a world file"),
