@@ -23,6 +23,7 @@ from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.world import World, builtin_worlds
+from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.plot_driver import add_plot_parser
@@ -156,7 +157,9 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    autocomplete(parser)  # answers the shell's Tab and exits, when the shell is asking
+    args = parser.parse_args(argv)
     try:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
