@@ -100,6 +100,12 @@ def _parser() -> argparse.ArgumentParser:
                                                             "(default: %(default)s)")
     view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
     view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
+    view.add_argument("--sim-host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
+                                                       "(default: 127.0.0.1)")
+    view.add_argument("--sim-port", type=int, default=None,
+                      help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
+    view.add_argument("--sim-timeout", type=float, default=None, metavar="SECONDS",
+                      help="give up when CoppeliaSim does not answer within this (default: 5)")
 
     sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
     new = sub.add_parser("new", help="copy a lab and its golden trace into a folder, to edit and test")
@@ -366,9 +372,17 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     if args.trace:
         _check_writable(args.trace, [Path(args.file)])
+    # --host and --port are the page's; CoppeliaSim's address has options of its own here
+    options: dict[str, object] = {k: v for k, v in (("host", args.sim_host), ("port", args.sim_port),
+                                                    ("timeout_s", args.sim_timeout)) if v is not None}
+    if options and args.backend != "coppeliasim":
+        flags = ", ".join("--sim-" + k.removesuffix("_s") for k in options)
+        raise LabsimError([Diagnostic(flags, f"only --backend coppeliasim takes {flags}")])
+    if args.sim_timeout is not None and not args.sim_timeout > 0:
+        raise LabsimError([Diagnostic("--sim-timeout", "give a positive number of seconds")])
     return view(args.file, overrides=_overrides(args.set), seed=args.seed, backend=args.backend,
-                host=args.host, port=args.port, trace=args.trace, open_browser=not args.no_browser,
-                warn=_warn, report=_print_diagnostics)
+                backend_options=options, host=args.host, port=args.port, trace=args.trace,
+                open_browser=not args.no_browser, warn=_warn, report=_print_diagnostics)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

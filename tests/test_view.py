@@ -358,3 +358,28 @@ def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
                            capture_output=True, text=True, cwd=ROOT)
     assert check.stderr and check.stderr in err
     assert "\n".join(s.scene()["diagnostics"]) in check.stderr
+
+
+def test_a_live_view_through_labsim_serve_sees_the_embedded_run(tmp_path: Path) -> None:
+    # --backend coppeliasim: the page's run goes through the ZMQ remote API (here to the
+    # stand-in server for the behaviour's scene) and shows what the embedded run shows
+    from labsim.backends.coppeliasim.server import Server
+    from labsim.runtime.run import compile_behaviour
+
+    program = compile_behaviour(WALL).program
+    with Server(program.world, 1, port=0) as srv:
+        remote = live(WALL, backend="coppeliasim", backend_options={"port": srv.port})
+        embedded = live(WALL)
+        assert remote.advance(40) == embedded.advance(40) == 40
+        a, b = remote.frame(), embedded.frame()
+        remote.close()
+        embedded.close()
+    assert a["tick"] == b["tick"] == 40
+    assert a["robots"] == b["robots"]
+
+
+def test_simulator_address_options_go_with_coppeliasim_only(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["view", str(WALL), "--sim-port", "23000", "--no-browser"]) == 2
+    assert "--sim-port: error: only --backend coppeliasim takes --sim-port" in capsys.readouterr().err
+    assert main(["view", str(WALL), "--backend", "coppeliasim", "--sim-timeout", "0", "--no-browser"]) == 2
+    assert "give a positive number of seconds" in capsys.readouterr().err
