@@ -43,6 +43,12 @@ class RobotRequest:
     # for the model (CoppeliaSim: {"robot": "/MyPioneer", "left_motor": "./leftMotor", ...}).
     paths: tuple[tuple[str, str], ...] = ()
 
+    def __post_init__(self) -> None:
+        # one slot per channel: a name asked twice would leave one of its slots unread
+        twice = sorted({c for c in self.channels if self.channels.count(c) > 1})
+        if twice:
+            raise ValueError(f"robot '{self.name}' asks for channel(s) {', '.join(twice)} twice")
+
 
 @dataclass(frozen=True)
 class ContactStats:

@@ -2,8 +2,8 @@
 
 Five robots, 600 ticks (30 s), a 128 x 128 camera each. Both sides drive the same pymunk scene
 (built by the pymunk backend from ``road_loop``) and render with the same ground renderer; the
-hand loop then does by hand what ``behaviours/road_follow.yaml`` says: gray, threshold at 20,
-invert, the centroid from the image moments, the PID, the wheel speeds, and the lab's five
+hand loop then does by hand what ``behaviours/road_follow.yaml`` says: gray, threshold at 20
+(not inverted), the row of the centroid from the image moments, the PID, the wheel speeds, and the lab's five
 metrics. Both must end with the same poses, bit for bit, which shows they did the same work.
 
     python benchmarks/bench_road.py [--repeat 7]
@@ -94,10 +94,10 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         for i, b in enumerate(bodies):
             image, forward, offset = sensed[i]
             gray = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
-            lane = cv2.bitwise_not(cv2.threshold(gray, 20, 255, cv2.THRESH_BINARY)[1])
+            lane = cv2.threshold(gray, 20, 255, cv2.THRESH_BINARY)[1]
             m = cv2.moments(lane, binaryImage=True)
-            cx = m["m10"] / m["m00"] if m["m00"] else 63.5
-            error = 64 - cx
+            cy = m["m01"] / m["m00"] if m["m00"] else 63.5
+            error = 64 - cy
             integral[i] += error
             angle = scale * (kp * error + ki * integral[i] + kd * (error - previous[i]))
             previous[i] = error

@@ -32,7 +32,7 @@ REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mech
 SLIDER_KEYS = ("min", "max", "value", "label")
 ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params")
 PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar")
-CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m")
+CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m", "roll_deg")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
 
 
@@ -347,7 +347,7 @@ class _Reader(Reader):
         return tuple(out)
 
     def camera(self, node: Node) -> Camera | None:
-        """camera: {resolution: [w, h], fov_deg: 60, height_m: 0.3, pitch_deg: 45, x_m: 0.2}"""
+        """camera: {resolution: [w, h], fov_deg: 60, height_m: 0.3, pitch_deg: 45, x_m: 0.2, roll_deg: 0}"""
         fields = self.known_keys(node, CAMERA_KEYS, "camera", "camera")
         ok = True
         size = (128, 128)
@@ -355,8 +355,9 @@ class _Reader(Reader):
             resolution = self.resolution(fields["resolution"])
             ok = resolution is not None
             size = resolution or size
-        values = {"fov_deg": 60.0, "height_m": 0.3, "pitch_deg": 45.0, "x_m": 0.2}
-        limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0, 90), "x_m": (-1, 1)}
+        values = {"fov_deg": 60.0, "height_m": 0.3, "pitch_deg": 45.0, "x_m": 0.2, "roll_deg": 0.0}
+        limits = {"fov_deg": (1, 170), "height_m": (0.01, 10), "pitch_deg": (0, 90), "x_m": (-1, 1),
+                  "roll_deg": (-180, 180)}
         for key in values:
             if key in fields:
                 v = self.number(fields[key], key)
@@ -371,7 +372,7 @@ class _Reader(Reader):
         if not ok:
             return None
         return Camera("camera", size[0], size[1], values["fov_deg"], values["height_m"], values["pitch_deg"],
-                      values["x_m"])
+                      values["x_m"], values["roll_deg"])
 
     def resolution(self, node: Node) -> tuple[int, int] | None:
         """A camera's [width, height] in pixels."""

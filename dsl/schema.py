@@ -27,6 +27,8 @@ def _robot() -> Schema:
         "height_m": number("the camera's height above the floor in metres (default 0.3)", 0.01, 10),
         "pitch_deg": number("how far it looks down, in degrees (default 45)", 0, 90),
         "x_m": number("how far ahead of the robot's centre it sits, in metres (default 0.2)", -1, 1),
+        "roll_deg": number("its turn about its own axis, in degrees; positive turns the image's top edge "
+                           "towards the robot's right (default 0)", -180, 180),
     }, "a camera looking ahead and down at the floor")
     paths = mapping(PATH_KEYS, {
         "robot": text("the robot's path in a CoppeliaSim scene, e.g. /PioneerP3DX[{i}]"),

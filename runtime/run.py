@@ -35,6 +35,7 @@ from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
+TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
@@ -126,11 +127,14 @@ class Run:
         self._actuator_sites = [
             FaultSite(f"rule {r.id}", Diagnostic(program.path, "", r.line, 1, 0, "warning", ""))
             for r in program.rules]
-        # the trace records every robot's pose and contact state (read after the behaviour's
-        # own channels); without a trace they are not read at all
-        self._extra: tuple[str, ...] = ("x", "y", "heading", "collided") if trace_path is not None else ()
-        requests = [RobotRequest(r.name, r.model, r.start, program.channels + self._extra, r.paths)
-                    for r in self.robots]
+        # the trace records every robot's pose and contact state: a channel the behaviour reads
+        # too is read once and lands in both; the others are read after the behaviour's own.
+        # Without a trace they are not read at all.
+        traced = TRACE_POSE if trace_path is not None else ()
+        self._extra = tuple(c for c in traced if c not in program.channels)
+        channels = program.channels + self._extra
+        self._pose_at = [channels.index(c) for c in traced]  # where the trace finds each
+        requests = [RobotRequest(r.name, r.model, r.start, channels, r.paths) for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
         self._command = getattr(backend, "command", None)
@@ -221,7 +225,7 @@ class Run:
         """
         p = self.program
         kinds = p.channel_kinds
-        channels = [i for i, c in enumerate(p.channels) if c not in ("x", "y", "heading", "collided")
+        channels = [i for i, c in enumerate(p.channels) if c not in TRACE_POSE
                     and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
         lets = [p.slot_of[n] for n in p.let_names if p.signal_types.get(n) in (Type.NUMBER, Type.BOOL)]
         return channels, lets
@@ -405,7 +409,8 @@ class Run:
         p = self.program
         prog = r.program
         s = prog.slots
-        x, y, heading, collided = values[-4:]
+        at = self._pose_at
+        x, y, heading, collided = values[at[0]], values[at[1]], values[at[2]], values[at[3]]
         channels, slots = self._trace_fields
         extra = [values[i] for i in channels]
         lets = [s[i] for i in slots]

@@ -11,7 +11,7 @@ import pytest
 
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
-from labsim.backends.pymunk.camera import GroundView, check_camera, draw_ground, ground_view
+from labsim.backends.pymunk.camera import SKY_RGB, GroundView, check_camera, draw_ground, ground_view
 from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import Ground, Line, Patch, Road
 from labsim.backends.scene.models import PIONEER_P3DX, Camera
@@ -271,3 +271,37 @@ def test_backend_refuses_a_camera_it_cannot_render() -> None:
     assert b.space is None
     # not read, not checked: the model may carry a camera the behaviour ignores
     b.open(road_world(), [RobotRequest("p", bad, Pose(0.0, -4.0, 0.0), ("x",))], 0.05, 1)
+
+
+# --- roll -------------------------------------------------------------------------------------
+
+def test_a_camera_rolled_180_sees_the_image_turned_upside_down() -> None:
+    view = GroundView(Ground(FLOOR, patches=(square(1.0, 0.2, 0.1),)))  # ahead, to the left
+    plain = view.render(0.0, 0.0, 0.0, CAM)
+    turned = view.render(0.0, 0.0, 0.0, dataclasses.replace(CAM, roll_deg=180.0))
+    diff = np.abs(turned.astype(int) - plain[::-1, ::-1].astype(int))
+    assert diff.max() <= 2  # the same floor sampled at the same points, within rounding
+
+
+def test_a_camera_rolled_90_puts_the_right_at_row_zero_and_the_far_at_the_left() -> None:
+    cam = dataclasses.replace(CAM, roll_deg=90.0)
+    view = GroundView(Ground(FLOOR, patches=(square(1.0, 0.2, 0.1),)))  # ahead, to the left
+    col, row = centroid(dark(view.render(0.0, 0.0, 0.0, cam)))
+    assert row > 64 + 10  # left of the way ahead: the bottom rows
+    right = GroundView(Ground(FLOOR, patches=(square(1.0, -0.2, 0.1),)))
+    assert centroid(dark(right.render(0.0, 0.0, 0.0, cam)))[1] < 63 - 10
+    near = GroundView(Ground(FLOOR, patches=(square(0.7, 0.0, 0.1),)))
+    far = GroundView(Ground(FLOOR, patches=(square(1.5, 0.0, 0.1),)))
+    assert centroid(dark(far.render(0.0, 0.0, 0.0, cam)))[0] < centroid(dark(near.render(0.0, 0.0, 0.0, cam)))[0]
+    # the unrolled image turned a quarter anticlockwise (the camera turned clockwise): its
+    # right column is the top row, its far row the left column; pixel for pixel, within rounding
+    plain = view.render(0.0, 0.0, 0.0, CAM)
+    assert np.abs(view.render(0.0, 0.0, 0.0, cam).astype(int) - np.rot90(plain).astype(int)).max() <= 2
+
+
+def test_a_rolled_camera_sees_sky_beyond_its_horizon() -> None:
+    cam = dataclasses.replace(CAM, pitch_deg=5.0, roll_deg=90.0)
+    img = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, cam)
+    plain = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(cam, roll_deg=0.0))
+    assert np.abs(img.astype(int) - np.rot90(plain).astype(int)).max() <= 2
+    assert (img[:, 0] == SKY_RGB).all() and (img[:, -1] != SKY_RGB).any()

@@ -195,6 +195,12 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     assert img == np.ascontiguousarray(expected[::-1]).tobytes()  # CoppeliaSim: bottom row first
     grey, _ = wire("sim.getVisionSensorImg", v, 1)
     assert len(grey) == 32 * 24
+    # as CoppeliaSim: option 3 is grey and alpha, two bytes a pixel; a portion's reply still
+    # carries the sensor's resolution
+    grey_alpha, _ = wire("sim.getVisionSensorImg", v, 3)
+    assert len(grey_alpha) == 32 * 24 * 2 and grey_alpha[1::2] == b"\xff" * (32 * 24)
+    part, res = wire("sim.getVisionSensorImg", v, 0, 0.0, [4, 2], [8, 6])
+    assert len(part) == 8 * 6 * 3 and res == [32, 24]
 
 
 def test_mechanism_joints_by_alias() -> None:

@@ -294,10 +294,12 @@ class SimApi:
             raise SimError(E_ARGS)
         img = img[y0:y0 + sy, x0:x0 + sx]
         if options & 1:  # greyscale, one byte a pixel
-            img = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)
-        elif options & 2:  # RGBA
+            img = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)[..., None]
+        if options & 2:  # and an alpha byte after each pixel: option 3 is grey + alpha
             img = np.concatenate([img, np.full(img.shape[:2] + (1,), 255, np.uint8)], axis=2)
-        return [np.ascontiguousarray(img).tobytes(), [sx, sy]]
+        # CoppeliaSim 4.6-4.9 (_simGetVisionSensorImg) returns the sensor's resolution, not
+        # the size of the portion read
+        return [np.ascontiguousarray(img).tobytes(), [w, h]]
 
     def _sim_getVisionSensorResolution(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args, 0, ("camera",), "vision sensor")

@@ -44,7 +44,8 @@ def check_camera(camera: Camera) -> None:
         if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 4096:
             raise ValueError(f"{name}: {what} must be a whole number from 1 to 4096, not {v!r}")
     for what, number in (("fov_deg", camera.fov_deg), ("height_m", camera.height_m),
-                         ("pitch_deg", camera.pitch_deg), ("x_m", camera.x_m)):
+                         ("pitch_deg", camera.pitch_deg), ("x_m", camera.x_m),
+                         ("roll_deg", camera.roll_deg)):
         if not isinstance(number, (int, float)) or not math.isfinite(number):
             raise ValueError(f"{name}: {what} must be a finite number, not {number!r}")
     if not 0 < camera.fov_deg < 180:
@@ -222,8 +223,14 @@ class GroundView:
         #   d = forward + xn * right - yn * up, xn = (c + 0.5 - w/2) / f, yn = (r + 0.5 - h/2) / f
         # (pixel centres; yn grows downwards), with forward = (cp, 0, -sp), right = (0, -1, 0),
         # up = (sp, 0, cp). As a matrix applied to (c, r, 1):
+        # A roll turns right and up about forward: right' = cr right - sr up, up' = cr up + sr right.
         k_inv = np.array([[1 / f, 0, (0.5 - w / 2) / f], [0, 1 / f, (0.5 - h / 2) / f], [0, 0, 1]])
-        axes = np.array([[0.0, -sp, cp], [-1.0, 0.0, 0.0], [0.0, -cp, -sp]])  # columns: right, -up, forward
+        right, up = np.array([0.0, -1.0, 0.0]), np.array([sp, 0.0, cp])
+        roll = math.radians(camera.roll_deg)
+        cr, sr = math.cos(roll), math.sin(roll)
+        axes = np.column_stack((cr * right - sr * up, -(cr * up + sr * right), (cp, 0.0, -sp)))
+        if roll:
+            return self._plan_rolled(camera, axes @ k_inv)
         # The first row that sees floor nearer than FAR_M: the rows above it are sky. The ray
         # through row r (at the centre column) falls dz = -(sp + yn cp) per unit and goes
         # forward (cp - yn sp); it meets the floor at horizontal distance h * forward / -dz.
@@ -236,7 +243,20 @@ class GroundView:
             first = r + 1
         # Warping only the floor rows: shift the output's rows down by `first`.
         shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(first)], [0.0, 0.0, 1.0]])
-        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first)
+        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first, None)
+        self._cameras[camera] = plan
+        return plan
+
+    def _plan_rolled(self, camera: Camera, b: np.ndarray) -> tuple:
+        """A rolled camera's plan: its horizon is not a row, so every pixel whose ray misses
+        the floor nearer than FAR_M is masked to sky after the warp of the whole image."""
+        w, h = camera.width_px, camera.height_px
+        c, r = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+        d = np.einsum("ij,jrc->irc", b, np.stack((c, r, np.ones_like(c))))
+        falls = d[2] < 0
+        reach = camera.height_m * np.hypot(d[0], d[1]) / np.where(falls, -d[2], 1.0)
+        sky = ~(falls & (reach <= FAR_M))
+        plan = (b, (w, h), float(camera.x_m), float(camera.height_m), 0, sky if sky.any() else None)
         self._cameras[camera] = plan
         return plan
 
@@ -245,7 +265,7 @@ class GroundView:
         return self._homography(self._cameras.get(camera) or self._plan(camera), x_m, y_m, heading_rad)
 
     def _homography(self, plan: tuple, x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
-        b, _, mount_x, height, _ = plan
+        b, _, mount_x, height, _, _ = plan
         ch, sh = math.cos(heading_rad), math.sin(heading_rad)
         cx, cy = x_m + mount_x * ch, y_m + mount_x * sh  # the camera's centre over the floor
         ppm = self._ppm
@@ -270,6 +290,8 @@ class GroundView:
             borderMode=cv2.BORDER_CONSTANT, borderValue=self._border,
         )
         floor = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+        if plan[5] is not None:  # a rolled camera that sees the horizon
+            floor[plan[5]] = SKY_RGB
         if not first:
             return floor
         image = np.empty((camera.height_px, camera.width_px, 3), np.uint8)

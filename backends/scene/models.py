@@ -43,7 +43,10 @@ class Camera:
 
     The image is RGB, ``height_px`` rows by ``width_px`` columns, oriented as a person sees
     it: row 0 is the far edge, column 0 the left. The camera sits ``x_m`` ahead of the robot's
-    origin, ``height_m`` above the floor, looking forward and down by ``pitch_deg``.
+    origin, ``height_m`` above the floor, looking forward and down by ``pitch_deg``, and turned
+    about its viewing axis by ``roll_deg``: positive turns the image's top edge towards the
+    robot's right, as seen from behind the camera (at 90 the rows run across the way ahead,
+    row 0 on the right).
     """
 
     name: str  # channel name, e.g. "camera"
@@ -53,6 +56,7 @@ class Camera:
     height_m: float
     pitch_deg: float  # below the horizontal
     x_m: float = 0.2
+    roll_deg: float = 0.0  # about the viewing axis; + turns the image's top towards the right
 
     @property
     def vertical_fov_deg(self) -> float:

@@ -18,7 +18,6 @@ from labsim.backends.protocol import Backend, ContactStats, RobotRequest
 from labsim.backends.scene.world import World
 
 ROBOT_EXTRA = ("x", "y", "heading", "collided")  # a robot's pose, drawn on the canvas
-TRACE_EXTRA = ("x", "y", "heading", "collided")  # what runtime.run appends when it traces
 
 
 def mechanism_extra(world: World) -> tuple[str, ...]:
@@ -45,15 +44,12 @@ class ObservedBackend:
         out = []
         self.index = []
         for req in robots:
-            own = list(req.channels[:self._n])
-            rest = list(req.channels[self._n:])
+            # what the view draws goes after everything the run asked for, so that the run
+            # finds its channels (the behaviour's, then the trace's) where it put them;
+            # a channel asked twice would be read twice
             wanted = ROBOT_EXTRA if req.model is not None else mechanism_extra(world)
-            added = [c for c in wanted if c not in own]
-            channels = own + added + rest
-            index: dict[str, int] = {}
-            for i, c in enumerate(own + added):
-                index.setdefault(c, i)
-            self.index.append(index)
+            channels = list(req.channels) + [c for c in wanted if c not in req.channels]
+            self.index.append({c: i for i, c in enumerate(channels)})
             out.append(replace(req, channels=tuple(channels)))
         self.inner.open(world, out, dt_s, seed)
         self.last = []

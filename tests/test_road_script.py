@@ -1,0 +1,48 @@
+"""A CoppeliaSim-style road-following script against ``labsim serve --for road_follow.yaml``.
+
+The script is written as for CoppeliaSim: two ``RemoteAPIClient`` instances (one steps the
+simulation, one serves the robots), one class per robot, ``sim.getVisionSensorImg``, the
+image reshaped to 128 x 128 x 3 and flipped to top-first, gray, ``cv2.threshold(gray, 20,
+225, 0)``, ``cv2.moments``, the PID on 64 - cy, stepping until 30 s. All five robots end on
+the road.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import BEHAVIOURS
+
+pytest.importorskip("cv2")
+pytest.importorskip("zmq")
+pytest.importorskip("coppeliasim_zmqremoteapi_client")
+
+from test_serve import PATIENCE_S, _serve
+
+from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.ground import RoadTracker, first_road
+from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.world_file import load_world
+
+SCRIPT = Path(__file__).parent / "fixtures" / "road_script.py"
+
+
+def test_the_road_script_keeps_five_robots_on_the_road() -> None:
+    proc, port = _serve("-q", "--for", str(BEHAVIOURS / "road_follow.yaml"))
+    try:
+        out = subprocess.run([sys.executable, str(SCRIPT), str(port)], capture_output=True, text=True,
+                             timeout=60 * PATIENCE_S)
+    finally:
+        proc.terminate()
+        proc.wait(PATIENCE_S)
+    assert out.returncode == 0, out.stderr
+    world = load_world(builtin_worlds()["road_loop"], Report())
+    road = first_road(world)
+    assert world is not None and road is not None
+    tracker = RoadTracker(road)
+    ends = [tuple(map(float, line.split())) for line in out.stdout.split("\n") if line]
+    assert len(ends) == 5
+    for x, y in ends:
+        assert abs(tracker.offset(x, y)) < 0.75, ends  # the road is 3 m wide
