@@ -47,7 +47,7 @@ def crane_window(tmp_path: Path, seconds: float) -> Path:
 @pytest.mark.parametrize("suffix", [".png", ".svg", ".pdf"])
 def test_signals_chart_in_each_format(capsys, tmp_path: Path, suffix: str) -> None:
     out = tmp_path / f"signals{suffix}"
-    code, printed, _ = cli(capsys, "plot", str(LABS / "road_follow.golden.csv"), "--signals", "cx,angle,road_offset",
+    code, printed, _ = cli(capsys, "plot", str(LABS / "road_follow.golden.csv"), "--signals", "cy,angle,road_offset",
                            "-o", str(out), "--width", "800")
     assert code == 0 and f"wrote {out}" in printed
     data = out.read_bytes()
