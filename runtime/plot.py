@@ -5,8 +5,10 @@ This is the last stage of the pipeline: ``labsim.runtime.run`` writes a trace (s
 to scale and with OpenCV only, the floor and what is painted on it (roads, lines, patches, when
 the world has a ground), the room's walls and blocks, every robot's path with its start,
 end and heading, the ticks it collided and the metric events it raised, and a legend and title
-that say which behaviour, world, seed and backend made the run. ``render_figure`` builds the
-image in memory (tests and other front ends use it); ``plot_trace`` also writes the file.
+that say which behaviour, world, seed and backend made the run; on a world with a road, a panel
+under the map of each robot's offset from the centreline (``labsim.runtime.road_panel``).
+``render_figure`` builds the image in memory (tests and other front ends use it); ``plot_trace``
+also writes the file.
 """
 from __future__ import annotations
 
@@ -196,6 +198,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     A ``backdrop`` is the figure without the run on it (no paths, a mechanism's fixed parts
     only): what ``labsim.runtime.animate`` draws each frame on.
     """
+    # one function for one layout: the map, the road panel, the title and the legend share its sizes
     if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
         raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
     if world is None and world_note is None:

@@ -5,7 +5,8 @@ hands its options to ``run_plot``, which checks them all before drawing (an unkn
 unsupported suffix, a bad time range: exit 2 with what would be accepted) and then calls the
 module that draws that kind of picture: ``labsim.runtime.plot`` for the still map (PNG, JPEG,
 ...), ``labsim.runtime.signals`` for charts against time (PNG, SVG, PDF), and
-``labsim.runtime.animate`` for a GIF or MP4 of the run.
+``labsim.runtime.animate`` for a GIF or MP4 of the run. ``--camera ROBOT`` puts a strip of the
+robot's camera frames under the map (``labsim.runtime.camera_strip``).
 """
 from __future__ import annotations
 
