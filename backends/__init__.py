@@ -1,14 +1,24 @@
 """Simulator backends behind one small protocol (``labsim.backends.protocol``).
 
 Backends are registered as "module:Class" strings and imported only when chosen, so the
-CoppeliaSim client is never imported by a run on the embedded backend.
+CoppeliaSim client is never imported by a run on the embedded backend. ``ground_camera`` is
+the one other way in: a camera's view of a world's ground, rendered without a scene, for
+pictures drawn after a run.
 """
 from __future__ import annotations
 
 import importlib
 import inspect
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from labsim.backends.protocol import Backend, BackendError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from labsim.backends.scene.ground import Ground
+    from labsim.backends.scene.models import Camera
 
 REGISTRY: dict[str, str] = {
     "pymunk": "labsim.backends.pymunk.backend:PymunkBackend",
@@ -16,6 +26,10 @@ REGISTRY: dict[str, str] = {
 }
 
 DEFAULT = "pymunk"
+
+# Cameras on a ground without a running scene, for pictures of a finished run: the same
+# lazy "module:function" as the backends, so the runtime still never imports a simulator.
+GROUND_CAMERAS: dict[str, str] = {"pymunk": "labsim.backends.pymunk.camera:ground_view"}
 
 
 def load_backend(name: str, **options: object) -> Backend:
@@ -34,3 +48,21 @@ def load_backend(name: str, **options: object) -> Backend:
             raise BackendError(f"backend '{name}' has no option '{option}'"
                                f" (it takes: {', '.join(accepted) or 'none'})")
     return cls(**options)
+
+
+def ground_camera(ground: Ground, backend: str = DEFAULT) -> Callable[[float, float, float, Camera], np.ndarray]:
+    """A renderer of what a camera sees of ``ground``, as the backend ``backend`` draws it:
+    ``render(x_m, y_m, heading_rad, camera)`` -> RGB image (row 0 the far edge).
+
+    No scene is opened: ``labsim plot --camera`` re-renders a robot's frames from the poses of
+    a finished run. Raises BackendError for a backend that cannot render a ground on its own.
+    """
+    try:
+        target = GROUND_CAMERAS[backend]
+    except KeyError:
+        known = ", ".join(sorted(GROUND_CAMERAS))
+        raise BackendError(f"backend '{backend}' cannot render a camera without a scene (known: {known})") from None
+    module_name, function_name = target.split(":")
+    view = getattr(importlib.import_module(module_name), function_name)(ground)
+    render: Callable[[float, float, float, Camera], np.ndarray] = view.render
+    return render

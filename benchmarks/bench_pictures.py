@@ -1,5 +1,6 @@
 """How long `labsim plot`'s other pictures take: the road lab's 30-second MP4, the wall lab's
-25-minute GIF, and a signals PNG of the wall lab's 30,000-row trace.
+25-minute GIF, a signals PNG of the wall lab's 30,000-row trace, and the road lab's map with its
+road panel and a camera strip.
 
     python benchmarks/bench_pictures.py [--repeat 3]
 
@@ -22,7 +23,9 @@ from labsim.runtime.cli import main as labsim
 LABS = Path(__file__).resolve().parent.parent / "behaviours"
 CASES = [("road lab, 30 s, MP4", "road_follow.golden.csv", "road.mp4", []),
          ("wall lab, 25 min, GIF", "wall_follow.golden.csv", "wall.gif", []),
-         ("wall lab, 30,000 rows, signals PNG", "wall_follow.golden.csv", "signals.png", ["--signals"])]
+         ("wall lab, 30,000 rows, signals PNG", "wall_follow.golden.csv", "signals.png", ["--signals"]),
+         ("road lab, map with road panel and camera strip", "road_follow.golden.csv", "road.png",
+          ["--camera", "pioneer[0]"])]
 
 
 def main() -> None:

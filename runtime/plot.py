@@ -5,8 +5,10 @@ This is the last stage of the pipeline: ``labsim.runtime.run`` writes a trace (s
 to scale and with OpenCV only, the floor and what is painted on it (roads, lines, patches, when
 the world has a ground), the room's walls and blocks, every robot's path with its start,
 end and heading, the ticks it collided and the metric events it raised, and a legend and title
-that say which behaviour, world, seed and backend made the run. ``render_figure`` builds the
-image in memory (tests and other front ends use it); ``plot_trace`` also writes the file.
+that say which behaviour, world, seed and backend made the run; on a world with a road, a panel
+under the map of each robot's offset from the centreline (``labsim.runtime.road_panel``).
+``render_figure`` builds the image in memory (tests and other front ends use it); ``plot_trace``
+also writes the file.
 """
 from __future__ import annotations
 
@@ -18,16 +20,16 @@ import cv2
 import numpy as np
 
 from labsim.backends.scene.diagnostics import Report
-from labsim.backends.scene.ground import Ground
+from labsim.backends.scene.ground import Ground, first_road
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.runtime.map_frame import Figure, grid, legend
 from labsim.runtime.mechanism_pose import draw_run_mechanism, has_slew, slew_inset
 from labsim.runtime.paint import (
     AA,
     BLOCK_EDGE,
     BLOCK_FILL,
     FRAME,
-    GRID,
     INK,
     MAP_BG,
     MUTED,
@@ -45,6 +47,7 @@ from labsim.runtime.paint import (
     event_colour,
     robot_colour,
 )
+from labsim.runtime.road_panel import draw_road_panel, panel_height
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 MIN_WIDTH_PX = 400
@@ -151,40 +154,6 @@ def resolve_world(trace: Trace) -> tuple[World | None, str]:
 
 # -- the layout --------------------------------------------------------------------------------
 
-@dataclass
-class Figure:
-    """A rendered plot and the mapping from world metres to its pixels."""
-
-    image: np.ndarray  # BGR, uint8
-    xmin: float
-    ymax: float
-    m_per_px: float
-    left: int  # pixel column of xmin
-    top: int  # pixel row of ymax
-
-    def to_px(self, x: float, y: float) -> tuple[float, float]:
-        """Pixel (column, row) of world point (x, y); y grows up in the world, down in images."""
-        return (self.left + (x - self.xmin) / self.m_per_px, self.top + (self.ymax - y) / self.m_per_px)
-
-
-def _nice_step(at_least: float) -> float:
-    """The smallest 1-2-5 x 10^k not below at_least."""
-    exp = math.floor(math.log10(at_least))
-    for m in (1, 2, 5, 10):
-        if m * 10 ** exp >= at_least - 1e-12:
-            return m * 10 ** exp
-    return 10 ** (exp + 1)
-
-
-def _nice_below(at_most: float) -> float:
-    """The largest 1-2-5 x 10^k not above at_most."""
-    exp = math.floor(math.log10(at_most))
-    for m in (5, 2, 1):
-        if m * 10 ** exp <= at_most + 1e-12:
-            return m * 10 ** exp
-    return 5 * 10 ** (exp - 1)
-
-
 def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float, float, float]:
     xs: list[float] = []
     ys: list[float] = []
@@ -229,6 +198,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     A ``backdrop`` is the figure without the run on it (no paths, a mechanism's fixed parts
     only): what ``labsim.runtime.animate`` draws each frame on.
     """
+    # one function for one layout: the map, the road panel, the title and the legend share its sizes
     if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
         raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
     if world is None and world_note is None:
@@ -264,7 +234,10 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     if world is not None and world.mechanism is not None and not backdrop and has_slew(trace, world.mechanism):
         inset = legend_w - pad
         legend_h += inset + P.line_h
-    height = max(map_top + map_h + bottom_axis, map_top + legend_h) + pad
+    # the road panel: lateral error, invisible at the map's scale, along the distance driven
+    road = not backdrop and world is not None and world.mechanism is None and first_road(world) is not None
+    panel_h = panel_height(P) if road else 0
+    height = max(map_top + map_h + bottom_axis + panel_h, map_top + legend_h) + pad
     img = np.full((height, width_px, 3), PAPER, np.uint8)
     fig = Figure(img, x0, y1, mpp, map_left, map_top)
 
@@ -278,7 +251,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     # a ground's floor colour replaces the map's background; the grid stays visible on it
     floor = bgr(ground.floor_rgb) if ground is not None else MAP_BG
     cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
-    _grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
+    grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
           "z (m)" if world is not None and world.mechanism is not None else "y (m)")
 
     _draw_world(img, P, world, ground, px, mpp)
@@ -297,8 +270,11 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     if world_note:
         P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
 
+    if road and world is not None:
+        draw_road_panel(img, P, world, [(p.name, p.colour, p.xy) for p in paths],
+                        (map_left, map_top + map_h + bottom_axis, map_w, panel_h))
     legend_x = map_left + map_w + round(22 * s)
-    legend_end = _legend(img, P, paths, events, legend_x, map_top, map_h, mpp, inset)
+    legend_end = legend(img, P, paths, events, legend_x, map_top, map_h, mpp, inset)
     if inset and world is not None and world.mechanism is not None:
         slew_inset(img, P, world.mechanism, trace, (legend_x, legend_end, inset))
     return fig
@@ -387,107 +363,6 @@ def _event_names(header: dict, paths: list[RobotPath]) -> list[str]:
     declared = [m for m, agg in (header.get("metrics") or {}).items() if agg == "count"]
     seen = [ev for p in paths for ev in p.events]
     return list(dict.fromkeys(declared + seen))
-
-
-def _grid(img: np.ndarray, P: Painter, fig: Figure, map_w: int, map_h: int,
-          ext: tuple[float, float, float, float], vertical: str = "y (m)") -> None:
-    """A 1 m grid (coarser only when 1 m would be a smear), labelled without crowding."""
-    x0, y0, x1, y1 = ext
-    mpp, s = fig.m_per_px, P.s
-    step = _nice_step(max(1.0, 12 * s * mpp))
-    label_step = step * max(1, round(_nice_step(38 * s * mpp / step)))
-    right, bottom = fig.left + map_w, fig.top + map_h
-    for axis, (lo, hi) in enumerate(((x0, x1), (y0, y1))):
-        k = math.ceil(lo / step - 1e-9)
-        while k * step <= hi + 1e-9:
-            v = k * step
-            k += 1
-            if axis == 0:
-                u = round(fig.to_px(v, 0)[0])
-                if not fig.left < u < right:
-                    continue
-                cv2.line(img, (u, fig.top), (u, bottom), GRID, P.lw)
-            else:
-                r = round(fig.to_px(0, v)[1])
-                if not fig.top < r < bottom:
-                    continue
-                cv2.line(img, (fig.left, r), (right, r), GRID, P.lw)
-            if abs(v / label_step - round(v / label_step)) > 1e-6:
-                continue
-            text = f"{v:g}" if abs(v) > 1e-9 else "0"
-            tick = round(5 * s)
-            if axis == 0:
-                cv2.line(img, (u, bottom), (u, bottom + tick), FRAME, P.lw)
-                P.put(img, text, (u, bottom + tick + round(15 * s)), P.small, MUTED, align="center")
-            else:
-                cv2.line(img, (fig.left - tick, r), (fig.left, r), FRAME, P.lw)
-                P.put(img, text, (fig.left - tick - round(4 * s), r + round(5 * s)), P.small, MUTED,
-                      align="right")
-    P.put(img, "x (m)", (right, bottom + round(38 * s)), P.small, MUTED, align="right")
-    P.put(img, vertical, (fig.left - round(9 * s), fig.top - round(8 * s)), P.small, MUTED, align="right")
-
-
-def _legend(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str],
-            x: int, top: int, map_h: int, mpp: float, reserve: int = 0) -> int:
-    """The legend column; returns the row where ``reserve`` pixels were left free under it."""
-    s, lh = P.s, P.line_h
-    w = img.shape[1] - x - P.pad
-    sym = x + round(12 * s)  # centre column of the symbols
-    tx = x + round(32 * s)  # where the words start
-    y = top + round(12 * s)
-
-    def heading(text: str) -> None:
-        nonlocal y
-        P.put(img, text, (x, y + round(5 * s)), P.text, INK, thick=max(1, round(1.6 * s)))
-        y += lh
-
-    def row(text: str, colour: tuple[int, int, int] = INK) -> None:
-        nonlocal y
-        P.put(img, text, (tx, y + round(5 * s)), P.text, colour, max_w=w - (tx - x))
-        y += lh
-
-    heading("robots")
-    for p in paths:
-        u = round(11 * s)
-        cv2.line(img, (sym - u, y), (sym + u, y), p.colour, max(3, round(3 * s)), AA)
-        label = p.name + (f" ({p.model})" if p.model and p.model != p.name else "")
-        row(label)
-    if not paths:
-        row("(no rows in the trace)", MUTED)
-    y += lh // 2
-
-    heading("markers")
-    pt = np.array([[sym, y]], float)
-    P.start(img, pt, MUTED)
-    row("start")
-    pt = np.array([[sym - round(3 * s), y]], float)
-    cv2.arrowedLine(img, (int(pt[0, 0]), y), (int(pt[0, 0] + 17 * s), y), darker(MUTED),
-                    max(2, round(2 * s)), AA, 0, 0.4)
-    P.end(img, pt, MUTED)
-    row("end, heading")
-    P.crosses(img, np.array([[sym, y]], float))
-    n_coll = sum(len(p.collisions) for p in paths)
-    row(f"collision ({n_coll})")
-    if events:
-        y += lh // 2
-        heading("events")
-        for k, ev in enumerate(events):
-            P.triangles(img, np.array([[sym, y]], float), event_colour(k))
-            n = sum(len(p.events.get(ev, ())) for p in paths)
-            row(f"{ev} ({n})")
-
-    # scale bar at the foot of the map: the longest 1-2-5 length that fits in ~110 px
-    length = _nice_below(110 * s * mpp)
-    bar = round(length / mpp)
-    yb = top + map_h - round(8 * s)
-    free = y + lh // 2
-    yb = max(yb, y + round(20 * s) + (reserve + lh if reserve else 0))
-    tick = round(4 * s)
-    cv2.line(img, (x, yb), (x + bar, yb), INK, max(2, round(2 * s)))
-    for u in (x, x + bar):
-        cv2.line(img, (u, yb - tick), (u, yb + tick), INK, max(2, round(2 * s)))
-    P.put(img, f"{length:g} m", (x + bar + round(8 * s), yb + round(5 * s)), P.text, INK)
-    return free
 
 
 # -- writing -----------------------------------------------------------------------------------

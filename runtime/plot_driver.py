@@ -5,15 +5,23 @@ hands its options to ``run_plot``, which checks them all before drawing (an unkn
 unsupported suffix, a bad time range: exit 2 with what would be accepted) and then calls the
 module that draws that kind of picture: ``labsim.runtime.plot`` for the still map (PNG, JPEG,
 ...), ``labsim.runtime.signals`` for charts against time (PNG, SVG, PDF), and
-``labsim.runtime.animate`` for a GIF or MP4 of the run.
+``labsim.runtime.animate`` for a GIF or MP4 of the run. ``--camera ROBOT`` puts a strip of the
+robot's camera frames under the map (``labsim.runtime.camera_strip``).
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from labsim.backends.scene.world import World
+    from labsim.runtime.map_frame import Figure
 
 MAP_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".webp", ".tif", ".tiff")
 CHART_SUFFIXES = (".png", ".svg", ".pdf")
@@ -43,6 +51,9 @@ def add_plot_parser(sub: argparse._SubParsersAction) -> None:
                       help="start of the animation or chart, simulated seconds")
     plot.add_argument("--to", dest="t_to", type=float, default=None, metavar="S",
                       help="end of the animation or chart, simulated seconds")
+    plot.add_argument("--camera", default=None, metavar="ROBOT",
+                      help="add a strip of this robot's camera frames under the map, re-rendered from the "
+                           "trace's poses")
 
 
 def _fail(where: str, message: str) -> LabsimError:
@@ -84,6 +95,9 @@ def run_plot(args: argparse.Namespace) -> int:
     """Check the options, draw, write; exit code 0, or a LabsimError (exit 2) for a mistake."""
     out = Path(args.output)
     kind = _check_suffix(out, args.signals is not None)
+    if getattr(args, "camera", None) is not None and kind != "map":
+        raise _fail(str(out), "--camera adds camera frames under the map: write the map "
+                              f"({', '.join(MAP_SUFFIXES)}), without --signals")
     if out.is_dir() or not out.parent.is_dir():
         where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
         raise _fail(str(out), f"cannot write here: {where}")
@@ -121,17 +135,36 @@ def run_plot(args: argparse.Namespace) -> int:
 def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
     import cv2
 
-    from labsim.runtime.plot import check_output, render_figure
+    from labsim.runtime.plot import check_output, render_figure, resolve_world
 
     try:
         check_output(out)
     except ValueError as e:
         raise _fail(str(out), str(e)) from None
-    fig = render_figure(trace, width_px=args.width or 1000)
-    ok, data = cv2.imencode(out.suffix.lower(), fig.image)
+    world, note = resolve_world(trace)
+    fig = render_figure(trace, width_px=args.width or 1000, world=world, world_note=note)
+    image = fig.image
+    if getattr(args, "camera", None) is not None:
+        image = _with_camera(trace, fig, world, args.camera)
+    ok, data = cv2.imencode(out.suffix.lower(), image)
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
     try:
         out.write_bytes(data.tobytes())
     except OSError as e:
         raise _fail(str(out), f"cannot write the plot: {e.strerror or e}") from None
+
+
+def _with_camera(trace: Trace, fig: Figure, world: World | None, robot: str) -> np.ndarray:
+    """The map with the robot's numbered poses on it, and its camera strip under it."""
+    import numpy as np
+
+    from labsim.runtime.camera_strip import draw_strip, mark_shots, shots
+    from labsim.runtime.paint import Painter
+    from labsim.runtime.plot import robot_paths
+
+    camera, frames = shots(trace, robot, world)
+    colour = next(p.colour for p in robot_paths(trace) if p.name == robot)
+    width = fig.image.shape[1]
+    mark_shots(fig, Painter(width), frames, colour)
+    return np.vstack((fig.image, draw_strip(width, robot, camera, frames, colour)))

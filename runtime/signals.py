@@ -15,12 +15,16 @@ import itertools
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 
 from labsim.runtime.paint import robot_colour
 from labsim.runtime.trace import Trace, TraceFormatError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 SUFFIXES = (".png", ".svg", ".pdf")
 
@@ -161,6 +165,16 @@ def _spans(states: list[str], t: np.ndarray) -> list[tuple[str, float, float]]:
 
 def chart(trace: Trace, names: list[str], out: Path, *, width_px: int = 1000) -> Path:
     """Draw the named columns against time to ``out`` (.png, .svg or .pdf); returns ``out``."""
+    import matplotlib.pyplot as plt
+
+    fig = chart_figure(trace, names, width_px=width_px)
+    fig.savefig(out, dpi=fig.dpi)
+    plt.close(fig)
+    return out
+
+
+def chart_figure(trace: Trace, names: list[str], *, width_px: int = 1000) -> Figure:
+    """The chart as a matplotlib Figure (Agg), 100 dpi, one axes per panel, time on x."""
     # one function for one figure: the panels share their time axis and their marks
     import matplotlib
 
@@ -217,9 +231,7 @@ def chart(trace: Trace, names: list[str], out: Path, *, width_px: int = 1000) ->
     if handles:
         fig.legend(handles=handles, loc="upper right", ncol=min(len(handles), 5), fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(out, dpi=dpi)
-    plt.close(fig)
-    return out
+    return fig
 
 
 def _marks(ax: object, data: SignalSet) -> None:
