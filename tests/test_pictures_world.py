@@ -123,17 +123,17 @@ def test_a_world_without_a_road_has_no_panel() -> None:
 # -- the camera strip --------------------------------------------------------------------------
 
 def test_camera_frames_are_what_the_robot_saw() -> None:
-    # the behaviour's cx is the centroid of the road in its camera image: the re-rendered
-    # frames give the same centroid at the same ticks
+    # the behaviour's cy is the row of the centroid of its thresholded camera image (the floor
+    # white, not inverted): the re-rendered frames give the same centroid at the same ticks
     trace = read_trace(ROAD)
     camera, frames = shots(trace, "pioneer[3]", world_of(trace))
     assert (camera.width_px, camera.height_px, camera.fov_deg) == (128, 128, 40)
     assert len(frames) == 5 and frames[0].t_s == 0 and frames[-1].t_s == pytest.approx(29.95)
-    ti, ri, ci = (trace.columns.index(c) for c in ("time", "robot", "cx"))
+    ti, ri, ci = (trace.columns.index(c) for c in ("time", "robot", "cy"))
     for shot in frames:
         row = next(r for r in trace.rows if r[ri] == "pioneer[3]" and float(r[ti]) == shot.t_s)
-        lane = images.invert(images.threshold(images.gray(cv2.cvtColor(shot.image, cv2.COLOR_BGR2RGB)), 20))
-        assert images.centroid(lane)[0] == pytest.approx(float(row[ci]), abs=1e-3), shot.t_s
+        lane = images.threshold(images.gray(cv2.cvtColor(shot.image, cv2.COLOR_BGR2RGB)), 20)
+        assert images.centroid(lane)[1] == pytest.approx(float(row[ci]), abs=1e-3), shot.t_s
 
 
 def test_camera_strip_under_the_map(capsys, tmp_path: Path) -> None:
