@@ -30,8 +30,10 @@ from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import compile_file
+from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
+from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
@@ -77,6 +79,7 @@ class RobotRun:
     clamping: bool = False  # whether the command now held exceeds the limit
     clamped_ticks: int = 0
     paths: tuple[tuple[str, str], ...] = ()  # the behaviour file's scene names for it
+    noise: Noise | None = None  # its declared noise (labsim.runtime.noise), None: none
 
 
 @dataclass
@@ -97,6 +100,7 @@ class Summary:
     trace: str | None = None
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
     stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
+    noise: dict[str, str] = field(default_factory=dict)  # robot -> its noise models (and readings lost)
 
     @property
     def real_time_factor(self) -> float:
@@ -133,6 +137,7 @@ class Run:
                     for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
+        self.noise = self._noise()
         self._command = getattr(backend, "command", None)
         self._trace_fields = self._traced()
         self._timeline = self._schedule(replay)
@@ -171,18 +176,30 @@ class Run:
                 rng = random.Random(f"{p.seed}/{name}")
                 program = p.robot(name, rng, self.faults, model, group, k)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
-                                       sent_joints=[math.nan] * len(p.targets), paths=group.paths))
+                                       sent_joints=[math.nan] * len(p.targets), paths=group.paths,
+                                       noise=group.noise))
         return robots
+
+    def _noise(self) -> NoisyIO | None:
+        """The robots' noise in front of the backend's calls; None (and no cost) when none has any."""
+        noisy = [robot_noise(self.program, r.index, r.name, r.model, r.noise)
+                 for r in self.robots if r.noise and r.model is not None]
+        if not noisy:
+            return None
+        io = NoisyIO(noisy, self._sense, self._act, self._step)
+        self._sense, self._act, self._step = io.sense, io.act, io.step
+        return io
 
     def header(self) -> dict:
         p = self.program
+        noise = {r.name: r.noise.header() for r in self.robots if r.noise}
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
             "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
-        }
+        } | ({"noise": noise} if noise else {})
 
     def _schedule(self, replay: dict[int, list[tuple[str, float]]] | None = None
                   ) -> dict[int, list[tuple[int, float, str]]]:
@@ -460,6 +477,7 @@ class Run:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
         out.stopped_by = self.stopped_by
+        out.noise = self.noise.summary() if self.noise is not None else {}
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
