@@ -59,18 +59,18 @@ class Noise:
         return self.sonar or self.camera or self.wheels
 
     def describe(self) -> str:
-        """One line for a summary: 'sonar 0.02 m, 5% dropout; wheels 0.1 rad/s, 10% slip'."""
+        """One line for a summary: 'sonar 0.02 m, 5% dropout; wheels 0.1 rad/s, up to 10% slip'."""
         parts = []
         if self.sonar:
             parts.append("sonar " + ", ".join(
                 ([f"{self.sonar_std_m:g} m"] if self.sonar_std_m else [])
-                + ([f"{self.sonar_dropout:.3g} dropout"] if self.sonar_dropout else [])))
+                + ([f"{100 * self.sonar_dropout:.3g}% dropout"] if self.sonar_dropout else [])))
         if self.camera:
             parts.append(f"camera {self.camera_std:g} levels")
         if self.wheels:
             parts.append("wheels " + ", ".join(
                 ([f"{self.wheel_std_rad_s:g} rad/s"] if self.wheel_std_rad_s else [])
-                + ([f"up to {self.wheel_slip:.3g} slip"] if self.wheel_slip else [])))
+                + ([f"up to {100 * self.wheel_slip:.3g}% slip"] if self.wheel_slip else [])))
         return "; ".join(parts) or "none"
 
     def header(self) -> dict[str, dict[str, float]]:
