@@ -6,6 +6,7 @@ import itertools
 import json
 import math
 import random
+import re
 import statistics
 from pathlib import Path
 
@@ -169,3 +170,21 @@ def test_the_noise_fixture_reads_every_model() -> None:
     program = compile_behaviour(FIXTURES / "noise.yaml").program
     assert program.robots[0].noise == Noise(sonar_std_m=0.02, sonar_dropout=0.05, wheel_std_rad_s=0.2,
                                             wheel_slip=0.1)
+
+
+def test_the_docs_noise_example_runs(write) -> None:
+    doc = (Path(__file__).resolve().parent.parent / "docs" / "language.md").read_text()
+    (text,) = re.findall(r"```yaml\n(# noise example: noisy_wall\n.*?)```", doc, re.S)
+    trace = write(text, "noisy_wall.yaml").with_suffix(".csv")
+    run = compile_behaviour(trace.with_suffix(".yaml")).bind(load_backend("pymunk"), trace=trace)
+    try:
+        summary = run.run()
+        shown = format_summary(summary, run)
+    finally:
+        run.close()
+    assert "noise: pioneer: sonar 0.02 m, 5% dropout; wheels 0.2 rad/s, up to 10% slip (" in shown
+    assert 0 < summary.robots["pioneer"]["metrics"]["closest"] < 0.6  # it found the wall and turned
+    assert summary.rule_counts["main:1"] > 0
+    # the docs' way to bridge a dropout compiles and holds the last echo
+    bridged = write(text.replace("min(sonar4, sonar5)", "remember(sonar5, sonar5 < inf)"), "bridged.yaml")
+    assert compile_behaviour(bridged).program.let_names == ("ahead",)
