@@ -188,3 +188,15 @@ def test_the_docs_noise_example_runs(write) -> None:
     # the docs' way to bridge a dropout compiles and holds the last echo
     bridged = write(text.replace("min(sonar4, sonar5)", "remember(sonar5, sonar5 < inf)"), "bridged.yaml")
     assert compile_behaviour(bridged).program.let_names == ("ahead",)
+
+
+def test_the_json_summary_has_each_robots_noise(capsys: pytest.CaptureFixture[str]) -> None:
+    from labsim.runtime.cli import main
+
+    assert main(["run", str(FIXTURES / "noise.yaml"), "-q", "--json"]) == 0
+    robot = json.loads(capsys.readouterr().out)["robots"]["pioneer"]
+    assert robot["noise"] == {"sonar": {"std_m": 0.02, "dropout": 0.05}, "wheels": {"std_rad_s": 0.2, "slip": 0.1}}
+    assert robot["sonar_readings_lost"] > 0
+    assert main(["run", str(FIXTURES / "minimal.yaml"), "-q", "--json"]) == 0
+    robot = json.loads(capsys.readouterr().out)["robots"]["pioneer"]
+    assert robot["noise"] == {} and robot["sonar_readings_lost"] == 0
