@@ -200,3 +200,15 @@ def test_the_json_summary_has_each_robots_noise(capsys: pytest.CaptureFixture[st
     assert main(["run", str(FIXTURES / "minimal.yaml"), "-q", "--json"]) == 0
     robot = json.loads(capsys.readouterr().out)["robots"]["pioneer"]
     assert robot["noise"] == {} and robot["sonar_readings_lost"] == 0
+
+
+def test_the_noise_benchmark_runs() -> None:
+    """Runs once, briefly; the figure it prints is not checked (shared machines are noisy)."""
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_noise.py"
+    done = subprocess.run([sys.executable, str(script), "--repeat", "1", "--minutes", "0.2"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "wall lab, 240 ticks" in done.stdout and "ratio noise / none" in done.stdout
