@@ -12,7 +12,8 @@ compile once, tick many times. A tick is, for every robot at once:
 6. ``goto`` takes effect (the next tick uses the new state); the backend steps ``dt``.
 
 Each robot owns its slots, command, random generator (seeded from the behaviour's seed and
-the robot's name) and metric accumulators; nothing is shared between robots or runs.
+the robot's name) and metric accumulators; nothing is shared between robots or runs. A robot's
+declared noise sits between the backend and its program (``labsim.runtime.noise``).
 """
 from __future__ import annotations
 
@@ -143,7 +144,7 @@ class Run:
         self._timeline = self._schedule(replay)
         self._slider_events: list[str] = []  # the timeline's settings applied this tick, for the trace
         if trace_path is not None:
-            self.trace = TraceWriter(trace_path, self.header(), self.columns())
+            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), self.columns())
         self.tick = self._make_tick()
 
     # -- set-up ------------------------------------------------------------------------------
@@ -190,16 +191,20 @@ class Run:
         self._sense, self._act, self._step = io.sense, io.act, io.step
         return io
 
+    def _noise_header(self) -> dict:
+        """The trace header's ``noise``: each noisy robot's models; nothing at all without noise."""
+        noise = {r.name: r.noise.header() for r in self.robots if r.noise}
+        return {"noise": noise} if noise else {}
+
     def header(self) -> dict:
         p = self.program
-        noise = {r.name: r.noise.header() for r in self.robots if r.noise}
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
             "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
-        } | ({"noise": noise} if noise else {})
+        }
 
     def _schedule(self, replay: dict[int, list[tuple[str, float]]] | None = None
                   ) -> dict[int, list[tuple[int, float, str]]]:
