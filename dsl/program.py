@@ -25,6 +25,7 @@ from labsim.backends.scene.diagnostics import Diagnostic
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import World
 from labsim.dsl.builtins import Aggregate, Type
+from labsim.dsl.noise import Noise
 from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
 
 Setting = tuple[str, float]  # a slider and the value it takes
@@ -56,6 +57,7 @@ class RobotGroup:
     at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     params: tuple[tuple[str, tuple[float | bool, ...]], ...] = ()  # the group's own values, one per member
+    noise: Noise | None = None  # what the runtime adds to its readings and commands (labsim.runtime.noise)
 
 
 @dataclass(frozen=True)

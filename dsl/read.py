@@ -22,6 +22,7 @@ from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.dsl import ast
+from labsim.dsl.noise import Noise, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 
 FORMAT_VERSION = 1
@@ -30,7 +31,7 @@ TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "rob
             "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
-ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params")
+ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params", "noise")
 PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m", "roll_deg")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
@@ -57,6 +58,7 @@ class RobotDecl:
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     # parameters this group sets for itself: name, one value per member (or one for all), node
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
+    noise: Noise | None = None  # labsim.dsl.noise; None: none declared
 
 
 @dataclass(frozen=True)
@@ -305,9 +307,10 @@ class _Reader(Reader):
                 self.failed_names.add("camera")
             paths = self.paths(fields["paths"]) if "paths" in fields else ()
             own = self.robot_params(fields["params"], name, count) if "params" in fields else ()
+            noise = read_noise(self, fields["noise"], name, "camera" in fields) if "noise" in fields else None
             if at is not None:
                 out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths,
-                                     own))
+                                     own, noise or None))
         return out
 
     def robot_params(self, node: Node, robot: str, count: int

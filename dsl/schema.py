@@ -10,6 +10,7 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 from __future__ import annotations
 
 from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text
+from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
 
 EXPRESSION: Schema = {"type": ["string", "number", "boolean"]}
@@ -44,6 +45,7 @@ def _robot() -> Schema:
         "at": at,
         "camera": camera,
         "paths": paths,
+        "noise": _noise(),
         "params": {"type": "object",
                    "description": "this group's own values of the file's parameters (format 1.1): one value for "
                                   "every robot of the group, or a list with one value per robot",
@@ -52,6 +54,17 @@ def _robot() -> Schema:
                                                       {"type": "array", "minItems": 1,
                                                        "items": {"type": ["number", "boolean"]}}]}},
     }, "a group of robots", required=("model",))
+
+
+def _noise() -> Schema:
+    def model(name: str, keys: tuple[str, ...], what: str) -> Schema:
+        return mapping(keys, {k: number(LIMITS[f"{name}.{k}"][2], LIMITS[f"{name}.{k}"][0], LIMITS[f"{name}.{k}"][1])
+                              for k in keys}, what)
+    return mapping(NOISE_KEYS, {
+        "sonar": model("sonar", SONAR_NOISE_KEYS, "sonar noise: Gaussian jitter and dropout"),
+        "camera": model("camera", CAMERA_NOISE_KEYS, "camera noise: Gaussian on every pixel (needs a camera)"),
+        "wheels": model("wheels", WHEEL_NOISE_KEYS, "wheel noise: Gaussian on the command, and slip"),
+    }, "seeded noise the runtime adds to this group's readings and wheel commands (off when absent)")
 
 
 def _controls() -> dict[str, Schema]:

@@ -105,6 +105,8 @@ def format_summary(s: Summary, run: Run) -> str:
         shown = [f"{k}={str(v).lower() if isinstance(v, bool) else format(v, 'g')}"
                  f"{'*' if k in p.overridden else ''}" for k, v in p.params.items()]
         lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if p.overridden else ""))
+    if s.noise:
+        lines += [f"  noise: {robot}: {text}" for robot, text in s.noise.items()]
     if s.trace:
         lines.append(f"  trace: {s.trace}")
     if len(s.robots) == 1:

@@ -12,7 +12,8 @@ compile once, tick many times. A tick is, for every robot at once:
 6. ``goto`` takes effect (the next tick uses the new state); the backend steps ``dt``.
 
 Each robot owns its slots, command, random generator (seeded from the behaviour's seed and
-the robot's name) and metric accumulators; nothing is shared between robots or runs.
+the robot's name) and metric accumulators; nothing is shared between robots or runs. A robot's
+declared noise sits between the backend and its program (``labsim.runtime.noise``).
 """
 from __future__ import annotations
 
@@ -30,8 +31,10 @@ from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import compile_file
+from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
+from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
 PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
@@ -78,6 +81,7 @@ class RobotRun:
     clamping: bool = False  # whether the command now held exceeds the limit
     clamped_ticks: int = 0
     paths: tuple[tuple[str, str], ...] = ()  # the behaviour file's scene names for it
+    noise: Noise | None = None  # its declared noise (labsim.runtime.noise), None: none
 
 
 @dataclass
@@ -98,6 +102,7 @@ class Summary:
     trace: str | None = None
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
     stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
+    noise: dict[str, str] = field(default_factory=dict)  # robot -> its noise models (and readings lost)
 
     @property
     def real_time_factor(self) -> float:
@@ -137,12 +142,13 @@ class Run:
         requests = [RobotRequest(r.name, r.model, r.start, channels, r.paths) for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self._sense, self._act, self._step = backend.sense, backend.act, backend.step
+        self.noise = self._noise()
         self._command = getattr(backend, "command", None)
         self._trace_fields = self._traced()
         self._timeline = self._schedule(replay)
         self._slider_events: list[str] = []  # the timeline's settings applied this tick, for the trace
         if trace_path is not None:
-            self.trace = TraceWriter(trace_path, self.header(), self.columns())
+            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), self.columns())
         self.tick = self._make_tick()
 
     # -- set-up ------------------------------------------------------------------------------
@@ -175,8 +181,24 @@ class Run:
                 rng = random.Random(f"{p.seed}/{name}")
                 program = p.robot(name, rng, self.faults, model, group, k)
                 robots.append(RobotRun(len(robots), name, model, program, model.max_wheel_speed_rad_s, start=pose,
-                                       sent_joints=[math.nan] * len(p.targets), paths=group.paths))
+                                       sent_joints=[math.nan] * len(p.targets), paths=group.paths,
+                                       noise=group.noise))
         return robots
+
+    def _noise(self) -> NoisyIO | None:
+        """The robots' noise in front of the backend's calls; None (and no cost) when none has any."""
+        noisy = [robot_noise(self.program, r.index, r.name, r.model, r.noise)
+                 for r in self.robots if r.noise and r.model is not None]
+        if not noisy:
+            return None
+        io = NoisyIO(noisy, self._sense, self._act, self._step)
+        self._sense, self._act, self._step = io.sense, io.act, io.step
+        return io
+
+    def _noise_header(self) -> dict:
+        """The trace header's ``noise``: each noisy robot's models; nothing at all without noise."""
+        noise = {r.name: r.noise.header() for r in self.robots if r.noise}
+        return {"noise": noise} if noise else {}
 
     def header(self) -> dict:
         p = self.program
@@ -465,6 +487,7 @@ class Run:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
         out.stopped_by = self.stopped_by
+        out.noise = self.noise.summary() if self.noise is not None else {}
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle

@@ -52,6 +52,7 @@ def summary_dict(summary: Summary, run: Run, *, warnings: list[str] | None = Non
     """
     p = run.program
     limits = {r.name: r.limit for r in run.robots}
+    noisy = {r.name: r for r in run.noise.robots} if run.noise is not None else {}
     robots = {}
     for name, r in summary.robots.items():
         robots[name] = {
@@ -62,6 +63,8 @@ def summary_dict(summary: Summary, run: Run, *, warnings: list[str] | None = Non
             "wheel_limit_rad_s": None if r["mechanism"] else number(limits[name]),
             "metrics": {m: number(v) for m, v in r["metrics"].items()},
             "labels": dict(r["labels"]),
+            "noise": noisy[name].noise.header() if name in noisy else {},
+            "sonar_readings_lost": noisy[name].dropped if name in noisy else 0,
         }
     rules = [{"id": rid, "text": summary.rule_labels[rid], "ticks": n} for rid, n in summary.rule_counts.items()]
     return {

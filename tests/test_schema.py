@@ -12,7 +12,7 @@ import yaml
 
 from labsim.backends.scene import mechanism_file, world_file
 from labsim.backends.scene.schema import SchemaDrift, mapping
-from labsim.dsl import read
+from labsim.dsl import noise, read
 from labsim.runtime import cli
 from labsim.runtime.schemas import MODELINE, file_name, schema, schema_text
 
@@ -27,6 +27,10 @@ TABLES = [
     ("behaviour", "robots/*", read.ROBOT_KEYS),
     ("behaviour", "robots/*/camera", read.CAMERA_KEYS),
     ("behaviour", "robots/*/paths", read.PATH_KEYS),
+    ("behaviour", "robots/*/noise", noise.NOISE_KEYS),
+    ("behaviour", "robots/*/noise/sonar", noise.SONAR_NOISE_KEYS),
+    ("behaviour", "robots/*/noise/camera", noise.CAMERA_NOISE_KEYS),
+    ("behaviour", "robots/*/noise/wheels", noise.WHEEL_NOISE_KEYS),
     ("behaviour", "sliders/*", read.SLIDER_KEYS),
     ("world", "", world_file.KEYS),
     ("world", "walls/[]", world_file.WALL_KEYS),
@@ -81,7 +85,7 @@ def test_every_key_the_reader_accepts_is_in_the_schema_and_no_other(kind: str, p
 
 def test_every_closed_mapping_of_the_schemas_is_a_reader_table() -> None:
     # the "arc" wrapper of a path item is the one mapping with no table of its own
-    assert len(_objects(schema("behaviour"))) == 5
+    assert len(_objects(schema("behaviour"))) == 5 + 4
     assert len(_objects(schema("world"))) == 13 + 1
 
 
@@ -119,8 +123,10 @@ VALID = sorted(BEHAVIOURS.glob("*.yaml")) + sorted(WORLDS.glob("*.yaml")) \
     + sorted(p for p in FIXTURES.glob("*.yaml") if not p.stem.endswith("_with_error"))
 # fixtures whose mistakes are names, types of expressions, or rule text: out of the schema's reach
 OUT_OF_REACH = sorted(p for p in FIXTURES.glob("*_with_error.yaml")
-                      if p.stem not in ("camera_with_error", "crane_with_error", "structure_with_error"))
-COVERED = [FIXTURES / f"{n}.yaml" for n in ("camera_with_error", "crane_with_error", "structure_with_error")]
+                      if p.stem not in ("camera_with_error", "crane_with_error", "structure_with_error",
+                                        "noise_with_error"))
+COVERED = [FIXTURES / f"{n}.yaml" for n in ("camera_with_error", "crane_with_error", "structure_with_error",
+                                            "noise_with_error")]
 
 
 @pytest.mark.parametrize("path", VALID + OUT_OF_REACH, ids=lambda p: p.name)
@@ -143,6 +149,8 @@ MUTATIONS = [
     ("behaviour", "road_follow.yaml", lambda d: next(iter(d["robots"].values()))["camera"].update(fov=60)),
     ("behaviour", "road_follow.yaml", lambda d: next(iter(d["robots"].values())).update(count=0)),
     ("behaviour", "crane.yaml", lambda d: next(iter(d["sliders"].values())).update(max="high")),
+    ("behaviour", "wall_follow.yaml", lambda d: d["robots"]["pioneer"].update(noise={"sonar": {"dropout": 2}})),
+    ("behaviour", "wall_follow.yaml", lambda d: d["robots"]["pioneer"].update(noise={"wheels": {"std": 1}})),
     ("world", "walls_lab4.yaml", lambda d: d.update(bounds=[0, 0, 1])),
     ("world", "road_loop.yaml", lambda d: d["ground"]["roads"][0].update(colour=[1, 2, 3])),
     ("world", "crane.yaml", lambda d: next(iter(d["mechanism"]["joints"].values())).update(kind="hinge")),

@@ -1,0 +1,60 @@
+"""What seeded noise costs: the wall lab with and without noise on its sonars and wheels.
+
+    python benchmarks/bench_noise.py [--repeat 5] [--minutes 25]
+
+Runs behaviours/wall_follow.yaml as it is, and with every noise model of the wall lab's robot
+declared but tiny (1e-9 m of sonar jitter, a 1e-9 dropout, 1e-9 rad/s and 1e-9 slip on the
+wheels): every random number is drawn and every wheel command re-sent each tick, as with real
+noise, while the robot keeps close to the noiseless path, so both sides do the same simulation.
+Prints the median wall time of each and the ratio (goal: noise <= 1.3 x none).
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from labsim.backends import load_backend
+from labsim.runtime.run import compile_behaviour
+
+LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
+TINY = ("noise: {sonar: {std_m: 1.0e-9, dropout: 1.0e-9}, wheels: {std_rad_s: 1.0e-9, slip: 1.0e-9}}")
+
+
+def once(path: Path, minutes: float) -> tuple[float, int]:
+    run = compile_behaviour(path, {"minutes": str(minutes)}).bind(load_backend("pymunk"), warn=lambda m: None)
+    start = time.perf_counter()
+    summary = run.run()
+    elapsed = time.perf_counter() - start
+    run.close()
+    return elapsed, summary.ticks
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--minutes", type=float, default=25)
+    args = parser.parse_args()
+    text = LAB.read_text()
+    plain = "pioneer: {model: pioneer_p3dx, at: random}"
+    assert plain in text
+    with tempfile.TemporaryDirectory() as tmp:
+        noisy = Path(tmp) / "wall_follow_noisy.yaml"
+        noisy.write_text(text.replace(plain, plain[:-1] + ", " + TINY + "}"))
+        times: dict[str, list[float]] = {"no noise": [], "noise": []}
+        ticks = 0
+        for _ in range(args.repeat):  # interleaved, so that a busy moment hurts both sides
+            for name, path in (("no noise", LAB), ("noise", noisy)):
+                elapsed, ticks = once(path, args.minutes)
+                times[name].append(elapsed)
+    print(f"wall lab, {ticks} ticks, median of {args.repeat}:")
+    for name, values in times.items():
+        print(f"  {name:<10} {statistics.median(values):.3f} s   ({', '.join(f'{v:.3f}' for v in values)})")
+    ratio = statistics.median(times["noise"]) / statistics.median(times["no noise"])
+    print(f"  ratio noise / none  {ratio:.3f}   (goal <= 1.3)")
+
+
+if __name__ == "__main__":
+    main()

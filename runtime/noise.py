@@ -1,0 +1,124 @@
+"""Seeded noise between the backend and the compiled program: the same on every backend.
+
+``labsim.runtime.run`` puts a ``NoisyIO`` in front of the backend's ``sense``, ``act`` and
+``step`` when a robot of the behaviour declares ``noise:`` (``labsim.dsl.noise``); a run
+without noise never builds one and pays nothing. What the behaviour reads (and the trace
+records) is the noisy reading; what the backend receives is the noisy wheel command.
+
+The models, per robot, each tick:
+
+- sonar: each reading is lost with probability ``dropout`` (it reads ``inf``, no echo); an
+  echo gets Gaussian noise of ``std_m`` metres, and reads ``inf`` when that puts it beyond
+  the sonar's range, 0 when below 0; a sonar that saw nothing stays ``inf``;
+- camera: Gaussian noise of ``std`` levels on every colour channel of every pixel, rounded
+  and clipped to 0..255;
+- wheels: each wheel turns at its command times ``1 - u`` (``u`` uniform in 0..``slip``),
+  plus Gaussian noise of ``std_rad_s``, clamped to the model's limit; drawn anew every tick.
+
+Each robot draws from its own generators, seeded from the behaviour's seed and the robot's
+name (``"{seed}/{name}/noise"``), apart from the generator of its ``random()`` and
+``randint()``: adding noise changes no other draw. Every draw is made whether or not it is
+used (a dropout decision and a Gaussian per sonar per tick), so the streams do not depend on
+what was sensed.
+"""
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from labsim.backends.scene.models import Kind, RobotModel
+from labsim.dsl.noise import Noise
+from labsim.dsl.program import Program
+
+
+@dataclass
+class RobotNoise:
+    """One robot's noise: its models, where its noisy channels sit, its generators and counts."""
+
+    index: int
+    name: str
+    noise: Noise
+    limit: float  # wheel speed limit, rad/s
+    sonars: list[tuple[int, float]]  # (position in the robot's readings, range in m)
+    cameras: list[int]  # positions of its images in its readings
+    rng: random.Random
+    pixels: np.random.Generator
+    command: list[float] = field(default_factory=lambda: [0.0, 0.0])  # what the runtime last sent, rad/s
+    dropped: int = 0  # sonar readings lost so far
+
+
+class NoisyIO:
+    """A backend's ``sense``, ``act`` and ``step``, with each robot's noise applied."""
+
+    def __init__(self, robots: list[RobotNoise], sense: Callable[[], list[list[object]]],
+                 act: Callable[[int, float, float], None], step: Callable[[], None]) -> None:
+        self.robots = robots
+        self._sense, self._act, self._step = sense, act, step
+        self._sensing = [r for r in robots if r.noise.sonar or r.cameras]
+        self._wheels = {r.index: r for r in robots if r.noise.wheels}
+
+    def sense(self) -> list[list[object]]:
+        readings = self._sense()
+        out = list(readings)  # the backend's lists are left as they are
+        for r in self._sensing:
+            values = list(readings[r.index])
+            self._sonars(r, values)
+            for k in r.cameras:
+                image = values[k]
+                if isinstance(image, np.ndarray):
+                    noisy = image + r.pixels.normal(0.0, r.noise.camera_std, image.shape)
+                    values[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+            out[r.index] = values
+        return out
+
+    @staticmethod
+    def _sonars(r: RobotNoise, values: list[object]) -> None:
+        n = r.noise
+        uniform, gauss = r.rng.random, r.rng.gauss
+        for k, range_m in r.sonars:
+            lost = uniform() < n.sonar_dropout
+            jitter = gauss(0.0, n.sonar_std_m) if n.sonar_std_m else 0.0
+            v = values[k]
+            if lost:
+                values[k] = math.inf
+                r.dropped += 1
+            elif isinstance(v, float) and math.isfinite(v):
+                v += jitter
+                values[k] = math.inf if v > range_m else max(0.0, v)
+
+    def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
+        r = self._wheels.get(robot)
+        if r is None:
+            self._act(robot, left_rad_s, right_rad_s)
+        else:
+            r.command[:] = [left_rad_s, right_rad_s]  # sent, with fresh noise, before each step
+
+    def step(self) -> None:
+        for r in self._wheels.values():
+            n = r.noise
+            wheels = []
+            for command in r.command:
+                v = command * (1.0 - r.rng.uniform(0.0, n.wheel_slip)) + r.rng.gauss(0.0, n.wheel_std_rad_s)
+                wheels.append(min(r.limit, max(-r.limit, v)))
+            self._act(r.index, wheels[0], wheels[1])
+        self._step()
+
+    def summary(self) -> dict[str, str]:
+        """Each noisy robot's models, and the sonar readings lost, for the run's summary."""
+        return {r.name: r.noise.describe() + (f" ({r.dropped} sonar readings lost)" if r.noise.sonar_dropout else "")
+                for r in self.robots}
+
+
+def robot_noise(program: Program, index: int, name: str, model: RobotModel, noise: Noise) -> RobotNoise:
+    """A robot's noise, its channels found among the program's and its generators seeded."""
+    ranges = {s.name: s.range_m for s in model.sonars}
+    sonars = [(k, ranges[c]) for k, c in enumerate(program.channels) if c in ranges] if noise.sonar else []
+    cameras = [k for k, c in enumerate(program.channels)
+               if program.channel_kinds.get(c) is Kind.IMAGE] if noise.camera else []
+    rng = random.Random(f"{program.seed}/{name}/noise")
+    pixels = np.random.default_rng(random.Random(f"{program.seed}/{name}/camera noise").getrandbits(64))
+    return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, rng, pixels)
