@@ -69,7 +69,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slider_start=MappingProxyType({sl.name: sl.value for sl in c.sliders}),
         labels=layout.labels, timeline=_timeline(c),
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
-        logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "")
+        logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
+        stop_parts=generated.stop_parts, fold_stop=bf.version != 1)
 
 
 def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:

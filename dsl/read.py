@@ -108,7 +108,7 @@ class Event:
 class BehaviourFile:
     doc: Document
     sha256: str
-    version: int = FORMAT_VERSION
+    version: float = FORMAT_VERSION  # 1 or 1.1
     name: str = ""
     description: str = ""
     world: str = ""
@@ -186,6 +186,8 @@ class _Reader(Reader):
             v = self.number(keys["labsim"], "labsim")
             if v is not None and v not in (FORMAT_VERSION, 1.1):
                 self.error(keys["labsim"], f"this labsim reads format versions {FORMAT_VERSION} and 1.1, not {v:g}")
+            elif v is not None:
+                bf.version = v
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
         if "description" in keys:
             bf.description = self.string(keys["description"], "description") or ""

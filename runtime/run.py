@@ -5,7 +5,8 @@ compile once, tick many times. A tick is, for every robot at once:
 
 1. sense: the backend returns one consistent snapshot of every channel the behaviour reads;
 2. the ``let`` signals are evaluated in order;
-3. the stop condition: when it holds for any robot, the run ends before acting;
+3. the stop condition: when it holds for any robot, the run ends before acting (in format
+   1.1 the stopping tick is still folded into metrics and traced);
 4. the first rule of the robot's current state whose condition holds acts; wheel commands
    are clamped to the model's limit (and counted) and sent only when they change;
 5. metrics fold the tick's values; the trace gets one row per robot;
@@ -97,6 +98,7 @@ class Summary:
     trace: str | None = None
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
     stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
+    stop_condition: str = ""  # the part of the stop condition that held ('or' parts apart)
 
     @property
     def real_time_factor(self) -> float:
@@ -113,6 +115,7 @@ class Run:
         self.tick_index = 0
         self.finished = False
         self.stopped_by: str | None = None  # the first robot whose stop condition held
+        self.stop_part = -1  # which top-level 'or' part of the stop condition held for it
         self.faults = Faults(warn, clock=lambda: self.tick_index)
         self.fired = [0] * len(program.rules)
         self._log_windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
@@ -257,6 +260,14 @@ class Run:
         command = self._command
         watched, last_rule = self.watched, self.last_rule
         has_logs = bool(self.program.logs)
+        fold_stop = self.program.fold_stop
+
+        def last(r: RobotRun, values: list) -> None:
+            """The stopping tick (format 1.1): sensed, folded into metrics and traced; no rule acts."""
+            r.program.fold(self.tick_index * dt, self.tick_index, values if len(values) == n else values[:n])
+            if trace is not None:
+                trace_row(r, values, -1)
+            r.program.events.clear()
 
         def inputs(t: int) -> None:
             """The timeline's slider settings for this tick, before anything reads them."""
@@ -306,7 +317,10 @@ class Run:
                 rule = both(t * dt, t, values if len(values) == n else values[:n])
                 if rule == -2:
                     self.stopped_by = r1.name
+                    self.stop_part = r1.program.stop_part[0]
                     self.finished = True
+                    if fold_stop:
+                        last(r1, values)
                     return False
                 if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
                         and not watched:
@@ -337,8 +351,12 @@ class Run:
                 if signals(now, t, values if len(values) == n else values[:n]) and not stop:
                     stop = True
                     self.stopped_by = self.robots[i].name
+                    self.stop_part = self.robots[i].program.stop_part[0]
             if stop:
                 self.finished = True
+                if fold_stop:
+                    for i, *_, r in robots:
+                        last(r, readings[i])
                 return False
             for i, s, _, decide, cmd, events, r in robots:
                 act(r, s, cmd, events, decide(), readings[i])
@@ -460,6 +478,9 @@ class Run:
             for name, agg in zip(p.metric_names, p.metric_aggregates):
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
         out.stopped_by = self.stopped_by
+        if self.stopped_by is not None:
+            parts = p.stop_parts
+            out.stop_condition = parts[self.stop_part] if 0 <= self.stop_part < len(parts) else p.stop_text
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
