@@ -28,14 +28,12 @@ from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.models import Kind, RobotModel
-from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
+from labsim.backends.scene.world import BUILTIN_DIR, PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import compile_file
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
-
-PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
 
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
@@ -556,9 +554,8 @@ def _world_file(world: World) -> str:
 
 
 def _free_pose(world: World, rng: random.Random, taken: list[Pose]) -> Pose:
-    for _ in range(1000):
-        pose = world.random_pose(rng, PLACEMENT_CLEARANCE_M)
-        if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * PLACEMENT_CLEARANCE_M for o in taken):
-            return pose
-    raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
+    pose = world.free_pose(rng, taken, PLACEMENT_CLEARANCE_M)
+    if pose is None:  # the compiler places robots the same way, and says so at the robot's line
+        raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
+    return pose
 
