@@ -17,6 +17,7 @@ the robot's name) and metric accumulators; nothing is shared between robots or r
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import random
 import time as clock
@@ -180,7 +181,8 @@ class Run:
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
-            "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": dict(p.params),
+            "world_file": _world_file(p.world), **_world_identity(p.world),
+            "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
@@ -551,6 +553,19 @@ def _world_file(world: World) -> str:
         return str(source.resolve().relative_to(Path.cwd()))
     except ValueError:
         return str(source)
+
+
+def _world_identity(world: World) -> dict[str, str]:
+    """The world's SHA-256 (of its file's text), and for a built-in the labsim version that
+    shipped it: a golden says when the world changed under it."""
+    try:
+        digest = hashlib.sha256(Path(world.source).read_bytes()).hexdigest() if world.source else ""
+    except OSError:
+        digest = ""
+    out = {"world_sha256": digest}
+    if world.source and Path(world.source).parent == BUILTIN_DIR:
+        out["world_version"] = f"built-in, labsim {__version__}"
+    return out
 
 
 def _free_pose(world: World, rng: random.Random, taken: list[Pose]) -> Pose:
