@@ -46,3 +46,16 @@ def test_a_builtin_world_records_its_hash_and_version(capsys) -> None:
     golden = header(ROOT / "behaviours" / "wall_follow.golden.csv")
     assert golden["world_version"].startswith("built-in, labsim ")
     assert len(golden["world_sha256"]) == 64
+
+
+def test_a_difference_in_the_rule_column_shows_that_column_once() -> None:
+    from labsim.runtime.golden import compare
+    from labsim.runtime.trace import Trace
+    cols = ["tick", "time", "robot", "rule"]
+    golden = Trace("g", {}, cols, [["0", "0", "p", "main:1"], ["1", "0.05", "p", "main:1"]])
+    run = Trace("r", {}, cols, [["0", "0", "p", "main:1"], ["1", "0.05", "p", "main:2"]])
+    difference = compare(golden, run)
+    assert difference is not None
+    table = str(difference).splitlines()[3:]
+    assert table[0].split() == ["tick", "time", "rule"]
+    assert table[2].split() == [">", "1", "0.05", "main:1", "|", "main:2"]
