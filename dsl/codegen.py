@@ -133,7 +133,8 @@ class _Generator:
         self.functions: set[str] = set()  # built-ins called directly
         self.notes: list[str] = []  # what each marker comment stands for in the listing
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
-        self.metric_lines: list[str] = []  # the metrics' folding, in decide() and fold()
+        self.metric_lines: list[str] = []  # the metrics' folding, in decide()
+        self.fold_lines: list[str] = []  # and on the stopping tick, in fold(): all but durations
         self.metric_used: set[int] = set()  # the slots it reads
         self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
 
@@ -176,7 +177,7 @@ class _Generator:
         out += ["def decide():"] + self.loads(decide_used) + ["    " + line for line in rules] + [""]
         out += (["def fold(v0, v1, values):"] + ["    " + line for line in unpack]
                 + self.loads(self.metric_used - channel_slots - {TIME, TICK})
-                + ["    " + line for line in self.metric_lines] + ["    return None", ""])
+                + ["    " + line for line in self.fold_lines] + ["    return None", ""])
         out += (["def both(v0, v1, values):"] + ["    " + line for line in unpack] + signal_loads
                 + ["    " + line for line in lets] + ["    " + stop_note, f"    if {stop}:", "        return -2"]
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
@@ -255,8 +256,11 @@ class _Generator:
         used, self.used = self.used, set()
         for i, metric in enumerate(c.metrics):
             e = self.expr(metric.expr, metric.text, f"metric {metric.name!r}")
-            self.metric_lines.append(self.note(metric.text, f"{metric.name}: "))
-            self.metric_lines += METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
+            lines = [self.note(metric.text, f"{metric.name}: ")]
+            lines += METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
+            self.metric_lines += lines
+            if metric.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
+                self.fold_lines += lines
         self.metric_used = set(self.used)
         self.used |= used
         out += self.metric_lines

@@ -25,6 +25,7 @@ rules:
 metrics:
   marks: final(reached)
   rises: count(reached >= 1)
+  timed: duration(time >= 0)
 """
 
 
@@ -56,7 +57,8 @@ def test_a_stop_condition_without_or_is_named_whole(tmp_path: Path) -> None:
 
 def test_format_1_1_folds_and_traces_the_stopping_tick(tmp_path: Path) -> None:
     _, summary, rows = run_mark(tmp_path)
-    assert summary.robots["pioneer"]["metrics"] == {"marks": 1, "rises": 1}  # type: ignore[attr-defined]
+    # the stopping tick is sampled but lasts no time: durations add up to the time simulated
+    assert summary.robots["pioneer"]["metrics"] == {"marks": 1, "rises": 1, "timed": 2.0}  # type: ignore[attr-defined]
     assert summary.ticks == 40  # type: ignore[attr-defined]
     last = rows[-1]
     assert (last["tick"], last["rule"], last["reached"], last["events"]) == ("40", "", "1", "rises")
@@ -65,7 +67,7 @@ def test_format_1_1_folds_and_traces_the_stopping_tick(tmp_path: Path) -> None:
 
 def test_format_1_neither_folds_nor_traces_the_stopping_tick(tmp_path: Path) -> None:
     _, summary, rows = run_mark(tmp_path, version="1")
-    assert summary.robots["pioneer"]["metrics"] == {"marks": 0, "rises": 0}  # type: ignore[attr-defined]
+    assert summary.robots["pioneer"]["metrics"] == {"marks": 0, "rises": 0, "timed": 2.0}  # type: ignore[attr-defined]
     assert rows[-1]["tick"] == "39"
 
 
