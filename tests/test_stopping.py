@@ -90,3 +90,4 @@ def test_the_docs_example_reports_the_mark_that_stopped_it(tmp_path: Path) -> No
     _, summary, _ = run_example("first_mark", tmp_path)
     assert summary.stop_condition == "reached >= 1"  # type: ignore[attr-defined]
     assert summary.robots["pioneer"]["metrics"]["marks"] == 1  # type: ignore[attr-defined]
+    assert summary.ticks == 146  # type: ignore[attr-defined]
