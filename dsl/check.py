@@ -134,6 +134,7 @@ class _Checker(ExprChecker):
         sliders = self.sliders()
         lets = self.lets()
         labels = self.labels()
+        self.metric_names = {name for name, _, _ in bf.metrics}
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
         self.motors = mechanism.motor_modes() if mechanism is not None else {}
@@ -435,8 +436,14 @@ class _Checker(ExprChecker):
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
+        if action.name not in ACTIONS:  # print("..."), say("..."): an action that does not exist
+            self.error(text.at(action.name_span), f"unknown action '{action.name}' (to print text, use "
+                       f'log("...")' + ")", notes=('e.g. log("hit at {time:.1f} s"): printed with the time and '
+                                                  "the robot, and recorded in the trace",))
+            return
         if action.name != "log":
-            self.error(text.at(action.span), f"only log() takes text in quotes; {action.name}() takes numbers")
+            self.error(text.at(action.span), f"only log() takes text in quotes; {action.name}() takes numbers",
+                       notes=('to print text, add log("...") as another action of the rule',))
             return
         if action.text is None:
             self.error(text.at(action.span), 'log() takes text in quotes, as in log("hit at {time:.1f} s")')

@@ -50,6 +50,7 @@ class Generated:
     code: Code
     stop_horizon_s: float | None
     logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, and its text's parts
+    stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
 
 
 def generate(checked: Checked, filename: str) -> Generated:
@@ -59,7 +60,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     source, listing = g.module()
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
                 tuple(sorted(g.functions)))
-    return Generated(slots, code, g.stop_horizon(), tuple(g.logs))
+    return Generated(slots, code, g.stop_horizon(), tuple(g.logs), g.stop_parts)
 
 
 def layout(c: Checked) -> Layout:
@@ -132,6 +133,10 @@ class _Generator:
         self.functions: set[str] = set()  # built-ins called directly
         self.notes: list[str] = []  # what each marker comment stands for in the listing
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
+        self.metric_lines: list[str] = []  # the metrics' folding, in decide()
+        self.fold_lines: list[str] = []  # and on the stopping tick, in fold(): all but durations
+        self.metric_used: set[int] = set()  # the slots it reads
+        self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
 
     def module(self) -> tuple[str, str]:
         """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``, and its listing.
@@ -160,7 +165,7 @@ class _Generator:
                      f"s[{slot}] = {self.expr(parsed.node, parsed.text, 'a label')}"]
         assert c.file.stop is not None
         stop_note = self.note(c.file.stop.text, "stop: ")
-        stop = self.expr(c.file.stop.node, c.file.stop.text, "the stop condition")
+        stop = self.stop_condition()
         signal_loads = self.loads(self.used - channel_slots - let_slots - {TIME, TICK})
         self.used = set()
         rules = self.decide()
@@ -170,17 +175,21 @@ class _Generator:
                + ["    " + line for line in unpack] + signal_loads
                + ["    " + line for line in lets] + ["    " + stop_note, f"    return {stop}", ""])
         out += ["def decide():"] + self.loads(decide_used) + ["    " + line for line in rules] + [""]
+        out += (["def fold(v0, v1, values):"] + ["    " + line for line in unpack]
+                + self.loads(self.metric_used - channel_slots - {TIME, TICK})
+                + ["    " + line for line in self.fold_lines] + ["    return None", ""])
         out += (["def both(v0, v1, values):"] + ["    " + line for line in unpack] + signal_loads
                 + ["    " + line for line in lets] + ["    " + stop_note, f"    if {stop}:", "        return -2"]
                 + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
                 + ["    " + line for line in rules])
         params = ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                  "_radius", "_half_axle", "_st"]
+                  "_radius", "_half_axle", "_st", "_held"]
         params += ["_" + f for f in sorted(self.functions)]
         params += [f"_g{i}" for i in range(len(self.sites))]
         text = "\n".join("    " + line if line else "" for line in out)
         header = [self.mark(note) for note in self.header()]
-        source = "\n".join(header) + f"\ndef make({', '.join(params)}):\n{text}\n    return signals, decide, both\n"
+        source = ("\n".join(header) + f"\ndef make({', '.join(params)}):\n{text}\n"
+                  "    return signals, decide, both, fold\n")
         return source, _MARKER.sub(lambda m: m.group(1) + "# " + self.notes[int(m.group(2))], source)
 
     def state_clock(self) -> list[str]:
@@ -244,12 +253,33 @@ class _Generator:
         if len(states) > 1:
             out.append("else:")
             out.append("    rule = -1")
+        used, self.used = self.used, set()
         for i, metric in enumerate(c.metrics):
             e = self.expr(metric.expr, metric.text, f"metric {metric.name!r}")
-            out.append(self.note(metric.text, f"{metric.name}: "))
-            out += METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
+            lines = [self.note(metric.text, f"{metric.name}: ")]
+            lines += METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
+            self.metric_lines += lines
+            if metric.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
+                self.fold_lines += lines
+        self.metric_used = set(self.used)
+        self.used |= used
+        out += self.metric_lines
         out.append("return rule")
         return out
+
+    def stop_condition(self) -> str:
+        """The stop condition, each of its top-level ``or`` parts reporting itself when it holds.
+
+        ``_held(k)`` records part k and returns True; it runs only on the tick the run stops.
+        """
+        stop = self.c.file.stop
+        assert stop is not None
+        parts = _or_parts(stop.node)
+        if len(parts) == 1:  # the summary names the whole condition
+            return self.expr(stop.node, stop.text, "the stop condition")
+        self.stop_parts = tuple(" ".join(stop.text.value[p.span[0]:p.span[1]].split()) for p in parts)
+        return " or ".join(f"({self.expr(p, stop.text, 'the stop condition')} and _held({k}))"
+                           for k, p in enumerate(parts))
 
     def actions(self, actions: tuple, text: Text, where: str) -> list[str]:
         lines = []
@@ -503,6 +533,13 @@ def _real(value: object) -> object:
 
 # How each aggregate folds its value in decide() (accumulators: support.initial_accumulator);
 # `events` gets the metric's index.
+def _or_parts(e: ast.Expr) -> list[ast.Expr]:
+    """``a or (b or c)`` as [a, b, c]: the conditions a summary can name as the one that held."""
+    if isinstance(e, ast.BoolOp) and e.op == "or":
+        return [part for value in e.values for part in _or_parts(value)]
+    return [e]
+
+
 METRIC_CODE = {
     Aggregate.COUNT: "v = {e}\nif v and not m[{i}][1]:\n    m[{i}][0] += 1\n    events.append({i})\nm[{i}][1] = v",
     Aggregate.DURATION: "if {e}:\n    m[{i}][0] += 1",

@@ -12,12 +12,14 @@ YAML file reaches the runtime except what is prepared here.
 """
 from __future__ import annotations
 
+import math
+import random
 from pathlib import Path
 from types import MappingProxyType
 
 from labsim.backends.scene.diagnostics import Diagnostic, Report
 from labsim.backends.scene.source import load
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
@@ -34,6 +36,10 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     bf = read(doc, report)
     checked = check(bf, report, overrides)
     report.raise_if_errors()
+    shortage = _placement_shortage(checked, bf.seed if seed is None else seed)
+    if shortage is not None:
+        report.add(shortage)
+        report.raise_if_errors()
     generated = generate(checked, code_filename(bf.path, overrides))
     warnings = tuple(d for d in report.diagnostics if d.severity == "warning")
     return _program(checked, generated, warnings, bf.seed if seed is None else seed)
@@ -69,7 +75,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slider_start=MappingProxyType({sl.name: sl.value for sl in c.sliders}),
         labels=layout.labels, timeline=_timeline(c),
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
-        logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "")
+        logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
+        stop_parts=generated.stop_parts, fold_stop=bf.version != 1)
 
 
 def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:
@@ -95,4 +102,38 @@ def _spawn_shortage(c: Checked, world: World) -> Diagnostic | None:
                     decl.key, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for robot '{name}'",
                     notes=("use 'at: random', or fewer robots",))
             left -= 1
+    return None
+
+
+def _placement_shortage(c: Checked, seed: int) -> Diagnostic | None:
+    """The error for the first robot placed 'at: random' that finds no free place.
+
+    Robots are placed here as the runtime places them (same order, same generator), so that
+    ``labsim check`` reports it at the robot's line rather than the run failing later.
+    """
+    world = c.world
+    if world is None or not any(d.at == "random" for d in c.file.robots):
+        return None
+    rng = random.Random(f"{seed}/placement")
+    spawns = list(world.spawns)
+    taken: list[Pose] = []
+    for decl in c.file.robots:
+        for k in range(decl.count):
+            if decl.at == "spawn":
+                if not spawns:
+                    return None  # the checker reported the shortage of spawn poses
+                pose: Pose | None = spawns.pop(0)
+            elif decl.at == "random":
+                pose = world.free_pose(rng, taken)
+            else:
+                assert not isinstance(decl.at, str)
+                pose = Pose(decl.at[0], decl.at[1], math.radians(decl.at[2]))
+            if pose is None:
+                name = decl.name if decl.count == 1 else f"{decl.name}[{k}]"
+                return c.file.doc.diagnostic(
+                    decl.key, f"no free place left in world '{world.name}' for robot '{name}' "
+                    f"({len(taken)} robots fit, each {PLACEMENT_CLEARANCE_M:g} m from walls and "
+                    f"{2 * PLACEMENT_CLEARANCE_M:g} m from the others)",
+                    notes=("use fewer robots, or give their poses as [x, y, heading_deg]",))
+            taken.append(pose)
     return None

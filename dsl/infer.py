@@ -8,6 +8,8 @@ gives None, and its uses say nothing more.
 """
 from __future__ import annotations
 
+import difflib
+
 from yaml.nodes import Node
 
 from labsim.backends.scene.diagnostics import Report, did_you_mean
@@ -31,6 +33,7 @@ class ExprChecker:
         self.distance: set[str] = set()  # distance sensors, for detected()
         self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
         self.world_failed = False  # names the world would have given are not reported unknown
+        self.metric_names: set[str] = set()  # the file's metrics: not names an expression can read
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -117,6 +120,13 @@ class ExprChecker:
         if e.id in FUNCTIONS or e.id in ACTIONS:
             self.error(text.at(e.span), f"'{e.id}' is a function: call it as {e.id}(...)")
             return None
+        if e.id in self.metric_names:
+            self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "
+                       "summary, and expressions cannot read them",
+                       notes=("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a "
+                              "duration, 'remember(...)' or 'prev(...)' for a count; docs/language.md, "
+                              "Time and memory)",))
+            return None
         hint = did_you_mean(e.id, self.types)
         notes: tuple[str, ...] = ()
         if e.id.startswith("sonar") and e.id[5:].isdigit():
@@ -176,13 +186,18 @@ class ExprChecker:
             return self.prev(e, text)
         f = FUNCTIONS.get(e.func)
         if f is None:
+            notes: tuple[str, ...] = ()
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
             elif e.func in ACTIONS:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+            elif e.func in _MEANT:
+                message = f"unknown function '{e.func}' (did you mean {_MEANT[e.func]}?)"
+                notes = function_notes(e.func, nearest=False)
             else:
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
-            self.error(text.at(e.func_span), message)
+                notes = function_notes(e.func)
+            self.error(text.at(e.func_span), message, notes)
             for arg in e.args:
                 self.infer(arg, text)
             return None
@@ -224,3 +239,23 @@ def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool
     plural = "argument" if n == 1 else "arguments"
     listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
     return f"{name}() takes {n} {plural}{listed}, given {given}"
+
+
+# Functions students reach for under another name: what to write instead.
+_MEANT = {
+    "distance": "hypot(dx, dy)", "dist": "hypot(dx, dy)",
+    "norm": "hypot(dx, dy)", "sqr": "x ** 2", "pow": "x ** y", "power": "x ** y",
+    "average": "mean(...)", "avg": "mean(...)", "atan": "atan2(y, x)", "arctan": "atan2(y, x)",
+    "absolute": "abs(x)", "limit": "clamp(x, lo, hi)", "constrain": "clamp(x, lo, hi)",
+    "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
+    "previous": "prev(x, initial)",
+}
+
+
+def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:
+    """What an unknown function's message lists: the nearest functions, and where they are all."""
+    names = sorted([*FUNCTIONS, DETECTED])
+    close = difflib.get_close_matches(name, names, n=3, cutoff=0.4) if nearest else []
+    return ((f"the nearest: {', '.join(close)}; " if close else "")
+            + "functions: " + ", ".join(names),
+            "each is described in docs/language.md, under 'Functions'")

@@ -170,15 +170,32 @@ def _check_brackets(text: str) -> None:
 
 
 def _check_depth(tree: Tree) -> None:
-    stack: list[tuple[Tree, int]] = [(tree, 1)]
+    """Refuse trees deeper than MAX_DEPTH; a long flat sum (``a + b + c ...``, which the grammar
+    nests to the left) is named as such, since nothing in it looks nested to the person who wrote it."""
+    stack: list[tuple[Tree, int, int, int]] = [(tree, 1, 1, 1)]  # node, depth, its left chain's terms, its parent's
     while stack:
-        node, depth = stack.pop()
+        node, depth, chain, parent_chain = stack.pop()
         if depth > MAX_DEPTH:
             start = getattr(node.meta, "start_pos", 0) or 0
+            if max(chain, parent_chain) * 2 > depth:
+                start = getattr(tree.meta, "start_pos", 0) or 0
+                raise ParseError(start, start + 1, f"too many terms in one sum or product (labsim takes "
+                                 f"up to about {MAX_DEPTH})",
+                                 ("hint: split it into named signals under 'let:', e.g. 'a: ...' and "
+                                  "'b: ...' of half the terms each, then 'total: a + b'",))
             raise ParseError(start, start + 1,
                              f"expression nested too deeply (more than {MAX_DEPTH} levels)",
                              ("hint: split it into named signals under 'let:'",))
-        stack.extend((child, depth + 1) for child in node.children if isinstance(child, Tree))
+        for k, child in enumerate(node.children):
+            if isinstance(child, Tree):
+                flat = k == 0 and node.data == child.data == "binary" and _family(node) == _family(child)
+                stack.append((child, depth + 1, chain + 1 if flat else 1, chain))
+
+
+def _family(node: Tree) -> str:
+    """'+' for a sum, '*' for a product, '**' for a power: operators that chain to the left."""
+    op = str(node.children[1]) if len(node.children) > 1 else ""
+    return {"-": "+", "/": "*", "%": "*"}.get(op, op)
 
 
 def _found(token: Token) -> str:

@@ -93,6 +93,9 @@ class RobotProgram:
     events: list[int]  # indices of count metrics that rose this tick (cleared by the runtime)
     source: str  # the generated Python, for debugging
     joint_command: list[float] = field(default_factory=list)  # per Program.targets, nan: none yet
+    # fold(time_s, tick, values): the signals already evaluated, fold the metrics; no rule acts
+    fold: Callable[[float, int, list], None] = lambda time_s, tick, values: None
+    stop_part: list[int] = field(default_factory=lambda: [-1])  # the stop condition's 'or' part that held
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,6 +140,8 @@ class Program:
     code: Code
     logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, text and (value, format)
     stop_text: str = ""  # the stop condition as written, for the summary
+    stop_parts: tuple[str, ...] = ()  # its top-level 'or' parts: the summary names the one that held
+    fold_stop: bool = False  # format 1.1: the stopping tick is traced and folded into metrics
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
@@ -165,7 +170,13 @@ class Program:
         events: list[int] = []
         metric_values = [initial_accumulator(a) for a in self.metric_aggregates]
         bindings = namespace(rng, model or next(iter(self.models.values()), None), code.functions)
-        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0])
+        stop_part = [-1]
+
+        def held(part: int) -> bool:
+            stop_part[0] = part
+            return True
+        bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0],
+                        _held=held)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
@@ -174,10 +185,10 @@ class Program:
         # are made by a factory so that everything they use is a closure cell, not a global.
         scope: dict[str, object] = {"__builtins__": {}}
         exec(code.compiled, scope)
-        make = cast(Callable[..., tuple[Any, Any, Any]], scope["make"])
-        signals, decide, both = make(**bindings)
+        make = cast(Callable[..., tuple[Any, Any, Any, Any]], scope["make"])
+        signals, decide, both, fold = make(**bindings)
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
-                            joint_command)
+                            joint_command, fold, stop_part)
 
     @property
     def robot_slots(self) -> dict[str, int]:

@@ -14,6 +14,7 @@ import hashlib
 import math
 import re
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
@@ -21,6 +22,8 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
+from labsim.backends.scene.world import BUILTIN_DIR
+from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
 from labsim.dsl import ast
 from labsim.dsl.noise import Noise, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
@@ -110,7 +113,7 @@ class Event:
 class BehaviourFile:
     doc: Document
     sha256: str
-    version: int = FORMAT_VERSION
+    version: float = FORMAT_VERSION  # 1 or 1.1
     name: str = ""
     description: str = ""
     world: str = ""
@@ -135,6 +138,13 @@ class BehaviourFile:
         return self.doc.path
 
 
+def _is_world_file(root: MappingNode) -> bool:
+    """A world file given where a behaviour belongs: its version key, or world keys and no behaviour keys."""
+    keys = {k.value for k, _ in root.value if isinstance(k, ScalarNode)}
+    return "labsim-world" in keys or (not keys & {"labsim", "rules", "stop", "bind"}
+                                      and bool(keys & (set(WORLD_KEYS) - {"name", "description"})))
+
+
 def read(doc: Document, report: Report) -> BehaviourFile:
     bf = BehaviourFile(doc, hashlib.sha256(doc.text.encode()).hexdigest())
     r = _Reader(doc, report)
@@ -146,6 +156,13 @@ def read(doc: Document, report: Report) -> BehaviourFile:
         else:
             r.error(0, "the file is empty: " + message)
         return bf
+    if _is_world_file(root):
+        builtin = BUILTIN_DIR / Path(doc.path).name
+        name = builtin.stem if builtin.is_file() and builtin.read_text() == doc.text else doc.path
+        r.error(root.value[0][0], "this is a world file, not a behaviour: a behaviour names it with 'world:'",
+                notes=(f"run a behaviour with 'world: {name}' in it; 'labsim new my_lab' writes one to "
+                       "start from, and docs/worlds.md describes world files",))
+        report.raise_if_errors()  # nothing else of it is worth saying
     keys = r.known_keys(root, TOP_KEYS, "", "the file")
     for k in REQUIRED:
         if k not in keys:
@@ -188,6 +205,8 @@ class _Reader(Reader):
             v = self.number(keys["labsim"], "labsim")
             if v is not None and v not in (FORMAT_VERSION, 1.1):
                 self.error(keys["labsim"], f"this labsim reads format versions {FORMAT_VERSION} and 1.1, not {v:g}")
+            elif v is not None:
+                bf.version = v
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
         if "description" in keys:
             bf.description = self.string(keys["description"], "description") or ""

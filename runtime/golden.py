@@ -67,6 +67,7 @@ def compare(expected: Trace, actual: Trace) -> Difference | None:
     notes = []
     if expected.header.get("sha256") != actual.header.get("sha256"):
         notes.append("note: the behaviour file has changed since the golden was recorded")
+    notes += _world_notes(expected.header, actual.header)
     before, after = expected.header.get("params") or {}, actual.header.get("params") or {}
     changed = [f"{k} {before.get(k, '(none)')} -> {after.get(k, '(none)')}"
                for k in sorted(set(before) | set(after)) if before.get(k) != after.get(k)]
@@ -94,6 +95,19 @@ def compare(expected: Trace, actual: Trace) -> Difference | None:
                            f"this run {len(actual.rows)} (last tick {last(actual)}): the run stopped at "
                            "another tick"] + notes)
     return None
+
+
+def _world_notes(expected: dict, actual: dict) -> list[str]:
+    """Whether the world changed since the golden was recorded (goldens without a world hash say nothing)."""
+    if expected.get("world") != actual.get("world"):
+        return [f"note: the golden ran in world '{expected.get('world')}', this run in '{actual.get('world')}'"]
+    if not expected.get("world_sha256") or expected.get("world_sha256") == actual.get("world_sha256"):
+        return []
+    note = f"note: world '{actual.get('world')}' has changed since the golden was recorded"
+    if expected.get("world_version") != actual.get("world_version"):
+        then, now = (h.get("world_version") or "a world file" for h in (expected, actual))
+        note += f" ({then} then, {now} now)"
+    return [note]
 
 
 def _explain(expected: Trace, actual: Trace, i: int, j: int) -> list[str]:

@@ -99,7 +99,7 @@ def format_summary(s: Summary, run: Run) -> str:
     lines.append(f"  {status}: {s.ticks} ticks, {s.sim_time_s:.2f} s simulated in {s.wall_time_s:.2f} s"
                  + (f" ({rtf})" if rtf else ""))
     if s.stopped_by is not None:  # on the status line, so the summary keeps its layout
-        lines[-1] += (f"; stopped at tick {s.ticks}: '{p.stop_text}' held for "
+        lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * p.dt_s:.2f} s): '{s.stop_condition}' held for "
                       f"{'robot ' if run.robots[0].model is not None else ''}{s.stopped_by}")
     if p.params:
         shown = [f"{k}={str(v).lower() if isinstance(v, bool) else format(v, 'g')}"

@@ -5,7 +5,8 @@ compile once, tick many times. A tick is, for every robot at once:
 
 1. sense: the backend returns one consistent snapshot of every channel the behaviour reads;
 2. the ``let`` signals are evaluated in order;
-3. the stop condition: when it holds for any robot, the run ends before acting;
+3. the stop condition: when it holds for any robot, the run ends before acting (in format
+   1.1 the stopping tick is still folded into metrics and traced);
 4. the first rule of the robot's current state whose condition holds acts; wheel commands
    are clamped to the model's limit (and counted) and sent only when they change;
 5. metrics fold the tick's values; the trace gets one row per robot;
@@ -17,6 +18,7 @@ declared noise sits between the backend and its program (``labsim.runtime.noise`
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import random
 import time as clock
@@ -28,7 +30,7 @@ from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.models import Kind, RobotModel
-from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
+from labsim.backends.scene.world import BUILTIN_DIR, PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.compile import compile_file
 from labsim.dsl.noise import Noise
@@ -37,7 +39,6 @@ from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter
 
-PLACEMENT_CLEARANCE_M = 0.6  # a random start is this far from walls and other robots
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
 
@@ -103,6 +104,7 @@ class Summary:
     fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
     stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
     noise: dict[str, str] = field(default_factory=dict)  # robot -> its noise models (and readings lost)
+    stop_condition: str = ""  # the part of the stop condition that held ('or' parts apart)
 
     @property
     def real_time_factor(self) -> float:
@@ -119,6 +121,7 @@ class Run:
         self.tick_index = 0
         self.finished = False
         self.stopped_by: str | None = None  # the first robot whose stop condition held
+        self.stop_part = -1  # which top-level 'or' part of the stop condition held for it
         self.faults = Faults(warn, clock=lambda: self.tick_index)
         self.fired = [0] * len(program.rules)
         self._log_windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
@@ -205,7 +208,8 @@ class Run:
         return {
             "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
-            "world_file": _world_file(p.world), "dt": self.dt, "seed": p.seed, "params": dict(p.params),
+            "world_file": _world_file(p.world), **_world_identity(p.world),
+            "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
@@ -283,6 +287,14 @@ class Run:
         command = self._command
         watched, last_rule = self.watched, self.last_rule
         has_logs = bool(self.program.logs)
+        fold_stop = self.program.fold_stop
+
+        def last(r: RobotRun, values: list) -> None:
+            """The stopping tick (format 1.1): sensed, folded into metrics and traced; no rule acts."""
+            r.program.fold(self.tick_index * dt, self.tick_index, values if len(values) == n else values[:n])
+            if trace is not None:
+                trace_row(r, values, -1)
+            r.program.events.clear()
 
         def inputs(t: int) -> None:
             """The timeline's slider settings for this tick, before anything reads them."""
@@ -332,7 +344,10 @@ class Run:
                 rule = both(t * dt, t, values if len(values) == n else values[:n])
                 if rule == -2:
                     self.stopped_by = r1.name
+                    self.stop_part = r1.program.stop_part[0]
                     self.finished = True
+                    if fold_stop:
+                        last(r1, values)
                     return False
                 if rule >= 0 and trace is None and not events1 and not targets and r1.model is not None \
                         and not watched:
@@ -363,8 +378,12 @@ class Run:
                 if signals(now, t, values if len(values) == n else values[:n]) and not stop:
                     stop = True
                     self.stopped_by = self.robots[i].name
+                    self.stop_part = self.robots[i].program.stop_part[0]
             if stop:
                 self.finished = True
+                if fold_stop:
+                    for i, *_, r in robots:
+                        last(r, readings[i])
                 return False
             for i, s, _, decide, cmd, events, r in robots:
                 act(r, s, cmd, events, decide(), readings[i])
@@ -488,6 +507,9 @@ class Run:
                 out.fleet[name] = fleet_value(agg, [r["metrics"][name] for r in out.robots.values()])
         out.stopped_by = self.stopped_by
         out.noise = self.noise.summary() if self.noise is not None else {}
+        if self.stopped_by is not None:
+            parts = p.stop_parts
+            out.stop_condition = parts[self.stop_part] if 0 <= self.stop_part < len(parts) else p.stop_text
         out.rule_counts = {rule.id: n for rule, n in zip(p.rules, self.fired)}
         out.rule_labels = {rule.id: rule.text for rule in p.rules}
         out.idle_ticks = self.idle
@@ -562,10 +584,22 @@ def _world_file(world: World) -> str:
         return str(source)
 
 
+def _world_identity(world: World) -> dict[str, str]:
+    """The world's SHA-256 (of its file's text), and for a built-in the labsim version that
+    shipped it: a golden says when the world changed under it."""
+    try:
+        digest = hashlib.sha256(Path(world.source).read_bytes()).hexdigest() if world.source else ""
+    except OSError:
+        digest = ""
+    out = {"world_sha256": digest}
+    if world.source and Path(world.source).parent == BUILTIN_DIR:
+        out["world_version"] = f"built-in, labsim {__version__}"
+    return out
+
+
 def _free_pose(world: World, rng: random.Random, taken: list[Pose]) -> Pose:
-    for _ in range(1000):
-        pose = world.random_pose(rng, PLACEMENT_CLEARANCE_M)
-        if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * PLACEMENT_CLEARANCE_M for o in taken):
-            return pose
-    raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
+    pose = world.free_pose(rng, taken, PLACEMENT_CLEARANCE_M)
+    if pose is None:  # the compiler places robots the same way, and says so at the robot's line
+        raise LabsimError([Diagnostic(world.source or world.name, "no free place left for another robot")])
+    return pose
 

@@ -83,6 +83,8 @@ def summary_dict(summary: Summary, run: Run, *, warnings: list[str] | None = Non
         "wall_time_s": summary.wall_time_s,
         "real_time_factor": number(summary.real_time_factor),
         "stop_reason": stop_reason(run, summary),
+        "stopped_by": summary.stopped_by,
+        "stop_condition": summary.stop_condition or None,
         "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         "robots": robots,
         "fleet": {m: number(v) for m, v in summary.fleet.items()},

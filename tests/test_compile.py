@@ -121,7 +121,7 @@ def test_no_user_text_reaches_the_generated_code(write) -> None:
         assert word not in source
     # everything in it comes from a fixed vocabulary: slots, literals, operators, bound helpers
     assert set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source)) <= {
-        "def", "make", "signals", "decide", "both", "return", "if", "elif", "else", "and", "or", "not",
+        "def", "make", "signals", "decide", "both", "fold", "None", "return", "if", "elif", "else", "and", "or", "not",
         "s", "cmd", "jc", "events", "m", "v", "rule", "values", "True", "False", "append",
     } | {w for w in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", source) if re.fullmatch(r"(v\d+|_[a-z0-9_]+)", w)}
 

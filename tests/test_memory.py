@@ -31,7 +31,8 @@ def run_example(name: str, tmp_path: Path, trace: bool = False) -> tuple[Run, ob
 
 
 def test_the_docs_have_the_worked_examples() -> None:
-    assert set(examples()) == {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds"}
+    assert set(examples()) == {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
+                                "first_mark"}
 
 
 def test_bump_and_turn_backs_up_for_one_second(tmp_path: Path) -> None:

@@ -80,6 +80,17 @@ def test_expression_syntax_errors(text: str, start: int, message: str) -> None:
     assert (e.value.start, e.value.message) == (start, message)
 
 
+def test_a_long_flat_sum_is_named_as_one_not_as_nesting() -> None:
+    with pytest.raises(ParseError) as e:
+        parse_expr(" + ".join(["sonar5"] * 101))
+    assert e.value.start == 0
+    assert e.value.message == "too many terms in one sum or product (labsim takes up to about 100)"
+    assert isinstance(parse_expr(" + ".join(["sonar5"] * 99)), ast.Binary)
+    with pytest.raises(ParseError) as e:
+        parse_expr("-(" * 70 + " * ".join(["x"] * 40) + ")" * 70)
+    assert e.value.message == "expression nested too deeply (more than 100 levels)"
+
+
 def test_nesting_is_capped_before_anything_recursive_runs() -> None:
     with pytest.raises(ParseError) as e:
         parse_expr("-" * 1000 + "1")

@@ -154,9 +154,9 @@ def test_a_batch_with_broken_files_completes_with_them_marked(capsys, tmp_path: 
     assert "unknown_sensor_with_error.yaml:13:8: error: unknown name 'sonr5'" in rows[
         "unknown_sensor_with_error.yaml"]["message"]
     assert rows["missing.yaml"]["message"].endswith("error: no such behaviour file")
-    assert rows["crowded.yaml"]["status"] == "runtime error"
-    assert "no free place left for another robot" in rows["crowded.yaml"]["message"]
-    assert "5 runs: 1 ok, 3 compile error, 1 runtime error" in out
+    assert rows["crowded.yaml"]["status"] == "compile error"  # robots are placed when it compiles
+    assert "no free place left in world 'walls_lab4' for robot 'pioneer[" in rows["crowded.yaml"]["message"]
+    assert "5 runs: 1 ok, 4 compile error" in out
 
 
 def test_a_run_past_its_time_is_killed_and_the_pool_goes_on(capsys, tmp_path: Path, write) -> None:

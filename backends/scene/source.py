@@ -234,10 +234,16 @@ def loads(text: str, path: str = "<string>") -> Document:
 def _yaml_diagnostic(doc: Document, e: yaml.MarkedYAMLError) -> Diagnostic:
     mark = e.problem_mark or e.context_mark
     problem = (e.problem or "").strip()
+    notes: tuple[str, ...] = ()
     if "<stream end>" in problem and e.context_mark is not None:
         mark = e.context_mark  # the file ended inside a bracket or quote: point at where it opened
         problem = problem.replace("'<stream end>'", "the end of the file")
-    notes: tuple[str, ...] = ()
+    elif "end of stream" in problem and e.context_mark is not None and "quoted" in (e.context or ""):
+        # an unclosed quote: the end of the file has no line to show; the quote that opened it has
+        opened = doc.text[e.context_mark.index] if e.context_mark.index < len(doc.text) else '"'
+        return doc.diagnostic_at(e.context_mark.index, f"YAML syntax error: this {opened} is never closed "
+                                 "(the file ends inside the quoted text)", None,
+                                 notes=(f"hint: end the text with {opened} on the same line",))
     index = mark.index if mark else 0
     if "'\\t'" in problem or (mark and 0 <= index < len(doc.text) and doc.text[index] == "\t"):
         message = "tab character: YAML indentation must use spaces"

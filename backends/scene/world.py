@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # ground and mechanism import this module's types at run time
     from labsim.backends.scene.mechanism import Mechanism
 
 BUILTIN_DIR = Path(__file__).parent / "worlds"
+PLACEMENT_CLEARANCE_M = 0.6  # a robot placed 'at: random' is this far from walls and other robots
 
 
 @dataclass(frozen=True)
@@ -78,6 +79,16 @@ class World:
             if self.clearance(x, y) >= clearance_m:
                 return Pose(x, y, heading)
         raise ValueError(f"world '{self.name}' has no free spot {clearance_m} m clear of obstacles")
+
+    def free_pose(self, rng: random.Random, taken: list[Pose],
+                  clearance_m: float = PLACEMENT_CLEARANCE_M) -> Pose | None:
+        """A random pose (``random_pose``) also 2 x clearance_m from every pose taken, or None
+        when 1000 tries find none: where a robot placed 'at: random' starts."""
+        for _ in range(1000):
+            pose = self.random_pose(rng, clearance_m)
+            if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * clearance_m for o in taken):
+                return pose
+        return None
 
 
 def builtin_worlds() -> dict[str, Path]:
