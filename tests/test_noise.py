@@ -130,7 +130,7 @@ def test_a_run_with_sonar_noise_reads_the_wall_with_the_declared_statistics(writ
     noisy, text = _run(write, noise=SONAR)
     readings = [float(v) for v in read_trace(noisy).column("ahead")]
     echoes = [v for v in readings if v != math.inf]
-    assert len(readings) == 400
+    assert len(readings) == 401  # 20 s of 0.05 s ticks, and the stopping tick a 1.1 file traces
     assert 1 - len(echoes) / len(readings) == pytest.approx(0.1, abs=0.05)
     assert statistics.fmean(echoes) == pytest.approx(truth, abs=0.005)
     assert statistics.stdev(echoes) == pytest.approx(0.02, rel=0.15)

@@ -16,7 +16,7 @@ from test_coppeliasim import _serve_and_run
 
 def test_sonar_and_wheel_noise_are_the_same_through_labsim_serve(tmp_path: Path) -> None:
     ref, remote = _serve_and_run(tmp_path, FIXTURES / "noise.yaml")
-    assert remote == ref and len(ref) == 1 + 100
+    assert remote == ref and len(ref) == 1 + 100 + 1  # the header, 100 ticks, the stopping tick (1.1)
     sonar5 = [row.split(",")[9] for row in ref[1:]]
     assert "inf" in sonar5 and any(v != "inf" for v in sonar5)  # echoes from the wall, and dropouts
 
