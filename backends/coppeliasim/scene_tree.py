@@ -7,7 +7,7 @@ wire: it is names, handles and parents.
 
 What the tree holds, for each Pioneer P3DX robot ``i`` (``/PioneerP3DX[i]`` in the order
 given): ``leftMotor``, ``rightMotor``, 16 ``ultrasonicSensor`` children and, when its model has
-cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``); for a world with a
+cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it); for a world with a
 mechanism (the crane), its joints (all but fixed ones), force sensors and moving bodies at
 the top level, by their names. Handles are 1, 2, 3, ... in the order objects are added.
 
