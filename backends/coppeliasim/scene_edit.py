@@ -1,0 +1,365 @@
+"""The stand-in's scene editing: ``labsim serve --empty`` builds its scene from remote calls.
+
+Where it sits: ``server.Server(empty=True)`` starts with an empty scene and hands every
+request to a ``SceneEditor``, which answers the calls ``labsim scene``
+(``scene_builder``) makes to build a lab in CoppeliaSim, and passes the others to the
+simulation's ``sim_api.SimApi``. Edits collect here; at the first call that is not an edit
+(``sim.getObject``, ``sim.startSimulation``, ...) the server's ``simulation.Simulation`` is
+rebuilt from them, so what the backend then finds is what was built.
+
+What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene"):
+
+* a static cuboid aliased ``wall`` (``sim.createPrimitiveShape``) is labsim's wall: the segment
+  along its length, less its thickness (labsim's walls have rounded ends), its thickness wide;
+  any other static cuboid is a block (a box); a static mesh (``sim.createMeshShape``) is a
+  block, its corners the vertices at the floor;
+* a plane (``sim.primitiveshape_plane``) is the floor: the world's bounds;
+* ``sim.loadModel`` of CoppeliaSim's ``pioneer p3dx.ttm`` adds a Pioneer P3DX at the origin,
+  with its own script (``sim.getScript``, ``sim.removeScript`` take it away; a simulation
+  started with a script left is logged, since on CoppeliaSim it would drive the wheels);
+* ``sim.setFloatParam(sim.floatparam_simulation_time_step, dt)`` sets the time step.
+
+Coordinates are rounded to the nanometre and angles to the nanoradian when the world is
+rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
+reproduces the embedded backend's trace.
+
+Not built here (the stand-in answers with an error saying so): vision sensors, textures,
+joints and force sensors, and ``sim.saveScene``.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from labsim.backends.coppeliasim import HANDLE_PARENT, HANDLE_WORLD, STOPPED
+from labsim.backends.coppeliasim.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait
+from labsim.backends.coppeliasim.simulation import Client
+from labsim.backends.protocol import RobotRequest
+from labsim.backends.scene.models import PIONEER_P3DX
+from labsim.backends.scene.world import Block, Pose, Wall, World
+
+if TYPE_CHECKING:
+    from labsim.backends.coppeliasim.server import Server
+
+FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
+PIONEER_FILE = "pioneer p3dx.ttm"  # models/robots/mobile/ in CoppeliaSim's resources
+RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
+
+# simConst.h values (CoppeliaSim 4.6); the client reads them from zmqRemoteApi.info.
+EDIT_CONSTANTS: dict[str, int] = {
+    "primitiveshape_plane": 1, "primitiveshape_disc": 2, "primitiveshape_cuboid": 3,
+    "primitiveshape_spheroid": 4, "primitiveshape_cylinder": 5,
+    "shapeintparam_static": 3003, "shapeintparam_respondable": 3004,
+    "scripttype_childscript": 1, "stringparam_resourcesdir": 141,
+}
+EDITS = tuple(f"sim.{n}" for n in (
+    "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
+    "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
+    "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
+    "createVisionSensor", "createTexture", "createForceSensor", "createJoint",
+))
+_ROUND = 9
+
+
+@dataclass(eq=False)
+class Shape:
+    """A shape built through the remote API, in the world frame."""
+
+    kind: str  # plane | cuboid | mesh
+    size: tuple[float, float, float]
+    corners: tuple[tuple[float, float], ...] = ()  # a mesh's outline at the floor
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    yaw: float = 0.0
+    alias: str = "Cuboid"
+    static: bool = False
+
+
+class SceneEditor:
+    """Edits of an empty scene, and the handlers that take them (``handlers()``)."""
+
+    def __init__(self, server: Server) -> None:
+        self.server = server
+        self.shapes: dict[int, Shape] = {}
+        self.scripts: dict[int, int] = {}  # script handle -> robot index
+        self.robots: list[Pose] = []
+        self.dirty = False
+        self._next = FIRST_HANDLE
+
+    # --- the handlers --------------------------------------------------------------------------
+
+    def handlers(self) -> dict[str, Handler]:
+        """The simulation's handlers, each rebuilding the scene first if it was edited, and the edits."""
+        funcs = {name: self._after_edits(name) for name in self.server.sim_handlers()}
+        for name in EDITS:
+            funcs[name] = getattr(self, "_" + name.removeprefix("sim."))
+        start = funcs["sim.startSimulation"]
+
+        def start_simulation(client: Client, args: Args) -> list[object] | Wait:
+            self._warn_scripts()
+            return start(client, args)
+        funcs["sim.startSimulation"] = start_simulation
+        info = funcs["zmqRemoteApi.info"]
+        funcs["zmqRemoteApi.info"] = lambda client, args: self._info(info(client, args))
+        return funcs
+
+    def _warn_scripts(self) -> None:
+        for i in sorted(self.scripts.values()):
+            self.server.log(f"labsim serve: /PioneerP3DX[{i}] still has its script; in CoppeliaSim it would "
+                            f"drive the wheels and fight the client's commands (sim.removeScript)")
+
+    def _after_edits(self, name: str) -> Handler:
+        def call(client: Client, args: Args) -> list[object] | Wait:
+            if self.dirty:
+                self.apply()
+            return self.server.sim_handlers()[name](client, args)
+        return call
+
+    def _info(self, ret: list[object] | Wait) -> list[object]:
+        assert isinstance(ret, list) and isinstance(ret[0], dict)
+        info = dict(ret[0])
+        info.update({name.removeprefix("sim."): {"func": {}} for name in EDITS})
+        info.update({name: {"const": value} for name, value in EDIT_CONSTANTS.items()})
+        return [info]
+
+    # --- rebuilding the simulation -------------------------------------------------------------
+
+    def world(self) -> World:
+        """The world the built shapes make (walls, blocks, the floor's bounds)."""
+        walls: list[Wall] = []
+        blocks: list[Block] = []
+        bounds = (-10.0, -10.0, 10.0, 10.0)
+        for s in self.shapes.values():
+            c, si = math.cos(s.yaw), math.sin(s.yaw)
+            if s.kind == "plane":
+                hw, hd = s.size[0] / 2, s.size[1] / 2
+                bounds = (_r(s.x - hw), _r(s.y - hd), _r(s.x + hw), _r(s.y + hd))
+            elif not s.static:
+                continue
+            elif s.kind == "cuboid" and s.alias == "wall":
+                half = (s.size[0] - s.size[1]) / 2
+                walls.append(Wall((_r(s.x - half * c), _r(s.y - half * si)),
+                                  (_r(s.x + half * c), _r(s.y + half * si)), _r(s.size[1])))
+            elif s.kind == "cuboid":
+                w, d = s.size[0], s.size[1]
+                local = ((-w / 2, -d / 2), (w / 2, -d / 2), (w / 2, d / 2), (-w / 2, d / 2))
+                blocks.append(Block(tuple((_r(s.x + x * c - y * si), _r(s.y + x * si + y * c))
+                                          for x, y in local)))
+            else:
+                blocks.append(Block(tuple((_r(s.x + x), _r(s.y + y)) for x, y in s.corners)))
+        return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks))
+
+    def apply(self) -> None:
+        """Rebuild the server's simulation from the edits (the robots keep the poses they were given)."""
+        sim = self.server.simulation
+        poses = [r.pose for r in sim.robots] + self.robots[len(sim.robots):]
+        self.robots = poses
+        requests = [RobotRequest(f"PioneerP3DX[{i}]", PIONEER_P3DX, p, ()) for i, p in enumerate(poses)]
+        self.server.rebuild(self.world(), requests)
+        self.dirty = False
+
+    # --- edits -------------------------------------------------------------------------------
+
+    def _stopped(self) -> None:
+        if self.server.simulation.state != STOPPED:
+            raise SimError("labsim serve: the scene is built while the simulation is stopped")
+
+    def _new(self, shape: Shape) -> list[object]:
+        self._stopped()
+        h = self._next
+        self._next += 1
+        self.shapes[h] = shape
+        self.dirty = True
+        return [h]
+
+    def _shape(self, args: Args) -> Shape | None:
+        """The built shape ``args[0]`` names, or None for an object of the simulation."""
+        if not args:
+            raise SimError(E_FEW)
+        h = args[0]
+        if not isinstance(h, int) or isinstance(h, bool):
+            raise SimError(E_ARGS)
+        if h >= FIRST_HANDLE and h not in self.shapes:
+            raise SimError(E_HANDLE)
+        return self.shapes.get(h)
+
+    def _createPrimitiveShape(self, client: Client, args: Args) -> list[object]:
+        # sim.createPrimitiveShape(int primitiveType, list sizes, int options = 0): CoppeliaSim 4.6
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        kind = {1: "plane", 3: "cuboid"}.get(args[0]) if isinstance(args[0], int) else None
+        if kind is None:
+            raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
+        sizes = _floats(args[1], 3)
+        return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid"))
+
+    def _createMeshShape(self, client: Client, args: Args) -> list[object]:
+        # sim.createMeshShape(int options, float shadingAngle, list vertices, list indices): 4.6
+        if len(args) < 4:
+            raise SimError(E_FEW)
+        v = _floats(args[2], len(args[2]) if isinstance(args[2], list) else 0)
+        points = [(v[i], v[i + 1], v[i + 2]) for i in range(0, len(v) - 2, 3)]
+        floor = tuple((x, y) for x, y, z in points if abs(z) < 1e-9)
+        if len(floor) < 3:
+            raise SimError("labsim serve: a mesh is read as a prism standing on the floor (z = 0)")
+        height = max(z for _, _, z in points)
+        return self._new(Shape("mesh", (0.0, 0.0, height), corners=floor, alias="Shape"))
+
+    def _setObjectAlias(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if len(args) < 2 or not isinstance(args[1], str):
+            raise SimError(E_ARGS)
+        if shape is None:
+            raise SimError("labsim serve: only built shapes take a new alias")
+        shape.alias = args[1]
+        self.dirty = True
+        return []
+
+    def _setObjectInt32Param(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if len(args) < 3 or shape is None:
+            raise SimError(E_FEW if len(args) < 3 else "labsim serve: only built shapes take parameters")
+        if args[1] == EDIT_CONSTANTS["shapeintparam_static"]:
+            shape.static = bool(args[2])
+            self.dirty = True
+        return []
+
+    def _setFloatParam(self, client: Client, args: Args) -> list[object]:
+        # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): CoppeliaSim 4.6
+        self._stopped()
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        if args[0] != 1 or not isinstance(args[1], (int, float)) or not args[1] > 0:
+            raise SimError("labsim serve: only the simulation time step (a positive number) can be set")
+        self.server.dt_s = float(args[1])
+        self.dirty = True
+        return []
+
+    def _getStringParam(self, client: Client, args: Args) -> list[object]:
+        if not args or args[0] != EDIT_CONSTANTS["stringparam_resourcesdir"]:
+            raise SimError("labsim serve: only sim.stringparam_resourcesdir is answered")
+        return [RESOURCES]
+
+    def _loadModel(self, client: Client, args: Args) -> list[object]:
+        # sim.loadModel(string filename): CoppeliaSim 4.6
+        self._stopped()
+        if not args or not isinstance(args[0], str):
+            raise SimError(E_ARGS)
+        if not args[0].replace("\\", "/").lower().endswith("/" + PIONEER_FILE):
+            raise SimError(f"labsim serve: the stand-in loads only CoppeliaSim's models/robots/mobile/"
+                           f"{PIONEER_FILE}, not '{args[0]}'")
+        if self.dirty:
+            self.apply()
+        self.robots.append(Pose(0.0, 0.0, 0.0))
+        self.apply()
+        i = len(self.robots) - 1
+        script = self._next
+        self._next += 1
+        self.scripts[script] = i
+        return [self.server.simulation.robots[i].obj.handle]
+
+    def _getScript(self, client: Client, args: Args) -> list[object]:
+        # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6; -1 when it has none
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        if self.dirty:
+            self.apply()
+        obj = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
+        if obj is None or obj.kind != "robot":
+            return [-1]
+        return [next((h for h, i in self.scripts.items() if i == obj.robot), -1)]
+
+    def _removeScript(self, client: Client, args: Args) -> list[object]:
+        if not args or args[0] not in self.scripts:
+            raise SimError(E_HANDLE)
+        del self.scripts[args[0]]
+        return []
+
+    def _setObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.setObjectPosition", client, args)
+        self._stopped()
+        value, _rel = _value_and_frame(args)
+        shape.x, shape.y, shape.z = _floats(value, 3)
+        self.dirty = True
+        return []
+
+    def _setObjectOrientation(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.setObjectOrientation", client, args)
+        self._stopped()
+        value, _rel = _value_and_frame(args)
+        alpha, beta, gamma = _floats(value, 3)
+        if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
+            raise SimError("labsim serve: the scene is flat; shapes turn about z only (alpha = beta = 0)")
+        shape.yaw = gamma
+        self.dirty = True
+        return []
+
+    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.getObjectPosition", client, args)
+        return [[shape.x, shape.y, shape.z]]
+
+    def _getObjectOrientation(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.getObjectOrientation", client, args)
+        return [[0.0, 0.0, shape.yaw]]
+
+    def _simulation(self, name: str, client: Client, args: Args) -> list[object]:
+        if self.dirty:
+            self.apply()
+        ret = self.server.sim_handlers()[name](client, args)
+        assert isinstance(ret, list)
+        return ret
+
+    def _saveScene(self, client: Client, args: Args) -> list[object]:
+        raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")
+
+    def _unsupported(self, what: str) -> Callable[[Client, Args], list[object]]:
+        def refuse(client: Client, args: Args) -> list[object]:
+            raise SimError(f"labsim serve: the stand-in does not build {what} yet (docs/coppeliasim.md)")
+        return refuse
+
+    def _createVisionSensor(self, client: Client, args: Args) -> list[object]:
+        return self._unsupported("vision sensors")(client, args)
+
+    def _createTexture(self, client: Client, args: Args) -> list[object]:
+        return self._unsupported("textured floors")(client, args)
+
+    def _createForceSensor(self, client: Client, args: Args) -> list[object]:
+        return self._unsupported("force sensors")(client, args)
+
+    def _createJoint(self, client: Client, args: Args) -> list[object]:
+        return self._unsupported("joints")(client, args)
+
+
+def _r(v: float) -> float:
+    return round(v, _ROUND) + 0.0  # + 0.0: no -0.0
+
+
+def _floats(value: object, n: int) -> list[float]:
+    if not isinstance(value, list) or len(value) < n or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value[:n]):
+        raise SimError(E_ARGS)
+    return [float(v) for v in value[:n]]
+
+
+def _value_and_frame(args: Args) -> tuple[object, object]:
+    """(value, frame) in either argument order: (h, value, frame) since 4.5, (h, frame, value) before."""
+    if len(args) < 2:
+        raise SimError(E_FEW)
+    if isinstance(args[1], int) and not isinstance(args[1], bool) and len(args) > 2:
+        value, rel = args[2], args[1]
+    else:
+        value, rel = args[1], (args[2] if len(args) > 2 and args[2] is not None else HANDLE_WORLD)
+    if rel not in (HANDLE_WORLD, HANDLE_PARENT):
+        raise SimError("labsim serve: shapes are placed relative to the world only")
+    return value, rel
