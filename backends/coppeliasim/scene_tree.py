@@ -14,8 +14,10 @@ the top level, by their names. Handles are 1, 2, 3, ... in the order objects are
 The path language is CoppeliaSim's (manual: "Accessing scene objects programmatically"):
 ``/A/B`` from the top, ``[n]`` the n-th same-alias object of the first level below that has
 one, ``{n}`` the n-th match anywhere below, level by level, ``*`` and ``?`` wildcards, ``.``,
-``..``, ``:``, ``./x`` and ``:/x`` relative to a proxy object, the ``index`` option, and the
-names before CoppeliaSim 4.3 (``Pioneer_p3dx_ultrasonicSensor5``, ``#0`` for the second robot).
+``..``, ``:``, ``./x`` and ``:/x`` relative to a proxy object, and the ``index`` option. The
+names before CoppeliaSim 4.3 (``Pioneer_p3dx_ultrasonicSensor5``, ``#0`` for the second robot)
+are kept apart (``old_name``): CoppeliaSim 4.6 documents paths for ``sim.getObject`` and old
+names only for the deprecated ``sim.getObjectHandle``.
 """
 from __future__ import annotations
 
@@ -155,7 +157,11 @@ class SceneTree:
             if path == ":":
                 return model
             return self._walk(proxy if path.startswith("./") else model, path[2:], index)
-        return self._old_names.get(path)  # an old-style object name
+        return None  # not a path: an old name is sim.getObjectHandle's (old_name)
+
+    def old_name(self, name: str) -> SceneObject | None:
+        """The object a name from before CoppeliaSim 4.3 meant (``Pioneer_p3dx_leftMotor#0``)."""
+        return self._old_names.get(name)
 
     def _walk(self, base: SceneObject | None, rest: str, index: int) -> SceneObject | None:
         """Follow the segments of ``rest`` down from ``base`` (None: the top)."""
