@@ -59,8 +59,10 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
         conn.require_sim()
         conn.stop_running()
         sim = conn.sim
-        # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): CoppeliaSim 4.6
-        conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
+        if hasattr(sim, "setSimulationTimeStep"):  # sim.setSimulationTimeStep(float dt): CoppeliaSim 4.7
+            conn.call("sim.setSimulationTimeStep", dt_s)
+        else:  # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): 4.6 (deprecated later)
+            conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
         _floor(conn, world)
         for wall in world.walls:
             _wall(conn, wall)

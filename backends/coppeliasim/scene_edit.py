@@ -17,7 +17,8 @@ What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene
 * ``sim.loadModel`` of CoppeliaSim's ``pioneer p3dx.ttm`` adds a Pioneer P3DX at the origin,
   with its own script (``sim.getScript``, ``sim.removeScript`` take it away; a simulation
   started with a script left is logged, since on CoppeliaSim it would drive the wheels);
-* ``sim.setFloatParam(sim.floatparam_simulation_time_step, dt)`` sets the time step.
+* ``sim.setSimulationTimeStep(dt)`` (or the older ``sim.setFloatParam(sim.floatparam_simulation_time_step,
+  dt)``) sets the time step.
 
 Coordinates are rounded to the nanometre and angles to the nanoradian when the world is
 rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
@@ -56,6 +57,7 @@ EDIT_CONSTANTS: dict[str, int] = {
 }
 EDITS = tuple(f"sim.{n}" for n in (
     "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
+    "setSimulationTimeStep",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
     "createVisionSensor", "createTexture", "createForceSensor", "createJoint",
@@ -237,6 +239,9 @@ class SceneEditor:
         self.server.dt_s = float(args[1])
         self.dirty = True
         return []
+
+    def _setSimulationTimeStep(self, client: Client, args: Args) -> list[object]:
+        return self._setFloatParam(client, [1, *args[:1]])
 
     def _getStringParam(self, client: Client, args: Args) -> list[object]:
         if not args or args[0] != EDIT_CONSTANTS["stringparam_resourcesdir"]:
