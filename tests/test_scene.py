@@ -81,3 +81,23 @@ def test_a_camera_matrix_looks_forward_and_down() -> None:
     assert (m[3], m[7], m[11]) == pytest.approx((0.2, 0.0, 2.9))
     rolled = camera_matrix(Camera("camera", 128, 128, 40, 3.0, 30, 0.2, 90.0), robot_z=0.1)
     assert (rolled[1], rolled[5], rolled[9]) == pytest.approx((0.0, -1.0, 0.0))  # image up: the robot's right
+
+
+def test_a_pioneer_loaded_with_its_script_is_logged_and_other_models_refused() -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    lines: list[str] = []
+    with Server(World("none", "", (0, 0, 1, 1)), 0, port=0, empty=True, log=lines.append) as srv:
+        client = RemoteAPIClient("127.0.0.1", srv.port)
+        sim = client.require("sim")
+        models = sim.getStringParam(sim.stringparam_resourcesdir) + "/models/robots/mobile/"
+        with pytest.raises(Exception, match="loads only CoppeliaSim"):
+            sim.loadModel(models + "KheperaIV.ttm")
+        robot = sim.loadModel(models + "pioneer p3dx.ttm")
+        assert sim.getObject("/PioneerP3DX") == robot
+        assert sim.getScript(sim.scripttype_childscript, robot) >= 0  # the stock model's script
+        sim.startSimulation()
+        sim.stopSimulation()
+        assert any("still has its script" in line for line in lines)
+        client.socket.close(0)
+        client.context.term()
