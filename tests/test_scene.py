@@ -65,9 +65,22 @@ def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
     assert built.walls == world.walls and built.blocks == world.blocks and built.bounds == world.bounds
 
 
+def test_the_road_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int, tmp_path: Path, capsys) -> None:
+    """The ground as a textured plane, five Pioneers with rolled 128 x 128 vision sensors:
+    the stand-in renders from the texture and the sensors' matrices, pixel for pixel."""
+    lab = tmp_path / "road.yaml"
+    lab.write_text((BEHAVIOURS / "road_follow.yaml").read_text().replace("seconds: 30 ", "seconds: 3"))
+    assert main(["scene", str(lab), "--port", str(empty)]) == 0
+    assert "5 Pioneer P3DX" in capsys.readouterr().out
+    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+    assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
+    assert _rows(remote) == _rows(ref) and len(_rows(ref)) == 1 + 5 * 60
+
+
 def test_what_the_stand_in_cannot_build_is_a_clear_error(empty: int, tmp_path: Path, capsys) -> None:
-    assert main(["scene", str(BEHAVIOURS / "road_follow.yaml"), "--port", str(empty)]) == 2
-    assert "does not texture the floor yet" in capsys.readouterr().err
+    assert main(["scene", str(BEHAVIOURS / "crane.yaml"), "--port", str(empty)]) == 2
+    assert "does not build mechanisms yet" in capsys.readouterr().err
     assert main(["scene", str(BEHAVIOURS / "wall_follow.yaml"), "--port", str(empty), "--save", "x.ttt"]) == 2
     assert "the stand-in writes no .ttt files" in capsys.readouterr().err
     assert main(["scene", str(BEHAVIOURS / "wall_follow.yaml"), "--port", str(empty), "--save", "x.txt"]) == 2

@@ -10,7 +10,10 @@ cited at each call):
 
 * the simulation time step set to the behaviour's ``dt``;
 * the floor: a plane the size of the world's bounds (not respondable: CoppeliaSim's own
-  floor carries the robots), aliased ``labsimFloor``;
+  floor carries the robots), aliased ``labsimFloor``; a world that paints its floor (roads,
+  lines) gets a second plane just above it, textured with labsim's own drawing of that
+  ground (the picture its cameras see, ``labsim.backends.pymunk.camera.draw_ground``, written
+  to a PNG), aliased ``labsimGround``;
 * each wall a static, respondable cuboid aliased ``wall``: as long as the wall plus its
   thickness (labsim's walls have rounded ends), ``WALL_HEIGHT_M`` high; each block a static
   cuboid aliased ``block`` when it is a rectangle, else a prism (``sim.createMeshShape``);
@@ -20,8 +23,7 @@ cited at each call):
 * each camera a vision sensor with the behaviour's resolution, field of view, mount, pitch
   and roll, under its robot, aliased ``visionSensor``.
 
-Not built yet: a world's mechanism, and the floor's texture (the roads a camera sees); both
-are refused before anything is sent.
+Not built yet: a world's mechanism; it is refused before anything is sent.
 """
 from __future__ import annotations
 
@@ -42,9 +44,6 @@ def unsupported(world: World) -> str:
     """Why ``build`` cannot build ``world`` yet, or ""."""
     if world.mechanism is not None:
         return f"world '{world.name}' has a mechanism; labsim scene does not build mechanisms yet"
-    if world.ground is not None:
-        return (f"world '{world.name}' paints its floor (roads, lines); labsim scene does not texture "
-                f"the floor yet")
     return ""
 
 
@@ -64,6 +63,8 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
         else:  # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): 4.6 (deprecated later)
             conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
         _floor(conn, world)
+        if world.ground is not None and world.ground.extent() is not None:
+            _ground(conn, world)
         for wall in world.walls:
             _wall(conn, wall)
         for block in world.blocks:
@@ -107,6 +108,32 @@ def _floor(conn: Connection, world: World) -> None:
     h = int(conn.call("sim.createPrimitiveShape", conn.sim.primitiveshape_plane, [xmax - xmin, ymax - ymin, 0.0], 0))
     _static(conn, h, "labsimFloor", respondable=False)
     _place(conn, h, (xmin + xmax) / 2, (ymin + ymax) / 2, 0.0, 0.0)
+
+
+def _ground(conn: Connection, world: World) -> None:
+    """The painted floor: labsim's drawing of it as the texture of a plane just above the floor."""
+    import tempfile
+    from pathlib import Path
+
+    import cv2
+
+    from labsim.backends.pymunk.camera import draw_ground
+
+    assert world.ground is not None
+    picture, xmin, ymax = draw_ground(world.ground)
+    ppm = float(world.ground.px_per_m)
+    height_px, width_px = picture.shape[:2]
+    w, h = width_px / ppm, height_px / ppm
+    with tempfile.TemporaryDirectory(prefix="labsim-scene-") as folder:
+        png = str(Path(folder) / f"{world.name}-ground.png")
+        cv2.imwrite(png, cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+        # sim.createTexture(string fileName, int options, list planeSizes): CoppeliaSim 4.6;
+        # it makes a plane of that size with the picture on it, and returns the plane's handle
+        # (then the texture's id and resolution). CoppeliaSim reads the file at once.
+        ret = conn.call("sim.createTexture", png, 0, [w, h])
+    plane = int(ret[0] if isinstance(ret, (list, tuple)) else ret)
+    _static(conn, plane, "labsimGround", respondable=False)
+    _place(conn, plane, xmin + w / 2, ymax - h / 2, 0.001, 0.0)
 
 
 def _wall(conn: Connection, wall: Wall) -> None:

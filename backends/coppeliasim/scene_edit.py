@@ -24,21 +24,31 @@ Coordinates are rounded to the nanometre and angles to the nanoradian when the w
 rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
 reproduces the embedded backend's trace.
 
-Not built here (the stand-in answers with an error saying so): vision sensors, textures,
-joints and force sensors, and ``sim.saveScene``.
+* ``sim.createTexture`` of a PNG makes a textured plane; the ground its cameras see is that
+  picture, placed and scaled as the plane is (``labsim.backends.scene.ground.Texture``), the
+  floor's colour its corner pixel's;
+* a vision sensor (``sim.createVisionSensor``) parented to a robot (``sim.setObjectParent``)
+  and placed with ``sim.setObjectMatrix`` becomes that robot's camera: resolution, view
+  angle, mount, pitch and roll read back from them (angles rounded to 1e-6 degrees).
+
+Not built here (the stand-in answers with an error saying so): joints and force sensors, and
+``sim.saveScene``.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from labsim.backends.coppeliasim import HANDLE_PARENT, HANDLE_WORLD, STOPPED
+from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
 from labsim.backends.coppeliasim.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait
 from labsim.backends.coppeliasim.simulation import Client
 from labsim.backends.protocol import RobotRequest
-from labsim.backends.scene.models import PIONEER_P3DX
+from labsim.backends.scene.ground import Ground, Texture
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.scene.world import Block, Pose, Wall, World
 
 if TYPE_CHECKING:
@@ -60,7 +70,8 @@ EDITS = tuple(f"sim.{n}" for n in (
     "setSimulationTimeStep",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
-    "createVisionSensor", "createTexture", "createForceSensor", "createJoint",
+    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix", "createForceSensor",
+    "createJoint",
 ))
 _ROUND = 9
 
@@ -78,6 +89,19 @@ class Shape:
     yaw: float = 0.0
     alias: str = "Cuboid"
     static: bool = False
+    png: bytes = b""  # a textured plane's picture (sim.createTexture)
+    px: tuple[int, int] = (0, 0)  # its width and height in pixels
+
+
+@dataclass(eq=False)
+class Sensor:
+    """A vision sensor built through the remote API: it becomes its robot's camera."""
+
+    resolution: tuple[int, int]
+    angle_rad: float  # the view angle, across the larger side
+    robot: int = -1  # the robot it was parented to
+    matrix: list[float] = field(default_factory=list)  # its pose in the robot's frame
+    alias: str = "visionSensor"
 
 
 class SceneEditor:
@@ -87,6 +111,7 @@ class SceneEditor:
         self.server = server
         self.shapes: dict[int, Shape] = {}
         self.scripts: dict[int, int] = {}  # script handle -> robot index
+        self.sensors: dict[int, Sensor] = {}
         self.robots: list[Pose] = []
         self.dirty = False
         self._next = FIRST_HANDLE
@@ -134,9 +159,12 @@ class SceneEditor:
         walls: list[Wall] = []
         blocks: list[Block] = []
         bounds = (-10.0, -10.0, 10.0, 10.0)
+        ground: Ground | None = None
         for s in self.shapes.values():
             c, si = math.cos(s.yaw), math.sin(s.yaw)
-            if s.kind == "plane":
+            if s.kind == "texture":
+                ground = _textured(s)
+            elif s.kind == "plane":
                 hw, hd = s.size[0] / 2, s.size[1] / 2
                 bounds = (_r(s.x - hw), _r(s.y - hd), _r(s.x + hw), _r(s.y + hd))
             elif not s.static:
@@ -152,14 +180,20 @@ class SceneEditor:
                                           for x, y in local)))
             else:
                 blocks.append(Block(tuple((_r(s.x + x), _r(s.y + y)) for x, y in s.corners)))
-        return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks))
+        return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
+                     ground=ground)
 
     def apply(self) -> None:
         """Rebuild the server's simulation from the edits (the robots keep the poses they were given)."""
         sim = self.server.simulation
         poses = [r.pose for r in sim.robots] + self.robots[len(sim.robots):]
         self.robots = poses
-        requests = [RobotRequest(f"PioneerP3DX[{i}]", PIONEER_P3DX, p, ()) for i, p in enumerate(poses)]
+        cameras: dict[int, list[Camera]] = {}
+        for sensor in self.sensors.values():
+            if sensor.robot >= 0 and sensor.matrix:
+                cameras.setdefault(sensor.robot, []).append(_camera(sensor))
+        models = [dataclasses.replace(PIONEER_P3DX, cameras=tuple(cameras.get(i, ()))) for i in range(len(poses))]
+        requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
         self.server.rebuild(self.world(), requests)
         self.dirty = False
 
@@ -184,7 +218,7 @@ class SceneEditor:
         h = args[0]
         if not isinstance(h, int) or isinstance(h, bool):
             raise SimError(E_ARGS)
-        if h >= FIRST_HANDLE and h not in self.shapes:
+        if h >= FIRST_HANDLE and h not in self.shapes and h not in self.sensors:
             raise SimError(E_HANDLE)
         return self.shapes.get(h)
 
@@ -214,8 +248,11 @@ class SceneEditor:
         shape = self._shape(args)
         if len(args) < 2 or not isinstance(args[1], str):
             raise SimError(E_ARGS)
+        if args[0] in self.sensors:
+            self.sensors[args[0]].alias = args[1]
+            return []
         if shape is None:
-            raise SimError("labsim serve: only built shapes take a new alias")
+            raise SimError("labsim serve: only built shapes and sensors take a new alias")
         shape.alias = args[1]
         self.dirty = True
         return []
@@ -334,16 +371,101 @@ class SceneEditor:
         return refuse
 
     def _createVisionSensor(self, client: Client, args: Args) -> list[object]:
-        return self._unsupported("vision sensors")(client, args)
+        # sim.createVisionSensor(int options, list intParams, list floatParams): CoppeliaSim 4.6
+        self._stopped()
+        if len(args) < 3:
+            raise SimError(E_FEW)
+        res = _floats(args[1], 2)
+        floats = _floats(args[2], 3)
+        h = self._next
+        self._next += 1
+        self.sensors[h] = Sensor((int(res[0]), int(res[1])), floats[2])
+        self.dirty = True
+        return [h]
+
+    def _setObjectParent(self, client: Client, args: Args) -> list[object]:
+        # sim.setObjectParent(int objectHandle, int parentHandle, bool keepInPlace): CoppeliaSim 4.6
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        sensor = self.sensors.get(args[0])
+        if self.dirty:
+            self.apply()
+        parent = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
+        if sensor is None or parent is None or parent.kind != "robot":
+            raise SimError("labsim serve: only a built vision sensor is parented, and only to a robot")
+        sensor.robot = parent.robot
+        self.dirty = True
+        return []
+
+    def _setObjectMatrix(self, client: Client, args: Args) -> list[object]:
+        # sim.setObjectMatrix(int objectHandle, list matrix, int relativeTo): CoppeliaSim 4.6
+        if len(args) < 3:
+            raise SimError(E_FEW)
+        sensor = self.sensors.get(args[0])
+        if sensor is None or sensor.robot < 0:
+            raise SimError("labsim serve: only a vision sensor parented to a robot takes a matrix")
+        robot = self.server.simulation.robots[sensor.robot].obj.handle
+        if args[2] != robot:
+            raise SimError("labsim serve: a vision sensor's matrix is taken relative to its robot")
+        sensor.matrix = _floats(args[1], 12)
+        self.dirty = True
+        return []
 
     def _createTexture(self, client: Client, args: Args) -> list[object]:
-        return self._unsupported("textured floors")(client, args)
+        # sim.createTexture(string fileName, int options, list planeSizes, ...): CoppeliaSim 4.6;
+        # returns the textured plane's handle, the texture's id and its resolution
+        import cv2
+        import numpy as np
+
+        if len(args) < 3 or not isinstance(args[0], str):
+            raise SimError(E_FEW if len(args) < 3 else E_ARGS)
+        try:
+            with open(args[0], "rb") as f:
+                png = f.read()
+        except OSError as e:
+            raise SimError(f"labsim serve: cannot read the texture '{args[0]}': {e.strerror}") from None
+        picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
+        if picture is None:
+            raise SimError(f"labsim serve: the texture '{args[0]}' is not an image")
+        sizes = _floats(args[2], 2)
+        height, width = picture.shape[:2]
+        [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
+        return [h, h, [width, height]]
 
     def _createForceSensor(self, client: Client, args: Args) -> list[object]:
         return self._unsupported("force sensors")(client, args)
 
     def _createJoint(self, client: Client, args: Args) -> list[object]:
         return self._unsupported("joints")(client, args)
+
+
+def _textured(s: Shape) -> Ground:
+    """The ground a textured plane shows: its picture, placed and scaled as the plane is."""
+    import cv2
+    import numpy as np
+
+    bgr = cv2.imdecode(np.frombuffer(s.png, np.uint8), cv2.IMREAD_COLOR)
+    assert bgr is not None  # sim.createTexture decoded it already
+    b, g, r = (int(v) for v in bgr[0, 0])  # the margin around what is painted: the floor
+    ppm = round(s.px[0] / s.size[0], 6)
+    return Ground(floor_rgb=(r, g, b), px_per_m=ppm,
+                  texture=Texture(s.png, _r(s.x - s.size[0] / 2), _r(s.y + s.size[1] / 2)))
+
+
+def _camera(s: Sensor) -> Camera:
+    """A vision sensor's pose and optics as labsim's camera (see scene_builder.camera_matrix)."""
+    m = s.matrix
+    y_axis, z_axis = (m[1], m[5], m[9]), (m[2], m[6], m[10])
+    pitch = math.asin(max(-1.0, min(1.0, -z_axis[2])))
+    up = (math.sin(pitch), 0.0, math.cos(pitch))
+    roll = math.atan2(-y_axis[1], sum(a * b for a, b in zip(y_axis, up)))
+    w, h = s.resolution
+    fov = s.angle_rad if w >= h else 2 * math.atan(math.tan(s.angle_rad / 2) * w / h)
+    return Camera("camera", w, h, _deg(fov), _r(m[11] + ROBOT_Z_M), _deg(pitch), _r(m[3]), _deg(roll))
+
+
+def _deg(v: float) -> float:
+    return round(math.degrees(v), 6) + 0.0
 
 
 def _r(v: float) -> float:
