@@ -35,7 +35,7 @@ TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "rob
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
 ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params", "noise")
-PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar")
+PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar", "camera")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m", "roll_deg")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
 
@@ -358,7 +358,7 @@ class _Reader(Reader):
         return tuple(out)
 
     def paths(self, node: Node) -> tuple[tuple[str, str], ...]:
-        """paths: {robot: "/MyPioneer[{i}]", left_motor: ./leftMotor, sonar: "./sonar[{k}]"}"""
+        """paths: {robot: "/MyPioneer[{i}]", left_motor: ./leftMotor, sonar: "./sonar[{k}]", camera: ./cam}"""
         out = []
         fields = self.known_keys(node, PATH_KEYS, "path", "paths",
                                  " ({i} is the robot's index among all robots, from 0; {k} the sonar's, from 0)")

@@ -36,6 +36,8 @@ def _robot() -> Schema:
         "left_motor": text("the left motor's path, e.g. ./leftMotor"),
         "right_motor": text("the right motor's path, e.g. ./rightMotor"),
         "sonar": text("the sonar's path, e.g. ./ultrasonicSensor[{k}]"),
+        "camera": text("the camera's vision sensor, e.g. ./visionSensor (default: ./visionSensor, "
+                       "then ./Vision_sensor)"),
     }, "object paths in your own CoppeliaSim scene ({i}: the robot's index from 0; {k}: the sonar's)")
     at = {"description": "where it starts: spawn (the world's spawn poses), random, or [x, y, heading_deg]",
           "anyOf": [{"enum": ["spawn", "random"]}, numbers("[x, y] or [x, y, heading_deg]", (2, 3))]}

@@ -29,6 +29,7 @@ from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.plot_driver import add_plot_parser
 from labsim.runtime.report import ProgressBar, format_summary
 from labsim.runtime.run import compile_behaviour, slider_events
+from labsim.runtime.scene_cmd import add_scene_parser, cmd_scene
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.sweep_driver import add_sweep_parser
 from labsim.runtime.trace import TraceFormatError, read_trace
@@ -135,6 +136,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="serve the scene a behaviour file needs: its world, dt and robots, with "
                             "their cameras")
     serve.add_argument("--quiet", "-q", action="store_true", help="do not log clients and simulations")
+    serve.add_argument("--empty", action="store_true",
+                       help="start from an empty scene, to be built through the remote API (labsim scene)")
+    add_scene_parser(sub)
     return p
 
 
@@ -170,7 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _name_labs(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
                 "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
-                "sweep": cmd_sweep, "schema": cmd_schema}[args.command](args)
+                "sweep": cmd_sweep, "schema": cmd_schema, "scene": cmd_scene}[args.command](args)
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -459,11 +463,13 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic("--dt", "give a positive time step in seconds")])
 
     def ready(server: Server) -> None:
-        print(f"labsim serve: world {world.name} ({server.describe()}), dt {dt:g} s, listening on "
+        what = ("an empty scene (labsim scene FILE builds one)" if args.empty
+                else f"world {world.name} ({server.describe()})")
+        print(f"labsim serve: {what}, dt {dt:g} s, listening on "
               f"tcp://{args.host}:{server.port}; Ctrl-C stops", flush=True)
 
     log = None if args.quiet else _warn
-    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready)
+    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready, empty=args.empty)
     print("labsim serve: stopped", flush=True)
     return EXIT_OK
 

@@ -110,8 +110,12 @@ def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     sonar5 = h["/PioneerP3DX[0]/ultrasonicSensor[4]"]
     assert wire("sim.getObject", "./ultrasonicSensor", {"proxy": h["/PioneerP3DX[0]"], "index": 4}) == sonar5
     assert wire("sim.getObject", "/ultrasonicSensor[4]") == sonar5  # descends when not at the top
-    assert wire("sim.getObject", "Pioneer_p3dx_ultrasonicSensor5") == sonar5  # pre-4.3 names
-    assert wire("sim.getObject", "Pioneer_p3dx_leftMotor#0") == h["/PioneerP3DX[1]/leftMotor"]
+    # pre-4.3 names: the deprecated sim.getObjectHandle takes them; sim.getObject wants a path
+    assert wire("sim.getObjectHandle", "Pioneer_p3dx_ultrasonicSensor5") == sonar5
+    assert wire("sim.getObjectHandle", "Pioneer_p3dx_leftMotor#0") == h["/PioneerP3DX[1]/leftMotor"]
+    err = wire.raw("sim.getObject", "Pioneer_p3dx_leftMotor#0")["err"]
+    assert "object does not exist" in err and "before CoppeliaSim 4.3" in err and "/PioneerP3DX[1]/leftMotor" in err
+    assert wire("sim.getObject", "Pioneer_p3dx_leftMotor#0", {"noError": True}) == -1
     assert wire("sim.getObject", "/PioneerP3DX[7]", {"noError": True}) == -1
     assert "proxy" in wire.raw("sim.getObject", "./leftMotor")["err"]  # relative needs a proxy
     assert wire("sim.getObjectAlias", sonar5) == "ultrasonicSensor"

@@ -34,7 +34,9 @@ STOPPED, PAUSED, RUNNING = 0x00, 0x08, 0x11
 # absolute and formatted with ``i``, the robot's number among the robots of that model;
 # the others are relative to the robot (resolved with the ``proxy`` option of sim.getObject)
 # and ``sonar`` is formatted with ``k`` = sonar number - 1 (channel sonar1 is
-# ultrasonicSensor[0]). A camera channel ``c`` is ``cameras[c]``, or ``./c`` when absent.
+# ultrasonicSensor[0]). A camera channel ``c`` is ``cameras[c]`` (the behaviour's ``paths:
+# {camera: ...}`` for the channel ``camera``); when neither names it, the backend looks for
+# each alias of ``CAMERA_ALIASES`` under the robot, then for ``./c``.
 # ``collision``: what sim.checkCollision tests the robot against; None is sim.handle_all.
 MODEL_PATHS: dict[str, dict[str, object]] = {
     "pioneer_p3dx": {
@@ -42,14 +44,22 @@ MODEL_PATHS: dict[str, dict[str, object]] = {
         "left_motor": "./leftMotor",
         "right_motor": "./rightMotor",
         "sonar": "./ultrasonicSensor[{k}]",
-        "cameras": {"camera": "./Vision_sensor"},  # the alias CoppeliaSim gives a new vision sensor
+        "cameras": {},  # found under CAMERA_ALIASES
         "collision": None,
     },
 }
+
+# The alias CoppeliaSim gives a new vision sensor (Add > Vision sensor, or sim.createVisionSensor):
+# ``visionSensor`` from CoppeliaSim 4.8 on, ``Vision_sensor`` in 4.3 to 4.7 (docs/coppeliasim.md
+# has the table). The backend tries them in this order; the stand-in names its cameras with the
+# last, as the 4.6 and 4.7 servers it answers for do.
+CAMERA_ALIASES = ("visionSensor", "Vision_sensor")
 
 
 def camera_alias(model: str, channel: str) -> str:
     """The alias of a robot's camera object for a camera channel (``camera`` -> Vision_sensor)."""
     cameras = MODEL_PATHS.get(model, {}).get("cameras", {})
-    path = cameras.get(channel, f"./{channel}") if isinstance(cameras, dict) else f"./{channel}"
+    path = cameras.get(channel) if isinstance(cameras, dict) else None
+    if path is None:
+        return CAMERA_ALIASES[-1] if model in MODEL_PATHS and channel == "camera" else channel
     return str(path).rsplit("/", 1)[-1]

@@ -25,7 +25,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from labsim.backends.coppeliasim import HANDLE_ALL, MODEL_PATHS
+from labsim.backends.coppeliasim import CAMERA_ALIASES, HANDLE_ALL, MODEL_PATHS
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.coppeliasim.frames import yaw
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
@@ -99,7 +99,6 @@ class Fleet:
         assert req.model is not None
         offered = req.model.channels()
         sonars = [name for name, kind in offered.items() if kind is Kind.DISTANCE]
-        camera_paths = paths.get("cameras")
         h = r.handle = get(str(paths["robot"]).format(i=i), -1, f"robot '{req.name}'")
         r.collide_with = conn.handle_all
         r.motors = (get(str(paths["left_motor"]), h, f"robot '{req.name}', left motor"),
@@ -110,8 +109,7 @@ class Fleet:
                 path = str(paths["sonar"]).format(k=sonars.index(ch))
                 r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
             elif kind is Kind.IMAGE:
-                path = str(camera_paths.get(ch, f"./{ch}") if isinstance(camera_paths, dict) else f"./{ch}")
-                r.cameras.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
+                r.cameras.append((self._camera(paths, ch, h, f"robot '{req.name}', {ch}"), slot))
             else:
                 r.slots[ch] = slot
         r.read_position = bool(r.slots.keys() & {"x", "y", *ROAD_CHANNELS})
@@ -120,6 +118,23 @@ class Fleet:
         target = paths.get("collision")
         if target:
             r.collide_with = get(str(target), -1, f"robot '{req.name}', collision target")
+
+    def _camera(self, paths: dict[str, object], ch: str, robot_h: int, what: str) -> int:
+        """A camera's vision sensor: the path the behaviour or ``paths`` give, else the first of
+        ``CAMERA_ALIASES`` under the robot (4.8's ``visionSensor``, then ``Vision_sensor``)."""
+        cameras = paths.get("cameras")
+        path = paths.get("camera") if ch == "camera" else None
+        if path is None and isinstance(cameras, dict):
+            path = cameras.get(ch)
+        if path is not None:
+            return self._conn.get(str(path), robot_h, what)
+        for alias in (*CAMERA_ALIASES, ch) if ch == "camera" else (ch,):
+            # sim.getObject's noError option (CoppeliaSim 4.3+): -1 instead of an error
+            h = self._conn.call("sim.getObject", f"./{alias}", {"proxy": robot_h, "noError": True})
+            if isinstance(h, int) and h >= 0:
+                return h
+        tried = ", ".join(f"./{a}" for a in (*CAMERA_ALIASES, ch)) if ch == "camera" else f"./{ch}"
+        return self._conn.get(f"./{ch}", robot_h, f"{what} (tried {tried}; name it with paths: {{camera: ...}})")
 
     def place(self) -> None:
         """Each robot at the behaviour's start pose, keeping the scene's height and tilt."""

@@ -7,15 +7,17 @@ wire: it is names, handles and parents.
 
 What the tree holds, for each Pioneer P3DX robot ``i`` (``/PioneerP3DX[i]`` in the order
 given): ``leftMotor``, ``rightMotor``, 16 ``ultrasonicSensor`` children and, when its model has
-cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``); for a world with a
+cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it); for a world with a
 mechanism (the crane), its joints (all but fixed ones), force sensors and moving bodies at
 the top level, by their names. Handles are 1, 2, 3, ... in the order objects are added.
 
 The path language is CoppeliaSim's (manual: "Accessing scene objects programmatically"):
 ``/A/B`` from the top, ``[n]`` the n-th same-alias object of the first level below that has
 one, ``{n}`` the n-th match anywhere below, level by level, ``*`` and ``?`` wildcards, ``.``,
-``..``, ``:``, ``./x`` and ``:/x`` relative to a proxy object, the ``index`` option, and the
-names before CoppeliaSim 4.3 (``Pioneer_p3dx_ultrasonicSensor5``, ``#0`` for the second robot).
+``..``, ``:``, ``./x`` and ``:/x`` relative to a proxy object, and the ``index`` option. The
+names before CoppeliaSim 4.3 (``Pioneer_p3dx_ultrasonicSensor5``, ``#0`` for the second robot)
+are kept apart (``old_name``): CoppeliaSim 4.6 documents paths for ``sim.getObject`` and old
+names only for the deprecated ``sim.getObjectHandle``.
 """
 from __future__ import annotations
 
@@ -155,7 +157,11 @@ class SceneTree:
             if path == ":":
                 return model
             return self._walk(proxy if path.startswith("./") else model, path[2:], index)
-        return self._old_names.get(path)  # an old-style object name
+        return None  # not a path: an old name is sim.getObjectHandle's (old_name)
+
+    def old_name(self, name: str) -> SceneObject | None:
+        """The object a name from before CoppeliaSim 4.3 meant (``Pioneer_p3dx_leftMotor#0``)."""
+        return self._old_names.get(name)
 
     def _walk(self, base: SceneObject | None, rest: str, index: int) -> SceneObject | None:
         """Follow the segments of ``rest`` down from ``base`` (None: the top)."""

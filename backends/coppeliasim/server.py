@@ -30,7 +30,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, RUNNING, STOPPED
-from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, SimApi, SimError
+from labsim.backends.coppeliasim.scene_edit import SceneEditor
+from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError
 from labsim.backends.coppeliasim.simulation import Client, Simulation, robot_specs
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import RobotModel
@@ -63,7 +64,7 @@ class Server:
 
     def __init__(self, world: World, robots: int | Sequence[RobotRequest] = 1, *, host: str = "127.0.0.1",
                  port: int = DEFAULT_PORT, dt_s: float = 0.05, takeover_s: float = TAKEOVER_S,
-                 log: Callable[[str], None] | None = None) -> None:
+                 log: Callable[[str], None] | None = None, empty: bool = False) -> None:
         if not (isinstance(dt_s, (int, float)) and math.isfinite(dt_s) and dt_s > 0):
             raise BackendError(f"labsim serve: the time step must be positive, not {dt_s!r}")
         self.world = world
@@ -73,9 +74,12 @@ class Server:
         self.takeover_s = takeover_s
         self.log = log or (lambda message: None)
         self.messages = 0  # requests answered, for tests and the log
-        self.simulation = Simulation(world, robots, self.dt_s, self.log)
-        self._funcs = SimApi(self.simulation).handlers()
+        self.simulation = Simulation(world, 0 if empty else robots, self.dt_s, self.log)
+        self._sim_funcs = SimApi(self.simulation).handlers()
         self._clients = self.simulation.clients
+        # --empty: the scene is built through the remote API (labsim scene), see scene_edit
+        self.editor = SceneEditor(self) if empty else None
+        self._funcs = self.editor.handlers() if self.editor is not None else self._sim_funcs
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._context: zmq.Context | None = None
@@ -106,6 +110,17 @@ class Server:
             if names:
                 parts.append(f"{label} {', '.join(names)}")
         return "; ".join(parts) or "an empty scene"
+
+    def sim_handlers(self) -> dict[str, Handler]:
+        """The handlers of the current simulation's ``sim.*`` functions."""
+        return self._sim_funcs
+
+    def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None:
+        """A new simulation of ``world`` and ``robots`` (stopped), keeping the connected clients."""
+        simulation = Simulation(world, robots, self.dt_s, self.log)
+        simulation.clients = self._clients
+        self.world, self.simulation = world, simulation
+        self._sim_funcs = SimApi(simulation).handlers()
 
     @property
     def simulation_time_s(self) -> float:
@@ -304,13 +319,13 @@ class Server:
 def serve(world: World, robots: int | Sequence[RobotRequest] = 1, port: int = DEFAULT_PORT,
           host: str = "127.0.0.1", *, dt_s: float = 0.05, takeover_s: float = TAKEOVER_S,
           log: Callable[[str], None] | None = None,
-          ready: Callable[[Server], None] | None = None) -> None:
+          ready: Callable[[Server], None] | None = None, empty: bool = False) -> None:
     """Serve until Ctrl-C (SIGINT), SIGTERM or ``stop()`` on the server given to ``ready``.
 
     ``ready(server)`` is called once the socket is bound (``server.port`` is then the real
     port, also for ``port=0``).
     """
-    server = Server(world, robots, host=host, port=port, dt_s=dt_s, takeover_s=takeover_s, log=log)
+    server = Server(world, robots, host=host, port=port, dt_s=dt_s, takeover_s=takeover_s, log=log, empty=empty)
     server.bind()
     previous = None
     if threading.current_thread() is threading.main_thread():

@@ -188,6 +188,12 @@ class SimApi:
             return [obj.handle]
         if options.get("noError"):
             return [-1]
+        old = self.tree.old_name(path)
+        if old is not None:
+            # CoppeliaSim 4.6's sim.getObject takes paths ("Accessing scene objects
+            # programmatically"); a pre-4.3 name is for the deprecated sim.getObjectHandle
+            raise SimError(f"{E_PATH} (labsim serve: '{path}' is an object name from before CoppeliaSim 4.3; "
+                           f"sim.getObject takes a path: '{self.tree.path(old, short=True)}')")
         robots = [self.tree.path(r.obj) for r in self.sim.robots]
         hint = (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: "
                 + ", ".join(robots) if robots else "this scene has no robots")
@@ -196,7 +202,9 @@ class SimApi:
         raise SimError(f"{E_PATH} (labsim serve: no object '{path}'; {hint})")
 
     def _sim_getObjectHandle(self, client: Client, args: Args) -> list[object]:
-        return self._sim_getObject(client, args[:1])
+        """Deprecated since CoppeliaSim 4.3, kept in 4.6: a path, or a name from before 4.3."""
+        old = self.tree.old_name(args[0]) if args and isinstance(args[0], str) else None
+        return [old.handle] if old is not None else self._sim_getObject(client, args[:1])
 
     def _sim_getObjectAlias(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)

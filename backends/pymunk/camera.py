@@ -69,6 +69,13 @@ def draw_ground(ground: Ground) -> tuple[np.ndarray, float, float]:
     ppm = float(ground.px_per_m)
     if not (math.isfinite(ppm) and ppm > 0):
         raise ValueError(f"ground px_per_m must be positive, not {ground.px_per_m!r}")
+    if ground.texture is not None:  # a picture of the ground: decoded, not drawn
+        bgr = cv2.imdecode(np.frombuffer(ground.texture.png, np.uint8), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise ValueError("the ground's texture is not an image")
+        picture = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        picture.flags.writeable = False
+        return picture, ground.texture.xmin, ground.texture.ymax
     floor = _colour(ground.floor_rgb)
     box = ground.texture_box()
     if box is None:  # a bare floor: the warp's border colour does all the work

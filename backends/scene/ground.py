@@ -71,6 +71,17 @@ class Patch:
 
 
 @dataclass(frozen=True)
+class Texture:
+    """The ground as a picture only: a PNG (north up) whose top-left corner is at (xmin, ymax),
+    at the ground's ``px_per_m``. What a simulator given a textured floor renders from
+    (``labsim serve --empty``), in place of the roads, lines and patches it was drawn from."""
+
+    png: bytes
+    xmin: float
+    ymax: float
+
+
+@dataclass(frozen=True)
 class Ground:
     """The floor's colour and what is painted on it.
 
@@ -84,6 +95,7 @@ class Ground:
     lines: tuple[Line, ...] = ()
     patches: tuple[Patch, ...] = ()
     px_per_m: float = DEFAULT_PX_PER_M
+    texture: Texture | None = None  # drawn already: cameras render this picture
 
     def extent(self) -> tuple[float, float, float, float] | None:
         """xmin, ymin, xmax, ymax (metres) of everything painted, widths included; None if bare."""
