@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import random
+from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 
@@ -22,27 +23,36 @@ from labsim.backends.scene.source import load
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
+from labsim.dsl.lint import lint
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
 
 
-def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None) -> Program:
+def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
+                 strict: bool = False) -> Program:
     """Load, read, check and compile a behaviour file; LabsimError lists every problem.
 
     ``overrides`` set parameters (``--set front=1.0``); ``seed`` replaces the file's ``seed:``.
+    The linter's warnings go on the Program; ``strict`` raises them as errors instead.
     """
     doc = load(path)
     report = Report()
     bf = read(doc, report)
     checked = check(bf, report, overrides)
     report.raise_if_errors()
-    shortage = _placement_shortage(checked, bf.seed if seed is None else seed)
+    seed = bf.seed if seed is None else seed
+    shortage = _placement_shortage(checked, seed)
     if shortage is not None:
         report.add(shortage)
+    report.raise_if_errors()
+    lint(checked, report)
+    if strict:
+        report.diagnostics = [replace(d, severity="error", notes=(*d.notes, "a warning, made an error by --strict"))
+                              if d.severity == "warning" else d for d in report.diagnostics]
         report.raise_if_errors()
     generated = generate(checked, code_filename(bf.path, overrides))
-    warnings = tuple(d for d in report.diagnostics if d.severity == "warning")
-    return _program(checked, generated, warnings, bf.seed if seed is None else seed)
+    warnings = tuple(sorted((d for d in report.diagnostics if d.severity == "warning"), key=lambda d: (d.line, d.col)))
+    return _program(checked, generated, warnings, seed)
 
 
 def code_filename(path: str, overrides: dict[str, str] | None = None) -> str:

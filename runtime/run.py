@@ -43,12 +43,12 @@ TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of ever
 
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
-                      seed: int | None = None) -> Behaviour:
+                      seed: int | None = None, strict: bool = False) -> Behaviour:
     """Compile a behaviour file; raises LabsimError listing every problem in it.
 
     ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``.
     """
-    return Behaviour(compile_file(path, overrides, seed))
+    return Behaviour(compile_file(path, overrides, seed, strict))
 
 
 @dataclass
