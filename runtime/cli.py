@@ -139,6 +139,9 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("--empty", action="store_true",
                        help="start from an empty scene, to be built through the remote API (labsim scene)")
     add_scene_parser(sub)
+    for command in (run, sub.choices["sweep"], check, test, view):
+        command.add_argument("--strict", action="store_true",
+                             help="treat the behaviour files' warnings as errors (exit code 2)")
     return p
 
 
@@ -172,6 +175,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         _name_labs(args)
+        if getattr(args, "strict", False) and args.command in ("test", "view", "sweep"):
+            _strict(args)
         return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
                 "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
                 "sweep": cmd_sweep, "schema": cmd_schema, "scene": cmd_scene}[args.command](args)
@@ -211,6 +216,25 @@ def _print_diagnostics(diagnostics: list[Diagnostic]) -> None:
         sys.stderr.write(f"{errors} errors\n")
 
 
+def _strict(args: argparse.Namespace) -> None:
+    """--strict: every behaviour the command will run compiles without warnings, or LabsimError."""
+    if args.command == "test":
+        files = _behaviour_files(args.paths)
+    elif args.command == "view":
+        files = [] if args.file.endswith(".csv") else [Path(args.file)]
+    else:
+        files = [Path(f) for f in args.files]
+    overrides = _overrides(args.set) if args.command == "view" else {}  # a sweep's --set is a grid
+    problems: list[Diagnostic] = []
+    for f in files:
+        try:
+            compile_behaviour(f, overrides, strict=True)
+        except LabsimError as e:
+            problems += e.diagnostics
+    if problems:
+        raise LabsimError(problems)
+
+
 def _overrides(pairs: list[str]) -> dict[str, str]:
     out = {}
     for pair in pairs:
@@ -229,7 +253,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     overrides = _overrides(args.set)
     if args.seed is not None and args.seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-    behaviour = compile_behaviour(args.file, overrides, seed=args.seed)
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict)
+    if behaviour.program.warnings:  # before the run, which may take a while
+        _print_diagnostics(list(behaviour.program.warnings))
     if args.trace:
         _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
     if args.json not in (None, "-"):
@@ -295,9 +321,11 @@ def cmd_check(args: argparse.Namespace) -> int:
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
-            behaviour = compile_behaviour(f)
+            behaviour = compile_behaviour(f, strict=args.strict)
             problems += behaviour.program.warnings
-            print(behaviour.program.code.listing if args.show_code else f"{f}: ok")
+            warned = len(behaviour.program.warnings)
+            print(behaviour.program.code.listing if args.show_code else
+                  f"{f}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
         except LabsimError as e:
             problems += e.diagnostics
     if problems:
