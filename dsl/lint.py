@@ -260,27 +260,33 @@ class Linter:
         value = self.known(limit)
         if seen is None or isinstance(value, bool) or not isinstance(value, int | float):
             return
-        range_m, sonar = seen
+        range_m, sonars = seen
         if math.isfinite(value) and value > range_m:
             source = text.value[limit.span[0]:limit.span[1]]
             shown = f"{value:g} m" if isinstance(limit, ast.Number) else f"'{source}' ({value:g} m)"
-            self.warn(text.at(limit.span), f"{shown} is beyond the range of {sonar}: it sees at most "
-                      f"{range_m:g} m (the model's range_m)", "beyond its range a sonar reads inf (nothing "
-                      "detected); to ask whether it sees anything at all, use detected(...)")
+            if isinstance(reading, ast.Name) and reading.id == sonars[0]:
+                what = f"the range of {sonars[0]}: it sees"
+            else:
+                read = text.value[reading.span[0]:reading.span[1]]
+                what = f"what '{read}' reads: {' and '.join(sonars)} {'see' if len(sonars) > 1 else 'sees'}"
+            self.warn(text.at(limit.span), f"{shown} is beyond {what} at most {range_m:g} m (the model's range_m)",
+                      "beyond its range a sonar reads inf (nothing detected); to ask whether it sees anything "
+                      "at all, use detected(...)")
 
-    def sonar_range(self, e: ast.Expr, depth: int = 0) -> tuple[float, str] | None:
+    def sonar_range(self, e: ast.Expr, depth: int = 0) -> tuple[float, tuple[str, ...]] | None:
         """(the farthest distance e can read, the sonar) when e is a sonar or the nearest of sonars."""
         if isinstance(e, ast.Name):
             if e.id in self.c.distance_channels:
                 ranges = [s.range_m for m in self.c.models.values() for s in m.sonars if s.name == e.id]
-                return (max(ranges), e.id) if ranges else None
+                return (max(ranges), (e.id,)) if ranges else None
             if e.id in self.let_exprs and depth < 100:
                 return self.sonar_range(self.let_exprs[e.id], depth + 1)
             return None
         if isinstance(e, ast.Call) and e.func in ("min", "max") and e.args:
             seen = [self.sonar_range(a, depth) for a in e.args]
-            if all(s is not None for s in seen):
-                return max(s for s in seen if s is not None)
+            found = [s for s in seen if s is not None]
+            if len(found) == len(seen):
+                return max(r for r, _ in found), tuple(sorted({n for _, names in found for n in names}))
         return None
 
     def stateful(self) -> None:
@@ -312,8 +318,8 @@ class Linter:
         if isinstance(e, ast.BoolOp):
             self.stateful_in(e.values[0], text, where)
             for v in e.values[1:]:
-                self.stateful_in(v, text, where or f"is after '{e.op}', evaluated only on the ticks "
-                                                   f"what is before it does not decide")
+                self.stateful_in(v, text, where or f"is after '{e.op}', evaluated only on the ticks what "
+                                                   f"comes before it {'holds' if e.op == 'and' else 'does not hold'}")
             return
         if isinstance(e, ast.IfExp):
             self.stateful_in(e.test, text, where)
