@@ -298,8 +298,8 @@ class Linter:
                 rule = decl.rule
                 every_tick = single and decl.number == 1
                 if rule.condition is not None:
-                    where = None if every_tick else ("is in a rule's condition, evaluated only on the ticks "
-                                                     "no earlier rule fires" + ("" if single else " and in its state"))
+                    where = None if every_tick else ("is in a rule's condition, evaluated only on the ticks no "
+                                                     "earlier rule fires" + ("" if single else f" in state '{decl.state}'"))
                     self.stateful_in(rule.condition, decl.text, where)
                 fires_always = every_tick and rule.condition is None
                 for action in rule.actions:
