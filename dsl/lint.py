@@ -298,8 +298,9 @@ class Linter:
                 rule = decl.rule
                 every_tick = single and decl.number == 1
                 if rule.condition is not None:
+                    in_state = "" if single else f" in state '{decl.state}'"
                     where = None if every_tick else ("is in a rule's condition, evaluated only on the ticks no "
-                                                     "earlier rule fires" + ("" if single else f" in state '{decl.state}'"))
+                                                     f"earlier rule fires{in_state}")
                     self.stateful_in(rule.condition, decl.text, where)
                 fires_always = every_tick and rule.condition is None
                 for action in rule.actions:
