@@ -71,9 +71,12 @@ def children(e: ast.Expr) -> tuple[ast.Expr, ...]:
 
 
 def walk(e: ast.Expr) -> Iterator[ast.Expr]:
-    yield e
-    for sub in children(e):
-        yield from walk(sub)
+    """Every node of an expression, e first; without recursion, so a long flat sum costs no stack."""
+    todo = [e]
+    while todo:
+        node = todo.pop()
+        yield node
+        todo.extend(reversed(children(node)))
 
 
 class Linter:
@@ -170,7 +173,7 @@ class Linter:
             env = dict(zip(names, corner))
             try:
                 out.append((float(self.value(e, env)), env))
-            except (_Unknown, TypeError, ValueError):
+            except (_Unknown, TypeError, ValueError, ArithmeticError):
                 return []
         return out
 
