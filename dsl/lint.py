@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.mechanism import JointSpec
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.source import Place, Text
 from labsim.dsl import ast
@@ -37,7 +38,7 @@ _COMPARE: dict[str, Callable[[Any, Any], bool]] = {
     "!=": operator.ne}
 _FOLDABLE = frozenset({"abs", "min", "max", "clamp", "sqrt", "hypot", "sin", "cos", "tan", "exp",
                        "floor", "ceil", "round", "sign", "deg", "rad"})
-# Wheel actions: how each turns its arguments into (left, right) wheel speeds, in rad/s.
+# Wheel actions whose every argument is a wheel speed, rad/s (drive(v, w) is turned into them).
 _WHEELS = ("arc", "wheels", "move")
 _DISCRETE_CHANNELS = frozenset({"laps"})  # whole laps: == is meant
 
@@ -403,7 +404,7 @@ class Linter:
             self.warn(text.at(action.span), f"drive({v:g}, {w:g}) asks a wheel for {fastest:.3g} rad/s, beyond the "
                       f"wheels' limit of {wheel_max:g} rad/s: the wheels are held to it")
 
-    def joint_target(self, joint: Any, mode: str, e: ast.Expr, text: Text) -> None:
+    def joint_target(self, joint: JointSpec, mode: str, e: ast.Expr, text: Text) -> None:
         values = self.extremes(e)
         if not values or joint.motor is None:
             return
