@@ -314,6 +314,10 @@ class Linter:
                                              "is in a rule's action, evaluated only on the ticks the rule fires")
         for e, text in [(p.node, p.text) for _, p in c.lets] + [(m.expr, m.text) for m in c.metrics]:
             self.stateful_in(e, text, None)
+        if c.file.stop is not None:  # 'a or b': b runs on every tick the run goes on, which is what counts
+            stop = c.file.stop.node
+            for e in stop.values if isinstance(stop, ast.BoolOp) and stop.op == "or" else (stop,):
+                self.stateful_in(e, c.file.stop.text, None)
 
     def stateful_in(self, e: ast.Expr, text: Text, where: str | None) -> None:
         """Warn at each stateful call of e; ``where`` says why e runs only on some ticks (None: every tick)."""
