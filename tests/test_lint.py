@@ -6,11 +6,8 @@ from pathlib import Path
 import pytest
 from conftest import BEHAVIOURS, FIXTURES, expectations
 
-from labsim.backends import load_backend
-from labsim.backends.scene.diagnostics import LabsimError
 from labsim.dsl.compile import compile_file
 from labsim.runtime.cli import main
-from labsim.runtime.run import compile_behaviour
 
 WARNING_FIXTURES = sorted(FIXTURES.glob("*_with_warning.yaml"))
 
@@ -46,17 +43,6 @@ def test_an_override_can_raise_a_warning(tmp_path: Path) -> None:
         "'front' (12 m) is beyond what 'right' reads: sonar8 and sonar9 see at most 1 m (the model's range_m)"}
 
 
-def test_free_places_foresee_the_runtime(tmp_path: Path) -> None:
-    """The robot the linter names is the one the run cannot place (same seed, same draws)."""
-    path = FIXTURES / "free_places_with_warning.yaml"
-    with pytest.raises(LabsimError, match="no free place left for another robot"):
-        compile_behaviour(path).bind(load_backend("pymunk"))
-    fewer = tmp_path / "fewer.yaml"
-    fewer.write_text(path.read_text().replace("count: 100", "count: 85"))
-    assert warnings(fewer) == set()
-    compile_behaviour(fewer).bind(load_backend("pymunk")).close()
-
-
 def test_check_prints_warnings_and_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
     path = str(FIXTURES / "unused_with_warning.yaml")
     assert main(["check", path]) == 0
@@ -79,3 +65,12 @@ def test_run_prints_the_warnings_before_it_runs(capsys: pytest.CaptureFixture[st
     path = str(FIXTURES / "unused_with_warning.yaml")
     assert main(["run", "-q", path]) == 0
     assert f"{path}:14:3: warning: slider 'gain' is never used" in capsys.readouterr().err
+
+
+def test_the_docs_worked_examples_give_no_warning(tmp_path: Path) -> None:
+    from test_memory import examples
+
+    for name, text in examples().items():
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(text)
+        assert warnings(path) == set(), name
