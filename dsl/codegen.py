@@ -12,6 +12,10 @@ has a marker comment (``#@7``); the ``listing`` is the same text with each marke
 the file's line and text (``# behaviours/wall_follow.yaml:23: if ahead <= front then ...``),
 so it lines up with the compiled code line for line: ``labsim check --show-code`` prints it,
 and tracebacks through generated functions show it.
+
+Over 500 lines: one generator class emits every form of the language (expressions, rules,
+metrics, bindings, the stop condition, memory) from one table of slots; split, each part
+would reach into the others' state.
 """
 from __future__ import annotations
 

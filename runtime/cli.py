@@ -7,6 +7,10 @@ Exit codes: 0 success; 1 a golden trace differs (or is missing); 2 a user's mist
 behaviour file, an unknown option or parameter, an unreachable simulator), reported as
 ``path:line:col: message`` without a Python traceback; 130 interrupted with Ctrl-C (the
 trace so far is kept).
+
+Over 500 lines: one argparse declaration per command and option, and each command's short
+function; the larger commands (plot, sweep, view, scene) keep their options in their own
+modules.
 """
 from __future__ import annotations
 
@@ -28,11 +32,11 @@ from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
 from labsim.runtime.plot_driver import add_plot_parser
 from labsim.runtime.report import ProgressBar, format_summary
-from labsim.runtime.run import compile_behaviour, slider_events
+from labsim.runtime.run import compile_behaviour
 from labsim.runtime.scene_cmd import add_scene_parser, cmd_scene
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.sweep_driver import add_sweep_parser
-from labsim.runtime.trace import TraceFormatError, read_trace
+from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
     from labsim.backends.coppeliasim.server import Server

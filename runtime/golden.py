@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
-from labsim.runtime.run import Summary, compile_behaviour
+from labsim.runtime.run import compile_behaviour
+from labsim.runtime.summary import Summary
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 ABS_TOL = 1e-6

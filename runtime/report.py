@@ -7,7 +7,8 @@ import time as clock
 from typing import TextIO
 
 from labsim.dsl.builtins import Aggregate
-from labsim.runtime.run import Run, Summary
+from labsim.runtime.run import Run
+from labsim.runtime.summary import Summary
 
 
 class ProgressBar:

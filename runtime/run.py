@@ -15,6 +15,10 @@ compile once, tick many times. A tick is, for every robot at once:
 Each robot owns its slots, command, random generator (seeded from the behaviour's seed and
 the robot's name) and metric accumulators; nothing is shared between robots or runs. A robot's
 declared noise sits between the backend and its program (``labsim.runtime.noise``).
+
+Over 500 lines: the tick loop is one closure on purpose (the hot path), and the set-up, the
+trace rows and the summary it fills read the same per-robot state; the summary's type and
+the replay's reader live in ``summary.py`` and ``trace.py``.
 """
 from __future__ import annotations
 
@@ -31,13 +35,14 @@ from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, PLACEMENT_CLEARANCE_M, Pose, World
-from labsim.dsl.builtins import Aggregate, Type
+from labsim.dsl.builtins import Type
 from labsim.dsl.compile import compile_file
 from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.noise import NoisyIO, robot_noise
-from labsim.runtime.trace import FORMAT, Trace, TraceWriter
+from labsim.runtime.summary import Summary, fleet_value
+from labsim.runtime.trace import FORMAT, TraceWriter
 
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
@@ -83,32 +88,6 @@ class RobotRun:
     clamped_ticks: int = 0
     paths: tuple[tuple[str, str], ...] = ()  # the behaviour file's scene names for it
     noise: Noise | None = None  # its declared noise (labsim.runtime.noise), None: none
-
-
-@dataclass
-class Summary:
-    """What a run did; the CLI prints it, tests read it."""
-
-    behaviour: str
-    backend: str
-    ticks: int
-    sim_time_s: float
-    wall_time_s: float
-    interrupted: bool
-    robots: dict[str, dict] = field(default_factory=dict)  # name -> contacts, clamps, metrics
-    rule_counts: dict[str, int] = field(default_factory=dict)  # rule id -> ticks it fired
-    rule_labels: dict[str, str] = field(default_factory=dict)  # rule id -> its text
-    idle_ticks: int = 0  # robot-ticks on which no rule fired
-    faults: list[str] = field(default_factory=list)  # "site: what (n times)"
-    trace: str | None = None
-    fleet: dict[str, float] = field(default_factory=dict)  # metric -> over all robots (see fleet_value)
-    stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
-    noise: dict[str, str] = field(default_factory=dict)  # robot -> its noise models (and readings lost)
-    stop_condition: str = ""  # the part of the stop condition that held ('or' parts apart)
-
-    @property
-    def real_time_factor(self) -> float:
-        return self.sim_time_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
 
 
 class Run:
@@ -537,40 +516,6 @@ LOG_RATE = 5
 def _one_field(text: str) -> str:
     """A log's text as one cell of the events column: no ';' (the separator) and no newline."""
     return text.replace(";", ",").replace("\n", " ")
-
-
-def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
-    """The slider moves a trace recorded (its events column), by tick, for a replay."""
-    out: dict[int, list[tuple[str, float]]] = {}
-    ticks, events = trace.column("tick"), trace.column("events")
-    for tick, text in zip(ticks, events):
-        for event in text.split(";") if text else ():
-            name, eq, value = event.partition("=")
-            if eq and not event.startswith("log: "):
-                settings = out.setdefault(int(tick), [])
-                if (name, float(value)) not in settings:  # one row per robot repeats them
-                    settings.append((name, float(value)))
-    return out
-
-
-def fleet_value(aggregate: Aggregate, values: list[float]) -> float:
-    """A metric over the whole fleet from the robots' values.
-
-    Counts and durations add up (total events, robot-seconds); maximum and minimum take the
-    extreme; rms is the root mean square of the robots' values; mean and final average.
-    """
-    finite = [v for v in values if v == v]
-    if not finite:
-        return math.nan
-    if aggregate in (Aggregate.COUNT, Aggregate.DURATION):
-        return sum(finite)
-    if aggregate is Aggregate.MAXIMUM:
-        return max(finite)
-    if aggregate is Aggregate.MINIMUM:
-        return min(finite)
-    if aggregate is Aggregate.RMS:
-        return math.sqrt(sum(v * v for v in finite) / len(finite))
-    return sum(finite) / len(finite)
 
 
 def _world_file(world: World) -> str:

@@ -17,7 +17,8 @@ from typing import Any
 
 from labsim import __version__
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.runtime.run import Run, Summary
+from labsim.runtime.run import Run
+from labsim.runtime.summary import Summary
 
 SCHEMA = "labsim-summary"
 SCHEMA_VERSION = 1

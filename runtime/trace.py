@@ -114,3 +114,17 @@ def read_trace(path: str | Path) -> Trace:
             raise TraceFormatError(f"{path}:{n}: {len(r)} fields where the header has {len(columns)} "
                                    "(a damaged or truncated trace)")
     return Trace(str(path), header, columns, rows)
+
+
+def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
+    """The slider moves a trace recorded (its events column), by tick, for a replay."""
+    out: dict[int, list[tuple[str, float]]] = {}
+    ticks, events = trace.column("tick"), trace.column("events")
+    for tick, text in zip(ticks, events):
+        for event in text.split(";") if text else ():
+            name, eq, value = event.partition("=")
+            if eq and not event.startswith("log: "):
+                settings = out.setdefault(int(tick), [])
+                if (name, float(value)) not in settings:  # one row per robot repeats them
+                    settings.append((name, float(value)))
+    return out

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from labsim.backends import load_backend
-from labsim.runtime.run import Summary, compile_behaviour
+from labsim.runtime.run import compile_behaviour
+from labsim.runtime.summary import Summary
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"

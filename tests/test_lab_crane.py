@@ -115,7 +115,7 @@ def test_the_golden_trace_holds(capsys) -> None:
 
 
 def test_a_trace_replays_its_slider_moves(lab, tmp_path: Path) -> None:
-    from labsim.runtime.run import slider_events
+    from labsim.runtime.trace import slider_events
     _, trace = lab
     moves = slider_events(trace)
     assert moves[160] == [("crab", 6.0)]
