@@ -42,9 +42,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from labsim.backends.coppeliasim import HANDLE_PARENT, HANDLE_WORLD, STOPPED
+from labsim.backends.coppeliasim import STOPPED
 from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
-from labsim.backends.coppeliasim.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait
+from labsim.backends.coppeliasim.sim_api import (
+    E_ARGS,
+    E_FEW,
+    E_HANDLE,
+    Args,
+    Handler,
+    SimError,
+    Wait,
+    value_and_frame,
+)
 from labsim.backends.coppeliasim.simulation import Client
 from labsim.backends.protocol import RobotRequest
 from labsim.backends.scene.ground import Ground, Texture
@@ -325,7 +334,7 @@ class SceneEditor:
         if shape is None:
             return self._simulation("sim.setObjectPosition", client, args)
         self._stopped()
-        value, _rel = _value_and_frame(args)
+        value, _rel = value_and_frame(args, "shapes")
         shape.x, shape.y, shape.z = _floats(value, 3)
         self.dirty = True
         return []
@@ -335,7 +344,7 @@ class SceneEditor:
         if shape is None:
             return self._simulation("sim.setObjectOrientation", client, args)
         self._stopped()
-        value, _rel = _value_and_frame(args)
+        value, _rel = value_and_frame(args, "shapes")
         alpha, beta, gamma = _floats(value, 3)
         if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
             raise SimError("labsim serve: the scene is flat; shapes turn about z only (alpha = beta = 0)")
@@ -477,16 +486,3 @@ def _floats(value: object, n: int) -> list[float]:
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in value[:n]):
         raise SimError(E_ARGS)
     return [float(v) for v in value[:n]]
-
-
-def _value_and_frame(args: Args) -> tuple[object, object]:
-    """(value, frame) in either argument order: (h, value, frame) since 4.5, (h, frame, value) before."""
-    if len(args) < 2:
-        raise SimError(E_FEW)
-    if isinstance(args[1], int) and not isinstance(args[1], bool) and len(args) > 2:
-        value, rel = args[2], args[1]
-    else:
-        value, rel = args[1], (args[2] if len(args) > 2 and args[2] is not None else HANDLE_WORLD)
-    if rel not in (HANDLE_WORLD, HANDLE_PARENT):
-        raise SimError("labsim serve: shapes are placed relative to the world only")
-    return value, rel

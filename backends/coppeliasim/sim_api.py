@@ -441,14 +441,7 @@ class SimApi:
             raise SimError("labsim serve: only robots can be moved")
         if self.sim.state != STOPPED:
             raise SimError("labsim serve: robots can be placed only while the simulation is stopped")
-        if len(args) < 2:
-            raise SimError(E_FEW)
-        if isinstance(args[1], int) and not isinstance(args[1], bool) and len(args) > 2:
-            value, rel = args[2], args[1]
-        else:
-            value, rel = args[1], (args[2] if len(args) > 2 and args[2] is not None else HANDLE_WORLD)
-        if rel not in (HANDLE_WORLD, HANDLE_PARENT):
-            raise SimError("labsim serve: robots are placed relative to the world only")
+        value, _ = value_and_frame(args, "robots")
         return self._robot(obj), value
 
     def _sim_setObjectPosition(self, client: Client, args: Args) -> list[object]:
@@ -472,3 +465,17 @@ class SimApi:
             raise SimError("labsim serve: the scene is flat; robots turn about z only")
         r.pose = Pose(x, y, quaternion_yaw(qz, qw))
         return []
+
+
+def value_and_frame(args: Args, what: str) -> tuple[object, object]:
+    """(value, frame) of a set-pose call in either argument order: (h, value, frame) since
+    CoppeliaSim 4.5, (h, frame, value) before. Only the world frame is served."""
+    if len(args) < 2:
+        raise SimError(E_FEW)
+    if isinstance(args[1], int) and not isinstance(args[1], bool) and len(args) > 2:
+        value, rel = args[2], args[1]
+    else:
+        value, rel = args[1], (args[2] if len(args) > 2 and args[2] is not None else HANDLE_WORLD)
+    if rel not in (HANDLE_WORLD, HANDLE_PARENT):
+        raise SimError(f"labsim serve: {what} are placed relative to the world only")
+    return value, rel
