@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import inspect
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from labsim.backends.protocol import Backend, BackendError
 
@@ -35,13 +35,7 @@ GROUND_CAMERAS: dict[str, str] = {"pymunk": "labsim.backends.pymunk.camera:groun
 def load_backend(name: str, **options: object) -> Backend:
     """Create the backend registered as ``name`` with its options (``host``, ``port``,
     ``timeout_s`` for coppeliasim); raises BackendError for an unknown name or option."""
-    try:
-        target = REGISTRY[name]
-    except KeyError:
-        known = ", ".join(sorted(REGISTRY))
-        raise BackendError(f"unknown backend '{name}' (known: {known})") from None
-    module_name, class_name = target.split(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
+    cls = _resolve(REGISTRY, name, f"unknown backend '{name}'")
     accepted = inspect.signature(cls).parameters
     for option in options:
         if option not in accepted:
@@ -57,12 +51,15 @@ def ground_camera(ground: Ground, backend: str = DEFAULT) -> Callable[[float, fl
     No scene is opened: ``labsim plot --camera`` re-renders a robot's frames from the poses of
     a finished run. Raises BackendError for a backend that cannot render a ground on its own.
     """
-    try:
-        target = GROUND_CAMERAS[backend]
-    except KeyError:
-        known = ", ".join(sorted(GROUND_CAMERAS))
-        raise BackendError(f"backend '{backend}' cannot render a camera without a scene (known: {known})") from None
-    module_name, function_name = target.split(":")
-    view = getattr(importlib.import_module(module_name), function_name)(ground)
+    view = _resolve(GROUND_CAMERAS, backend, f"backend '{backend}' cannot render a camera without a scene")(ground)
     render: Callable[[float, float, float, Camera], np.ndarray] = view.render
     return render
+
+
+def _resolve(table: dict[str, str], name: str, unknown: str) -> Any:
+    """The object a registry's "module:name" string names, imported now; BackendError for a
+    name the registry does not have."""
+    if name not in table:
+        raise BackendError(f"{unknown} (known: {', '.join(sorted(table))})")
+    module_name, attribute = table[name].split(":")
+    return getattr(importlib.import_module(module_name), attribute)

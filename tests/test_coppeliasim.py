@@ -21,7 +21,7 @@ zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS  # noqa: E402
-from test_serve import PATH_ERROR, PATIENCE_S, _serve  # noqa: E402
+from test_serve import PATH_ERROR, PATIENCE_S, _serve, _stop  # noqa: E402
 
 from labsim.backends import load_backend  # noqa: E402
 from labsim.backends.coppeliasim.server import STOPPED, Server  # noqa: E402
@@ -42,12 +42,7 @@ def served():
     """A `labsim serve` process (walls_lab4, one robot) on a free port; stopped afterwards."""
     proc, port = _serve("-q")
     yield port
-    proc.terminate()
-    try:
-        proc.wait(PATIENCE_S)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
+    _stop(proc)
 
 
 def _rows(path: Path) -> list[str]:

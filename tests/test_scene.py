@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -12,7 +11,7 @@ pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS
-from test_serve import PATIENCE_S, _serve
+from test_serve import _serve, _stop
 
 from labsim.backends.coppeliasim.scene_builder import camera_matrix
 from labsim.backends.coppeliasim.server import Server
@@ -27,12 +26,7 @@ from labsim.runtime.cli import main
 def empty():
     proc, port = _serve("-q", "--empty")
     yield port
-    proc.terminate()
-    try:
-        proc.wait(PATIENCE_S)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
+    _stop(proc)
 
 
 def _rows(path: Path) -> list[str]:

@@ -367,6 +367,16 @@ def _serve(*args: str) -> tuple[subprocess.Popen, int]:
     return proc, int(line.split("127.0.0.1:")[1].split(";")[0])
 
 
+def _stop(proc: subprocess.Popen) -> None:
+    """End a `labsim serve` process: politely, then by force if it does not go."""
+    proc.terminate()
+    try:
+        proc.wait(PATIENCE_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
 def test_labsim_serve_stops_cleanly_on_ctrl_c() -> None:
     proc, port = _serve("--robots", "2", "-q")
     try:
