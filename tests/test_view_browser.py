@@ -128,7 +128,8 @@ def test_crane_slider_moves_the_arm_and_the_crane(view: Any) -> None:
     v.wait("window.labsimView.frame.labels.arm === 'Arm Speed: 0.10'")
     v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.1")
     assert v.frame()["time"] - dragged_at <= 1.0
-    assert v.page.locator("#sliders .slider .text").first.inner_text() == "Arm Speed: 0.10"
+    # the page draws a frame on the next animation frame: wait for it rather than read at once
+    v.wait("document.querySelector('#sliders .slider .text').textContent === 'Arm Speed: 0.10'")
     v.page.select_option("#speed", "5")
     v.wait("window.labsimView.frame.time >= 6")
     after = v.shot("crane-after", "#world")
@@ -163,7 +164,7 @@ def test_wall_play_moves_the_robot_and_pause_holds_it(view: Any) -> None:
     held = v.frame()
     time.sleep(0.4)
     assert v.frame()["tick"] == held["tick"] and v.frame()["robots"][0]["pose"] == held["robots"][0]["pose"]
-    assert v.page.locator("#play").inner_text() == "Play"
+    v.wait("document.querySelector('#play').textContent === 'Play'")
 
 
 def test_road_shows_five_robots_and_a_camera_image(view: Any) -> None:
@@ -188,7 +189,7 @@ def test_replay_scrubs_to_a_tick_and_shows_its_pose(view: Any, tmp_path: Path) -
     v = view([str(trace)])
     assert v.js("window.labsimView.scene.mode") == "replay"
     v.page.locator("#scrubber").fill("250")
-    v.wait("window.labsimView.frame.tick === 250")
+    v.wait("window.labsimView.frame.tick === 250 && window.LV_world.drawnTick === 250")
     row = rows.rows[250]
     pose = v.frame()["robots"][0]["pose"]
     assert pose[:2] == [float(row[rows.columns.index("x")]), float(row[rows.columns.index("y")])]

@@ -17,6 +17,7 @@ LV.WorldView = class {
     this.selected = 0;
     this.paths = [];
     this.drawn = [];  // each robot's pose on the canvas, CSS pixels (tests read it)
+    this.drawnTick = null;  // the tick of the frame last drawn
     this.scale = 40; this.cx = 0; this.cy = 0;  // px per m, the world point at the centre
     this._pointer();
     new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
@@ -193,6 +194,7 @@ LV.WorldView = class {
   _robots() {
     const ctx = this.ctx, scene = this.scene, frame = this.frame;
     this.drawn = [];
+    this.drawnTick = frame ? frame.tick : null;
     scene.robots.forEach((robot, i) => {
       const path = this.paths[i] || [];
       const colour = LV.robotColour(i);
