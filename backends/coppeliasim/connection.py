@@ -20,6 +20,7 @@ import time
 from typing import Any
 
 from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_WORLD, STOPPED
+from labsim.backends.coppeliasim.replies import check
 from labsim.backends.protocol import BackendError
 
 try:
@@ -50,6 +51,7 @@ class Connection:
         self.sim: Any = None  # client.require("sim"): the server's functions and constants
         # the server's constants (read from it by require_sim; CoppeliaSim's values until then)
         self.world_h, self.handle_all, self.stopped = HANDLE_WORLD, HANDLE_ALL, STOPPED
+        self.names: dict[int, str] = {}  # handle -> what it is, for errors about its replies
 
     @property
     def where(self) -> str:
@@ -61,6 +63,7 @@ class Connection:
         self.dead = ""
         self.sim = None
         self.round_trips = self.steps = 0
+        self.names = {}
         self.client = self._connect(self.timeout_s)
 
     def _connect(self, timeout_s: float) -> Any:
@@ -110,7 +113,8 @@ class Connection:
     # --- calls -------------------------------------------------------------------------------
 
     def call(self, func: str, *args: object) -> Any:
-        """One remote call; every failure becomes a BackendError naming the server."""
+        """One remote call; every failure becomes a BackendError naming the server, and so does
+        a reply that is not what CoppeliaSim sends (``replies``)."""
         client = self.client
         if client is None:
             raise BackendError(f"coppeliasim backend: {func} called without a connection")
@@ -122,7 +126,15 @@ class Connection:
         except Exception as e:  # zmq.Again, zmq.ZMQError, KeyError, or the server's error
             raise self._failure(e, func) from None
         self.busy = False
-        return out
+        try:
+            return check(func, out, self.names.get(args[0], "") if args and type(args[0]) is int else "")
+        except BackendError as e:
+            raise BackendError(f"CoppeliaSim at {self.where}: {e}") from None
+
+    def name(self, handle: int, what: str) -> int:
+        """Remember what ``handle`` is, for the errors about replies that concern it."""
+        self.names[handle] = what
+        return handle
 
     def get(self, path: str, proxy: int, what: str) -> int:
         """The handle of the object at ``path`` (relative to ``proxy`` unless it is -1);
@@ -138,7 +150,7 @@ class Connection:
                 f"behaviour uses, named as docs/coppeliasim.md lists (one Pioneer P3DX per robot)") from None
         if not isinstance(h, int) or h < 0:
             raise BackendError(f"{what}: CoppeliaSim at {self.where} gave no handle for '{path}' ({h!r})")
-        return h
+        return self.name(h, f"{what} ('{path}')")
 
     # --- the simulation ----------------------------------------------------------------------
 

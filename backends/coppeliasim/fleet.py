@@ -132,7 +132,7 @@ class Fleet:
             # sim.getObject's noError option (CoppeliaSim 4.3+): -1 instead of an error
             h = self._conn.call("sim.getObject", f"./{alias}", {"proxy": robot_h, "noError": True})
             if isinstance(h, int) and h >= 0:
-                return h
+                return self._conn.name(h, f"{what} ('./{alias}')")
         tried = ", ".join(f"./{a}" for a in (*CAMERA_ALIASES, ch)) if ch == "camera" else f"./{ch}"
         return self._conn.get(f"./{ch}", robot_h, f"{what} (tried {tried}; name it with paths: {{camera: ...}})")
 
