@@ -56,6 +56,9 @@ class _Driver(Protocol):
 
     def command(self, k: int, joint: str, mode: str, value: float) -> None: ...
 
+    def before_step(self) -> None:
+        """Send what act() and command() held back, just before the step."""
+
     def pose(self, k: int) -> tuple[float, float, float]: ...
 
     def contacts(self, k: int) -> ContactStats: ...
@@ -189,6 +192,8 @@ class CoppeliaSimBackend:
     def step(self) -> None:
         if not self._opened:
             raise self._state_error("step")
+        for driver, _ in self._drivers:
+            driver.before_step()
         self._conn.step()
 
     def pose(self, robot: int) -> tuple[float, float, float]:

@@ -24,14 +24,30 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from labsim.backends.coppeliasim import CAMERA_ALIASES, HANDLE_ALL, MODEL_PATHS
+from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.coppeliasim.frames import yaw
+from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.world import World
+
+
+@dataclass(frozen=True)
+class _Readings:
+    """One robot's replies, as the per-object calls return them (or the fleet script, which
+    returns the same values): what sense() turns into channels."""
+
+    sonars: Any  # sim.readProximitySensor, one per sonar read
+    images: Any  # sim.getVisionSensorImg, one per camera
+    position: Any  # sim.getObjectPosition, or [] when not read
+    orientation: Any  # sim.getObjectOrientation, or []
+    velocity: Any  # sim.getObjectVelocity (linear, angular), or []
+    collision: Any  # sim.checkCollision
 
 
 @dataclass(eq=False)
@@ -69,6 +85,9 @@ class Fleet:
         self._conn = conn
         self._road = first_road(world)
         self._tracker: RoadTracker | None = None
+        self._script = -1  # the fleet script's handle (fleet_script), -1: object by object
+        self._plan: list[list[object]] = []  # what labsimSense reads, robot by robot
+        self._pending: list[object] = []  # labsimAct's commands: motor, velocity, ...
 
     @property
     def primes(self) -> bool:
@@ -92,6 +111,26 @@ class Fleet:
             for r in self.rovers:
                 if "laps" in r.req.channels:
                     self._tracker.start(r.name, r.req.pose.x_m, r.req.pose.y_m)
+        self._find_script()
+
+    def _find_script(self) -> None:
+        """The fleet script, if the scene has it (``labsim scene`` adds it): then a tick is a few
+        round trips for the whole fleet, else one request per value."""
+        conn = self._conn
+        if not hasattr(conn.sim, "callScriptFunction"):
+            return
+        h = conn.call("sim.getObject", f"/{fs.ALIAS}", {"noError": True})
+        if h < 0:
+            return
+        # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6, -1 when there is none
+        script = conn.call("sim.getScript", getattr(conn.sim, "scripttype_childscript", 1), h)
+        if not isinstance(script, int) or isinstance(script, bool) or script < 0:
+            return
+        self._script = conn.name(script, f"the fleet script on '/{fs.ALIAS}'")
+        self._plan = [[r.handle, r.collide_with,
+                       (fs.POSITION * r.read_position) | (fs.ORIENTATION * r.read_orientation)
+                       | (fs.VELOCITY * r.read_velocity),
+                       [h for h, _ in r.sonars], [h for h, _ in r.cameras]] for r in self.rovers]
 
     def _find(self, r: _Rover, i: int) -> None:
         conn = self._conn
@@ -150,45 +189,56 @@ class Fleet:
 
     def sense(self, first: bool) -> list[list[object]]:
         """Every robot's channels; ``first``: the first sense() since open (no contact time yet)."""
-        return [self._sense(r, first) for r in self.rovers]
+        if self._script >= 0:  # the fleet script: every robot's readings in one call
+            replies = check_sense(self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan),
+                                  [r.name for r in self.rovers], self._plan)
+            return [self._sense(r, _Readings(*reply), first) for r, reply in zip(self.rovers, replies)]
+        return [self._sense(r, self._read(r), first) for r in self.rovers]
 
-    def _sense(self, r: _Rover, first: bool) -> list[object]:
+    def _read(self, r: _Rover) -> _Readings:
+        """One robot's readings, one request each (a scene without the fleet script)."""
         call, world_h = self._conn.call, self._conn.world_h
+        return _Readings(
+            [call("sim.readProximitySensor", h) for h, _ in r.sonars],
+            [call("sim.getVisionSensorImg", h) for h, _ in r.cameras],
+            call("sim.getObjectPosition", r.handle, world_h) if r.read_position else [],
+            call("sim.getObjectOrientation", r.handle, world_h) if r.read_orientation else [],
+            call("sim.getObjectVelocity", r.handle) if r.read_velocity else [],
+            call("sim.checkCollision", r.handle, r.collide_with))
+
+    def _sense(self, r: _Rover, got: _Readings, first: bool) -> list[object]:
         values: list[object] = [None] * len(r.req.channels)
         slots = r.slots
         x = y = heading = 0.0
         if r.read_position:
-            x, y, _ = call("sim.getObjectPosition", r.handle, world_h)
+            x, y, _ = got.position
         if r.read_orientation:
-            heading = yaw(call("sim.getObjectOrientation", r.handle, world_h))
-        for h, slot in r.sonars:
-            res = call("sim.readProximitySensor", h)
+            heading = yaw(got.orientation)
+        for (_, slot), res in zip(r.sonars, got.sonars):
             # CoppeliaSim: (detected, distance, point, object, normal); distance 0 when
             # nothing is detected, which labsim reads as inf (docs/decisions.md, 2).
             values[slot] = float(res[1]) if res[0] > 0 else math.inf
-        for h, slot in r.cameras:
-            img, (w, hgt) = call("sim.getVisionSensorImg", h)
+        for (_, slot), (img, (w, hgt)) in zip(r.cameras, got.images):
             import numpy as np  # only a behaviour with a camera needs it
 
             # CoppeliaSim's rows run from the bottom up; labsim's row 0 is the far edge.
             values[slot] = np.ascontiguousarray(np.frombuffer(img, np.uint8).reshape(hgt, w, 3)[::-1])
-        self._collided(r, first)
+        self._collided(r, got.collision, first)
         if "collided" in slots:
             values[slots["collided"]] = r.touching
         for ch, value in (("x", x), ("y", y), ("heading", heading)):
             if ch in slots:
                 values[slots[ch]] = value
         if r.read_velocity:
-            (vx, vy, _), _ang = call("sim.getObjectVelocity", r.handle)
+            (vx, vy, _), _ang = got.velocity
             values[slots["forward_speed"]] = vx * math.cos(heading) + vy * math.sin(heading)
         if self._tracker is not None and slots.keys() & ROAD_CHANNELS.keys():
             self._road_channels(r, values, x, y)
         return values
 
-    def _collided(self, r: _Rover, first: bool) -> None:
-        """Read ``collided`` and count contacts from it, as the embedded backend counts them."""
-        res = self._conn.call("sim.checkCollision", r.handle, r.collide_with)
-        hit = bool((res[0] if isinstance(res, (tuple, list)) else res) > 0)
+    def _collided(self, r: _Rover, res: object, first: bool) -> None:
+        """Count contacts from ``collided`` (sim.checkCollision's reply), as the embedded backend counts them."""
+        hit = bool((res[0] if isinstance(res, (tuple, list)) else res) > 0)  # type: ignore[operator]
         if hit and not r.touching:
             r.contacts += 1
         if hit and not first:  # time after each step, as the embedded backend counts it
@@ -210,12 +260,19 @@ class Fleet:
 
     def act(self, k: int, left_rad_s: float, right_rad_s: float) -> None:
         r = self.rovers[k]
-        if left_rad_s != r.sent[0]:
-            self._conn.call("sim.setJointTargetVelocity", r.motors[0], left_rad_s)
-            r.sent[0] = left_rad_s
-        if right_rad_s != r.sent[1]:
-            self._conn.call("sim.setJointTargetVelocity", r.motors[1], right_rad_s)
-            r.sent[1] = right_rad_s
+        for wheel, value in enumerate((left_rad_s, right_rad_s)):
+            if value != r.sent[wheel]:
+                if self._script >= 0:  # sent with the others before the step
+                    self._pending += [r.motors[wheel], value]
+                else:
+                    self._conn.call("sim.setJointTargetVelocity", r.motors[wheel], value)
+                r.sent[wheel] = value
+
+    def before_step(self) -> None:
+        """Send the wheel targets that changed this tick, in one call of the fleet script."""
+        if self._pending:
+            self._conn.call("sim.callScriptFunction", fs.ACT, self._script, self._pending)
+            self._pending = []
 
     def command(self, k: int, joint: str, mode: str, value: float) -> None:
         raise BackendError(f"'{self.rovers[k].name}' has no motorised joint '{joint}'")

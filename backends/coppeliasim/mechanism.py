@@ -154,6 +154,9 @@ class MechanismDriver:
             raise BackendError(f"joint '{joint}': mode must be 'velocity' or 'position', not {mode!r}")
         self._conn.call(func, h, value)
 
+    def before_step(self) -> None:
+        """Commands go out as they come: nothing is held back."""
+
     def pose(self, k: int) -> tuple[float, float, float]:
         """As the embedded backend: the last moving body in the plane, and the slew."""
         p = self.parts[k]

@@ -169,3 +169,55 @@ def shorten(value: object) -> str:
     """``repr(value)`` cut to ``SHOWN`` characters (an image is thousands of bytes)."""
     text = repr(value)
     return text if len(text) <= SHOWN else text[:SHOWN - 3] + "..."
+
+
+def _seq(v: object, what: str) -> list[object]:
+    """A Lua array: a list, or an empty table (which a CBOR encoder may send as an empty map)."""
+    if isinstance(v, (list, tuple)):
+        return list(v)
+    if isinstance(v, dict) and not v:
+        return []
+    raise Shape(what)
+
+
+def check_sense(reply: object, robots: list[str], plan: list[list[object]]) -> list[list[object]]:
+    """The fleet script's ``labsimSense`` reply (``fleet_script``), each robot's entry checked as
+    the per-object calls' replies are; ``robots`` names them, ``plan`` is what was asked."""
+    func = "sim.callScriptFunction('labsimSense')"
+    try:
+        entries = _seq(reply, f"a list of {len(plan)} robots' readings")
+        if len(entries) != len(plan):
+            raise Shape(f"a list of {len(plan)} robots' readings")
+    except Shape as e:
+        raise BackendError(mismatch(func, reply, "the fleet", str(e))) from None
+    out: list[list[object]] = []
+    for entry, name, asked in zip(entries, robots, plan):
+        try:
+            out.append(_robot_readings(entry, asked))
+        except (Shape, BackendError) as e:
+            raise BackendError(mismatch(func, entry, f"robot '{name}'", str(e))) from None
+    return out
+
+
+def _robot_readings(entry: object, asked: list[object]) -> list[object]:
+    what = "[sonars, images, position, orientation, velocity, collision]"
+    parts = _seq(entry, what)
+    if len(parts) != 6:
+        raise Shape(what)
+    sonars, images = _seq(parts[0], what), _seq(parts[1], what)
+    flags, sonar_handles, camera_handles = asked[2], asked[3], asked[4]
+    assert isinstance(flags, int) and isinstance(sonar_handles, list) and isinstance(camera_handles, list)
+    if len(sonars) != len(sonar_handles) or len(images) != len(camera_handles):
+        raise Shape(f"{what}, a reading for each sonar and camera asked for")
+    for one in sonars:
+        _proximity(one)
+    for one in images:
+        _image(one)
+    read = [CHECKS["sim.getObjectPosition"], CHECKS["sim.getObjectOrientation"], _velocity]
+    kept: list[object] = []
+    for bit, part, checker in zip((1, 2, 4), parts[2:5], read):
+        if flags & bit:
+            checker(part)
+        kept.append(part if flags & bit else [])
+    _collision(parts[5])
+    return [sonars, images, *kept, parts[5]]

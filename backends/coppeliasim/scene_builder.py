@@ -31,6 +31,7 @@ import math
 from collections.abc import Callable, Sequence
 
 from labsim.backends.coppeliasim import CAMERA_ALIASES
+from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import Camera
@@ -74,6 +75,7 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             _robot(conn, req)
         if robots:
             log(f"labsim scene: {len(robots)} Pioneer P3DX, their scripts removed")
+            log(_fleet_script(conn))
         if save:
             conn.call("sim.saveScene", save)  # sim.saveScene(string filename): CoppeliaSim 4.6
             log(f"labsim scene: saved {save}")
@@ -175,6 +177,22 @@ def _rectangle(c: tuple[tuple[float, float], ...]) -> tuple[float, float, float,
     if abs(c[3][0] - (c[0][0] + fx)) > 1e-9 or abs(c[3][1] - (c[0][1] + fy)) > 1e-9:
         return None
     return ((c[0][0] + c[2][0]) / 2, (c[0][1] + c[2][1]) / 2, w, d, math.atan2(ey, ex))
+
+
+def _fleet_script(conn: Connection) -> str:
+    """The fleet's script (``fleet_script``) on a dummy aliased ``labsimFleet``: the backend then
+    reads and drives the whole fleet in a few round trips a tick."""
+    sim = conn.sim
+    if not hasattr(sim, "addScript"):  # removed after 4.7 by script objects: the fleet goes per object
+        return ("labsim scene: no fleet script (this CoppeliaSim has no sim.addScript); the backend drives "
+                "the robots object by object")
+    h = int(conn.call("sim.createDummy", 0.05))  # sim.createDummy(float size): CoppeliaSim 4.6
+    conn.call("sim.setObjectAlias", h, fs.ALIAS)
+    script = int(conn.call("sim.addScript", sim.scripttype_childscript))  # sim.addScript(int scriptType): 4.6
+    # sim.setScriptStringParam(int scriptHandle, int parameterID, buffer parameter): 4.6
+    conn.call("sim.setScriptStringParam", script, sim.scriptstringparam_text, fs.LUA)
+    conn.call("sim.associateScriptWithObject", script, h)  # (int scriptHandle, int objectHandle): 4.6
+    return f"labsim scene: the fleet script on /{fs.ALIAS} (a tick in a few round trips)"
 
 
 def _robot(conn: Connection, req: RobotRequest) -> None:

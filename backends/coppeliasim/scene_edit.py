@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING
 
 from labsim.backends.coppeliasim import STOPPED
 from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
+from labsim.backends.coppeliasim.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.backends.coppeliasim.sim_api import (
     E_ARGS,
     E_FEW,
@@ -124,6 +125,11 @@ class SceneEditor:
         self.robots: list[Pose] = []
         self.dirty = False
         self._next = FIRST_HANDLE
+        self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state)
+
+    def _handle(self) -> int:
+        self._next += 1
+        return self._next - 1
 
     # --- the handlers --------------------------------------------------------------------------
 
@@ -140,7 +146,7 @@ class SceneEditor:
         funcs["sim.startSimulation"] = start_simulation
         info = funcs["zmqRemoteApi.info"]
         funcs["zmqRemoteApi.info"] = lambda client, args: self._info(info(client, args))
-        return funcs
+        return self.script_host.wrap(funcs)  # the fleet script labsim scene adds
 
     def _warn_scripts(self) -> None:
         for i in sorted(self.scripts.values()):
@@ -159,6 +165,8 @@ class SceneEditor:
         info = dict(ret[0])
         info.update({name.removeprefix("sim."): {"func": {}} for name in EDITS})
         info.update({name: {"const": value} for name, value in EDIT_CONSTANTS.items()})
+        info.update({name.removeprefix("sim."): {"func": {}} for name in SCRIPT_CALLS})
+        info.update({name: {"const": value} for name, value in SCRIPT_CONSTANTS.items()})
         return [info]
 
     # --- rebuilding the simulation -------------------------------------------------------------
