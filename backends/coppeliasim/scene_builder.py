@@ -23,7 +23,8 @@ cited at each call):
 * each camera a vision sensor with the behaviour's resolution, field of view, mount, pitch
   and roll, under its robot, aliased ``visionSensor``.
 
-Not built yet: a world's mechanism; it is refused before anything is sent.
+A world's mechanism (the crane) is ``mechanism_builder``'s: bodies as primitive shapes, joints
+in the modes its motors take, force sensors, gravity and damping, with labsim's names.
 """
 from __future__ import annotations
 
@@ -33,6 +34,7 @@ from collections.abc import Callable, Sequence
 from labsim.backends.coppeliasim import CAMERA_ALIASES
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
+from labsim.backends.coppeliasim.mechanism_builder import build_mechanism
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world import Block, Wall, World
@@ -42,9 +44,7 @@ PIONEER_MODEL = "models/robots/mobile/pioneer p3dx.ttm"  # under CoppeliaSim's r
 
 
 def unsupported(world: World) -> str:
-    """Why ``build`` cannot build ``world`` yet, or ""."""
-    if world.mechanism is not None:
-        return f"world '{world.name}' has a mechanism; labsim scene does not build mechanisms yet"
+    """Why ``build`` cannot build ``world``, or "" (every world can be built now)."""
     return ""
 
 
@@ -63,7 +63,9 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             conn.call("sim.setSimulationTimeStep", dt_s)
         else:  # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): 4.6 (deprecated later)
             conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
-        _floor(conn, world)
+        mech = world.mechanism
+        if mech is None or mech.floor_z_m is not None:
+            _floor(conn, world)
         if world.ground is not None and world.ground.extent() is not None:
             _ground(conn, world)
         for wall in world.walls:
@@ -71,13 +73,18 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
         for block in world.blocks:
             _block(conn, block)
         log(f"labsim scene: the floor, {len(world.walls)} walls and {len(world.blocks)} blocks")
+        if mech is not None:
+            log(build_mechanism(conn, mech))
         for req in robots:
             _robot(conn, req)
         if robots:
             log(f"labsim scene: {len(robots)} Pioneer P3DX, their scripts removed")
             log(_fleet_script(conn))
         if save:
-            conn.call("sim.saveScene", save)  # sim.saveScene(string filename): CoppeliaSim 4.6
+            try:
+                conn.call("sim.saveScene", save)  # sim.saveScene(string filename): CoppeliaSim 4.6
+            except BackendError as e:
+                raise BackendError(f"labsim scene: the scene is built, but saving it as {save} failed: {e}") from None
             log(f"labsim scene: saved {save}")
     finally:
         conn.close()
@@ -107,9 +114,13 @@ def _cuboid(conn: Connection, sizes: list[float]) -> int:
 
 def _floor(conn: Connection, world: World) -> None:
     xmin, ymin, xmax, ymax = world.bounds
+    z = 0.0
+    if world.mechanism is not None:  # bounds in the mechanism's plane (x, z): a square floor at its height
+        ymin, ymax = (xmin - xmax) / 2, (xmax - xmin) / 2
+        z = world.mechanism.floor_z_m or 0.0
     h = int(conn.call("sim.createPrimitiveShape", conn.sim.primitiveshape_plane, [xmax - xmin, ymax - ymin, 0.0], 0))
     _static(conn, h, "labsimFloor", respondable=False)
-    _place(conn, h, (xmin + xmax) / 2, (ymin + ymax) / 2, 0.0, 0.0)
+    _place(conn, h, (xmin + xmax) / 2, (ymin + ymax) / 2, z, 0.0)
 
 
 def _ground(conn: Connection, world: World) -> None:

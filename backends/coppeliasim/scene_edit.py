@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from labsim.backends.coppeliasim import STOPPED
+from labsim.backends.coppeliasim.mechanism_edit import MECHANISM_CALLS, MECHANISM_CONSTANTS, MechanismEditor
 from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
 from labsim.backends.coppeliasim.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.backends.coppeliasim.sim_api import (
@@ -126,6 +127,7 @@ class SceneEditor:
         self.dirty = False
         self._next = FIRST_HANDLE
         self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state)
+        self.mechanism_edit = MechanismEditor(self)
 
     def _handle(self) -> int:
         self._next += 1
@@ -146,7 +148,7 @@ class SceneEditor:
         funcs["sim.startSimulation"] = start_simulation
         info = funcs["zmqRemoteApi.info"]
         funcs["zmqRemoteApi.info"] = lambda client, args: self._info(info(client, args))
-        return self.script_host.wrap(funcs)  # the fleet script labsim scene adds
+        return self.mechanism_edit.wrap(self.script_host.wrap(funcs))  # fleet script, mechanism
 
     def _warn_scripts(self) -> None:
         for i in sorted(self.scripts.values()):
@@ -167,6 +169,8 @@ class SceneEditor:
         info.update({name: {"const": value} for name, value in EDIT_CONSTANTS.items()})
         info.update({name.removeprefix("sim."): {"func": {}} for name in SCRIPT_CALLS})
         info.update({name: {"const": value} for name, value in SCRIPT_CONSTANTS.items()})
+        info.update({name.removeprefix("sim."): {"func": {}} for name in MECHANISM_CALLS})
+        info.update({name: {"const": value} for name, value in MECHANISM_CONSTANTS.items()})
         return [info]
 
     # --- rebuilding the simulation -------------------------------------------------------------
@@ -177,14 +181,17 @@ class SceneEditor:
         blocks: list[Block] = []
         bounds = (-10.0, -10.0, 10.0, 10.0)
         ground: Ground | None = None
-        for s in self.shapes.values():
+        floor_z: float | None = None
+        bodies = self.mechanism_edit.bodies()  # a mechanism's, not walls or blocks
+        for h, s in self.shapes.items():
             c, si = math.cos(s.yaw), math.sin(s.yaw)
             if s.kind == "texture":
                 ground = _textured(s)
             elif s.kind == "plane":
                 hw, hd = s.size[0] / 2, s.size[1] / 2
                 bounds = (_r(s.x - hw), _r(s.y - hd), _r(s.x + hw), _r(s.y + hd))
-            elif not s.static:
+                floor_z = s.z
+            elif not s.static or h in bodies:
                 continue
             elif s.kind == "cuboid" and s.alias == "wall":
                 half = (s.size[0] - s.size[1]) / 2
@@ -198,7 +205,7 @@ class SceneEditor:
             else:
                 blocks.append(Block(tuple((_r(s.x + x), _r(s.y + y)) for x, y in s.corners)))
         return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
-                     ground=ground)
+                     ground=ground, mechanism=self.mechanism_edit.mechanism(floor_z))
 
     def apply(self) -> None:
         """Rebuild the server's simulation from the edits (the robots keep the poses they were given)."""

@@ -1,0 +1,65 @@
+"""``labsim scene`` builds the crane's mechanism; ``labsim serve --empty`` reads it back, and the
+crane's run there gives the run of ``labsim serve crane`` row for row, and passes its golden."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("zmq")
+pytest.importorskip("coppeliasim_zmqremoteapi_client")
+
+from conftest import BEHAVIOURS
+from test_serve import _serve, _stop
+
+from labsim.backends.coppeliasim.server import Server
+from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world_file import load_world
+from labsim.runtime.cli import main
+
+CRANE = BEHAVIOURS / "crane.yaml"
+
+
+@pytest.fixture
+def empty():
+    proc, port = _serve("-q", "--empty")
+    yield port
+    _stop(proc)
+
+
+def _rows(path: Path) -> list[str]:
+    return path.read_text().splitlines()[1:]
+
+
+def test_the_built_crane_is_the_world_files_mechanism() -> None:
+    """What labsim scene sends comes back as the world file's mechanism, number for number."""
+    from labsim.backends.coppeliasim.connection import Connection
+    from labsim.backends.coppeliasim.scene_builder import build
+
+    world = load_world(builtin_worlds()["crane"], Report())
+    assert world is not None and world.mechanism is not None
+    with Server(World("none", "", (0, 0, 1, 1)), 0, port=0, empty=True) as srv:
+        build(Connection("127.0.0.1", srv.port, 5.0), world, [], 0.05)
+        assert srv.editor is not None
+        built = srv.editor.world()
+    assert built.mechanism == world.mechanism and built.walls == () and built.blocks == ()
+
+
+def test_the_crane_built_by_labsim_scene_gives_labsim_serve_cranes_trace(empty: int, tmp_path: Path,
+                                                                      capsys) -> None:
+    assert main(["scene", str(CRANE), "--port", str(empty)]) == 0
+    out = capsys.readouterr().out
+    assert "the mechanism, 8 bodies, 5 joints and 1 force sensors" in out
+    built, served = tmp_path / "built.csv", tmp_path / "served.csv"
+    assert main(["run", str(CRANE), "-q", "--trace", str(built), "--backend", "coppeliasim",
+                 "--port", str(empty)]) == 0
+    proc, port = _serve("-q", "crane", "--robots", "0")
+    try:
+        assert main(["run", str(CRANE), "-q", "--trace", str(served),
+                     "--backend", "coppeliasim", "--port", str(port)]) == 0
+    finally:
+        _stop(proc)
+    assert _rows(built) == _rows(served) and len(_rows(built)) == 1 + 1200
+    # and within the golden's tolerance of the embedded run (docs/coppeliasim.md: the slew's rounding)
+    assert main(["test", str(CRANE), "--backend", "coppeliasim", "--port", str(empty)]) == 0
