@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
@@ -75,6 +76,12 @@ def cmd_scene(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic("--timeout", "give a positive number of seconds")])
     if args.save is not None and not args.save.endswith(".ttt"):
         raise LabsimError([Diagnostic("--save", "give a CoppeliaSim scene file name ending in .ttt")])
+    if args.save is not None and args.host in ("127.0.0.1", "localhost", "::1"):
+        # CoppeliaSim writes the file from its own working folder: give it the path the user means
+        save = Path(args.save).expanduser().absolute()
+        if not save.parent.is_dir():
+            raise LabsimError([Diagnostic(args.save, f"cannot save the scene there: no folder {save.parent}")])
+        args.save = str(save)
     program = compile_behaviour(args.file).program
     why = unsupported(program.world)
     if why:
