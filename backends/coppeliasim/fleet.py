@@ -116,17 +116,9 @@ class Fleet:
     def _find_script(self) -> None:
         """The fleet script, if the scene has it (``labsim scene`` adds it): then a tick is a few
         round trips for the whole fleet, else one request per value."""
-        conn = self._conn
-        if not hasattr(conn.sim, "callScriptFunction"):
+        self._script = fs.find_script(self._conn)
+        if self._script < 0:
             return
-        h = conn.call("sim.getObject", f"/{fs.ALIAS}", {"noError": True})
-        if h < 0:
-            return
-        # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6, -1 when there is none
-        script = conn.call("sim.getScript", getattr(conn.sim, "scripttype_childscript", 1), h)
-        if not isinstance(script, int) or isinstance(script, bool) or script < 0:
-            return
-        self._script = conn.name(script, f"the fleet script on '/{fs.ALIAS}'")
         self._plan = [[r.handle, r.collide_with,
                        (fs.POSITION * r.read_position) | (fs.ORIENTATION * r.read_orientation)
                        | (fs.VELOCITY * r.read_velocity),

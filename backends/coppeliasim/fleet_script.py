@@ -7,7 +7,10 @@ scriptHandle, ...)`` (the CoppeliaSim 4.6 form: the function's name, then the sc
 handle from ``sim.getScript``), instead of one request per sonar, pose and wheel:
 
 * ``labsimSense(plan)`` returns every reading the behaviour needs for every robot;
-* ``labsimAct(commands)`` sets every wheel target that changed.
+* ``labsimAct(commands)`` sets every wheel target that changed;
+* ``labsimParts(plan)`` returns a mechanism's readings: ``plan`` is ``[joints, forces,
+  bodies]`` (handles), the reply ``[[position, velocity] per joint, readForceSensor's three
+  values per force sensor, [position, orientation] per body (world frame)]``.
 
 With the step (two round trips: CoppeliaSim answers "wait", the client says "executed"), a
 tick is 3 round trips for the whole fleet, 4 when a wheel command changed. A scene without
@@ -29,8 +32,10 @@ simulation or a second client cannot confuse it.
 """
 from __future__ import annotations
 
+from typing import Any
+
 ALIAS = "labsimFleet"  # the dummy that carries the script
-SENSE, ACT = "labsimSense", "labsimAct"
+SENSE, ACT, PARTS = "labsimSense", "labsimAct", "labsimParts"
 POSITION, ORIENTATION, VELOCITY = 1, 2, 4  # the plan's flags
 
 # Lua 5.4 (CoppeliaSim 4.6 and later). Every call is one CoppeliaSim 4.6 documents.
@@ -61,9 +66,38 @@ function labsimSense(plan)
     return out
 end
 
+function labsimParts(plan)
+    local joints, forces, bodies = {}, {}, {}
+    for k, h in ipairs(plan[1]) do
+        joints[k] = {sim.getJointPosition(h), sim.getJointVelocity(h)}
+    end
+    for k, h in ipairs(plan[2]) do
+        forces[k] = {sim.readForceSensor(h)}
+    end
+    for k, h in ipairs(plan[3]) do
+        bodies[k] = {sim.getObjectPosition(h, sim.handle_world), sim.getObjectOrientation(h, sim.handle_world)}
+    end
+    return {joints, forces, bodies}
+end
+
 function labsimAct(commands)
     for k = 1, #commands, 2 do
         sim.setJointTargetVelocity(commands[k], commands[k + 1])
     end
 end
 """
+
+
+def find_script(conn: Any) -> int:
+    """The fleet script's handle in the scene a ``connection.Connection`` reaches, or -1 when
+    the scene has none (one built by hand): then the backend reads object by object."""
+    if not hasattr(conn.sim, "callScriptFunction"):
+        return -1
+    h = conn.call("sim.getObject", f"/{ALIAS}", {"noError": True})
+    if h < 0:
+        return -1
+    # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6, -1 when there is none
+    script = conn.call("sim.getScript", getattr(conn.sim, "scripttype_childscript", 1), h)
+    if not isinstance(script, int) or isinstance(script, bool) or script < 0:
+        return -1
+    return int(conn.name(script, f"the fleet script on '/{ALIAS}'"))

@@ -20,11 +20,14 @@ embedded backend's do).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
+from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.coppeliasim.frames import plane_pose
+from labsim.backends.coppeliasim.replies import check_parts
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import Kind
@@ -61,10 +64,12 @@ class MechanismDriver:
         self._conn = conn
         self._mechanism = _mechanism(world, requests)
         self.parts = [_Parts(req.name, req.channels) for req in requests]
+        self._script = -1  # the fleet script's handle (fleet_script), -1: part by part
 
     def find(self) -> None:
         for p in self.parts:
             self._find(p)
+        self._script = fs.find_script(self._conn)
 
     def _find(self, p: _Parts) -> None:
         mech = self._mechanism
@@ -105,7 +110,10 @@ class MechanismDriver:
 
     def _sense(self, p: _Parts) -> list[object]:
         """Joints, force sensors, and bodies in the mechanism's plane (undoing the slew)."""
-        call = self._conn.call
+        read = self._conn.call
+        if self._script >= 0:  # the fleet script: every reading in one call, then looked up
+            read = self._batch(p)
+        call = read
         values: list[object] = [None] * len(p.channels)
         positions: dict[int, float] = {}
         if p.slew >= 0 and p.read_slew:
@@ -120,11 +128,12 @@ class MechanismDriver:
             values[slot] = (math.sqrt(sum(f * f for f in force)),)
         planar: dict[int, tuple[float, float, float]] = {}
         for h, slot in p.bodies:
-            planar[h] = self._in_plane(h, slew, p.slew_axis_x)
+            planar[h] = self._in_plane(h, slew, p.slew_axis_x, read)
             values[slot] = planar[h]
         slots = p.slots
         if p.tracked >= 0 and slots.keys() & {"x", "y"}:
-            x, z, _ = planar[p.tracked] if p.tracked in planar else self._in_plane(p.tracked, slew, p.slew_axis_x)
+            x, z, _ = planar[p.tracked] if p.tracked in planar else self._in_plane(p.tracked, slew, p.slew_axis_x,
+                                                                                   read)
             if "x" in slots:
                 values[slots["x"]] = x
             if "y" in slots:
@@ -135,11 +144,30 @@ class MechanismDriver:
             values[slots["collided"]] = False  # a mechanism's parts touch by design
         return values
 
-    def _in_plane(self, h: int, slew: float, axis_x: float) -> tuple[float, float, float]:
+    def _in_plane(self, h: int, slew: float, axis_x: float,
+                  call: Callable[..., Any] | None = None) -> tuple[float, float, float]:
         """(x, z, angle) of a body in the mechanism's vertical plane from its 3D pose."""
-        call, world_h = self._conn.call, self._conn.world_h
+        call, world_h = call or self._conn.call, self._conn.world_h
         position = call("sim.getObjectPosition", h, world_h)
         return plane_pose(position, call("sim.getObjectOrientation", h, world_h), slew, axis_x)
+
+    def _batch(self, p: _Parts) -> Callable[..., Any]:
+        """The parts' readings from one call of the fleet script (``fleet_script.PARTS``), as a
+        stand-in for the connection's ``call``: the same function and handle give the same value."""
+        joints = ([p.slew] if p.slew >= 0 and p.read_slew else []) + [h for h, _ in p.joints]
+        forces = [h for h, _ in p.forces]
+        bodies = [h for h, _ in p.bodies] + ([p.tracked] if p.tracked >= 0 and p.slots.keys() & {"x", "y"} else [])
+        plan = [list(dict.fromkeys(joints)), forces, list(dict.fromkeys(bodies))]
+        reply: Any = check_parts(self._conn.call("sim.callScriptFunction", fs.PARTS, self._script, plan),
+                                 p.name, plan)
+        got: dict[tuple[str, int], object] = {}
+        for h, (position, velocity) in zip(plan[0], reply[0]):
+            got["sim.getJointPosition", h], got["sim.getJointVelocity", h] = position, velocity
+        for h, force in zip(plan[1], reply[1]):
+            got["sim.readForceSensor", h] = force
+        for h, (position, orientation) in zip(plan[2], reply[2]):
+            got["sim.getObjectPosition", h], got["sim.getObjectOrientation", h] = position, orientation
+        return lambda func, h, *rest: got[func, h]
 
     def act(self, k: int, left_rad_s: float, right_rad_s: float) -> None:
         raise BackendError(f"'{self.parts[k].name}' is a mechanism: it has no wheels; command its joints")

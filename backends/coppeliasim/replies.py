@@ -221,3 +221,29 @@ def _robot_readings(entry: object, asked: list[object]) -> list[object]:
         kept.append(part if flags & bit else [])
     _collision(parts[5])
     return [sonars, images, *kept, parts[5]]
+
+
+def check_parts(reply: object, name: str, plan: list[list[int]]) -> list[list[object]]:
+    """The fleet script's ``labsimParts`` reply for the mechanism ``name``: for each joint of
+    ``plan[0]`` (position, velocity), each force sensor of ``plan[1]`` readForceSensor's reply,
+    each body of ``plan[2]`` (position, orientation), checked as the per-object replies are."""
+    func = "sim.callScriptFunction('labsimParts')"
+    what = "[[position, velocity] per joint, a force reading per sensor, [position, orientation] per body]"
+    try:
+        parts = _seq(reply, what)
+        if len(parts) != 3:
+            raise Shape(what)
+        joints, forces, bodies = (_seq(part, what) for part in parts)
+        if (len(joints), len(forces), len(bodies)) != tuple(len(p) for p in plan):
+            raise Shape(f"{what}, one for each part asked for")
+        for one in joints:
+            pair = _values(one, 2, what)
+            _number(pair[0], what), _number(pair[1], what)
+        for one in forces:
+            _force(one)
+        for one in bodies:
+            pair = _values(one, 2, what)
+            _vector(pair[0], 3, what), _vector(pair[1], 3, what)
+    except Shape as e:
+        raise BackendError(mismatch(func, reply, f"'{name}'", str(e))) from None
+    return [joints, forces, bodies]

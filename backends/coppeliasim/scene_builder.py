@@ -79,6 +79,7 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             _robot(conn, req)
         if robots:
             log(f"labsim scene: {len(robots)} Pioneer P3DX, their scripts removed")
+        if robots or mech is not None:
             log(_fleet_script(conn))
         if save:
             try:

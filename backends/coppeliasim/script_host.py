@@ -143,6 +143,8 @@ class ScriptHost:
             return [[self._sense(client, p) for p in args[2]]]
         if name == fs.ACT and len(args) == 3 and isinstance(args[2], list):
             return self._act(client, args[2])
+        if name == fs.PARTS and len(args) == 3 and isinstance(args[2], list) and len(args[2]) == 3:
+            return [self._parts(client, args[2])]
         raise SimError(f"function {name!r} does not exist in the script, or its arguments are wrong.")
 
     def _call(self, client: Client, name: str, *args: object) -> list[object]:
@@ -162,6 +164,18 @@ class ScriptHost:
         ori = self._call(client, "sim.getObjectOrientation", robot, HANDLE_WORLD)[0] if flags & fs.ORIENTATION else []
         vel = self._call(client, "sim.getObjectVelocity", robot) if flags & fs.VELOCITY else []
         return [sonars, images, pos, ori, vel, self._call(client, "sim.checkCollision", robot, other)]
+
+    def _parts(self, client: Client, plan: list[object]) -> list[object]:
+        """What ``labsimParts`` returns: joints, force sensors, bodies (see ``fleet_script``)."""
+        joints, forces, bodies = plan
+        if not all(isinstance(v, list) for v in plan):
+            raise SimError(E_ARGS)
+        assert isinstance(joints, list) and isinstance(forces, list) and isinstance(bodies, list)
+        return [[[self._call(client, "sim.getJointPosition", h)[0], self._call(client, "sim.getJointVelocity", h)[0]]
+                 for h in joints],
+                [self._call(client, "sim.readForceSensor", h) for h in forces],
+                [[self._call(client, "sim.getObjectPosition", h, HANDLE_WORLD)[0],
+                  self._call(client, "sim.getObjectOrientation", h, HANDLE_WORLD)[0]] for h in bodies]]
 
     def _act(self, client: Client, commands: list[object]) -> list[object]:
         if len(commands) % 2:
