@@ -31,14 +31,14 @@ reproduces the embedded backend's trace.
   and placed with ``sim.setObjectMatrix`` becomes that robot's camera: resolution, view
   angle, mount, pitch and roll read back from them (angles rounded to 1e-6 degrees).
 
-Not built here (the stand-in answers with an error saying so): joints and force sensors, and
+A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the fleet script
+``script_host``'s. Not built here (the stand-in answers with an error saying so):
 ``sim.saveScene``.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -81,8 +81,7 @@ EDITS = tuple(f"sim.{n}" for n in (
     "setSimulationTimeStep",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
-    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix", "createForceSensor",
-    "createJoint",
+    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
 ))
 _ROUND = 9
 
@@ -389,11 +388,6 @@ class SceneEditor:
     def _saveScene(self, client: Client, args: Args) -> list[object]:
         raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")
 
-    def _unsupported(self, what: str) -> Callable[[Client, Args], list[object]]:
-        def refuse(client: Client, args: Args) -> list[object]:
-            raise SimError(f"labsim serve: the stand-in does not build {what} yet (docs/coppeliasim.md)")
-        return refuse
-
     def _createVisionSensor(self, client: Client, args: Args) -> list[object]:
         # sim.createVisionSensor(int options, list intParams, list floatParams): CoppeliaSim 4.6
         self._stopped()
@@ -456,11 +450,6 @@ class SceneEditor:
         [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
         return [h, h, [width, height]]
 
-    def _createForceSensor(self, client: Client, args: Args) -> list[object]:
-        return self._unsupported("force sensors")(client, args)
-
-    def _createJoint(self, client: Client, args: Args) -> list[object]:
-        return self._unsupported("joints")(client, args)
 
 
 def _textured(s: Shape) -> Ground:
