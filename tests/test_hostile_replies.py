@@ -91,6 +91,53 @@ def served():
     _stop(proc)
 
 
+@pytest.fixture(scope="module")
+def crane():
+    proc, port = _serve("-q", "crane", "--robots", "0")
+    yield port
+    _stop(proc)
+
+
+@pytest.fixture(scope="module")
+def built():
+    """labsim serve --empty with the wall lab built by labsim scene: the fleet script's path."""
+    proc, port = _serve("-q", "--empty")
+    assert main(["scene", str(LAB), "--port", str(port), "-q"]) == 0
+    yield port
+    _stop(proc)
+
+
+# the crane's parts, and the fleet script's replies, through the same proxy
+MORE = [
+    ("crane", "sim.getJointPosition", ["x"], 20, ("sim.getJointPosition", "_Actuator", "'x'")),
+    ("crane", "sim.readForceSensor", [1, [0.0, 0.0, NAN], [0.0, 0.0, 0.0]], 20,
+     ("sim.readForceSensor", "Force_sensor", "nan")),
+    ("built", "sim.callScriptFunction", [[["x"]]], 40, ("labsimSense", "robot 'pioneer'", "'x'")),
+    ("built", "sim.callScriptFunction", ["no"], 40, ("labsimSense", "the fleet", "'no'")),
+]
+
+
+@pytest.mark.parametrize(("where", "func", "ret", "after", "named"), MORE,
+                         ids=[f"{c[0]}-{c[1].removeprefix('sim.')}-{i}" for i, c in enumerate(MORE)])
+def test_a_hostile_reply_to_the_crane_or_the_fleet_script(request, tmp_path: Path, capsys, where: str, func: str,
+                                                          ret: list[object], after: int,
+                                                          named: tuple[str, ...]) -> None:
+    proxy = Proxy(request.getfixturevalue(where), func, ret, after)
+    lab = BEHAVIOURS / "crane.yaml" if where == "crane" else LAB
+    trace = tmp_path / "t.csv"
+    try:
+        code = main(["run", str(lab), "--set", "minutes=1"][:2 if where == "crane" else 4] + [
+            "--backend", "coppeliasim", "--port", str(proxy.port), "--timeout", "20", "--trace", str(trace), "-q"])
+    finally:
+        proxy.close()
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err and "CoppeliaSim never sends" in err, err
+    for part in named:
+        assert part in err, (part, err)
+    rows = _rows(trace)
+    assert len(rows) > 1 and all(len(r) == len(rows[0]) for r in rows)
+
+
 def _rows(path: Path) -> list[list[str]]:
     lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
     return list(csv.reader(lines))
