@@ -1,5 +1,5 @@
 """``labsim scene`` builds the crane's mechanism; ``labsim serve --empty`` reads it back, and the
-crane's run there gives the run of ``labsim serve crane`` row for row, and passes its golden."""
+crane's run there gives the run of ``labsim serve crane`` and the embedded run, row for row."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -61,5 +61,7 @@ def test_the_crane_built_by_labsim_scene_gives_labsim_serve_cranes_trace(empty: 
     finally:
         _stop(proc)
     assert _rows(built) == _rows(served) and len(_rows(built)) == 1 + 1200
-    # and within the golden's tolerance of the embedded run (docs/coppeliasim.md: the slew's rounding)
+    embedded = tmp_path / "embedded.csv"
+    assert main(["run", str(CRANE), "-q", "--trace", str(embedded)]) == 0
+    assert _rows(built) == _rows(embedded)  # after the slew too: frames._unslewed
     assert main(["test", str(CRANE), "--backend", "coppeliasim", "--port", str(empty)]) == 0

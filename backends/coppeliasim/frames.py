@@ -124,4 +124,23 @@ def plane_pose(position: Sequence[float], euler: Sequence[float], slew: float,
         return (x, z, math.atan2(r20, r00))
     cs, ss = math.cos(slew), math.sin(slew)
     # turn back by the slew about the vertical axis x = axis_x, y = 0
-    return (axis_x + (x - axis_x) * cs + y * ss, z, math.atan2(r20, cs * r00 + ss * r10))
+    back = axis_x + (x - axis_x) * cs + y * ss
+    return (_unslewed(back, x, y, slew, axis_x), z, math.atan2(r20, cs * r00 + ss * r10))
+
+
+def _unslewed(guess: float, x: float, y: float, slew: float, axis_x: float, ulps: int = 16) -> float:
+    """The plane x nearest ``guess`` that ``slewed`` turns into exactly (``x``, ``y``), else ``guess``.
+
+    Turning back by the slew is exact in real numbers, not in floats: the plane x comes back a
+    few units in the last place off, and a trace written to 6 digits can then differ in its last
+    digit from the embedded run's. Trying the floats next to the guess finds the one the turn
+    came from, when one maps there exactly (always, for a stand-in that turns with ``slewed``;
+    a real CoppeliaSim's numbers have no such x, and the guess stands)."""
+    below = above = guess
+    for _ in range(ulps + 1):
+        for candidate in (below, above) if below != above else (below,):
+            sx = axis_x + (candidate - axis_x) * math.cos(slew)
+            if sx == x and (candidate - axis_x) * math.sin(slew) == y:
+                return candidate
+        below, above = math.nextafter(below, -math.inf), math.nextafter(above, math.inf)
+    return guess
