@@ -111,7 +111,9 @@ class MechanismDriver:
     def _sense(self, p: _Parts) -> list[object]:
         """Joints, force sensors, and bodies in the mechanism's plane (undoing the slew)."""
         read = self._conn.call
-        if self._script >= 0:  # the fleet script: every reading in one call, then looked up
+        if self._script >= 0 and self._conn.steps > 0:
+            # the fleet script: every reading in one call, then looked up. Not before the first
+            # step: CoppeliaSim initializes a child script in it (a fleet gets a priming step)
             read = self._batch(p)
         call = read
         values: list[object] = [None] * len(p.channels)

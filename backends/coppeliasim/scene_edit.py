@@ -42,7 +42,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from labsim.backends.coppeliasim import STOPPED
+from labsim.backends.coppeliasim import RUNNING, STOPPED
 from labsim.backends.coppeliasim.mechanism_edit import MECHANISM_CALLS, MECHANISM_CONSTANTS, MechanismEditor
 from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
 from labsim.backends.coppeliasim.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
@@ -125,7 +125,8 @@ class SceneEditor:
         self.robots: list[Pose] = []
         self.dirty = False
         self._next = FIRST_HANDLE
-        self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state)
+        self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state == RUNNING
+                                      and self.server.simulation.steps > 0)
         self.mechanism_edit = MechanismEditor(self)
 
     def _handle(self) -> int:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from labsim.backends.coppeliasim import HANDLE_WORLD, RUNNING
+from labsim.backends.coppeliasim import HANDLE_WORLD
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, Wait
 from labsim.backends.coppeliasim.simulation import Client
@@ -35,8 +35,8 @@ class ScriptHost:
     """Dummies and scripts of a scene being built; ``new_handle`` hands out their handles."""
 
     def __init__(self, new_handle: Callable[[], int], stopped: Callable[[], None],
-                 state: Callable[[], int]) -> None:
-        self._new_handle, self._stopped, self._state = new_handle, stopped, state
+                 ready: Callable[[], bool]) -> None:
+        self._new_handle, self._stopped, self._ready = new_handle, stopped, ready
         self.dummies: dict[int, _Dummy] = {}
         self.scripts: dict[int, str] = {}  # script handle -> its text
 
@@ -137,8 +137,10 @@ class ScriptHost:
         if text != fs.LUA:
             raise SimError("labsim serve: the stand-in runs no Lua; it answers only the fleet script "
                            "labsim scene adds (docs/coppeliasim.md)")
-        if self._state() != RUNNING:  # a child script runs only while the simulation does
-            raise SimError("script is not initialized (the simulation is not running).")
+        if not self._ready():
+            # a child script is initialized by the simulation's first step; the stand-in does not
+            # answer before it (CoppeliaSim may, from its start: the stricter rule is the safe one)
+            raise SimError("script is not initialized (the simulation has not stepped since it started).")
         if name == fs.SENSE and len(args) == 3 and isinstance(args[2], list):
             return [[self._sense(client, p) for p in args[2]]]
         if name == fs.ACT and len(args) == 3 and isinstance(args[2], list):
