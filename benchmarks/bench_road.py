@@ -8,7 +8,8 @@ metrics. Both must end with the same poses, bit for bit, which shows they did th
 
     python benchmarks/bench_road.py [--repeat 7]
 
-Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x hand).
+Prints the median CPU time of each side, alternated in random order, and the median of the
+per-round ratios (goal: labsim <= 1.05 x hand), with the load average.
 """
 from __future__ import annotations
 
@@ -81,7 +82,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     laps = [0] * n
     sum_sq, count_sq, worst = [0.0] * n, [0] * n, [-math.inf] * n
     off_ticks, speed_sum, speed_count = [0] * n, [0.0] * n, [0] * n
-    start = time.perf_counter()
+    start = time.process_time()
     tick = 0
     while tick * dt < 30:
         sensed = []
@@ -120,7 +121,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         for i, b in enumerate(bodies):
             laps[i] = tracker.update(i, b.position.x, b.position.y)
         tick += 1
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     poses = [(b.position.x, b.position.y, math.remainder(b.angle, 2 * math.pi)) for b in bodies]
     run.close()
     return elapsed, poses

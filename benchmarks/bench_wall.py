@@ -8,7 +8,8 @@ end at the same pose (bit for bit), which shows they did the same work.
 
     python benchmarks/bench_wall.py [--repeat 5]
 
-Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x hand).
+Prints the median CPU time of each side, alternated in random order, and the median of the
+per-round ratios (goal: labsim <= 1.05 x hand), with the load average.
 """
 from __future__ import annotations
 
@@ -76,7 +77,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     position, step = lib.cpBodyGetPosition, lib.cpSpaceStep
     inf = math.inf
 
-    start = time.perf_counter()
+    start = time.process_time()
     following = False
     left_cmd = right_cmd = 0.0
     sent = (math.nan, math.nan)
@@ -142,7 +143,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         if touching[0]:
             contact_time += dt
         tick += 1
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     x, y = body.position
     pose = (x, y, math.remainder(body.angle, 2 * math.pi))
     run.close()

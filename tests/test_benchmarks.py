@@ -19,7 +19,7 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "ratio labsim / hand" in done.stdout
+    assert "labsim / hand-written loop: median of per-round ratios" in done.stdout
     assert "same final poses: yes" in done.stdout, done.stdout
 
 
