@@ -5,7 +5,9 @@ The pymunk scene is flat, so a camera can only see the floor. When a world loads
 a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspective`` of that
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
 homography, which this module builds in closed form from the robot's pose and the camera's
-mount. Everything the texture does not cover is floor colour (the warp's border).
+mount. Everything the texture does not cover is floor colour (the warp's border). A drawn
+texture is kept in labsim's cache folder (``labsim.backends.scene.cache``), so that opening the
+same world again reads it rather than drawing it.
 
 What the image shows, and what it does not:
 
@@ -23,12 +25,17 @@ warp (``benchmarks/bench_road.py`` measures the whole tick).
 from __future__ import annotations
 
 import functools
+import hashlib
+import io
 import itertools
 import math
+import zipfile
+from pathlib import Path
 
 import cv2
 import numpy as np
 
+from labsim.backends.scene.cache import cache_dir, write_atomically
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera
 
@@ -209,7 +216,7 @@ class GroundView:
 
     def __init__(self, ground: Ground):
         self.ground = ground
-        rgb, self._xmin, self._ymax = draw_ground(ground)
+        rgb, self._xmin, self._ymax = _drawn(ground)
         # The warp reads a 4-channel texture: OpenCV's vectorised path for 4 channels makes a
         # 128 x 128 frame about twice as fast as 3 channels do, and dropping the unused 4th
         # channel afterwards costs a couple of microseconds.
@@ -312,6 +319,37 @@ class GroundView:
     def texture(self) -> np.ndarray:
         """The drawn ground, RGB, north up (a read-only view)."""
         return self._rgba[..., :3]
+
+
+def _drawn(ground: Ground) -> tuple[np.ndarray, float, float]:
+    """``draw_ground(ground)``, from labsim's cache folder when it was drawn before.
+
+    Drawing the road loop's 734 segments takes about a quarter of a second, as long as the
+    lab's whole run, and gives the same texture every time. The cache entry is named by a
+    hash of the ground's description, this module's source and the numpy and OpenCV
+    versions, so a changed ground or drawing code never reads a stale texture. A picture
+    of the ground is only decoded, which is quick: it is not cached.
+    """
+    folder = cache_dir() if ground.texture is None else None
+    if folder is None:
+        return draw_ground(ground)
+    key = hashlib.sha256()
+    for part in (repr(ground), Path(__file__).read_text(encoding="utf-8"), np.__version__, cv2.__version__):
+        key.update(part.encode("utf-8") + b"\0")
+    path = folder / f"ground-{key.hexdigest()[:32]}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as saved:
+            img, origin = saved["img"], saved["origin"]
+        if img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3 and origin.shape == (2,):
+            img.flags.writeable = False
+            return img, float(origin[0]), float(origin[1])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        pass  # not there, or not whole: draw it
+    img, xmin, ymax = draw_ground(ground)
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, img=img, origin=np.array([xmin, ymax]))  # mostly floor: 20 MB -> 0.1 MB
+    write_atomically(path, buffer.getvalue())
+    return img, xmin, ymax
 
 
 def _sky_block(rows: int, width: int) -> np.ndarray:
