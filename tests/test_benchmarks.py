@@ -60,9 +60,3 @@ def test_irsim_benchmark_runs_or_says_it_is_skipped() -> None:
     assert ("labsim / IR-SIM steps per second" in done.stdout
             or "IR-SIM is not installed: skipped" in done.stdout), done.stdout
 
-
-def test_noise_benchmark_runs() -> None:
-    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_noise.py"), "--repeat", "1", "--minutes", "0.5"],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    assert "noise / no noise: median of per-round ratios" in done.stdout, done.stdout
