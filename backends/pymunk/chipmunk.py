@@ -1,4 +1,4 @@
-"""Chipmunk's C functions for the fleet's two hottest paths: sonar rays and wheel velocities.
+"""Chipmunk's C functions for the pymunk backend's hottest paths: sonar rays, wheel velocities, winches.
 
 pymunk's Python layer costs more than the physics it wraps on these paths. A ray through
 ``Space.segment_query_first`` allocates a result struct, a ``SegmentQueryInfo`` and two
@@ -31,6 +31,13 @@ body_velocity = lib.cpBodyGetVelocity
 set_velocity = lib.cpBodySetVelocity
 set_angular_velocity = lib.cpBodySetAngularVelocity
 space_step = lib.cpSpaceStep
+# ... and those a mechanism's winch calls before every sub-step (labsim.backends.pymunk.joints)
+local_to_world = lib.cpBodyLocalToWorld
+velocity_at_world_point = lib.cpBodyGetVelocityAtWorldPoint
+apply_force_at_world_point = lib.cpBodyApplyForceAtWorldPoint
+set_position = lib.cpBodySetPosition
+set_slide_max = lib.cpSlideJointSetMax
+impulse = lib.cpConstraintGetImpulse
 
 
 def query_info() -> Any:
@@ -46,6 +53,11 @@ def shape_filter(f: pymunk.ShapeFilter) -> Any:
 def c_body(body: pymunk.Body) -> Any:
     """The ``cpBody *`` of a pymunk body (valid as long as the body lives)."""
     return body._body
+
+
+def c_constraint(constraint: pymunk.Constraint) -> Any:
+    """The ``cpConstraint *`` of a pymunk constraint (valid as long as it lives)."""
+    return constraint._constraint
 
 
 def c_space(space: pymunk.Space) -> Any:
