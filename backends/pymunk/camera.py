@@ -333,9 +333,13 @@ def _drawn(ground: Ground) -> tuple[np.ndarray, float, float]:
     folder = cache_dir() if ground.texture is None else None
     if folder is None:
         return draw_ground(ground)
-    key = hashlib.sha256()
-    for part in (repr(ground), Path(__file__).read_text(encoding="utf-8"), np.__version__, cv2.__version__):
-        key.update(part.encode("utf-8") + b"\0")
+    try:
+        source = Path(__file__).read_bytes()
+    except OSError:  # installed without its sources: nothing to name the drawing code by
+        return draw_ground(ground)
+    key = hashlib.sha256(source)
+    for part in (repr(ground), np.__version__, cv2.__version__):
+        key.update(b"\0" + part.encode("utf-8"))
     path = folder / f"ground-{key.hexdigest()[:32]}.npz"
     try:
         with np.load(path, allow_pickle=False) as saved:
