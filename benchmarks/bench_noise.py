@@ -6,15 +6,20 @@ Runs behaviours/wall_follow.yaml as it is, and with every noise model of the wal
 declared but tiny (1e-9 m of sonar jitter, a 1e-9 dropout, 1e-9 rad/s and 1e-9 slip on the
 wheels): every random number is drawn and every wheel command re-sent each tick, as with real
 noise, while the robot keeps close to the noiseless path, so both sides do the same simulation.
-Prints the median wall time of each and the ratio (goal: noise <= 1.3 x none).
+Prints the median CPU time of each, alternated in random order, and the median of the per-round
+ratios (goal: noise <= 1.3 x none), with the load average.
 """
 from __future__ import annotations
 
 import argparse
-import statistics
+import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from compare import alternate, machine, report
 
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
@@ -25,9 +30,9 @@ TINY = ("noise: {sonar: {std_m: 1.0e-9, dropout: 1.0e-9}, wheels: {std_rad_s: 1.
 
 def once(path: Path, minutes: float) -> tuple[float, int]:
     run = compile_behaviour(path, {"minutes": str(minutes)}).bind(load_backend("pymunk"), warn=lambda m: None)
-    start = time.perf_counter()
+    start = time.process_time()
     summary = run.run()
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     run.close()
     return elapsed, summary.ticks
 
@@ -43,18 +48,17 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         noisy = Path(tmp) / "wall_follow_noisy.yaml"
         noisy.write_text(text.replace(plain, plain[:-1] + ", " + TINY + "}"))
-        times: dict[str, list[float]] = {"no noise": [], "noise": []}
-        ticks = 0
-        for _ in range(args.repeat):  # interleaved, so that a busy moment hurts both sides
-            for name, path in (("no noise", LAB), ("noise", noisy)):
-                elapsed, ticks = once(path, args.minutes)
-                times[name].append(elapsed)
-    print(f"wall lab, {ticks} ticks, median of {args.repeat}:")
-    for name, values in times.items():
-        print(f"  {name:<10} {statistics.median(values):.3f} s   ({', '.join(f'{v:.3f}' for v in values)})")
-    ratio = statistics.median(times["noise"]) / statistics.median(times["no noise"])
-    print(f"  ratio noise / none  {ratio:.3f}   (goal <= 1.3)")
+        ticks = [0]
 
+        def side(path: Path) -> Callable[[], float]:
+            def once_timed() -> float:
+                elapsed, ticks[0] = once(path, args.minutes)
+                return elapsed
+            return once_timed
+
+        print(machine())
+        times = alternate({"no noise": side(LAB), "noise": side(noisy)}, args.repeat)
+    report(f"wall lab, {ticks[0]} ticks", times, ("noise", "no noise"), "<= 1.3")
 
 if __name__ == "__main__":
     main()

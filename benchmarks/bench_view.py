@@ -5,9 +5,9 @@
 Both sides run behaviours/wall_follow.yaml (30,000 ticks, no trace) on the pymunk backend.
 The view side serves it as `labsim view` does (the aiohttp server, the pacing loop, a
 WebSocket client in the same process receiving every frame it is sent, with its camera
-images) and plays it at "max" until the run ends. It prints the median wall times, their
-ratio (goal <= 1.2), the frames a second the page received (goal <= 30), and checks that
-both ended at the same pose.
+images) and plays it at "max" until the run ends. It prints the median CPU times of the two,
+alternated in random order, the median of the per-round ratios (goal <= 1.2), the frames a
+second the page received (goal <= 30), and checks that both ended at the same pose.
 """
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ import asyncio
 import contextlib
 import json
 import math
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -24,7 +23,7 @@ from pathlib import Path
 import aiohttp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare import Pose, labsim_side
+from compare import Pose, alternate, labsim_side, machine, report
 
 from labsim.runtime.view.live import LiveSession
 from labsim.runtime.view.server import bind_socket, serve
@@ -32,7 +31,7 @@ from labsim.runtime.view.server import bind_socket, serve
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
-async def _watched() -> tuple[float, list[Pose], int]:
+async def _watched() -> tuple[float, list[Pose], float]:
     session = LiveSession(LAB, {}, warn=lambda m: None)
     assert session.load(), session.problems
     sock = bind_socket("127.0.0.1", 0)
@@ -48,7 +47,8 @@ async def _watched() -> tuple[float, list[Pose], int]:
                 await asyncio.sleep(0.01)
         await ws.receive_json()  # the scene
         await ws.send_str(json.dumps({"type": "speed", "value": "max"}))
-        start = time.perf_counter()
+        start = time.process_time()
+        wall = time.perf_counter()
         await ws.send_str(json.dumps({"type": "play"}))
         while True:
             msg = json.loads((await ws.receive()).data)
@@ -56,7 +56,8 @@ async def _watched() -> tuple[float, list[Pose], int]:
                 frames += 1
                 if msg["finished"]:
                     break
-        elapsed = time.perf_counter() - start
+        elapsed = time.process_time() - start
+        wall = time.perf_counter() - wall
         assert session.observed is not None
         poses = [session.observed.pose(0)]
         await ws.close()
@@ -64,30 +65,32 @@ async def _watched() -> tuple[float, list[Pose], int]:
     with contextlib.suppress(asyncio.CancelledError):
         await server
     session.close()
-    return elapsed, poses, frames
+    return elapsed, poses, frames / wall
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
-    plain, watched, rates = [], [], []
-    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
-        t, run_poses = labsim_side(LAB, 1)
-        plain.append(t)
-        t, view_poses, frames = asyncio.run(_watched())
-        watched.append(t)
-        rates.append(frames / t)
-    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
-               for p, q in zip(run_poses, view_poses) for a, b in zip(p, q))
-    run_s, view_s = statistics.median(plain), statistics.median(watched)
-    print(f"wall lab, 30,000 ticks at \"as fast as it goes\", median of {args.repeat}:")
-    print(f"  labsim run           {run_s:.3f} s   ({', '.join(f'{t:.3f}' for t in plain)})")
-    print(f"  labsim view + page   {view_s:.3f} s   ({', '.join(f'{t:.3f}' for t in watched)})")
-    print(f"  ratio view / run     {view_s / run_s:.3f}   (goal <= 1.2)")
-    print(f"  frames a second      {max(rates):.1f} at most   (goal <= 30)")
-    print(f"  same final pose: {'yes' if same else 'NO'}")
+    poses: dict[str, list[Pose]] = {}
+    rates: list[float] = []
 
+    def plain() -> float:
+        t, poses["run"] = labsim_side(LAB, 1)
+        return t
+
+    def watched() -> float:
+        t, poses["view"], rate = asyncio.run(_watched())
+        rates.append(rate)
+        return t
+
+    print(machine())
+    times = alternate({"labsim run": plain, "labsim view + page": watched}, args.repeat)
+    same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
+               for p, q in zip(poses["run"], poses["view"]) for a, b in zip(p, q))
+    report('wall lab, 30,000 ticks at "as fast as it goes"', times, ("labsim view + page", "labsim run"), "<= 1.2")
+    print(f"  frames a second      {max(rates):.1f} at most, wall clock   (goal <= 30)")
+    print(f"  same final pose: {'yes' if same else 'NO'}")
 
 if __name__ == "__main__":
     main()

@@ -8,7 +8,8 @@ end at the same pose (bit for bit), which shows they did the same work.
 
     python benchmarks/bench_wall.py [--repeat 5]
 
-Prints the median wall time of each side and their ratio (goal: labsim <= 1.05 x hand).
+Prints the median CPU time of each side, alternated in random order, and the median of the
+per-round ratios (goal: labsim <= 1.05 x hand), with the load average.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import pymunk
 from compare import compare, labsim_scene, labsim_side
+from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -44,15 +46,21 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     sonars = {s.name: s for s in model.sonars}
     rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
              sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
-    ray_filter = pymunk.ShapeFilter(group=1)
+    # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
+    # result struct for the ray casts, and the wheel drive as a C velocity callback.
+    ray_filter = ffi.new("cpShapeFilter *", (1, pymunk.ShapeFilter.ALL_CATEGORIES(), pymunk.ShapeFilter.ALL_MASKS()))[0]
     drive = [0.0, 0.0]  # forward speed m/s, turn rate rad/s
+    cp_body, cp_space = body._body, space._space
+    get_angle, set_v, set_w = lib.cpBodyGetAngle, lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity
+    cos, sin = math.cos, math.sin
 
-    def velocity(b: pymunk.Body, gravity: object, damping: float, step: float) -> None:
-        a = b.angle
-        b.velocity = (drive[0] * math.cos(a), drive[0] * math.sin(a))
-        b.angular_velocity = drive[1]
+    @ffi.callback("cpBodyVelocityFunc")
+    def velocity(b: object, gravity: object, damping: float, step: float) -> None:
+        a = get_angle(b)
+        set_v(b, (drive[0] * cos(a), drive[0] * sin(a)))
+        set_w(b, drive[1])
 
-    body.velocity_func = velocity
+    lib.cpBodySetVelocityUpdateFunc(cp_body, velocity)
     touching = [0]
     contacts = [0]
 
@@ -65,10 +73,11 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         touching[0] -= 1
 
     space.on_collision(None, None, begin=begin, separate=separate)
-    query = space.segment_query_first
+    query, info = lib.cpSpaceSegmentQueryFirst, ffi.new("cpSegmentQueryInfo *")
+    position, step = lib.cpBodyGetPosition, lib.cpSpaceStep
     inf = math.inf
 
-    start = time.perf_counter()
+    start = time.process_time()
     following = False
     left_cmd = right_cmd = 0.0
     sent = (math.nan, math.nan)
@@ -76,14 +85,16 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     contact_time = 0.0
     tick = 0
     while tick * dt < 25 * 60:
-        x, y = body.position
-        a = body.angle
-        c, s = math.cos(a), math.sin(a)
+        p = position(cp_body)
+        x, y = p.x, p.y
+        a = get_angle(cp_body)
+        c, s = cos(a), sin(a)
         d = []
         for mx, my, ux, uy, reach in rays:
             ox, oy = x + c * mx - s * my, y + s * mx + c * my
-            hit = query((ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach), 0.0, ray_filter)
-            d.append(inf if hit is None else hit.alpha * reach)
+            hit = query(cp_space, (ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach), 0.0,
+                        ray_filter, info)
+            d.append(info.alpha * reach if hit else inf)
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(0, 100)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
@@ -115,8 +126,8 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
             drive[0] = radius / 2 * (wl + wr)
             drive[1] = radius / axle * (wr - wl)
             if touching[0] == 0:
-                body.velocity = (drive[0] * c, drive[0] * s)
-                body.angular_velocity = drive[1]
+                set_v(cp_body, (drive[0] * c, drive[0] * s))
+                set_w(cp_body, drive[1])
 
         near = min(ahead, right, left) < 0.25
         if near and not was_near:
@@ -128,11 +139,11 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
             following_ticks += 1
         closest = min(closest, ahead, right, left)
 
-        space.step(dt)
+        step(cp_space, dt)
         if touching[0]:
             contact_time += dt
         tick += 1
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     x, y = body.position
     pose = (x, y, math.remainder(body.angle, 2 * math.pi))
     run.close()

@@ -1,29 +1,102 @@
-"""What bench_wall.py and bench_road.py share: run labsim and a hand-written loop in turns,
-report their medians and ratio, and check that both ended with the same poses."""
+"""The benchmarks' shared harness: time two sides fairly on a shared, noisy machine.
+
+Every ``bench_*.py`` that compares two things (labsim against a hand-written loop, labsim
+against IR-SIM, noise against none, a cold ``check`` against a cold ``run``) goes through
+``alternate``: each round runs every side once, in a fresh random order, so that a busy
+moment or a warm cache does not always favour the same side. Times are CPU time
+(``time.process_time``, or the children's CPU time for a side that starts processes), which
+another job on the machine slows far less than wall-clock time. ``report`` prints each side's
+median and the median of the per-round ratios (one ratio per round, both sides measured
+moments apart: steadier than the ratio of the medians), and ``machine`` the line that says
+when and where, with the load average, so that the figures can be pasted as they are.
+"""
 from __future__ import annotations
 
 import argparse
 import math
+import os
+import platform
+import random
+import resource
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from datetime import datetime, timezone
 from pathlib import Path
 
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
 
 Pose = tuple[float, float, float]
-Side = Callable[[], tuple[float, list[Pose]]]  # one run: (wall seconds, final poses)
+Side = Callable[[], tuple[float, list[Pose]]]  # one run: (CPU seconds, final poses)
+
+
+def machine() -> str:
+    """When and where: the date, the machine, its cores and the load average now."""
+    one, five, fifteen = os.getloadavg()
+    return (f"# {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.system()} {platform.machine()}, "
+            f"{os.cpu_count()} cores, Python {platform.python_version()}; "
+            f"load average {one:.2f} {five:.2f} {fifteen:.2f} (1, 5, 15 min)")
+
+
+def cpu_timed(fn: Callable[[], object]) -> tuple[float, object]:
+    """fn's CPU time in this process, and what it returned."""
+    start = time.process_time()
+    result = fn()
+    return time.process_time() - start, result
+
+
+def children_cpu() -> float:
+    """CPU seconds used so far by this process's finished children (user + system)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def alternate(sides: dict[str, Callable[[], float]], repeat: int, seed: int | None = None) -> dict[str, list[float]]:
+    """Run each side ``repeat`` times, every round in a fresh random order; their times by name.
+
+    A side returns the seconds it measured itself (only the part that is timed).
+    """
+    rng = random.Random(seed)
+    times: dict[str, list[float]] = {name: [] for name in sides}
+    names = list(sides)
+    for _ in range(repeat):
+        rng.shuffle(names)
+        for name in names:
+            times[name].append(sides[name]())
+    return times
+
+
+def pair_ratios(top: Sequence[float], bottom: Sequence[float]) -> list[float]:
+    """Round by round, top / bottom."""
+    return [t / b for t, b in zip(top, bottom)]
+
+
+def report(title: str, times: dict[str, list[float]], ratio: tuple[str, str] | None = None,
+           goal: str = "", unit: str = "s CPU") -> float | None:
+    """Print each side's median (and its runs), then the median of the per-round ratios of
+    ``ratio`` = (top, bottom) with its goal; return that ratio."""
+    repeat = len(next(iter(times.values())))
+    print(f"{title}, medians of {repeat} rounds in random order:")
+    width = max(len(name) for name in times)
+    for name, values in times.items():
+        print(f"  {name:<{width}}  {statistics.median(values):.4f} {unit}   ({', '.join(f'{v:.4f}' for v in values)})")
+    if ratio is None:
+        return None
+    top, bottom = ratio
+    median = statistics.median(pair_ratios(times[top], times[bottom]))
+    print(f"  {top} / {bottom}: median of per-round ratios {median:.3f}" + (f"   (goal {goal})" if goal else ""))
+    return median
 
 
 def labsim_side(lab: Path, robots: int) -> tuple[float, list[Pose]]:
-    """One labsim run of a behaviour file on the pymunk backend: its wall time and final poses."""
+    """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses."""
     behaviour = compile_behaviour(lab)
     backend = load_backend("pymunk")
     run = behaviour.bind(backend, warn=lambda m: None)
-    start = time.perf_counter()
+    start = time.process_time()
     run.run()
-    elapsed = time.perf_counter() - start
+    elapsed = time.process_time() - start
     poses = [backend.pose(i) for i in range(robots)]
     run.close()
     return elapsed, poses
@@ -37,26 +110,32 @@ def labsim_scene(lab: Path):
     return behaviour.program, backend, behaviour.bind(backend, warn=lambda m: None)
 
 
+def same_poses(a: list[Pose], b: list[Pose]) -> bool:
+    return len(a) == len(b) and all(
+        math.isclose(x, y, rel_tol=0, abs_tol=1e-12) for p, q in zip(a, b) for x, y in zip(p, q))
+
+
 def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repeat: int = 7) -> float:
-    """Parse --repeat, time both sides interleaved, print the figures; return the ratio."""
+    """Parse --repeat, time both sides in alternation, print the figures; return the ratio."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--repeat", type=int, default=repeat)
     args = parser.parse_args()
-    labsim_times, hand_times = [], []
-    for _ in range(args.repeat):  # interleaved, so both sides see the same machine load
-        t, labsim_poses = labsim_run()
-        labsim_times.append(t)
-        t, hand_poses = hand_run()
-        hand_times.append(t)
-    same = len(labsim_poses) == len(hand_poses) and all(
-        math.isclose(a, b, rel_tol=0, abs_tol=1e-12) for p, q in zip(labsim_poses, hand_poses) for a, b in zip(p, q))
-    lab, hand = statistics.median(labsim_times), statistics.median(hand_times)
-    print(f"{title}, median of {args.repeat}:")
-    print(f"  hand-written loop    {hand:.3f} s   ({', '.join(f'{t:.3f}' for t in hand_times)})")
-    print(f"  labsim               {lab:.3f} s   ({', '.join(f'{t:.3f}' for t in labsim_times)})")
-    print(f"  ratio labsim / hand  {lab / hand:.3f}   (goal <= 1.05)")
+    print(machine())
+    poses: dict[str, list[Pose]] = {}
+
+    def side(name: str, run: Side) -> Callable[[], float]:
+        def once() -> float:
+            seconds, poses[name] = run()
+            return seconds
+        return once
+
+    times = alternate({"hand-written loop": side("hand", hand_run), "labsim": side("labsim", labsim_run)},
+                      args.repeat)
+    ratio = report(title, times, ("labsim", "hand-written loop"), "<= 1.05")
+    same = same_poses(poses["labsim"], poses["hand"])
     print(f"  same final poses: {'yes' if same else 'NO'}")
     if not same:
-        for p, q in zip(labsim_poses, hand_poses):
+        for p, q in zip(poses["labsim"], poses["hand"]):
             print(f"    labsim {p}  hand {q}")
-    return lab / hand
+    assert ratio is not None
+    return ratio

@@ -466,7 +466,10 @@ class _Generator:
         if e.func == DETECTED:
             assert isinstance(e.args[0], ast.Name)
             return f"({self.emit(e.args[0], text, where)} < _inf)"
-        args = ", ".join(self.expr(a, text, where) for a in e.args)
+        parts = [self.expr(a, text, where) for a in e.args]
+        if e.func in ("min", "max") and len(parts) <= 3 and all(_PLAIN.match(p) for p in parts):
+            return _extreme(e.func, parts)
+        args = ", ".join(parts)
         if e.func == "randint":
             try:
                 lo, hi = (self.fold(a) for a in e.args)
@@ -485,6 +488,26 @@ class _Generator:
 
 
 _MARKER = re.compile(r"^( *)#@(\d+)$", re.MULTILINE)
+# A slot's local or a plain literal: safe to name more than once in an expression.
+_PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
+
+
+def _extreme(func: str, parts: list[str]) -> str:
+    """``min``/``max`` of two or three plain values as an expression, without a call.
+
+    Exactly what ``labsim.dsl.builtins._min`` and ``_max`` compute, nan and the order of equal
+    values included: nan if any value is nan, else the running extreme from the first value,
+    replaced only by a strictly smaller (larger) one. The wall lab's rules take the minimum of
+    sonar pairs 150,000 times in a run; the call was 5% of its tick.
+    """
+    op = "<" if func == "min" else ">"
+    nan = " or ".join(f"{p} != {p}" for p in parts)
+    a, b = parts[0], parts[1]
+    m = f"({b} if {b} {op} {a} else {a})"
+    if len(parts) == 3:
+        c = parts[2]
+        m = f"({c} if {c} {op} {m} else {m})"
+    return f"(_nan if {nan} else {m})"
 
 
 def _wrap(head: str, items: list[str], separator: str, width: int = 96) -> list[str]:

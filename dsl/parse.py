@@ -10,13 +10,16 @@ from __future__ import annotations
 import dataclasses
 import functools
 import re
+import sys
 from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 from lark import Lark, Token, Transformer, Tree, v_args
+from lark import __version__ as lark_version
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 from lark.tree import Meta
 
+from labsim.backends.scene.cache import cache_dir
 from labsim.dsl import ast
 
 MAX_DEPTH = 100  # deeper expressions are refused: nobody writes them, and they'd exhaust the stack
@@ -34,7 +37,16 @@ class ParseError(Exception):
 def _parser() -> Lark:
     # The basic lexer keeps keywords keywords everywhere: lark's contextual lexer would read
     # `then` in `if a and then ...` as a name.
-    return Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic",
+    # Building the LALR tables takes 60-70 ms, a third of a cold `labsim check`: lark keeps
+    # them in a file in labsim's cache folder (labsim.backends.scene.cache). The file starts
+    # with a hash of the grammar and the options, which lark checks before it uses it, and
+    # lark rebuilds the tables when the file is missing, stale, unreadable or cannot be
+    # written; without a cache folder nothing is kept.
+    folder = cache_dir()
+    cache: str | bool = False
+    if folder is not None:
+        cache = str(folder / f"grammar-lark{lark_version}-py{sys.version_info[0]}{sys.version_info[1]}.cache")
+    return Lark.open("grammar.lark", rel_to=__file__, parser="lalr", lexer="basic", cache=cache,
                      start=["rule", "expr"], propagate_positions=True, maybe_placeholders=True)
 
 

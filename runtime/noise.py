@@ -27,12 +27,14 @@ import math
 import random
 from collections.abc import Callable
 from dataclasses import dataclass, field
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program
+
+if TYPE_CHECKING:  # numpy only for camera noise, imported then: a run without it starts faster
+    import numpy as np
 
 
 @dataclass
@@ -46,7 +48,7 @@ class RobotNoise:
     sonars: list[tuple[int, float]]  # (position in the robot's readings, range in m)
     cameras: list[int]  # positions of its images in its readings
     rng: random.Random
-    pixels: np.random.Generator
+    pixels: np.random.Generator | None  # for camera noise only
     command: list[float] = field(default_factory=lambda: [0.0, 0.0])  # what the runtime last sent, rad/s
     dropped: int = 0  # sonar readings lost so far
 
@@ -68,8 +70,10 @@ class NoisyIO:
             values = list(readings[r.index])
             self._sonars(r, values)
             for k in r.cameras:
+                import numpy as np  # already imported: an image is a numpy array
+
                 image = values[k]
-                if isinstance(image, np.ndarray):
+                if isinstance(image, np.ndarray) and r.pixels is not None:
                     noisy = image + r.pixels.normal(0.0, r.noise.camera_std, image.shape)
                     values[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
             out[r.index] = values
@@ -120,5 +124,9 @@ def robot_noise(program: Program, index: int, name: str, model: RobotModel, nois
     cameras = [k for k, c in enumerate(program.channels)
                if program.channel_kinds.get(c) is Kind.IMAGE] if noise.camera else []
     rng = random.Random(f"{program.seed}/{name}/noise")
-    pixels = np.random.default_rng(random.Random(f"{program.seed}/{name}/camera noise").getrandbits(64))
+    pixels = None
+    if noise.camera:
+        import numpy as np
+
+        pixels = np.random.default_rng(random.Random(f"{program.seed}/{name}/camera noise").getrandbits(64))
     return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, rng, pixels)

@@ -19,7 +19,7 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "ratio labsim / hand" in done.stdout
+    assert "labsim / hand-written loop: median of per-round ratios" in done.stdout
     assert "same final poses: yes" in done.stdout, done.stdout
 
 
@@ -36,3 +36,27 @@ def test_sweep_benchmark_runs() -> None:
                            "--no-dask"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "speed-up -j 2 over -j 1" in done.stdout
+
+
+def test_startup_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_startup.py"), "--repeat", "1", "--minutes", "0.1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "labsim check: median" in done.stdout and "labsim run:   median" in done.stdout, done.stdout
+    assert "load average" in done.stdout
+
+
+def test_memory_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_memory.py"), "--minutes", "0.1", "0.5"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.count("peak RSS") == 3, done.stdout
+
+
+def test_irsim_benchmark_runs_or_says_it_is_skipped() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_irsim.py"), "--repeat", "1", "--irsim-steps", "20",
+                           "--labsim-steps", "200"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert ("labsim / IR-SIM steps per second" in done.stdout
+            or "IR-SIM is not installed: skipped" in done.stdout), done.stdout
+

@@ -211,4 +211,4 @@ def test_the_noise_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(script), "--repeat", "1", "--minutes", "0.2"],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "wall lab, 240 ticks" in done.stdout and "ratio noise / none" in done.stdout
+    assert "wall lab, 240 ticks" in done.stdout and "noise / no noise: median of per-round ratios" in done.stdout

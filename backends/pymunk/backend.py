@@ -64,8 +64,9 @@ class PymunkBackend:
     * ``bodies``: in a robot world, the robots' ``pymunk.Body`` objects, in the order of
       ``open``'s ``robots`` (a mechanism world has none). A body's position is the
       robot-frame origin (the middle of the wheel axle), its angle the heading. Each body's
-      ``velocity_func`` applies the wheel commands last given to ``act``, so code driving the
-      scene by hand should call ``act`` and ``space.step``, or replace ``velocity_func``; a
+      velocity update (a chipmunk callback, ``labsim.backends.pymunk.chipmunk``) applies the
+      wheel commands last given to ``act``, so code driving the scene by hand should call
+      ``act`` and ``space.step``, or set its own ``velocity_func`` (which replaces it); a
       velocity set directly lasts only until the next step.
     """
 

@@ -5,7 +5,9 @@ The pymunk scene is flat, so a camera can only see the floor. When a world loads
 a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspective`` of that
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
 homography, which this module builds in closed form from the robot's pose and the camera's
-mount. Everything the texture does not cover is floor colour (the warp's border).
+mount. Everything the texture does not cover is floor colour (the warp's border). A drawn
+texture is kept in labsim's cache folder (``labsim.backends.scene.cache``), so that opening the
+same world again reads it rather than drawing it.
 
 What the image shows, and what it does not:
 
@@ -17,17 +19,23 @@ What the image shows, and what it does not:
 * Bilinear sampling, no mipmapping: detail finer than a camera pixel aliases in the far rows.
 
 ``GroundView.render`` is called from the backend's generated ``sense()`` for each camera
-channel a behaviour reads; a 128 x 128 frame costs about 35-40 us (measured on the road loop).
+channel a behaviour reads; a 128 x 128 frame costs about 50 us on the road loop, most of it the
+warp (``benchmarks/bench_road.py`` measures the whole tick).
 """
 from __future__ import annotations
 
 import functools
+import hashlib
+import io
 import itertools
 import math
+import zipfile
+from pathlib import Path
 
 import cv2
 import numpy as np
 
+from labsim.backends.scene.cache import cache_dir, write_atomically
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera
 
@@ -208,7 +216,7 @@ class GroundView:
 
     def __init__(self, ground: Ground):
         self.ground = ground
-        rgb, self._xmin, self._ymax = draw_ground(ground)
+        rgb, self._xmin, self._ymax = _drawn(ground)
         # The warp reads a 4-channel texture: OpenCV's vectorised path for 4 channels makes a
         # 128 x 128 frame about twice as fast as 3 channels do, and dropping the unused 4th
         # channel afterwards costs a couple of microseconds.
@@ -250,7 +258,8 @@ class GroundView:
             first = r + 1
         # Warping only the floor rows: shift the output's rows down by `first`.
         shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(first)], [0.0, 0.0, 1.0]])
-        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first, None)
+        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first, None,
+                _sky_block(min(first, h), w))
         self._cameras[camera] = plan
         return plan
 
@@ -263,7 +272,7 @@ class GroundView:
         falls = d[2] < 0
         reach = camera.height_m * np.hypot(d[0], d[1]) / np.where(falls, -d[2], 1.0)
         sky = ~(falls & (reach <= FAR_M))
-        plan = (b, (w, h), float(camera.x_m), float(camera.height_m), 0, sky if sky.any() else None)
+        plan = (b, (w, h), float(camera.x_m), float(camera.height_m), 0, sky if sky.any() else None, None)
         self._cameras[camera] = plan
         return plan
 
@@ -272,7 +281,7 @@ class GroundView:
         return self._homography(self._cameras.get(camera) or self._plan(camera), x_m, y_m, heading_rad)
 
     def _homography(self, plan: tuple, x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
-        b, _, mount_x, height, _, _ = plan
+        b, _, mount_x, height, _, _, _ = plan
         ch, sh = math.cos(heading_rad), math.sin(heading_rad)
         cx, cy = x_m + mount_x * ch, y_m + mount_x * sh  # the camera's centre over the floor
         ppm = self._ppm
@@ -290,7 +299,7 @@ class GroundView:
         plan = self._cameras.get(camera) or self._plan(camera)
         first = plan[4]
         if first >= camera.height_px:  # looking up at the sky
-            return np.full((camera.height_px, camera.width_px, 3), SKY_RGB, np.uint8)
+            return plan[6].copy()
         rgba = cv2.warpPerspective(
             self._rgba, self._homography(plan, x_m, y_m, heading_rad), plan[1],
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
@@ -302,7 +311,7 @@ class GroundView:
         if not first:
             return floor
         image = np.empty((camera.height_px, camera.width_px, 3), np.uint8)
-        image[:first] = SKY_RGB
+        image[:first] = plan[6]  # a block copy: broadcasting SKY_RGB costs 4 times as much
         image[first:] = floor
         return image
 
@@ -310,6 +319,49 @@ class GroundView:
     def texture(self) -> np.ndarray:
         """The drawn ground, RGB, north up (a read-only view)."""
         return self._rgba[..., :3]
+
+
+def _drawn(ground: Ground) -> tuple[np.ndarray, float, float]:
+    """``draw_ground(ground)``, from labsim's cache folder when it was drawn before.
+
+    Drawing the road loop's 734 segments takes about a quarter of a second, as long as the
+    lab's whole run, and gives the same texture every time. The cache entry is named by a
+    hash of the ground's description, this module's source and the numpy and OpenCV
+    versions, so a changed ground or drawing code never reads a stale texture. A picture
+    of the ground is only decoded, which is quick: it is not cached.
+    """
+    folder = cache_dir() if ground.texture is None else None
+    if folder is None:
+        return draw_ground(ground)
+    try:
+        source = Path(__file__).read_bytes()
+    except OSError:  # installed without its sources: nothing to name the drawing code by
+        return draw_ground(ground)
+    key = hashlib.sha256(source)
+    for part in (repr(ground), np.__version__, cv2.__version__):
+        key.update(b"\0" + part.encode("utf-8"))
+    path = folder / f"ground-{key.hexdigest()[:32]}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as saved:
+            img, origin = saved["img"], saved["origin"]
+        if img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3 and origin.shape == (2,):
+            img.flags.writeable = False
+            return img, float(origin[0]), float(origin[1])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        pass  # not there, or not whole: draw it
+    img, xmin, ymax = draw_ground(ground)
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, img=img, origin=np.array([xmin, ymax]))  # mostly floor: 20 MB -> 0.1 MB
+    write_atomically(path, buffer.getvalue())
+    return img, xmin, ymax
+
+
+def _sky_block(rows: int, width: int) -> np.ndarray:
+    """The rows above a camera's horizon, made once per camera and copied into each frame."""
+    block = np.empty((rows, width, 3), np.uint8)
+    block[:] = SKY_RGB
+    block.flags.writeable = False
+    return block
 
 
 @functools.lru_cache(maxsize=4)

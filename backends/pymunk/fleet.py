@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 import pymunk
 
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
+from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.fleet_sense import CameraRead, SensePlan, SonarRay, Spec, compile_sense
 from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
@@ -46,34 +47,12 @@ ELASTICITY = 0.0
 _STATIC_TYPE = 0
 
 
-def _wheel_drive(
-    vs: list[float], ws: list[float], robot: int,
-) -> Callable[[pymunk.Body, object, float, float], None]:
-    """A body velocity_func that imposes robot's commanded speed along its heading.
-
-    pymunk calls it inside step(), after contacts are found and before they are solved, so
-    the solver can still take away the part of the motion an obstacle blocks, and the next
-    step moves the body with what is left. Setting the velocity before step() instead would
-    overwrite that corrected velocity, and a robot driving into a wall would sink into it by
-    about v * dt every step.
-    """
-    cos, sin = math.cos, math.sin
-
-    def drive(body: pymunk.Body, _gravity: object, _damping: float, _dt: float) -> None:
-        a = body.angle
-        v = vs[robot]
-        body.velocity = (v * cos(a), v * sin(a))
-        body.angular_velocity = ws[robot]
-
-    return drive
-
-
 class FleetSimulator:
     """Robots on a floor among walls and blocks; built open by the constructor.
 
     ``space`` is the ``pymunk.Space``; ``bodies`` the robots' bodies, in the order of the
     requests. A body's position is the robot-frame origin (the middle of the wheel axle), its
-    angle the heading, and its ``velocity_func`` applies the wheel commands last given to
+    angle the heading, and its velocity update applies the wheel commands last given to
     ``act`` (see ``PymunkBackend`` for driving the scene by hand).
     """
 
@@ -89,7 +68,14 @@ class FleetSimulator:
         n = len(robots)
         vs = [0.0] * n  # commanded forward speed per robot, m/s (act() writes them)
         ws = [0.0] * n  # commanded turn rate per robot, rad/s
-        plans = [_add_robot(space, i, req, model, vs, ws) for i, (req, model) in enumerate(zip(robots, models))]
+        plans = [_add_robot(space, i, req, model) for i, (req, model) in enumerate(zip(robots, models))]
+        # Each body's velocity update imposes its wheel commands inside the step, after
+        # contacts are found and before they are solved, so the solver can still take away
+        # the part of the motion an obstacle blocks, and the next step moves the body with
+        # what is left. Setting the velocity before step() instead would overwrite that
+        # corrected velocity, and a robot driving into a wall would sink into it by about
+        # v * dt every step. The callbacks must live as long as the space.
+        self._drives = [chipmunk.wheel_drive(plan.body, vs, ws, i) for i, plan in enumerate(plans)]
         touching = [0] * n  # contacts in progress, per robot
         count = [0] * n
         _count_contacts(space, touching, count)
@@ -103,7 +89,9 @@ class FleetSimulator:
 
         self.space = space
         self.bodies = [plan.body for plan in plans]
-        self.sense = compile_sense(space.segment_query_first, plans, touching, render, tracker, laps)
+        self.sense = compile_sense(space, plans, touching, render, tracker, laps)
+        self._c_space = chipmunk.c_space(space)
+        self._c_bodies = [chipmunk.c_body(b) for b in self.bodies]
         self._world = world.name
         self._substep_s = dt_s / substeps
         self._substep_range = range(substeps)
@@ -130,19 +118,21 @@ class FleetSimulator:
         # at once; a touching one waits a step rather than lose its contact-corrected velocity
         # (overwriting that would push it into the obstacle by up to v * dt).
         if self._touching[robot] == 0:
-            body = self.bodies[robot]
-            a = body.angle
-            body.velocity = (v * math.cos(a), v * math.sin(a))
-            body.angular_velocity = w
+            body = self._c_bodies[robot]
+            a = chipmunk.body_angle(body)
+            chipmunk.set_velocity(body, (v * math.cos(a), v * math.sin(a)))
+            chipmunk.set_angular_velocity(body, w)
 
     def command(self, robot: int, joint: str, mode: str, value: float) -> None:
         raise BackendError(f"pymunk backend: world '{self._world}' has no mechanism, so no joint "
                            f"'{joint}' to command")
 
     def step(self) -> None:
-        space, touching, h = self.space, self._touching, self._substep_s
+        space, touching, h = self._c_space, self._touching, self._substep_s
         for _ in self._substep_range:
-            space.step(h)  # each body's velocity_func applies its wheel commands
+            # chipmunk's step itself: pymunk's Space.step adds the handling of shapes added or
+            # removed from callbacks, and the fleet's callbacks only count contacts.
+            chipmunk.space_step(space, h)  # each body's velocity update applies its wheel commands
             if any(touching):
                 time_s = self._time_s
                 for r, t in enumerate(touching):
@@ -238,9 +228,8 @@ def _add_obstacles(space: pymunk.Space, world: World) -> None:
         space.add(poly)
 
 
-def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel,
-               vs: list[float], ws: list[float]) -> SensePlan:
-    """Robot i's body and shape, driven from vs[i] and ws[i]; what its sense() reads."""
+def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel) -> SensePlan:
+    """Robot i's body and shape; what its sense() reads."""
     moment = pymunk.moment_for_poly(model.mass_kg, model.footprint)
     body = pymunk.Body(model.mass_kg, moment)
     body.position = (req.pose.x_m, req.pose.y_m)
@@ -251,7 +240,6 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     # Group i + 1: the robot's own rays skip its own shape (they start on or inside it) but
     # still hit walls, blocks (group 0) and every other robot.
     shape.filter = pymunk.ShapeFilter(group=i + 1)
-    body.velocity_func = _wheel_drive(vs, ws, i)
     space.add(body, shape)
 
     sonars = {s.name: s for s in model.sonars}

@@ -3,7 +3,8 @@
 ``labsim.backends.pymunk.fleet.FleetSimulator`` describes, once at open, what each robot reads
 (``SensePlan``: its body, its rays' shape filter, one spec per channel in the requested order)
 and ``compile_sense`` turns that into one function. It runs every tick, so its cost beyond the
-ray casts and camera frames themselves must stay near zero.
+ray casts and camera frames themselves must stay near zero, so it reads bodies and casts rays
+through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from typing import cast
 
 import pymunk
 
+from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.simulator import wrap
 from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.scene.models import Camera
@@ -70,7 +72,7 @@ def _kind(spec: Spec) -> str:
 
 
 def compile_sense(
-    query: Callable[..., pymunk.SegmentQueryInfo | None],
+    space: pymunk.Space,
     robots: list[SensePlan],
     touching: list[int],
     render: Callable[..., object] | None = None,
@@ -84,23 +86,31 @@ def compile_sense(
     For one robot asking for sonar1 and collided it reads (numbers rounded)::
 
         def sense():
-            x0, y0 = body0.position
-            a0 = body0.angle
+            p = position(body0)
+            x0 = p.x
+            y0 = p.y
+            a0 = angle(body0)
             c = cos(a0)
             s = sin(a0)
             ox = x0 + c * 0.1067 - s * 0.1382
             oy = y0 + s * 0.1067 + c * 0.1382
-            hit = query((ox, oy), (ox + c * 0.0 - s * 1.0, oy + s * 0.0 + c * 1.0), 0.0, filter0)
-            v0_0 = inf if hit is None else hit.alpha * 1.0
+            hit = query(space, (ox, oy), (ox + c * 0.0 - s * 1.0, oy + s * 0.0 + c * 1.0), 0.0, filter0, info)
+            v0_0 = info.alpha * 1.0 if hit else inf
             return [[v0_0, touching[0] > 0]]
 
-    repr() of a float reads back as the same float, so the literals change no reading. Cameras
+    ``body0`` is the robot's ``cpBody *``, ``query`` chipmunk's ``cpSpaceSegmentQueryFirst``
+    writing into one reused ``info`` struct, and ``filter0`` the robot's shape filter as a C
+    struct: the same calls pymunk's wrappers make, without their allocations (measured in
+    ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
+    the literals change no reading. Cameras
     call ``render(x, y, angle, camera)``; road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads.
     """
     env: dict[str, object] = {
-        "query": query, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
+        "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
+        "info": chipmunk.query_info(), "position": chipmunk.body_position, "angle": chipmunk.body_angle,
+        "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
         "touching": touching, "abs": abs, "render": render, "laps": laps,
         "offset": tracker.offset if tracker is not None else None,
     }
@@ -108,8 +118,8 @@ def compile_sense(
     lines = ["def sense():"]
     rows = []
     for r, plan in enumerate(robots):
-        env[f"body{r}"] = plan.body
-        env[f"filter{r}"] = plan.ray_filter
+        env[f"body{r}"] = chipmunk.c_body(plan.body)
+        env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
         rows.append(f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
@@ -122,9 +132,9 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
     """Append robot r's lines to ``lines``; return the expressions of its values, in order."""
     kinds = {_kind(spec) for spec in specs}
     if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road"}:
-        lines.append(f"    x{r}, y{r} = body{r}.position")
+        lines += [f"    p = position(body{r})", f"    x{r} = p.x", f"    y{r} = p.y"]
     if kinds & {_SONAR, "heading", _CAMERA, "forward_speed"}:
-        lines.append(f"    a{r} = body{r}.angle")
+        lines.append(f"    a{r} = angle(body{r})")
     if _SONAR in kinds:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
@@ -140,15 +150,15 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             lines += [
                 f"    ox = x{r} + c * {mx!r} - s * {my!r}",
                 f"    oy = y{r} + s * {mx!r} + c * {my!r}",
-                f"    hit = query((ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
-                f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r})",
-                f"    v{r}_{k} = inf if hit is None else hit.alpha * {rng!r}",
+                f"    hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
+                f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
+                f"    v{r}_{k} = info.alpha * {rng!r} if hit else inf",
             ]
             values.append(f"v{r}_{k}")
         elif spec == "forward_speed":
             lines += [
-                f"    vx, vy = body{r}.velocity",
-                f"    v{r}_{k} = vx * cos(a{r}) + vy * sin(a{r})",
+                f"    vv = velocity(body{r})",
+                f"    v{r}_{k} = vv.x * cos(a{r}) + vv.y * sin(a{r})",
             ]
             values.append(f"v{r}_{k}")
         else:

@@ -14,6 +14,7 @@ from typing import ClassVar
 
 import pymunk
 
+from labsim.backends.pymunk import chipmunk
 from labsim.backends.scene.mechanism import BodySpec, JointSpec, Mechanism, MotorSpec
 
 # A groove long enough to be a line: a prismatic joint without limits, and the driver's groove
@@ -181,11 +182,15 @@ class Winch(Rope):
 
     def wind(self, h: float, done: float) -> None:
         """Before a sub-step (``done`` of the tick when it ends): the pulley to the anchor,
-        moving at the winch's speed."""
-        parent = self.parent.body
-        ax, az = self.anchor_local
-        top = parent.local_to_world((ax, az))
-        hook = self.child.body.local_to_world(self.child_local)
+        moving at the winch's speed.
+
+        It runs before every sub-step, so it calls chipmunk directly, as pymunk's wrappers
+        would with the same arguments (``labsim.backends.pymunk.chipmunk``): about a third of
+        the crane's run went to the wrappers' vectors and attribute layer.
+        """
+        parent = chipmunk.c_body(self.parent.body)
+        top = chipmunk.local_to_world(parent, self.anchor_local)
+        hook = chipmunk.local_to_world(chipmunk.c_body(self.child.body), self.child_local)
         dx, dz = hook.x - top.x, hook.y - top.y
         d = math.hypot(dx, dz)
         nx, nz = (dx / d, dz / d) if d > 1e-9 else (0.0, -1.0)
@@ -194,13 +199,13 @@ class Winch(Rope):
         self.target_value = new
         fx, fz = self.pull
         if not self.parent.static and (fx or fz):
-            parent.apply_force_at_world_point((fx, fz), top)
+            chipmunk.apply_force_at_world_point(parent, (fx, fz), top)
         self.rope_dir = (nx, nz)
-        v = parent.velocity_at_world_point(top)
-        pulley = self.pulley
-        pulley.position = top
-        pulley.velocity = (v.x + u * nx, v.y + u * nz)
-        self.rope.max = self.value  # the length at the start of the sub-step
+        v = chipmunk.velocity_at_world_point(parent, top)
+        pulley = chipmunk.c_body(self.pulley)
+        chipmunk.set_position(pulley, top)
+        chipmunk.set_velocity(pulley, (v.x + u * nx, v.y + u * nz))
+        chipmunk.set_slide_max(chipmunk.c_constraint(self.rope), self.value)  # the length at the sub-step's start
 
     def pay_out(self) -> None:
         """The load pulls harder than the winch can hold: the rope runs out to where it is."""

@@ -70,6 +70,7 @@ from dataclasses import dataclass, field
 import pymunk
 
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
+from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.joints import (
     LONG_M,
     Group,
@@ -249,18 +250,22 @@ class MechanismScene:
         h = self._h
         for j, motor in self._plan.controlled:
             control(j, motor, dt, h)
-        step = self.space.step
+        # chipmunk's step and impulses themselves (labsim.backends.pymunk.chipmunk): pymunk's
+        # Space.step adds the handling of shapes added or removed from callbacks, and a
+        # mechanism has no callbacks.
+        step, space, impulse = chipmunk.space_step, chipmunk.c_space(self.space), chipmunk.impulse
+        c = chipmunk.c_constraint
         sensors = self._sensor_list
         winches = self._plan.winches
         n = self.substeps
         for k in range(1, n + 1):
             for w in winches:
                 w.wind(h, k / n)
-            step(h)
+            step(space, h)
             for s in sensors:
-                s.impulse_sum += s.cable.impulse
+                s.impulse_sum += impulse(c(s.cable))
             for w in winches:
-                j_ns = w.rope.impulse
+                j_ns = impulse(c(w.rope))
                 w.impulse_sum += j_ns
                 # The rope pulls the parent toward the hook; pymunk gives the size only.
                 w.pull = (w.rope_dir[0] * j_ns / h, w.rope_dir[1] * j_ns / h)

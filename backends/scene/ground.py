@@ -17,8 +17,6 @@ from collections.abc import Hashable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from labsim.backends.scene.models import Kind
 
 if TYPE_CHECKING:
@@ -166,6 +164,9 @@ def first_road(world: World) -> Road | None:
 
 # --- geometry ---------------------------------------------------------------------------------
 
+_RECENT = 64  # points RoadTracker remembers: a tick's robots, several times over
+
+
 class RoadTracker:
     """Where points are relative to one road, and how many laps each robot has driven on it.
 
@@ -187,6 +188,8 @@ class RoadTracker:
     """
 
     def __init__(self, road: Road):
+        import numpy as np  # here, not at the top: `labsim check` reads grounds without numpy
+
         pts = np.asarray(road.points, dtype=float).reshape(-1, 2)
         if len(pts) < 2 or not np.isfinite(pts).all():
             raise ValueError("a road needs at least two finite points")
@@ -214,16 +217,28 @@ class RoadTracker:
         self._n = len(self._len)
         self._last_s: dict[Hashable, float] = {}
         self._progress: dict[Hashable, float] = {}
+        # The points located lately: a fleet's step() locates each robot for its laps, and the
+        # next sense() asks for the road offset at the very same point.
+        self._recent: dict[tuple[float, float], tuple[float, float]] = {}
 
     def locate(self, x: float, y: float) -> tuple[float, float]:
         """(signed lateral offset in metres, arc length in metres) of the nearest centreline point."""
+        key = (x, y)
+        found = self._recent.get(key)
+        if found is None:
+            if len(self._recent) >= _RECENT:
+                self._recent.clear()
+            found = self._recent[key] = self._locate(x, y)
+        return found
+
+    def _locate(self, x: float, y: float) -> tuple[float, float]:
         px = x - self._ax
         py = y - self._ay
         t = (px * self._dx + py * self._dy) / self._len2
-        np.clip(t, 0.0, 1.0, out=t)
+        t.clip(0.0, 1.0, out=t)  # the array's methods: numpy's functions add a wrapper call
         qx = px - t * self._dx  # from the nearest point of each segment to (x, y)
         qy = py - t * self._dy
-        k = int(np.argmin(qx * qx + qy * qy))
+        k = int((qx * qx + qy * qy).argmin())
         tk = float(t[k])
         ex, ey = float(qx[k]), float(qy[k])
         ux, uy = float(self._ux[k]), float(self._uy[k])
