@@ -2,7 +2,11 @@
 labs' long runs, each run once per test session and shared by every test that reads it."""
 from __future__ import annotations
 
+import atexit
+import os
 import re
+import shutil
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,6 +15,12 @@ import pytest
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary import Summary
+
+# the suite's own cache folder (grammar tables, drawn grounds), not the user's: set before
+# anything is built, and inherited by every labsim process a test starts
+if "LABSIM_CACHE_DIR" not in os.environ:
+    os.environ["LABSIM_CACHE_DIR"] = tempfile.mkdtemp(prefix="labsim-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["LABSIM_CACHE_DIR"], True)
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
