@@ -281,6 +281,7 @@ class _Checker(ExprChecker):
                     return
 
     def world(self) -> World | None:
+        from labsim.backends.scene.files import policy_notes, policy_problem
         from labsim.backends.scene.world_file import load_world  # late: world files use this package too
 
         bf = self.bf
@@ -296,6 +297,11 @@ class _Checker(ExprChecker):
             path = known[bf.world]
         elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
             path = Path(bf.doc.path).parent / bf.world
+            refused = policy_problem(bf.world, Path(bf.doc.path).parent)
+            if refused:  # docs/security.md: a behaviour reads files in its own folder only
+                self.error(bf.world_node, f"world file '{bf.world}' {refused}", notes=policy_notes())
+                self.world_failed = True
+                return None
             if not path.is_file():
                 self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
