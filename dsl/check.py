@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -302,7 +303,7 @@ class _Checker(ExprChecker):
                 self.error(bf.world_node, f"world file '{bf.world}' {refused}", notes=policy_notes())
                 self.world_failed = True
                 return None
-            if not path.is_file():
+            if not _present(path):
                 self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
                 return None
@@ -517,3 +518,15 @@ class _Checker(ExprChecker):
             self.setting_error(setting, f"parameter '{name}' must be a finite number")
             return current
         return int(value) if isinstance(current, int) and value == int(value) else value
+
+
+def _present(path: Path) -> bool:
+    """False for a missing file only: any other refusal (a name too long, a folder the user may
+    not enter) is for the file reader to report in the OS's words."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except OSError:
+        return True
+    return True

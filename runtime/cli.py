@@ -28,7 +28,7 @@ from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import allow, check_output
+from labsim.backends.scene.files import allow, check_output, os_words
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
@@ -207,6 +207,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # `labsim run ... | head`: the reader has what it wanted
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
+    except OSError as e:  # what the file system said about a path no reader checked first
+        where = str(e.filename) if e.filename is not None else "labsim"
+        sys.stderr.write(f"{where}: error: {os_words(e)}\n")
+        return EXIT_USAGE
 
 
 class Terminated(KeyboardInterrupt):

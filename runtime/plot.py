@@ -13,6 +13,7 @@ also writes the file.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,6 +21,7 @@ import cv2
 import numpy as np
 
 from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.files import allowed_folders, policy_problem
 from labsim.backends.scene.ground import Ground, first_road
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
@@ -140,8 +142,14 @@ def resolve_world(trace: Trace) -> tuple[World | None, str]:
     if name in builtin_worlds():
         candidates.append(builtin_worlds()[name])
     broken = ""
+    # docs/security.md: a world file the trace names is read only inside the trace's folder, the
+    # current one, or a folder --allow-path opened (a trace is a file someone may have sent)
+    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
     for path in candidates:
-        if path.is_file():
+        refused = path not in builtin_worlds().values() and policy_problem(str(path), Path.cwd(), allowed)
+        if refused:
+            broken = f" ({path} {refused}; --allow-path DIR reads it)"
+        elif os.path.isfile(path):
             world = load_world(path, Report())
             if world is not None:
                 return world, ""

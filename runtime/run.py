@@ -467,6 +467,7 @@ class Run:
             interrupted = True
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
             self.trace_error = e
+            interrupted = True
         finally:
             self._close_trace(not ended)
         return self.summary(clock.perf_counter() - start, interrupted)
