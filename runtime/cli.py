@@ -28,7 +28,7 @@ from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import allow, check_output, os_words
+from labsim.backends.scene.files import ALLOW_ENV, allow, check_output, os_words
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
@@ -186,6 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     autocomplete(parser)  # answers the shell's Tab and exits, when the shell is asking
     args = parser.parse_args(argv)
     _terminate_like_ctrl_c()
+    allowed = os.environ.get(ALLOW_ENV)
     try:
         _allow_paths(getattr(args, "allow_path", []))
         _name_labs(args)
@@ -211,6 +212,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = str(e.filename) if e.filename is not None else "labsim"
         sys.stderr.write(f"{where}: error: {os_words(e)}\n")
         return EXIT_USAGE
+    finally:  # --allow-path holds for this command (and the processes it started) only
+        if allowed is None:
+            os.environ.pop(ALLOW_ENV, None)
+        else:
+            os.environ[ALLOW_ENV] = allowed
 
 
 class Terminated(KeyboardInterrupt):

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.files import check_output
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary import Summary
 from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
@@ -182,6 +183,7 @@ def record_golden(behaviour: str | Path, backend: str = DEFAULT,
     """Run a behaviour and store its trace as its golden, replacing the old one only once the
     run has finished (an interrupted run leaves the old golden as it was)."""
     golden = golden_path(behaviour)
+    check_output(golden, [behaviour])  # a golden that is a link to its behaviour is refused
     fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
     os.close(fd)
     try:

@@ -20,8 +20,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from labsim.backends.scene.diagnostics import Report
-from labsim.backends.scene.files import allowed_folders, policy_problem
+from labsim.backends.scene.diagnostics import LabsimError, Report
+from labsim.backends.scene.files import allowed_folders, policy_problem, write_output
 from labsim.backends.scene.ground import Ground, first_road
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
@@ -405,7 +405,7 @@ def plot_trace(trace_path: str | Path, out_path: str | Path, *, width_px: int = 
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
     try:
-        out.write_bytes(data.tobytes())
-    except OSError as e:
-        raise ValueError(f"{out}: cannot write the plot: {e.strerror or e}") from None
+        write_output(out, data.tobytes())  # beside the target, renamed into place
+    except LabsimError as e:
+        raise ValueError(f"{out}: {e.diagnostics[0].message}") from None
     return out

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import check_output, write_output
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 if TYPE_CHECKING:
@@ -99,6 +100,7 @@ def run_plot(args: argparse.Namespace) -> int:
     if getattr(args, "camera", None) is not None and kind != "map":
         raise _fail(str(out), "--camera adds camera frames under the map: write the map "
                               f"({', '.join(MAP_SUFFIXES)}), without --signals")
+    check_output(out, [args.trace])  # never the trace itself, a device or a folder
     if out.is_dir() or not out.parent.is_dir():
         where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
         raise _fail(str(out), f"cannot write here: {where}")
@@ -177,10 +179,7 @@ def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
     ok, data = cv2.imencode(out.suffix.lower(), image)
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
-    try:
-        out.write_bytes(data.tobytes())
-    except OSError as e:
-        raise _fail(str(out), f"cannot write the plot: {e.strerror or e}") from None
+    write_output(out, data.tobytes())  # beside the target, renamed into place
 
 
 def _with_camera(trace: Trace, fig: Figure, world: World | None, robot: str) -> np.ndarray:

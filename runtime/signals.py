@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import yaml
 
+from labsim.backends.scene.files import save_figure
 from labsim.runtime.paint import robot_colour
 from labsim.runtime.trace import Trace, TraceFormatError
 
@@ -168,7 +169,7 @@ def chart(trace: Trace, names: list[str], out: Path, *, width_px: int = 1000) ->
     import matplotlib.pyplot as plt
 
     fig = chart_figure(trace, names, width_px=width_px)
-    fig.savefig(out, dpi=fig.dpi)
+    save_figure(fig, out, dpi=fig.dpi)
     plt.close(fig)
     return out
 

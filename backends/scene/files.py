@@ -24,9 +24,9 @@ import errno
 import os
 import stat
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 
@@ -115,9 +115,24 @@ def read_text(path: str | Path, kind: str = "behaviour", max_bytes: int | None =
 
 # -- the access policy --------------------------------------------------------------------------
 
+_ALLOWED_HERE: list[Path] = []  # folders allowed for a while in this process only (``allowing``)
+
+
 def allowed_folders() -> list[Path]:
-    """The folders ``--allow-path`` opened (through ``ALLOW_ENV``), resolved."""
-    return [Path(p).resolve() for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
+    """The folders ``--allow-path`` opened (through ``ALLOW_ENV``), resolved, and any ``allowing`` adds."""
+    env = [Path(p).resolve() for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
+    return env + list(_ALLOWED_HERE)
+
+
+@contextlib.contextmanager
+def allowing(folder: str | Path) -> Iterator[None]:
+    """Allow a folder while a block runs (a sweep's worker, running files the sweep checked)."""
+    entry = Path(folder).resolve()
+    _ALLOWED_HERE.append(entry)
+    try:
+        yield
+    finally:
+        _ALLOWED_HERE.remove(entry)
 
 
 def allow(folders: Iterable[str | Path]) -> None:
@@ -246,4 +261,18 @@ def write_output(path: str | Path, data: bytes | str, inputs: Iterable[str | Pat
     except OSError as e:
         out.discard()
         raise write_error(path, e) from None
+    out.commit()
+
+
+def save_figure(fig: Any, path: Path, **options: Any) -> None:
+    """A matplotlib figure the one way out: drawn into the file beside the target, then renamed."""
+    out = Output(path)
+    try:
+        fig.savefig(out.file, format=path.suffix.lstrip(".").lower() or "png", **options)
+    except OSError as e:
+        out.discard()
+        raise write_error(path, e) from None
+    except BaseException:
+        out.discard()
+        raise
     out.commit()
