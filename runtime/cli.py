@@ -28,7 +28,7 @@ from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import ALLOW_ENV, allow, check_output, os_words
+from labsim.backends.scene.files import ALLOW_ENV, allow, check_output, os_words, policy_problem, read_text
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
@@ -389,7 +389,9 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     files: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            files += sorted(f for f in p.glob("*.yaml") if not _is_world_file(f))
+            found = sorted(p.glob("*.yaml"))
+            _refuse_links_out(p, found)
+            files += [f for f in found if not _is_world_file(f)]
         elif p.exists():
             files.append(p)
         else:
@@ -397,15 +399,24 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     return files
 
 
+def _refuse_links_out(folder: Path, found: list[Path]) -> None:
+    """A file found in a folder is that folder's: a link out of it is refused (docs/security.md)."""
+    problems = [Diagnostic(str(f), f"{refused}; labsim test reads files found in a folder only inside it "
+                                   "(or in an --allow-path DIR)")
+                for f in found if (refused := policy_problem(f.name, folder))]
+    if problems:
+        raise LabsimError(problems)
+
+
 def _is_world_file(path: Path) -> bool:
     """A world file (its first key is labsim-world), not a behaviour: labsim test skips it."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            for line in f:
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return line.startswith("labsim-world:")
-    except (OSError, UnicodeDecodeError):
+    try:  # the one way in: a FIFO among the files is reported by the loader, not waited on
+        text = read_text(path, "behaviour")
+    except LabsimError:
         return False
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return line.startswith("labsim-world:")
     return False
 
 

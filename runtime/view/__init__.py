@@ -14,6 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import read_input
 from labsim.runtime.trace import MAGIC, TraceFormatError
 from labsim.runtime.view.session import Session
 
@@ -23,10 +24,9 @@ EXIT_OK, EXIT_USAGE, EXIT_INTERRUPTED = 0, 2, 130
 
 def is_trace(path: str | Path) -> bool:
     """Whether a file is a labsim trace (its first line), rather than a behaviour file."""
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            return f.readline().startswith(MAGIC)
-    except OSError:
+    try:  # the one way in: a FIFO or a device is no trace (and reading it would block)
+        return read_input(path, "trace").startswith(MAGIC.encode())
+    except LabsimError:
         return False
 
 
