@@ -126,8 +126,8 @@ CASES = [
     # sizes, checked before reading
     Case("behaviour of 2 MB", lambda d: ((d / "b.yaml").write_text("#" * 2_000_000), ["check", "b.yaml"])[1], 2,
          ("b.yaml: error: file is 2.0 MB; behaviour files are limited to 1024 KiB",)),
-    Case("trace of 2 GiB (sparse)", lambda d: (os.truncate(d / trace(d), 2 << 30), ["plot", "trace.csv", "-o", "p.png"])[1],
-         2, ("trace.csv: error: file is 2147.5 MB; trace files are limited to 1024 MiB",)),
+    Case("trace of 2 GiB (sparse)",
+         lambda d: (os.truncate(d / trace(d), 2 << 30), ["plot", "trace.csv", "-o", "p.png"])[1], 2, ("trace.csv: error: file is 2147.5 MB; trace files are limited to 1024 MiB",)),
     # the file system says no
     Case("world name of 300 characters", lambda d: (behaviour(d, LONG_NAME), ["check", "b.yaml"])[1], 2,
          ("error: cannot read the world file: file name too long",)),
@@ -154,7 +154,8 @@ CASES = [
     Case("world: ../outside", lambda d: (secret(d.parent / f"{d.name}-x" / "w.yaml"),
                                          behaviour(d, f"../{d.name}-x/w.yaml"), ["run", "b.yaml"])[2], 2,
          ("b.yaml:11:8: error: world file", "leads out of the behaviour's folder")),
-    Case("world: a link out of the folder", link_out, 2, ("b.yaml:11:8: error: world file 'w.yaml' is a symbolic link",)),
+    Case("world: a link out of the folder", link_out, 2,
+         ("b.yaml:11:8: error: world file 'w.yaml' is a symbolic link",)),
     Case("world allowed, but no world file", lambda d: (secret(d / "x" / "w.yaml"), behaviour(d, "/dev/null"),
                                                         (d / "b.yaml").write_text((d / "b.yaml").read_text().replace(
                                                             "/dev/null", str(d / "x" / "w.yaml"))),
