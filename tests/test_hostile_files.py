@@ -127,7 +127,8 @@ CASES = [
     Case("behaviour of 2 MB", lambda d: ((d / "b.yaml").write_text("#" * 2_000_000), ["check", "b.yaml"])[1], 2,
          ("b.yaml: error: file is 2.0 MB; behaviour files are limited to 1024 KiB",)),
     Case("trace of 2 GiB (sparse)",
-         lambda d: (os.truncate(d / trace(d), 2 << 30), ["plot", "trace.csv", "-o", "p.png"])[1], 2, ("trace.csv: error: file is 2147.5 MB; trace files are limited to 1024 MiB",)),
+         lambda d: (os.truncate(d / trace(d), 2 << 30), ["plot", "trace.csv", "-o", "p.png"])[1], 2,
+         ("trace.csv: error: file is 2147.5 MB; trace files are limited to 1024 MiB",)),
     # the file system says no
     Case("world name of 300 characters", lambda d: (behaviour(d, LONG_NAME), ["check", "b.yaml"])[1], 2,
          ("error: cannot read the world file: file name too long",)),
