@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import os
 import stat
 import tempfile
@@ -37,6 +38,7 @@ KIB, MIB = 1 << 10, 1 << 20
 MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB}
 DEFAULT_MAX_BYTES = MIB
 
+BUILTIN_WORLDS = Path(__file__).parent / "worlds"  # labsim's own files: always readable
 ALLOW_ENV = "LABSIM_ALLOW_PATH"  # folders a behaviour may read outside its own, os.pathsep-separated
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a device"),
@@ -148,20 +150,26 @@ def _inside(path: Path, folder: Path) -> bool:
 def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None) -> str:
     """Why a file a behaviour names (``name``, relative to the behaviour's folder ``base``)
     may not be read, or '' when it may: it must stay inside ``base`` once links are followed,
-    or inside a folder the command line allowed."""
+    or inside a folder the command line allowed, or be one of the built-in worlds' files."""
     folders = [base.resolve(), *(allowed if allowed is not None else allowed_folders())]
     target = Path(os.path.normpath(base / name))
     try:
         real = target.resolve()
     except (OSError, RuntimeError):  # a loop of links
         return "is a loop of symbolic links"
-    if any(_inside(real, f) for f in folders):
+    if any(_inside(real, f) for f in folders) or real in _builtin_files():
         return ""
     if Path(name).is_absolute() or name.startswith("~"):
         return "is an absolute path, outside the behaviour's folder"
     if not _inside(Path(os.path.abspath(target)), Path(os.path.abspath(base))):
         return "leads out of the behaviour's folder ('..')"
     return "is a symbolic link to a file outside the behaviour's folder"
+
+
+@functools.cache
+def _builtin_files() -> frozenset[Path]:
+    """The built-in worlds' files, links followed (an editable install links each file)."""
+    return frozenset(p.resolve() for p in BUILTIN_WORLDS.glob("*.yaml"))
 
 
 def policy_notes() -> tuple[str, ...]:
