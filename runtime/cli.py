@@ -340,15 +340,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.clear()
         run.close()
+    unwritten: LabsimError | None = run.trace_error
     if args.json is not None:
-        emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+        try:
+            emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+        except LabsimError as e:  # a full disk: the text summary below still shows the run
+            unwritten = unwritten or e
     if not args.quiet and args.json != "-":
         print(format_summary(summary, run))
         trips = _round_trips(backend, summary.ticks)
         if trips:
             print(trips)
-    if run.trace_error is not None:  # after the summary: the run's results are not lost with the trace
-        raise run.trace_error
+    if unwritten is not None:  # after the summary: the run's results are not lost with the file
+        raise unwritten
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
 
 
@@ -390,7 +394,7 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     for p in map(Path, paths):
         if p.is_dir():
             found = sorted(p.glob("*.yaml"))
-            _refuse_links_out(p, found)
+            _refuse_links_out(p, found + sorted(p.glob("*.golden.csv")))
             files += [f for f in found if not _is_world_file(f)]
         elif p.exists():
             files.append(p)

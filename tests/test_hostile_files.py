@@ -149,6 +149,8 @@ CASES = [
          ("p.png: error: would overwrite an input of this run (trace.csv",)),
     Case("a disk that fills while the trace is written", lambda d: ["run", str(LAB), "--trace", "run.csv"], 2,
          ("run.csv: error: cannot write run.csv: file too large", "interrupted:"), limit_file_bytes=100_000),
+    Case("a full disk for the summary's JSON", lambda d: ["run", str(behaviour(d)), "--json", "s.json"], 2,
+         ("s.json: error: cannot write s.json: file too large", "done: 60 ticks"), limit_file_bytes=1),
     # the access policy: a behaviour reads its own folder only
     Case("world: /etc/passwd", lambda d: (behaviour(d, "/etc/passwd"), ["check", "b.yaml"])[1], 2,
          ("b.yaml:11:8: error: world file '/etc/passwd' is an absolute path", "--allow-path"), ("root:",)),
