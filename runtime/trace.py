@@ -67,8 +67,12 @@ class TraceWriter:
         self.rows = 0
         self._flushed = time.monotonic()
         self.failed = False
-        self._guard(lambda: self._file.write(MAGIC + json.dumps(header, sort_keys=True) + "\n"))
-        self._guard(lambda: self._writer.writerow(columns))
+        try:
+            self._guard(lambda: self._file.write(MAGIC + json.dumps(header, sort_keys=True) + "\n"))
+            self._guard(lambda: self._writer.writerow(columns))
+        except TraceWriteError:
+            self._out.discard()
+            raise
 
     def _guard(self, write: object) -> None:
         try:

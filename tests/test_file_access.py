@@ -105,3 +105,13 @@ def test_a_golden_recorded_again_is_byte_identical(tmp_path: Path, monkeypatch: 
     monkeypatch.chdir(tmp_path)
     golden, _ = record_golden("behaviours/crane.yaml")
     assert golden.read_bytes() == (REPO / "behaviours" / "crane.golden.csv").read_bytes()
+
+
+def test_a_link_planted_as_the_partial_trace_is_not_followed(tmp_path: Path) -> None:
+    victim = tmp_path / "victim.yaml"
+    victim.write_text("labsim: 1\n")
+    (tmp_path / "run.csv.partial").symlink_to(victim)
+    out = Output(tmp_path / "run.csv", partial=tmp_path / "run.csv.partial")
+    out.file.write(b"rows")
+    out.commit()
+    assert victim.read_text() == "labsim: 1\n" and (tmp_path / "run.csv").read_text() == "rows"

@@ -232,7 +232,11 @@ class Output:
                 self.file: BinaryIO = os.fdopen(fd, "wb")
             else:
                 self.partial = Path(partial)
-                self.file = open(self.partial, "wb")  # noqa: SIM115 (open until commit or discard)
+                # a fresh file: an old one (or a link planted under that name) is removed, not followed
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.partial)
+                flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+                self.file = os.fdopen(os.open(self.partial, flags, 0o666), "wb")
         except OSError as e:
             raise write_error(self.path, e) from None
 
