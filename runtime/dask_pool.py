@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import allowing, read_input
+from labsim.backends.scene.files import allowing, read_input, write_output
 from labsim.runtime.sweep import COMPILE_ERROR, RUNTIME_ERROR, FileInfo, Row, Task, row_of, run_task
 
 CONNECT_TIMEOUT_S = 10.0
@@ -203,7 +203,7 @@ class DaskPool:
                                  "task_time_s": 0.0}, retries=retries)
         trace = result.pop("trace_gz", None)
         if trace is not None and task.trace:
-            Path(task.trace).write_bytes(gzip.decompress(trace))
+            write_output(task.trace, gzip.decompress(trace))  # beside it, renamed into place
         row = row_of(task, result, result.get("worker", ""), retries)
         if retries:
             note = f"retried {retries} time(s) after a worker was lost"
