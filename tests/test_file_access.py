@@ -115,3 +115,19 @@ def test_a_link_planted_as_the_partial_trace_is_not_followed(tmp_path: Path) -> 
     out.file.write(b"rows")
     out.commit()
     assert victim.read_text() == "labsim: 1\n" and (tmp_path / "run.csv").read_text() == "rows"
+
+
+def test_trace_rows_reach_the_disk_within_a_second(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from labsim.runtime import trace as trace_module
+
+    now = [100.0]
+    monkeypatch.setattr(trace_module.time, "monotonic", lambda: now[0])
+    writer = trace_module.TraceWriter(tmp_path / "t.csv", {"format": 1}, ["tick", "x"])
+    partial = tmp_path / "t.csv.partial"
+    writer.write([0, 1.0])
+    assert partial.read_text() == ""  # buffered: a row is small
+    now[0] += trace_module.FLUSH_S
+    writer.write([1, 2.0])
+    assert partial.read_text().splitlines()[-1] == "1,2"  # a second later, on the disk
+    writer.close(2, interrupted=False)
+    assert (tmp_path / "t.csv").read_text().endswith('# end {"interrupted": false, "ticks": 2}\n')
