@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -281,6 +282,7 @@ class _Checker(ExprChecker):
                     return
 
     def world(self) -> World | None:
+        from labsim.backends.scene.files import policy_notes, policy_problem
         from labsim.backends.scene.world_file import load_world  # late: world files use this package too
 
         bf = self.bf
@@ -296,7 +298,12 @@ class _Checker(ExprChecker):
             path = known[bf.world]
         elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
             path = Path(bf.doc.path).parent / bf.world
-            if not path.is_file():
+            refused = policy_problem(bf.world, Path(bf.doc.path).parent)
+            if refused:  # docs/security.md: a behaviour reads files in its own folder only
+                self.error(bf.world_node, f"world file '{bf.world}' {refused}", notes=policy_notes())
+                self.world_failed = True
+                return None
+            if not _present(path):
                 self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
                 return None
@@ -511,3 +518,15 @@ class _Checker(ExprChecker):
             self.setting_error(setting, f"parameter '{name}' must be a finite number")
             return current
         return int(value) if isinstance(current, int) and value == int(value) else value
+
+
+def _present(path: Path) -> bool:
+    """False for a missing file only: any other refusal (a name too long, a folder the user may
+    not enter) is for the file reader to report in the OS's words."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except OSError:
+        return True
+    return True

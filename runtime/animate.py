@@ -22,6 +22,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from labsim.backends.scene.files import Output
 from labsim.runtime.mechanism_pose import draw_pose, mechanism_poses, slew_inset
 from labsim.runtime.paint import AA, INK, ONE, PAPER, SHIFT, Painter, darker, robot_colour
 from labsim.runtime.plot import render_figure, resolve_world
@@ -92,18 +93,25 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
     t0 = min(float(tr.t[0]) for tr in tracks)
     t1 = max(float(tr.t[-1]) for tr in tracks)
     times = frame_times(t0, t1, fps, speed or default_speed(t1 - t0))
+    # written beside the target under a name with the same suffix, renamed into place when whole
+    target = Output(out, partial=out.with_name(f".{out.stem}.partial{out.suffix}"))
+    target.file.close()  # the writer opens it by name
     if gif:
-        writer = imageio.get_writer(out, mode="I", duration=1000 / fps, loop=0)
+        writer = imageio.get_writer(target.partial, mode="I", duration=1000 / fps, loop=0)
     else:
-        writer = imageio.get_writer(out, format="FFMPEG", mode="I", fps=fps, codec="libx264",
+        writer = imageio.get_writer(target.partial, format="FFMPEG", mode="I", fps=fps, codec="libx264",
                                     pixelformat="yuv420p", macro_block_size=16, ffmpeg_log_level="error")
     n = 0
     try:
         for frame in frames(trace, tracks, times, width_px):
             writer.append_data(frame)
             n += 1
-    finally:
         writer.close()
+    except BaseException:
+        writer.close()
+        target.discard()
+        raise
+    target.commit()
     return n
 
 

@@ -5,8 +5,8 @@ A behaviour argument is a file, or the name of a lab labsim ships (``labsim run 
 
 Exit codes: 0 success; 1 a golden trace differs (or is missing); 2 a user's mistake (a bad
 behaviour file, an unknown option or parameter, an unreachable simulator), reported as
-``path:line:col: message`` without a Python traceback; 130 interrupted with Ctrl-C (the
-trace so far is kept).
+``path:line:col: message`` without a Python traceback; 130 interrupted with Ctrl-C, 143 with
+SIGTERM (handled as Ctrl-C: the trace so far is kept and closed, the summary printed).
 
 Over 500 lines: one argparse declaration per command and option, and each command's short
 function; the larger commands (plot, sweep, view, scene) keep their options in their own
@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
@@ -26,6 +28,7 @@ from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import ALLOW_ENV, allow, check_output, os_words, policy_problem, read_text
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
@@ -42,6 +45,7 @@ if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` ru
     from labsim.backends.coppeliasim.server import Server
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM, as a shell reports a process SIGTERM ended
 
 
 class _Parser(argparse.ArgumentParser):
@@ -146,6 +150,10 @@ def _parser() -> argparse.ArgumentParser:
     for command in (run, sub.choices["sweep"], check, test, view):
         command.add_argument("--strict", action="store_true",
                              help="treat the behaviour files' warnings as errors (exit code 2)")
+    for command in (run, sub.choices["sweep"], check, test, view, serve, sub.choices["plot"], sub.choices["scene"]):
+        command.add_argument("--allow-path", action="append", default=[], metavar="DIR",
+                             help="let behaviour files and traces read files in DIR too, not only in "
+                                  "their own folder (repeatable; docs/security.md)")
     return p
 
 
@@ -177,13 +185,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = _parser()
     autocomplete(parser)  # answers the shell's Tab and exits, when the shell is asking
     args = parser.parse_args(argv)
+    _terminate_like_ctrl_c()
+    allowed = os.environ.get(ALLOW_ENV)
     try:
+        _allow_paths(getattr(args, "allow_path", []))
         _name_labs(args)
         if getattr(args, "strict", False) and args.command in ("test", "view", "sweep"):
             _strict(args)
-        return {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
+        code = {"run": cmd_run, "check": cmd_check, "test": cmd_test, "plot": cmd_plot, "view": cmd_view,
                 "labs": cmd_labs, "new": cmd_new, "worlds": cmd_worlds, "serve": cmd_serve,
                 "sweep": cmd_sweep, "schema": cmd_schema, "scene": cmd_scene}[args.command](args)
+        return EXIT_TERMINATED if code == EXIT_INTERRUPTED and _terminated() else code
     except LabsimError as e:
         _print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -191,11 +203,50 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"labsim: error: {e}\n")
         return EXIT_USAGE
     except KeyboardInterrupt:
-        sys.stderr.write("labsim: interrupted\n")
-        return EXIT_INTERRUPTED
+        sys.stderr.write("labsim: terminated\n" if _terminated() else "labsim: interrupted\n")
+        return EXIT_TERMINATED if _terminated() else EXIT_INTERRUPTED
     except BrokenPipeError:  # `labsim run ... | head`: the reader has what it wanted
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
+    except OSError as e:  # what the file system said about a path no reader checked first
+        where = str(e.filename) if e.filename is not None else "labsim"
+        sys.stderr.write(f"{where}: error: {os_words(e)}\n")
+        return EXIT_USAGE
+    finally:  # --allow-path holds for this command (and the processes it started) only
+        if allowed is None:
+            os.environ.pop(ALLOW_ENV, None)
+        else:
+            os.environ[ALLOW_ENV] = allowed
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C is (the trace closed, the remote simulation stopped, the summary
+    shown), with its own exit code (docs/security.md)."""
+
+
+def _terminate_like_ctrl_c() -> None:
+    def handler(signum: int, frame: object) -> None:
+        global _TERMINATED
+        _TERMINATED = True
+        raise Terminated
+
+    if threading.current_thread() is threading.main_thread():  # signals reach the main thread only
+        signal.signal(signal.SIGTERM, handler)
+
+
+def _terminated() -> bool:
+    return _TERMINATED
+
+
+_TERMINATED = False
+
+
+def _allow_paths(folders: list[str]) -> None:
+    """--allow-path DIR: folders files may name besides their own (docs/security.md)."""
+    for folder in folders:
+        if not Path(folder).is_dir():
+            raise LabsimError([Diagnostic(f"--allow-path {folder}", "is not a folder")])
+    allow(folders)
 
 
 def _name_labs(args: argparse.Namespace) -> None:
@@ -267,9 +318,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     replay = None
     if args.replay:
         try:
-            replay = slider_events(read_trace(args.replay))
+            recorded = read_trace(args.replay)
+            replay = slider_events(recorded)
         except TraceFormatError as e:
-            raise LabsimError([Diagnostic(args.replay, str(e).removeprefix(f"{args.replay}: "))]) from None
+            raise LabsimError([e.diagnostic(args.replay)]) from None
+        if recorded.cut_short():
+            _warn(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
     backend = load_backend(args.backend, **_backend_options(args))
     warnings: list[str] = []
 
@@ -286,13 +340,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.clear()
         run.close()
+    unwritten: LabsimError | None = run.trace_error
     if args.json is not None:
-        emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+        try:
+            emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+        except LabsimError as e:  # a full disk: the text summary below still shows the run
+            unwritten = unwritten or e
     if not args.quiet and args.json != "-":
         print(format_summary(summary, run))
         trips = _round_trips(backend, summary.ticks)
         if trips:
             print(trips)
+    if unwritten is not None:  # after the summary: the run's results are not lost with the file
+        raise unwritten
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
 
 
@@ -308,16 +368,8 @@ def _round_trips(backend: object, ticks: int) -> str:
 
 
 def _check_writable(path: str, inputs: list[Path]) -> None:
-    p = Path(path)
-    if p.exists() and any(p.resolve() == i.resolve() for i in inputs if str(i)):
-        raise LabsimError([Diagnostic(f"--trace {path}", "would overwrite an input of this run; give the "
-                                      "trace its own file, such as run.csv")])
-    if p.is_dir():
-        raise LabsimError([Diagnostic(f"--trace {path}", "is a folder; give a file name such as run.csv")])
-    if not p.parent.exists():
-        raise LabsimError([Diagnostic(f"--trace {path}", f"folder '{p.parent}' does not exist")])
-    if not os.access(p.parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise LabsimError([Diagnostic(f"--trace {path}", "cannot write there (permission denied)")])
+    """The one way out (backends/scene/files.py): a regular file, none of the run's inputs."""
+    check_output(path, inputs, "--trace")
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -341,7 +393,9 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     files: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            files += sorted(f for f in p.glob("*.yaml") if not _is_world_file(f))
+            found = sorted(p.glob("*.yaml"))
+            _refuse_links_out(p, found + sorted(p.glob("*.golden.csv")))
+            files += [f for f in found if not _is_world_file(f)]
         elif p.exists():
             files.append(p)
         else:
@@ -349,15 +403,24 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     return files
 
 
+def _refuse_links_out(folder: Path, found: list[Path]) -> None:
+    """A file found in a folder is that folder's: a link out of it is refused (docs/security.md)."""
+    problems = [Diagnostic(str(f), f"{refused}; labsim test reads files found in a folder only inside it "
+                                   "(or in an --allow-path DIR)")
+                for f in found if (refused := policy_problem(f.name, folder))]
+    if problems:
+        raise LabsimError(problems)
+
+
 def _is_world_file(path: Path) -> bool:
     """A world file (its first key is labsim-world), not a behaviour: labsim test skips it."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            for line in f:
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return line.startswith("labsim-world:")
-    except (OSError, UnicodeDecodeError):
+    try:  # the one way in: a FIFO among the files is reported by the loader, not waited on
+        text = read_text(path, "behaviour")
+    except LabsimError:
         return False
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return line.startswith("labsim-world:")
     return False
 
 

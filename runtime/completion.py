@@ -19,6 +19,8 @@ from typing import Any
 
 import yaml
 
+from labsim.backends.scene.diagnostics import LabsimError
+from labsim.backends.scene.files import read_text
 from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.labs import labs
 
@@ -75,14 +77,14 @@ def parameters(prefix: str, parsed_args: argparse.Namespace, **_: Any) -> list[s
     given = getattr(parsed_args, "file", None) or (getattr(parsed_args, "files", None) or [None])[0]
     if not given:
         return []
-    path = Path(given) if Path(given).exists() else labs()[given].path if given in labs() else None
+    path = Path(given) if os.path.exists(given) else labs()[given].path if given in labs() else None
     return [f"{name}=" for name in _parameter_names(path) if f"{name}=".startswith(prefix)] if path else []
 
 
 def _parameter_names(path: Path) -> Iterable[str]:
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        data = yaml.safe_load(read_text(path, "behaviour"))  # a FIFO must not hang the shell's Tab
+    except (LabsimError, yaml.YAMLError):
         return []
     params = data.get("params") if isinstance(data, dict) else None
     return [str(k) for k in params] if isinstance(params, dict) else []

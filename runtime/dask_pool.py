@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import allowing, read_input, write_output
 from labsim.runtime.sweep import COMPILE_ERROR, RUNTIME_ERROR, FileInfo, Row, Task, row_of, run_task
 
 CONNECT_TIMEOUT_S = 10.0
@@ -51,9 +52,9 @@ def make_bundle(info: FileInfo) -> Bundle:
         world_rel = os.path.relpath(Path(info.world_file).resolve(), behaviour.parent)
         ups = sum(part == ".." for part in Path(world_rel).parts)
     base = "/".join(["d"] * ups) or "."
-    files = [(os.path.normpath(f"{base}/{behaviour.name}"), behaviour.read_bytes())]
+    files = [(os.path.normpath(f"{base}/{behaviour.name}"), read_input(behaviour, "behaviour"))]
     if world_rel:
-        files.append((os.path.normpath(f"{base}/{world_rel}"), Path(info.world_file).read_bytes()))
+        files.append((os.path.normpath(f"{base}/{world_rel}"), read_input(info.world_file, "world")))
     return Bundle(files[0][0], tuple(files), base)
 
 
@@ -66,7 +67,8 @@ def run_bundled(task: Task, bundle: Bundle, deadline_s: float | None) -> dict[st
             target.write_bytes(data)
         local = str(Path(d) / bundle.behaviour)
         trace = str(Path(d) / "trace.csv") if task.trace else None
-        result = run_task(dataclasses.replace(task, trace=trace), path=local, deadline_s=deadline_s)
+        with allowing(d):  # the files the sweep checked, laid out here as they were on its machine
+            result = run_task(dataclasses.replace(task, trace=trace), path=local, deadline_s=deadline_s)
         folder = str(Path(d) / bundle.base) if bundle.base != "." else d
         mapping = [(local, task.file), (folder, str(Path(task.file).parent))]
         result = _renamed(result, mapping)
@@ -201,7 +203,7 @@ class DaskPool:
                                  "task_time_s": 0.0}, retries=retries)
         trace = result.pop("trace_gz", None)
         if trace is not None and task.trace:
-            Path(task.trace).write_bytes(gzip.decompress(trace))
+            write_output(task.trace, gzip.decompress(trace))  # beside it, renamed into place
         row = row_of(task, result, result.get("worker", ""), retries)
         if retries:
             note = f"retried {retries} time(s) after a worker was lost"

@@ -19,9 +19,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.files import check_output
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary import Summary
-from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
 
 ABS_TOL = 1e-6
 REL_TOL = 1e-5
@@ -182,16 +183,28 @@ def record_golden(behaviour: str | Path, backend: str = DEFAULT,
     """Run a behaviour and store its trace as its golden, replacing the old one only once the
     run has finished (an interrupted run leaves the old golden as it was)."""
     golden = golden_path(behaviour)
+    check_output(golden, [behaviour])  # a golden that is a link to its behaviour is refused
     fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
     os.close(fd)
     try:
         summary = record_trace(behaviour, tmp, backend, options)
+        _drop_footer(tmp)
         os.chmod(tmp, 0o644)  # mkstemp makes it private; a golden is a shared file
         os.replace(tmp, golden)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
     return golden, summary
+
+
+def _drop_footer(path: str | Path) -> None:
+    """A golden is a finished run by construction, stored without the trace's ``# end`` line: the
+    goldens recorded before traces had one stay byte-identical (docs/trace-format.md)."""
+    data = Path(path).read_bytes()
+    body = data.rstrip(b"\n")
+    cut = body.rfind(b"\n") + 1
+    if body[cut:].startswith(FOOTER.encode()):
+        Path(path).write_bytes(data[:cut])
 
 
 def record_trace(behaviour: str | Path, trace_path: str | Path, backend: str = DEFAULT,

@@ -8,6 +8,7 @@ otherwise a lab's name (``labsim run wall_follow``) names that lab's file.
 """
 from __future__ import annotations
 
+import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,7 +59,7 @@ def behaviour_path(argument: str) -> Path:
     argument looks like one).
     """
     path = Path(argument)
-    if path.exists() or path.suffix or "/" in argument or "\\" in argument:
+    if os.path.exists(argument) or path.suffix or "/" in argument or "\\" in argument:
         return path
     known = labs()
     if argument in known:

@@ -26,6 +26,8 @@ import cv2
 import numpy as np
 import yaml
 
+from labsim.backends.scene.diagnostics import LabsimError
+from labsim.backends.scene.files import read_text
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.runtime.paint import AA, BLOCK_EDGE, BLOCK_FILL, INK, MUTED, ONE, PAPER, SHIFT, Painter, PxMap
 from labsim.runtime.signals import behaviour_file
@@ -48,8 +50,8 @@ def _lets(trace: Trace) -> dict[str, tuple[str, str]]:
     """Trace column -> (object, "x" | "z" | "position") for lets that read one thing plainly."""
     path = behaviour_file(trace)
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8")) if path is not None else None
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        doc = yaml.safe_load(read_text(path, "behaviour")) if path is not None else None
+    except (LabsimError, yaml.YAMLError):
         doc = None
     lets = doc.get("let") if isinstance(doc, dict) else None
     out = {}

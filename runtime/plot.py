@@ -13,13 +13,15 @@ also writes the file.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from labsim.backends.scene.diagnostics import Report
+from labsim.backends.scene.diagnostics import LabsimError, Report
+from labsim.backends.scene.files import allowed_folders, policy_problem, write_output
 from labsim.backends.scene.ground import Ground, first_road
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
@@ -140,8 +142,14 @@ def resolve_world(trace: Trace) -> tuple[World | None, str]:
     if name in builtin_worlds():
         candidates.append(builtin_worlds()[name])
     broken = ""
+    # docs/security.md: a world file the trace names is read only inside the trace's folder, the
+    # current one, or a folder --allow-path opened (a trace is a file someone may have sent)
+    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
     for path in candidates:
-        if path.is_file():
+        refused = path not in builtin_worlds().values() and policy_problem(str(path), Path.cwd(), allowed)
+        if refused:
+            broken = f" ({path} {refused}; --allow-path DIR reads it)"
+        elif os.path.isfile(path):
             world = load_world(path, Report())
             if world is not None:
                 return world, ""
@@ -397,7 +405,7 @@ def plot_trace(trace_path: str | Path, out_path: str | Path, *, width_px: int = 
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
     try:
-        out.write_bytes(data.tobytes())
-    except OSError as e:
-        raise ValueError(f"{out}: cannot write the plot: {e.strerror or e}") from None
+        write_output(out, data.tobytes())  # beside the target, renamed into place
+    except LabsimError as e:
+        raise ValueError(f"{out}: {e.diagnostics[0].message}") from None
     return out

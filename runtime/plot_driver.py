@@ -11,10 +11,12 @@ robot's camera frames under the map (``labsim.runtime.camera_strip``).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import check_output, write_output
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
 if TYPE_CHECKING:
@@ -98,6 +100,7 @@ def run_plot(args: argparse.Namespace) -> int:
     if getattr(args, "camera", None) is not None and kind != "map":
         raise _fail(str(out), "--camera adds camera frames under the map: write the map "
                               f"({', '.join(MAP_SUFFIXES)}), without --signals")
+    check_output(out, [args.trace])  # never the trace itself, a device or a folder
     if out.is_dir() or not out.parent.is_dir():
         where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
         raise _fail(str(out), f"cannot write here: {where}")
@@ -108,6 +111,10 @@ def run_plot(args: argparse.Namespace) -> int:
         trace = read_trace(args.trace)
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
+        if trace.cut_short():
+            sys.stderr.write(f"{args.trace}: warning: {trace.cut_short()}; drawn as far as it goes\n")
+        if kind != "chart":
+            _check_in_world(trace)
         trace = _time_window(trace, args.t_from, args.t_to)
         if kind == "chart":
             from labsim.runtime.signals import chart, default_signals
@@ -125,11 +132,34 @@ def run_plot(args: argparse.Namespace) -> int:
         else:
             _still(trace, out, args)
     except TraceFormatError as e:
-        raise _fail(args.trace, str(e).removeprefix(f"{args.trace}: ")) from None
+        raise LabsimError([e.diagnostic(args.trace)]) from None
     except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
         raise _fail(args.trace, f"cannot draw this trace: {e}") from None
     print(f"wrote {out}")
     return 0
+
+
+FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a world) is no robot's
+
+
+def _check_in_world(trace: Trace) -> None:
+    """A map whose poses lie far outside the world would draw nothing visible: say so, with the
+    first such row's line, instead (x = 1e308 in a damaged or edited trace)."""
+    from labsim.runtime.plot import resolve_world
+
+    world, _ = resolve_world(trace)
+    x0, y0, x1, y1 = world.bounds if world is not None else (0.0, 0.0, 0.0, 0.0)
+    xi, yi, ri = (trace.columns.index(c) if c in trace.columns else -1 for c in ("x", "y", "robot"))
+    if xi < 0 or yi < 0:
+        return
+    for row, line in zip(trace.rows, trace.lines):
+        x, y = float(row[xi]), float(row[yi])
+        if (x < x0 - FAR_M or x > x1 + FAR_M or y < y0 - FAR_M or y > y1 + FAR_M) and x == x and y == y:
+            where = f"world '{world.name}' ({x0:g}..{x1:g} x {y0:g}..{y1:g} m)" if world else "the origin"
+            robot = f"robot {row[ri][:40]}" if ri >= 0 else "a robot"
+            raise LabsimError([Diagnostic(trace.path, f"{robot} is at ({x:.6g}, {y:.6g}), over {FAR_M:g} m "
+                                          f"outside {where}: the picture would show nothing; is the trace "
+                                          "damaged?", line, 1)])
 
 
 def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
@@ -149,10 +179,7 @@ def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
     ok, data = cv2.imencode(out.suffix.lower(), image)
     if not ok:
         raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
-    try:
-        out.write_bytes(data.tobytes())
-    except OSError as e:
-        raise _fail(str(out), f"cannot write the plot: {e.strerror or e}") from None
+    write_output(out, data.tobytes())  # beside the target, renamed into place
 
 
 def _with_camera(trace: Trace, fig: Figure, world: World | None, robot: str) -> np.ndarray:

@@ -24,6 +24,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, cast
 
 from labsim.backends import DEFAULT, REGISTRY
+from labsim.backends.scene.files import allow, allowed_folders
 from labsim.runtime.sweep import RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
 
 POLL_S = 0.25  # how often the parent looks at the clock while every worker is busy
@@ -38,9 +39,11 @@ def default_jobs() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _serve(conn: Connection) -> None:
-    """A worker's life: receive a task, send its result, until told to stop (None) or orphaned."""
+def _serve(conn: Connection, allowed: list[str]) -> None:
+    """A worker's life: receive a task, send its result, until told to stop (None) or orphaned.
+    ``allowed``: the sweep's --allow-path folders (a fork server's children do not see its environment)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    allow(allowed)
     while True:
         try:
             task = conn.recv()
@@ -92,7 +95,9 @@ class LocalPool:
 
     def _start(self) -> _Worker:
         parent, child = self._context.Pipe()
-        process = self._context.Process(target=_serve, args=(child,), daemon=True, name="labsim-sweep-worker")
+        allowed = [str(p) for p in allowed_folders()]
+        process = self._context.Process(target=_serve, args=(child, allowed), daemon=True,
+                                        name="labsim-sweep-worker")
         # a terminal's Ctrl-C reaches every process of the group: a worker ignores it from its
         # first instruction (an ignored signal stays ignored across exec), so that it does not
         # die with a traceback while still importing; the parent stops the workers itself

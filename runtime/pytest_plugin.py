@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import pytest
 
 from labsim.backends.scene.diagnostics import LabsimError
+from labsim.backends.scene.files import read_text
 from labsim.runtime.golden import check_golden, golden_path, record_golden
 
 if TYPE_CHECKING:
@@ -56,13 +57,13 @@ def _named(path: Path, config: pytest.Config) -> bool:
 def is_behaviour_file(path: Path) -> bool:
     """A behaviour file's first key is ``labsim:`` (its format version); world files and other
     YAML start otherwise. Comments and blank lines before it are skipped."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            for line in f:
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return line.startswith("labsim:")
-    except (OSError, UnicodeDecodeError):
+    try:  # the one way in: a FIFO named *.yaml is skipped, not waited on
+        text = read_text(path, "behaviour")
+    except LabsimError:
         return False
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return line.startswith("labsim:")
     return False
 
 

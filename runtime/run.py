@@ -42,7 +42,7 @@ from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.summary import Summary, fleet_value
-from labsim.runtime.trace import FORMAT, TraceWriter
+from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
 
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
@@ -107,6 +107,7 @@ class Run:
         self.logs_dropped: dict[int, int] = {}  # log site -> lines not printed (LOG_RATE)
         self.idle = 0
         self.trace: TraceWriter | None = None
+        self.trace_error: TraceWriteError | None = None  # the OS refused a trace write: the run stopped
         self.robots = self._robots()
         self.watched = False  # see watch()
         self.last_rule: list[int] = [-1] * len(self.robots)
@@ -449,7 +450,7 @@ class Run:
             max_ticks: int | None = None) -> Summary:
         """Tick until the stop condition holds (or max_ticks); always closes the trace."""
         start = clock.perf_counter()
-        interrupted = False
+        interrupted = ended = False
         try:
             if progress is None and max_ticks is None:
                 tick = self.tick
@@ -461,12 +462,24 @@ class Run:
                         break
                     if progress is not None and self.tick_index & 255 == 0:
                         progress(self.tick_index, self.tick_index * self.dt)
+            ended = True
         except KeyboardInterrupt:
             interrupted = True
+        except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
+            self.trace_error = e
+            interrupted = True
         finally:
-            if self.trace is not None:
-                self.trace.close()
+            self._close_trace(not ended)
         return self.summary(clock.perf_counter() - start, interrupted)
+
+    def _close_trace(self, interrupted: bool) -> None:
+        """The trace's footer and its rename into place; a failure is kept for the command to report."""
+        if self.trace is None:
+            return
+        try:
+            self.trace.close(self.tick_index, interrupted)
+        except TraceWriteError as e:
+            self.trace_error = self.trace_error or e
 
     def summary(self, wall_time_s: float, interrupted: bool = False) -> Summary:
         p = self.program
@@ -503,8 +516,7 @@ class Run:
         return out
 
     def close(self) -> None:
-        if self.trace is not None:
-            self.trace.close()
+        self._close_trace(True)  # closed already unless the run never started
         self.backend.close()
 
 

@@ -12,6 +12,7 @@ names it charts the columns the behaviour's metrics read.
 from __future__ import annotations
 
 import itertools
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import yaml
 
+from labsim.backends.scene.diagnostics import LabsimError
+from labsim.backends.scene.files import allowed_folders, policy_problem, read_text, save_figure
 from labsim.runtime.paint import robot_colour
 from labsim.runtime.trace import Trace, TraceFormatError
 
@@ -62,8 +65,10 @@ def behaviour_file(trace: Trace) -> Path | None:
     if not named:
         return None
     path = Path(named)
+    # docs/security.md: only inside the trace's folder, the current one or an --allow-path folder
+    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
     for candidate in (path, Path(trace.path).parent / path, Path(trace.path).parent / path.name):
-        if candidate.is_file():
+        if os.path.isfile(candidate) and not policy_problem(str(candidate), Path.cwd(), allowed):
             return candidate
     return None
 
@@ -77,9 +82,9 @@ def _behaviour_lets(trace: Trace) -> tuple[dict[str, str], dict[str, str]]:
     if path is None:
         return {}, {}
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path, "behaviour")
         doc = yaml.safe_load(text)
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+    except (LabsimError, yaml.YAMLError):
         return {}, {}
     if not isinstance(doc, dict):
         return {}, {}
@@ -168,7 +173,7 @@ def chart(trace: Trace, names: list[str], out: Path, *, width_px: int = 1000) ->
     import matplotlib.pyplot as plt
 
     fig = chart_figure(trace, names, width_px=width_px)
-    fig.savefig(out, dpi=fig.dpi)
+    save_figure(fig, out, dpi=fig.dpi)
     plt.close(fig)
     return out
 

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from labsim import __version__
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.diagnostics import Diagnostic
+from labsim.backends.scene.files import check_output, write_output
 from labsim.runtime.run import Run
 from labsim.runtime.summary import Summary
 
@@ -109,7 +109,8 @@ def dumps(data: dict[str, Any]) -> str:
 
 
 def write(data: dict[str, Any], path: str | Path) -> None:
-    Path(path).write_text(dumps(data), encoding="utf-8")
+    """Written beside the target and renamed into place (backends/scene/files.py)."""
+    write_output(path, dumps(data))
 
 
 def emit_json(data: dict[str, Any], target: str) -> None:
@@ -123,13 +124,4 @@ def emit_json(data: dict[str, Any], target: str) -> None:
 
 def check_json_output(path: str, inputs: list[Path], option: str = "--json") -> None:
     """Refuse, before anything runs, a JSON output that would overwrite an input or cannot be written."""
-    p = Path(path)
-    where = f"{option} {path}"
-    if p.exists() and any(str(i) and p.resolve() == i.resolve() for i in inputs):
-        raise LabsimError([Diagnostic(where, "would overwrite an input of this run; give it its own file")])
-    if p.is_dir():
-        raise LabsimError([Diagnostic(where, "is a folder; give a file name such as summary.json")])
-    if not p.parent.exists():
-        raise LabsimError([Diagnostic(where, f"folder '{p.parent}' does not exist")])
-    if not os.access(p.parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise LabsimError([Diagnostic(where, "cannot write there (permission denied)")])
+    check_output(path, inputs, option)

@@ -6,6 +6,7 @@ chart is runtime/sweep_plot.py. The JSON file's schema is in docs/sweep.md.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import sys
@@ -14,6 +15,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from labsim import __version__
+from labsim.backends.scene.files import write_output
 from labsim.runtime.stats import Stat, Test
 from labsim.runtime.summary_json import number
 from labsim.runtime.sweep import STATUSES, Columns, Row, flat
@@ -138,11 +140,12 @@ def columns(rows: list[Row], settings: list[str]) -> Columns:
 
 def write_csv(rows: list[Row], path: str | Path, settings: list[str]) -> None:
     cols = columns(rows, settings)
-    with open(path, "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=cols.names(), extrasaction="ignore", restval="")
-        writer.writeheader()
-        for r in rows:
-            writer.writerow(flat(r))
+    f = io.StringIO(newline="")
+    writer = csv.DictWriter(f, fieldnames=cols.names(), extrasaction="ignore", restval="")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow(flat(r))
+    write_output(path, f.getvalue())  # beside the target, renamed into place (backends/scene/files.py)
 
 
 def sweep_json(rows: list[Row], comp: dict[str, Any], meta: dict[str, Any]) -> dict[str, Any]:
@@ -168,4 +171,4 @@ def write_json(data: dict[str, Any], path: str | Path) -> None:
     if str(path) == "-":
         sys.stdout.write(text)
     else:
-        Path(path).write_text(text, encoding="utf-8")
+        write_output(path, text)

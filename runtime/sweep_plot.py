@@ -13,6 +13,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from labsim.backends.scene.files import save_figure
+
 PANEL_WIDTH_IN, PANEL_HEIGHT_IN = 5.0, 3.4
 COLUMNS = 2
 
@@ -59,7 +61,7 @@ def plot_comparison(comp: dict[str, Any], path: str, maximize: tuple[str, ...] =
         ax.grid(axis="y", alpha=0.3)
     runs = sum(g.runs for g in groups)
     fig.suptitle(f"labsim sweep: {runs} runs, {len(groups)} group{'s' if len(groups) != 1 else ''}", fontsize=11)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, Path(path), dpi=110)
 
 
 def _label(group: Any, several_files: bool) -> str:

@@ -9,7 +9,9 @@ git and loaded by pandas without options beyond ``comment="#"``::
 
 Numbers are written with 6 significant digits (``inf`` when a sensor sees nothing), booleans
 as 0/1, ``events`` as ``;``-separated names of count metrics that rose on that tick. Rows are
-written as the run goes, so an interrupted run keeps every tick it made.
+written as the run goes to ``PATH.partial``, flushed at least once a second of wall time, and
+the file is renamed to ``PATH`` with a footer line (``# end {...}``) when the run ends in any
+way labsim sees; a killed run leaves ``PATH.partial``, readable, without the footer.
 """
 from __future__ import annotations
 
@@ -17,12 +19,19 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import Output, read_input, write_error
+
 FORMAT = 1
 MAGIC = "# labsim-trace "
+FOOTER = "# end "  # the last line: {"interrupted": bool, "ticks": int}
+FLUSH_S = 1.0  # rows reach the file at least this often (wall time)
+PARTIAL = ".partial"  # the trace's name while the run goes
 
 
 def fmt(v: object) -> str:
@@ -40,26 +49,64 @@ def fmt(v: object) -> str:
     return str(v)
 
 
+class TraceWriteError(LabsimError):
+    """The trace could not be written (a full disk, a read-only file system): the run stops."""
+
+
 class TraceWriter:
-    """Writes a trace as rows arrive; ``close`` flushes it (also on errors and Ctrl-C)."""
+    """Writes a trace as rows arrive to ``PATH.partial``; ``close`` adds the footer and renames it
+    to ``PATH`` (also on errors, Ctrl-C and SIGTERM). A write the OS refuses is a TraceWriteError."""
 
     def __init__(self, path: str | Path, header: dict, columns: list[str]):
         self.path = Path(path)
         self.columns = columns
+        self._out = Output(self.path, partial=str(self.path) + PARTIAL)
         # open for the life of the writer (close() ends it), not for one block
-        self._file: TextIO = open(self.path, "w", newline="", encoding="utf-8")  # noqa: SIM115
-        self._file.write(MAGIC + json.dumps(header, sort_keys=True) + "\n")
+        self._file: TextIO = io.TextIOWrapper(self._out.file, encoding="utf-8", newline="")
         self._writer = csv.writer(self._file, lineterminator="\n")
-        self._writer.writerow(columns)
         self.rows = 0
+        self._flushed = time.monotonic()
+        self.failed = False
+        try:
+            self._guard(lambda: self._file.write(MAGIC + json.dumps(header, sort_keys=True) + "\n"))
+            self._guard(lambda: self._writer.writerow(columns))
+        except TraceWriteError:
+            self._out.discard()
+            raise
+
+    def _guard(self, write: object) -> None:
+        try:
+            write()  # type: ignore[operator]
+        except OSError as e:
+            self.failed = True
+            raise TraceWriteError(write_error(self.path, e).diagnostics) from None
 
     def write(self, row: list[object]) -> None:
-        self._writer.writerow([fmt(v) for v in row])
+        self._guard(lambda: self._writer.writerow([fmt(v) for v in row]))
         self.rows += 1
+        now = time.monotonic()
+        if now - self._flushed >= FLUSH_S:  # a killed run loses at most a second of rows
+            self._flushed = now
+            self._guard(self._file.flush)
 
-    def close(self) -> None:
-        if not self._file.closed:
-            self._file.close()
+    def close(self, ticks: int | None = None, interrupted: bool = True) -> None:
+        """Write the footer and rename the trace into place; an unwritable footer leaves the rows."""
+        if self._file.closed:
+            return
+        footer = {"interrupted": interrupted, "ticks": ticks if ticks is not None else -1}
+        try:
+            if not self.failed:
+                self._guard(lambda: self._file.write(FOOTER + json.dumps(footer, sort_keys=True) + "\n"))
+        finally:
+            error = None
+            try:
+                self._file.close()
+            except OSError as e:  # the last rows did not reach the disk
+                error = None if self.failed else e
+            self._out.commit()  # what was written stays, under the trace's own name
+            if error is not None:
+                self.failed = True
+                raise TraceWriteError(write_error(self.path, error).diagnostics)
 
 
 @dataclass
@@ -68,63 +115,140 @@ class Trace:
     header: dict
     columns: list[str]
     rows: list[list[str]]
+    footer: dict | None = None  # the ``# end`` line; None for a cut-off trace or a golden
+    lines: list[int] = field(default_factory=list)  # each row's line in the file
 
     def column(self, name: str) -> list[str]:
         i = self.columns.index(name)
         return [r[i] for r in self.rows]
 
+    def cut_short(self) -> str:
+        """Why the run this trace records did not end by itself, or '' when it did (or when the
+        trace is a golden, which is stored without its footer)."""
+        if self.footer is None:
+            return "" if self.path.endswith(".golden.csv") else \
+                "the trace has no '# end' line: the run was killed, or it is still going"
+        if self.footer.get("interrupted"):
+            return f"the run was interrupted after {self.footer.get('ticks', '?')} ticks"
+        return ""
+
 
 class TraceFormatError(Exception):
-    """The file is not a labsim trace (or a damaged one)."""
+    """The file is not a labsim trace (or a damaged one): ``path[:line]: message``."""
+
+    def __init__(self, message: str, path: str = "", line: int = 0):
+        super().__init__(message)
+        self.path, self.line = path, line
+
+    def diagnostic(self, path: str) -> Diagnostic:
+        """As a diagnostic: the trace's name and line, then what is wrong."""
+        text = str(self)
+        for prefix in (f"{self.path}:{self.line}: " if self.line else "", f"{self.path}: ", f"{path}: "):
+            if prefix and text.startswith(prefix):
+                text = text[len(prefix):]
+                break
+        return Diagnostic(path, text, self.line, 1 if self.line else 0)
+
+
+# the columns every labsim trace has, and how each is read
+_WHOLE, _NUMBER = ("tick",), ("time", "x", "y", "heading")
+
+
+def _bad(path: str | Path, line: int, message: str) -> TraceFormatError:
+    return TraceFormatError(f"{path}:{line}: {message}", str(path), line)
 
 
 def read_trace(path: str | Path) -> Trace:
+    """A trace, its rows checked as they are read: TraceFormatError names the line of a bad cell."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise TraceFormatError(f"{path}: no such trace file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise TraceFormatError(f"{path}: cannot read the trace: {e}") from None
+        text = read_input(path, "trace").decode("utf-8")
+    except LabsimError as e:
+        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path)) from None
+    except UnicodeDecodeError as e:
+        raise TraceFormatError(f"{path}: not UTF-8 text (byte {e.start}): not a labsim trace", str(path)) from None
     first, _, rest = text.partition("\n")
     if not first.startswith(MAGIC):
-        raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line)")
+        raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line)", str(path))
     try:
         header = json.loads(first[len(MAGIC):])
     except json.JSONDecodeError as e:
-        raise TraceFormatError(f"{path}:1: damaged trace header: {e}") from None
+        raise _bad(path, 1, f"damaged trace header: {e}") from None
     if not isinstance(header, dict):
-        raise TraceFormatError(f"{path}:1: damaged trace header: not a JSON object")
+        raise _bad(path, 1, "damaged trace header: not a JSON object")
     if header.get("format") != FORMAT:
-        raise TraceFormatError(f"{path}: trace format {header.get('format')} is not {FORMAT}")
+        raise TraceFormatError(f"{path}: trace format {str(header.get('format'))[:20]} is not {FORMAT}", str(path))
     for key, kind in (("world", str), ("world_file", str), ("name", str), ("behaviour", str),
                       ("robots", dict), ("metrics", dict), ("params", dict)):
         if key in header and not isinstance(header[key], kind):
-            raise TraceFormatError(f"{path}:1: damaged trace header: '{key}' should be a "
-                                   f"{'mapping' if kind is dict else 'text'}")
+            raise _bad(path, 1, f"damaged trace header: '{key}' should be a {'mapping' if kind is dict else 'text'}")
+    rest, footer = _footer(rest)
     reader = csv.reader(io.StringIO(rest))
     try:
         columns = next(reader)
     except StopIteration:
-        raise TraceFormatError(f"{path}: the trace has no column line") from None
-    rows = [r for r in reader if r]
+        raise TraceFormatError(f"{path}: the trace has no column line", str(path)) from None
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    for r in reader:
+        if r:
+            rows.append(r)
+            lines.append(reader.line_num + 1)  # +1: the header line is not in ``rest``
     if rows and len(rows[-1]) < len(columns) and not text.endswith("\n"):
         rows.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
-    for n, r in enumerate(rows, 3):
+        lines.pop()
+    _check_rows(path, columns, rows, lines)
+    return Trace(str(path), header, columns, rows, footer, lines)
+
+
+def _footer(rest: str) -> tuple[str, dict | None]:
+    """The rows without the ``# end`` line, and that line's values (None when there is none)."""
+    body = rest.rstrip("\n")
+    head, _, last = body.rpartition("\n")
+    if not last.startswith(FOOTER):
+        return rest, None
+    try:
+        footer = json.loads(last[len(FOOTER):])
+    except json.JSONDecodeError:
+        return head + "\n", None
+    return head + "\n", footer if isinstance(footer, dict) else None
+
+
+def _check_rows(path: str | Path, columns: list[str], rows: list[list[str]], lines: list[int]) -> None:
+    """Every row has every field; ticks are whole numbers and times and poses numbers."""
+    whole = [(columns.index(c), c) for c in _WHOLE if c in columns]
+    numbers = [(columns.index(c), c) for c in _NUMBER if c in columns]
+    for r, line in zip(rows, lines):
         if len(r) != len(columns):
-            raise TraceFormatError(f"{path}:{n}: {len(r)} fields where the header has {len(columns)} "
+            raise _bad(path, line, f"{len(r)} fields where the header has {len(columns)} "
                                    "(a damaged or truncated trace)")
-    return Trace(str(path), header, columns, rows)
+        for i, name in whole:
+            if not (r[i].isascii() and r[i].isdigit()):
+                raise _bad(path, line, f"column '{name}' holds '{r[i][:40]}', not a whole number")
+        for i, name in numbers:
+            try:
+                float(r[i])
+            except ValueError:
+                raise _bad(path, line, f"column '{name}' holds '{r[i][:40]}', not a number") from None
 
 
 def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
     """The slider moves a trace recorded (its events column), by tick, for a replay."""
     out: dict[int, list[tuple[str, float]]] = {}
+    if "tick" not in trace.columns or "events" not in trace.columns:
+        raise TraceFormatError(f"{trace.path}: the trace has no 'tick' and 'events' columns to replay", trace.path)
     ticks, events = trace.column("tick"), trace.column("events")
-    for tick, text in zip(ticks, events):
+    for tick, text, line in zip(ticks, events, trace.lines):
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
             if eq and not event.startswith("log: "):
+                try:
+                    number = float(value)
+                except ValueError:
+                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value "
+                                                 f"'{value[:40]}' is not a number") from None
+                if not math.isfinite(number):
+                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value is {value}")
                 settings = out.setdefault(int(tick), [])
-                if (name, float(value)) not in settings:  # one row per robot repeats them
-                    settings.append((name, float(value)))
+                if (name, number) not in settings:  # one row per robot repeats them
+                    settings.append((name, number))
     return out

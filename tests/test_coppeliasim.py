@@ -46,7 +46,7 @@ def served():
 
 
 def _rows(path: Path) -> list[str]:
-    return path.read_text().splitlines()[1:]  # without the header, which names the backend
+    return path.read_text().splitlines()[1:-1]  # without the header, which names the backend, and the footer
 
 
 def _free_port() -> int:
@@ -107,7 +107,8 @@ def test_a_server_killed_mid_run_keeps_the_trace_and_exits_2(tmp_path: Path) -> 
                             "--timeout", "3"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + PATIENCE_S
-        while not (trace.exists() and trace.stat().st_size > 20_000):
+        partial = Path(str(trace) + ".partial")  # its name until the run ends (docs/trace-format.md)
+        while not (partial.exists() and partial.stat().st_size > 20_000):
             assert run.poll() is None, "the run ended before the server was killed"
             assert time.monotonic() < deadline, "the run wrote no trace"
             time.sleep(0.02)
@@ -123,9 +124,10 @@ def test_a_server_killed_mid_run_keeps_the_trace_and_exits_2(tmp_path: Path) -> 
     assert f"CoppeliaSim at 127.0.0.1:{port} stopped answering" in err and "within 3 s" in err
     assert "Traceback" not in err
     lines = trace.read_text().split("\n")
-    assert lines[0].startswith("# labsim-trace ") and lines[-1] == ""  # ends with a whole row
+    assert lines[0].startswith("# labsim-trace ") and lines[-1] == ""  # ends with a whole line
+    assert lines[-2].startswith('# end {"interrupted": true')  # the footer says it was cut short
     width = len(lines[1].split(","))
-    assert len(lines) > 100 and all(len(row.split(",")) == width for row in lines[2:-1])
+    assert len(lines) > 100 and all(len(row.split(",")) == width for row in lines[2:-2])
 
 
 def _serve_and_run(tmp_path: Path, behaviour: Path, *serve_args: str) -> tuple[list[str], list[str]]:

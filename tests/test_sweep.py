@@ -266,8 +266,9 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> N
         path = tmp_path / f"{executor}.json"
         extra = ["--executor", "dask", "--scheduler", cluster.scheduler_address] if executor == "dask" else ["-j", "2"]
         code, out, _ = cli(capsys, "sweep", *files, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2",
-                           "--json", str(path), "--traces", str(tmp_path), *extra)
-        assert code == 1 and "12 runs: 8 ok, 4 compile error" in out
+                           "--json", str(path), "--traces", str(tmp_path), *extra,
+                           "--allow-path", str(tmp_path / "worlds"))  # own.yaml reads ../worlds
+        assert code == 1 and "12 runs: 8 ok, 4 compile error" in out, out[-1500:]
         results[executor] = json.loads(path.read_text())["rows"]
         if executor == "local":
             traces = {p.name: p.read_text() for p in tmp_path.glob("*.csv")}

@@ -28,6 +28,7 @@ import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
+from labsim.backends.scene.files import read_text
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 
@@ -194,25 +195,10 @@ def _align(text: str, node: ScalarNode) -> list[int]:
 
 
 def load(path: str | Path, *, kind: str = "behaviour") -> Document:
-    """Read and compose a YAML file; raise LabsimError with positions on any problem."""
-    name = str(path)
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-    except FileNotFoundError:
-        raise LabsimError([Diagnostic(name, f"no such {kind} file")]) from None
-    except OSError as e:
-        raise LabsimError([Diagnostic(name, f"cannot read the {kind} file: {e.strerror}")]) from None
-    if p.is_dir():
-        raise LabsimError([Diagnostic(name, f"is a folder, not a {kind} file")])
-    if size > MAX_BYTES:
-        raise LabsimError([Diagnostic(
-            name, f"file is {size / 1e6:.1f} MB; {kind} files are limited to {MAX_BYTES // 1024} KiB")])
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise LabsimError([Diagnostic(name, f"not UTF-8 text (byte {e.start})")]) from None
-    return loads(text, name)
+    """Read and compose a YAML file; raise LabsimError with positions on any problem.
+
+    The file comes in through ``files.read_text``: a regular file of at most ``MAX_BYTES``."""
+    return loads(read_text(path, kind, MAX_BYTES), str(path))
 
 
 def loads(text: str, path: str = "<string>") -> Document:

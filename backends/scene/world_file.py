@@ -44,12 +44,13 @@ and ``laps`` refer to (labsim.backends.scene.ground).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.diagnostics import LabsimError, Report
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
 from labsim.backends.scene.ground import (
     DEFAULT_FLOOR_RGB,
     DEFAULT_PX_PER_M,
@@ -60,7 +61,7 @@ from labsim.backends.scene.ground import (
     Road,
 )
 from labsim.backends.scene.mechanism_file import read_mechanism
-from labsim.backends.scene.source import Reader, load, scalar_value
+from labsim.backends.scene.source import Document, Reader, load, scalar_value
 from labsim.backends.scene.world import Block, Pose, Wall, World
 
 KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
@@ -86,13 +87,26 @@ def load_world(path: str | Path, report: Report) -> World | None:
     """Read a world file; problems go to the report and give None."""
     try:
         doc = load(path, kind="world")
-    except LabsimError as e:
+    except LabsimError as e:  # YAML that does not parse is not echoed either: it may be no world file
         for d in e.diagnostics:
-            report.add(d)
+            report.add(dataclasses.replace(d, source_line=""))
+        return None
+    if not _declares_world(doc):
+        # docs/security.md: a file that is no world file is not quoted (it may be anyone's file)
+        report.add(Diagnostic(str(path), "not a labsim world file (it has no 'labsim-world: 1' line); "
+                                         "its contents are not shown"))
         return None
     before = len(report.errors)
     world = _WorldReader(doc, report).read()
     return world if len(report.errors) == before else None
+
+
+def _declares_world(doc: Document) -> bool:
+    """Whether the file says it is a world file: a mapping with a ``labsim-world`` key. Only such a
+    file's lines are echoed in diagnostics."""
+    root = doc.root
+    return isinstance(root, MappingNode) and any(
+        isinstance(k, ScalarNode) and k.value == "labsim-world" for k, _ in root.value)
 
 
 class _WorldReader(Reader):

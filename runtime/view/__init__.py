@@ -9,11 +9,13 @@ described in docs/view.md.
 from __future__ import annotations
 
 import asyncio
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.files import read_input
 from labsim.runtime.trace import MAGIC, TraceFormatError
 from labsim.runtime.view.session import Session
 
@@ -23,10 +25,9 @@ EXIT_OK, EXIT_USAGE, EXIT_INTERRUPTED = 0, 2, 130
 
 def is_trace(path: str | Path) -> bool:
     """Whether a file is a labsim trace (its first line), rather than a behaviour file."""
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            return f.readline().startswith(MAGIC)
-    except OSError:
+    try:  # the one way in: a FIFO or a device is no trace (and reading it would block)
+        return read_input(path, "trace").startswith(MAGIC.encode())
+    except LabsimError:
         return False
 
 
@@ -86,16 +87,19 @@ def _session(path: str, overrides: dict[str, str], seed: int | None, backend: st
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.replay import load_replay
 
-    if not Path(path).is_file():
+    if not os.path.lexists(path):  # anything else there is for the one way in to judge
         raise LabsimError([Diagnostic(path, "no such file")])
     if is_trace(path):
         for flag, given in (("--set", overrides), ("--seed", seed is not None), ("--trace", trace)):
             if given:
                 raise LabsimError([Diagnostic(flag, f"a replayed trace takes no {flag}")])
         try:
-            return load_replay(path)
+            replay = load_replay(path)
         except TraceFormatError as e:
-            raise LabsimError([Diagnostic(path, str(e).removeprefix(f"{path}: "))]) from None
+            raise LabsimError([e.diagnostic(path)]) from None
+        if replay.trace.cut_short():
+            warn(f"{path}: warning: {replay.trace.cut_short()}; replaying the ticks it has")
+        return replay
     if seed is not None and seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
     return LiveSession(path, overrides, seed=seed, backend=backend, backend_options=backend_options,
