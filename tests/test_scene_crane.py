@@ -29,7 +29,8 @@ def empty():
 
 
 def _rows(path: Path) -> list[str]:
-    return path.read_text().splitlines()[1:]
+    """The trace's rows, without its header and its `# end` footer."""
+    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
 
 
 def test_the_built_crane_is_the_world_files_mechanism() -> None:
