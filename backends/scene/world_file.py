@@ -334,7 +334,8 @@ class _WorldReader(Reader):
                         self.error(item, "a path item is a point [x, y] or {arc: {center, radius, to_deg}}")
                     continue
                 if not points:
-                    self.error(item, "an arc continues from the previous point: start the path with a point [x, y]")
+                    if self.error_count == before:  # else the point before it was the mistake
+                        self.error(item, "an arc continues from the previous point: start the path with a point [x, y]")
                     continue
                 points += self.arc(arc["arc"], points[-1])
             else:
