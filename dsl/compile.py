@@ -27,6 +27,7 @@ from labsim.dsl.codegen import Generated, generate
 from labsim.dsl.lint import lint
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
+from labsim.dsl.stop import check_stop
 
 
 def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
@@ -45,6 +46,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     shortage = _placement_shortage(checked, seed)
     if shortage is not None:
         report.add(shortage)
+    check_stop(checked, report)
     report.raise_if_errors()
     lint(checked, report)
     if strict:

@@ -22,6 +22,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
+from labsim.backends.scene.limits import MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
 from labsim.dsl import ast
@@ -215,8 +216,8 @@ class _Reader(Reader):
             bf.world_node = keys["world"]
         if "dt" in keys:
             dt = self.number(keys["dt"], "dt")
-            if dt is not None and not 0 < dt <= 1:
-                self.error(keys["dt"], f"dt must be between 0 and 1 second, not {dt:g}")
+            if dt is not None and not MIN_DT_S <= dt <= MAX_DT_S:
+                self.error(keys["dt"], f"dt must be from {MIN_DT_S:g} to {MAX_DT_S:g} second, not {dt:g}")
             elif dt is not None:
                 bf.dt_s = dt
         if "seed" in keys:
