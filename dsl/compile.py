@@ -24,6 +24,7 @@ from labsim.backends.scene.source import load
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
+from labsim.dsl.crowd import check_crowd
 from labsim.dsl.lint import lint
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
@@ -47,6 +48,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     if shortage is not None:
         report.add(shortage)
     check_stop(checked, report)
+    check_crowd(checked, report)
     report.raise_if_errors()
     lint(checked, report)
     if strict:

@@ -22,7 +22,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
-from labsim.backends.scene.limits import MAX_DT_S, MIN_DT_S
+from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
 from labsim.dsl import ast
@@ -426,6 +426,9 @@ class _Reader(Reader):
             if len(coordinates) != len(nums):
                 return None
             x, y, *h = coordinates
+            if abs(x) > MAX_COORD_M or abs(y) > MAX_COORD_M:
+                self.error(node, f"a start pose must lie within +-{MAX_COORD_M:g} m of the origin")
+                return None
             return (x, y, h[0] if h else 0.0)
         self.error(node, "'at' is 'spawn', 'random' or [x, y, heading_deg]")
         return None

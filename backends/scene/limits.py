@@ -19,12 +19,14 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 # --- ranges: what a file may say -----------------------------------------------------------------
-MAX_COORD_M = 1000.0  # |x|, |y| of any point in a world or a start pose: a 2 km square
+MAX_COORD_M = 10_000.0  # |x|, |y| of any point in a world or a start pose: a 20 km square
 MAX_SIZE_M = 2 * MAX_COORD_M  # a block's, patch's or line's extent; a wall's thickness below
 MAX_THICKNESS_M = 10.0  # a wall's thickness
 MIN_SIZE_M = 1e-4  # 0.1 mm: anything smaller is a typo, and a zero divides
 MAX_RADIUS_M = MAX_COORD_M  # an arc's radius; also above MIN_SIZE_M
-MAX_ARC_CHORDS = 4096  # one arc's chords; a full circle of radius MAX_RADIUS_M needs 3142
+# one arc's chords: enough for 0.5 mm from the circle up to a radius of 1.6 km; a larger arc
+# takes this many and strays from its circle by at most 3 mm (at radius 10 km)
+MAX_ARC_CHORDS = 4096
 MIN_DT_S = 1e-4  # the smallest time step: 0.1 ms (CoppeliaSim's own minimum is 1 ms)
 MAX_DT_S = 1.0
 

@@ -378,7 +378,7 @@ class _WorldReader(Reader):
             self.error(a["to_deg"], f"an arc turns at most one full circle; it starts at {from_deg:.4g} degrees")
             return []
         step = min(math.radians(5), 2 * math.acos(max(-1.0, 1 - CHORD_SAGITTA_M / radius)))
-        # within the radius range this is at most 3142 chords; the cap keeps it so whatever changes
+        # beyond 1.6 km of radius the cap makes the chords coarser than CHORD_SAGITTA_M (limits.py)
         n = min(MAX_ARC_CHORDS, max(1, math.ceil(abs(sweep) / step)))
         start_rad = math.atan2(dy, dx)
         return [(c[0] + radius * math.cos(start_rad + sweep * i / n),
