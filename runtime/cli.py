@@ -25,7 +25,7 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, format_diagnostics
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
@@ -213,8 +213,8 @@ def _name_labs(args: argparse.Namespace) -> None:
 
 
 def _print_diagnostics(diagnostics: list[Diagnostic]) -> None:
-    for d in diagnostics:
-        sys.stderr.write(d.format() + "\n")
+    for text in format_diagnostics(diagnostics):  # at most MAX_PER_FILE a file
+        sys.stderr.write(text + "\n")
     errors = sum(d.severity == "error" for d in diagnostics)
     if errors > 1:
         sys.stderr.write(f"{errors} errors\n")
