@@ -27,6 +27,7 @@ from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, format_diagnostics
 from labsim.backends.scene.world import World, builtin_worlds
+from labsim.runtime import options
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
@@ -99,17 +100,17 @@ def _parser() -> argparse.ArgumentParser:
                       help="override a parameter from the file's 'params:' (repeatable)")
     view.add_argument("--seed", type=int, help="override the file's seed")
     view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
-    view.add_argument("--host", default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
+    view.add_argument("--host", type=options.host, default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
                                                         "this computer only)")
-    view.add_argument("--port", type=int, default=8765, help="port to serve the page on; 0 picks a free one "
+    view.add_argument("--port", type=options.port, default=8765, help="port to serve the page on; 0 picks a free one "
                                                             "(default: %(default)s)")
     view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
     view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
-    view.add_argument("--sim-host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
+    view.add_argument("--sim-host", type=options.host, default=None, help="CoppeliaSim's address, with --backend coppeliasim "
                                                        "(default: 127.0.0.1)")
-    view.add_argument("--sim-port", type=int, default=None,
+    view.add_argument("--sim-port", type=options.port, default=None,
                       help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
-    view.add_argument("--sim-timeout", type=float, default=None, metavar="SECONDS",
+    view.add_argument("--sim-timeout", type=options.timeout_s, default=None, metavar="SECONDS",
                       help="give up when CoppeliaSim does not answer within this (default: 5)")
 
     sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
@@ -127,14 +128,14 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("world", nargs="?", default=None,
                        help="a built-in world (labsim worlds) or a world file (default: walls_lab4, "
                             "or the world of --for)")
-    serve.add_argument("--port", type=int, default=DEFAULT_PORT,
+    serve.add_argument("--port", type=options.port, default=DEFAULT_PORT,
                        help="port to listen on; 0 picks a free one (default: %(default)s)")
-    serve.add_argument("--host", default="127.0.0.1",
+    serve.add_argument("--host", type=options.host, default="127.0.0.1",
                        help="address to listen on (default: %(default)s, this computer only)")
-    serve.add_argument("--robots", type=int, default=None, metavar="N",
+    serve.add_argument("--robots", type=options.robots, default=None, metavar="N",
                        help="Pioneer P3DX robots, at the world's spawn poses (default: 1; 0 for a "
                             "world with a mechanism)")
-    serve.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+    serve.add_argument("--dt", type=options.time_step_s, default=None, metavar="SECONDS",
                        help="simulation time step (default: 0.05, CoppeliaSim's, or the dt of --for)")
     serve.add_argument("--for", dest="behaviour", metavar="FILE",
                        help="serve the scene a behaviour file needs: its world, dt and robots, with "
@@ -150,11 +151,11 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _remote_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
+    p.add_argument("--host", type=options.host, default=None, help="CoppeliaSim's address, with --backend coppeliasim "
                                                 "(default: 127.0.0.1)")
-    p.add_argument("--port", type=int, default=None,
+    p.add_argument("--port", type=options.port, default=None,
                    help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
-    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--timeout", type=options.timeout_s, default=None, metavar="SECONDS",
                    help="give up when CoppeliaSim does not answer within this, with --backend coppeliasim "
                         "(default: 5)")
 
