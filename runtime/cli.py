@@ -26,6 +26,7 @@ from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, format_diagnostics
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.runtime import options
 from labsim.runtime.completion import autocomplete
@@ -147,6 +148,10 @@ def _parser() -> argparse.ArgumentParser:
     for command in (run, sub.choices["sweep"], check, test, view):
         command.add_argument("--strict", action="store_true",
                              help="treat the behaviour files' warnings as errors (exit code 2)")
+    for command in (run, sub.choices["sweep"], check):
+        command.add_argument("--budget", action="append", default=[], metavar="NAME=VALUE",
+                             help="raise or lower one of a run's budgets (repeatable): "
+                                  f"{', '.join(Budgets.names())}; docs/security.md")
     return p
 
 
@@ -240,6 +245,14 @@ def _strict(args: argparse.Namespace) -> None:
         raise LabsimError(problems)
 
 
+def budgets(args: argparse.Namespace) -> Budgets:
+    """The run's budgets: the defaults, with the command line's --budget NAME=VALUE."""
+    out, problems = DEFAULT_BUDGETS.parse(getattr(args, "budget", None) or [])
+    if problems:
+        raise LabsimError([Diagnostic(*p.split(": ", 1)) for p in problems])
+    return out
+
+
 def _overrides(pairs: list[str]) -> dict[str, str]:
     out = {}
     for pair in pairs:
@@ -258,7 +271,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     overrides = _overrides(args.set)
     if args.seed is not None and args.seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict)
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict,
+                                  budgets=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         _print_diagnostics(list(behaviour.program.warnings))
     if args.trace:
@@ -294,6 +308,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         trips = _round_trips(backend, summary.ticks)
         if trips:
             print(trips)
+    if summary.over_budget:  # after the summary: what the run did up to there is worth seeing
+        sys.stderr.write(f"{args.file}: error: {summary.over_budget}\n")
+        return EXIT_USAGE
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
 
 
@@ -326,7 +343,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
-            behaviour = compile_behaviour(f, strict=args.strict)
+            behaviour = compile_behaviour(f, strict=args.strict, budgets=budgets(args))
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
             print(behaviour.program.code.listing if args.show_code else
