@@ -33,8 +33,8 @@ def check_budgets(c: Checked, budgets: Budgets, report: Report) -> None:
         pixels += decl.count * sum(cam.width_px * cam.height_px for cam in model.cameras)
         if pixels > budgets.camera_px and not pixels_said:
             pixels_said = True
-            report.add(doc.diagnostic(decl.key, f"the cameras render {pixels:,} pixels a tick with robot '{decl.name}', "
-                                      f"more than this run's budget of {budgets.camera_px:,}",
+            report.add(doc.diagnostic(decl.key, f"the cameras render {pixels:,} pixels a tick with robot "
+                                      f"'{decl.name}', more than this run's budget of {budgets.camera_px:,}",
                                       notes=("fewer or smaller cameras, or " + _raise("camera_px", pixels),)))
     if c.world is not None:
         segments = world_segments(c.world)

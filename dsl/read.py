@@ -20,9 +20,9 @@ from typing import Any
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Report, did_you_mean
+from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
-from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
 from labsim.dsl import ast

@@ -101,14 +101,14 @@ def _parser() -> argparse.ArgumentParser:
                       help="override a parameter from the file's 'params:' (repeatable)")
     view.add_argument("--seed", type=int, help="override the file's seed")
     view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
-    view.add_argument("--host", type=options.host, default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
-                                                        "this computer only)")
+    view.add_argument("--host", type=options.host, default="127.0.0.1",
+                      help="address to serve the page on (default: %(default)s, this computer only)")
     view.add_argument("--port", type=options.port, default=8765, help="port to serve the page on; 0 picks a free one "
                                                             "(default: %(default)s)")
     view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
     view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
-    view.add_argument("--sim-host", type=options.host, default=None, help="CoppeliaSim's address, with --backend coppeliasim "
-                                                       "(default: 127.0.0.1)")
+    view.add_argument("--sim-host", type=options.host, default=None,
+                      help="CoppeliaSim's address, with --backend coppeliasim (default: 127.0.0.1)")
     view.add_argument("--sim-port", type=options.port, default=None,
                       help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
     view.add_argument("--sim-timeout", type=options.timeout_s, default=None, metavar="SECONDS",
@@ -249,7 +249,7 @@ def budgets(args: argparse.Namespace) -> Budgets:
     """The run's budgets: the defaults, with the command line's --budget NAME=VALUE."""
     out, problems = DEFAULT_BUDGETS.parse(getattr(args, "budget", None) or [])
     if problems:
-        raise LabsimError([Diagnostic(*p.split(": ", 1)) for p in problems])
+        raise LabsimError([Diagnostic(where, message) for where, message in problems])
     return out
 
 

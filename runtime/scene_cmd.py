@@ -23,7 +23,8 @@ from labsim.runtime.run import Run, compile_behaviour
 def add_scene_parser(sub: argparse._SubParsersAction) -> None:
     scene = sub.add_parser("scene", help="build a behaviour's scene in a running CoppeliaSim (4.6 or newer)")
     scene.add_argument("file", help="the behaviour file (.yaml), or a lab's name (labsim labs)")
-    scene.add_argument("--host", type=options.host, default="127.0.0.1", help="CoppeliaSim's address (default: %(default)s)")
+    scene.add_argument("--host", type=options.host, default="127.0.0.1",
+                       help="CoppeliaSim's address (default: %(default)s)")
     scene.add_argument("--port", type=options.port, default=DEFAULT_PORT,
                        help="its ZMQ remote API port (default: %(default)s)")
     scene.add_argument("--timeout", type=options.timeout_s, default=5.0, metavar="SECONDS",

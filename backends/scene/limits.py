@@ -49,18 +49,18 @@ class Budgets:
     def names() -> tuple[str, ...]:
         return tuple(f.name for f in fields(Budgets))
 
-    def parse(self, pairs: list[str]) -> tuple[Budgets, list[str]]:
-        """This budget with ``NAME=VALUE`` settings applied, and a message for each bad one."""
+    def parse(self, pairs: list[str]) -> tuple[Budgets, list[tuple[str, str]]]:
+        """This budget with ``NAME=VALUE`` settings applied, and (where, message) for each bad one."""
         out, problems = self, []
         for pair in pairs:
             name, eq, text = pair.partition("=")
             name = name.strip()
             if not eq or name not in self.names():
-                problems.append(f"--budget {pair}: give NAME=VALUE with NAME one of {', '.join(self.names())}")
+                problems.append((f"--budget {pair}", f"give NAME=VALUE with NAME one of {', '.join(self.names())}"))
                 continue
             value = _whole(text.strip())
             if value is None:
-                problems.append(f"--budget {pair}: the value is a whole number from 0 to 10**12")
+                problems.append((f"--budget {pair}", "the value is a whole number from 0 to 10**12"))
                 continue
             out = replace(out, **{name: value})
         return out, problems
