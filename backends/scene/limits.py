@@ -27,7 +27,7 @@ MAX_RADIUS_M = MAX_COORD_M  # an arc's radius; also above MIN_SIZE_M
 # one arc's chords: enough for 0.5 mm from the circle up to a radius of 1.6 km; a larger arc
 # takes this many and strays from its circle by at most 3 mm (at radius 10 km)
 MAX_ARC_CHORDS = 4096
-MIN_DT_S = 1e-4  # the smallest time step: 0.1 ms (CoppeliaSim's own minimum is 1 ms)
+MIN_DT_S = 1e-4  # the smallest time step, 0.1 ms: 10,000 ticks for every simulated second
 MAX_DT_S = 1.0
 
 
