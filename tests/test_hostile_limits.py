@@ -75,6 +75,10 @@ CASES = [
     Case("1000 single robots on one spot", ["run", "{b}"], 2,
          ("b.yaml:6:", "would start 0.00 m from robot 'g0', overlapping it", "b.yaml: ... and 979 more", "999 errors"),
          {"b.yaml": behaviour(robots=groups(1000, 1, "[0, 0, 0]"))}),
+    Case("100 robots on spawn poses that are one spot", ["run", "{b}"], 2,
+         ("b.yaml:5:44: error: robot 'g[1]' would start 0.00 m from robot 'g[0]'", "b.yaml: ... and 79 more"),
+         {"b.yaml": behaviour(world="w.yaml", robots="  g: {model: pioneer_p3dx, count: 100, at: spawn}\n"),
+          "w.yaml": world("spawns:\n" + "  - [0, 0, 0]\n" * 100)}),
     # -- world geometry ---------------------------------------------------------------------------
     Case("line from -1e308 to 1e308", ["check", "{b}"], 2,
          ("w.yaml:5:12: error: from must lie within +-10000 m of the origin", "w.yaml:5:29: error: to must lie"),
