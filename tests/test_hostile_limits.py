@@ -9,6 +9,7 @@ geometry at the extremes, options, bounded output and per-run budgets.
 from __future__ import annotations
 
 import csv
+import json
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -174,6 +175,15 @@ def test_a_run_stopped_by_its_tick_budget_keeps_a_readable_trace(tmp_path: Path)
     assert proc.returncode == 2 and "done: 1000 ticks" in proc.stdout  # the summary is printed before the error
     rows = list(csv.reader((tmp_path / "t.csv").read_text().splitlines()[1:]))
     assert rows[0][0] == "tick" and rows[-1][0] == "999" and len(rows) == 1001
+
+
+def test_the_json_summary_says_a_budget_stopped_the_run(tmp_path: Path) -> None:
+    (tmp_path / "b.yaml").write_text(behaviour("x > 100000"), encoding="utf-8")
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", "b.yaml", "--budget", "ticks=300", "--json"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=TIMEOUT_S)
+    assert proc.returncode == 2 and "budget of 300 ticks" in proc.stderr
+    summary = json.loads(proc.stdout)
+    assert summary["stop_reason"] == "budget" and summary["ticks"] == 300
 
 
 def test_a_long_run_gets_one_warning_with_its_estimate(tmp_path: Path) -> None:
