@@ -102,6 +102,9 @@ CASES = [
           "w.yaml": world("blocks:\n  - {center: [0, 0], size: [10, 10]}\n")}),
     Case("a start pose at 1e9 m", ["check", "{b}"], 2, ("b.yaml:5:32: error: a start pose must lie within +-10000 m",),
          {"b.yaml": behaviour(robots="  p: {model: pioneer_p3dx, at: [1e9, 0]}\n")}),
+    Case("a mechanism body at 1e12 m", ["serve", "w.yaml"], 2, ("w.yaml:6:32: error: center must be within +-10000 m",),
+         {"w.yaml": world("mechanism:\n  bodies:\n    Post: {shape: box, center: [0, 1e12], size: [0.2, 0.2], "
+                          "static: true}\n")}),
     # -- options ---------------------------------------------------------------------------------
     Case("--timeout 1e308", ["run", "{b}", "--backend", "coppeliasim", "--timeout", "1e308"], 2,
          ("labsim: error: argument --timeout: give from 0.01 to 3600 seconds, not 1e308",), {"b.yaml": behaviour()}),
