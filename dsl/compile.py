@@ -20,31 +20,40 @@ from pathlib import Path
 from types import MappingProxyType
 
 from labsim.backends.scene.diagnostics import Diagnostic, Report
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.source import load
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
+from labsim.dsl.budget import check_budgets
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
+from labsim.dsl.crowd import check_crowd
 from labsim.dsl.lint import lint
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
+from labsim.dsl.stop import check_stop
 
 
 def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
-                 strict: bool = False) -> Program:
+                 strict: bool = False, budgets: Budgets = DEFAULT_BUDGETS) -> Program:
     """Load, read, check and compile a behaviour file; LabsimError lists every problem.
 
     ``overrides`` set parameters (``--set front=1.0``); ``seed`` replaces the file's ``seed:``.
     The linter's warnings go on the Program; ``strict`` raises them as errors instead.
+    ``budgets`` bound its robots, cameras and world (``labsim.dsl.budget``).
     """
     doc = load(path)
     report = Report()
     bf = read(doc, report)
     checked = check(bf, report, overrides)
+    if not report.errors:
+        check_budgets(checked, budgets, report)
     report.raise_if_errors()
     seed = bf.seed if seed is None else seed
     shortage = _placement_shortage(checked, seed)
     if shortage is not None:
         report.add(shortage)
+    check_stop(checked, report)
+    check_crowd(checked, report)
     report.raise_if_errors()
     lint(checked, report)
     if strict:

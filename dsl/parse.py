@@ -213,7 +213,10 @@ def _family(node: Tree) -> str:
 def _found(token: Token) -> str:
     if token.type == "$END":
         return "the end of the text"
-    return f"'{token.value}'"
+    value = str(token.value)
+    if len(value) > 40:  # a message quotes a long token's start, not the whole of it
+        return f"'{value[:30]}...' ({len(value)} characters)"
+    return f"'{value}'"
 
 
 def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:

@@ -20,6 +20,7 @@ from typing import Any
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Report, did_you_mean
+from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.backends.scene.world import BUILTIN_DIR
@@ -215,8 +216,8 @@ class _Reader(Reader):
             bf.world_node = keys["world"]
         if "dt" in keys:
             dt = self.number(keys["dt"], "dt")
-            if dt is not None and not 0 < dt <= 1:
-                self.error(keys["dt"], f"dt must be between 0 and 1 second, not {dt:g}")
+            if dt is not None and not MIN_DT_S <= dt <= MAX_DT_S:
+                self.error(keys["dt"], f"dt must be from {MIN_DT_S:g} to {MAX_DT_S:g} second, not {dt:g}")
             elif dt is not None:
                 bf.dt_s = dt
         if "seed" in keys:
@@ -425,6 +426,9 @@ class _Reader(Reader):
             if len(coordinates) != len(nums):
                 return None
             x, y, *h = coordinates
+            if abs(x) > MAX_COORD_M or abs(y) > MAX_COORD_M:
+                self.error(node, f"a start pose must lie within +-{MAX_COORD_M:g} m of the origin")
+                return None
             return (x, y, h[0] if h else 0.0)
         self.error(node, "'at' is 'spawn', 'random' or [x, y, heading_deg]")
         return None

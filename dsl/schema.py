@@ -9,6 +9,7 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 """
 from __future__ import annotations
 
+from labsim.backends.scene.limits import MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text
 from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
@@ -97,7 +98,7 @@ def behaviour_schema() -> Schema:
         "name": text("the lab's name, shown in summaries"),
         "description": text("what the behaviour does"),
         "world": text("a built-in world (labsim worlds) or the path of a world file"),
-        "dt": number("the time step in seconds (default 0.05)", maximum=1, exclusive_minimum=0),
+        "dt": number("the time step in seconds (default 0.05)", MIN_DT_S, MAX_DT_S),
         "seed": number("the seed of every random choice (default 0)", minimum=0, integer=True),
         "stop": expression("when the run ends, e.g. time >= 60"),
         "robots": named(_robot(), "the robots, by group name"),

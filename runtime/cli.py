@@ -27,9 +27,11 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, format_diagnostics
 from labsim.backends.scene.files import ALLOW_ENV, allow, check_output, os_words, policy_problem, read_text
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.world import World, builtin_worlds
+from labsim.runtime import options
 from labsim.runtime.completion import autocomplete
 from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import LABS_DIR, behaviour_path, copy_lab, labs
@@ -103,17 +105,17 @@ def _parser() -> argparse.ArgumentParser:
                       help="override a parameter from the file's 'params:' (repeatable)")
     view.add_argument("--seed", type=int, help="override the file's seed")
     view.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
-    view.add_argument("--host", default="127.0.0.1", help="address to serve the page on (default: %(default)s, "
-                                                        "this computer only)")
-    view.add_argument("--port", type=int, default=8765, help="port to serve the page on; 0 picks a free one "
+    view.add_argument("--host", type=options.host, default="127.0.0.1",
+                      help="address to serve the page on (default: %(default)s, this computer only)")
+    view.add_argument("--port", type=options.port, default=8765, help="port to serve the page on; 0 picks a free one "
                                                             "(default: %(default)s)")
     view.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
     view.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
-    view.add_argument("--sim-host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
-                                                       "(default: 127.0.0.1)")
-    view.add_argument("--sim-port", type=int, default=None,
+    view.add_argument("--sim-host", type=options.host, default=None,
+                      help="CoppeliaSim's address, with --backend coppeliasim (default: 127.0.0.1)")
+    view.add_argument("--sim-port", type=options.port, default=None,
                       help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
-    view.add_argument("--sim-timeout", type=float, default=None, metavar="SECONDS",
+    view.add_argument("--sim-timeout", type=options.timeout_s, default=None, metavar="SECONDS",
                       help="give up when CoppeliaSim does not answer within this (default: 5)")
 
     sub.add_parser("labs", help="list the labs labsim ships (run one by name: labsim run wall_follow)")
@@ -131,14 +133,14 @@ def _parser() -> argparse.ArgumentParser:
     serve.add_argument("world", nargs="?", default=None,
                        help="a built-in world (labsim worlds) or a world file (default: walls_lab4, "
                             "or the world of --for)")
-    serve.add_argument("--port", type=int, default=DEFAULT_PORT,
+    serve.add_argument("--port", type=options.port, default=DEFAULT_PORT,
                        help="port to listen on; 0 picks a free one (default: %(default)s)")
-    serve.add_argument("--host", default="127.0.0.1",
+    serve.add_argument("--host", type=options.host, default="127.0.0.1",
                        help="address to listen on (default: %(default)s, this computer only)")
-    serve.add_argument("--robots", type=int, default=None, metavar="N",
+    serve.add_argument("--robots", type=options.robots, default=None, metavar="N",
                        help="Pioneer P3DX robots, at the world's spawn poses (default: 1; 0 for a "
                             "world with a mechanism)")
-    serve.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+    serve.add_argument("--dt", type=options.time_step_s, default=None, metavar="SECONDS",
                        help="simulation time step (default: 0.05, CoppeliaSim's, or the dt of --for)")
     serve.add_argument("--for", dest="behaviour", metavar="FILE",
                        help="serve the scene a behaviour file needs: its world, dt and robots, with "
@@ -154,15 +156,19 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument("--allow-path", action="append", default=[], metavar="DIR",
                              help="let behaviour files and traces read files in DIR too, not only in "
                                   "their own folder (repeatable; docs/security.md)")
+    for command in (run, sub.choices["sweep"], check):
+        command.add_argument("--budget", action="append", default=[], metavar="NAME=VALUE",
+                             help="raise or lower one of a run's budgets (repeatable): "
+                                  f"{', '.join(Budgets.names())}; docs/security.md")
     return p
 
 
 def _remote_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--host", default=None, help="CoppeliaSim's address, with --backend coppeliasim "
+    p.add_argument("--host", type=options.host, default=None, help="CoppeliaSim's address, with --backend coppeliasim "
                                                 "(default: 127.0.0.1)")
-    p.add_argument("--port", type=int, default=None,
+    p.add_argument("--port", type=options.port, default=None,
                    help=f"CoppeliaSim's ZMQ remote API port, with --backend coppeliasim (default: {DEFAULT_PORT})")
-    p.add_argument("--timeout", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--timeout", type=options.timeout_s, default=None, metavar="SECONDS",
                    help="give up when CoppeliaSim does not answer within this, with --backend coppeliasim "
                         "(default: 5)")
 
@@ -264,8 +270,8 @@ def _name_labs(args: argparse.Namespace) -> None:
 
 
 def _print_diagnostics(diagnostics: list[Diagnostic]) -> None:
-    for d in diagnostics:
-        sys.stderr.write(d.format() + "\n")
+    for text in format_diagnostics(diagnostics):  # at most MAX_PER_FILE a file
+        sys.stderr.write(text + "\n")
     errors = sum(d.severity == "error" for d in diagnostics)
     if errors > 1:
         sys.stderr.write(f"{errors} errors\n")
@@ -290,6 +296,14 @@ def _strict(args: argparse.Namespace) -> None:
         raise LabsimError(problems)
 
 
+def budgets(args: argparse.Namespace) -> Budgets:
+    """The run's budgets: the defaults, with the command line's --budget NAME=VALUE."""
+    out, problems = DEFAULT_BUDGETS.parse(getattr(args, "budget", None) or [])
+    if problems:
+        raise LabsimError([Diagnostic(where, message) for where, message in problems])
+    return out
+
+
 def _overrides(pairs: list[str]) -> dict[str, str]:
     out = {}
     for pair in pairs:
@@ -308,7 +322,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     overrides = _overrides(args.set)
     if args.seed is not None and args.seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict)
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict,
+                                  budgets=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         _print_diagnostics(list(behaviour.program.warnings))
     if args.trace:
@@ -351,8 +366,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         trips = _round_trips(backend, summary.ticks)
         if trips:
             print(trips)
-    if unwritten is not None:  # after the summary: the run's results are not lost with the file
+    # after the summary: what the run did up to there is worth seeing, and is not lost with a file
+    if summary.over_budget:
+        sys.stderr.write(f"{args.file}: error: {summary.over_budget}\n")
+    if unwritten is not None:
         raise unwritten
+    if summary.over_budget:
+        return EXIT_USAGE
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
 
 
@@ -377,7 +397,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
-            behaviour = compile_behaviour(f, strict=args.strict)
+            behaviour = compile_behaviour(f, strict=args.strict, budgets=budgets(args))
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
             print(behaviour.program.code.listing if args.show_code else

@@ -39,11 +39,13 @@ def default_jobs() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _serve(conn: Connection, allowed: list[str]) -> None:
+def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
     """A worker's life: receive a task, send its result, until told to stop (None) or orphaned.
-    ``allowed``: the sweep's --allow-path folders (a fork server's children do not see its environment)."""
+    ``allowed``: the sweep's --allow-path folders (a fork server's children do not see its
+    environment); ``memory_mb``: the worker's memory limit, 0 for none."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     allow(allowed)
+    limit_memory(memory_mb)
     while True:
         try:
             task = conn.recv()
@@ -56,6 +58,27 @@ def _serve(conn: Connection, allowed: list[str]) -> None:
             conn.send(result)
         except (BrokenPipeError, OSError):  # the parent is gone: so is the reason to go on
             return
+
+
+def limit_memory(memory_mb: int) -> bool:
+    """Cap this process's address space at memory_mb (RLIMIT_AS), where the platform has it;
+    0 leaves it alone. A run that goes past it gets MemoryError, which its row reports; an
+    allocation outside Python may kill the worker instead, and the pool replaces it."""
+    if memory_mb <= 0:
+        return False
+    try:
+        import resource
+    except ImportError:  # not on this platform (Windows): docs/sweep.md says so
+        return False
+    limit = memory_mb * 1024 * 1024
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+    except (ValueError, OSError):
+        return False
+    return True
 
 
 # what every run imports: labsim and the default backend's module (named by the registry)
@@ -86,9 +109,10 @@ class _Worker:
 class LocalPool:
     """Runs tasks in ``jobs`` processes; ``results`` yields a row per task as each finishes."""
 
-    def __init__(self, jobs: int, timeout_s: float | None = None):
+    def __init__(self, jobs: int, timeout_s: float | None = None, memory_mb: int = 0):
         self.jobs = jobs
         self.timeout_s = timeout_s
+        self.memory_mb = memory_mb  # each worker's address space (limit_memory); 0: none
         self.in_flight: dict[int, Task] = {}
         self._context = _context()
         self._workers: list[_Worker] = []
@@ -96,7 +120,7 @@ class LocalPool:
     def _start(self) -> _Worker:
         parent, child = self._context.Pipe()
         allowed = [str(p) for p in allowed_folders()]
-        process = self._context.Process(target=_serve, args=(child, allowed), daemon=True,
+        process = self._context.Process(target=_serve, args=(child, allowed, self.memory_mb), daemon=True,
                                         name="labsim-sweep-worker")
         # a terminal's Ctrl-C reaches every process of the group: a worker ignores it from its
         # first instruction (an ignored signal stays ignored across exec), so that it does not

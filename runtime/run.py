@@ -33,6 +33,7 @@ from pathlib import Path
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.builtins import Type
@@ -40,6 +41,7 @@ from labsim.dsl.compile import compile_file
 from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
+from labsim.runtime.budgets import RunWatch
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.summary import Summary, fleet_value
 from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
@@ -48,17 +50,20 @@ TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of ever
 
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
-                      seed: int | None = None, strict: bool = False) -> Behaviour:
+                      seed: int | None = None, strict: bool = False,
+                      budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
     """Compile a behaviour file; raises LabsimError listing every problem in it.
 
-    ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``.
+    ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``;
+    ``budgets`` bound what its runs may cost (docs/security.md).
     """
-    return Behaviour(compile_file(path, overrides, seed, strict))
+    return Behaviour(compile_file(path, overrides, seed, strict, budgets), budgets)
 
 
 @dataclass
 class Behaviour:
     program: Program
+    budgets: Budgets = DEFAULT_BUDGETS
 
     def bind(self, backend: Backend, *, trace: str | Path | None = None,
              warn: Callable[[str], None] | None = None,
@@ -68,7 +73,7 @@ class Behaviour:
         ``replay`` (tick -> slider settings, see ``slider_events``) replaces the file's
         timeline: a recorded run's slider moves, fed back.
         """
-        return Run(self.program, backend, trace_path=trace, warn=warn, replay=replay)
+        return Run(self.program, backend, trace_path=trace, warn=warn, replay=replay, budgets=self.budgets)
 
 
 @dataclass
@@ -93,8 +98,12 @@ class RobotRun:
 class Run:
     def __init__(self, program: Program, backend: Backend, *, trace_path: str | Path | None = None,
                  warn: Callable[[str], None] | None = None,
-                 replay: dict[int, list[tuple[str, float]]] | None = None):
+                 replay: dict[int, list[tuple[str, float]]] | None = None,
+                 budgets: Budgets = DEFAULT_BUDGETS):
         self.program = program
+        self.budgets = budgets
+        self.over_budget = ""  # why the run stopped before its stop condition held, if a budget stopped it
+        self._warn = warn
         self.backend = backend
         self.dt = program.dt_s
         self.tick_index = 0
@@ -448,21 +457,30 @@ class Run:
 
     def run(self, progress: Callable[[int, float], None] | None = None,
             max_ticks: int | None = None) -> Summary:
-        """Tick until the stop condition holds (or max_ticks); always closes the trace."""
+        """Tick until the stop condition holds (or max_ticks); always closes the trace.
+
+        The run's budgets (``budgets``) stop it too: past its ticks or its trace size it ends
+        with ``over_budget`` saying which, the trace so far kept (docs/security.md).
+        """
         start = clock.perf_counter()
         interrupted = ended = False
+        watch = RunWatch(self.budgets, self.dt, self.program.stop_horizon_s, start, self._warn)
+        limit = self.budgets.ticks if max_ticks is None else min(max_ticks, self.budgets.ticks)
+        tick = self.tick
         try:
-            if progress is None and max_ticks is None:
-                tick = self.tick
-                while tick():
-                    pass
-            else:
-                while self.tick():
-                    if max_ticks is not None and self.tick_index >= max_ticks:
+            while True:
+                end = min(limit, self.tick_index + 256)
+                while self.tick_index < end:
+                    if not tick():
                         break
-                    if progress is not None and self.tick_index & 255 == 0:
-                        progress(self.tick_index, self.tick_index * self.dt)
-            ended = True
+                if self.finished or (max_ticks is not None and self.tick_index >= max_ticks):
+                    break
+                self.over_budget = watch.check(self.tick_index, self.trace)
+                if self.over_budget:
+                    break
+                if progress is not None:
+                    progress(self.tick_index, self.tick_index * self.dt)
+            ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             interrupted = True
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
@@ -470,7 +488,9 @@ class Run:
             interrupted = True
         finally:
             self._close_trace(not ended)
-        return self.summary(clock.perf_counter() - start, interrupted)
+        summary = self.summary(clock.perf_counter() - start, interrupted)
+        summary.over_budget = self.over_budget
+        return summary
 
     def _close_trace(self, interrupted: bool) -> None:
         """The trace's footer and its rename into place; a failure is kept for the command to report."""

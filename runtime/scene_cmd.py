@@ -17,16 +17,18 @@ from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.world import World
+from labsim.runtime import options
 from labsim.runtime.run import Run, compile_behaviour
 
 
 def add_scene_parser(sub: argparse._SubParsersAction) -> None:
     scene = sub.add_parser("scene", help="build a behaviour's scene in a running CoppeliaSim (4.6 or newer)")
     scene.add_argument("file", help="the behaviour file (.yaml), or a lab's name (labsim labs)")
-    scene.add_argument("--host", default="127.0.0.1", help="CoppeliaSim's address (default: %(default)s)")
-    scene.add_argument("--port", type=int, default=DEFAULT_PORT,
+    scene.add_argument("--host", type=options.host, default="127.0.0.1",
+                       help="CoppeliaSim's address (default: %(default)s)")
+    scene.add_argument("--port", type=options.port, default=DEFAULT_PORT,
                        help="its ZMQ remote API port (default: %(default)s)")
-    scene.add_argument("--timeout", type=float, default=5.0, metavar="SECONDS",
+    scene.add_argument("--timeout", type=options.timeout_s, default=5.0, metavar="SECONDS",
                        help="how long to wait for each answer (default: %(default)s)")
     scene.add_argument("--save", metavar="PATH.ttt", help="then save the scene to this file (CoppeliaSim writes it)")
     scene.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")

@@ -32,6 +32,7 @@ class Summary:
     stopped_by: str | None = None  # the robot whose stop condition held, None if it never did
     noise: dict[str, str] = field(default_factory=dict)  # robot -> its noise models (and readings lost)
     stop_condition: str = ""  # the part of the stop condition that held ('or' parts apart)
+    over_budget: str = ""  # why a budget stopped the run before its stop condition held (docs/security.md)
 
     @property
     def real_time_factor(self) -> float:

@@ -39,9 +39,11 @@ def decode_number(value: Any) -> Any:
 
 
 def stop_reason(run: Run, summary: Summary) -> str:
-    """Why the run ended: "stop condition", "interrupted" (Ctrl-C) or "max ticks"."""
+    """Why the run ended: "stop condition", "interrupted" (Ctrl-C), "budget" or "max ticks"."""
     if summary.interrupted:
         return "interrupted"
+    if summary.over_budget:
+        return "budget"
     return "stop condition" if run.finished else "max ticks"
 
 

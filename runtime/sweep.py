@@ -23,6 +23,7 @@ from typing import Any
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.runtime.run import Behaviour, compile_behaviour
 from labsim.runtime.summary_json import summary_dict
@@ -50,6 +51,7 @@ class Task:
     settings: tuple[tuple[str, str], ...]
     seed: int
     trace: str | None = None
+    budgets: Budgets = DEFAULT_BUDGETS  # what the run may cost (docs/security.md)
 
     @property
     def label(self) -> str:
@@ -135,7 +137,8 @@ def parse_seeds(text: str) -> tuple[int, ...]:
     return tuple(seeds)
 
 
-def inspect_files(files: list[str], settings: list[Setting]) -> dict[str, FileInfo]:
+def inspect_files(files: list[str], settings: list[Setting],
+                  budgets: Budgets = DEFAULT_BUDGETS) -> dict[str, FileInfo]:
     """Compile every file once (with the first value of each setting) before anything runs.
 
     A file that does not compile is noted (its runs become compile-error rows); a ``--set``
@@ -149,7 +152,7 @@ def inspect_files(files: list[str], settings: list[Setting]) -> dict[str, FileIn
             continue
         overrides = {s.name: s.values[0] for s in settings}
         try:
-            program = compile_behaviour(f, overrides).program
+            program = compile_behaviour(f, overrides, budgets=budgets).program
         except LabsimError as e:
             bad = [d for d in e.diagnostics if d.path.startswith("--set ")]
             if bad and not [d for d in e.diagnostics if d.severity == "error" and d not in bad]:
@@ -193,7 +196,7 @@ def first_error(e: LabsimError) -> str:
 
 
 def grid(files: list[str], settings: list[Setting], seeds: tuple[int, ...] | None,
-         info: dict[str, FileInfo], traces: str | None = None) -> list[Task]:
+         info: dict[str, FileInfo], traces: str | None = None, budgets: Budgets = DEFAULT_BUDGETS) -> list[Task]:
     """Every file x every combination of the settings x every seed (default: the file's own)."""
     tasks: list[Task] = []
     combos = list(itertools.product(*[[(s.name, v) for v in s.values] for s in settings]))
@@ -203,7 +206,7 @@ def grid(files: list[str], settings: list[Setting], seeds: tuple[int, ...] | Non
                 trace = None
                 if traces is not None:
                     trace = str(Path(traces) / trace_name(len(tasks), f, combo, seed))
-                tasks.append(Task(len(tasks), f, tuple(combo), seed, trace))
+                tasks.append(Task(len(tasks), f, tuple(combo), seed, trace, budgets))
     return tasks
 
 
@@ -215,9 +218,10 @@ def trace_name(index: int, file: str, combo: tuple[tuple[str, str], ...], seed: 
 
 # -- one run, in a worker ---------------------------------------------------------------------
 
-def compile_seeded(path: str, overrides: dict[str, str], seed: int) -> Behaviour:
+def compile_seeded(path: str, overrides: dict[str, str], seed: int,
+                   budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
     """Compile a file with its seed replaced, as ``labsim run --seed`` does."""
-    return compile_behaviour(path, overrides, seed=seed)
+    return compile_behaviour(path, overrides, seed=seed, budgets=budgets)
 
 
 class RunTimeout(Exception):
@@ -238,7 +242,7 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
                 "task_time_s": clock.perf_counter() - started}
 
     try:
-        behaviour = compile_seeded(path or task.file, dict(task.settings), task.seed)
+        behaviour = compile_seeded(path or task.file, dict(task.settings), task.seed, task.budgets)
     except LabsimError as e:
         return done(COMPILE_ERROR, first_error(e))
     except Exception as e:  # a bug in labsim must not stop the batch: the row says what it was
@@ -264,6 +268,8 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
         return done(RUNTIME_ERROR, first_error(e) if isinstance(e, LabsimError) else _exception_line(e))
     finally:
         run.close()
+    if summary.over_budget:  # stopped by a budget: a failed row, with what it did up to there
+        return done(RUNTIME_ERROR, summary.over_budget, summary_dict(summary, run, warnings=warnings))
     status = INTERRUPTED if summary.interrupted else OK
     return done(status, "", summary_dict(summary, run, warnings=warnings))
 

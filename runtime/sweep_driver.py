@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.stats import comparison
 from labsim.runtime.summary_json import check_json_output
 from labsim.runtime.sweep import (
@@ -47,6 +48,11 @@ from labsim.runtime.sweep_output import (
 EXIT_OK, EXIT_SOME_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
+# A local worker's address space: labsim with OpenCV and a camera run maps about 650 MB; a
+# run that needs three times that is a run gone wrong (docs/sweep.md, "Limits").
+DEFAULT_MEMORY_MB = 2048
+
+
 @dataclass
 class SweepOptions:
     """The command line's options, as ``labsim sweep --help`` describes them."""
@@ -64,6 +70,8 @@ class SweepOptions:
     traces: str | None = None
     maximize: list[str] = field(default_factory=list)
     progress: bool | None = None
+    budgets: Budgets = DEFAULT_BUDGETS  # every run's (docs/security.md)
+    memory_mb: int = DEFAULT_MEMORY_MB  # each local worker's address space; 0: no limit
 
 
 class Executor(Protocol):
@@ -88,6 +96,8 @@ def check_options(o: SweepOptions) -> tuple[list[Setting], tuple[int, ...] | Non
         raise _fail("-j", "give 1 or more processes")
     if o.timeout_s is not None and not o.timeout_s > 0:
         raise _fail("--timeout-per-run", "give a positive number of seconds")
+    if o.memory_mb < 0:
+        raise _fail("--memory-per-run", "give megabytes, or 0 for no limit")
     if o.executor == "dask":
         if not o.scheduler:
             raise _fail("--executor dask", "needs --scheduler tcp://HOST:8786, the address of a running Dask "
@@ -122,20 +132,20 @@ def _executor(o: SweepOptions, info: dict[str, FileInfo]) -> Executor:
         return DaskPool(o.scheduler, info, timeout_s=o.timeout_s)
     from labsim.runtime.pool import LocalPool, default_jobs
 
-    return LocalPool(o.jobs or default_jobs(), o.timeout_s)
+    return LocalPool(o.jobs or default_jobs(), o.timeout_s, o.memory_mb)
 
 
 def run_sweep(o: SweepOptions, out: Any = None) -> int:
     """Run a sweep; print its table; write its files. The exit code."""
     out = out or sys.stdout
     settings, seeds = check_options(o)
-    info = inspect_files(o.files, settings)
+    info = inspect_files(o.files, settings, o.budgets)
     if o.maximize:
         known = {m for i in info.values() for m in i.metrics}
         for m in o.maximize:
             if known and m not in known:
                 raise _fail(f"--maximize {m}", f"no metric '{m}'", "metrics: " + ", ".join(sorted(known)))
-    tasks = grid(o.files, settings, seeds, info, o.traces)
+    tasks = grid(o.files, settings, seeds, info, o.traces, o.budgets)
     executor = _executor(o, info)
     show = o.progress if o.progress is not None else sys.stderr.isatty()
     bar = SweepProgress(len(tasks), show=show)
@@ -206,6 +216,9 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
     sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
     sweep.add_argument("--timeout-per-run", type=float, metavar="S", dest="timeout",
                        help="stop a run after S seconds of real time; its row says timeout")
+    sweep.add_argument("--memory-per-run", type=int, metavar="MB", dest="memory_mb", default=DEFAULT_MEMORY_MB,
+                       help="limit each local worker process's memory (address space) to MB, where the "
+                            "platform allows; 0: no limit (default: %(default)s)")
     sweep.add_argument("--traces", metavar="DIR", help="write each run's trace into this folder")
     sweep.add_argument("--maximize", action="append", default=[], metavar="METRIC",
                        help="mark the highest mean of this metric as best (default: the lowest)")
@@ -215,5 +228,9 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
 
 def sweep_options(args: argparse.Namespace) -> SweepOptions:
     """The parsed command line as SweepOptions."""
+    budgets, problems = DEFAULT_BUDGETS.parse(args.budget)
+    if problems:
+        raise LabsimError([Diagnostic(where, message) for where, message in problems])
     return SweepOptions(args.files, args.set, args.seeds, args.jobs, args.executor, args.scheduler, args.output,
-                        args.json, args.plot, args.timeout, args.traces, args.maximize, args.progress)
+                        args.json, args.plot, args.timeout, args.traces, args.maximize, args.progress,
+                        budgets, args.memory_mb)

@@ -65,6 +65,7 @@ class TraceWriter:
         self._file: TextIO = io.TextIOWrapper(self._out.file, encoding="utf-8", newline="")
         self._writer = csv.writer(self._file, lineterminator="\n")
         self.rows = 0
+        self.chars = 0  # written so far, header and rows: what the trace-size budget counts
         self._flushed = time.monotonic()
         self.failed = False
         try:
@@ -76,7 +77,7 @@ class TraceWriter:
 
     def _guard(self, write: object) -> None:
         try:
-            write()  # type: ignore[operator]
+            self.chars += write() or 0  # type: ignore[operator]
         except OSError as e:
             self.failed = True
             raise TraceWriteError(write_error(self.path, e).diagnostics) from None

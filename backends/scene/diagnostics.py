@@ -34,12 +34,47 @@ class Diagnostic:
         out = [f"{where}: {self.severity}: {self.message}"]
         if self.line and self.source_line:
             gutter = f"{self.line:>5} | "
-            text = self.source_line.rstrip("\n").replace("\t", " ")
+            text, col = _window(self.source_line.rstrip("\n").replace("\t", " "), self.col)
             out.append(gutter + text)
-            width = max(1, (self.end_col or self.col + 1) - self.col)
-            out.append(" " * (len(gutter) - 2) + "| " + " " * (self.col - 1) + "^" + "~" * (width - 1))
+            width = min(max(1, (self.end_col or self.col + 1) - self.col), max(1, len(text) - col + 2))
+            out.append(" " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" + "~" * (width - 1))
         out.extend(f"      = {note}" for note in self.notes)
         return "\n".join(out)
+
+
+# At most this many columns of a source line are echoed, around the caret: a minified file's
+# one long line is not printed whole under every mistake in it.
+ECHO_COLUMNS = 200
+# At most this many diagnostics are printed per file, then "... and K more": a file of 9000
+# mistakes says so in a screenful. (LabsimError keeps them all, for tools.)
+MAX_PER_FILE = 20
+
+
+def _window(text: str, col: int) -> tuple[str, int]:
+    """At most ECHO_COLUMNS of text around 1-based column col, marked '...' where cut, and
+    the caret's column in what is shown."""
+    if len(text) <= ECHO_COLUMNS:
+        return text, col
+    start = max(0, min(col - 1 - ECHO_COLUMNS // 2, len(text) - ECHO_COLUMNS))
+    shown = text[start:start + ECHO_COLUMNS]
+    head = "..." if start > 0 else ""
+    tail = "..." if start + ECHO_COLUMNS < len(text) else ""
+    return head + shown + tail, col - start + len(head)
+
+
+def format_diagnostics(diagnostics: Iterable[Diagnostic], per_file: int = MAX_PER_FILE) -> list[str]:
+    """Each diagnostic formatted, at most ``per_file`` a file, then one line for the rest."""
+    out: list[str] = []
+    shown: dict[str, int] = {}
+    left: dict[str, int] = {}
+    for d in diagnostics:
+        if shown.get(d.path, 0) < per_file:
+            shown[d.path] = shown.get(d.path, 0) + 1
+            out.append(d.format())
+        else:
+            left[d.path] = left.get(d.path, 0) + 1
+    out.extend(f"{path}: ... and {n} more (the first {per_file} are shown)" for path, n in left.items())
+    return out
 
 
 class LabsimError(Exception):
@@ -47,7 +82,7 @@ class LabsimError(Exception):
 
     def __init__(self, diagnostics: Iterable[Diagnostic]):
         self.diagnostics = list(diagnostics)
-        super().__init__("\n".join(d.format() for d in self.diagnostics))
+        super().__init__("\n".join(format_diagnostics(self.diagnostics)))
 
 
 @dataclass

@@ -41,6 +41,7 @@ import math
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Report, did_you_mean
+from labsim.backends.scene.limits import MAX_COORD_M
 from labsim.backends.scene.mechanism import (
     ANGULAR_KINDS,
     JOINT_KINDS,
@@ -75,6 +76,15 @@ class _Reader(Reader):
     def __init__(self, doc: Document, report: Report) -> None:
         super().__init__(doc, report)
         self.declared: set[str] = set()  # every body named, read or not
+
+    def pair(self, node: Node, what: str) -> tuple[float, float] | None:
+        """Every pair of a mechanism (centres, sizes, anchors, axes) within the world's
+        coordinate range, so that the simulator never meets a number it cannot step."""
+        p = super().pair(node, what)
+        if p is not None and any(abs(v) > MAX_COORD_M for v in p):
+            self.error(node, f"{what} must be within +-{MAX_COORD_M:g} m")
+            return None
+        return p
 
     def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
         message, notes = super().number_problem(node, what, integer)

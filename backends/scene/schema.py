@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from labsim.backends.scene.limits import MAX_COORD_M, MAX_RADIUS_M, MIN_SIZE_M
 from labsim.backends.scene.mechanism import JOINT_KINDS, SHAPES
 from labsim.backends.scene.mechanism_file import BODY_KEYS, JOINT_KEYS, MOTOR_KEYS, SENSOR_KEYS, TARGETS
 from labsim.backends.scene.mechanism_file import KEYS as MECHANISM_KEYS
@@ -96,7 +97,7 @@ def document(title: str, body: Schema) -> Schema:
 
 
 def _point(what: str) -> Schema:
-    return numbers(f"{what}: [x, y] in metres", 2)
+    return numbers(f"{what}: [x, y] in metres", 2, number("metres from the origin", -MAX_COORD_M, MAX_COORD_M))
 
 
 def _colour(default: str) -> Schema:
@@ -107,7 +108,7 @@ def _colour(default: str) -> Schema:
 def _ground() -> Schema:
     arc = mapping(ARC_KEYS, {
         "center": _point("the circle's centre"),
-        "radius": number("the circle's radius in metres", exclusive_minimum=0),
+        "radius": number("the circle's radius in metres", MIN_SIZE_M, MAX_RADIUS_M),
         "to_deg": number("where the arc ends: degrees counter-clockwise from +x"),
     }, "an arc on from the previous point, around center", required=ARC_KEYS)
     path_item = {"anyOf": [_point("a point"), mapping(("arc",), {"arc": arc}, required=("arc",))]}

@@ -74,10 +74,7 @@ class Document:
 
     def __post_init__(self) -> None:
         self.lines = self.text.splitlines()
-        self._line_starts = [0]
-        for i, ch in enumerate(self.text):
-            if ch == "\n":
-                self._line_starts.append(i + 1)
+        self._line_starts = [0] + [m.end() for m in re.finditer("\n", self.text)]
 
     def position(self, index: int) -> tuple[int, int]:
         """1-based (line, column) of a character index into the file."""
@@ -163,6 +160,12 @@ class TextSpan:
 Place: TypeAlias = Node | TextSpan | int | None
 
 
+# How far ahead _align looks for a value character: far enough for any escape (\U0001F600 is
+# 10 characters) and for folded indentation, and it keeps the walk linear: looking to the end of
+# the scalar for every escaped character was quadratic (150,000 escapes took seconds).
+_ALIGN_REACH = 256
+
+
 def _align(text: str, node: ScalarNode) -> list[int]:
     """File index of every character of the node's value.
 
@@ -185,7 +188,7 @@ def _align(text: str, node: ScalarNode) -> list[int]:
             if pos < end and text[pos] == ch:
                 pos += 1
             continue
-        j = text.find(ch, pos, end)
+        j = text.find(ch, pos, min(end, pos + _ALIGN_REACH))
         if j < 0:
             out.append(min(pos, max(start, end - 1)))
         else:

@@ -60,6 +60,14 @@ from labsim.backends.scene.ground import (
     Patch,
     Road,
 )
+from labsim.backends.scene.limits import (
+    MAX_ARC_CHORDS,
+    MAX_COORD_M,
+    MAX_RADIUS_M,
+    MAX_SIZE_M,
+    MAX_THICKNESS_M,
+    MIN_SIZE_M,
+)
 from labsim.backends.scene.mechanism_file import read_mechanism
 from labsim.backends.scene.source import Document, Reader, load, scalar_value
 from labsim.backends.scene.world import Block, Pose, Wall, World
@@ -122,6 +130,38 @@ class _WorldReader(Reader):
             return None
         return [0.0 if v is None else v for v in (self.number(item, what) for item in items)]
 
+    def point(self, node: Node, what: str, counts: tuple[int, ...] = (2,)) -> list[float] | None:
+        """``coordinates`` of a place in the world, each within +-MAX_COORD_M; None after an error."""
+        values = self.coordinates(node, what, counts)
+        if values is None:
+            return None
+        if any(abs(v) > MAX_COORD_M for v in values):
+            self.error(node, f"{what} must lie within +-{MAX_COORD_M:g} m of the origin "
+                             f"(a world is at most {2 * MAX_COORD_M:g} m across)")
+            return None
+        return values
+
+    def size(self, node: Node, what: str, largest: float = MAX_SIZE_M) -> list[float] | None:
+        """``coordinates`` of an extent [width, depth]: each from MIN_SIZE_M to ``largest``
+        (an extent outside that is reported once, as not positive or too large, and read as 1.0)."""
+        values = self.coordinates(node, what)
+        if values is None:
+            return None
+        if any(v <= 0 for v in values):
+            return values  # the caller says it must be positive, in its own words
+        if any(not MIN_SIZE_M <= v <= largest for v in values):
+            self.error(node, f"{what} must be from {MIN_SIZE_M:g} to {largest:g} m")
+            return [1.0, 1.0]
+        return values
+
+    def length(self, node: Node, what: str, largest: float) -> float | None:
+        """A positive length (a width, a radius) from MIN_SIZE_M to ``largest`` metres."""
+        value = self.positive(node, what)
+        if value is not None and not MIN_SIZE_M <= value <= largest:
+            self.error(node, f"{what} must be from {MIN_SIZE_M:g} to {largest:g} m, not {value:g}")
+            return None
+        return value
+
     def number_or_zero(self, node: Node, what: str) -> float:
         """A number, or 0.0 after reporting that it is none, so that the checks after it run too."""
         value = self.number(node, what)
@@ -146,7 +186,7 @@ class _WorldReader(Reader):
         thickness = self.number_or_zero(f["wall_thickness"], "wall_thickness") if "wall_thickness" in f else 0.1
         bounds = (-10.0, -10.0, 10.0, 10.0)
         if "bounds" in f:
-            b = self.coordinates(f["bounds"], "bounds", (4,))
+            b = self.point(f["bounds"], "bounds", (4,))
             if b is not None:
                 if b[0] >= b[2] or b[1] >= b[3]:
                     self.error(f["bounds"], "bounds are [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax")
@@ -155,7 +195,9 @@ class _WorldReader(Reader):
         spawns = []
         for item in self.list_of(f, "spawns"):
             p = self.numbers(item, "a spawn pose [x, y, heading_deg]", (2, 3))
-            if p is not None:
+            if p is not None and any(abs(v) > MAX_COORD_M for v in p[:2]):
+                self.error(item, f"a spawn pose must lie within +-{MAX_COORD_M:g} m of the origin")
+            elif p is not None:
                 spawns.append(Pose(p[0], p[1], math.radians(p[2]) if len(p) == 3 else 0.0))
         ground = self.ground(f["ground"]) if "ground" in f else None
         mechanism = read_mechanism(f["mechanism"], self.doc, self.report) if "mechanism" in f else None
@@ -169,13 +211,16 @@ class _WorldReader(Reader):
             if "from" not in w or "to" not in w:
                 self.error(item, "a wall needs 'from: [x, y]' and 'to: [x, y]'")
                 continue
-            a, b = self.coordinates(w["from"], "from"), self.coordinates(w["to"], "to")
+            a, b = self.point(w["from"], "from"), self.point(w["to"], "to")
             t = self.number_or_zero(w["thickness"], "thickness") if "thickness" in w else thickness
             if a is not None and b is not None:
                 if a == b:
                     self.error(item, "a wall's 'from' and 'to' must differ")
                 elif t <= 0:
                     self.error(w.get("thickness", item), "a wall's thickness must be positive")
+                elif not MIN_SIZE_M <= t <= MAX_THICKNESS_M:
+                    self.error(w.get("thickness", item), f"a wall's thickness must be from {MIN_SIZE_M:g} "
+                                                        f"to {MAX_THICKNESS_M:g} m, not {t:g}")
                 walls.append(Wall((a[0], a[1]), (b[0], b[1]), t))
         return tuple(walls)
 
@@ -186,7 +231,7 @@ class _WorldReader(Reader):
             if "center" not in bl or "size" not in bl:
                 self.error(item, "a block needs 'center: [x, y]' and 'size: [width, depth]'")
                 continue
-            c, s = self.coordinates(bl["center"], "center"), self.coordinates(bl["size"], "size")
+            c, s = self.point(bl["center"], "center"), self.size(bl["size"], "size")
             angle = self.number(bl["angle_deg"], "angle_deg") if "angle_deg" in bl else 0.0
             if c is not None and s is not None:
                 if s[0] <= 0 or s[1] <= 0:
@@ -231,8 +276,8 @@ class _WorldReader(Reader):
             if "from" not in ln or "to" not in ln:
                 self.error(item, "a line needs 'from: [x, y]' and 'to: [x, y]'")
                 continue
-            a, b = self.coordinates(ln["from"], "from"), self.coordinates(ln["to"], "to")
-            width = self.positive(ln["width"], "a line's width") if "width" in ln else LINE_WIDTH_M
+            a, b = self.point(ln["from"], "from"), self.point(ln["to"], "to")
+            width = self.length(ln["width"], "a line's width", MAX_SIZE_M) if "width" in ln else LINE_WIDTH_M
             rgb = self.colour(ln["color"], "color") if "color" in ln else LINE_RGB
             if a is not None and b is not None:
                 if a == b:
@@ -250,7 +295,7 @@ class _WorldReader(Reader):
             if "center" not in pa or "size" not in pa:
                 self.error(item, "a patch needs 'center: [x, y]' and 'size: [width, depth]'")
                 continue
-            c, sz = self.coordinates(pa["center"], "center"), self.coordinates(pa["size"], "size")
+            c, sz = self.point(pa["center"], "center"), self.size(pa["size"], "size")
             angle = self.number(pa["angle_deg"], "angle_deg") if "angle_deg" in pa else 0.0
             rgb = self.colour(pa["color"], "color") if "color" in pa else PATCH_RGB
             if c is not None and sz is not None:
@@ -270,7 +315,7 @@ class _WorldReader(Reader):
             self.error(item, f"a road needs {missing} (width: metres, path: a list of points [x, y] and arcs)")
             if "path" not in r:
                 return None
-        width = self.positive(r["width"], "a road's width") if "width" in r else None
+        width = self.length(r["width"], "a road's width", MAX_SIZE_M) if "width" in r else None
         rgb = self.colour(r["color"], "color") if "color" in r else DEFAULT_ROAD_RGB
         closed = self.flag(r["closed"], "closed") is True if "closed" in r else False
         points = self.path(r["path"])
@@ -303,11 +348,12 @@ class _WorldReader(Reader):
                         self.error(item, "a path item is a point [x, y] or {arc: {center, radius, to_deg}}")
                     continue
                 if not points:
-                    self.error(item, "an arc continues from the previous point: start the path with a point [x, y]")
+                    if self.error_count == before:  # else the point before it was the mistake
+                        self.error(item, "an arc continues from the previous point: start the path with a point [x, y]")
                     continue
                 points += self.arc(arc["arc"], points[-1])
             else:
-                p = self.coordinates(item, "a path point [x, y]")
+                p = self.point(item, "a path point [x, y]")
                 if p is not None:
                     points.append((p[0], p[1]))
         return points if self.error_count == before else None
@@ -324,8 +370,8 @@ class _WorldReader(Reader):
                 self.error(node, "an arc needs " + ", ".join(f"'{k}'" for k in missing)
                            + " ({center: [x, y], radius: metres, to_deg: degrees})")
             return []
-        c = self.numbers(a["center"], "center")
-        radius = self.positive(a["radius"], "an arc's radius")
+        c = self.point(a["center"], "an arc's center")
+        radius = self.length(a["radius"], "an arc's radius", MAX_RADIUS_M)
         to_deg = self.number(a["to_deg"], "to_deg")
         if c is None or radius is None or to_deg is None or self.error_count != before:
             return []
@@ -346,7 +392,8 @@ class _WorldReader(Reader):
             self.error(a["to_deg"], f"an arc turns at most one full circle; it starts at {from_deg:.4g} degrees")
             return []
         step = min(math.radians(5), 2 * math.acos(max(-1.0, 1 - CHORD_SAGITTA_M / radius)))
-        n = max(1, math.ceil(abs(sweep) / step))
+        # beyond 1.6 km of radius the cap makes the chords coarser than CHORD_SAGITTA_M (limits.py)
+        n = min(MAX_ARC_CHORDS, max(1, math.ceil(abs(sweep) / step)))
         start_rad = math.atan2(dy, dx)
         return [(c[0] + radius * math.cos(start_rad + sweep * i / n),
                  c[1] + radius * math.sin(start_rad + sweep * i / n)) for i in range(1, n + 1)]
