@@ -176,7 +176,9 @@ def test_a_run_stopped_by_its_tick_budget_keeps_a_readable_trace(tmp_path: Path)
     proc = subprocess.run([sys.executable, "-m", "labsim", "run", "b.yaml", "--budget", "ticks=1000",
                            "--trace", "t.csv"], cwd=tmp_path, capture_output=True, text=True, timeout=TIMEOUT_S)
     assert proc.returncode == 2 and "done: 1000 ticks" in proc.stdout  # the summary is printed before the error
-    rows = list(csv.reader((tmp_path / "t.csv").read_text().splitlines()[1:]))
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    assert lines[-1].startswith('# end {"interrupted": true')  # cut short by its budget, and says so
+    rows = list(csv.reader(lines[1:-1]))
     assert rows[0][0] == "tick" and rows[-1][0] == "999" and len(rows) == 1001
 
 

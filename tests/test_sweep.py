@@ -163,7 +163,7 @@ def test_a_run_past_its_time_is_killed_and_the_pool_goes_on(capsys, tmp_path: Pa
     slow = write((FIXTURES / "minimal.yaml").read_text().replace("stop: time >= 1", "stop: time >= 1e9"), "slow.yaml")
     out_csv = tmp_path / "r.csv"
     code, out, _ = cli(capsys, "sweep", str(slow), str(FIXTURES / "minimal.yaml"), "--seeds", "1-2", "-j", "1",
-                       "--timeout-per-run", "1.5", "-o", str(out_csv))
+                       "--timeout-per-run", "1.5", "--budget", "ticks=1000000000", "-o", str(out_csv))
     assert code == 1
     with open(out_csv, newline="") as f:
         statuses = [(Path(r["file"]).name, r["status"]) for r in csv.DictReader(f)]
