@@ -19,6 +19,7 @@ from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from labsim.backends.scene import object_paths
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
@@ -364,7 +365,15 @@ class _Reader(Reader):
                                  " ({i} is the robot's index among all robots, from 0; {k} the sonar's, from 0)")
         for key, value in fields.items():
             text = self.string(value, key)
-            if text:
+            if text is None:
+                continue
+            wrong = object_paths.problem(key, text)  # templates, never str.format: object_paths
+            if wrong is not None and isinstance(value, ScalarNode):
+                at = wrong[0]
+                self.error(self.doc.text_of(value).at((at, min(at + 1, len(text)) or 1)), wrong[1])
+            elif wrong is not None:
+                self.error(value, wrong[1])
+            else:
                 out.append((key, text))
         return tuple(out)
 
