@@ -81,7 +81,7 @@ def refusal(raw: bytes) -> str | None:
     except _Refused as e:
         return f"labsim serve: {e}"
     if end != len(raw):
-        return "labsim serve: the request has bytes after its CBOR map"
+        return "labsim serve: the request is not a CBOR message (bytes follow its first value)"
     return None
 
 

@@ -14,9 +14,10 @@ anywhere below" and passes through unchanged; any other ``{...}`` is an error. T
 never given to ``str.format``, which would let a file's text reach Python attributes
 (``{i.__class__}``) or pad a value to hundreds of megabytes (``{i:>300000000}``).
 
-Charset and length: ASCII letters, digits and ``_ - . / : [ ] { } * ? #``, at most
-``MAX_CHARS`` characters. CoppeliaSim's aliases allow these; spaces, quotes and control
-characters only ever come from a mistake.
+The robot's path starts with ``/`` (it is looked up from the top of the scene); the others are
+usually relative to the robot (``./leftMotor``). Charset and length: ASCII letters, digits and
+``_ - . / : [ ] { } * ? #``, at most ``MAX_CHARS`` characters. CoppeliaSim's aliases allow
+these; spaces, quotes and control characters only ever come from a mistake.
 """
 from __future__ import annotations
 
@@ -44,6 +45,8 @@ def problem(key: str, template: str) -> tuple[int, str] | None:
             shown = ch if ch.isprintable() and ch.isascii() else f"U+{ord(ch):04X}"
             return at, (f"'{shown}' cannot be part of a CoppeliaSim path; use letters, digits and "
                         f"_ - . / : [ ] {{ }} * ? #")
+    if key == "robot" and not template.startswith("/"):
+        return 0, "the robot path is looked up from the scene's top: it starts with '/', e.g. /PioneerP3DX[{i}]"
     allowed = PLACEHOLDERS.get(key, ())
     at = template.find("{")
     while at >= 0:
