@@ -609,7 +609,9 @@ class _Reader(Reader):
         return out
 
 
-_AT = re.compile(r"at\s+([0-9]*\.?[0-9]+(?:[eE][+-]?\d+)?)\s*$")
+# one way to read each number: "[0-9]*\.?[0-9]+" split a long run of digits every way and took
+# minutes on a timeline key of 100,000 digits
+_AT = re.compile(r"at\s+((?:[0-9]+(?:\.[0-9]+)?|\.[0-9]+)(?:[eE][+-]?\d+)?)\s*$")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
 
 

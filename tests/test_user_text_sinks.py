@@ -185,3 +185,18 @@ def test_templates_fill_literally_and_check_what_the_models_use() -> None:
                 assert problem(key, template) is None, (key, template)
     assert problem("robot", "/Robot{2}/base") is None  # CoppeliaSim's own {n}
     assert problem("robot", "/Robot[{i}]") is None and problem("sonar", "./s[{k}]") is None
+
+
+def test_a_timeline_key_of_100000_digits_is_an_error_not_minutes_of_backtracking(tmp_path: Path) -> None:
+    """The timeline's 'at TIME' pattern split a run of digits every way it could: 10,000 digits
+    and an x took 7 s, 100,000 more than eight minutes. A generous bound, not a measurement.
+    (A YAML key over 1024 characters must be written as an explicit '? key'.)"""
+    import subprocess
+    import sys
+
+    path = tmp_path / "b.yaml"
+    path.write_text("labsim: 1\nworld: crane\nstop: time >= 1\nsliders:\n  arm: {min: -1, max: 1}\n"
+                    f"bind:\n  Arm_Actuator.velocity: arm\ntimeline:\n  - ? at {'1' * 100_000}x\n    : arm = 1\n")
+    out = subprocess.run([sys.executable, "-m", "labsim", "check", str(path)], capture_output=True, text=True,
+                         timeout=240)
+    assert out.returncode == 2 and "a timeline entry starts with 'at'" in out.stderr, out.stderr[-500:]
