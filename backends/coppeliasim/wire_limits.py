@@ -72,7 +72,8 @@ class _Refused(Exception):
 def refusal(raw: bytes) -> str | None:
     """Why ``raw`` may not be decoded (the reply's ``err`` text), or None when it may.
 
-    Walks exactly one CBOR data item and wants nothing after it. Never raises.
+    Walks exactly one CBOR data item and wants nothing after it. Raises nothing but
+    ``BudgetExceeded``, when the request's time budget runs out during the walk.
     """
     if len(raw) > MAX_MESSAGE_BYTES:
         return f"labsim serve: a request may be at most {MAX_MESSAGE_BYTES} bytes, this one has {len(raw)}"
