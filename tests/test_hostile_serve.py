@@ -269,3 +269,16 @@ def test_refusal_never_raises_on_random_bytes() -> None:
         if refusal(raw) is None:  # what passes the scan is well formed, or cbor2 says why not
             with contextlib.suppress(cbor2.CBORDecodeError):
                 cbor2.loads(raw)
+
+
+def test_an_internal_error_is_a_reply_without_a_traceback_or_an_address() -> None:
+    """A handler that fails, or returns what cbor2 cannot encode, is answered and logged."""
+    logged: list[str] = []
+    server = Server(LAB, 1, port=0, log=logged.append)
+    server._funcs["sim.getSimulationTime"] = lambda client, args: [object()]
+    server._funcs["sim.getSimulationState"] = lambda client, args: [1 / 0]
+    for func in ("sim.getSimulationTime", "sim.getSimulationState"):
+        reply = cbor2.loads(server.handle(req(func)))
+        assert reply["err"].startswith("labsim serve: internal error") and " at 0x" not in reply["err"], reply
+    assert sum("Traceback" in line for line in logged) == 2
+    assert cbor2.loads(server.handle(req("sim.getObject", "/PioneerP3DX")))["ret"][0] > 0

@@ -265,6 +265,9 @@ class Server:
             return cbor2.dumps(self._decoded(raw))
         except BudgetExceeded as e:
             return cbor2.dumps({"err": str(e)})
+        except Exception as e:  # a reply cbor2 cannot encode: a bug, which must not take the server down
+            self.log("labsim serve: internal error\n" + traceback.format_exc())
+            return cbor2.dumps({"err": f"labsim serve: internal error: {type(e).__name__}"})
         finally:
             Deadline.end(token)
 
