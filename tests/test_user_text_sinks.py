@@ -8,7 +8,8 @@ value could meet one of these sinks and fails on any that is not on ``ALLOWED``,
 the reason it is safe. Precise rather than complete: a call is flagged by its shape, not by
 following where its values come from, so the allow-list stays short and every entry is read.
 
-* ``X.format(...)`` / ``X.format_map(...)`` where X is not a string literal;
+* ``X.format(...)`` / ``X.format_map(...)`` where X is not a string literal, and the builtin
+  ``format(value, spec)`` with a spec that is not a literal;
 * ``X % Y`` where X is not a string literal and Y is a tuple, a dict or a string (the shapes of
   printf formatting; ``(i + 1) % n`` is arithmetic and not flagged);
 * ``getattr``/``setattr``/``hasattr``/``delattr`` with an attribute name that is not a literal;
@@ -46,6 +47,9 @@ ALLOWED: dict[tuple[str, str], str] = {
         "the builtin table's own module:name entries",
     ("dsl/codegen.py", "METRIC_CODE[metric.aggregate].format(e=e, i=i)"):
         "a constant template chosen by a checked aggregate name; e and i are generated names",
+    ("dsl/program.py", "format(value, spec)"):
+        "a label's or log's format spec, which dsl/parse.py admits only as _FORMAT_SPEC (width and "
+        "precision at most two digits) or the printf form's _PRINTF",
     ("dsl/parse.py", "getattr(e, f.name)"):
         "dataclass fields of the language's own AST nodes",
     ("dsl/program.py", "exec(code.compiled, scope)"):
@@ -87,7 +91,7 @@ def _is_sink(node: ast.AST) -> bool:
     name, f, args = _called(node), node.func, node.args
     if isinstance(f, ast.Attribute) and f.attr in ("format", "format_map"):
         return not _literal_str(f.value)
-    if name in ATTR_FUNCS:
+    if name in ATTR_FUNCS or name == "format":
         return len(args) > 1 and not _literal_str(args[1])
     if name.startswith("re.") and name[3:] in RE_FUNCS:
         return bool(args) and not _literal_str(args[0])
@@ -130,8 +134,9 @@ def test_the_scan_flags_each_shape() -> None:
         "getattr(obj, user_name)\n"
         "re.compile(user_pattern)\n"
         "eval(source)\n"
-        "string.Template(text)\n"))
-    assert len(flagged) == 8, flagged
+        "string.Template(text)\n"
+        "format(value, user_spec)\n"))
+    assert len(flagged) == 9, flagged
     assert findings(ast.parse(
         "'/P[{i}]'.format(i=1)\n"
         "'%d' % n\n"
@@ -139,7 +144,8 @@ def test_the_scan_flags_each_shape() -> None:
         "x % 1.0\n"
         "getattr(obj, 'name', None)\n"
         "re.compile(r'^[a-z]+$')\n"
-        "f'{value!r}'\n")) == []
+        "f'{value!r}'\n"
+        "format(value, '.2f')\n")) == []
 
 
 def test_the_issues_injection_strings_are_refused_by_check(tmp_path: Path) -> None:
@@ -200,3 +206,26 @@ def test_a_timeline_key_of_100000_digits_is_an_error_not_minutes_of_backtracking
     out = subprocess.run([sys.executable, "-m", "labsim", "check", str(path)], capture_output=True, text=True,
                          timeout=240)
     assert out.returncode == 2 and "a timeline entry starts with 'at'" in out.stderr, out.stderr[-500:]
+
+
+def test_the_python_api_refuses_a_bad_template_with_a_backend_error() -> None:
+    """Paths that bypass labsim check (CoppeliaSimBackend(paths=...), a RobotRequest built in
+    Python) are checked where the backend reads them: a BackendError, no KeyError."""
+    import pytest
+
+    from labsim.backends.coppeliasim.fleet import _paths
+    from labsim.backends.protocol import BackendError, RobotRequest
+    from labsim.backends.scene.diagnostics import Report
+    from labsim.backends.scene.models import PIONEER_P3DX
+    from labsim.backends.scene.world import Pose, builtin_worlds
+    from labsim.backends.scene.world_file import load_world
+
+    world = load_world(builtin_worlds()["walls_lab4"], Report())
+    ok = RobotRequest("pioneer", PIONEER_P3DX, Pose(0, 0, 0), ("sonar1",))
+    assert _paths(world, ok, {"robot": "/MyPioneer[{i}]"})["robot"] == "/MyPioneer[{i}]"
+    for overrides in ({"robot": "/P{x}"}, {"sonar": "./s{i.__class__}"}, {"robot": "/P{i:>300000000}"}):
+        with pytest.raises(BackendError, match="robot 'pioneer'"):
+            _paths(world, ok, overrides)
+    bad = RobotRequest("pioneer", PIONEER_P3DX, Pose(0, 0, 0), ("sonar1",), paths=(("robot", "{0}"),))
+    with pytest.raises(BackendError, match="starts with '/'"):
+        _paths(world, bad, {})
