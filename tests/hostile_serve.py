@@ -9,6 +9,8 @@ a list of ZeroMQ frames; ``expect`` says what each reply must be:
 * ``Err("text")``: a reply ``{"err": ...}`` containing the text (CoppeliaSim's reply shape);
 * ``RET``: a normal ``{"ret": [...]}`` reply;
 * ``ANSWERED``: a reply of either kind (the case is about the server staying up);
+* ``CLEAN``: a reply of any kind (``ret``, ``err``, ``_*wait*_``) that is not an internal error:
+  a handler met arguments it did not expect and said so, rather than failing;
 * ``VERSION``: the protocol-1 reply CoppeliaSim gives an old client;
 * ``DROPPED``: no reply is owed (ZeroMQ drops an oversized message with its connection); if
   one comes, it must not be a normal one.
@@ -21,6 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import cbor2
+
+from labsim.backends.coppeliasim.sim_api import FUNCTIONS, UNSUPPORTED
 
 Frames = list[bytes]
 
@@ -48,6 +52,7 @@ class Expect:
 
 RET = Expect("ret")
 ANSWERED = Expect("answered")
+CLEAN = Expect("clean")
 VERSION = Expect("version")
 DROPPED = Expect("dropped")
 
@@ -181,3 +186,15 @@ CASES: list[Case] = [
     Case("stepping, then vanishing", lambda: [[req("sim.setStepping", True, uuid="stepper", ver=2)],
                                               [req("sim.startSimulation", uuid="stepper")]], RET),
 ]
+
+# Every function the stand-in lists, with arguments of every wrong kind: handles that do not
+# exist, 2**64 - 1, NaN, 1e308, texts, nested lists, maps, too few and too many.
+WRONG_ARGS: list[list[object]] = [
+    [], ["\x00" * 100, -1, 1e308, [[]], {"k": None}], [1, {"a": 1}, [1e308] * 3, -(2**63)],
+    [2**64 - 1, 2**64 - 1, 2**64 - 1], [1, 1, [float("nan")] * 3], [1, -1, "x"], [3, [1, 2], list(range(7))],
+    [1, -1, [1e308] * 3], [1, [1e308] * 7, -1], [2, 1e308], [5, float("-inf")], [4, 2, [0, 0], [10**6, 10**6]],
+    [7, 0, [-5, 3], [2**63, 1]], [None] * 8, [True, False, True],
+]
+EVERY_FUNCTION = (*FUNCTIONS, *(f"sim.{name}" for name in UNSUPPORTED), "zmqRemoteApi.require", "zmqRemoteApi.info")
+CASES += [Case(f"{func} with wrong arguments", (lambda func=func: [[req(func, *args)] for args in WRONG_ARGS]), CLEAN)
+          for func in EVERY_FUNCTION]

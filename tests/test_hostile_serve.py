@@ -25,7 +25,7 @@ import pytest
 cbor2 = pytest.importorskip("cbor2")
 zmq = pytest.importorskip("zmq")
 
-from hostile_serve import ANSWERED, CASES, DROPPED, RET, VERSION, Case, Err, req  # noqa: E402
+from hostile_serve import ANSWERED, CASES, CLEAN, DROPPED, RET, VERSION, Case, Err, req  # noqa: E402
 
 from labsim.backends.coppeliasim.scene_tree import glob_match  # noqa: E402
 from labsim.backends.coppeliasim.server import Server  # noqa: E402
@@ -117,6 +117,8 @@ def _check(case: Case, reply: dict | None) -> None:
         assert isinstance(reply.get("ret"), list), reply
     elif expect is VERSION:
         assert reply.get("success") is False and "version" in reply["error"], reply
+    elif expect is CLEAN:
+        assert "ret" in reply or "func" in reply or "internal error" not in reply.get("err", "internal error"), reply
     else:
         assert expect is ANSWERED and ("ret" in reply or "err" in reply), reply
 
@@ -149,7 +151,7 @@ def test_the_table_covers_the_issue() -> None:
     assert {"sixteen stars and a Z", "a 50 MB text", "an array of 52 million zeros", "10 million empty maps",
             "two frames", "a 70 MB message, over the socket's limit", "garbage bytes", "a client that vanishes "
             "before its reply", "2,000 fresh client ids"} <= names
-    assert len(CASES) >= 60
+    assert len(CASES) >= 120
 
 
 # --- the multipart race ---------------------------------------------------------------------------
