@@ -284,3 +284,13 @@ def test_an_internal_error_is_a_reply_without_a_traceback_or_an_address() -> Non
         assert reply["err"].startswith("labsim serve: internal error") and " at 0x" not in reply["err"], reply
     assert sum("Traceback" in line for line in logged) == 2
     assert cbor2.loads(server.handle(req("sim.getObject", "/PioneerP3DX")))["ret"][0] > 0
+
+
+def test_a_reply_does_not_grow_with_what_the_request_sent() -> None:
+    """Errors quote at most 100 characters of a client's value (a type name for anything but
+    text and numbers): a million-item list or a 64 KiB path is not echoed back."""
+    server = Server(LAB, 1, port=0)
+    for func, args in (("zmqRemoteApi.require", [[0] * 900_000]), ("zmqRemoteApi.info", ["x" * 60_000]),
+                       ("sim.getObject", ["/" + "a" * 60_000]), ("sim." + "f" * 60_000, [])):
+        raw = server.handle(req(func, *args))
+        assert len(raw) < 1000 and "err" in cbor2.loads(raw), raw[:200]

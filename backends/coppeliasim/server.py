@@ -38,7 +38,7 @@ from typing import Any
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, RUNNING, STOPPED
 from labsim.backends.coppeliasim.scene_edit import SceneEditor
-from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError
+from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
 from labsim.backends.coppeliasim.simulation import Client, Simulation, robot_specs
 from labsim.backends.coppeliasim.wire_limits import MAX_MESSAGE_BYTES, REQUEST_BUDGET_S, BudgetExceeded, Deadline
 from labsim.backends.coppeliasim.wire_limits import refusal as wire_refusal
@@ -316,7 +316,7 @@ class Server:
             if func.startswith("sim.") and name in UNSUPPORTED:
                 return {"err": f"labsim serve: {func} is not supported by this stand-in for CoppeliaSim "
                                f"(docs/coppeliasim.md lists what is)"}
-            return {"err": f"No such function: {func}"}
+            return {"err": f"No such function: {shown(func)}"}
         try:
             ret = handler(client, args)
         except SimError as e:
