@@ -19,6 +19,7 @@ from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from labsim.backends.scene import object_paths
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.models import Camera
@@ -365,7 +366,15 @@ class _Reader(Reader):
                                  " ({i} is the robot's index among all robots, from 0; {k} the sonar's, from 0)")
         for key, value in fields.items():
             text = self.string(value, key)
-            if text:
+            if text is None:
+                continue
+            wrong = object_paths.problem(key, text)  # templates, never str.format: object_paths
+            if wrong is not None and isinstance(value, ScalarNode):
+                at = wrong[0]
+                self.error(self.doc.text_of(value).at((at, min(at + 1, len(text)) or 1)), wrong[1])
+            elif wrong is not None:
+                self.error(value, wrong[1])
+            else:
                 out.append((key, text))
         return tuple(out)
 
@@ -604,7 +613,9 @@ class _Reader(Reader):
         return out
 
 
-_AT = re.compile(r"at\s+([0-9]*\.?[0-9]+(?:[eE][+-]?\d+)?)\s*$")
+# one way to read each number: "[0-9]*\.?[0-9]+" split a long run of digits every way and took
+# minutes on a timeline key of 100,000 digits
+_AT = re.compile(r"at\s+((?:[0-9]+(?:\.[0-9]+)?|\.[0-9]+)(?:[eE][+-]?\d+)?)\s*$")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
 
 

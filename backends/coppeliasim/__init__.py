@@ -31,9 +31,9 @@ HANDLE_WORLD, HANDLE_ALL, HANDLE_PARENT = -1, -2, -11
 STOPPED, PAUSED, RUNNING = 0x00, 0x08, 0x11
 
 # Object paths of a model in a CoppeliaSim scene (CoppeliaSim 4.3+ aliases). ``robot`` is
-# absolute and formatted with ``i``, the robot's number among the robots of that model;
+# absolute, a template whose {i} is the robot's number among the robots of that model;
 # the others are relative to the robot (resolved with the ``proxy`` option of sim.getObject)
-# and ``sonar`` is formatted with ``k`` = sonar number - 1 (channel sonar1 is
+# and ``sonar``'s {k} is sonar number - 1 (templates: scene/object_paths.py; channel sonar1 is
 # ultrasonicSensor[0]). A camera channel ``c`` is ``cameras[c]`` (the behaviour's ``paths:
 # {camera: ...}`` for the channel ``camera``); when neither names it, the backend looks for
 # each alias of ``CAMERA_ALIASES`` under the robot, then for ``./c``.

@@ -34,6 +34,7 @@ from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
 from labsim.backends.scene.models import Kind
+from labsim.backends.scene.object_paths import PLACEHOLDERS, fill, problem
 from labsim.backends.scene.world import World
 
 
@@ -130,14 +131,14 @@ class Fleet:
         assert req.model is not None
         offered = req.model.channels()
         sonars = [name for name, kind in offered.items() if kind is Kind.DISTANCE]
-        h = r.handle = get(str(paths["robot"]).format(i=i), -1, f"robot '{req.name}'")
+        h = r.handle = get(fill(str(paths["robot"]), i=i), -1, f"robot '{req.name}'")
         r.collide_with = conn.handle_all
         r.motors = (get(str(paths["left_motor"]), h, f"robot '{req.name}', left motor"),
                     get(str(paths["right_motor"]), h, f"robot '{req.name}', right motor"))
         for slot, ch in enumerate(req.channels):
             kind = offered.get(ch)
             if kind is Kind.DISTANCE:
-                path = str(paths["sonar"]).format(k=sonars.index(ch))
+                path = fill(str(paths["sonar"]), k=sonars.index(ch))
                 r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
             elif kind is Kind.IMAGE:
                 r.cameras.append((self._camera(paths, ch, h, f"robot '{req.name}', {ch}"), slot))
@@ -290,6 +291,10 @@ def _paths(world: World, req: RobotRequest, overrides: dict[str, object]) -> dic
             f"'{model.name}'; pass paths={{'robot': ..., 'left_motor': ..., ...}}")
     paths.update(overrides)
     paths.update(dict(req.paths))  # the behaviour file's, for this robot
+    for key in PLACEHOLDERS:  # templates, filled literally (scene/object_paths.py)
+        wrong = problem(key, str(paths[key])) if isinstance(paths.get(key), str) else None
+        if wrong is not None:
+            raise BackendError(f"robot '{req.name}': {wrong[1]} (in '{str(paths[key])[:80]}')")
     offered = model.channels()
     from_world = world_channels(world)
     for ch in req.channels:

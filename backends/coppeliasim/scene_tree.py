@@ -21,10 +21,10 @@ names only for the deprecated ``sim.getObjectHandle``.
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 from labsim.backends.coppeliasim import camera_alias
+from labsim.backends.coppeliasim.wire_limits import Deadline
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import PIONEER_P3DX, Kind, RobotModel
@@ -32,7 +32,7 @@ from labsim.backends.scene.models import PIONEER_P3DX, Kind, RobotModel
 ROBOT_Z_M = PIONEER_P3DX.wheel_radius_m  # the robot frame's origin: the wheel axle, above the floor
 SONAR_Z_M = 0.1  # nominal mount heights above the robot origin; the scene is flat
 
-_SEGMENT = re.compile(r"^(?P<alias>[^\[\]{}/]+?)(?:\[(?P<sib>\d+)\]|\{(?P<any>\d+)\})?$")
+MAX_INDEX_DIGITS = 9  # [n] and {n}: no scene has a billion objects
 _KINDS = {Kind.JOINT: "joint", Kind.FORCE: "force", Kind.BODY: "body"}
 
 
@@ -169,35 +169,84 @@ class SceneTree:
             return base
         segments = rest.split("/")
         for n, seg in enumerate(segments):
-            m = _SEGMENT.match(seg)
-            if m is None:
+            parsed = _segment(seg)
+            if parsed is None:
                 return None
-            pattern = re.compile(re.escape(m["alias"]).replace(r"\*", ".*").replace(r"\?", "."))
+            pattern, sib, anywhere = parsed
             level = base.children if base is not None else self.top
             last = n == len(segments) - 1
-            if m["any"] is not None or (last and index >= 0 and m["sib"] is None):
+            if anywhere is not None or (last and index >= 0 and sib is None):
                 # {n} or the index option: the n-th match anywhere below, level by level
-                found = _nth_below(level, pattern, int(m["any"]) if m["any"] is not None else index)
+                found = _nth_below(level, pattern, anywhere if anywhere is not None else index)
             else:
                 # alias[n]: the n-th match among the first level below that has any
-                found = _nth_at_first_level(level, pattern, int(m["sib"] or 0))
+                found = _nth_at_first_level(level, pattern, sib or 0)
             if found is None:
                 return None
             base = found
         return base
 
 
-def _nth_below(level: list[SceneObject], pattern: re.Pattern[str], k: int) -> SceneObject | None:
+def _segment(seg: str) -> tuple[str, int | None, int | None] | None:
+    """``alias``, ``alias[n]`` or ``alias{n}`` -> (alias pattern, n of [n], n of {n}); None
+    when ill formatted. Read by hand, in one pass."""
+    sib = anywhere = None
+    if seg.endswith(("]", "}")):
+        opening = "[" if seg[-1] == "]" else "{"
+        start = seg.rfind(opening)
+        digits = seg[start + 1:-1]
+        if start < 0 or not digits.isdigit() or not digits.isascii() or len(digits) > MAX_INDEX_DIGITS:
+            return None
+        if opening == "[":
+            sib = int(digits)
+        else:
+            anywhere = int(digits)
+        seg = seg[:start]
+    if not seg or any(c in "[]{}" for c in seg):
+        return None
+    return seg, sib, anywhere
+
+
+def glob_match(pattern: str, text: str) -> bool:
+    """Whether ``text`` matches ``pattern`` whole, ``*`` standing for any run of characters and
+    ``?`` for any one, as in CoppeliaSim's paths.
+
+    Two pointers and one remembered star, never backtracking further: at most
+    len(pattern) x len(text) steps. (A regular expression of ``.*``s, as this used to be,
+    backtracks exponentially: sixteen stars and a Z never finished.)"""
+    p = t = 0
+    star, resume = -1, 0  # the last star seen, and where in text its run ends so far
+    while t < len(text):
+        if p < len(pattern) and (pattern[p] == "?" or pattern[p] == text[t]):
+            p += 1
+            t += 1
+        elif p < len(pattern) and pattern[p] == "*":
+            star, resume = p, t
+            p += 1
+        elif star >= 0:  # let the last star swallow one more character
+            resume += 1
+            p, t = star + 1, resume
+        else:
+            return False
+    return all(c == "*" for c in pattern[p:])
+
+
+def _matches(level: list[SceneObject], pattern: str) -> list[SceneObject]:
+    Deadline.check()
+    return [o for o in level if glob_match(pattern, o.alias)]
+
+
+def _nth_below(level: list[SceneObject], pattern: str, k: int) -> SceneObject | None:
     found: list[SceneObject] = []
     while level and len(found) <= k:
-        found += [o for o in level if pattern.fullmatch(o.alias)]
+        found += _matches(level, pattern)
         level = [c for o in level for c in o.children]
     return found[k] if k < len(found) else None
 
 
-def _nth_at_first_level(level: list[SceneObject], pattern: re.Pattern[str], k: int) -> SceneObject | None:
+def _nth_at_first_level(level: list[SceneObject], pattern: str, k: int) -> SceneObject | None:
     while level:
-        found = [o for o in level if pattern.fullmatch(o.alias)]
+        found = _matches(level, pattern)
         if found:
             return found[k] if k < len(found) else None
         level = [c for o in level for c in o.children]

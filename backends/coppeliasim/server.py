@@ -18,6 +18,13 @@ Clients come and go: a new client finds the scene as the last one left it, excep
 stepping client that went away without stopping the simulation (killed, crashed) has its
 simulation stopped when the next client arrives, once it has been silent for ``takeover_s``:
 otherwise the next program would find a half-run simulation frozen at its last step.
+
+A hostile or broken client cannot wedge it (docs/security.md, "The server"): a message over
+``MAX_MESSAGE_BYTES`` is dropped by ZeroMQ, every frame of a request is read and a request of
+more than one frame is answered with an error, ``wire_limits`` refuses a message too deep, too
+many-valued or malformed before cbor2 decodes it, a request running past its time budget is
+answered with an error, and the socket is never reopened, so a client waiting in the socket's
+queue keeps its place.
 """
 from __future__ import annotations
 
@@ -31,8 +38,10 @@ from typing import Any
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, RUNNING, STOPPED
 from labsim.backends.coppeliasim.scene_edit import SceneEditor
-from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError
+from labsim.backends.coppeliasim.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
 from labsim.backends.coppeliasim.simulation import Client, Simulation, robot_specs
+from labsim.backends.coppeliasim.wire_limits import MAX_MESSAGE_BYTES, REQUEST_BUDGET_S, BudgetExceeded, Deadline
+from labsim.backends.coppeliasim.wire_limits import refusal as wire_refusal
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
@@ -51,6 +60,8 @@ __all__ = ["STOPPED", "Server", "serve"]
 E_VERSION = "The client ZeroMQ remote API version does not match CoppeliaSim's version"
 TAKEOVER_S = 2.0
 POLL_MS = 100  # how often an idle server looks at its stop flag
+MAX_UUID_CHARS = 256  # the client sends a 36-character uuid4
+MAX_CLIENTS = 1000  # clients remembered at once; past it the longest silent is forgotten
 
 
 class Server:
@@ -64,7 +75,8 @@ class Server:
 
     def __init__(self, world: World, robots: int | Sequence[RobotRequest] = 1, *, host: str = "127.0.0.1",
                  port: int = DEFAULT_PORT, dt_s: float = 0.05, takeover_s: float = TAKEOVER_S,
-                 log: Callable[[str], None] | None = None, empty: bool = False) -> None:
+                 log: Callable[[str], None] | None = None, empty: bool = False,
+                 budget_s: float = REQUEST_BUDGET_S) -> None:
         if not (isinstance(dt_s, (int, float)) and math.isfinite(dt_s) and dt_s > 0):
             raise BackendError(f"labsim serve: the time step must be positive, not {dt_s!r}")
         self.world = world
@@ -72,6 +84,7 @@ class Server:
         self.port = port
         self.dt_s = float(dt_s)
         self.takeover_s = takeover_s
+        self.budget_s = budget_s  # each request's time budget (wire_limits.Deadline)
         self.log = log or (lambda message: None)
         self.messages = 0  # requests answered, for tests and the log
         self.simulation = Simulation(world, 0 if empty else robots, self.dt_s, self.log)
@@ -140,6 +153,7 @@ class Server:
         sock = self._context.socket(zmq.REP)
         sock.setsockopt(zmq.LINGER, 0)
         sock.setsockopt(zmq.SNDTIMEO, 1000)  # a reply never waits long for a peer
+        sock.setsockopt(zmq.MAXMSGSIZE, MAX_MESSAGE_BYTES)  # ZeroMQ drops a peer sending more
         try:
             if self.port == 0:
                 self.port = sock.bind_to_random_port(f"tcp://{self.host}")
@@ -168,19 +182,18 @@ class Server:
                     sock.setsockopt(zmq.RCVTIMEO, wait)
                     timeout = wait
                 try:
-                    raw = sock.recv()
+                    # every frame: REP cannot answer before it has read the whole request
+                    frames = sock.recv_multipart(copy=True)
                 except zmq.Again:
                     self._run_clock()
                     continue
-                reply = self.handle(raw)
+                reply = self.handle_frames(frames)
                 try:
                     sock.send(reply)
-                except zmq.ZMQError:
-                    # The peer went away mid-request and the reply could not leave: start
-                    # a fresh socket rather than leave REP waiting to send forever.
-                    self.log("labsim serve: a reply could not be sent; reopening the socket")
-                    sock = self._reopen()
-                    timeout = -2
+                except zmq.ZMQError as e:
+                    # The peer went away before its reply left. The socket stays: reopening it
+                    # would drop the requests other clients have queued in it.
+                    self.log(f"labsim serve: a reply could not be sent ({e.strerror}); dropped")
                 self._run_clock()
         finally:
             self._close()
@@ -206,18 +219,6 @@ class Server:
     def __exit__(self, *exc: object) -> None:
         self.stop()
         self.join()
-
-    def _reopen(self) -> zmq.Socket:
-        assert self._socket is not None
-        self._socket.close(0)
-        self._socket = None
-        ctx = self._context
-        self._context = None
-        if ctx is not None:
-            ctx.term()
-        self.bind()
-        assert self._socket is not None
-        return self._socket
 
     def _close(self) -> None:
         if self.simulation.running:
@@ -248,22 +249,49 @@ class Server:
 
     # --- messages ----------------------------------------------------------------------------
 
+    def handle_frames(self, frames: Sequence[bytes]) -> bytes:
+        """All the frames of one request -> the reply's bytes. Never raises."""
+        if len(frames) != 1:
+            self.messages += 1
+            return cbor2.dumps({"err": f"labsim serve: a request is one ZeroMQ frame holding one CBOR map, as "
+                                       f"CoppeliaSim's remote API expects; this one had {len(frames)} frames"})
+        return self.handle(frames[0])
+
     def handle(self, raw: bytes) -> bytes:
-        """One request's bytes -> the reply's bytes. Never raises."""
+        """One request's bytes -> the reply's bytes, within the time budget. Never raises."""
         self.messages += 1
+        token = Deadline.start(self.budget_s)
+        try:
+            return cbor2.dumps(self._decoded(raw))
+        except BudgetExceeded as e:
+            return cbor2.dumps({"err": str(e)})
+        except Exception as e:  # a reply cbor2 cannot encode: a bug, which must not take the server down
+            self.log("labsim serve: internal error\n" + traceback.format_exc())
+            return cbor2.dumps({"err": f"labsim serve: internal error: {type(e).__name__}"})
+        finally:
+            Deadline.end(token)
+
+    def _decoded(self, raw: bytes) -> dict[str, Any]:
+        why = wire_refusal(raw)  # before cbor2 builds anything
+        if why is not None:
+            return {"err": why}
         try:
             req = cbor2.loads(raw)
         except Exception:
-            return cbor2.dumps({"err": "labsim serve: the request is not a CBOR message"})
+            return {"err": "labsim serve: the request is not a CBOR message"}
         if not isinstance(req, dict) or not isinstance(req.get("func"), str):
-            return cbor2.dumps({"err": "labsim serve: a request is a CBOR map with a 'func' text"})
+            return {"err": "labsim serve: a request is a CBOR map with a 'func' text"}
         if "uuid" not in req:  # a protocol-1 client (pip package before 2.0): what CoppeliaSim says
-            return cbor2.dumps({"success": False, "error": E_VERSION})
+            return {"success": False, "error": E_VERSION}
+        if not isinstance(req["uuid"], str) or not 0 < len(req["uuid"]) <= MAX_UUID_CHARS:
+            return {"err": f"labsim serve: a request's 'uuid' is a text of 1 to {MAX_UUID_CHARS} characters"}
         try:
-            return cbor2.dumps(self._request(req))
+            return self._request(req)
+        except BudgetExceeded:
+            raise
         except Exception as e:  # a bug here must not take the server down
             self.log("labsim serve: internal error\n" + traceback.format_exc())
-            return cbor2.dumps({"err": f"labsim serve: internal error in {req['func']}: {e!r}"})
+            return {"err": f"labsim serve: internal error in {req['func'][:80]}: {type(e).__name__}"}
 
     def _request(self, req: dict[str, Any]) -> dict[str, Any]:
         now = time.perf_counter()
@@ -288,7 +316,7 @@ class Server:
             if func.startswith("sim.") and name in UNSUPPORTED:
                 return {"err": f"labsim serve: {func} is not supported by this stand-in for CoppeliaSim "
                                f"(docs/coppeliasim.md lists what is)"}
-            return {"err": f"No such function: {func}"}
+            return {"err": f"No such function: {shown(func)}"}
         try:
             ret = handler(client, args)
         except SimError as e:
@@ -301,6 +329,8 @@ class Server:
         """A new client. Stepping clients silent for takeover_s are taken to have gone away:
         their simulation is stopped, so the newcomer does not find it frozen half-way."""
         gone = [c for c in self._clients.values() if now - c.last_seen > self.takeover_s]
+        if len(self._clients) - len(gone) >= MAX_CLIENTS:  # a flood of fresh ids: forget the oldest
+            gone.append(min((c for c in self._clients.values() if c not in gone), key=lambda c: c.last_seen))
         for c in gone:
             del self._clients[c.uuid]
         sim = self.simulation

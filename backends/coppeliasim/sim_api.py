@@ -90,6 +90,19 @@ Handler = Callable[[Client, Args], list[object] | Wait]
 
 # --- arguments ------------------------------------------------------------------------------------
 
+SHOWN_CHARS = 100  # how much of a client's value an error quotes back
+
+
+def shown(value: object) -> str:
+    """A client's value as an error quotes it: a text up to SHOWN_CHARS, else its type. A
+    reply must not grow with what a request sent (a million-item list, a 64 KiB path)."""
+    if isinstance(value, str):
+        return value if len(value) <= SHOWN_CHARS else value[:SHOWN_CHARS] + f"... ({len(value)} characters)"
+    if value is None or isinstance(value, (bool, int, float)):
+        return str(value)
+    return f"a {type(value).__name__}"
+
+
 def _num(args: Args, i: int, default: float | None = None) -> float:
     if len(args) <= i or args[i] is None:
         if default is None:
@@ -155,12 +168,12 @@ class SimApi:
     def _require(self, client: Client, args: Args) -> list[object]:
         name = args[0] if args else None
         if name != "sim":
-            raise SimError(f"module '{name}' not found: labsim serve offers only 'sim'")
+            raise SimError(f"module '{shown(name)}' not found: labsim serve offers only 'sim'")
         return []
 
     def _info(self, client: Client, args: Args) -> list[object]:
         if not args or args[0] != "sim":
-            raise SimError(f"labsim serve: no object '{args[0] if args else None}' (only 'sim')")
+            raise SimError(f"labsim serve: no object '{shown(args[0] if args else None)}' (only 'sim')")
         info: dict[str, object] = {name.removeprefix("sim."): {"func": {}} for name in FUNCTIONS}
         info.update({name: {"func": {}} for name in UNSUPPORTED})
         info.update({name: {"const": value} for name, value in CONSTANTS.items()})
@@ -199,7 +212,7 @@ class SimApi:
                 + ", ".join(robots) if robots else "this scene has no robots")
         if path.startswith(("./", ":/")) and proxy is None:
             hint = "a relative path needs the proxy option, e.g. {'proxy': robotHandle}"
-        raise SimError(f"{E_PATH} (labsim serve: no object '{path}'; {hint})")
+        raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {hint})")
 
     def _sim_getObjectHandle(self, client: Client, args: Args) -> list[object]:
         """Deprecated since CoppeliaSim 4.3, kept in 4.6: a path, or a name from before 4.3."""
