@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.files import check_output
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary import Summary
@@ -218,4 +219,8 @@ def record_trace(behaviour: str | Path, trace_path: str | Path, backend: str = D
         run.close()
     if summary.interrupted:
         raise KeyboardInterrupt
+    if summary.over_budget:  # a run its budgets cut short is no golden of what the file does
+        raise LabsimError([Diagnostic(str(behaviour), f"{summary.over_budget}; no golden recorded")])
+    if run.trace_error is not None:
+        raise run.trace_error
     return summary

@@ -216,3 +216,14 @@ def test_a_sweep_worker_has_a_memory_limit() -> None:
             "try:\n    bytearray(4 * 1024 ** 3)\nexcept MemoryError:\n    print('MemoryError')\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=TIMEOUT_S)
     assert proc.stdout.strip() == "MemoryError", proc.stderr
+
+
+def test_a_run_its_budget_stops_is_not_recorded_as_a_golden(tmp_path: Path) -> None:
+    from labsim.backends.scene.diagnostics import LabsimError
+    from labsim.runtime.golden import golden_path, record_golden
+
+    path = tmp_path / "b.yaml"
+    path.write_text(behaviour("x > 100000"), encoding="utf-8")
+    with pytest.raises(LabsimError, match="budget of 200,000 ticks.*no golden recorded"):
+        record_golden(path)
+    assert not golden_path(path).exists() and sorted(p.name for p in tmp_path.iterdir()) == ["b.yaml"]
