@@ -71,3 +71,20 @@ def lab_run() -> LabRun:
         return done[key]
 
     return run
+
+
+@pytest.fixture
+def empty():
+    """The port of a ``labsim serve --empty`` of this test's own, stopped after it."""
+    pytest.importorskip("zmq")
+    pytest.importorskip("coppeliasim_zmqremoteapi_client")
+    from test_serve import _serve, _stop
+
+    proc, port = _serve("-q", "--empty")
+    yield port
+    _stop(proc)
+
+
+def trace_rows(path: Path) -> list[str]:
+    """A trace's rows as text, without its header lines and its `# end` footer."""
+    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]

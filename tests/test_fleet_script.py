@@ -10,25 +10,12 @@ import pytest
 pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from conftest import BEHAVIOURS
-from test_serve import _serve, _stop
+from conftest import BEHAVIOURS, trace_rows
 
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError
 from labsim.runtime.cli import main
-
-
-@pytest.fixture
-def empty():
-    proc, port = _serve("-q", "--empty")
-    yield port
-    _stop(proc)
-
-
-def _rows(path: Path) -> list[str]:
-    """The trace's rows, without its header and its `# end` footer."""
-    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
 
 
 def _trips(out: str) -> float:
@@ -46,7 +33,7 @@ def test_the_wall_lab_through_the_fleet_script_in_at_most_4_round_trips(empty: i
     assert main(["run", str(lab), "--set", "minutes=1", "--trace", str(remote),
                  "--backend", "coppeliasim", "--port", str(empty)]) == 0
     trips = _trips(capsys.readouterr().out)
-    assert _rows(remote) == _rows(ref) and len(_rows(ref)) == 1 + 1200
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1200
     # sense (1), the wheels that changed (0 or 1), the step (2); per object it is over 10
     assert 3.0 <= trips <= 4.0
 
@@ -60,7 +47,7 @@ def test_five_robots_cost_what_one_costs(empty: int, tmp_path: Path, capsys) -> 
     capsys.readouterr()
     assert main(["run", str(lab), "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
     assert _trips(capsys.readouterr().out) <= 4.25  # 4 a tick, and closing (3 requests over 40 ticks)
-    assert _rows(remote) == _rows(ref) and len(_rows(ref)) == 1 + 5 * 40
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 5 * 40
 
 
 PLAN = [[7, -2, fs.POSITION | fs.ORIENTATION, [8, 9], []]]

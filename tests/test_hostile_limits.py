@@ -224,6 +224,6 @@ def test_a_run_its_budget_stops_is_not_recorded_as_a_golden(tmp_path: Path) -> N
 
     path = tmp_path / "b.yaml"
     path.write_text(behaviour("x > 100000"), encoding="utf-8")
-    with pytest.raises(LabsimError, match="budget of 200,000 ticks.*no golden recorded"):
+    with pytest.raises(LabsimError, match=r"budget of 200,000 ticks.*no golden recorded"):
         record_golden(path)
     assert not golden_path(path).exists() and sorted(p.name for p in tmp_path.iterdir()) == ["b.yaml"]

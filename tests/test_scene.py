@@ -10,8 +10,7 @@ import pytest
 pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from conftest import BEHAVIOURS
-from test_serve import _serve, _stop
+from conftest import BEHAVIOURS, trace_rows
 
 from labsim.backends.coppeliasim.scene_builder import camera_matrix
 from labsim.backends.coppeliasim.server import Server
@@ -20,17 +19,6 @@ from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
 from labsim.runtime.cli import main
-
-
-@pytest.fixture
-def empty():
-    proc, port = _serve("-q", "--empty")
-    yield port
-    _stop(proc)
-
-
-def _rows(path: Path) -> list[str]:
-    return path.read_text().splitlines()[1:-1]  # without the header and the footer
 
 
 def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int, tmp_path: Path, capsys) -> None:
@@ -42,7 +30,7 @@ def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(ref)]) == 0
     assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(remote),
                  "--backend", "coppeliasim", "--port", str(empty)]) == 0
-    assert _rows(remote) == _rows(ref) and len(_rows(ref)) == 1 + 1200
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1200
 
 
 def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
@@ -69,7 +57,7 @@ def test_the_road_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
     assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
     assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
-    assert _rows(remote) == _rows(ref) and len(_rows(ref)) == 1 + 5 * 60
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 5 * 60
 
 
 def test_what_the_stand_in_cannot_build_is_a_clear_error(empty: int, tmp_path: Path, capsys) -> None:

@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from conftest import BEHAVIOURS
+from conftest import BEHAVIOURS, trace_rows
 from test_serve import _serve, _stop
 
 from labsim.backends.coppeliasim.server import Server
@@ -19,18 +19,6 @@ from labsim.backends.scene.world_file import load_world
 from labsim.runtime.cli import main
 
 CRANE = BEHAVIOURS / "crane.yaml"
-
-
-@pytest.fixture
-def empty():
-    proc, port = _serve("-q", "--empty")
-    yield port
-    _stop(proc)
-
-
-def _rows(path: Path) -> list[str]:
-    """The trace's rows, without its header and its `# end` footer."""
-    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
 
 
 def test_the_built_crane_is_the_world_files_mechanism() -> None:
@@ -61,8 +49,8 @@ def test_the_crane_built_by_labsim_scene_gives_labsim_serve_cranes_trace(empty: 
                      "--backend", "coppeliasim", "--port", str(port)]) == 0
     finally:
         _stop(proc)
-    assert _rows(built) == _rows(served) and len(_rows(built)) == 1 + 1200
+    assert trace_rows(built) == trace_rows(served) and len(trace_rows(built)) == 1 + 1200
     embedded = tmp_path / "embedded.csv"
     assert main(["run", str(CRANE), "-q", "--trace", str(embedded)]) == 0
-    assert _rows(built) == _rows(embedded)  # after the slew too: frames._unslewed
+    assert trace_rows(built) == trace_rows(embedded)  # after the slew too: frames._unslewed
     assert main(["test", str(CRANE), "--backend", "coppeliasim", "--port", str(empty)]) == 0

@@ -9,18 +9,10 @@ pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS
-from test_serve import _serve, _stop
 
 from labsim.runtime.cli import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
-
-
-@pytest.fixture
-def empty():
-    proc, port = _serve("-q", "--empty")
-    yield port
-    _stop(proc)
 
 
 def test_the_stand_in_builds_the_scene_and_says_it_cannot_save_it(empty: int, tmp_path: Path, capsys) -> None:
