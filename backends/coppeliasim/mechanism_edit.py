@@ -125,17 +125,17 @@ class MechanismEditor:
     def _setJointInterval(self, args: Args) -> list[object]:
         part = self._part(args, 3)
         part.cyclic = bool(args[1])
-        lo, span = _floats(args[2], 2)
+        lo, span = floats(args[2], 2)
         part.interval = (lo, span)
         return []
 
     def _setJointTargetForce(self, args: Args) -> list[object]:
-        self._part(args, 2).force = _floats(args[1:2], 1)[0]
+        self._part(args, 2).force = floats(args[1:2], 1)[0]
         return []
 
     def _setObjectFloatParam(self, args: Args) -> list[object]:
         part = self._part(args, 3)
-        value = _floats(args[2:3], 1)[0]
+        value = floats(args[2:3], 1)[0]
         if args[1] == MECHANISM_CONSTANTS["jointfloatparam_maxvel"]:
             part.maxvel = value
         elif args[1] == MECHANISM_CONSTANTS["jointfloatparam_maxaccel"]:
@@ -145,20 +145,20 @@ class MechanismEditor:
     def _setShapeMass(self, args: Args) -> list[object]:
         if len(args) < 2 or args[0] not in self.editor.shapes:
             raise SimError(E_FEW if len(args) < 2 else "labsim serve: only a built shape takes a mass")
-        self.masses[args[0]] = _floats(args[1:2], 1)[0]
+        self.masses[args[0]] = floats(args[1:2], 1)[0]
         return []
 
     def _setEngineFloatParam(self, args: Args) -> list[object]:
         if len(args) < 3:
             raise SimError(E_FEW)
         if args[0] == MECHANISM_CONSTANTS["bullet_body_lineardamping"]:
-            self.damping = -math.log1p(-_floats(args[2:3], 1)[0])
+            self.damping = -math.log1p(-floats(args[2:3], 1)[0])
         return []
 
     def _setArrayParam(self, args: Args) -> list[object]:
         if len(args) < 2 or args[0] != MECHANISM_CONSTANTS["arrayparam_gravity"]:
             raise SimError("labsim serve: only sim.arrayparam_gravity is set by the stand-in")
-        self.gravity = -_floats(args[1], 3)[2]
+        self.gravity = -floats(args[1], 3)[2]
         return []
 
     # --- calls the scene editor also takes -----------------------------------------------------
@@ -168,7 +168,7 @@ class MechanismEditor:
             return None
         from labsim.backends.coppeliasim.scene_edit import Shape
 
-        sizes = _floats(args[1], 3)
+        sizes = floats(args[1], 3)
         return list(self.editor._new(Shape("cylinder", (sizes[0], sizes[1], sizes[2]), alias="Cylinder")))
 
     def _own_setObjectAlias(self, args: Args) -> list[object] | None:
@@ -189,7 +189,7 @@ class MechanismEditor:
             raise SimError(E_FEW)
         if args[2] != -1:
             raise SimError("labsim serve: a mechanism's parts are placed in the world frame")
-        m = _floats(args[1], 12)
+        m = floats(args[1], 12)
         if h in self.parts:
             self.parts[h].matrix = m
         elif dummy:
@@ -244,17 +244,17 @@ class MechanismEditor:
                 self._force(h, part, names, child, joints, sensors)
             else:
                 joints.append(self._joint(h, part, names, child))
-        return Mechanism(bodies, tuple(joints), tuple(sensors), _r(self.gravity), _r(self.damping),
-                         None if floor_z is None else _r(floor_z))
+        return Mechanism(bodies, tuple(joints), tuple(sensors), rounded(self.gravity), rounded(self.damping),
+                         None if floor_z is None else rounded(floor_z))
 
     def _body(self, h: int, name: str) -> BodySpec:
         s = self.editor.shapes[h]
         zx, _, zz = self.tilts.get(h, (0.0, 0.0, 1.0))
         mass = None if s.static else self.masses.get(h)
-        return BodySpec(name, "box" if s.kind == "cuboid" else "cylinder", (_r(s.x), _r(s.z)),
-                        (_r(s.size[0]), _r(s.size[2])), mass_kg=mass, static=s.static,
-                        depth_m=_r(s.size[1]) if s.kind == "cuboid" else None,
-                        angle_rad=_r(math.atan2(-zx, zz)))
+        return BodySpec(name, "box" if s.kind == "cuboid" else "cylinder", (rounded(s.x), rounded(s.z)),
+                        (rounded(s.size[0]), rounded(s.size[2])), mass_kg=mass, static=s.static,
+                        depth_m=rounded(s.size[1]) if s.kind == "cuboid" else None,
+                        angle_rad=rounded(math.atan2(-zx, zz)))
 
     def _force(self, h: int, part: _Part, names: dict[int, str], child: int,
                joints: list[JointSpec], sensors: list[ForceSensorSpec]) -> None:
@@ -265,7 +265,7 @@ class MechanismEditor:
             return
         m, (ex, ez) = part.matrix, self.ends[end]
         sensors.append(ForceSensorSpec(part.alias, (parent, names[child]),
-                                       ((_r(m[3]), _r(m[11])), (_r(ex), _r(ez)))))
+                                       ((rounded(m[3]), rounded(m[11])), (rounded(ex), rounded(ez)))))
 
     def _joint(self, h: int, part: _Part, names: dict[int, str], child: int) -> JointSpec:
         parent, rope = self.parents[h], False
@@ -275,21 +275,23 @@ class MechanismEditor:
         m = part.matrix or [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]
         zx, zz = m[2], m[10]
         if part.subtype == MECHANISM_CONSTANTS["joint_prismatic_subtype"]:
-            kind, axis = "prismatic", (1.0, 0.0) if rope else (_r(zx), _r(zz))
+            kind, axis = "prismatic", (1.0, 0.0) if rope else (rounded(zx), rounded(zz))
         else:
             kind, axis = "slew" if abs(zz) > 0.5 else "revolute", (1.0, 0.0)
         lo, span = part.interval
-        limits = None if part.cyclic else (_r(lo), _r(lo + span))
+        limits = None if part.cyclic else (rounded(lo), rounded(lo + span))
         motor = None if part.free else MotorSpec(part.force, part.maxvel, part.maxaccel)
-        return JointSpec(part.alias, kind, names.get(parent, ""), names[child], (_r(m[3]), _r(m[11])),
+        return JointSpec(part.alias, kind, names.get(parent, ""), names[child], (rounded(m[3]), rounded(m[11])),
                          axis, limits, motor, rope)
 
 
-def _r(v: float) -> float:
+def rounded(v: float) -> float:
+    """A coordinate as the stand-in keeps it: rounded to _ROUND digits, never -0.0."""
     return round(v, _ROUND) + 0.0  # + 0.0: no -0.0
 
 
-def _floats(value: object, n: int) -> list[float]:
+def floats(value: object, n: int) -> list[float]:
+    """The first n numbers of a request's list argument, as floats; else CoppeliaSim's error."""
     if not isinstance(value, list) or len(value) < n or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in value[:n]):
         raise SimError(E_ARGS)

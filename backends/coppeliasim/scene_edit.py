@@ -43,7 +43,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from labsim.backends.coppeliasim import RUNNING, STOPPED
-from labsim.backends.coppeliasim.mechanism_edit import MECHANISM_CALLS, MECHANISM_CONSTANTS, MechanismEditor
+from labsim.backends.coppeliasim.mechanism_edit import (
+    MECHANISM_CALLS,
+    MECHANISM_CONSTANTS,
+    MechanismEditor,
+    floats,
+    rounded,
+)
 from labsim.backends.coppeliasim.scene_tree import ROBOT_Z_M
 from labsim.backends.coppeliasim.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.backends.coppeliasim.sim_api import (
@@ -83,7 +89,6 @@ EDITS = tuple(f"sim.{n}" for n in (
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
     "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
 ))
-_ROUND = 9
 
 
 @dataclass(eq=False)
@@ -189,21 +194,21 @@ class SceneEditor:
                 ground = _textured(s)
             elif s.kind == "plane":
                 hw, hd = s.size[0] / 2, s.size[1] / 2
-                bounds = (_r(s.x - hw), _r(s.y - hd), _r(s.x + hw), _r(s.y + hd))
+                bounds = (rounded(s.x - hw), rounded(s.y - hd), rounded(s.x + hw), rounded(s.y + hd))
                 floor_z = s.z
             elif not s.static or h in bodies:
                 continue
             elif s.kind == "cuboid" and s.alias == "wall":
                 half = (s.size[0] - s.size[1]) / 2
-                walls.append(Wall((_r(s.x - half * c), _r(s.y - half * si)),
-                                  (_r(s.x + half * c), _r(s.y + half * si)), _r(s.size[1])))
+                walls.append(Wall((rounded(s.x - half * c), rounded(s.y - half * si)),
+                                  (rounded(s.x + half * c), rounded(s.y + half * si)), rounded(s.size[1])))
             elif s.kind == "cuboid":
                 w, d = s.size[0], s.size[1]
                 local = ((-w / 2, -d / 2), (w / 2, -d / 2), (w / 2, d / 2), (-w / 2, d / 2))
-                blocks.append(Block(tuple((_r(s.x + x * c - y * si), _r(s.y + x * si + y * c))
+                blocks.append(Block(tuple((rounded(s.x + x * c - y * si), rounded(s.y + x * si + y * c))
                                           for x, y in local)))
             else:
-                blocks.append(Block(tuple((_r(s.x + x), _r(s.y + y)) for x, y in s.corners)))
+                blocks.append(Block(tuple((rounded(s.x + x), rounded(s.y + y)) for x, y in s.corners)))
         return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
                      ground=ground, mechanism=self.mechanism_edit.mechanism(floor_z))
 
@@ -253,14 +258,14 @@ class SceneEditor:
         kind = {1: "plane", 3: "cuboid"}.get(args[0]) if isinstance(args[0], int) else None
         if kind is None:
             raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
-        sizes = _floats(args[1], 3)
+        sizes = floats(args[1], 3)
         return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid"))
 
     def _createMeshShape(self, client: Client, args: Args) -> list[object]:
         # sim.createMeshShape(int options, float shadingAngle, list vertices, list indices): 4.6
         if len(args) < 4:
             raise SimError(E_FEW)
-        v = _floats(args[2], len(args[2]) if isinstance(args[2], list) else 0)
+        v = floats(args[2], len(args[2]) if isinstance(args[2], list) else 0)
         points = [(v[i], v[i + 1], v[i + 2]) for i in range(0, len(v) - 2, 3)]
         floor = tuple((x, y) for x, y, z in points if abs(z) < 1e-9)
         if len(floor) < 3:
@@ -350,7 +355,7 @@ class SceneEditor:
             return self._simulation("sim.setObjectPosition", client, args)
         self._stopped()
         value, _rel = value_and_frame(args, "shapes")
-        shape.x, shape.y, shape.z = _floats(value, 3)
+        shape.x, shape.y, shape.z = floats(value, 3)
         self.dirty = True
         return []
 
@@ -360,7 +365,7 @@ class SceneEditor:
             return self._simulation("sim.setObjectOrientation", client, args)
         self._stopped()
         value, _rel = value_and_frame(args, "shapes")
-        alpha, beta, gamma = _floats(value, 3)
+        alpha, beta, gamma = floats(value, 3)
         if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
             raise SimError("labsim serve: the scene is flat; shapes turn about z only (alpha = beta = 0)")
         shape.yaw = gamma
@@ -394,11 +399,11 @@ class SceneEditor:
         self._stopped()
         if len(args) < 3:
             raise SimError(E_FEW)
-        res = _floats(args[1], 2)
-        floats = _floats(args[2], 3)
+        res = floats(args[1], 2)
+        params = floats(args[2], 3)
         h = self._next
         self._next += 1
-        self.sensors[h] = Sensor((int(res[0]), int(res[1])), floats[2])
+        self.sensors[h] = Sensor((int(res[0]), int(res[1])), params[2])
         self.dirty = True
         return [h]
 
@@ -426,7 +431,7 @@ class SceneEditor:
         robot = self.server.simulation.robots[sensor.robot].obj.handle
         if args[2] != robot:
             raise SimError("labsim serve: a vision sensor's matrix is taken relative to its robot")
-        sensor.matrix = _floats(args[1], 12)
+        sensor.matrix = floats(args[1], 12)
         self.dirty = True
         return []
 
@@ -446,7 +451,7 @@ class SceneEditor:
         picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
         if picture is None:
             raise SimError(f"labsim serve: the texture '{args[0]}' is not an image")
-        sizes = _floats(args[2], 2)
+        sizes = floats(args[2], 2)
         height, width = picture.shape[:2]
         [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
         return [h, h, [width, height]]
@@ -463,7 +468,7 @@ def _textured(s: Shape) -> Ground:
     b, g, r = (int(v) for v in bgr[0, 0])  # the margin around what is painted: the floor
     ppm = round(s.px[0] / s.size[0], 6)
     return Ground(floor_rgb=(r, g, b), px_per_m=ppm,
-                  texture=Texture(s.png, _r(s.x - s.size[0] / 2), _r(s.y + s.size[1] / 2)))
+                  texture=Texture(s.png, rounded(s.x - s.size[0] / 2), rounded(s.y + s.size[1] / 2)))
 
 
 def _camera(s: Sensor) -> Camera:
@@ -475,19 +480,8 @@ def _camera(s: Sensor) -> Camera:
     roll = math.atan2(-y_axis[1], sum(a * b for a, b in zip(y_axis, up)))
     w, h = s.resolution
     fov = s.angle_rad if w >= h else 2 * math.atan(math.tan(s.angle_rad / 2) * w / h)
-    return Camera("camera", w, h, _deg(fov), _r(m[11] + ROBOT_Z_M), _deg(pitch), _r(m[3]), _deg(roll))
+    return Camera("camera", w, h, _deg(fov), rounded(m[11] + ROBOT_Z_M), _deg(pitch), rounded(m[3]), _deg(roll))
 
 
 def _deg(v: float) -> float:
     return round(math.degrees(v), 6) + 0.0
-
-
-def _r(v: float) -> float:
-    return round(v, _ROUND) + 0.0  # + 0.0: no -0.0
-
-
-def _floats(value: object, n: int) -> list[float]:
-    if not isinstance(value, list) or len(value) < n or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value[:n]):
-        raise SimError(E_ARGS)
-    return [float(v) for v in value[:n]]
