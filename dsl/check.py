@@ -24,6 +24,7 @@ from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.backends.scene.ground import world_channels
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.numbers import NumberError, to_float
 from labsim.backends.scene.source import Place, Text
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import ast
@@ -296,7 +297,13 @@ class _Checker(ExprChecker):
             path = known[bf.world]
         elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
             path = Path(bf.doc.path).parent / bf.world
-            if not path.is_file():
+            try:
+                found = path.is_file()
+            except OSError as e:  # a name the system refuses: too long, say
+                self.error(bf.world_node, f"world file '{bf.world[:80]}' cannot be opened: {e.strerror}")
+                self.world_failed = True
+                return None
+            if not found:
                 self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
                 return None
@@ -503,9 +510,10 @@ class _Checker(ExprChecker):
             self.setting_error(setting, f"parameter '{name}' is true or false, not '{raw}'")
             return current
         try:
-            value = float(raw)
-        except ValueError:
-            self.setting_error(setting, f"parameter '{name}' is a number, not '{raw}'")
+            value = to_float(raw)  # the one rule for numbers: --set front=1e309 is too large
+        except NumberError as e:
+            self.setting_error(setting, f"parameter '{name}' is a number, not '{raw[:40]}'"
+                               if "not a number" in str(e) else f"parameter '{name}': {e}")
             return current
         if not math.isfinite(value):
             self.setting_error(setting, f"parameter '{name}' must be a finite number")

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+from labsim.backends.scene.numbers import WHOLE_LIMIT, NumberError, to_float
+
 FORMAT = 1
 MAGIC = "# labsim-trace "
 
@@ -120,11 +122,18 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
     """The slider moves a trace recorded (its events column), by tick, for a replay."""
     out: dict[int, list[tuple[str, float]]] = {}
     ticks, events = trace.column("tick"), trace.column("events")
-    for tick, text in zip(ticks, events):
+    for n, (tick, text) in enumerate(zip(ticks, events), 3):
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
             if eq and not event.startswith("log: "):
-                settings = out.setdefault(int(tick), [])
-                if (name, float(value)) not in settings:  # one row per robot repeats them
-                    settings.append((name, float(value)))
+                try:  # the one rule for numbers (labsim.backends.scene.numbers), as for a file's
+                    number, at = to_float(value), to_float(tick)
+                except NumberError as e:
+                    raise TraceFormatError(f"{trace.path}:{n}: slider setting '{event[:60]}' at tick "
+                                           f"'{tick[:20]}': {e}") from None
+                if not (at.is_integer() and 0 <= at <= WHOLE_LIMIT):
+                    raise TraceFormatError(f"{trace.path}:{n}: tick '{tick[:20]}' is not a tick number")
+                settings = out.setdefault(int(at), [])
+                if (name, number) not in settings:  # one row per robot repeats them
+                    settings.append((name, number))
     return out

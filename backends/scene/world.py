@@ -85,7 +85,10 @@ class World:
         """A random pose (``random_pose``) also 2 x clearance_m from every pose taken, or None
         when 1000 tries find none: where a robot placed 'at: random' starts."""
         for _ in range(1000):
-            pose = self.random_pose(rng, clearance_m)
+            try:
+                pose = self.random_pose(rng, clearance_m)
+            except ValueError:  # no spot is clear of the obstacles at all: no free place either
+                return None
             if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * clearance_m for o in taken):
                 return pose
         return None
