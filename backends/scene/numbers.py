@@ -15,6 +15,9 @@ from __future__ import annotations
 import math
 import sys
 
+import yaml
+from yaml.nodes import ScalarNode
+
 FLOAT_MAX = sys.float_info.max  # about 1.8e308
 WHOLE_LIMIT = 2 ** 53  # whole numbers up to this size are exact as floats: seeds, randint's bounds
 MAX_DIGITS = 4300  # Python's own limit for reading an integer from text (sys.get_int_max_str_digits)
@@ -52,10 +55,24 @@ def to_float(value: int | float | str) -> float:
     return number
 
 
-def fits(value: int | float) -> bool:
-    """Whether a number read some other way (a YAML integer) converts to a float."""
+def yaml_number_problem(node: ScalarNode) -> str | None:
+    """Why a scalar that YAML reads as a number is no number labsim can hold, if it is not.
+
+    The gate every number of a file passes as the file is composed
+    (``labsim.backends.scene.source.loads``): an integer or float too large for a float, and
+    the malformed scalars YAML 1.1's patterns let through but cannot convert (``0b_``, 5000
+    digits), are refused where they are written, so that no reader meets them.
+    """
+    try:
+        value = yaml.SafeLoader("").construct_object(node, deep=False)
+    except ValueError:
+        if len(node.value) > MAX_DIGITS:
+            return f"{TOO_LARGE} ({len(node.value)} digits)"
+        return f"'{node.value}' is not a number YAML can read: write digits, such as 10 or 0.5"
+    if isinstance(value, float) and math.isinf(value):
+        return None if node.value.lstrip("+-").lower() == ".inf" else TOO_LARGE
     try:
         to_float(value)
-    except NumberError:
-        return False
-    return True
+    except NumberError as e:
+        return str(e)
+    return None

@@ -28,7 +28,7 @@ import yaml
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
-from labsim.backends.scene.numbers import MAX_DIGITS, TOO_LARGE, NumberError, to_float
+from labsim.backends.scene.numbers import NumberError, to_float, yaml_number_problem
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 # Lists and mappings nested deeper than this are refused as they are composed, before PyYAML's
@@ -305,7 +305,7 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
         tag = node.tag.replace(_CORE, "!!")
         yield doc.diagnostic(node, f"YAML tag '{tag}' is not allowed: labsim files hold plain data")
     elif isinstance(node, ScalarNode) and node.tag in (_CORE + "int", _CORE + "float"):
-        problem = _number_problem(node)
+        problem = yaml_number_problem(node)
         if problem:
             yield doc.diagnostic(node, problem)
     if isinstance(node, MappingNode):
@@ -319,29 +319,6 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
                 yield doc.diagnostic(key, f"duplicate key '{key.value}' (first given on line {first})")
             else:
                 seen[key.value] = key
-
-
-def _number_problem(node: ScalarNode) -> str | None:
-    """Why a scalar YAML reads as a number is no number labsim can hold, if it is not.
-
-    The one gate every number of a file passes (``labsim.backends.scene.numbers``): an
-    integer or float too large for a float, and the malformed scalars YAML 1.1's patterns
-    let through but cannot convert (``0b_``, 5000 digits), are refused where they are
-    written, so that no reader meets them.
-    """
-    try:
-        value = yaml.SafeLoader("").construct_object(node, deep=False)
-    except ValueError:
-        if len(node.value) > MAX_DIGITS:
-            return f"{TOO_LARGE} ({len(node.value)} digits)"
-        return f"'{node.value}' is not a number YAML can read: write digits, such as 10 or 0.5"
-    if isinstance(value, float) and math.isinf(value):
-        return None if node.value.lstrip("+-").lower() == ".inf" else TOO_LARGE
-    try:
-        to_float(value)
-    except NumberError as e:
-        return str(e)
-    return None
 
 
 def scalar_value(node: ScalarNode) -> object:
