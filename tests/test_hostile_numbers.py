@@ -137,3 +137,9 @@ def test_to_float_is_the_one_rule() -> None:
             to_float(value)
     with pytest.raises(NumberError, match="not a number"):
         to_float("0x10")
+
+
+@pytest.mark.parametrize("seed", [-1, 2 ** 53 + 1, 10 ** 400])
+def test_a_seed_given_to_the_library_is_checked_like_the_files(write, seed: int) -> None:
+    with pytest.raises(LabsimError, match="the seed is a whole number from 0 to"):
+        compile_behaviour(write(BASE), seed=seed)
