@@ -143,3 +143,11 @@ def test_to_float_is_the_one_rule() -> None:
 def test_a_seed_given_to_the_library_is_checked_like_the_files(write, seed: int) -> None:
     with pytest.raises(LabsimError, match="the seed is a whole number from 0 to"):
         compile_behaviour(write(BASE), seed=seed)
+
+
+@pytest.mark.parametrize("text", [f"0-{2 ** 53 + 1}", "9" * 5000])
+def test_sweep_seeds_beyond_2_to_the_53_are_refused(text: str) -> None:
+    from labsim.runtime.sweep import parse_seeds
+
+    with pytest.raises(LabsimError, match="seeds"):
+        parse_seeds(text)
