@@ -552,8 +552,9 @@ class _Reader(Reader):
                 try:
                     number = to_float(sm.group(2))
                 except NumberError as e:
-                    self.error(text.at((start, start + len(piece.strip()))), str(e))
-                    continue
+                    if str(e).startswith(TOO_LARGE):
+                        self.error(text.at((start, start + len(piece.strip()))), str(e))
+                        continue
             if sm is None or number is None:
                 self.error(text.at((start, start + len(piece.strip()))),
                            f"a setting reads 'slider = number', not '{piece.strip()}'")

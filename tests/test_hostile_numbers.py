@@ -151,3 +151,14 @@ def test_sweep_seeds_beyond_2_to_the_53_are_refused(text: str) -> None:
 
     with pytest.raises(LabsimError, match="seeds"):
         parse_seeds(text)
+
+
+@pytest.mark.parametrize(("old", "new", "col"), [("at 6: hoist = 0,", "at 6: hoist = 1e309,", 11),
+                                                 ("at 8: crab", "at 8e999: crab", 5)])
+def test_a_timeline_number_that_does_not_fit_is_refused(write, old: str, new: str, col: int) -> None:
+    crane = (Path(__file__).parent.parent / "behaviours" / "crane.yaml").read_text()
+    assert old in crane
+    with pytest.raises(LabsimError) as e:
+        compile_behaviour(write(crane.replace(old, new)))
+    first = e.value.diagnostics[0]
+    assert first.message.startswith(TOO_LARGE) and first.col == col, first.format()
