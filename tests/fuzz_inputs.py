@@ -60,9 +60,9 @@ def seeds() -> tuple[Seed, ...]:
     return tuple(Seed(p.name, p.read_text(), "labsim-world:" in p.read_text()) for p in files)
 
 
-def _host(seed: Seed) -> str:
+def _host(mechanism: bool) -> str:
     """The behaviour that runs a (mutated) world file, written beside it as world.yaml."""
-    if "mechanism:" in seed.text:
+    if mechanism:
         crane = (ROOT / "behaviours" / "crane.yaml").read_text()
         return re.sub(r"(?m)^world: .*$", "world: world.yaml", crane)
     return "labsim: 1\nname: host\nworld: world.yaml\nstop: time >= 1\nrobots:\n" \
@@ -208,9 +208,8 @@ def run_input(folder: Path, data: bytes, world: bool = False) -> str:
     """
     if world:
         (folder / "world.yaml").write_bytes(data)
-        seed = next(s for s in seeds() if s.world and (b"mechanism:" in data) == ("mechanism:" in s.text))
         path = folder / "behaviour.yaml"
-        path.write_text(_host(seed))
+        path.write_text(_host(b"mechanism:" in data))
     else:
         path = folder / "behaviour.yaml"
         path.write_bytes(data)
