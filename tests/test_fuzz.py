@@ -15,7 +15,7 @@ from fuzz_inputs import generated, mutated, run_input, seeds
 from hypothesis import HealthCheck, given, settings
 
 LONG = os.environ.get("LABSIM_FUZZ") == "long"
-SHORT = settings(max_examples=5000 if LONG else 120, derandomize=True, database=None, deadline=None,
+SHORT = settings(max_examples=5000 if LONG else 800, derandomize=True, database=None, deadline=None,
                  suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
