@@ -4,7 +4,8 @@ Two kinds of input, both hypothesis strategies:
 
 - ``mutated()``: a shipped behaviour, a test fixture or a world file with a few bytes
   changed, inserted, deleted or replaced by a hostile token (a huge integer, 1e309, deep
-  brackets). Mostly these are broken files; the point is that each break is a diagnostic.
+  brackets), or one of its numbers replaced by one at the edges (``HOSTILE_NUMBERS``).
+  Mostly these are broken files; the point is that each break is a diagnostic.
 - ``generated()``: a behaviour file whose ``let:``, ``stop:``, ``rules:`` and ``metrics:``
   strings follow the productions of the language's grammar (``dsl/grammar.lark``), with names
   drawn from the language's built-ins and numbers from the edges of a float, so that many of
@@ -42,6 +43,10 @@ HOSTILE = (
     "*a", "'", '"', "\t", "\x00", "\ufeff", "é", "\n", ": ", "#", "?", "|", ">", "%", "@", "`",
     "/" * 300 + "x.yaml", "a" * 300 + ".yaml", "../", "/dev/null", "**", "randint(0, 1e300)", "9" * 40,
 )
+# Numbers a mutation puts in place of a number of the file: the edges of a float, and scalars
+# that YAML 1.1's patterns read as numbers but cannot convert.
+HOSTILE_NUMBERS = ("1e309", "-1e309", "1" * 400, "9" * 5000, "0x" + "f" * 300, "0b_", "0x_", "0o_", "._", "1_",
+                   ".inf", "-.inf", ".nan", "9" * 40, "1e-400", "-0", "1:2:3", "0", "1e308", "2.5")
 
 
 @dataclass(frozen=True)
@@ -82,11 +87,16 @@ def _mutate(data: bytes, ops: list[tuple[int, int, int, int]]) -> bytes:
             del out[at:at + 1 + byte % 8]
         elif kind == 3:  # splice in a hostile token
             out[at:at] = HOSTILE[token % len(HOSTILE)].encode()
-        else:  # replace a token of the file (a number, a name) by a hostile one
+        elif kind == 4:  # replace a token of the file (a number, a name) by a hostile one
             spans = [m.span() for m in re.finditer(rb"[0-9A-Za-z_.]+", bytes(out))]
             if spans:
                 s, e = spans[where % len(spans)]
                 out[s:e] = HOSTILE[token % len(HOSTILE)].encode()
+        else:  # replace a number of the file by one at the edges
+            spans = [m.span() for m in re.finditer(rb"(?<![\w.])-?[0-9][0-9.eE+_-]*", bytes(out))]
+            if spans:
+                s, e = spans[where % len(spans)]
+                out[s:e] = HOSTILE_NUMBERS[token % len(HOSTILE_NUMBERS)].encode()
     return bytes(out)
 
 
@@ -94,7 +104,7 @@ def _mutate(data: bytes, ops: list[tuple[int, int, int, int]]) -> bytes:
 def mutated(draw: st.DrawFn) -> tuple[str, bytes, bool]:
     """(seed name, mutated bytes, whether it is a world file)."""
     seed = draw(st.sampled_from(seeds()))
-    ops = draw(st.lists(st.tuples(st.integers(0, 4), st.integers(0, 1 << 16), st.integers(0, 255),
+    ops = draw(st.lists(st.tuples(st.integers(0, 5), st.integers(0, 1 << 16), st.integers(0, 255),
                                   st.integers(0, 255)), min_size=1, max_size=4))
     return seed.name, _mutate(seed.text.encode(), ops), seed.world
 
