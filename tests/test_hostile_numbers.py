@@ -121,10 +121,13 @@ def test_a_replayed_tick_that_is_no_tick_is_a_trace_format_error() -> None:
 
 
 def test_arithmetic_that_outgrows_a_float_gives_inf_not_an_exception(write) -> None:
-    # ticks and randint results are floats in generated code: no int grows past a float's range
-    product = " * ".join(["(tick + 1000)"] * 40)
-    behaviour = BASE + (f"let:\n  p: {product}\n  a: p * p * p / 3 + 0.5\n  b: randint(0, 9007199254740992) ** 40 % 7\n"
-                        f"  c: pid(a, 1e308, 1e308, 1e308) + (a - a)\nmetrics:\n  top: maximum(a)\n  last: final(c)\n")
+    # randint's results and ticks are floats in generated code: no int grows past a float's range
+    # (21 factors of 2**53 are about 1e335; as Python ints, '/ 3' raised OverflowError)
+    product = " * ".join(["r"] * 21)
+    ticks = " * ".join(["tick"] * 40)
+    behaviour = BASE + (f"let:\n  r: randint(9007199254740990, 9007199254740992)\n  a: {product} / 3 + 0.5\n"
+                        f"  t: {ticks} % 7 + {ticks} / 3\n"
+                        "  c: pid(a, 1e308, 1e308, 1e308) + (a - a)\nmetrics:\n  top: maximum(a)\n  last: final(c)\n")
     summary = run(write(behaviour.replace("robots:\n  r: {model: pioneer_p3dx, at: [0, 0, 0]}",
                                           "robots:\n  r: {model: pioneer_p3dx, at: random, count: 2}")))
     assert summary["ticks"] > 0
