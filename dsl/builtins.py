@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
+from labsim.backends.scene.numbers import WHOLE_LIMIT
+
 
 class Type(Enum):
     NUMBER = "number"
@@ -66,10 +68,12 @@ class Function:
 
 
 def _randint(rng: random.Random, a: float, b: float) -> float:
+    if not (abs(a) <= WHOLE_LIMIT and abs(b) <= WHOLE_LIMIT):  # nan too; the checker refuses such literals
+        raise ValueError(f"randint({a:g}, {b:g}) has a bound beyond {WHOLE_LIMIT:g} (2**53)")
     lo, hi = math.ceil(a), math.floor(b)
     if lo > hi:
         raise ValueError(f"randint({a:g}, {b:g}) has no integer between its bounds")
-    return rng.randint(lo, hi)
+    return float(rng.randint(lo, hi))  # a float, as every number of the language (docs/language.md)
 
 
 def _sign(x: float) -> float:

@@ -25,6 +25,7 @@ from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.backends.scene.ground import world_channels
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
+from labsim.backends.scene.numbers import TOO_LARGE, NumberError, to_float
 from labsim.backends.scene.source import Place, Text
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import ast
@@ -510,9 +511,10 @@ class _Checker(ExprChecker):
             self.setting_error(setting, f"parameter '{name}' is true or false, not '{raw}'")
             return current
         try:
-            value = float(raw)
-        except ValueError:
-            self.setting_error(setting, f"parameter '{name}' is a number, not '{raw}'")
+            value = to_float(raw)  # the one rule for numbers: --set front=1e309 is too large
+        except NumberError as e:
+            self.setting_error(setting, f"parameter '{name}': {e}" if str(e).startswith(TOO_LARGE)
+                               else f"parameter '{name}' is a number, not '{raw[:40]}'")
             return current
         if not math.isfinite(value):
             self.setting_error(setting, f"parameter '{name}' must be a finite number")

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
+from labsim.backends.scene.numbers import WHOLE_LIMIT
 from labsim.backends.scene.source import Text
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
@@ -428,7 +429,9 @@ class _Generator:
         if isinstance(e, ast.Name):
             slot = self.slot_of[e.id]
             self.used.add(slot)
-            return f"v{slot}"
+            # the runtime counts ticks in ints; the language's numbers are floats, so that
+            # tick * tick * ... overflows to inf rather than to an int no float can hold
+            return f"(v{slot} + 0.0)" if slot == TICK else f"v{slot}"
         if isinstance(e, ast.Neg):
             return f"(-{x(e.operand)})"
         if isinstance(e, ast.Not):
@@ -476,8 +479,8 @@ class _Generator:
             except _NotConstant:
                 pass
             else:
-                if (isinstance(lo, (int, float)) and isinstance(hi, (int, float))
-                        and float(lo).is_integer() and float(hi).is_integer() and lo <= hi):
+                if (isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and abs(lo) <= WHOLE_LIMIT
+                        and abs(hi) <= WHOLE_LIMIT and float(lo).is_integer() and float(hi).is_integer() and lo <= hi):
                     return f"_randint({int(lo)}, {int(hi)})"
         if e.func in _TOTAL and not FUNCTIONS[e.func].uses_rng:
             self.functions.add(e.func)

@@ -19,8 +19,9 @@ from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 
-from labsim.backends.scene.diagnostics import Diagnostic, Report
+from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
 from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
+from labsim.backends.scene.numbers import WHOLE_LIMIT
 from labsim.backends.scene.source import load
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.budget import check_budgets
@@ -41,6 +42,9 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     The linter's warnings go on the Program; ``strict`` raises them as errors instead.
     ``budgets`` bound its robots, cameras and world (``labsim.dsl.budget``).
     """
+    if seed is not None and not (isinstance(seed, int) and 0 <= seed <= WHOLE_LIMIT):
+        raise LabsimError([Diagnostic("seed", f"the seed is a whole number from 0 to {WHOLE_LIMIT} (2**53), "
+                                              f"not {str(seed)[:40]}")])
     doc = load(path)
     report = Report()
     bf = read(doc, report)

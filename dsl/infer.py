@@ -13,6 +13,7 @@ import difflib
 from yaml.nodes import Node
 
 from labsim.backends.scene.diagnostics import Report, did_you_mean
+from labsim.backends.scene.numbers import WHOLE_LIMIT
 from labsim.backends.scene.source import Document, Place, Text
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, Type
@@ -211,7 +212,20 @@ class ExprChecker:
         for i, arg in enumerate(e.args):
             want = f.params[min(i, len(f.params) - 1)]
             ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
+        if f.name == "randint":
+            ok = self.whole_bounds(e, text) and ok
         return f.returns if ok else None
+
+    def whole_bounds(self, e: ast.Call, text: Text) -> bool:
+        """randint's bounds, where written as numbers, are within +-WHOLE_LIMIT: exact as floats."""
+        for arg in e.args:
+            value = -arg.operand.value if isinstance(arg, ast.Neg) and isinstance(arg.operand, ast.Number) else (
+                arg.value if isinstance(arg, ast.Number) else None)
+            if value is not None and not abs(value) <= WHOLE_LIMIT:
+                self.error(text.at(arg.span), f"randint() takes bounds between -{WHOLE_LIMIT} and {WHOLE_LIMIT} "
+                           "(2**53: whole numbers a float holds exactly)")
+                return False
+        return True
 
     def prev(self, e: ast.Call, text: Text) -> Type | None:
         """prev(x, initial) takes a number or a boolean, and an initial value of the same type."""

@@ -20,6 +20,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from lark.tree import Meta
 
 from labsim.backends.scene.cache import cache_dir
+from labsim.backends.scene.numbers import NumberError, to_float
 from labsim.dsl import ast
 
 MAX_DEPTH = 100  # deeper expressions are refused: nobody writes them, and they'd exhaust the stack
@@ -367,7 +368,11 @@ class _ToAst(Transformer):
         return c[1]
 
     def number(self, meta: Meta, c: list[Any]) -> ast.Number:
-        return ast.Number(float(c[0]), span=_span(meta))
+        try:
+            value = to_float(str(c[0]))  # the one rule for numbers: 1e309 is refused, not inf
+        except NumberError as e:
+            raise ParseError(meta.start_pos, meta.end_pos, str(e)) from None
+        return ast.Number(value, span=_span(meta))
 
     def true(self, meta: Meta, c: list[Any]) -> ast.Bool:
         return ast.Bool(True, span=_span(meta))

@@ -23,6 +23,7 @@ from labsim.backends.scene import object_paths
 from labsim.backends.scene.diagnostics import Report, did_you_mean
 from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.models import Camera
+from labsim.backends.scene.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
 from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
@@ -223,8 +224,8 @@ class _Reader(Reader):
                 bf.dt_s = dt
         if "seed" in keys:
             seed = self.number(keys["seed"], "seed", integer=True)
-            if seed is not None and seed < 0:
-                self.error(keys["seed"], "seed must be 0 or a positive whole number")
+            if seed is not None and not 0 <= seed <= WHOLE_LIMIT:
+                self.error(keys["seed"], f"seed must be a whole number from 0 to {WHOLE_LIMIT} (2**53)")
             elif seed is not None:
                 bf.seed = int(seed)
 
@@ -537,8 +538,11 @@ class _Reader(Reader):
                 continue
             key, value = item.value[0]
             m = _AT.fullmatch(key.value.strip())
-            if not m or not math.isfinite(float(m.group(1))):
+            if not m:
                 self.error(key, f"a timeline entry starts with 'at' and a time in seconds, not '{key.value}'")
+                continue
+            if not _fits(m.group(1)):
+                self.error(key, TOO_LARGE)
                 continue
             if not isinstance(value, ScalarNode) or not value.value.strip():
                 self.error(value, "after 'at TIME:' come slider settings such as 'arm = 5, crab = -3'")
@@ -559,9 +563,11 @@ class _Reader(Reader):
             number = None
             if sm:
                 try:
-                    number = float(sm.group(2))
-                except ValueError:
-                    number = None
+                    number = to_float(sm.group(2))
+                except NumberError as e:
+                    if str(e).startswith(TOO_LARGE):
+                        self.error(text.at((start, start + len(piece.strip()))), str(e))
+                        continue
             if sm is None or number is None:
                 self.error(text.at((start, start + len(piece.strip()))),
                            f"a setting reads 'slider = number', not '{piece.strip()}'")
@@ -617,6 +623,14 @@ class _Reader(Reader):
 # minutes on a timeline key of 100,000 digits
 _AT = re.compile(r"at\s+((?:[0-9]+(?:\.[0-9]+)?|\.[0-9]+)(?:[eE][+-]?\d+)?)\s*$")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
+
+
+def _fits(text: str) -> bool:
+    try:
+        to_float(text)
+    except NumberError:
+        return False
+    return True
 
 
 def _mapping_hint(node: Node | None) -> tuple[str, ...]:

@@ -107,7 +107,8 @@ def metric_result(aggregate: Aggregate, acc: list[float], dt_s: float) -> float:
 # -- what generated code may call ---------------------------------------------------------------
 def namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str, ...]) -> dict[str, object]:
     """What generated code may use: the functions it calls, the robot's generator and model."""
-    ns: dict[str, object] = {"_inf": INF, "_nan": math.nan, "_randint": rng.randint,
+    randint = rng.randint
+    ns: dict[str, object] = {"_inf": INF, "_nan": math.nan, "_randint": lambda a, b: float(randint(a, b)),
                              "_random": rng.random, "_uniform": rng.uniform, "_gauss": rng.gauss}
     for name in functions:
         ns["_" + name] = FUNCTIONS[name].resolve()

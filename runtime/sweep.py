@@ -24,6 +24,7 @@ from typing import Any
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
+from labsim.backends.scene.numbers import WHOLE_LIMIT
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.runtime.run import Behaviour, compile_behaviour
 from labsim.runtime.summary_json import summary_dict
@@ -128,9 +129,9 @@ def parse_seeds(text: str) -> tuple[int, ...]:
         except ValueError:
             raise LabsimError([Diagnostic(f"--seeds {text}",
                                           "seeds are whole numbers: 1-20, 1,2,5 or 1-5,9")]) from None
-        if first < 0 or last < first:
-            raise LabsimError([Diagnostic(f"--seeds {text}", f"'{part.strip()}' is not a range of seeds "
-                                                             "(0 or more, low-high)")])
+        if first < 0 or last < first or last > WHOLE_LIMIT:
+            raise LabsimError([Diagnostic(f"--seeds {text}", f"'{part.strip()[:40]}' is not a range of seeds "
+                                                             "(0 to 2**53, low-high)")])
         if last - first >= MAX_GRID:
             raise LabsimError([Diagnostic(f"--seeds {text}", "too many seeds")])
         seeds += [s for s in range(first, last + 1) if s not in seeds]

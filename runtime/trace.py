@@ -26,6 +26,7 @@ from typing import TextIO
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.files import Output, read_input, write_error
+from labsim.backends.scene.numbers import NumberError, to_float
 
 FORMAT = 1
 MAGIC = "# labsim-trace "
@@ -242,11 +243,10 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
             if eq and not event.startswith("log: "):
-                try:
-                    number = float(value)
-                except ValueError:
-                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value "
-                                                 f"'{value[:40]}' is not a number") from None
+                try:  # the one rule for numbers (labsim.backends.scene.numbers), as for a file's
+                    number = to_float(value)
+                except NumberError as e:
+                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value: {e}") from None
                 if not math.isfinite(number):
                     raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value is {value}")
                 settings = out.setdefault(int(tick), [])

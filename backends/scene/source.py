@@ -29,17 +29,37 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.backends.scene.files import read_text
+from labsim.backends.scene.numbers import NumberError, to_float, yaml_number_problem
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
+# Lists and mappings nested deeper than this are refused as they are composed, before PyYAML's
+# recursive composer could exhaust Python's stack (about 300 levels); labsim's files use 6.
+MAX_DEPTH = 100
 
 _CORE = "tag:yaml.org,2002:"
 _ALLOWED_TAGS = {_CORE + t for t in ("str", "int", "float", "bool", "null", "map", "seq")}
 
 
 class _Loader(yaml.SafeLoader):
-    """Safe composer that refuses anchors and aliases where they appear."""
+    """Safe composer that refuses anchors and aliases where they appear, and deep nesting."""
+
+    depth = 0  # lists and mappings open around the node being composed
 
     def compose_node(self, parent: Node | None, index: int) -> Node | None:
+        event = self.peek_event()
+        if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+            if self.depth >= MAX_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"YAML nested more than {MAX_DEPTH} levels deep: labsim files are not nested "
+                    "that far", event.start_mark)  # type: ignore[arg-type]  # as below
+            self.depth += 1
+            try:
+                return self._compose_checked(parent, index)
+            finally:
+                self.depth -= 1
+        return self._compose_checked(parent, index)
+
+    def _compose_checked(self, parent: Node | None, index: int) -> Node | None:
         event = self.peek_event()
         if isinstance(event, yaml.AliasEvent):
             raise yaml.composer.ComposerError(
@@ -273,6 +293,10 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
     if node.tag not in _ALLOWED_TAGS:
         tag = node.tag.replace(_CORE, "!!")
         yield doc.diagnostic(node, f"YAML tag '{tag}' is not allowed: labsim files hold plain data")
+    elif isinstance(node, ScalarNode) and node.tag in (_CORE + "int", _CORE + "float"):
+        problem = yaml_number_problem(node)
+        if problem:
+            yield doc.diagnostic(node, problem)
     if isinstance(node, MappingNode):
         seen: dict[str, Node] = {}
         for key, _ in node.value:
@@ -289,15 +313,19 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
 def scalar_value(node: ScalarNode) -> object:
     """The Python value of a core-schema scalar: str, int, float, bool or None.
 
-    An integer beyond a float's range reads as an infinite float: every number labsim reads
-    becomes a float, and such a number is reported as not finite, not as a crash.
+    ``loads`` has refused every number that does not fit a float, so a number read here
+    converts to a float without loss of range; a node made some other way that holds one
+    reads as its text, which every reader refuses as no number.
     """
-    value = yaml.SafeLoader("").construct_object(node, deep=False)
+    try:
+        value = yaml.SafeLoader("").construct_object(node, deep=False)
+    except ValueError:
+        return str(node.value)
     if isinstance(value, int) and not isinstance(value, bool):
         try:
-            float(value)
-        except OverflowError:
-            return math.inf if value > 0 else -math.inf
+            to_float(value)
+        except NumberError:
+            return str(node.value)
     return value
 
 

@@ -1,0 +1,239 @@
+"""What the fuzz tests feed labsim, and the one way they feed it.
+
+Two kinds of input, both hypothesis strategies:
+
+- ``mutated()``: a shipped behaviour, a test fixture or a world file with a few bytes
+  changed, inserted, deleted or replaced by a hostile token (a huge integer, 1e309, deep
+  brackets), or one of its numbers replaced by one at the edges (``HOSTILE_NUMBERS``).
+  Mostly these are broken files; the point is that each break is a diagnostic.
+- ``generated()``: a behaviour file whose ``let:``, ``stop:``, ``rules:`` and ``metrics:``
+  strings follow the productions of the language's grammar (``dsl/grammar.lark``), with names
+  drawn from the language's built-ins and numbers from the edges of a float, so that many of
+  them check and run.
+
+``run_input`` writes one input to a folder and takes it as far as it goes: compile (which
+reads, checks and lints), then a few ticks on the pymunk backend with a trace, and the
+summary. ``ALLOWED`` are the only exceptions it may raise; tests/test_fuzz.py runs a short
+profile in the suite, tests/fuzz_long.py the long one.
+"""
+from __future__ import annotations
+
+import functools
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from hypothesis import strategies as st
+
+from labsim.backends import load_backend
+from labsim.backends.protocol import BackendError
+from labsim.backends.scene.diagnostics import LabsimError
+from labsim.dsl.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
+from labsim.runtime.run import compile_behaviour
+from labsim.runtime.summary_json import summary_dict
+
+ROOT = Path(__file__).resolve().parent.parent
+ALLOWED = (LabsimError, BackendError)  # the project's own errors: a diagnostic, never a crash
+TICKS = 5  # enough to run signals, decide, metrics and the trace; cheap enough for many inputs
+
+# Tokens a mutation may splice in: numbers that do not fit, malformed scalars, deep nesting.
+HOSTILE = (
+    "1e309", "-1e309", "1" * 400, "9" * 5000, "0x" + "f" * 300, "0b_", "0o", "._", "1_", "nan", ".inf",
+    "-.inf", "1:2:3", "0x", "+", "-", "2001-12-14", "[" * 200, "{" * 200, "- " * 100, "~", "!!binary", "&a",
+    "*a", "'", '"', "\t", "\x00", "\ufeff", "é", "\n", ": ", "#", "?", "|", ">", "%", "@", "`",
+    "/" * 300 + "x.yaml", "a" * 300 + ".yaml", "../", "/dev/null", "**", "randint(0, 1e300)", "9" * 40,
+)
+# Numbers a mutation puts in place of a number of the file: the edges of a float, and scalars
+# that YAML 1.1's patterns read as numbers but cannot convert.
+HOSTILE_NUMBERS = ("1e309", "-1e309", "1" * 400, "9" * 5000, "0x" + "f" * 300, "0b_", "0x_", "0o_", "._", "1_",
+                   ".inf", "-.inf", ".nan", "9" * 40, "1e-400", "-0", "1:2:3", "0", "1e308", "2.5")
+
+
+@dataclass(frozen=True)
+class Seed:
+    """A file labsim ships, as the start of mutations."""
+
+    name: str
+    text: str
+    world: bool  # a world file: run through a behaviour that names it
+
+
+@functools.lru_cache(maxsize=1)
+def seeds() -> tuple[Seed, ...]:
+    files = [*sorted((ROOT / "behaviours").glob("*.yaml")), *sorted((ROOT / "tests" / "fixtures").glob("*.yaml")),
+             *sorted((ROOT / "backends" / "scene" / "worlds").glob("*.yaml"))]
+    return tuple(Seed(p.name, p.read_text(), "labsim-world:" in p.read_text()) for p in files)
+
+
+def _host(mechanism: bool) -> str:
+    """The behaviour that runs a (mutated) world file, written beside it as world.yaml."""
+    if mechanism:
+        crane = (ROOT / "behaviours" / "crane.yaml").read_text()
+        return re.sub(r"(?m)^world: .*$", "world: world.yaml", crane)
+    return "labsim: 1\nname: host\nworld: world.yaml\nstop: time >= 1\nrobots:\n" \
+           "  r: {model: pioneer_p3dx, at: random}\nrules:\n  - always move(2)\n"
+
+
+def _mutate(data: bytes, ops: list[tuple[int, int, int, int]]) -> bytes:
+    """Apply byte edits: (kind, where, byte, token) each, positions taken modulo the length."""
+    out = bytearray(data)
+    for kind, where, byte, token in ops:
+        at = where % (len(out) + 1)
+        if kind == 0:  # replace a byte
+            out[at:at + 1] = bytes([byte])
+        elif kind == 1:  # insert a byte
+            out[at:at] = bytes([byte])
+        elif kind == 2:  # delete a run of bytes
+            del out[at:at + 1 + byte % 8]
+        elif kind == 3:  # splice in a hostile token
+            out[at:at] = HOSTILE[token % len(HOSTILE)].encode()
+        elif kind == 4:  # replace a token of the file (a number, a name) by a hostile one
+            spans = [m.span() for m in re.finditer(rb"[0-9A-Za-z_.]+", bytes(out))]
+            if spans:
+                s, e = spans[where % len(spans)]
+                out[s:e] = HOSTILE[token % len(HOSTILE)].encode()
+        else:  # replace a number of the file by one at the edges
+            spans = [m.span() for m in re.finditer(rb"(?<![\w.])-?[0-9][0-9.eE+_-]*", bytes(out))]
+            if spans:
+                s, e = spans[where % len(spans)]
+                out[s:e] = HOSTILE_NUMBERS[token % len(HOSTILE_NUMBERS)].encode()
+    return bytes(out)
+
+
+@st.composite
+def mutated(draw: st.DrawFn) -> tuple[str, bytes, bool]:
+    """(seed name, mutated bytes, whether it is a world file)."""
+    seed = draw(st.sampled_from(seeds()))
+    ops = draw(st.lists(st.tuples(st.integers(0, 5), st.integers(0, 1 << 16), st.integers(0, 255),
+                                  st.integers(0, 255)), min_size=1, max_size=4))
+    return seed.name, _mutate(seed.text.encode(), ops), seed.world
+
+
+# -- behaviour files from the grammar --------------------------------------------------------
+
+NUMERIC_NAMES = ("sonar5", "sonar8", "time", "tick", "front", "big", "k", "s", "x", "y", "heading", "index",
+                 "state_time")
+NUMBERS = ("0", "1", "2", "0.5", "1e308", "1e309", "9" * 30, "9" * 400, "1e-320", "360", "100", ".5", "3.", "1", "2",
+           "0.1", "10")
+
+
+def _typed(functions: dict[str, tuple[Type, ...]], returns: Type,
+           parts: dict[Type, st.SearchStrategy[str]]) -> list[st.SearchStrategy[str]]:
+    """Calls of the built-ins that return ``returns``, each with arguments of its types."""
+    out = []
+    for name, params in functions.items():
+        if all(p in parts for p in params):
+            out.append(st.tuples(*(parts[p] for p in params)).map(lambda a, f=name: f"{f}({', '.join(a)})"))
+    return out
+
+
+def _expressions() -> tuple[st.SearchStrategy[str], st.SearchStrategy[str]]:
+    """(number, condition) expression strings in the grammar's shapes, mostly well typed.
+
+    Well typed, so that most of them pass the checker and reach generated code, where the
+    numbers at a float's edges (NUMBERS) are what is being tried; the mutations cover the rest.
+    """
+    by_type: dict[Type, dict[str, tuple[Type, ...]]] = {Type.NUMBER: {}, Type.BOOL: {}}
+    for f in FUNCTIONS.values():
+        if f.returns in by_type and not f.variadic:
+            by_type[f.returns][f.name] = f.params
+    numbers = st.one_of(st.sampled_from(NUMBERS), st.sampled_from(NUMERIC_NAMES))
+    conditions = st.one_of(st.sampled_from(("true", "false", "detected(sonar5)", "state == follow")))
+
+    def extend(e: st.SearchStrategy[str]) -> st.SearchStrategy[str]:
+        # one level up, from numbers e: numbers and conditions both, as a pair of choices
+        cond = st.one_of(conditions, st.builds("{} {} {}".format, e, st.sampled_from(("<", "<=", "==", "!=", ">")), e))
+        parts = {Type.NUMBER: e, Type.BOOL: cond}
+        return st.one_of(
+            st.builds("{} {} {}".format, e, st.sampled_from(("+", "-", "*", "/", "%", "**")), e),
+            st.builds("-{}".format, e), st.builds("({})".format, e),
+            st.builds("{} if {} else {}".format, e, cond, e),
+            st.builds(lambda f, a: f"{f}({', '.join(a)})", st.sampled_from(("min", "max")), st.lists(e, min_size=2,
+                                                                                                   max_size=4)),
+            *_typed(by_type[Type.NUMBER], Type.NUMBER, parts))
+
+    number = st.recursive(numbers, extend, max_leaves=10)
+    parts = {Type.NUMBER: number, Type.BOOL: conditions}
+    condition = st.one_of(
+        st.builds("{} {} {}".format, number, st.sampled_from(("<", "<=", "==", "!=", ">", ">=")), number),
+        conditions, st.builds("not ({})".format, conditions),
+        st.builds("{} and {} or {}".format, conditions, conditions, conditions),
+        *_typed(by_type[Type.BOOL], Type.BOOL, parts))
+    return number, condition
+
+
+@functools.lru_cache(maxsize=3)
+def _strings(start: str) -> st.SearchStrategy[str]:
+    """Strings for a start rule of the grammar: 'expr' (a number), 'condition' or 'rule'.
+
+    Built from the grammar's productions by hand rather than with hypothesis.extra.lark's
+    from_lark, which took half a second an expression here and glues tokens without the
+    blanks the lexer needs (``0if0else0``), so that few of its strings reach the checker.
+    """
+    expr, condition = _expressions()
+    if start == "expr":
+        return expr
+    if start == "condition":
+        return condition
+    log = st.sampled_from(('"t={time:.1f} s={s}"', "'{big}'", '"{k:.300f}"', '"plain"', '"{big:d}"', '"{s:.1%}"'))
+    wheels = [st.tuples(*[expr] * len(a.params)).map(lambda args, n=a.name: f"{n}({', '.join(args)})")
+              for a in ACTIONS.values() if a.name not in JOINT_ACTIONS and a.name != "log"]
+    action = st.one_of(st.builds("goto {}".format, st.sampled_from(("follow", "wander"))), *wheels,
+                       st.builds("log({})".format, log))
+    actions = st.one_of(action, st.builds("goto follow, {}".format, action))
+    return st.one_of(st.builds("if {} then {}".format, condition, actions), st.builds("else {}".format, actions))
+
+
+def _quoted(text: str) -> str:
+    return "'" + text.replace("'", "''") + "'"
+
+
+@st.composite
+def generated(draw: st.DrawFn) -> str:
+    """A behaviour file whose strings follow the grammar, its numbers and names from the edges."""
+    expr, condition, rule = _strings("expr"), _strings("condition"), _strings("rule")
+    # mostly ordinary values, now and then one from the edge: one odd value per file tells more
+    big = draw(st.sampled_from(NUMBERS))
+    seed = draw(st.sampled_from(("1", "0", "7", "1", "-1", "9" * 30, "1e309", "2.5", "1", "3")))
+    count = draw(st.sampled_from(("1", "2", "1", "3", "0", "9" * 25, "1", "2")))
+    lets = draw(st.lists(expr, min_size=1, max_size=3))
+    rules = draw(st.lists(rule, min_size=1, max_size=3))
+    stop = draw(st.one_of(condition, st.just("time >= 0.1")))
+    metric = draw(st.one_of(condition.map("count({})".format), expr.map("maximum({})".format)))
+    lines = ["labsim: 1", "name: generated", "world: walls_lab4", f"seed: {seed}", "dt: 0.05",
+             f"stop: {_quoted(stop)}", "robots:", f"  r: {{model: pioneer_p3dx, at: random, count: {count}}}",
+             "params:", f"  big: {big}", "  k: 2", "  front: 0.5", "let:",
+             *(f"  s{i if i else ''}: {_quoted(t)}" for i, t in enumerate(lets)),
+             "rules:", "  wander:", *(f"    - {_quoted(r)}" for r in rules), "  follow:", "    - always stop()",
+             "metrics:", f"  m: {_quoted(metric)}"]
+    return "\n".join(lines) + "\n"
+
+
+# -- one input, as far as it goes ------------------------------------------------------------
+
+def run_input(folder: Path, data: bytes, world: bool = False) -> str:
+    """Compile and run one input in ``folder``; return how far it got ('error' or 'ran').
+
+    Raises anything but ``ALLOWED``: that is a crash the fuzz tests report.
+    """
+    if world:
+        (folder / "world.yaml").write_bytes(data)
+        path = folder / "behaviour.yaml"
+        path.write_text(_host(b"mechanism:" in data))
+    else:
+        path = folder / "behaviour.yaml"
+        path.write_bytes(data)
+        pendulum = ROOT / "tests" / "fixtures" / "pendulum_world.yaml"
+        (folder / "pendulum_world.yaml").write_bytes(pendulum.read_bytes())
+    try:
+        compiled = compile_behaviour(path)
+        warnings: list[str] = []
+        bound = compiled.bind(load_backend("pymunk"), trace=folder / "trace.csv", warn=warnings.append)
+        try:
+            summary = bound.run(max_ticks=TICKS)
+            summary_dict(summary, bound, warnings=warnings)
+        finally:
+            bound.close()
+    except ALLOWED:
+        return "error"
+    return "ran"
