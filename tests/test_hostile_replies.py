@@ -37,6 +37,8 @@ CASES = [
     ("sim.getObjectPosition", [[5]], 10, ("sim.getObjectPosition", "robot 'pioneer'", "[5]")),
     ("sim.getObjectPosition", [5], 10, ("sim.getObjectPosition", "robot 'pioneer'", "5")),
     ("sim.getObjectPosition", [[1.0, NAN, 0.1]], 10, ("sim.getObjectPosition", "robot 'pioneer'", "nan")),
+    ("sim.getObjectPosition", [[1.0, 10 ** 400, 0.1]], 10,  # a CBOR bignum: too large for a float
+     ("sim.getObjectPosition", "robot 'pioneer'", "too large")),
     ("sim.checkCollision", ["yes"], 10, ("sim.checkCollision", "robot 'pioneer'", "'yes'")),
     ("sim.checkCollision", [[None, None]], 10, ("sim.checkCollision", "robot 'pioneer'", "None")),
     ("sim.getObjectOrientation", [{}], 10, ("sim.getObjectOrientation", "robot 'pioneer'", "{}")),

@@ -410,3 +410,10 @@ def test_student_script_text_is_plain_coppeliasim() -> None:
     """The script uses nothing of labsim: it would run on CoppeliaSim as it is."""
     assert "labsim" not in STUDENT_SCRIPT.split('"""', 2)[2]
     compile(textwrap.dedent(STUDENT_SCRIPT), "lab2.py", "exec")
+
+
+def test_more_robots_than_a_world_has_room_for_is_a_clear_error() -> None:
+    proc = subprocess.run([sys.executable, "-m", "labsim", "serve", "walls_lab4", "--robots", "400", "-q",
+                           "--port", "0"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "world 'walls_lab4' has no free place for robot" in proc.stderr and "ask for fewer" in proc.stderr

@@ -20,6 +20,7 @@ import math
 from collections.abc import Callable
 
 from labsim.backends.protocol import BackendError
+from labsim.backends.scene.numbers import NumberError, to_float
 
 SHOWN = 80  # characters of a bad reply quoted in the error
 
@@ -31,9 +32,13 @@ class Shape(Exception):
 def _number(v: object, what: str = "a number") -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise Shape(what)
-    if not math.isfinite(v):
-        raise Shape(f"{what} (CoppeliaSim never sends {v!r} there)")
-    return float(v)
+    try:  # the one rule for numbers: an integer too large for a float is refused, not an OverflowError
+        f = to_float(v)
+    except NumberError:
+        raise Shape(f"{what} (a number too large for a float)") from None
+    if not math.isfinite(f):
+        raise Shape(f"{what} (CoppeliaSim never sends {f!r} there)")
+    return f
 
 
 def _integer(v: object, what: str = "an integer") -> int:

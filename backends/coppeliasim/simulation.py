@@ -22,7 +22,6 @@ Semantics kept from CoppeliaSim, and where the stand-in differs (docs/coppeliasi
 """
 from __future__ import annotations
 
-import math
 import random
 import time
 from collections.abc import Callable, Sequence
@@ -82,12 +81,12 @@ def robot_specs(world: World, robots: int | Sequence[RobotRequest]) -> list[tupl
     for i in range(robots):
         if i < len(spawns):
             pose = spawns[i]
-        else:  # more robots than spawn poses: free places, 1.2 m apart
-            pose = world.random_pose(rng, 0.6)
-            for _ in range(1000):
-                if all(math.hypot(pose.x_m - p.x_m, pose.y_m - p.y_m) >= 1.2 for _, p in out):
-                    break
-                pose = world.random_pose(rng, 0.6)
+        else:  # more robots than spawn poses: free places 0.6 m clear of walls, 1.2 m apart
+            free = world.free_pose(rng, [p for _, p in out], 0.6)
+            if free is None:
+                raise BackendError(f"labsim serve: world '{world.name}' has no free place for robot {i + 1} "
+                                   f"of {robots} (0.6 m clear of walls, 1.2 m from the others): ask for fewer")
+            pose = free
         out.append((PIONEER_P3DX, pose))
     return out
 
