@@ -304,8 +304,10 @@ class _Checker(ExprChecker):
                 self.error(bf.world_node, f"world file '{bf.world}' {refused}", notes=policy_notes())
                 self.world_failed = True
                 return None
-            if not _present(path):
-                self.error(bf.world_node, f"world file '{bf.world}' not found (looked for {path})")
+            missing = _missing(path)
+            if missing is not None:
+                self.error(bf.world_node, missing if missing else
+                           f"world file '{bf.world}' not found (looked for {path})")
                 self.world_failed = True
                 return None
         else:
@@ -522,13 +524,18 @@ class _Checker(ExprChecker):
         return int(value) if isinstance(current, int) and value == int(value) else value
 
 
-def _present(path: Path) -> bool:
-    """False for a missing file only: any other refusal (a name too long, a folder the user may
-    not enter) is for the file reader to report in the OS's words."""
+def _missing(path: Path) -> str | None:
+    """None when the world file is there to read; '' when it does not exist; else why the
+    system refuses it (a name too long, a folder the user may not enter), in its words."""
     try:
         os.stat(path)
     except (FileNotFoundError, NotADirectoryError):
-        return False
-    except OSError:
-        return True
+        return ""
+    except OSError as e:
+        from labsim.backends.scene.files import os_words
+
+        name = str(path.name)
+        shown = name if len(name) <= 80 else f"{name[:60]}... ({len(name)} characters)"
+        return f"world file '{shown}' cannot be opened: {os_words(e)}"
+    return None
     return True

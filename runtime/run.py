@@ -117,6 +117,7 @@ class Run:
         self.idle = 0
         self.trace: TraceWriter | None = None
         self.trace_error: TraceWriteError | None = None  # the OS refused a trace write: the run stopped
+        self.recorded = 0  # the ticks the trace has rows of (its footer's count)
         self.robots = self._robots()
         self.watched = False  # see watch()
         self.last_rule: list[int] = [-1] * len(self.robots)
@@ -454,6 +455,7 @@ class Run:
         self.trace.write([self.tick_index, round(self.tick_index * self.dt, 9), r.name, x, y, heading,
                           collided, state, label, *extra, *lets, *sliders, *labels,
                           cmd[0], cmd[1], ";".join(events)])
+        self.recorded = self.tick_index + 1  # an interrupt may land before the tick ends: count rows
 
     def run(self, progress: Callable[[int, float], None] | None = None,
             max_ticks: int | None = None) -> Summary:
@@ -497,7 +499,7 @@ class Run:
         if self.trace is None:
             return
         try:
-            self.trace.close(self.tick_index, interrupted)
+            self.trace.close(max(self.tick_index, self.recorded), interrupted)
         except TraceWriteError as e:
             self.trace_error = self.trace_error or e
 

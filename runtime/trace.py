@@ -26,7 +26,7 @@ from typing import TextIO
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.files import Output, read_input, write_error
-from labsim.backends.scene.numbers import NumberError, to_float
+from labsim.backends.scene.numbers import WHOLE_LIMIT, NumberError, to_float
 
 FORMAT = 1
 MAGIC = "# labsim-trace "
@@ -239,17 +239,25 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
     if "tick" not in trace.columns or "events" not in trace.columns:
         raise TraceFormatError(f"{trace.path}: the trace has no 'tick' and 'events' columns to replay", trace.path)
     ticks, events = trace.column("tick"), trace.column("events")
-    for tick, text, line in zip(ticks, events, trace.lines):
+    lines = trace.lines or range(3, 3 + len(trace.rows))  # a trace made in code: rows from line 3
+    for tick, text, line in zip(ticks, events, lines):
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
             if eq and not event.startswith("log: "):
                 try:  # the one rule for numbers (labsim.backends.scene.numbers), as for a file's
                     number = to_float(value)
                 except NumberError as e:
-                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value: {e}") from None
+                    why = f"is a {e}" if str(e).startswith("number too large") else str(e)
+                    raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value {why}") from None
                 if not math.isfinite(number):
                     raise _bad(trace.path, line, f"event '{event[:60]}': a slider's value is {value}")
-                settings = out.setdefault(int(tick), [])
+                try:
+                    at = to_float(tick)
+                except NumberError:
+                    at = math.nan
+                if not (at.is_integer() and 0 <= at <= WHOLE_LIMIT):
+                    raise _bad(trace.path, line, f"tick '{tick[:20]}' is not a tick number")
+                settings = out.setdefault(int(at), [])
                 if (name, number) not in settings:  # one row per robot repeats them
                     settings.append((name, number))
     return out
