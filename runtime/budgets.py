@@ -28,8 +28,8 @@ class RunWatch:
         self.warn = warn
         # the ticks the run will take: to its stop time when the stop condition says one, else the budget
         ticks = budgets.ticks
-        if horizon_s is not None and math.isfinite(horizon_s):
-            ticks = min(ticks, max(1, math.ceil(horizon_s / dt_s)))
+        if horizon_s is not None and horizon_s / dt_s < ticks:  # 1e308 / dt is inf: the budget
+            ticks = max(1, math.ceil(horizon_s / dt_s))
         self.expected_ticks = ticks
         self.warned = warn is None
 
