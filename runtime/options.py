@@ -39,6 +39,14 @@ def timeout_s(text: str) -> float:
     return value
 
 
+def run_timeout_s(text: str) -> float:
+    """A sweep's real-time limit on one run: from MIN_TIMEOUT_S to a day."""
+    value = _number(text)
+    if not MIN_TIMEOUT_S <= value <= 86_400:
+        raise argparse.ArgumentTypeError(f"give from {MIN_TIMEOUT_S:g} to 86400 seconds (a day), not {text}")
+    return value
+
+
 def port(text: str) -> int:
     """A TCP port, 0 to 65535 (0: a free one, where the command says so)."""
     try:

@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
+from labsim.runtime import options
 from labsim.runtime.stats import comparison
 from labsim.runtime.summary_json import check_json_output
 from labsim.runtime.sweep import (
@@ -214,7 +215,7 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
     sweep.add_argument("-o", "--output", metavar="CSV", help="write one row per run to this CSV file")
     sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
     sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
-    sweep.add_argument("--timeout-per-run", type=float, metavar="S", dest="timeout",
+    sweep.add_argument("--timeout-per-run", type=options.run_timeout_s, metavar="S", dest="timeout",
                        help="stop a run after S seconds of real time; its row says timeout")
     sweep.add_argument("--memory-per-run", type=int, metavar="MB", dest="memory_mb", default=DEFAULT_MEMORY_MB,
                        help="limit each local worker process's memory (address space) to MB, where the "

@@ -22,7 +22,10 @@ VARIES = {"wall_time_s", "real_time_factor"}  # the only figures that differ bet
 
 
 def cli(capsys, *args: str) -> tuple[int, str, str]:
-    code = main(list(args))
+    try:
+        code = main(list(args))
+    except SystemExit as e:  # argparse's own refusal of an option's value
+        code = int(e.code or 0)
     out, err = capsys.readouterr()
     assert "Traceback" not in out + err
     return code, out, err
@@ -85,7 +88,8 @@ def test_settings_and_seeds_parse() -> None:
     (["--set", "front=1", "--set", "front=2"], "this parameter is set twice"),
     (["--seeds", "5-1"], "is not a range of seeds"),
     (["-j", "0"], "-j: error: give 1 or more processes"),
-    (["--timeout-per-run", "0"], "give a positive number of seconds"),
+    (["--timeout-per-run", "0"], "argument --timeout-per-run: give from 0.01 to 86400 seconds (a day), not 0"),
+    (["--timeout-per-run", "1e308"], "give from 0.01 to 86400 seconds (a day), not 1e308"),
     (["--executor", "dask"], "needs --scheduler tcp://HOST:8786"),
     (["--scheduler", "tcp://x:1"], "only --executor dask takes a scheduler"),
     (["-o", "/no/such/dir/r.csv"], "folder '/no/such/dir' does not exist"),
