@@ -42,6 +42,7 @@ from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
 from labsim.runtime.budgets import RunWatch
+from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.summary import Summary, fleet_value
 from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
@@ -470,19 +471,21 @@ class Run:
         limit = self.budgets.ticks if max_ticks is None else min(max_ticks, self.budgets.ticks)
         tick = self.tick
         try:
-            while True:
-                end = min(limit, self.tick_index + 256)
-                while self.tick_index < end:
-                    if not tick():
+            with CallbackInterrupts() as caught:  # an interrupt inside a C callback still ends the run
+                while True:
+                    end = min(limit, self.tick_index + 256)
+                    while self.tick_index < end:
+                        if not tick():
+                            break
+                    caught.check()
+                    if self.finished or (max_ticks is not None and self.tick_index >= max_ticks):
                         break
-                if self.finished or (max_ticks is not None and self.tick_index >= max_ticks):
-                    break
-                self.over_budget = watch.check(self.tick_index, self.trace)
-                if self.over_budget:
-                    break
-                if progress is not None:
-                    progress(self.tick_index, self.tick_index * self.dt)
-            ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
+                    self.over_budget = watch.check(self.tick_index, self.trace)
+                    if self.over_budget:
+                        break
+                    if progress is not None:
+                        progress(self.tick_index, self.tick_index * self.dt)
+                ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             interrupted = True
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)

@@ -19,6 +19,7 @@ import csv
 import io
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,10 +92,25 @@ class TraceWriter:
             self._flushed = now
             self._guard(self._file.flush)
 
+    def _ticks_written(self, counted: int | None) -> int | None:
+        """The ticks the file holds rows of, read from its last row: exact whatever the moment
+        an interrupt came; ``counted`` if the file cannot say."""
+        try:
+            self._file.flush()
+            with open(self._out.partial, "rb") as f:
+                f.seek(max(0, f.seek(0, os.SEEK_END) - 65_536))
+                last = f.read().rstrip(b"\n").rsplit(b"\n", 1)[-1]
+            first = last.split(b",", 1)[0]
+            return int(first) + 1 if first.isdigit() else 0  # else the columns line: no row yet
+        except (OSError, ValueError):
+            return counted
+
     def close(self, ticks: int | None = None, interrupted: bool = True) -> None:
         """Write the footer and rename the trace into place; an unwritable footer leaves the rows."""
         if self._file.closed:
             return
+        if interrupted and not self.failed:  # a signal may land between a row and the count of it
+            ticks = self._ticks_written(ticks)
         footer = {"interrupted": interrupted, "ticks": ticks if ticks is not None else -1}
         try:
             if not self.failed:
