@@ -112,7 +112,9 @@ def draw_strip(width_px: int, robot: str, camera: Camera, frames: list[Shot],
     head_h, foot_h = round(34 * s), round(30 * s)
     img = np.full((head_h + tile_h + foot_h + pad, width_px, 3), PAPER, np.uint8)
     caption = (f"camera of {robot}: {camera.width_px} x {camera.height_px} px, {camera.fov_deg:g} deg wide, "
-               f"{camera.height_m:g} m up, {camera.pitch_deg:g} deg down; re-rendered from the trace's poses")
+               f"{camera.height_m:g} m up, {camera.pitch_deg:g} deg down"
+               + (f", rolled {camera.roll_deg:g} deg" if camera.roll_deg else "")
+               + "; re-rendered from the trace's poses")
     P.put(img, caption, (pad, round(22 * s)), P.text, INK, max_w=width_px - 2 * pad)
     for k, shot in enumerate(frames):
         x = pad + k * (tile_w + gap)
