@@ -62,6 +62,11 @@ class Camera:
     x_m: float = 0.2
     roll_deg: float = 0.0  # about the viewing axis; + turns the image's top towards the right
 
+    @property
+    def vertical_fov_deg(self) -> float:
+        half = math.atan(math.tan(math.radians(self.fov_deg) / 2) * self.height_px / self.width_px)
+        return math.degrees(2 * half)
+
 
 def upright(image: Any) -> Any:
     """A camera image (or an image made from one) as a person looks at it: top row first.
@@ -72,11 +77,6 @@ def upright(image: Any) -> Any:
     ``np.ascontiguousarray`` of it.
     """
     return image[::-1]
-
-    @property
-    def vertical_fov_deg(self) -> float:
-        half = math.atan(math.tan(math.radians(self.fov_deg) / 2) * self.height_px / self.width_px)
-        return math.degrees(2 * half)
 
 
 @dataclass(frozen=True)
