@@ -215,7 +215,8 @@ class GroundView:
 
     ``render(x_m, y_m, heading_rad, camera)`` gives the camera's image for a robot at that
     pose: a new ``height_px x width_px x 3`` uint8 RGB array per call, row 0 the bottom of the
-    picture (CoppeliaSim's order), column 0 the left. Build one with ``ground_view(ground)``, which shares textures.
+    picture (CoppeliaSim's order), column 0 the left. Build one with ``ground_view(ground)``,
+    which shares textures.
     """
 
     def __init__(self, ground: Ground):
