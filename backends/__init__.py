@@ -46,7 +46,7 @@ def load_backend(name: str, **options: object) -> Backend:
 
 def ground_camera(ground: Ground, backend: str = DEFAULT) -> Callable[[float, float, float, Camera], np.ndarray]:
     """A renderer of what a camera sees of ``ground``, as the backend ``backend`` draws it:
-    ``render(x_m, y_m, heading_rad, camera)`` -> RGB image (row 0 the far edge).
+    ``render(x_m, y_m, heading_rad, camera)`` -> RGB image (row 0 the bottom, CoppeliaSim's order).
 
     No scene is opened: ``labsim plot --camera`` re-renders a robot's frames from the poses of
     a finished run. Raises BackendError for a backend that cannot render a ground on its own.

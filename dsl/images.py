@@ -1,8 +1,12 @@
 """Image functions of the language, on NumPy arrays with OpenCV.
 
-Images are uint8 arrays, height x width (gray) or height x width x 3 (RGB), oriented as a
-person sees them: row 0 is the far edge, column 0 the left. Every function here is a few
-OpenCV or NumPy calls; none loops over pixels in Python.
+Images are uint8 arrays, height x width (gray) or height x width x 3 (RGB), in CoppeliaSim's
+row order: row 0 is the BOTTOM row of the picture (for a camera looking down and forward, the
+near edge of the floor), column 0 the left. That is the array ``sim.getVisionSensorImg``
+hands a script, so the functions here give a behaviour the numbers a CoppeliaSim script
+computes with OpenCV on the same camera, without a flip on either side (docs/decisions.md,
+"Camera images in CoppeliaSim's row order"). Every function here is a few OpenCV or NumPy
+calls; none loops over pixels in Python.
 """
 from __future__ import annotations
 
@@ -38,7 +42,8 @@ def invert(img: np.ndarray) -> np.ndarray:
 
 
 def crop(img: np.ndarray, x: float, y: float, w: float, h: float) -> np.ndarray:
-    """The w x h rectangle whose top-left pixel is (x, y), clipped to the image."""
+    """The w x h rectangle whose first pixel is (x, y): columns x.., rows y.. (rows count from
+    the bottom, so as a picture (x, y) is its bottom-left corner), clipped to the image."""
     x0, y0 = max(0, int(x)), max(0, int(y))
     x1, y1 = min(img.shape[1], int(x + w)), min(img.shape[0], int(y + h))
     if x1 <= x0 or y1 <= y0:
@@ -84,7 +89,7 @@ def _binary_moments(g: np.ndarray) -> dict[str, float]:
 def centroid(img: np.ndarray) -> tuple[float, float, bool]:
     """(x, y, found): the centre of mass of the set pixels, from the image moments.
 
-    x counts columns from the left, y rows from the top (far edge), in pixels. An image with
+    x counts columns from the left, y rows from the bottom (row 0), in pixels. An image with
     no set pixel has no centroid: the result is the image centre with found = false, and
     EmptyCentroid says so (the compiled call turns it into one warning).
     """

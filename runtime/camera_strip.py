@@ -20,7 +20,7 @@ import numpy as np
 from labsim.backends import BackendError, ground_camera
 from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
 from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.models import Camera
+from labsim.backends.scene.models import Camera, upright
 from labsim.backends.scene.world import World
 from labsim.dsl.compile import compile_file
 from labsim.runtime.map_frame import Figure
@@ -33,7 +33,7 @@ FRAMES = 5
 
 @dataclass(frozen=True)
 class Shot:
-    """One frame of the strip: when, where the robot was, and what its camera saw (BGR)."""
+    """One frame of the strip: when, where the robot was, and what its camera saw (BGR, upright)."""
 
     t_s: float
     x_m: float
@@ -94,7 +94,9 @@ def shots(trace: Trace, robot: str, world: World | None, frames: int = FRAMES) -
     out = []
     for i in picks:
         t, x, y, h = rows[i]
-        out.append(Shot(t, x, y, h, cv2.cvtColor(render(x, y, h, camera), cv2.COLOR_RGB2BGR)))
+        # rendered bottom row first, as CoppeliaSim sends it; the strip shows it upright
+        out.append(Shot(t, x, y, h, cv2.cvtColor(np.ascontiguousarray(upright(render(x, y, h, camera))),
+                                                 cv2.COLOR_RGB2BGR)))
     return camera, out
 
 
@@ -110,7 +112,9 @@ def draw_strip(width_px: int, robot: str, camera: Camera, frames: list[Shot],
     head_h, foot_h = round(34 * s), round(30 * s)
     img = np.full((head_h + tile_h + foot_h + pad, width_px, 3), PAPER, np.uint8)
     caption = (f"camera of {robot}: {camera.width_px} x {camera.height_px} px, {camera.fov_deg:g} deg wide, "
-               f"{camera.height_m:g} m up, {camera.pitch_deg:g} deg down; re-rendered from the trace's poses")
+               f"{camera.height_m:g} m up, {camera.pitch_deg:g} deg down"
+               + (f", rolled {camera.roll_deg:g} deg" if camera.roll_deg else "")
+               + "; re-rendered from the trace's poses")
     P.put(img, caption, (pad, round(22 * s)), P.text, INK, max_w=width_px - 2 * pad)
     for k, shot in enumerate(frames):
         x = pad + k * (tile_w + gap)

@@ -45,6 +45,7 @@ def project(x: float, y: float, heading: float, cam: Camera, gx: float, gy: floa
 
     Written from the definition, independently of the renderer's homography: the camera sits
     x_m ahead of the robot at height_m, looks along the heading, pitched down by pitch_deg.
+    Rows count from the bottom of the picture, as CoppeliaSim's do.
     """
     ch, sh = math.cos(heading), math.sin(heading)
     p = math.radians(cam.pitch_deg)
@@ -60,7 +61,7 @@ def project(x: float, y: float, heading: float, cam: Camera, gx: float, gy: floa
     f = (cam.width_px / 2) / math.tan(math.radians(cam.fov_deg) / 2)
     z = dot(v, forward)
     return (cam.width_px / 2 + f * dot(v, right) / z - 0.5,
-            cam.height_px / 2 - f * dot(v, up) / z - 0.5)
+            cam.height_px / 2 + f * dot(v, up) / z - 0.5)
 
 
 # --- what the image shows ---------------------------------------------------------------------
@@ -80,8 +81,8 @@ def test_on_a_straight_road_the_road_is_centred() -> None:
     # its edges are in view: floor on both sides, road in the middle
     assert not mask[0, 0] and not mask[0, -1] and mask[0, 64]
     assert not mask[-1, 0] and not mask[-1, -1] and mask[-1, 64]
-    # the road narrows towards the far edge (perspective)
-    assert mask[0].sum() < mask[40].sum() < mask[-1].sum()
+    # the road narrows towards the far edge, the last row (perspective)
+    assert mask[-1].sum() < mask[-41].sum() < mask[0].sum()
 
 
 def test_left_of_the_road_sees_it_in_the_right_half() -> None:
@@ -97,14 +98,14 @@ def test_left_of_the_road_sees_it_in_the_right_half() -> None:
     assert centroid(dark(img))[0] > 64 + 10
 
 
-def test_the_far_edge_is_row_zero() -> None:
+def test_the_near_edge_is_row_zero() -> None:
     rows = []
     for d in (0.7, 1.0, 1.5):
         view = GroundView(Ground(FLOOR, patches=(square(d, 0.0, 0.1),)))
         col, row = centroid(dark(view.render(0.0, 0.0, 0.0, CAM)))
         assert col == pytest.approx(63.5, abs=0.5)
         rows.append(row)
-    assert rows[0] > rows[1] > rows[2]  # further ahead is higher in the image
+    assert rows[0] < rows[1] < rows[2]  # further ahead is higher in the picture: a later row
 
 
 def test_left_is_column_zero() -> None:
@@ -179,11 +180,11 @@ def test_a_camera_looking_at_the_horizon_sees_sky_above_it() -> None:
     half = CAM.vertical_fov_deg / 2  # 30 degrees for a square 60-degree camera
     level = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(CAM, pitch_deg=0.0))
     h = CAM.height_px
-    # looking straight ahead, the upper half is sky and the lower half floor and road
-    assert (level[: h // 2 - 1] == SKY_RGB).all()
-    assert not (level[h // 2 + 1:] == SKY_RGB).all(axis=2).any()
+    # looking straight ahead, the upper half (the last rows) is sky, the lower half floor and road
+    assert (level[h // 2 + 1:] == SKY_RGB).all()
+    assert not (level[: h // 2 - 1] == SKY_RGB).all(axis=2).any()
     tilted = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(CAM, pitch_deg=half + 5))
-    assert not (tilted == SKY_RGB).all(axis=2).any()  # all floor once the top row looks down
+    assert not (tilted == SKY_RGB).all(axis=2).any()  # all floor once the top (last) row looks down
     with pytest.raises(ValueError, match="pitch_deg"):
         check_camera(dataclasses.replace(CAM, pitch_deg=-10.0))
 
@@ -201,7 +202,7 @@ def test_looking_straight_down() -> None:
     cam = dataclasses.replace(CAM, pitch_deg=90.0, x_m=0.0, height_m=1.0)
     view = GroundView(Ground(FLOOR, patches=(square(0.3, 0.0, 0.05),)))  # ahead of the robot
     col, row = centroid(dark(view.render(0.0, 0.0, 0.0, cam)))
-    assert col == pytest.approx(63.5, abs=0.5) and row < 63.5 - 10  # ahead is up in the image
+    assert col == pytest.approx(63.5, abs=0.5) and row > 63.5 + 10  # ahead is up in the picture
 
 
 # --- speed --------------------------------------------------------------------------------------
@@ -241,7 +242,7 @@ def test_backend_returns_the_camera_image_for_the_robots_pose() -> None:
         assert x == px
         assert np.array_equal(img, view.render(px, py, ph, CAM))
         # every robot starts on the road, heading along it: it sees road straight ahead
-        assert dark(img)[-1, 64]
+        assert dark(img)[0, 64]
     assert readings[0][0] is not readings[1][0]
 
 
@@ -283,25 +284,25 @@ def test_a_camera_rolled_180_sees_the_image_turned_upside_down() -> None:
     assert diff.max() <= 2  # the same floor sampled at the same points, within rounding
 
 
-def test_a_camera_rolled_90_puts_the_right_at_row_zero_and_the_far_at_the_left() -> None:
-    cam = dataclasses.replace(CAM, roll_deg=90.0)
+def test_a_camera_rolled_minus_90_puts_the_right_at_row_zero_and_the_far_at_the_right() -> None:
+    cam = dataclasses.replace(CAM, roll_deg=-90.0)
     view = GroundView(Ground(FLOOR, patches=(square(1.0, 0.2, 0.1),)))  # ahead, to the left
     col, row = centroid(dark(view.render(0.0, 0.0, 0.0, cam)))
-    assert row > 64 + 10  # left of the way ahead: the bottom rows
+    assert row > 64 + 10  # left of the way ahead: the last rows (the top of the picture)
     right = GroundView(Ground(FLOOR, patches=(square(1.0, -0.2, 0.1),)))
     assert centroid(dark(right.render(0.0, 0.0, 0.0, cam)))[1] < 63 - 10
     near = GroundView(Ground(FLOOR, patches=(square(0.7, 0.0, 0.1),)))
     far = GroundView(Ground(FLOOR, patches=(square(1.5, 0.0, 0.1),)))
-    assert centroid(dark(far.render(0.0, 0.0, 0.0, cam)))[0] < centroid(dark(near.render(0.0, 0.0, 0.0, cam)))[0]
-    # the unrolled image turned a quarter anticlockwise (the camera turned clockwise): its
-    # right column is the top row, its far row the left column; pixel for pixel, within rounding
+    assert centroid(dark(far.render(0.0, 0.0, 0.0, cam)))[0] > centroid(dark(near.render(0.0, 0.0, 0.0, cam)))[0]
+    # the unrolled array turned a quarter anticlockwise (np.rot90): its right column becomes
+    # row 0, its last row (the far edge) the right column; pixel for pixel, within rounding
     plain = view.render(0.0, 0.0, 0.0, CAM)
     assert np.abs(view.render(0.0, 0.0, 0.0, cam).astype(int) - np.rot90(plain).astype(int)).max() <= 2
 
 
 def test_a_rolled_camera_sees_sky_beyond_its_horizon() -> None:
-    cam = dataclasses.replace(CAM, pitch_deg=5.0, roll_deg=90.0)
+    cam = dataclasses.replace(CAM, pitch_deg=5.0, roll_deg=-90.0)
     img = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, cam)
     plain = GroundView(STRAIGHT).render(0.0, 0.0, 0.0, dataclasses.replace(cam, roll_deg=0.0))
     assert np.abs(img.astype(int) - np.rot90(plain).astype(int)).max() <= 2
-    assert (img[:, 0] == SKY_RGB).all() and (img[:, -1] != SKY_RGB).any()
+    assert (img[:, -1] == SKY_RGB).all() and (img[:, 0] != SKY_RGB).any()

@@ -124,7 +124,8 @@ def test_a_world_without_a_road_has_no_panel() -> None:
 
 def test_camera_frames_are_what_the_robot_saw() -> None:
     # the behaviour's cy is the row of the centroid of its thresholded camera image (the floor
-    # white, not inverted): the re-rendered frames give the same centroid at the same ticks
+    # white, not inverted): the re-rendered frames give the same centroid at the same ticks,
+    # once turned back from upright (the strip) to the camera's own rows, bottom first
     trace = read_trace(ROAD)
     camera, frames = shots(trace, "pioneer[3]", world_of(trace))
     assert (camera.width_px, camera.height_px, camera.fov_deg) == (128, 128, 40)
@@ -132,7 +133,7 @@ def test_camera_frames_are_what_the_robot_saw() -> None:
     ti, ri, ci = (trace.columns.index(c) for c in ("time", "robot", "cy"))
     for shot in frames:
         row = next(r for r in trace.rows if r[ri] == "pioneer[3]" and float(r[ti]) == shot.t_s)
-        lane = images.threshold(images.gray(cv2.cvtColor(shot.image, cv2.COLOR_BGR2RGB)), 20)
+        lane = images.threshold(images.gray(cv2.cvtColor(shot.image[::-1], cv2.COLOR_BGR2RGB)), 20)
         assert images.centroid(lane)[1] == pytest.approx(float(row[ci]), abs=1e-3), shot.t_s
 
 

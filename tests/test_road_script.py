@@ -2,9 +2,9 @@
 
 The script is written as for CoppeliaSim: two ``RemoteAPIClient`` instances (one steps the
 simulation, one serves the robots), one class per robot, ``sim.getVisionSensorImg``, the
-image reshaped to 128 x 128 x 3 and flipped to top-first, gray, ``cv2.threshold(gray, 20,
-225, 0)``, ``cv2.moments``, the PID on 64 - cy, stepping until 30 s. All five robots end on
-the road.
+image reshaped to 128 x 128 x 3 and used as it comes (no flip: labsim's rows run bottom
+first, as CoppeliaSim's do), gray, ``cv2.threshold(gray, 20, 225, 0)``, ``cv2.moments``, the
+PID on 64 - cy, stepping until 30 s. All five robots end on the road.
 """
 from __future__ import annotations
 

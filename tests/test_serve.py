@@ -180,7 +180,7 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     world = load_world(builtin_worlds()["road_compact"], Report())
     cam = Camera("camera", 32, 24, 60.0, 0.3, 45.0)
     model = dataclasses.replace(PIONEER_P3DX, cameras=(cam,))
-    pose = world.spawns[0] if world.spawns else Pose(0.0, 0.0, 0.0)
+    pose = Pose(-6.0, -14.6, 1.0)  # on the road near its left edge, looking off it to the left
     wire = Wire(Server(world, [RobotRequest("r", model, pose, ())], port=0))
     v = wire("sim.getObject", "/PioneerP3DX[0]/Vision_sensor")
     assert wire("sim.getVisionSensorResolution", v) == [32, 24]
@@ -196,7 +196,10 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     direct.step()
     (expected,), = direct.sense()
     direct.close()
-    assert img == np.ascontiguousarray(expected[::-1]).tobytes()  # CoppeliaSim: bottom row first
+    # CoppeliaSim's order, which is labsim's: bottom row first, so the same bytes, no flip
+    assert img == np.ascontiguousarray(expected).tobytes()
+    road = np.frombuffer(img, np.uint8).reshape(24, 32, 3).sum(axis=2) < 300
+    assert road[0].all() and road[-1].sum() < 8  # the near edge all road; the far one leaves it
     grey, _ = wire("sim.getVisionSensorImg", v, 1)
     assert len(grey) == 32 * 24
     # as CoppeliaSim: option 3 is grey and alpha, two bytes a pixel; a portion's reply still

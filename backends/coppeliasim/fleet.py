@@ -13,7 +13,7 @@ through the backend's ``connection``. A world's mechanism is ``mechanism``'s bus
 * ``sense`` reads only the channels the behaviour asked for, in one call per value: a sonar
   is ``sim.readProximitySensor`` (nothing detected: ``math.inf``, where CoppeliaSim says 0),
   ``x``/``y`` one ``sim.getObjectPosition``, ``heading`` one ``sim.getObjectOrientation``
-  (yaw), a camera ``sim.getVisionSensorImg`` flipped to row 0 = far edge. ``collided`` is
+  (yaw), a camera ``sim.getVisionSensorImg`` as it comes (rows bottom first, labsim's order too). ``collided`` is
   ``sim.checkCollision(robot, sim.handle_all)``, read every tick for every robot because the
   contact count of the summary is built from it (a contact = a tick on which it turns true).
   Road channels are computed here from the pose, as the embedded backend computes them.
@@ -214,8 +214,8 @@ class Fleet:
         for (_, slot), (img, (w, hgt)) in zip(r.cameras, got.images):
             import numpy as np  # only a behaviour with a camera needs it
 
-            # CoppeliaSim's rows run from the bottom up; labsim's row 0 is the far edge.
-            values[slot] = np.ascontiguousarray(np.frombuffer(img, np.uint8).reshape(hgt, w, 3)[::-1])
+            # CoppeliaSim's rows run from the bottom up, as labsim's do: no flip.
+            values[slot] = np.frombuffer(img, np.uint8).reshape(hgt, w, 3)
         self._collided(r, got.collision, first)
         if "collided" in slots:
             values[slots["collided"]] = r.touching

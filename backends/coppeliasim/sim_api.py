@@ -302,8 +302,8 @@ class SimApi:
         options = _int(args, 1, 0)
         w, h = obj.resolution
         seen = self.sim.sensed(obj)
-        # CoppeliaSim's buffer: RGB, rows from the bottom up (labsim: row 0 is the far edge, the top)
-        img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)[::-1]
+        # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
+        img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
         pos = args[3] if len(args) > 3 and args[3] else [0, 0]
         size = args[4] if len(args) > 4 and args[4] else [0, 0]
         try:

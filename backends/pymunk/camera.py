@@ -11,11 +11,15 @@ same world again reads it rather than drawing it.
 
 What the image shows, and what it does not:
 
-* RGB, ``height_px`` x ``width_px``, row 0 the far edge, column 0 the left: as a person sees it.
+* RGB, ``height_px`` x ``width_px``, column 0 the left, and row 0 the BOTTOM of the picture (the
+  near edge of the floor): CoppeliaSim's row order, the array ``sim.getVisionSensorImg`` hands a
+  script (docs/decisions.md, "Camera images in CoppeliaSim's row order"). Whatever shows a
+  frame to a person flips it upright (``upright``).
 * Only the ground. Walls, blocks and robots (this one and the others) are not drawn: the
   scene has no heights, and the labs that use cameras look down at the road.
 * Above the floor's horizon (and beyond ``FAR_M`` of floor) the image shows ``SKY_RGB``, a
-  light gray: a camera may look straight ahead. Only the rows that see floor are warped.
+  light gray: a camera may look straight ahead. Only the rows that see floor are warped; with
+  rows bottom first the sky is the image's last rows.
 * Bilinear sampling, no mipmapping: detail finer than a camera pixel aliases in the far rows.
 
 ``GroundView.render`` is called from the backend's generated ``sense()`` for each camera
@@ -210,8 +214,9 @@ class GroundView:
     """A ground drawn once, and cameras rendered from it.
 
     ``render(x_m, y_m, heading_rad, camera)`` gives the camera's image for a robot at that
-    pose: a new ``height_px x width_px x 3`` uint8 RGB array per call, row 0 the far edge,
-    column 0 the left. Build one with ``ground_view(ground)``, which shares textures.
+    pose: a new ``height_px x width_px x 3`` uint8 RGB array per call, row 0 the bottom of the
+    picture (CoppeliaSim's order), column 0 the left. Build one with ``ground_view(ground)``,
+    which shares textures.
     """
 
     def __init__(self, ground: Ground):
@@ -235,31 +240,33 @@ class GroundView:
         cp, sp = math.cos(p), math.sin(p)
         # Pixel (c, r) -> the ray's direction in a frame turned with the robot but not pitched
         # (x forward, y left, z up), for a robot heading along +x:
-        #   d = forward + xn * right - yn * up, xn = (c + 0.5 - w/2) / f, yn = (r + 0.5 - h/2) / f
-        # (pixel centres; yn grows downwards), with forward = (cp, 0, -sp), right = (0, -1, 0),
-        # up = (sp, 0, cp). As a matrix applied to (c, r, 1):
+        #   d = forward + xn * right - yn * up, xn = (c + 0.5 - w/2) / f, yn = (h/2 - r - 0.5) / f
+        # (pixel centres; rows count from the bottom, so yn, the picture's downwards, shrinks as
+        # r grows: the flip to CoppeliaSim's row order is folded in here and costs nothing per
+        # frame), with forward = (cp, 0, -sp), right = (0, -1, 0), up = (sp, 0, cp). As a matrix
+        # applied to (c, r, 1):
         # A roll turns right and up about forward: right' = cr right - sr up, up' = cr up + sr right.
-        k_inv = np.array([[1 / f, 0, (0.5 - w / 2) / f], [0, 1 / f, (0.5 - h / 2) / f], [0, 0, 1]])
+        k_inv = np.array([[1 / f, 0, (0.5 - w / 2) / f], [0, -1 / f, (h / 2 - 0.5) / f], [0, 0, 1]])
         right, up = np.array([0.0, -1.0, 0.0]), np.array([sp, 0.0, cp])
         roll = math.radians(camera.roll_deg)
         cr, sr = math.cos(roll), math.sin(roll)
         axes = np.column_stack((cr * right - sr * up, -(cr * up + sr * right), (cp, 0.0, -sp)))
         if roll:
             return self._plan_rolled(camera, axes @ k_inv)
-        # The first row that sees floor nearer than FAR_M: the rows above it are sky. The ray
-        # through row r (at the centre column) falls dz = -(sp + yn cp) per unit and goes
-        # forward (cp - yn sp); it meets the floor at horizontal distance h * forward / -dz.
-        first = 0
+        # The rows that see floor nearer than FAR_M come first (from the bottom); the rows above
+        # them are sky. The ray through row r (at the centre column) falls dz = -(sp + yn cp)
+        # per unit and goes forward (cp - yn sp); it meets the floor at horizontal distance
+        # h * forward / -dz.
+        floor = 0
         for r in range(h):
-            yn = (r + 0.5 - h / 2) / f
+            yn = (h / 2 - r - 0.5) / f
             dz = -(sp + yn * cp)
-            if dz < 0 and camera.height_m * (cp - yn * sp) / -dz <= FAR_M:
+            if not (dz < 0 and camera.height_m * (cp - yn * sp) / -dz <= FAR_M):
                 break
-            first = r + 1
-        # Warping only the floor rows: shift the output's rows down by `first`.
-        shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(first)], [0.0, 0.0, 1.0]])
-        plan = (axes @ k_inv @ shift, (w, h - first), float(camera.x_m), float(camera.height_m), first, None,
-                _sky_block(min(first, h), w))
+            floor = r + 1
+        # Warping only the floor rows, 0 to floor - 1: the sky fills the rest.
+        plan = (axes @ k_inv, (w, floor), float(camera.x_m), float(camera.height_m), floor, None,
+                _sky_block(h - floor, w))
         self._cameras[camera] = plan
         return plan
 
@@ -272,7 +279,7 @@ class GroundView:
         falls = d[2] < 0
         reach = camera.height_m * np.hypot(d[0], d[1]) / np.where(falls, -d[2], 1.0)
         sky = ~(falls & (reach <= FAR_M))
-        plan = (b, (w, h), float(camera.x_m), float(camera.height_m), 0, sky if sky.any() else None, None)
+        plan = (b, (w, h), float(camera.x_m), float(camera.height_m), h, sky if sky.any() else None, None)
         self._cameras[camera] = plan
         return plan
 
@@ -297,22 +304,22 @@ class GroundView:
     def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera) -> np.ndarray:
         """The camera's RGB image for a robot at (x_m, y_m) heading heading_rad."""
         plan = self._cameras.get(camera) or self._plan(camera)
-        first = plan[4]
-        if first >= camera.height_px:  # looking up at the sky
+        floor = plan[4]  # how many rows, from the bottom, see floor
+        if not floor:  # looking up at the sky
             return plan[6].copy()
         rgba = cv2.warpPerspective(
             self._rgba, self._homography(plan, x_m, y_m, heading_rad), plan[1],
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
             borderMode=cv2.BORDER_CONSTANT, borderValue=self._border,
         )
-        floor = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+        seen = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
         if plan[5] is not None:  # a rolled camera that sees the horizon
-            floor[plan[5]] = SKY_RGB
-        if not first:
-            return floor
+            seen[plan[5]] = SKY_RGB
+        if floor == camera.height_px:
+            return seen
         image = np.empty((camera.height_px, camera.width_px, 3), np.uint8)
-        image[:first] = plan[6]  # a block copy: broadcasting SKY_RGB costs 4 times as much
-        image[first:] = floor
+        image[:floor] = seen
+        image[floor:] = plan[6]  # a block copy: broadcasting SKY_RGB costs 4 times as much
         return image
 
     @property
@@ -357,7 +364,8 @@ def _drawn(ground: Ground) -> tuple[np.ndarray, float, float]:
 
 
 def _sky_block(rows: int, width: int) -> np.ndarray:
-    """The rows above a camera's horizon, made once per camera and copied into each frame."""
+    """The rows above a camera's horizon (the image's last rows), made once per camera and
+    copied into each frame."""
     block = np.empty((rows, width, 3), np.uint8)
     block[:] = SKY_RGB
     block.flags.writeable = False

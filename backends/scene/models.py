@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any
 
 
 class Kind(Enum):
@@ -20,7 +21,7 @@ class Kind(Enum):
     DISTANCE = "distance"  # metres; math.inf when nothing is detected
     NUMBER = "number"
     BOOL = "bool"
-    IMAGE = "image"  # numpy uint8 array, height x width x 3, RGB; row 0 is the far edge
+    IMAGE = "image"  # numpy uint8 array, height x width x 3, RGB; row 0 is the bottom (see Camera)
     JOINT = "joint"  # (position m or rad, velocity m/s or rad/s)
     FORCE = "force"  # (tension N,)
     BODY = "body"  # (x_m, z_m, angle_rad) in a mechanism's vertical plane
@@ -41,12 +42,15 @@ class Sonar:
 class Camera:
     """A forward-looking vision sensor on a robot, seeing the world's ground.
 
-    The image is RGB, ``height_px`` rows by ``width_px`` columns, oriented as a person sees
-    it: row 0 is the far edge, column 0 the left. The camera sits ``x_m`` ahead of the robot's
-    origin, ``height_m`` above the floor, looking forward and down by ``pitch_deg``, and turned
-    about its viewing axis by ``roll_deg``: positive turns the image's top edge towards the
-    robot's right, as seen from behind the camera (at 90 the rows run across the way ahead,
-    row 0 on the right).
+    The image is RGB, ``height_px`` rows by ``width_px`` columns, in CoppeliaSim's row order:
+    row 0 is the BOTTOM row of the picture (the near edge of the floor), column 0 the left.
+    It is the array ``sim.getVisionSensorImg`` hands a script, so a behaviour and a script
+    written for CoppeliaSim read the same numbers; whatever shows an image to a person turns
+    it upright with ``upright`` (docs/decisions.md, "Camera images in CoppeliaSim's row
+    order"). The camera sits ``x_m`` ahead of the robot's origin, ``height_m`` above the
+    floor, looking forward and down by ``pitch_deg``, and turned about its viewing axis by
+    ``roll_deg``: positive turns the picture's top edge towards the robot's right, as seen
+    from behind the camera (at -90 the rows run across the way ahead, row 0 on the right).
     """
 
     name: str  # channel name, e.g. "camera"
@@ -62,6 +66,17 @@ class Camera:
     def vertical_fov_deg(self) -> float:
         half = math.atan(math.tan(math.radians(self.fov_deg) / 2) * self.height_px / self.width_px)
         return math.degrees(2 * half)
+
+
+def upright(image: Any) -> Any:
+    """A camera image (or an image made from one) as a person looks at it: top row first.
+
+    Images run bottom row first, as CoppeliaSim sends them, so every picture shown to a
+    person (the live view, ``labsim plot --camera``, a written PNG) goes through this one
+    flip, and nothing a behaviour reads does. A view, not a copy: OpenCV wants
+    ``np.ascontiguousarray`` of it.
+    """
+    return image[::-1]
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from labsim.backends.scene.models import Kind, RobotModel
+from labsim.backends.scene.models import Kind, RobotModel, upright
 from labsim.backends.scene.world import World
 
 SCHEMA = 1  # the message schema version; docs/view.md describes it
@@ -115,10 +115,14 @@ def robot_doc(name: str, model: RobotModel | None, channels: tuple[str, ...]) ->
 
 
 def png_data_url(image: object) -> str | None:
-    """An image value (uint8 or bool, gray or RGB) as a PNG data: URL, or None if it is not one."""
+    """An image value (uint8 or bool, gray or RGB) as a PNG data: URL, or None if it is not one.
+
+    Turned upright: image values run bottom row first (CoppeliaSim's order), a page shows
+    them as a person sees the scene.
+    """
     if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or image.size == 0:
         return None
-    img = image
+    img = np.ascontiguousarray(upright(image))
     if img.dtype == np.bool_:
         img = img.astype(np.uint8) * 255
     elif img.dtype != np.uint8:
