@@ -204,3 +204,14 @@ def test_wall_animation_draws_the_walls_and_the_start(capsys, tmp_path: Path) ->
 
 def test_builtin_worlds_used_here_exist() -> None:
     assert {"road_loop", "walls_lab4"} <= set(builtin_worlds())
+
+
+def test_camera_strip_says_how_to_let_it_read_a_behaviour_outside_the_traces_folder(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    lab = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(lab), "--set", "seconds=0.5", "--trace", "road.csv", "-q"]) == 0
+    assert main(["plot", "road.csv", "--camera", "pioneer[1]", "-o", "road.png"]) == 2
+    err = capsys.readouterr().err
+    assert f"--allow-path {lab.parent}" in err and "outside the trace's folder" in err
+    assert main(["plot", "road.csv", "--camera", "pioneer[1]", "-o", "road.png", "--allow-path", str(lab.parent)]) == 0
