@@ -22,6 +22,8 @@ import pymunk
 from compare import compare, labsim_scene, labsim_side
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
+from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
+
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
@@ -46,8 +48,17 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     sonars = {s.name: s for s in model.sonars}
     rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
              sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
+    # The rays in the backend's groups (six: right 8 9 5, left 2 15, 14 alone), each group
+    # under one test of the circle that holds its rays: when no shape comes into the circle,
+    # none of its rays can hit, and they read inf without being cast.
+    groups = []
+    for members in ray_groups(tuple(SonarRay(x, y, ux * reach, uy * reach, reach) for x, y, ux, uy, reach in rays)):
+        cx, cy, circle = enclosing_circle([SonarRay(rays[i][0], rays[i][1], rays[i][2] * rays[i][4],
+                                                    rays[i][3] * rays[i][4], rays[i][4]) for i in members])
+        groups.append((cx, cy, circle, [(i, *rays[i]) for i in members]))
     # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
-    # result struct for the ray casts, and the wheel drive as a C velocity callback.
+    # result struct for the ray casts and one for the groups' tests, and the wheel drive as a
+    # C velocity callback.
     ray_filter = ffi.new("cpShapeFilter *", (1, pymunk.ShapeFilter.ALL_CATEGORIES(), pymunk.ShapeFilter.ALL_MASKS()))[0]
     drive = [0.0, 0.0]  # forward speed m/s, turn rate rad/s
     cp_body, cp_space = body._body, space._space
@@ -74,6 +85,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
 
     space.on_collision(None, None, begin=begin, separate=separate)
     query, info = lib.cpSpaceSegmentQueryFirst, ffi.new("cpSegmentQueryInfo *")
+    crowded, nearest = lib.cpSpacePointQueryNearest, ffi.new("cpPointQueryInfo *")
     position, step = lib.cpBodyGetPosition, lib.cpSpaceStep
     inf = math.inf
 
@@ -89,12 +101,14 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         x, y = p.x, p.y
         a = get_angle(cp_body)
         c, s = cos(a), sin(a)
-        d = []
-        for mx, my, ux, uy, reach in rays:
-            ox, oy = x + c * mx - s * my, y + s * mx + c * my
-            hit = query(cp_space, (ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach), 0.0,
-                        ray_filter, info)
-            d.append(info.alpha * reach if hit else inf)
+        d = [inf] * 6
+        for cx, cy, circle, members in groups:
+            if crowded(cp_space, (x + c * cx - s * cy, y + s * cx + c * cy), circle, ray_filter, nearest):
+                for i, mx, my, ux, uy, reach in members:
+                    ox, oy = x + c * mx - s * my, y + s * mx + c * my
+                    hit = query(cp_space, (ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach),
+                                0.0, ray_filter, info)
+                    d[i] = info.alpha * reach if hit else inf
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(0, 100)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import random
 import subprocess
 import sys
 from pathlib import Path
@@ -13,9 +14,13 @@ import pymunk
 import pytest
 
 from labsim.backends import load_backend
+from labsim.backends.protocol import RobotRequest
 from labsim.backends.pymunk import camera, chipmunk
+from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
 from labsim.backends.scene import cache
 from labsim.backends.scene.ground import Ground, Road, RoadTracker
+from labsim.backends.scene.models import PIONEER_P3DX
+from labsim.backends.scene.world import Block, Pose, Wall, World
 from labsim.dsl import parse
 from labsim.dsl.builtins import _max, _min
 from labsim.dsl.codegen import _extreme
@@ -64,6 +69,70 @@ def test_rays_through_chipmunk_read_what_pymunks_wrapper_reads() -> None:
         assert (hit is None) == (not found)
         if hit is not None:
             assert info.alpha == hit.alpha
+
+
+def test_rays_cast_in_groups_read_what_casting_every_ray_reads(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Three robots reading all 16 sonars, in a shuffled order, at 300 random poses in a room
+    with a block (some overlapping a wall, a block or each other): sense() gives, bit for bit,
+    what casting every ray through pymunk's wrapper gives, and its groups' tests both skip and
+    cast rays."""
+    tests = {"made": 0, "empty": 0}
+    real = chipmunk.point_query_nearest
+
+    def counted(*args: object) -> object:
+        found = real(*args)
+        tests["made"] += 1
+        tests["empty"] += not found
+        return found
+
+    monkeypatch.setattr(chipmunk, "point_query_nearest", counted)
+    rng = random.Random(7)
+    sonars = [s.name for s in PIONEER_P3DX.sonars]
+    channels = [tuple(rng.sample(sonars, len(sonars))) for _ in range(3)]
+    walls = tuple(Wall(a, b, 0.1) for a, b in [((-3, -3), (3, -3)), ((3, -3), (3, 3)), ((3, 3), (-3, 3)),
+                                                ((-3, 3), (-3, -3))])
+    world = World("room", "a room with a block", (-3.0, -3.0, 3.0, 3.0), walls,
+                  (Block(((0.5, 0.5), (1.5, 0.5), (1.5, 1.0), (0.5, 1.0))),))
+    backend = load_backend("pymunk")
+    backend.open(world, [RobotRequest(f"p[{i}]", PIONEER_P3DX, Pose(-2.0 + i, -2.0, 0.0), channels[i])
+                         for i in range(3)], 0.05, 1)
+    space, bodies = backend.space, backend.bodies
+    by_name = {s.name: s for s in PIONEER_P3DX.sonars}
+    for _ in range(300):
+        for body in bodies:
+            body.position = (rng.uniform(-3.2, 3.2), rng.uniform(-3.2, 3.2))
+            body.angle = rng.uniform(-4.0, 4.0)
+            space.reindex_shapes_for_body(body)
+        got = backend.sense()
+        for r, body in enumerate(bodies):
+            (x, y), a = body.position, body.angle
+            c, s = math.cos(a), math.sin(a)
+            want = []
+            for name in channels[r]:
+                n = by_name[name]
+                ex, ey = n.range_m * math.cos(n.angle_rad), n.range_m * math.sin(n.angle_rad)
+                ox, oy = x + c * n.x_m - s * n.y_m, y + s * n.x_m + c * n.y_m
+                hit = space.segment_query_first((ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0,
+                                                pymunk.ShapeFilter(group=r + 1))
+                want.append(hit.alpha * n.range_m if hit is not None else math.inf)
+            assert got[r] == want
+    backend.close()
+    assert 0 < tests["empty"] < tests["made"], tests
+
+
+def test_the_pioneers_ring_of_sonars_makes_four_groups_of_four() -> None:
+    rays = tuple(SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad), s.range_m * math.sin(s.angle_rad),
+                          s.range_m) for s in PIONEER_P3DX.sonars)
+    groups = [[PIONEER_P3DX.sonars[k].name for k in group] for group in ray_groups(rays)]
+    assert groups == [["sonar12", "sonar11", "sonar10", "sonar8"], ["sonar9", "sonar7", "sonar6", "sonar5"],
+                      ["sonar4", "sonar3", "sonar2", "sonar1"], ["sonar16", "sonar15", "sonar14", "sonar13"]]
+    for group in ray_groups(rays):  # each circle holds its rays' ends
+        cx, cy, radius = enclosing_circle([rays[k] for k in group])
+        for k in group:
+            ray = rays[k]
+            for x, y in [(ray.mount_x_m, ray.mount_y_m), (ray.mount_x_m + ray.end_dx_m, ray.mount_y_m + ray.end_dy_m)]:
+                assert math.hypot(x - cx, y - cy) < radius
+        assert radius < 0.9
 
 
 def test_wheel_drive_without_run_time_callbacks_moves_the_robot_the_same(monkeypatch: pytest.MonkeyPatch) -> None:

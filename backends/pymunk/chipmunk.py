@@ -25,6 +25,7 @@ from pymunk._chipmunk_cffi import ffi, lib
 # The C functions a generated sense() and the wheel drive call, as module constants: a
 # lookup on ``lib`` costs an attribute access per call.
 segment_query_first = lib.cpSpaceSegmentQueryFirst
+point_query_nearest = lib.cpSpacePointQueryNearest
 body_position = lib.cpBodyGetPosition
 body_angle = lib.cpBodyGetAngle
 body_velocity = lib.cpBodyGetVelocity
@@ -43,6 +44,11 @@ impulse = lib.cpConstraintGetImpulse
 def query_info() -> Any:
     """A result struct for ``segment_query_first``, made once and reused by every ray."""
     return ffi.new("cpSegmentQueryInfo *")
+
+
+def point_info() -> Any:
+    """A result struct for ``point_query_nearest``, made once and reused by every query."""
+    return ffi.new("cpPointQueryInfo *")
 
 
 def shape_filter(f: pymunk.ShapeFilter) -> Any:

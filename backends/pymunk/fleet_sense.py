@@ -5,6 +5,12 @@
 and ``compile_sense`` turns that into one function. It runs every tick, so its cost beyond the
 ray casts and camera frames themselves must stay near zero, so it reads bodies and casts rays
 through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
+
+A robot's rays are cast in groups (``ray_groups``): the rays whose directions lie within a
+quarter turn of each other share one circle that holds them all, and one point query asks
+whether any shape comes into it. Mostly none does (a robot near a wall has it on one side),
+and then every ray of the group reads ``inf`` without being cast. The test is conservative,
+so the readings are those of casting every ray, bit for bit.
 """
 from __future__ import annotations
 
@@ -59,6 +65,15 @@ class SensePlan:
     specs: tuple[Spec, ...]
 
 
+# Rays whose directions lie within this angle of a group's first ray join its group.
+GROUP_SPREAD_RAD = math.pi / 2
+# ... up to this many rays. Four neighbouring sonars of the Pioneer's ring fit a circle of
+# 0.86 m; a larger group's circle is seldom empty (measured in docs/decisions.md §24).
+GROUP_SIZE = 4
+# Added to a group's circle, in metres: far beyond the rounding of the poses and ray ends
+# (about 1e-15 of the coordinates), so a shape the circle misses cannot touch a ray.
+CIRCLE_MARGIN_M = 1e-6
+
 _SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
 _CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
 
@@ -98,9 +113,18 @@ def compile_sense(
             v0_0 = info.alpha * 1.0 if hit else inf
             return [[v0_0, touching[0] > 0]]
 
+    With two sonars or more in a group, their casts go under one test of the group's circle::
+
+            if near(space, (x0 + c * 0.05 - s * 0.64, y0 + s * 0.05 + c * 0.64), 0.51, filter0, nearest):
+                ... (each ray as above)
+            else:
+                v0_0 = v0_1 = inf
+
     ``body0`` is the robot's ``cpBody *``, ``query`` chipmunk's ``cpSpaceSegmentQueryFirst``
-    writing into one reused ``info`` struct, and ``filter0`` the robot's shape filter as a C
-    struct: the same calls pymunk's wrappers make, without their allocations (measured in
+    writing into one reused ``info`` struct, ``near`` its ``cpSpacePointQueryNearest`` (the
+    nearest shape less than the radius away, or NULL), and ``filter0`` the robot's shape
+    filter as a C struct, so a group's test skips the same shapes as its rays: the same calls
+    pymunk's wrappers make, without their allocations (measured in
     ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
     the literals change no reading. Cameras
     call ``render(x, y, angle, camera)``; road channels call ``tracker.offset`` once per robot;
@@ -109,7 +133,8 @@ def compile_sense(
     """
     env: dict[str, object] = {
         "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
-        "info": chipmunk.query_info(), "position": chipmunk.body_position, "angle": chipmunk.body_angle,
+        "info": chipmunk.query_info(), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
+        "position": chipmunk.body_position, "angle": chipmunk.body_angle,
         "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
         "touching": touching, "abs": abs, "render": render, "laps": laps,
         "offset": tracker.offset if tracker is not None else None,
@@ -139,21 +164,15 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
+    for group in ray_groups(specs):
+        lines += _group_lines(r, group, specs)
     values = []
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
             env[f"cam{r}_{k}"] = spec.camera
             lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k})")
             values.append(f"v{r}_{k}")
-        elif isinstance(spec, SonarRay):
-            mx, my, ex, ey, rng = spec.mount_x_m, spec.mount_y_m, spec.end_dx_m, spec.end_dy_m, spec.range_m
-            lines += [
-                f"    ox = x{r} + c * {mx!r} - s * {my!r}",
-                f"    oy = y{r} + s * {mx!r} + c * {my!r}",
-                f"    hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
-                f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
-                f"    v{r}_{k} = info.alpha * {rng!r} if hit else inf",
-            ]
+        elif isinstance(spec, SonarRay):  # cast above, by its group
             values.append(f"v{r}_{k}")
         elif spec == "forward_speed":
             lines += [
@@ -169,3 +188,67 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
                 "laps": f"laps[{r}]",
             }[spec])
     return values
+
+
+def ray_groups(specs: tuple[Spec, ...]) -> list[list[int]]:
+    """The indices of the sonar specs, in groups that share one test of their circle.
+
+    The rays are taken in the order of their directions (from -180 to 180 degrees in the robot
+    frame); a ray joins the group before it while that group has fewer than ``GROUP_SIZE``
+    rays and the ray's direction is within ``GROUP_SPREAD_RAD`` of the group's first ray's,
+    and starts a new group otherwise. The Pioneer's ring of 16 sonars makes four groups of
+    four, one per quarter of the ring.
+    """
+    rays = sorted((k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)),
+                  key=lambda k: _direction(cast(SonarRay, specs[k])))
+    groups: list[list[int]] = []
+    for k in rays:
+        direction = _direction(cast(SonarRay, specs[k]))
+        first = _direction(cast(SonarRay, specs[groups[-1][0]])) if groups else math.nan
+        if groups and len(groups[-1]) < GROUP_SIZE and direction - first <= GROUP_SPREAD_RAD:
+            groups[-1].append(k)
+        else:
+            groups.append([k])
+    return groups
+
+
+def enclosing_circle(rays: list[SonarRay]) -> tuple[float, float, float]:
+    """A circle in the robot frame that holds every point of these rays: centre x, y and radius.
+
+    Its centre is the middle of the box around the rays' ends; a ray is a segment, so a circle
+    that holds both of its ends holds all of it. The radius includes ``CIRCLE_MARGIN_M``.
+    """
+    ends = [(ray.mount_x_m, ray.mount_y_m) for ray in rays]
+    ends += [(ray.mount_x_m + ray.end_dx_m, ray.mount_y_m + ray.end_dy_m) for ray in rays]
+    xs, ys = [x for x, _ in ends], [y for _, y in ends]
+    cx, cy = (min(xs) + max(xs)) / 2.0, (min(ys) + max(ys)) / 2.0
+    return cx, cy, max(math.hypot(x - cx, y - cy) for x, y in ends) + CIRCLE_MARGIN_M
+
+
+def _direction(ray: SonarRay) -> float:
+    return math.atan2(ray.end_dy_m, ray.end_dx_m)
+
+
+def _ray_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
+    mx, my, ex, ey, rng = ray.mount_x_m, ray.mount_y_m, ray.end_dx_m, ray.end_dy_m, ray.range_m
+    return [
+        f"{indent}ox = x{r} + c * {mx!r} - s * {my!r}",
+        f"{indent}oy = y{r} + s * {mx!r} + c * {my!r}",
+        f"{indent}hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
+        f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
+        f"{indent}v{r}_{k} = info.alpha * {rng!r} if hit else inf",
+    ]
+
+
+def _group_lines(r: int, group: list[int], specs: tuple[Spec, ...]) -> list[str]:
+    """The lines that cast robot r's rays of one group (a lone ray is cast without a test)."""
+    rays = [cast(SonarRay, specs[k]) for k in group]
+    if len(group) == 1:
+        return _ray_lines(r, group[0], rays[0], "    ")
+    cx, cy, radius = enclosing_circle(rays)
+    lines = [f"    if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
+             f"{radius!r}, filter{r}, nearest):"]
+    for k, ray in zip(group, rays):
+        lines += _ray_lines(r, k, ray, "        ")
+    lines += ["    else:", f"        {' = '.join(f'v{r}_{k}' for k in group)} = inf"]
+    return lines
