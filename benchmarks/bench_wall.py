@@ -48,13 +48,13 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     sonars = {s.name: s for s in model.sonars}
     rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
              sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
-    # The rays in the backend's groups (six: right 8 9 5, left 2 15, 14 alone), each group
+    # The rays in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
     # under one test of the circle that holds its rays: when no shape comes into the circle,
     # none of its rays can hit, and they read inf without being cast.
+    as_specs = tuple(SonarRay(x, y, ux * reach, uy * reach, reach) for x, y, ux, uy, reach in rays)
     groups = []
-    for members in ray_groups(tuple(SonarRay(x, y, ux * reach, uy * reach, reach) for x, y, ux, uy, reach in rays)):
-        cx, cy, circle = enclosing_circle([SonarRay(rays[i][0], rays[i][1], rays[i][2] * rays[i][4],
-                                                    rays[i][3] * rays[i][4], rays[i][4]) for i in members])
+    for members in ray_groups(as_specs):
+        cx, cy, circle = enclosing_circle([as_specs[i] for i in members])
         groups.append((cx, cy, circle, [(i, *rays[i]) for i in members]))
     # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
     # result struct for the ray casts and one for the groups' tests, and the wheel drive as a
