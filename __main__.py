@@ -1,4 +1,4 @@
 """``python -m labsim``: the same command line as the ``labsim`` script."""
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 raise SystemExit(main())

@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 from labsim.backends import load_backend
-from labsim.runtime.cli import main as cli
+from labsim.runtime.cli.main import main as cli
 from labsim.runtime.run import compile_behaviour
 
 LABS = Path(__file__).resolve().parent.parent / "behaviours"

@@ -26,7 +26,7 @@ LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 # (Linux reports ru_maxrss in KiB, macOS in bytes).
 CHILD = """
 import contextlib, io, resource, sys
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 with contextlib.redirect_stdout(io.StringIO()):
     code = main(sys.argv[1:])
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

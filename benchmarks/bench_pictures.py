@@ -21,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import children_cpu, machine
 
-from labsim.runtime.cli import main as labsim
+from labsim.runtime.cli.main import main as labsim
 
 LABS = Path(__file__).resolve().parent.parent / "behaviours"
 CASES = [("road lab, 30 s, MP4", "road_follow.golden.csv", "road.mp4", []),

@@ -16,7 +16,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import machine
 
-from labsim.runtime.plot import plot_trace
+from labsim.runtime.pictures.plot import plot_trace
 
 TRACE = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.golden.csv"
 

@@ -24,7 +24,7 @@ import statistics
 import time
 from pathlib import Path
 
-from labsim.runtime.sweep import Row, Task, grid, inspect_files, parse_setting
+from labsim.runtime.sweep.grid import Row, Task, grid, inspect_files, parse_setting
 
 LAB = str(Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml")
 
@@ -63,7 +63,7 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=25)
     parser.add_argument("--no-dask", action="store_true")
     args = parser.parse_args()
-    from labsim.runtime.pool import LocalPool
+    from labsim.runtime.sweep.pool import LocalPool
 
     work, info = tasks(args.runs, args.minutes)
     print(f"wall lab, {args.minutes:g} simulated minutes, {args.runs} seeds; "
@@ -81,7 +81,7 @@ def main() -> None:
     except ImportError:
         print("dask: skipped (pip install 'labsim[dask]')")
         return
-    from labsim.runtime.dask_pool import DaskPool
+    from labsim.runtime.sweep.dask_pool import DaskPool
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
                       silence_logs=50) as cluster:

@@ -3,7 +3,7 @@
 ``labsim.dsl.parse`` builds these frozen dataclasses from lark's tree; nothing of lark leaks
 past it. Every node carries ``span``, the (start, end) character offsets of its text inside
 the string it came from; spans are excluded from equality and repr so tests can compare trees
-by structure. ``labsim.backends.scene.source.Text`` maps a span back to the file's line and column.
+by structure. ``labsim.foundation.source.Text`` maps a span back to the file's line and column.
 """
 from __future__ import annotations
 

@@ -5,14 +5,14 @@ is itself quadratic) and before anything is simulated, each at its place in the 
 robots at the group that goes past the budget, the pixels at the camera, the segments at
 ``world:``. The other budgets (ticks, trace size) are the tick loop's
 (``labsim.runtime.run``). The budgets are the caller's, never the file's: see
-``labsim.backends.scene.limits.Budgets``.
+``labsim.foundation.limits.Budgets``.
 """
 from __future__ import annotations
 
-from labsim.backends.scene.diagnostics import Report
-from labsim.backends.scene.limits import Budgets
 from labsim.backends.scene.world import World
 from labsim.dsl.check import Checked
+from labsim.foundation.diagnostics import Report
+from labsim.foundation.limits import Budgets
 
 
 def check_budgets(c: Checked, budgets: Budgets, report: Report) -> None:

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
-from labsim.backends.scene.numbers import WHOLE_LIMIT
+from labsim.foundation.numbers import WHOLE_LIMIT
 
 
 class Type(Enum):

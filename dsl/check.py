@@ -21,13 +21,9 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode, Node
 
-from labsim.backends.scene.diagnostics import Diagnostic, Report, did_you_mean
-from labsim.backends.scene.ground import world_channels
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
-from labsim.backends.scene.numbers import TOO_LARGE, NumberError, to_float
-from labsim.backends.scene.source import Place, Text
-from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world import World, builtin_worlds, world_channels
 from labsim.dsl import ast
 from labsim.dsl.builtins import (
     ACTIONS,
@@ -45,6 +41,9 @@ from labsim.dsl.builtins import (
 )
 from labsim.dsl.infer import ExprChecker, arity_message
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
+from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
+from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
+from labsim.foundation.source import Place, Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
@@ -283,8 +282,8 @@ class _Checker(ExprChecker):
                     return
 
     def world(self) -> World | None:
-        from labsim.backends.scene.files import policy_notes, policy_problem
         from labsim.backends.scene.world_file import load_world  # late: world files use this package too
+        from labsim.foundation.files import policy_notes, policy_problem
 
         bf = self.bf
         if bf.world_node is None:
@@ -532,7 +531,7 @@ def _missing(path: Path) -> str | None:
     except (FileNotFoundError, NotADirectoryError):
         return ""
     except OSError as e:
-        from labsim.backends.scene.files import os_words
+        from labsim.foundation.files import os_words
 
         name = str(path.name)
         shown = name if len(name) <= 80 else f"{name[:60]}... ({len(name)} characters)"

@@ -26,14 +26,14 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
-from labsim.backends.scene.numbers import WHOLE_LIMIT
-from labsim.backends.scene.source import Text
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
 from labsim.dsl.check import Checked
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.source import Text
 
 INF = math.inf
 

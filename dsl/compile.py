@@ -1,6 +1,6 @@
 """A behaviour file in, a sealed ``Program`` out: the language's pipeline, end to end.
 
-One stage per module: ``labsim.backends.scene.source.load`` (YAML with positions) ->
+One stage per module: ``labsim.foundation.source.load`` (YAML with positions) ->
 ``labsim.dsl.read`` (the file's sections, rule strings parsed by ``labsim.dsl.parse`` into
 ``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint``
 (warnings, on a file without errors) -> ``labsim.dsl.codegen``
@@ -19,10 +19,6 @@ from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
-from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
-from labsim.backends.scene.numbers import WHOLE_LIMIT
-from labsim.backends.scene.source import load
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.budget import check_budgets
 from labsim.dsl.check import Checked, check
@@ -32,6 +28,10 @@ from labsim.dsl.lint import lint
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
 from labsim.dsl.stop import check_stop
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.source import load
 
 
 def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,

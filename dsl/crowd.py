@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import math
 
-from labsim.backends.scene.diagnostics import Report
 from labsim.dsl.check import Checked
+from labsim.foundation.diagnostics import Report
 
 
 def check_crowd(c: Checked, report: Report) -> None:

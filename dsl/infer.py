@@ -12,12 +12,12 @@ import difflib
 
 from yaml.nodes import Node
 
-from labsim.backends.scene.diagnostics import Report, did_you_mean
-from labsim.backends.scene.numbers import WHOLE_LIMIT
-from labsim.backends.scene.source import Document, Place, Text
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, Type
 from labsim.dsl.read import Parsed
+from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.source import Document, Place, Text
 
 
 class ExprChecker:

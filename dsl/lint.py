@@ -17,13 +17,13 @@ import operator
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.mechanism import JointSpec
 from labsim.backends.scene.models import Kind
-from labsim.backends.scene.source import Place, Text
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, STATEFUL
 from labsim.dsl.check import Checked
+from labsim.foundation.diagnostics import Report
+from labsim.foundation.source import Place, Text
 
 # Names whose value changes continuously, for ==/!= (channels of these kinds join them).
 CONTINUOUS_VARIABLES = frozenset({"time", "state_time"})

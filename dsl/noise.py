@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from yaml.nodes import Node
 
-from labsim.backends.scene.source import Reader
+from labsim.foundation.source import Reader
 
 NOISE_KEYS = ("sonar", "camera", "wheels")
 SONAR_NOISE_KEYS = ("std_m", "dropout")

@@ -19,9 +19,9 @@ from lark import __version__ as lark_version
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 from lark.tree import Meta
 
-from labsim.backends.scene.cache import cache_dir
-from labsim.backends.scene.numbers import NumberError, to_float
 from labsim.dsl import ast
+from labsim.foundation.cache import cache_dir
+from labsim.foundation.numbers import NumberError, to_float
 
 MAX_DEPTH = 100  # deeper expressions are refused: nobody writes them, and they'd exhaust the stack
 
@@ -39,7 +39,7 @@ def _parser() -> Lark:
     # The basic lexer keeps keywords keywords everywhere: lark's contextual lexer would read
     # `then` in `if a and then ...` as a name.
     # Building the LALR tables takes 60-70 ms, a third of a cold `labsim check`: lark keeps
-    # them in a file in labsim's cache folder (labsim.backends.scene.cache). The file starts
+    # them in a file in labsim's cache folder (labsim.foundation.cache). The file starts
     # with a hash of the grammar and the options, which lark checks before it uses it, and
     # lark rebuilds the tables when the file is missing, stale, unreadable or cannot be
     # written; without a cache folder nothing is kept.

@@ -21,12 +21,12 @@ from dataclasses import dataclass, field
 from types import CodeType
 from typing import Any, cast
 
-from labsim.backends.scene.diagnostics import Diagnostic
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.noise import Noise
 from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
+from labsim.foundation.diagnostics import Diagnostic
 
 Setting = tuple[str, float]  # a slider and the value it takes
 TimelineEvent = tuple[float, tuple[Setting, ...]]  # at time_s, these settings

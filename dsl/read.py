@@ -20,16 +20,16 @@ from typing import Any
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene import object_paths
-from labsim.backends.scene.diagnostics import Report, did_you_mean
-from labsim.backends.scene.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.models import Camera
-from labsim.backends.scene.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
-from labsim.backends.scene.source import Document, Reader, Text, scalar_value, shape_of
 from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
 from labsim.dsl import ast
 from labsim.dsl.noise import Noise, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
+from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
+from labsim.foundation.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
+from labsim.foundation.source import Document, Reader, Text, scalar_value, shape_of
 
 FORMAT_VERSION = 1
 

@@ -9,10 +9,10 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 """
 from __future__ import annotations
 
-from labsim.backends.scene.limits import MAX_DT_S, MIN_DT_S
 from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text
 from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
+from labsim.foundation.limits import MAX_DT_S, MIN_DT_S
 
 EXPRESSION: Schema = {"type": ["string", "number", "boolean"]}
 

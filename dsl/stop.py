@@ -5,14 +5,14 @@ What is seen before the run, and no more: a condition whose value is known (``st
 ``tick`` (never negative) with a value known before the run that no time reaches
 (``time < 0``, ``tick <= -1``, ``0 > time``); ``and`` fails when one part never holds, ``or``
 when every part never holds. A condition that merely takes long (``time >= 1e9``) is left to
-the tick budget (``labsim.backends.scene.limits.Budgets.ticks``).
+the tick budget (``labsim.foundation.limits.Budgets.ticks``).
 """
 from __future__ import annotations
 
-from labsim.backends.scene.diagnostics import Report
 from labsim.dsl import ast
 from labsim.dsl.check import Checked
 from labsim.dsl.lint import Linter
+from labsim.foundation.diagnostics import Report
 
 CLOCKS = ("time", "tick")  # names that start at 0 and only grow
 _FLIP = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}

@@ -19,9 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from labsim.backends.scene.diagnostics import Diagnostic
 from labsim.backends.scene.models import RobotModel
 from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type
+from labsim.foundation.diagnostics import Diagnostic
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
     import numpy as np

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from labsim.backends import DEFAULT, load_backend
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.labs import behaviour_path
 from labsim.runtime.run import Behaviour
 from labsim.runtime.run import compile_behaviour as _compile

@@ -12,7 +12,7 @@ import math
 import time as clock
 from collections.abc import Callable
 
-from labsim.backends.scene.limits import Budgets
+from labsim.foundation.limits import Budgets
 
 ESTIMATE_AFTER_S = 2.0  # wall time measured before the rate is trusted for an estimate
 

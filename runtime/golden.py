@@ -19,8 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import check_output
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.files import check_output
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary import Summary
 from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace

@@ -16,7 +16,7 @@ from pathlib import Path
 import yaml
 
 import labsim
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, did_you_mean
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
 
 LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
 GOLDEN_SUFFIX = ".golden.csv"

@@ -32,8 +32,6 @@ from pathlib import Path
 
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.limits import DEFAULT_BUDGETS, Budgets
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import BUILTIN_DIR, PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.builtins import Type
@@ -41,6 +39,8 @@ from labsim.dsl.compile import compile_file
 from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program, RobotProgram
 from labsim.dsl.support import STATE, Faults, FaultSite, metric_result
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.budgets import RunWatch
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, robot_noise

@@ -1,7 +1,7 @@
 """What a run did: the ``Summary`` the tick loop hands back, and the fleet's view of a metric.
 
 ``labsim.runtime.run`` fills a ``Summary`` at the end of a run; the text summary
-(``labsim.runtime.report``), the JSON one (``labsim.runtime.summary_json``), goldens and
+(``labsim.runtime.cli.report``), the JSON one (``labsim.runtime.summary_json``), goldens and
 sweeps read it. Nothing here runs anything.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """A run's summary as JSON: what ``labsim run --json`` writes and what each sweep row carries.
 
-The text summary (runtime/report.py) is for people; this is the same figures for programs,
+The text summary (runtime/cli/report.py) is for people; this is the same figures for programs,
 versioned (``"schema": "labsim-summary"``, ``"version": SCHEMA_VERSION``) and documented in
 docs/summary-json.md. JSON has no infinity or NaN (a sonar that sees nothing reads ``inf``;
 ``nan`` is a defined fault result), so non-finite numbers are written as the strings
@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from labsim import __version__
-from labsim.backends.scene.diagnostics import Diagnostic
-from labsim.backends.scene.files import check_output, write_output
+from labsim.foundation.diagnostics import Diagnostic
+from labsim.foundation.files import check_output, write_output
 from labsim.runtime.run import Run
 from labsim.runtime.summary import Summary
 
@@ -111,7 +111,7 @@ def dumps(data: dict[str, Any]) -> str:
 
 
 def write(data: dict[str, Any], path: str | Path) -> None:
-    """Written beside the target and renamed into place (backends/scene/files.py)."""
+    """Written beside the target and renamed into place (foundation/files.py)."""
     write_output(path, dumps(data))
 
 

@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
-from labsim.backends.scene.files import Output, read_input, write_error
-from labsim.backends.scene.numbers import WHOLE_LIMIT, NumberError, to_float
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.files import Output, read_input, write_error
+from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
 
 FORMAT = 1
 MAGIC = "# labsim-trace "
@@ -260,7 +260,7 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
         for event in text.split(";") if text else ():
             name, eq, value = event.partition("=")
             if eq and not event.startswith("log: "):
-                try:  # the one rule for numbers (labsim.backends.scene.numbers), as for a file's
+                try:  # the one rule for numbers (labsim.foundation.numbers), as for a file's
                     number = to_float(value)
                 except NumberError as e:
                     why = f"is a {e}" if str(e).startswith("number too large") else str(e)

@@ -27,8 +27,8 @@ from hypothesis import strategies as st
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.diagnostics import LabsimError
 from labsim.dsl.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
+from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary_json import summary_dict
 

@@ -26,8 +26,8 @@ from fuzz_inputs import generated, mutated, run_input
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.world import World
+from labsim.foundation.diagnostics import Report
 
 
 def _where(e: BaseException) -> str:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import cbor2
 
-from labsim.backends.coppeliasim.sim_api import FUNCTIONS, UNSUPPORTED
+from labsim.runtime.serve.sim_api import FUNCTIONS, UNSUPPORTED
 
 Frames = list[bytes]
 

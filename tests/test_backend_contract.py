@@ -19,10 +19,10 @@ from fake_backend import FakeBackend
 
 from labsim.backends import REGISTRY, load_backend
 from labsim.backends.protocol import Backend, BackendError, BackendStateError, ContactStats, RobotRequest
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.backends.scene.world import Pose, Wall, World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
 
 DT = 0.05
 WORLD = World("box", "a 6 m box", (-3, -3, 3, 3), walls=(
@@ -68,7 +68,7 @@ def serve() -> Iterator[Callable[[str], int]]:
                 pytest.importorskip("zmq")
                 pytest.importorskip("cbor2")
                 pytest.importorskip("coppeliasim_zmqremoteapi_client")
-                from labsim.backends.coppeliasim.server import Server
+                from labsim.runtime.serve.server import Server
 
                 world, robots = SCENES[scene]
                 robot_count = sum(r.model is not None for r in robots)

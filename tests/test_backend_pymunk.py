@@ -397,9 +397,9 @@ def test_public_space_and_bodies() -> None:
 # --- forward speed and road channels ----------------------------------------------------------
 
 def road_compact() -> World:
-    from labsim.backends.scene.diagnostics import Report
     from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.world_file import load_world
+    from labsim.foundation.diagnostics import Report
     world = load_world(builtin_worlds()["road_compact"], Report())
     assert world is not None
     return world

@@ -12,11 +12,11 @@ import pytest
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
 from labsim.backends.pymunk.camera import SKY_RGB, GroundView, check_camera, draw_ground, ground_view
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import Ground, Line, Patch, Road
 from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.scene.world import Pose, World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
 
 FLOOR = (205, 205, 200)
 DARK = (25, 25, 25)

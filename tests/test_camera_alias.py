@@ -11,11 +11,11 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS
 
-from labsim.backends.coppeliasim import scene_tree
-from labsim.backends.coppeliasim.server import Server
 from labsim.backends.protocol import RobotRequest
 from labsim.dsl.compile import compile_file
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
+from labsim.runtime.serve import scene_tree
+from labsim.runtime.serve.server import Server
 
 
 def _lab(tmp_path: Path, paths: str = "") -> Path:

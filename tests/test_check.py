@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 from conftest import FIXTURES, expectations
 
-from labsim.backends.scene.diagnostics import LabsimError
 from labsim.dsl.compile import compile_file
+from labsim.foundation.diagnostics import LabsimError
 
 ERROR_FIXTURES = sorted(FIXTURES.glob("*_with_error.yaml"))
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from conftest import BEHAVIOURS, FIXTURES, expectations
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 

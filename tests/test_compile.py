@@ -15,12 +15,12 @@ import yaml
 from conftest import BEHAVIOURS, FIXTURES
 
 import labsim.dsl.program
-from labsim.backends.scene.source import Document, Text
 from labsim.dsl.check import Checked
 from labsim.dsl.compile import compile_file
 from labsim.dsl.read import BehaviourFile, Parsed
 from labsim.dsl.support import FIRST_CHANNEL, Faults
-from labsim.runtime.cli import main
+from labsim.foundation.source import Document, Text
+from labsim.runtime.cli.main import main
 
 
 def program(write, lets: str, params: str = "{}", stop: str = "time >= 1"):

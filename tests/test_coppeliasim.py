@@ -24,13 +24,13 @@ from conftest import BEHAVIOURS  # noqa: E402
 from test_serve import PATH_ERROR, PATIENCE_S, _serve, _stop  # noqa: E402
 
 from labsim.backends import load_backend  # noqa: E402
-from labsim.backends.coppeliasim.server import STOPPED, Server  # noqa: E402
 from labsim.backends.protocol import BackendError, RobotRequest  # noqa: E402
-from labsim.backends.scene.diagnostics import Report  # noqa: E402
 from labsim.backends.scene.models import PIONEER_P3DX  # noqa: E402
 from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
-from labsim.runtime.cli import main  # noqa: E402
+from labsim.foundation.diagnostics import Report  # noqa: E402
+from labsim.runtime.cli.main import main  # noqa: E402
+from labsim.runtime.serve.server import STOPPED, Server  # noqa: E402
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 WALLS = load_world(builtin_worlds()["walls_lab4"], Report())
@@ -280,7 +280,7 @@ def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
 
 
 def test_the_embedded_path_never_imports_the_client() -> None:
-    code = ("import sys, labsim.runtime.cli, labsim.backends.pymunk.backend, labsim.backends.coppeliasim; "
+    code = ("import sys, labsim.runtime.cli.main, labsim.backends.pymunk.backend, labsim.backends.coppeliasim; "
             "assert not {'zmq', 'cbor2', 'coppeliasim_zmqremoteapi_client'} & set(sys.modules)")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=PATIENCE_S)
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from conftest import BEHAVIOURS
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 SHORT = ["--set", "minutes=2", "-q"]

@@ -1,4 +1,4 @@
-"""The one way in, the one way out and the access policy (backends/scene/files.py), and the
+"""The one way in, the one way out and the access policy (foundation/files.py), and the
 goldens they must leave byte-identical."""
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from labsim.backends.scene.diagnostics import LabsimError
-from labsim.backends.scene.files import (
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import (
     Output,
     allowing,
     check_output,

@@ -15,7 +15,7 @@ from conftest import BEHAVIOURS, trace_rows
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 
 def _trips(out: str) -> float:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from conftest import ROOT
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 WORLD = ROOT / "backends" / "scene" / "worlds" / "walls_lab4.yaml"
 LAB = """labsim: 1

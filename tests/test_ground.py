@@ -7,20 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from labsim.backends.scene.diagnostics import Report
-from labsim.backends.scene.ground import (
-    ROAD_CHANNELS,
-    Ground,
-    Line,
-    Patch,
-    Road,
-    RoadTracker,
-    first_road,
-    world_channels,
-)
+from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, Line, Patch, Road, RoadTracker
 from labsim.backends.scene.models import Kind
-from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world import World, builtin_worlds, first_road, world_channels
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
 
 CHORD_M = 1e-3  # arcs are chords within 0.5 mm of their circle
 

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from labsim.backends.scene.diagnostics import LabsimError
-from labsim.backends.scene.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
-from labsim.backends.scene.source import MAX_DEPTH
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
+from labsim.foundation.source import MAX_DEPTH
 from labsim.runtime.api import run
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import Trace, TraceFormatError, slider_events
@@ -150,7 +150,7 @@ def test_a_seed_given_to_the_library_is_checked_like_the_files(write, seed: int)
 
 @pytest.mark.parametrize("text", [f"0-{2 ** 53 + 1}", "9" * 5000])
 def test_sweep_seeds_beyond_2_to_the_53_are_refused(text: str) -> None:
-    from labsim.runtime.sweep import parse_seeds
+    from labsim.runtime.sweep.grid import parse_seeds
 
     with pytest.raises(LabsimError, match="seeds"):
         parse_seeds(text)

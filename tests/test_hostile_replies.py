@@ -21,7 +21,7 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 from conftest import BEHAVIOURS  # noqa: E402
 from test_serve import _serve, _stop  # noqa: E402
 
-from labsim.runtime.cli import main  # noqa: E402
+from labsim.runtime.cli.main import main  # noqa: E402
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 NAN = math.nan

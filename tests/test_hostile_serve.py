@@ -27,12 +27,12 @@ zmq = pytest.importorskip("zmq")
 
 from hostile_serve import ANSWERED, CASES, CLEAN, DROPPED, RET, VERSION, Case, Err, req  # noqa: E402
 
-from labsim.backends.coppeliasim.scene_tree import glob_match  # noqa: E402
-from labsim.backends.coppeliasim.server import Server  # noqa: E402
-from labsim.backends.coppeliasim.wire_limits import MAX_ITEMS, MAX_MESSAGE_BYTES, refusal  # noqa: E402
-from labsim.backends.scene.diagnostics import Report  # noqa: E402
 from labsim.backends.scene.world import builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
+from labsim.foundation.diagnostics import Report  # noqa: E402
+from labsim.runtime.serve.scene_tree import glob_match  # noqa: E402
+from labsim.runtime.serve.server import Server  # noqa: E402
+from labsim.runtime.serve.wire_limits import MAX_ITEMS, MAX_MESSAGE_BYTES, refusal  # noqa: E402
 
 PATIENCE_S = 60.0
 DROP_WAIT_MS = 1000  # how long a dropped case listens for a stray reply (it must not be a 'ret')

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from fake_backend import FakeBackend
 
-from labsim.backends.scene.diagnostics import LabsimError
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.dsl import images
 from labsim.dsl.support import pid_step
-from labsim.runtime.report import format_summary
+from labsim.foundation.diagnostics import LabsimError
+from labsim.runtime.cli.report import format_summary
 from labsim.runtime.run import compile_behaviour
 
 CAMERA = "camera: {resolution: [8, 6], fov_deg: 60, height_m: 0.3, pitch_deg: 45}"

@@ -7,7 +7,7 @@ import pytest
 from conftest import BEHAVIOURS
 
 from labsim.backends import load_backend
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from conftest import BEHAVIOURS, LabRun
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.summary import Summary
 
 LAB = BEHAVIOURS / "road_follow.yaml"

@@ -5,7 +5,7 @@ import pytest
 from conftest import BEHAVIOURS, LabRun
 
 from labsim.backends import load_backend
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.run import compile_behaviour
 
 LAB = BEHAVIOURS / "wall_follow.yaml"

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import labsim
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.labs import LABS_DIR, behaviour_path, labs
 
 LAB_NAMES = ["crane", "road_follow", "wall_follow"]

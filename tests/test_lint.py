@@ -7,7 +7,7 @@ import pytest
 from conftest import BEHAVIOURS, FIXTURES, expectations
 
 from labsim.dsl.compile import compile_file
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 WARNING_FIXTURES = sorted(FIXTURES.glob("*_with_warning.yaml"))
 

@@ -18,12 +18,12 @@ from typing import Any
 import pytest
 
 from labsim.backends.pymunk.mechanism import MechanismError, MechanismScene
-from labsim.backends.scene.diagnostics import LabsimError, Report
 from labsim.backends.scene.mechanism import BodySpec, JointSpec, Mechanism, MotorSpec
 from labsim.backends.scene.mechanism_file import read_mechanism
-from labsim.backends.scene.source import loads
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import LabsimError, Report
+from labsim.foundation.source import loads
 
 G = 9.81
 LOAD_KG = 200.0

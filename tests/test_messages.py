@@ -11,7 +11,7 @@ from conftest import FIXTURES, ROOT
 
 from labsim.backends import load_backend
 from labsim.dsl.compile import compile_file
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.run import Run
 
 

@@ -16,8 +16,8 @@ from conftest import FIXTURES
 
 from labsim.backends import load_backend
 from labsim.dsl.noise import Noise
+from labsim.runtime.cli.report import format_summary
 from labsim.runtime.noise import NoisyIO, RobotNoise
-from labsim.runtime.report import format_summary
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 
@@ -191,7 +191,7 @@ def test_the_docs_noise_example_runs(write) -> None:
 
 
 def test_the_json_summary_has_each_robots_noise(capsys: pytest.CaptureFixture[str]) -> None:
-    from labsim.runtime.cli import main
+    from labsim.runtime.cli.main import main
 
     assert main(["run", str(FIXTURES / "noise.yaml"), "-q", "--json"]) == 0
     robot = json.loads(capsys.readouterr().out)["robots"]["pioneer"]

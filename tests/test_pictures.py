@@ -9,15 +9,15 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.world_file import load_world
-from labsim.runtime.animate import frame_times
-from labsim.runtime.cli import main
-from labsim.runtime.mechanism_pose import mechanism_poses
-from labsim.runtime.paint import robot_colour
-from labsim.runtime.plot import render_figure
-from labsim.runtime.signals import default_signals
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.cli.main import main
+from labsim.runtime.pictures.animate import frame_times
+from labsim.runtime.pictures.mechanism_pose import mechanism_poses
+from labsim.runtime.pictures.paint import robot_colour
+from labsim.runtime.pictures.plot import render_figure
+from labsim.runtime.pictures.signals import default_signals
 from labsim.runtime.trace import Trace, read_trace
 from tests.test_plot import straight, write_trace
 

@@ -13,12 +13,12 @@ import pytest
 
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.dsl import images
-from labsim.runtime.camera_strip import shots
-from labsim.runtime.cli import main
-from labsim.runtime.paint import PAPER, WALL, Painter, robot_colour
-from labsim.runtime.plot import render_figure, resolve_world, robot_paths
-from labsim.runtime.road_panel import draw_road_panel, road_curves
-from labsim.runtime.signals import chart_figure
+from labsim.runtime.cli.main import main
+from labsim.runtime.pictures.camera_strip import shots
+from labsim.runtime.pictures.paint import PAPER, WALL, Painter, robot_colour
+from labsim.runtime.pictures.plot import render_figure, resolve_world, robot_paths
+from labsim.runtime.pictures.road_panel import draw_road_panel, road_curves
+from labsim.runtime.pictures.signals import chart_figure
 from labsim.runtime.trace import FORMAT, Trace, TraceWriter, read_trace
 
 LABS = Path(__file__).resolve().parents[1] / "behaviours"

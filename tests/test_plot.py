@@ -1,4 +1,4 @@
-"""labsim.runtime.plot: traces drawn to scale over their world, checked pixel by pixel."""
+"""labsim.runtime.pictures.plot: traces drawn to scale over their world, checked pixel by pixel."""
 from __future__ import annotations
 
 import math
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from labsim.backends.scene.world import builtin_worlds
-from labsim.runtime.paint import robot_colour
-from labsim.runtime.plot import plot_trace, render_figure, resolve_world, robot_paths
+from labsim.runtime.pictures.paint import robot_colour
+from labsim.runtime.pictures.plot import plot_trace, render_figure, resolve_world, robot_paths
 from labsim.runtime.trace import FORMAT, TraceFormatError, TraceWriter, read_trace
 
 COLUMNS = ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",

@@ -1,4 +1,4 @@
-"""The pytest plugin (runtime/pytest_plugin.py): golden traces collected and run as pytest items."""
+"""The pytest plugin (runtime/cli/pytest_plugin.py): golden traces collected and run as pytest items."""
 from __future__ import annotations
 
 import shutil
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from labsim.runtime import cli
+from labsim.runtime.cli import main as cli
 
 pytest_plugins = ["pytester"]
 

@@ -21,10 +21,10 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from test_serve import PATIENCE_S, _serve
 
-from labsim.backends.scene.diagnostics import Report
-from labsim.backends.scene.ground import RoadTracker, first_road
-from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.ground import RoadTracker
+from labsim.backends.scene.world import builtin_worlds, first_road
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
 
 SCRIPT = Path(__file__).parent / "fixtures" / "road_script.py"
 

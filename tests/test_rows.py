@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from labsim.backends import ground_camera
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.ground import Ground, Patch
 from labsim.backends.scene.models import Camera, upright
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.world_file import load_world
 from labsim.dsl import images
 from labsim.dsl.compile import compile_file
-from labsim.runtime.camera_strip import shots
-from labsim.runtime.plot import resolve_world
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.pictures.camera_strip import shots
+from labsim.runtime.pictures.plot import resolve_world
 from labsim.runtime.trace import read_trace
 from labsim.runtime.view.frames import png_data_url
 

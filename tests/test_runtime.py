@@ -6,7 +6,7 @@ import math
 from fake_backend import FakeBackend
 
 from labsim.backends import load_backend
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 

@@ -12,13 +12,13 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS, trace_rows
 
-from labsim.backends.coppeliasim.scene_builder import camera_matrix
-from labsim.backends.coppeliasim.server import Server
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
-from labsim.runtime.cli import main
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.builder.scene import camera_matrix
+from labsim.runtime.cli.main import main
+from labsim.runtime.serve.server import Server
 
 
 def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int, tmp_path: Path, capsys) -> None:
@@ -36,7 +36,7 @@ def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
 def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
     """Walls (rounded ends), a box and the bounds come back exactly from the cuboids and plane."""
     from labsim.backends.coppeliasim.connection import Connection
-    from labsim.backends.coppeliasim.scene_builder import build
+    from labsim.runtime.builder.scene import build
 
     world = load_world(builtin_worlds()["walls_lab4"], Report())
     with Server(World("none", "", (0, 0, 1, 1)), 0, port=0, empty=True) as srv:

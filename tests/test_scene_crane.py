@@ -12,11 +12,11 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 from conftest import BEHAVIOURS, trace_rows
 from test_serve import _serve, _stop
 
-from labsim.backends.coppeliasim.server import Server
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.world import World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
-from labsim.runtime.cli import main
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.cli.main import main
+from labsim.runtime.serve.server import Server
 
 CRANE = BEHAVIOURS / "crane.yaml"
 
@@ -24,7 +24,7 @@ CRANE = BEHAVIOURS / "crane.yaml"
 def test_the_built_crane_is_the_world_files_mechanism() -> None:
     """What labsim scene sends comes back as the world file's mechanism, number for number."""
     from labsim.backends.coppeliasim.connection import Connection
-    from labsim.backends.coppeliasim.scene_builder import build
+    from labsim.runtime.builder.scene import build
 
     world = load_world(builtin_worlds()["crane"], Report())
     assert world is not None and world.mechanism is not None

@@ -10,7 +10,7 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from conftest import BEHAVIOURS
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 
 LAB = BEHAVIOURS / "wall_follow.yaml"
 

@@ -13,8 +13,8 @@ import yaml
 from labsim.backends.scene import mechanism_file, world_file
 from labsim.backends.scene.schema import SchemaDrift, mapping
 from labsim.dsl import noise, read
-from labsim.runtime import cli
-from labsim.runtime.schemas import MODELINE, file_name, schema, schema_text
+from labsim.runtime.cli import main as cli
+from labsim.runtime.cli.schemas import MODELINE, file_name, schema, schema_text
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = ROOT / "tests" / "fixtures"

@@ -26,12 +26,12 @@ cbor2 = pytest.importorskip("cbor2")
 zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from labsim.backends.coppeliasim.server import Server  # noqa: E402
 from labsim.backends.protocol import RobotRequest  # noqa: E402
-from labsim.backends.scene.diagnostics import Report  # noqa: E402
 from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
 from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
+from labsim.foundation.diagnostics import Report  # noqa: E402
+from labsim.runtime.serve.server import Server  # noqa: E402
 
 LAB = load_world(builtin_worlds()["walls_lab4"], Report())
 PATIENCE_S = 60.0  # how long a test waits for a process or an answer before calling it hung

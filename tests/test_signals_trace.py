@@ -15,10 +15,10 @@ import pandas as pd
 import pytest
 import zmq
 
-from labsim.backends.coppeliasim.server import Server
-from labsim.backends.scene.diagnostics import Report
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.serve.server import Server
 from labsim.runtime.trace import read_trace
 
 PATIENCE_S = 60.0  # how long a test waits for a process before calling it hung

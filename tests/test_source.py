@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from labsim.backends.scene.diagnostics import LabsimError
-from labsim.backends.scene.source import MAX_BYTES, load, loads
 from labsim.dsl.compile import compile_file
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.source import MAX_BYTES, load, loads
 
 HEAD = "labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
 

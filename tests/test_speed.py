@@ -17,7 +17,6 @@ from labsim.backends import load_backend
 from labsim.backends.protocol import RobotRequest
 from labsim.backends.pymunk import camera, chipmunk
 from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
-from labsim.backends.scene import cache
 from labsim.backends.scene.ground import Ground, Road, RoadTracker
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.backends.scene.world import Block, Pose, Wall, World
@@ -25,6 +24,7 @@ from labsim.dsl import parse
 from labsim.dsl.builtins import _max, _min
 from labsim.dsl.codegen import _extreme
 from labsim.dsl.images import centroid
+from labsim.foundation import cache
 from labsim.runtime.run import compile_behaviour
 
 LABS = Path(__file__).resolve().parent.parent / "behaviours"

@@ -10,7 +10,7 @@ from test_memory import run_example
 
 from labsim.backends import load_backend
 from labsim.dsl.compile import compile_file
-from labsim.runtime.report import format_summary
+from labsim.runtime.cli.report import format_summary
 from labsim.runtime.run import Run
 
 MARK = """labsim: {version}

@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 from conftest import BEHAVIOURS, FIXTURES
 
-from labsim.backends.scene.diagnostics import LabsimError
-from labsim.runtime import sweep_driver
-from labsim.runtime.cli import main
-from labsim.runtime.stats import describe, welch
+from labsim.foundation.diagnostics import LabsimError
+from labsim.runtime.cli.main import main
 from labsim.runtime.summary_json import SCHEMA_VERSION, decode_number, number
-from labsim.runtime.sweep import INTERRUPTED, OK, Row, Task, parse_seeds, parse_setting, run_task
+from labsim.runtime.sweep import driver as sweep_driver
+from labsim.runtime.sweep.grid import INTERRUPTED, OK, Row, Task, parse_seeds, parse_setting, run_task
+from labsim.runtime.sweep.stats import describe, welch
 
 LAB = str(BEHAVIOURS / "wall_follow.yaml")
 SHORT = ["--set", "minutes=0.5"]  # 600 ticks: a few hundredths of a second a run
@@ -210,7 +210,7 @@ def test_ctrl_c_writes_the_rows_done_so_far(capsys, tmp_path: Path, monkeypatch)
 def test_the_progress_bar_counts_runs_and_failures() -> None:
     import io
 
-    from labsim.runtime.sweep_output import SweepProgress
+    from labsim.runtime.sweep.output import SweepProgress
 
     stream = io.StringIO()
     bar = SweepProgress(4, stream)

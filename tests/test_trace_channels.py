@@ -17,7 +17,7 @@ import pytest
 from labsim.backends.protocol import RobotRequest
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.backends.scene.world import Pose
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.trace import read_trace
 
 POSE = ("x", "y", "heading", "collided")
@@ -45,10 +45,10 @@ def port() -> Iterator[int]:
     pytest.importorskip("zmq")
     pytest.importorskip("cbor2")
     pytest.importorskip("coppeliasim_zmqremoteapi_client")
-    from labsim.backends.coppeliasim.server import Server
-    from labsim.backends.scene.diagnostics import Report
     from labsim.backends.scene.world import builtin_worlds
     from labsim.backends.scene.world_file import load_world
+    from labsim.foundation.diagnostics import Report
+    from labsim.runtime.serve.server import Server
 
     with Server(load_world(builtin_worlds()["walls_lab4"], Report()), 1, port=0) as srv:
         yield srv.port

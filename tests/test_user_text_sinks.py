@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 # the package: its top-level modules and its three folders (not tests, benchmarks, nor any
 # virtual environment or build folder that may sit in the checkout)
-PACKAGE_DIRS = ("dsl", "runtime", "backends")
+PACKAGE_DIRS = ("foundation", "dsl", "runtime", "backends")
 RE_FUNCS = {"compile", "match", "fullmatch", "search", "sub", "subn", "split", "findall", "finditer"}
 ATTR_FUNCS = {"getattr", "setattr", "hasattr", "delattr"}
 
@@ -35,19 +35,19 @@ ALLOWED: dict[tuple[str, str], str] = {
         "module __getattr__: name is an attribute Python looks up on labsim, checked against __all__",
     ("backends/__init__.py", "getattr(importlib.import_module(module_name), attribute)"):
         "the backend registry's own entries (module:attribute), not user text",
-    ("backends/coppeliasim/mechanism_edit.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/mechanism_edit.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
         "names from MECHANISM_CALLS, a constant tuple, never from a request",
-    ("backends/coppeliasim/mechanism_edit.py", "getattr(self, '_own_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/mechanism_edit.py", "getattr(self, '_own_' + name.removeprefix('sim.'))"):
         "names from WRAPPED, a constant tuple, never from a request",
-    ("backends/coppeliasim/script_host.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/script_host.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
         "names from SCRIPT_CALLS, a constant tuple, never from a request",
-    ("backends/coppeliasim/script_host.py", "getattr(self, '_own_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/script_host.py", "getattr(self, '_own_' + name.removeprefix('sim.'))"):
         "names from the three literals of wrap(), never from a request",
-    ("backends/coppeliasim/scene_edit.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/scene_edit.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
         "names from the module's fixed table of functions, never from a request",
-    ("backends/coppeliasim/sim_api.py", "getattr(self, '_sim_' + name.removeprefix('sim.'))"):
+    ("runtime/serve/sim_api.py", "getattr(self, '_sim_' + name.removeprefix('sim.'))"):
         "names from FUNCTIONS, a constant tuple; a request's func is looked up in the dict built here",
-    ("backends/coppeliasim/sim_api.py", "getattr(motor, mode, True)"):
+    ("runtime/serve/sim_api.py", "getattr(motor, mode, True)"):
         "mode is one of two literals chosen by the handler",
     ("backends/pymunk/fleet_sense.py", "exec(compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec'), env)"):
         "code generated from the models' channel tables, no user text",
@@ -67,11 +67,11 @@ ALLOWED: dict[tuple[str, str], str] = {
         "repr() literals and checked identifiers",
     ("dsl/codegen.py", "compile(source, filename, 'exec')"):
         "the generated module (see dsl/program.py below)",
-    ("backends/scene/diagnostics.py", "d.format()"): DIAGNOSTIC,
+    ("foundation/diagnostics.py", "d.format()"): DIAGNOSTIC,
     ("dsl/support.py", "head.format()"): DIAGNOSTIC,
-    ("runtime/pytest_plugin.py", "d.format()"): DIAGNOSTIC,
+    ("runtime/cli/pytest_plugin.py", "d.format()"): DIAGNOSTIC,
     ("runtime/summary_json.py", "d.format()"): DIAGNOSTIC,
-    ("runtime/sweep.py", "errors[0].format()"): DIAGNOSTIC,
+    ("runtime/sweep/grid.py", "errors[0].format()"): DIAGNOSTIC,
     ("runtime/view/live.py", "d.format()"): DIAGNOSTIC,
 }
 
@@ -159,8 +159,8 @@ def test_the_scan_flags_each_shape() -> None:
 def test_the_issues_injection_strings_are_refused_by_check(tmp_path: Path) -> None:
     """Each injection of the report is a positioned error of labsim check, not a crash, a
     KeyError, a memory address or a 300 MB path."""
-    from labsim.backends.scene.diagnostics import LabsimError
     from labsim.dsl.compile import compile_file
+    from labsim.foundation.diagnostics import LabsimError
 
     injections = {
         "robot": ["/P{x}", "{0}x{1}", "/P{i.__class__.__mro__[1].__subclasses__}", "/P{i:>300000000}",
@@ -223,10 +223,10 @@ def test_the_python_api_refuses_a_bad_template_with_a_backend_error() -> None:
 
     from labsim.backends.coppeliasim.fleet import _paths
     from labsim.backends.protocol import BackendError, RobotRequest
-    from labsim.backends.scene.diagnostics import Report
     from labsim.backends.scene.models import PIONEER_P3DX
     from labsim.backends.scene.world import Pose, builtin_worlds
     from labsim.backends.scene.world_file import load_world
+    from labsim.foundation.diagnostics import Report
 
     world = load_world(builtin_worlds()["walls_lab4"], Report())
     ok = RobotRequest("pioneer", PIONEER_P3DX, Pose(0, 0, 0), ("sonar1",))

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from labsim.runtime.cli import main
+from labsim.runtime.cli.main import main
 from labsim.runtime.trace import read_trace
 from labsim.runtime.view.frames import SCHEMA
 from labsim.runtime.view.live import ChangeRefused, LiveSession
@@ -366,8 +366,8 @@ def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
 def test_a_live_view_through_labsim_serve_sees_the_embedded_run(tmp_path: Path) -> None:
     # --backend coppeliasim: the page's run goes through the ZMQ remote API (here to the
     # stand-in server for the behaviour's scene) and shows what the embedded run shows
-    from labsim.backends.coppeliasim.server import Server
     from labsim.runtime.run import compile_behaviour
+    from labsim.runtime.serve.server import Server
 
     program = compile_behaviour(WALL).program
     with Server(program.world, 1, port=0) as srv:

@@ -32,10 +32,10 @@ from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.coppeliasim.frames import yaw
 from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
-from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker, first_road, world_channels
+from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.object_paths import PLACEHOLDERS, fill, problem
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import World, first_road, world_channels
 
 
 @dataclass(frozen=True)

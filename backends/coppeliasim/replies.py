@@ -20,7 +20,7 @@ import math
 from collections.abc import Callable
 
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.numbers import NumberError, to_float
+from labsim.foundation.numbers import NumberError, to_float
 
 SHOWN = 80  # characters of a bad reply quoted in the error
 

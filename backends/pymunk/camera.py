@@ -6,7 +6,7 @@ a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspec
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
 homography, which this module builds in closed form from the robot's pose and the camera's
 mount. Everything the texture does not cover is floor colour (the warp's border). A drawn
-texture is kept in labsim's cache folder (``labsim.backends.scene.cache``), so that opening the
+texture is kept in labsim's cache folder (``labsim.foundation.cache``), so that opening the
 same world again reads it rather than drawing it.
 
 What the image shows, and what it does not:
@@ -39,9 +39,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from labsim.backends.scene.cache import cache_dir, write_atomically
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera
+from labsim.foundation.cache import cache_dir, write_atomically
 
 _SHIFT = 4  # fixed-point bits for OpenCV drawing: sub-pixel accurate edges
 _ONE = 1 << _SHIFT

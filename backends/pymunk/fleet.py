@@ -32,9 +32,9 @@ from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.fleet_sense import CameraRead, SensePlan, SonarRay, Spec, compile_sense
 from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
-from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker, first_road, world_channels
+from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker
 from labsim.backends.scene.models import RobotModel
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import World, first_road, world_channels
 
 # Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
 # along walls rather than sticking to them, yet a glancing contact still turns them a little.

@@ -15,12 +15,8 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import Kind
-
-if TYPE_CHECKING:
-    from labsim.backends.scene.world import World
 
 RGB = tuple[int, int, int]
 Point = tuple[float, float]
@@ -149,17 +145,6 @@ ROAD_CHANNELS: dict[str, Kind] = {
     "on_road": Kind.BOOL,  # |road_offset| <= width / 2
     "laps": Kind.NUMBER,  # completed laps since the start (RoadTracker.laps)
 }
-
-
-def world_channels(world: World) -> dict[str, Kind]:
-    """The channels a world offers robots beyond their model's own: the road's, or none."""
-    return dict(ROAD_CHANNELS) if first_road(world) is not None else {}
-
-
-def first_road(world: World) -> Road | None:
-    """The road the road channels refer to, or None when the world has none."""
-    ground = world.ground
-    return ground.roads[0] if ground is not None and ground.roads else None
 
 
 # --- geometry ---------------------------------------------------------------------------------

@@ -40,8 +40,6 @@ import math
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.diagnostics import Report, did_you_mean
-from labsim.backends.scene.limits import MAX_COORD_M
 from labsim.backends.scene.mechanism import (
     ANGULAR_KINDS,
     JOINT_KINDS,
@@ -55,7 +53,9 @@ from labsim.backends.scene.mechanism import (
     start_position,
     weld_groups,
 )
-from labsim.backends.scene.source import Document, Reader, scalar_value
+from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.limits import MAX_COORD_M
+from labsim.foundation.source import Document, Reader, scalar_value
 
 KEYS = ("gravity", "damping", "floor", "bodies", "joints", "force_sensors")
 BODY_KEYS = ("shape", "center", "size", "depth", "mass", "density", "static", "angle_deg")

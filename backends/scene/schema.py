@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from labsim.backends.scene.limits import MAX_COORD_M, MAX_RADIUS_M, MIN_SIZE_M
 from labsim.backends.scene.mechanism import JOINT_KINDS, SHAPES
 from labsim.backends.scene.mechanism_file import BODY_KEYS, JOINT_KEYS, MOTOR_KEYS, SENSOR_KEYS, TARGETS
 from labsim.backends.scene.mechanism_file import KEYS as MECHANISM_KEYS
@@ -31,6 +30,7 @@ from labsim.backends.scene.world_file import (
     ROAD_KEYS,
     WALL_KEYS,
 )
+from labsim.foundation.limits import MAX_COORD_M, MAX_RADIUS_M, MIN_SIZE_M
 
 Schema = dict[str, Any]
 DRAFT = "http://json-schema.org/draft-07/schema#"  # the draft yaml-language-server reads best

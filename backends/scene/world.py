@@ -10,11 +10,10 @@ import math
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # ground and mechanism import this module's types at run time
-    from labsim.backends.scene.ground import Ground
-    from labsim.backends.scene.mechanism import Mechanism
+from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, Road
+from labsim.backends.scene.mechanism import Mechanism
+from labsim.backends.scene.models import Kind
 
 BUILTIN_DIR = Path(__file__).parent / "worlds"
 PLACEMENT_CLEARANCE_M = 0.6  # a robot placed 'at: random' is this far from walls and other robots
@@ -116,3 +115,14 @@ def _polygon_distance(px: float, py: float, corners: tuple[tuple[float, float], 
         for i in range(n)
     )
     return -edge if inside else edge
+
+
+def world_channels(world: World) -> dict[str, Kind]:
+    """The channels a world offers robots beyond their model's own: the road's, or none."""
+    return dict(ROAD_CHANNELS) if first_road(world) is not None else {}
+
+
+def first_road(world: World) -> Road | None:
+    """The road the road channels refer to, or None when the world has none."""
+    ground = world.ground
+    return ground.roads[0] if ground is not None and ground.roads else None

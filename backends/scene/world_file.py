@@ -50,7 +50,6 @@ from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError, Report
 from labsim.backends.scene.ground import (
     DEFAULT_FLOOR_RGB,
     DEFAULT_PX_PER_M,
@@ -60,7 +59,10 @@ from labsim.backends.scene.ground import (
     Patch,
     Road,
 )
-from labsim.backends.scene.limits import (
+from labsim.backends.scene.mechanism_file import read_mechanism
+from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.limits import (
     MAX_ARC_CHORDS,
     MAX_COORD_M,
     MAX_RADIUS_M,
@@ -68,9 +70,7 @@ from labsim.backends.scene.limits import (
     MAX_THICKNESS_M,
     MIN_SIZE_M,
 )
-from labsim.backends.scene.mechanism_file import read_mechanism
-from labsim.backends.scene.source import Document, Reader, load, scalar_value
-from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.foundation.source import Document, Reader, load, scalar_value
 
 KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
         "ground", "mechanism")

@@ -74,7 +74,7 @@ def world_doc(world: World) -> Json:
 
 def channel_kinds(world: World, model: RobotModel | None) -> dict[str, Kind]:
     """What each channel of a robot (or of the world's mechanism, for None) holds."""
-    from labsim.backends.scene.ground import world_channels
+    from labsim.backends.scene.world import world_channels
 
     if model is None:
         return world.mechanism.channels() if world.mechanism is not None else {}

@@ -17,7 +17,7 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.frames import (
     Json,

@@ -148,7 +148,7 @@ def _num(row: list[str], index: dict[str, int], column: str) -> float | str | No
 
 def load_replay(path: str | Path, **session: Any) -> ReplaySession:
     """A replay of the trace at path; raises TraceFormatError for a damaged one."""
-    from labsim.runtime.plot import resolve_world
+    from labsim.runtime.pictures.plot import resolve_world
     from labsim.runtime.trace import read_trace
 
     trace = read_trace(path)

@@ -1,0 +1,290 @@
+"""One way in and one way out for every file labsim reads or writes (docs/security.md).
+
+labsim runs files it did not write: a class's behaviours on a teacher's machine, a trace a
+student sends back. Every file it reads goes through ``read_input``: it must be a regular file
+(a FIFO would block, ``/dev/zero`` never ends, a folder is no file), it is measured before a
+byte is read, and whatever the operating system says (a name too long, a folder the user may
+not enter) becomes one diagnostic in the user's words, never a traceback. Every file it writes
+goes through ``check_output`` and ``Output``: never onto one of the run's inputs (compared by
+inode, so a hard link is caught), never onto a device, and written beside the target under
+another name and renamed into place once complete, so a failed write leaves the old file.
+
+A behaviour names the files it reads (its world) relative to its own folder; ``policy_problem``
+says when such a name reaches outside that folder, which is refused unless the folder it
+reaches is allowed on the command line (``--allow-path``, kept in ``ALLOW_ENV`` so that a
+sweep's worker processes see the same setting).
+
+This module belongs to the scene layer and imports nothing of labsim beyond its diagnostics,
+so the scene's readers, the language and the runtime all use it.
+"""
+from __future__ import annotations
+
+import contextlib
+import errno
+import functools
+import os
+import stat
+import tempfile
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+
+KIB, MIB = 1 << 10, 1 << 20
+# Each kind of file, the most labsim reads of it. Hand-written files stay far below 1 MiB (the
+# largest shipped behaviour or world is under 10 KiB); a trace of 1 GiB holds about seven
+# million rows, far past the trace budget of a run. Larger files are refused before reading.
+MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB}
+DEFAULT_MAX_BYTES = MIB
+
+BUILTIN_WORLDS = Path(__file__).parent.parent / "backends" / "scene" / "worlds"  # labsim's own files: always readable
+ALLOW_ENV = "LABSIM_ALLOW_PATH"  # folders a behaviour may read outside its own, os.pathsep-separated
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a device"),
+          (stat.S_ISBLK, "a device"), (stat.S_ISSOCK, "a socket"))
+
+
+def os_words(e: OSError) -> str:
+    """What the operating system said, as words for a person: 'permission denied'."""
+    text = e.strerror or (errno.errorcode.get(e.errno or 0, "") if e.errno else "") or str(e)
+    return text[:1].lower() + text[1:]
+
+
+def _not_regular(mode: int) -> str:
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def _error(path: str | Path, message: str) -> LabsimError:
+    return LabsimError([Diagnostic(str(path), message)])
+
+
+def read_input(path: str | Path, kind: str = "behaviour", max_bytes: int | None = None) -> bytes:
+    """A file's bytes, or LabsimError saying in words why not: checked before any read.
+
+    It is opened without blocking (a FIFO with no writer would wait forever) and inspected
+    through the open descriptor (no window between the check and the read): only a regular
+    file of at most ``max_bytes`` (default: ``MAX_BYTES[kind]``) is read."""
+    limit = max_bytes if max_bytes is not None else MAX_BYTES.get(kind, DEFAULT_MAX_BYTES)
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags)
+    except FileNotFoundError:
+        raise _error(path, f"no such {kind} file") from None
+    except IsADirectoryError:
+        raise _error(path, f"is a folder, not a {kind} file") from None
+    except OSError as e:
+        raise _error(path, f"cannot read the {kind} file: {os_words(e)}") from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise _error(path, f"is {_not_regular(info.st_mode)}, not a {kind} file")
+        if info.st_size > limit:
+            raise _error(path, f"file is {info.st_size / 1e6:.1f} MB; {kind} files are limited to {_size(limit)}")
+        return _read_all(fd, path, kind, limit)
+    except OSError as e:
+        raise _error(path, f"cannot read the {kind} file: {os_words(e)}") from None
+    finally:
+        os.close(fd)
+
+
+def _read_all(fd: int, path: str | Path, kind: str, limit: int) -> bytes:
+    """Read to the end, but never past the limit (a file that grows while read)."""
+    chunks: list[bytes] = []
+    total = 0
+    while True:
+        chunk = os.read(fd, min(limit + 1 - total, 4 * MIB))
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+        total += len(chunk)
+        if total > limit:
+            raise _error(path, f"grew past {_size(limit)} while it was read; {kind} files are limited to that")
+
+
+def _size(n: int) -> str:
+    return f"{n // MIB} MiB" if n > MIB else f"{n // KIB} KiB" if n >= KIB else f"{n} bytes"
+
+
+def read_text(path: str | Path, kind: str = "behaviour", max_bytes: int | None = None) -> str:
+    """``read_input`` as UTF-8 text (without a byte-order mark); a binary file says where it stops being text."""
+    data = read_input(path, kind, max_bytes)
+    try:
+        return data.decode("utf-8").lstrip("\ufeff")
+    except UnicodeDecodeError as e:
+        raise _error(path, f"not UTF-8 text (byte {e.start})") from None
+
+
+# -- the access policy --------------------------------------------------------------------------
+
+_ALLOWED_HERE: list[Path] = []  # folders allowed for a while in this process only (``allowing``)
+
+
+def allowed_folders() -> list[Path]:
+    """The folders ``--allow-path`` opened (through ``ALLOW_ENV``), resolved, and any ``allowing`` adds."""
+    env = [Path(p).resolve() for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
+    return env + list(_ALLOWED_HERE)
+
+
+@contextlib.contextmanager
+def allowing(folder: str | Path) -> Iterator[None]:
+    """Allow a folder while a block runs (a sweep's worker, running files the sweep checked)."""
+    entry = Path(folder).resolve()
+    _ALLOWED_HERE.append(entry)
+    try:
+        yield
+    finally:
+        _ALLOWED_HERE.remove(entry)
+
+
+def allow(folders: Iterable[str | Path]) -> None:
+    """Add folders to the allowed ones, for this process and the processes it starts."""
+    current = [p for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
+    os.environ[ALLOW_ENV] = os.pathsep.join(current + [str(Path(f).resolve()) for f in folders])
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    return path == folder or folder in path.parents
+
+
+def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None) -> str:
+    """Why a file a behaviour names (``name``, relative to the behaviour's folder ``base``)
+    may not be read, or '' when it may: it must stay inside ``base`` once links are followed,
+    or inside a folder the command line allowed, or be one of the built-in worlds' files."""
+    folders = [base.resolve(), *(allowed if allowed is not None else allowed_folders())]
+    target = Path(os.path.normpath(base / name))
+    try:
+        real = target.resolve()
+    except (OSError, RuntimeError):  # a loop of links
+        return "is a loop of symbolic links"
+    if any(_inside(real, f) for f in folders) or real in _builtin_files():
+        return ""
+    if Path(name).is_absolute() or name.startswith("~"):
+        return "is an absolute path, outside the behaviour's folder"
+    if not _inside(Path(os.path.abspath(target)), Path(os.path.abspath(base))):
+        return "leads out of the behaviour's folder ('..')"
+    return "is a symbolic link to a file outside the behaviour's folder"
+
+
+@functools.cache
+def _builtin_files() -> frozenset[Path]:
+    """The built-in worlds' files, links followed (an editable install links each file)."""
+    return frozenset(p.resolve() for p in BUILTIN_WORLDS.glob("*.yaml"))
+
+
+def policy_notes() -> tuple[str, ...]:
+    return ("a behaviour reads only built-in worlds and files in its own folder (subfolders too); "
+            "to allow another folder, pass --allow-path DIR (docs/security.md)",)
+
+
+# -- the way out --------------------------------------------------------------------------------
+
+def check_output(path: str | Path, inputs: Iterable[str | Path], option: str = "") -> None:
+    """LabsimError unless ``path`` can be written as a new regular file that is none of ``inputs``.
+
+    Inputs are compared by device and inode, so a hard link or another spelling of an input is
+    caught; a device, FIFO or folder is refused before the run starts (labsim writes files)."""
+    where = f"{option} {path}".strip()
+    p = Path(path)
+    try:
+        info = os.stat(p)
+    except FileNotFoundError:
+        info = None
+    except OSError as e:
+        raise _error(where, f"cannot write there: {os_words(e)}") from None
+    if info is not None:
+        if not stat.S_ISREG(info.st_mode):
+            what = _not_regular(info.st_mode)
+            hint = "; give a file name such as run.csv" if stat.S_ISDIR(info.st_mode) else ""
+            raise _error(where, f"is {what}; labsim writes regular files only{hint}")
+        for i in inputs:
+            if str(i) and _same_file(info, i):
+                raise _error(where, f"would overwrite an input of this run ({i}, by this name or a "
+                                    "link); give the output its own file, such as run.csv")
+    parent = p.parent
+    if not parent.is_dir():
+        raise _error(where, f"folder '{parent}' does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise _error(where, f"cannot write in folder '{parent}': permission denied")
+
+
+def _same_file(info: os.stat_result, other: str | Path) -> bool:
+    try:
+        o = os.stat(other)
+    except OSError:
+        return False
+    return (o.st_dev, o.st_ino) == (info.st_dev, info.st_ino)
+
+
+class Output:
+    """A file written beside its target and renamed into place by ``commit``: readers of the
+    target see the old file or the whole new one, never half of it.
+
+    ``partial`` names the file being written; by default a hidden temporary name, or a fixed
+    one (``run.csv.partial``) for a trace, which a person looks for after a killed run."""
+
+    def __init__(self, path: str | Path, partial: str | Path | None = None):
+        self.path = Path(path)
+        try:
+            if partial is None:
+                fd, name = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
+                self.partial = Path(name)
+                self.file: BinaryIO = os.fdopen(fd, "wb")
+            else:
+                self.partial = Path(partial)
+                # a fresh file: an old one (or a link planted under that name) is removed, not followed
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.partial)
+                flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+                self.file = os.fdopen(os.open(self.partial, flags, 0o666), "wb")
+        except OSError as e:
+            raise write_error(self.path, e) from None
+
+    def commit(self) -> None:
+        """Close and rename into place (with the permissions a new file gets)."""
+        try:
+            self.file.close()
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(self.partial, 0o666 & ~umask)
+            os.replace(self.partial, self.path)
+        except OSError as e:
+            self.discard()
+            raise write_error(self.path, e) from None
+
+    def discard(self) -> None:
+        with contextlib.suppress(OSError):
+            self.file.close()
+        with contextlib.suppress(OSError):
+            os.unlink(self.partial)
+
+
+def write_error(path: str | Path, e: OSError) -> LabsimError:
+    """An OSError while writing, in words: 'cannot write run.csv: no space left on device'."""
+    return _error(path, f"cannot write {Path(path).name}: {os_words(e)}")
+
+
+def write_output(path: str | Path, data: bytes | str, inputs: Iterable[str | Path] = (), option: str = "") -> None:
+    """Write a whole file the one way out: checked, written beside it, renamed into place."""
+    check_output(path, inputs, option)
+    out = Output(path)
+    try:
+        out.file.write(data.encode("utf-8") if isinstance(data, str) else data)
+    except OSError as e:
+        out.discard()
+        raise write_error(path, e) from None
+    out.commit()
+
+
+def save_figure(fig: Any, path: Path, **options: Any) -> None:
+    """A matplotlib figure the one way out: drawn into the file beside the target, then renamed."""
+    out = Output(path)
+    try:
+        fig.savefig(out.file, format=path.suffix.lstrip(".").lower() or "png", **options)
+    except OSError as e:
+        out.discard()
+        raise write_error(path, e) from None
+    except BaseException:
+        out.discard()
+        raise
+    out.commit()

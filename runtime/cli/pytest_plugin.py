@@ -1,0 +1,110 @@
+"""Golden traces as pytest tests: the plugin pytest loads through labsim's ``pytest11`` entry point.
+
+It sits beside ``labsim test`` at the end of the pipeline and reuses its comparison
+(``labsim.runtime.golden.check_golden``), so a failing item shows the same first-difference
+text. ``pytest behaviours/`` collects each behaviour file that has a golden trace beside it as
+one item named after the file; a behaviour file named on the command line is collected even
+without one, and then fails as ``labsim test`` does. ``pytest --update-goldens`` records the
+goldens instead of comparing. Items are independent, so ``pytest -n auto`` (pytest-xdist)
+runs them in parallel.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pytest
+
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import read_text
+from labsim.runtime.golden import check_golden, golden_path, record_golden
+
+if TYPE_CHECKING:
+    from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
+
+BEHAVIOUR_SUFFIXES = (".yaml", ".yml")
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("labsim", "labsim golden traces")
+    group.addoption("--update-goldens", action="store_true", default=False,
+                    help="record the golden traces of the behaviour files collected, instead of comparing "
+                         "(as labsim test --update-goldens does)")
+
+
+def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
+    if file_path.suffix not in BEHAVIOUR_SUFFIXES:
+        return None
+    if not golden_path(file_path).exists() and not _named(file_path, parent.config):
+        return None
+    if not is_behaviour_file(file_path):
+        return None
+    return BehaviourFile.from_parent(parent, path=file_path)
+
+
+def _named(path: Path, config: pytest.Config) -> bool:
+    """Whether the file was given on the command line itself (not found in a folder given)."""
+    for arg in config.args:
+        candidate = Path(arg.split("::", 1)[0])
+        if not candidate.is_absolute():
+            candidate = config.invocation_params.dir / candidate
+        if candidate.resolve() == path.resolve():
+            return True
+    return False
+
+
+def is_behaviour_file(path: Path) -> bool:
+    """A behaviour file's first key is ``labsim:`` (its format version); world files and other
+    YAML start otherwise. Comments and blank lines before it are skipped."""
+    try:  # the one way in: a FIFO named *.yaml is skipped, not waited on
+        text = read_text(path, "behaviour")
+    except LabsimError:
+        return False
+    for line in text.splitlines():
+        if line.strip() and not line.lstrip().startswith("#"):
+            return line.startswith("labsim:")
+    return False
+
+
+class GoldenMismatch(Exception):
+    """A behaviour's run differs from its golden trace (or has none): the text labsim test prints."""
+
+
+class BehaviourFile(pytest.File):
+    def collect(self) -> Iterator[GoldenItem]:
+        yield GoldenItem.from_parent(self, name=self.path.stem)
+
+
+class GoldenItem(pytest.Item):
+    """One behaviour file re-run on the default backend and compared with its golden."""
+
+    def runtest(self) -> None:
+        if self.config.getoption("update_goldens"):
+            golden, summary = record_golden(self.path)
+            self.user_properties.append(("golden", str(golden)))
+            self.add_report_section("call", "labsim", f"recorded {golden} ({summary.ticks} ticks)")
+            return
+        shown = self._shown_path()
+        verdict = check_golden(self.path, record_with=f"pytest {shown} --update-goldens", shown_as=shown)
+        if not verdict.passed:
+            raise GoldenMismatch(str(verdict))
+
+    def _shown_path(self) -> Path:
+        """The file as the person typed it: relative to where pytest started, when it is under it."""
+        try:
+            return self.path.relative_to(self.config.invocation_params.dir)
+        except ValueError:
+            return self.path
+
+    def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException],
+                     style: TracebackStyle | None = None) -> str:
+        if isinstance(excinfo.value, GoldenMismatch):
+            return str(excinfo.value)
+        if isinstance(excinfo.value, LabsimError):
+            return "\n".join([f"FAIL {self.path}: it does not compile"]
+                             + [d.format() for d in excinfo.value.diagnostics])
+        return str(super().repr_failure(excinfo, style=style))
+
+    def reportinfo(self) -> tuple[Path, int, str]:
+        return self.path, 0, f"golden trace of {self.path.name}"

@@ -1,0 +1,399 @@
+"""Trace plots: ``labsim plot TRACE -o out.png`` draws a finished run as one picture.
+
+This is the last stage of the pipeline: ``labsim.runtime.run`` writes a trace (see
+``labsim.runtime.trace``), and this module reads it back with the world it names and draws,
+to scale and with OpenCV only, the floor and what is painted on it (roads, lines, patches, when
+the world has a ground), the room's walls and blocks, every robot's path with its start,
+end and heading, the ticks it collided and the metric events it raised, and a legend and title
+that say which behaviour, world, seed and backend made the run; on a world with a road, a panel
+under the map of each robot's offset from the centreline (``labsim.runtime.pictures.road_panel``).
+``render_figure`` builds the image in memory (tests and other front ends use it); ``plot_trace``
+also writes the file.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from labsim.backends.scene.ground import Ground
+from labsim.backends.scene.world import World, builtin_worlds, first_road
+from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import LabsimError, Report
+from labsim.foundation.files import allowed_folders, policy_problem, write_output
+from labsim.runtime.pictures.map_frame import Figure, RobotPath, grid, legend
+from labsim.runtime.pictures.mechanism_pose import draw_run_mechanism, has_slew, slew_inset
+from labsim.runtime.pictures.paint import (
+    AA,
+    BLOCK_EDGE,
+    BLOCK_FILL,
+    FRAME,
+    INK,
+    MAP_BG,
+    MUTED,
+    ONE,
+    PAPER,
+    SHIFT,
+    TITLE_FONT,
+    WARNING,
+    Painter,
+    PxMap,
+    bgr,
+    darker,
+    draw_ground,
+    draw_wall,
+    event_colour,
+    robot_colour,
+)
+from labsim.runtime.pictures.road_panel import draw_road_panel, panel_height
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+
+MIN_WIDTH_PX = 400
+
+# -- the data ----------------------------------------------------------------------------------
+
+def _floats(trace: Trace, name: str) -> np.ndarray:
+    i = trace.columns.index(name)
+    try:
+        return np.array([r[i] for r in trace.rows], dtype=float)
+    except ValueError:
+        bad = next(r[i] for r in trace.rows if not _is_float(r[i]))
+        raise TraceFormatError(f"{trace.path}: column '{name}' holds '{bad}', not a number") from None
+
+
+def _is_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def robot_paths(trace: Trace) -> list[RobotPath]:
+    """Split the rows by robot (header order first) and pick out collisions and events."""
+    for needed in ("robot", "x", "y"):
+        if needed not in trace.columns:
+            raise TraceFormatError(f"{trace.path}: the trace has no '{needed}' column")
+    xs, ys = _floats(trace, "x"), _floats(trace, "y")
+    heading = _floats(trace, "heading") if "heading" in trace.columns else np.full(len(xs), np.nan)
+    collided = (_floats(trace, "collided") > 0.5) if "collided" in trace.columns else np.zeros(len(xs), bool)
+    names = np.array(trace.column("robot"), dtype=object)
+    models = trace.header.get("robots") or {}
+    order = list(dict.fromkeys([*(n for n in models if n in set(names)), *names]))
+    ei = trace.columns.index("events") if "events" in trace.columns else -1
+
+    paths = []
+    for k, name in enumerate(order):
+        idx = np.flatnonzero(names == name)  # rows are tick-ordered, so this is the path in time
+        x, y = xs[idx], ys[idx]
+        ok = np.isfinite(x) & np.isfinite(y)
+        c = collided[idx]
+        # a collision is its first tick; the robot grinding along a wall is one collision
+        onset = c & ~np.concatenate(([False], c[:-1]))
+        hit = onset & ok
+        events: dict[str, list[int]] = {}
+        if ei >= 0:
+            for j in idx:
+                cell = trace.rows[j][ei]
+                if cell:  # most rows have no events: skip them without splitting
+                    for ev in cell.split(";"):
+                        if ev:
+                            events.setdefault(ev, []).append(int(j))
+        h = heading[idx][ok]
+        paths.append(RobotPath(
+            name=str(name), model=str(models.get(name, "")), colour=robot_colour(k),
+            xy=np.column_stack((x[ok], y[ok])), heading=float(h[-1]) if len(h) else math.nan,
+            collisions=np.column_stack((x[hit], y[hit])),
+            events={ev: np.column_stack((xs[js], ys[js]))[np.isfinite(xs[js]) & np.isfinite(ys[js])]
+                    for ev, js in events.items()},
+        ))
+    return paths
+
+
+def resolve_world(trace: Trace) -> tuple[World | None, str]:
+    """The world the run used, and a note for the title when it can't be drawn.
+
+    The recorded file comes first (it is exactly what ran); a built-in of the same name is
+    the fallback, as a trace copied to another machine names a path that isn't there.
+    """
+    header = trace.header
+    name = str(header.get("world") or "")
+    candidates = []
+    wf = header.get("world_file")
+    if wf:
+        candidates.append(Path(wf))
+        if not Path(wf).is_absolute():
+            candidates.append(Path(trace.path).parent / wf)  # relative to where the trace lives
+    if name in builtin_worlds():
+        candidates.append(builtin_worlds()[name])
+    broken = ""
+    # docs/security.md: a world file the trace names is read only inside the trace's folder, the
+    # current one, or a folder --allow-path opened (a trace is a file someone may have sent)
+    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
+    for path in candidates:
+        refused = path not in builtin_worlds().values() and policy_problem(str(path), Path.cwd(), allowed)
+        if refused:
+            broken = f" ({path} {refused}; --allow-path DIR reads it)"
+        elif os.path.isfile(path):
+            world = load_world(path, Report())
+            if world is not None:
+                return world, ""
+            broken = f" ({path} has errors)"
+    if not name and not wf:
+        return None, "the trace names no world: drawn without walls"
+    what = f"world '{name}'" if name else f"world file {wf}"
+    return None, f"{what} not found{broken}: drawn without walls"
+
+
+# -- the layout --------------------------------------------------------------------------------
+
+def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float, float, float]:
+    xs: list[float] = []
+    ys: list[float] = []
+    if world is not None:
+        xs += [world.bounds[0], world.bounds[2]]
+        ys += [world.bounds[1], world.bounds[3]]
+        for w in world.walls:
+            r = w.thickness_m / 2
+            xs += [w.a[0] - r, w.a[0] + r, w.b[0] - r, w.b[0] + r]
+            ys += [w.a[1] - r, w.a[1] + r, w.b[1] - r, w.b[1] + r]
+        for b in world.blocks:
+            xs += [c[0] for c in b.corners]
+            ys += [c[1] for c in b.corners]
+        for body in world.mechanism.bodies if world.mechanism is not None else ():
+            xs += [c[0] for c in body.corners()]
+            ys += [c[1] for c in body.corners()]
+        ground_ext = world.ground.extent() if isinstance(world.ground, Ground) else None
+        if ground_ext is not None:
+            xs += [ground_ext[0], ground_ext[2]]
+            ys += [ground_ext[1], ground_ext[3]]
+    for p in paths:
+        if len(p.xy):
+            xs += [float(p.xy[:, 0].min()), float(p.xy[:, 0].max())]
+            ys += [float(p.xy[:, 1].min()), float(p.xy[:, 1].max())]
+    if not xs:
+        return (-1.0, -1.0, 1.0, 1.0)
+    x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+    # a margin so markers at the edge stay whole, and a floor so a robot that never moved
+    # still gets a readable few metres around it
+    margin = max(0.04 * max(x1 - x0, y1 - y0), 0.3)
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    hw, hh = max((x1 - x0) / 2 + margin, 1.0), max((y1 - y0) / 2 + margin, 1.0)
+    return (cx - hw, cy - hh, cx + hw, cy + hh)
+
+
+# -- drawing -----------------------------------------------------------------------------------
+
+def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = None,
+                  world_note: str | None = None, backdrop: bool = False) -> Figure:
+    """Draw a trace; the world is looked up from its header unless given.
+
+    A ``backdrop`` is the figure without the run on it (no paths, a mechanism's fixed parts
+    only): what ``labsim.runtime.pictures.animate`` draws each frame on.
+    """
+    # one function for one layout: the map, the road panel, the title and the legend share its sizes
+    if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
+        raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
+    if world is None and world_note is None:
+        world, world_note = resolve_world(trace)
+    world_note = world_note or ""
+    paths = robot_paths(trace)
+    P = Painter(width_px)
+    s, pad = P.s, P.pad
+
+    # title block: behaviour name, then the run's particulars, then a note if any
+    header = trace.header
+    title = header.get("name") or Path(str(header.get("behaviour") or trace.path)).stem
+    subtitle = "  |  ".join(_run_facts(trace, world, paths))
+    title_lines = 3 if world_note else 2
+    title_h = round((20 + 24 * title_lines) * s)
+
+    # the map: equal metres per pixel on both axes, sized by the width left after the axis
+    # labels and the legend column; very tall worlds are capped so the image stays sane
+    left_axis, bottom_axis = round(50 * s), round(46 * s)
+    legend_w = round(235 * s)
+    x0, y0, x1, y1 = _extents(world, paths)
+    avail_w = width_px - left_axis - legend_w - pad
+    mpp = (x1 - x0) / avail_w
+    if (y1 - y0) / mpp > 1.5 * avail_w:
+        mpp = (y1 - y0) / (1.5 * avail_w)
+    map_w, map_h = round((x1 - x0) / mpp), round((y1 - y0) / mpp)
+    map_left = left_axis + (avail_w - map_w) // 2
+    map_top = title_h
+
+    events = _event_names(header, paths)
+    legend_h = P.line_h * (len(paths) + len(events) + 9)
+    inset = 0  # a top view of the slew, under the legend, when the run turned the arm
+    if world is not None and world.mechanism is not None and not backdrop and has_slew(trace, world.mechanism):
+        inset = legend_w - pad
+        legend_h += inset + P.line_h
+    # the road panel: lateral error, invisible at the map's scale, along the distance driven
+    road = not backdrop and world is not None and world.mechanism is None and first_road(world) is not None
+    panel_h = panel_height(P) if road else 0
+    height = max(map_top + map_h + bottom_axis + panel_h, map_top + legend_h) + pad
+    img = np.full((height, width_px, 3), PAPER, np.uint8)
+    fig = Figure(img, x0, y1, mpp, map_left, map_top)
+
+    def px(xy: np.ndarray) -> np.ndarray:
+        out = np.empty_like(xy, dtype=float)
+        out[:, 0] = map_left + (xy[:, 0] - x0) / mpp
+        out[:, 1] = map_top + (y1 - xy[:, 1]) / mpp
+        return out
+
+    ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
+    # a ground's floor colour replaces the map's background; the grid stays visible on it
+    floor = bgr(ground.floor_rgb) if ground is not None else MAP_BG
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
+    grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
+          "z (m)" if world is not None and world.mechanism is not None else "y (m)")
+
+    _draw_world(img, P, world, ground, px, mpp)
+    if world is not None and world.mechanism is not None:
+        draw_run_mechanism(img, P, world.mechanism, trace, px, backdrop)
+    if not backdrop:
+        _draw_paths(img, P, paths, events, px, world)
+
+    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
+
+    # title
+    tx = map_left
+    title_w = width_px - tx - pad
+    P.put(img, title, (tx, round(34 * s)), P.title, INK, TITLE_FONT, max_w=title_w)
+    P.put(img, subtitle, (tx, round(58 * s)), P.text, MUTED, max_w=title_w)
+    if world_note:
+        P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
+
+    if road and world is not None:
+        draw_road_panel(img, P, world, [(p.name, p.colour, p.xy) for p in paths],
+                        (map_left, map_top + map_h + bottom_axis, map_w, panel_h))
+    legend_x = map_left + map_w + round(22 * s)
+    legend_end = legend(img, P, paths, events, legend_x, map_top, map_h, mpp, inset)
+    if inset and world is not None and world.mechanism is not None:
+        slew_inset(img, P, world.mechanism, trace, (legend_x, legend_end, inset))
+    return fig
+
+
+def _draw_world(img: np.ndarray, P: Painter, world: World | None, ground: Ground | None, px: PxMap,
+                mpp: float) -> None:
+    """The world under everything: what is painted on the floor, then blocks filled, and walls
+    at their real thickness (round ends, as the physics backend models a wall as a thick
+    segment), and a mechanism from the side."""
+    if ground is not None:
+        draw_ground(img, ground, px, mpp)
+    if world is not None:
+        for b in world.blocks:
+            poly = np.round(px(np.array(b.corners, float)) * ONE).astype(np.int32)
+            cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
+            cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
+        for w in world.walls:
+            draw_wall(img, px(np.array([w.a, w.b], float)), max(w.thickness_m / mpp, 2.0))
+
+
+def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str], px: PxMap,
+                world: World | None) -> None:
+    """Every robot's path, its metric events and collisions, its start, and its end with the
+    heading it ended on."""
+    s = P.s
+    # paths: one polylines call per robot, however long the run
+    line_w = max(2, round(2 * s))
+    for p in paths:
+        if len(p.xy) > 1:
+            pts = np.round(px(p.xy) * ONE).astype(np.int32).reshape(-1, 1, 2)
+            cv2.polylines(img, [pts], False, p.colour, line_w, AA, SHIFT)
+    for k, ev in enumerate(events):
+        for p in paths:
+            if ev in p.events:
+                P.triangles(img, px(p.events[ev]), event_colour(k))
+    for p in paths:
+        P.crosses(img, px(p.collisions))
+    for p in paths:
+        if not len(p.xy):
+            continue
+        ends = px(p.xy[[0, -1]])
+        P.start(img, ends[:1], p.colour)
+        if math.isfinite(p.heading) and (world is None or world.mechanism is None):
+            # the arrow is the robot's last heading: a fixed on-screen length reads better
+            # than a metric one, which vanishes in big worlds and swamps small ones
+            n = 26 * s
+            tip = ends[1] + n * np.array([math.cos(p.heading), -math.sin(p.heading)])
+            cv2.arrowedLine(img, tuple(np.round(ends[1] * ONE).astype(int)),
+                            tuple(np.round(tip * ONE).astype(int)), darker(p.colour),
+                            max(2, round(2 * s)), AA, SHIFT, 0.35)
+        P.end(img, ends[1:], p.colour)
+
+
+def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> list[str]:
+    h = trace.header
+    facts = [f"world {h.get('world') or (world.name if world else '?')}"]
+    if "seed" in h:
+        facts.append(f"seed {h['seed']}")
+    if h.get("backend"):
+        facts.append(f"backend {h['backend']}")
+    duration = _duration(trace)
+    if duration is not None:
+        facts.append(f"{duration:.1f} s simulated")
+    if world is not None and world.mechanism is not None:
+        facts.append("side view, the path of the last moving body")
+    else:
+        facts.append(f"{len(paths)} robot{'s' if len(paths) != 1 else ''}")
+    return facts
+
+
+def _duration(trace: Trace) -> float | None:
+    """Simulated time: the last row's time plus the tick it stood for."""
+    if not trace.rows or "time" not in trace.columns:
+        return None
+    try:
+        last = float(trace.rows[-1][trace.columns.index("time")])
+    except ValueError:
+        return None
+    dt = trace.header.get("dt")
+    return last + (float(dt) if isinstance(dt, (int, float)) else 0.0)
+
+
+def _event_names(header: dict, paths: list[RobotPath]) -> list[str]:
+    """Count metrics in the header's order (even those that never rose), then any others."""
+    declared = [m for m, agg in (header.get("metrics") or {}).items() if agg == "count"]
+    seen = [ev for p in paths for ev in p.events]
+    return list(dict.fromkeys(declared + seen))
+
+
+# -- writing -----------------------------------------------------------------------------------
+
+def check_output(out_path: str | Path) -> Path:
+    """Fail before any drawing if the image could not be written where asked."""
+    out = Path(out_path)
+    if out.suffix == "":
+        raise ValueError(f"{out}: no image extension; name the file .png (or .jpg, .bmp, ...)")
+    if not cv2.haveImageWriter(str(out.with_name("x" + out.suffix.lower()))):
+        raise ValueError(f"{out}: OpenCV cannot write '{out.suffix}' images; use .png (or .jpg, .bmp, ...)")
+    if out.is_dir():
+        raise ValueError(f"{out}: is a directory; give an image file name")
+    parent = out.parent
+    if not parent.is_dir():
+        what = "is not a directory" if parent.exists() else "does not exist"
+        raise ValueError(f"{out}: cannot write the plot: directory {parent} {what}")
+    return out
+
+
+def plot_trace(trace_path: str | Path, out_path: str | Path, *, width_px: int = 1000) -> Path:
+    """Draw a trace file to an image file; returns the image's path.
+
+    Raises TraceFormatError for an unreadable trace and ValueError for an unwritable output
+    (a missing directory, an extension OpenCV can't encode, ...), both with printable messages.
+    """
+    out = check_output(out_path)
+    fig = render_figure(read_trace(trace_path), width_px=width_px)
+    # imencode + an ordinary write rather than cv2.imwrite: imwrite reports every failure as a
+    # bare False, while Python's write says why (permissions, full disk) and takes any path
+    ok, data = cv2.imencode(out.suffix.lower(), fig.image)
+    if not ok:
+        raise ValueError(f"{out}: OpenCV could not encode the image as '{out.suffix}'")
+    try:
+        write_output(out, data.tobytes())  # beside the target, renamed into place
+    except LabsimError as e:
+        raise ValueError(f"{out}: {e.diagnostics[0].message}") from None
+    return out

@@ -1,0 +1,468 @@
+"""The stand-in's scene editing: ``labsim serve --empty`` builds its scene from remote calls.
+
+Where it sits: ``server.Server(empty=True)`` starts with an empty scene and hands every
+request to a ``SceneEditor``, which answers the calls ``labsim scene``
+(``scene_builder``) makes to build a lab in CoppeliaSim, and passes the others to the
+simulation's ``sim_api.SimApi``. Edits collect here; at the first call that is not an edit
+(``sim.getObject``, ``sim.startSimulation``, ...) the server's ``simulation.Simulation`` is
+rebuilt from them, so what the backend then finds is what was built.
+
+What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene"):
+
+* a static cuboid aliased ``wall`` (``sim.createPrimitiveShape``) is labsim's wall: the segment
+  along its length, less its thickness (labsim's walls have rounded ends), its thickness wide;
+  any other static cuboid is a block (a box); a static mesh (``sim.createMeshShape``) is a
+  block, its corners the vertices at the floor;
+* a plane (``sim.primitiveshape_plane``) is the floor: the world's bounds;
+* ``sim.loadModel`` of CoppeliaSim's ``pioneer p3dx.ttm`` adds a Pioneer P3DX at the origin,
+  with its own script (``sim.getScript``, ``sim.removeScript`` take it away; a simulation
+  started with a script left is logged, since on CoppeliaSim it would drive the wheels);
+* ``sim.setSimulationTimeStep(dt)`` (or the older ``sim.setFloatParam(sim.floatparam_simulation_time_step,
+  dt)``) sets the time step.
+
+Coordinates are rounded to the nanometre and angles to the nanoradian when the world is
+rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
+reproduces the embedded backend's trace.
+
+* ``sim.createTexture`` of a PNG makes a textured plane; the ground its cameras see is that
+  picture, placed and scaled as the plane is (``labsim.backends.scene.ground.Texture``), the
+  floor's colour its corner pixel's;
+* a vision sensor (``sim.createVisionSensor``) parented to a robot (``sim.setObjectParent``)
+  and placed with ``sim.setObjectMatrix`` becomes that robot's camera: resolution, view
+  angle, mount, pitch and roll read back from them (angles rounded to 1e-6 degrees).
+
+A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the fleet script
+``script_host``'s. Not built here (the stand-in answers with an error saying so):
+``sim.saveScene``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from labsim.backends.coppeliasim import RUNNING, STOPPED
+from labsim.backends.protocol import RobotRequest
+from labsim.backends.scene.ground import Ground, Texture
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
+from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.runtime.serve.built import Sensor, Shape
+from labsim.runtime.serve.mechanism_edit import (
+    MECHANISM_CALLS,
+    MECHANISM_CONSTANTS,
+    MechanismEditor,
+    floats,
+    rounded,
+)
+from labsim.runtime.serve.scene_tree import ROBOT_Z_M
+from labsim.runtime.serve.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
+from labsim.runtime.serve.sim_api import (
+    E_ARGS,
+    E_FEW,
+    E_HANDLE,
+    Args,
+    Handler,
+    SimError,
+    Wait,
+    value_and_frame,
+)
+from labsim.runtime.serve.simulation import Client, Simulation
+
+FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
+PIONEER_FILE = "pioneer p3dx.ttm"  # models/robots/mobile/ in CoppeliaSim's resources
+RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
+
+# simConst.h values (CoppeliaSim 4.6); the client reads them from zmqRemoteApi.info.
+EDIT_CONSTANTS: dict[str, int] = {
+    "primitiveshape_plane": 1, "primitiveshape_disc": 2, "primitiveshape_cuboid": 3,
+    "primitiveshape_spheroid": 4, "primitiveshape_cylinder": 5,
+    "shapeintparam_static": 3003, "shapeintparam_respondable": 3004,
+    "scripttype_childscript": 1, "stringparam_resourcesdir": 141,
+}
+EDITS = tuple(f"sim.{n}" for n in (
+    "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
+    "setSimulationTimeStep",
+    "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
+    "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
+    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
+))
+
+
+class Host(Protocol):
+    """What the scene editor needs of the server that holds it (``server.Server``)."""
+
+    simulation: Simulation
+    dt_s: float
+    log: Callable[[str], None]
+
+    def sim_handlers(self) -> dict[str, Handler]: ...
+    def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None: ...
+
+
+class SceneEditor:
+    """Edits of an empty scene, and the handlers that take them (``handlers()``)."""
+
+    def __init__(self, server: Host) -> None:
+        self.server = server
+        self.shapes: dict[int, Shape] = {}
+        self.scripts: dict[int, int] = {}  # script handle -> robot index
+        self.sensors: dict[int, Sensor] = {}
+        self.robots: list[Pose] = []
+        self.dirty = False
+        self._next = FIRST_HANDLE
+        self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state == RUNNING
+                                      and self.server.simulation.steps > 0)
+        self.mechanism_edit = MechanismEditor(self)
+
+    def _handle(self) -> int:
+        self._next += 1
+        return self._next - 1
+
+    # --- the handlers --------------------------------------------------------------------------
+
+    def handlers(self) -> dict[str, Handler]:
+        """The simulation's handlers, each rebuilding the scene first if it was edited, and the edits."""
+        funcs = {name: self._after_edits(name) for name in self.server.sim_handlers()}
+        for name in EDITS:
+            funcs[name] = getattr(self, "_" + name.removeprefix("sim."))
+        start = funcs["sim.startSimulation"]
+
+        def start_simulation(client: Client, args: Args) -> list[object] | Wait:
+            self._warn_scripts()
+            return start(client, args)
+        funcs["sim.startSimulation"] = start_simulation
+        info = funcs["zmqRemoteApi.info"]
+        funcs["zmqRemoteApi.info"] = lambda client, args: self._info(info(client, args))
+        return self.mechanism_edit.wrap(self.script_host.wrap(funcs))  # fleet script, mechanism
+
+    def _warn_scripts(self) -> None:
+        for i in sorted(self.scripts.values()):
+            self.server.log(f"labsim serve: /PioneerP3DX[{i}] still has its script; in CoppeliaSim it would "
+                            f"drive the wheels and fight the client's commands (sim.removeScript)")
+
+    def _after_edits(self, name: str) -> Handler:
+        def call(client: Client, args: Args) -> list[object] | Wait:
+            if self.dirty:
+                self.apply()
+            return self.server.sim_handlers()[name](client, args)
+        return call
+
+    def _info(self, ret: list[object] | Wait) -> list[object]:
+        assert isinstance(ret, list) and isinstance(ret[0], dict)
+        info = dict(ret[0])
+        info.update({name.removeprefix("sim."): {"func": {}} for name in EDITS})
+        info.update({name: {"const": value} for name, value in EDIT_CONSTANTS.items()})
+        info.update({name.removeprefix("sim."): {"func": {}} for name in SCRIPT_CALLS})
+        info.update({name: {"const": value} for name, value in SCRIPT_CONSTANTS.items()})
+        info.update({name.removeprefix("sim."): {"func": {}} for name in MECHANISM_CALLS})
+        info.update({name: {"const": value} for name, value in MECHANISM_CONSTANTS.items()})
+        return [info]
+
+    # --- rebuilding the simulation -------------------------------------------------------------
+
+    def world(self) -> World:
+        """The world the built shapes make (walls, blocks, the floor's bounds)."""
+        walls: list[Wall] = []
+        blocks: list[Block] = []
+        bounds = (-10.0, -10.0, 10.0, 10.0)
+        ground: Ground | None = None
+        floor_z: float | None = None
+        bodies = self.mechanism_edit.bodies()  # a mechanism's, not walls or blocks
+        for h, s in self.shapes.items():
+            c, si = math.cos(s.yaw), math.sin(s.yaw)
+            if s.kind == "texture":
+                ground = _textured(s)
+            elif s.kind == "plane":
+                hw, hd = s.size[0] / 2, s.size[1] / 2
+                bounds = (rounded(s.x - hw), rounded(s.y - hd), rounded(s.x + hw), rounded(s.y + hd))
+                floor_z = s.z
+            elif not s.static or h in bodies:
+                continue
+            elif s.kind == "cuboid" and s.alias == "wall":
+                half = (s.size[0] - s.size[1]) / 2
+                walls.append(Wall((rounded(s.x - half * c), rounded(s.y - half * si)),
+                                  (rounded(s.x + half * c), rounded(s.y + half * si)), rounded(s.size[1])))
+            elif s.kind == "cuboid":
+                w, d = s.size[0], s.size[1]
+                local = ((-w / 2, -d / 2), (w / 2, -d / 2), (w / 2, d / 2), (-w / 2, d / 2))
+                blocks.append(Block(tuple((rounded(s.x + x * c - y * si), rounded(s.y + x * si + y * c))
+                                          for x, y in local)))
+            else:
+                blocks.append(Block(tuple((rounded(s.x + x), rounded(s.y + y)) for x, y in s.corners)))
+        return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
+                     ground=ground, mechanism=self.mechanism_edit.mechanism(floor_z))
+
+    def apply(self) -> None:
+        """Rebuild the server's simulation from the edits (the robots keep the poses they were given)."""
+        sim = self.server.simulation
+        poses = [r.pose for r in sim.robots] + self.robots[len(sim.robots):]
+        self.robots = poses
+        cameras: dict[int, list[Camera]] = {}
+        for sensor in self.sensors.values():
+            if sensor.robot >= 0 and sensor.matrix:
+                cameras.setdefault(sensor.robot, []).append(_camera(sensor))
+        models = [dataclasses.replace(PIONEER_P3DX, cameras=tuple(cameras.get(i, ()))) for i in range(len(poses))]
+        requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
+        self.server.rebuild(self.world(), requests)
+        self.dirty = False
+
+    # --- edits -------------------------------------------------------------------------------
+
+    def _stopped(self) -> None:
+        if self.server.simulation.state != STOPPED:
+            raise SimError("labsim serve: the scene is built while the simulation is stopped")
+
+    def _new(self, shape: Shape) -> list[object]:
+        self._stopped()
+        h = self._next
+        self._next += 1
+        self.shapes[h] = shape
+        self.dirty = True
+        return [h]
+
+    def _shape(self, args: Args) -> Shape | None:
+        """The built shape ``args[0]`` names, or None for an object of the simulation."""
+        if not args:
+            raise SimError(E_FEW)
+        h = args[0]
+        if not isinstance(h, int) or isinstance(h, bool):
+            raise SimError(E_ARGS)
+        if h >= FIRST_HANDLE and h not in self.shapes and h not in self.sensors:
+            raise SimError(E_HANDLE)
+        return self.shapes.get(h)
+
+    def _createPrimitiveShape(self, client: Client, args: Args) -> list[object]:
+        # sim.createPrimitiveShape(int primitiveType, list sizes, int options = 0): CoppeliaSim 4.6
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        kind = {1: "plane", 3: "cuboid"}.get(args[0]) if isinstance(args[0], int) else None
+        if kind is None:
+            raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
+        sizes = floats(args[1], 3)
+        return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid"))
+
+    def _createMeshShape(self, client: Client, args: Args) -> list[object]:
+        # sim.createMeshShape(int options, float shadingAngle, list vertices, list indices): 4.6
+        if len(args) < 4:
+            raise SimError(E_FEW)
+        v = floats(args[2], len(args[2]) if isinstance(args[2], list) else 0)
+        points = [(v[i], v[i + 1], v[i + 2]) for i in range(0, len(v) - 2, 3)]
+        floor = tuple((x, y) for x, y, z in points if abs(z) < 1e-9)
+        if len(floor) < 3:
+            raise SimError("labsim serve: a mesh is read as a prism standing on the floor (z = 0)")
+        height = max(z for _, _, z in points)
+        return self._new(Shape("mesh", (0.0, 0.0, height), corners=floor, alias="Shape"))
+
+    def _setObjectAlias(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if len(args) < 2 or not isinstance(args[1], str):
+            raise SimError(E_ARGS)
+        if args[0] in self.sensors:
+            self.sensors[args[0]].alias = args[1]
+            return []
+        if shape is None:
+            raise SimError("labsim serve: only built shapes and sensors take a new alias")
+        shape.alias = args[1]
+        self.dirty = True
+        return []
+
+    def _setObjectInt32Param(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if len(args) < 3 or shape is None:
+            raise SimError(E_FEW if len(args) < 3 else "labsim serve: only built shapes take parameters")
+        if args[1] == EDIT_CONSTANTS["shapeintparam_static"]:
+            shape.static = bool(args[2])
+            self.dirty = True
+        return []
+
+    def _setFloatParam(self, client: Client, args: Args) -> list[object]:
+        # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): CoppeliaSim 4.6
+        self._stopped()
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        if args[0] != 1 or not isinstance(args[1], (int, float)) or not args[1] > 0:
+            raise SimError("labsim serve: only the simulation time step (a positive number) can be set")
+        self.server.dt_s = float(args[1])
+        self.dirty = True
+        return []
+
+    def _setSimulationTimeStep(self, client: Client, args: Args) -> list[object]:
+        return self._setFloatParam(client, [1, *args[:1]])
+
+    def _getStringParam(self, client: Client, args: Args) -> list[object]:
+        if not args or args[0] != EDIT_CONSTANTS["stringparam_resourcesdir"]:
+            raise SimError("labsim serve: only sim.stringparam_resourcesdir is answered")
+        return [RESOURCES]
+
+    def _loadModel(self, client: Client, args: Args) -> list[object]:
+        # sim.loadModel(string filename): CoppeliaSim 4.6
+        self._stopped()
+        if not args or not isinstance(args[0], str):
+            raise SimError(E_ARGS)
+        if not args[0].replace("\\", "/").lower().endswith("/" + PIONEER_FILE):
+            raise SimError(f"labsim serve: the stand-in loads only CoppeliaSim's models/robots/mobile/"
+                           f"{PIONEER_FILE}, not '{args[0]}'")
+        if self.dirty:
+            self.apply()
+        self.robots.append(Pose(0.0, 0.0, 0.0))
+        self.apply()
+        i = len(self.robots) - 1
+        script = self._next
+        self._next += 1
+        self.scripts[script] = i
+        return [self.server.simulation.robots[i].obj.handle]
+
+    def _getScript(self, client: Client, args: Args) -> list[object]:
+        # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6; -1 when it has none
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        if self.dirty:
+            self.apply()
+        obj = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
+        if obj is None or obj.kind != "robot":
+            return [-1]
+        return [next((h for h, i in self.scripts.items() if i == obj.robot), -1)]
+
+    def _removeScript(self, client: Client, args: Args) -> list[object]:
+        if not args or args[0] not in self.scripts:
+            raise SimError(E_HANDLE)
+        del self.scripts[args[0]]
+        return []
+
+    def _setObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.setObjectPosition", client, args)
+        self._stopped()
+        value, _rel = value_and_frame(args, "shapes")
+        shape.x, shape.y, shape.z = floats(value, 3)
+        self.dirty = True
+        return []
+
+    def _setObjectOrientation(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.setObjectOrientation", client, args)
+        self._stopped()
+        value, _rel = value_and_frame(args, "shapes")
+        alpha, beta, gamma = floats(value, 3)
+        if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
+            raise SimError("labsim serve: the scene is flat; shapes turn about z only (alpha = beta = 0)")
+        shape.yaw = gamma
+        self.dirty = True
+        return []
+
+    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.getObjectPosition", client, args)
+        return [[shape.x, shape.y, shape.z]]
+
+    def _getObjectOrientation(self, client: Client, args: Args) -> list[object]:
+        shape = self._shape(args)
+        if shape is None:
+            return self._simulation("sim.getObjectOrientation", client, args)
+        return [[0.0, 0.0, shape.yaw]]
+
+    def _simulation(self, name: str, client: Client, args: Args) -> list[object]:
+        if self.dirty:
+            self.apply()
+        ret = self.server.sim_handlers()[name](client, args)
+        assert isinstance(ret, list)
+        return ret
+
+    def _saveScene(self, client: Client, args: Args) -> list[object]:
+        raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")
+
+    def _createVisionSensor(self, client: Client, args: Args) -> list[object]:
+        # sim.createVisionSensor(int options, list intParams, list floatParams): CoppeliaSim 4.6
+        self._stopped()
+        if len(args) < 3:
+            raise SimError(E_FEW)
+        res = floats(args[1], 2)
+        params = floats(args[2], 3)
+        h = self._next
+        self._next += 1
+        self.sensors[h] = Sensor((int(res[0]), int(res[1])), params[2])
+        self.dirty = True
+        return [h]
+
+    def _setObjectParent(self, client: Client, args: Args) -> list[object]:
+        # sim.setObjectParent(int objectHandle, int parentHandle, bool keepInPlace): CoppeliaSim 4.6
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        sensor = self.sensors.get(args[0])
+        if self.dirty:
+            self.apply()
+        parent = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
+        if sensor is None or parent is None or parent.kind != "robot":
+            raise SimError("labsim serve: only a built vision sensor is parented, and only to a robot")
+        sensor.robot = parent.robot
+        self.dirty = True
+        return []
+
+    def _setObjectMatrix(self, client: Client, args: Args) -> list[object]:
+        # sim.setObjectMatrix(int objectHandle, list matrix, int relativeTo): CoppeliaSim 4.6
+        if len(args) < 3:
+            raise SimError(E_FEW)
+        sensor = self.sensors.get(args[0])
+        if sensor is None or sensor.robot < 0:
+            raise SimError("labsim serve: only a vision sensor parented to a robot takes a matrix")
+        robot = self.server.simulation.robots[sensor.robot].obj.handle
+        if args[2] != robot:
+            raise SimError("labsim serve: a vision sensor's matrix is taken relative to its robot")
+        sensor.matrix = floats(args[1], 12)
+        self.dirty = True
+        return []
+
+    def _createTexture(self, client: Client, args: Args) -> list[object]:
+        # sim.createTexture(string fileName, int options, list planeSizes, ...): CoppeliaSim 4.6;
+        # returns the textured plane's handle, the texture's id and its resolution
+        import cv2
+        import numpy as np
+
+        if len(args) < 3 or not isinstance(args[0], str):
+            raise SimError(E_FEW if len(args) < 3 else E_ARGS)
+        try:
+            with open(args[0], "rb") as f:
+                png = f.read()
+        except OSError as e:
+            raise SimError(f"labsim serve: cannot read the texture '{args[0]}': {e.strerror}") from None
+        picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
+        if picture is None:
+            raise SimError(f"labsim serve: the texture '{args[0]}' is not an image")
+        sizes = floats(args[2], 2)
+        height, width = picture.shape[:2]
+        [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
+        return [h, h, [width, height]]
+
+
+
+def _textured(s: Shape) -> Ground:
+    """The ground a textured plane shows: its picture, placed and scaled as the plane is."""
+    import cv2
+    import numpy as np
+
+    bgr = cv2.imdecode(np.frombuffer(s.png, np.uint8), cv2.IMREAD_COLOR)
+    assert bgr is not None  # sim.createTexture decoded it already
+    b, g, r = (int(v) for v in bgr[0, 0])  # the margin around what is painted: the floor
+    ppm = round(s.px[0] / s.size[0], 6)
+    return Ground(floor_rgb=(r, g, b), px_per_m=ppm,
+                  texture=Texture(s.png, rounded(s.x - s.size[0] / 2), rounded(s.y + s.size[1] / 2)))
+
+
+def _camera(s: Sensor) -> Camera:
+    """A vision sensor's pose and optics as labsim's camera (see scene_builder.camera_matrix)."""
+    m = s.matrix
+    y_axis, z_axis = (m[1], m[5], m[9]), (m[2], m[6], m[10])
+    pitch = math.asin(max(-1.0, min(1.0, -z_axis[2])))
+    up = (math.sin(pitch), 0.0, math.cos(pitch))
+    roll = math.atan2(-y_axis[1], sum(a * b for a, b in zip(y_axis, up)))
+    w, h = s.resolution
+    fov = s.angle_rad if w >= h else 2 * math.atan(math.tan(s.angle_rad / 2) * w / h)
+    return Camera("camera", w, h, _deg(fov), rounded(m[11] + ROBOT_Z_M), _deg(pitch), rounded(m[3]), _deg(roll))
+
+
+def _deg(v: float) -> float:
+    return round(math.degrees(v), 6) + 0.0

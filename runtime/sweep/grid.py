@@ -1,0 +1,325 @@
+"""Sweeps: many runs of one or more behaviour files, over a grid of parameters and seeds.
+
+``labsim sweep`` builds the grid here (every combination of ``--set`` values x every seed x
+every file), checks it before anything runs, hands the tasks to an executor (a local pool of
+processes, runtime/sweep/pool.py, or a Dask cluster, runtime/sweep/dask_pool.py), and turns what comes
+back into rows: one per run, with the run's ``labsim run --json`` summary inside. The
+comparison of the rows is runtime/sweep/stats.py; writing them out and drawing them is
+runtime/sweep/output.py.
+
+A run is executed by ``run_task`` wherever the executor puts it; it never raises for a
+behaviour's fault: a file that does not compile, a run that raises, are rows with a status.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import time as clock
+import traceback
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.world import BUILTIN_DIR
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.runtime.run import Behaviour, compile_behaviour
+from labsim.runtime.summary_json import summary_dict
+
+OK, COMPILE_ERROR, RUNTIME_ERROR = "ok", "compile error", "runtime error"
+TIMEOUT, INTERRUPTED = "timeout", "interrupted"
+STATUSES = (OK, COMPILE_ERROR, RUNTIME_ERROR, TIMEOUT, INTERRUPTED)
+MAX_GRID = 1_000_000  # runs in one sweep; a typo such as 0:1000:0.0001 is caught before it starts
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One ``--set``: a parameter and the values (as typed, the way ``--set`` passes them) to try."""
+
+    name: str
+    values: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of the grid: which file, which parameter values, which seed, where its trace goes."""
+
+    index: int
+    file: str
+    settings: tuple[tuple[str, str], ...]
+    seed: int
+    trace: str | None = None
+    budgets: Budgets = DEFAULT_BUDGETS  # what the run may cost (docs/security.md)
+
+    @property
+    def label(self) -> str:
+        """The settings as ``front=0.5 side=0.3`` ('' when the sweep sets none)."""
+        return " ".join(f"{k}={v}" for k, v in self.settings)
+
+
+@dataclass
+class Row:
+    """What one run gave: its status, a message when it did not finish, and its summary."""
+
+    task: Task
+    status: str
+    message: str = ""
+    summary: dict[str, Any] | None = None
+    task_time_s: float = 0.0  # in the worker: compile and run, seconds
+    worker: str = ""
+    retries: int = 0  # times it was started again after its worker was lost
+
+    @property
+    def failed(self) -> bool:
+        return self.status != OK
+
+
+@dataclass(frozen=True)
+class FileInfo:
+    """What the sweep learns about a file before running it (from one compile)."""
+
+    path: str
+    seed: int = 0
+    params: tuple[str, ...] = ()
+    metrics: tuple[str, ...] = ()
+    error: str = ""  # the first compile error, one line; '' when it compiles
+    world_file: str = ""  # a world file it names ('' for a built-in world)
+
+
+# -- the grid ---------------------------------------------------------------------------------
+
+def parse_setting(text: str) -> Setting:
+    """``NAME=V1,V2,...`` or ``NAME=START:STOP:STEP`` (STOP included when the steps reach it)."""
+    where = f"--set {text}"
+    name, eq, spec = text.partition("=")
+    name, spec = name.strip(), spec.strip()
+    if not eq or not name or not spec:
+        raise LabsimError([Diagnostic(where, "--set takes NAME=V1,V2,... or NAME=START:STOP:STEP, "
+                                             "e.g. --set front=0.5,1.0")])
+    if ":" not in spec:
+        values = tuple(v.strip() for v in spec.split(","))
+        if any(not v for v in values):
+            raise LabsimError([Diagnostic(where, "an empty value in the list; separate values with commas")])
+        return Setting(name, values)
+    parts = spec.split(":")
+    try:
+        start, stop, step = (float(p) for p in parts) if len(parts) == 3 else (math.nan,) * 3
+    except ValueError:
+        start = stop = step = math.nan
+    if not all(math.isfinite(v) for v in (start, stop, step)):
+        raise LabsimError([Diagnostic(where, "a range is START:STOP:STEP with three numbers, e.g. front=0.5:1.0:0.25")])
+    if step <= 0 or stop < start:
+        raise LabsimError([Diagnostic(where, "a range needs STOP >= START and a positive STEP")])
+    count = math.floor((stop - start) / step + 1e-9) + 1
+    if count > MAX_GRID:
+        raise LabsimError([Diagnostic(where, f"this range has {count:,} values; too many")])
+    return Setting(name, tuple(f"{start + k * step:.10g}" for k in range(count)))
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``1-20``, ``1,2,5`` or ``1-5,9``: the seeds, in order, without repeats."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, dash, hi = part.strip().partition("-")
+        try:
+            first, last = int(lo), int(hi) if dash else int(lo)
+        except ValueError:
+            raise LabsimError([Diagnostic(f"--seeds {text}",
+                                          "seeds are whole numbers: 1-20, 1,2,5 or 1-5,9")]) from None
+        if first < 0 or last < first or last > WHOLE_LIMIT:
+            raise LabsimError([Diagnostic(f"--seeds {text}", f"'{part.strip()[:40]}' is not a range of seeds "
+                                                             "(0 to 2**53, low-high)")])
+        if last - first >= MAX_GRID:
+            raise LabsimError([Diagnostic(f"--seeds {text}", "too many seeds")])
+        seeds += [s for s in range(first, last + 1) if s not in seeds]
+    return tuple(seeds)
+
+
+def inspect_files(files: list[str], settings: list[Setting],
+                  budgets: Budgets = DEFAULT_BUDGETS) -> dict[str, FileInfo]:
+    """Compile every file once (with the first value of each setting) before anything runs.
+
+    A file that does not compile is noted (its runs become compile-error rows); a ``--set``
+    the file does not accept (an unknown name, a value of the wrong type) is the user's
+    mistake for the whole sweep: LabsimError, with the file's parameters listed.
+    """
+    usage: list[Diagnostic] = []
+    out: dict[str, FileInfo] = {}
+    for f in files:
+        if f in out:
+            continue
+        overrides = {s.name: s.values[0] for s in settings}
+        try:
+            program = compile_behaviour(f, overrides, budgets=budgets).program
+        except LabsimError as e:
+            bad = [d for d in e.diagnostics if d.path.startswith("--set ")]
+            if bad and not [d for d in e.diagnostics if d.severity == "error" and d not in bad]:
+                usage += [Diagnostic(f"{d.path} (in {f})", d.message, notes=d.notes) for d in bad]
+            out[f] = FileInfo(f, error=first_error(e))
+            continue
+        world = Path(program.world.source)
+        out[f] = FileInfo(f, program.seed, tuple(program.params), tuple(program.metric_names),
+                          world_file="" if world.parent == BUILTIN_DIR or not world.is_file() else str(world))
+        usage += _check_values(f, settings, program.params)
+    if usage:
+        raise LabsimError(usage)
+    return out
+
+
+def _check_values(f: str, settings: list[Setting], params: Mapping[str, float | bool]) -> list[Diagnostic]:
+    """Each value of each setting must suit the parameter's type (number or true/false)."""
+    problems = []
+    for s in settings:
+        current = params.get(s.name)
+        for value in s.values:
+            if isinstance(current, bool):
+                ok = value.lower() in ("true", "false")
+            else:
+                try:
+                    ok = math.isfinite(float(value))
+                except ValueError:
+                    ok = False
+            if not ok:
+                kind = "true or false" if isinstance(current, bool) else "a finite number"
+                problems.append(Diagnostic(f"--set {s.name}={value} (in {f})", f"parameter '{s.name}' is {kind}"))
+    return problems
+
+
+def first_error(e: LabsimError) -> str:
+    """A compile failure on one line: the first error, ``path:line:col: error: message``."""
+    errors = [d for d in e.diagnostics if d.severity == "error"] or e.diagnostics
+    own = [d for d in errors if not d.path.startswith("--")]  # the file's own before a --set it lacks
+    errors = own or errors
+    return errors[0].format().splitlines()[0] if errors else str(e)
+
+
+def grid(files: list[str], settings: list[Setting], seeds: tuple[int, ...] | None,
+         info: dict[str, FileInfo], traces: str | None = None, budgets: Budgets = DEFAULT_BUDGETS) -> list[Task]:
+    """Every file x every combination of the settings x every seed (default: the file's own)."""
+    tasks: list[Task] = []
+    combos = list(itertools.product(*[[(s.name, v) for v in s.values] for s in settings]))
+    for f in files:
+        for combo in combos:
+            for seed in seeds if seeds is not None else (info[f].seed,):
+                trace = None
+                if traces is not None:
+                    trace = str(Path(traces) / trace_name(len(tasks), f, combo, seed))
+                tasks.append(Task(len(tasks), f, tuple(combo), seed, trace, budgets))
+    return tasks
+
+
+def trace_name(index: int, file: str, combo: tuple[tuple[str, str], ...], seed: int) -> str:
+    """``0003-wall_follow-front=0.5-seed2.csv``: unique (the index), and readable."""
+    parts = [f"{index:04d}", Path(file).stem, *(f"{k}={v}" for k, v in combo), f"seed{seed}"]
+    return "-".join(p.replace("/", "_") for p in parts) + ".csv"
+
+
+# -- one run, in a worker ---------------------------------------------------------------------
+
+def compile_seeded(path: str, overrides: dict[str, str], seed: int,
+                   budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
+    """Compile a file with its seed replaced, as ``labsim run --seed`` does."""
+    return compile_behaviour(path, overrides, seed=seed, budgets=budgets)
+
+
+class RunTimeout(Exception):
+    """A run went past its deadline (raised from inside the tick loop)."""
+
+
+def run_task(task: Task, path: str | None = None, deadline_s: float | None = None) -> dict[str, Any]:
+    """Compile and run one task; a dict (status, message, summary, task_time_s), never an exception.
+
+    ``path`` is where the file is on this machine when it differs from ``task.file``;
+    ``deadline_s`` stops the run from inside its loop after that many seconds (the local pool
+    kills the process instead; a Dask worker cannot be killed for one task).
+    """
+    started = clock.perf_counter()
+
+    def done(status: str, message: str = "", summary: dict[str, Any] | None = None) -> dict[str, Any]:
+        return {"status": status, "message": message, "summary": summary,
+                "task_time_s": clock.perf_counter() - started}
+
+    try:
+        behaviour = compile_seeded(path or task.file, dict(task.settings), task.seed, task.budgets)
+    except LabsimError as e:
+        return done(COMPILE_ERROR, first_error(e))
+    except Exception as e:  # a bug in labsim must not stop the batch: the row says what it was
+        return done(COMPILE_ERROR, _exception_line(e))
+    warnings: list[str] = []
+    progress: Callable[[int, float], None] | None = None
+    if deadline_s is not None:
+        limit = started + deadline_s
+
+        def progress(tick: int, sim_time_s: float) -> None:
+            if clock.perf_counter() > limit:
+                raise RunTimeout(f"stopped after {deadline_s:g} s at tick {tick} ({sim_time_s:.1f} s simulated)")
+
+    try:
+        run = behaviour.bind(load_backend(DEFAULT), trace=task.trace, warn=warnings.append)
+    except Exception as e:
+        return done(RUNTIME_ERROR, first_error(e) if isinstance(e, LabsimError) else _exception_line(e))
+    try:
+        summary = run.run(progress=progress)
+    except RunTimeout as e:
+        return done(TIMEOUT, str(e))
+    except Exception as e:
+        return done(RUNTIME_ERROR, first_error(e) if isinstance(e, LabsimError) else _exception_line(e))
+    finally:
+        run.close()
+    if summary.over_budget:  # stopped by a budget: a failed row, with what it did up to there
+        return done(RUNTIME_ERROR, summary.over_budget, summary_dict(summary, run, warnings=warnings))
+    status = INTERRUPTED if summary.interrupted else OK
+    return done(status, "", summary_dict(summary, run, warnings=warnings))
+
+
+def _exception_line(e: BaseException) -> str:
+    """An unexpected exception on one line, with where it was raised."""
+    frames = traceback.extract_tb(e.__traceback__)
+    where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
+    return f"{type(e).__name__}: {e}{where}"
+
+
+def row_of(task: Task, result: dict[str, Any], worker: str = "", retries: int = 0) -> Row:
+    return Row(task, result["status"], result["message"], result["summary"], result["task_time_s"], worker, retries)
+
+
+# -- rows as flat records ---------------------------------------------------------------------
+
+@dataclass
+class Columns:
+    """The CSV columns of a sweep: fixed ones, then the settings, then every metric seen."""
+
+    settings: list[str] = field(default_factory=list)
+    metrics: list[str] = field(default_factory=list)
+
+    def names(self) -> list[str]:
+        return (["file", "name", "sha256", *self.settings, "seed", "status", "message", "ticks", "sim_time_s",
+                 "wall_time_s", "task_time_s", "contacts", "clamped_ticks", "faults", "stop_reason",
+                 *self.metrics, "retries", "worker"])
+
+
+def metric_values(summary: dict[str, Any]) -> dict[str, Any]:
+    """A run's metrics: the robot's own, or the fleet's when there are several robots."""
+    robots = list(summary["robots"].values())
+    if len(robots) == 1:
+        return dict(robots[0]["metrics"])
+    return dict(summary["fleet"])
+
+
+def flat(row: Row) -> dict[str, Any]:
+    """One row as a flat record: the figures a spreadsheet wants (see Columns.names)."""
+    out: dict[str, Any] = {"file": row.task.file, **dict(row.task.settings), "seed": row.task.seed,
+                           "status": row.status, "message": row.message, "task_time_s": round(row.task_time_s, 6),
+                           "retries": row.retries, "worker": row.worker}
+    s = row.summary
+    if s is not None:
+        robots = s["robots"].values()
+        out.update(name=s["behaviour"]["name"], sha256=s["behaviour"]["sha256"], ticks=s["ticks"],
+                   sim_time_s=s["sim_time_s"], wall_time_s=round(s["wall_time_s"], 6),
+                   contacts=sum(r["contacts"] for r in robots), clamped_ticks=sum(r["clamped_ticks"] for r in robots),
+                   faults=len(s["faults"]), stop_reason=s["stop_reason"])
+        out.update(metric_values(s))
+    return out

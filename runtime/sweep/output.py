@@ -1,0 +1,174 @@
+"""What a sweep shows and writes: the progress bar, the comparison table, the CSV and JSON files.
+
+The rows come from runtime/sweep/grid.py, the figures of the table from runtime/sweep/stats.py; the
+chart is runtime/sweep/plot.py. The JSON file's schema is in docs/sweep.md.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import sys
+import time as clock
+from pathlib import Path
+from typing import Any, TextIO
+
+from labsim import __version__
+from labsim.foundation.files import write_output
+from labsim.runtime.summary_json import number
+from labsim.runtime.sweep.grid import STATUSES, Columns, Row, flat
+from labsim.runtime.sweep.stats import Stat, Test
+
+SWEEP_SCHEMA = "labsim-sweep"
+SWEEP_VERSION = 1
+
+
+class SweepProgress:
+    """``[#####     ] 12/40 runs, 1 failed, ETA 0:23`` on one terminal line."""
+
+    def __init__(self, total: int, stream: TextIO = sys.stderr, show: bool = True):
+        self.total, self.stream, self.show = total, stream, show
+        self.done = self.failed = 0
+        self.started = clock.perf_counter()
+        self.drawn = False
+
+    def update(self, row: Row) -> None:
+        self.done += 1
+        self.failed += row.failed
+        if not self.show:
+            return
+        elapsed = clock.perf_counter() - self.started
+        eta = elapsed / self.done * (self.total - self.done)
+        bar = "#" * int(30 * self.done / max(self.total, 1))
+        failed = f", {self.failed} failed" if self.failed else ""
+        self.stream.write(f"\r  [{bar:<30}] {self.done}/{self.total} runs{failed}, ETA {_clock(eta)}   ")
+        self.stream.flush()
+        self.drawn = True
+
+    def clear(self) -> None:
+        if self.drawn:
+            self.stream.write("\r" + " " * 79 + "\r")
+            self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    whole = round(seconds)
+    h, rest = divmod(whole, 3600)
+    return f"{h}:{rest // 60:02d}:{rest % 60:02d}" if h else f"{rest // 60}:{rest % 60:02d}"
+
+
+# -- the table --------------------------------------------------------------------------------
+
+def _num(v: float) -> str:
+    if isinstance(v, float) and math.isnan(v):
+        return "-"
+    return f"{v:.4g}"
+
+
+def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], maximize: tuple[str, ...] = (),
+                      several_files: bool = False) -> str:
+    """Per metric: a line per group (n, mean, sd, 95% CI, min, max, the best marked), then the tests."""
+    lines: list[str] = []
+    for m in comp["metrics"]:
+        entries: list[tuple[Any, Stat]] = comp["table"][m]
+        goal = "higher is better" if m in maximize else "lower is better"
+        kind = aggregates.get(m, "")
+        lines.append(f"{m}  ({kind + '; ' if kind else ''}{goal})")
+        header = ["file" if several_files else "", "setting", "n", "mean", "sd", "95% CI", "min", "max", ""]
+        body = []
+        for i, (g, s) in enumerate(entries):
+            ci = f"[{_num(s.ci_low)}, {_num(s.ci_high)}]" if s.n > 1 else "-"
+            mark = "best" if i in comp["best"].get(m, []) and len(entries) > 1 else ""
+            if s.left_out:
+                mark += f" ({s.left_out} non-finite left out)"
+            body.append([g.file if several_files else "", g.label or "(as in the file)", str(s.n), _num(s.mean),
+                         _num(s.sd), ci, _num(s.min), _num(s.max), mark.strip()])
+        keep = [i for i in range(len(header)) if i != 0 or several_files]
+        widths = {i: max(len(r[i]) for r in [header, *body]) for i in keep}
+        for r in [header, *body]:
+            cells = [r[i].ljust(widths[i]) if i in (0, 1, 8) else r[i].rjust(widths[i]) for i in keep]
+            lines.append(("  " + "  ".join(cells)).rstrip())
+        lines += [f"  {_test_line(t, several_files)}" for t in comp["tests"] if t.metric == m]
+        lines.append("")
+    failed = [g for g in comp["groups"] if g.failed]
+    for g in failed:
+        where = f"{g.file} " if several_files else ""
+        lines.append(f"{where}{g.label or '(as in the file)'}: {g.failed} of {g.runs} runs failed (not counted)")
+    if comp["tests"]:
+        lines.append("test: Welch's t-test of the two means, two-sided; a difference is larger than the seeds' "
+                     "noise when p < 0.05")
+    return "\n".join(lines).rstrip()
+
+
+def _test_line(t: Test, several_files: bool) -> str:
+    where = f"{t.file}: " if several_files else ""
+    if math.isnan(t.difference):
+        return f"{where}{t.b} vs {t.a}: {t.verdict}"
+    if math.isnan(t.p):  # no spread in either: nothing to test
+        return f"{where}{t.b} vs {t.a}: {t.difference:+.4g}: {t.verdict}"
+    p = f"p = {t.p:.2g}" if t.p >= 1e-4 else "p < 0.0001"
+    return f"{where}{t.b} vs {t.a}: {t.difference:+.4g} (Welch's t-test, {p}): {t.verdict}"
+
+
+def status_counts(rows: list[Row]) -> str:
+    """``40 runs: 38 ok, 1 compile error, 1 timeout``."""
+    counts = {s: sum(r.status == s for r in rows) for s in STATUSES}
+    parts = [f"{n} {s}" for s, n in counts.items() if n]
+    return f"{len(rows)} run{'s' if len(rows) != 1 else ''}: " + ", ".join(parts)
+
+
+def failures(rows: list[Row], limit: int = 20) -> list[str]:
+    """The failed rows, one line each (the first ``limit``)."""
+    bad = [r for r in rows if r.failed]
+    out = [f"  {r.task.file} {r.task.label} seed {r.task.seed}: {r.status}: {r.message}".replace("  seed", " seed")
+           for r in bad[:limit]]
+    if len(bad) > limit:
+        out.append(f"  ... and {len(bad) - limit} more (all are in the results file)")
+    return out
+
+
+# -- files ------------------------------------------------------------------------------------
+
+def columns(rows: list[Row], settings: list[str]) -> Columns:
+    cols = Columns(settings=list(settings))
+    for r in rows:
+        if r.summary is not None:
+            cols.metrics += [m for m in r.summary["metrics"] if m not in cols.metrics]
+    return cols
+
+
+def write_csv(rows: list[Row], path: str | Path, settings: list[str]) -> None:
+    cols = columns(rows, settings)
+    f = io.StringIO(newline="")
+    writer = csv.DictWriter(f, fieldnames=cols.names(), extrasaction="ignore", restval="")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow(flat(r))
+    write_output(path, f.getvalue())  # beside the target, renamed into place (foundation/files.py)
+
+
+def sweep_json(rows: list[Row], comp: dict[str, Any], meta: dict[str, Any]) -> dict[str, Any]:
+    """The whole sweep as JSON: what was asked, a row per run (with its summary), the comparison."""
+    out_rows = [{"index": r.task.index, "file": r.task.file, "settings": dict(r.task.settings), "seed": r.task.seed,
+                 "status": r.status, "message": r.message, "task_time_s": r.task_time_s, "worker": r.worker,
+                 "retries": r.retries, "trace": r.task.trace if r.summary is not None else None,
+                 "summary": r.summary} for r in rows]
+    table = []
+    for m in comp["metrics"]:
+        for i, (g, s) in enumerate(comp["table"][m]):
+            table.append({"metric": m, "file": g.file, "settings": g.label, "n": s.n, "mean": number(s.mean),
+                          "sd": number(s.sd), "ci95": [number(s.ci_low), number(s.ci_high)], "min": number(s.min),
+                          "max": number(s.max), "best": i in comp["best"].get(m, [])})
+    tests = [{"file": t.file, "metric": t.metric, "a": t.a, "b": t.b, "difference": number(t.difference),
+              "test": "welch-t", "p": number(t.p), "verdict": t.verdict} for t in comp["tests"]]
+    return {"schema": SWEEP_SCHEMA, "version": SWEEP_VERSION, "labsim": __version__, **meta,
+            "rows": out_rows, "comparison": table, "tests": tests}
+
+
+def write_json(data: dict[str, Any], path: str | Path) -> None:
+    text = json.dumps(data, indent=1, allow_nan=False) + "\n"
+    if str(path) == "-":
+        sys.stdout.write(text)
+    else:
+        write_output(path, text)

@@ -1,0 +1,219 @@
+"""The local executor of a sweep: N worker processes on this machine, one run at a time each.
+
+A worker is a clean process (forked from multiprocessing's fork server, a fresh interpreter
+that has imported labsim and the simulator and never runs anything, so a new worker costs
+milliseconds, not the half second of imports; ``spawn`` where there is no fork server;
+nothing of the parent's state, threads or open files is inherited) that compiles and runs
+the tasks it is sent
+(runtime/sweep/grid.py ``run_task``) and sends back each result. A run past its time limit, or a
+worker that dies, costs that one process: it is killed, the run becomes a ``timeout`` or
+``runtime error`` row, and a new worker takes its place; the other workers carry on.
+Workers ignore Ctrl-C; the parent stops them.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import threading
+import time as clock
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from typing import Any, cast
+
+from labsim.backends import DEFAULT, REGISTRY
+from labsim.foundation.files import allow, allowed_folders
+from labsim.runtime.sweep.grid import RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
+
+POLL_S = 0.25  # how often the parent looks at the clock while every worker is busy
+KILL_WAIT_S = 5.0  # how long to wait for a killed worker to be gone
+
+
+def default_jobs() -> int:
+    """The cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
+    """A worker's life: receive a task, send its result, until told to stop (None) or orphaned.
+    ``allowed``: the sweep's --allow-path folders (a fork server's children do not see its
+    environment); ``memory_mb``: the worker's memory limit, 0 for none."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    allow(allowed)
+    limit_memory(memory_mb)
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        result = run_task(task)
+        try:
+            conn.send(result)
+        except (BrokenPipeError, OSError):  # the parent is gone: so is the reason to go on
+            return
+
+
+def limit_memory(memory_mb: int) -> bool:
+    """Cap this process's address space at memory_mb (RLIMIT_AS), where the platform has it;
+    0 leaves it alone. A run that goes past it gets MemoryError, which its row reports; an
+    allocation outside Python may kill the worker instead, and the pool replaces it."""
+    if memory_mb <= 0:
+        return False
+    try:
+        import resource
+    except ImportError:  # not on this platform (Windows): docs/sweep.md says so
+        return False
+    limit = memory_mb * 1024 * 1024
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+    except (ValueError, OSError):
+        return False
+    return True
+
+
+# what every run imports: labsim and the default backend's module (named by the registry)
+PRELOAD = ["labsim.runtime.sweep.pool", REGISTRY[DEFAULT].partition(":")[0]]
+
+
+def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.context.SpawnContext:
+    """The fork server, with labsim imported in it; ``spawn`` where there is none (Windows)."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(PRELOAD)
+    return context
+
+
+@dataclass
+class _Worker:
+    process: multiprocessing.process.BaseProcess
+    conn: Connection
+    task: Task | None = None
+    started: float = 0.0
+
+    @property
+    def name(self) -> str:
+        return f"local:{self.process.pid}"
+
+
+class LocalPool:
+    """Runs tasks in ``jobs`` processes; ``results`` yields a row per task as each finishes."""
+
+    def __init__(self, jobs: int, timeout_s: float | None = None, memory_mb: int = 0):
+        self.jobs = jobs
+        self.timeout_s = timeout_s
+        self.memory_mb = memory_mb  # each worker's address space (limit_memory); 0: none
+        self.in_flight: dict[int, Task] = {}
+        self._context = _context()
+        self._workers: list[_Worker] = []
+
+    def _start(self) -> _Worker:
+        parent, child = self._context.Pipe()
+        allowed = [str(p) for p in allowed_folders()]
+        process = self._context.Process(target=_serve, args=(child, allowed, self.memory_mb), daemon=True,
+                                        name="labsim-sweep-worker")
+        # a terminal's Ctrl-C reaches every process of the group: a worker ignores it from its
+        # first instruction (an ignored signal stays ignored across exec), so that it does not
+        # die with a traceback while still importing; the parent stops the workers itself
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            process.start()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
+        child.close()
+        return _Worker(process, parent)
+
+    def _replace(self, w: _Worker) -> None:
+        self._kill(w)
+        self._workers[self._workers.index(w)] = self._start()
+
+    @staticmethod
+    def _kill(w: _Worker) -> None:
+        if w.process.is_alive():
+            w.process.kill()
+        w.process.join(KILL_WAIT_S)
+        w.conn.close()
+
+    def results(self, tasks: list[Task]) -> Iterator[Row]:
+        """Run every task; always stops every worker, also when the caller stops early."""
+        pending = deque(tasks)
+        self._workers = [self._start() for _ in range(min(self.jobs, len(tasks)))]
+        try:
+            while pending or self.in_flight:
+                self._feed(pending)
+                yield from self._collect()
+        finally:
+            self.close()
+
+    def _feed(self, pending: deque[Task]) -> None:
+        for w in self._workers:
+            if w.task is None and pending:
+                task = pending.popleft()
+                try:
+                    w.conn.send(task)
+                except (BrokenPipeError, OSError):  # it died while idle: a new one takes the task
+                    self._replace(w)
+                    pending.appendleft(task)
+                    continue
+                w.task, w.started = task, clock.perf_counter()
+                self.in_flight[task.index] = task
+
+    def _collect(self) -> Iterator[Row]:
+        busy = {w.conn: w for w in self._workers if w.task is not None}
+        now = clock.perf_counter()
+        wait_s = POLL_S
+        if self.timeout_s is not None and busy:
+            wait_s = min(wait_s, max(0.0, min(w.started for w in busy.values()) + self.timeout_s - now))
+        for conn in wait(list(busy), wait_s):
+            w = busy[cast(Connection, conn)]  # wait() hands back the objects it was given
+            task = w.task
+            assert task is not None
+            try:
+                result: dict[str, Any] = w.conn.recv()
+            except (EOFError, OSError):
+                code = w.process.exitcode if not w.process.is_alive() else None
+                result = {"status": RUNTIME_ERROR, "summary": None,
+                          "message": f"the worker process died while running it (exit code {code})",
+                          "task_time_s": clock.perf_counter() - w.started}
+                name = w.name
+                self._replace(w)
+                yield self._done(task, result, name)
+                continue
+            w.task = None
+            yield self._done(task, result, w.name)
+        if self.timeout_s is not None:
+            now = clock.perf_counter()
+            for w in list(self._workers):
+                if w.task is not None and now - w.started > self.timeout_s:
+                    task, name = w.task, w.name
+                    self._replace(w)  # the only way to stop a run that does not return
+                    yield self._done(task, {"status": TIMEOUT, "summary": None, "task_time_s": now - w.started,
+                                            "message": f"killed after --timeout-per-run {self.timeout_s:g} s"}, name)
+
+    def _done(self, task: Task, result: dict[str, Any], worker: str) -> Row:
+        self.in_flight.pop(task.index, None)
+        return row_of(task, result, worker)
+
+    def close(self) -> None:
+        """Stop every worker: idle ones are asked, busy ones are killed."""
+        for w in self._workers:
+            try:
+                if w.task is None and w.process.is_alive():
+                    w.conn.send(None)
+                    w.process.join(1.0)
+            except (BrokenPipeError, OSError):
+                pass
+            self._kill(w)
+        self._workers = []

@@ -1,0 +1,139 @@
+"""The comparison a sweep prints: per setting (and per file), per metric, the spread over seeds.
+
+For each group of runs (one file, one combination of settings) and each metric: n, mean,
+sample standard deviation, a 95% confidence interval for the mean (Student's t with n - 1
+degrees of freedom), min and max; the best group per metric is marked (lowest mean, or
+highest for a metric named in ``--maximize``). When a file is run with exactly two settings,
+each metric gets Welch's unequal-variances t-test of the two means: the difference counts as
+larger than the seeds' noise when p < 0.05 (docs/sweep.md says what that does and does not
+mean). scipy.stats supplies the t distribution.
+
+Only rows with status ok count; non-finite values (a ``minimum`` over nothing is ``inf``)
+are left out of n and noted.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from labsim.runtime.sweep.grid import Row, metric_values
+
+ALPHA = 0.05  # the test's level, and 1 - the confidence of the intervals
+
+
+@dataclass(frozen=True)
+class Stat:
+    """A metric over the seeds of one group."""
+
+    n: int
+    mean: float
+    sd: float  # sample standard deviation (n - 1); nan for n < 2
+    ci_low: float  # 95% confidence interval of the mean; nan for n < 2
+    ci_high: float
+    min: float
+    max: float
+    left_out: int = 0  # non-finite values not counted
+
+
+@dataclass(frozen=True)
+class Test:
+    """Welch's t-test of two groups' means for one metric."""
+
+    file: str
+    metric: str
+    a: str
+    b: str
+    difference: float  # mean of b - mean of a
+    p: float  # two-sided; nan when it cannot be computed
+    verdict: str
+
+
+def describe(values: list[float]) -> Stat:
+    from scipy import stats as st
+
+    finite = [float(v) for v in values if isinstance(v, (int, float)) and math.isfinite(v)]
+    left_out = len(values) - len(finite)
+    n = len(finite)
+    if n == 0:
+        return Stat(0, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, left_out)
+    mean = math.fsum(finite) / n
+    if n < 2:
+        return Stat(1, mean, math.nan, math.nan, math.nan, mean, mean, left_out)
+    sd = math.sqrt(math.fsum((v - mean) ** 2 for v in finite) / (n - 1))
+    half = float(st.t.ppf(1 - ALPHA / 2, n - 1)) * sd / math.sqrt(n)
+    return Stat(n, mean, sd, mean - half, mean + half, min(finite), max(finite), left_out)
+
+
+def welch(file: str, metric: str, a: str, b: str, xs: list[float], ys: list[float]) -> Test:
+    """Welch's t-test (two-sided, unequal variances) of the means of xs and ys."""
+    from scipy import stats as st
+
+    xs = [v for v in xs if math.isfinite(v)]
+    ys = [v for v in ys if math.isfinite(v)]
+    if len(xs) < 2 or len(ys) < 2:
+        return Test(file, metric, a, b, math.nan, math.nan, "too few runs to test (need 2 or more seeds each)")
+    diff = math.fsum(ys) / len(ys) - math.fsum(xs) / len(xs)
+    if max(xs) == min(xs) and max(ys) == min(ys):  # no spread at all: the t statistic is undefined
+        verdict = "the same in every run" if diff == 0 else "different, and no spread over seeds in either"
+        return Test(file, metric, a, b, diff, math.nan, verdict)
+    p = float(st.ttest_ind(ys, xs, equal_var=False).pvalue)
+    verdict = "larger than the seeds' noise" if p < ALPHA else "within the seeds' noise"
+    return Test(file, metric, a, b, diff, p, verdict)
+
+
+# -- grouping ---------------------------------------------------------------------------------
+
+@dataclass
+class Group:
+    file: str
+    label: str  # the settings, 'front=0.5'
+    values: dict[str, list[float]]  # metric -> one value per ok run
+    runs: int = 0
+    failed: int = 0
+
+
+def groups(rows: list[Row]) -> list[Group]:
+    """Rows grouped by file and settings, in the grid's order; a group is named by the settings
+    that vary (a ``--set minutes=2`` with one value is the same in every group)."""
+    seen: dict[str, set[str]] = {}
+    for row in rows:
+        for k, v in row.task.settings:
+            seen.setdefault(k, set()).add(v)
+    out: dict[tuple[str, str], Group] = {}
+    for row in sorted(rows, key=lambda r: r.task.index):
+        label = " ".join(f"{k}={v}" for k, v in row.task.settings if len(seen[k]) > 1)
+        g = out.setdefault((row.task.file, label), Group(row.task.file, label, {}))
+        g.runs += 1
+        if row.failed or row.summary is None:
+            g.failed += 1
+            continue
+        for name, value in metric_values(row.summary).items():
+            g.values.setdefault(name, []).append(_float(value))
+    return list(out.values())
+
+
+def _float(value: Any) -> float:
+    return float(value) if isinstance(value, (int, float, str)) else math.nan
+
+
+def comparison(rows: list[Row], maximize: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The comparison as data: per metric, each group's Stat and which is best; the tests."""
+    gs = groups(rows)
+    metrics: list[str] = []
+    for g in gs:
+        metrics += [m for m in g.values if m not in metrics]
+    table: dict[str, list[tuple[Group, Stat]]] = {m: [(g, describe(g.values.get(m, []))) for g in gs] for m in metrics}
+    best: dict[str, list[int]] = {}
+    for m, entries in table.items():
+        means = [s.mean for _, s in entries if s.n]
+        if means:
+            target = max(means) if m in maximize else min(means)
+            best[m] = [i for i, (_, s) in enumerate(entries) if s.n and s.mean == target]
+    tests: list[Test] = []
+    for f in dict.fromkeys(g.file for g in gs):
+        pair = [g for g in gs if g.file == f]
+        if len(pair) == 2 and pair[0].label != pair[1].label:
+            a, b = pair
+            tests += [welch(f, m, a.label, b.label, a.values.get(m, []), b.values.get(m, [])) for m in metrics]
+    return {"groups": gs, "metrics": metrics, "table": table, "best": best, "tests": tests}
