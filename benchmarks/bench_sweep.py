@@ -46,9 +46,9 @@ def timed(executor: object, work: list[Task]) -> tuple[float, list[Row]]:
 
 
 def report(name: str, elapsed: float, rows: list[Row], jobs: int) -> float:
-    runs = [r.summary["wall_time_s"] for r in rows if r.summary]
+    runs = [r.result.wall_time_s for r in rows if r.result]
     mean_run = statistics.fmean(runs)
-    in_worker = statistics.fmean(r.task_time_s - r.summary["wall_time_s"] for r in rows if r.summary)
+    in_worker = statistics.fmean(r.task_time_s - r.result.wall_time_s for r in rows if r.result)
     overall = elapsed * jobs / len(rows) - mean_run
     print(f"{name:<22} {elapsed:7.2f} s for {len(rows)} runs  ({len(rows) / elapsed:5.2f} runs/s; "
           f"mean run {mean_run:.3f} s; overhead per run {in_worker * 1000:.1f} ms in the worker "

@@ -13,18 +13,16 @@ YAML file reaches the runtime except what is prepared here.
 """
 from __future__ import annotations
 
-import math
-import random
 from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 
-from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose, World
 from labsim.dsl.budget import check_budgets
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
 from labsim.dsl.crowd import check_crowd
 from labsim.dsl.lint import lint
+from labsim.dsl.placement import Start, place
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import read
 from labsim.dsl.stop import check_stop
@@ -53,11 +51,11 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
         check_budgets(checked, budgets, report)
     report.raise_if_errors()
     seed = bf.seed if seed is None else seed
-    shortage = _placement_shortage(checked, seed)
-    if shortage is not None:
-        report.add(shortage)
+    starts, unplaced = place(checked, seed)
+    if unplaced is not None:
+        report.add(unplaced)
     check_stop(checked, report)
-    check_crowd(checked, report)
+    check_crowd(checked, starts, report)
     report.raise_if_errors()
     lint(checked, report)
     if strict:
@@ -66,7 +64,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
         report.raise_if_errors()
     generated = generate(checked, code_filename(bf.path, overrides))
     warnings = tuple(sorted((d for d in report.diagnostics if d.severity == "warning"), key=lambda d: (d.line, d.col)))
-    return _program(checked, generated, warnings, seed)
+    return _program(checked, generated, warnings, seed, starts)
 
 
 def code_filename(path: str, overrides: dict[str, str] | None = None) -> str:
@@ -77,7 +75,8 @@ def code_filename(path: str, overrides: dict[str, str] | None = None) -> str:
     return f"<labsim {path}{''.join(f' --set {k}={v}' for k, v in (overrides or {}).items())}>"
 
 
-def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...], seed: int) -> Program:
+def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...], seed: int,
+             starts: tuple[Start, ...]) -> Program:
     bf = c.file
     world = c.world
     assert world is not None  # the checker reports a missing world as an error
@@ -88,7 +87,7 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         robots=tuple(RobotGroup(d.name, c.models[d.name], d.count, d.at, d.paths,
                                         c.robot_params.get(d.name, ()), d.noise) for d in bf.robots),
         models=MappingProxyType(dict(c.models)), mechanism_agent=c.mechanism_agent,
-        spawn_shortage=_spawn_shortage(c, world),
+        starts=starts,
         channels=c.channels, channel_kinds=MappingProxyType(dict(c.channel_kinds)),
         let_names=tuple(name for name, _ in c.lets), signal_types=MappingProxyType(dict(c.let_types)),
         state_names=tuple(c.states), rules=_rule_labels(c),
@@ -111,53 +110,3 @@ def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:
 def _timeline(c: Checked) -> tuple[TimelineEvent, ...]:
     return tuple((event.time_s, tuple((name, value) for name, value, _ in event.settings))
                  for event in c.file.timeline)
-
-
-def _spawn_shortage(c: Checked, world: World) -> Diagnostic | None:
-    """The error for the first robot that finds no spawn pose left, raised when robots are placed."""
-    left = len(world.spawns)
-    for decl in c.file.robots:
-        for k in range(decl.count):
-            if decl.at != "spawn":
-                continue
-            if left == 0:
-                name = decl.name if decl.count == 1 else f"{decl.name}[{k}]"
-                return c.file.doc.diagnostic(
-                    decl.key, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for robot '{name}'",
-                    notes=("use 'at: random', or fewer robots",))
-            left -= 1
-    return None
-
-
-def _placement_shortage(c: Checked, seed: int) -> Diagnostic | None:
-    """The error for the first robot placed 'at: random' that finds no free place.
-
-    Robots are placed here as the runtime places them (same order, same generator), so that
-    ``labsim check`` reports it at the robot's line rather than the run failing later.
-    """
-    world = c.world
-    if world is None or not any(d.at == "random" for d in c.file.robots):
-        return None
-    rng = random.Random(f"{seed}/placement")
-    spawns = list(world.spawns)
-    taken: list[Pose] = []
-    for decl in c.file.robots:
-        for k in range(decl.count):
-            if decl.at == "spawn":
-                if not spawns:
-                    return None  # the checker reported the shortage of spawn poses
-                pose: Pose | None = spawns.pop(0)
-            elif decl.at == "random":
-                pose = world.free_pose(rng, taken)
-            else:
-                assert not isinstance(decl.at, str)
-                pose = Pose(decl.at[0], decl.at[1], math.radians(decl.at[2]))
-            if pose is None:
-                name = decl.name if decl.count == 1 else f"{decl.name}[{k}]"
-                return c.file.doc.diagnostic(
-                    decl.key, f"no free place left in world '{world.name}' for robot '{name}' "
-                    f"({len(taken)} robots fit, each {PLACEMENT_CLEARANCE_M:g} m from walls and "
-                    f"{2 * PLACEMENT_CLEARANCE_M:g} m from the others)",
-                    notes=("use fewer robots, or give their poses as [x, y, heading_deg]",))
-            taken.append(pose)
-    return None

@@ -15,22 +15,20 @@ from __future__ import annotations
 import math
 
 from labsim.dsl.check import Checked
+from labsim.dsl.placement import Start
 from labsim.foundation.diagnostics import Report
 
 
-def check_crowd(c: Checked, report: Report) -> None:
+def check_crowd(c: Checked, starts: tuple[Start, ...], report: Report) -> None:
     """Report robot groups and robots whose fixed start poses overlap."""
     placed: list[tuple[float, float, float, str]] = []  # x, y, reach, name
-    spawns = list(c.world.spawns) if c.world is not None else []
-    for decl in c.file.robots:
+    for g, decl in enumerate(c.file.robots):
         model = c.models.get(decl.name)
         if model is None or decl.at == "random":
             continue
         reach = max((math.hypot(px, py) for px, py in model.footprint), default=0.0)
-        if decl.at == "spawn":  # the world's spawn poses in order, as the run takes them
-            for k in range(min(decl.count, len(spawns))):
-                pose = spawns.pop(0)
-                placed.append((pose.x_m, pose.y_m, reach, decl.name if decl.count == 1 else f"{decl.name}[{k}]"))
+        if decl.at == "spawn":  # the world's spawn poses, where the placement put them
+            placed += [(s.pose.x_m, s.pose.y_m, reach, s.name) for s in starts if s.group == g]
             continue
         assert not isinstance(decl.at, str)
         where = decl.at_node if decl.at_node is not None else decl.key

@@ -25,6 +25,7 @@ from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import World
 from labsim.dsl.builtins import Aggregate, Type
 from labsim.dsl.noise import Noise
+from labsim.dsl.placement import Start
 from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
 from labsim.foundation.diagnostics import Diagnostic
 
@@ -116,7 +117,7 @@ class Program:
     robots: tuple[RobotGroup, ...]
     models: Mapping[str, RobotModel]  # robot group -> model
     mechanism_agent: bool  # no robots: one agent reads and drives the world's mechanism
-    spawn_shortage: Diagnostic | None  # the error for the first robot left without a spawn pose
+    starts: tuple[Start, ...]  # every robot and its start pose, in the file's order (dsl/placement.py)
     # what it reads and computes
     channels: tuple[str, ...]  # sensor channels, in the order values are passed to signals()
     channel_kinds: Mapping[str, Kind]

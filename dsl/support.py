@@ -52,11 +52,13 @@ class Faults:
         self.clock = clock
         self.counts: dict[tuple[FaultSite, str], int] = {}
         self.first: dict[tuple[FaultSite, str], tuple[int, str]] = {}
+        self.by_robot: dict[str, int] = {}  # robot -> its faults, every site together
 
     def report(self, site: FaultSite, what: str, tick: int, robot: str) -> None:
         if self.clock is not None:
             tick = self.clock()
         key = (site, what)
+        self.by_robot[robot] = self.by_robot.get(robot, 0) + 1
         n = self.counts.get(key, 0)
         self.counts[key] = n + 1
         if n == 0:

@@ -56,13 +56,12 @@ def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None 
         compiled = behaviour
     else:
         compiled = compile_behaviour(behaviour, params=params, seed=seed)
-    warnings: list[str] = []
-    bound = compiled.bind(load_backend(backend), trace=trace, warn=warnings.append)
+    bound = compiled.bind(load_backend(backend), trace=trace)
     try:
-        summary = bound.run()
+        result = bound.run()
     finally:
         bound.close()
-    return summary_dict(summary, bound, warnings=warnings)
+    return summary_dict(result)
 
 
 def read_trace(path: str | Path) -> pandas.DataFrame:

@@ -21,8 +21,8 @@ from pathlib import Path
 from labsim.backends import DEFAULT, load_backend
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output
+from labsim.runtime.result import RunResult
 from labsim.runtime.run import compile_behaviour
-from labsim.runtime.summary import Summary
 from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
 
 ABS_TOL = 1e-6
@@ -180,7 +180,7 @@ def check_golden(behaviour: str | Path, backend: str = DEFAULT, options: dict[st
 
 
 def record_golden(behaviour: str | Path, backend: str = DEFAULT,
-                  options: dict[str, object] | None = None) -> tuple[Path, Summary]:
+                  options: dict[str, object] | None = None) -> tuple[Path, RunResult]:
     """Run a behaviour and store its trace as its golden, replacing the old one only once the
     run has finished (an interrupted run leaves the old golden as it was)."""
     golden = golden_path(behaviour)
@@ -209,10 +209,10 @@ def _drop_footer(path: str | Path) -> None:
 
 
 def record_trace(behaviour: str | Path, trace_path: str | Path, backend: str = DEFAULT,
-                 options: dict[str, object] | None = None) -> Summary:
+                 options: dict[str, object] | None = None) -> RunResult:
     """Run a behaviour as its file says (no overrides), writing its trace to trace_path."""
     compiled = compile_behaviour(behaviour)
-    run = compiled.bind(load_backend(backend, **(options or {})), trace=trace_path, warn=lambda m: None)
+    run = compiled.bind(load_backend(backend, **(options or {})), trace=trace_path)
     try:
         summary = run.run()
     finally:

@@ -111,10 +111,14 @@ class NoisyIO:
             self._act(r.index, wheels[0], wheels[1])
         self._step()
 
+    @staticmethod
+    def describe(r: RobotNoise) -> str:
+        """A noisy robot's models, and the sonar readings lost, for the run's summary."""
+        return r.noise.describe() + (f" ({r.dropped} sonar readings lost)" if r.noise.sonar_dropout else "")
+
     def summary(self) -> dict[str, str]:
-        """Each noisy robot's models, and the sonar readings lost, for the run's summary."""
-        return {r.name: r.noise.describe() + (f" ({r.dropped} sonar readings lost)" if r.noise.sonar_dropout else "")
-                for r in self.robots}
+        """Each noisy robot's ``describe``, by name."""
+        return {r.name: self.describe(r) for r in self.robots}
 
 
 def robot_noise(program: Program, index: int, name: str, model: RobotModel, noise: Noise) -> RobotNoise:

@@ -15,13 +15,11 @@ from pathlib import Path
 from typing import Any
 
 from labsim import __version__
-from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import check_output, write_output
-from labsim.runtime.run import Run
-from labsim.runtime.summary import Summary
+from labsim.runtime.result import RunResult
 
 SCHEMA = "labsim-summary"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: log lines in 'logs', apart from 'warnings'; each robot's 'faults'
 
 
 def number(value: float | int | bool) -> float | int | bool | str:
@@ -38,71 +36,52 @@ def decode_number(value: Any) -> Any:
     return value
 
 
-def stop_reason(run: Run, summary: Summary) -> str:
-    """Why the run ended: "stop condition", "interrupted" (Ctrl-C), "budget" or "max ticks"."""
-    if summary.interrupted:
-        return "interrupted"
-    if summary.over_budget:
-        return "budget"
-    return "stop condition" if run.finished else "max ticks"
-
-
-def summary_dict(summary: Summary, run: Run, *, warnings: list[str] | None = None) -> dict[str, Any]:
-    """Every figure the text summary prints, as plain JSON-ready data.
-
-    ``warnings`` are the runtime warnings the run emitted as it went (the compiler's warnings
-    are added from the program).
-    """
-    p = run.program
-    limits = {r.name: r.limit for r in run.robots}
-    noisy = {r.name: r for r in run.noise.robots} if run.noise is not None else {}
+def summary_dict(result: RunResult) -> dict[str, Any]:
+    """Every figure the text summary prints, as plain JSON-ready data (docs/summary-json.md)."""
     robots = {}
-    for name, r in summary.robots.items():
+    for name, r in result.robots.items():
         robots[name] = {
-            "mechanism": bool(r["mechanism"]),
-            "contacts": r["contacts"],
-            "contact_time_s": r["contact_time_s"],
-            "clamped_ticks": r["clamped_ticks"],
-            "wheel_limit_rad_s": None if r["mechanism"] else number(limits[name]),
-            "metrics": {m: number(v) for m, v in r["metrics"].items()},
-            "labels": dict(r["labels"]),
-            "noise": noisy[name].noise.header() if name in noisy else {},
-            "sonar_readings_lost": noisy[name].dropped if name in noisy else 0,
+            "mechanism": r.mechanism,
+            "contacts": r.contacts,
+            "contact_time_s": r.contact_time_s,
+            "clamped_ticks": r.clamped_ticks,
+            "wheel_limit_rad_s": None if r.wheel_limit_rad_s is None else number(r.wheel_limit_rad_s),
+            "metrics": {m: number(v) for m, v in r.metrics.items()},
+            "labels": dict(r.labels),
+            "noise": dict(r.noise),
+            "sonar_readings_lost": r.sonar_readings_lost,
+            "faults": r.faults,
         }
-    rules = [{"id": rid, "text": summary.rule_labels[rid], "ticks": n} for rid, n in summary.rule_counts.items()]
+    rules = [{"id": rule.id, "text": rule.text, "ticks": rule.ticks} for rule in result.rules]
     return {
         "schema": SCHEMA,
         "version": SCHEMA_VERSION,
         "labsim": __version__,
-        "behaviour": {"name": p.name, "path": p.path, "sha256": p.sha256},
-        "backend": summary.backend,
-        "world": p.world.name,
-        "dt_s": p.dt_s,
-        "seed": p.seed,
-        "params": {k: number(v) for k, v in p.params.items()},
-        "overridden": sorted(p.overridden),
-        "ticks": summary.ticks,
-        "sim_time_s": summary.sim_time_s,
-        "wall_time_s": summary.wall_time_s,
-        "real_time_factor": number(summary.real_time_factor),
-        "stop_reason": stop_reason(run, summary),
-        "stopped_by": summary.stopped_by,
-        "stop_condition": summary.stop_condition or None,
-        "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
+        "behaviour": {"name": result.name, "path": result.path, "sha256": result.sha256},
+        "backend": result.backend,
+        "world": result.world,
+        "dt_s": result.dt_s,
+        "seed": result.seed,
+        "params": {k: number(v) for k, v in result.params.items()},
+        "overridden": sorted(result.overridden),
+        "ticks": result.ticks,
+        "sim_time_s": result.sim_time_s,
+        "wall_time_s": result.wall_time_s,
+        "real_time_factor": number(result.real_time_factor),
+        "stop_reason": result.stop_reason,
+        "stopped_by": result.stopped_by,
+        "stop_condition": result.stop_condition or None,
+        "metrics": {m: a.value for m, a in result.metric_aggregates.items()},
         "robots": robots,
-        "fleet": {m: number(v) for m, v in summary.fleet.items()},
+        "fleet": {m: number(v) for m, v in result.fleet.items()},
         "rules": rules,
-        "idle_ticks": summary.idle_ticks,
-        "never_fired": [rule["id"] for rule in rules if rule["ticks"] == 0],
-        "faults": list(summary.faults),
-        "warnings": [_warning_line(d) for d in p.warnings] + list(warnings or []),
-        "trace": summary.trace,
+        "idle_ticks": result.idle_ticks,
+        "never_fired": result.never_fired,
+        "faults": list(result.faults),
+        "warnings": list(result.warnings),
+        "logs": list(result.logs),
+        "trace": result.trace,
     }
-
-
-def _warning_line(d: Diagnostic) -> str:
-    """A compiler warning on one line: ``path:line:col: warning: message``."""
-    return d.format().splitlines()[0]
 
 
 def dumps(data: dict[str, Any]) -> str:

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from labsim.backends import load_backend
+from labsim.runtime.result import RunResult as Summary
 from labsim.runtime.run import compile_behaviour
-from labsim.runtime.summary import Summary
 
 # the suite's own cache folder (grammar tables, drawn grounds), not the user's: set before
 # anything is built, and inherited by every labsim process a test starts

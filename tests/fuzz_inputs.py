@@ -231,7 +231,7 @@ def run_input(folder: Path, data: bytes, world: bool = False) -> str:
         bound = compiled.bind(load_backend("pymunk"), trace=folder / "trace.csv", warn=warnings.append)
         try:
             summary = bound.run(max_ticks=TICKS)
-            summary_dict(summary, bound, warnings=warnings)
+            summary_dict(summary)
         finally:
             bound.close()
     except ALLOWED:

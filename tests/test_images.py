@@ -110,7 +110,7 @@ def test_images_stay_out_of_the_trace_but_what_is_derived_from_them_is_in(write,
     r, _, summary, _ = run(write, body, lambda t, i, ch: frame(slice(5, 7)), trace=path)
     header = path.read_text().splitlines()[1].split(",")
     assert "camera" not in header and "c" not in header and "cx" in header
-    assert summary.robots["p"]["metrics"]["lateral"] == pytest.approx(2.0)
+    assert summary.robots["p"].metrics["lateral"] == pytest.approx(2.0)
 
 
 def test_more_robots_than_spawn_poses_is_a_check_error(write) -> None:
@@ -131,6 +131,6 @@ def test_fleet_summary_has_a_row_per_robot_and_the_fleet(write) -> None:
     r = behaviour.bind(backend)
     summary = r.run()
     assert summary.fleet == {"near": 2, "far": 3.5}  # robots 0 and 2 come near once each
-    text = format_summary(summary, r)
+    text = format_summary(summary)
     assert "  metrics  near   far" in text
     assert "  fleet      2+  3.5^" in text

@@ -31,8 +31,8 @@ def column(trace, name: str) -> list[float]:
 
 def test_the_load_is_lifted_moved_lowered_and_raised(lab) -> None:
     summary, trace = lab
-    assert summary.ticks == 1200 and summary.faults == []
-    m = summary.robots["crane"]["metrics"]
+    assert summary.ticks == 1200 and summary.faults == ()
+    m = summary.robots["crane"].metrics
     assert 2.5 < m["highest_load"] < 3.0  # lifted about 2.4 m
     assert m["final_slew"] == pytest.approx(0.1 * 8, abs=1e-9)  # arm = 5 -> 0.1 rad/s for 8 s
     x = column(trace, "crab_x")
@@ -51,7 +51,7 @@ def test_limits_hold(lab) -> None:
 
 def test_the_load_swings_and_settles(lab) -> None:
     summary, trace = lab
-    m = summary.robots["crane"]["metrics"]
+    m = summary.robots["crane"].metrics
     assert m["max_swing"] > 0.3  # the crab stopped at 14 s with the load behind it
     assert m["final_swing"] < 0.15
     swing = column(trace, "swing")
@@ -63,7 +63,7 @@ def test_the_load_swings_and_settles(lab) -> None:
 
 def test_the_force_sensor_reads_the_weight_at_rest_and_more_while_lifting(lab) -> None:
     summary, trace = lab
-    assert summary.robots["crane"]["metrics"]["final_tension"] == pytest.approx(WEIGHT_N, rel=0.02)
+    assert summary.robots["crane"].metrics["final_tension"] == pytest.approx(WEIGHT_N, rel=0.02)
     tension = column(trace, "tension")
     t = column(trace, "time")
     lifting = [f for f, tt in zip(tension, t) if 40.5 < tt < 41.5]  # the hoist accelerating upwards
@@ -86,7 +86,7 @@ def test_labels_in_the_trace_and_the_summary(lab) -> None:
     summary, trace = lab
     labels = trace.column("label:arm")
     assert labels[0] == "Arm Speed: 0.00" and labels[200] == "Arm Speed: 0.10"
-    assert summary.robots["crane"]["labels"] == {"arm": "Arm Speed: 0.00", "crab": "Crab Speed: 0.00",
+    assert summary.robots["crane"].labels == {"arm": "Arm Speed: 0.00", "crab": "Crab Speed: 0.00",
                                                  "hoist": "Hoist Speed: 0.00"}
 
 
@@ -139,4 +139,4 @@ def test_set_position_from_a_rule_reaches_its_target(write) -> None:
     run = compile_behaviour(path).bind(load_backend("pymunk"))
     summary = run.run()
     run.close()
-    assert summary.robots["crane"]["metrics"]["where"] == pytest.approx(5.0, abs=0.005)
+    assert summary.robots["crane"].metrics["where"] == pytest.approx(5.0, abs=0.005)

@@ -8,7 +8,7 @@ from pathlib import Path
 from conftest import BEHAVIOURS, LabRun
 
 from labsim.runtime.cli.main import main
-from labsim.runtime.summary import Summary
+from labsim.runtime.result import RunResult as Summary
 
 LAB = BEHAVIOURS / "road_follow.yaml"
 
@@ -16,11 +16,11 @@ LAB = BEHAVIOURS / "road_follow.yaml"
 def assert_all_on_the_road(summary: Summary, seconds: float, max_offset_m: float) -> None:
     assert summary.sim_time_s == seconds and len(summary.robots) == 5
     for name, robot in summary.robots.items():
-        m = robot["metrics"]
+        m = robot.metrics
         assert m["off_road"] == 0 and m["lateral_max"] < max_offset_m, (name, m)
-        assert robot["contacts"] == 0 and robot["clamped_ticks"] == 0, name
+        assert robot.contacts == 0 and robot.clamped_ticks == 0, name
         assert 0.48 < m["mean_speed"] < 0.49, name  # v = 5 rad/s is 0.4875 m/s
-    assert summary.faults == []  # every frame saw road
+    assert summary.faults == ()  # every frame saw road
 
 
 def test_with_the_lab_constants_all_five_stay_on_the_road_for_30_s(lab_run: LabRun) -> None:
@@ -59,7 +59,7 @@ def test_with_more_gain_the_near_camera_holds_the_compact_loop(tmp_path: Path, l
     lab.write_text(compact)
     summary = lab_run(lab, seconds="600", kp="1.5")
     assert_all_on_the_road(summary, 600.0, 0.6)
-    assert all(robot["metrics"]["laps"] == 2 for robot in summary.robots.values())
+    assert all(robot.metrics["laps"] == 2 for robot in summary.robots.values())
 
 
 def test_the_fleet_run_is_deterministic(tmp_path: Path) -> None:

@@ -25,19 +25,19 @@ def test_25_minutes_without_a_collision(front: str, lab_run: LabRun) -> None:
     summary = lab_run(LAB, front=front)
     assert summary.ticks == 30_000 and summary.sim_time_s == 1500.0
     robot = summary.robots["pioneer"]
-    assert robot["contacts"] == 0 and robot["contact_time_s"] == 0
-    assert summary.faults == []
-    assert robot["metrics"]["following"] > 1200  # it found a wall and followed it
+    assert robot.contacts == 0 and robot.contact_time_s == 0
+    assert summary.faults == ()
+    assert robot.metrics["following"] > 1200  # it found a wall and followed it
 
 
 def test_other_starts_do_not_collide_either() -> None:
     for seed in (2, 3, 4):
-        assert run_lab("0.5", seed).robots["pioneer"]["contacts"] == 0
+        assert run_lab("0.5", seed).robots["pioneer"].contacts == 0
 
 
 def test_the_larger_threshold_trades_near_misses_for_less_overshoot(lab_run: LabRun) -> None:
-    near = lab_run(LAB, front="0.5").robots["pioneer"]["metrics"]
-    far = lab_run(LAB, front="1.0").robots["pioneer"]["metrics"]
+    near = lab_run(LAB, front="0.5").robots["pioneer"].metrics
+    far = lab_run(LAB, front="1.0").robots["pioneer"].metrics
     assert far["near_misses"] < near["near_misses"]
     assert far["closest"] > near["closest"]
 

@@ -43,14 +43,14 @@ def test_bump_and_turn_backs_up_for_one_second(tmp_path: Path) -> None:
     backing = states[first:].index("turn")
     assert backing == 21  # 20 ticks of move(-4), and the tick whose state_time is 1.0 moves on
     assert states[first + backing:].index("forward") == 17  # 0.8 s / 0.05 s, and the goto tick
-    assert summary.robots["pioneer"]["metrics"]["bumps"] >= 1  # type: ignore[attr-defined]
+    assert summary.robots["pioneer"].metrics["bumps"] >= 1  # type: ignore[attr-defined]
     assert any(line.endswith(f"pioneer: hit at {float(rows[first - 1]['time']):.2f} s") for line in warned)
     assert rows[first - 1]["events"].startswith("log: hit at")
 
 
 def test_remember_hit_keeps_the_time_of_the_last_bump(tmp_path: Path) -> None:
     _, summary, _ = run_example("remember_hit", tmp_path)
-    last = summary.robots["pioneer"]["metrics"]["last_hit"]  # type: ignore[attr-defined]
+    last = summary.robots["pioneer"].metrics["last_hit"]  # type: ignore[attr-defined]
     assert 0 < last < 30
 
 
@@ -63,7 +63,7 @@ def test_wait_until_calm_stops_on_a_calm_load(tmp_path: Path) -> None:
 def test_three_thresholds_each_robot_has_its_own(tmp_path: Path) -> None:
     _, summary, _ = run_example("three_thresholds", tmp_path)
     robots = summary.robots  # type: ignore[attr-defined]
-    assert [robots[f"pioneer[{k}]"]["metrics"]["threshold"] for k in range(3)] == [0.3, 0.5, 0.8]
+    assert [robots[f"pioneer[{k}]"].metrics["threshold"] for k in range(3)] == [0.3, 0.5, 0.8]
     assert summary.stopped_by == "pioneer[0]"  # type: ignore[attr-defined]
 
 

@@ -112,7 +112,7 @@ def _run(write, *, seed: int = 1, seconds: float = 20, noise: str = "", speed: f
     run = compile_behaviour(path).bind(load_backend(backend, **options), trace=trace)
     try:
         summary = run.run()
-        text = format_summary(summary, run)
+        text = format_summary(summary)
     finally:
         run.close()
     return trace, text
@@ -156,8 +156,8 @@ def test_a_run_without_noise_has_no_noise_anywhere(write) -> None:
     path = write(STILL.format(seed=1, seconds=1, noise="", speed=1))
     run = compile_behaviour(path).bind(load_backend("pymunk"), trace=path.with_suffix(".csv"))
     try:
-        assert run.noise is None and run._sense == run.backend.sense  # no wrapper, no cost
-        text = format_summary(run.run(), run)
+        assert run.noise is None and run.sense == run.backend.sense  # no wrapper, no cost
+        text = format_summary(run.run())
     finally:
         run.close()
     assert "  noise:" not in text and '"noise"' not in path.with_suffix(".csv").read_text()
@@ -179,11 +179,11 @@ def test_the_docs_noise_example_runs(write) -> None:
     run = compile_behaviour(trace.with_suffix(".yaml")).bind(load_backend("pymunk"), trace=trace)
     try:
         summary = run.run()
-        shown = format_summary(summary, run)
+        shown = format_summary(summary)
     finally:
         run.close()
     assert "noise: pioneer: sonar 0.02 m, 5% dropout; wheels 0.2 rad/s, up to 10% slip (" in shown
-    assert 0 < summary.robots["pioneer"]["metrics"]["closest"] < 0.6  # it found the wall and turned
+    assert 0 < summary.robots["pioneer"].metrics["closest"] < 0.6  # it found the wall and turned
     assert summary.rule_counts["main:1"] > 0
     # the docs' way to bridge a dropout compiles and holds the last echo
     bridged = write(text.replace("min(sonar4, sonar5)", "remember(sonar5, sonar5 < inf)"), "bridged.yaml")

@@ -55,7 +55,7 @@ def test_wheel_commands_are_clamped_and_counted(write) -> None:
     body = "stop: tick >= 3\nrules:\n  - if sonar5 < 1 then arc(50, -50)\n  - else move(1)\n"
     r, backend, summary = run(write, body, {"sonar5": [0.5, 0.5, 2]})
     assert backend.acts == [(0, 0, 12.3, -12.3), (2, 0, 1.0, 1.0)]
-    assert summary.robots["p"]["clamped_ticks"] == 2
+    assert summary.robots["p"].clamped_ticks == 2
 
 
 def test_nan_command_stops_the_wheel_with_one_warning(write) -> None:
@@ -67,7 +67,7 @@ def test_nan_command_stops_the_wheel_with_one_warning(write) -> None:
     assert len(warnings) == 2  # 0/0 in the signal, then nan reaching the wheel; once each
     assert "division by zero in signal 'q', robot p, tick 0" in warnings[0]
     assert "nan wheel command (the wheel is stopped) in rule main:1, robot p, tick 0" in warnings[1]
-    assert summary.faults == [
+    assert list(summary.faults) == [
         "signal 'q': division by zero: 5 times (first at tick 0, robot p)",  # tick 4 too: signals precede stop
         "rule main:1: nan wheel command (the wheel is stopped): 4 times (first at tick 0, robot p)"]
 
@@ -77,7 +77,7 @@ def test_metrics_fold_every_acted_tick(write) -> None:
             "  near: count(sonar5 < 1)\n  held: duration(sonar5 < 1)\n  mean5: mean(sonar5)\n"
             "  low: minimum(sonar5)\n  high: maximum(sonar5)\n  last: final(sonar5)\n")
     r, backend, summary = run(write, body, {"sonar5": [2, 0.5, 0.5, 2, 0.5, 4]})
-    assert summary.robots["p"]["metrics"] == {"near": 2, "held": 1.5, "mean5": 9.5 / 6, "low": 0.5,
+    assert summary.robots["p"].metrics == {"near": 2, "held": 1.5, "mean5": 9.5 / 6, "low": 0.5,
                                               "high": 4, "last": 4}
 
 
@@ -152,7 +152,7 @@ def test_a_fault_names_the_agent_that_ran_into_it_not_a_slider(write) -> None:
     summary = r.run()
     r.close()
     assert "sqrt(): math domain error in a label, robot crane, tick 0" in warnings[0]
-    assert summary.faults == ["a label: sqrt(): math domain error: 3 times (first at tick 0, robot crane)"]
+    assert list(summary.faults) == ["a label: sqrt(): math domain error: 3 times (first at tick 0, robot crane)"]
 
 
 def test_a_seed_given_to_the_runtime_gives_the_trace_of_that_seed_in_the_file(write, tmp_path) -> None:

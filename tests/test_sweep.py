@@ -195,7 +195,7 @@ def test_ctrl_c_writes_the_rows_done_so_far(capsys, tmp_path: Path, monkeypatch)
             self.in_flight: dict[int, Task] = {}
 
         def results(self, tasks: list[Task]):
-            yield Row(tasks[0], OK, summary=None)
+            yield Row(tasks[0], OK, result=None)
             self.in_flight = {1: tasks[1]}
             raise KeyboardInterrupt
 

@@ -70,7 +70,7 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("foundation/diagnostics.py", "d.format()"): DIAGNOSTIC,
     ("dsl/support.py", "head.format()"): DIAGNOSTIC,
     ("runtime/cli/pytest_plugin.py", "d.format()"): DIAGNOSTIC,
-    ("runtime/summary_json.py", "d.format()"): DIAGNOSTIC,
+    ("runtime/run.py", "d.format()"): DIAGNOSTIC,
     ("runtime/sweep/grid.py", "errors[0].format()"): DIAGNOSTIC,
     ("runtime/view/live.py", "d.format()"): DIAGNOSTIC,
 }

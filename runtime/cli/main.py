@@ -340,13 +340,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if recorded.cut_short():
             _warn(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
     backend = load_backend(args.backend, **_backend_options(args))
-    warnings: list[str] = []
-
-    def warn(message: str) -> None:
-        warnings.append(message)
-        _warn(message)
-
-    run = behaviour.bind(backend, trace=args.trace, warn=warn, replay=replay)
+    run = behaviour.bind(backend, trace=args.trace, warn=_warn, replay=replay)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
@@ -358,11 +352,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     unwritten: LabsimError | None = run.trace_error
     if args.json is not None:
         try:
-            emit_json(summary_dict(summary, run, warnings=warnings), args.json)
+            emit_json(summary_dict(summary), args.json)
         except LabsimError as e:  # a full disk: the text summary below still shows the run
             unwritten = unwritten or e
     if not args.quiet and args.json != "-":
-        print(format_summary(summary, run))
+        print(format_summary(summary))
         trips = _round_trips(backend, summary.ticks)
         if trips:
             print(trips)

@@ -7,8 +7,7 @@ import time as clock
 from typing import TextIO
 
 from labsim.dsl.builtins import Aggregate
-from labsim.runtime.run import Run
-from labsim.runtime.summary import Summary
+from labsim.runtime.result import RobotResult, RunResult
 
 
 class ProgressBar:
@@ -55,29 +54,28 @@ def _metric(value: float, aggregate: Aggregate) -> str:
     return f"{value:.4g}"
 
 
-def _robot_line(name: str, r: dict, run: Run) -> str:
-    if r.get("mechanism"):
-        lines = [f"mechanism {name}"]
-        lines += [f"  label {slider}: {text}" for slider, text in r["labels"].items()]
+def _robot_line(r: RobotResult) -> str:
+    if r.mechanism:
+        lines = [f"mechanism {r.name}"]
+        lines += [f"  label {slider}: {text}" for slider, text in r.labels.items()]
         return "\n".join(lines)
-    limit = next(x.limit for x in run.robots if x.name == name)
-    contacts = r["contacts"]
-    line = f"robot {name}: {contacts} collision{'s' if contacts != 1 else ''}"
-    if contacts:
-        line += f" ({r['contact_time_s']:.2f} s in contact)"
-    if r["clamped_ticks"]:
-        line += f"; wheel commands clamped to {limit:g} rad/s on {r['clamped_ticks']} ticks"
-    for slider, text in r.get("labels", {}).items():
+    line = f"robot {r.name}: {r.contacts} collision{'s' if r.contacts != 1 else ''}"
+    if r.contacts:
+        line += f" ({r.contact_time_s:.2f} s in contact)"
+    if r.clamped_ticks:
+        line += f"; wheel commands clamped to {r.wheel_limit_rad_s:g} rad/s on {r.clamped_ticks} ticks"
+    for slider, text in r.labels.items():
         line += f"\n  label {slider}: {text}"
     return line
 
 
-def _fleet_table(s: Summary, names: tuple[str, ...], aggregates: tuple[Aggregate, ...]) -> list[str]:
+def _fleet_table(s: RunResult) -> list[str]:
     """Metrics as a table: a row per robot and one for the fleet."""
-    if not names:
+    if not s.metric_aggregates:
         return []
+    names, aggregates = list(s.metric_aggregates), list(s.metric_aggregates.values())
     header = ["metrics", *names]
-    rows = [[robot, *(_metric(r["metrics"][n], a) for n, a in zip(names, aggregates))]
+    rows = [[robot, *(_metric(r.metrics[n], a) for n, a in zip(names, aggregates))]
             for robot, r in s.robots.items()]
     rows.append(["fleet", *(_metric(s.fleet[n], a) + _FLEET_MARK[a] for n, a in zip(names, aggregates))])
     widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header))]
@@ -92,54 +90,52 @@ _FLEET_MARK = {Aggregate.COUNT: "+", Aggregate.DURATION: "+", Aggregate.MAXIMUM:
                Aggregate.MEAN: "~", Aggregate.FINAL: "~", Aggregate.RMS: ""}
 
 
-def format_summary(s: Summary, run: Run) -> str:
-    p = run.program
-    lines = [f"{p.name}  ({p.path}, {s.backend}, seed {p.seed})"]
+def format_summary(s: RunResult) -> str:
+    """The text summary of a run: what ``labsim run`` prints at its end."""
+    lines = [f"{s.name}  ({s.path}, {s.backend}, seed {s.seed})"]
     status = "interrupted" if s.interrupted else "done"
     rtf = f"{s.real_time_factor:,.0f}x real time" if math.isfinite(s.real_time_factor) else ""
     lines.append(f"  {status}: {s.ticks} ticks, {s.sim_time_s:.2f} s simulated in {s.wall_time_s:.2f} s"
                  + (f" ({rtf})" if rtf else ""))
     if s.stopped_by is not None:  # on the status line, so the summary keeps its layout
-        lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * p.dt_s:.2f} s): '{s.stop_condition}' held for "
-                      f"{'robot ' if run.robots[0].model is not None else ''}{s.stopped_by}")
-    if p.params:
+        first = next(iter(s.robots.values()), None)
+        lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * s.dt_s:.2f} s): '{s.stop_condition}' held for "
+                      f"{'robot ' if first is not None and not first.mechanism else ''}{s.stopped_by}")
+    if s.params:
         shown = [f"{k}={str(v).lower() if isinstance(v, bool) else format(v, 'g')}"
-                 f"{'*' if k in p.overridden else ''}" for k, v in p.params.items()]
-        lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if p.overridden else ""))
-    if s.noise:
-        lines += [f"  noise: {robot}: {text}" for robot, text in s.noise.items()]
+                 f"{'*' if k in s.overridden else ''}" for k, v in s.params.items()]
+        lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if s.overridden else ""))
+    lines += [f"  noise: {r.name}: {r.noise_text}" for r in s.robots.values() if r.noise_text]
     if s.trace:
         lines.append(f"  trace: {s.trace}")
     if len(s.robots) == 1:
-        for name, r in s.robots.items():
-            lines.append(_robot_line(name, r, run))
-            width = max((len(m) for m in r["metrics"]), default=0)
-            for (m, value), agg in zip(r["metrics"].items(), p.metric_aggregates):
-                lines.append(f"  {m:<{width}}  {_metric(value, agg)}")
+        r = next(iter(s.robots.values()))
+        lines.append(_robot_line(r))
+        width = max((len(m) for m in r.metrics), default=0)
+        for (m, value), agg in zip(r.metrics.items(), s.metric_aggregates.values()):
+            lines.append(f"  {m:<{width}}  {_metric(value, agg)}")
     else:
-        lines += [_robot_line(name, r, run) for name, r in s.robots.items()]
-        lines += _fleet_table(s, p.metric_names, p.metric_aggregates)
-    if not s.rule_counts:  # driven by bind: alone
-        return "\n".join(lines + _fault_lines(s))
-    lines.append("rules (ticks fired):")
-    ids = list(s.rule_counts)
-    width = max((len(i) for i in ids), default=0)
-    text_width = min(60, max((len(t) for t in s.rule_labels.values()), default=0))
-    never = []
-    for rid in ids:
-        n = s.rule_counts[rid]
-        text = s.rule_labels[rid]
-        if len(text) > text_width:
-            text = text[:text_width - 3] + "..."
-        lines.append(f"  {rid:<{width}}  {text:<{text_width}}  {n:>8}")
-        if n == 0:
-            never.append(rid)
+        lines += [_robot_line(r) for r in s.robots.values()]
+        lines += _fleet_table(s)
+    return "\n".join(lines + _rule_lines(s) + _fault_lines(s))
+
+
+def _rule_lines(s: RunResult) -> list[str]:
+    """How often each rule fired, and which never did."""
+    if not s.rules:  # driven by bind: alone
+        return []
+    lines = ["rules (ticks fired):"]
+    width = max(len(r.id) for r in s.rules)
+    text_width = min(60, max(len(r.text) for r in s.rules))
+    for rule in s.rules:
+        text = rule.text if len(rule.text) <= text_width else rule.text[:text_width - 3] + "..."
+        lines.append(f"  {rule.id:<{width}}  {text:<{text_width}}  {rule.ticks:>8}")
     if s.idle_ticks:
         lines.append(f"  {'(none)':<{width}}  {'no rule held':<{text_width}}  {s.idle_ticks:>8}")
-    if never:
-        lines.append(f"  never fired: {', '.join(never)}")
-    return "\n".join(lines + _fault_lines(s))
+    if s.never_fired:
+        lines.append(f"  never fired: {', '.join(s.never_fired)}")
+    return lines
 
 
-def _fault_lines(s: Summary) -> list[str]:
+def _fault_lines(s: RunResult) -> list[str]:
     return ["runtime warnings:", *(f"  {f}" for f in s.faults)] if s.faults else []

@@ -22,7 +22,8 @@ import os
 import tempfile
 import time as clock
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -72,8 +73,8 @@ def run_bundled(task: Task, bundle: Bundle, deadline_s: float | None) -> dict[st
         folder = str(Path(d) / bundle.base) if bundle.base != "." else d
         mapping = [(local, task.file), (folder, str(Path(task.file).parent))]
         result = _renamed(result, mapping)
-        if result["summary"] is not None and trace is not None:
-            result["summary"]["trace"] = task.trace
+        if result["result"] is not None and trace is not None:
+            result["result"] = replace(result["result"], trace=task.trace)
             text = Path(trace).read_text(encoding="utf-8")
             head, _, rest = text.partition("\n")
             for old, new in mapping:
@@ -85,14 +86,18 @@ def run_bundled(task: Task, bundle: Bundle, deadline_s: float | None) -> dict[st
 
 def _renamed(value: Any, mapping: list[tuple[str, str]]) -> Any:
     """Every string in a result with the temporary paths replaced by the user's."""
+    if isinstance(value, Enum):
+        return value
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return replace(value, **{k: _renamed(v, mapping) for k, v in vars(value).items()})
     if isinstance(value, str):
         for old, new in mapping:
             value = value.replace(old, new)
         return value
     if isinstance(value, dict):
         return {k: _renamed(v, mapping) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_renamed(v, mapping) for v in value]
+    if isinstance(value, (list, tuple)):
+        return type(value)(_renamed(v, mapping) for v in value)
     return value
 
 
@@ -150,7 +155,7 @@ class DaskPool:
                     bundle = bundles.get(task.file)
                     if isinstance(bundle, str):  # it does not compile here: it would not there either
                         done_rows.append(row_of(task, {"status": COMPILE_ERROR, "message": bundle,
-                                                       "summary": None, "task_time_s": 0.0}))
+                                                       "result": None, "task_time_s": 0.0}))
                         continue
                     future = client.submit(run_bundled, task, bundle, self.timeout_s, pure=False,
                                            key=f"labsim-run-{task.index}-{os.getpid()}-{clock.time_ns()}")
@@ -199,7 +204,7 @@ class DaskPool:
             name = type(e).__name__
             message = (f"lost {retries or 'its'} worker(s) while running it; Dask gave up ({name})"
                        if name == "KilledWorker" else f"{name}: {e}")
-            return row_of(task, {"status": RUNTIME_ERROR, "message": message, "summary": None,
+            return row_of(task, {"status": RUNTIME_ERROR, "message": message, "result": None,
                                  "task_time_s": 0.0}, retries=retries)
         trace = result.pop("trace_gz", None)
         if trace is not None and task.trace:

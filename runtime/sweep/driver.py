@@ -167,8 +167,8 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     text = sys.stderr if to_stdout else out
     aggregates: dict[str, str] = {}
     for r in rows:
-        if r.summary is not None:
-            aggregates.update({k: v for k, v in r.summary["metrics"].items() if k not in aggregates})
+        if r.result is not None:
+            aggregates.update({k: a.value for k, a in r.result.metric_aggregates.items() if k not in aggregates})
     print(format_comparison(comp, aggregates, tuple(o.maximize), several_files=len(set(o.files)) > 1), file=text)
     print(("interrupted: " if interrupted else "") + status_counts(rows)
           + (f" (of {len(tasks)})" if interrupted else ""), file=text)

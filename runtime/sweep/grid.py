@@ -3,7 +3,7 @@
 ``labsim sweep`` builds the grid here (every combination of ``--set`` values x every seed x
 every file), checks it before anything runs, hands the tasks to an executor (a local pool of
 processes, runtime/sweep/pool.py, or a Dask cluster, runtime/sweep/dask_pool.py), and turns what comes
-back into rows: one per run, with the run's ``labsim run --json`` summary inside. The
+back into rows: one per run, with the run's ``RunResult`` inside (its JSON is ``labsim run --json``'s). The
 comparison of the rows is runtime/sweep/stats.py; writing them out and drawing them is
 runtime/sweep/output.py.
 
@@ -26,8 +26,8 @@ from labsim.backends.scene.world import BUILTIN_DIR
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.runtime.result import RunResult
 from labsim.runtime.run import Behaviour, compile_behaviour
-from labsim.runtime.summary_json import summary_dict
 
 OK, COMPILE_ERROR, RUNTIME_ERROR = "ok", "compile error", "runtime error"
 TIMEOUT, INTERRUPTED = "timeout", "interrupted"
@@ -62,12 +62,12 @@ class Task:
 
 @dataclass
 class Row:
-    """What one run gave: its status, a message when it did not finish, and its summary."""
+    """What one run gave: its status, a message when it did not finish, and its result."""
 
     task: Task
     status: str
     message: str = ""
-    summary: dict[str, Any] | None = None
+    result: RunResult | None = None
     task_time_s: float = 0.0  # in the worker: compile and run, seconds
     worker: str = ""
     retries: int = 0  # times it was started again after its worker was lost
@@ -230,7 +230,7 @@ class RunTimeout(Exception):
 
 
 def run_task(task: Task, path: str | None = None, deadline_s: float | None = None) -> dict[str, Any]:
-    """Compile and run one task; a dict (status, message, summary, task_time_s), never an exception.
+    """Compile and run one task; a dict (status, message, result, task_time_s), never an exception.
 
     ``path`` is where the file is on this machine when it differs from ``task.file``;
     ``deadline_s`` stops the run from inside its loop after that many seconds (the local pool
@@ -238,8 +238,8 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
     """
     started = clock.perf_counter()
 
-    def done(status: str, message: str = "", summary: dict[str, Any] | None = None) -> dict[str, Any]:
-        return {"status": status, "message": message, "summary": summary,
+    def done(status: str, message: str = "", result: RunResult | None = None) -> dict[str, Any]:
+        return {"status": status, "message": message, "result": result,
                 "task_time_s": clock.perf_counter() - started}
 
     try:
@@ -248,7 +248,6 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
         return done(COMPILE_ERROR, first_error(e))
     except Exception as e:  # a bug in labsim must not stop the batch: the row says what it was
         return done(COMPILE_ERROR, _exception_line(e))
-    warnings: list[str] = []
     progress: Callable[[int, float], None] | None = None
     if deadline_s is not None:
         limit = started + deadline_s
@@ -258,21 +257,20 @@ def run_task(task: Task, path: str | None = None, deadline_s: float | None = Non
                 raise RunTimeout(f"stopped after {deadline_s:g} s at tick {tick} ({sim_time_s:.1f} s simulated)")
 
     try:
-        run = behaviour.bind(load_backend(DEFAULT), trace=task.trace, warn=warnings.append)
+        run = behaviour.bind(load_backend(DEFAULT), trace=task.trace)
     except Exception as e:
         return done(RUNTIME_ERROR, first_error(e) if isinstance(e, LabsimError) else _exception_line(e))
     try:
-        summary = run.run(progress=progress)
+        result = run.run(progress=progress)
     except RunTimeout as e:
         return done(TIMEOUT, str(e))
     except Exception as e:
         return done(RUNTIME_ERROR, first_error(e) if isinstance(e, LabsimError) else _exception_line(e))
     finally:
         run.close()
-    if summary.over_budget:  # stopped by a budget: a failed row, with what it did up to there
-        return done(RUNTIME_ERROR, summary.over_budget, summary_dict(summary, run, warnings=warnings))
-    status = INTERRUPTED if summary.interrupted else OK
-    return done(status, "", summary_dict(summary, run, warnings=warnings))
+    if result.over_budget:  # stopped by a budget: a failed row, with what it did up to there
+        return done(RUNTIME_ERROR, result.over_budget, result)
+    return done(INTERRUPTED if result.interrupted else OK, "", result)
 
 
 def _exception_line(e: BaseException) -> str:
@@ -283,7 +281,7 @@ def _exception_line(e: BaseException) -> str:
 
 
 def row_of(task: Task, result: dict[str, Any], worker: str = "", retries: int = 0) -> Row:
-    return Row(task, result["status"], result["message"], result["summary"], result["task_time_s"], worker, retries)
+    return Row(task, result["status"], result["message"], result["result"], result["task_time_s"], worker, retries)
 
 
 # -- rows as flat records ---------------------------------------------------------------------
@@ -301,25 +299,17 @@ class Columns:
                  *self.metrics, "retries", "worker"])
 
 
-def metric_values(summary: dict[str, Any]) -> dict[str, Any]:
-    """A run's metrics: the robot's own, or the fleet's when there are several robots."""
-    robots = list(summary["robots"].values())
-    if len(robots) == 1:
-        return dict(robots[0]["metrics"])
-    return dict(summary["fleet"])
-
-
 def flat(row: Row) -> dict[str, Any]:
     """One row as a flat record: the figures a spreadsheet wants (see Columns.names)."""
     out: dict[str, Any] = {"file": row.task.file, **dict(row.task.settings), "seed": row.task.seed,
                            "status": row.status, "message": row.message, "task_time_s": round(row.task_time_s, 6),
                            "retries": row.retries, "worker": row.worker}
-    s = row.summary
+    s = row.result
     if s is not None:
-        robots = s["robots"].values()
-        out.update(name=s["behaviour"]["name"], sha256=s["behaviour"]["sha256"], ticks=s["ticks"],
-                   sim_time_s=s["sim_time_s"], wall_time_s=round(s["wall_time_s"], 6),
-                   contacts=sum(r["contacts"] for r in robots), clamped_ticks=sum(r["clamped_ticks"] for r in robots),
-                   faults=len(s["faults"]), stop_reason=s["stop_reason"])
-        out.update(metric_values(s))
+        robots = s.robots.values()
+        out.update(name=s.name, sha256=s.sha256, ticks=s.ticks, sim_time_s=s.sim_time_s,
+                   wall_time_s=round(s.wall_time_s, 6), contacts=sum(r.contacts for r in robots),
+                   clamped_ticks=sum(r.clamped_ticks for r in robots), faults=len(s.faults),
+                   stop_reason=s.stop_reason)
+        out.update(s.metric_values())
     return out

@@ -16,7 +16,7 @@ from typing import Any, TextIO
 
 from labsim import __version__
 from labsim.foundation.files import write_output
-from labsim.runtime.summary_json import number
+from labsim.runtime.summary_json import number, summary_dict
 from labsim.runtime.sweep.grid import STATUSES, Columns, Row, flat
 from labsim.runtime.sweep.stats import Stat, Test
 
@@ -133,8 +133,8 @@ def failures(rows: list[Row], limit: int = 20) -> list[str]:
 def columns(rows: list[Row], settings: list[str]) -> Columns:
     cols = Columns(settings=list(settings))
     for r in rows:
-        if r.summary is not None:
-            cols.metrics += [m for m in r.summary["metrics"] if m not in cols.metrics]
+        if r.result is not None:
+            cols.metrics += [m for m in r.result.metric_aggregates if m not in cols.metrics]
     return cols
 
 
@@ -152,8 +152,8 @@ def sweep_json(rows: list[Row], comp: dict[str, Any], meta: dict[str, Any]) -> d
     """The whole sweep as JSON: what was asked, a row per run (with its summary), the comparison."""
     out_rows = [{"index": r.task.index, "file": r.task.file, "settings": dict(r.task.settings), "seed": r.task.seed,
                  "status": r.status, "message": r.message, "task_time_s": r.task_time_s, "worker": r.worker,
-                 "retries": r.retries, "trace": r.task.trace if r.summary is not None else None,
-                 "summary": r.summary} for r in rows]
+                 "retries": r.retries, "trace": r.task.trace if r.result is not None else None,
+                 "summary": summary_dict(r.result) if r.result is not None else None} for r in rows]
     table = []
     for m in comp["metrics"]:
         for i, (g, s) in enumerate(comp["table"][m]):

@@ -184,7 +184,7 @@ class LocalPool:
                 result: dict[str, Any] = w.conn.recv()
             except (EOFError, OSError):
                 code = w.process.exitcode if not w.process.is_alive() else None
-                result = {"status": RUNTIME_ERROR, "summary": None,
+                result = {"status": RUNTIME_ERROR, "result": None,
                           "message": f"the worker process died while running it (exit code {code})",
                           "task_time_s": clock.perf_counter() - w.started}
                 name = w.name
@@ -199,7 +199,7 @@ class LocalPool:
                 if w.task is not None and now - w.started > self.timeout_s:
                     task, name = w.task, w.name
                     self._replace(w)  # the only way to stop a run that does not return
-                    yield self._done(task, {"status": TIMEOUT, "summary": None, "task_time_s": now - w.started,
+                    yield self._done(task, {"status": TIMEOUT, "result": None, "task_time_s": now - w.started,
                                             "message": f"killed after --timeout-per-run {self.timeout_s:g} s"}, name)
 
     def _done(self, task: Task, result: dict[str, Any], worker: str) -> Row:

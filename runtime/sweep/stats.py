@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from labsim.runtime.sweep.grid import Row, metric_values
+from labsim.runtime.sweep.grid import Row
 
 ALPHA = 0.05  # the test's level, and 1 - the confidence of the intervals
 
@@ -105,10 +105,10 @@ def groups(rows: list[Row]) -> list[Group]:
         label = " ".join(f"{k}={v}" for k, v in row.task.settings if len(seen[k]) > 1)
         g = out.setdefault((row.task.file, label), Group(row.task.file, label, {}))
         g.runs += 1
-        if row.failed or row.summary is None:
+        if row.failed or row.result is None:
             g.failed += 1
             continue
-        for name, value in metric_values(row.summary).items():
+        for name, value in row.result.metric_values().items():
             g.values.setdefault(name, []).append(_float(value))
     return list(out.values())
 

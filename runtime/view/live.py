@@ -86,8 +86,7 @@ class LiveSession(Session):
         program = behaviour.program
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
         self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
-                                  replay=None if self.timeline else {})
-        self.run.watch()
+                                  replay=None if self.timeline else {}, watch=True)
         self.pacer.dt_s = program.dt_s
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
@@ -164,7 +163,7 @@ class LiveSession(Session):
         run, obs = self.run, self.observed
         assert obs is not None
         p = run.program
-        metrics = run.summary(0.0).robots if p.metric_names else {}
+        metrics = run.result().robots if p.metric_names else {}
         robots = []
         for r in run.robots:
             slots = r.program.slots
@@ -173,7 +172,7 @@ class LiveSession(Session):
             values += [number(slots[s]) for s in self._lets]
             values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
             if p.metric_names:
-                values += [number(metrics[r.name]["metrics"][m]) for m in p.metric_names]
+                values += [number(metrics[r.name].metrics[m]) for m in p.metric_names]
             rule = run.last_rule[r.index]
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,

@@ -1,0 +1,249 @@
+"""What watches a run's ticks: observers, chosen once when a behaviour is bound.
+
+The tick core (``labsim.runtime.tick``) senses, evaluates, decides, acts and steps; everything
+else a run may do on a tick is an ``Observer`` handed to it, in the manner of py_trees' pre-
+and post-tick handlers: the trace writer, the live view's watcher, the log printer, the
+inputs that move sliders (the file's timeline, a replayed trace, a live drag) and the joint
+commands of a mechanism. An observer overrides only the hooks it needs; the core collects
+each hook once, when the run is bound, so a hook nobody overrides costs nothing and adding an
+observer never edits the hot path.
+
+The hooks, in the order a tick calls them:
+
+* ``before_tick(tick)``: before anything is sensed (inputs set the slots the signals read);
+* ``after_act(robot, rule, values)``: after a robot's rule acted (``rule`` -1: none held) and
+  its wheels were commanded, before its events are cleared and its ``goto`` takes effect;
+* ``at_stop(robot, values)``: on the tick the stop condition held (format 1.1), after its
+  metrics were folded; no rule acts on it.
+
+``bind(run)`` is called once, after the run's robots exist and before the first tick.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from labsim.backends.scene.models import Kind
+from labsim.dsl.builtins import Type
+from labsim.dsl.support import STATE
+from labsim.runtime.state import RobotRun, RunState
+from labsim.runtime.trace import TraceWriter
+
+TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
+
+# A log(...) prints at most this many lines per simulated second (per log in the file): a rule
+# that fires every tick cannot flood the terminal; the trace keeps every line.
+LOG_RATE = 5
+
+Schedule = dict[int, list[tuple[int, float, str]]]  # tick -> (slot, value, "name=value") moves
+
+
+class Observer:
+    """A watcher of ticks; see the module docstring. The base hooks do nothing."""
+
+    def bind(self, run: RunState) -> None:
+        """Once, when the run is bound: read what the run set up."""
+
+    def before_tick(self, tick: int) -> None:
+        """Before the tick's sensing."""
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        """After one robot acted on the tick; ``values`` are its readings."""
+
+    def at_stop(self, robot: RobotRun, values: list) -> None:
+        """On the tick the stop condition held (no rule acts), for every robot."""
+
+
+@dataclass(frozen=True)
+class Hooks:
+    """The hooks of a run's observers, each kept only where an observer overrides it."""
+
+    before_tick: tuple[Callable[[int], None], ...]
+    after_act: tuple[Callable[[RobotRun, int, list], None], ...]
+    at_stop: tuple[Callable[[RobotRun, list], None], ...]
+
+
+def hooks(observers: Sequence[Observer]) -> Hooks:
+    """The hooks the tick calls, in the observers' order; a hook nobody overrides is left out."""
+    return Hooks(
+        before_tick=tuple(o.before_tick for o in observers if type(o).before_tick is not Observer.before_tick),
+        after_act=tuple(o.after_act for o in observers if type(o).after_act is not Observer.after_act),
+        at_stop=tuple(o.at_stop for o in observers if type(o).at_stop is not Observer.at_stop))
+
+
+class Inputs(Observer):
+    """Slider moves: the file's timeline or a replayed trace's, and live drags (``move``).
+
+    A move applies to every robot's slots before the tick's signals read them, and is kept in
+    ``applied`` for the trace's events column.
+    """
+
+    def __init__(self, schedule: Schedule):
+        self.schedule = schedule
+        self.applied: list[str] = []  # this tick's moves, "name=value"
+        self._slots: list[list] = []
+
+    def bind(self, run: RunState) -> None:
+        self._slots = [r.program.slots for r in run.robots]
+
+    def before_tick(self, tick: int) -> None:
+        self.applied = []
+        for slot, value, text in self.schedule.pop(tick, ()):
+            for s in self._slots:
+                s[slot] = value
+            self.applied.append(text)
+
+    def move(self, tick: int, slot: int, value: float, text: str) -> None:
+        """A move from tick ``tick`` on (a live drag lands on the next tick's signals)."""
+        self.schedule.setdefault(tick, []).append((slot, value, text))
+
+
+class Watcher(Observer):
+    """The rule each robot fired on the last tick (-1: none), for a live view."""
+
+    def __init__(self) -> None:
+        self.last_rule: list[int] = []
+
+    def bind(self, run: RunState) -> None:
+        self.last_rule = [-1] * len(run.robots)
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        self.last_rule[robot.index] = rule
+
+
+class JointCommands(Observer):
+    """A mechanism's joint targets, sent to the backend when they change (nan: not yet set)."""
+
+    def __init__(self, targets: Sequence[tuple[str, str]], command: Callable[[int, str, str, float], None]):
+        self.targets = tuple(targets)
+        self.command = command
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        sent = robot.sent_joints
+        for k, value in enumerate(robot.program.joint_command):
+            if value != sent[k] and value == value:
+                sent[k] = value
+                joint, mode = self.targets[k]
+                self.command(robot.index, joint, mode, value)
+
+
+class LogPrinter(Observer):
+    """Each ``log(...)`` of a tick, printed: at most ``LOG_RATE`` lines a simulated second per
+    log in the file; the rest are counted (``dropped``) for the summary. ``lines`` keeps what
+    was printed, apart from the run's warnings; the trace records every line."""
+
+    def __init__(self, emit: Callable[[str], None] | None):
+        self.emit = emit
+        self.lines: list[str] = []
+        self.dropped: dict[int, int] = {}  # log site -> lines not printed
+        self._windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
+
+    def bind(self, run: RunState) -> None:
+        self.run = run
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        events = robot.program.events
+        if not events:
+            return
+        run = self.run
+        now = run.tick_index * run.dt
+        second = int(now)
+        for e in events:
+            if isinstance(e, int):  # a metric's event, not a log
+                continue
+            site = e[0]
+            window = self._windows.setdefault(site, [second, 0])
+            if window[0] != second:
+                window[:] = [second, 0]
+            window[1] += 1
+            if window[1] > LOG_RATE:
+                self.dropped[site] = self.dropped.get(site, 0) + 1
+                continue
+            line = f"[{now:.2f} s] {robot.name}: {run.program.log_text(*e)}"
+            self.lines.append(line)
+            if self.emit is not None:
+                self.emit(line)
+
+
+class TraceRows(Observer):
+    """A trace row per robot per tick (docs/trace-format.md): pose, state, rule, what the
+    behaviour reads and computes, sliders, labels, wheel commands and the tick's events."""
+
+    def __init__(self, writer: TraceWriter, inputs: Inputs | None):
+        self.writer = writer
+        self.inputs = inputs
+        self.recorded = 0  # the ticks the trace has rows of (its footer's count)
+
+    def bind(self, run: RunState) -> None:
+        self.run = run
+        p = run.program
+        self.pose_at = [run.channels.index(c) for c in TRACE_POSE]
+        self.channels, self.lets = traced(run)
+        self.sliders = [p.slot_of[name] for name in p.slider_names]
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        self.row(robot, values, rule)
+
+    def at_stop(self, robot: RobotRun, values: list) -> None:
+        self.row(robot, values, -1)
+
+    def row(self, r: RobotRun, values: list, rule: int) -> None:
+        run, p, prog = self.run, self.run.program, r.program
+        s = prog.slots
+        at = self.pose_at
+        label = p.rules[rule].id if rule >= 0 else ""
+        cmd = prog.command
+        labels = list(p.label_text(s).values()) if p.labels else []
+        events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(p.log_text(*e))
+                  for e in prog.events] + (self.inputs.applied if self.inputs is not None else [])
+        state = p.state_names[s[STATE]] if p.state_names else ""
+        t = run.tick_index
+        self.writer.write([t, round(t * run.dt, 9), r.name, values[at[0]], values[at[1]], values[at[2]],
+                           values[at[3]], state, label, *(values[i] for i in self.channels),
+                           *(s[i] for i in self.lets), *(s[i] for i in self.sliders), *labels,
+                           cmd[0], cmd[1], ";".join(events)])
+        self.recorded = t + 1  # an interrupt may land before the tick ends: count rows
+
+
+def traced(run: RunState) -> tuple[list[int], list[int]]:
+    """Which channel values and which signal slots the trace records: numbers and booleans.
+
+    Images and records have no CSV cell; a behaviour traces what it derives from them
+    (``cx: centroid(lane).x`` is a column).
+    """
+    p = run.program
+    kinds = p.channel_kinds
+    channels = [i for i, c in enumerate(p.channels) if c not in TRACE_POSE
+                and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
+    lets = [p.slot_of[n] for n in p.let_names if p.signal_types.get(n) in (Type.NUMBER, Type.BOOL)]
+    return channels, lets
+
+
+def trace_columns(run: RunState) -> list[str]:
+    """The trace's columns, in the order ``TraceRows.row`` writes them."""
+    p = run.program
+    channels, lets = traced(run)
+    names = {slot: name for name, slot in p.slot_of.items()}
+    return (["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule"]
+            + [p.channels[i] for i in channels] + [names[i] for i in lets] + list(p.slider_names)
+            + [f"label:{slider}" for slider, _ in p.labels]
+            + ["wheel_left", "wheel_right", "events"])
+
+
+def _one_field(text: str) -> str:
+    """A log's text as one cell of the events column: no ';' (the separator) and no newline."""
+    return text.replace(";", ",").replace("\n", " ")
+
+
+__all__ = [
+    "LOG_RATE",
+    "TRACE_POSE",
+    "Hooks",
+    "Inputs",
+    "JointCommands",
+    "LogPrinter",
+    "Observer",
+    "TraceRows",
+    "Watcher",
+    "hooks",
+]
