@@ -7,39 +7,29 @@ import time as clock
 from typing import TextIO
 
 from labsim.dsl.builtins import Aggregate
+from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.result import RobotResult, RunResult
 
 
 class ProgressBar:
-    """A one-line bar on a terminal, redrawn at most ten times a second."""
+    """``labsim run``'s bar: simulated time against the stop horizon, and ticks a second."""
 
     def __init__(self, horizon_s: float | None, stream: TextIO = sys.stderr):
         self.horizon = horizon_s
-        self.stream = stream
-        self.started = clock.perf_counter()
-        self.last = 0.0
-        self.drawn = False
+        self.line = StatusLine(stream)
 
     def __call__(self, tick: int, sim_time_s: float) -> None:
-        now = clock.perf_counter()
-        if now - self.last < 0.1:
+        if not self.line.due():
             return
-        self.last = now
-        rate = tick / max(now - self.started, 1e-9)
+        rate = tick / max(clock.perf_counter() - self.line.started, 1e-9)
         if self.horizon:
             done = min(1.0, sim_time_s / self.horizon)
-            bar = "#" * int(done * 30)
-            text = f"\r  [{bar:<30}] {done:4.0%}  {sim_time_s:8.1f} / {self.horizon:.1f} s  {rate:7.0f} ticks/s"
+            self.line.draw(f"  {bar(done)} {done:4.0%}  {sim_time_s:8.1f} / {self.horizon:.1f} s  {rate:7.0f} ticks/s")
         else:
-            text = f"\r  {sim_time_s:8.1f} s simulated  {rate:7.0f} ticks/s"
-        self.stream.write(text)
-        self.stream.flush()
-        self.drawn = True
+            self.line.draw(f"  {sim_time_s:8.1f} s simulated  {rate:7.0f} ticks/s")
 
     def clear(self) -> None:
-        if self.drawn:
-            self.stream.write("\r" + " " * 78 + "\r")
-            self.stream.flush()
+        self.line.clear()
 
 
 def _metric(value: float, aggregate: Aggregate) -> str:

@@ -16,6 +16,7 @@ from typing import Any, TextIO
 
 from labsim import __version__
 from labsim.foundation.files import write_output
+from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.summary_json import number, summary_dict
 from labsim.runtime.sweep.grid import STATUSES, Columns, Row, flat
 from labsim.runtime.sweep.stats import Stat, Test
@@ -28,28 +29,23 @@ class SweepProgress:
     """``[#####     ] 12/40 runs, 1 failed, ETA 0:23`` on one terminal line."""
 
     def __init__(self, total: int, stream: TextIO = sys.stderr, show: bool = True):
-        self.total, self.stream, self.show = total, stream, show
+        self.total, self.show = total, show
         self.done = self.failed = 0
-        self.started = clock.perf_counter()
-        self.drawn = False
+        self.line = StatusLine(stream, every_s=0.0)
 
     def update(self, row: Row) -> None:
         self.done += 1
         self.failed += row.failed
         if not self.show:
             return
-        elapsed = clock.perf_counter() - self.started
+        elapsed = clock.perf_counter() - self.line.started
         eta = elapsed / self.done * (self.total - self.done)
-        bar = "#" * int(30 * self.done / max(self.total, 1))
         failed = f", {self.failed} failed" if self.failed else ""
-        self.stream.write(f"\r  [{bar:<30}] {self.done}/{self.total} runs{failed}, ETA {_clock(eta)}   ")
-        self.stream.flush()
-        self.drawn = True
+        self.line.draw(f"  {bar(self.done / max(self.total, 1))} {self.done}/{self.total} runs{failed}, "
+                       f"ETA {_clock(eta)}   ")
 
     def clear(self) -> None:
-        if self.drawn:
-            self.stream.write("\r" + " " * 79 + "\r")
-            self.stream.flush()
+        self.line.clear()
 
 
 def _clock(seconds: float) -> str:
