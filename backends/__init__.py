@@ -3,7 +3,8 @@
 Backends are registered as "module:Class" strings and imported only when chosen, so the
 CoppeliaSim client is never imported by a run on the embedded backend. ``ground_camera`` is
 the one other way in: a camera's view of a world's ground, rendered without a scene, for
-pictures drawn after a run.
+pictures drawn after a run. ``check_backend`` (``labsim.backends.check``) runs the backend
+contract on any backend, a new one's included; it is imported when first asked for.
 """
 from __future__ import annotations
 
@@ -17,6 +18,8 @@ from labsim.backends.protocol import Backend, BackendError
 if TYPE_CHECKING:
     import numpy as np
 
+    from labsim.backends.check import BackendContractError as BackendContractError
+    from labsim.backends.check import check_backend as check_backend
     from labsim.backends.scene.ground import Ground
     from labsim.backends.scene.models import Camera
 
@@ -54,6 +57,19 @@ def ground_camera(ground: Ground, backend: str = DEFAULT) -> Callable[[float, fl
     view = _resolve(GROUND_CAMERAS, backend, f"backend '{backend}' cannot render a camera without a scene")(ground)
     render: Callable[[float, float, float, Camera], np.ndarray] = view.render
     return render
+
+
+def __getattr__(name: str) -> object:
+    # The contract check drives whole scenes: importing the registry does not import it.
+    if name == "check_backend":
+        from labsim.backends.check import check_backend
+
+        return check_backend
+    if name == "BackendContractError":
+        from labsim.backends.check import BackendContractError
+
+        return BackendContractError
+    raise AttributeError(f"module 'labsim.backends' has no attribute '{name}'")
 
 
 def _resolve(table: dict[str, str], name: str, unknown: str) -> Any:

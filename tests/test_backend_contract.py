@@ -1,25 +1,31 @@
 """Every backend keeps the protocol, and the same inputs give the same readings.
 
-Two worlds: a box with two robots, and the built-in ``crane`` (a mechanism that one agent
-reads and drives). Every test that says "every backend" runs on each registered backend and on
-the scripted ``FakeBackend`` of the runtime tests, whose scripts play what the simulators do
-(robot a bumps into the east wall twice). The coppeliasim backend runs against ``labsim
-serve`` (a ``Server`` in a thread per world, started once for this module), which simulates
-the same world with the pymunk backend: both must then give the same readings.
+The contract itself is ``labsim.backends.check_backend``, the function a backend's author runs
+on their own backend; here it runs on each registered backend and on the scripted
+``FakeBackend`` of the runtime tests, in three worlds: a box with two robots, the built-in
+``crane`` (a mechanism that one agent reads and drives) and a road with a camera robot. The
+fake's scripts play what the simulators do (robot a bumps into the east wall twice). The
+coppeliasim backend runs against ``labsim serve`` (a ``Server`` in a thread per world, started
+once for this module), which simulates the same world with the pymunk backend: both must then
+give the same readings. What is left here is each simulator's own physics, and one backend
+that breaks the contract, to show what its author would read.
 """
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import itertools
 import math
 from collections.abc import Callable, Iterator
 from typing import Any
 
+import numpy as np
 import pytest
 from fake_backend import FakeBackend
 
-from labsim.backends import REGISTRY, load_backend
-from labsim.backends.protocol import Backend, BackendError, BackendStateError, ContactStats, RobotRequest
-from labsim.backends.scene.models import PIONEER_P3DX
+from labsim.backends import REGISTRY, BackendContractError, check_backend, load_backend
+from labsim.backends.protocol import Backend, ContactStats, RobotRequest
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.scene.world import Pose, Wall, World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
 from labsim.foundation.diagnostics import Report
@@ -43,7 +49,13 @@ CRAB, HOIST, SLEW, SENSOR, LOAD = "Crab_Actuator", "Hoist_Actuator", "Arm_Actuat
 CRANE_CHANNELS = (CRAB, HOIST, SLEW, SENSOR, LOAD, "x", "y", "heading", "collided")
 AGENT = [RobotRequest("crane", None, Pose(0.0, 0.0, 0.0), CRANE_CHANNELS)]
 
-SCENES = {"box": (WORLD, ROBOTS), "crane": (CRANE, AGENT)}
+ROAD = load_world(builtin_worlds()["road_compact"], Report())
+assert ROAD is not None
+EYE = Camera("camera", 32, 24, fov_deg=60.0, height_m=0.4, pitch_deg=35.0)
+DRIVER = [RobotRequest("driver", dataclasses.replace(PIONEER_P3DX, cameras=(EYE,)), ROAD.spawns[0],
+                       ("camera", "road_offset", "on_road", "laps", "forward_speed", "x", "y", "heading", "collided"))]
+
+SCENES = {"box": (WORLD, ROBOTS), "crane": (CRANE, AGENT), "road": (ROAD, DRIVER)}
 # What the fake backend reads in each world: sonars see a wall 0.5 m off every third tick;
 # robot a touches the wall on the ticks the simulators have it there (see drive_box).
 FAKES: dict[str, Callable[[], FakeBackend]] = {
@@ -51,6 +63,8 @@ FAKES: dict[str, Callable[[], FakeBackend]] = {
                                touching={0: [*range(23, 42), *range(79, 100)]}),
     "crane": lambda: FakeBackend(lambda tick, robot, ch: {
         SENSOR: (1962.0,), LOAD: (1.0, 0.3, 0.0)}.get(ch, (0.01 * tick, 0.2))),
+    "road": lambda: FakeBackend({"camera": [np.zeros((24, 32, 3), np.uint8)], "road_offset": [0.1],
+                                 "on_road": [True], "laps": [0.0], "forward_speed": [0.0]}),
 }
 BACKENDS = [*sorted(REGISTRY), "fake"]
 
@@ -71,8 +85,8 @@ def serve() -> Iterator[Callable[[str], int]]:
                 from labsim.runtime.serve.server import Server
 
                 world, robots = SCENES[scene]
-                robot_count = sum(r.model is not None for r in robots)
-                ports[scene] = stack.enter_context(Server(world, robot_count, port=0)).port
+                wheeled = [r for r in robots if r.model is not None]  # with their cameras
+                ports[scene] = stack.enter_context(Server(world, wheeled or 0, port=0)).port
             return ports[scene]
 
         yield port
@@ -151,70 +165,57 @@ def numbers(value: object) -> list[float]:
 # --- the protocol, on every backend -----------------------------------------------------------
 
 @pytest.mark.parametrize("scene", sorted(SCENES))
-def test_calls_in_the_wrong_order_raise(make: Make, scene: str) -> None:
-    backend = make(scene)
+def test_every_backend_keeps_the_contract(make: Make, scene: str) -> None:
     world, robots = SCENES[scene]
-    calls: tuple[Callable[[], object], ...] = (backend.sense, backend.step, lambda: backend.contacts(0))
-    for call in calls:
-        with pytest.raises(BackendStateError):
-            call()
-    backend.open(world, robots, DT, seed=1)
-    readings = backend.sense()
-    assert len(readings) == len(robots) and all(len(r) == len(req.channels) for r, req in zip(readings, robots))
-    backend.step()
-    backend.close()
-    backend.close()  # twice is fine
-    for call in (backend.sense, backend.step, lambda: backend.pose(0), lambda: backend.act(0, 1.0, 1.0)):
-        with pytest.raises(BackendStateError):
-            call()
-    assert isinstance(backend.contacts(0), ContactStats)  # still readable, for the summary
+    check_backend(lambda: make(scene), world, robots, dt_s=DT)
 
 
-def test_robot_readings_and_contacts(make: Make) -> None:
-    """Every channel has its type, pose() agrees with x, y, heading, and contacts follow
-    collided: each tick after the first that reads True adds dt of contact time, and a tick
-    on which it turns True is a new contact (a simulator may also count one that began and
-    ended within a step)."""
-    history = drive_box(make("box"))
-    seen = [[0, 0.0, False] for _ in ROBOTS]  # per robot: contacts seen to begin, time, touching
-    for tick, (rows, robots) in enumerate(zip(history[0::2], history[1::2])):
-        for r, (row, (stats, pose)) in enumerate(zip(rows, robots)):
-            *sonars, x, y, heading, collided = row
-            assert all(isinstance(s, float) and s >= 0 for s in sonars)  # inf: nothing in range
-            assert all(isinstance(v, float) for v in (x, y, heading)) and -math.pi < heading <= math.pi
-            assert pose == (x, y, heading)
-            assert isinstance(collided, bool)
-            if collided and not seen[r][2]:
-                seen[r][0] += 1
-            if collided and tick > 0:
-                seen[r][1] += DT
-            seen[r][2] = collided
-            assert stats.count >= seen[r][0] and stats.time_s == pytest.approx(seen[r][1], abs=1e-9)
-    assert [count for count, _, _ in seen] == [2, 0]  # a bumped into the wall twice, b never
+def test_robot_a_bumps_into_the_wall_twice(make: Make) -> None:
+    """The box's drive, as the simulators simulate it and the fake plays it: collided turns
+    True twice for robot a, never for b."""
+    collided = [[row[-1] for row in rows] for rows in drive_box(make("box"))[0::2]]
+    begun = [sum(c and (t == 0 or not seen[t - 1]) for t, c in enumerate(seen)) for seen in zip(*collided)]
+    assert begun == [2, 0]
 
 
-def test_mechanism_readings_and_commands(make: Make) -> None:
-    backend = make("crane")
-    backend.open(CRANE, AGENT, DT, seed=1)
-    backend.command(0, CRAB, "velocity", 0.5)
-    backend.command(0, HOIST, "position", 4.0)
-    with pytest.raises(BackendError):
-        backend.command(0, "Crab_Actuatr", "velocity", 1.0)
-    for _ in range(10):
-        backend.step()
-    (crab, hoist, slew, sensor, load, x, y, heading, collided), = backend.sense()
-    for joint in (crab, hoist, slew):
-        assert isinstance(joint, tuple) and len(joint) == 2 and all(isinstance(v, float) for v in joint)
-    assert isinstance(sensor, tuple) and len(sensor) == 1 and sensor[0] >= 0  # tension, N
-    assert isinstance(load, tuple) and len(load) == 3  # x, z, angle in the plane
-    assert backend.pose(0) == pytest.approx((x, y, heading)) and collided is False
-    assert backend.contacts(0) == ContactStats(0, 0.0)  # a mechanism's parts touch by design
-    backend.close()
+class ModelOrder(FakeBackend):
+    """A broken backend: it reads each robot's channels in its model's order, whatever order
+    the request gives (the box's requests happen to list them in that order)."""
+
+    def sense(self) -> list[list[object]]:
+        rows = super().sense()
+        out = []
+        for req, row in zip(self.robots, rows):
+            assert req.model is not None
+            read = dict(zip(req.channels, row))
+            out.append([read[c] for c in req.model.channels() if c in read])
+        return out
 
 
-@pytest.mark.parametrize("scene", sorted(SCENES))
-def test_same_inputs_same_readings(make: Make, scene: str) -> None:
-    assert DRIVES[scene](make(scene)) == DRIVES[scene](make(scene))
+DRIFT = itertools.count()
+
+
+def drifting() -> FakeBackend:
+    """A broken backend: its readings depend on how many were made before it."""
+    drift = next(DRIFT) / 1000
+    return FakeBackend(lambda tick, robot, ch: 0.5 + drift)
+
+
+@pytest.mark.parametrize(("broken", "said"), [
+    (lambda: ModelOrder(FAKES["box"]().script, {0: range(23, 42)}),
+     "asked for every robot's channels in reverse order, the backend read them otherwise: robot 'a' channel "
+     "'sonar1' read 0.5 in the given order and False in reverse order at tick 0; sense() must return each "
+     "robot's channels in the order its request lists them"),
+    (drifting,
+     "two backends given the same world, requests, dt_s, seed (7) and commands read differently: "
+     "robot 'a' channel 'sonar1' read "),
+], ids=["channels-in-its-own-order", "not-deterministic"])
+def test_a_broken_backend_is_told_what_it_breaks(broken: Callable[[], Backend], said: str) -> None:
+    with pytest.raises(BackendContractError) as caught:
+        check_backend(broken, WORLD, ROBOTS, dt_s=DT)
+    assert caught.value.failures[0].startswith(said) and len(caught.value.failures) == 1
+    assert str(caught.value).startswith("backend 'fake' does not keep the backend contract "
+                                        "(labsim.backends.protocol); 1 problem(s):\n  - " + said)
 
 
 # --- what the simulators simulate -------------------------------------------------------------
@@ -248,7 +249,7 @@ def test_the_crane_follows_its_commands(simulator: Make) -> None:
     assert tension == pytest.approx(200 * 9.81, rel=0.1) and load[1] > 0.3  # the load is off the floor
 
 
-@pytest.mark.parametrize("scene", sorted(SCENES))
+@pytest.mark.parametrize("scene", sorted(DRIVES))
 def test_coppeliasim_reads_what_pymunk_computes(serve: Callable[[str], int], scene: str) -> None:
     """Through labsim serve, every reading is the embedded backend's: bit for bit for robots;
     to the last bits for a mechanism, whose bodies go through a 3D pose and back."""
