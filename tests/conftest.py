@@ -1,16 +1,18 @@
-"""Shared helpers: paths, fixture expectations, a tiny in-memory behaviour writer, and the
-labs' long runs, each run once per test session and shared by every test that reads it."""
+"""The suite's fixtures and hooks: its own cache folder, a tiny behaviour writer, the labs' long
+runs (each made once per session and shared by every test that reads it), and a ``labsim serve
+--empty`` of a test's own. What test modules import lives in tests/helpers.py; the tiers
+(unit, contract, labs, hostile, serve, apps, browser) are the subfolders, and ``-m "not slow"``
+leaves out the long tests."""
 from __future__ import annotations
 
 import atexit
 import os
-import re
 import shutil
 import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from helpers import LabRun, serve, stop
 
 from labsim.backends import load_backend
 from labsim.runtime.run import compile_behaviour
@@ -22,20 +24,6 @@ if "LABSIM_CACHE_DIR" not in os.environ:
     os.environ["LABSIM_CACHE_DIR"] = tempfile.mkdtemp(prefix="labsim-test-cache-")
     atexit.register(shutil.rmtree, os.environ["LABSIM_CACHE_DIR"], True)
 
-ROOT = Path(__file__).resolve().parent.parent
-FIXTURES = Path(__file__).resolve().parent / "fixtures"
-BEHAVIOURS = ROOT / "behaviours"
-
-
-def expectations(path: Path) -> set[tuple[int, int, str]]:
-    """The `# expect: LINE:COL: message` (or `# expect: -: message`) lines of a fixture."""
-    out = set()
-    for line in path.read_text().splitlines():
-        m = re.match(r"# expect: (?:(\d+):(\d+)|-): (.*)$", line)
-        if m:
-            out.add((int(m.group(1) or 0), int(m.group(2) or 0), m.group(3)))
-    return out
-
 
 @pytest.fixture
 def write(tmp_path: Path):
@@ -45,9 +33,6 @@ def write(tmp_path: Path):
         p.write_text(text)
         return p
     return _write
-
-
-LabRun = Callable[..., Summary]
 
 
 @pytest.fixture(scope="session")
@@ -78,13 +63,6 @@ def empty():
     """The port of a ``labsim serve --empty`` of this test's own, stopped after it."""
     pytest.importorskip("zmq")
     pytest.importorskip("coppeliasim_zmqremoteapi_client")
-    from test_serve import _serve, _stop
-
-    proc, port = _serve("-q", "--empty")
+    proc, port = serve("-q", "--empty")
     yield port
-    _stop(proc)
-
-
-def trace_rows(path: Path) -> list[str]:
-    """A trace's rows as text, without its header lines and its `# end` footer."""
-    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
+    stop(proc)
