@@ -13,7 +13,7 @@ Two kinds of input, both hypothesis strategies:
 
 ``run_input`` writes one input to a folder and takes it as far as it goes: compile (which
 reads, checks and lints), then a few ticks on the pymunk backend with a trace, and the
-summary. ``ALLOWED`` are the only exceptions it may raise; tests/test_fuzz.py runs a short
+summary. ``ALLOWED`` are the only exceptions it may raise; tests/hostile/test_fuzz.py runs a short
 profile in the suite, tests/fuzz_long.py the long one.
 """
 from __future__ import annotations

@@ -7,7 +7,7 @@ tests/fuzz_inputs.py (half mutated shipped files, half generated from the gramma
 own hypothesis seed, generation only (no shrinking: a failure is recorded and the run goes on).
 Prints the count, the rate in inputs per second, and each distinct failure (exception type and
 where it was raised) with the first input that raised it, written under ``--out``. Exits 1 if
-anything but the project's own errors was raised. The short profile is tests/test_fuzz.py.
+anything but the project's own errors was raised. The short profile is tests/hostile/test_fuzz.py.
 """
 from __future__ import annotations
 

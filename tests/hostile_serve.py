@@ -1,5 +1,5 @@
 """Hostile requests for ``labsim serve``, as a table: what a broken or malicious client sends,
-and what it gets back. tests/test_hostile_serve.py sends each to a ``labsim serve`` process and
+and what it gets back. tests/hostile/test_hostile_serve.py sends each to a ``labsim serve`` process and
 then checks that a well-behaved client is still answered and that the server's memory stayed
 under a bound.
 

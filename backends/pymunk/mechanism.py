@@ -53,7 +53,7 @@ gravity (0, -g). How each joint becomes pymunk constraints, and why:
 
 Stability and cost: ``DEFAULT_SUBSTEPS`` sub-steps of dt / substeps each and
 ``SOLVER_ITERATIONS`` solver iterations (see their comments). The crane costs about 90 us a
-tick at dt = 0.05 s, some 550 times faster than real time (tests/test_mechanism.py measures
+tick at dt = 0.05 s, some 550 times faster than real time (tests/unit/test_mechanism.py measures
 it); the sub-steps are nearly all of it, about 8 us each.
 
 Joint targets are followed by a planner that runs once a tick (``joints.control``): speed

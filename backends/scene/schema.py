@@ -5,7 +5,7 @@ This sits beside the file readers of the scene layer: ``world_schema()`` describ
 are what ``labsim.dsl.schema`` describes a behaviour file with. ``mapping(keys, ...)`` takes a
 reader's tuple of known keys and refuses to build unless every one of them has a description
 and no other does, so a key added to a reader without one here fails at once (and in
-tests/test_schema.py), and the schema cannot drift from what the readers accept. Editors
+tests/unit/test_schema.py), and the schema cannot drift from what the readers accept. Editors
 (yaml-language-server) use the schemas to complete keys, show descriptions and flag wrong keys
 and types as one types; ``labsim schema world`` prints this one.
 

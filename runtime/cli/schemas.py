@@ -3,7 +3,7 @@
 The schemas are built by ``labsim.dsl.schema`` (behaviour files) and
 ``labsim.backends.scene.schema`` (world files) from the readers' key tables; this module writes
 them as text, the same text as the copies shipped beside the labs (``behaviours/*.schema.json``,
-which tests/test_schema.py keeps equal to it). A lab file's first line,
+which tests/unit/test_schema.py keeps equal to it). A lab file's first line,
 ``# yaml-language-server: $schema=behaviour.schema.json``, points yaml-language-server (VS
 Code's YAML extension and others) at the copy beside it.
 """

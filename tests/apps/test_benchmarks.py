@@ -1,0 +1,62 @@
+"""The benchmarks still run, and their hand-written loops still do what the labs do.
+
+Speed is not checked here (shared machines are noisy): each benchmark runs once and must
+report that labsim and its hand-written loop ended with the same poses, bit for bit.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+from helpers import BENCHMARKS
+
+pytestmark = pytest.mark.slow  # each benchmark runs once, in a process of its own
+
+
+@pytest.mark.parametrize("script", ["bench_wall.py", "bench_road.py"])
+def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "labsim / hand-written loop: median of per-round ratios" in done.stdout
+    assert "same final poses: yes" in done.stdout, done.stdout
+
+
+@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py"])
+def test_benchmark_runs(script: str) -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "median" in done.stdout
+
+
+def test_sweep_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_sweep.py"), "--runs", "2", "--minutes", "0.2",
+                           "--no-dask"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "speed-up -j 2 over -j 1" in done.stdout
+
+
+def test_startup_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_startup.py"), "--repeat", "1", "--minutes", "0.1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "labsim check: median" in done.stdout and "labsim run:   median" in done.stdout, done.stdout
+    assert "load average" in done.stdout
+
+
+def test_memory_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_memory.py"), "--minutes", "0.1", "0.5"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.count("peak RSS") == 3, done.stdout
+
+
+def test_irsim_benchmark_runs_or_says_it_is_skipped() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_irsim.py"), "--repeat", "1", "--irsim-steps", "20",
+                           "--labsim-steps", "200"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert ("labsim / IR-SIM steps per second" in done.stdout
+            or "IR-SIM is not installed: skipped" in done.stdout), done.stdout
+

@@ -1,0 +1,132 @@
+"""The command line end to end: what a user types, what they see, the exit code."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from helpers import BEHAVIOURS, FIXTURES, expectations
+
+from labsim.runtime.cli.main import main
+
+LAB = BEHAVIOURS / "wall_follow.yaml"
+
+
+def cli(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err
+    return code, out, err
+
+
+def test_run_prints_a_summary(capsys) -> None:
+    code, out, err = cli(capsys, "run", str(LAB), "--set", "minutes=0.5")
+    assert code == 0
+    assert "done: 600 ticks, 30.00 s simulated in" in out
+    assert "params: minutes=0.5* front=0.5 side=0.3 hold=0.45 cruise=4   (* set on the command line)" in out
+    assert "robot pioneer: 0 collisions" in out
+    assert "rules (ticks fired):" in out and "never fired:" in out
+
+
+def test_run_writes_a_trace_and_plot_draws_it(capsys, tmp_path: Path) -> None:
+    trace, png = tmp_path / "run.csv", tmp_path / "run.png"
+    assert cli(capsys, "run", str(LAB), "--set", "minutes=0.2", "--trace", str(trace), "-q")[0] == 0
+    assert len(trace.read_text().splitlines()) == 2 + 240 + 1  # header, columns, rows, the "# end" footer
+    code, out, _ = cli(capsys, "plot", str(trace), "-o", str(png))
+    assert code == 0 and png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "nope.yaml"], "nope.yaml: error: no such behaviour file"),
+    (["run", str(LAB), "--set", "fron=1.0"], "--set fron=1.0: error: unknown parameter 'fron' (did you mean 'front'?)"),
+    (["run", str(LAB), "--set", "front=far"], "--set front=far: error: parameter 'front' is a number, not 'far'"),
+    (["run", str(LAB), "--set", "front"], "--set front: error: --set takes NAME=VALUE, e.g. --set front=1.0"),
+    (["run", str(LAB), "--trace", "/no/such/dir/t.csv"],
+     "--trace /no/such/dir/t.csv: error: folder '/no/such/dir' does not exist"),
+    (["run", str(FIXTURES / "structure_with_error.yaml")],
+     "structure_with_error.yaml:6:8: error: unknown world 'walls_lab5'"),
+    (["plot", "nope.csv", "-o", "x.png"], "nope.csv: error: no such trace file"),
+    (["plot", str(LAB), "-o", "x.png"], "error: not a labsim trace"),
+    (["run"], "labsim: error: the following arguments are required: file"),
+])
+def test_bad_input_exits_2_with_a_clear_message(capsys, args: list[str], message: str) -> None:
+    try:
+        code, out, err = cli(capsys, *args)
+    except SystemExit as e:  # argparse's own usage errors
+        code, (_, err) = e.code, capsys.readouterr()
+    assert code == 2
+    assert message in err
+
+
+def test_check_reports_every_error_of_every_file(capsys) -> None:
+    files = sorted(str(p) for p in FIXTURES.glob("*_with_error.yaml"))
+    code, out, err = cli(capsys, "check", str(FIXTURES / "minimal.yaml"), *files)
+    assert code == 2
+    assert "minimal.yaml: ok" in out
+    expected = sum(len(expectations(FIXTURES / Path(f).name)) for f in files)
+    assert err.count(": error: ") == expected
+    assert f"{expected} errors" in err
+
+
+def test_golden_pass_fail_and_missing(capsys, tmp_path: Path) -> None:
+    lab = tmp_path / "lab.yaml"
+    shutil.copy(LAB, lab)
+    lab.write_text(lab.read_text().replace("minutes: 25 ", "minutes: 0.5"))
+    code, out, _ = cli(capsys, "test", str(lab))
+    assert code == 1 and "FAIL" in out and "no golden trace" in out and "--update-goldens" in out
+    assert cli(capsys, "test", str(lab), "--update-goldens")[0] == 0
+    code, out, _ = cli(capsys, "test", str(tmp_path))
+    assert code == 0 and "1 passed, 0 failed" in out
+    lab.write_text(lab.read_text().replace("cruise: 4 ", "cruise: 4.5"))
+    code, out, _ = cli(capsys, "test", str(lab))
+    assert code == 1
+    assert "first difference at tick" in out and "column '" in out
+    assert "tolerance" in out and "context (golden | this run where they differ):" in out
+    assert "note: the behaviour file has changed since the golden was recorded" in out
+
+
+def test_python_dash_m_and_version() -> None:
+    result = subprocess.run([sys.executable, "-m", "labsim", "--version"], capture_output=True, text=True)
+    assert result.returncode == 0 and result.stdout.startswith("labsim ")
+    result = subprocess.run([sys.executable, "-m", "labsim", "check", str(FIXTURES / "missing_then_with_error.yaml")],
+                            capture_output=True, text=True)
+    assert result.returncode == 2
+    assert "missing_then_with_error.yaml:10:22: error: expected 'then' after the condition" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_a_trace_never_overwrites_an_input(capsys, tmp_path: Path) -> None:
+    lab = tmp_path / "lab.yaml"
+    shutil.copy(LAB, lab)
+    code, _, err = cli(capsys, "run", str(lab), "--trace", str(lab))
+    assert code == 2 and "would overwrite an input of this run" in err
+    assert lab.read_text() == LAB.read_text()
+
+
+def test_test_goes_on_past_a_broken_behaviour_and_skips_world_files(capsys, tmp_path: Path) -> None:
+    shutil.copy(FIXTURES / "types_with_error.yaml", tmp_path / "a_broken.yaml")
+    shutil.copy(FIXTURES / "pendulum_world.yaml", tmp_path / "pendulum_world.yaml")
+    lab = tmp_path / "lab.yaml"
+    lab.write_text(LAB.read_text().replace("minutes: 25 ", "minutes: 0.2"))
+    assert cli(capsys, "test", str(lab), "--update-goldens")[0] == 0
+    code, out, err = cli(capsys, "test", str(tmp_path))
+    assert code == 2  # a file that does not compile is bad input, reported after the others ran
+    assert "FAIL" in out and "a_broken.yaml: it does not compile" in out and "ok   " in out
+    assert "pendulum_world" not in out
+    assert "types_with_error" not in err and "a_broken.yaml:11:8: error:" in err
+
+
+def test_output_to_a_closed_pipe_is_not_an_error() -> None:
+    result = subprocess.run(f"{sys.executable} -m labsim run {LAB} --set minutes=0.1 | head -1",
+                            shell=True, capture_output=True, text=True)
+    assert "Traceback" not in result.stderr and result.stdout.startswith("Wall following")
+
+
+def test_replay_flag_feeds_a_traces_slider_moves_back(capsys, tmp_path: Path) -> None:
+    crane = BEHAVIOURS / "crane.yaml"
+    first, second = tmp_path / "first.csv", tmp_path / "second.csv"
+    assert cli(capsys, "run", str(crane), "-q", "--trace", str(first))[0] == 0
+    assert cli(capsys, "run", str(crane), "-q", "--trace", str(second), "--replay", str(first))[0] == 0
+    assert first.read_text().splitlines()[1:] == second.read_text().splitlines()[1:]

@@ -1,0 +1,394 @@
+"""labsim view without a browser: the frame stream's schema, pacing in ticks, messages, the server.
+
+Pacing is measured in simulated ticks against a clock the test drives; nothing here asserts
+a wall-clock time.
+"""
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from helpers import ROOT
+
+from labsim.runtime.cli.main import main
+from labsim.runtime.trace import read_trace
+from labsim.runtime.view.frames import SCHEMA
+from labsim.runtime.view.live import ChangeRefused, LiveSession
+from labsim.runtime.view.replay import load_replay
+from labsim.runtime.view.session import BadMessage
+
+CRANE, ROAD, WALL = (ROOT / "behaviours" / f for f in ("crane.yaml", "road_follow.yaml", "wall_follow.yaml"))
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def live(path: Path, clock: FakeClock | None = None, **kw: object) -> LiveSession:
+    s = LiveSession(path, {}, warn=lambda m: None, clock=clock or FakeClock(), **kw)  # type: ignore[arg-type]
+    assert s.load(), s.problems
+    return s
+
+
+def _numbers_or_marks(values: list) -> bool:
+    return all(v is None or v in ("inf", "-inf") or isinstance(v, float) for v in values)
+
+
+@pytest.mark.parametrize("path", [CRANE, ROAD, WALL], ids=lambda p: p.stem)
+def test_scene_and_frame_follow_the_schema(path: Path) -> None:
+    s = live(path)
+    scene = json.loads(json.dumps(s.scene(), allow_nan=False))
+    assert scene["type"] == "scene" and scene["v"] == SCHEMA and scene["ok"] and scene["mode"] == "live"
+    for key in ("name", "dt", "seed", "world", "robots", "columns", "params", "sliders", "rules", "states"):
+        assert key in scene
+    s.advance(5)
+    frame = json.loads(json.dumps(s.frame(), allow_nan=False))
+    assert frame["type"] == "frame" and frame["v"] == SCHEMA and frame["tick"] == 5
+    assert math.isclose(frame["time"], 5 * scene["dt"])
+    assert len(frame["robots"]) == len(scene["robots"])
+    for robot, doc in zip(frame["robots"], scene["robots"]):
+        assert len(robot["values"]) == len(scene["columns"]) and _numbers_or_marks(robot["values"])
+        assert len(robot["sonars"]) == len(doc["sonars"])
+        if doc["model"] is not None:
+            assert all(isinstance(v, float) for v in robot["pose"])
+    s.close()
+
+
+def test_crane_frame_has_the_mechanism_and_labels() -> None:
+    s = live(CRANE)
+    s.advance(3)
+    frame = s.frame()
+    m = frame["mechanism"]
+    assert set(m["bodies"]) == {"Crab", "Upper_guide", "Gripper", "Load"}
+    assert {"Arm_Actuator", "Crab_Actuator", "Hoist_Actuator"} <= set(m["joints"])
+    assert frame["labels"]["arm"] == "Arm Speed: 0.00"
+    s.close()
+
+
+def test_road_frame_has_the_camera_and_derived_image() -> None:
+    s = live(ROAD)
+    s.advance(2)
+    images = s.images(3)
+    assert images is not None and images["robot"] == 3
+    assert images["camera"].startswith("data:image/png;base64,")
+    assert [name for name, _ in images["derived"]] == ["lane"]
+    assert s.images(99) is None
+    s.close()
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.0, 5.0, 10.0])
+def test_simulated_time_follows_the_speed(speed: float) -> None:
+    clock = FakeClock()
+    s = live(WALL, clock)
+    s.handle({"type": "speed", "value": speed})
+    s.handle({"type": "play"})
+    for _ in range(90):  # three seconds of frames on the test's clock
+        clock.now += 1 / 30
+        s.catch_up()
+    assert s.tick == round(3.0 * speed / s.dt_s)
+    s.handle({"type": "pause"})
+    clock.now += 5
+    assert s.catch_up() == 0 and s.tick == round(3.0 * speed / s.dt_s)
+    s.close()
+
+
+def test_as_fast_as_it_goes_runs_for_most_of_a_frame_then_yields() -> None:
+    clock = FakeClock()
+    s = live(WALL, clock)
+    s.handle({"type": "speed", "value": "max"})
+    s.handle({"type": "play"})
+    ticking = s.advance
+
+    def advance(n: int) -> int:  # every tick "takes" 1 ms of the test's clock
+        clock.now += n * 0.001
+        return ticking(n)
+    s.advance = advance  # type: ignore[method-assign]
+    ran = s.catch_up(budget_s=0.025)
+    assert 25 <= ran <= 25 + 16  # checked every 16 ticks
+    s.close()
+
+
+def test_step_pause_and_the_end_of_a_run(write) -> None:  # type: ignore[no-untyped-def]
+    s = live(WALL)
+    s.handle({"type": "step"})
+    s.handle({"type": "step"})
+    assert s.tick == 2 and not s.playing
+    short = write(WALL.read_text().replace("minutes: 25", "minutes: 0.01"), "short.yaml")
+    s2 = live(short)
+    s2.handle({"type": "speed", "value": "max"})
+    s2.handle({"type": "play"})
+    s2.catch_up()
+    assert s2.finished and not s2.playing and s2.tick == 12
+    s.close()
+    s2.close()
+
+
+def test_slider_messages_reach_the_run() -> None:
+    s = live(CRANE, timeline=False)
+    s.handle({"type": "slider", "name": "arm", "value": 5})
+    s.advance(20)  # one second of simulated time
+    frame = s.frame()
+    assert frame["labels"]["arm"] == "Arm Speed: 0.10"
+    assert frame["sliders"]["arm"] == 5
+    mode, value = frame["mechanism"]["targets"]["Arm_Actuator"]
+    assert mode == "velocity" and math.isclose(value, 0.1)
+    s.close()
+
+
+def test_a_slider_move_is_clamped_to_its_range() -> None:
+    s = live(CRANE, timeline=False)
+    s.handle({"type": "slider", "name": "crab", "value": 1e9})
+    s.advance(1)
+    assert s.frame()["sliders"]["crab"] == 10
+    s.close()
+
+
+@pytest.mark.parametrize("msg", [
+    None, 3, "play", [], {"type": "nope"}, {"type": "speed", "value": -1}, {"type": "speed", "value": "fast"},
+    {"type": "speed", "value": float("nan")}, {"type": "slider", "name": "boom", "value": 1},
+    {"type": "slider", "name": "arm", "value": "1"}, {"type": "slider", "name": "arm", "value": True},
+    {"type": "slider", "name": ["arm"], "value": 1}, {"type": "slider", "name": "x" * 5000, "value": 1},
+    {"type": "params", "values": [1]}, {"type": "params", "values": {"kp": {"a": 1}}},
+    {"type": "timeline", "on": "yes"}, {"type": "seek", "tick": 3},
+])
+def test_bad_messages_are_refused_and_the_run_goes_on(msg: object) -> None:
+    s = live(CRANE)
+    with pytest.raises(BadMessage):
+        s.handle(msg)
+    assert s.advance(3) == 3
+    s.close()
+
+
+def test_a_parameter_change_restarts_with_set_semantics() -> None:
+    s = live(WALL)
+    s.advance(10)
+    assert s.handle({"type": "params", "values": {"front": "1.0"}})
+    assert s.tick == 0 and s.scene()["params"]["front"] == 1.0 and s.overrides == {"front": "1.0"}
+    with pytest.raises(ChangeRefused) as refused:
+        s.handle({"type": "params", "values": {"frnt": "2"}})
+    assert "frnt" in "\n".join(refused.value.diagnostics)
+    assert s.run is not None and s.advance(2) == 2  # the old run goes on
+    s.close()
+
+
+@pytest.mark.slow
+def test_a_live_trace_with_slider_moves_replays_row_for_row(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    live_trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    s = live(CRANE, trace=live_trace)
+    s.advance(30)
+    s.handle({"type": "slider", "name": "arm", "value": 5})
+    s.advance(45)
+    s.handle({"type": "slider", "name": "crab", "value": -4.5})
+    s.handle({"type": "slider", "name": "hoist", "value": 3})
+    s.advance(60)
+    s.close()
+    assert main(["run", str(CRANE), "--replay", str(live_trace), "--trace", str(replayed), "-q"]) == 0
+    a, b = read_trace(live_trace), read_trace(replayed)
+    assert a.columns == b.columns
+    assert b.rows[:len(a.rows)] == a.rows
+    events = ";".join(a.column("events"))
+    assert "arm=5" in events and "crab=-4.5" in events
+
+
+def test_replay_session_scrubs_to_a_tick(tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.5", "--trace", str(trace), "-q"]) == 0
+    rows = read_trace(trace)
+    s = load_replay(trace, clock=FakeClock())
+    scene = s.scene()
+    assert scene["mode"] == "replay" and scene["ticks"] == len(rows.rows)
+    s.handle({"type": "seek", "tick": 250})
+    frame = s.frame()
+    row = rows.rows[250]
+    x, y = float(row[rows.columns.index("x")]), float(row[rows.columns.index("y")])
+    assert frame["tick"] == 250 and frame["robots"][0]["pose"][:2] == [x, y]
+    with pytest.raises(BadMessage):
+        s.handle({"type": "slider", "name": "arm", "value": 1})
+    s.handle({"type": "seek", "tick": 10 ** 9})
+    assert s.tick == len(rows.rows) - 1
+
+
+# -- the server, over a real socket ---------------------------------------------------------
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
+    aiohttp = pytest.importorskip("aiohttp")
+    from labsim.runtime.view.server import bind_socket, serve
+
+    async def scenario() -> None:
+        s = live(CRANE, timeline=False)
+        s.clock = time.perf_counter
+        logs: list[str] = []
+        sock = bind_socket("127.0.0.1", 0)
+        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
+        task = asyncio.ensure_future(serve(s, sock, url, log=logs.append))
+        async with aiohttp.ClientSession() as http:
+            for _ in range(100):
+                try:
+                    async with http.get(url + "/") as r:
+                        assert r.status == 200 and "labsim view" in await r.text()
+                        break
+                except aiohttp.ClientConnectorError:
+                    await asyncio.sleep(0.02)
+            a = await http.ws_connect(url + "/ws")
+            b = await http.ws_connect(url + "/ws")
+            for ws in (a, b):
+                assert (await ws.receive_json())["type"] == "scene"
+                assert (await ws.receive_json())["type"] == "frame"
+            await a.send_str("{not json")
+            await a.send_bytes(b"\x00\x01")
+            await a.send_str(json.dumps({"type": "slider", "name": "arm", "value": "DROP TABLE"}))
+            await a.send_str("[" * 60000)  # deep, within the size limit
+            await b.send_str(json.dumps({"type": "slider", "name": "arm", "value": 5}))
+            await b.send_str(json.dumps({"type": "step"}))
+            labels = None
+            for _ in range(50):
+                msg = await a.receive_json(timeout=5)
+                if msg["type"] == "frame" and msg["tick"] >= 1:
+                    labels = msg["labels"]
+                    break
+            assert labels == {"arm": "Arm Speed: 0.10", "crab": "Crab Speed: 0.00", "hoist": "Hoist Speed: 0.00"}
+            await b.close()  # a closed tab: the other one goes on
+            await a.send_str(json.dumps({"type": "step"}))
+            for _ in range(50):
+                msg = await a.receive_json(timeout=5)
+                if msg["type"] == "frame" and msg["tick"] >= 2:
+                    break
+            assert msg["tick"] == 2
+            await a.close()
+        assert sum("ignored a message" in line for line in logs) == 4
+        task.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        s.close()
+
+    asyncio.run(scenario())
+
+
+def test_a_foreign_origin_is_refused() -> None:
+    aiohttp = pytest.importorskip("aiohttp")
+    from labsim.runtime.view.server import bind_socket, serve
+
+    async def scenario() -> None:
+        s = live(WALL)
+        sock = bind_socket("127.0.0.1", 0)
+        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
+        task = asyncio.ensure_future(serve(s, sock, url, log=lambda m: None))
+        await asyncio.sleep(0.1)
+        async with aiohttp.ClientSession() as http:
+            with pytest.raises(aiohttp.WSServerHandshakeError):
+                await http.ws_connect(url + "/ws", headers={"Origin": "http://evil.example"})
+        task.cancel()
+        s.close()
+
+    asyncio.run(scenario())
+
+
+# -- the command line ----------------------------------------------------------------------
+
+def _start(args: list[str]) -> tuple[subprocess.Popen, str]:
+    p = subprocess.Popen([sys.executable, "-m", "labsim", "view", *args, "--no-browser"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    assert p.stdout is not None
+    line = p.stdout.readline()
+    return p, line
+
+
+def test_port_in_use_is_a_clear_error(capsys) -> None:  # type: ignore[no-untyped-def]
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen(1)
+        port = taken.getsockname()[1]
+        code = main(["view", str(WALL), "--port", str(port), "--no-browser"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert f"port {port} on 127.0.0.1 is in use" in err and "Traceback" not in err
+
+
+def test_bad_options_are_clear_errors(capsys, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    assert main(["view", str(tmp_path / "missing.yaml"), "--no-browser"]) == 2
+    with pytest.raises(SystemExit) as stop:  # argparse's own check of the port's range
+        main(["view", str(WALL), "--port", "70000", "--no-browser"])
+    assert stop.value.code == 2
+    assert main(["view", str(WALL), "--seed", "-1", "--port", "0", "--no-browser"]) == 2
+    err = capsys.readouterr().err
+    assert "no such file" in err and "--seed" in err
+    assert "argument --port: a port is from 0 to 65535, not 70000" in err
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_cleanly_and_keeps_the_trace(tmp_path: Path) -> None:
+    import signal
+
+    trace = tmp_path / "live.csv"
+    p, line = _start([str(WALL), "--port", "0", "--trace", str(trace)])
+    assert "http://127.0.0.1:" in line
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=20)
+    assert p.returncode == 130, err
+    assert "Traceback" not in err and trace.exists()
+    assert read_trace(trace).header["name"] == "Wall following with sonars"
+
+
+@pytest.mark.slow
+def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
+    import signal
+    import urllib.request
+
+    bad = ROOT / "tests" / "fixtures" / "unknown_sensor_with_error.yaml"
+    p, line = _start([str(bad), "--port", "0"])
+    url = line.split(" at ")[1].split()[0]
+    assert urllib.request.urlopen(url).status == 200  # the page is served, and shows them
+    s = LiveSession(bad, {}, warn=lambda m: None)
+    assert not s.load() and not s.scene()["ok"]
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=20)
+    assert p.returncode == 2
+    check = subprocess.run([sys.executable, "-m", "labsim", "check", str(bad)],
+                           capture_output=True, text=True, cwd=ROOT)
+    assert check.stderr and check.stderr in err
+    assert "\n".join(s.scene()["diagnostics"]) in check.stderr
+
+
+@pytest.mark.slow
+def test_a_live_view_through_labsim_serve_sees_the_embedded_run(tmp_path: Path) -> None:
+    # --backend coppeliasim: the page's run goes through the ZMQ remote API (here to the
+    # stand-in server for the behaviour's scene) and shows what the embedded run shows
+    from labsim.runtime.run import compile_behaviour
+    from labsim.runtime.serve.server import Server
+
+    program = compile_behaviour(WALL).program
+    with Server(program.world, 1, port=0) as srv:
+        remote = live(WALL, backend="coppeliasim", backend_options={"port": srv.port})
+        embedded = live(WALL)
+        assert remote.advance(40) == embedded.advance(40) == 40
+        a, b = remote.frame(), embedded.frame()
+        remote.close()
+        embedded.close()
+    assert a["tick"] == b["tick"] == 40
+    assert a["robots"] == b["robots"]
+
+
+def test_simulator_address_options_go_with_coppeliasim_only(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["view", str(WALL), "--sim-port", "23000", "--no-browser"]) == 2
+    assert "--sim-port: error: only --backend coppeliasim takes --sim-port" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:  # argparse's own check of the option's range
+        main(["view", str(WALL), "--backend", "coppeliasim", "--sim-timeout", "0", "--no-browser"])
+    assert stop.value.code == 2
+    assert "argument --sim-timeout: give from 0.01 to 3600 seconds, not 0" in capsys.readouterr().err

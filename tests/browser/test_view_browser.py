@@ -1,0 +1,214 @@
+"""labsim view end to end in a real headless Chromium, driven by Playwright.
+
+Each test starts ``labsim view ... --port 0 --no-browser`` and opens its page. Without a
+Chromium (or the ``playwright`` package) the tests skip and say how to install one, except
+under CI (``CI=true``), where a missing browser fails. Screenshots are kept as artifacts in
+``test-artifacts/`` (or ``$LABSIM_ARTIFACTS``).
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+from helpers import ROOT
+
+from labsim.runtime.trace import read_trace
+
+pytestmark = pytest.mark.slow  # a headless Chromium and a labsim view process per test
+
+ARTIFACTS = Path(os.environ.get("LABSIM_ARTIFACTS", ROOT / "test-artifacts"))
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--no-first-run"]
+
+HOW = ("install a browser to run them: `apt-get install chromium` (Debian/Ubuntu) and "
+       "`pip install playwright`, or set LABSIM_CHROMIUM to a Chromium executable")
+
+
+def _chromium() -> str | None:
+    for candidate in (os.environ.get("LABSIM_CHROMIUM"), "chromium", "chromium-browser", "google-chrome"):
+        if candidate and (shutil.which(candidate) or Path(candidate).is_file()):
+            return shutil.which(candidate) or candidate
+    return None
+
+
+def _missing(why: str) -> None:
+    if os.environ.get("CI", "").lower() == "true":
+        pytest.fail(f"browser tests cannot run under CI: {why}; {HOW}")
+    pytest.skip(f"browser tests skipped: {why}; {HOW}")
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        _missing("the playwright package is not installed")
+    exe = _chromium()
+    if exe is None:
+        _missing("no Chromium found")
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=exe, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+class View:
+    """A running ``labsim view`` and a page open on it."""
+
+    def __init__(self, browser: Any, args: list[str], query: str = ""):
+        self.proc = subprocess.Popen([sys.executable, "-m", "labsim", "view", *args, "--port", "0", "--no-browser"],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline()
+        assert " at http" in line, self.proc.stderr.read() if self.proc.stderr else line
+        self.url = line.split(" at ")[1].split()[0]
+        # the page forbids eval (its CSP); Playwright evaluates the tests' conditions as strings
+        self.page = browser.new_page(viewport={"width": 1400, "height": 860}, bypass_csp=True)
+        self.errors: list[str] = []
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+        self.page.goto(self.url + query)
+        self.wait("window.labsimView.frames > 0")
+
+    def wait(self, condition: str, timeout_ms: int = 8000) -> None:
+        self.page.wait_for_function(condition, timeout=timeout_ms)
+
+    def js(self, expression: str) -> Any:
+        return self.page.evaluate(expression)
+
+    def frame(self) -> dict:
+        return self.js("window.labsimView.frame")
+
+    def shot(self, name: str, selector: str | None = None) -> np.ndarray:
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        path = ARTIFACTS / f"{name}.png"
+        if selector:
+            self.page.locator(selector).screenshot(path=str(path))
+        else:
+            self.page.screenshot(path=str(path))
+        img = cv2.imread(str(path))
+        assert img is not None
+        return img
+
+    def close(self) -> None:
+        self.page.close()
+        self.proc.send_signal(signal.SIGINT)
+        _, err = self.proc.communicate(timeout=20)
+        assert self.proc.returncode == 130, err
+        assert "Traceback" not in err
+        assert not self.errors, self.errors
+
+
+@pytest.fixture
+def view(browser: Any) -> Iterator[Any]:
+    opened: list[View] = []
+
+    def start(args: list[str], query: str = "") -> View:
+        v = View(browser, args, query)
+        opened.append(v)
+        return v
+    yield start
+    for v in opened:
+        v.close()
+
+
+def test_crane_slider_moves_the_arm_and_the_crane(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"], "?chart=swing,tension")
+    before = v.shot("crane-before", "#world")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 10")
+    dragged_at = v.frame()["time"]
+    v.page.locator('input[data-name="arm"]').fill("5")
+    v.wait("window.labsimView.frame.labels.arm === 'Arm Speed: 0.10'")
+    v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.1")
+    assert v.frame()["time"] - dragged_at <= 1.0
+    # the page draws a frame on the next animation frame: wait for it rather than read at once
+    v.wait("document.querySelector('#sliders .slider .text').textContent === 'Arm Speed: 0.10'")
+    v.page.select_option("#speed", "5")
+    v.wait("window.labsimView.frame.time >= 6")
+    after = v.shot("crane-after", "#world")
+    v.shot("crane")
+    # the hook and load have been lifted: the canvas differs where the crane is
+    mask = np.abs(before.astype(int) - after.astype(int)).sum(axis=2) > 60
+    ys, xs = np.nonzero(mask)
+    assert len(xs) > 500
+    # ... where the crane is: around the load, where it started and where it is now
+    now, start = v.js("""(() => { const w = window.LV_world, f = window.labsimView.frame.mechanism.bodies.Load;
+        const b = window.labsimView.scene.world.mechanism.bodies.find((q) => q.name === 'Load');
+        return [w.toPx(f[0], f[1]), w.toPx(b.center[0], b.center[1])]; })()""")
+    x0, x1 = int(min(now[0], start[0])) - 60, int(max(now[0], start[0])) + 60
+    y0, y1 = int(min(now[1], start[1])) - 60, int(max(now[1], start[1])) + 60
+    assert mask[max(0, y0):y1, max(0, x0):x1].sum() > 500
+
+
+def test_wall_play_moves_the_robot_and_pause_holds_it(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.wait("window.labsimView.frame !== null")
+    start = v.js("document.querySelector('#world') && window.labsimView.frame.robots[0].pose")
+    v.page.click("#play")
+    v.page.select_option("#speed", "10")
+    v.wait("window.labsimView.frame.tick >= 60")
+    v.wait("document.querySelector('#rule').textContent.includes(':')")
+    moved = v.frame()["robots"][0]["pose"]
+    assert moved[:2] != start[:2]
+    assert v.page.locator("#state").inner_text() in ("wander", "follow")
+    v.shot("wall")
+    v.page.click("#play")  # now "Pause"
+    v.wait("window.labsimView.frame.playing === false")
+    held = v.frame()
+    time.sleep(0.4)
+    assert v.frame()["tick"] == held["tick"] and v.frame()["robots"][0]["pose"] == held["robots"][0]["pose"]
+    v.wait("document.querySelector('#play').textContent === 'Play'")
+
+
+def test_road_shows_five_robots_and_a_camera_image(view: Any) -> None:
+    v = view(["behaviours/road_follow.yaml"])
+    v.page.click("#play")
+    v.wait("document.querySelectorAll('#images img').length === 2 && document.querySelector('#images img').complete"
+           " && document.querySelector('#images img').naturalWidth > 0")
+    assert len(v.frame()["robots"]) == 5
+    v.page.select_option("#robot", "2")
+    v.wait("window.labsimView.frame.images && window.labsimView.frame.images.robot === 2")
+    camera = v.shot("road-camera", "#images figure:first-child img")
+    assert camera.std() > 20  # road and floor: not blank
+    v.wait("window.labsimView.frame.time >= 2")
+    v.shot("road")
+
+
+def test_replay_scrubs_to_a_tick_and_shows_its_pose(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--set", "minutes=0.5",
+                    "--trace", str(trace), "-q"], check=True, cwd=ROOT)
+    rows = read_trace(trace)
+    v = view([str(trace)])
+    assert v.js("window.labsimView.scene.mode") == "replay"
+    v.page.locator("#scrubber").fill("250")
+    v.wait("window.labsimView.frame.tick === 250 && window.LV_world.drawnTick === 250")
+    row = rows.rows[250]
+    pose = v.frame()["robots"][0]["pose"]
+    assert pose[:2] == [float(row[rows.columns.index("x")]), float(row[rows.columns.index("y")])]
+    px = v.js("(() => { const p = window.labsimView.frame.robots[0].pose; "
+              "return window.LV_world.toPx(p[0], p[1]); })()")
+    got = v.js("window.LV_world.drawn[0]")
+    assert abs(px[0] - got[0]) < 0.5 and abs(px[1] - got[1]) < 0.5
+    v.shot("replay")
+
+
+def test_malformed_messages_leave_the_page_and_run_working(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.js("""(() => { const ws = window.labsimView.ws;
+        ws.send('{bad json'); ws.send(new Uint8Array([0, 1, 2])); ws.send('{"type": "slider", "name": 7}');
+        ws.send('{"type": "speed", "value": -5}'); ws.send('"play"'); ws.send('{"type": "step"}'); })()""")
+    v.wait("window.labsimView.frame.tick === 1")
+    v.page.click("#step")
+    v.wait("window.labsimView.frame.tick === 2")
+    assert v.js("window.labsimView.ws.readyState") == 1

@@ -1,0 +1,163 @@
+"""What the test modules share: the repository's paths, fixture expectations, trace rows, a
+``labsim serve`` process started and stopped, the worked examples of docs/language.md, and
+hand-made traces for the pictures.
+
+Test modules import from here (``from helpers import ...``; pyproject's ``pythonpath`` puts
+tests/ on the path), never from conftest.py or from one another: conftest.py holds only the
+fixtures and hooks pytest finds by itself, and a test module is a module of tests, not a
+library. Nothing here is collected as a test.
+"""
+from __future__ import annotations
+
+import math
+import re
+import select
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from labsim.backends import load_backend
+from labsim.backends.scene.world import builtin_worlds
+from labsim.dsl.compile import compile_file
+from labsim.runtime.result import RunResult
+from labsim.runtime.run import Run
+from labsim.runtime.trace import FORMAT, TraceWriter
+
+ROOT = Path(__file__).resolve().parent.parent  # the repository root, which is the package root
+FIXTURES = ROOT / "tests" / "fixtures"
+BEHAVIOURS = ROOT / "behaviours"
+BENCHMARKS = ROOT / "benchmarks"
+DOCS = ROOT / "docs"
+
+# lab_run(path, **overrides) -> the RunResult of that behaviour's whole run (the conftest fixture)
+LabRun = Callable[..., RunResult]
+
+
+def expectations(path: Path) -> set[tuple[int, int, str]]:
+    """The `# expect: LINE:COL: message` (or `# expect: -: message`) lines of a fixture."""
+    out = set()
+    for line in path.read_text().splitlines():
+        m = re.match(r"# expect: (?:(\d+):(\d+)|-): (.*)$", line)
+        if m:
+            out.add((int(m.group(1) or 0), int(m.group(2) or 0), m.group(3)))
+    return out
+
+
+def trace_rows(path: Path) -> list[str]:
+    """A trace's rows as text, without its header lines and its `# end` footer."""
+    return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
+
+
+def inner_rows(path: Path) -> list[str]:
+    """A trace's lines less the first (the header, which names the backend) and the last (the footer)."""
+    return path.read_text().splitlines()[1:-1]
+
+
+# --- a `labsim serve` process ------------------------------------------------------------------
+# No test measures how long something takes: on a loaded machine anything can be slow.
+# PATIENCE_S only keeps a broken test from hanging forever.
+
+PATIENCE_S = 60.0  # how long a test waits for a process or an answer before calling it hung
+PATH_ERROR = "object does not exist, or alias/path is ill formatted."
+
+
+def serve(*args: str) -> tuple[subprocess.Popen, int]:
+    """A `labsim serve ARGS` process on a free port, once it says it listens; and that port."""
+    proc = subprocess.Popen([sys.executable, "-m", "labsim", "serve", "--port", "0", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    ready, _, _ = select.select([proc.stdout], [], [], PATIENCE_S)
+    if not ready:
+        proc.kill()
+        raise AssertionError(f"labsim serve did not start within {PATIENCE_S:g} s")
+    line = proc.stdout.readline()  # type: ignore[union-attr]
+    assert "listening on tcp://127.0.0.1:" in line, line + proc.stderr.read()  # type: ignore[union-attr]
+    return proc, int(line.split("127.0.0.1:")[1].split(";")[0])
+
+
+def stop(proc: subprocess.Popen) -> None:
+    """End a `labsim serve` process: politely, then by force if it does not go."""
+    proc.terminate()
+    try:
+        proc.wait(PATIENCE_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def serve_and_run(tmp_path: Path, behaviour: Path, *serve_args: str) -> tuple[list[str], list[str]]:
+    """Trace rows of a behaviour on pymunk, and on coppeliasim against `labsim serve ...`."""
+    # the command line pulls in the applications: imported here, so that a module that only
+    # needs the paths does not pay for them
+    from labsim.runtime.cli.main import main
+
+    proc, port = serve("-q", *serve_args)
+    try:
+        ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+        assert main(["run", str(behaviour), "-q", "--trace", str(ref)]) == 0
+        assert main(["run", str(behaviour), "-q", "--trace", str(remote), "--backend", "coppeliasim",
+                     "--port", str(port)]) == 0
+    finally:
+        proc.terminate()
+        proc.wait(PATIENCE_S)
+    return inner_rows(ref), inner_rows(remote)
+
+
+# --- the worked examples of docs/language.md ---------------------------------------------------
+
+def examples() -> dict[str, str]:
+    """The docs' YAML blocks that start with '# example: NAME'."""
+    blocks = re.findall(r"```yaml\n(# example: (\w+)\n.*?)```", (DOCS / "language.md").read_text(), re.S)
+    return {name: text for text, name in blocks}
+
+
+def run_example(name: str, tmp_path: Path, trace: bool = False) -> tuple[Run, object, list[str]]:
+    """The example NAME run to its end on pymunk: the run, its summary and what it warned."""
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(examples()[name])
+    warned: list[str] = []
+    run = Run(compile_file(path), load_backend("pymunk"), trace_path=tmp_path / "t.csv" if trace else None,
+              warn=warned.append)
+    return run, run.run(), warned
+
+
+# --- hand-made traces, for the pictures --------------------------------------------------------
+
+COLUMNS = ["tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",
+           "wheel_left", "wheel_right", "events"]
+DT = 0.05
+
+
+def header(**changes: object) -> dict:
+    """A trace header for walls_lab4 and one robot, with CHANGES on top."""
+    h = {"format": FORMAT, "labsim": "0.1.0", "backend": "pymunk", "behaviour": "behaviours/test.yaml",
+         "name": "Plot test", "world": "walls_lab4", "world_file": str(builtin_worlds()["walls_lab4"]),
+         "dt": DT, "seed": 7, "params": {}, "robots": {"pioneer": "pioneer_p3dx"},
+         "metrics": {"bumps": "count", "busy": "duration"}}
+    h.update(changes)
+    return h
+
+
+def write_trace(path: Path, poses: dict[str, list[tuple[float, float, float, int, str]]],
+                **header_changes: object) -> Path:
+    """A trace of the given (x, y, heading, collided, events) per robot, ticks interleaved."""
+    h = header(**header_changes)
+    h["robots"] = {name: "pioneer_p3dx" for name in poses}
+    w = TraceWriter(path, h, COLUMNS)
+    try:
+        for t in range(max(len(p) for p in poses.values())):
+            for name, p in poses.items():
+                if t < len(p):
+                    x, y, heading, collided, events = p[t]
+                    w.write([t, round(t * DT, 9), name, x, y, heading, collided, "go", "go:1",
+                             1.0, 1.0, events])
+    finally:
+        w.close()
+    return path
+
+
+def straight(x0: float, y0: float, x1: float, y1: float, n: int = 50) -> list:
+    """N poses (x, y, heading, collided, events) on the straight line from (x0, y0) to (x1, y1)."""
+    heading = math.atan2(y1 - y0, x1 - x0)
+    return [(x0 + (x1 - x0) * i / (n - 1), y0 + (y1 - y0) * i / (n - 1), heading, 0, "")
+            for i in range(n)]

@@ -1,0 +1,53 @@
+"""The short fuzz profile: mutated and generated behaviour files raise only labsim's own errors.
+
+Each input goes through compile (read, check, lint, generate) and a few ticks on the pymunk
+backend with a trace and a summary (tests/fuzz_inputs.py); anything but a ``LabsimError`` or
+``BackendError`` fails, and hypothesis shrinks the input to the smallest that does. Derandomized,
+so that CI sees the same inputs on every run; ``LABSIM_FUZZ=long`` runs many more here, and
+tests/fuzz_long.py runs the long profile (100,000 inputs) on several processes.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from fuzz_inputs import generated, mutated, run_input, seeds
+from hypothesis import HealthCheck, given, settings
+
+LONG = os.environ.get("LABSIM_FUZZ") == "long"
+SHORT = settings(max_examples=5000 if LONG else 800, derandomize=True, database=None, deadline=None,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+def test_the_seeds_are_the_shipped_behaviours_fixtures_and_worlds() -> None:
+    names = {s.name for s in seeds()}
+    assert {"wall_follow.yaml", "crane.yaml", "minimal.yaml", "walls_lab4.yaml", "pendulum_world.yaml"} <= names
+    assert any(s.world for s in seeds()) and any(not s.world for s in seeds())
+
+
+@pytest.mark.slow
+def test_mutated_files_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(mutated())
+    def fuzz(item: tuple[str, bytes, bool]) -> None:
+        _, data, world = item
+        outcomes.append(run_input(tmp_path, data, world))
+
+    fuzz()
+    assert "error" in outcomes and "ran" in outcomes  # the mutations break files, and not all of them
+
+
+@pytest.mark.slow
+def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated())
+    def fuzz(text: str) -> None:
+        outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run

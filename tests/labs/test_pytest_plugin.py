@@ -1,0 +1,88 @@
+"""The pytest plugin (runtime/cli/pytest_plugin.py): golden traces collected and run as pytest items."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from helpers import BEHAVIOURS, FIXTURES
+
+from labsim.runtime.cli import main as cli
+
+pytest_plugins = ["pytester"]
+
+
+
+@pytest.fixture
+def lab(pytester: pytest.Pytester) -> Path:
+    """A folder with one small behaviour and its golden, recorded by labsim test."""
+    behaviour = pytester.path / "small.yaml"
+    shutil.copyfile(FIXTURES / "minimal.yaml", behaviour)
+    assert cli.main(["test", str(behaviour), "--update-goldens"]) == 0
+    return behaviour
+
+
+def test_a_behaviour_with_its_golden_passes(pytester: pytest.Pytester, lab: Path) -> None:
+    result = pytester.runpytest("-p", "no:cacheprovider", "-v")
+    result.assert_outcomes(passed=1)
+    result.stdout.fnmatch_lines(["small.yaml::small PASSED*"])
+
+
+@pytest.mark.slow
+def test_a_changed_threshold_fails_with_the_first_difference(pytester: pytest.Pytester,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    lab = pytester.path / "wall_follow.yaml"
+    shutil.copyfile(BEHAVIOURS / "wall_follow.yaml", lab)
+    shutil.copyfile(BEHAVIOURS / "wall_follow.golden.csv", pytester.path / "wall_follow.golden.csv")
+    pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=1)
+    lab.write_text(lab.read_text().replace("front: 0.5 ", "front: 0.6 "))
+    capsys.readouterr()
+    cli.main(["test", "wall_follow.yaml"])
+    expected = capsys.readouterr().out.splitlines()[:-1]  # less the "0 passed, 1 failed" line
+    assert expected[0] == "FAIL wall_follow.yaml (golden wall_follow.golden.csv)"
+    assert expected[1].startswith("  first difference at tick ")
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(failed=1)
+    out = result.stdout.lines
+    start = out.index(expected[0])
+    assert out[start:start + len(expected)] == expected  # the same text as labsim test
+
+
+def test_a_folder_collects_only_behaviours_with_goldens(pytester: pytest.Pytester, lab: Path) -> None:
+    shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "other.yaml")
+    shutil.copyfile(FIXTURES / "pendulum_world.yaml", pytester.path / "world.yaml")
+    pytester.makefile(".yaml", notes="just: yaml\n")
+    result = pytester.runpytest("-p", "no:cacheprovider", "--collect-only", "-q")
+    result.stdout.fnmatch_lines(["small.yaml::small", "1 test collected*"])
+
+
+def test_a_named_behaviour_without_a_golden_fails_as_labsim_test_says(pytester: pytest.Pytester) -> None:
+    shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "fresh.yaml")
+    result = pytester.runpytest("-p", "no:cacheprovider", "fresh.yaml")
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines(["FAIL fresh.yaml: no golden trace fresh.golden.csv; "
+                                 "record one with: pytest fresh.yaml --update-goldens"])
+
+
+def test_update_goldens_records_and_then_passes(pytester: pytest.Pytester) -> None:
+    shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "fresh.yaml")
+    result = pytester.runpytest("-p", "no:cacheprovider", "fresh.yaml", "--update-goldens")
+    result.assert_outcomes(passed=1)
+    assert (pytester.path / "fresh.golden.csv").exists()
+    pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=1)
+
+
+def test_a_broken_behaviour_fails_with_its_diagnostics(pytester: pytest.Pytester, lab: Path) -> None:
+    lab.write_text(lab.read_text().replace("sonar5", "sonr5"))
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines(["FAIL *small.yaml: it does not compile", "*unknown*sonr5*"])
+
+
+@pytest.mark.slow
+def test_xdist_runs_them_in_parallel(pytester: pytest.Pytester, lab: Path) -> None:
+    pytest.importorskip("xdist")
+    shutil.copyfile(lab, pytester.path / "twin.yaml")
+    shutil.copyfile(lab.with_name("small.golden.csv"), pytester.path / "twin.golden.csv")
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "2")
+    result.assert_outcomes(passed=2)

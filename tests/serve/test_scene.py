@@ -1,0 +1,98 @@
+"""``labsim scene`` builds a lab's scene through the ZMQ remote API, here in ``labsim serve
+--empty``; a run in the built scene gives the embedded backend's trace."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("zmq")
+pytest.importorskip("coppeliasim_zmqremoteapi_client")
+
+from helpers import BEHAVIOURS, trace_rows
+
+from labsim.backends.scene.models import Camera
+from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.builder.scene import camera_matrix
+from labsim.runtime.cli.main import main
+from labsim.runtime.serve.server import Server
+
+pytestmark = pytest.mark.slow  # labs built in a labsim serve process, and run there
+
+
+def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int, tmp_path: Path, capsys) -> None:
+    lab = BEHAVIOURS / "wall_follow.yaml"
+    assert main(["scene", str(lab), "--port", str(empty)]) == 0
+    out = capsys.readouterr().out
+    assert "6 walls and 1 blocks" in out and "1 Pioneer P3DX, their scripts removed" in out
+    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+    assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(ref)]) == 0
+    assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(remote),
+                 "--backend", "coppeliasim", "--port", str(empty)]) == 0
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1200
+
+
+def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
+    """Walls (rounded ends), a box and the bounds come back exactly from the cuboids and plane."""
+    from labsim.backends.coppeliasim.connection import Connection
+    from labsim.runtime.builder.scene import build
+
+    world = load_world(builtin_worlds()["walls_lab4"], Report())
+    with Server(World("none", "", (0, 0, 1, 1)), 0, port=0, empty=True) as srv:
+        build(Connection("127.0.0.1", srv.port, 5.0), world, [], 0.05)
+        assert srv.editor is not None
+        built = srv.editor.world()
+        assert srv.dt_s == 0.05
+    assert built.walls == world.walls and built.blocks == world.blocks and built.bounds == world.bounds
+
+
+def test_the_road_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int, tmp_path: Path, capsys) -> None:
+    """The ground as a textured plane, five Pioneers with rolled 128 x 128 vision sensors:
+    the stand-in renders from the texture and the sensors' matrices, pixel for pixel."""
+    lab = tmp_path / "road.yaml"
+    lab.write_text((BEHAVIOURS / "road_follow.yaml").read_text().replace("seconds: 30 ", "seconds: 3"))
+    assert main(["scene", str(lab), "--port", str(empty)]) == 0
+    assert "5 Pioneer P3DX" in capsys.readouterr().out
+    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+    assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 5 * 60
+
+
+def test_what_the_stand_in_cannot_build_is_a_clear_error(empty: int, tmp_path: Path, capsys) -> None:
+    assert main(["scene", str(BEHAVIOURS / "wall_follow.yaml"), "--port", str(empty), "--save", "x.ttt"]) == 2
+    assert "the stand-in writes no .ttt files" in capsys.readouterr().err
+    assert main(["scene", str(BEHAVIOURS / "wall_follow.yaml"), "--port", str(empty), "--save", "x.txt"]) == 2
+    assert "--save" in capsys.readouterr().err
+
+
+def test_a_camera_matrix_looks_forward_and_down() -> None:
+    m = camera_matrix(Camera("camera", 128, 128, 40, 3.0, 30, 0.2, 0.0), robot_z=0.1)
+    z_axis = (m[2], m[6], m[10])
+    assert z_axis == pytest.approx((math.cos(math.radians(30)), 0.0, -0.5))
+    assert (m[3], m[7], m[11]) == pytest.approx((0.2, 0.0, 2.9))
+    rolled = camera_matrix(Camera("camera", 128, 128, 40, 3.0, 30, 0.2, 90.0), robot_z=0.1)
+    assert (rolled[1], rolled[5], rolled[9]) == pytest.approx((0.0, -1.0, 0.0))  # image up: the robot's right
+
+
+def test_a_pioneer_loaded_with_its_script_is_logged_and_other_models_refused() -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    lines: list[str] = []
+    with Server(World("none", "", (0, 0, 1, 1)), 0, port=0, empty=True, log=lines.append) as srv:
+        client = RemoteAPIClient("127.0.0.1", srv.port)
+        sim = client.require("sim")
+        models = sim.getStringParam(sim.stringparam_resourcesdir) + "/models/robots/mobile/"
+        with pytest.raises(Exception, match="loads only CoppeliaSim"):
+            sim.loadModel(models + "KheperaIV.ttm")
+        robot = sim.loadModel(models + "pioneer p3dx.ttm")
+        assert sim.getObject("/PioneerP3DX") == robot
+        assert sim.getScript(sim.scripttype_childscript, robot) >= 0  # the stock model's script
+        sim.startSimulation()
+        sim.stopSimulation()
+        assert any("still has its script" in line for line in lines)
+        client.socket.close(0)
+        client.context.term()
