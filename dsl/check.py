@@ -8,7 +8,7 @@ Every problem goes to the report with a did-you-mean where one helps; the result
 is what the compiler needs and nothing more. This module declares the names and checks the
 file's parts; ``labsim.dsl.infer`` types each expression against the names declared.
 
-About 500 lines: the checks of one file's parts share the names it declares; expression
+Over 500 lines: the checks of one file's parts share the names it declares; expression
 typing is its own module (``labsim.dsl.infer``), and so are the warnings (``labsim.dsl.lint``).
 """
 from __future__ import annotations

@@ -5,9 +5,10 @@ groups, ``rules`` a list or a mapping of states, ...), converts plain values, an
 rule and expression string with ``labsim.dsl.parse``. It reports every problem it finds into a
 ``Report`` and keeps going, so that one run of ``labsim check`` shows them all. Names and
 types are the checker's business, not this module's.
+
+Over 500 lines: the checker and the compiler import the declarations from here, and each
+section's reader builds them, so readers and declarations cannot part without a cycle.
 """
-# Over 500 lines: the checker and the compiler import the declarations from here, and each
-# section's reader builds them, so readers and declarations cannot part without a cycle.
 from __future__ import annotations
 
 import hashlib

@@ -131,14 +131,7 @@ def compile_sense(
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads.
     """
-    env: dict[str, object] = {
-        "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
-        "info": chipmunk.query_info(), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
-        "position": chipmunk.body_position, "angle": chipmunk.body_angle,
-        "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
-        "touching": touching, "abs": abs, "render": render, "laps": laps,
-        "offset": tracker.offset if tracker is not None else None,
-    }
+    env = _names(space, touching, render, tracker, laps)
     half_width = tracker.half_width_m if tracker is not None else 0.0
     lines = ["def sense():"]
     rows = []
@@ -150,6 +143,19 @@ def compile_sense(
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
+
+
+def _names(space: pymunk.Space, touching: list[int], render: Callable[..., object] | None,
+           tracker: RoadTracker | None, laps: list[int] | None) -> dict[str, object]:
+    """The names the generated ``sense()`` calls and reads; each robot's body and filter join them."""
+    return {
+        "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
+        "info": chipmunk.query_info(), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
+        "position": chipmunk.body_position, "angle": chipmunk.body_angle,
+        "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
+        "touching": touching, "abs": abs, "render": render, "laps": laps,
+        "offset": tracker.offset if tracker is not None else None,
+    }
 
 
 def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines: list[str],

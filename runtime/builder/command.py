@@ -18,11 +18,12 @@ from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation import options
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.exits import EXIT_OK
 from labsim.runtime.run import Run, compile_behaviour
 
 
-def add_scene_parser(sub: argparse._SubParsersAction) -> None:
-    scene = sub.add_parser("scene", help="build a behaviour's scene in a running CoppeliaSim (4.6 or newer)")
+def add_scene_arguments(scene: argparse.ArgumentParser) -> None:
+    """``labsim scene``'s options; docs/coppeliasim.md."""
     scene.add_argument("file", help="the behaviour file (.yaml), or a lab's name (labsim labs)")
     scene.add_argument("--host", type=options.host, default="127.0.0.1",
                        help="CoppeliaSim's address (default: %(default)s)")
@@ -67,7 +68,7 @@ class _StartPoses:
         pass
 
 
-def cmd_scene(args: argparse.Namespace) -> int:
+def run_scene(args: argparse.Namespace) -> int:
     """Build the behaviour's scene; 0 when built, 2 (through BackendError) when not."""
     from labsim.backends.coppeliasim.connection import Connection
     from labsim.runtime.builder.scene import build, unsupported
@@ -100,4 +101,4 @@ def cmd_scene(args: argparse.Namespace) -> int:
     log(f"labsim scene: built {program.world.name} at {args.host}:{args.port}, dt {program.dt_s:g} s; "
         f"now: labsim run {args.file} --backend coppeliasim --port {args.port}")
     sys.stdout.flush()
-    return 0
+    return EXIT_OK

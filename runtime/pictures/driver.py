@@ -1,12 +1,13 @@
 """``labsim plot`` from options to a file: the map, a signals chart or an animation, by suffix.
 
-The command line (``labsim.runtime.cli.main``) registers the command with ``add_plot_parser`` and
-hands its options to ``run_plot``, which checks them all before drawing (an unknown column, an
-unsupported suffix, a bad time range: exit 2 with what would be accepted) and then calls the
-module that draws that kind of picture: ``labsim.runtime.pictures.plot`` for the still map (PNG, JPEG,
-...), ``labsim.runtime.pictures.signals`` for charts against time (PNG, SVG, PDF), and
-``labsim.runtime.pictures.animate`` for a GIF or MP4 of the run. ``--camera ROBOT`` puts a strip of the
-robot's camera frames under the map (``labsim.runtime.pictures.camera_strip``).
+The command line declares the command's options with ``add_plot_arguments`` (imported only
+when the command is ``plot``) and hands them to ``run_plot``, which checks them all before
+drawing (an unknown column, an unsupported suffix, a bad time range: exit 2 with what would be
+accepted) and then calls the module that draws that kind of picture:
+``labsim.runtime.pictures.plot`` for the still map (PNG, JPEG, ...),
+``labsim.runtime.pictures.signals`` for charts against time (PNG, SVG, PDF), and
+``labsim.runtime.pictures.animate`` for a GIF or MP4 of the run. ``--camera ROBOT`` puts a
+strip of the robot's camera frames under the map (``labsim.runtime.pictures.camera_strip``).
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.exits import EXIT_OK
 from labsim.foundation.files import check_output, write_output
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace
 
@@ -31,11 +33,10 @@ MOVIE_SUFFIXES = (".gif", ".mp4")
 ALL_SUFFIXES = tuple(dict.fromkeys(MAP_SUFFIXES + CHART_SUFFIXES + MOVIE_SUFFIXES))
 
 
-def add_plot_parser(sub: argparse._SubParsersAction) -> None:
-    plot = sub.add_parser(
-        "plot", help="draw a trace: the map of a run, its signals against time, or an animation",
-        description="The output's suffix says what is drawn: .png (the map, or with --signals a chart), "
-                    ".svg/.pdf (a chart of signals), .gif/.mp4 (an animation of the run).")
+def add_plot_arguments(plot: argparse.ArgumentParser) -> None:
+    """``labsim plot``'s options; docs/pictures.md."""
+    plot.description = ("The output's suffix says what is drawn: .png (the map, or with --signals a chart), "
+                        ".svg/.pdf (a chart of signals), .gif/.mp4 (an animation of the run).")
     plot.add_argument("trace")
     plot.add_argument("-o", "--output", required=True, metavar="FILE",
                       help="run.png (the map), signals.png/.svg/.pdf with --signals, run.gif or run.mp4")
@@ -136,7 +137,7 @@ def run_plot(args: argparse.Namespace) -> int:
     except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
         raise _fail(args.trace, f"cannot draw this trace: {e}") from None
     print(f"wrote {out}")
-    return 0
+    return EXIT_OK
 
 
 FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a world) is no robot's

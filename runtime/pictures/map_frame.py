@@ -149,17 +149,21 @@ def legend(img: np.ndarray, P: Painter, paths: list[RobotPath], events: list[str
             n = sum(len(p.events.get(ev, ())) for p in paths)
             row(f"{ev} ({n})")
 
-    # scale bar at the foot of the map: the longest 1-2-5 length that fits in ~110 px
+    # the scale bar at the foot of the map, unless the legend (and what it reserves) reaches lower
+    below = y + round(20 * s) + (reserve + lh if reserve else 0)
+    _scale_bar(img, P, x, max(top + map_h - round(8 * s), below), mpp)
+    return y + lh // 2
+
+
+def _scale_bar(img: np.ndarray, P: Painter, x: int, y: int, mpp: float) -> None:
+    """The longest 1-2-5 length that fits in ~110 px, as a bar from column x on row y."""
+    s = P.s
     length = nice_below(110 * s * mpp)
     bar = round(length / mpp)
-    yb = top + map_h - round(8 * s)
-    free = y + lh // 2
-    yb = max(yb, y + round(20 * s) + (reserve + lh if reserve else 0))
     tick = round(4 * s)
-    cv2.line(img, (x, yb), (x + bar, yb), INK, max(2, round(2 * s)))
+    cv2.line(img, (x, y), (x + bar, y), INK, max(2, round(2 * s)))
     for u in (x, x + bar):
-        cv2.line(img, (u, yb - tick), (u, yb + tick), INK, max(2, round(2 * s)))
-    P.put(img, f"{length:g} m", (x + bar + round(8 * s), yb + round(5 * s)), P.text, INK)
-    return free
+        cv2.line(img, (u, y - tick), (u, y + tick), INK, max(2, round(2 * s)))
+    P.put(img, f"{length:g} m", (x + bar + round(8 * s), y + round(5 * s)), P.text, INK)
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -194,23 +195,62 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     A ``backdrop`` is the figure without the run on it (no paths, a mechanism's fixed parts
     only): what ``labsim.runtime.pictures.animate`` draws each frame on.
     """
-    # one function for one layout: the map, the road panel, the title and the legend share its sizes
     if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
         raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
     if world is None and world_note is None:
         world, world_note = resolve_world(trace)
     world_note = world_note or ""
     paths = robot_paths(trace)
+    events = _event_names(trace.header, paths)
     P = Painter(width_px)
+    at = _layout(trace, P, width_px, world, paths, events, 3 if world_note else 2, backdrop)
+    img = np.full((at.height, width_px, 3), PAPER, np.uint8)
+    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top)
+    _draw_map(img, P, fig, at, trace, world, paths, events, backdrop)
+    _draw_title(img, P, trace, world, paths, world_note, at.map_left)
+    if at.road and world is not None:
+        draw_road_panel(img, P, world, [(p.name, p.colour, p.xy) for p in paths],
+                        (at.map_left, at.map_top + at.map_h + at.bottom_axis, at.map_w, at.panel_h))
+    legend_x = at.map_left + at.map_w + round(22 * P.s)
+    legend_end = legend(img, P, paths, events, legend_x, at.map_top, at.map_h, at.mpp, at.inset)
+    if at.inset and world is not None and world.mechanism is not None:
+        slew_inset(img, P, world.mechanism, trace, (legend_x, legend_end, at.inset))
+    return fig
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where one figure's parts go: the map (its extent in metres, its box in pixels), the
+    legend's inset and the road panel under the map; the title fills the rows above the map."""
+
+    height: int  # of the whole figure, pixels
+    x0: float  # the map's extent, metres
+    y0: float
+    x1: float
+    y1: float
+    mpp: float  # metres per pixel, the same on both axes
+    map_left: int
+    map_top: int
+    map_w: int
+    map_h: int
+    bottom_axis: int  # rows under the map for the x axis' labels
+    inset: int  # the side of the slew's top view under the legend; 0: none
+    road: bool  # a road panel under the map
+    panel_h: int
+
+    def px(self, xy: np.ndarray) -> np.ndarray:
+        """Metres (an (n, 2) array) to the figure's pixel coordinates."""
+        out = np.empty_like(xy, dtype=float)
+        out[:, 0] = self.map_left + (xy[:, 0] - self.x0) / self.mpp
+        out[:, 1] = self.map_top + (self.y1 - xy[:, 1]) / self.mpp
+        return out
+
+
+def _layout(trace: Trace, P: Painter, width_px: int, world: World | None, paths: list[RobotPath],
+            events: list[str], title_lines: int, backdrop: bool) -> _Layout:
+    """One layout that the map, the road panel, the title and the legend share."""
     s, pad = P.s, P.pad
-
-    # title block: behaviour name, then the run's particulars, then a note if any
-    header = trace.header
-    title = header.get("name") or Path(str(header.get("behaviour") or trace.path)).stem
-    subtitle = "  |  ".join(_run_facts(trace, world, paths))
-    title_lines = 3 if world_note else 2
     title_h = round((20 + 24 * title_lines) * s)
-
     # the map: equal metres per pixel on both axes, sized by the width left after the axis
     # labels and the legend column; very tall worlds are capped so the image stays sane
     left_axis, bottom_axis = round(50 * s), round(46 * s)
@@ -224,7 +264,6 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     map_left = left_axis + (avail_w - map_w) // 2
     map_top = title_h
 
-    events = _event_names(header, paths)
     legend_h = P.line_h * (len(paths) + len(events) + 9)
     inset = 0  # a top view of the slew, under the legend, when the run turned the arm
     if world is not None and world.mechanism is not None and not backdrop and has_slew(trace, world.mechanism):
@@ -234,46 +273,39 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     road = not backdrop and world is not None and world.mechanism is None and first_road(world) is not None
     panel_h = panel_height(P) if road else 0
     height = max(map_top + map_h + bottom_axis + panel_h, map_top + legend_h) + pad
-    img = np.full((height, width_px, 3), PAPER, np.uint8)
-    fig = Figure(img, x0, y1, mpp, map_left, map_top)
+    return _Layout(height, x0, y0, x1, y1, mpp, map_left, map_top, map_w, map_h, bottom_axis, inset, road,
+                   panel_h)
 
-    def px(xy: np.ndarray) -> np.ndarray:
-        out = np.empty_like(xy, dtype=float)
-        out[:, 0] = map_left + (xy[:, 0] - x0) / mpp
-        out[:, 1] = map_top + (y1 - xy[:, 1]) / mpp
-        return out
 
+def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trace, world: World | None,
+              paths: list[RobotPath], events: list[str], backdrop: bool) -> None:
+    """The map in its frame: the floor, the metre grid, the world, a mechanism, the run."""
+    box = (at.map_left, at.map_top), (at.map_left + at.map_w, at.map_top + at.map_h)
     ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
     # a ground's floor colour replaces the map's background; the grid stays visible on it
     floor = bgr(ground.floor_rgb) if ground is not None else MAP_BG
-    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), floor, -1)
-    grid(img, P, fig, map_w, map_h, (x0, y0, x1, y1),
-          "z (m)" if world is not None and world.mechanism is not None else "y (m)")
-
-    _draw_world(img, P, world, ground, px, mpp)
+    cv2.rectangle(img, *box, floor, -1)
+    grid(img, P, fig, at.map_w, at.map_h, (at.x0, at.y0, at.x1, at.y1),
+         "z (m)" if world is not None and world.mechanism is not None else "y (m)")
+    _draw_world(img, P, world, ground, at.px, at.mpp)
     if world is not None and world.mechanism is not None:
-        draw_run_mechanism(img, P, world.mechanism, trace, px, backdrop)
+        draw_run_mechanism(img, P, world.mechanism, trace, at.px, backdrop)
     if not backdrop:
-        _draw_paths(img, P, paths, events, px, world)
+        _draw_paths(img, P, paths, events, at.px, world)
+    cv2.rectangle(img, *box, FRAME, P.lw)
 
-    cv2.rectangle(img, (map_left, map_top), (map_left + map_w, map_top + map_h), FRAME, P.lw)
 
-    # title
-    tx = map_left
-    title_w = width_px - tx - pad
-    P.put(img, title, (tx, round(34 * s)), P.title, INK, TITLE_FONT, max_w=title_w)
-    P.put(img, subtitle, (tx, round(58 * s)), P.text, MUTED, max_w=title_w)
+def _draw_title(img: np.ndarray, P: Painter, trace: Trace, world: World | None, paths: list[RobotPath],
+                world_note: str, left: int) -> None:
+    """The behaviour's name, then the run's particulars, then the note about its world if any."""
+    header = trace.header
+    title = header.get("name") or Path(str(header.get("behaviour") or trace.path)).stem
+    subtitle = "  |  ".join(_run_facts(trace, world, paths))
+    title_w = img.shape[1] - left - P.pad
+    P.put(img, title, (left, round(34 * P.s)), P.title, INK, TITLE_FONT, max_w=title_w)
+    P.put(img, subtitle, (left, round(58 * P.s)), P.text, MUTED, max_w=title_w)
     if world_note:
-        P.put(img, world_note, (tx, round(82 * s)), P.text, WARNING, max_w=title_w)
-
-    if road and world is not None:
-        draw_road_panel(img, P, world, [(p.name, p.colour, p.xy) for p in paths],
-                        (map_left, map_top + map_h + bottom_axis, map_w, panel_h))
-    legend_x = map_left + map_w + round(22 * s)
-    legend_end = legend(img, P, paths, events, legend_x, map_top, map_h, mpp, inset)
-    if inset and world is not None and world.mechanism is not None:
-        slew_inset(img, P, world.mechanism, trace, (legend_x, legend_end, inset))
-    return fig
+        P.put(img, world_note, (left, round(82 * P.s)), P.text, WARNING, max_w=title_w)
 
 
 def _draw_world(img: np.ndarray, P: Painter, world: World | None, ground: Ground | None, px: PxMap,

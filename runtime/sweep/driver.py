@@ -1,7 +1,7 @@
 """``labsim sweep`` from options to exit code: check everything, run the grid, show and write it.
 
-The command line's options for it (``add_sweep_parser``) live here too, so that
-runtime/cli/main.py only registers the command.
+The command line's options for it (``add_sweep_arguments``) live here too: the command line
+(runtime/cli/parser.py) imports this module only when the command is ``sweep``.
 
 Everything a user can get wrong (a ``--set`` the files do not take, an output that cannot be
 written, a missing optional extra) is found here before the first run starts, and reported
@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 from labsim.foundation import options
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.summary_json import check_json_output
 from labsim.runtime.sweep.grid import (
@@ -45,9 +46,6 @@ from labsim.runtime.sweep.output import (
     write_json,
 )
 from labsim.runtime.sweep.stats import comparison
-
-EXIT_OK, EXIT_SOME_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
 
 # A local worker's address space: labsim with OpenCV and a camera run maps about 650 MB; a
 # run that needs three times that is a run gone wrong (docs/sweep.md, "Limits").
@@ -195,13 +193,11 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
         print(f"wrote {o.plot}", file=text)
     if interrupted:
         return EXIT_INTERRUPTED
-    return EXIT_SOME_FAILED if any(r.failed for r in rows) else EXIT_OK
+    return EXIT_FAILED if any(r.failed for r in rows) else EXIT_OK
 
 
-def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
-    """``labsim sweep``: its options; docs/sweep.md."""
-    sweep = sub.add_parser("sweep", help="run behaviours over a grid of parameters and seeds, in parallel, "
-                                         "and compare the settings")
+def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
+    """``labsim sweep``'s options; docs/sweep.md."""
     sweep.add_argument("files", nargs="+", metavar="FILE", help="behaviour files or lab names (a class's "
                                                                 "submissions, or versions of one behaviour)")
     sweep.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2,...|NAME=START:STOP:STEP",

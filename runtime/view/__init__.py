@@ -1,6 +1,6 @@
 """``labsim view``: watch and steer a run, or replay a trace, in the browser.
 
-The command line (``labsim.runtime.cli.main.cmd_view``) calls ``view``. It builds a session, a
+The command line (``labsim.runtime.cli.commands.cmd_view``) calls ``view``. It builds a session, a
 live run (``live``) of a behaviour file or a replay (``replay``) of a trace, binds the web
 server's socket (``server``) on loopback unless told otherwise, prints the URL, opens it
 unless asked not to, and serves the page (``static/``) until Ctrl-C. Frames and messages are
@@ -15,12 +15,12 @@ from collections.abc import Callable
 from pathlib import Path
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from labsim.foundation.files import read_input
 from labsim.runtime.trace import MAGIC, TraceFormatError
 from labsim.runtime.view.session import Session
 
 DEFAULT_PORT = 8765
-EXIT_OK, EXIT_USAGE, EXIT_INTERRUPTED = 0, 2, 130
 
 
 def is_trace(path: str | Path) -> bool:
