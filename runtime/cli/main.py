@@ -27,10 +27,12 @@ from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY, load_backend
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.backends.protocol import BackendError
-from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world import World
+from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation import options
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, format_diagnostics
-from labsim.foundation.files import ALLOW_ENV, allow, check_output, os_words, policy_problem, read_text
+from labsim.foundation.files import ALLOW_ENV, allow, check_output, os_words, policy_problem
+from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.builder.command import add_scene_parser, cmd_scene
 from labsim.runtime.cli.completion import autocomplete
@@ -282,7 +284,7 @@ def _strict(args: argparse.Namespace) -> None:
     if args.command == "test":
         files = _behaviour_files(args.paths)
     elif args.command == "view":
-        files = [] if args.file.endswith(".csv") else [Path(args.file)]
+        files = [] if file_kind(args.file) in ("trace", "golden") else [Path(args.file)]
     else:
         files = [Path(f) for f in args.files]
     overrides = _overrides(args.set) if args.command == "view" else {}  # a sweep's --set is a grid
@@ -414,8 +416,8 @@ def _behaviour_files(paths: list[str]) -> list[Path]:
     for p in map(Path, paths):
         if p.is_dir():
             found = sorted(p.glob("*.yaml"))
-            _refuse_links_out(p, found + sorted(p.glob("*.golden.csv")))
-            files += [f for f in found if not _is_world_file(f)]
+            _refuse_links_out(p, found + sorted(p.glob("*" + GOLDEN_SUFFIX)))
+            files += [f for f in found if file_kind(f) != "world"]  # labsim test skips world files
         elif p.exists():
             files.append(p)
         else:
@@ -430,18 +432,6 @@ def _refuse_links_out(folder: Path, found: list[Path]) -> None:
                 for f in found if (refused := policy_problem(f.name, folder))]
     if problems:
         raise LabsimError(problems)
-
-
-def _is_world_file(path: Path) -> bool:
-    """A world file (its first key is labsim-world), not a behaviour: labsim test skips it."""
-    try:  # the one way in: a FIFO among the files is reported by the loader, not waited on
-        text = read_text(path, "behaviour")
-    except LabsimError:
-        return False
-    for line in text.splitlines():
-        if line.strip() and not line.lstrip().startswith("#"):
-            return line.startswith("labsim-world:")
-    return False
 
 
 def cmd_test(args: argparse.Namespace) -> int:
@@ -592,22 +582,16 @@ def cmd_serve(args: argparse.Namespace) -> int:
 def _load_world_arg(name: str) -> World:
     """A world named on the command line: built-in, or a world file."""
     from labsim.backends.scene.world_file import load_world
-    from labsim.foundation.diagnostics import Report, did_you_mean
+    from labsim.foundation.diagnostics import Report
 
-    known = builtin_worlds()
-    if name in known:
-        path = known[name]
-    elif Path(name).is_file():
-        path = Path(name)
-    else:
-        raise LabsimError([Diagnostic(name, f"no built-in world or world file '{name}'"
-                                      f"{did_you_mean(name, known)}",
-                                      notes=("built-in worlds: " + ", ".join(known),))])
+    found = find_world(name)  # typed by the person running labsim: any path
+    if found.path is None:
+        raise LabsimError([Diagnostic(name, found.problem, notes=found.notes)])
     report = Report()
-    world = load_world(path, report)
+    world = load_world(found.path, report)
     if world is None:
         report.raise_if_errors()
-        raise LabsimError([Diagnostic(str(path), "could not read this world")])
+        raise LabsimError([Diagnostic(str(found.path), "could not read this world")])
     return world
 
 
