@@ -13,7 +13,9 @@ A behaviour names the files it reads (its world) relative to its own folder; ``p
 says when such a name reaches outside that folder, which is refused unless the folder it
 reaches is allowed on the command line (``--allow-path``, kept in ``ALLOW_ENV`` so that a
 sweep's worker processes see the same setting); the built-in worlds are the scene's to allow
-(``labsim.backends.scene.world_names``).
+(``labsim.backends.scene.world_names``). A client of ``labsim serve`` names files too (a
+texture): ``served_problem`` keeps it to the folder the server started in, ``labsim scene``'s
+scratch folders (``SCRATCH_PREFIX``) and the ``--allow-path`` folders.
 
 This module belongs to the foundation and imports nothing of labsim beyond its diagnostics,
 so the scene's readers, the language and the runtime all use it.
@@ -35,7 +37,10 @@ KIB, MIB = 1 << 10, 1 << 20
 # Each kind of file, the most labsim reads of it. Hand-written files stay far below 1 MiB (the
 # largest shipped behaviour or world is under 10 KiB); a trace of 1 GiB holds about seven
 # million rows, far past the trace budget of a run. Larger files are refused before reading.
-MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB}
+# A texture a client of ``labsim serve`` names is at most what one request may carry (the
+# server's ZMQ_MAXMSGSIZE, twice a 4K RGBA image).
+MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB,
+             "texture": 64 * MIB}
 DEFAULT_MAX_BYTES = MIB
 
 ALLOW_ENV = "LABSIM_ALLOW_PATH"  # folders a behaviour may read outside its own, os.pathsep-separated
@@ -192,6 +197,50 @@ def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None)
 def policy_notes() -> tuple[str, ...]:
     return ("a behaviour reads only built-in worlds and files in its own folder (subfolders too); "
             "to allow another folder, pass --allow-path DIR (docs/security.md)",)
+
+
+# -- what a client of labsim serve may read -----------------------------------------------------
+
+SCRATCH_PREFIX = "labsim-scene-"  # labsim scene's temporary folders, which labsim serve may read
+
+
+def in_scratch_folder(real: Path) -> bool:
+    """Whether a file (its path with links followed) lies right inside one of ``labsim scene``'s
+    temporary folders: named so, in the temporary folder, owned by this user and writable by
+    no one else (tempfile makes it so), so that no other user of the machine can plant one."""
+    folder = real.parent
+    if not folder.name.startswith(SCRATCH_PREFIX) or folder.parent != Path(tempfile.gettempdir()).resolve():
+        return False
+    try:
+        info = os.stat(folder)
+    except OSError:
+        return False
+    mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+    return mine and not info.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+
+
+def served_problem(name: str, base: Path) -> str:
+    """Why ``labsim serve`` may not read a file a client names (relative to ``base``, the folder
+    the server started in), or '' when it may: once links are followed, it must lie inside
+    ``base``, inside an ``--allow-path`` folder, or right inside a ``labsim scene`` scratch
+    folder. A client is anyone who reaches the port (docs/security.md, "The server")."""
+    try:
+        real = Path(os.path.normpath(base / name)).resolve()
+    except (OSError, RuntimeError):  # a loop of links
+        return "is a loop of symbolic links"
+    if any(_inside(real, f) for f in (base.resolve(), *allowed_folders())) or in_scratch_folder(real):
+        return ""
+    return ("is outside the folders labsim serve reads: the one it was started in, labsim scene's "
+            "temporary folders and any --allow-path DIR (docs/security.md)")
+
+
+def read_served(name: str, base: Path, kind: str) -> bytes:
+    """A file a client of ``labsim serve`` names (relative to ``base``), read the one way in
+    once ``served_problem`` allows it; LabsimError says why not."""
+    refused = served_problem(name, base)
+    if refused:
+        raise _error(name, refused)
+    return read_input(base / name, kind)
 
 
 # -- the way out --------------------------------------------------------------------------------
