@@ -24,8 +24,8 @@ from labsim.foundation.kinds import (
 
 
 def test_the_key_sets_are_the_readers_own() -> None:
-    assert WORLD_ONLY_KEYS == set(world_file.KEYS) - set(read.TOP_KEYS)
-    assert BEHAVIOUR_ONLY_KEYS <= set(read.TOP_KEYS) - set(world_file.KEYS)
+    assert set(world_file.KEYS) - set(read.TOP_KEYS) == WORLD_ONLY_KEYS
+    assert set(read.TOP_KEYS) - set(world_file.KEYS) >= BEHAVIOUR_ONLY_KEYS
 
 
 def test_every_shipped_file_is_of_its_kind() -> None:
@@ -94,4 +94,4 @@ def test_built_in_worlds_are_known_by_their_files(tmp_path: Path) -> None:
     assert builtin_copy(copy, copy.read_text()) == "crane"
     assert builtin_copy(copy, copy.read_text() + "\n# edited\n") == ""
     assert builtin_copy(tmp_path / "mine.yaml", "") == ""
-    assert BUILTIN_DIR == crane.parent
+    assert crane.parent == BUILTIN_DIR

@@ -16,8 +16,8 @@ cbor2 = pytest.importorskip("cbor2")
 pytest.importorskip("zmq")
 
 from labsim.backends.scene.world import World  # noqa: E402
-from labsim.backends.scene.world_names import builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
+from labsim.backends.scene.world_names import builtin_worlds  # noqa: E402
 from labsim.foundation.diagnostics import Report  # noqa: E402
 from labsim.foundation.files import ALLOW_ENV, SCRATCH_PREFIX  # noqa: E402
 from labsim.runtime.serve.server import Server  # noqa: E402
