@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +22,8 @@ from yaml.nodes import MappingNode, Node
 
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
-from labsim.backends.scene.world import World, builtin_worlds, world_channels
+from labsim.backends.scene.world import World, world_channels
+from labsim.backends.scene.world_names import find_world
 from labsim.dsl import ast
 from labsim.dsl.builtins import (
     ACTIONS,
@@ -283,38 +283,16 @@ class _Checker(ExprChecker):
 
     def world(self) -> World | None:
         from labsim.backends.scene.world_file import load_world  # late: world files use this package too
-        from labsim.foundation.files import policy_notes, policy_problem
 
         bf = self.bf
         if bf.world_node is None:
             return None
-        known = builtin_worlds()
-        if not bf.world.strip():
-            self.error(bf.world_node, "'world' needs a built-in world's name or a path to a world file",
-                       notes=(f"built-in worlds: {', '.join(known)}",))
+        found = find_world(bf.world, Path(bf.doc.path).parent)
+        if found.path is None:
+            self.error(bf.world_node, found.problem, notes=found.notes)
             self.world_failed = True
             return None
-        if bf.world in known:
-            path = known[bf.world]
-        elif bf.world.endswith((".yaml", ".yml")) or "/" in bf.world:
-            path = Path(bf.doc.path).parent / bf.world
-            refused = policy_problem(bf.world, Path(bf.doc.path).parent)
-            if refused:  # docs/security.md: a behaviour reads files in its own folder only
-                self.error(bf.world_node, f"world file '{bf.world}' {refused}", notes=policy_notes())
-                self.world_failed = True
-                return None
-            missing = _missing(path)
-            if missing is not None:
-                self.error(bf.world_node, missing if missing else
-                           f"world file '{bf.world}' not found (looked for {path})")
-                self.world_failed = True
-                return None
-        else:
-            self.error(bf.world_node, f"unknown world '{bf.world}'{did_you_mean(bf.world, known)}",
-                       notes=("built-in worlds: " + ", ".join(known) + "; or give a path to a world file",))
-            self.world_failed = True
-            return None
-        world = load_world(path, self.report)
+        world = load_world(found.path, self.report)
         self.world_failed = world is None
         return world
 
@@ -523,18 +501,3 @@ class _Checker(ExprChecker):
         return int(value) if isinstance(current, int) and value == int(value) else value
 
 
-def _missing(path: Path) -> str | None:
-    """None when the world file is there to read; '' when it does not exist; else why the
-    system refuses it (a name too long, a folder the user may not enter), in its words."""
-    try:
-        os.stat(path)
-    except (FileNotFoundError, NotADirectoryError):
-        return ""
-    except OSError as e:
-        from labsim.foundation.files import os_words
-
-        name = str(path.name)
-        shown = name if len(name) <= 80 else f"{name[:60]}... ({len(name)} characters)"
-        return f"world file '{shown}' cannot be opened: {os_words(e)}"
-    return None
-    return True

@@ -15,19 +15,18 @@ import hashlib
 import math
 import re
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene import object_paths
 from labsim.backends.scene.models import Camera
-from labsim.backends.scene.world import BUILTIN_DIR
-from labsim.backends.scene.world_file import KEYS as WORLD_KEYS
+from labsim.backends.scene.world_names import builtin_copy
 from labsim.dsl import ast
 from labsim.dsl.noise import Noise, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.kinds import kind_of_keys
 from labsim.foundation.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
 from labsim.foundation.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_float
 from labsim.foundation.source import Document, Reader, Text, scalar_value, shape_of
@@ -143,10 +142,8 @@ class BehaviourFile:
 
 
 def _is_world_file(root: MappingNode) -> bool:
-    """A world file given where a behaviour belongs: its version key, or world keys and no behaviour keys."""
-    keys = {k.value for k, _ in root.value if isinstance(k, ScalarNode)}
-    return "labsim-world" in keys or (not keys & {"labsim", "rules", "stop", "bind"}
-                                      and bool(keys & (set(WORLD_KEYS) - {"name", "description"})))
+    """A world file given where a behaviour belongs, by the one rule for file kinds."""
+    return kind_of_keys({k.value for k, _ in root.value if isinstance(k, ScalarNode)}) == "world"
 
 
 def read(doc: Document, report: Report) -> BehaviourFile:
@@ -161,8 +158,7 @@ def read(doc: Document, report: Report) -> BehaviourFile:
             r.error(0, "the file is empty: " + message)
         return bf
     if _is_world_file(root):
-        builtin = BUILTIN_DIR / Path(doc.path).name
-        name = builtin.stem if builtin.is_file() and builtin.read_text() == doc.text else doc.path
+        name = builtin_copy(doc.path, doc.text) or doc.path
         r.error(root.value[0][0], "this is a world file, not a behaviour: a behaviour names it with 'world:'",
                 notes=(f"run a behaviour with 'world: {name}' in it; 'labsim new my_lab' writes one to "
                        "start from, and docs/worlds.md describes world files",))

@@ -12,16 +12,18 @@ another name and renamed into place once complete, so a failed write leaves the 
 A behaviour names the files it reads (its world) relative to its own folder; ``policy_problem``
 says when such a name reaches outside that folder, which is refused unless the folder it
 reaches is allowed on the command line (``--allow-path``, kept in ``ALLOW_ENV`` so that a
-sweep's worker processes see the same setting).
+sweep's worker processes see the same setting); the built-in worlds are the scene's to allow
+(``labsim.backends.scene.world_names``). A client of ``labsim serve`` names files too (a
+texture): ``served_problem`` keeps it to the folder the server started in, ``labsim scene``'s
+scratch folders (``SCRATCH_PREFIX``) and the ``--allow-path`` folders.
 
-This module belongs to the scene layer and imports nothing of labsim beyond its diagnostics,
+This module belongs to the foundation and imports nothing of labsim beyond its diagnostics,
 so the scene's readers, the language and the runtime all use it.
 """
 from __future__ import annotations
 
 import contextlib
 import errno
-import functools
 import os
 import stat
 import tempfile
@@ -35,10 +37,12 @@ KIB, MIB = 1 << 10, 1 << 20
 # Each kind of file, the most labsim reads of it. Hand-written files stay far below 1 MiB (the
 # largest shipped behaviour or world is under 10 KiB); a trace of 1 GiB holds about seven
 # million rows, far past the trace budget of a run. Larger files are refused before reading.
-MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB}
+# A texture a client of ``labsim serve`` names is at most what one request may carry (the
+# server's ZMQ_MAXMSGSIZE, twice a 4K RGBA image).
+MAX_BYTES = {"behaviour": MIB, "world": MIB, "mechanism": MIB, "trace": 1024 * MIB, "golden": 1024 * MIB,
+             "texture": 64 * MIB}
 DEFAULT_MAX_BYTES = MIB
 
-BUILTIN_WORLDS = Path(__file__).parent.parent / "backends" / "scene" / "worlds"  # labsim's own files: always readable
 ALLOW_ENV = "LABSIM_ALLOW_PATH"  # folders a behaviour may read outside its own, os.pathsep-separated
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a device"),
@@ -59,13 +63,12 @@ def _error(path: str | Path, message: str) -> LabsimError:
     return LabsimError([Diagnostic(str(path), message)])
 
 
-def read_input(path: str | Path, kind: str = "behaviour", max_bytes: int | None = None) -> bytes:
-    """A file's bytes, or LabsimError saying in words why not: checked before any read.
+@contextlib.contextmanager
+def _opened(path: str | Path, kind: str) -> Iterator[tuple[int, os.stat_result]]:
+    """A regular file's descriptor and status, or LabsimError saying in words why not.
 
     It is opened without blocking (a FIFO with no writer would wait forever) and inspected
-    through the open descriptor (no window between the check and the read): only a regular
-    file of at most ``max_bytes`` (default: ``MAX_BYTES[kind]``) is read."""
-    limit = max_bytes if max_bytes is not None else MAX_BYTES.get(kind, DEFAULT_MAX_BYTES)
+    through the open descriptor (no window between the check and the read)."""
     flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
         fd = os.open(path, flags)
@@ -79,13 +82,37 @@ def read_input(path: str | Path, kind: str = "behaviour", max_bytes: int | None 
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
             raise _error(path, f"is {_not_regular(info.st_mode)}, not a {kind} file")
-        if info.st_size > limit:
-            raise _error(path, f"file is {info.st_size / 1e6:.1f} MB; {kind} files are limited to {_size(limit)}")
-        return _read_all(fd, path, kind, limit)
+        yield fd, info
     except OSError as e:
         raise _error(path, f"cannot read the {kind} file: {os_words(e)}") from None
     finally:
         os.close(fd)
+
+
+def read_input(path: str | Path, kind: str = "behaviour", max_bytes: int | None = None) -> bytes:
+    """A file's bytes, or LabsimError saying in words why not: checked before any read.
+
+    Only a regular file (``_opened``) of at most ``max_bytes`` (default: ``MAX_BYTES[kind]``) is read."""
+    limit = max_bytes if max_bytes is not None else MAX_BYTES.get(kind, DEFAULT_MAX_BYTES)
+    with _opened(path, kind) as (fd, info):
+        if info.st_size > limit:
+            raise _error(path, f"file is {info.st_size / 1e6:.1f} MB; {kind} files are limited to {_size(limit)}")
+        return _read_all(fd, path, kind, limit)
+
+
+def read_head(path: str | Path, size: int, kind: str = "labsim") -> bytes:
+    """A file's first ``size`` bytes at most (what it starts with, to tell what kind of file it
+    is), or LabsimError: a regular file only, as ``read_input``, whatever its length."""
+    with _opened(path, kind) as (fd, _info):
+        chunks: list[bytes] = []
+        total = 0
+        while total < size:
+            chunk = os.read(fd, min(size - total, 4 * MIB))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        return b"".join(chunks)
 
 
 def _read_all(fd: int, path: str | Path, kind: str, limit: int) -> bytes:
@@ -150,14 +177,15 @@ def _inside(path: Path, folder: Path) -> bool:
 def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None) -> str:
     """Why a file a behaviour names (``name``, relative to the behaviour's folder ``base``)
     may not be read, or '' when it may: it must stay inside ``base`` once links are followed,
-    or inside a folder the command line allowed, or be one of the built-in worlds' files."""
+    or inside a folder the command line allowed. (The built-in worlds' files are allowed by the
+    one rule for world names, ``labsim.backends.scene.world_names.find_world``.)"""
     folders = [base.resolve(), *(allowed if allowed is not None else allowed_folders())]
     target = Path(os.path.normpath(base / name))
     try:
         real = target.resolve()
     except (OSError, RuntimeError):  # a loop of links
         return "is a loop of symbolic links"
-    if any(_inside(real, f) for f in folders) or real in _builtin_files():
+    if any(_inside(real, f) for f in folders):
         return ""
     if Path(name).is_absolute() or name.startswith("~"):
         return "is an absolute path, outside the behaviour's folder"
@@ -166,15 +194,53 @@ def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None)
     return "is a symbolic link to a file outside the behaviour's folder"
 
 
-@functools.cache
-def _builtin_files() -> frozenset[Path]:
-    """The built-in worlds' files, links followed (an editable install links each file)."""
-    return frozenset(p.resolve() for p in BUILTIN_WORLDS.glob("*.yaml"))
-
-
 def policy_notes() -> tuple[str, ...]:
     return ("a behaviour reads only built-in worlds and files in its own folder (subfolders too); "
             "to allow another folder, pass --allow-path DIR (docs/security.md)",)
+
+
+# -- what a client of labsim serve may read -----------------------------------------------------
+
+SCRATCH_PREFIX = "labsim-scene-"  # labsim scene's temporary folders, which labsim serve may read
+
+
+def in_scratch_folder(real: Path) -> bool:
+    """Whether a file (its path with links followed) lies right inside one of ``labsim scene``'s
+    temporary folders: named so, in the temporary folder, owned by this user and writable by
+    no one else (tempfile makes it so), so that no other user of the machine can plant one."""
+    folder = real.parent
+    if not folder.name.startswith(SCRATCH_PREFIX) or folder.parent != Path(tempfile.gettempdir()).resolve():
+        return False
+    try:
+        info = os.stat(folder)
+    except OSError:
+        return False
+    mine = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+    return mine and not info.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+
+
+def served_problem(name: str, base: Path) -> str:
+    """Why ``labsim serve`` may not read a file a client names (relative to ``base``, the folder
+    the server started in), or '' when it may: once links are followed, it must lie inside
+    ``base``, inside an ``--allow-path`` folder, or right inside a ``labsim scene`` scratch
+    folder. A client is anyone who reaches the port (docs/security.md, "The server")."""
+    try:
+        real = Path(os.path.normpath(base / name)).resolve()
+    except (OSError, RuntimeError):  # a loop of links
+        return "is a loop of symbolic links"
+    if any(_inside(real, f) for f in (base.resolve(), *allowed_folders())) or in_scratch_folder(real):
+        return ""
+    return ("is outside the folders labsim serve reads: the one it was started in, labsim scene's "
+            "temporary folders and any --allow-path DIR (docs/security.md)")
+
+
+def read_served(name: str, base: Path, kind: str) -> bytes:
+    """A file a client of ``labsim serve`` names (relative to ``base``), read the one way in
+    once ``served_problem`` allows it; LabsimError says why not."""
+    refused = served_problem(name, base)
+    if refused:
+        raise _error(name, refused)
+    return read_input(base / name, kind)
 
 
 # -- the way out --------------------------------------------------------------------------------

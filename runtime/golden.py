@@ -20,7 +20,8 @@ from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import check_output
+from labsim.foundation.files import check_output, read_input
+from labsim.foundation.kinds import golden_path as golden_path  # the one rule for file kinds names goldens
 from labsim.runtime.result import RunResult
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
@@ -28,11 +29,6 @@ from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
 ABS_TOL = 1e-6
 REL_TOL = 1e-5
 CONTEXT_BEFORE, CONTEXT_AFTER = 3, 2
-
-
-def golden_path(behaviour: str | Path) -> Path:
-    p = Path(behaviour)
-    return p.with_name(p.name.rsplit(".", 1)[0] + ".golden.csv")
 
 
 def tolerance(expected: float) -> float:
@@ -201,7 +197,7 @@ def record_golden(behaviour: str | Path, backend: str = DEFAULT,
 def _drop_footer(path: str | Path) -> None:
     """A golden is a finished run by construction, stored without the trace's ``# end`` line: the
     goldens recorded before traces had one stay byte-identical (docs/trace-format.md)."""
-    data = Path(path).read_bytes()
+    data = read_input(path, "golden")
     body = data.rstrip(b"\n")
     cut = body.rfind(b"\n") + 1
     if body[cut:].startswith(FOOTER.encode()):

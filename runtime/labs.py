@@ -17,9 +17,10 @@ import yaml
 
 import labsim
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
+from labsim.foundation.files import read_text
+from labsim.foundation.kinds import golden_path
 
 LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
-GOLDEN_SUFFIX = ".golden.csv"
 SCHEMA_FILE = "behaviour.schema.json"
 
 
@@ -31,7 +32,7 @@ class Lab:
 
     @property
     def golden(self) -> Path:
-        return self.path.with_name(self.name + GOLDEN_SUFFIX)
+        return golden_path(self.path)
 
 
 def labs() -> dict[str, Lab]:
@@ -44,7 +45,7 @@ def labs() -> dict[str, Lab]:
 
 def _title(path: Path) -> str:
     """A lab file's ``name:`` (its first line of that key), without reading the whole file as YAML."""
-    for line in path.read_text(encoding="utf-8").splitlines():
+    for line in read_text(path, "behaviour").splitlines():
         if line.startswith("name:"):
             value = yaml.safe_load(line.partition(":")[2] or "''")
             return str(value) if value is not None else ""

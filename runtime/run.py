@@ -24,11 +24,13 @@ from pathlib import Path
 
 from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
-from labsim.backends.scene.world import BUILTIN_DIR, Pose, World
+from labsim.backends.scene.world import Pose, World
+from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.compile import compile_file
 from labsim.dsl.program import Program
 from labsim.dsl.support import Faults, FaultSite, metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.budgets import RunWatch
 from labsim.runtime.interrupts import CallbackInterrupts
@@ -400,23 +402,22 @@ def _warning_line(d: Diagnostic) -> str:
 
 def _world_file(world: World) -> str:
     """Where the world came from, for the trace: '' for a built-in (its name says it all)."""
-    source = Path(world.source)
-    if source.parent == BUILTIN_DIR:
+    if builtin_name(world.source):
         return ""
     try:
-        return str(source.resolve().relative_to(Path.cwd()))
+        return str(Path(world.source).resolve().relative_to(Path.cwd()))
     except ValueError:
-        return str(source)
+        return str(Path(world.source))
 
 
 def _world_identity(world: World) -> dict[str, str]:
     """The world's SHA-256 (of its file's text), and for a built-in the labsim version that
     shipped it: a golden says when the world changed under it."""
-    try:
-        digest = hashlib.sha256(Path(world.source).read_bytes()).hexdigest() if world.source else ""
-    except OSError:
+    try:  # read again the one way in: the file it was loaded from moments before
+        digest = hashlib.sha256(read_input(world.source, "world")).hexdigest() if world.source else ""
+    except LabsimError:
         digest = ""
     out = {"world_sha256": digest}
-    if world.source and Path(world.source).parent == BUILTIN_DIR:
+    if world.source and builtin_name(world.source):
         out["world_version"] = f"built-in, labsim {__version__}"
     return out

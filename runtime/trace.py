@@ -25,12 +25,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
-from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import Output, read_input, write_error
+from labsim.backends.scene.world import World
+from labsim.backends.scene.world_file import load_world
+from labsim.backends.scene.world_names import builtin_worlds, find_world
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.files import Output, allowed_folders, read_input, write_error
+from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name
 from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
 
 FORMAT = 1
-MAGIC = "# labsim-trace "
+MAGIC = TRACE_MAGIC  # a trace's first line starts so: the one rule for file kinds knows it too
 FOOTER = "# end "  # the last line: {"interrupted": bool, "ticks": int}
 FLUSH_S = 1.0  # rows reach the file at least this often (wall time)
 PARTIAL = ".partial"  # the trace's name while the run goes
@@ -144,7 +148,7 @@ class Trace:
         """Why the run this trace records did not end by itself, or '' when it did (or when the
         trace is a golden, which is stored without its footer)."""
         if self.footer is None:
-            return "" if self.path.endswith(".golden.csv") else \
+            return "" if is_golden_name(self.path) else \
                 "the trace has no '# end' line: the run was killed, or it is still going"
         if self.footer.get("interrupted"):
             return f"the run was interrupted after {self.footer.get('ticks', '?')} ticks"
@@ -216,6 +220,37 @@ def read_trace(path: str | Path) -> Trace:
         lines.pop()
     _check_rows(path, columns, rows, lines)
     return Trace(str(path), header, columns, rows, footer, lines)
+
+
+def trace_world(trace: Trace) -> tuple[World | None, str]:
+    """The world a finished run used, for drawing it, and a note for the title when it can't be.
+
+    The recorded file comes first (it is exactly what ran), relative to the current folder, then
+    to the trace's; a built-in of the same name is the fallback, as a trace copied to another
+    machine names a path that isn't there. docs/security.md: a world file a trace names is read
+    only inside the trace's folder, the current one, or an ``--allow-path`` folder (a trace is a
+    file someone may have sent).
+    """
+    name = str(trace.header.get("world") or "")
+    recorded = str(trace.header.get("world_file") or "")
+    folder = Path(trace.path).parent.resolve()
+    found = [find_world(recorded, Path("."), look_in=(folder,), allowed=[folder, *allowed_folders()])] \
+        if recorded else []
+    if name in builtin_worlds():
+        found.append(find_world(name))
+    broken = ""
+    for ref in found:
+        if ref.path is None:
+            broken = f" ({ref.problem}; --allow-path DIR reads it)" if ref.refused else broken
+            continue
+        world = load_world(ref.path, Report())
+        if world is not None:
+            return world, ""
+        broken = f" ({ref.path} has errors)"
+    if not name and not recorded:
+        return None, "the trace names no world: drawn without walls"
+    what = f"world '{name}'" if name else f"world file {recorded}"
+    return None, f"{what} not found{broken}: drawn without walls"
 
 
 def _footer(rest: str) -> tuple[str, dict | None]:

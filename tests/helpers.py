@@ -25,6 +25,7 @@ from labsim.runtime.run import Run
 from labsim.runtime.trace import FORMAT, TraceWriter
 
 ROOT = Path(__file__).resolve().parent.parent  # the repository root, which is the package root
+PACKAGE_DIRS = ("foundation", "dsl", "runtime", "backends")  # the package's folders of Python code
 FIXTURES = ROOT / "tests" / "fixtures"
 BEHAVIOURS = ROOT / "behaviours"
 BENCHMARKS = ROOT / "benchmarks"

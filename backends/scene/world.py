@@ -9,13 +9,13 @@ from __future__ import annotations
 import math
 import random
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, Road
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import Kind
+from labsim.backends.scene.world_names import BUILTIN_DIR as BUILTIN_DIR  # the one rule for world names;
+from labsim.backends.scene.world_names import builtin_worlds as builtin_worlds  # imported from here too
 
-BUILTIN_DIR = Path(__file__).parent / "worlds"
 PLACEMENT_CLEARANCE_M = 0.6  # a robot placed 'at: random' is this far from walls and other robots
 
 
@@ -91,11 +91,6 @@ class World:
             if all(math.hypot(pose.x_m - o.x_m, pose.y_m - o.y_m) >= 2 * clearance_m for o in taken):
                 return pose
         return None
-
-
-def builtin_worlds() -> dict[str, Path]:
-    """Names of the worlds shipped with labsim, and their files."""
-    return {p.stem: p for p in sorted(BUILTIN_DIR.glob("*.yaml"))}
 
 
 def _segment_distance(px: float, py: float, a: tuple[float, float], b: tuple[float, float]) -> float:

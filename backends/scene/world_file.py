@@ -62,6 +62,7 @@ from labsim.backends.scene.ground import (
 from labsim.backends.scene.mechanism_file import read_mechanism
 from labsim.backends.scene.world import Block, Pose, Wall, World
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.kinds import WORLD_VERSION_KEY
 from labsim.foundation.limits import (
     MAX_ARC_CHORDS,
     MAX_COORD_M,
@@ -111,10 +112,11 @@ def load_world(path: str | Path, report: Report) -> World | None:
 
 def _declares_world(doc: Document) -> bool:
     """Whether the file says it is a world file: a mapping with a ``labsim-world`` key. Only such a
-    file's lines are echoed in diagnostics."""
+    file's lines are echoed in diagnostics, so its version key, not ``kind_of_keys``'s guess from
+    its other keys, decides (docs/security.md)."""
     root = doc.root
     return isinstance(root, MappingNode) and any(
-        isinstance(k, ScalarNode) and k.value == "labsim-world" for k, _ in root.value)
+        isinstance(k, ScalarNode) and k.value == WORLD_VERSION_KEY for k, _ in root.value)
 
 
 class _WorldReader(Reader):

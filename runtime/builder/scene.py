@@ -37,6 +37,7 @@ from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world import Block, Wall, World
+from labsim.foundation.files import SCRATCH_PREFIX
 from labsim.runtime.builder.mechanism import build_mechanism
 
 WALL_HEIGHT_M = 0.5  # above the Pioneer's sonars (0.1 to 0.3 m), below its cameras
@@ -138,7 +139,8 @@ def _ground(conn: Connection, world: World) -> None:
     ppm = float(world.ground.px_per_m)
     height_px, width_px = picture.shape[:2]
     w, h = width_px / ppm, height_px / ppm
-    with tempfile.TemporaryDirectory(prefix="labsim-scene-") as folder:
+    # a scratch folder labsim serve may read the picture from (foundation/files.served_problem)
+    with tempfile.TemporaryDirectory(prefix=SCRATCH_PREFIX) as folder:
         png = str(Path(folder) / f"{world.name}-ground.png")
         cv2.imwrite(png, cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
         # sim.createTexture(string fileName, int options, list planeSizes): CoppeliaSim 4.6;

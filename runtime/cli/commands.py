@@ -15,10 +15,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from labsim.backends import DEFAULT, load_backend
-from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world import World
+from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem, read_text
+from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.cli.report import ProgressBar, format_summary
 from labsim.runtime.golden import check_golden, record_golden
@@ -206,8 +208,8 @@ def behaviour_files(paths: list[str]) -> list[Path]:
     for p in map(Path, paths):
         if p.is_dir():
             found = sorted(p.glob("*.yaml"))
-            _refuse_links_out(p, found + sorted(p.glob("*.golden.csv")))
-            files += [f for f in found if not _is_world_file(f)]
+            _refuse_links_out(p, found + sorted(p.glob("*" + GOLDEN_SUFFIX)))
+            files += [f for f in found if file_kind(f) != "world"]  # labsim test skips world files
         elif p.exists():
             files.append(p)
         else:
@@ -223,20 +225,6 @@ def _refuse_links_out(folder: Path, found: list[Path]) -> None:
     if problems:
         raise LabsimError(problems)
 
-
-def _is_world_file(path: Path) -> bool:
-    """A world file (its first key is labsim-world), not a behaviour: labsim test skips it."""
-    try:  # the one way in: a FIFO among the files is reported by the loader, not waited on
-        text = read_text(path, "behaviour")
-    except LabsimError:
-        return False
-    for line in text.splitlines():
-        if line.strip() and not line.lstrip().startswith("#"):
-            return line.startswith("labsim-world:")
-    return False
-
-
-# -- the small commands --------------------------------------------------------------------------
 
 def cmd_labs(args: argparse.Namespace) -> int:
     for lab in labs().values():
@@ -354,24 +342,17 @@ def cmd_serve(args: argparse.Namespace) -> int:
 def _load_world_arg(name: str) -> World:
     """A world named on the command line: built-in, or a world file."""
     from labsim.backends.scene.world_file import load_world
-    from labsim.foundation.diagnostics import Report, did_you_mean
+    from labsim.foundation.diagnostics import Report
 
-    known = builtin_worlds()
-    if name in known:
-        path = known[name]
-    elif Path(name).is_file():
-        path = Path(name)
-    else:
-        raise LabsimError([Diagnostic(name, f"no built-in world or world file '{name}'"
-                                      f"{did_you_mean(name, known)}",
-                                      notes=("built-in worlds: " + ", ".join(known),))])
+    found = find_world(name)  # typed by the person running labsim: any path
+    if found.path is None:
+        raise LabsimError([Diagnostic(name, found.problem, notes=found.notes)])
     report = Report()
-    world = load_world(path, report)
+    world = load_world(found.path, report)
     if world is None:
         report.raise_if_errors()
-        raise LabsimError([Diagnostic(str(path), "could not read this world")])
+        raise LabsimError([Diagnostic(str(found.path), "could not read this world")])
     return world
-
 
 def cmd_scene(args: argparse.Namespace) -> int:
     """Build a behaviour's scene in a running CoppeliaSim; runtime/builder/command.py."""

@@ -19,9 +19,10 @@ from typing import Any
 
 import yaml
 
-from labsim.backends.scene.world import builtin_worlds
+from labsim.backends.scene.world_names import builtin_worlds
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_text
+from labsim.foundation.kinds import TRACE_SUFFIX, YAML_SUFFIXES
 from labsim.runtime.labs import labs
 
 # the arguments that take a behaviour file or a lab's name, by their dest
@@ -67,7 +68,7 @@ def behaviours(prefix: str, **_: Any) -> list[str]:
         text = f"{folder}/{entry.name}" if folder else entry.name
         if entry.is_dir():
             out.append(text + "/")
-        elif entry.suffix in (".yaml", ".yml", ".csv"):
+        elif entry.suffix in (*YAML_SUFFIXES, TRACE_SUFFIX):  # by name: the shell's Tab reads no file
             out.append(text)
     return out
 

@@ -26,6 +26,7 @@ from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
 from labsim.foundation.files import ALLOW_ENV, allow, os_words
+from labsim.foundation.kinds import file_kind
 from labsim.runtime.cli import commands
 from labsim.runtime.cli.commands import behaviour_files, parse_overrides, print_diagnostics
 from labsim.runtime.cli.parser import build_parser
@@ -131,7 +132,7 @@ def _strict(args: argparse.Namespace) -> None:
     if args.command == "test":
         files = behaviour_files(args.paths)
     elif args.command == "view":
-        files = [] if args.file.endswith(".csv") else [Path(args.file)]
+        files = [] if file_kind(args.file) in ("trace", "golden") else [Path(args.file)]
     else:
         files = [Path(f) for f in args.files]
     overrides = parse_overrides(args.set) if args.command == "view" else {}  # a sweep's --set is a grid

@@ -17,13 +17,11 @@ from typing import TYPE_CHECKING
 import pytest
 
 from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_text
-from labsim.runtime.golden import check_golden, golden_path, record_golden
+from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
+from labsim.runtime.golden import check_golden, record_golden
 
 if TYPE_CHECKING:
     from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
-
-BEHAVIOUR_SUFFIXES = (".yaml", ".yml")
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -34,11 +32,11 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
-    if file_path.suffix not in BEHAVIOUR_SUFFIXES:
+    if file_path.suffix not in YAML_SUFFIXES:
         return None
     if not golden_path(file_path).exists() and not _named(file_path, parent.config):
         return None
-    if not is_behaviour_file(file_path):
+    if file_kind(file_path) != "behaviour":  # world files and other YAML are not collected
         return None
     return BehaviourFile.from_parent(parent, path=file_path)
 
@@ -51,19 +49,6 @@ def _named(path: Path, config: pytest.Config) -> bool:
             candidate = config.invocation_params.dir / candidate
         if candidate.resolve() == path.resolve():
             return True
-    return False
-
-
-def is_behaviour_file(path: Path) -> bool:
-    """A behaviour file's first key is ``labsim:`` (its format version); world files and other
-    YAML start otherwise. Comments and blank lines before it are skipped."""
-    try:  # the one way in: a FIFO named *.yaml is skipped, not waited on
-        text = read_text(path, "behaviour")
-    except LabsimError:
-        return False
-    for line in text.splitlines():
-        if line.strip() and not line.lstrip().startswith("#"):
-            return line.startswith("labsim:")
     return False
 
 

@@ -25,8 +25,8 @@ import numpy as np
 from labsim.foundation.files import Output
 from labsim.runtime.pictures.mechanism_pose import draw_pose, mechanism_poses, slew_inset
 from labsim.runtime.pictures.paint import AA, INK, ONE, PAPER, SHIFT, Painter, darker, robot_colour
-from labsim.runtime.pictures.plot import render_figure, resolve_world
-from labsim.runtime.trace import Trace, TraceFormatError
+from labsim.runtime.pictures.plot import render_figure
+from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MAX_SECONDS = 30.0  # the default longest animation: a run longer than this plays faster
 FADE_S = 0.15  # the share of the run shown at full strength behind a robot; older path is pale
@@ -117,7 +117,7 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
 
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) -> Iterator[np.ndarray]:
     """RGB frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes)."""
-    world, note = resolve_world(trace)
+    world, note = trace_world(trace)
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
     P = Painter(width_px)
     mech = world.mechanism if world is not None else None

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_OK
 from labsim.foundation.files import check_output, write_output
-from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 
 if TYPE_CHECKING:
     import numpy as np
@@ -146,9 +146,7 @@ FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a w
 def _check_in_world(trace: Trace) -> None:
     """A map whose poses lie far outside the world would draw nothing visible: say so, with the
     first such row's line, instead (x = 1e308 in a damaged or edited trace)."""
-    from labsim.runtime.pictures.plot import resolve_world
-
-    world, _ = resolve_world(trace)
+    world, _ = trace_world(trace)
     x0, y0, x1, y1 = world.bounds if world is not None else (0.0, 0.0, 0.0, 0.0)
     xi, yi, ri = (trace.columns.index(c) if c in trace.columns else -1 for c in ("x", "y", "robot"))
     if xi < 0 or yi < 0:
@@ -166,13 +164,13 @@ def _check_in_world(trace: Trace) -> None:
 def _still(trace: Trace, out: Path, args: argparse.Namespace) -> None:
     import cv2
 
-    from labsim.runtime.pictures.plot import check_output, render_figure, resolve_world
+    from labsim.runtime.pictures.plot import check_output, render_figure
 
     try:
         check_output(out)
     except ValueError as e:
         raise _fail(str(out), str(e)) from None
-    world, note = resolve_world(trace)
+    world, note = trace_world(trace)
     fig = render_figure(trace, width_px=args.width or 1000, world=world, world_note=note)
     image = fig.image
     if getattr(args, "camera", None) is not None:

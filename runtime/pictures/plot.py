@@ -13,7 +13,6 @@ also writes the file.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,10 +20,9 @@ import cv2
 import numpy as np
 
 from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.world import World, builtin_worlds, first_road
-from labsim.backends.scene.world_file import load_world
-from labsim.foundation.diagnostics import LabsimError, Report
-from labsim.foundation.files import allowed_folders, policy_problem, write_output
+from labsim.backends.scene.world import World, first_road
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import write_output
 from labsim.runtime.pictures.map_frame import Figure, RobotPath, grid, legend
 from labsim.runtime.pictures.mechanism_pose import draw_run_mechanism, has_slew, slew_inset
 from labsim.runtime.pictures.paint import (
@@ -50,7 +48,7 @@ from labsim.runtime.pictures.paint import (
     robot_colour,
 )
 from labsim.runtime.pictures.road_panel import draw_road_panel, panel_height
-from labsim.runtime.trace import Trace, TraceFormatError, read_trace
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 
 MIN_WIDTH_PX = 400
 
@@ -114,41 +112,6 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
     return paths
 
 
-def resolve_world(trace: Trace) -> tuple[World | None, str]:
-    """The world the run used, and a note for the title when it can't be drawn.
-
-    The recorded file comes first (it is exactly what ran); a built-in of the same name is
-    the fallback, as a trace copied to another machine names a path that isn't there.
-    """
-    header = trace.header
-    name = str(header.get("world") or "")
-    candidates = []
-    wf = header.get("world_file")
-    if wf:
-        candidates.append(Path(wf))
-        if not Path(wf).is_absolute():
-            candidates.append(Path(trace.path).parent / wf)  # relative to where the trace lives
-    if name in builtin_worlds():
-        candidates.append(builtin_worlds()[name])
-    broken = ""
-    # docs/security.md: a world file the trace names is read only inside the trace's folder, the
-    # current one, or a folder --allow-path opened (a trace is a file someone may have sent)
-    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
-    for path in candidates:
-        refused = path not in builtin_worlds().values() and policy_problem(str(path), Path.cwd(), allowed)
-        if refused:
-            broken = f" ({path} {refused}; --allow-path DIR reads it)"
-        elif os.path.isfile(path):
-            world = load_world(path, Report())
-            if world is not None:
-                return world, ""
-            broken = f" ({path} has errors)"
-    if not name and not wf:
-        return None, "the trace names no world: drawn without walls"
-    what = f"world '{name}'" if name else f"world file {wf}"
-    return None, f"{what} not found{broken}: drawn without walls"
-
-
 # -- the layout --------------------------------------------------------------------------------
 
 def _extents(world: World | None, paths: list[RobotPath]) -> tuple[float, float, float, float]:
@@ -198,7 +161,7 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     if not isinstance(width_px, int) or width_px < MIN_WIDTH_PX:
         raise ValueError(f"plot width must be at least {MIN_WIDTH_PX} px (got {width_px})")
     if world is None and world_note is None:
-        world, world_note = resolve_world(trace)
+        world, world_note = trace_world(trace)
     world_note = world_note or ""
     paths = robot_paths(trace)
     events = _event_names(trace.header, paths)

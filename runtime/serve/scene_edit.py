@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Protocol
 
 from labsim.backends.coppeliasim import RUNNING, STOPPED
@@ -47,6 +48,8 @@ from labsim.backends.protocol import RobotRequest
 from labsim.backends.scene.ground import Ground, Texture
 from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import read_served
 from labsim.runtime.serve.built import Sensor, Shape
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
@@ -65,6 +68,7 @@ from labsim.runtime.serve.sim_api import (
     Handler,
     SimError,
     Wait,
+    shown,
     value_and_frame,
 )
 from labsim.runtime.serve.simulation import Client, Simulation
@@ -95,6 +99,7 @@ class Host(Protocol):
     simulation: Simulation
     dt_s: float
     log: Callable[[str], None]
+    folder: Path  # where it started: a client's relative path starts here
 
     def sim_handlers(self) -> dict[str, Handler]: ...
     def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None: ...
@@ -424,14 +429,14 @@ class SceneEditor:
 
         if len(args) < 3 or not isinstance(args[0], str):
             raise SimError(E_FEW if len(args) < 3 else E_ARGS)
-        try:
-            with open(args[0], "rb") as f:
-                png = f.read()
-        except OSError as e:
-            raise SimError(f"labsim serve: cannot read the texture '{args[0]}': {e.strerror}") from None
+        try:  # the one way in, kept to the folders a client may read (docs/security.md, "The server")
+            png = read_served(args[0], self.server.folder, "texture")
+        except LabsimError as e:
+            raise SimError(f"labsim serve: cannot read the texture '{shown(args[0])}': {e.diagnostics[0].message}") \
+                from None
         picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
         if picture is None:
-            raise SimError(f"labsim serve: the texture '{args[0]}' is not an image")
+            raise SimError(f"labsim serve: the texture '{shown(args[0])}' is not an image")
         sizes = floats(args[2], 2)
         height, width = picture.shape[:2]
         [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))

@@ -34,6 +34,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from labsim.backends.coppeliasim import DEFAULT_PORT, RUNNING, STOPPED
@@ -86,6 +87,8 @@ class Server:
         self.takeover_s = takeover_s
         self.budget_s = budget_s  # each request's time budget (wire_limits.Deadline)
         self.log = log or (lambda message: None)
+        self.folder = Path.cwd()  # a client's relative path starts here; it may read only here and
+        # in labsim scene's temporary folders and --allow-path folders (foundation/files.served_problem)
         self.messages = 0  # requests answered, for tests and the log
         self.simulation = Simulation(world, 0 if empty else robots, self.dt_s, self.log)
         self._sim_funcs = SimApi(self.simulation).handlers()

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import allowing, read_input, write_output
+from labsim.foundation.files import allowing, read_input, read_text, write_output
 from labsim.runtime.sweep.grid import COMPILE_ERROR, RUNTIME_ERROR, FileInfo, Row, Task, row_of, run_task
 
 CONNECT_TIMEOUT_S = 10.0
@@ -75,7 +75,7 @@ def run_bundled(task: Task, bundle: Bundle, deadline_s: float | None) -> dict[st
         result = _renamed(result, mapping)
         if result["result"] is not None and trace is not None:
             result["result"] = replace(result["result"], trace=task.trace)
-            text = Path(trace).read_text(encoding="utf-8")
+            text = read_text(trace, "trace")
             head, _, rest = text.partition("\n")
             for old, new in mapping:
                 head = head.replace(json.dumps(old)[1:-1], json.dumps(new)[1:-1])

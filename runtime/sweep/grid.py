@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from labsim.backends import DEFAULT, load_backend
-from labsim.backends.scene.world import BUILTIN_DIR
+from labsim.backends.scene.world_names import builtin_name
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
@@ -162,7 +162,7 @@ def inspect_files(files: list[str], settings: list[Setting],
             continue
         world = Path(program.world.source)
         out[f] = FileInfo(f, program.seed, tuple(program.params), tuple(program.metric_names),
-                          world_file="" if world.parent == BUILTIN_DIR or not world.is_file() else str(world))
+                          world_file="" if builtin_name(world) or not world.is_file() else str(world))
         usage += _check_values(f, settings, program.params)
     if usage:
         raise LabsimError(usage)

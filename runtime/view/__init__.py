@@ -12,23 +12,14 @@ import asyncio
 import os
 import sys
 from collections.abc import Callable
-from pathlib import Path
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import read_input
-from labsim.runtime.trace import MAGIC, TraceFormatError
+from labsim.foundation.kinds import file_kind
+from labsim.runtime.trace import TraceFormatError
 from labsim.runtime.view.session import Session
 
 DEFAULT_PORT = 8765
-
-
-def is_trace(path: str | Path) -> bool:
-    """Whether a file is a labsim trace (its first line), rather than a behaviour file."""
-    try:  # the one way in: a FIFO or a device is no trace (and reading it would block)
-        return read_input(path, "trace").startswith(MAGIC.encode())
-    except LabsimError:
-        return False
 
 
 def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backend: str = "pymunk",
@@ -89,7 +80,7 @@ def _session(path: str, overrides: dict[str, str], seed: int | None, backend: st
 
     if not os.path.lexists(path):  # anything else there is for the one way in to judge
         raise LabsimError([Diagnostic(path, "no such file")])
-    if is_trace(path):
+    if file_kind(path) in ("trace", "golden"):  # else a behaviour: its loader says what is wrong
         for flag, given in (("--set", overrides), ("--seed", seed is not None), ("--trace", trace)):
             if given:
                 raise LabsimError([Diagnostic(flag, f"a replayed trace takes no {flag}")])

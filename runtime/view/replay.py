@@ -1,8 +1,8 @@
 """A recorded trace on the same page: ``labsim view TRACE.csv``, with a time scrubber.
 
 ``ReplaySession`` reads a trace (``labsim.runtime.trace.read_trace``) and the world it names
-(as ``labsim plot`` finds it), and plays its rows back tick by tick at the speed the page
-sets; a ``seek`` message jumps to a tick. A frame holds what the trace recorded: every
+(``trace_world``, as ``labsim plot`` finds it), and plays its rows back tick by tick at the
+speed the page sets; a ``seek`` message jumps to a tick. A frame holds what the trace recorded: every
 robot's pose, state, rule and numeric columns. A trace holds no camera images and, of a
 mechanism, only its tracked body (the trace's x, y) and the slew angle (heading), so the rest
 of a mechanism is drawn as it stood at the start.
@@ -15,7 +15,7 @@ from typing import Any
 
 from labsim.backends.scene.models import MODELS
 from labsim.backends.scene.world import World
-from labsim.runtime.trace import Trace
+from labsim.runtime.trace import Trace, read_trace, trace_world
 from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
 from labsim.runtime.view.session import BadMessage, Session
 
@@ -148,9 +148,6 @@ def _num(row: list[str], index: dict[str, int], column: str) -> float | str | No
 
 def load_replay(path: str | Path, **session: Any) -> ReplaySession:
     """A replay of the trace at path; raises TraceFormatError for a damaged one."""
-    from labsim.runtime.pictures.plot import resolve_world
-    from labsim.runtime.trace import read_trace
-
     trace = read_trace(path)
-    world, note = resolve_world(trace)
+    world, note = trace_world(trace)
     return ReplaySession(trace, world, note, **session)

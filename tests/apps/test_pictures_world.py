@@ -17,10 +17,10 @@ from labsim.dsl import images
 from labsim.runtime.cli.main import main
 from labsim.runtime.pictures.camera_strip import shots
 from labsim.runtime.pictures.paint import PAPER, WALL, Painter, robot_colour
-from labsim.runtime.pictures.plot import render_figure, resolve_world, robot_paths
+from labsim.runtime.pictures.plot import render_figure, robot_paths
 from labsim.runtime.pictures.road_panel import draw_road_panel, road_curves
 from labsim.runtime.pictures.signals import chart_figure
-from labsim.runtime.trace import FORMAT, Trace, TraceWriter, read_trace
+from labsim.runtime.trace import FORMAT, Trace, TraceWriter, read_trace, trace_world
 
 ROAD = BEHAVIOURS / "road_follow.golden.csv"
 WALL_LAB = BEHAVIOURS / "wall_follow.golden.csv"
@@ -34,7 +34,7 @@ def cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
 
 
 def world_of(trace: Trace) -> World:
-    world, note = resolve_world(trace)
+    world, note = trace_world(trace)
     assert world is not None, note
     return world
 

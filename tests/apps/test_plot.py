@@ -11,8 +11,8 @@ from helpers import straight, write_trace
 
 from labsim.backends.scene.world import builtin_worlds
 from labsim.runtime.pictures.paint import robot_colour
-from labsim.runtime.pictures.plot import plot_trace, render_figure, resolve_world, robot_paths
-from labsim.runtime.trace import TraceFormatError, read_trace
+from labsim.runtime.pictures.plot import plot_trace, render_figure, robot_paths
+from labsim.runtime.trace import TraceFormatError, read_trace, trace_world
 
 
 def pixel(img: np.ndarray, fig, x: float, y: float) -> np.ndarray:
@@ -83,14 +83,14 @@ def test_robots_get_distinct_colours(tmp_path: Path) -> None:
 def test_builtin_world_when_the_recorded_file_is_gone(tmp_path: Path) -> None:
     trace = write_trace(tmp_path / "moved.csv", {"pioneer": straight(-5, -5, -1, -5)},
                         world_file="/no/such/dir/walls_lab4.yaml")
-    world, note = resolve_world(read_trace(trace))
+    world, note = trace_world(read_trace(trace))
     assert world is not None and world.name == "walls_lab4" and note == ""
 
 
 def test_unknown_world_is_drawn_without_walls(tmp_path: Path) -> None:
     trace = write_trace(tmp_path / "lost.csv", {"pioneer": straight(10, 10, 14, 12)},
                         world="atrium", world_file="/no/such/atrium.yaml")
-    world, note = resolve_world(read_trace(trace))
+    world, note = trace_world(read_trace(trace))
     assert world is None and "atrium" in note and "without walls" in note
     out = plot_trace(trace, tmp_path / "lost.png", width_px=600)
     img = cv2.imread(str(out))

@@ -22,11 +22,10 @@ import ast
 from pathlib import Path
 
 import pytest
-from helpers import ROOT
+from helpers import PACKAGE_DIRS, ROOT
 
 # the package: its top-level modules and its three folders (not tests, benchmarks, nor any
 # virtual environment or build folder that may sit in the checkout)
-PACKAGE_DIRS = ("foundation", "dsl", "runtime", "backends")
 RE_FUNCS = {"compile", "match", "fullmatch", "search", "sub", "subn", "split", "findall", "finditer"}
 ATTR_FUNCS = {"getattr", "setattr", "hasattr", "delattr"}
 

@@ -18,8 +18,7 @@ from labsim.dsl import images
 from labsim.dsl.compile import compile_file
 from labsim.foundation.diagnostics import Report
 from labsim.runtime.pictures.camera_strip import shots
-from labsim.runtime.pictures.plot import resolve_world
-from labsim.runtime.trace import read_trace
+from labsim.runtime.trace import read_trace, trace_world
 from labsim.runtime.view.frames import png_data_url
 
 ROAD = BEHAVIOURS / "road_follow.golden.csv"
@@ -69,7 +68,7 @@ def test_the_live_view_shows_images_upright(image: np.ndarray) -> None:
 
 def test_the_camera_strip_shows_frames_upright() -> None:
     trace = read_trace(ROAD)
-    world, note = resolve_world(trace)
+    world, note = trace_world(trace)
     assert world is not None, note
     camera, frames = shots(trace, "pioneer[0]", world)
     render = ground_camera(world.ground)
