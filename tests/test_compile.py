@@ -189,6 +189,18 @@ def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys
     assert out == p.code.listing + "\n" and len(lines) == len(p.code.source.splitlines()) + 1
 
 
+def test_each_generated_line_knows_the_file_line_it_comes_from() -> None:
+    p = compile_file(BEHAVIOURS / "wall_follow.yaml")
+    source = p.code.source.splitlines()
+    assert len(p.code.marks) == len(source)
+    marks = dict(zip((line.strip() for line in source), p.code.marks))
+    assert marks["elif (v11 <= 0.3):"] == 41 and marks["cmd[0] = 2.0"] == 41  # rule follow:2 and its action
+    assert marks["s[10] = v10 = (_nan if v4 != v4 or v3 != v3 else (v3 if v3 < v4 else v4))"] == 28  # ahead
+    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[3][0] = v"] == 51  # the stop condition, a metric
+    assert marks["def decide():"] == marks["v2 = s[2]"] == marks["rule = -1"] == 0  # plumbing
+    assert {p.code.marks[i] for i, line in enumerate(source) if line.startswith("#")} == {0}  # the header
+
+
 def test_show_code_on_a_file_with_errors_reports_them(capsys) -> None:
     assert main(["check", "--show-code", str(FIXTURES / "unknown_sensor_with_error.yaml")]) == 2
     out, err = capsys.readouterr()
