@@ -60,6 +60,8 @@ def evaluate(write, expr: str, params: str = "{a: 3, flag: true}"):
     ("detected(sonar3)", False),
     ("sonar3", math.inf),
     ("round(2.5) + floor(sonar2 + 0.5)", 4.0),
+    ("floor(-sonar3)", -math.inf),
+    ("-sign(sonar1 - 0.5)", -0.0),
 ])
 def test_expressions(write, expr: str, value: object) -> None:
     got, warnings = evaluate(write, expr)
@@ -76,6 +78,9 @@ def test_expressions(write, expr: str, value: object) -> None:
     ("log(sonar1 - 0.5)", -math.inf, None),
     ("(-sonar1) ** 0.5", math.nan, "a negative number to a fractional power"),
     ("10 ** (sonar2 * 400)", math.inf, "overflow in '**'"),
+    ("(-10) ** (sonar2 * 200 + 1)", -math.inf, "overflow in '**'"),
+    ("(-sonar1 * 1e-300) ** -2.5", math.nan, "a negative number to a fractional power"),
+    ("(sonar3 - sonar3) / (sonar1 - 0.5)", math.nan, "division by zero"),
     ("randint(sonar2, sonar1)", math.nan, "randint(): randint(2, 0.5) has no integer between its bounds"),
 ])
 def test_faults_have_defined_results_and_warn_once(write, expr: str, value: float, fault: str | None) -> None:
