@@ -128,4 +128,6 @@ def wrap(head: str, items: list[str], separator: str, width: int = 96) -> list[s
 
 def one_line(value: str) -> str:
     """A rule's text on one line, for a comment: whitespace runs and control characters as one space."""
-    return " ".join("".join(ch if ch.isprintable() else " " for ch in value).split())
+    if not value.isprintable():
+        value = "".join(ch if ch.isprintable() else " " for ch in value)
+    return " ".join(value.split())
