@@ -77,7 +77,7 @@ def _randint(rng: random.Random, a: float, b: float) -> float:
 
 
 def _sign(x: float) -> float:
-    return (x > 0) - (x < 0) if x == x else math.nan
+    return float((x > 0) - (x < 0)) if x == x else math.nan  # a float, as every number (-sign(0) is -0.0)
 
 
 def _clamp(x: float, lo: float, hi: float) -> float:
@@ -110,8 +110,16 @@ def _max(a: float, b: float, *rest: float) -> float:
     return m
 
 
+def _floor(x: float) -> float:
+    return x if x in (math.inf, -math.inf) else float(math.floor(x))  # an infinity is whole; nan raises
+
+
+def _ceil(x: float) -> float:
+    return x if x in (math.inf, -math.inf) else float(math.ceil(x))
+
+
 def _round(x: float) -> float:
-    return float(round(x))
+    return x if x in (math.inf, -math.inf) else float(round(x))
 
 
 def _log(x: float) -> float:
@@ -133,8 +141,8 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("atan2", (N, N), N, math.atan2, "atan2(y, x): angle of (x, y) in radians"),
     Function("exp", (N,), N, math.exp, "e to the power x"),
     Function("log", (N,), N, _log, "natural logarithm"),
-    Function("floor", (N,), N, lambda x: float(math.floor(x)), "largest integer <= x"),
-    Function("ceil", (N,), N, lambda x: float(math.ceil(x)), "smallest integer >= x"),
+    Function("floor", (N,), N, _floor, "largest integer <= x"),
+    Function("ceil", (N,), N, _ceil, "smallest integer >= x"),
     Function("round", (N,), N, _round, "nearest integer (halves to even)"),
     Function("sign", (N,), N, _sign, "-1, 0 or 1"),
     Function("deg", (N,), N, math.degrees, "radians to degrees"),

@@ -1,52 +1,43 @@
 """Checked behaviour to Python source: the code generator, after the checker.
 
-``generate`` lays out a robot's slots (``layout``) and writes one factory, ``make(...)``,
-which returns ``signals``, ``decide`` and ``both`` for one robot; it compiles that source once,
-and ``labsim.dsl.program`` runs the code object for each robot. A run evaluates the rules tens
-of thousands of times, and one generated function per tick phase costs almost nothing over a
-hand-written loop (a tree of closures cost 1.45x; see docs/decisions.md, section 3).
+``generate`` lays out a robot's slots (``labsim.dsl.layout``) and writes one factory,
+``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold`` for one robot; it
+compiles that source once, and ``labsim.dsl.program`` runs the code object for each robot. A
+run evaluates the rules tens of thousands of times, and one generated function per tick phase
+costs almost nothing over a hand-written loop (a tree of closures cost 1.45x; see
+docs/decisions.md, section 3).
 
 No user text reaches ``compile``: names become slot indices, numbers ``repr`` literals,
-operators come from the grammar's fixed set. Where a rule, signal or metric begins, the source
-has a marker comment (``#@7``); the ``listing`` is the same text with each marker replaced by
-the file's line and text (``# behaviours/wall_follow.yaml:23: if ahead <= front then ...``),
-so it lines up with the compiled code line for line: ``labsim check --show-code`` prints it,
-and tracebacks through generated functions show it.
-
-Over 500 lines: one generator class emits every form of the language (expressions, rules,
-metrics, bindings, the stop condition, memory) from one table of slots; split, each part
-would reach into the others' state.
+operators come from the grammar's fixed set; constants are folded (``labsim.dsl.fold``). The
+code is written through ``labsim.dsl.writer``, which keeps the indentation, the slots each
+piece reads and each line's source mark. Where a rule, signal or metric begins, the source has
+a marker comment (``#@7``); the ``listing`` is the same text with each marker replaced by the
+file's line and text (``# behaviours/wall_follow.yaml:23: if ahead <= front then ...``), so it
+lines up with the compiled code line for line: ``labsim check --show-code`` prints it, and
+tracebacks through generated functions show it.
 """
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
+from contextlib import nullcontext
 from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Any
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
 from labsim.dsl.check import Checked
+from labsim.dsl.fold import TOTAL, NotConstant, fold
+from labsim.dsl.layout import Layout, layout
 from labsim.dsl.program import Code, LabelPart
-from labsim.dsl.read import Parsed
+from labsim.dsl.read import RuleDecl
+from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
+from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
 
 INF = math.inf
-
-
-@dataclass(frozen=True)
-class Layout:
-    """Where each value lives in a robot's slots, and the joint targets in command order."""
-
-    slot_of: Mapping[str, int]  # time, tick, state, channels, signals, sliders -> slot
-    slot_count: int
-    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> text and (slot, format spec)
-    label_fields: tuple[tuple[int, str, Parsed], ...]  # slot, slider, the field's expression
-    targets: tuple[tuple[str, str], ...]  # (joint, "velocity" | "position")
 
 
 @dataclass(frozen=True)
@@ -62,70 +53,22 @@ def generate(checked: Checked, filename: str) -> Generated:
     """The behaviour's Python, compiled under ``filename``, with the layout it assumes."""
     slots = layout(checked)
     g = _Generator(checked, slots)
-    source, listing = g.module()
+    source, listing, marks = render(g.module())
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
-                tuple(sorted(g.functions)))
-    return Generated(slots, code, g.stop_horizon(), tuple(g.logs), g.stop_parts)
-
-
-def layout(c: Checked) -> Layout:
-    """Slots: time, tick, state, the channels, the signals, the sliders, then the label fields."""
-    slot_of = {"time": TIME, "tick": TICK, "state": STATE}
-    slot_of.update({name: FIRST_CHANNEL + i for i, name in enumerate(c.channels)})
-    for i, (name, _) in enumerate(c.lets):
-        slot_of[name] = FIRST_CHANNEL + len(c.channels) + i
-    sliders = [sl.name for sl in c.sliders]
-    base = FIRST_CHANNEL + len(c.channels) + len(c.lets) + len(sliders)
-    for k, name in enumerate(sliders):
-        slot_of[name] = base - len(sliders) + k
-    labels: list[tuple[str, tuple[LabelPart, ...]]] = []
-    fields: list[tuple[int, str, Parsed]] = []
-    for slider, parts in c.labels:
-        compiled: list[LabelPart] = []
-        for part in parts:
-            if isinstance(part, tuple):
-                slot = base + len(fields)
-                fields.append((slot, slider, part[0]))
-                compiled.append((slot, part[1]))
-            else:
-                compiled.append(part)
-        labels.append((slider, tuple(compiled)))
-    # joint targets set by bind: and by set_velocity/set_position, in a fixed order
-    targets: list[tuple[str, str]] = []
-    for b in c.binds:
-        if (b.joint, b.mode) not in targets:
-            targets.append((b.joint, b.mode))
-    for rules in c.states.values():
-        for r in rules:
-            for a in r.rule.actions:
-                if isinstance(a, ast.Action) and a.name in JOINT_ACTIONS:
-                    joint = a.args[0]
-                    assert isinstance(joint, ast.Name)
-                    if (joint.id, JOINT_ACTIONS[a.name]) not in targets:
-                        targets.append((joint.id, JOINT_ACTIONS[a.name]))
-    # per-tick variables and per-robot constants, only for behaviours that read them
-    count = base + len(fields)
-    per_robot = {name for own in c.robot_params.values() for name, _ in own}
-    for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
-        if name in c.used and name not in slot_of:
-            slot_of[name] = count
-            count += 1
-    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
-
-
-class _NotConstant(Exception):
-    pass
+                tuple(sorted(g.functions)), marks)
+    return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts)
 
 
 class _Generator:
-    """Checked AST to the Python source of ``signals()`` and ``decide()``.
+    """Checked AST to the Python source of ``signals()``, ``decide()``, ``fold()`` and ``both()``.
 
     Every expression is emitted fully parenthesised from a fixed set of forms: ``vN`` (slot N,
     read into a local once per function) for a sensor, signal or built-in variable, a literal
     made by ``repr`` of a number, an operator from the grammar's fixed set, ``_name(...)`` for
     a built-in function (the namespace maps it), and ``_gN(...)`` for an operation that can
     fault, bound to its site. Parameters and other constants are folded, so
-    ``time >= minutes * 60`` becomes ``(v0 >= 1500.0)``.
+    ``time >= minutes * 60`` becomes ``(v0 >= 1500.0)``. An expression records the slots it
+    reads in the writer it is written to.
     """
 
     def __init__(self, checked: Checked, slots: Layout):
@@ -133,146 +76,180 @@ class _Generator:
         self.layout = slots
         self.slot_of = slots.slot_of
         self.state_names = tuple(checked.states)
+        self.constants = _constants(checked, slots.slot_of)
         self.sites: list[tuple[str, FaultSite]] = []
-        self.used: set[int] = set()  # slots the function being generated reads
         self.functions: set[str] = set()  # built-ins called directly
-        self.notes: list[str] = []  # what each marker comment stands for in the listing
+        self.notes = Notes()  # the marker comments, in the order they are made
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
-        self.metric_lines: list[str] = []  # the metrics' folding, in decide()
-        self.fold_lines: list[str] = []  # and on the stopping tick, in fold(): all but durations
-        self.metric_used: set[int] = set()  # the slots it reads
         self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
 
-    def module(self) -> tuple[str, str]:
-        """The source of ``make(...)``, which returns ``signals``, ``decide`` and ``both``, and its listing.
+    def module(self) -> Body:
+        """``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold``.
 
         ``signals(time, tick, values)`` evaluates the signals and returns the stop condition;
         ``decide()`` picks and runs the rule and folds the metrics; ``both`` is the two in one
-        function for a run with a single robot, returning -2 when the run stops. Each reads
-        the values it uses into locals (v<slot>) once: the same rule reads the same sensor
-        several times, and a local costs a third of a slot read.
+        function for a run with a single robot, returning -2 when the run stops; ``fold``
+        folds the metrics on the stopping tick. Each reads the values it uses into locals
+        (v<slot>) once: the same rule reads the same sensor several times, and a local costs a
+        third of a slot read. Each piece is generated once, and guards and marker comments are
+        numbered in the order they are made: signals, stop condition, rules, metrics.
+
+        Over 60 lines: it writes the generated module top to bottom, four functions that share
+        their loads, and reads as the module it makes; split, the order of the output is lost.
         """
         c = self.c
         n = len(c.channels)
-        channel_slots = set(range(FIRST_CHANNEL, FIRST_CHANNEL + n))
-        let_slots = {self.slot_of[name] for name, _ in c.lets}
-        unpack = [", ".join(f"v{i}" for i in sorted(channel_slots)) + ", = values"] if n else []
-        self.used = set()
-        lets: list[str] = self.state_clock()
-        clock_slots = {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
-        let_slots |= clock_slots
+        channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n))
+        computed = {self.slot_of[name] for name, _ in c.lets}
+        computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
+        signals, stop_note, stop = self.signals()
+        rules, metrics = self.decide()
+        metric_reads = frozenset().union(*(m.reads for m in metrics))
+        decide_reads = rules.reads | metric_reads
+        signal_loads = signals.reads - channels - computed - {TIME, TICK}
+        w = Writer()
+        for text in self.header():
+            w.comment(self.notes.add(one_line(text)))
+        w.line(f"def make({', '.join(self.params())}):")
+        with w.indent():
+            w.line("def signals(v0, v1, values):")
+            with w.indent():
+                w.line("s[0] = v0")
+                w.line("s[1] = v1")
+                if n:
+                    w.line(f"s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}] = values")
+                _unpack(w, channels)
+                _loads(w, signal_loads)
+                w.insert(signals)
+                with w.source(stop_note):
+                    w.line(f"return {stop}")
+            w.line()
+            w.line("def decide():")
+            with w.indent():
+                _loads(w, decide_reads)
+                w.insert(rules)
+                for metric in metrics:
+                    w.insert(metric)
+                w.line("return rule")
+            w.line()
+            w.line("def fold(v0, v1, values):")
+            with w.indent():
+                _unpack(w, channels)
+                _loads(w, metric_reads - channels - {TIME, TICK})
+                for metric, m in zip(metrics, c.metrics):
+                    if m.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
+                        w.insert(metric)
+                w.line("return None")
+            w.line()
+            w.line("def both(v0, v1, values):")
+            with w.indent():
+                _unpack(w, channels)
+                _loads(w, signal_loads)
+                w.insert(signals)
+                with w.source(stop_note):
+                    w.line(f"if {stop}:")
+                    with w.indent():
+                        w.line("return -2")
+                _loads(w, decide_reads - channels - computed - {TIME, TICK} - signal_loads)
+                w.insert(rules)
+                for metric in metrics:
+                    w.insert(metric)
+                w.line("return rule")
+            w.line("return signals, decide, both, fold")
+        return w.body()
+
+    def params(self) -> list[str]:
+        """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
+        return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
+                "_radius", "_half_axle", "_st", "_held", *("_" + f for f in sorted(self.functions)),
+                *(f"_g{i}" for i in range(len(self.sites)))]
+
+    def signals(self) -> tuple[Body, Note, str]:
+        """The state clock, the signals and the label fields; the stop condition's note and expression.
+
+        The body's reads include the stop condition's: signals() and both() load them before it.
+        """
+        c = self.c
+        w = Writer()
+        self.state_clock(w)
         for name, parsed in c.lets:
             slot = self.slot_of[name]
-            lets += [self.note(parsed.text, f"{name}: "),
-                     f"s[{slot}] = v{slot} = " + self.expr(parsed.node, parsed.text, "signal " + repr(name))]
+            with w.source(self.note(parsed.text, f"{name}: ")):
+                w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
         for slot, slider, parsed in self.layout.label_fields:
-            lets += [self.note(parsed.text, f"label of {slider}: "),
-                     f"s[{slot}] = {self.expr(parsed.node, parsed.text, 'a label')}"]
+            with w.source(self.note(parsed.text, f"label of {slider}: ")):
+                w.line(f"s[{slot}] = {self.expr(w, parsed.node, parsed.text, 'a label')}")
         assert c.file.stop is not None
-        stop_note = self.note(c.file.stop.text, "stop: ")
-        stop = self.stop_condition()
-        signal_loads = self.loads(self.used - channel_slots - let_slots - {TIME, TICK})
-        self.used = set()
-        rules = self.decide()
-        decide_used = self.used
-        out = (["def signals(v0, v1, values):", "    s[0] = v0", "    s[1] = v1"]
-               + ([f"    s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}] = values"] if n else [])
-               + ["    " + line for line in unpack] + signal_loads
-               + ["    " + line for line in lets] + ["    " + stop_note, f"    return {stop}", ""])
-        out += ["def decide():"] + self.loads(decide_used) + ["    " + line for line in rules] + [""]
-        out += (["def fold(v0, v1, values):"] + ["    " + line for line in unpack]
-                + self.loads(self.metric_used - channel_slots - {TIME, TICK})
-                + ["    " + line for line in self.fold_lines] + ["    return None", ""])
-        out += (["def both(v0, v1, values):"] + ["    " + line for line in unpack] + signal_loads
-                + ["    " + line for line in lets] + ["    " + stop_note, f"    if {stop}:", "        return -2"]
-                + self.loads(decide_used - channel_slots - let_slots - {TIME, TICK} - self.loaded(signal_loads))
-                + ["    " + line for line in rules])
-        params = ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                  "_radius", "_half_axle", "_st", "_held"]
-        params += ["_" + f for f in sorted(self.functions)]
-        params += [f"_g{i}" for i in range(len(self.sites))]
-        text = "\n".join("    " + line if line else "" for line in out)
-        header = [self.mark(note) for note in self.header()]
-        source = ("\n".join(header) + f"\ndef make({', '.join(params)}):\n{text}\n"
-                  "    return signals, decide, both, fold\n")
-        return source, _MARKER.sub(lambda m: m.group(1) + "# " + self.notes[int(m.group(2))], source)
+        note = self.note(c.file.stop.text, "stop: ")
+        stop = self.stop_condition(w)
+        return w.body(), note, stop
 
-    def state_clock(self) -> list[str]:
+    def state_clock(self, w: Writer) -> None:
         """``state_time`` and ``entered``, when read: _st holds the state and the tick it was entered on."""
         if not any(name in self.slot_of for name in STATE_CLOCK):
-            return []
-        out = [f"if s[{STATE}] != _st[0]:", f"    _st[0] = s[{STATE}]", f"    _st[1] = v{TICK}"]
+            return
+        w.line(f"if s[{STATE}] != _st[0]:")
+        with w.indent():
+            w.line(f"_st[0] = s[{STATE}]")
+            w.line(f"_st[1] = v{TICK}")
         if "state_time" in self.slot_of:
             k = self.slot_of["state_time"]
-            out.append(f"s[{k}] = v{k} = (v{TICK} - _st[1]) * {self.c.file.dt_s!r}")
+            w.line(f"s[{k}] = v{k} = (v{TICK} - _st[1]) * {self.c.file.dt_s!r}")
         if "entered" in self.slot_of:
             k = self.slot_of["entered"]
-            out.append(f"s[{k}] = v{k} = v{TICK} == _st[1]")
-        return out
+            w.line(f"s[{k}] = v{k} = v{TICK} == _st[1]")
 
-    @staticmethod
-    def loaded(loads: list[str]) -> set[int]:
-        return {int(line.split("=")[0].strip()[1:]) for line in loads}
-
-    @staticmethod
-    def loads(slots: set[int]) -> list[str]:
-        return [f"    v{i} = s[{i}]" for i in sorted(slots)]
-
-    def decide(self) -> list[str]:
+    def decide(self) -> tuple[Body, list[Body]]:
+        """The bindings and the rules, which set ``rule``; each metric's folding of the tick."""
         c = self.c
-        out = []
+        w = Writer()
         # bindings first: a rule's set_velocity/set_position can override one for a tick
         for b in c.binds:
             k = self.layout.targets.index((b.joint, b.mode))
-            out.append(self.note(b.expr.text, f"{b.joint}.{b.mode}: "))
-            out.append(f"jc[{k}] = {self.expr(b.expr.node, b.expr.text, 'the binding of ' + b.joint)}")
+            with w.source(self.note(b.expr.text, f"{b.joint}.{b.mode}: ")):
+                w.line(f"jc[{k}] = {self.expr(w, b.expr.node, b.expr.text, 'the binding of ' + b.joint)}")
         states = list(c.states.values())
-        index = 0
         if not states:
-            out.append("rule = -1")
+            w.line("rule = -1")
+        index = 0
         for k, rules in enumerate(states):
-            indent = ""
             if len(states) > 1:
-                self.used.add(STATE)
-                out.append(f"{'if' if k == 0 else 'elif'} v{STATE} == {k}:")
-                indent = "    "
-            has_default = False
-            for n, r in enumerate(rules):
-                where = f"rule {r.state}:{r.number}"
-                out.append(indent + self.note(r.text, f"{where}: "))
-                if r.rule.condition is None:
-                    out.append(f"{indent}{'else:' if n else 'if True:'}")
-                    has_default = True
-                else:
-                    test = self.expr(r.rule.condition, r.text, where)
-                    out.append(f"{indent}{'elif' if n else 'if'} {test}:")
-                out += [f"{indent}    {line}" for line in self.actions(r.rule.actions, r.text, where)]
-                out.append(f"{indent}    rule = {index}")
-                index += 1
-                if has_default:
-                    index += len(rules) - n - 1  # the checker refused rules after it
-                    break
-            if not has_default:
-                out.append(f"{indent}else:")
-                out.append(f"{indent}    rule = -1")
+                w.read(STATE)
+                w.line(f"{'if' if k == 0 else 'elif'} v{STATE} == {k}:")
+            with w.indent() if len(states) > 1 else nullcontext():
+                index = self.state_rules(w, rules, index)
         if len(states) > 1:
-            out.append("else:")
-            out.append("    rule = -1")
-        used, self.used = self.used, set()
+            w.line("else:")
+            with w.indent():
+                w.line("rule = -1")
+        metrics = []
         for i, metric in enumerate(c.metrics):
-            e = self.expr(metric.expr, metric.text, f"metric {metric.name!r}")
-            lines = [self.note(metric.text, f"{metric.name}: ")]
-            lines += METRIC_CODE[metric.aggregate].format(e=e, i=i).splitlines()
-            self.metric_lines += lines
-            if metric.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
-                self.fold_lines += lines
-        self.metric_used = set(self.used)
-        self.used |= used
-        out += self.metric_lines
-        out.append("return rule")
-        return out
+            m = Writer()
+            with m.source(self.note(metric.text, f"{metric.name}: ")):
+                _fold_metric(m, metric.aggregate, self.expr(m, metric.expr, metric.text, f"metric {metric.name!r}"), i)
+            metrics.append(m.body())
+        return w.body(), metrics
 
-    def stop_condition(self) -> str:
+    def state_rules(self, w: Writer, rules: list[RuleDecl], index: int) -> int:
+        """One state's rules, an if/elif chain that sets ``rule``; the index of the next state's first rule."""
+        for n, r in enumerate(rules):
+            where = f"rule {r.state}:{r.number}"
+            with w.source(self.note(r.text, f"{where}: ")):
+                if r.rule.condition is None:
+                    w.line("else:" if n else "if True:")
+                else:
+                    w.line(f"{'elif' if n else 'if'} {self.expr(w, r.rule.condition, r.text, where)}:")
+                with w.indent():
+                    self.actions(w, r.rule.actions, r.text, where)
+                    w.line(f"rule = {index + n}")
+            if r.rule.condition is None:
+                return index + len(rules)  # the checker refused rules after it
+        w.line("else:")
+        with w.indent():
+            w.line("rule = -1")
+        return index + len(rules)
+
+    def stop_condition(self, w: Writer) -> str:
         """The stop condition, each of its top-level ``or`` parts reporting itself when it holds.
 
         ``_held(k)`` records part k and returns True; it runs only on the tick the run stops.
@@ -281,16 +258,16 @@ class _Generator:
         assert stop is not None
         parts = _or_parts(stop.node)
         if len(parts) == 1:  # the summary names the whole condition
-            return self.expr(stop.node, stop.text, "the stop condition")
+            return self.expr(w, stop.node, stop.text, "the stop condition")
         self.stop_parts = tuple(" ".join(stop.text.value[p.span[0]:p.span[1]].split()) for p in parts)
-        return " or ".join(f"({self.expr(p, stop.text, 'the stop condition')} and _held({k}))"
+        return " or ".join(f"({self.expr(w, p, stop.text, 'the stop condition')} and _held({k}))"
                            for k, p in enumerate(parts))
 
-    def actions(self, actions: tuple, text: Text, where: str) -> list[str]:
-        lines = []
+    def actions(self, w: Writer, actions: tuple, text: Text, where: str) -> None:
+        x = lambda arg: self.expr(w, arg, text, where)  # noqa: E731
         for action in actions:
             if isinstance(action, ast.Goto):
-                lines.append(f"cmd[2] = {self.state_names.index(action.state)}")
+                w.line(f"cmd[2] = {self.state_names.index(action.state)}")
             elif action.name == "log":
                 # the runtime formats, prints and traces it (events: ints are metrics, tuples logs)
                 assert action.text is not None
@@ -299,46 +276,40 @@ class _Generator:
                 for part in action.text:
                     if isinstance(part, tuple):
                         parts.append((len(values), part[1]))
-                        values.append(self.expr(part[0], text, where))
+                        values.append(x(part[0]))
                     else:
                         parts.append(part)
                 self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
-                lines.append(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
+                w.line(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)
                 k = self.layout.targets.index((joint.id, JOINT_ACTIONS[action.name]))
-                lines.append(f"jc[{k}] = {self.expr(action.args[1], text, where)}")
+                w.line(f"jc[{k}] = {x(action.args[1])}")
             elif action.name == "stop":
-                lines.append("cmd[0] = cmd[1] = 0.0")
+                w.line("cmd[0] = cmd[1] = 0.0")
             elif action.name == "move":
-                lines.append(f"cmd[0] = cmd[1] = {self.expr(action.args[0], text, where)}")
+                w.line(f"cmd[0] = cmd[1] = {x(action.args[0])}")
             elif action.name == "drive":
                 # v m/s and w rad/s to wheel rad/s: (v -/+ w * axle / 2) / wheel radius
-                lines.append(f"_v = {self.expr(action.args[0], text, where)}")
-                lines.append(f"_w = {self.expr(action.args[1], text, where)}")
-                lines.append("cmd[0] = (_v - _w * _half_axle) / _radius")
-                lines.append("cmd[1] = (_v + _w * _half_axle) / _radius")
+                w.line(f"_v = {x(action.args[0])}")
+                w.line(f"_w = {x(action.args[1])}")
+                w.line("cmd[0] = (_v - _w * _half_axle) / _radius")
+                w.line("cmd[1] = (_v + _w * _half_axle) / _radius")
             else:
                 assert action.name in ("arc", "wheels")
-                lines.append(f"cmd[0] = {self.expr(action.args[0], text, where)}")
-                lines.append(f"cmd[1] = {self.expr(action.args[1], text, where)}")
-        return lines
+                w.line(f"cmd[0] = {x(action.args[0])}")
+                w.line(f"cmd[1] = {x(action.args[1])}")
 
     def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
         self.sites.append((kind, FaultSite(where, text.diagnostic(span[0], span[1], ""))))
         return f"_g{len(self.sites) - 1}"
 
     # -- the listing's comments --------------------------------------------------------------
-    def mark(self, note: str) -> str:
-        """A marker comment for the source; the listing shows ``note`` in its place."""
-        self.notes.append(_one_line(note))
-        return f"#@{len(self.notes) - 1}"
-
-    def note(self, text: Text, label: str) -> str:
-        """A marker for the file's line and text of a rule, signal or metric."""
+    def note(self, text: Text, label: str) -> Note:
+        """The marker comment for a rule, signal or metric: the file's line and its text."""
         line = text.doc.position(text.index(0))[0]
-        return self.mark(f"{text.doc.path}:{line}: {label}{_one_line(text.value)}")
+        return self.notes.add(one_line(f"{text.doc.path}:{line}: {label}{one_line(text.value)}"), line)
 
     def header(self) -> list[str]:
         """The listing's opening comments: what this is, and which slot holds which name."""
@@ -348,87 +319,24 @@ class _Generator:
         guards = [f"_g{i} {kind} in {site.where}" for i, (kind, site) in enumerate(self.sites)]
         out = [f"Python compiled from {self.c.file.path} by labsim: make() binds it to one robot,",
                "signals() and decide() (or both() for a single robot) run each tick.",
-               *_wrap("Slots s[N], read into locals vN: ", slots, ", ")]
+               *wrap("Slots s[N], read into locals vN: ", slots, ", ")]
         if guards:
-            out += _wrap("Checked operations: ", guards, "; ")
+            out += wrap("Checked operations: ", guards, "; ")
         return out
 
-    # -- the stop condition's horizon -------------------------------------------------------
-    def stop_horizon(self) -> float | None:
-        """Sim time at which the stop condition surely holds, when it says so plainly.
-
-        ``time >= minutes * 60`` or ``... or tick >= 30000`` give a horizon for the progress
-        bar; any other condition gives None (the bar then shows elapsed sim time only).
-        """
-        stop = self.c.file.stop
-        if stop is None:
-            return None
-        best = None
-        nodes = [stop.node]
-        while nodes:
-            e = nodes.pop()
-            if isinstance(e, ast.BoolOp) and e.op == "or":
-                nodes.extend(e.values)
-            elif isinstance(e, ast.Compare) and len(e.ops) == 1 and e.ops[0] in (">=", ">"):
-                left, right = e.operands
-                if isinstance(left, ast.Name) and left.id in ("time", "tick"):
-                    try:
-                        value = self.fold(right)
-                    except _NotConstant:
-                        continue
-                    if isinstance(value, (int, float)) and not isinstance(value, bool):
-                        seconds = float(value) * (self.c.file.dt_s if left.id == "tick" else 1.0)
-                        best = seconds if best is None else min(best, seconds)
-        return best
-
     # -- expressions -------------------------------------------------------------------------
-    def expr(self, e: ast.Expr, text: Text, where: str) -> str:
+    def expr(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
+        """Python for ``e``, written into ``w``: its slots are recorded there."""
         try:
-            return _literal(self.fold(e))
-        except _NotConstant:
-            return self.emit(e, text, where)
+            return _literal(fold(e, self.constants))
+        except NotConstant:
+            return self.emit(w, e, text, where)
 
-    def fold(self, e: ast.Expr) -> object:
-        """The value of a subtree that reads nothing at run time; _NotConstant otherwise."""
-        if isinstance(e, (ast.Number, ast.Bool)):
-            return e.value
-        if isinstance(e, ast.Name):
-            if e.id in self.c.params and e.id not in self.slot_of:  # a robot's own value has a slot
-                return self.c.params[e.id]
-            if e.id in CONSTANTS:
-                return CONSTANTS[e.id]
-            if e.id == "dt":
-                return self.c.file.dt_s
-            if e.id in self.state_names and e.id not in self.slot_of:
-                return self.state_names.index(e.id)
-            raise _NotConstant
-        try:
-            if isinstance(e, ast.Neg):
-                operand: Any = self.fold(e.operand)
-                return -operand
-            if isinstance(e, ast.Not):
-                return not self.fold(e.operand)
-            if isinstance(e, ast.Binary):
-                return _BINARY[e.op](self.fold(e.left), self.fold(e.right))
-            if isinstance(e, ast.Compare):
-                values = [self.fold(o) for o in e.operands]
-                return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
-            if isinstance(e, ast.BoolOp):
-                values = [self.fold(v) for v in e.values]
-                return all(values) if e.op == "and" else any(values)
-            if isinstance(e, ast.IfExp):
-                return self.fold(e.body) if self.fold(e.test) else self.fold(e.orelse)
-            if isinstance(e, ast.Call) and e.func in _FOLDABLE:
-                return FUNCTIONS[e.func].resolve()(*(self.fold(a) for a in e.args))
-        except (ArithmeticError, ValueError, TypeError):
-            raise _NotConstant from None  # leave it to run time, where it warns at its site
-        raise _NotConstant
-
-    def emit(self, e: ast.Expr, text: Text, where: str) -> str:
-        x = lambda sub: self.expr(sub, text, where)  # noqa: E731
+    def emit(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
+        x = lambda sub: self.expr(w, sub, text, where)  # noqa: E731
         if isinstance(e, ast.Name):
             slot = self.slot_of[e.id]
-            self.used.add(slot)
+            w.read(slot)
             # the runtime counts ticks in ints; the language's numbers are floats, so that
             # tick * tick * ... overflows to inf rather than to an int no float can hold
             return f"(v{slot} + 0.0)" if slot == TICK else f"v{slot}"
@@ -454,35 +362,35 @@ class _Generator:
             index = FIELDS[self.c.node_types[id(e.value)]][e.attr][0]
             return f"{x(e.value)}[{index}]"
         if isinstance(e, ast.Call):
-            return self.call(e, text, where)
+            return self.call(w, e, text, where)
         raise AssertionError(f"cannot compile {e!r}")
 
     def nonzero(self, e: ast.Expr) -> bool:
         """Whether an expression is a constant number other than zero (a divisor needing no guard)."""
         try:
-            value = self.fold(e)
-        except _NotConstant:
+            value = fold(e, self.constants)
+        except NotConstant:
             return False
         return isinstance(value, (int, float)) and value != 0
 
-    def call(self, e: ast.Call, text: Text, where: str) -> str:
+    def call(self, w: Writer, e: ast.Call, text: Text, where: str) -> str:
         if e.func == DETECTED:
             assert isinstance(e.args[0], ast.Name)
-            return f"({self.emit(e.args[0], text, where)} < _inf)"
-        parts = [self.expr(a, text, where) for a in e.args]
+            return f"({self.emit(w, e.args[0], text, where)} < _inf)"
+        parts = [self.expr(w, a, text, where) for a in e.args]
         if e.func in ("min", "max") and len(parts) <= 3 and all(_PLAIN.match(p) for p in parts):
             return _extreme(e.func, parts)
         args = ", ".join(parts)
         if e.func == "randint":
             try:
-                lo, hi = (self.fold(a) for a in e.args)
-            except _NotConstant:
+                lo, hi = (fold(a, self.constants) for a in e.args)
+            except NotConstant:
                 pass
             else:
                 if (isinstance(lo, (int, float)) and isinstance(hi, (int, float)) and abs(lo) <= WHOLE_LIMIT
                         and abs(hi) <= WHOLE_LIMIT and float(lo).is_integer() and float(hi).is_integer() and lo <= hi):
                     return f"_randint({int(lo)}, {int(hi)})"
-        if e.func in _TOTAL and not FUNCTIONS[e.func].uses_rng:
+        if e.func in TOTAL and not FUNCTIONS[e.func].uses_rng:
             self.functions.add(e.func)
             return f"_{e.func}({args})"
         if e.func in ("random", "uniform", "gauss"):
@@ -490,7 +398,64 @@ class _Generator:
         return f"{self.site(e.func, text, e.span, where)}({args})"
 
 
-_MARKER = re.compile(r"^( *)#@(\d+)$", re.MULTILINE)
+def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:
+    """The names folded into literals: parameters every robot shares, constants, dt, states."""
+    out: dict[str, object] = {}
+    for name, value in c.params.items():
+        if name not in slot_of:  # a robot's own value has a slot
+            out[name] = value
+    for name, number in CONSTANTS.items():
+        out.setdefault(name, number)
+    out.setdefault("dt", c.file.dt_s)
+    for k, name in enumerate(c.states):
+        if name not in slot_of:
+            out.setdefault(name, k)
+    return out
+
+
+def _unpack(w: Writer, channels: frozenset[int]) -> None:
+    """The tick's channel values into their locals."""
+    if channels:
+        w.line(", ".join(f"v{i}" for i in sorted(channels)) + ", = values")
+
+
+def _loads(w: Writer, slots: frozenset[int] | set[int]) -> None:
+    """Slots into their locals, once per function."""
+    for i in sorted(slots):
+        w.line(f"v{i} = s[{i}]")
+
+
+def _fold_metric(w: Writer, aggregate: Aggregate, e: str, i: int) -> None:
+    """How a metric folds its value ``e`` into its accumulator ``m[i]`` (support.initial_accumulator)."""
+    m = f"m[{i}]"
+    if aggregate is Aggregate.DURATION:
+        w.line(f"if {e}:")
+        with w.indent():
+            w.line(f"{m}[0] += 1")
+        return
+    if aggregate is Aggregate.FINAL:
+        w.line(f"{m}[0] = {e}")
+        return
+    w.line(f"v = {e}")
+    if aggregate is Aggregate.COUNT:  # rising edges; `events` gets the metric's index
+        w.line(f"if v and not {m}[1]:")
+        with w.indent():
+            w.line(f"{m}[0] += 1")
+            w.line(f"events.append({i})")
+        w.line(f"{m}[1] = v")
+        return
+    test, update = {
+        Aggregate.MEAN: ("-_inf < v < _inf", (f"{m}[0] += v", f"{m}[1] += 1")),
+        Aggregate.RMS: ("-_inf < v < _inf", (f"{m}[0] += v * v", f"{m}[1] += 1")),
+        Aggregate.MAXIMUM: (f"{m}[0] < v < _inf", (f"{m}[0] = v",)),
+        Aggregate.MINIMUM: (f"-_inf < v < {m}[0]", (f"{m}[0] = v",)),
+    }[aggregate]
+    w.line(f"if {test}:")
+    with w.indent():
+        for line in update:
+            w.line(line)
+
+
 # A slot's local or a plain literal: safe to name more than once in an expression.
 _PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
 
@@ -513,23 +478,6 @@ def _extreme(func: str, parts: list[str]) -> str:
     return f"(_nan if {nan} else {m})"
 
 
-def _wrap(head: str, items: list[str], separator: str, width: int = 96) -> list[str]:
-    """``head`` and the items, separated, in lines of at most ``width`` that break between items."""
-    lines = [head.rstrip()]
-    for k, item in enumerate(items):
-        item += separator.rstrip() if k < len(items) - 1 else "."
-        if len(lines[-1]) + 1 + len(item) > width:
-            lines.append(item)
-        else:
-            lines[-1] += " " + item
-    return lines
-
-
-def _one_line(value: str) -> str:
-    """A rule's text on one line, for a comment: whitespace runs and control characters as one space."""
-    return " ".join("".join(ch if ch.isprintable() else " " for ch in value).split())
-
-
 def _literal(value: object) -> str:
     if isinstance(value, bool):
         return "True" if value else "False"
@@ -543,48 +491,8 @@ def _literal(value: object) -> str:
     return repr(value) if value >= 0 else f"({value!r})"
 
 
-# folded values are numbers and booleans, which the checker has typed: Any, not object
-_BINARY: dict[str, Callable[[Any, Any], Any]] = {
-    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
-    "/": lambda a, b: a / b, "%": lambda a, b: a % b,
-    "**": lambda a, b: _real(a ** b),
-}
-_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
-    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
-    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,
-}
-
-
-def _real(value: object) -> object:
-    if isinstance(value, complex):
-        raise ValueError("complex result")
-    return value
-
-
-# How each aggregate folds its value in decide() (accumulators: support.initial_accumulator);
-# `events` gets the metric's index.
 def _or_parts(e: ast.Expr) -> list[ast.Expr]:
     """``a or (b or c)`` as [a, b, c]: the conditions a summary can name as the one that held."""
     if isinstance(e, ast.BoolOp) and e.op == "or":
         return [part for value in e.values for part in _or_parts(value)]
     return [e]
-
-
-METRIC_CODE = {
-    Aggregate.COUNT: "v = {e}\nif v and not m[{i}][1]:\n    m[{i}][0] += 1\n    events.append({i})\nm[{i}][1] = v",
-    Aggregate.DURATION: "if {e}:\n    m[{i}][0] += 1",
-    Aggregate.MEAN: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v\n    m[{i}][1] += 1",
-    Aggregate.MAXIMUM: "v = {e}\nif m[{i}][0] < v < _inf:\n    m[{i}][0] = v",
-    Aggregate.MINIMUM: "v = {e}\nif -_inf < v < m[{i}][0]:\n    m[{i}][0] = v",
-    Aggregate.RMS: "v = {e}\nif -_inf < v < _inf:\n    m[{i}][0] += v * v\n    m[{i}][1] += 1",
-    Aggregate.FINAL: "m[{i}][0] = {e}",
-}
-
-# Functions that return a value for every argument (inf and nan included): called directly.
-# The others may raise (sqrt(-1), log(-1), floor(inf), exp(1000), randint(3, 2), crop outside
-# the image) and go through a guard that turns the exception into a defined result and a
-# warning; centroid and pid have guards of their own.
-_TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "atan2",
-                    "sign", "deg", "rad", "random", "uniform", "gauss",
-                    "gray", "threshold", "invert", "area", "width", "height"})
-_FOLDABLE = frozenset(f for f in _TOTAL if callable(FUNCTIONS[f].impl) and not FUNCTIONS[f].uses_rng)

@@ -71,6 +71,7 @@ class Code:
     compiled: CodeType
     sites: tuple[tuple[str, FaultSite], ...]  # guard _gN: the operation it checks and where it is
     functions: tuple[str, ...]  # built-ins the code calls directly, bound as _<name>
+    marks: tuple[int, ...] = ()  # per line of the source: the behaviour file's line it comes from, 0 for none
 
 
 @dataclass(frozen=True)

@@ -5,12 +5,16 @@ What is seen before the run, and no more: a condition whose value is known (``st
 ``tick`` (never negative) with a value known before the run that no time reaches
 (``time < 0``, ``tick <= -1``, ``0 > time``); ``and`` fails when one part never holds, ``or``
 when every part never holds. A condition that merely takes long (``time >= 1e9``) is left to
-the tick budget (``labsim.foundation.limits.Budgets.ticks``).
+the tick budget (``labsim.foundation.limits.Budgets.ticks``). ``stop_horizon`` reads the
+other side of it: when the condition surely holds, for the progress bar.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from labsim.dsl import ast
 from labsim.dsl.check import Checked
+from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.lint import Linter
 from labsim.foundation.diagnostics import Report
 
@@ -60,3 +64,32 @@ def _clock_never(op: str, left: ast.Expr, right: ast.Expr, linter: Linter) -> st
         return None
     never = (op == "<" and bound <= 0) or (op in ("<=", "==") and bound < 0)
     return f"'{left.id}' is never below 0" if never else None
+
+
+def stop_horizon(c: Checked, constants: Mapping[str, object]) -> float | None:
+    """Sim time at which the stop condition surely holds, when it says so plainly.
+
+    ``time >= minutes * 60`` or ``... or tick >= 30000`` give a horizon for the progress bar;
+    any other condition gives None (the bar then shows elapsed sim time only). ``constants``
+    are the names the code generator folds (``labsim.dsl.fold``).
+    """
+    stop = c.file.stop
+    if stop is None:
+        return None
+    best = None
+    nodes = [stop.node]
+    while nodes:
+        e = nodes.pop()
+        if isinstance(e, ast.BoolOp) and e.op == "or":
+            nodes.extend(e.values)
+        elif isinstance(e, ast.Compare) and len(e.ops) == 1 and e.ops[0] in (">=", ">"):
+            left, right = e.operands
+            if isinstance(left, ast.Name) and left.id in CLOCKS:
+                try:
+                    value = fold(right, constants)
+                except NotConstant:
+                    continue
+                if isinstance(value, (int, float)) and not isinstance(value, bool):
+                    seconds = float(value) * (c.file.dt_s if left.id == "tick" else 1.0)
+                    best = seconds if best is None else min(best, seconds)
+    return best

@@ -6,8 +6,8 @@ calls the built-ins through the names ``namespace`` binds, and sends every opera
 fault through a ``guard`` bound to its ``FaultSite``. ``labsim.dsl.program`` binds all of it to
 one robot; the runtime reads the metric accumulators back with ``metric_result``.
 
-Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 is
-nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power inf. Each
+Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 and
+nan/0 are nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power ±inf. Each
 produces a warning naming the site and the tick, through ``Faults``: the first at each site at
 once, the rest counted for the summary.
 """
@@ -176,7 +176,7 @@ def _divide(report: Callable[[str], None]) -> Callable[[float, float], float]:
             return x / y
         except ZeroDivisionError:
             report("division by zero")
-            return math.copysign(INF, x) if x else math.nan
+            return math.copysign(INF, x) if x and x == x else math.nan  # 0 / 0 and nan / 0 are nan
     return divide
 
 
@@ -192,18 +192,18 @@ def _modulo(report: Callable[[str], None]) -> Callable[[float, float], float]:
 
 def _power(report: Callable[[str], None]) -> Callable[[float, float], float]:
     def power(x: float, y: float) -> float:
+        # before Python's **, which makes such a power complex, or overflows on a huge complex one
+        if -INF < x < 0 and -INF < y < INF and not float(y).is_integer():
+            report("a negative number to a fractional power")
+            return math.nan
         try:
-            r = float(x) ** y  # floats: an int power would grow without bound
+            return float(x) ** y  # floats: an int power would grow without bound
         except ZeroDivisionError:
             report("zero to a negative power")
             return INF
         except OverflowError:
             report("overflow in '**'")
-            return INF
-        if isinstance(r, complex):
-            report("a negative number to a fractional power")
-            return math.nan
-        return r
+            return -INF if x < 0 and y % 2 == 1 else INF  # a negative number to an odd power is negative
     return power
 
 
@@ -225,7 +225,7 @@ def _guarded_call(kind: str, report: Callable[[str], None], rng: random.Random) 
     def call(*args: float) -> object:
         try:
             return impl(*args)
-        except OverflowError:  # exp(1000), floor(inf): the number is too large
+        except OverflowError:  # exp(1000): the number is too large
             report(f"{kind}(): overflow")
             return INF if f.returns is Type.NUMBER else fallback
         except (ValueError, ZeroDivisionError) as exc:

@@ -56,8 +56,6 @@ ALLOWED: dict[tuple[str, str], str] = {
         "see the exec above",
     ("dsl/builtins.py", "getattr(importlib.import_module(module), name)"):
         "the builtin table's own module:name entries",
-    ("dsl/codegen.py", "METRIC_CODE[metric.aggregate].format(e=e, i=i)"):
-        "a constant template chosen by a checked aggregate name; e and i are generated names",
     ("dsl/program.py", "format(value, spec)"):
         "a label's or log's format spec, which dsl/parse.py admits only as _FORMAT_SPEC (width and "
         "precision at most two digits) or the printf form's _PRINTF",

@@ -22,9 +22,7 @@ FUNCTION_REASON = "Over 60 lines:"
 PACKAGE_FOLDERS = ("foundation", "dsl", "runtime", "backends", "behaviours")
 
 # Being rewritten elsewhere as this test came in: each entry goes when its rewrite lands.
-UNCHECKED_MODULES = {
-    "dsl/codegen.py",  # the code generator, rewritten as a whole
-}
+UNCHECKED_MODULES: set[str] = set()
 UNCHECKED_FUNCTIONS: set[tuple[str, str]] = set()
 
 

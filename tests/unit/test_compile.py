@@ -60,6 +60,8 @@ def evaluate(write, expr: str, params: str = "{a: 3, flag: true}"):
     ("detected(sonar3)", False),
     ("sonar3", math.inf),
     ("round(2.5) + floor(sonar2 + 0.5)", 4.0),
+    ("floor(-sonar3)", -math.inf),
+    ("-sign(sonar1 - 0.5)", -0.0),
 ])
 def test_expressions(write, expr: str, value: object) -> None:
     got, warnings = evaluate(write, expr)
@@ -76,6 +78,9 @@ def test_expressions(write, expr: str, value: object) -> None:
     ("log(sonar1 - 0.5)", -math.inf, None),
     ("(-sonar1) ** 0.5", math.nan, "a negative number to a fractional power"),
     ("10 ** (sonar2 * 400)", math.inf, "overflow in '**'"),
+    ("(-10) ** (sonar2 * 200 + 1)", -math.inf, "overflow in '**'"),
+    ("(-sonar1 * 1e-300) ** -2.5", math.nan, "a negative number to a fractional power"),
+    ("(sonar3 - sonar3) / (sonar1 - 0.5)", math.nan, "division by zero"),
     ("randint(sonar2, sonar1)", math.nan, "randint(): randint(2, 0.5) has no integer between its bounds"),
 ])
 def test_faults_have_defined_results_and_warn_once(write, expr: str, value: float, fault: str | None) -> None:
@@ -187,6 +192,18 @@ def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys
     compile(out, "listing", "exec")  # it is Python
     # the listing is the compiled source with its markers explained, line for line
     assert out == p.code.listing + "\n" and len(lines) == len(p.code.source.splitlines()) + 1
+
+
+def test_each_generated_line_knows_the_file_line_it_comes_from() -> None:
+    p = compile_file(BEHAVIOURS / "wall_follow.yaml")
+    source = p.code.source.splitlines()
+    assert len(p.code.marks) == len(source)
+    marks = dict(zip((line.strip() for line in source), p.code.marks))
+    assert marks["elif (v11 <= 0.3):"] == 41 and marks["cmd[0] = 2.0"] == 41  # rule follow:2 and its action
+    assert marks["s[10] = v10 = (_nan if v4 != v4 or v3 != v3 else (v3 if v3 < v4 else v4))"] == 28  # ahead
+    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[3][0] = v"] == 51  # the stop condition, a metric
+    assert marks["def decide():"] == marks["v2 = s[2]"] == marks["rule = -1"] == 0  # plumbing
+    assert {p.code.marks[i] for i, line in enumerate(source) if line.startswith("#")} == {0}  # the header
 
 
 def test_show_code_on_a_file_with_errors_reports_them(capsys) -> None:

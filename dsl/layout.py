@@ -1,0 +1,77 @@
+"""Where each of a robot's values lives: the slot layout, between the checker and the code generator.
+
+A robot's values for a tick are one list, its ``Slots`` (``labsim.dsl.support``): time, tick
+and state, then the channels the behaviour reads, its signals, its sliders and its sliders'
+label fields, then the per-tick variables and per-robot constants it reads. ``layout`` numbers
+them for a checked behaviour; ``labsim.dsl.codegen`` writes code that reads slot N as the
+local ``vN``, and ``labsim.dsl.program`` fills the slots a robot starts with.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+
+from labsim.dsl import ast
+from labsim.dsl.builtins import JOINT_ACTIONS, STATE_CLOCK
+from labsim.dsl.check import Checked
+from labsim.dsl.program import LabelPart
+from labsim.dsl.read import Parsed
+from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where each value lives in a robot's slots, and the joint targets in command order."""
+
+    slot_of: Mapping[str, int]  # time, tick, state, channels, signals, sliders -> slot
+    slot_count: int
+    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> text and (slot, format spec)
+    label_fields: tuple[tuple[int, str, Parsed], ...]  # slot, slider, the field's expression
+    targets: tuple[tuple[str, str], ...]  # (joint, "velocity" | "position")
+
+
+def layout(c: Checked) -> Layout:
+    """Slots: time, tick, state, the channels, the signals, the sliders, then the label fields."""
+    slot_of = {"time": TIME, "tick": TICK, "state": STATE}
+    slot_of.update({name: FIRST_CHANNEL + i for i, name in enumerate(c.channels)})
+    for i, (name, _) in enumerate(c.lets):
+        slot_of[name] = FIRST_CHANNEL + len(c.channels) + i
+    sliders = [sl.name for sl in c.sliders]
+    base = FIRST_CHANNEL + len(c.channels) + len(c.lets) + len(sliders)
+    for k, name in enumerate(sliders):
+        slot_of[name] = base - len(sliders) + k
+    labels: list[tuple[str, tuple[LabelPart, ...]]] = []
+    fields: list[tuple[int, str, Parsed]] = []
+    for slider, parts in c.labels:
+        compiled: list[LabelPart] = []
+        for part in parts:
+            if isinstance(part, tuple):
+                slot = base + len(fields)
+                fields.append((slot, slider, part[0]))
+                compiled.append((slot, part[1]))
+            else:
+                compiled.append(part)
+        labels.append((slider, tuple(compiled)))
+    # joint targets set by bind: and by set_velocity/set_position, in a fixed order
+    targets: list[tuple[str, str]] = []
+    for b in c.binds:
+        if (b.joint, b.mode) not in targets:
+            targets.append((b.joint, b.mode))
+    for rules in c.states.values():
+        for r in rules:
+            for a in r.rule.actions:
+                if isinstance(a, ast.Action) and a.name in JOINT_ACTIONS:
+                    joint = a.args[0]
+                    assert isinstance(joint, ast.Name)
+                    if (joint.id, JOINT_ACTIONS[a.name]) not in targets:
+                        targets.append((joint.id, JOINT_ACTIONS[a.name]))
+    # per-tick variables and per-robot constants, only for behaviours that read them
+    count = base + len(fields)
+    per_robot = {name for own in c.robot_params.values() for name, _ in own}
+    for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
+        if name in c.used and name not in slot_of:
+            slot_of[name] = count
+            count += 1
+    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
+

@@ -1,0 +1,311 @@
+"""Constant folding, the generated code and the reference evaluator agree on every expression.
+
+Three ways to compute an expression: ``labsim.dsl.fold`` (at compile time, on the constants),
+the Python ``labsim.dsl.codegen`` writes (at run time), and the tree-walking evaluator
+``labsim.dsl.evaluate``, which follows docs/language.md without the generator's shortcuts.
+Each generated expression over numbers and booleans (operators, comparisons and their chains,
+``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
+``detected``) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
+read from sensors, so that they do not fold, or (every other expression) written out as
+constants, so that what can fold does. The file runs one tick; each signal's value must equal
+the evaluator's (nan equal to nan, zeros of the same sign, booleans apart from numbers), and
+so must its warnings, site by site; where folding gives a value, so must it, and the evaluator
+must have met no fault. The names' values come from the edges of a float: 0, -0.0, the
+infinities, nan, the largest and the smallest numbers.
+
+Speed: a hypothesis example draws the names' values and a seed, and a batch of expressions
+comes from the seed (hypothesis draws would cost a hundred times more); a failure names the
+first expression that disagrees, with the values. Derandomized, as tests/test_fuzz.py.
+"""
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+
+from labsim.dsl import ast
+from labsim.dsl.builtins import CONSTANTS, DETECTED, FUNCTIONS, Type
+from labsim.dsl.compile import compile_file
+from labsim.dsl.evaluate import evaluate
+from labsim.dsl.fold import NotConstant, fold
+from labsim.dsl.parse import parse_expr
+from labsim.dsl.program import Program
+from labsim.dsl.support import Faults
+
+INF, NAN = math.inf, math.nan
+EXAMPLES = 50
+BATCH = 200  # expressions per example, EXAMPLES * BATCH in all, each compiled once: the cost of the test
+NAMES = tuple(f"p{i}" for i in range(8))  # the names whose values an example draws
+SENSORS = tuple(f"sonar{i}" for i in range(9, 13))  # read directly, and by detected()
+VALUES = (0.0, -0.0, 1.0, -1.0, 0.5, -2.5, 3.0, 7.0, 0.1, 1e308, -1e308, 1e300, 5e-324, -5e-324, 1e-300,
+          INF, -INF, NAN)
+# numbers, and the names of constants and variables
+LITERALS = ("0", "1", "2", "3", "0.5", "10", "1e308", "5e-324", "1e-300", "inf", "pi", "dt", "time", "tick")
+TIME_S, TICK, DT_S = 12.5, 250, 0.05
+# the functions of numbers: name -> how many arguments
+FUNCTIONS_OF_NUMBERS = {f.name: len(f.params) for f in FUNCTIONS.values()
+                        if f.returns is Type.NUMBER and all(p is Type.NUMBER for p in f.params) and not f.stateful}
+COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
+# no shrinking: a batch comes from a seed, and the failure names the expression and its values
+SHORT = settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
+                 phases=(Phase.explicit, Phase.generate),
+                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+class Expressions:
+    """Well-typed expression trees drawn from ``rng``: numbers and conditions, nested a few levels."""
+
+    def __init__(self, rng: random.Random) -> None:
+        self.rng = rng
+
+    def number(self, depth: int) -> ast.Expr:
+        r, pick = self.rng.random(), self.rng.choice
+        if depth == 0 or r < 0.3:
+            if self.rng.random() < 0.35:
+                literal = pick(LITERALS)
+                return ast.Number(float(literal)) if literal[0].isdigit() else ast.Name(literal)
+            return ast.Name(pick(NAMES + NAMES + SENSORS))
+        if r < 0.55:
+            op = pick(("+", "-", "*", "/", "/", "%", "%", "**", "**"))
+            return ast.Binary(op, self.number(depth - 1), self.number(depth - 1))
+        if r < 0.62:
+            return ast.Neg(self.number(depth - 1))
+        if r < 0.9:
+            return self.call(depth)
+        return ast.IfExp(self.number(depth - 1), self.condition(depth - 1), self.number(depth - 1))
+
+    def call(self, depth: int) -> ast.Call:
+        name = self.rng.choice(sorted(FUNCTIONS_OF_NUMBERS))
+        n = FUNCTIONS_OF_NUMBERS[name] + (self.rng.randrange(3) if FUNCTIONS[name].variadic else 0)
+        args = [self.number(depth - 1) for _ in range(n)]
+        if name == "randint":  # a bound written as a number must be within 2**53: the checker says so
+            args = [a if isinstance(a, ast.Number) and a.value <= 10 else ast.Binary("*", a, ast.Number(1.0))
+                    for a in args]
+        return ast.Call(name, tuple(args))
+
+    def condition(self, depth: int) -> ast.Expr:
+        r, pick = self.rng.random(), self.rng.choice
+        if depth == 0 or r < 0.15:
+            if self.rng.random() < 0.4:
+                return ast.Bool(self.rng.random() < 0.5)
+            return ast.Call(DETECTED, (ast.Name(pick(SENSORS)),))
+        if r < 0.5:
+            links = 1 if self.rng.random() < 0.7 else 2  # a chain: a < b <= c
+            return ast.Compare(tuple(self.number(depth - 1) for _ in range(links + 1)),
+                               tuple(pick(COMPARISONS) for _ in range(links)))
+        if r < 0.6:
+            return ast.Not(self.condition(depth - 1))
+        if r < 0.9:
+            parts = tuple(self.condition(depth - 1) for _ in range(self.rng.randrange(2, 4)))
+            return ast.BoolOp(pick(("and", "or")), parts)
+        return ast.IfExp(self.condition(depth - 1), self.condition(depth - 1), self.condition(depth - 1))
+
+    def any(self) -> ast.Expr:
+        depth = self.rng.choice((1, 1, 2, 2, 2, 3, 3, 4))  # mostly small: each costs its parse
+        return self.number(depth) if self.rng.random() < 0.7 else self.condition(depth)
+
+
+def written(e: ast.Expr, constants: Mapping[str, float] | None = None) -> tuple[str, ast.Expr]:
+    """The text of ``e``, in parentheses only where the grammar's precedence needs them, and ``e``
+    with the spans of that text, as the parser gives them; the names of ``constants`` are written
+    as their values."""
+    out: list[str] = []
+
+    def write(e: ast.Expr, level: int = 0) -> ast.Expr:
+        """``e`` where the grammar wants an expression of ``level`` or higher (_LEVEL)."""
+        inner = _level(e) < level
+        out.append("(" if inner else "")
+        start = sum(map(len, out))
+        e = form(e)
+        span = (start, sum(map(len, out)))
+        out.append(")" if inner else "")
+        return replace(e, span=span)
+
+    def form(e: ast.Expr) -> ast.Expr:
+        if isinstance(e, ast.Number):
+            out.append(repr(e.value))
+        elif isinstance(e, ast.Bool):
+            out.append("true" if e.value else "false")
+        elif isinstance(e, ast.Name):
+            out.append(constant_text(constants[e.id]) if constants and e.id in constants else e.id)
+        elif isinstance(e, ast.Call):
+            out.append(e.func + "(")
+            args = []
+            for k, a in enumerate(e.args):
+                out.append(", " if k else "")
+                args.append(write(a))
+            out.append(")")
+            return replace(e, args=tuple(args))
+        elif isinstance(e, ast.Neg):
+            out.append("-")
+            return replace(e, operand=write(e.operand, 7))
+        elif isinstance(e, ast.Not):
+            out.append("not ")
+            return replace(e, operand=write(e.operand, 3))
+        elif isinstance(e, ast.Binary):  # left-associative but for **, which takes an atom on its left
+            level = _level(e)
+            left = write(e.left, 9 if e.op == "**" else level)
+            out.append(f" {e.op} ")
+            return replace(e, left=left, right=write(e.right, 7 if e.op == "**" else level + 1))
+        elif isinstance(e, ast.Compare):
+            operands = [write(e.operands[0], 5)]
+            for op, operand in zip(e.ops, e.operands[1:]):
+                out.append(f" {op} ")
+                operands.append(write(operand, 5))
+            return replace(e, operands=tuple(operands))
+        elif isinstance(e, ast.BoolOp):
+            values = []
+            for k, v in enumerate(e.values):
+                out.append(f" {e.op} " if k else "")
+                values.append(write(v, _level(e) + 1))
+            return replace(e, values=tuple(values))
+        else:
+            assert isinstance(e, ast.IfExp)
+            body = write(e.body, 1)
+            out.append(" if ")
+            test = write(e.test, 1)
+            out.append(" else ")
+            return replace(e, body=body, test=test, orelse=write(e.orelse, 0))
+        return e
+
+    node = write(e)
+    return "".join(out), node
+
+
+# The grammar's precedence, lowest first: a if c else b, or, and, not, comparisons, + -, * / %,
+# unary -, **, and atoms (numbers, names, calls, parentheses).
+_LEVEL = {ast.IfExp: 0, ast.Not: 3, ast.Compare: 4, ast.Neg: 7}
+_BINARY_LEVEL = {"or": 1, "and": 2, "+": 5, "-": 5, "*": 6, "/": 6, "%": 6, "**": 8}
+
+
+def _level(e: ast.Expr) -> int:
+    if isinstance(e, (ast.Binary, ast.BoolOp)):
+        return _BINARY_LEVEL[e.op]
+    return _LEVEL.get(type(e), 9)
+
+
+def spans(e: ast.Expr) -> list[ast.Span]:
+    """The spans of ``e`` and of every node under it, in a fixed order."""
+    out = [e.span]
+    for value in vars(e).values():
+        for item in value if isinstance(value, tuple) else (value,):
+            if isinstance(item, ast.Expr):
+                out += spans(item)
+    return out
+
+
+def constant_text(value: float) -> str:
+    """A number written as an expression that folds to it exactly: nan is inf - inf."""
+    if value != value:
+        return "(inf - inf)"
+    if value in (INF, -INF):
+        return "inf" if value > 0 else "(-inf)"
+    return repr(value) if math.copysign(1.0, value) > 0 else f"(-{-value!r})"
+
+
+def same(a: object, b: object) -> bool:
+    """Equal as the language's values: nan equals nan, 0.0 is not -0.0, a boolean is no number."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a is b
+    if type(a) is not type(b):
+        return False
+    assert isinstance(a, float) and isinstance(b, float)
+    if a != a or b != b:
+        return a != a and b != b
+    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+def behaviour(path: Path, lets: list[tuple[str, str]]) -> Program:
+    text = ("labsim: 1\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
+            "let:\n" + "".join(f"  {name}: '{expr}'\n" for name, expr in lets) + "rules:\n  - always stop()\n")
+    path.write_text(text)
+    return compile_file(path)
+
+
+def run_tick(p: Program, sensors: dict[str, float]) -> tuple[dict[str, object], dict[str, set[tuple[str, str]]]]:
+    """Each signal's value after one tick, and each signal's warnings as (faulting text, words)."""
+    faults = Faults()
+    robot = p.robot("r", random.Random(1), faults, p.models["r"])
+    robot.signals(TIME_S, TICK, [sensors[ch] for ch in p.channels])
+    values = {name: robot.slots[p.slot_of[name]] for name in p.let_names}
+    warnings: dict[str, set[tuple[str, str]]] = {name: set() for name in p.let_names}
+    for site, what in faults.counts:
+        d = site.diagnostic
+        warnings[site.where.removeprefix("signal ").strip("'")].add((d.source_line[d.col - 1:d.end_col - 1], what))
+    return values, warnings
+
+
+def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, ...], seed: int) -> tuple[int, int]:
+    """One batch of expressions in one behaviour file, every other one with its names written as
+    constants: each one's value and warnings after a tick against the evaluator's, and its
+    folding where it folds. Returns (expressions checked, expressions folded)."""
+    gen = Expressions(random.Random(seed))
+    p_values = dict(zip(NAMES, values))
+    names: dict[str, object] = {**p_values, **dict(zip(SENSORS, sensors)), "time": TIME_S, "tick": TICK, "dt": DT_S}
+    exprs = [written(gen.any(), p_values if k % 2 else None) for k in range(BATCH)]
+    for text, node in exprs[:6:2]:  # the texts say what the trees are, with the parser's spans
+        parsed = parse_expr(text)
+        assert parsed == node and spans(parsed) == spans(node), text
+    lets = [(n, f"sonar{i + 1}") for i, n in enumerate(NAMES)] + [(f"e{k}", text) for k, (text, _) in enumerate(exprs)]
+    got, warned = run_tick(behaviour(folder / "b.yaml", lets),
+                           {f"sonar{i + 1}": v for i, v in enumerate(values)} | dict(zip(SENSORS, sensors)))
+    rng = random.Random(1)  # as the robot's, drawn in the same order
+    constants = {**CONSTANTS, "dt": DT_S, **p_values}
+    folded = 0
+    for k, (text, node) in enumerate(exprs):
+        value, faults = evaluate(node, names, rng)
+        where = f"e{k}: {text}\nwith {p_values}, sensors {dict(zip(SENSORS, sensors))}\n"
+        assert same(got[f"e{k}"], value), f"{where}generated {got[f'e{k}']!r}, evaluator {value!r}"
+        at = {(text[f.span[0]:f.span[1]], f.what) for f in faults}
+        assert warned[f"e{k}"] == at, f"{where}generated warns {warned[f'e{k}']}, evaluator {at}"
+        try:
+            constant = fold(node, constants)
+        except NotConstant:
+            continue
+        folded += 1
+        assert same(constant, value) and not faults, f"{where}folding gives {constant!r}, evaluator {value!r}, {faults}"
+    return len(exprs), folded
+
+
+def test_folding_generated_code_and_evaluator_agree(tmp_path: Path) -> None:
+    counts: list[tuple[int, int]] = []
+
+    @SHORT
+    @given(values=st.tuples(*[st.sampled_from(VALUES)] * len(NAMES)),
+           sensors=st.tuples(*[st.sampled_from((0.3, 1.0, INF, 0.0))] * len(SENSORS)),
+           seed=st.integers(0, 2**32 - 1))
+    def agree(values: tuple[float, ...], sensors: tuple[float, ...], seed: int) -> None:
+        counts.append(check_batch(tmp_path, values, sensors, seed))
+
+    agree()
+    checked, folded = map(sum, zip(*counts))
+    assert checked >= 10_000
+    assert folded >= checked // 10  # folding is checked too, not only the generated code
+
+
+def test_the_evaluator_follows_the_documented_faults() -> None:
+    """docs/language.md's "Runtime faults", one by one, and nan's propagation."""
+    cases = {
+        "1 / 0": (INF, ["division by zero"]), "-1 / 0": (-INF, ["division by zero"]),
+        "0 / 0": (NAN, ["division by zero"]), "(inf - inf) / 0": (NAN, ["division by zero"]),
+        "5 % 0": (NAN, ["modulo by zero"]), "0 ** -1": (INF, ["zero to a negative power"]),
+        "10 ** 400": (INF, ["overflow in '**'"]), "(-10) ** 401": (-INF, ["overflow in '**'"]),
+        "(-8) ** 0.5": (NAN, ["a negative number to a fractional power"]),
+        "sqrt(-1)": (NAN, ["sqrt(): math domain error"]), "log(-1)": (NAN, ["log(): math domain error"]),
+        "log(0)": (-INF, []), "exp(1000)": (INF, ["exp(): overflow"]),
+        "min(1, inf - inf, 0)": (NAN, []), "max(inf - inf, 1)": (NAN, []),
+        "1e308 * 10": (INF, []), "inf * 0": (NAN, []), "-0 * 1": (-0.0, []),
+        "sign(-0)": (0.0, []), "-sign(0)": (-0.0, []), "floor(-inf)": (-INF, []),
+        "floor(inf - inf)": (NAN, ["floor(): cannot convert float NaN to integer"]),
+    }
+    for text, (want, warnings) in cases.items():
+        value, faults = evaluate(parse_expr(text), {})
+        assert same(value, want), (text, value)
+        assert [f.what for f in faults] == warnings, (text, faults)
+    value, faults = evaluate(parse_expr("1 > 2 > 1 / 0 or true and (false or 0 < 1)"), {})
+    assert value is True and faults == ()  # a chain and 'and'/'or' stop where they are decided
