@@ -209,9 +209,6 @@ class Run:
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         }
 
-    def columns(self) -> list[str]:
-        return trace_columns(self)
-
     def _schedule(self, replay: Replay | None) -> Schedule:
         """The timeline by tick: an event at time t applies at the first tick whose time >= t."""
         p = self.program
