@@ -32,6 +32,7 @@ from labsim.foundation.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_fl
 from labsim.foundation.source import Document, Reader, Text, scalar_value, shape_of
 
 FORMAT_VERSION = 1
+VERSIONS = (1, 1.1, 1.2)  # docs/language.md; a file's version keeps its meaning
 
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
             "let", "rules", "metrics", "sliders", "bind", "timeline")
@@ -116,7 +117,7 @@ class Event:
 class BehaviourFile:
     doc: Document
     sha256: str
-    version: float = FORMAT_VERSION  # 1 or 1.1
+    version: float = FORMAT_VERSION  # 1, 1.1 or 1.2
     name: str = ""
     description: str = ""
     world: str = ""
@@ -203,8 +204,8 @@ class _Reader(Reader):
         """The format version, name, description, world, time step and seed."""
         if "labsim" in keys:
             v = self.number(keys["labsim"], "labsim")
-            if v is not None and v not in (FORMAT_VERSION, 1.1):
-                self.error(keys["labsim"], f"this labsim reads format versions {FORMAT_VERSION} and 1.1, not {v:g}")
+            if v is not None and v not in VERSIONS:
+                self.error(keys["labsim"], f"this labsim reads format versions 1, 1.1 and 1.2, not {v:g}")
             elif v is not None:
                 bf.version = v
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
