@@ -90,6 +90,33 @@ class Attribute(Expr):
 
 
 @dataclass(frozen=True)
+class Text(Expr):
+    """``"left"``: text, which only a log's field shows (version 1.2)."""
+
+    value: str
+
+
+@dataclass(frozen=True)
+class Group(Expr):
+    """``[sonar4, sonar5]`` or ``sonar1..sonar8``: values taken together (version 1.2).
+
+    A range is read into its member names; ``ranged`` keeps that it was written as one, so
+    that the checker can name the members that do not exist in one message.
+    """
+
+    members: tuple[Expr, ...]
+    ranged: bool = False
+
+
+@dataclass(frozen=True)
+class Index(Expr):
+    """``front[2]``: one member of a group, counted from 0."""
+
+    value: Expr
+    index: Expr
+
+
+@dataclass(frozen=True)
 class Action:
     """``arc(l, r)`` in a rule's action list."""
 
@@ -112,7 +139,7 @@ class Goto:
 
 @dataclass(frozen=True)
 class Rule:
-    kind: str  # "if", "else", "always"
+    kind: str  # "if", "else", "always", or "when" (logs, and the rules below go on: version 1.2)
     condition: Expr | None
     actions: tuple[Action | Goto, ...]
     span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)

@@ -25,14 +25,29 @@ class Type(Enum):
     JOINT = "joint"  # .position (m or rad), .velocity (m/s or rad/s)
     FORCE = "force sensor"  # .force (N)
     BODY = "body"  # .x, .z (m, in the mechanism's plane), .angle (rad)
+    NUMBERS = "group of numbers"  # [sonar4, sonar5], sonar1..sonar8 (version 1.2)
+    BOOLS = "group of booleans"  # front < 0.5 with front a group of numbers
+    TEXT = "text"  # "left": what a log's field may show
 
     def __str__(self) -> str:
         return self.value
 
     @property
     def a(self) -> str:
-        """The type with its article, for messages: 'a number', 'an image'."""
+        """The type with its article, for messages: 'a number', 'an image', 'text'."""
+        if self is Type.TEXT:
+            return "text"
         return ("an " if self.value[0] in "aeiou" else "a ") + self.value
+
+    @property
+    def member(self) -> Type:
+        """A group's members' type; a number or boolean is its own."""
+        return {Type.NUMBERS: Type.NUMBER, Type.BOOLS: Type.BOOL}.get(self, self)
+
+    @property
+    def grouped(self) -> Type:
+        """The group of this type: numbers of a number; a group is its own."""
+        return {Type.NUMBER: Type.NUMBERS, Type.BOOL: Type.BOOLS}.get(self, self)
 
 
 N, B, I = Type.NUMBER, Type.BOOL, Type.IMAGE  # noqa: E741 (one letter keeps the signature table readable)
@@ -190,10 +205,54 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
              optional=1, stateful=True),
 )}
 
-# Names added in version 1.1: a version 1 file may have used them for its own parameters,
+@dataclass(frozen=True)
+class Reduction:
+    """A function of a whole group, written as a call with the group as its one argument."""
+
+    name: str
+    takes: Type  # Type.NUMBERS or Type.BOOLS
+    returns: Type
+    doc: str
+
+
+# Reductions of a group (version 1.2). min, max and mean are also functions of numbers (or of an
+# image); the checker tells them apart by their argument's type.
+REDUCTIONS: dict[str, Reduction] = {r.name: r for r in (
+    Reduction("min", Type.NUMBERS, N, "the smallest member; nan if one is nan"),
+    Reduction("max", Type.NUMBERS, N, "the largest member; nan if one is nan"),
+    Reduction("sum", Type.NUMBERS, N, "the members added up"),
+    Reduction("mean", Type.NUMBERS, N, "the members' mean"),
+    Reduction("argmin", Type.NUMBERS, N, "where the smallest member is, counted from 0 (the first of equals)"),
+    Reduction("argmax", Type.NUMBERS, N, "where the largest member is, counted from 0 (the first of equals)"),
+    Reduction("any", Type.BOOLS, B, "true if a member is true"),
+    Reduction("all", Type.BOOLS, B, "true if every member is true"),
+    Reduction("count", Type.BOOLS, N, "how many members are true"),
+)}
+
+
+def argmin(*values: float) -> float:
+    """Where the smallest value is, from 0, the first of equals; nan values are passed over (nan if all are)."""
+    best, at = math.inf, math.nan
+    for k, v in enumerate(values):
+        if v < best or (v == best and at != at):
+            best, at = v, float(k)
+    return at
+
+
+def argmax(*values: float) -> float:
+    """Where the largest value is, from 0, the first of equals; nan values are passed over (nan if all are)."""
+    best, at = -math.inf, math.nan
+    for k, v in enumerate(values):
+        if v > best or (v == best and at != at):
+            best, at = v, float(k)
+    return at
+
+
+# Names added after version 1: a version 1 file may have used them for its own parameters,
 # signals, states or sliders, which then hide them (calls are told apart by their parentheses).
 SHADOWABLE = frozenset({"prev", "rising", "falling", "hold", "rate", "held", "remember",
-                        "state_time", "entered", "index"})
+                        "state_time", "entered", "index",
+                        "sum", "argmin", "argmax", "any", "all"})
 
 # Functions whose result depends on earlier ticks: each call site keeps state per robot.
 STATEFUL = frozenset(f.name for f in FUNCTIONS.values() if f.stateful)

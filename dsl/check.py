@@ -39,14 +39,16 @@ from labsim.dsl.builtins import (
     Aggregate,
     Type,
 )
+from labsim.dsl.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.infer import ExprChecker, arity_message
-from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
+from labsim.dsl.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
 from labsim.foundation.source import Place, Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
                Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
+LOGGED = (Type.NUMBER, Type.BOOL, Type.TEXT, Type.STATE)  # what a log's field may show
 _SHADOWABLE_KIND = "built-in name"  # a name added after version 1, which a file's own name hides
 _KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body"}
 
@@ -82,6 +84,13 @@ class Checked:
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
     used: frozenset[str] = frozenset()  # every name an expression reads
     robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]] = field(default_factory=dict)
+    # version 1.2: each call of a user function and its typed body; groups' sizes; prev() of a signal in itself
+    expansions: dict[int, Expansion] = field(default_factory=dict)
+    group_sizes: dict[str, int] = field(default_factory=dict)  # a signal that is a group -> its members
+    sizes: dict[int, int] = field(default_factory=dict)  # id(AST node) of a group expression -> its members
+    self_prev: frozenset[int] = frozenset()
+    functions: dict[str, FunctionDecl] = field(default_factory=dict)
+    called: frozenset[str] = frozenset()
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -136,6 +145,8 @@ class _Checker(ExprChecker):
         params = self.params(overrides)
         robot_params = self.robot_params(params)
         sliders = self.sliders()
+        self.user_functions = check_definitions(self, bf.functions)
+        check_bodies(self, self.user_functions)
         lets = self.lets()
         labels = self.labels()
         self.metric_names = {name for name, _, _ in bf.metrics}
@@ -152,7 +163,8 @@ class _Checker(ExprChecker):
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
-                       frozenset(self.used), robot_params)
+                       frozenset(self.used), robot_params, self.expansions, self.group_sizes, self.sizes,
+                       frozenset(self.self_prev), self.user_functions, frozenset(self.called))
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
@@ -359,14 +371,32 @@ class _Checker(ExprChecker):
                 continue
             del later[name]
             self.later = later
+            self.current_let, self.self_prev_types = name, []
             t = self.infer(parsed.node, parsed.text)
+            self.current_let = ""
+            t = self.self_read(name, t, parsed)
             if t is not None:
                 self.declare(name, t, "signal")
+                if t in (Type.NUMBERS, Type.BOOLS):
+                    self.group_sizes[name] = self.size(parsed.node)
                 out.append((name, parsed))
             else:
                 self.poisoned.add(name)  # already reported: its uses stay quiet
         self.later = {}
         return out
+
+    def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
+        """A signal that reads itself through prev(name, initial) is of its initial value's type."""
+        for call, initial in self.self_prev_types:
+            if t is not None and initial is not None and initial is not t:
+                self.error(parsed.text.at(call.args[1].span), f"signal '{name}' is {t.a}, so prev({name}, ...) "
+                           f"starts from {t.a} too; this is {initial.a}")
+                return None
+            if t in (Type.NUMBERS, Type.BOOLS):
+                self.error(parsed.text.at(call.span), f"prev({name}, ...) keeps a number or a boolean, and "
+                           f"'{name}' is {t.a}")
+                return None
+        return t
 
     def rules(self) -> dict[str, list[RuleDecl]]:
         states = {name: rules for name, (rules, _) in self.bf.states.items()}
@@ -387,6 +417,14 @@ class _Checker(ExprChecker):
 
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
         text = decl.text
+        if decl.rule.kind == "when":
+            for a in decl.rule.actions:
+                if isinstance(a, ast.Goto) or (a.name != "log" and a.text is None and a.name in ACTIONS):
+                    self.error(text.at(a.span), "a 'when' rule only logs, and the rules below it go on; to "
+                               f"{'switch states' if isinstance(a, ast.Goto) else 'drive'}, write an 'if' rule",
+                               notes=("e.g. 'when rising(collided) then log(\"hit\")', then "
+                                      "'if collided then move(-2)'",))
+                    return
         actions = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
         for action in actions:
             if action.name == "log" or action.text is not None:
@@ -441,8 +479,10 @@ class _Checker(ExprChecker):
         for part in action.text:
             if isinstance(part, tuple):
                 t = self.infer(part[0], text)
-                if t is not None and t not in (Type.NUMBER, Type.BOOL):
-                    self.error(text.at(part[0].span), f"a log text shows numbers and booleans, not {t.a}")
+                if t is not None and t not in LOGGED:
+                    self.error(text.at(part[0].span), f"a log text shows numbers, booleans, text and states, "
+                               f"not {t.a}", notes=(("show a member, as in {front[0]}, or a reduction, as in "
+                                                     "{min(front)}",) if t in (Type.NUMBERS, Type.BOOLS) else ()))
 
     def joint_action(self, action: ast.Action, text: Text) -> None:
         """set_velocity(Joint, v), set_position(Joint, p)."""

@@ -25,12 +25,12 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 
 from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate
+from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate, Type
 from labsim.dsl.check import Checked
 from labsim.dsl.fold import TOTAL, NotConstant, fold
 from labsim.dsl.layout import Layout, layout
 from labsim.dsl.program import Code, LabelPart
-from labsim.dsl.read import RuleDecl
+from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
@@ -47,6 +47,7 @@ class Generated:
     stop_horizon_s: float | None
     logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, and its text's parts
     stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
+    texts: tuple[str, ...] = ()  # Program.texts: the state names, then the text values, as _texts[k] reads them
 
 
 def generate(checked: Checked, filename: str) -> Generated:
@@ -56,7 +57,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     source, listing, marks = render(g.module())
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
                 tuple(sorted(g.functions)), marks)
-    return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts)
+    return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts))
 
 
 class _Generator:
@@ -82,6 +83,9 @@ class _Generator:
         self.notes = Notes()  # the marker comments, in the order they are made
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
         self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
+        self.env: list[dict[str, str | list[str]]] = []  # inside a user function's body: its arguments' code
+        self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
+        self.let_of = {name: parsed for name, parsed in checked.lets}
 
     def module(self) -> Body:
         """``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold``.
@@ -161,7 +165,8 @@ class _Generator:
     def params(self) -> list[str]:
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                "_radius", "_half_axle", "_st", "_held", *("_" + f for f in sorted(self.functions)),
+                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax",
+                *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
 
     def signals(self) -> tuple[Body, Note, str]:
@@ -174,6 +179,9 @@ class _Generator:
         self.state_clock(w)
         for name, parsed in c.lets:
             slot = self.slot_of[name]
+            if name in c.group_sizes:
+                self.group_signal(w, name, parsed)
+                continue
             with w.source(self.note(parsed.text, f"{name}: ")):
                 w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
         for slot, slider, parsed in self.layout.label_fields:
@@ -183,6 +191,15 @@ class _Generator:
         note = self.note(c.file.stop.text, "stop: ")
         stop = self.stop_condition(w)
         return w.body(), note, stop
+
+    def group_signal(self, w: Writer, name: str, parsed: Parsed) -> None:
+        """A group signal's members into their slots; a group of names alone has none (its uses read them)."""
+        slots = self.layout.members[name]
+        if slots is None:
+            return
+        with w.source(self.note(parsed.text, f"{name}: ")):
+            for k, code in zip(slots, self.members(w, parsed.node, parsed.text, "signal " + repr(name))):
+                w.line(f"s[{k}] = v{k} = {code}")
 
     def state_clock(self, w: Writer) -> None:
         """``state_time`` and ``entered``, when read: _st holds the state and the tick it was entered on."""
@@ -231,7 +248,12 @@ class _Generator:
         return w.body(), metrics
 
     def state_rules(self, w: Writer, rules: list[RuleDecl], index: int) -> int:
-        """One state's rules, an if/elif chain that sets ``rule``; the index of the next state's first rule."""
+        """One state's rules, an if/elif chain that sets ``rule``; the index of the next state's first rule.
+
+        A state with ``when`` rules is a sequence of ifs instead: each rule is tried while no rule
+        has fired (``rule == -1``), and a ``when`` rule logs without firing."""
+        if any(r.rule.kind == "when" for r in rules):
+            return self.rules_with_when(w, rules, index)
         for n, r in enumerate(rules):
             where = f"rule {r.state}:{r.number}"
             with w.source(self.note(r.text, f"{where}: ")):
@@ -247,6 +269,21 @@ class _Generator:
         w.line("else:")
         with w.indent():
             w.line("rule = -1")
+        return index + len(rules)
+
+    def rules_with_when(self, w: Writer, rules: list[RuleDecl], index: int) -> int:
+        w.line("rule = -1")
+        for n, r in enumerate(rules):
+            where = f"rule {r.state}:{r.number}"
+            with w.source(self.note(r.text, f"{where}: ")):
+                if r.rule.condition is None:
+                    w.line("if rule == -1:")
+                else:
+                    w.line(f"if rule == -1 and {self.expr(w, r.rule.condition, r.text, where)}:")
+                with w.indent():
+                    self.actions(w, r.rule.actions, r.text, where)
+                    if r.rule.kind != "when":
+                        w.line(f"rule = {index + n}")
         return index + len(rules)
 
     def stop_condition(self, w: Writer) -> str:
@@ -276,7 +313,9 @@ class _Generator:
                 for part in action.text:
                     if isinstance(part, tuple):
                         parts.append((len(values), part[1]))
-                        values.append(x(part[0]))
+                        value = x(part[0])
+                        values.append(f"_texts[{value}]" if self.c.node_types.get(id(part[0])) is Type.STATE
+                                      else value)
                     else:
                         parts.append(part)
                 self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
@@ -335,6 +374,10 @@ class _Generator:
     def emit(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
         x = lambda sub: self.expr(w, sub, text, where)  # noqa: E731
         if isinstance(e, ast.Name):
+            if self.env and e.id in self.env[-1]:
+                code = self.env[-1][e.id]
+                assert isinstance(code, str)  # a group argument is read through members()
+                return code
             slot = self.slot_of[e.id]
             w.read(slot)
             # the runtime counts ticks in ints; the language's numbers are floats, so that
@@ -363,7 +406,102 @@ class _Generator:
             return f"{x(e.value)}[{index}]"
         if isinstance(e, ast.Call):
             return self.call(w, e, text, where)
+        if isinstance(e, ast.Text):
+            if e.value not in self.texts[len(self.state_names):]:
+                self.texts.append(e.value)
+            return f"_texts[{len(self.state_names) + self.texts[len(self.state_names):].index(e.value)}]"
+        if isinstance(e, ast.Index):
+            return self.index(w, e, text, where)
         raise AssertionError(f"cannot compile {e!r}")
+
+    # -- groups and user functions (version 1.2): written out member by member, body by body ----
+    def members(self, w: Writer, e: ast.Expr, text: Text, where: str) -> list[str]:
+        """Python for each member of a group-typed expression; an operator applies to each member,
+        and a value it pairs with every member is written into each (the checker made it pure)."""
+        x = lambda sub: self.spread(w, sub, self.c.sizes.get(id(e), 0), text, where)  # noqa: E731
+        if isinstance(e, ast.Group):
+            return [self.expr(w, m, text, where) for m in e.members]
+        if isinstance(e, ast.Name):
+            if self.env and e.id in self.env[-1]:
+                return list(self.env[-1][e.id])
+            slots = self.layout.members[e.id]
+            if slots is None:  # a group of names: read them where it is used
+                parsed = self.let_of[e.id]
+                return self.members(w, parsed.node, parsed.text, where)
+            for k in slots:
+                w.read(k)
+            return [f"v{k}" for k in slots]
+        if isinstance(e, ast.Neg):
+            return [f"(-{m})" for m in x(e.operand)]
+        if isinstance(e, ast.Not):
+            return [f"(not {m})" for m in x(e.operand)]
+        if isinstance(e, ast.Binary):
+            out = []
+            for a, b in zip(x(e.left), x(e.right)):
+                if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.nonzero(e.right)):
+                    out.append(f"({a} {e.op} {b})")
+                else:
+                    out.append(f"{self.site(e.op, text, e.span, where)}({a}, {b})")
+            return out
+        if isinstance(e, ast.Compare):
+            out = []
+            for row in zip(*(x(o) for o in e.operands)):
+                parts = [row[0]]
+                for op, operand in zip(e.ops, row[1:]):
+                    parts += [op, operand]
+                out.append("(" + " ".join(parts) + ")")
+            return out
+        if isinstance(e, ast.BoolOp):
+            return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(x(v) for v in e.values))]
+        if isinstance(e, ast.Call) and id(e) in self.c.expansions:
+            body = self.inline(w, e, text, where)
+            assert isinstance(body, list)
+            return body
+        raise AssertionError(f"cannot compile the group {e!r}")
+
+    def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
+        """An operand of an operator on groups: its members, or its value once per member."""
+        if self.c.node_types.get(id(e)) in (Type.NUMBERS, Type.BOOLS):
+            return self.members(w, e, text, where)
+        return [self.expr(w, e, text, where)] * n
+
+    def index(self, w: Writer, e: ast.Index, text: Text, where: str) -> str:
+        """front[2]: the member itself; front[k] for a k known only at run time, through a guard."""
+        members = self.members(w, e.value, text, where)
+        try:
+            k = fold(e.index, self.constants)
+        except NotConstant:
+            kind = "[]?" if self.c.node_types.get(id(e)) is Type.BOOL else "[]"
+            return f"{self.site(kind, text, e.span, where)}(({', '.join(members)},), {self.expr(w, e.index, text, where)})"
+        assert isinstance(k, (int, float)) and float(k).is_integer()  # the checker refused other numbers
+        return members[int(k)]
+
+    def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
+        """A user function's body in place of its call: a parameter whose argument folds is a
+        constant of the body, any other is the argument's Python (a group's, member by member)."""
+        expansion = self.c.expansions[id(e)]
+        d = expansion.decl
+        constants = {k: v for k, v in self.constants.items() if k not in d.params}
+        env: dict[str, str | list[str]] = {}
+        for name, arg in zip(d.params, e.args):
+            if self.c.node_types.get(id(arg)) in (Type.NUMBERS, Type.BOOLS):
+                env[name] = self.members(w, arg, text, where)
+                continue
+            try:
+                constants[name] = fold(arg, self.constants)
+            except NotConstant:
+                env[name] = self.emit(w, arg, text, where)
+        outer = self.constants
+        self.constants = constants
+        self.env.append(env)
+        try:
+            inside = f"{where}, in {d.name}()"
+            if self.c.node_types.get(id(expansion.body)) in (Type.NUMBERS, Type.BOOLS):
+                return self.members(w, expansion.body, d.body.text, inside)
+            return self.expr(w, expansion.body, d.body.text, inside)
+        finally:
+            self.env.pop()
+            self.constants = outer
 
     def nonzero(self, e: ast.Expr) -> bool:
         """Whether an expression is a constant number other than zero (a divisor needing no guard)."""
@@ -374,6 +512,17 @@ class _Generator:
         return isinstance(value, (int, float)) and value != 0
 
     def call(self, w: Writer, e: ast.Call, text: Text, where: str) -> str:
+        if id(e) in self.c.expansions:
+            body = self.inline(w, e, text, where)
+            assert isinstance(body, str)
+            return body
+        if id(e) in self.c.self_prev:  # prev(n, initial) in n's own definition: n's slot, last tick's
+            slot = self.slot_of[e.args[0].id]  # type: ignore[attr-defined]  # the checker made it a Name
+            return f"{self.site('prev_self', text, e.span, where)}(s[{slot}], {self.expr(w, e.args[1], text, where)})"
+        if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
+            if e.func in ("min", "max"):
+                self.functions.add(e.func)
+            return reduce(e.func, self.members(w, e.args[0], text, where))
         if e.func == DETECTED:
             assert isinstance(e.args[0], ast.Name)
             return f"({self.emit(w, e.args[0], text, where)} < _inf)"
@@ -476,6 +625,25 @@ def _extreme(func: str, parts: list[str]) -> str:
         c = parts[2]
         m = f"({c} if {c} {op} {m} else {m})"
     return f"(_nan if {nan} else {m})"
+
+
+def reduce(func: str, members: list[str]) -> str:
+    """A reduction of a group as one expression: min(front), any(front < 0.5), ..."""
+    n = len(members)
+    if func in ("min", "max"):
+        if n == 1:
+            return members[0]
+        if n <= 3 and all(_PLAIN.match(m) for m in members):
+            return _extreme(func, members)
+        return f"_{func}({', '.join(members)})"
+    if func in ("sum", "mean"):
+        total = "(" + " + ".join(members) + ")"
+        return total if func == "sum" else f"({total} / {float(n)!r})"
+    if func in ("argmin", "argmax"):
+        return f"_{func}({', '.join(members)})"
+    if func == "count":
+        return "(0.0 + " + " + ".join(members) + ")"
+    return "(" + f" {'or' if func == 'any' else 'and'} ".join(members) + ")"
 
 
 def _literal(value: object) -> str:

@@ -13,8 +13,9 @@ import difflib
 from yaml.nodes import Node
 
 from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, Type
-from labsim.dsl.read import Parsed
+from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, REDUCTIONS, Type
+from labsim.dsl.functions import Expansion, body_name, body_note, check_call
+from labsim.dsl.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -35,11 +36,31 @@ class ExprChecker:
         self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
         self.world_failed = False  # names the world would have given are not reported unknown
         self.metric_names: set[str] = set()  # the file's metrics: not names an expression can read
+        self.sizes: dict[int, int] = {}  # id(AST node) of a group -> its members
+        self.group_sizes: dict[str, int] = {}  # a signal that is a group -> its members
+        # user functions (labsim.dsl.functions): the callable ones, the bodies being typed (the
+        # definition, its parameters' types and sizes, the call and its text), each call's typed copy
+        self.user_functions: dict[str, FunctionDecl] = {}
+        self.scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]] = []
+        self.expansions: dict[int, Expansion] = {}
+        self.expanded = 0  # nodes the calls expanded to so far
+        self.body_errors: set[tuple[int, int, str]] = set()  # a body's problems, reported once
+        self.called: set[str] = set()
+        self.current_let = ""  # the signal being typed: prev() of it reads its previous tick
+        self.self_prev: set[int] = set()  # id(call) of each prev(signal, initial) inside that signal
+        self.self_prev_types: list[tuple[ast.Call, Type | None]] = []  # the current signal's, with their types
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
-        text (``text.at(span)``), or None for the file as a whole."""
-        self.report.add(self.doc.diagnostic(place, message, notes=notes))
+        text (``text.at(span)``), or None for the file as a whole. Inside a function's body, a
+        problem is reported once, with the call it was found through."""
+        d = self.doc.diagnostic(place, message, notes=notes + body_note(self))
+        if self.scopes:
+            key = (d.line, d.col, d.message)
+            if key in self.body_errors:
+                return
+            self.body_errors.add(key)
+        self.report.add(d)
 
     def declare(self, name: str, t: Type, kind: str) -> None:
         self.types[name] = t
@@ -53,6 +74,13 @@ class ExprChecker:
             hint: tuple[str, ...] = ()
             if want is Type.BOOL and t is Type.NUMBER:
                 hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
+            elif t is Type.BOOLS:
+                hint = ("a group holds one value per member: take any(...), all(...) or count(...) of it",)
+            elif t is Type.NUMBERS:
+                hint = ("a group holds one value per member: take min(...), max(...), mean(...), sum(...), "
+                        "argmin(...) or argmax(...) of it, or one member, as in front[0]",)
+            elif t is Type.TEXT:
+                hint = ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
             self.error(parsed.text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint)
             return False
         return True
@@ -71,19 +99,29 @@ class ExprChecker:
             return Type.BOOL
         if isinstance(e, ast.Name):
             return self.name(e, text)
+        if isinstance(e, ast.Text):
+            return Type.TEXT
+        if isinstance(e, ast.Group):
+            return self.group(e, text)
+        if isinstance(e, ast.Index):
+            return self.index(e, text)
         if isinstance(e, ast.Neg):
-            return self.operands(text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
+            return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
         if isinstance(e, ast.Not):
-            return self.operands(text, "not", [e.operand], Type.BOOL, Type.BOOL)
+            return self.operands(e, text, "not", [e.operand], Type.BOOL, Type.BOOL)
         if isinstance(e, ast.Binary):
-            return self.operands(text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
+            return self.operands(e, text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
         if isinstance(e, ast.BoolOp):
-            return self.operands(text, e.op, list(e.values), Type.BOOL, Type.BOOL)
+            return self.operands(e, text, e.op, list(e.values), Type.BOOL, Type.BOOL)
         if isinstance(e, ast.Compare):
             return self.compare(e, text)
         if isinstance(e, ast.IfExp):
             self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
             a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+            if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
+                self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
+                           "choose between members or reductions of them")
+                return None
             if a is not None and b is not None and a is not b:
                 self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
                            f"not {a.a} and {b.a}")
@@ -108,6 +146,16 @@ class ExprChecker:
         raise AssertionError(f"unknown node {e!r}")
 
     def name(self, e: ast.Name, text: Text) -> Type | None:
+        if self.scopes:
+            inside = body_name(self, e, text)
+            if inside is not False:
+                return inside  # type: ignore[return-value]  # not a bool: False is handled above
+        if e.id == self.current_let and e.id not in self.types:
+            self.error(text.at(e.span), f"signal '{e.id}' reads itself: it is being computed; its value on the "
+                       f"previous tick is prev({e.id}, initial)", notes=(
+                           f"e.g. '{e.id}: prev({e.id}, 0) + 1' counts ticks; for counting and summing, "
+                           "counter(...) and total(...) do it for you",))
+            return None
         if e.id in self.types:
             self.used.add(e.id)
             return self.types[e.id]
@@ -140,16 +188,89 @@ class ExprChecker:
         self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
         return None
 
-    def operands(self, text: Text, op: str, args: list[ast.Expr], want: Type, result: Type) -> Type | None:
+    def operands(self, e: ast.Expr, text: Text, op: str, args: list[ast.Expr], want: Type,
+                 result: Type) -> Type | None:
+        """An operator's operands: each ``want``, or a group of them (the operator then applies to
+        each member: ``front - 0.5``); the result is ``result``, or a group of it."""
         ok = True
+        sizes: list[tuple[int, ast.Expr]] = []
         for arg in args:
             t = self.infer(arg, text)
             if t is None:
                 ok = False
+            elif t is want.grouped and t is not want:
+                sizes.append((self.size(arg), arg))
             elif t is not want:
-                self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}")
+                self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
+                           notes=_text_note(t))
                 ok = False
-        return result if ok else None
+        return self.grouped(e, text, op, sizes, result) if ok else None
+
+    def grouped(self, e: ast.Expr, text: Text, op: str, sizes: list[tuple[int, ast.Expr]],
+                result: Type) -> Type | None:
+        """``result``, or a group of it when operands are groups, all of one size."""
+        if not sizes:
+            return result
+        n, first = sizes[0]
+        for m, arg in sizes[1:]:
+            if m != n:
+                self.error(text.at(arg.span), f"'{op}' pairs the members of two groups, which need one size: "
+                           f"this has {m} members and the first {n}")
+                return None
+        self.sizes[id(e)] = n
+        return result.grouped
+
+    def size(self, e: ast.Expr) -> int:
+        """How many members a group-typed expression has."""
+        if isinstance(e, ast.Name) and e.id in self.group_sizes:
+            return self.group_sizes[e.id]
+        return self.sizes[id(e)]
+
+    def group(self, e: ast.Group, text: Text) -> Type | None:
+        """[a, b, c]: members all numbers or all booleans; a range's missing names in one message."""
+        if e.ranged:
+            missing = [m for m in e.members if isinstance(m, ast.Name) and m.id not in self.types]
+            if missing and not self.world_failed:
+                names = [m.id for m in missing if isinstance(m, ast.Name)]
+                which = names[0] if len(names) == 1 else f"{names[0]} .. {names[-1]}"
+                near = [n for n in self.types if n.rstrip("0123456789") == names[0].rstrip("0123456789")]
+                notes = (f"names of this kind: {_range_text(near)}",) if near else ()
+                self.error(text.at(e.span), f"{text.value[e.span[0]:e.span[1]]} names {which}, which "
+                           f"{'does' if len(names) == 1 else 'do'} not exist", notes=notes)
+                return None
+        types = [self.infer(m, text) for m in e.members]
+        if None in types:
+            return None
+        first = types[0]
+        for m, t in zip(e.members, types):
+            if t not in (Type.NUMBER, Type.BOOL) or t is not first:
+                assert t is not None and first is not None
+                also = f", and the first is {first.a}" if t in (Type.NUMBER, Type.BOOL) else ""
+                self.error(text.at(m.span), f"a group's members are all numbers or all booleans; this one is "
+                           f"{t.a}{also}")
+                return None
+        self.sizes[id(e)] = len(e.members)
+        assert first is not None
+        return first.grouped
+
+    def index(self, e: ast.Index, text: Text) -> Type | None:
+        """front[2]: a member, counted from 0; a number written there must be one of them."""
+        t = self.infer(e.value, text)
+        k = self.infer(e.index, text)
+        if t is None or k is None:
+            return None
+        if t not in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.value.span), f"only a group has members to pick with [...]; this is {t.a}")
+            return None
+        if k is not Type.NUMBER:
+            self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
+            return None
+        n = self.size(e.value)
+        if isinstance(e.index, ast.Number) and not (e.index.value.is_integer() and 0 <= e.index.value < n):
+            self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
+                       f"{n - 1}; not {e.index.value:g}", notes=("places count from 0: the first member is [0]",))
+            return None
+        return t.member
 
     def compare(self, e: ast.Compare, text: Text) -> Type | None:
         inferred = [self.infer(o, text) for o in e.operands]
@@ -162,14 +283,29 @@ class ExprChecker:
                            "as in 'state == follow'")
                 return None
             return Type.BOOL
+        if Type.TEXT in types:
+            other = types[1] if types[0] is Type.TEXT else types[0]
+            at = e.operands[types.index(Type.TEXT)]
+            if other is Type.STATE:
+                name = at.value if isinstance(at, ast.Text) else "follow"
+                self.error(text.at(at.span), f"a state is compared with a state's name, without quotes: write "
+                           f"'state == {name}'")
+            else:
+                self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
+                           notes=_text_note(Type.TEXT))
+            return None
+        sizes: list[tuple[int, ast.Expr]] = []
         for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
-            if op in ("==", "!=") and ta is tb is Type.BOOL:
+            if op in ("==", "!=") and ta.member is tb.member is Type.BOOL:
+                sizes += [(self.size(x), x) for x, t in ((a, ta), (b, tb)) if t is Type.BOOLS]
                 continue
             for node, t in ((a, ta), (b, tb)):
-                if t is not Type.NUMBER:
+                if t.member is not Type.NUMBER:
                     self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
                     return None
-        return Type.BOOL
+                if t is Type.NUMBERS:
+                    sizes.append((self.size(node), node))
+        return self.grouped(e, text, e.ops[0], sizes, Type.BOOL)
 
     def call(self, e: ast.Call, text: Text) -> Type | None:
         if e.func == DETECTED:
@@ -183,13 +319,27 @@ class ExprChecker:
                            f"and '{sensor.id}' is not one")
                 return None
             return Type.BOOL if t is not None else None
+        if e.func in self.user_functions:
+            self.called.add(e.func)
+            return check_call(self, e, text, self.user_functions[e.func])
+        if e.func in self.poisoned:  # a function whose definition is reported: its calls stay quiet
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
         if e.func == "prev" and len(e.args) == 2:
             return self.prev(e, text)
+        if e.func in REDUCTIONS and len(e.args) == 1:
+            reduced = self.reduction(e, text)
+            if reduced is not False:
+                return reduced
         f = FUNCTIONS.get(e.func)
         if f is None:
             notes: tuple[str, ...] = ()
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
+                notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
+                          "of booleans, as in count(front < 0.5), counts the members that hold",)
+                         if e.func == "count" else ())
             elif e.func in ACTIONS:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
             elif e.func in _MEANT:
@@ -216,6 +366,30 @@ class ExprChecker:
             ok = self.whole_bounds(e, text) and ok
         return f.returns if ok else None
 
+    def reduction(self, e: ast.Call, text: Text) -> Type | None | bool:
+        """min(front), any(front < 0.5), ...: a group's reduction; False when the argument is not a
+        group and the name is also a function of other things (min of numbers, mean of an image)."""
+        r = REDUCTIONS[e.func]
+        t = self.infer(e.args[0], text)
+        if t is None:
+            return None
+        if t is r.takes:
+            return r.returns
+        if t in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.args[0].span), f"{e.func}() takes {r.takes.a}, but this is {t.a}",
+                       notes=(("to count the members that hold a condition, write count(front < 0.5)",)
+                              if e.func in ("sum", "mean") else ()))
+            return None
+        if e.func in AGGREGATES or (e.func in FUNCTIONS and (e.func != "mean" or t is Type.IMAGE)):
+            return False  # min(x) is refused as min() of too few numbers; mean(img) is the image's
+        example = "front < 0.5" if r.takes is Type.BOOLS else "sonar1..sonar8"
+        notes: tuple[str, ...] = ()
+        if e.func == "sum":
+            notes = ("for a running sum over the ticks, use total(x)",)
+        self.error(text.at(e.args[0].span), f"{e.func}() takes a group, as in {e.func}({example}); "
+                   f"this is {t.a}", notes=notes)
+        return None
+
     def whole_bounds(self, e: ast.Call, text: Text) -> bool:
         """randint's bounds, where written as numbers, are within +-WHOLE_LIMIT: exact as floats."""
         for arg in e.args:
@@ -228,7 +402,19 @@ class ExprChecker:
         return True
 
     def prev(self, e: ast.Call, text: Text) -> Type | None:
-        """prev(x, initial) takes a number or a boolean, and an initial value of the same type."""
+        """prev(x, initial) takes a number or a boolean, and an initial value of the same type.
+
+        Inside signal x's own definition, prev(x, initial) is x on the previous tick: its type
+        is the initial value's, and the signal must come out of that type (checked by lets())."""
+        x = e.args[0]
+        if isinstance(x, ast.Name) and x.id == self.current_let and not self.scopes and x.id not in self.types:
+            b = self.infer(e.args[1], text)
+            if b is not None and b not in (Type.NUMBER, Type.BOOL):
+                self.error(text.at(e.args[1].span), f"prev() keeps a number or a boolean, not {b.a}")
+                return None
+            self.self_prev.add(id(e))
+            self.self_prev_types.append((e, b))
+            return b
         a, b = (self.infer(arg, text) for arg in e.args)
         if a is None or b is None:
             return None
@@ -240,6 +426,18 @@ class ExprChecker:
                        f"argument, but this is {b.a}")
             return None
         return a
+
+
+def _text_note(t: Type) -> tuple[str, ...]:
+    if t is Type.TEXT:
+        return ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
+    return ()
+
+
+def _range_text(names: list[str]) -> str:
+    """'sonar1 .. sonar16' for numbered names, else the names listed."""
+    numbered = sorted(names, key=lambda n: int(n[len(n.rstrip("0123456789")):] or 0))
+    return f"{numbered[0]} .. {numbered[-1]}" if len(numbered) > 2 else ", ".join(numbered)
 
 
 def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool = False,

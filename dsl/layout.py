@@ -9,7 +9,7 @@ local ``vN``, and ``labsim.dsl.program`` fills the slots a robot starts with.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from labsim.dsl import ast
@@ -29,6 +29,9 @@ class Layout:
     labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> text and (slot, format spec)
     label_fields: tuple[tuple[int, str, Parsed], ...]  # slot, slider, the field's expression
     targets: tuple[tuple[str, str], ...]  # (joint, "velocity" | "position")
+    # a group signal's members: their slots, or None when the group only names values that have
+    # slots or are constants (sonar1..sonar8), which its uses read directly
+    members: Mapping[str, tuple[int, ...] | None] = field(default_factory=lambda: MappingProxyType({}))
 
 
 def layout(c: Checked) -> Layout:
@@ -68,10 +71,26 @@ def layout(c: Checked) -> Layout:
                         targets.append((joint.id, JOINT_ACTIONS[a.name]))
     # per-tick variables and per-robot constants, only for behaviours that read them
     count = base + len(fields)
+    members: dict[str, tuple[int, ...] | None] = {}
+    for name, parsed in c.lets:
+        if name in c.group_sizes:
+            if _names_only(parsed.node, members):
+                members[name] = None
+            else:
+                members[name] = tuple(range(count, count + c.group_sizes[name]))
+                count += c.group_sizes[name]
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
     for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
-    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets))
+    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets),
+                  MappingProxyType(members))
+
+
+def _names_only(e: ast.Expr, members: dict[str, tuple[int, ...] | None]) -> bool:
+    """Whether a group is written with names and numbers only (or names another such group)."""
+    if isinstance(e, ast.Name):
+        return e.id in members and members[e.id] is None
+    return isinstance(e, ast.Group) and all(isinstance(m, ast.Name | ast.Number) for m in e.members)
 

@@ -204,7 +204,7 @@ class Linter:
                 holds = self.known(condition) if condition is not None else None
                 if holds is False and condition is not None:
                     self.warn(decl.text.at(condition.span), "this condition never holds: the rule never fires")
-                if holds is not True:
+                if holds is not True or decl.rule.kind == "when":  # a 'when' rule logs, and the rules below go on
                     continue
                 line = decl.text.node.start_mark.line + 1
                 for later in rules[i + 1:]:
@@ -300,7 +300,8 @@ class Linter:
         for rules in c.states.values():
             for decl in rules:
                 rule = decl.rule
-                every_tick = single and decl.number == 1
+                # reached on every tick: the first rule of a single state, or one below 'when' rules only
+                every_tick = single and all(r.rule.kind == "when" for r in rules[:decl.number - 1])
                 if rule.condition is not None:
                     in_state = "" if single else f" in state '{decl.state}'"
                     where = None if every_tick else ("is in a rule's condition, evaluated only on the ticks no "

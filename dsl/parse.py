@@ -242,11 +242,10 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     expected.discard("__IGNORE_0")
     # LALR's expected sets are broad, so the message is chosen by where we are in the text.
     words = text[:pos].split()
-    if start == "rule" and (not words or pos == 0):
-        word = text.split()[0] if text.split() else ""
-        return ParseError(0, max(1, len(word)),
-                          f"a rule starts with 'if', 'else' or 'always', not '{word}'",
-                          ("e.g. 'if sonar5 <= 0.5 then arc(-2, 2)' or 'else move(2)'",))
+    first = _RULE_START.match(text)
+    if start == "rule" and (not words or pos == 0 or (first and first.group(1) not in RULE_WORDS)):
+        word = first.group(1) if first else (text.split()[0] if text.split() else "")
+        return _rule_start(word, text.find(word) if word else 0)
     if text[:pos].count("(") > text[:pos].count(")"):
         if {"NAME", "NUMBER"} <= expected:
             return ParseError(pos, end, f"expected a value or an expression, found {token_text}")
@@ -286,6 +285,16 @@ _CHARACTER_HINTS = {
 }
 
 
+RULE_WORDS = ("if", "else", "always", "when")
+_RULE_START = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _rule_start(word: str, at: int) -> ParseError:
+    return ParseError(at, at + max(1, len(word)), f"a rule starts with 'if', 'else', 'always' or 'when', not '{word}'",
+                      ("e.g. 'if sonar5 <= 0.5 then arc(-2, 2)', 'else move(2)', or "
+                       "'when rising(collided) then log(\"hit\")', which logs and goes on to the next rule",))
+
+
 def _bad_character(text: str, pos: int) -> ParseError:
     for prefix in sorted(_CHARACTER_HINTS, key=len, reverse=True):
         if text.startswith(prefix, pos):
@@ -315,6 +324,12 @@ class _ToAst(Transformer):
 
     def always_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("always", None, c[0], span=_span(meta))
+
+    def named_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
+        """``when COND then log(...)``: 'when' is read as a name, so a file may still use it as one."""
+        if str(c[0]) != "when":
+            raise _rule_start(str(c[0]), c[0].start_pos)
+        return ast.Rule("when", c[1], c[2], span=_span(meta))
 
     def actions(self, meta: Meta, c: list[Any]) -> tuple[ast.Action | ast.Goto, ...]:
         return tuple(c)
@@ -389,3 +404,39 @@ class _ToAst(Transformer):
 
     def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute:
         return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))
+
+    def text(self, meta: Meta, c: list[Any]) -> ast.Text:
+        return ast.Text(str(c[0])[1:-1], span=_span(meta))
+
+    def group(self, meta: Meta, c: list[Any]) -> ast.Group:
+        if c[0] is None:
+            raise ParseError(meta.start_pos, meta.end_pos, "a group needs at least one member, as in [sonar4, sonar5]")
+        return ast.Group(tuple(c[0]), span=_span(meta))
+
+    def index(self, meta: Meta, c: list[Any]) -> ast.Index:
+        return ast.Index(c[0], c[1], span=_span(meta))
+
+    def name_range(self, meta: Meta, c: list[Any]) -> ast.Group:
+        """``sonar1..sonar8`` (or ``sonar1..8``): the names from the first number to the last, in order."""
+        first, last = c
+        head = _NUMBERED.fullmatch(str(first))
+        tail = _NUMBERED.fullmatch(str(last)) if last.type == "NAME" else re.fullmatch(r"()(\d+)", str(last))
+        if head is None:
+            raise ParseError(*_tspan(first), f"a range of names runs between two numbered names, as in "
+                             f"sonar1..sonar8; '{first}' ends in no number")
+        if tail is None or (tail.group(1) and tail.group(1) != head.group(1)):
+            raise ParseError(*_tspan(last), f"a range of names runs between two numbered names of one kind, as "
+                             f"in {head.group(1)}1..{head.group(1)}8; not '{last}'")
+        a, b = int(head.group(2)), int(tail.group(2))
+        if abs(b - a) >= MAX_RANGE:
+            raise ParseError(meta.start_pos, meta.end_pos, f"a range of names holds at most {MAX_RANGE} members, "
+                             f"and this one has {abs(b - a) + 1}")
+        step = 1 if b >= a else -1
+        names = [f"{head.group(1)}{k}" for k in range(a, b + step, step)]
+        spans = [_span(meta)] * len(names)
+        spans[0], spans[-1] = _tspan(first), _tspan(last)
+        return ast.Group(tuple(ast.Name(n, span=sp) for n, sp in zip(names, spans)), True, span=_span(meta))
+
+
+_NUMBERED = re.compile(r"([A-Za-z_][A-Za-z0-9_]*?)(\d+)")
+MAX_RANGE = 1000  # members of one range of names; a robot has at most a few dozen sensors of a kind

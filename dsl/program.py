@@ -144,6 +144,7 @@ class Program:
     stop_text: str = ""  # the stop condition as written, for the summary
     stop_parts: tuple[str, ...] = ()  # its top-level 'or' parts: the summary names the one that held
     fold_stop: bool = False  # format 1.1: the stopping tick is traced and folded into metrics
+    texts: tuple[str, ...] = ()  # what generated code shows as text: the state names, then text values
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
@@ -178,7 +179,7 @@ class Program:
             stop_part[0] = part
             return True
         bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0],
-                        _held=held)
+                        _held=held, _texts=self.texts)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)

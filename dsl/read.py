@@ -35,7 +35,7 @@ FORMAT_VERSION = 1
 VERSIONS = (1, 1.1, 1.2)  # docs/language.md; a file's version keeps its meaning
 
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
-            "let", "rules", "metrics", "sliders", "bind", "timeline")
+            "functions", "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
 ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params", "noise")
@@ -66,6 +66,17 @@ class RobotDecl:
     # parameters this group sets for itself: name, one value per member (or one for all), node
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
     noise: Noise | None = None  # labsim.dsl.noise; None: none declared
+
+
+@dataclass(frozen=True)
+class FunctionDecl:
+    """``steer(offset, gain): clamp(gain * offset, -2, 2)`` under ``functions:`` (version 1.2)."""
+
+    name: str
+    params: tuple[str, ...]
+    body: Parsed
+    key: Node  # the key, where a problem with the definition is reported
+    param_spans: tuple[tuple[int, int], ...] = ()  # each parameter's characters in the key
 
 
 @dataclass(frozen=True)
@@ -127,6 +138,7 @@ class BehaviourFile:
     stop: Parsed | None = None
     robots: list[RobotDecl] = field(default_factory=list)
     params: dict[str, tuple[float | bool, Node]] = field(default_factory=dict)
+    functions: list[FunctionDecl] = field(default_factory=list)
     lets: list[tuple[str, Parsed, Node]] = field(default_factory=list)
     states: dict[str, tuple[list[RuleDecl], Node | None]] = field(default_factory=dict)
     metrics: list[tuple[str, Parsed, Node]] = field(default_factory=list)
@@ -236,6 +248,8 @@ class _Reader(Reader):
             bf.has_robots = True
         if "params" in keys:
             bf.params = self.params(keys["params"])
+        if "functions" in keys:
+            bf.functions = self.functions(keys["functions"])
         if "let" in keys:
             bf.lets = self.named_exprs(keys["let"], "let")
             declared = {k.value for k, _ in keys["let"].value} if isinstance(keys["let"], MappingNode) else set()
@@ -255,6 +269,14 @@ class _Reader(Reader):
     # -- shapes a behaviour file uses ----------------------------------------------------------
 
     def expr(self, node: Node, what: str) -> Parsed | None:
+        if isinstance(node, SequenceNode) and node.flow_style and node.start_mark.line == node.end_mark.line:
+            # a group written as YAML reads it, [sonar4, sonar5]: its text is the group's expression
+            node = ScalarNode("tag:yaml.org,2002:str", self.doc.text[node.start_mark.index:node.end_mark.index],
+                              node.start_mark, node.end_mark, style="'")
+        elif isinstance(node, SequenceNode):
+            self.error(node, f"{what} is a group: write it on one line, as in [sonar4, sonar5], or as a range, "
+                             "as in sonar1..sonar8")
+            return None
         if not isinstance(node, ScalarNode) or node.tag.endswith(":null"):
             self.error(node, f"{what} must be an expression written as text, not a {shape_of(node)}",
                        notes=_mapping_hint(node))
@@ -469,6 +491,39 @@ class _Reader(Reader):
                 out.append((name, parsed, key))
         return out
 
+    def functions(self, node: Node) -> list[FunctionDecl]:
+        """``NAME(a, b): expression``: each key a name with its parameters, each value the body."""
+        out = []
+        for key, value in self.mapping(node, "functions"):
+            m = _SIGNATURE.fullmatch(key.value)
+            if m is None:
+                self.error(key, f"a function is written 'name(a, b): expression', not '{key.value}'",
+                           notes=("e.g. functions: {steer(offset, gain): clamp(gain * offset, -2, 2)}",))
+                continue
+            params = tuple(p.strip() for p in m.group(2).split(",")) if m.group(2).strip() else ()
+            text = self.doc.text_of(key)
+            spans = []
+            at = m.start(2)
+            for p in m.group(2).split(",") if params else ():
+                start = at + len(p) - len(p.lstrip())
+                spans.append((start, start + len(p.strip())))
+                at += len(p) + 1
+            bad = [(p, sp) for p, sp in zip(params, spans) if not p.isidentifier() or not p.isascii()]
+            if bad:
+                self.error(text.at(bad[0][1]), f"'{bad[0][0]}' is not a valid parameter name: use letters, digits "
+                           "and '_', starting with a letter")
+                continue
+            twice = [p for k, p in enumerate(params) if p in params[:k]]
+            if twice:
+                self.error(key, f"function '{m.group(1)}' names its parameter '{twice[0]}' twice")
+                continue
+            body = self.expr(value, f"the body of '{m.group(1)}'")
+            if body is not None:
+                out.append(FunctionDecl(m.group(1), params, body, key, tuple(spans)))
+            else:
+                self.failed_names.add(m.group(1))
+        return out
+
     # -- a mechanism's controls ----------------------------------------------------------------
 
     def sliders(self, node: Node) -> list[SliderDecl]:
@@ -620,6 +675,7 @@ class _Reader(Reader):
 # one way to read each number: "[0-9]*\.?[0-9]+" split a long run of digits every way and took
 # minutes on a timeline key of 100,000 digits
 _AT = re.compile(r"at\s+((?:[0-9]+(?:\.[0-9]+)?|\.[0-9]+)(?:[eE][+-]?\d+)?)\s*$")
+_SIGNATURE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\(([^()]*)\)\s*")
 _SETTING = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(\S+?)\s*$")
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import RobotModel
-from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type
+from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type, argmax, argmin
 from labsim.foundation.diagnostics import Diagnostic
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
@@ -111,7 +111,8 @@ def namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str
     """What generated code may use: the functions it calls, the robot's generator and model."""
     randint = rng.randint
     ns: dict[str, object] = {"_inf": INF, "_nan": math.nan, "_randint": lambda a, b: float(randint(a, b)),
-                             "_random": rng.random, "_uniform": rng.uniform, "_gauss": rng.gauss}
+                             "_random": rng.random, "_uniform": rng.uniform, "_gauss": rng.gauss,
+                             "_argmin": argmin, "_argmax": argmax}
     for name in functions:
         ns["_" + name] = FUNCTIONS[name].resolve()
     # drive(v, w) turns m/s and rad/s into wheel rad/s with the robot's own geometry
@@ -148,6 +149,10 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
 
     if kind in _ARITHMETIC:
         return _ARITHMETIC[kind](report)
+    if kind in ("[]", "[]?"):
+        return _pick(report, math.nan if kind == "[]" else False)
+    if kind == "prev_self":
+        return _prev_self()
     if kind == "pid":
         state = [0.0, 0.0]  # this robot's integral and previous error at this call site
 
@@ -209,6 +214,29 @@ def _power(report: Callable[[str], None]) -> Callable[[float, float], float]:
 
 _ARITHMETIC: dict[str, Callable[[Callable[[str], None]], Callable[[float, float], float]]] = {
     "/": _divide, "%": _modulo, "**": _power}
+
+
+def _pick(report: Callable[[str], None], missing: object) -> Callable[[tuple, float], object]:
+    """``front[k]`` with k known only at run time: the member at place k, or ``missing`` (nan, or
+    false for booleans) and a warning when there is none."""
+    def pick(members: tuple, k: float) -> object:
+        if 0 <= k < len(members) and k == int(k):
+            return members[int(k)]
+        report(f"no member at place {k:g} of a group of {len(members)} (places count from 0)")
+        return missing
+    return pick
+
+
+def _prev_self() -> Callable[[object, object], object]:
+    """``prev(n, initial)`` inside signal n: n's value on the previous tick, ``initial`` the first time."""
+    started = [False]
+
+    def step(last: object, initial: object) -> object:
+        if started[0]:
+            return last
+        started[0] = True
+        return initial
+    return step
 
 
 def _guarded_call(kind: str, report: Callable[[str], None], rng: random.Random) -> Callable[..., object]:

@@ -58,7 +58,7 @@ def test_spans_are_offsets_into_the_string() -> None:
     ("if a then arc(1, 2) move(1)", 20, 24, "expected ',' between actions, found 'move'"),
     ("if a then goto 5", 15, 16, "expected a state name after 'goto', found '5'"),
     ("if a and then stop()", 9, 13, "expected a value or an expression, found 'then'"),
-    ("sonar5 < 1 then stop()", 0, 6, "a rule starts with 'if', 'else' or 'always', not 'sonar5'"),
+    ("sonar5 < 1 then stop()", 0, 6, "a rule starts with 'if', 'else', 'always' or 'when', not 'sonar5'"),
     ("", 0, 1, "empty rule"),
 ])
 def test_rule_syntax_errors(text: str, start: int, end: int, message: str) -> None:
