@@ -19,7 +19,6 @@ tracebacks through generated functions show it.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
+from labsim.dsl.unroll import PLAIN, Unroller, extreme, reduce
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
@@ -60,7 +60,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts))
 
 
-class _Generator:
+class _Generator(Unroller):
     """Checked AST to the Python source of ``signals()``, ``decide()``, ``fold()`` and ``both()``.
 
     Every expression is emitted fully parenthesised from a fixed set of forms: ``vN`` (slot N,
@@ -414,95 +414,6 @@ class _Generator:
             return self.index(w, e, text, where)
         raise AssertionError(f"cannot compile {e!r}")
 
-    # -- groups and user functions (version 1.2): written out member by member, body by body ----
-    def members(self, w: Writer, e: ast.Expr, text: Text, where: str) -> list[str]:
-        """Python for each member of a group-typed expression; an operator applies to each member,
-        and a value it pairs with every member is written into each (the checker made it pure)."""
-        x = lambda sub: self.spread(w, sub, self.c.sizes.get(id(e), 0), text, where)  # noqa: E731
-        if isinstance(e, ast.Group):
-            return [self.expr(w, m, text, where) for m in e.members]
-        if isinstance(e, ast.Name):
-            if self.env and e.id in self.env[-1]:
-                return list(self.env[-1][e.id])
-            slots = self.layout.members[e.id]
-            if slots is None:  # a group of names: read them where it is used
-                parsed = self.let_of[e.id]
-                return self.members(w, parsed.node, parsed.text, where)
-            for k in slots:
-                w.read(k)
-            return [f"v{k}" for k in slots]
-        if isinstance(e, ast.Neg):
-            return [f"(-{m})" for m in x(e.operand)]
-        if isinstance(e, ast.Not):
-            return [f"(not {m})" for m in x(e.operand)]
-        if isinstance(e, ast.Binary):
-            out = []
-            for a, b in zip(x(e.left), x(e.right)):
-                if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.nonzero(e.right)):
-                    out.append(f"({a} {e.op} {b})")
-                else:
-                    out.append(f"{self.site(e.op, text, e.span, where)}({a}, {b})")
-            return out
-        if isinstance(e, ast.Compare):
-            out = []
-            for row in zip(*(x(o) for o in e.operands)):
-                parts = [row[0]]
-                for op, operand in zip(e.ops, row[1:]):
-                    parts += [op, operand]
-                out.append("(" + " ".join(parts) + ")")
-            return out
-        if isinstance(e, ast.BoolOp):
-            return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(x(v) for v in e.values))]
-        if isinstance(e, ast.Call) and id(e) in self.c.expansions:
-            body = self.inline(w, e, text, where)
-            assert isinstance(body, list)
-            return body
-        raise AssertionError(f"cannot compile the group {e!r}")
-
-    def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
-        """An operand of an operator on groups: its members, or its value once per member."""
-        if self.c.node_types.get(id(e)) in (Type.NUMBERS, Type.BOOLS):
-            return self.members(w, e, text, where)
-        return [self.expr(w, e, text, where)] * n
-
-    def index(self, w: Writer, e: ast.Index, text: Text, where: str) -> str:
-        """front[2]: the member itself; front[k] for a k known only at run time, through a guard."""
-        members = self.members(w, e.value, text, where)
-        try:
-            k = fold(e.index, self.constants)
-        except NotConstant:
-            kind = "[]?" if self.c.node_types.get(id(e)) is Type.BOOL else "[]"
-            return f"{self.site(kind, text, e.span, where)}(({', '.join(members)},), {self.expr(w, e.index, text, where)})"
-        assert isinstance(k, (int, float)) and float(k).is_integer()  # the checker refused other numbers
-        return members[int(k)]
-
-    def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
-        """A user function's body in place of its call: a parameter whose argument folds is a
-        constant of the body, any other is the argument's Python (a group's, member by member)."""
-        expansion = self.c.expansions[id(e)]
-        d = expansion.decl
-        constants = {k: v for k, v in self.constants.items() if k not in d.params}
-        env: dict[str, str | list[str]] = {}
-        for name, arg in zip(d.params, e.args):
-            if self.c.node_types.get(id(arg)) in (Type.NUMBERS, Type.BOOLS):
-                env[name] = self.members(w, arg, text, where)
-                continue
-            try:
-                constants[name] = fold(arg, self.constants)
-            except NotConstant:
-                env[name] = self.emit(w, arg, text, where)
-        outer = self.constants
-        self.constants = constants
-        self.env.append(env)
-        try:
-            inside = f"{where}, in {d.name}()"
-            if self.c.node_types.get(id(expansion.body)) in (Type.NUMBERS, Type.BOOLS):
-                return self.members(w, expansion.body, d.body.text, inside)
-            return self.expr(w, expansion.body, d.body.text, inside)
-        finally:
-            self.env.pop()
-            self.constants = outer
-
     def nonzero(self, e: ast.Expr) -> bool:
         """Whether an expression is a constant number other than zero (a divisor needing no guard)."""
         try:
@@ -527,8 +438,8 @@ class _Generator:
             assert isinstance(e.args[0], ast.Name)
             return f"({self.emit(w, e.args[0], text, where)} < _inf)"
         parts = [self.expr(w, a, text, where) for a in e.args]
-        if e.func in ("min", "max") and len(parts) <= 3 and all(_PLAIN.match(p) for p in parts):
-            return _extreme(e.func, parts)
+        if e.func in ("min", "max") and len(parts) <= 3 and all(PLAIN.match(p) for p in parts):
+            return extreme(e.func, parts)
         args = ", ".join(parts)
         if e.func == "randint":
             try:
@@ -603,47 +514,6 @@ def _fold_metric(w: Writer, aggregate: Aggregate, e: str, i: int) -> None:
     with w.indent():
         for line in update:
             w.line(line)
-
-
-# A slot's local or a plain literal: safe to name more than once in an expression.
-_PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
-
-
-def _extreme(func: str, parts: list[str]) -> str:
-    """``min``/``max`` of two or three plain values as an expression, without a call.
-
-    Exactly what ``labsim.dsl.builtins._min`` and ``_max`` compute, nan and the order of equal
-    values included: nan if any value is nan, else the running extreme from the first value,
-    replaced only by a strictly smaller (larger) one. The wall lab's rules take the minimum of
-    sonar pairs 150,000 times in a run; the call was 5% of its tick.
-    """
-    op = "<" if func == "min" else ">"
-    nan = " or ".join(f"{p} != {p}" for p in parts)
-    a, b = parts[0], parts[1]
-    m = f"({b} if {b} {op} {a} else {a})"
-    if len(parts) == 3:
-        c = parts[2]
-        m = f"({c} if {c} {op} {m} else {m})"
-    return f"(_nan if {nan} else {m})"
-
-
-def reduce(func: str, members: list[str]) -> str:
-    """A reduction of a group as one expression: min(front), any(front < 0.5), ..."""
-    n = len(members)
-    if func in ("min", "max"):
-        if n == 1:
-            return members[0]
-        if n <= 3 and all(_PLAIN.match(m) for m in members):
-            return _extreme(func, members)
-        return f"_{func}({', '.join(members)})"
-    if func in ("sum", "mean"):
-        total = "(" + " + ".join(members) + ")"
-        return total if func == "sum" else f"({total} / {float(n)!r})"
-    if func in ("argmin", "argmax"):
-        return f"_{func}({', '.join(members)})"
-    if func == "count":
-        return "(0.0 + " + " + ".join(members) + ")"
-    return "(" + f" {'or' if func == 'any' else 'and'} ".join(members) + ")"
 
 
 def _literal(value: object) -> str:

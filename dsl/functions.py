@@ -16,20 +16,36 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FUNCTIONS, KEYWORDS, STATEFUL, TRACE_COLUMNS, Type
 from labsim.dsl.read import FunctionDecl
-from labsim.foundation.source import Text
-
-if TYPE_CHECKING:
-    from labsim.dsl.infer import ExprChecker
+from labsim.foundation.source import Place, Text
 
 RANDOM = frozenset(f.name for f in FUNCTIONS.values() if f.uses_rng)
 MAX_EXPANDED = 20_000  # nodes all calls of a file expand to: f calling g twice calling h twice ... grows fast
 # names a function's body may read besides its parameters: the file's and the language's constants
 READABLE_KINDS = frozenset({"parameter", "constant"})
+
+
+class ExprChecker(Protocol):
+    """What this module uses of the checker (``labsim.dsl.infer.ExprChecker``)."""
+
+    types: dict[str, Type]
+    kinds: dict[str, str]
+    poisoned: set[str]
+    scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
+    expansions: dict[int, Expansion]
+    expanded: int
+
+    def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
+
+    def infer(self, e: ast.Expr, text: Text) -> Type | None: ...
+
+    def name(self, e: ast.Name, text: Text) -> Type | None: ...
+
+    def size(self, e: ast.Expr) -> int: ...
 
 
 @dataclass(frozen=True)
@@ -76,7 +92,8 @@ def check_definitions(c: ExprChecker, decls: list[FunctionDecl]) -> dict[str, Fu
                            "choose another name")
             continue
         if d.name in out:
-            c.error(d.key, f"function '{d.name}' is defined twice (first on line {out[d.name].key.start_mark.line + 1})")
+            first = out[d.name].key.start_mark.line + 1
+            c.error(d.key, f"function '{d.name}' is defined twice (first on line {first})")
             continue
         if _pure(c, d):
             out[d.name] = d
@@ -177,7 +194,7 @@ def check_call(c: ExprChecker, e: ast.Call, text: Text, d: FunctionDecl) -> Type
     return t
 
 
-def body_name(c: ExprChecker, e: ast.Name, text: Text) -> Type | None | bool:
+def body_name(c: ExprChecker, e: ast.Name, text: Text) -> Type | bool | None:
     """A name inside a function's body: a parameter, the file's parameter or a constant; False when
     the name is none of the function's and the checker's own rules apply."""
     d, scope, call, call_text = c.scopes[-1]
@@ -210,8 +227,8 @@ def check_bodies(c: ExprChecker, functions: dict[str, FunctionDecl]) -> None:
         c.scopes.append((d, {p: (Type.NUMBER, 0) for p in d.params}, None, d.body.text))
         try:
             for node in nodes(d.body.node):
-                if isinstance(node, ast.Name):
-                    if body_name(c, node, d.body.text) is False and node.id not in c.types:
-                        c.name(node, d.body.text)
+                if isinstance(node, ast.Name) and body_name(c, node, d.body.text) is False \
+                        and node.id not in c.types:
+                    c.name(node, d.body.text)
         finally:
             c.scopes.pop()

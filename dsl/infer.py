@@ -148,8 +148,8 @@ class ExprChecker:
     def name(self, e: ast.Name, text: Text) -> Type | None:
         if self.scopes:
             inside = body_name(self, e, text)
-            if inside is not False:
-                return inside  # type: ignore[return-value]  # not a bool: False is handled above
+            if not isinstance(inside, bool):
+                return inside
         if e.id == self.current_let and e.id not in self.types:
             self.error(text.at(e.span), f"signal '{e.id}' reads itself: it is being computed; its value on the "
                        f"previous tick is prev({e.id}, initial)", notes=(
@@ -277,12 +277,6 @@ class ExprChecker:
         types = [t for t in inferred if t is not None]
         if len(types) != len(inferred):
             return None
-        if Type.STATE in types:
-            if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
-                self.error(text.at(e.span), "a state can only be compared with ==/!= to another state, "
-                           "as in 'state == follow'")
-                return None
-            return Type.BOOL
         if Type.TEXT in types:
             other = types[1] if types[0] is Type.TEXT else types[0]
             at = e.operands[types.index(Type.TEXT)]
@@ -294,6 +288,12 @@ class ExprChecker:
                 self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
                            notes=_text_note(Type.TEXT))
             return None
+        if Type.STATE in types:
+            if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
+                self.error(text.at(e.span), "a state can only be compared with ==/!= to another state, "
+                           "as in 'state == follow'")
+                return None
+            return Type.BOOL
         sizes: list[tuple[int, ast.Expr]] = []
         for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
             if op in ("==", "!=") and ta.member is tb.member is Type.BOOL:
@@ -330,7 +330,7 @@ class ExprChecker:
             return self.prev(e, text)
         if e.func in REDUCTIONS and len(e.args) == 1:
             reduced = self.reduction(e, text)
-            if reduced is not False:
+            if not isinstance(reduced, bool):
                 return reduced
         f = FUNCTIONS.get(e.func)
         if f is None:
@@ -366,7 +366,7 @@ class ExprChecker:
             ok = self.whole_bounds(e, text) and ok
         return f.returns if ok else None
 
-    def reduction(self, e: ast.Call, text: Text) -> Type | None | bool:
+    def reduction(self, e: ast.Call, text: Text) -> Type | bool | None:
         """min(front), any(front < 0.5), ...: a group's reduction; False when the argument is not a
         group and the name is also a function of other things (min of numbers, mean of an image)."""
         r = REDUCTIONS[e.func]
