@@ -73,9 +73,10 @@ class RunResult:
     fleet: Mapping[str, float] = field(default_factory=dict)  # metric -> over all robots (fleet_value)
     rules: tuple[RuleResult, ...] = ()
     idle_ticks: int = 0  # robot-ticks on which no rule held
-    faults: tuple[str, ...] = ()  # "site: what: n times (first at tick t, robot r)", and logs not printed
+    faults: tuple[str, ...] = ()  # "site: what: n times (first at tick t, robot r)"
     warnings: tuple[str, ...] = ()  # the compiler's warnings (one line each), then the run's own
     logs: tuple[str, ...] = ()  # what log(...) printed, apart from the warnings
+    logs_unprinted: tuple[str, ...] = ()  # "log on line L: n lines not printed (...)", per log(...)
     trace: str | None = None  # where its trace was written
 
     @property

@@ -357,7 +357,7 @@ class Run:
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,
             over_budget=self.over_budget, robots=robots, fleet=fleet,
             rules=tuple(RuleResult(rule.id, rule.text, n) for rule, n in zip(p.rules, self.fired)),
-            idle_ticks=self.idle, faults=tuple(self._fault_lines()),
+            idle_ticks=self.idle, faults=tuple(self._fault_lines()), logs_unprinted=tuple(self._unprinted()),
             warnings=tuple(_warning_line(d) for d in p.warnings) + tuple(self.warnings),
             logs=tuple(self.log_printer.lines) if self.log_printer is not None else (),
             trace=str(self.trace.path) if self.trace is not None else None)
@@ -377,14 +377,17 @@ class Run:
             sonar_readings_lost=noisy.dropped if noisy is not None else 0,
             faults=self.faults.by_robot.get(r.name, 0))
 
-    def _fault_lines(self) -> list[str]:
-        p = self.program
+    def _unprinted(self) -> list[str]:
         out = []
         if self.log_printer is not None:
             for site_index, n in self.log_printer.dropped.items():
-                line = p.logs[site_index][0]
+                line = self.program.logs[site_index][0]
                 out.append(f"log on line {line}: {n} line{'s' if n != 1 else ''} not printed "
                            f"(at most {LOG_RATE} a simulated second; the trace has them all)")
+        return out
+
+    def _fault_lines(self) -> list[str]:
+        out = []
         for (site, what), n in self.faults.counts.items():
             tick, robot = self.faults.first[(site, what)]
             out.append(f"{site.where}: {what}: {n} time{'s' if n != 1 else ''} "

@@ -80,6 +80,7 @@ def summary_dict(result: RunResult) -> dict[str, Any]:
         "faults": list(result.faults),
         "warnings": list(result.warnings),
         "logs": list(result.logs),
+        "logs_unprinted": list(result.logs_unprinted),
         "trace": result.trace,
     }
 

@@ -128,4 +128,9 @@ def _rule_lines(s: RunResult) -> list[str]:
 
 
 def _fault_lines(s: RunResult) -> list[str]:
-    return ["runtime warnings:", *(f"  {f}" for f in s.faults)] if s.faults else []
+    """The runtime warnings, then the logs, apart: a log is what the behaviour meant to say."""
+    lines = ["runtime warnings:", *(f"  {f}" for f in s.faults)] if s.faults else []
+    if s.logs or s.logs_unprinted:
+        lines += [f"logs: {len(s.logs)} line{'s' if len(s.logs) != 1 else ''} printed",
+                  *(f"  {f}" for f in s.logs_unprinted)]
+    return lines

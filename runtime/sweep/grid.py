@@ -295,7 +295,7 @@ class Columns:
 
     def names(self) -> list[str]:
         return (["file", "name", "sha256", *self.settings, "seed", "status", "message", "ticks", "sim_time_s",
-                 "wall_time_s", "task_time_s", "contacts", "clamped_ticks", "faults", "stop_reason",
+                 "wall_time_s", "task_time_s", "contacts", "clamped_ticks", "faults", "logs", "stop_reason",
                  *self.metrics, "retries", "worker"])
 
 
@@ -310,6 +310,7 @@ def flat(row: Row) -> dict[str, Any]:
         out.update(name=s.name, sha256=s.sha256, ticks=s.ticks, sim_time_s=s.sim_time_s,
                    wall_time_s=round(s.wall_time_s, 6), contacts=sum(r.contacts for r in robots),
                    clamped_ticks=sum(r.clamped_ticks for r in robots), faults=len(s.faults),
+                   logs=len(s.logs),
                    stop_reason=s.stop_reason)
         out.update(s.metric_values())
     return out
