@@ -6,7 +6,7 @@ import random
 from pathlib import Path
 
 import pytest
-from helpers import Run, load_backend
+from helpers import Run, load_backend, run_example, trace_rows
 
 from labsim.dsl import ast
 from labsim.dsl.compile import compile_file
@@ -190,3 +190,20 @@ def test_when_rules_log_and_the_rules_below_still_drive(write, tmp_path: Path) -
     assert [r[8] for r in rows[1:-1]] == ["main:2"] * 4  # the stopping tick acts on no rule
     assert rows[2][-1] == "log: side left in main"
     assert any(line.endswith("p: side left in main") for line in warned)
+
+
+# -- the worked examples of docs/language.md --------------------------------------------------------
+
+def test_nearest_sonar_keeps_off_the_walls(tmp_path: Path) -> None:
+    _, summary, _ = run_example("nearest_sonar", tmp_path, trace=True)
+    rows = trace_rows(tmp_path / "t.csv")
+    assert 0.2 < summary.robots["pioneer"].metrics["closest"] < 0.5  # type: ignore[attr-defined]
+    assert "side" in rows[0] and "front" not in rows[0].split(",")  # a group is not traced
+
+
+def test_log_and_drive_logs_each_wall_and_still_turns(tmp_path: Path) -> None:
+    run, summary, warned = run_example("log_and_drive", tmp_path, trace=True)
+    walls = summary.robots["pioneer"].metrics["walls"]  # type: ignore[attr-defined]
+    logged = [row for row in trace_rows(tmp_path / "t.csv") if "log: wall on the " in row]
+    assert walls >= 2 and len(logged) == walls  # the trace has every line; the summary at most 5 a second
+    assert summary.rule_counts["main:1"] == 0 and summary.rule_counts["main:2"] > 0  # type: ignore[attr-defined]
