@@ -39,7 +39,7 @@ from labsim.dsl.builtins import (
     Aggregate,
     Type,
 )
-from labsim.dsl.infer import ExprChecker, arity_message
+from labsim.dsl.infer import PRINTS, ExprChecker, arity_message, log_example
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
@@ -404,6 +404,9 @@ class _Checker(ExprChecker):
             self.error(text.at(gotos[1].span), "a rule can 'goto' one state")
         for action in drives:
             spec = ACTIONS.get(action.name)
+            if spec is None and action.name in PRINTS:  # print(x): to print, there is log("...")
+                self.log_action(action, text)
+                continue
             if spec is None:
                 hint = did_you_mean(action.name, ACTIONS)
                 what = "function, not an action" if action.name in FUNCTIONS else "action"
@@ -426,9 +429,9 @@ class _Checker(ExprChecker):
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
-        if action.name not in ACTIONS:  # print("..."), say("..."): an action that does not exist
+        if action.name not in ACTIONS:  # print("..."), say("hi", 2): an action that does not exist
             self.error(text.at(action.name_span), f"unknown action '{action.name}' (to print text, use "
-                       f'log("...")' + ")", notes=('e.g. log("hit at {time:.1f} s"): printed with the time and '
+                       f'log("...")' + ")", notes=(f"e.g. {log_example(action, text)}: printed with the time and "
                                                   "the robot, and recorded in the trace",))
             return
         if action.name != "log":
@@ -437,6 +440,10 @@ class _Checker(ExprChecker):
             return
         if action.text is None:
             self.error(text.at(action.span), 'log() takes text in quotes, as in log("hit at {time:.1f} s")')
+            return
+        if action.args:  # log("wall!", x): the values belong in the text's fields
+            self.error(text.at((action.args[0].span[0], action.args[-1].span[1])),
+                       f"log() takes one text, and values go in its fields: {log_example(action, text)}")
             return
         for part in action.text:
             if isinstance(part, tuple):

@@ -266,6 +266,25 @@ _MEANT = {
 }
 
 
+# Actions students reach for to print text: each is told to use log("...").
+PRINTS = frozenset({"print", "say", "echo", "write", "display", "show", "printf", "println", "puts"})
+
+
+def log_example(action: ast.Action, text: Text) -> str:
+    """The log() an action that prints meant: its text, and its values as fields after it.
+
+    print("wall!", x) -> log("wall! {x:.2f}"); with no text of its own, log("hit at {time:.1f} s")."""
+    source = text.value
+    def field(e: ast.Expr, spec: str) -> str:
+        return "{" + source[e.span[0]:e.span[1]] + (f":{spec}" if spec else "") + "}"
+    if action.text is None and not action.args:
+        return 'log("hit at {time:.1f} s")'
+    words = "".join(p.replace("{", "{{").replace("}", "}}") if isinstance(p, str) else field(*p)
+                    for p in action.text or ())
+    fields = " ".join(field(arg, ".2f") for arg in action.args)
+    return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
+
+
 def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:
     """What an unknown function's message lists: the nearest functions, and where they are all."""
     names = sorted([*FUNCTIONS, DETECTED])

@@ -335,7 +335,8 @@ class _ToAst(Transformer):
             raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
                              e.notes) from None
         text = tuple(p if isinstance(p, str) else (_shift(p[0], start), p[1]) for p in parts)
-        return ast.Action(str(c[0]), (), span=_span(meta), name_span=_tspan(c[0]), text=text)
+        # values after the text (print("hit", x)) are kept for the checker, which refuses them
+        return ast.Action(str(c[0]), tuple(c[2:]), span=_span(meta), name_span=_tspan(c[0]), text=text)
 
     def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)

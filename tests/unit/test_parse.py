@@ -33,6 +33,12 @@ def test_rules_and_actions() -> None:
     assert parse_rule("always move(1)").kind == "always"
 
 
+def test_an_action_with_text_keeps_the_values_after_it_for_the_checker() -> None:
+    (action,) = parse_rule('always print("wall!", x, 2)').actions
+    assert action == ast.Action("print", (V("x"), N(2.0)), text=("wall!",))
+    assert isinstance(action, ast.Action) and action.args[0].span == (22, 23)
+
+
 def test_spans_are_offsets_into_the_string() -> None:
     r = parse_rule("if sonar5 <= front then arc(-2, 2)")
     cond = r.condition
