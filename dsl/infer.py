@@ -206,7 +206,7 @@ class ExprChecker:
         fixed = len(f.params) - f.optional
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
             self.error(text.at(e.span),
-                       arity_message(f.name, tuple(str(p) for p in f.params), n, f.variadic, f.optional))
+                       arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
             return None
         ok = True
         for i, arg in enumerate(e.args):
@@ -244,15 +244,21 @@ class ExprChecker:
 
 def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool = False,
                   optional: int = 0) -> str:
-    """'f() takes 2 arguments (x, y), given 3', and its variants."""
+    """'f() takes 2 arguments (x, y), given 3', and its variants: 'pid() takes 4 or 5 arguments
+    (error, kp, ki, kd[, limit]), given 2'. Parameters named only by their type are not listed."""
     n = len(params)
+    named = bool(params) and not all(p in ("number", "boolean") for p in params)
+    required = ", ".join(params[:n - optional])
+    listed = required + (f"[, {', '.join(params[n - optional:])}]" if optional else "") + (", ..." if variadic else "")
+    shown = f" ({listed})" if named else ""
     if variadic:
-        return f"{name}() takes at least {n} arguments, given {given}"
+        return f"{name}() takes at least {n} arguments{shown}, given {given}"
     if optional:
-        return f"{name}() takes {n - optional} to {n} arguments, given {given}"
-    plural = "argument" if n == 1 else "arguments"
-    listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
-    return f"{name}() takes {n} {plural}{listed}, given {given}"
+        counts = f"{n - optional} or {n}" if optional == 1 else f"{n - optional} to {n}"
+        return f"{name}() takes {counts} arguments{shown}, given {given}"
+    if n == 0:
+        return f"{name}() takes no arguments, given {given}"
+    return f"{name}() takes {n} {'argument' if n == 1 else 'arguments'}{shown}, given {given}"
 
 
 # Functions students reach for under another name: what to write instead.
