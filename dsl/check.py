@@ -131,7 +131,7 @@ class _Checker(ExprChecker):
             if key is not None and self.reserved(name, key, "state"):
                 continue
             if self.taken(name) and key is not None:
-                self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "state", name)
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
@@ -173,6 +173,20 @@ class _Checker(ExprChecker):
         """Whether a name is declared already; the names added after version 1 give way to the file's."""
         return name in self.types and self.kinds[name] != _SHADOWABLE_KIND
 
+    def clash(self, place: Place, what: str, name: str) -> None:
+        """Report a name two declarations share. The first keeps it; uses that read it as the
+        other (``follow + 1`` with a state 'follow' and a parameter 'follow') say nothing more."""
+        self.error(place, f"{what} '{name}' has the name of a {self.kinds[name]}; choose another name")
+        self.clashed.add(name)
+
+    def key_of(self, value: Node) -> Node:
+        """The key of a value under 'params:' (the name a mistake is in), or the value itself."""
+        root = self.bf.doc.root
+        for key, node in root.value if isinstance(root, MappingNode) else ():
+            if key.value == "params" and isinstance(node, MappingNode):
+                return next((k for k, v in node.value if v is value), value)
+        return value
+
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
         if name in SHADOWABLE:
@@ -194,7 +208,7 @@ class _Checker(ExprChecker):
             if self.reserved(slider.name, slider.key, "slider"):
                 continue
             if self.taken(slider.name):
-                self.error(slider.key, f"slider '{slider.name}' has the name of a {self.kinds[slider.name]}")
+                self.clash(slider.key, "slider", slider.name)
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
             out.append(slider)
@@ -311,10 +325,11 @@ class _Checker(ExprChecker):
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
-            if self.reserved(name, node, "parameter"):
+            key = self.key_of(node)
+            if self.reserved(name, key, "parameter"):
                 continue
             if self.taken(name):
-                self.error(node, f"parameter '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "parameter", name)
                 continue
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
@@ -353,7 +368,7 @@ class _Checker(ExprChecker):
         later = {name: key for name, _, key in self.bf.lets}
         for name, parsed, key in self.bf.lets:
             if self.taken(name):
-                self.error(key, f"signal '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "signal", name)
                 continue
             if self.reserved(name, key, "signal"):
                 continue

@@ -35,6 +35,7 @@ class ExprChecker:
         self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
         self.world_failed = False  # names the world would have given are not reported unknown
         self.metric_names: set[str] = set()  # the file's metrics: not names an expression can read
+        self.clashed: set[str] = set()  # names two declarations share: reported once, where declared
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -50,6 +51,8 @@ class ExprChecker:
         if t is None:
             return False
         if t is not want:
+            if self.explained(e):
+                return False
             hint: tuple[str, ...] = ()
             if want is Type.BOOL and t is Type.NUMBER:
                 hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
@@ -140,6 +143,11 @@ class ExprChecker:
         self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
         return None
 
+    def explained(self, e: ast.Expr) -> bool:
+        """Whether an operand of the wrong type is a name two declarations share, whose clash
+        is reported already: one message at the declaration, not one at every use."""
+        return isinstance(e, ast.Name) and e.id in self.clashed
+
     def operands(self, text: Text, op: str, args: list[ast.Expr], want: Type, result: Type) -> Type | None:
         ok = True
         for arg in args:
@@ -147,7 +155,8 @@ class ExprChecker:
             if t is None:
                 ok = False
             elif t is not want:
-                self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}")
+                if not self.explained(arg):
+                    self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}")
                 ok = False
         return result if ok else None
 
@@ -158,6 +167,8 @@ class ExprChecker:
             return None
         if Type.STATE in types:
             if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
+                if any(self.explained(o) for o in e.operands):
+                    return None
                 self.error(text.at(e.span), "a state can only be compared with ==/!= to another state, "
                            "as in 'state == follow'")
                 return None
@@ -167,7 +178,8 @@ class ExprChecker:
                 continue
             for node, t in ((a, ta), (b, tb)):
                 if t is not Type.NUMBER:
-                    self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
+                    if not self.explained(node):
+                        self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
                     return None
         return Type.BOOL
 
