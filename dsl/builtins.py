@@ -226,6 +226,9 @@ ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
     ActionSpec("log", ("text",), 'log("text {expr:.2f}"): print a line with the time and robot, and trace it'),
 )}
 
+# Actions students reach for to print text, from other languages: each is told to use log("...").
+PRINTS = frozenset({"print", "say", "echo", "write", "display", "show", "printf", "println", "puts"})
+
 # Actions whose first argument names a joint rather than giving a value.
 JOINT_ACTIONS = {"set_velocity": "velocity", "set_position": "position"}
 

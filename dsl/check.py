@@ -33,13 +33,14 @@ from labsim.dsl.builtins import (
     FUNCTIONS,
     JOINT_ACTIONS,
     KEYWORDS,
+    PRINTS,
     SHADOWABLE,
     TRACE_COLUMNS,
     VARIABLES,
     Aggregate,
     Type,
 )
-from labsim.dsl.infer import PRINTS, ExprChecker, arity_message, log_example
+from labsim.dsl.infer import ExprChecker, arity_message, log_example
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float

@@ -284,10 +284,6 @@ _MEANT = {
 }
 
 
-# Actions students reach for to print text: each is told to use log("...").
-PRINTS = frozenset({"print", "say", "echo", "write", "display", "show", "printf", "println", "puts"})
-
-
 def log_example(action: ast.Action, text: Text) -> str:
     """The log() an action that prints meant: its text, and its values as fields after it.
 

@@ -41,6 +41,9 @@ def test_file_ending_inside_a_bracket_points_at_it() -> None:
     ((line, col, message),) = problems("rules: [a, b\n")
     assert (line, col) == (1, 8)
     assert "the end of the file" in message
+    with pytest.raises(LabsimError) as e:
+        loads("rules: [a, b\n", "b.yaml")
+    assert e.value.diagnostics[0].notes == ("hint: this '[' is never closed: close it with ']'",)
 
 
 def test_aliases_and_anchors_are_refused() -> None:
