@@ -72,6 +72,9 @@ class Function:
     uses_rng: bool = False  # impl takes the robot's random.Random as its first argument
     optional: int = 0  # how many of the last params may be left out
     stateful: bool = False  # keeps state per robot and call site: meaningful only if run every tick
+    # what each argument is, for messages (pid() takes 4 or 5 arguments (error, kp, ...)); none
+    # where the arguments all mean one kind of thing (abs(x), min(a, b, ...))
+    names: tuple[str, ...] = ()
 
     def resolve(self) -> Callable[..., object]:
         if isinstance(self.impl, str):
@@ -147,13 +150,13 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("abs", (N,), N, abs, "absolute value"),
     Function("min", (N, N), N, _min, "smallest of two or more values", variadic=True),
     Function("max", (N, N), N, _max, "largest of two or more values", variadic=True),
-    Function("clamp", (N, N, N), N, _clamp, "clamp(x, lo, hi): x limited to [lo, hi]"),
+    Function("clamp", (N, N, N), N, _clamp, "clamp(x, lo, hi): x limited to [lo, hi]", names=("x", "lo", "hi")),
     Function("sqrt", (N,), N, math.sqrt, "square root"),
-    Function("hypot", (N, N), N, math.hypot, "hypot(x, y): length of the vector (x, y)"),
+    Function("hypot", (N, N), N, math.hypot, "hypot(x, y): length of the vector (x, y)", names=("x", "y")),
     Function("sin", (N,), N, math.sin, "sine of an angle in radians"),
     Function("cos", (N,), N, math.cos, "cosine of an angle in radians"),
     Function("tan", (N,), N, math.tan, "tangent of an angle in radians"),
-    Function("atan2", (N, N), N, math.atan2, "atan2(y, x): angle of (x, y) in radians"),
+    Function("atan2", (N, N), N, math.atan2, "atan2(y, x): angle of (x, y) in radians", names=("y", "x")),
     Function("exp", (N,), N, math.exp, "e to the power x"),
     Function("log", (N,), N, _log, "natural logarithm"),
     Function("floor", (N,), N, _floor, "largest integer <= x"),
@@ -163,19 +166,21 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("deg", (N,), N, math.degrees, "radians to degrees"),
     Function("rad", (N,), N, math.radians, "degrees to radians"),
     Function("randint", (N, N), N, _randint, "randint(a, b): a random integer n, a <= n <= b",
-             uses_rng=True),
+             uses_rng=True, names=("a", "b")),
     Function("random", (), N, random.Random.random, "a random number in [0, 1)", uses_rng=True),
     Function("uniform", (N, N), N, random.Random.uniform, "uniform(a, b): a random number in [a, b]",
-             uses_rng=True),
+             uses_rng=True, names=("a", "b")),
     Function("gauss", (N, N), N, random.Random.gauss, "gauss(mean, sd): a normally distributed number",
-             uses_rng=True),
+             uses_rng=True, names=("mean", "sd")),
     # images (labsim.dsl.images; OpenCV is imported only when a behaviour uses them)
     Function("gray", (I,), I, "labsim.dsl.images:gray", "RGB to gray"),
     Function("threshold", (I, N), I, "labsim.dsl.images:threshold",
-             "threshold(img, level): 255 where the gray pixel is > level, else 0 (OpenCV THRESH_BINARY)"),
+             "threshold(img, level): 255 where the gray pixel is > level, else 0 (OpenCV THRESH_BINARY)",
+             names=("img", "level")),
     Function("invert", (I,), I, "labsim.dsl.images:invert", "255 - each pixel"),
     Function("crop", (I, N, N, N, N), I, "labsim.dsl.images:crop",
-             "crop(img, x, y, w, h): the rectangle with top-left pixel (x, y)"),
+             "crop(img, x, y, w, h): the rectangle with top-left pixel (x, y)",
+             names=("img", "x", "y", "w", "h")),
     Function("mean", (I,), N, "labsim.dsl.images:mean", "mean pixel value, 0..255"),
     Function("area", (I,), N, "labsim.dsl.images:area", "number of set (non-zero) pixels"),
     Function("width", (I,), N, "labsim.dsl.images:width", "image width in pixels"),
@@ -185,24 +190,25 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     # controllers
     Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:pid_step",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
-             optional=1, stateful=True),
+             optional=1, stateful=True, names=("error", "kp", "ki", "kd", "limit")),
     # time and memory (labsim.dsl.memory): each call site keeps its own state per robot
     Function("prev", (N, N), N, "labsim.dsl.memory:prev",
-             "prev(x, initial): x on the previous tick (initial on the first); x may be a boolean", stateful=True),
+             "prev(x, initial): x on the previous tick (initial on the first); x may be a boolean", stateful=True,
+             names=("x", "initial")),
     Function("rising", (B,), B, "labsim.dsl.memory:rising",
              "rising(c): true on a tick where c holds and did not on the previous tick", stateful=True),
     Function("falling", (B,), B, "labsim.dsl.memory:falling",
              "falling(c): true on a tick where c does not hold and did on the previous tick", stateful=True),
     Function("hold", (B, B), B, "labsim.dsl.memory:hold",
              "hold(set, reset): a latch, true from a tick where set holds until one where reset holds",
-             stateful=True),
+             stateful=True, names=("set", "reset")),
     Function("rate", (N,), N, "labsim.dsl.memory:rate",
              "rate(x): x's change per second since the previous tick (0 on the first)", stateful=True),
     Function("held", (B,), N, "labsim.dsl.memory:held",
              "held(c): seconds c has held without a break (0 while it does not)", stateful=True),
     Function("remember", (N, B, N), N, "labsim.dsl.memory:remember",
              "remember(x, when[, initial]): x at the last tick when 'when' held (initial, or nan, before)",
-             optional=1, stateful=True),
+             optional=1, stateful=True, names=("x", "when", "initial")),
 )}
 
 @dataclass(frozen=True)
@@ -278,6 +284,9 @@ ACTIONS: dict[str, ActionSpec] = {a.name: a for a in (
     ActionSpec("set_position", ("joint", "position"), "a joint's target position, m or rad"),
     ActionSpec("log", ("text",), 'log("text {expr:.2f}"): print a line with the time and robot, and trace it'),
 )}
+
+# Actions students reach for to print text, from other languages: each is told to use log("...").
+PRINTS = frozenset({"print", "say", "echo", "write", "display", "show", "printf", "println", "puts"})
 
 # Actions whose first argument names a joint rather than giving a value.
 JOINT_ACTIONS = {"set_velocity": "velocity", "set_position": "position"}

@@ -33,6 +33,7 @@ from labsim.dsl.builtins import (
     FUNCTIONS,
     JOINT_ACTIONS,
     KEYWORDS,
+    PRINTS,
     SHADOWABLE,
     TRACE_COLUMNS,
     VARIABLES,
@@ -40,7 +41,7 @@ from labsim.dsl.builtins import (
     Type,
 )
 from labsim.dsl.functions import Expansion, check_bodies, check_definitions
-from labsim.dsl.infer import ExprChecker, arity_message
+from labsim.dsl.infer import ExprChecker, arity_message, log_example
 from labsim.dsl.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
@@ -140,7 +141,7 @@ class _Checker(ExprChecker):
             if key is not None and self.reserved(name, key, "state"):
                 continue
             if self.taken(name) and key is not None:
-                self.error(key, f"state '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "state", name)
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
@@ -185,6 +186,20 @@ class _Checker(ExprChecker):
         """Whether a name is declared already; the names added after version 1 give way to the file's."""
         return name in self.types and self.kinds[name] != _SHADOWABLE_KIND
 
+    def clash(self, place: Place, what: str, name: str) -> None:
+        """Report a name two declarations share. The first keeps it; uses that read it as the
+        other (``follow + 1`` with a state 'follow' and a parameter 'follow') say nothing more."""
+        self.error(place, f"{what} '{name}' has the name of a {self.kinds[name]}; choose another name")
+        self.clashed.add(name)
+
+    def key_of(self, value: Node) -> Node:
+        """The key of a value under 'params:' (the name a mistake is in), or the value itself."""
+        root = self.bf.doc.root
+        for key, node in root.value if isinstance(root, MappingNode) else ():
+            if key.value == "params" and isinstance(node, MappingNode):
+                return next((k for k, v in node.value if v is value), value)
+        return value
+
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
         if name in SHADOWABLE:
@@ -206,7 +221,7 @@ class _Checker(ExprChecker):
             if self.reserved(slider.name, slider.key, "slider"):
                 continue
             if self.taken(slider.name):
-                self.error(slider.key, f"slider '{slider.name}' has the name of a {self.kinds[slider.name]}")
+                self.clash(slider.key, "slider", slider.name)
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
             out.append(slider)
@@ -323,10 +338,11 @@ class _Checker(ExprChecker):
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
-            if self.reserved(name, node, "parameter"):
+            key = self.key_of(node)
+            if self.reserved(name, key, "parameter"):
                 continue
             if self.taken(name):
-                self.error(node, f"parameter '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "parameter", name)
                 continue
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
@@ -365,7 +381,7 @@ class _Checker(ExprChecker):
         later = {name: key for name, _, key in self.bf.lets}
         for name, parsed, key in self.bf.lets:
             if self.taken(name):
-                self.error(key, f"signal '{name}' has the name of a {self.kinds[name]}")
+                self.clash(key, "signal", name)
                 continue
             if self.reserved(name, key, "signal"):
                 continue
@@ -442,6 +458,9 @@ class _Checker(ExprChecker):
             self.error(text.at(gotos[1].span), "a rule can 'goto' one state")
         for action in drives:
             spec = ACTIONS.get(action.name)
+            if spec is None and action.name in PRINTS:  # print(x): to print, there is log("...")
+                self.log_action(action, text)
+                continue
             if spec is None:
                 hint = did_you_mean(action.name, ACTIONS)
                 what = "function, not an action" if action.name in FUNCTIONS else "action"
@@ -464,9 +483,9 @@ class _Checker(ExprChecker):
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
-        if action.name not in ACTIONS:  # print("..."), say("..."): an action that does not exist
+        if action.name not in ACTIONS:  # print("..."), say("hi", 2): an action that does not exist
             self.error(text.at(action.name_span), f"unknown action '{action.name}' (to print text, use "
-                       f'log("...")' + ")", notes=('e.g. log("hit at {time:.1f} s"): printed with the time and '
+                       f'log("...")' + ")", notes=(f"e.g. {log_example(action, text)}: printed with the time and "
                                                   "the robot, and recorded in the trace",))
             return
         if action.name != "log":
@@ -475,6 +494,10 @@ class _Checker(ExprChecker):
             return
         if action.text is None:
             self.error(text.at(action.span), 'log() takes text in quotes, as in log("hit at {time:.1f} s")')
+            return
+        if action.args:  # log("wall!", x): the values belong in the text's fields
+            self.error(text.at((action.args[0].span[0], action.args[-1].span[1])),
+                       f"log() takes one text, and values go in its fields: {log_example(action, text)}")
             return
         for part in action.text:
             if isinstance(part, tuple):

@@ -49,6 +49,7 @@ class ExprChecker:
         self.current_let = ""  # the signal being typed: prev() of it reads its previous tick
         self.self_prev: set[int] = set()  # id(call) of each prev(signal, initial) inside that signal
         self.self_prev_types: list[tuple[ast.Call, Type | None]] = []  # the current signal's, with their types
+        self.clashed: set[str] = set()  # names two declarations share: reported once, where declared
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -71,6 +72,8 @@ class ExprChecker:
         if t is None:
             return False
         if t is not want:
+            if self.explained(e):
+                return False
             hint: tuple[str, ...] = ()
             if want is Type.BOOL and t is Type.NUMBER:
                 hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
@@ -188,6 +191,11 @@ class ExprChecker:
         self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
         return None
 
+    def explained(self, e: ast.Expr) -> bool:
+        """Whether an operand of the wrong type is a name two declarations share, whose clash
+        is reported already: one message at the declaration, not one at every use."""
+        return isinstance(e, ast.Name) and e.id in self.clashed
+
     def operands(self, e: ast.Expr, text: Text, op: str, args: list[ast.Expr], want: Type,
                  result: Type) -> Type | None:
         """An operator's operands: each ``want``, or a group of them (the operator then applies to
@@ -201,8 +209,9 @@ class ExprChecker:
             elif t is want.grouped and t is not want:
                 sizes.append((self.size(arg), arg))
             elif t is not want:
-                self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
-                           notes=_text_note(t))
+                if not self.explained(arg):
+                    self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
+                               notes=_text_note(t))
                 ok = False
         return self.grouped(e, text, op, sizes, result) if ok else None
 
@@ -290,6 +299,8 @@ class ExprChecker:
             return None
         if Type.STATE in types:
             if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
+                if any(self.explained(o) for o in e.operands):
+                    return None
                 self.error(text.at(e.span), "a state can only be compared with ==/!= to another state, "
                            "as in 'state == follow'")
                 return None
@@ -301,7 +312,8 @@ class ExprChecker:
                 continue
             for node, t in ((a, ta), (b, tb)):
                 if t.member is not Type.NUMBER:
-                    self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
+                    if not self.explained(node):
+                        self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
                     return None
                 if t is Type.NUMBERS:
                     sizes.append((self.size(node), node))
@@ -356,7 +368,7 @@ class ExprChecker:
         fixed = len(f.params) - f.optional
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
             self.error(text.at(e.span),
-                       arity_message(f.name, tuple(str(p) for p in f.params), n, f.variadic, f.optional))
+                       arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
             return None
         ok = True
         for i, arg in enumerate(e.args):
@@ -442,15 +454,21 @@ def _range_text(names: list[str]) -> str:
 
 def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool = False,
                   optional: int = 0) -> str:
-    """'f() takes 2 arguments (x, y), given 3', and its variants."""
+    """'f() takes 2 arguments (x, y), given 3', and its variants: 'pid() takes 4 or 5 arguments
+    (error, kp, ki, kd[, limit]), given 2'. Parameters named only by their type are not listed."""
     n = len(params)
+    named = bool(params) and not all(p in ("number", "boolean") for p in params)
+    required = ", ".join(params[:n - optional])
+    listed = required + (f"[, {', '.join(params[n - optional:])}]" if optional else "") + (", ..." if variadic else "")
+    shown = f" ({listed})" if named else ""
     if variadic:
-        return f"{name}() takes at least {n} arguments, given {given}"
+        return f"{name}() takes at least {n} arguments{shown}, given {given}"
     if optional:
-        return f"{name}() takes {n - optional} to {n} arguments, given {given}"
-    plural = "argument" if n == 1 else "arguments"
-    listed = f" ({', '.join(params)})" if params and not all(p in ('number', 'boolean') for p in params) else ""
-    return f"{name}() takes {n} {plural}{listed}, given {given}"
+        counts = f"{n - optional} or {n}" if optional == 1 else f"{n - optional} to {n}"
+        return f"{name}() takes {counts} arguments{shown}, given {given}"
+    if n == 0:
+        return f"{name}() takes no arguments, given {given}"
+    return f"{name}() takes {n} {'argument' if n == 1 else 'arguments'}{shown}, given {given}"
 
 
 # Functions students reach for under another name: what to write instead.
@@ -462,6 +480,21 @@ _MEANT = {
     "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
     "previous": "prev(x, initial)",
 }
+
+
+def log_example(action: ast.Action, text: Text) -> str:
+    """The log() an action that prints meant: its text, and its values as fields after it.
+
+    print("wall!", x) -> log("wall! {x:.2f}"); with no text of its own, log("hit at {time:.1f} s")."""
+    source = text.value
+    def field(e: ast.Expr, spec: str) -> str:
+        return "{" + source[e.span[0]:e.span[1]] + (f":{spec}" if spec else "") + "}"
+    if action.text is None and not action.args:
+        return 'log("hit at {time:.1f} s")'
+    words = "".join(p.replace("{", "{{").replace("}", "}}") if isinstance(p, str) else field(*p)
+                    for p in action.text or ())
+    fields = " ".join(field(arg, ".2f") for arg in action.args)
+    return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
 
 
 def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:

@@ -20,6 +20,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from lark.tree import Meta
 
 from labsim.dsl import ast
+from labsim.dsl.builtins import PRINTS
 from labsim.foundation.cache import cache_dir
 from labsim.foundation.numbers import NumberError, to_float
 
@@ -223,7 +224,7 @@ def _found(token: Token) -> str:
 def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     pos = e.pos_in_stream if e.pos_in_stream is not None else len(text)
     if isinstance(e, UnexpectedCharacters):
-        return _bad_character(text, pos)
+        return (_assignment(text, pos) if start == "rule" else None) or _bad_character(text, pos)
     expected: set[str]  # terminal names
     if isinstance(e, UnexpectedEOF):
         expected = {str(t) for t in e.expected}
@@ -242,6 +243,10 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     expected.discard("__IGNORE_0")
     # LALR's expected sets are broad, so the message is chosen by where we are in the text.
     words = text[:pos].split()
+    token = e.token if isinstance(e, UnexpectedToken) else None
+    habit = _habit(text, pos, end, token, expected, words) if token is not None and start == "rule" else None
+    if habit is not None:
+        return habit
     first = _RULE_START.match(text)
     if start == "rule" and (not words or pos == 0 or (first and first.group(1) not in RULE_WORDS)):
         word = first.group(1) if first else (text.split()[0] if text.split() else "")
@@ -271,6 +276,43 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     return ParseError(pos, end, f"unexpected {token_text}: expected an operator or the end of {where}")
 
 
+def _habit(text: str, pos: int, end: int, token: Token, expected: set[str], words: list[str]) -> ParseError | None:
+    """What a student used to another language wrote in a rule's actions, and what to write
+    instead; None when the mistake is none of these."""
+    before = text[:pos].rstrip()
+    if token.type == "STRING" and before.endswith("f") and not before[:-1][-1:].isalnum():
+        return ParseError(pos - 1, end, f"write the text without the 'f': log({token.value}) fills in "
+                          "the {...} fields of its text")
+    if token.type in ("PLUS", "PERCENT") and before.endswith(('"', "'")):
+        return ParseError(pos, end, f"text cannot be joined with '{token.value}': write the values in "
+                          'fields of the text, as in log("near {sonar5:.2f} m")')
+    if not (words and ("then" in words or words[0] in ("else", "always"))):
+        return None
+    if token.type == "ELSE":
+        return ParseError(pos, end, "'else' starts a rule of its own: write it on the next line, "
+                          "as '- else move(1)'")
+    if token.type == "LPAR" and len(words) >= 2 and words[-2] == "goto":
+        return ParseError(pos, end, f"'goto' takes a state's name without parentheses: goto {words[-1]}")
+    if expected == {"LPAR"}:
+        if words[-1] in PRINTS and token.type == "STRING":
+            return ParseError(pos - len(words[-1]) - 1, end, f"to print text, write log({token.value})")
+        return ParseError(pos, end, f"expected '(' after '{words[-1]}', found {_found(token)}: an action "
+                          f"takes its values in parentheses, as in {words[-1]}(...)")
+    return None
+
+
+def _assignment(text: str, pos: int) -> ParseError | None:
+    """'state = follow' or 'x = 3' among a rule's actions: what sets a value in labsim instead."""
+    words = text[:pos].split()
+    if text[pos] != "=" or text.startswith("==", pos) or not ("then" in words or words[:1] in (["else"], ["always"])):
+        return None
+    after = text[pos + 1:].replace(",", " ").split() or ["STATE"]
+    if words[-1] == "state":
+        return ParseError(pos, pos + 1, f"a rule changes state with goto: write 'goto {after[0]}'")
+    return ParseError(pos, pos + 1, "'=' sets nothing among a rule's actions: a value is computed under "
+                      "'let:', and a rule changes state with 'goto STATE'")
+
+
 _CHARACTER_HINTS = {
     "=<": ("'=<' is not an operator; write '<='", 2),
     "=>": ("'=>' is not an operator; write '>='", 2),
@@ -282,6 +324,7 @@ _CHARACTER_HINTS = {
     "!": ("'!' is not an operator; write 'not' (or '!=' for 'not equal')", 1),
     "^": ("'^' is not an operator; write '**' for a power", 1),
     ":": ("unexpected ':': a rule reads 'if CONDITION then ACTION'", 1),
+    ";": ("';' does not end or separate anything: separate actions with ','", 1),
 }
 
 
@@ -350,7 +393,8 @@ class _ToAst(Transformer):
             raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
                              e.notes) from None
         text = tuple(p if isinstance(p, str) else (_shift(p[0], start), p[1]) for p in parts)
-        return ast.Action(str(c[0]), (), span=_span(meta), name_span=_tspan(c[0]), text=text)
+        # values after the text (print("hit", x)) are kept for the checker, which refuses them
+        return ast.Action(str(c[0]), tuple(c[2:]), span=_span(meta), name_span=_tspan(c[0]), text=text)
 
     def arguments(self, meta: Meta, c: list[Any]) -> tuple[ast.Expr, ...]:
         return tuple(c)
@@ -371,6 +415,9 @@ class _ToAst(Transformer):
         return ast.Compare(tuple(c[0::2]), tuple(str(t) for t in c[1::2]), span=_span(meta))
 
     def binary(self, meta: Meta, c: list[Any]) -> ast.Binary:
+        if isinstance(c[0], ast.Text) or isinstance(c[2], ast.Text):  # "near %.2f" % x, "x" + "y"
+            raise ParseError(*_tspan(c[1]), f"text cannot be joined with '{c[1]}': write the values in fields of "
+                             'the text, as in log("near {sonar5:.2f} m")')
         return ast.Binary(str(c[1]), c[0], c[2], span=_span(meta))
 
     def power(self, meta: Meta, c: list[Any]) -> ast.Binary:

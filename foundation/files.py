@@ -139,7 +139,44 @@ def read_text(path: str | Path, kind: str = "behaviour", max_bytes: int | None =
     try:
         return data.decode("utf-8").lstrip("\ufeff")
     except UnicodeDecodeError as e:
-        raise _error(path, f"not UTF-8 text (byte {e.start})") from None
+        raise LabsimError([not_utf8(path, data, e.start, echo=kind == "behaviour")]) from None
+
+
+SAVE_AS_UTF8 = "save the file as UTF-8 (most editors: File > Save with Encoding > UTF-8)"
+
+
+def not_utf8(path: str | Path, data: bytes, at: int, echo: bool) -> Diagnostic:
+    """The first byte that is not UTF-8, at its line and column (in characters of the line as
+    far as it decodes, a byte-order mark not counted), and how to fix the file.
+
+    Only a file that is the user's own (``echo``: a behaviour) has its line shown and the byte
+    named: a world path may reach a private file, whose contents are never shown
+    (docs/security.md, "What is echoed")."""
+    start = data.rfind(b"\n", 0, at) + 1
+    line = data.count(b"\n", 0, at) + 1
+    before = data[start:at].decode("utf-8")
+    if line == 1:
+        before = before.lstrip("\ufeff")
+    col = len(before) + 1
+    if not echo:
+        return Diagnostic(str(path), f"not UTF-8 text: {SAVE_AS_UTF8}", line, col)
+    end = data.find(b"\n", at)
+    shown = data[start:end if end >= 0 else len(data)].decode("utf-8", errors="replace").rstrip("\r")
+    if line == 1:
+        shown = shown.lstrip("\ufeff")
+    if "\0" in shown:
+        shown = ""  # UTF-16 or binary: no line a terminal could show
+    byte = data[at]
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        what = "this file is UTF-16 text"
+    else:
+        # the usual culprit: an editor that saved the file in Windows' own encoding; a 'é' there
+        # is the one byte 0xE9, and Word's curly apostrophe 0x92
+        guess = bytes([byte]).decode("cp1252", errors="replace")
+        legacy = "Latin-1" if byte >= 0xA0 else "Windows-1252"
+        what = f"byte 0x{byte:02X} is not UTF-8 text" + (
+            f" (it reads as '{guess}' in {legacy})" if guess.isprintable() and guess != "\ufffd" else "")
+    return Diagnostic(str(path), f"{what}: {SAVE_AS_UTF8}", line, col, 0, "error", shown)
 
 
 # -- the access policy --------------------------------------------------------------------------

@@ -247,6 +247,9 @@ def _yaml_diagnostic(doc: Document, e: yaml.MarkedYAMLError) -> Diagnostic:
     if "<stream end>" in problem and e.context_mark is not None:
         mark = e.context_mark  # the file ended inside a bracket or quote: point at where it opened
         problem = problem.replace("'<stream end>'", "the end of the file")
+        closing = {"[": "]", "{": "}"}.get(doc.text[mark.index] if mark.index < len(doc.text) else "")
+        if closing:
+            notes = (f"hint: this '{doc.text[mark.index]}' is never closed: close it with '{closing}'",)
     elif "end of stream" in problem and e.context_mark is not None and "quoted" in (e.context or ""):
         # an unclosed quote: the end of the file has no line to show; the quote that opened it has
         opened = doc.text[e.context_mark.index] if e.context_mark.index < len(doc.text) else '"'

@@ -105,7 +105,20 @@ def find_world(name: str, base: Path | None = None, *, look_in: Sequence[Path] =
             return WorldRef(None, missing)
     if refusal:
         return WorldRef(None, f"world file '{name}' {refusal}", policy_notes(), refused=True)
+    meant = _builtin_meant(name, known)
+    if meant:
+        where, write = ("beside this behaviour", f"world: {meant}") if base is not None else ("here", meant)
+        return WorldRef(None, f"no file '{name}' {where}; the built-in world is named '{meant}' (write {write})")
     return WorldRef(None, f"world file '{name}' not found (looked for {folders[0] / name})")
+
+
+def _builtin_meant(name: str, known: dict[str, Path]) -> str:
+    """The built-in world a missing file's name means (``walls_lab4.yaml``,
+    ``worlds/walls_lab4.yaml``: a built-in world's name, written as its file), else ''."""
+    stem = Path(name).name
+    for suffix in YAML_SUFFIXES:
+        stem = stem.removesuffix(suffix)
+    return stem if stem in known and stem != name else ""
 
 
 def _missing(path: Path) -> str | None:

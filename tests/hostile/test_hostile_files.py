@@ -168,7 +168,7 @@ CASES = [
          ("w.yaml: error: not a labsim world file", "its contents are not shown")),
     Case("world is binary", lambda d: ((d / "w.yaml").write_bytes(b"\x89PNG\r\n\x1a\n\xff" + SECRET.encode()),
                                        behaviour(d, "w.yaml"), ["check", "b.yaml"])[2], 2,
-         ("w.yaml: error: not UTF-8 text (byte 0)",)),
+         ("w.yaml:1:1: error: not UTF-8 text: save the file as UTF-8",), (SECRET, "PNG")),
     Case("world YAML that does not parse", lambda d: ((d / "w.yaml").write_text(f"a: [\n{SECRET}: {{\n"),
                                                       behaviour(d, "w.yaml"), ["check", "b.yaml"])[2], 2,
          ("w.yaml:", "error: YAML syntax error")),

@@ -94,3 +94,13 @@ def test_metrics_must_be_aggregates(write) -> None:
         (9, 12, "metric 'closest' must be an aggregate over the run (did you mean 'maximum'?)"),
         (10, 15, "count() needs a condition: its argument must be a boolean, but this is a number"),
     }
+
+
+def test_print_with_values_is_shown_the_log_it_means(write) -> None:
+    path = write("labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 'rules:\n  - if sonar5 < 1 then print("wall!", x)\n  - else move(1)\n')
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    (d,) = e.value.diagnostics
+    assert (d.line, d.col, d.end_col) == (7, 24, 29)
+    assert d.notes == ('e.g. log("wall! {x:.2f}"): printed with the time and the robot, and recorded in the trace',)

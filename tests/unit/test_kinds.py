@@ -85,6 +85,19 @@ def test_world_names_by_one_rule(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert found_in_second.path == other / "w.yaml"
 
 
+@pytest.mark.parametrize("name", ["walls_lab4.yaml", "walls_lab4.yml", "worlds/walls_lab4.yaml"])
+def test_a_built_in_world_named_as_a_file_points_at_its_name(tmp_path: Path, name: str) -> None:
+    found = find_world(name, tmp_path)
+    assert found.path is None
+    assert found.problem == (f"no file '{name}' beside this behaviour; the built-in world is named "
+                             "'walls_lab4' (write world: walls_lab4)")
+    typed = find_world(str(tmp_path / "walls_lab4.yaml"))  # typed on the command line
+    assert typed.problem == (f"no file '{tmp_path / 'walls_lab4.yaml'}' here; the built-in world is named "
+                             "'walls_lab4' (write walls_lab4)")
+    (tmp_path / "walls_lab4.yaml").write_text("labsim-world: 1\n")  # a file of that name is the one meant
+    assert find_world("walls_lab4.yaml", tmp_path).path == tmp_path / "walls_lab4.yaml"
+
+
 def test_built_in_worlds_are_known_by_their_files(tmp_path: Path) -> None:
     crane = builtin_worlds()["crane"]
     assert builtin_name(crane) == "crane" and builtin_name(crane.resolve()) == "crane"

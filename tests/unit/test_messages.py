@@ -54,3 +54,18 @@ def test_too_many_random_robots_fail_check_at_the_robot_line(capsys) -> None:
     assert code == 2
     assert "crowd_with_error.yaml:9:3: error: no free place left in world 'walls_lab4' for robot 'p[88]'" in err
     assert "walls_lab4.yaml" not in err
+
+
+def test_a_latin1_byte_in_a_comment_is_shown_where_it_is_with_the_fix(capsys, tmp_path: Path) -> None:
+    path = tmp_path / "lab.yaml"
+    path.write_bytes(b"labsim: 1\n# mur du caf\xe9\nworld: walls_lab4\nstop: time >= 1\nrobots:\n"
+                     b"  p: {model: pioneer_p3dx}\nrules:\n  - always move(1)\n")
+    for command in ("check", "run"):
+        code, out, err = cli(capsys, command, str(path))
+        assert code == 2
+        assert err.splitlines() == [
+            f"{path}:2:13: error: byte 0xE9 is not UTF-8 text (it reads as 'é' in Latin-1): save the file as "
+            "UTF-8 (most editors: File > Save with Encoding > UTF-8)",
+            "    2 | # mur du caf\ufffd",
+            "      |             ^",
+        ]

@@ -33,6 +33,12 @@ def test_rules_and_actions() -> None:
     assert parse_rule("always move(1)").kind == "always"
 
 
+def test_an_action_with_text_keeps_the_values_after_it_for_the_checker() -> None:
+    (action,) = parse_rule('always print("wall!", x, 2)').actions
+    assert action == ast.Action("print", (V("x"), N(2.0)), text=("wall!",))
+    assert isinstance(action, ast.Action) and action.args[0].span == (22, 23)
+
+
 def test_spans_are_offsets_into_the_string() -> None:
     r = parse_rule("if sonar5 <= front then arc(-2, 2)")
     cond = r.condition
@@ -60,6 +66,24 @@ def test_spans_are_offsets_into_the_string() -> None:
     ("if a and then stop()", 9, 13, "expected a value or an expression, found 'then'"),
     ("sonar5 < 1 then stop()", 0, 6, "a rule starts with 'if', 'else', 'always' or 'when', not 'sonar5'"),
     ("", 0, 1, "empty rule"),
+    # habits from other languages: what to write instead
+    ("if a then arc(1, 2) else move(1)", 20, 24,
+     "'else' starts a rule of its own: write it on the next line, as '- else move(1)'"),
+    ("if a then goto follow()", 21, 22, "'goto' takes a state's name without parentheses: goto follow"),
+    ('if a then print "near"', 10, 22, 'to print text, write log("near")'),
+    ("if a then move 2", 15, 16,
+     "expected '(' after 'move', found '2': an action takes its values in parentheses, as in move(...)"),
+    ('if a then log("near %.2f" % x)', 26, 27,
+     "text cannot be joined with '%': write the values in fields of the text, as in log(\"near {sonar5:.2f} m\")"),
+    ('if a then log("x" + "y")', 18, 19,
+     "text cannot be joined with '+': write the values in fields of the text, as in log(\"near {sonar5:.2f} m\")"),
+    ('if a then log(f"x {x}")', 14, 22, "write the text without the 'f': log(\"x {x}\") fills in the {...} fields "
+                                        "of its text"),
+    ("if a then arc(1, 2);", 19, 20, "';' does not end or separate anything: separate actions with ','"),
+    ("if a then state = follow", 16, 17, "a rule changes state with goto: write 'goto follow'"),
+    ("always x = 3", 9, 10, "'=' sets nothing among a rule's actions: a value is computed under 'let:', and a "
+                            "rule changes state with 'goto STATE'"),
+    ("if a = 3 then stop()", 5, 6, "'=' is not a comparison; write '==' to compare"),
 ])
 def test_rule_syntax_errors(text: str, start: int, end: int, message: str) -> None:
     with pytest.raises(ParseError) as e:

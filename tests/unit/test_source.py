@@ -41,6 +41,9 @@ def test_file_ending_inside_a_bracket_points_at_it() -> None:
     ((line, col, message),) = problems("rules: [a, b\n")
     assert (line, col) == (1, 8)
     assert "the end of the file" in message
+    with pytest.raises(LabsimError) as e:
+        loads("rules: [a, b\n", "b.yaml")
+    assert e.value.diagnostics[0].notes == ("hint: this '[' is never closed: close it with ']'",)
 
 
 def test_aliases_and_anchors_are_refused() -> None:
@@ -75,12 +78,47 @@ def test_missing_file_and_folder(tmp_path: Path) -> None:
         assert [(d.path, d.line, d.message) for d in e.value.diagnostics] == [(str(path), 0, message)]
 
 
-def test_not_utf8(tmp_path: Path) -> None:
+SAVE = "save the file as UTF-8 (most editors: File > Save with Encoding > UTF-8)"
+
+
+def test_not_utf8_is_shown_at_the_byte_and_named(tmp_path: Path) -> None:
     p = tmp_path / "latin.yaml"
-    p.write_bytes(b"name: caf\xe9\n")
+    p.write_bytes(b"labsim: 1\n# \xc3\xa9t\xc3\xa9 caf\xe9\nname: x\n")
     with pytest.raises(LabsimError) as e:
         load(p)
-    assert e.value.diagnostics[0].message == "not UTF-8 text (byte 9)"
+    (d,) = e.value.diagnostics
+    assert (d.line, d.col) == (2, 10)  # characters: the two UTF-8 'é' before it are one column each
+    assert d.message == f"byte 0xE9 is not UTF-8 text (it reads as 'é' in Latin-1): {SAVE}"
+    assert d.format().splitlines()[1:] == ["    2 | # été caf\ufffd", "      |          ^"]
+
+
+@pytest.mark.parametrize("data, line, col, message", [
+    (b"\xef\xbb\xbfa: \x92x\n", 1, 4, f"byte 0x92 is not UTF-8 text (it reads as '\u2019' in Windows-1252): {SAVE}"),
+    (b"\xff\xfea\x00:\x00", 1, 1, f"this file is UTF-16 text: {SAVE}"),
+    (b"a: 1\r\nb: \x81\r\n", 2, 4, f"byte 0x81 is not UTF-8 text: {SAVE}"),
+])
+def test_not_utf8_variants(tmp_path: Path, data: bytes, line: int, col: int, message: str) -> None:
+    p = tmp_path / "b.yaml"
+    p.write_bytes(data)
+    with pytest.raises(LabsimError) as e:
+        load(p)
+    (d,) = e.value.diagnostics
+    assert (d.line, d.col, d.message) == (line, col, message)
+
+
+def test_not_utf8_world_file_shows_no_byte_and_no_line(tmp_path: Path) -> None:
+    p = tmp_path / "w.yaml"
+    p.write_bytes(b"labsim-world: 1\nsecret: caf\xe9\n")
+    with pytest.raises(LabsimError) as e:
+        load(p, kind="world")
+    (d,) = e.value.diagnostics
+    assert (d.line, d.col, d.message, d.source_line) == (2, 12, f"not UTF-8 text: {SAVE}", "")
+
+
+def test_a_utf8_file_with_a_byte_order_mark_loads(tmp_path: Path) -> None:
+    p = tmp_path / "b.yaml"
+    p.write_bytes(b"\xef\xbb\xbfname: caf\xc3\xa9\n")
+    assert load(p).text == "name: café\n"
 
 
 def test_over_indented_rule_merged_into_the_previous_one(write) -> None:
