@@ -159,8 +159,8 @@ class Ranges:
         if not r.facts:
             return
         holds = _holds(r, op if subject is a else _FLIP[op], float(k))
-        if holds is None:
-            return
+        if holds is None or (holds and k in (r.lo, r.hi)):
+            return  # a guard written at the range's own end (heading <= pi, sonar5 >= 0) is harmless
         start, end = a.span[0], b.span[1]
         source = text.value[start:end]
         verdict = "always holds" if holds else "never holds"
@@ -168,7 +168,7 @@ class Ranges:
         if not self.reading(subject):
             said = f"'{text.value[subject.span[0]:subject.span[1]]}' is {_between(r)}, since {said}"
         hint = ""
-        if r.angle and _holds(r, op if subject is a else _FLIP[op], math.radians(k)) is None:
+        if r.angle and abs(k) > math.pi and _holds(r, op if subject is a else _FLIP[op], math.radians(k)) is None:
             k0, k1 = limit.span[0] - start, limit.span[1] - start
             hint = f"; did you mean {source[:k0]}rad({source[k0:k1]}){source[k1:]}?"
         self.warn(text.at((start, end)), f"'{source}' {verdict}: {said}{hint}")
