@@ -337,7 +337,7 @@ class Ranges:
             r = _hull(args)
             return replace(r, nan=r.nan or f == "randint")  # randint's bounds may have no whole number
         if f == "held":
-            return Range(0.0, INF, args[0].nan, ("held() counts seconds from 0",))
+            return Range(0.0, INF, facts=("held() counts seconds from 0",))  # of a boolean: never nan
         if f == "prev" or (f == "remember" and len(args) == 3):
             return _hull((args[0], args[-1]))
         return TOP
