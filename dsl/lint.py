@@ -6,7 +6,8 @@ and ``labsim run`` print them and go on (``--strict`` makes them errors). What i
 about (docs/language.md, "Warnings"): states no ``goto`` reaches and rules after one that
 always holds; ``==``/``!=`` on time or a continuous reading; a start pose in a wall; a
 stateful function (``pid``, ``prev``, ...) where it is not evaluated every tick; a binding or
-command beyond a motor's limit; a threshold beyond a sonar's range; and ``let`` signals,
+command beyond a motor's limit; a threshold beyond a sonar's range; comparisons a value's
+range decides and trig functions given degrees (``labsim.dsl.ranges``); and ``let`` signals,
 parameters and sliders that nothing reads. Every check reads the checked file only: nothing here runs a behaviour.
 """
 from __future__ import annotations
@@ -22,6 +23,7 @@ from labsim.backends.scene.models import Kind
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, STATEFUL
 from labsim.dsl.check import Checked
+from labsim.dsl.ranges import Ranges
 from labsim.foundation.diagnostics import Report
 from labsim.foundation.source import Place, Text
 
@@ -94,6 +96,7 @@ class Linter:
         self.constants["dt"] = c.file.dt_s
         self.let_exprs = {name: p.node for name, p in c.lets}
         self.sliders = {sl.name: (sl.lo, sl.hi) for sl in c.sliders}
+        self.ranges = Ranges(c, self.known, self.warn)
 
     def warn(self, place: Place, message: str, *notes: str) -> None:
         self.report.add(self.c.file.doc.diagnostic(place, message, "warning", tuple(notes)))
@@ -218,6 +221,8 @@ class Linter:
             for node in walk(e):
                 if isinstance(node, ast.Compare):
                     self.compare(node, text)
+                elif isinstance(node, ast.Call):
+                    self.ranges.trig(node, text)
         self.stateful()
 
     def compare(self, node: ast.Compare, text: Text) -> None:
@@ -225,8 +230,11 @@ class Linter:
             if op not in ("==", "!="):
                 self.threshold(a, b, text)
                 self.threshold(b, a, text)
+                self.ranges.compare(op, a, b, text)
                 continue
             what = self.continuous(a) or self.continuous(b)
+            if not what:  # a continuous value has its own warning for == and !=
+                self.ranges.compare(op, a, b, text)
             if not what or any(self.known(x) in (math.inf, -math.inf) for x in (a, b)):
                 continue
             never = "never hold" if op == "==" else "always hold"
