@@ -40,6 +40,7 @@ from labsim.dsl.builtins import (
     Type,
 )
 from labsim.dsl.infer import ExprChecker, arity_message
+from labsim.dsl.noise import Noise, resolve_noise
 from labsim.dsl.read import BehaviourFile, BindDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
@@ -82,6 +83,7 @@ class Checked:
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
     used: frozenset[str] = frozenset()  # every name an expression reads
     robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]] = field(default_factory=dict)
+    noise: dict[str, tuple[Noise | None, ...]] = field(default_factory=dict)  # group -> each member's
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -135,6 +137,7 @@ class _Checker(ExprChecker):
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
+        noise = self.noise(params, robot_params, overrides)
         sliders = self.sliders()
         lets = self.lets()
         labels = self.labels()
@@ -152,7 +155,7 @@ class _Checker(ExprChecker):
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
-                       frozenset(self.used), robot_params)
+                       frozenset(self.used), robot_params, noise)
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""
@@ -346,6 +349,20 @@ class _Checker(ExprChecker):
                 else:
                     own.append((name, values))
             out[r.name] = tuple(own)
+        return out
+
+    def noise(self, params: dict[str, float | bool],
+              robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]],
+              overrides: dict[str, str]) -> dict[str, tuple[Noise | None, ...]]:
+        """Each group's noise, per member, the parameters it names resolved (``labsim.dsl.noise``)."""
+        out = {}
+        for r in self.bf.robots:
+            if r.noise is not None:
+                self.used |= r.noise.names  # a parameter that only sets noise is used
+                members = resolve_noise(r.noise, r.name, r.count, params, dict(robot_params.get(r.name, ())),
+                                        overrides, self.bf.params, self.error)
+                if members is not None:
+                    out[r.name] = members
         return out
 
     def lets(self) -> list[tuple[str, Parsed]]:
