@@ -183,10 +183,10 @@ def resolve_noise(decl: NoiseDecl, robot: str, count: int, params: Mapping[str, 
         what = f"{model} noise {name}"
         if value not in params:
             if value not in declared:
-                known = ", ".join(params) or "none"
-                error(node, f"unknown parameter '{value}'{did_you_mean(value, params)}",
-                      (f"parameters: {known}" if params else
-                       f"declare it under 'params:', e.g. params: {{{value}: 0.1}}",))
+                shown = value if len(value) <= 40 else value[:40] + "..."  # a name can be any length
+                error(node, f"unknown parameter '{shown}'{did_you_mean(value, params)}",
+                      (f"parameters: {', '.join(params)}" if params else
+                       f"declare it under 'params:', e.g. params: {{{shown}: 0.1}}",))
             failed = True
             continue
         per_member = own.get(value, (params[value],) * count)
@@ -198,7 +198,7 @@ def resolve_noise(decl: NoiseDecl, robot: str, count: int, params: Mapping[str, 
         wrong = sorted({float(v) for v in per_member if not lo <= v <= hi})
         if wrong:
             source = (f"in the 'params:' of robot '{robot}'" if value in own
-                      else f"from --set {value}={settings[value]}" if value in settings else "in 'params:'")
+                      else f"from --set {value}={settings[value][:40]}" if value in settings else "in 'params:'")
             error(node, f"{what} must be between {lo:g} and {hi:g}, not {wrong[0]:g} (parameter '{value}', "
                         f"{source})", ())
             failed = True
