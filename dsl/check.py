@@ -42,6 +42,7 @@ from labsim.dsl.builtins import (
 )
 from labsim.dsl.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.infer import ExprChecker, arity_message, log_example
+from labsim.dsl.noise import Noise, resolve_noise
 from labsim.dsl.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
@@ -85,6 +86,7 @@ class Checked:
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
     used: frozenset[str] = frozenset()  # every name an expression reads
     robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]] = field(default_factory=dict)
+    noise: dict[str, tuple[Noise | None, ...]] = field(default_factory=dict)  # group -> each member's
     # version 1.2: each call of a user function and its typed body; groups' sizes; prev() of a signal in itself
     expansions: dict[int, Expansion] = field(default_factory=dict)
     group_sizes: dict[str, int] = field(default_factory=dict)  # a signal that is a group -> its members
@@ -145,6 +147,7 @@ class _Checker(ExprChecker):
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
+        noise = self.noise(params, robot_params, overrides)
         sliders = self.sliders()
         self.user_functions = check_definitions(self, bf.functions)
         check_bodies(self, self.user_functions)
@@ -164,7 +167,7 @@ class _Checker(ExprChecker):
                        lets, states, metrics, tuple(overrides),
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
-                       frozenset(self.used), robot_params, self.expansions, self.group_sizes, self.sizes,
+                       frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called))
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
@@ -374,6 +377,20 @@ class _Checker(ExprChecker):
                 else:
                     own.append((name, values))
             out[r.name] = tuple(own)
+        return out
+
+    def noise(self, params: dict[str, float | bool],
+              robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]],
+              overrides: dict[str, str]) -> dict[str, tuple[Noise | None, ...]]:
+        """Each group's noise, per member, the parameters it names resolved (``labsim.dsl.noise``)."""
+        out = {}
+        for r in self.bf.robots:
+            if r.noise is not None:
+                self.used |= r.noise.names  # a parameter that only sets noise is used
+                members = resolve_noise(r.noise, r.name, r.count, params, dict(robot_params.get(r.name, ())),
+                                        overrides, self.bf.params, self.error)
+                if members is not None:
+                    out[r.name] = members
         return out
 
     def lets(self) -> list[tuple[str, Parsed]]:

@@ -24,7 +24,7 @@ from labsim.dsl.crowd import check_crowd
 from labsim.dsl.lint import lint
 from labsim.dsl.placement import Start, place
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
-from labsim.dsl.read import read
+from labsim.dsl.read import RobotDecl, read
 from labsim.dsl.stop import check_stop
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -84,8 +84,7 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
     return Program(
         name=bf.name, path=bf.path, sha256=bf.sha256, dt_s=bf.dt_s, seed=seed, world=world,
         params=MappingProxyType(dict(c.params)), overridden=tuple(c.overridden), warnings=warnings,
-        robots=tuple(RobotGroup(d.name, c.models[d.name], d.count, d.at, d.paths,
-                                        c.robot_params.get(d.name, ()), d.noise) for d in bf.robots),
+        robots=tuple(_group(c, d) for d in bf.robots),
         models=MappingProxyType(dict(c.models)), mechanism_agent=c.mechanism_agent,
         starts=starts,
         channels=c.channels, channel_kinds=MappingProxyType(dict(c.channel_kinds)),
@@ -100,6 +99,14 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
         logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
         stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts)
+
+
+def _group(c: Checked, d: RobotDecl) -> RobotGroup:
+    """A group as the runtime needs it; its noise once, or per member when its own parameters differ."""
+    members = c.noise.get(d.name, ())
+    shared = len(set(members)) <= 1
+    return RobotGroup(d.name, c.models[d.name], d.count, d.at, d.paths, c.robot_params.get(d.name, ()),
+                      members[0] if members and shared else None, () if shared else members)
 
 
 def _rule_labels(c: Checked) -> tuple[RuleLabel, ...]:

@@ -4,15 +4,19 @@ Part of reading a behaviour file (``labsim.dsl.read`` calls ``read_noise`` for e
 that has the key); the models are applied at run time by ``labsim.runtime.noise``, between
 the backend and the compiled program, so they are the same on every backend. This module
 holds the key tables (``labsim.dsl.schema`` builds the JSON Schema from them), each model's
-limits and units, and the reader that checks them with positions.
+limits and units, the reader that checks them with positions, and ``resolve_noise``, with
+which the checker replaces a parameter named in place of a number (format 1.2) by its value
+after ``--set``, for each member of the group.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
-from yaml.nodes import Node
+from yaml.nodes import Node, ScalarNode
 
-from labsim.foundation.source import Reader
+from labsim.foundation.diagnostics import did_you_mean
+from labsim.foundation.source import Reader, scalar_value
 
 NOISE_KEYS = ("sonar", "camera", "wheels")
 SONAR_NOISE_KEYS = ("std_m", "dropout")
@@ -85,16 +89,32 @@ class Noise:
         return out
 
 
+# "sonar.std_m" -> the Noise field it sets
+_FIELDS = {key: key.replace("wheels.", "wheel.").replace(".", "_") for key in LIMITS}
+
+
+@dataclass(frozen=True)
+class NoiseDecl:
+    """A group's ``noise:`` as written: each key's number, or the parameter that gives it (format 1.2)."""
+
+    values: tuple[tuple[str, float | str, Node], ...]  # ("sonar.dropout", 0.05 or "drop", the value's node)
+
+    @property
+    def names(self) -> frozenset[str]:
+        """The parameters it names."""
+        return frozenset(v for _, v, _ in self.values if isinstance(v, str))
+
+
 _TABLES = {"sonar": SONAR_NOISE_KEYS, "camera": CAMERA_NOISE_KEYS, "wheels": WHEEL_NOISE_KEYS}
 
 
-def read_noise(r: Reader, node: Node, robot: str, has_camera: bool) -> Noise | None:
+def read_noise(r: Reader, node: Node, robot: str, has_camera: bool, names: bool = False) -> NoiseDecl:
     """``noise: {sonar: {std_m, dropout}, camera: {std}, wheels: {std_rad_s, slip}}`` of a robot.
 
-    Every problem is reported at its key or value; None when there was one.
+    With ``names`` (format 1.2) a value may be a parameter's name, resolved by the checker
+    (``resolve_noise``). Every problem is reported at its key or value, which is left out.
     """
-    errors = r.error_count
-    values: dict[str, float] = {}
+    values: list[tuple[str, float | str, Node]] = []
     models = r.fields(node, NOISE_KEYS, f"the noise of robot '{robot}' (keys: {', '.join(NOISE_KEYS)})") or {}
     for model, body in models.items():
         if model == "camera" and not has_camera:
@@ -103,12 +123,88 @@ def read_noise(r: Reader, node: Node, robot: str, has_camera: bool) -> Noise | N
             continue
         keys = _TABLES[model]
         for key, value in (r.fields(body, keys, f"{model} noise (keys: {', '.join(keys)})") or {}).items():
+            what = f"{model} noise {key}"
+            text = scalar_value(value) if isinstance(value, ScalarNode) else None
+            if isinstance(text, str):  # a word: a parameter's name, from format 1.2
+                name = _parameter_name(r, value, text, what, names)
+                if name is not None:
+                    values.append((f"{model}.{key}", name, value))
+                continue
             lo, hi, _ = LIMITS[f"{model}.{key}"]
-            v = r.number(value, f"{model} noise {key}")
+            v = r.number(value, what)
             if v is not None and not lo <= v <= hi:
-                r.error(value, f"{model} noise {key} must be between {lo:g} and {hi:g}, not {v:g}")
+                r.error(value, f"{what} must be between {lo:g} and {hi:g}, not {v:g}")
             elif v is not None:
-                values[f"{model}_{key}".replace("wheels_", "wheel_")] = v
-    if r.error_count != errors:
+                values.append((f"{model}.{key}", v, value))
+    # the keys read well go on, so the checker reports the names in them too: every error at once
+    return NoiseDecl(tuple(values))
+
+
+def _parameter_name(r: Reader, node: Node, text: str, what: str, names: bool) -> str | None:
+    """A noise value written as text: a parameter's name in format 1.2, else reported."""
+    word = text.isidentifier() and text.isascii()
+    if not names and word:
+        r.error(node, f"{what} must be a number, not '{text}'",
+                notes=("from format 1.2 ('labsim: 1.2') it may name a parameter of 'params:' instead",))
         return None
-    return Noise(**values)
+    if not names:
+        r.number(node, what)  # the message of format 1.1, as it was
+        return None
+    if not word:
+        r.error(node, f"{what} must be a number or the name of a parameter, not '{text[:40]}'",
+                notes=("e.g. 'dropout: drop' with 'params: {drop: 0.05}'; an expression is not allowed here",))
+        return None
+    return text
+
+
+# Reports a problem at a node of the file: the checker's ``error``.
+ErrorSink = Callable[[Node, str, tuple[str, ...]], None]
+
+
+def resolve_noise(decl: NoiseDecl, robot: str, count: int, params: Mapping[str, float | bool],
+                  own: Mapping[str, tuple[float | bool, ...]], settings: Mapping[str, str],
+                  declared: Collection[str], error: ErrorSink) -> tuple[Noise | None, ...] | None:
+    """Each member's noise, every parameter named replaced by its value; None after a problem.
+
+    ``params`` are the file's values after ``--set`` (``settings``: name -> the value as
+    typed), ``own`` the group's own values, one per member, which win for its members as they
+    do in expressions. Each key's range applies to the value it resolves to, reported at the
+    key's value with where the number came from. ``declared`` are the names 'params:' holds,
+    some of them reported wrong already: naming one says nothing more.
+    """
+    members: list[dict[str, float]] = [{} for _ in range(count)]
+    failed = False
+    for key, value, node in decl.values:
+        if isinstance(value, float):
+            for m in members:
+                m[_FIELDS[key]] = value
+            continue
+        model, name = key.split(".")
+        what = f"{model} noise {name}"
+        if value not in params:
+            if value not in declared:
+                shown = value if len(value) <= 40 else value[:40] + "..."  # a name can be any length
+                error(node, f"unknown parameter '{shown}'{did_you_mean(value, params)}",
+                      (f"parameters: {', '.join(params)}" if params else
+                       f"declare it under 'params:', e.g. params: {{{shown}: 0.1}}",))
+            failed = True
+            continue
+        per_member = own.get(value, (params[value],) * count)
+        if any(isinstance(v, bool) for v in per_member):
+            error(node, f"{what} must be a number, and parameter '{value}' is true or false", ())
+            failed = True
+            continue
+        lo, hi, _ = LIMITS[key]
+        wrong = sorted({float(v) for v in per_member if not lo <= v <= hi})
+        if wrong:
+            source = (f"in the 'params:' of robot '{robot}'" if value in own
+                      else f"from --set {value}={settings[value][:40]}" if value in settings else "in 'params:'")
+            error(node, f"{what} must be between {lo:g} and {hi:g}, not {wrong[0]:g} (parameter '{value}', "
+                        f"{source})", ())
+            failed = True
+            continue
+        for m, v in zip(members, per_member, strict=True):
+            m[_FIELDS[key]] = float(v)
+    if failed:
+        return None
+    return tuple(Noise(**m) or None for m in members)

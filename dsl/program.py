@@ -59,6 +59,13 @@ class RobotGroup:
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     params: tuple[tuple[str, tuple[float | bool, ...]], ...] = ()  # the group's own values, one per member
     noise: Noise | None = None  # what the runtime adds to its readings and commands (labsim.runtime.noise)
+    # each member's, when the group's own parameter values give its members different noise (format
+    # 1.2); then ``noise`` is None. Empty when every member has ``noise``: read it with ``noise_of``.
+    member_noise: tuple[Noise | None, ...] = ()
+
+    def noise_of(self, index: int) -> Noise | None:
+        """The noise of the group's member ``index`` (its place in the group, from 0)."""
+        return self.member_noise[index] if self.member_noise else self.noise
 
 
 @dataclass(frozen=True)

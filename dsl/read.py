@@ -23,7 +23,7 @@ from labsim.backends.scene import object_paths
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world_names import builtin_copy
 from labsim.dsl import ast
-from labsim.dsl.noise import Noise, read_noise
+from labsim.dsl.noise import NoiseDecl, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.kinds import kind_of_keys
@@ -65,7 +65,7 @@ class RobotDecl:
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     # parameters this group sets for itself: name, one value per member (or one for all), node
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
-    noise: Noise | None = None  # labsim.dsl.noise; None: none declared
+    noise: NoiseDecl | None = None  # labsim.dsl.noise, resolved by the checker; None: none declared
 
 
 @dataclass(frozen=True)
@@ -244,7 +244,7 @@ class _Reader(Reader):
         if "stop" in keys:
             bf.stop = self.expr(keys["stop"], "stop")
         if "robots" in keys:
-            bf.robots = self.robots(keys["robots"])
+            bf.robots = self.robots(keys["robots"], bf.version)
             bf.has_robots = True
         if "params" in keys:
             bf.params = self.params(keys["params"])
@@ -322,7 +322,7 @@ class _Reader(Reader):
 
     # -- robots ---------------------------------------------------------------------------------
 
-    def robots(self, node: Node) -> list[RobotDecl]:
+    def robots(self, node: Node, version: float = FORMAT_VERSION) -> list[RobotDecl]:
         out = []
         entries = self.mapping(node, "robots")
         if not entries and isinstance(node, (ScalarNode, MappingNode)):
@@ -349,10 +349,11 @@ class _Reader(Reader):
                 self.failed_names.add("camera")
             paths = self.paths(fields["paths"]) if "paths" in fields else ()
             own = self.robot_params(fields["params"], name, count) if "params" in fields else ()
-            noise = read_noise(self, fields["noise"], name, "camera" in fields) if "noise" in fields else None
+            noise = (read_noise(self, fields["noise"], name, "camera" in fields, names=version >= 1.2)
+                     if "noise" in fields else None)
             if at is not None:
                 out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths,
-                                     own, noise or None))
+                                     own, noise))
         return out
 
     def robot_params(self, node: Node, robot: str, count: int

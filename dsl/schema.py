@@ -9,7 +9,7 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 """
 from __future__ import annotations
 
-from labsim.backends.scene.schema import Schema, document, mapping, named, number, numbers, text
+from labsim.backends.scene.schema import IDENTIFIER, Schema, document, mapping, named, number, numbers, text
 from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
 from labsim.foundation.limits import MAX_DT_S, MIN_DT_S
@@ -60,9 +60,13 @@ def _robot() -> Schema:
 
 
 def _noise() -> Schema:
+    def value(key: str) -> Schema:
+        lo, hi, what = LIMITS[key]
+        return {"description": f"{what}; or the name of a parameter of 'params:' (format 1.2)",
+                "anyOf": [number(what, lo, hi), {"type": "string", "pattern": IDENTIFIER}]}
+
     def model(name: str, keys: tuple[str, ...], what: str) -> Schema:
-        return mapping(keys, {k: number(LIMITS[f"{name}.{k}"][2], LIMITS[f"{name}.{k}"][0], LIMITS[f"{name}.{k}"][1])
-                              for k in keys}, what)
+        return mapping(keys, {k: value(f"{name}.{k}") for k in keys}, what)
     return mapping(NOISE_KEYS, {
         "sonar": model("sonar", SONAR_NOISE_KEYS, "sonar noise: Gaussian jitter and dropout"),
         "camera": model("camera", CAMERA_NOISE_KEYS, "camera noise: Gaussian on every pixel (needs a camera)"),

@@ -155,7 +155,8 @@ class Run:
                               group, start.index)
             robots.append(RobotRun(len(robots), start.name, group.model, program,
                                    group.model.max_wheel_speed_rad_s, start=start.pose,
-                                   sent_joints=[math.nan] * len(p.targets), paths=group.paths, noise=group.noise))
+                                   sent_joints=[math.nan] * len(p.targets), paths=group.paths,
+                                   noise=group.noise_of(start.index)))
         return robots
 
     def _noise(self) -> NoisyIO | None:

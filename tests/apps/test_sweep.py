@@ -4,10 +4,11 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
-from helpers import BEHAVIOURS, FIXTURES
+from helpers import BEHAVIOURS, DOCS, FIXTURES
 
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.main import main
@@ -248,6 +249,29 @@ def test_plot_draws_a_chart(capsys, tmp_path: Path) -> None:
     png = tmp_path / "c.png"
     code, out, _ = cli(capsys, "sweep", LAB, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2", "--plot", str(png))
     assert code == 0 and png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
+
+
+def test_a_sweep_over_a_noise_parameter(capsys, tmp_path: Path) -> None:
+    """docs/language.md's example of noise numbers as parameters (format 1.2), swept over its dropout."""
+    (text,) = re.findall(r"```yaml\n(# noise example: noisy_sweep\n.*?)```", (DOCS / "language.md").read_text(), re.S)
+    path = tmp_path / "noisy_sweep.yaml"
+    path.write_text(text)
+    out = tmp_path / "sweep.json"
+    code, printed, _ = cli(capsys, "sweep", str(path), "--set", "drop=0,0.5,1", "--set", "minutes=0.2", "-j", "1",
+                           "--json", str(out))
+    assert code == 0 and "3 runs: 3 ok" in printed
+    rows = {r["settings"]["drop"]: r["summary"]["robots"]["pioneer"] for r in json.loads(out.read_text())["rows"]}
+    assert rows["0"]["noise"] == {"sonar": {"std_m": 0.02}} and rows["0"]["sonar_readings_lost"] == 0
+    assert rows["1"]["noise"] == {"sonar": {"std_m": 0.02, "dropout": 1.0}}
+    assert 0 < rows["0.5"]["sonar_readings_lost"] < rows["1"]["sonar_readings_lost"]
+    assert rows["0"]["contact_time_s"] < rows["1"]["contact_time_s"]  # blind, it stays against the wall longer
+    # a value out of the key's range is that run's compile error, naming the --set
+    code, printed, _ = cli(capsys, "sweep", str(path), "--set", "drop=0,2", "--set", "minutes=0.05", "-j", "1",
+                           "--json", str(out))
+    bad = [r for r in json.loads(out.read_text())["rows"] if r["settings"]["drop"] == "2"]
+    assert bad[0]["status"] == "compile error"
+    assert ("sonar noise dropout must be between 0 and 1, not 2 (parameter 'drop', from --set drop=2)"
+            in bad[0]["message"])
 
 
 # -- the Dask executor ------------------------------------------------------------------------
