@@ -322,3 +322,14 @@ TRACE_COLUMNS = frozenset({"tick", "time", "robot", "x", "y", "heading", "collid
                            "events", "wheel_left", "wheel_right"})
 
 KEYWORDS = frozenset({"if", "then", "else", "always", "and", "or", "not", "goto", "true", "false"})
+
+
+# Functions students reach for under another name: what to write instead.
+MEANT = {
+    "distance": "hypot(dx, dy)", "dist": "hypot(dx, dy)",
+    "norm": "hypot(dx, dy)", "sqr": "x ** 2", "pow": "x ** y", "power": "x ** y",
+    "average": "mean(...)", "avg": "mean(...)", "atan": "atan2(y, x)", "arctan": "atan2(y, x)",
+    "absolute": "abs(x)", "limit": "clamp(x, lo, hi)", "constrain": "clamp(x, lo, hi)",
+    "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
+    "previous": "prev(x, initial)",
+}

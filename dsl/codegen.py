@@ -15,6 +15,10 @@ a marker comment (``#@7``); the ``listing`` is the same text with each marker re
 file's line and text (``# behaviours/wall_follow.yaml:23: if ahead <= front then ...``), so it
 lines up with the compiled code line for line: ``labsim check --show-code`` prints it, and
 tracebacks through generated functions show it.
+
+Over 500 lines: one generator writes the whole module top to bottom, and its parts share the
+slots each piece reads; what version 1.2 added (groups, user functions) is apart, in
+``labsim.dsl.unroll``.
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ import difflib
 from yaml.nodes import Node
 
 from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, REDUCTIONS, Type
+from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
 from labsim.dsl.functions import Expansion, body_name, body_note, check_call
 from labsim.dsl.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -354,8 +354,8 @@ class ExprChecker:
                          if e.func == "count" else ())
             elif e.func in ACTIONS:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
-            elif e.func in _MEANT:
-                message = f"unknown function '{e.func}' (did you mean {_MEANT[e.func]}?)"
+            elif e.func in MEANT:
+                message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
                 notes = function_notes(e.func, nearest=False)
             else:
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
@@ -471,15 +471,6 @@ def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool
     return f"{name}() takes {n} {'argument' if n == 1 else 'arguments'}{shown}, given {given}"
 
 
-# Functions students reach for under another name: what to write instead.
-_MEANT = {
-    "distance": "hypot(dx, dy)", "dist": "hypot(dx, dy)",
-    "norm": "hypot(dx, dy)", "sqr": "x ** 2", "pow": "x ** y", "power": "x ** y",
-    "average": "mean(...)", "avg": "mean(...)", "atan": "atan2(y, x)", "arctan": "atan2(y, x)",
-    "absolute": "abs(x)", "limit": "clamp(x, lo, hi)", "constrain": "clamp(x, lo, hi)",
-    "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
-    "previous": "prev(x, initial)",
-}
 
 
 def log_example(action: ast.Action, text: Text) -> str:

@@ -12,8 +12,8 @@ from labsim.dsl.compile import compile_file
 
 
 def test_the_docs_have_the_worked_examples() -> None:
-    assert set(examples()) == {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
-                                "first_mark"}
+    assert set(examples()) >= {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
+                               "first_mark", "nearest_sonar", "log_and_drive"}
 
 
 def test_bump_and_turn_backs_up_for_one_second(tmp_path: Path) -> None:
