@@ -52,6 +52,7 @@ class Generated:
     logs: tuple[tuple[int, tuple[LabelPart, ...]], ...] = ()  # each log(): its line, and its text's parts
     stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
     texts: tuple[str, ...] = ()  # Program.texts: the state names, then the text values, as _texts[k] reads them
+    when_rules: tuple[int, ...] = ()  # Program.when_rules
 
 
 def generate(checked: Checked, filename: str) -> Generated:
@@ -61,7 +62,8 @@ def generate(checked: Checked, filename: str) -> Generated:
     source, listing, marks = render(g.module())
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
                 tuple(sorted(g.functions)), marks)
-    return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts))
+    return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts),
+                     tuple(g.when_rules))
 
 
 class _Generator(Unroller):
@@ -90,6 +92,7 @@ class _Generator(Unroller):
         self.env: list[dict[str, str | list[str]]] = []  # inside a user function's body: its arguments' code
         self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
         self.let_of = {name: parsed for name, parsed in checked.lets}
+        self.when_rules: list[int] = []  # the index of each 'when' rule: wf[j] counts the ticks it logged
 
     def module(self) -> Body:
         """``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold``.
@@ -169,7 +172,7 @@ class _Generator(Unroller):
     def params(self) -> list[str]:
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax",
+                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "wf",
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
 
@@ -288,6 +291,9 @@ class _Generator(Unroller):
                     self.actions(w, r.rule.actions, r.text, where)
                     if r.rule.kind != "when":
                         w.line(f"rule = {index + n}")
+                    else:
+                        w.line(f"wf[{len(self.when_rules)}] += 1")
+                        self.when_rules.append(index + n)
         return index + len(rules)
 
     def stop_condition(self, w: Writer) -> str:

@@ -98,7 +98,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         labels=layout.labels, timeline=_timeline(c),
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
         logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
-        stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts)
+        stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts,
+        when_rules=generated.when_rules)
 
 
 def _group(c: Checked, d: RobotDecl) -> RobotGroup:

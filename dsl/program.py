@@ -105,6 +105,7 @@ class RobotProgram:
     # fold(time_s, tick, values): the signals already evaluated, fold the metrics; no rule acts
     fold: Callable[[float, int, list], None] = lambda time_s, tick, values: None
     stop_part: list[int] = field(default_factory=lambda: [-1])  # the stop condition's 'or' part that held
+    when_fired: list[int] = field(default_factory=list)  # per Program.when_rules: the ticks it logged
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,6 +153,7 @@ class Program:
     stop_parts: tuple[str, ...] = ()  # its top-level 'or' parts: the summary names the one that held
     fold_stop: bool = False  # format 1.1: the stopping tick is traced and folded into metrics
     texts: tuple[str, ...] = ()  # what generated code shows as text: the state names, then text values
+    when_rules: tuple[int, ...] = ()  # the 'when' rules, by index in ``rules``: RobotProgram.when_fired counts them
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
@@ -181,12 +183,13 @@ class Program:
         metric_values = [initial_accumulator(a) for a in self.metric_aggregates]
         bindings = namespace(rng, model or next(iter(self.models.values()), None), code.functions)
         stop_part = [-1]
+        when_fired = [0] * len(self.when_rules)
 
         def held(part: int) -> bool:
             stop_part[0] = part
             return True
         bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0],
-                        _held=held, _texts=self.texts)
+                        _held=held, _texts=self.texts, wf=when_fired)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
@@ -198,7 +201,7 @@ class Program:
         make = cast(Callable[..., tuple[Any, Any, Any, Any]], scope["make"])
         signals, decide, both, fold = make(**bindings)
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
-                            joint_command, fold, stop_part)
+                            joint_command, fold, stop_part, when_fired)
 
     @property
     def robot_slots(self) -> dict[str, int]:

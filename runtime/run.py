@@ -357,7 +357,7 @@ class Run:
             ticks=self.tick_index, sim_time_s=self.tick_index * self.dt, wall_time_s=self.wall_time_s,
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,
             over_budget=self.over_budget, robots=robots, fleet=fleet,
-            rules=tuple(RuleResult(rule.id, rule.text, n) for rule, n in zip(p.rules, self.fired)),
+            rules=tuple(RuleResult(rule.id, rule.text, n) for rule, n in zip(p.rules, self._fired())),
             idle_ticks=self.idle, faults=tuple(self._fault_lines()), logs_unprinted=tuple(self._unprinted()),
             warnings=tuple(_warning_line(d) for d in p.warnings) + tuple(self.warnings),
             logs=tuple(self.log_printer.lines) if self.log_printer is not None else (),
@@ -377,6 +377,13 @@ class Run:
             noise_text=self.noise.describe(noisy) if self.noise is not None and noisy is not None else "",
             sonar_readings_lost=noisy.dropped if noisy is not None else 0,
             faults=self.faults.by_robot.get(r.name, 0))
+
+    def _fired(self) -> list[int]:
+        """Ticks each rule fired; a 'when' rule's are the ticks it logged, counted by each robot's program."""
+        fired = list(self.fired)
+        for j, k in enumerate(self.program.when_rules):
+            fired[k] = sum(r.program.when_fired[j] for r in self.robots)
+        return fired
 
     def _unprinted(self) -> list[str]:
         out = []
