@@ -32,7 +32,7 @@ from labsim.dsl.layout import Layout, layout
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import RuleDecl
 from labsim.dsl.stop import stop_horizon
-from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
+from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
@@ -395,7 +395,7 @@ class _Generator:
             return f"_{e.func}({args})"
         if e.func in ("random", "uniform", "gauss"):
             return f"_{e.func}({args})"
-        return f"{self.site(e.func, text, e.span, where)}({args})"
+        return f"{self.site(site_kind(e.func, self.c.file.version), text, e.span, where)}({args})"
 
 
 def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:

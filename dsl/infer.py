@@ -125,7 +125,7 @@ class ExprChecker:
             self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "
                        "summary, and expressions cannot read them",
                        notes=("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a "
-                              "duration, 'remember(...)' or 'prev(...)' for a count; docs/language.md, "
+                              "duration, 'counter(...)' for a count, 'total(...)' for a sum; docs/language.md, "
                               "Time and memory)",))
             return None
         hint = did_you_mean(e.id, self.types)
@@ -190,6 +190,8 @@ class ExprChecker:
             notes: tuple[str, ...] = ()
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
+                if e.func == "count":
+                    notes = ("to count inside an expression, counter(c) counts the ticks c became true",)
             elif e.func in ACTIONS:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
             elif e.func in _MEANT:
@@ -262,7 +264,8 @@ _MEANT = {
     "average": "mean(...)", "avg": "mean(...)", "atan": "atan2(y, x)", "arctan": "atan2(y, x)",
     "absolute": "abs(x)", "limit": "clamp(x, lo, hi)", "constrain": "clamp(x, lo, hi)",
     "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
-    "previous": "prev(x, initial)",
+    "previous": "prev(x, initial)", "sum": "total(x)", "integral": "total(x * dt)", "integrate": "total(x * dt)",
+    "accumulate": "total(x)", "edges": "counter(c)", "tally": "counter(c)",
 }
 
 

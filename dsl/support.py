@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import RobotModel
 from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type
+from labsim.dsl.memory import PRIMED
 from labsim.foundation.diagnostics import Diagnostic
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
@@ -125,7 +126,8 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
 
     ``state`` is [integral, previous error], starting at [0, 0]. With ``limit`` the output is
     clamped to [-limit, limit], and the integral does not grow while the output is saturated
-    in the direction the error pushes (clamping anti-windup).
+    in the direction the error pushes (clamping anti-windup). An output or integral that is
+    not finite (an overflow, or an inf or nan given) leaves ``state`` as it was and gives nan.
     """
     integral = state[0] + e
     out = kp * e + ki * integral + kd * (e - state[1])
@@ -134,14 +136,50 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
             integral = state[0]  # do not wind up further
             out = kp * e + ki * integral + kd * (e - state[1])
         out = max(-limit, min(limit, out))
+    if not (-INF < out < INF and -INF < integral < INF):
+        return math.nan  # the state stays finite: the next finite tick works as if this one had not been
     state[0] = integral
     state[1] = e
     return out
 
 
+PID_NOT_FINITE = ("pid() of an inf or nan error or gain: the controller kept its state and gave its last "
+                  "finite output")
+PID_OVERFLOW = "pid() would overflow: the controller kept its state and gave its last finite output"
+
+
+def _pid(report: Callable[[str], None]) -> Callable[..., float]:
+    """One call site's controller (docs/language.md, "PID"): a tick with an inf or nan error or
+    gain changes nothing and gives the last finite output (0 before any), with a warning."""
+    state = [0.0, 0.0]  # this robot's integral and previous error at this call site
+    last = [0.0]  # the last finite output
+
+    def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
+        if not (-INF < e < INF and -INF < kp < INF and -INF < ki < INF and -INF < kd < INF):
+            report(PID_NOT_FINITE)
+            return last[0]
+        out = pid_step(state, e, kp, ki, kd, limit)
+        if out != out:
+            report(PID_OVERFLOW)
+            return last[0]
+        last[0] = out
+        return out
+    return pid
+
+
+def site_kind(name: str, version: float) -> str:
+    """The guard kind of a call site of the stateful function ``name`` in a file of format ``version``:
+    ``rising@1.2`` where the function's first tick means something else from 1.2 on."""
+    return f"{name}@1.2" if name in PRIMED and version >= 1.2 else name
+
+
 def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
           rng: random.Random, dt_s: float = 0.05) -> Callable[..., object]:
-    """A fault-checked (or stateful) operation for one site of generated code."""
+    """A fault-checked (or stateful) operation for one site of generated code.
+
+    A stateful function's kind may carry the format version whose meaning it has
+    (``rising@1.2``: labsim.dsl.memory.PRIMED).
+    """
 
     def report(what: str) -> None:
         faults.report(site, what, int(slots[TICK]), robot)
@@ -149,14 +187,11 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     if kind in _ARITHMETIC:
         return _ARITHMETIC[kind](report)
     if kind == "pid":
-        state = [0.0, 0.0]  # this robot's integral and previous error at this call site
-
-        def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
-            return pid_step(state, e, kp, ki, kd, limit)
-        return pid
-    if kind in FUNCTIONS and FUNCTIONS[kind].stateful:
-        factory: Callable[[float], Callable[..., object]] = FUNCTIONS[kind].resolve()  # type: ignore[assignment]
-        return factory(dt_s)  # labsim.dsl.memory
+        return _pid(report)
+    name, _, since = kind.partition("@")
+    if name in FUNCTIONS and FUNCTIONS[name].stateful:
+        factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]
+        return factory(dt_s, report, primed=True) if since else factory(dt_s, report)  # labsim.dsl.memory
     if kind == "centroid":
         from labsim.dsl.images import EmptyCentroid, centroid
 

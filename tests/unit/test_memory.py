@@ -59,7 +59,7 @@ def test_three_thresholds_each_robot_has_its_own(tmp_path: Path) -> None:
     ("remember", [(1.0, False, -1.0), (2.0, True, -1.0), (3.0, False, -1.0)], [-1.0, 2.0, 2.0]),
 ])
 def test_each_memory_function_tick_by_tick(name: str, calls: list[tuple], expected: list) -> None:
-    step = getattr(memory, name)(0.05)
+    step = getattr(memory, name)(0.05, lambda what: None)
     assert [pytest.approx(step(*args)) for args in calls] == expected
 
 
