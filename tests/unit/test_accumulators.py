@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from labsim.dsl.compile import compile_file
 from labsim.dsl.program import Program
 from labsim.dsl.support import PID_NOT_FINITE, Faults, FaultSite, Slots, guard
-from labsim.foundation.diagnostics import Diagnostic
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
 
 INF, NAN = math.inf, math.nan
 DT = 0.05
@@ -129,6 +129,34 @@ def test_1_1_names_still_win(write) -> None:
     """A file of 1.1 with its own 'total' and 'counter' keeps them; the calls are the built-ins."""
     p = program(write, "1.1", "  total: 2 * x\n  counter: total + counter(collided)\n")
     assert signal_values(p, "counter", [{"x": 1.0, "collided": True}]) == [3.0]
+
+
+def errors(write: Callable[..., Path], let: str, rule: str = "always stop()", metrics: str = ""
+           ) -> list[tuple[str, tuple[str, ...]]]:
+    with pytest.raises(LabsimError) as e:
+        compile_file(write(f"labsim: 1.2\n{HEAD}let:\n{let}rules: ['{rule}']\n{metrics}"))
+    return [(d.message, d.notes) for d in e.value.diagnostics if d.severity == "error"]
+
+
+@pytest.mark.parametrize(("let", "message", "note"), [
+    ("  n: counter(sonar1)\n", "argument 1 of counter() must be a boolean, but this is a number", ""),
+    ("  n: counter(collided, 1)\n", "argument 2 of counter() must be a boolean, but this is a number", ""),
+    ("  n: total(collided)\n", "argument 1 of total() must be a number, but this is a boolean", ""),
+    ("  n: total(1, collided, 2)\n", "total() takes 1 to 2 arguments, given 3", ""),
+    ("  n: sum(x)\n", "unknown function 'sum' (did you mean total(x)?)", ""),
+    ("  n: count(collided)\n", "'count' is a metric aggregate: it can only be the outer call of a 'metrics:' "
+     "entry", "to count inside an expression, counter(c) counts the ticks c became true"),
+])
+def test_checker_messages(write, let: str, message: str, note: str) -> None:
+    ((got, notes),) = errors(write, let)
+    assert got == message
+    assert not note or note in notes
+
+
+def test_reading_a_metric_points_at_counter_and_total(write) -> None:
+    ((message, notes),) = errors(write, "  n: 1\n", "if bumps > 1 then stop()", "metrics:\n  bumps: count(collided)\n")
+    assert message.startswith("'bumps' is a metric")
+    assert "'counter(...)' for a count, 'total(...)' for a sum" in notes[0]
 
 
 # -- inf and nan into every built-in with memory --------------------------------------------------
