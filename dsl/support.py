@@ -7,9 +7,10 @@ fault through a ``guard`` bound to its ``FaultSite``. ``labsim.dsl.program`` bin
 one robot; the runtime reads the metric accumulators back with ``metric_result``.
 
 Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 and
-nan/0 are nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power ±inf. Each
-produces a warning naming the site and the tick, through ``Faults``: the first at each site at
-once, the rest counted for the summary.
+nan/0 are nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power ±inf; a
+``pid()`` given inf or nan keeps its state and repeats its last finite output. Each produces a
+warning naming the site and the tick, through ``Faults``: the first at each site at once, the
+rest counted for the summary.
 """
 from __future__ import annotations
 
@@ -136,7 +137,7 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
             integral = state[0]  # do not wind up further
             out = kp * e + ki * integral + kd * (e - state[1])
         out = max(-limit, min(limit, out))
-    if not (-INF < out < INF and -INF < integral < INF):
+    if out * 0.0 + integral * 0.0 != 0.0:  # inf * 0 and nan * 0 are nan: one test for both, no lookups
         return math.nan  # the state stays finite: the next finite tick works as if this one had not been
     state[0] = integral
     state[1] = e
@@ -155,7 +156,7 @@ def _pid(report: Callable[[str], None]) -> Callable[..., float]:
     last = [0.0]  # the last finite output
 
     def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
-        if not (-INF < e < INF and -INF < kp < INF and -INF < ki < INF and -INF < kd < INF):
+        if e * 0.0 + kp * 0.0 + ki * 0.0 + kd * 0.0 != 0.0:  # one of them is inf or nan
             report(PID_NOT_FINITE)
             return last[0]
         out = pid_step(state, e, kp, ki, kd, limit)
