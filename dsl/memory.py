@@ -21,9 +21,9 @@ Report = Callable[[str], None]  # the site's fault report (support.Faults): the 
 PRIMED = frozenset({"rising", "counter"})
 
 # What the site reports when a number it would keep is inf or nan (one text per site: counted).
-RATE_NOT_FINITE = "rate() of inf or nan: 0, and the next finite value starts afresh as on a first tick"
-TOTAL_NOT_FINITE = "total() of inf or nan: not added (the total keeps its value)"
-TOTAL_OVERFLOW = "total() would overflow: the value is not added"
+RATE_NOT_FINITE = "rate() of inf or nan (the result is 0; the next finite value starts afresh, as on a first tick)"
+TOTAL_NOT_FINITE = "total() of inf or nan (not added: the result is the total so far)"
+TOTAL_OVERFLOW = "total(): overflow (not added: the result is the total so far)"
 
 
 def prev(dt_s: float, report: Report) -> Callable[[object, object], object]:

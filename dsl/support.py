@@ -144,9 +144,9 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
     return out
 
 
-PID_NOT_FINITE = ("pid() of an inf or nan error or gain: the controller kept its state and gave its last "
-                  "finite output")
-PID_OVERFLOW = "pid() would overflow: the controller kept its state and gave its last finite output"
+PID_NOT_FINITE = ("pid() of an inf or nan error or gain (the result is its last finite output; its state does "
+                  "not change)")
+PID_OVERFLOW = "pid(): overflow (the result is its last finite output; its state does not change)"
 
 
 def _pid(report: Callable[[str], None]) -> Callable[..., float]:

@@ -230,3 +230,37 @@ def test_prev_and_remember_are_finite_again_once_their_input_is(xs: list[float])
     remember, _, _ = site("remember")
     outs = [(prev(x, 0.0), remember(x, True)) for x in xs]
     assert finite(outs[-1][0]) and finite(outs[-1][1])  # the last two inputs are finite
+
+
+# -- warnings: before the run, and while it runs ------------------------------------------------
+def test_counter_and_total_warn_where_they_miss_ticks(write) -> None:
+    path = write(f"labsim: 1.2\n{HEAD}rules:\n  - if time > 1 and counter(collided) > 2 then stop()\n"
+                 "  - always move(total(1))\n")
+    messages = [d.message for d in compile_file(path).warnings]
+    assert "counter() is after 'and', evaluated only on the ticks what comes before it holds: its memory " \
+           "misses the other ticks" in messages
+    assert "total() is in a rule's action, evaluated only on the ticks the rule fires: its memory misses the " \
+           "other ticks" in messages
+
+
+def test_a_pid_under_detected_is_not_warned_about_inf(write) -> None:
+    path = write(f"labsim: 1.2\n{HEAD}let:\n  out: pid(sonar8 - 0.5, 1, 0, 0) if detected(sonar8) else 0\n"
+                 "  far: pid(max(sonar2, 1) - 0.5, 1, 0, 0)\nrules:\n  - always arc(out, far)\n")
+    messages = [d.message for d in compile_file(path).warnings]
+    assert not any("sonar8, which is inf" in m for m in messages)
+    assert any(m.startswith("pid()'s error reads sonar2, which is inf") for m in messages)
+
+
+def test_a_pid_given_inf_warns_once_with_its_signal_robot_and_tick(write) -> None:
+    p = program(write, "1.2", "  out: pid(sonar1, 1, 0, 0)\n")
+    printed: list[str] = []
+    faults = Faults(printed.append)
+    robot = p.robot("p", random.Random(0), faults)
+    outs = []
+    for tick, reading in enumerate((1.0, 2.0, INF, NAN, INF, 0.5)):
+        robot.signals(tick * p.dt_s, tick, [reading if ch == "sonar1" else False for ch in p.channels])
+        outs.append(robot.slots[p.slot_of["out"]])
+    assert outs == [1.0, 2.0, 2.0, 2.0, 2.0, 0.5]
+    (line,) = printed
+    assert "b.yaml:6:8: warning: " + PID_NOT_FINITE + " in signal 'out', robot p, tick 2\n" in line
+    assert list(faults.counts.values()) == [3]
