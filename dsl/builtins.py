@@ -189,26 +189,36 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
              "centroid(img): .x, .y of the set pixels (from the left and the top), .found"),
     # controllers
     Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:pid_step",
-             "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site",
+             "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site; "
+             "a tick with an inf or nan error repeats the last finite output and leaves the state alone",
              optional=1, stateful=True, names=("error", "kp", "ki", "kd", "limit")),
     # time and memory (labsim.dsl.memory): each call site keeps its own state per robot
     Function("prev", (N, N), N, "labsim.dsl.memory:prev",
              "prev(x, initial): x on the previous tick (initial on the first); x may be a boolean", stateful=True,
              names=("x", "initial")),
     Function("rising", (B,), B, "labsim.dsl.memory:rising",
-             "rising(c): true on a tick where c holds and did not on the previous tick", stateful=True),
+             "rising(c): true on a tick where c holds and did not on the previous tick "
+             "(format 1.2: never on the first tick)", stateful=True),
     Function("falling", (B,), B, "labsim.dsl.memory:falling",
              "falling(c): true on a tick where c does not hold and did on the previous tick", stateful=True),
     Function("hold", (B, B), B, "labsim.dsl.memory:hold",
              "hold(set, reset): a latch, true from a tick where set holds until one where reset holds",
              stateful=True, names=("set", "reset")),
     Function("rate", (N,), N, "labsim.dsl.memory:rate",
-             "rate(x): x's change per second since the previous tick (0 on the first)", stateful=True),
+             "rate(x): x's change per second since the previous tick (0 on the first, and for an inf or nan x)",
+             stateful=True),
     Function("held", (B,), N, "labsim.dsl.memory:held",
              "held(c): seconds c has held without a break (0 while it does not)", stateful=True),
     Function("remember", (N, B, N), N, "labsim.dsl.memory:remember",
              "remember(x, when[, initial]): x at the last tick when 'when' held (initial, or nan, before)",
              optional=1, stateful=True, names=("x", "when", "initial")),
+    # accumulators (version 1.2)
+    Function("counter", (B, B), N, "labsim.dsl.memory:counter",
+             "counter(c[, reset]): how many times c became true (the ticks rising(c) holds); 0 while reset holds",
+             optional=1, stateful=True, names=("c", "reset")),
+    Function("total", (N, B), N, "labsim.dsl.memory:total",
+             "total(x[, reset]): the sum of x over the ticks (inf and nan left out); 0 while reset holds",
+             optional=1, stateful=True, names=("x", "reset")),
 )}
 
 @dataclass(frozen=True)
@@ -258,7 +268,7 @@ def argmax(*values: float) -> float:
 # signals, states or sliders, which then hide them (calls are told apart by their parentheses).
 SHADOWABLE = frozenset({"prev", "rising", "falling", "hold", "rate", "held", "remember",
                         "state_time", "entered", "index",
-                        "sum", "argmin", "argmax", "any", "all"})
+                        "counter", "total", "sum", "argmin", "argmax", "any", "all"})
 
 # Functions whose result depends on earlier ticks: each call site keeps state per robot.
 STATEFUL = frozenset(f.name for f in FUNCTIONS.values() if f.stateful)
@@ -331,5 +341,6 @@ MEANT = {
     "average": "mean(...)", "avg": "mean(...)", "atan": "atan2(y, x)", "arctan": "atan2(y, x)",
     "absolute": "abs(x)", "limit": "clamp(x, lo, hi)", "constrain": "clamp(x, lo, hi)",
     "print": 'the action log("...")', "delay": "state_time or held(...)", "wait": "state_time or held(...)",
-    "previous": "prev(x, initial)",
+    "previous": "prev(x, initial)", "integral": "total(x * dt)", "integrate": "total(x * dt)",
+    "accumulate": "total(x)", "edges": "counter(c)", "tally": "counter(c)",
 }

@@ -35,7 +35,7 @@ from labsim.dsl.layout import Layout, layout
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
-from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite
+from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
 from labsim.dsl.unroll import PLAIN, Unroller, extreme, reduce
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
@@ -92,7 +92,7 @@ class _Generator(Unroller):
         self.env: list[dict[str, str | list[str]]] = []  # inside a user function's body: its arguments' code
         self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
         self.let_of = {name: parsed for name, parsed in checked.lets}
-        self.when_rules: list[int] = []  # the index of each 'when' rule: wf[j] counts the ticks it logged
+        self.when_rules: list[int] = []  # the index of each 'when' rule: _wf[j] counts the ticks it logged
 
     def module(self) -> Body:
         """``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold``.
@@ -172,7 +172,7 @@ class _Generator(Unroller):
     def params(self) -> list[str]:
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "wf",
+                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
 
@@ -292,7 +292,7 @@ class _Generator(Unroller):
                     if r.rule.kind != "when":
                         w.line(f"rule = {index + n}")
                     else:
-                        w.line(f"wf[{len(self.when_rules)}] += 1")
+                        w.line(f"_wf[{len(self.when_rules)}] += 1")
                         self.when_rules.append(index + n)
         return index + len(rules)
 
@@ -465,7 +465,7 @@ class _Generator(Unroller):
             return f"_{e.func}({args})"
         if e.func in ("random", "uniform", "gauss"):
             return f"_{e.func}({args})"
-        return f"{self.site(e.func, text, e.span, where)}({args})"
+        return f"{self.site(site_kind(e.func, self.c.file.version), text, e.span, where)}({args})"
 
 
 def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:

@@ -2,7 +2,7 @@
 
 One stage per module: ``labsim.foundation.source.load`` (YAML with positions) ->
 ``labsim.dsl.read`` (the file's sections, rule strings parsed by ``labsim.dsl.parse`` into
-``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint``
+``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint`` and ``labsim.dsl.unbounded``
 (warnings, on a file without errors) -> ``labsim.dsl.codegen``
 (Python source, compiled once) -> ``labsim.dsl.program.Program``, which the runtime binds to
 each robot; the generated code calls ``labsim.dsl.support`` as it runs. Every stage adds its
@@ -26,6 +26,7 @@ from labsim.dsl.placement import Start, place
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
 from labsim.dsl.read import RobotDecl, read
 from labsim.dsl.stop import check_stop
+from labsim.dsl.unbounded import check_unbounded
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
@@ -58,6 +59,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     check_crowd(checked, starts, report)
     report.raise_if_errors()
     lint(checked, report)
+    check_unbounded(checked, report)
     if strict:
         report.diagnostics = [replace(d, severity="error", notes=(*d.notes, "a warning, made an error by --strict"))
                               if d.severity == "warning" else d for d in report.diagnostics]

@@ -176,7 +176,7 @@ class ExprChecker:
             self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "
                        "summary, and expressions cannot read them",
                        notes=("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a "
-                              "duration, 'remember(...)' or 'prev(...)' for a count; docs/language.md, "
+                              "duration, 'counter(...)' for a count, 'total(...)' for a sum; docs/language.md, "
                               "Time and memory)",))
             return None
         hint = did_you_mean(e.id, self.types)

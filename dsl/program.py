@@ -189,7 +189,7 @@ class Program:
             stop_part[0] = part
             return True
         bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0],
-                        _held=held, _texts=self.texts, wf=when_fired)
+                        _held=held, _texts=self.texts, _wf=when_fired)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)

@@ -7,9 +7,10 @@ fault through a ``guard`` bound to its ``FaultSite``. ``labsim.dsl.program`` bin
 one robot; the runtime reads the metric accumulators back with ``metric_result``.
 
 Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 and
-nan/0 are nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power ±inf. Each
-produces a warning naming the site and the tick, through ``Faults``: the first at each site at
-once, the rest counted for the summary.
+nan/0 are nan), ``x % 0`` nan, ``sqrt(-1)`` nan, ``log(0)`` -inf, an overflowing power ±inf; a
+``pid()`` given inf or nan keeps its state and repeats its last finite output. Each produces a
+warning naming the site and the tick, through ``Faults``: the first at each site at once, the
+rest counted for the summary.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import RobotModel
 from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type, argmax, argmin
+from labsim.dsl.memory import PRIMED
 from labsim.foundation.diagnostics import Diagnostic
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
@@ -126,7 +128,8 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
 
     ``state`` is [integral, previous error], starting at [0, 0]. With ``limit`` the output is
     clamped to [-limit, limit], and the integral does not grow while the output is saturated
-    in the direction the error pushes (clamping anti-windup).
+    in the direction the error pushes (clamping anti-windup). An output or integral that is
+    not finite (an overflow, or an inf or nan given) leaves ``state`` as it was and gives nan.
     """
     integral = state[0] + e
     out = kp * e + ki * integral + kd * (e - state[1])
@@ -135,14 +138,50 @@ def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limi
             integral = state[0]  # do not wind up further
             out = kp * e + ki * integral + kd * (e - state[1])
         out = max(-limit, min(limit, out))
+    if out * 0.0 + integral * 0.0 != 0.0:  # inf * 0 and nan * 0 are nan: one test for both, no lookups
+        return math.nan  # the state stays finite: the next finite tick works as if this one had not been
     state[0] = integral
     state[1] = e
     return out
 
 
+PID_NOT_FINITE = ("pid() of an inf or nan error or gain (the result is its last finite output; its state does "
+                  "not change)")
+PID_OVERFLOW = "pid(): overflow (the result is its last finite output; its state does not change)"
+
+
+def _pid(report: Callable[[str], None]) -> Callable[..., float]:
+    """One call site's controller (docs/language.md, "PID"): a tick with an inf or nan error or
+    gain changes nothing and gives the last finite output (0 before any), with a warning."""
+    state = [0.0, 0.0]  # this robot's integral and previous error at this call site
+    last = [0.0]  # the last finite output
+
+    def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
+        if e * 0.0 + kp * 0.0 + ki * 0.0 + kd * 0.0 != 0.0:  # one of them is inf or nan
+            report(PID_NOT_FINITE)
+            return last[0]
+        out = pid_step(state, e, kp, ki, kd, limit)
+        if out != out:
+            report(PID_OVERFLOW)
+            return last[0]
+        last[0] = out
+        return out
+    return pid
+
+
+def site_kind(name: str, version: float) -> str:
+    """The guard kind of a call site of the stateful function ``name`` in a file of format ``version``:
+    ``rising@1.2`` where the function's first tick means something else from 1.2 on."""
+    return f"{name}@1.2" if name in PRIMED and version >= 1.2 else name
+
+
 def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
           rng: random.Random, dt_s: float = 0.05) -> Callable[..., object]:
-    """A fault-checked (or stateful) operation for one site of generated code."""
+    """A fault-checked (or stateful) operation for one site of generated code.
+
+    A stateful function's kind may carry the format version whose meaning it has
+    (``rising@1.2``: labsim.dsl.memory.PRIMED).
+    """
 
     def report(what: str) -> None:
         faults.report(site, what, int(slots[TICK]), robot)
@@ -154,14 +193,11 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     if kind == "prev_self":
         return _prev_self()
     if kind == "pid":
-        state = [0.0, 0.0]  # this robot's integral and previous error at this call site
-
-        def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
-            return pid_step(state, e, kp, ki, kd, limit)
-        return pid
-    if kind in FUNCTIONS and FUNCTIONS[kind].stateful:
-        factory: Callable[[float], Callable[..., object]] = FUNCTIONS[kind].resolve()  # type: ignore[assignment]
-        return factory(dt_s)  # labsim.dsl.memory
+        return _pid(report)
+    name, _, since = kind.partition("@")
+    if name in FUNCTIONS and FUNCTIONS[name].stateful:
+        factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]
+        return factory(dt_s, report, primed=True) if since else factory(dt_s, report)  # labsim.dsl.memory
     if kind == "centroid":
         from labsim.dsl.images import EmptyCentroid, centroid
 

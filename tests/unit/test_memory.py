@@ -7,13 +7,16 @@ from pathlib import Path
 import pytest
 from helpers import BEHAVIOURS, examples, run_example
 
+from labsim.backends import load_backend
 from labsim.dsl import memory
 from labsim.dsl.compile import compile_file
+from labsim.runtime.run import Run
 
 
 def test_the_docs_have_the_worked_examples() -> None:
-    assert set(examples()) >= {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
-                               "first_mark", "nearest_sonar", "log_and_drive"}
+    assert set(examples()) == {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
+                               "first_mark", "back_on_road", "walls_ahead", "distance_driven", "nearest_sonar",
+                               "log_and_drive"}
 
 
 def test_bump_and_turn_backs_up_for_one_second(tmp_path: Path) -> None:
@@ -48,6 +51,30 @@ def test_three_thresholds_each_robot_has_its_own(tmp_path: Path) -> None:
     assert summary.stopped_by == "pioneer[0]"  # type: ignore[attr-defined]
 
 
+def test_back_on_road_logs_no_edge_at_the_start(tmp_path: Path) -> None:
+    _, _, warned = run_example("back_on_road", tmp_path)
+    logged = [line for line in warned if "back on the road" in line]
+    assert logged and logged[0].endswith("pioneer: back on the road at 16.05 s")
+    path = tmp_path / "v11.yaml"  # the same file in format 1.1: rising() holds on the first tick
+    path.write_text(examples()["back_on_road"].replace("labsim: 1.2", "labsim: 1.1"))
+    earlier: list[str] = []
+    Run(compile_file(path), load_backend("pymunk"), warn=earlier.append).run()
+    assert next(line for line in earlier if "back on the road" in line).endswith("back on the road at 0.00 s")
+
+
+def test_walls_ahead_stops_at_the_fifth_wall(tmp_path: Path) -> None:
+    _, summary, _ = run_example("walls_ahead", tmp_path)
+    assert summary.stopped_by is not None  # type: ignore[attr-defined]
+    assert summary.robots["pioneer"].metrics["walls_seen"] == 5  # type: ignore[attr-defined]
+
+
+def test_distance_driven_is_the_distance_from_the_start(tmp_path: Path) -> None:
+    _, summary, _ = run_example("distance_driven", tmp_path)
+    metrics = summary.robots["pioneer"].metrics  # type: ignore[attr-defined]
+    assert 3 <= metrics["distance"] < 3.05  # stopped on the tick it passed 3 m
+    assert metrics["from_start"] == pytest.approx(metrics["distance"], rel=0.01)
+
+
 @pytest.mark.parametrize(("name", "calls", "expected"), [
     ("prev", [(1.0, 0.0), (2.0, 0.0), (3.0, 0.0)], [0.0, 1.0, 2.0]),
     ("rising", [(False,), (True,), (True,), (False,), (True,)], [False, True, False, False, True]),
@@ -59,7 +86,7 @@ def test_three_thresholds_each_robot_has_its_own(tmp_path: Path) -> None:
     ("remember", [(1.0, False, -1.0), (2.0, True, -1.0), (3.0, False, -1.0)], [-1.0, 2.0, 2.0]),
 ])
 def test_each_memory_function_tick_by_tick(name: str, calls: list[tuple], expected: list) -> None:
-    step = getattr(memory, name)(0.05)
+    step = getattr(memory, name)(0.05, lambda what: None)
     assert [pytest.approx(step(*args)) for args in calls] == expected
 
 

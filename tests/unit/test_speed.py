@@ -23,8 +23,8 @@ from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.backends.scene.world import Block, Pose, Wall, World
 from labsim.dsl import parse
 from labsim.dsl.builtins import _max, _min
-from labsim.dsl.unroll import extreme as _extreme
 from labsim.dsl.images import centroid
+from labsim.dsl.unroll import extreme as _extreme
 from labsim.foundation import cache
 from labsim.runtime.run import compile_behaviour
 
