@@ -27,8 +27,8 @@ from labsim.foundation.source import Place, Text
 
 INF = math.inf
 # Physical readings can pass their nominal bound a little (a soft joint limit, a bump that
-# pushes a robot): their ranges are widened by this fraction of their span, so a threshold
-# set right at the bound never warns.
+# pushes a robot): their ranges are widened by this fraction (of the top speed, of the joint's
+# travel), so a threshold set at or just past the bound never warns.
 SLACK = 0.05
 _TRIG = frozenset({"sin", "cos", "tan"})
 _FLIP = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}
@@ -129,7 +129,6 @@ class Ranges:
         # A let reads only the lets above it: each is worked out once, in order, on first need,
         # so a chain of lets costs one pass and no deep recursion.
         self.let_ranges: dict[str, Range] = {}
-        self.images: dict[str, tuple[int, int, bool] | None] = {}
 
     # -- the warnings ------------------------------------------------------------------------
     def trig(self, e: ast.Call, text: Text) -> None:
