@@ -123,16 +123,18 @@ def counter(dt_s: float, report: Report, primed: bool = False) -> Callable[..., 
     ``primed`` (format 1.2) as in ``rising``: a c that holds on the first tick is not counted.
     On a tick where ``reset`` holds the count is 0, and an edge on that tick is not counted.
     """
-    edge = rising(dt_s, report, primed)
-    count = [0.0]
+    # rising()'s memory, kept here rather than called: a counter runs every tick of a run
+    state: list = [0.0, None if primed else False]  # the count; c on the last tick (None: none yet)
 
     def step(c: bool, reset: bool = False) -> float:
-        rose = edge(c)  # the edge memory follows c on every tick, reset or not
+        c = bool(c)
+        rose = c and state[1] is False
+        state[1] = c  # the edge memory follows c on every tick, reset or not
         if reset:
-            count[0] = 0.0
+            state[0] = 0.0
         elif rose:
-            count[0] += 1.0
-        return count[0]
+            state[0] += 1.0
+        return state[0]
     return step
 
 
