@@ -439,7 +439,9 @@ class _Generator(Unroller):
             return body
         if id(e) in self.c.self_prev:  # prev(n, initial) in n's own definition: n's slot, last tick's
             slot = self.slot_of[e.args[0].id]  # type: ignore[attr-defined]  # the checker made it a Name
-            return f"{self.site('prev_self', text, e.span, where)}(s[{slot}], {self.expr(w, e.args[1], text, where)})"
+            # the slot still holds the last tick's value while this tick's is computed; the
+            # run's first tick (v1, the tick, is 0) takes the initial value
+            return f"(s[{slot}] if v{TICK} else {self.expr(w, e.args[1], text, where)})"
         if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
             if e.func in ("min", "max"):
                 self.functions.add(e.func)

@@ -330,7 +330,7 @@ class Linter:
 
     def stateful_in(self, e: ast.Expr, text: Text, where: str | None) -> None:
         """Warn at each stateful call of e; ``where`` says why e runs only on some ticks (None: every tick)."""
-        if isinstance(e, ast.Call) and e.func in STATEFUL and where is not None:
+        if isinstance(e, ast.Call) and e.func in STATEFUL and where is not None and id(e) not in self.c.self_prev:
             self.warn(text.at(e.func_span), f"{e.func}() {where}: its memory misses the other ticks",
                       "compute it in a 'let' signal, which runs every tick, and use the signal here")
         if isinstance(e, ast.BoolOp):

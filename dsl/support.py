@@ -190,8 +190,6 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
         return _ARITHMETIC[kind](report)
     if kind in ("[]", "[]?"):
         return _pick(report, math.nan if kind == "[]" else False)
-    if kind == "prev_self":
-        return _prev_self()
     if kind == "pid":
         return _pid(report)
     name, _, since = kind.partition("@")
@@ -261,18 +259,6 @@ def _pick(report: Callable[[str], None], missing: object) -> Callable[[tuple, fl
         report(f"no member at place {k:g} of a group of {len(members)} (places count from 0)")
         return missing
     return pick
-
-
-def _prev_self() -> Callable[[object, object], object]:
-    """``prev(n, initial)`` inside signal n: n's value on the previous tick, ``initial`` the first time."""
-    started = [False]
-
-    def step(last: object, initial: object) -> object:
-        if started[0]:
-            return last
-        started[0] = True
-        return initial
-    return step
 
 
 def _guarded_call(kind: str, report: Callable[[str], None], rng: random.Random) -> Callable[..., object]:
