@@ -211,6 +211,7 @@ class Ranges:
             if name not in self.let_ranges:
                 for let in self.let_exprs:  # the lets above first, in order
                     if let not in self.let_ranges:
+                        self.let_ranges[let] = TOP  # while it is worked out: prev(n, 0) inside n reads TOP
                         self.let_ranges[let] = self.of(self.let_exprs[let])
                     if let == name:
                         break

@@ -208,3 +208,21 @@ def test_log_and_drive_logs_each_wall_and_still_turns(tmp_path: Path) -> None:
     assert walls >= 2 and len(logged) == walls  # the trace has every line; the summary at most 5 a second
     counts = summary.rule_counts  # type: ignore[attr-defined]
     assert counts["main:1"] == len(logged) and counts["main:2"] > 0  # a 'when' rule counts the ticks it logged
+
+
+def test_keep_right_follows_with_its_own_function(tmp_path: Path) -> None:
+    _, summary, _ = run_example("keep_right", tmp_path, trace=True)
+    rows = trace_rows(tmp_path / "t.csv")
+    columns = rows[0].split(",")
+    seen = [float(r.split(",")[columns.index("seen_for")]) for r in rows[1:]]
+    assert max(seen) > 20 and all(b in (a + 1, 0) for a, b in zip(seen, seen[1:]))  # it counts up, or starts again
+    assert summary.robots["pioneer"].metrics["longest_follow"] == pytest.approx(max(seen) * 0.05)  # type: ignore
+
+
+def test_every_worked_example_checks_without_a_warning(tmp_path: Path) -> None:
+    from helpers import examples
+
+    for name, text in examples().items():
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(text)
+        assert compile_file(path).warnings == (), name
