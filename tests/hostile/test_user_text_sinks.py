@@ -61,6 +61,10 @@ ALLOWED: dict[tuple[str, str], str] = {
         "precision at most two digits) or the printf form's _PRINTF",
     ("dsl/parse.py", "getattr(e, f.name)"):
         "dataclass fields of the language's own AST nodes",
+    ("dsl/functions.py", "getattr(e, f.name)"):
+        "dataclass fields of the language's own AST nodes (a function body's copy)",
+    ("dsl/functions.py", "getattr(node, f.name)"):
+        "dataclass fields of the language's own AST nodes (walking a function body)",
     ("dsl/program.py", "exec(code.compiled, scope)"):
         "code compiled by dsl/codegen.py from a checked program; user text enters it only as "
         "repr() literals and checked identifiers",
