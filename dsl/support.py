@@ -152,19 +152,28 @@ PID_OVERFLOW = "pid(): overflow (the result is its last finite output; its state
 
 def _pid(report: Callable[[str], None]) -> Callable[..., float]:
     """One call site's controller (docs/language.md, "PID"): a tick with an inf or nan error or
-    gain changes nothing and gives the last finite output (0 before any), with a warning."""
-    state = [0.0, 0.0]  # this robot's integral and previous error at this call site
-    last = [0.0]  # the last finite output
+    gain changes nothing and gives the last finite output (0 before any), with a warning.
+
+    ``pid_step`` written out in the closure: a call less on every tick of a run."""
+    state = [0.0, 0.0, 0.0]  # this robot's integral, previous error and last finite output at this site
 
     def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
         if e * 0.0 + kp * 0.0 + ki * 0.0 + kd * 0.0 != 0.0:  # one of them is inf or nan
             report(PID_NOT_FINITE)
-            return last[0]
-        out = pid_step(state, e, kp, ki, kd, limit)
-        if out != out:
+            return state[2]
+        integral = state[0] + e
+        out = kp * e + ki * integral + kd * (e - state[1])
+        if limit is not None and abs(out) > limit:
+            if (out > 0) == (e > 0):
+                integral = state[0]  # do not wind up further
+                out = kp * e + ki * integral + kd * (e - state[1])
+            out = -limit if out < -limit else limit if out > limit else out
+        if out * 0.0 + integral * 0.0 != 0.0:  # an overflow: the state stays as it was
             report(PID_OVERFLOW)
-            return last[0]
-        last[0] = out
+            return state[2]
+        state[0] = integral
+        state[1] = e
+        state[2] = out
         return out
     return pid
 
