@@ -226,3 +226,17 @@ def test_every_worked_example_checks_without_a_warning(tmp_path: Path) -> None:
         path = tmp_path / f"{name}.yaml"
         path.write_text(text)
         assert compile_file(path).warnings == (), name
+
+
+def test_log_lines_are_reported_apart_from_warnings_and_faults(tmp_path: Path) -> None:
+    from labsim.runtime.cli.report import format_summary
+    from labsim.runtime.summary_json import summary_dict
+    from labsim.runtime.sweep.grid import Row, Task, flat
+
+    _, summary, _ = run_example("log_and_drive", tmp_path)
+    data = summary_dict(summary)  # type: ignore[arg-type]
+    assert data["logs"] and data["warnings"] == [] and data["faults"] == []
+    row = flat(Row(Task(0, "log_and_drive.yaml", (), 3), "ok", result=summary))  # type: ignore[arg-type]
+    assert row["logs"] == len(data["logs"]) and row["faults"] == 0
+    text = format_summary(summary)  # type: ignore[arg-type]
+    assert f"logs: {len(data['logs'])} lines printed" in text and "runtime warnings" not in text
