@@ -1,6 +1,7 @@
 """Language 1.2: groups, functions of your own, 'when' rules, text in logs, prev() of a signal in itself."""
 from __future__ import annotations
 
+import itertools
 import math
 import random
 from pathlib import Path
@@ -215,7 +216,7 @@ def test_keep_right_follows_with_its_own_function(tmp_path: Path) -> None:
     rows = trace_rows(tmp_path / "t.csv")
     columns = rows[0].split(",")
     seen = [float(r.split(",")[columns.index("seen_for")]) for r in rows[1:]]
-    assert max(seen) > 20 and all(b in (a + 1, 0) for a, b in zip(seen, seen[1:]))  # it counts up, or starts again
+    assert max(seen) > 20 and all(b in (a + 1, 0) for a, b in itertools.pairwise(seen))  # counts up, or restarts
     assert summary.robots["pioneer"].metrics["longest_follow"] == pytest.approx(max(seen) * 0.05)  # type: ignore
 
 
