@@ -204,6 +204,11 @@ class Program:
                             joint_command, fold, stop_part, when_fired)
 
     @property
+    def single_signals(self) -> tuple[str, ...]:
+        """The signals that hold one value (a group holds one per member, in slots of their own)."""
+        return tuple(n for n in self.let_names if self.signal_types.get(n) not in (Type.NUMBERS, Type.BOOLS))
+
+    @property
     def robot_slots(self) -> dict[str, int]:
         """Parameters that differ between robots, and their slots."""
         return {p: slot for p, slot in self.slot_of.items() if p in self.params}

@@ -92,7 +92,7 @@ class LiveSession(Session):
         self.playing = False
         kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
         self._sensors = sensor_columns(program.channels, kinds)
-        self._lets = [program.slot_of[n] for n in program.let_names]
+        self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
         self._sonars = [[program.channels.index(s.name) for s in r.model.sonars if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
@@ -134,7 +134,7 @@ class LiveSession(Session):
             return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems)
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
-                   + [{"name": n, "group": "signal"} for n in p.let_names]
+                   + [{"name": n, "group": "signal"} for n in p.single_signals]
                    + [{"name": n, "group": "slider"} for n in p.slider_names]
                    + [{"name": n, "group": "metric"} for n in p.metric_names])
         start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
@@ -224,7 +224,7 @@ class LiveSession(Session):
         for i in self._cameras[robot]:
             out["camera"] = png_data_url(read[i])
         slots = run.robots[robot].program.slots
-        for n in run.program.let_names:
+        for n in run.program.single_signals:
             url = png_data_url(slots[run.program.slot_of[n]])
             if url is not None:
                 out["derived"].append([n, url])

@@ -158,6 +158,7 @@ def test_groups_reduce_member_by_member(write) -> None:
     assert row["some"] is True and row["every"] is True
     assert row["total_"] == pytest.approx(2.15 - 0.4) and row["avg"] == pytest.approx(2.15 / 4)
     assert row["second"] == 0.45 and row["k"] == 0.3
+    assert "front" in program.let_names and "front" not in program.single_signals  # the view shows no group
 
 
 def test_a_member_picked_outside_the_group_is_nan_and_warns(write) -> None:
