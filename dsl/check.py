@@ -564,16 +564,18 @@ class _Checker(ExprChecker):
 
     def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:
         """A parameter's value given by ``--set`` (setting: 'NAME=VALUE'); the current one if wrong."""
+        several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} --set {name}={raw[:40]}",) \
+            if "," in raw else ()
         if isinstance(current, bool):
             if raw.lower() in ("true", "false"):
                 return raw.lower() == "true"
-            self.setting_error(setting, f"parameter '{name}' is true or false, not '{raw}'")
+            self.setting_error(setting, f"parameter '{name}' is true or false, not '{raw[:40]}'", several)
             return current
         try:
             value = to_float(raw)  # the one rule for numbers: --set front=1e309 is too large
         except NumberError as e:
             self.setting_error(setting, f"parameter '{name}': {e}" if str(e).startswith(TOO_LARGE)
-                               else f"parameter '{name}' is a number, not '{raw[:40]}'")
+                               else f"parameter '{name}' is a number, not '{raw[:40]}'", several)
             return current
         if not math.isfinite(value):
             self.setting_error(setting, f"parameter '{name}' must be a finite number")

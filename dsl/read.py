@@ -173,8 +173,9 @@ def read(doc: Document, report: Report) -> BehaviourFile:
     if _is_world_file(root):
         name = builtin_copy(doc.path, doc.text) or doc.path
         r.error(root.value[0][0], "this is a world file, not a behaviour: a behaviour names it with 'world:'",
-                notes=(f"run a behaviour with 'world: {name}' in it; 'labsim new my_lab' writes one to "
-                       "start from, and docs/worlds.md describes world files",))
+                notes=(f"run a behaviour with 'world: {name}' in it; 'labsim new wall_follow my_lab' copies a "
+                       "lab into the folder my_lab to start from (labsim labs lists the labs), and docs/worlds.md "
+                       "describes world files",))
         report.raise_if_errors()  # nothing else of it is worth saying
     keys = r.known_keys(root, TOP_KEYS, "", "the file")
     for k in REQUIRED:

@@ -34,6 +34,7 @@ class RobotResult:
     noise_text: str = ""  # the noise in words, with the readings it lost ("" without noise)
     sonar_readings_lost: int = 0  # readings its sonar dropout replaced by inf
     faults: int = 0  # runtime faults (nan, inf, a domain error) in its program, all sites together
+    params: Mapping[str, float | bool] = field(default_factory=dict)  # its own values, where its group sets them
 
 
 @dataclass(frozen=True)

@@ -376,7 +376,8 @@ class Run:
             noise=noisy.noise.header() if noisy is not None else {},
             noise_text=self.noise.describe(noisy) if self.noise is not None and noisy is not None else "",
             sonar_readings_lost=noisy.dropped if noisy is not None else 0,
-            faults=self.faults.by_robot.get(r.name, 0))
+            faults=self.faults.by_robot.get(r.name, 0),
+            params={k: r.program.slots[slot] for k, slot in p.robot_slots.items()})
 
     def _fired(self) -> list[int]:
         """Ticks each rule fired; a 'when' rule's are the ticks it logged, counted by each robot's program."""

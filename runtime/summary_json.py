@@ -51,6 +51,7 @@ def summary_dict(result: RunResult) -> dict[str, Any]:
             "noise": dict(r.noise),
             "sonar_readings_lost": r.sonar_readings_lost,
             "faults": r.faults,
+            "params": {k: v if isinstance(v, bool) else number(v) for k, v in r.params.items()},
         }
     rules = [{"id": rule.id, "text": rule.text, "ticks": rule.ticks} for rule in result.rules]
     return {

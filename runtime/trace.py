@@ -30,7 +30,7 @@ from labsim.backends.scene.world_file import load_world
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.files import Output, allowed_folders, read_input, write_error
-from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name
+from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name, kind_of_text
 from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
 
 FORMAT = 1
@@ -190,7 +190,14 @@ def read_trace(path: str | Path) -> Trace:
         raise TraceFormatError(f"{path}: not UTF-8 text (byte {e.start}): not a labsim trace", str(path)) from None
     first, _, rest = text.partition("\n")
     if not first.startswith(MAGIC):
-        raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line)", str(path))
+        what = kind_of_text(text[:4096], str(path))
+        hint = ""
+        if what == "behaviour":  # labsim plot wall.yaml: the trace is what a run of it writes
+            hint = (f": it is a behaviour file; run it with --trace first (labsim run {path} --trace run.csv), "
+                    "then give run.csv")
+        elif what == "world":
+            hint = ": it is a world file; a behaviour runs in it (labsim run BEHAVIOUR --trace run.csv)"
+        raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line){hint}", str(path))
     try:
         header = json.loads(first[len(MAGIC):])
     except json.JSONDecodeError as e:

@@ -92,9 +92,7 @@ def format_summary(s: RunResult) -> str:
         lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * s.dt_s:.2f} s): '{s.stop_condition}' held for "
                       f"{'robot ' if first is not None and not first.mechanism else ''}{s.stopped_by}")
     if s.params:
-        shown = [f"{k}={str(v).lower() if isinstance(v, bool) else format(v, 'g')}"
-                 f"{'*' if k in s.overridden else ''}" for k, v in s.params.items()]
-        lines.append("  params: " + " ".join(shown) + ("   (* set on the command line)" if s.overridden else ""))
+        lines += _param_lines(s)
     lines += [f"  noise: {r.name}: {r.noise_text}" for r in s.robots.values() if r.noise_text]
     if s.trace:
         lines.append(f"  trace: {s.trace}")
@@ -108,6 +106,20 @@ def format_summary(s: RunResult) -> str:
         lines += [_robot_line(r) for r in s.robots.values()]
         lines += _fleet_table(s)
     return "\n".join(lines + _rule_lines(s) + _fault_lines(s))
+
+
+def _param_lines(s: RunResult) -> list[str]:
+    """The file's parameter values; one a robot group sets for its robots, each robot's, when they differ."""
+    def shown(v: float | bool) -> str:
+        return str(v).lower() if isinstance(v, bool) else format(v, "g")
+    robots = [r for r in s.robots.values() if not r.mechanism]
+    own = {k for r in robots for k, v in r.params.items() if v != s.params.get(k)}
+    each = "(each robot's below)"
+    line = [f"{k}={each if k in own else shown(v)}{'*' if k in s.overridden else ''}" for k, v in s.params.items()]
+    lines = ["  params: " + " ".join(line) + ("   (* set on the command line)" if s.overridden else "")]
+    for k in own:
+        lines.append(f"    {k}: " + " ".join(f"{r.name}={shown(r.params.get(k, s.params[k]))}" for r in robots))
+    return lines
 
 
 def _rule_lines(s: RunResult) -> list[str]:
