@@ -4,10 +4,13 @@ The labs live in ``behaviours/`` beside the package's subpackages, in a checkout
 installed wheel alike (the wheel ships them as ``labsim/behaviours``). Each is a behaviour
 file with its golden trace beside it (``NAME.yaml``, ``NAME.golden.csv``). The command line
 resolves a behaviour argument through ``behaviour_path``: a file that exists is taken as it is,
-otherwise a lab's name (``labsim run wall_follow``) names that lab's file.
+otherwise a lab's name (``labsim run wall_follow``) names that lab's file. A trace of a lab
+names the file where labsim was installed when it ran; ``shipped_behaviour`` finds the lab again
+wherever this labsim is installed, for the pictures that read the behaviour file.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 from dataclasses import dataclass
@@ -68,6 +71,39 @@ def behaviour_path(argument: str) -> Path:
     raise LabsimError([Diagnostic(argument, f"no such behaviour file or lab '{argument}'"
                                   f"{did_you_mean(argument, known)}",
                                   notes=("labs: " + ", ".join(known) + " (labsim labs lists them)",))])
+
+
+def shipped_behaviour(named: str, sha256: str) -> Path | None:
+    """The lab file of this labsim that a trace's header names (its ``behaviour`` and ``sha256``),
+    or None when it names none of them.
+
+    It is the lab when the named path is one of ``LABS_DIR``'s files (relative to the current
+    folder, as a golden names it), or when a lab file's content has the header's hash: a lab run
+    by name on another machine or another install, whose path is not this one. A file of a lab's
+    name with other content is not the lab (another labsim's lab may read other columns); with
+    no hash in the header, a lab's name in a ``behaviours`` folder is taken at its word.
+    """
+    path = Path(named)
+    try:
+        real = path.resolve() if named else None
+    except (OSError, RuntimeError):  # a loop of links is no lab
+        real = None
+    known = labs()
+    if real is not None and real.parent == LABS_DIR and real.stem in known and real == known[real.stem].path:
+        return real
+    if sha256:
+        return next((lab.path for lab in known.values() if _sha256(lab.path) == sha256), None)
+    if path.parent.name == LABS_DIR.name and path.suffix == ".yaml" and path.stem in known:
+        return known[path.stem].path
+    return None
+
+
+def _sha256(path: Path) -> str:
+    """A behaviour file's hash as the compiler takes it (``labsim.dsl.read``): of its text."""
+    try:
+        return hashlib.sha256(read_text(path, "behaviour").encode()).hexdigest()
+    except LabsimError:
+        return ""
 
 
 def copy_lab(name: str, folder: Path) -> list[Path]:

@@ -139,6 +139,9 @@ class Trace:
     rows: list[list[str]]
     footer: dict | None = None  # the ``# end`` line; None for a cut-off trace or a golden
     lines: list[int] = field(default_factory=list)  # each row's line in the file
+    # the behaviour file a reader was told made the trace (``labsim plot --behaviour``), which
+    # pictures read before the one the header names
+    behaviour_given: str = ""
 
     def column(self, name: str) -> list[str]:
         i = self.columns.index(name)

@@ -11,10 +11,8 @@ those times on the map, so a frame can be matched to where the robot was.
 from __future__ import annotations
 
 import math
-import os
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -27,7 +25,7 @@ from labsim.dsl.compile import compile_file
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.runtime.pictures.map_frame import Figure
 from labsim.runtime.pictures.paint import AA, FRAME, INK, MUTED, PAPER, Painter, darker
-from labsim.runtime.pictures.signals import behaviour_file
+from labsim.runtime.pictures.trace_behaviour import behaviour_file, not_found
 from labsim.runtime.trace import Trace
 
 FRAMES = 5
@@ -55,13 +53,8 @@ def robot_camera(trace: Trace, robot: str) -> Camera:
         raise _fail(trace.path, f"--camera {robot}: no robot of that name in the trace (robots: {', '.join(names)})")
     path = behaviour_file(trace)
     if path is None:
-        named = str(trace.header.get("behaviour") or "")
-        why = ("names no behaviour file" if not named else
-               f"names {named}, outside the trace's folder and the current one: labsim reads it only if "
-               f"you let it, with --allow-path {Path(named).parent} (docs/security.md)" if os.path.isfile(named) else
-               f"names {named}, which is not there")
         raise _fail(trace.path, f"--camera needs the behaviour file that made the trace, for the camera's mount; "
-                                f"the trace {why}")
+                                f"the trace {not_found(trace)}")
     program = compile_file(path)  # a file with mistakes is a LabsimError of its own, with positions
     group = re.sub(r"\[\d+\]$", "", robot)
     with_camera = [g.name for g in program.robots if g.model.cameras]

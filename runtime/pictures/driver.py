@@ -57,6 +57,9 @@ def add_plot_arguments(plot: argparse.ArgumentParser) -> None:
     plot.add_argument("--camera", default=None, metavar="ROBOT",
                       help="add a strip of this robot's camera frames under the map, re-rendered from the "
                            "trace's poses")
+    plot.add_argument("--behaviour", default=None, metavar="PATH",
+                      help="the behaviour file (or lab name) that made the trace, when it is not where the "
+                           "trace's header says: the crane's slew panel, --camera and a chart's units read it")
 
 
 def _fail(where: str, message: str) -> LabsimError:
@@ -76,7 +79,7 @@ def _time_window(trace: Trace, t_from: float | None, t_to: float | None) -> Trac
     if not rows:
         raise _fail(trace.path, f"no ticks between {lo:g} s and {hi:g} s (the trace runs from "
                                 f"{trace.rows[0][ti]} s to {trace.rows[-1][ti]} s)")
-    return Trace(trace.path, trace.header, trace.columns, rows)
+    return Trace(trace.path, trace.header, trace.columns, rows, behaviour_given=trace.behaviour_given)
 
 
 def _check_suffix(out: Path, signals: bool) -> str:
@@ -116,28 +119,66 @@ def run_plot(args: argparse.Namespace) -> int:
             sys.stderr.write(f"{args.trace}: warning: {trace.cut_short()}; drawn as far as it goes\n")
         if kind != "chart":
             _check_in_world(trace)
-        trace = _time_window(trace, args.t_from, args.t_to)
+        trace = _time_window(_with_behaviour(trace, getattr(args, "behaviour", None)), args.t_from, args.t_to)
         if kind == "chart":
-            from labsim.runtime.pictures.signals import chart, default_signals
+            from labsim.runtime.pictures.signals import chart, check_signals, default_signals
 
-            names = [n.strip() for n in args.signals.split(",") if n.strip()] if args.signals else []
+            named = [n.strip() for n in args.signals.split(",") if n.strip()] if args.signals else []
             try:
-                chart(trace, names or default_signals(trace), out, width_px=args.width or 1000)
+                check_signals(trace, named)  # a mistake first, before a warning about the rest
+                names = named or default_signals(trace)
+                missing = _what_is_missing(trace, kind, names, bool(named))
+                chart(trace, names, out, width_px=args.width or 1000)
             except ValueError as e:
                 raise _fail(args.trace, str(e)) from None
         elif kind == "movie":
             from labsim.runtime.pictures.animate import animate
 
+            missing = _what_is_missing(trace, kind, [], True)
             n = animate(trace, out, width_px=args.width or 720, fps=args.fps, speed=args.speed)
             print(f"{n} frames")
         else:
+            missing = _what_is_missing(trace, kind, [], True)
             _still(trace, out, args)
     except TraceFormatError as e:
         raise LabsimError([e.diagnostic(args.trace)]) from None
     except (ValueError, OverflowError) as e:  # what is in the trace cannot be drawn
         raise _fail(args.trace, f"cannot draw this trace: {e}") from None
     print(f"wrote {out}")
+    if missing:  # after the picture: what it lacks is a warning, and the picture stands (exit 0)
+        sys.stderr.write(f"{args.trace}: warning: {missing}\n")
     return EXIT_OK
+
+
+def _with_behaviour(trace: Trace, argument: str | None) -> Trace:
+    """The trace with ``--behaviour``'s file, said on stderr if it is not the one the run used."""
+    if argument is None:
+        return trace
+    from labsim.runtime.pictures.trace_behaviour import given_behaviour
+
+    trace, note = given_behaviour(trace, argument)
+    if note:
+        sys.stderr.write(f"{trace.path}: warning: {note}\n")
+    return trace
+
+
+def _what_is_missing(trace: Trace, kind: str, names: list[str], chosen: bool) -> str:
+    """What the picture will lack for want of the behaviour file, and how to give it; '' when
+    nothing (the file is there, or this picture does not read it)."""
+    from labsim.runtime.pictures.trace_behaviour import behaviour_file, missing_note
+
+    if behaviour_file(trace) is not None:
+        return ""
+    if kind == "chart":
+        from labsim.runtime.pictures.signals import drawn_without
+
+        parts = drawn_without(trace, names, chosen)
+    else:
+        from labsim.runtime.pictures.mechanism_pose import drawn_without as mechanism_without
+
+        world, _ = trace_world(trace)
+        parts = mechanism_without(trace, world.mechanism) if world is not None and world.mechanism else []
+    return missing_note(trace, parts) if parts else ""
 
 
 FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a world) is no robot's

@@ -38,6 +38,7 @@ class Figure:
     m_per_px: float
     left: int  # pixel column of xmin
     top: int  # pixel row of ymax
+    panels: tuple[str, ...] = ()  # what is drawn beside the map: "road panel", "slew panel"
 
     def to_px(self, x: float, y: float) -> tuple[float, float]:
         """Pixel (column, row) of world point (x, y); y grows up in the world, down in images."""

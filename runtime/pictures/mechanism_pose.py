@@ -30,7 +30,7 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_text
 from labsim.runtime.pictures.paint import AA, BLOCK_EDGE, BLOCK_FILL, INK, MUTED, ONE, PAPER, SHIFT, Painter, PxMap
-from labsim.runtime.pictures.signals import behaviour_file
+from labsim.runtime.pictures.trace_behaviour import behaviour_file
 from labsim.runtime.trace import Trace
 
 GHOST = (200, 200, 200)
@@ -213,6 +213,21 @@ def has_slew(trace: Trace, mech: Mechanism) -> bool:
         return False
     slew = mechanism_poses(trace, mech).slew
     return slew is not None and bool(np.nanmax(np.abs(slew - slew[0])) > 1e-3)
+
+
+def drawn_without(trace: Trace, mech: Mechanism) -> list[str]:
+    """What a picture of the mechanism lacks when the behaviour file is not there to say which
+    columns place its bodies and turn its slew: the slew panel, and the moves of each rigid
+    group of bodies (named by its first body) that stays where it started."""
+    poses = mechanism_poses(trace, mech)
+    out = []
+    if poses.slew is None and any(j.kind == "slew" for j in mech.joints):
+        out.append("the slew panel")
+    group = _welded(mech)
+    still = list(dict.fromkeys(group[b] for b in poses.unplaced))
+    if still:
+        out.append("the moves of " + (still[0] if len(still) == 1 else ", ".join(still[:-1]) + " and " + still[-1]))
+    return out
 
 
 def draw_run_mechanism(img: np.ndarray, P: Painter, mech: Mechanism, trace: Trace, px: PxMap,

@@ -12,7 +12,6 @@ names it charts the columns the behaviour's metrics read.
 from __future__ import annotations
 
 import itertools
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,8 +21,9 @@ import numpy as np
 import yaml
 
 from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import allowed_folders, policy_problem, read_text, save_figure
+from labsim.foundation.files import read_text, save_figure
 from labsim.runtime.pictures.paint import robot_colour
+from labsim.runtime.pictures.trace_behaviour import behaviour_file
 from labsim.runtime.trace import Trace, TraceFormatError
 
 if TYPE_CHECKING:
@@ -57,20 +57,6 @@ def _float(s: str) -> float:
     except ValueError:
         return np.nan
     return v if np.isfinite(v) else np.nan  # a sonar that sees nothing is a gap, not a spike
-
-
-def behaviour_file(trace: Trace) -> Path | None:
-    """The behaviour file that made the trace: as named, or beside the trace (a golden's case)."""
-    named = str(trace.header.get("behaviour") or "")
-    if not named:
-        return None
-    path = Path(named)
-    # docs/security.md: only inside the trace's folder, the current one or an --allow-path folder
-    allowed = [Path(trace.path).parent.resolve(), *allowed_folders()]
-    for candidate in (path, Path(trace.path).parent / path, Path(trace.path).parent / path.name):
-        if os.path.isfile(candidate) and not policy_problem(str(candidate), Path.cwd(), allowed):
-            return candidate
-    return None
 
 
 def _behaviour_lets(trace: Trace) -> tuple[dict[str, str], dict[str, str]]:
@@ -113,6 +99,14 @@ def default_signals(trace: Trace) -> list[str]:
         start = trace.columns.index("rule") + 1 if "rule" in trace.columns else 0
         picked = [c for c in trace.columns[start:] if c in cols and not c.startswith(("label:", "wheel_"))]
     return list(dict.fromkeys(picked))[:6]
+
+
+def drawn_without(trace: Trace, names: list[str], chosen: bool) -> list[str]:
+    """What a chart lacks when the behaviour file is not there: the units of the behaviour's own
+    columns, and (when the columns were not named) the choice of those the metrics read."""
+    own = [n for n in names if n not in _UNITS]
+    out = [f"the units of {', '.join(own)}"] if own else []
+    return out + ([] if chosen else ["the choice of the columns its metrics read"])
 
 
 def check_signals(trace: Trace, names: list[str]) -> None:
