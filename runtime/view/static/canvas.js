@@ -234,8 +234,10 @@ LV.WorldView = class {
     const sizes = robots.map((r, i) => { ctx.font = font(i); return [ctx.measureText(r.name).width + 8, 15]; });
     const reach = Math.max(0, ...robots.map((r) => Math.max(0, ...r.footprint.map((p) => Math.hypot(p[0], p[1])))));
     const order = [this.selected].concat(robots.map((_, i) => i).filter((i) => i !== this.selected));
-    this.labels = LV.layoutLabels(this.drawn, sizes, { width: this.canvas.clientWidth, height: this.canvas.clientHeight,
-                                                      marker: Math.min(40, Math.max(9, reach * this.scale)) }, order);
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    // a robot panned or zoomed out of sight has no label: one at the edge would point nowhere
+    const seen = robots.map((_, i) => { const p = this.drawn[i]; return p && p[0] >= 0 && p[0] <= w && p[1] >= 0 && p[1] <= h ? p : null; });
+    this.labels = LV.layoutLabels(seen, sizes, { width: w, height: h, marker: Math.min(40, Math.max(9, reach * this.scale)) }, order);
     this.labels.forEach((b, i) => {
       if (!b) return;
       const colour = LV.robotColour(i);

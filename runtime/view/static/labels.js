@@ -30,6 +30,8 @@ LV.layoutLabels = (anchors, sizes, view, order) => {
     const a = anchors[i];
     if (!a || !sizes[i]) continue;
     const [w, h] = sizes[i];
+    // the robots to keep clear of: not those under this one's own marker, hidden by it anyway
+    const others = markers.filter((q, k) => q && k !== i && Math.hypot(anchors[k][0] - a[0], anchors[k][1] - a[1]) > m);
     let best = null, bestCost = Infinity;
     for (let ring = 0; ring < LABEL_RINGS && bestCost > 0; ring++) {
       const d = m - 2 + ring * (h + LABEL_GAP);  // ring 0 touches the robot's marker
@@ -38,7 +40,7 @@ LV.layoutLabels = (anchors, sizes, view, order) => {
                     y: dy > 0 ? a[1] + d : dy < 0 ? a[1] - d - h : a[1] - h / 2 };
         if (!free(b)) continue;
         // over another robot or off the canvas is allowed, but any clean place is better
-        const cost = markers.some((q, k) => q && k !== i && LV.boxesMeet(b, q)) + 2 * outside(b);
+        const cost = others.some((q) => LV.boxesMeet(b, q)) + 2 * outside(b);
         if (cost < bestCost) { best = b; bestCost = cost; }
         if (cost === 0) break;
       }
