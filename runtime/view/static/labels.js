@@ -19,8 +19,8 @@ LV.layoutLabels = (anchors, sizes, view, order) => {
   // view: {width, height, marker}, marker the half-size of a drawn robot; order: the robots by
   // priority (the picked robot first, so its label stays next to it). Returns per robot
   // {x, y, w, h, leader} (top-left corner; leader: null, or the box's point to draw a line to
-  // from the robot when the label stands away from it) or null. No two boxes returned meet, whatever the anchors: the last resort stacks a label
-  // under all the others.
+  // from the robot when the label stands away from it) or null. No two boxes returned meet,
+  // whatever the anchors: the last resort stacks a label under all the others.
   const m = view.marker || 8, out = anchors.map(() => null), placed = [];
   const markers = anchors.map((a) => a && { x: a[0] - m, y: a[1] - m, w: 2 * m, h: 2 * m });
   const outside = (b) => b.x < 0 || b.y < 0 || b.x + b.w > view.width || b.y + b.h > view.height;
