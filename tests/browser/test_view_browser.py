@@ -8,6 +8,7 @@ under CI (``CI=true``), where a missing browser fails. Screenshots are kept as a
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -212,3 +213,61 @@ def test_malformed_messages_leave_the_page_and_run_working(view: Any) -> None:
     v.page.click("#step")
     v.wait("window.labsimView.frame.tick === 2")
     assert v.js("window.labsimView.ws.readyState") == 1
+
+
+def _apart(boxes: list[dict]) -> list[tuple[int, int]]:
+    """The pairs of label boxes that meet (CSS pixels, top-left corner, width and height)."""
+    def meet(a: dict, b: dict) -> bool:
+        return (a["x"] < b["x"] + b["w"] and b["x"] < a["x"] + a["w"]
+                and a["y"] < b["y"] + b["h"] and b["y"] < a["y"] + a["h"])
+    return [(i, j) for i in range(len(boxes)) for j in range(i + 1, len(boxes)) if meet(boxes[i], boxes[j])]
+
+
+LAYOUTS = {  # robots' positions on a 600 x 400 canvas: name -> anchors
+    "a row 10 px apart": [[300 + 10 * k, 200] for k in range(5)],
+    "thirty on one spot": [[300, 200]] * 30,
+    "in a corner": [[595, 5], [590, 8], [598, 2], [585, 10]],
+    "a tight grid": [[280 + 12 * (k % 4), 180 + 12 * (k // 4)] for k in range(16)],
+}
+
+
+@pytest.mark.parametrize("name", sorted(LAYOUTS))
+def test_label_layout_keeps_every_label_apart(view: Any, name: str) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    anchors = LAYOUTS[name]
+    order = list(range(len(anchors)))[::-1]  # the last robot is the picked one
+    boxes = v.page.evaluate("([a, o]) => LV.layoutLabels(a, a.map((_, k) => [70 + k % 3 * 10, 15]),"
+                            " {width: 600, height: 400, marker: 9}, o)", [anchors, order])
+    assert all(b is not None for b in boxes)
+    assert _apart(boxes) == []
+    picked = boxes[order[0]]  # first served: right next to its robot, no line needed
+    assert picked["leader"] is None
+    alone = v.page.evaluate("LV.layoutLabels([[100, 100]], [[60, 15]], {width: 600, height: 400, marker: 9})")
+    assert alone[0]["x"] > 100 and alone[0]["y"] + alone[0]["h"] < 100  # up-right, where it always was
+
+
+def test_value_cells_print_two_decimals_as_a_label_does(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    values = [0.1, 0.125, 0.375, -0.125, -0.625, 2.675, 1.005, 3.14159, -0.001, 0.004, 123.456, 999999.5]
+    got = v.page.evaluate("(vs) => vs.map(LV.fmt)", values)
+    assert got == [format(x, ".2f") for x in values]
+    whole = v.page.evaluate("[0, 5, -3, 1e6, 2.5e7, null, 'inf'].map(LV.fmt)")
+    assert whole == ["0", "5", "-3", "1.00e+6", "2.50e+7", "–", "inf"]
+
+
+def test_road_labels_stand_apart_at_the_start_and_values_show_two_decimals(view: Any) -> None:
+    v = view(["behaviours/road_follow.yaml"])
+    v.wait("window.LV_world.labels.filter((b) => b).length === 5")
+    assert v.frame()["tick"] == 0
+    boxes = v.js("window.LV_world.labels")
+    assert _apart(boxes) == [], boxes
+    width, height = v.js("[window.LV_world.canvas.clientWidth, window.LV_world.canvas.clientHeight]")
+    assert all(0 <= b["x"] <= width - b["w"] and 0 <= b["y"] <= height - b["h"] for b in boxes)
+    v.shot("road-labels", "#world")
+    v.page.click("#step")  # tick 0 has read no sensor yet: one tick gives the table its numbers
+    v.wait("window.labsimView.frame.tick === 1")
+    v.wait("[...document.querySelectorAll('#table td.value')].some((td) => /\\./.test(td.textContent))")
+    cells = v.js("[...document.querySelectorAll('#table td.value')].map((td) => td.textContent)")
+    assert any("." in c for c in cells)
+    assert all(re.fullmatch(r"–|-?\d+|-?\d+\.\d\d|-?\d\.\d\de[+-]\d+|-?inf", c) for c in cells), cells
+    v.shot("road-table")

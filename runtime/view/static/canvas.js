@@ -18,6 +18,7 @@ LV.WorldView = class {
     this.paths = [];
     this.drawn = [];  // each robot's pose on the canvas, CSS pixels (tests read it)
     this.drawnTick = null;  // the tick of the frame last drawn
+    this.labels = [];  // each robot's name label on the canvas (labels.js lays them out)
     this.scale = 40; this.cx = 0; this.cy = 0;  // px per m, the world point at the centre
     this._pointer();
     new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
@@ -220,12 +221,36 @@ LV.WorldView = class {
       ctx.strokeStyle = r.collided ? "#d62728" : (i === this.selected ? "#111" : "#333"); ctx.stroke();
       const nose = local(Math.max(0.35, 1.4 * tiny), 0);
       this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke();
-      const [px, py] = this.toPx(x, y);
-      this.drawn[i] = [px, py];
-      if (scene.robots.length > 1) {
-        ctx.fillStyle = "#111"; ctx.font = "11px system-ui";
-        ctx.fillText(robot.name, px + 10, py - 10);
+      this.drawn[i] = this.toPx(x, y);
+    });
+    this._labels();
+  }
+
+  _labels() {  // after every robot, so that no robot covers another's name
+    const ctx = this.ctx, robots = this.scene.robots;
+    this.labels = [];  // each robot's label box, CSS pixels (tests read it)
+    if (robots.length < 2) return;
+    const font = (i) => `${i === this.selected ? "bold " : ""}11px system-ui`;
+    const sizes = robots.map((r, i) => { ctx.font = font(i); return [ctx.measureText(r.name).width + 8, 15]; });
+    const reach = Math.max(0, ...robots.map((r) => Math.max(0, ...r.footprint.map((p) => Math.hypot(p[0], p[1])))));
+    const order = [this.selected].concat(robots.map((_, i) => i).filter((i) => i !== this.selected));
+    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    // a robot panned or zoomed out of sight has no label: one at the edge would point nowhere
+    const seen = robots.map((_, i) => { const p = this.drawn[i]; return p && p[0] >= 0 && p[0] <= w && p[1] >= 0 && p[1] <= h ? p : null; });
+    this.labels = LV.layoutLabels(seen, sizes, { width: w, height: h, marker: Math.min(40, Math.max(9, reach * this.scale)) }, order);
+    this.labels.forEach((b, i) => {
+      if (!b) return;
+      const colour = LV.robotColour(i);
+      if (b.leader) {
+        const [ax, ay] = this.drawn[i];
+        ctx.beginPath(); ctx.moveTo(ax, ay); ctx.lineTo(b.leader[0], b.leader[1]);
+        ctx.strokeStyle = colour; ctx.lineWidth = 1; ctx.stroke();
       }
+      ctx.fillStyle = "rgba(255,255,255,0.88)"; ctx.fillRect(b.x, b.y, b.w, b.h);
+      ctx.strokeStyle = colour; ctx.lineWidth = i === this.selected ? 2 : 1;
+      ctx.strokeRect(b.x + 0.5, b.y + 0.5, b.w - 1, b.h - 1);
+      ctx.fillStyle = "#111"; ctx.font = font(i); ctx.textBaseline = "middle";
+      ctx.fillText(robots[i].name, b.x + 4, b.y + b.h / 2 + 0.5); ctx.textBaseline = "alphabetic";
     });
   }
 

@@ -49,6 +49,7 @@ LV.Chart = class {
     const series = [{ label: "time (s)" }].concat(this.picked.map((k, i) => ({
       label: this.columns[k].name + (this.columns[k].group === "metric" ? " (metric)" : ""),
       stroke: LV.PALETTE[(i + 3) % LV.PALETTE.length], width: 1.5, spanGaps: false, points: { show: false },
+      value: (u, v) => (v === null || v === undefined ? "--" : LV.fmt(v)),  // as the table prints it
     })));
     this.plot = new uPlot({ width: this._w(), height: 180, series, legend: { live: true },
                             scales: { x: { time: false } }, axes: [{ label: "" }, {}] }, this._data(), this.el);

@@ -203,13 +203,25 @@ function scheduleDraw() {
   requestAnimationFrame(() => { drawPending = false; render(); });
 }
 
-function fmt(v) {
+// A value cell, as a label's {x:.2f} field prints it: two decimals, for every group (sensors,
+// signals, sliders, metrics) and a replay's columns alike. Whole numbers (booleans, counts, a
+// slider at 5) show as integers, as {x:d} would; a million and over in exponent form so that the
+// column stays narrow.
+LV.fmt = (v) => {
   if (v === null || v === undefined) return "–";
   if (typeof v === "string") return v;
-  if (Number.isInteger(v)) return String(v);
-  const a = Math.abs(v);
-  return a !== 0 && (a < 1e-3 || a >= 1e6) ? v.toExponential(3) : v.toFixed(4);
-}
+  if (Number.isInteger(v) && Math.abs(v) < 1e6) return String(v);
+  if (Math.abs(v) >= 1e6) return v.toExponential(2);
+  // toFixed rounds an exact tie away from zero, Python's format to even (0.125: "0.13" against
+  // "0.12"). At two decimals the ties are the odd multiples of 1/8, which 8 * v finds exactly.
+  if (Number.isInteger(8 * v) && (8 * v) % 2 !== 0) {
+    const n = Math.round(v * 100);  // v * 100 is exact here: k + 0.5, and round goes up
+    const even = n % 2 === 0 ? n : n - 1;
+    return (even / 100).toFixed(2);
+  }
+  return v.toFixed(2);
+};
+const fmt = LV.fmt;
 
 function render() {
   const f = state.frame, scene = state.scene;
