@@ -208,6 +208,7 @@ class Run:
             "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
+            "metric_better": {m: b.value if b is not None else None for m, b in zip(p.metric_names, p.metric_better)},
         }
 
     def _schedule(self, replay: Replay | None) -> Schedule:
@@ -354,6 +355,7 @@ class Run:
             name=p.name, path=p.path, sha256=p.sha256, backend=getattr(self.backend, "name", "?"),
             world=p.world.name, dt_s=p.dt_s, seed=p.seed, params=dict(p.params), overridden=tuple(p.overridden),
             metric_aggregates=dict(zip(p.metric_names, p.metric_aggregates)),
+            metric_better=dict(zip(p.metric_names, p.metric_better)),
             ticks=self.tick_index, sim_time_s=self.tick_index * self.dt, wall_time_s=self.wall_time_s,
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,
             over_budget=self.over_budget, robots=robots, fleet=fleet,
