@@ -10,8 +10,8 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 from __future__ import annotations
 
 from labsim.backends.scene.schema import IDENTIFIER, Schema, document, mapping, named, number, numbers, text
-from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.builtins import Better
+from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import (
     CAMERA_KEYS,
     MAX_CAMERA_PX,

@@ -87,7 +87,9 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], several_
             cells = [r[i].ljust(widths[i]) if i in (0, 1, 8) else r[i].rjust(widths[i]) for i in keep]
             lines.append(("  " + "  ".join(cells)).rstrip())
         lines += [f"  {_test_line(t, several_files)}" for t in comp["tests"] if t.metric == m]
-        if better is None and len(entries) > 1:
+        if better is None and len(entries) > 1 and m in comp["disagree"]:
+            lines.append(f"  no best marked: give '{m}' the same 'better:' in every file, or pass --maximize {m}")
+        elif better is None and len(entries) > 1:
             lines.append(f"  no best marked: to mark one, say which way is better in the file, "
                          f"{m}: {{value: ..., better: higher}} (or lower), or pass --maximize {m}")
         lines.append("")
