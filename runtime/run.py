@@ -199,6 +199,15 @@ class Run:
         noise = {r.name: r.noise.header() for r in self.robots if r.noise}
         return {"noise": noise} if noise else {}
 
+    def _better_header(self) -> dict:
+        """The trace header's ``metric_better``: only when a metric's direction is not its aggregate's
+        default, so that the trace of a file that declares none (every golden's) keeps its header."""
+        p = self.program
+        if all(b is a.better for a, b in zip(p.metric_aggregates, p.metric_better)):
+            return {}
+        return {"metric_better": {m: b.value if b is not None else None
+                                  for m, b in zip(p.metric_names, p.metric_better)}}
+
     def header(self) -> dict:
         p = self.program
         return {
@@ -208,8 +217,7 @@ class Run:
             "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
-            "metric_better": {m: b.value if b is not None else None for m, b in zip(p.metric_names, p.metric_better)},
-        }
+        } | self._better_header()
 
     def _schedule(self, replay: Replay | None) -> Schedule:
         """The timeline by tick: an event at time t applies at the first tick whose time >= t."""
