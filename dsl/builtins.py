@@ -317,6 +317,22 @@ class Aggregate(Enum):
     def argument(self) -> Type:
         return B if self in (Aggregate.COUNT, Aggregate.DURATION) else N
 
+    @property
+    def better(self) -> Better | None:
+        """Which way is better when the metric does not say: fewer events, smaller errors and
+        peaks; a higher floor (``minimum``, the closest a robot came) and a higher end value. A
+        duration is time in a good state as often as in a bad one, so it has no default."""
+        if self is Aggregate.DURATION:
+            return None
+        return Better.HIGHER if self in (Aggregate.MINIMUM, Aggregate.FINAL) else Better.LOWER
+
+
+class Better(Enum):
+    """Which way a metric is better (``better:`` in a metric; a sweep marks the best setting by it)."""
+
+    HIGHER = "higher"
+    LOWER = "lower"
+
 
 AGGREGATES: dict[str, Aggregate] = {a.value: a for a in Aggregate}
 

@@ -38,6 +38,7 @@ from labsim.dsl.builtins import (
     TRACE_COLUMNS,
     VARIABLES,
     Aggregate,
+    Better,
     Type,
 )
 from labsim.dsl.functions import Expansion, check_bodies, check_definitions
@@ -61,6 +62,7 @@ class Metric:
     aggregate: Aggregate
     expr: ast.Expr
     text: Text
+    better: Better | None = None  # as declared, else the aggregate's default (None: no direction)
 
 
 @dataclass
@@ -153,7 +155,7 @@ class _Checker(ExprChecker):
         check_bodies(self, self.user_functions)
         lets = self.lets()
         labels = self.labels()
-        self.metric_names = {name for name, _, _ in bf.metrics}
+        self.metric_names = {m.name for m in bf.metrics}
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
         self.motors = mechanism.motor_modes() if mechanism is not None else {}
@@ -541,7 +543,8 @@ class _Checker(ExprChecker):
     def metrics(self) -> list[Metric]:
         out = []
         names = ", ".join(f"{a}(...)" for a in AGGREGATES)
-        for name, parsed, _ in self.bf.metrics:
+        for decl in self.bf.metrics:
+            name, parsed = decl.name, decl.value
             e = parsed.node
             if not (isinstance(e, ast.Call) and e.func in AGGREGATES):
                 hint = ""
@@ -559,7 +562,8 @@ class _Checker(ExprChecker):
             argument = e.args[0]
             if self.expect(Parsed(argument, parsed.text), argument, agg.argument,
                            f"{e.func}() needs {what}: its argument"):
-                out.append(Metric(name, agg, argument, parsed.text))
+                better = decl.better if decl.better is not None else agg.better
+                out.append(Metric(name, agg, argument, parsed.text, better))
         return out
 
     def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:

@@ -23,7 +23,7 @@ from typing import Any, cast
 
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import World
-from labsim.dsl.builtins import Aggregate, Type
+from labsim.dsl.builtins import Aggregate, Better, Type
 from labsim.dsl.noise import Noise
 from labsim.dsl.placement import Start
 from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
@@ -136,6 +136,7 @@ class Program:
     rules: tuple[RuleLabel, ...]  # in the order decide() numbers them
     metric_names: tuple[str, ...]
     metric_aggregates: tuple[Aggregate, ...]
+    metric_better: tuple[Better | None, ...]  # which way each metric is better (None: it declares none)
     stop_horizon_s: float | None  # sim time by which the stop condition surely holds, if it says so plainly
     # sliders, their labels and the timeline that moves them
     slider_names: tuple[str, ...]

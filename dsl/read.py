@@ -23,6 +23,7 @@ from labsim.backends.scene import object_paths
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world_names import builtin_copy
 from labsim.dsl import ast
+from labsim.dsl.builtins import Better
 from labsim.dsl.noise import NoiseDecl, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -38,6 +39,12 @@ TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "rob
             "functions", "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
 SLIDER_KEYS = ("min", "max", "value", "label")
+METRIC_KEYS = ("value", "better")  # a metric written as a mapping: its aggregate, and which way is better
+# Words students write for a direction, and the one they mean
+_BETTER_MEANT = {"more": "higher", "high": "higher", "max": "higher", "maximum": "higher", "maximize": "higher",
+                 "larger": "higher", "bigger": "higher", "up": "higher", "less": "lower", "low": "lower",
+                 "min": "lower", "minimum": "lower", "minimize": "lower", "smaller": "lower", "fewer": "lower",
+                 "down": "lower"}
 ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params", "noise")
 PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar", "camera")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m", "roll_deg")
@@ -77,6 +84,16 @@ class FunctionDecl:
     body: Parsed
     key: Node  # the key, where a problem with the definition is reported
     param_spans: tuple[tuple[int, int], ...] = ()  # each parameter's characters in the key
+
+
+@dataclass(frozen=True)
+class MetricDecl:
+    """``NAME: aggregate(expr)``, or ``NAME: {value: aggregate(expr), better: higher}``."""
+
+    name: str
+    value: Parsed
+    key: Node
+    better: Better | None = None  # None: not declared (the checker takes the aggregate's default)
 
 
 @dataclass(frozen=True)
@@ -141,7 +158,7 @@ class BehaviourFile:
     functions: list[FunctionDecl] = field(default_factory=list)
     lets: list[tuple[str, Parsed, Node]] = field(default_factory=list)
     states: dict[str, tuple[list[RuleDecl], Node | None]] = field(default_factory=dict)
-    metrics: list[tuple[str, Parsed, Node]] = field(default_factory=list)
+    metrics: list[MetricDecl] = field(default_factory=list)
     sliders: list[SliderDecl] = field(default_factory=list)
     binds: list[BindDecl] = field(default_factory=list)
     timeline: list[Event] = field(default_factory=list)
@@ -259,7 +276,7 @@ class _Reader(Reader):
             bf.states = self.states(keys["rules"])
             bf.has_rules = True
         if "metrics" in keys:
-            bf.metrics = self.named_exprs(keys["metrics"], "metrics")
+            bf.metrics = self.metrics(keys["metrics"])
         if "sliders" in keys:
             bf.sliders = self.sliders(keys["sliders"])
         if "bind" in keys:
@@ -487,11 +504,51 @@ class _Reader(Reader):
     def named_exprs(self, node: Node, what: str) -> list[tuple[str, Parsed, Node]]:
         out: list[tuple[str, Parsed, Node]] = []
         for key, value in self.mapping(node, what):
-            name = self.identifier(key, "signal" if what == "let" else "metric")
+            name = self.identifier(key, "signal")
             parsed = self.expr(value, f"'{key.value}'")
             if name is not None and parsed is not None:
                 out.append((name, parsed, key))
         return out
+
+    def metrics(self, node: Node) -> list[MetricDecl]:
+        """Each metric, in the plain form or as ``{value: ..., better: higher | lower}``."""
+        out = []
+        for key, value in self.mapping(node, "metrics"):
+            name = self.identifier(key, "metric")
+            better: Better | None = None
+            # A mapping none of whose keys is a name is an expression YAML split at ': ' (expr's hint)
+            if isinstance(value, MappingNode) and any(str(k.value).isidentifier() for k, _ in value.value):
+                fields = self.known_keys(value, METRIC_KEYS, "metric", f"metric '{key.value}'")
+                if "better" in fields:
+                    better = self.better(fields["better"], key.value)
+                if "value" not in fields:
+                    if set(fields) == {str(k.value) for k, _ in value.value}:  # else a misspelt key said it
+                        self.error(key, f"metric '{key.value}' needs 'value:', the aggregate over the run",
+                                   notes=(f'e.g. {key.value}: {{value: "duration(state == follow)", '
+                                          'better: higher}',))
+                    continue
+                value = fields["value"]
+            parsed = self.expr(value, f"'{key.value}'")
+            if name is not None and parsed is not None:
+                out.append(MetricDecl(name, parsed, key, better))
+        return out
+
+    def better(self, node: Node, metric: str) -> Better | None:
+        """``better: higher`` or ``better: lower``; anything else is reported, with the word meant."""
+        word = scalar_value(node) if isinstance(node, ScalarNode) else None
+        choices = tuple(b.value for b in Better)
+        if isinstance(word, str) and word in choices:
+            return Better(word)
+        if isinstance(node, ScalarNode) and node.tag.endswith(":null"):
+            self.error(node, f"'better' of metric '{metric}' is empty: write higher or lower")
+            return None
+        if isinstance(word, str):
+            meant = _BETTER_MEANT.get(word.lower())
+            shown = f"'{word}'{f' (did you mean {meant!r}?)' if meant else did_you_mean(word, choices)}"
+        else:
+            shown = f"'{node.value}'" if isinstance(node, ScalarNode) else f"a {shape_of(node)}"
+        self.error(node, f"'better' of metric '{metric}' is higher or lower, not {shown}")
+        return None
 
     def functions(self, node: Node) -> list[FunctionDecl]:
         """``NAME(a, b): expression``: each key a name with its parameters, each value the body."""

@@ -10,8 +10,18 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 from __future__ import annotations
 
 from labsim.backends.scene.schema import IDENTIFIER, Schema, document, mapping, named, number, numbers, text
+from labsim.dsl.builtins import Better
 from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
-from labsim.dsl.read import CAMERA_KEYS, MAX_CAMERA_PX, PATH_KEYS, REQUIRED, ROBOT_KEYS, SLIDER_KEYS, TOP_KEYS
+from labsim.dsl.read import (
+    CAMERA_KEYS,
+    MAX_CAMERA_PX,
+    METRIC_KEYS,
+    PATH_KEYS,
+    REQUIRED,
+    ROBOT_KEYS,
+    SLIDER_KEYS,
+    TOP_KEYS,
+)
 from labsim.foundation.limits import MAX_DT_S, MIN_DT_S
 
 EXPRESSION: Schema = {"type": ["string", "number", "boolean"]}
@@ -93,6 +103,17 @@ def _controls() -> dict[str, Schema]:
     }
 
 
+def _metric() -> Schema:
+    aggregate = "an aggregate over the run, e.g. duration(state == follow)"
+    return {"anyOf": [expression(aggregate), mapping(METRIC_KEYS, {
+        "value": expression(aggregate),
+        "better": {"enum": [b.value for b in Better],
+                   "description": "which way is better: a sweep marks the setting with the highest or lowest mean "
+                                  "as best (default: lower for count, mean, rms, maximum; higher for minimum, final; "
+                                  "none for duration)"},
+    }, "a metric and which way it is better", required=("value",))]}
+
+
 def behaviour_schema() -> Schema:
     """The JSON Schema of a behaviour file."""
     rules = {"type": "array", "minItems": 1, "items": {"type": "string"}}
@@ -118,6 +139,6 @@ def behaviour_schema() -> Schema:
                      "signals computed every tick, by name"),
         "rules": {"description": "a list of rules ('if COND then ACTION'), or states mapping to lists of rules",
                   "anyOf": [rules, {"type": "object", "additionalProperties": rules}]},
-        "metrics": named(expression("a metric"), "metrics reported at the end of the run, by name"),
+        "metrics": named(_metric(), "metrics reported at the end of the run, by name"),
         **_controls(),
     }, required=REQUIRED))

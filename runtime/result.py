@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from labsim.dsl.builtins import Aggregate
+from labsim.dsl.builtins import Aggregate, Better
 
 # Why a run ended (RunResult.stop_reason), as the JSON summary spells it
 STOP_CONDITION, INTERRUPTED, BUDGET, MAX_TICKS = "stop condition", "interrupted", "budget", "max ticks"
@@ -61,6 +61,7 @@ class RunResult:
     params: Mapping[str, float | bool]
     overridden: tuple[str, ...]  # the params set on the command line
     metric_aggregates: Mapping[str, Aggregate]  # metric -> how it folds, in the file's order
+    metric_better: Mapping[str, Better | None]  # metric -> which way is better (None: it declares none)
     # how it went
     ticks: int
     sim_time_s: float

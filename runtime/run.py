@@ -199,6 +199,15 @@ class Run:
         noise = {r.name: r.noise.header() for r in self.robots if r.noise}
         return {"noise": noise} if noise else {}
 
+    def _better_header(self) -> dict:
+        """The trace header's ``metric_better``: only when a metric's direction is not its aggregate's
+        default, so that the trace of a file that declares none (every golden's) keeps its header."""
+        p = self.program
+        if all(b is a.better for a, b in zip(p.metric_aggregates, p.metric_better)):
+            return {}
+        return {"metric_better": {m: b.value if b is not None else None
+                                  for m, b in zip(p.metric_names, p.metric_better)}}
+
     def header(self) -> dict:
         p = self.program
         return {
@@ -208,7 +217,7 @@ class Run:
             "dt": self.dt, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
-        }
+        } | self._better_header()
 
     def _schedule(self, replay: Replay | None) -> Schedule:
         """The timeline by tick: an event at time t applies at the first tick whose time >= t."""
@@ -354,6 +363,7 @@ class Run:
             name=p.name, path=p.path, sha256=p.sha256, backend=getattr(self.backend, "name", "?"),
             world=p.world.name, dt_s=p.dt_s, seed=p.seed, params=dict(p.params), overridden=tuple(p.overridden),
             metric_aggregates=dict(zip(p.metric_names, p.metric_aggregates)),
+            metric_better=dict(zip(p.metric_names, p.metric_better)),
             ticks=self.tick_index, sim_time_s=self.tick_index * self.dt, wall_time_s=self.wall_time_s,
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,
             over_budget=self.over_budget, robots=robots, fleet=fleet,

@@ -73,6 +73,7 @@ def summary_dict(result: RunResult) -> dict[str, Any]:
         "stopped_by": result.stopped_by,
         "stop_condition": result.stop_condition or None,
         "metrics": {m: a.value for m, a in result.metric_aggregates.items()},
+        "metric_better": {m: b.value if b is not None else None for m, b in result.metric_better.items()},
         "robots": robots,
         "fleet": {m: number(v) for m, v in result.fleet.items()},
         "rules": rules,

@@ -167,7 +167,7 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     for r in rows:
         if r.result is not None:
             aggregates.update({k: a.value for k, a in r.result.metric_aggregates.items() if k not in aggregates})
-    print(format_comparison(comp, aggregates, tuple(o.maximize), several_files=len(set(o.files)) > 1), file=text)
+    print(format_comparison(comp, aggregates, several_files=len(set(o.files)) > 1), file=text)
     print(("interrupted: " if interrupted else "") + status_counts(rows)
           + (f" (of {len(tasks)})" if interrupted else ""), file=text)
     for line in failures(rows):
@@ -189,7 +189,7 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     if o.plot:
         from labsim.runtime.sweep.plot import plot_comparison
 
-        plot_comparison(comp, o.plot, tuple(o.maximize))
+        plot_comparison(comp, o.plot)
         print(f"wrote {o.plot}", file=text)
     if interrupted:
         return EXIT_INTERRUPTED
@@ -218,7 +218,8 @@ def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
                             "platform allows; 0: no limit (default: %(default)s)")
     sweep.add_argument("--traces", metavar="DIR", help="write each run's trace into this folder")
     sweep.add_argument("--maximize", action="append", default=[], metavar="METRIC",
-                       help="mark the highest mean of this metric as best (default: the lowest)")
+                       help="mark the highest mean of this metric as best (default: the way the file says "
+                            "the metric is better)")
     sweep.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                        help="show a progress bar (default: when stderr is a terminal)")
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from labsim import __version__
+from labsim.dsl.builtins import Better
 from labsim.foundation.files import write_output
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.summary_json import number, summary_dict
@@ -62,20 +63,20 @@ def _num(v: float) -> str:
     return f"{v:.4g}"
 
 
-def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], maximize: tuple[str, ...] = (),
-                      several_files: bool = False) -> str:
+def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], several_files: bool = False) -> str:
     """Per metric: a line per group (n, mean, sd, 95% CI, min, max, the best marked), then the tests."""
     lines: list[str] = []
     for m in comp["metrics"]:
         entries: list[tuple[Any, Stat]] = comp["table"][m]
-        goal = "higher is better" if m in maximize else "lower is better"
+        better: Better | None = comp["better"].get(m)
         kind = aggregates.get(m, "")
-        lines.append(f"{m}  ({kind + '; ' if kind else ''}{goal})")
+        lines.append(f"{m}  ({kind + '; ' if kind else ''}{_goal(better, m in comp['disagree'])})")
         header = ["file" if several_files else "", "setting", "n", "mean", "sd", "95% CI", "min", "max", ""]
         body = []
         for i, (g, s) in enumerate(entries):
             ci = f"[{_num(s.ci_low)}, {_num(s.ci_high)}]" if s.n > 1 else "-"
-            mark = "best" if i in comp["best"].get(m, []) and len(entries) > 1 else ""
+            best = better is not None and i in comp["best"].get(m, []) and len(entries) > 1
+            mark = f"best ({better.value})" if best and better is not None else ""
             if s.left_out:
                 mark += f" ({s.left_out} non-finite left out)"
             body.append([g.file if several_files else "", g.label or "(as in the file)", str(s.n), _num(s.mean),
@@ -86,6 +87,11 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], maximize
             cells = [r[i].ljust(widths[i]) if i in (0, 1, 8) else r[i].rjust(widths[i]) for i in keep]
             lines.append(("  " + "  ".join(cells)).rstrip())
         lines += [f"  {_test_line(t, several_files)}" for t in comp["tests"] if t.metric == m]
+        if better is None and len(entries) > 1 and m in comp["disagree"]:
+            lines.append(f"  no best marked: give '{m}' the same 'better:' in every file, or pass --maximize {m}")
+        elif better is None and len(entries) > 1:
+            lines.append(f"  no best marked: to mark one, say which way is better in the file, "
+                         f"{m}: {{value: ..., better: higher}} (or lower), or pass --maximize {m}")
         lines.append("")
     failed = [g for g in comp["groups"] if g.failed]
     for g in failed:
@@ -95,6 +101,12 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], maximize
         lines.append("test: Welch's t-test of the two means, two-sided; a difference is larger than the seeds' "
                      "noise when p < 0.05")
     return "\n".join(lines).rstrip()
+
+
+def _goal(better: Better | None, disagree: bool) -> str:
+    if better is not None:
+        return f"{better.value} is better"
+    return "the files say different ways are better" if disagree else "declares no direction"
 
 
 def _test_line(t: Test, several_files: bool) -> str:
@@ -152,10 +164,12 @@ def sweep_json(rows: list[Row], comp: dict[str, Any], meta: dict[str, Any]) -> d
                  "summary": summary_dict(r.result) if r.result is not None else None} for r in rows]
     table = []
     for m in comp["metrics"]:
+        better: Better | None = comp["better"].get(m)
         for i, (g, s) in enumerate(comp["table"][m]):
             table.append({"metric": m, "file": g.file, "settings": g.label, "n": s.n, "mean": number(s.mean),
                           "sd": number(s.sd), "ci95": [number(s.ci_low), number(s.ci_high)], "min": number(s.min),
-                          "max": number(s.max), "best": i in comp["best"].get(m, [])})
+                          "max": number(s.max), "best": i in comp["best"].get(m, []),
+                          "better": better.value if better is not None else None})
     tests = [{"file": t.file, "metric": t.metric, "a": t.a, "b": t.b, "difference": number(t.difference),
               "test": "welch-t", "p": number(t.p), "verdict": t.verdict} for t in comp["tests"]]
     return {"schema": SWEEP_SCHEMA, "version": SWEEP_VERSION, "labsim": __version__, **meta,

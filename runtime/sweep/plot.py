@@ -19,7 +19,7 @@ PANEL_WIDTH_IN, PANEL_HEIGHT_IN = 5.0, 3.4
 COLUMNS = 2
 
 
-def plot_comparison(comp: dict[str, Any], path: str, maximize: tuple[str, ...] = ()) -> None:
+def plot_comparison(comp: dict[str, Any], path: str) -> None:
     """Write the chart of a sweep's comparison (runtime/sweep/stats.py ``comparison``) to ``path``."""
     import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -56,8 +56,9 @@ def plot_comparison(comp: dict[str, Any], path: str, maximize: tuple[str, ...] =
         if len(groups) > 1:
             for i in comp["best"].get(m, []):
                 ax.get_xticklabels()[i].set_fontweight("bold")
-        goal = "higher is better" if m in maximize else "lower is better"
-        ax.set_title(f"{m}  ({goal}; best in bold)" if len(groups) > 1 else m, fontsize=10)
+        better = comp["better"].get(m)
+        goal = f"{better.value} is better; best in bold" if better is not None else "no direction declared"
+        ax.set_title(f"{m}  ({goal})" if len(groups) > 1 else m, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
     runs = sum(g.runs for g in groups)
     fig.suptitle(f"labsim sweep: {runs} runs, {len(groups)} group{'s' if len(groups) != 1 else ''}", fontsize=11)

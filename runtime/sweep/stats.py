@@ -2,8 +2,10 @@
 
 For each group of runs (one file, one combination of settings) and each metric: n, mean,
 sample standard deviation, a 95% confidence interval for the mean (Student's t with n - 1
-degrees of freedom), min and max; the best group per metric is marked (lowest mean, or
-highest for a metric named in ``--maximize``). When a file is run with exactly two settings,
+degrees of freedom), min and max; the best group per metric is marked by the way the metric
+is better (its ``better:``, else its aggregate's default; ``--maximize`` makes it higher): the
+highest or the lowest mean, and none for a metric without a direction (a ``duration`` that
+declares none) or one the files disagree on. When a file is run with exactly two settings,
 each metric gets Welch's unequal-variances t-test of the two means: the difference counts as
 larger than the seeds' noise when p < 0.05 (docs/sweep.md says what that does and does not
 mean). scipy.stats supplies the t distribution.
@@ -17,6 +19,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from labsim.dsl.builtins import Better
 from labsim.runtime.sweep.grid import Row
 
 ALPHA = 0.05  # the test's level, and 1 - the confidence of the intervals
@@ -117,8 +120,22 @@ def _float(value: Any) -> float:
     return float(value) if isinstance(value, (int, float, str)) else math.nan
 
 
+def directions(rows: list[Row], maximize: tuple[str, ...] = ()) -> tuple[dict[str, Better | None], set[str]]:
+    """Which way each metric is better, as the files say; ``--maximize`` makes it higher. A
+    metric the files disagree on has none, and is in the second set."""
+    said: dict[str, set[Better | None]] = {}
+    for row in rows:
+        if row.result is not None:
+            for m, b in row.result.metric_better.items():
+                said.setdefault(m, set()).add(b)
+    out = {m: next(iter(bs)) if len(bs) == 1 else None for m, bs in said.items()}
+    out.update({m: Better.HIGHER for m in maximize})
+    return out, {m for m, bs in said.items() if len(bs) > 1 and m not in maximize}
+
+
 def comparison(rows: list[Row], maximize: tuple[str, ...] = ()) -> dict[str, Any]:
-    """The comparison as data: per metric, each group's Stat and which is best; the tests."""
+    """The comparison as data: per metric, each group's Stat, its direction and which is best; the tests."""
+    better, disagree = directions(rows, maximize)
     gs = groups(rows)
     metrics: list[str] = []
     for g in gs:
@@ -127,8 +144,8 @@ def comparison(rows: list[Row], maximize: tuple[str, ...] = ()) -> dict[str, Any
     best: dict[str, list[int]] = {}
     for m, entries in table.items():
         means = [s.mean for _, s in entries if s.n]
-        if means:
-            target = max(means) if m in maximize else min(means)
+        if means and better.get(m) is not None:
+            target = max(means) if better[m] is Better.HIGHER else min(means)
             best[m] = [i for i, (_, s) in enumerate(entries) if s.n and s.mean == target]
     tests: list[Test] = []
     for f in dict.fromkeys(g.file for g in gs):
@@ -136,4 +153,5 @@ def comparison(rows: list[Row], maximize: tuple[str, ...] = ()) -> dict[str, Any
         if len(pair) == 2 and pair[0].label != pair[1].label:
             a, b = pair
             tests += [welch(f, m, a.label, b.label, a.values.get(m, []), b.values.get(m, [])) for m in metrics]
-    return {"groups": gs, "metrics": metrics, "table": table, "best": best, "tests": tests}
+    return {"groups": gs, "metrics": metrics, "table": table, "best": best, "tests": tests,
+            "better": {m: better.get(m) for m in metrics}, "disagree": disagree}

@@ -243,6 +243,56 @@ def test_welch_says_whether_a_difference_beats_the_noise() -> None:
     assert welch("f", "m", "a", "b", [0, 0], [0, 0]).verdict == "the same in every run"
 
 
+def test_the_best_is_the_highest_mean_of_a_metric_better_higher(capsys, tmp_path: Path) -> None:
+    """The wall lab's following (declared better: higher) and closest (a minimum: higher by default)
+    mark their highest mean; near_misses (a count) its lowest. No --maximize."""
+    path = tmp_path / "s.json"
+    code, out, _ = cli(capsys, "sweep", LAB, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2", "-j", "2",
+                       "--json", str(path))
+    assert code == 0
+    assert "following  (duration; higher is better)" in out and "closest  (minimum; higher is better)" in out
+    assert "near_misses  (count; lower is better)" in out
+    table = json.loads(path.read_text())["comparison"]
+    for metric, better, pick in (("following", "higher", max), ("closest", "higher", max),
+                                 ("near_misses", "lower", min), ("overshoot", "lower", min)):
+        entries = [e for e in table if e["metric"] == metric]
+        assert {e["better"] for e in entries} == {better}
+        assert [e["settings"] for e in entries if e["best"]] == [pick(entries, key=lambda e: e["mean"])["settings"]]
+        block = out.split(f"{metric}  (")[1].split("\n\n")[0]
+        best_line = next(line for line in block.splitlines() if line.endswith(f"best ({better})"))
+        assert best_line.split()[0] == pick(entries, key=lambda e: e["mean"])["settings"].split()[0]
+
+
+SPIN = ("labsim: 1\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+        "params:\n  speed: 1\nrules:\n  - always move(speed)\n")
+
+
+def test_a_duration_that_declares_no_direction_marks_no_best(capsys, tmp_path: Path, write) -> None:
+    path = write(SPIN + "metrics:\n  moving: duration(speed > 1.5)\n  hits: count(sonar5 < 0.5)\n")
+    out_json = tmp_path / "s.json"
+    code, out, _ = cli(capsys, "sweep", str(path), "--set", "speed=1,2", "-j", "1", "--json", str(out_json))
+    assert code == 0
+    block = out.split("moving  (")[1].split("\n\n")[0]
+    assert block.splitlines()[0] == "duration; declares no direction)"
+    assert "best" not in block.replace("no best marked", "")
+    assert ("  no best marked: to mark one, say which way is better in the file, moving: {value: ..., "
+            "better: higher} (or lower), or pass --maximize moving") in block.splitlines()
+    moving = [e for e in json.loads(out_json.read_text())["comparison"] if e["metric"] == "moving"]
+    assert [(e["best"], e["better"]) for e in moving] == [(False, None), (False, None)]
+    code, out, _ = cli(capsys, "sweep", str(path), "--set", "speed=1,2", "-j", "1", "--maximize", "moving")
+    assert "moving  (duration; higher is better)" in out and "no best marked" not in out
+
+
+def test_files_that_disagree_on_a_direction_mark_no_best(capsys, write) -> None:
+    a = write(SPIN + "metrics:\n  moving: {value: duration(speed > 0.5), better: higher}\n", "a.yaml")
+    b = write(SPIN.replace("speed: 1", "speed: 0") + "metrics:\n  moving: {value: duration(speed > 0.5), "
+                                                       "better: lower}\n", "b.yaml")
+    code, out, _ = cli(capsys, "sweep", str(a), str(b), "-j", "1")
+    assert code == 0 and "moving  (duration; the files say different ways are better)" in out
+    assert "best (" not in out
+    assert "  no best marked: give 'moving' the same 'better:' in every file, or pass --maximize moving" in out
+
+
 @pytest.mark.slow
 def test_plot_draws_a_chart(capsys, tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")

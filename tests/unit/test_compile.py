@@ -201,7 +201,7 @@ def test_each_generated_line_knows_the_file_line_it_comes_from() -> None:
     marks = dict(zip((line.strip() for line in source), p.code.marks))
     assert marks["elif (v11 <= 0.3):"] == 41 and marks["cmd[0] = 2.0"] == 41  # rule follow:2 and its action
     assert marks["s[10] = v10 = (_nan if v4 != v4 or v3 != v3 else (v3 if v3 < v4 else v4))"] == 28  # ahead
-    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[3][0] = v"] == 51  # the stop condition, a metric
+    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[3][0] = v"] == 55  # the stop condition, a metric
     assert marks["def decide():"] == marks["v2 = s[2]"] == marks["rule = -1"] == 0  # plumbing
     assert {p.code.marks[i] for i, line in enumerate(source) if line.startswith("#")} == {0}  # the header
 

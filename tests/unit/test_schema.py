@@ -30,6 +30,7 @@ TABLES = [
     ("behaviour", "robots/*/noise/camera", noise.CAMERA_NOISE_KEYS),
     ("behaviour", "robots/*/noise/wheels", noise.WHEEL_NOISE_KEYS),
     ("behaviour", "sliders/*", read.SLIDER_KEYS),
+    ("behaviour", "metrics/*", read.METRIC_KEYS),
     ("world", "", world_file.KEYS),
     ("world", "walls/[]", world_file.WALL_KEYS),
     ("world", "blocks/[]", world_file.BLOCK_KEYS),
@@ -49,7 +50,8 @@ TABLES = [
 def _at(node: dict[str, Any], path: str) -> dict[str, Any]:
     for step in filter(None, path.split("/")):
         if step == "*":
-            node = node["additionalProperties"]
+            value = node["additionalProperties"]  # a metric is text or a mapping: the mapping
+            node = next((s for s in value.get("anyOf", [value]) if s.get("type") == "object"), value)
         elif step == "[]":
             items = node["items"]
             node = next((s for s in items.get("anyOf", [items]) if s.get("type") == "object"), items)
@@ -83,7 +85,7 @@ def test_every_key_the_reader_accepts_is_in_the_schema_and_no_other(kind: str, p
 
 def test_every_closed_mapping_of_the_schemas_is_a_reader_table() -> None:
     # the "arc" wrapper of a path item is the one mapping with no table of its own
-    assert len(_objects(schema("behaviour"))) == 5 + 4
+    assert len(_objects(schema("behaviour"))) == 6 + 4
     assert len(_objects(schema("world"))) == 13 + 1
 
 
@@ -122,9 +124,10 @@ VALID = sorted(BEHAVIOURS.glob("*.yaml")) + sorted(WORLDS.glob("*.yaml")) \
 # fixtures whose mistakes are names, types of expressions, or rule text: out of the schema's reach
 OUT_OF_REACH = sorted(p for p in FIXTURES.glob("*_with_error.yaml")
                       if p.stem not in ("camera_with_error", "crane_with_error", "structure_with_error",
-                                        "noise_with_error", "yaml_quote_with_error"))  # that one is not YAML at all
+                                        "noise_with_error", "metric_better_with_error",
+                                        "yaml_quote_with_error"))  # that one is not YAML at all
 COVERED = [FIXTURES / f"{n}.yaml" for n in ("camera_with_error", "crane_with_error", "structure_with_error",
-                                            "noise_with_error")]
+                                            "noise_with_error", "metric_better_with_error")]
 
 
 @pytest.mark.parametrize("path", VALID + OUT_OF_REACH, ids=lambda p: p.name)
@@ -149,6 +152,9 @@ MUTATIONS = [
     ("behaviour", "crane.yaml", lambda d: next(iter(d["sliders"].values())).update(max="high")),
     ("behaviour", "wall_follow.yaml", lambda d: d["robots"]["pioneer"].update(noise={"sonar": {"dropout": 2}})),
     ("behaviour", "wall_follow.yaml", lambda d: d["robots"]["pioneer"].update(noise={"wheels": {"std": 1}})),
+    ("behaviour", "wall_follow.yaml", lambda d: d["metrics"]["following"].update(better="more")),
+    ("behaviour", "wall_follow.yaml", lambda d: d["metrics"]["following"].pop("value")),
+    ("behaviour", "wall_follow.yaml", lambda d: d["metrics"]["following"].update(best="higher")),
     ("world", "walls_lab4.yaml", lambda d: d.update(bounds=[0, 0, 1])),
     ("world", "road_loop.yaml", lambda d: d["ground"]["roads"][0].update(colour=[1, 2, 3])),
     ("world", "crane.yaml", lambda d: next(iter(d["mechanism"]["joints"].values())).update(kind="hinge")),
