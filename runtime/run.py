@@ -36,6 +36,7 @@ from labsim.runtime.budgets import RunWatch
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.observers import (
+    CAP_NOTE,
     LOG_RATE,
     TRACE_POSE,
     Inputs,
@@ -393,6 +394,9 @@ class Run:
                 line = self.program.logs[site_index][0]
                 out.append(f"log on line {line}: {n} line{'s' if n != 1 else ''} not printed "
                            f"(at most {LOG_RATE} a simulated second; the trace has them all)")
+            n = self.log_printer.over_cap
+            if n:
+                out.append(f"{n} more line{'s' if n != 1 else ''} not printed: {CAP_NOTE}; the trace has them all")
         return out
 
     def _fault_lines(self) -> list[str]:
