@@ -232,12 +232,25 @@ def loads(text: str, path: str = "<string>") -> Document:
         doc.root = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as e:
         raise LabsimError([_yaml_diagnostic(doc, e)]) from None
-    except yaml.YAMLError as e:  # unmarked: rare (e.g. a reader error)
-        raise LabsimError([Diagnostic(path, f"YAML error: {e}")]) from None
+    except yaml.reader.ReaderError as e:  # a character YAML refuses (an ESC, a NUL): show where
+        raise LabsimError([_reader_diagnostic(doc, e)]) from None
+    except yaml.YAMLError as e:  # unmarked: rare
+        raise LabsimError([Diagnostic(path, f"YAML error: {' '.join(str(e).split())}")]) from None
     problems = [d for node in _walk(doc.root) for d in _node_problems(doc, node)]
     if problems:
         raise LabsimError(problems)
     return doc
+
+
+def _reader_diagnostic(doc: Document, e: yaml.reader.ReaderError) -> Diagnostic:
+    """A character YAML does not allow, at its line and column (shown inert, foundation/inert.py)."""
+    pos = min(max(0, e.position), len(doc.text))
+    start = doc.text.rfind("\n", 0, pos) + 1
+    end = doc.text.find("\n", pos)
+    code = e.character if isinstance(e.character, int) else ord(e.character)
+    return Diagnostic(doc.path, f"a YAML file may not hold the control character U+{code:04X}",
+                      doc.text.count("\n", 0, pos) + 1, pos - start + 1, pos - start + 2,
+                      source_line=doc.text[start:end if end >= 0 else len(doc.text)])
 
 
 def _yaml_diagnostic(doc: Document, e: yaml.MarkedYAMLError) -> Diagnostic:

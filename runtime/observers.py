@@ -41,6 +41,10 @@ LOG_LINES_PER_RUN = 1000
 LOG_BYTES_PER_RUN = 1_000_000
 # One log line's text, printed or traced, is cut to this many characters (and '...').
 LOG_TEXT_CHARS = 500
+# A tick's events cell holds at most this many characters of log text (each log cut as above),
+# then one "log: ... (N more logs this tick)": the cell stays under what a CSV reader takes
+# (Python's csv: 131,072 characters), so a trace of 500 long logs a tick still reads back.
+EVENTS_LOG_CHARS = 100_000
 CAP_NOTE = (f"no more log lines are printed in this run (at most {LOG_LINES_PER_RUN:,} lines and "
             f"{LOG_BYTES_PER_RUN // 1_000_000} MB)")
 
@@ -216,15 +220,18 @@ class TraceRows(Observer):
         at = self.pose_at
         label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
-        labels = list(p.label_text(s).values()) if p.labels else []
+        labels = [inert(text) for text in p.label_text(s).values()] if p.labels else []
         events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(log_line_text(p.log_text(*e)))
                   for e in prog.events] + (self.inputs.applied if self.inputs is not None else [])
+        cell = ";".join(events)
+        if len(cell) > EVENTS_LOG_CHARS:
+            cell = _bounded_events(events)
         state = p.state_names[s[STATE]] if p.state_names else ""
         t = run.tick_index
         self.writer.write([t, round(t * run.dt, 9), r.name, values[at[0]], values[at[1]], values[at[2]],
                            values[at[3]], state, label, *(values[i] for i in self.channels),
                            *(s[i] for i in self.lets), *(s[i] for i in self.sliders), *labels,
-                           cmd[0], cmd[1], ";".join(events)])
+                           cmd[0], cmd[1], cell])
         self.recorded = t + 1  # an interrupt may land before the tick ends: count rows
 
 
@@ -258,13 +265,29 @@ def log_line_text(text: str) -> str:
     return text if len(text) <= LOG_TEXT_CHARS else text[:LOG_TEXT_CHARS - 3] + "..."
 
 
+def _bounded_events(events: list[str]) -> str:
+    """A tick's events with at most ``EVENTS_LOG_CHARS`` of log text: metrics and slider moves
+    all kept (a replay needs them; the file bounds them), the logs in order while they fit."""
+    kept, used, left = [], 0, 0
+    for e in events:
+        if e.startswith("log: "):
+            if left or used + len(e) > EVENTS_LOG_CHARS:
+                left += 1
+                continue
+            used += len(e) + 1
+        kept.append(e)
+    return ";".join(kept + [f"log: ... ({left} more logs this tick)"] if left else kept)
+
+
 def _one_field(text: str) -> str:
-    """A log's text as one cell of the events column: no ';' (the separator) and no newline."""
-    return text.replace(";", ",").replace("\n", " ")
+    """A log's text as one cell of the events column: no ';' (the separator), no newline, and
+    inert (a trace is read in terminals too)."""
+    return inert(text.replace(";", ",").replace("\n", " "))
 
 
 __all__ = [
     "CAP_NOTE",
+    "EVENTS_LOG_CHARS",
     "LOG_BYTES_PER_RUN",
     "LOG_LINES_PER_RUN",
     "LOG_RATE",
