@@ -93,7 +93,7 @@ class Document:
     root: Node | None
 
     def __post_init__(self) -> None:
-        self.lines = self.text.splitlines()
+        self.lines = [ln.removesuffix("\r") for ln in self.text.split("\n")]  # as _line_starts: not at \x0b
         self._line_starts = [0] + [m.end() for m in re.finditer("\n", self.text)]
 
     def position(self, index: int) -> tuple[int, int]:
@@ -232,25 +232,16 @@ def loads(text: str, path: str = "<string>") -> Document:
         doc.root = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as e:
         raise LabsimError([_yaml_diagnostic(doc, e)]) from None
-    except yaml.reader.ReaderError as e:  # a character YAML refuses (an ESC, a NUL): show where
-        raise LabsimError([_reader_diagnostic(doc, e)]) from None
+    except yaml.reader.ReaderError as e:  # a character YAML refuses (an ESC, a NUL): say where
+        code = e.character if isinstance(e.character, int) else ord(e.character)
+        raise LabsimError([doc.diagnostic_at(e.position, f"a YAML file may not hold the control character "
+                                             f"U+{code:04X}", e.position + 1)]) from None
     except yaml.YAMLError as e:  # unmarked: rare
         raise LabsimError([Diagnostic(path, f"YAML error: {' '.join(str(e).split())}")]) from None
     problems = [d for node in _walk(doc.root) for d in _node_problems(doc, node)]
     if problems:
         raise LabsimError(problems)
     return doc
-
-
-def _reader_diagnostic(doc: Document, e: yaml.reader.ReaderError) -> Diagnostic:
-    """A character YAML does not allow, at its line and column (shown inert, foundation/inert.py)."""
-    pos = min(max(0, e.position), len(doc.text))
-    start = doc.text.rfind("\n", 0, pos) + 1
-    end = doc.text.find("\n", pos)
-    code = e.character if isinstance(e.character, int) else ord(e.character)
-    return Diagnostic(doc.path, f"a YAML file may not hold the control character U+{code:04X}",
-                      doc.text.count("\n", 0, pos) + 1, pos - start + 1, pos - start + 2,
-                      source_line=doc.text[start:end if end >= 0 else len(doc.text)])
 
 
 def _yaml_diagnostic(doc: Document, e: yaml.MarkedYAMLError) -> Diagnostic:
