@@ -17,6 +17,8 @@ import difflib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
+from labsim.foundation.inert import inert
+
 
 @dataclass(frozen=True)
 class Diagnostic:
@@ -30,15 +32,20 @@ class Diagnostic:
     notes: tuple[str, ...] = ()
 
     def format(self) -> str:
+        """The diagnostic as printed, every piece of file text in it inert (foundation/inert.py)."""
         where = f"{self.path}:{self.line}:{self.col}" if self.line else self.path
-        out = [f"{where}: {self.severity}: {self.message}"]
+        out = [f"{inert(where)}: {self.severity}: {inert(self.message)}"]
         if self.line and self.source_line:
             gutter = f"{self.line:>5} | "
-            text, col = _window(self.source_line.rstrip("\n").replace("\t", " "), self.col)
+            raw = self.source_line.rstrip("\n").replace("\t", " ")
+            # the caret's columns move with the escapes before and inside its span
+            start = len(inert(raw[:self.col - 1])) + 1
+            end = len(inert(raw[:self.end_col - 1])) + 1 if self.end_col > self.col else start + 1
+            text, col = _window(inert(raw), start)
+            width = min(max(1, end - start), max(1, len(text) - col + 2))
             out.append(gutter + text)
-            width = min(max(1, (self.end_col or self.col + 1) - self.col), max(1, len(text) - col + 2))
             out.append(" " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" + "~" * (width - 1))
-        out.extend(f"      = {note}" for note in self.notes)
+        out.extend(f"      = {inert(note)}" for note in self.notes)
         return "\n".join(out)
 
 
@@ -73,7 +80,7 @@ def format_diagnostics(diagnostics: Iterable[Diagnostic], per_file: int = MAX_PE
             out.append(d.format())
         else:
             left[d.path] = left.get(d.path, 0) + 1
-    out.extend(f"{path}: ... and {n} more (the first {per_file} are shown)" for path, n in left.items())
+    out.extend(f"{inert(path)}: ... and {n} more (the first {per_file} are shown)" for path, n in left.items())
     return out
 
 

@@ -93,7 +93,7 @@ class Document:
     root: Node | None
 
     def __post_init__(self) -> None:
-        self.lines = self.text.splitlines()
+        self.lines = [ln.removesuffix("\r") for ln in self.text.split("\n")]  # as _line_starts: not at \x0b
         self._line_starts = [0] + [m.end() for m in re.finditer("\n", self.text)]
 
     def position(self, index: int) -> tuple[int, int]:
@@ -232,8 +232,12 @@ def loads(text: str, path: str = "<string>") -> Document:
         doc.root = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as e:
         raise LabsimError([_yaml_diagnostic(doc, e)]) from None
-    except yaml.YAMLError as e:  # unmarked: rare (e.g. a reader error)
-        raise LabsimError([Diagnostic(path, f"YAML error: {e}")]) from None
+    except yaml.reader.ReaderError as e:  # a character YAML refuses (an ESC, a NUL): say where
+        code = e.character if isinstance(e.character, int) else ord(e.character)
+        raise LabsimError([doc.diagnostic_at(e.position, f"a YAML file may not hold the control character "
+                                             f"U+{code:04X}", e.position + 1)]) from None
+    except yaml.YAMLError as e:  # unmarked: rare
+        raise LabsimError([Diagnostic(path, f"YAML error: {' '.join(str(e).split())}")]) from None
     problems = [d for node in _walk(doc.root) for d in _node_problems(doc, node)]
     if problems:
         raise LabsimError(problems)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from labsim.backends.scene.models import Kind
 from labsim.dsl.builtins import Type
 from labsim.dsl.support import STATE
+from labsim.foundation.inert import inert
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.trace import TraceWriter
 
@@ -34,6 +35,18 @@ TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of ever
 # A log(...) prints at most this many lines per simulated second (per log in the file): a rule
 # that fires every tick cannot flood the terminal; the trace keeps every line.
 LOG_RATE = 5
+# And a run prints at most this many log lines and bytes in all: 500 logs in one rule passed the
+# rate above and printed 25 MB a simulated 10 s. The summary counts the lines left unprinted.
+LOG_LINES_PER_RUN = 1000
+LOG_BYTES_PER_RUN = 1_000_000
+# One log line's text, printed or traced, is cut to this many characters (and '...').
+LOG_TEXT_CHARS = 500
+# A tick's events cell holds at most this many characters of log text (each log cut as above),
+# then one "log: ... (N more logs this tick)": the cell stays under what a CSV reader takes
+# (Python's csv: 131,072 characters), so a trace of 500 long logs a tick still reads back.
+EVENTS_LOG_CHARS = 100_000
+CAP_NOTE = (f"no more log lines are printed in this run (at most {LOG_LINES_PER_RUN:,} lines and "
+            f"{LOG_BYTES_PER_RUN // 1_000_000} MB)")
 
 Schedule = dict[int, list[tuple[int, float, str]]]  # tick -> (slot, value, "name=value") moves
 
@@ -129,13 +142,17 @@ class JointCommands(Observer):
 
 class LogPrinter(Observer):
     """Each ``log(...)`` of a tick, printed: at most ``LOG_RATE`` lines a simulated second per
-    log in the file; the rest are counted (``dropped``) for the summary. ``lines`` keeps what
-    was printed, apart from the run's warnings; the trace records every line."""
+    log in the file, and ``LOG_LINES_PER_RUN`` lines and ``LOG_BYTES_PER_RUN`` bytes (as printed,
+    inert) in all; the rest are counted (``dropped`` by log, ``over_cap`` past the run's cap) for
+    the summary. ``lines`` keeps what was printed, apart from the run's warnings; the trace
+    records every line."""
 
     def __init__(self, emit: Callable[[str], None] | None):
         self.emit = emit
         self.lines: list[str] = []
         self.dropped: dict[int, int] = {}  # log site -> lines not printed
+        self.over_cap = 0  # lines not printed because the run's cap was reached
+        self.printed_bytes = 0
         self._windows: dict[int, list[int]] = {}  # log site -> [simulated second, lines in it]
 
     def bind(self, run: RunState) -> None:
@@ -159,7 +176,17 @@ class LogPrinter(Observer):
             if window[1] > LOG_RATE:
                 self.dropped[site] = self.dropped.get(site, 0) + 1
                 continue
-            line = f"[{now:.2f} s] {robot.name}: {run.program.log_text(*e)}"
+            if self.over_cap:
+                self.over_cap += 1
+                continue
+            line = f"[{now:.2f} s] {robot.name}: {log_line_text(run.program.log_text(*e))}"
+            size = len(inert(line).encode("utf-8")) + 1  # what the terminal gets, and its newline
+            if len(self.lines) >= LOG_LINES_PER_RUN or self.printed_bytes + size > LOG_BYTES_PER_RUN:
+                self.over_cap = 1
+                if self.emit is not None:
+                    self.emit(f"[{now:.2f} s] {CAP_NOTE}; the summary counts the rest")
+                continue
+            self.printed_bytes += size
             self.lines.append(line)
             if self.emit is not None:
                 self.emit(line)
@@ -193,15 +220,18 @@ class TraceRows(Observer):
         at = self.pose_at
         label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
-        labels = list(p.label_text(s).values()) if p.labels else []
-        events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(p.log_text(*e))
+        labels = [inert(text) for text in p.label_text(s).values()] if p.labels else []
+        events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(log_line_text(p.log_text(*e)))
                   for e in prog.events] + (self.inputs.applied if self.inputs is not None else [])
+        cell = ";".join(events)
+        if len(cell) > EVENTS_LOG_CHARS:
+            cell = _bounded_events(events)
         state = p.state_names[s[STATE]] if p.state_names else ""
         t = run.tick_index
         self.writer.write([t, round(t * run.dt, 9), r.name, values[at[0]], values[at[1]], values[at[2]],
                            values[at[3]], state, label, *(values[i] for i in self.channels),
                            *(s[i] for i in self.lets), *(s[i] for i in self.sliders), *labels,
-                           cmd[0], cmd[1], ";".join(events)])
+                           cmd[0], cmd[1], cell])
         self.recorded = t + 1  # an interrupt may land before the tick ends: count rows
 
 
@@ -230,13 +260,38 @@ def trace_columns(run: RunState) -> list[str]:
             + ["wheel_left", "wheel_right", "events"])
 
 
+def log_line_text(text: str) -> str:
+    """A log's text as printed and traced: at most ``LOG_TEXT_CHARS`` characters, '...' where cut."""
+    return text if len(text) <= LOG_TEXT_CHARS else text[:LOG_TEXT_CHARS - 3] + "..."
+
+
+def _bounded_events(events: list[str]) -> str:
+    """A tick's events with at most ``EVENTS_LOG_CHARS`` of log text: metrics and slider moves
+    all kept (a replay needs them; the file bounds them), the logs in order while they fit."""
+    kept, used, left = [], 0, 0
+    for e in events:
+        if e.startswith("log: "):
+            if left or used + len(e) > EVENTS_LOG_CHARS:
+                left += 1
+                continue
+            used += len(e) + 1
+        kept.append(e)
+    return ";".join(kept + [f"log: ... ({left} more logs this tick)"] if left else kept)
+
+
 def _one_field(text: str) -> str:
-    """A log's text as one cell of the events column: no ';' (the separator) and no newline."""
-    return text.replace(";", ",").replace("\n", " ")
+    """A log's text as one cell of the events column: no ';' (the separator), no newline, and
+    inert (a trace is read in terminals too)."""
+    return inert(text.replace(";", ",").replace("\n", " "))
 
 
 __all__ = [
+    "CAP_NOTE",
+    "EVENTS_LOG_CHARS",
+    "LOG_BYTES_PER_RUN",
+    "LOG_LINES_PER_RUN",
     "LOG_RATE",
+    "LOG_TEXT_CHARS",
     "TRACE_POSE",
     "Hooks",
     "Inputs",
@@ -246,4 +301,5 @@ __all__ = [
     "TraceRows",
     "Watcher",
     "hooks",
+    "log_line_text",
 ]

@@ -78,7 +78,7 @@ class RunResult:
     faults: tuple[str, ...] = ()  # "site: what: n times (first at tick t, robot r)"
     warnings: tuple[str, ...] = ()  # the compiler's warnings (one line each), then the run's own
     logs: tuple[str, ...] = ()  # what log(...) printed, apart from the warnings
-    logs_unprinted: tuple[str, ...] = ()  # "log on line L: n lines not printed (...)", per log(...)
+    logs_unprinted: tuple[str, ...] = ()  # "log on line L: n lines not printed (...)", per line; then the run's cap
     trace: str | None = None  # where its trace was written
 
     @property

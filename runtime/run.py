@@ -36,6 +36,7 @@ from labsim.runtime.budgets import RunWatch
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.observers import (
+    CAP_NOTE,
     LOG_RATE,
     TRACE_POSE,
     Inputs,
@@ -63,6 +64,9 @@ from labsim.runtime.tick import make_tick
 from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
 
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
+# The summary names at most this many lines of the file whose logs were not all printed, then
+# counts the rest together: a file of 500 logs has a summary of a screen, not of 500 lines.
+UNPRINTED_SHOWN = 20
 
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
@@ -397,12 +401,26 @@ class Run:
         return fired
 
     def _unprinted(self) -> list[str]:
-        out = []
-        if self.log_printer is not None:
-            for site_index, n in self.log_printer.dropped.items():
-                line = self.program.logs[site_index][0]
-                out.append(f"log on line {line}: {n} line{'s' if n != 1 else ''} not printed "
-                           f"(at most {LOG_RATE} a simulated second; the trace has them all)")
+        """The log lines not printed: by the file's line (a line with 500 logs is one entry), the
+        first ``UNPRINTED_SHOWN`` lines, then the rest together, then the run's cap."""
+        out: list[str] = []
+        if self.log_printer is None:
+            return out
+        by_line: dict[int, int] = {}
+        for site_index, n in self.log_printer.dropped.items():
+            line = self.program.logs[site_index][0]
+            by_line[line] = by_line.get(line, 0) + n
+        for line, n in sorted(by_line.items())[:UNPRINTED_SHOWN]:
+            out.append(f"log on line {line}: {n} line{'s' if n != 1 else ''} not printed "
+                       f"(at most {LOG_RATE} a simulated second; the trace has them all)")
+        rest = sorted(by_line.items())[UNPRINTED_SHOWN:]
+        if rest:
+            n = sum(k for _, k in rest)
+            out.append(f"logs on {len(rest)} more lines: {n} line{'s' if n != 1 else ''} not printed "
+                       f"(at most {LOG_RATE} a simulated second each; the trace has them all)")
+        n = self.log_printer.over_cap
+        if n:
+            out.append(f"{n} more line{'s' if n != 1 else ''} not printed: {CAP_NOTE}; the trace has them all")
         return out
 
     def _fault_lines(self) -> list[str]:

@@ -217,14 +217,19 @@ def read_trace(path: str | Path) -> Trace:
     reader = csv.reader(io.StringIO(rest))
     try:
         columns = next(reader)
+    except csv.Error as e:
+        raise _bad(path, 2, f"damaged column line: {e}") from None
     except StopIteration:
         raise TraceFormatError(f"{path}: the trace has no column line", str(path)) from None
     rows: list[list[str]] = []
     lines: list[int] = []
-    for r in reader:
-        if r:
-            rows.append(r)
-            lines.append(reader.line_num + 1)  # +1: the header line is not in ``rest``
+    try:
+        for r in reader:
+            if r:
+                rows.append(r)
+                lines.append(reader.line_num + 1)  # +1: the header line is not in ``rest``
+    except csv.Error as e:  # a cell past the csv module's limit (131,072 characters), a NUL
+        raise _bad(path, reader.line_num + 1, f"damaged row: {e}") from None
     if rows and len(rows[-1]) < len(columns) and not text.endswith("\n"):
         rows.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
         lines.pop()

@@ -20,6 +20,7 @@ from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.cli.report import ProgressBar, format_summary
@@ -45,8 +46,9 @@ def print_diagnostics(diagnostics: list[Diagnostic]) -> None:
 
 
 def print_warning(message: str) -> None:
-    """One line on stderr, over a progress bar that may be showing there."""
-    sys.stderr.write("\r" + message + "\n")
+    """One line on stderr, over a progress bar that may be showing there; a log's or a warning's
+    file text inert (foundation/inert.py)."""
+    sys.stderr.write("\r" + inert(message) + "\n")
 
 
 def parse_overrides(pairs: list[str]) -> dict[str, str]:
@@ -161,7 +163,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
             print(behaviour.program.code.listing if args.show_code else
-                  f"{f}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
+                  f"{inert(f)}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
         except LabsimError as e:
             problems += e.diagnostics
     if problems:
@@ -182,7 +184,7 @@ def cmd_test(args: argparse.Namespace) -> int:
         try:
             ok = _test_one(f, args, options)
         except LabsimError as e:  # a broken behaviour: say why, and test the others
-            print(f"FAIL {f}: it does not compile (errors below)")
+            print(f"FAIL {inert(str(f))}: it does not compile (errors below)")
             print_diagnostics(e.diagnostics)
             bad += 1
             continue
@@ -196,10 +198,10 @@ def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> 
     if args.update_goldens:
         compile_behaviour(f)  # a broken file is reported as broken before anything is written
         golden, summary = record_golden(f, args.backend, options)
-        print(f"recorded {golden} ({summary.ticks} ticks)")
+        print(f"recorded {inert(str(golden))} ({summary.ticks} ticks)")
         return True
     verdict = check_golden(f, args.backend, options)
-    print(verdict)
+    print("\n".join(inert(line) for line in verdict.lines))  # a golden's cells are a file's text
     return verdict.passed
 
 

@@ -26,6 +26,7 @@ from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
 from labsim.foundation.files import ALLOW_ENV, allow, os_words
+from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
 from labsim.runtime.cli import commands
 from labsim.runtime.cli.commands import behaviour_files, parse_overrides, print_diagnostics
@@ -56,7 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print_diagnostics(e.diagnostics)
         return EXIT_USAGE
     except BackendError as e:
-        sys.stderr.write(f"labsim: error: {e}\n")
+        sys.stderr.write(f"labsim: error: {inert(str(e))}\n")
         return EXIT_USAGE
     except KeyboardInterrupt:
         sys.stderr.write("labsim: terminated\n" if _terminated() else "labsim: interrupted\n")
@@ -66,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except OSError as e:  # what the file system said about a path no reader checked first
         where = str(e.filename) if e.filename is not None else "labsim"
-        sys.stderr.write(f"{where}: error: {os_words(e)}\n")
+        sys.stderr.write(f"{inert(where)}: error: {os_words(e)}\n")
         return EXIT_USAGE
     finally:  # --allow-path holds for this command (and the processes it started) only
         if allowed is None:

@@ -1,4 +1,8 @@
-"""What a person sees during and after a run: the progress bar and the summary."""
+"""What a person sees during and after a run: the progress bar and the summary.
+
+Every text that came from a file (names, labels, rules, logs, warnings) is shown inert
+(``labsim.foundation.inert``): the summary goes to a teacher's terminal.
+"""
 from __future__ import annotations
 
 import math
@@ -7,6 +11,7 @@ import time as clock
 from typing import TextIO
 
 from labsim.dsl.builtins import Aggregate
+from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.result import RobotResult, RunResult
 
@@ -46,16 +51,16 @@ def _metric(value: float, aggregate: Aggregate) -> str:
 
 def _robot_line(r: RobotResult) -> str:
     if r.mechanism:
-        lines = [f"mechanism {r.name}"]
-        lines += [f"  label {slider}: {text}" for slider, text in r.labels.items()]
+        lines = [f"mechanism {inert(r.name)}"]
+        lines += [f"  label {inert(slider)}: {inert(text)}" for slider, text in r.labels.items()]
         return "\n".join(lines)
-    line = f"robot {r.name}: {r.contacts} collision{'s' if r.contacts != 1 else ''}"
+    line = f"robot {inert(r.name)}: {r.contacts} collision{'s' if r.contacts != 1 else ''}"
     if r.contacts:
         line += f" ({r.contact_time_s:.2f} s in contact)"
     if r.clamped_ticks:
         line += f"; wheel commands clamped to {r.wheel_limit_rad_s:g} rad/s on {r.clamped_ticks} ticks"
     for slider, text in r.labels.items():
-        line += f"\n  label {slider}: {text}"
+        line += f"\n  label {inert(slider)}: {inert(text)}"
     return line
 
 
@@ -65,7 +70,7 @@ def _fleet_table(s: RunResult) -> list[str]:
         return []
     names, aggregates = list(s.metric_aggregates), list(s.metric_aggregates.values())
     header = ["metrics", *names]
-    rows = [[robot, *(_metric(r.metrics[n], a) for n, a in zip(names, aggregates))]
+    rows = [[inert(robot), *(_metric(r.metrics[n], a) for n, a in zip(names, aggregates))]
             for robot, r in s.robots.items()]
     rows.append(["fleet", *(_metric(s.fleet[n], a) + _FLEET_MARK[a] for n, a in zip(names, aggregates))])
     widths = [max(len(row[i]) for row in [header, *rows]) for i in range(len(header))]
@@ -82,20 +87,20 @@ _FLEET_MARK = {Aggregate.COUNT: "+", Aggregate.DURATION: "+", Aggregate.MAXIMUM:
 
 def format_summary(s: RunResult) -> str:
     """The text summary of a run: what ``labsim run`` prints at its end."""
-    lines = [f"{s.name}  ({s.path}, {s.backend}, seed {s.seed})"]
+    lines = [f"{inert(s.name)}  ({inert(s.path)}, {s.backend}, seed {s.seed})"]
     status = "interrupted" if s.interrupted else "done"
     rtf = f"{s.real_time_factor:,.0f}x real time" if math.isfinite(s.real_time_factor) else ""
     lines.append(f"  {status}: {s.ticks} ticks, {s.sim_time_s:.2f} s simulated in {s.wall_time_s:.2f} s"
                  + (f" ({rtf})" if rtf else ""))
     if s.stopped_by is not None:  # on the status line, so the summary keeps its layout
         first = next(iter(s.robots.values()), None)
-        lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * s.dt_s:.2f} s): '{s.stop_condition}' held for "
-                      f"{'robot ' if first is not None and not first.mechanism else ''}{s.stopped_by}")
+        lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * s.dt_s:.2f} s): '{inert(s.stop_condition)}' held for "
+                      f"{'robot ' if first is not None and not first.mechanism else ''}{inert(s.stopped_by)}")
     if s.params:
         lines += _param_lines(s)
-    lines += [f"  noise: {r.name}: {r.noise_text}" for r in s.robots.values() if r.noise_text]
+    lines += [f"  noise: {inert(r.name)}: {inert(r.noise_text)}" for r in s.robots.values() if r.noise_text]
     if s.trace:
-        lines.append(f"  trace: {s.trace}")
+        lines.append(f"  trace: {inert(s.trace)}")
     if len(s.robots) == 1:
         r = next(iter(s.robots.values()))
         lines.append(_robot_line(r))
@@ -118,7 +123,7 @@ def _param_lines(s: RunResult) -> list[str]:
     line = [f"{k}={each if k in own else shown(v)}{'*' if k in s.overridden else ''}" for k, v in s.params.items()]
     lines = ["  params: " + " ".join(line) + ("   (* set on the command line)" if s.overridden else "")]
     for k in own:
-        lines.append(f"    {k}: " + " ".join(f"{r.name}={shown(r.params.get(k, s.params[k]))}" for r in robots))
+        lines.append(f"    {k}: " + " ".join(f"{inert(r.name)}={shown(r.params.get(k, s.params[k]))}" for r in robots))
     return lines
 
 
@@ -127,22 +132,23 @@ def _rule_lines(s: RunResult) -> list[str]:
     if not s.rules:  # driven by bind: alone
         return []
     lines = ["rules (ticks fired):"]
-    width = max(len(r.id) for r in s.rules)
-    text_width = min(60, max(len(r.text) for r in s.rules))
-    for rule in s.rules:
-        text = rule.text if len(rule.text) <= text_width else rule.text[:text_width - 3] + "..."
-        lines.append(f"  {rule.id:<{width}}  {text:<{text_width}}  {rule.ticks:>8}")
+    ids, texts = [inert(r.id) for r in s.rules], [inert(r.text) for r in s.rules]
+    width = max(len(i) for i in ids)
+    text_width = min(60, max(len(t) for t in texts))
+    for rule, rule_id, text in zip(s.rules, ids, texts):
+        text = text if len(text) <= text_width else text[:text_width - 3] + "..."
+        lines.append(f"  {rule_id:<{width}}  {text:<{text_width}}  {rule.ticks:>8}")
     if s.idle_ticks:
         lines.append(f"  {'(none)':<{width}}  {'no rule held':<{text_width}}  {s.idle_ticks:>8}")
     if s.never_fired:
-        lines.append(f"  never fired: {', '.join(s.never_fired)}")
+        lines.append(f"  never fired: {inert(', '.join(s.never_fired))}")
     return lines
 
 
 def _fault_lines(s: RunResult) -> list[str]:
     """The runtime warnings, then the logs, apart: a log is what the behaviour meant to say."""
-    lines = ["runtime warnings:", *(f"  {f}" for f in s.faults)] if s.faults else []
+    lines = ["runtime warnings:", *(f"  {inert(f)}" for f in s.faults)] if s.faults else []
     if s.logs or s.logs_unprinted:
         lines += [f"logs: {len(s.logs)} line{'s' if len(s.logs) != 1 else ''} printed",
-                  *(f"  {f}" for f in s.logs_unprinted)]
+                  *(f"  {inert(f)}" for f in s.logs_unprinted)]
     return lines

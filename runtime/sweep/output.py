@@ -1,7 +1,9 @@
 """What a sweep shows and writes: the progress bar, the comparison table, the CSV and JSON files.
 
 The rows come from runtime/sweep/grid.py, the figures of the table from runtime/sweep/stats.py; the
-chart is runtime/sweep/plot.py. The JSON file's schema is in docs/sweep.md.
+chart is runtime/sweep/plot.py. The JSON file's schema is in docs/sweep.md. File names, names and
+messages are shown inert in the table and are inert spreadsheet cells in the CSV
+(foundation/inert.py): a class's files are a student's text.
 """
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from typing import Any, TextIO
 from labsim import __version__
 from labsim.dsl.builtins import Better
 from labsim.foundation.files import write_output
+from labsim.foundation.inert import inert, spreadsheet_cell
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.summary_json import number, summary_dict
 from labsim.runtime.sweep.grid import STATUSES, Columns, Row, flat
@@ -79,14 +82,14 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], several_
             mark = f"best ({better.value})" if best and better is not None else ""
             if s.left_out:
                 mark += f" ({s.left_out} non-finite left out)"
-            body.append([g.file if several_files else "", g.label or "(as in the file)", str(s.n), _num(s.mean),
-                         _num(s.sd), ci, _num(s.min), _num(s.max), mark.strip()])
+            body.append([inert(g.file) if several_files else "", inert(g.label) or "(as in the file)", str(s.n),
+                         _num(s.mean), _num(s.sd), ci, _num(s.min), _num(s.max), mark.strip()])
         keep = [i for i in range(len(header)) if i != 0 or several_files]
         widths = {i: max(len(r[i]) for r in [header, *body]) for i in keep}
         for r in [header, *body]:
             cells = [r[i].ljust(widths[i]) if i in (0, 1, 8) else r[i].rjust(widths[i]) for i in keep]
             lines.append(("  " + "  ".join(cells)).rstrip())
-        lines += [f"  {_test_line(t, several_files)}" for t in comp["tests"] if t.metric == m]
+        lines += [f"  {inert(_test_line(t, several_files))}" for t in comp["tests"] if t.metric == m]
         if better is None and len(entries) > 1 and m in comp["disagree"]:
             lines.append(f"  no best marked: give '{m}' the same 'better:' in every file, or pass --maximize {m}")
         elif better is None and len(entries) > 1:
@@ -95,8 +98,8 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], several_
         lines.append("")
     failed = [g for g in comp["groups"] if g.failed]
     for g in failed:
-        where = f"{g.file} " if several_files else ""
-        lines.append(f"{where}{g.label or '(as in the file)'}: {g.failed} of {g.runs} runs failed (not counted)")
+        where = inert(f"{g.file} ") if several_files else ""
+        lines.append(f"{where}{inert(g.label) or '(as in the file)'}: {g.failed} of {g.runs} runs failed (not counted)")
     if comp["tests"]:
         lines.append("test: Welch's t-test of the two means, two-sided; a difference is larger than the seeds' "
                      "noise when p < 0.05")
@@ -129,8 +132,8 @@ def status_counts(rows: list[Row]) -> str:
 def failures(rows: list[Row], limit: int = 20) -> list[str]:
     """The failed rows, one line each (the first ``limit``)."""
     bad = [r for r in rows if r.failed]
-    out = [f"  {r.task.file} {r.task.label} seed {r.task.seed}: {r.status}: {r.message}".replace("  seed", " seed")
-           for r in bad[:limit]]
+    out = [inert(f"  {r.task.file} {r.task.label} seed {r.task.seed}: {r.status}: {r.message}")
+           .replace("  seed", " seed") for r in bad[:limit]]
     if len(bad) > limit:
         out.append(f"  ... and {len(bad) - limit} more (all are in the results file)")
     return out
@@ -152,7 +155,7 @@ def write_csv(rows: list[Row], path: str | Path, settings: list[str]) -> None:
     writer = csv.DictWriter(f, fieldnames=cols.names(), extrasaction="ignore", restval="")
     writer.writeheader()
     for r in rows:
-        writer.writerow(flat(r))
+        writer.writerow({k: spreadsheet_cell(v) for k, v in flat(r).items()})
     write_output(path, f.getvalue())  # beside the target, renamed into place (foundation/files.py)
 
 
