@@ -22,7 +22,8 @@ from aiohttp.http_exceptions import HttpProcessingError, LineTooLong
 LOG_LIMIT = 20  # lines the server logs in full; after that, one at each power of ten
 WILDCARDS = ("", "0.0.0.0", "::")  # --host values that listen on every address
 REFUSED_HOST = ("labsim view answers only at its own address (localhost, 127.0.0.1, [::1], or the --host "
-                "it was started with), so that a page from another site cannot reach the run")
+                "it was started with), so that a page from another site cannot reach the run; to open it "
+                "under another name, start labsim view with --host THAT-NAME")
 
 
 def _name(host: str) -> str:
