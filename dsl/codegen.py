@@ -42,6 +42,7 @@ from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
 
 INF = math.inf
+CHAIN = 64  # the longest if/elif chain generated: Python's compiler recurses once per elif
 
 
 @dataclass(frozen=True)
@@ -235,17 +236,14 @@ class _Generator(Unroller):
         states = list(c.states.values())
         if not states:
             w.line("rule = -1")
-        index = 0
-        for k, rules in enumerate(states):
-            if len(states) > 1:
-                w.read(STATE)
-                w.line(f"{'if' if k == 0 else 'elif'} v{STATE} == {k}:")
-            with w.indent() if len(states) > 1 else nullcontext():
-                index = self.state_rules(w, rules, index)
-        if len(states) > 1:
-            w.line("else:")
-            with w.indent():
-                w.line("rule = -1")
+        elif len(states) == 1:
+            self.state_rules(w, states[0], 0)
+        else:
+            w.read(STATE)
+            firsts = [0]
+            for rules in states:
+                firsts.append(firsts[-1] + len(rules))
+            self.dispatch(w, states, firsts, 0, len(states))
         metrics = []
         for i, metric in enumerate(c.metrics):
             m = Writer()
@@ -254,13 +252,56 @@ class _Generator(Unroller):
             metrics.append(m.body())
         return w.body(), metrics
 
+    def dispatch(self, w: Writer, states: list[list[RuleDecl]], firsts: list[int], lo: int, hi: int) -> None:
+        """States ``lo`` to ``hi - 1`` by the state's index: an if/elif chain of at most ``CHAIN``.
+
+        Python's compiler recurses once per ``elif``, and a few thousand overflow its stack; more
+        states than ``CHAIN`` are split into ranges (``if vS < 64: ... elif vS < 128: ...``), a
+        tree whose depth grows with the logarithm of the count. A file of up to ``CHAIN`` states
+        gets the plain chain it always had, and its speed."""
+        if hi - lo <= CHAIN:
+            for k in range(lo, hi):
+                w.line(f"{'if' if k == lo else 'elif'} v{STATE} == {k}:")
+                with w.indent():
+                    self.state_rules(w, states[k], firsts[k])
+            w.line("else:")
+            with w.indent():
+                w.line("rule = -1")
+            return
+        step = CHAIN
+        while (hi - lo + step - 1) // step > CHAIN:
+            step *= CHAIN
+        bounds = list(range(lo, hi, step))
+        for n, start in enumerate(bounds):
+            end = min(start + step, hi)
+            if n == 0:
+                w.line(f"if v{STATE} < {end}:")
+            else:
+                w.line(f"elif v{STATE} < {end}:" if n < len(bounds) - 1 else "else:")
+            with w.indent():
+                self.dispatch(w, states, firsts, start, end)
+
     def state_rules(self, w: Writer, rules: list[RuleDecl], index: int) -> int:
         """One state's rules, an if/elif chain that sets ``rule``; the index of the next state's first rule.
 
         A state with ``when`` rules is a sequence of ifs instead: each rule is tried while no rule
-        has fired (``rule == -1``), and a ``when`` rule logs without firing."""
+        has fired (``rule == -1``), and a ``when`` rule logs without firing. So is a state of more
+        than ``CHAIN`` rules, in chains of ``CHAIN`` (see ``dispatch``)."""
         if any(r.rule.kind == "when" for r in rules):
             return self.rules_with_when(w, rules, index)
+        if len(rules) > CHAIN:
+            w.line("rule = -1")
+            for start in range(0, len(rules), CHAIN):
+                if start:
+                    w.line("if rule == -1:")
+                with w.indent() if start else nullcontext():
+                    self.rule_chain(w, rules[start:start + CHAIN], index + start)
+            return index + len(rules)
+        self.rule_chain(w, rules, index)
+        return index + len(rules)
+
+    def rule_chain(self, w: Writer, rules: list[RuleDecl], index: int) -> None:
+        """Rules as an if/elif chain that sets ``rule`` (to -1 when none fires)."""
         for n, r in enumerate(rules):
             where = f"rule {r.state}:{r.number}"
             with w.source(self.note(r.text, f"{where}: ")):
@@ -272,11 +313,10 @@ class _Generator(Unroller):
                     self.actions(w, r.rule.actions, r.text, where)
                     w.line(f"rule = {index + n}")
             if r.rule.condition is None:
-                return index + len(rules)  # the checker refused rules after it
+                return  # the checker refused rules after it
         w.line("else:")
         with w.indent():
             w.line("rule = -1")
-        return index + len(rules)
 
     def rules_with_when(self, w: Writer, rules: list[RuleDecl], index: int) -> int:
         w.line("rule = -1")

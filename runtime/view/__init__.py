@@ -32,6 +32,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
     diagnostics until it is fixed (the page's Check again) or the server is stopped; the exit
     code is then 2. Ctrl-C gives 130, the trace so far kept.
     """
+    from labsim.runtime.view.guard import exposure_warning
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.server import bind_socket, serve, url_of
 
@@ -50,6 +51,9 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
         raise LabsimError([Diagnostic(f"--port {port}", f"port {port} on {host} {why}",
                                       notes=("pick another with --port, or --port 0 for a free one",))]) from None
     url = url_of(sock, host)
+    exposed = exposure_warning(host, sock.getsockname()[0], sock.getsockname()[1])
+    if exposed:
+        warn(exposed)
 
     def ready(_server: object) -> None:
         what = "replaying" if not hasattr(session, "load") else "running"
@@ -57,7 +61,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
     interrupted = False
     try:
-        asyncio.run(serve(session, sock, url, log=warn, open_browser=open_browser, ready=ready))
+        asyncio.run(serve(session, sock, url, log=warn, open_browser=open_browser, ready=ready, host=host))
     except KeyboardInterrupt:
         interrupted = True
     finally:

@@ -15,11 +15,15 @@ from typing import Any
 
 from labsim.backends.scene.models import MODELS
 from labsim.backends.scene.world import World
-from labsim.runtime.trace import Trace, read_trace, trace_world
+from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
 from labsim.runtime.view.session import BadMessage, Session
 
 _TEXT = {"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule", "events"}
+# what a page is sent once, in the scene, and in every frame: a trace of 10^6 columns made a
+# 35 MB scene. labsim's own traces have a few dozen columns (a thousand signals would be many).
+MAX_COLUMNS = 10_000
+MAX_ROBOTS = 1000  # the robots budget's default: no run of labsim's has more
 
 
 class ReplaySession(Session):
@@ -149,5 +153,13 @@ def _num(row: list[str], index: dict[str, int], column: str) -> float | str | No
 def load_replay(path: str | Path, **session: Any) -> ReplaySession:
     """A replay of the trace at path; raises TraceFormatError for a damaged one."""
     trace = read_trace(path)
+    if len(trace.columns) > MAX_COLUMNS:
+        raise TraceFormatError(f"{len(trace.columns):,} columns: labsim view replays a trace of at most "
+                               f"{MAX_COLUMNS:,} (its page could not hold more); labsim plot and "
+                               "labsim.read_trace read it", str(path))
+    robots = len(set(trace.column("robot"))) if "robot" in trace.columns else 0
+    if robots > MAX_ROBOTS:
+        raise TraceFormatError(f"{robots:,} robots: labsim view replays a trace of at most {MAX_ROBOTS:,}",
+                               str(path))
     world, note = trace_world(trace)
     return ReplaySession(trace, world, note, **session)

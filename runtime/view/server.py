@@ -6,7 +6,12 @@ session (a live run or a replayed trace) lives in this process; a pacing task ca
 send small JSON messages (docs/view.md); one that is malformed, unknown or hostile is logged
 and ignored, and never reaches the run. Every page sees the same run; each page picks which
 robot's camera it receives. A WebSocket must come from the page's own origin (or from a
-client that sends no Origin), so another web site open in the browser cannot steer the run.
+client that sends no Origin), so another web site open in the browser cannot steer the run,
+and every request must name this server as its ``Host`` (``labsim.runtime.view.guard``), so
+that a site cannot reach it under a name of its own either (DNS rebinding). Numbers in a
+message follow labsim's rule for numbers (an integer too large for a float is refused while
+the message is read), and everything the server logs, across all connections, shares one
+limit.
 """
 from __future__ import annotations
 
@@ -21,7 +26,9 @@ from typing import Any
 
 from aiohttp import WSMsgType, web
 
+from labsim.foundation.numbers import NumberError, to_float
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message, number
+from labsim.runtime.view.guard import REFUSED_HOST, LogBudget, host_allowed, http_logger
 from labsim.runtime.view.live import ChangeRefused
 from labsim.runtime.view.session import BadMessage, Session
 
@@ -29,7 +36,6 @@ from labsim.runtime.view.session import BadMessage, Session
 # files that really lie inside the folder it is given
 STATIC = Path(__file__).resolve().parent / "static"
 MAX_MESSAGE_BYTES = 64 * 1024
-LOG_LIMIT = 20  # ignored messages logged per page; after that, one line per hundred
 
 
 @dataclass(eq=False)
@@ -40,26 +46,39 @@ class Page:
     peer: str
     robot: int = 0
     busy: bool = False
-    ignored: int = 0
 
 
 class ViewServer:
-    """See the module docstring. ``log`` takes one line per notable event."""
+    """See the module docstring. ``log`` takes one line per notable event, within one budget;
+    ``host`` is the ``--host`` the server listens on (the names it answers to)."""
 
-    def __init__(self, session: Session, log: Callable[[str], None]):
+    def __init__(self, session: Session, log: Callable[[str], None], host: str = "127.0.0.1"):
         self.session = session
-        self.log = log
+        self.log = LogBudget(log)
+        self.host = host
+        self.ignored = 0  # messages ignored, from every page
         self.pages: list[Page] = []
         self.dirty = True  # something changed since the last frame
         self.frames_sent = 0
         self._tasks: set[asyncio.Task[None]] = set()
-        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES)
+        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._check_host])
         self.app.router.add_get("/", self._index)
         self.app.router.add_get("/ws", self._socket)
         self.app.router.add_get("/favicon.ico", self._no_icon)
         self.app.router.add_static("/static/", STATIC)
 
     # -- HTTP -------------------------------------------------------------------------------
+    @web.middleware
+    async def _check_host(self, request: web.Request, handler: Any) -> web.StreamResponse:
+        """Every request, the page's, its files' and the WebSocket's, must name this server."""
+        host = request.headers.get("Host")
+        if not host_allowed(host, self.host):
+            self.log(f"labsim view: refused a request from {request.remote or '?'} for host {(host or '')[:80]!r}")
+            return web.Response(status=403, text=f"403 Forbidden: {REFUSED_HOST}; this request named "
+                                                 f"{(host or 'no host')[:80]!r}.\n")
+        response: web.StreamResponse = await handler(request)
+        return response
+
     async def _index(self, request: web.Request) -> web.StreamResponse:
         return web.FileResponse(STATIC / "index.html", headers={
             "Cache-Control": "no-store",
@@ -95,8 +114,11 @@ class ViewServer:
 
     async def _message(self, page: Page, text: str) -> None:
         try:
-            msg = json.loads(text)
-        except (json.JSONDecodeError, RecursionError):
+            msg = json.loads(text, parse_int=_whole)
+        except NumberError as e:
+            self._ignore(page, f"a number in it: {e}")
+            return
+        except (ValueError, RecursionError):  # JSONDecodeError is a ValueError
             self._ignore(page, f"not JSON: {text[:60]!r}")
             return
         try:
@@ -117,9 +139,8 @@ class ViewServer:
         self.dirty = True
 
     def _ignore(self, page: Page, why: str) -> None:
-        page.ignored += 1
-        if page.ignored <= LOG_LIMIT or page.ignored % 100 == 0:
-            self.log(f"labsim view: ignored a message from {page.peer} ({page.ignored} so far): {why}")
+        self.ignored += 1
+        self.log(f"labsim view: ignored a message from {page.peer} ({self.ignored} so far): {why}")
 
     # -- frames -----------------------------------------------------------------------------
     def _frame_json(self) -> str:
@@ -212,10 +233,12 @@ def url_of(sock: socket.socket, host: str) -> str:
 
 
 async def serve(session: Session, sock: socket.socket, url: str, *, log: Callable[[str], None],
-                open_browser: bool = False, ready: Callable[[ViewServer], None] | None = None) -> None:
-    """Serve until cancelled (Ctrl-C); the caller closes the session."""
-    server = ViewServer(session, log)
-    runner = web.AppRunner(server.app, access_log=None, handle_signals=False, shutdown_timeout=0.5)
+                open_browser: bool = False, ready: Callable[[ViewServer], None] | None = None,
+                host: str = "127.0.0.1") -> None:
+    """Serve until cancelled (Ctrl-C); the caller closes the session. ``host`` is ``--host``."""
+    server = ViewServer(session, log, host)
+    runner = web.AppRunner(server.app, access_log=None, handle_signals=False, shutdown_timeout=0.5,
+                           logger=http_logger(server.log))
     await runner.setup()
     try:
         await web.SockSite(runner, sock).start()
@@ -228,6 +251,13 @@ async def serve(session: Session, sock: socket.socket, url: str, *, log: Callabl
         for page in list(server.pages):
             await page.ws.close()
         await runner.cleanup()
+
+
+def _whole(text: str) -> int:
+    """An integer of a message, under labsim's number rule: one no float can hold is refused
+    before Python reads it (a 5,000-digit integer would raise from deep in the decoder)."""
+    to_float(text)
+    return int(text)
 
 
 def _dumps(doc: Json | None) -> str:
