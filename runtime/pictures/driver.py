@@ -112,6 +112,7 @@ def run_plot(args: argparse.Namespace) -> int:
         trace = read_trace(args.trace)
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
+        check_output(out, drawn_from(trace))  # now that the trace says which files it names
         if trace.cut_short():
             sys.stderr.write(f"{args.trace}: warning: {trace.cut_short()}; drawn as far as it goes\n")
         if kind != "chart":
@@ -138,6 +139,17 @@ def run_plot(args: argparse.Namespace) -> int:
         raise _fail(args.trace, f"cannot draw this trace: {e}") from None
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def drawn_from(trace: Trace) -> list[Path]:
+    """Every file a picture of the trace reads, which ``-o`` must not overwrite: the trace, the
+    world file and the behaviour file its header names (as far as the access policy reads them)."""
+    from labsim.runtime.pictures.signals import behaviour_file
+
+    world, _ = trace_world(trace)
+    behaviour = behaviour_file(trace)
+    return [Path(trace.path), *([Path(world.source)] if world is not None and world.source else []),
+            *([behaviour] if behaviour is not None else [])]
 
 
 FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a world) is no robot's
