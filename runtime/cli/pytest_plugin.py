@@ -6,8 +6,8 @@ text. ``pytest behaviours/`` collects each behaviour file that has a golden trac
 one item named after the file; a behaviour file named on the command line is collected even
 without one, and then fails as ``labsim test`` does. ``pytest --update-goldens`` records the
 goldens instead of comparing. A behaviour file or golden found in a folder that is a link
-out of it is a collection error, as ``labsim test`` refuses it (docs/security.md). Items are independent, so ``pytest -n auto`` (pytest-xdist)
-runs them in parallel.
+out of it is a collection error, as ``labsim test`` refuses it (docs/security.md). Items are
+independent, so ``pytest -n auto`` (pytest-xdist) runs them in parallel.
 """
 from __future__ import annotations
 
