@@ -161,8 +161,7 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     tasks = grid(o.files, settings, seeds, info, o.traces, o.budgets)
     check_outputs(o, info, tasks)
     executor = _executor(o, info)
-    show = o.progress if o.progress is not None else sys.stderr.isatty()
-    bar = SweepProgress(len(tasks), show=show)
+    bar = SweepProgress(len(tasks), show=o.progress if o.progress is not None else sys.stderr.isatty())
     rows: list[Row] = []
     interrupted = False
     try:
