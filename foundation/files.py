@@ -184,16 +184,34 @@ def not_utf8(path: str | Path, data: bytes, at: int, echo: bool) -> Diagnostic:
 _ALLOWED_HERE: list[Path] = []  # folders allowed for a while in this process only (``allowing``)
 
 
+def real_path(path: str | Path) -> Path:
+    """Where a path really leads: absolute, every symbolic link followed in the order the
+    operating system follows them (os.path.realpath), so ``d/../x`` with ``d`` a link is the
+    ``x`` beside the link's target, not the one beside ``d``. RuntimeError for a loop of links.
+
+    Never ``os.path.normpath`` first: it drops ``d/..`` by spelling alone, and the policy would
+    then judge a file other than the one that is opened."""
+    return Path(path).resolve()  # os.path.realpath, then a stat that reports a loop
+
+
 def allowed_folders() -> list[Path]:
     """The folders ``--allow-path`` opened (through ``ALLOW_ENV``), resolved, and any ``allowing`` adds."""
-    env = [Path(p).resolve() for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
+    env = [_real_or_as_is(p) for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
     return env + list(_ALLOWED_HERE)
+
+
+def _real_or_as_is(path: str | Path) -> Path:
+    """``real_path``, or the absolute path as written when it is a loop (which then holds no file)."""
+    try:
+        return real_path(path)
+    except (OSError, RuntimeError):
+        return Path(os.path.abspath(path))
 
 
 @contextlib.contextmanager
 def allowing(folder: str | Path) -> Iterator[None]:
     """Allow a folder while a block runs (a sweep's worker, running files the sweep checked)."""
-    entry = Path(folder).resolve()
+    entry = _real_or_as_is(folder)
     _ALLOWED_HERE.append(entry)
     try:
         yield
@@ -204,7 +222,7 @@ def allowing(folder: str | Path) -> Iterator[None]:
 def allow(folders: Iterable[str | Path]) -> None:
     """Add folders to the allowed ones, for this process and the processes it starts."""
     current = [p for p in os.environ.get(ALLOW_ENV, "").split(os.pathsep) if p]
-    os.environ[ALLOW_ENV] = os.pathsep.join(current + [str(Path(f).resolve()) for f in folders])
+    os.environ[ALLOW_ENV] = os.pathsep.join(current + [str(_real_or_as_is(f)) for f in folders])
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -213,22 +231,34 @@ def _inside(path: Path, folder: Path) -> bool:
 
 def policy_problem(name: str, base: Path, allowed: Sequence[Path] | None = None) -> str:
     """Why a file a behaviour names (``name``, relative to the behaviour's folder ``base``)
-    may not be read, or '' when it may: it must stay inside ``base`` once links are followed,
-    or inside a folder the command line allowed. (The built-in worlds' files are allowed by the
-    one rule for world names, ``labsim.backends.scene.world_names.find_world``.)"""
-    folders = [base.resolve(), *(allowed if allowed is not None else allowed_folders())]
-    target = Path(os.path.normpath(base / name))
+    may not be read, or '' when it may: the file it really is (``real_path``: links followed
+    where they stand, ``..`` after them) must lie inside ``base`` (resolved too), or inside a
+    folder the command line allowed. (The built-in worlds' files are allowed by the one rule
+    for world names, ``labsim.backends.scene.world_names.find_world``.)"""
+    folders = [_real_or_as_is(f) for f in (base, *(allowed if allowed is not None else allowed_folders()))]
     try:
-        real = target.resolve()
+        real = real_path(base / name)
     except (OSError, RuntimeError):  # a loop of links
         return "is a loop of symbolic links"
     if any(_inside(real, f) for f in folders):
         return ""
     if Path(name).is_absolute() or name.startswith("~"):
         return "is an absolute path, outside the behaviour's folder"
-    if not _inside(Path(os.path.abspath(target)), Path(os.path.abspath(base))):
+    if not _inside(Path(os.path.abspath(base / name)), Path(os.path.abspath(base))):
         return "leads out of the behaviour's folder ('..')"
+    link = _first_link(base, name)
+    if link and link != name:
+        return f"leads out of the behaviour's folder through the symbolic link '{link}'"
     return "is a symbolic link to a file outside the behaviour's folder"
+
+
+def _first_link(base: Path, name: str) -> str:
+    """The first part of ``name`` (as written, from ``base``) that is a symbolic link, or ''."""
+    parts = Path(name).parts
+    for i in range(len(parts)):
+        if os.path.islink(base.joinpath(*parts[:i + 1])):
+            return "/".join(parts[:i + 1])
+    return ""
 
 
 def policy_notes() -> tuple[str, ...]:
@@ -262,10 +292,10 @@ def served_problem(name: str, base: Path) -> str:
     ``base``, inside an ``--allow-path`` folder, or right inside a ``labsim scene`` scratch
     folder. A client is anyone who reaches the port (docs/security.md, "The server")."""
     try:
-        real = Path(os.path.normpath(base / name)).resolve()
+        real = real_path(base / name)
     except (OSError, RuntimeError):  # a loop of links
         return "is a loop of symbolic links"
-    if any(_inside(real, f) for f in (base.resolve(), *allowed_folders())) or in_scratch_folder(real):
+    if any(_inside(real, f) for f in (_real_or_as_is(base), *allowed_folders())) or in_scratch_folder(real):
         return ""
     return ("is outside the folders labsim serve reads: the one it was started in, labsim scene's "
             "temporary folders and any --allow-path DIR (docs/security.md)")
@@ -377,6 +407,27 @@ def write_output(path: str | Path, data: bytes | str, inputs: Iterable[str | Pat
         out.discard()
         raise write_error(path, e) from None
     out.commit()
+
+
+def write_new(path: str | Path, data: bytes) -> None:
+    """Write a file that is not there yet, not even as a symbolic link (``labsim new``'s copies):
+    created with O_EXCL and O_NOFOLLOW, so a link planted under the name, dangling or not, is
+    never written through. LabsimError says why not."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    if os.path.islink(path):  # O_EXCL refuses it too; this says so in words
+        raise _error(path, "is a symbolic link; labsim writes no file through a link (remove it, or "
+                           "give another folder)")
+    try:
+        fd = os.open(path, flags, 0o666)
+    except FileExistsError:
+        raise _error(path, "already exists") from None
+    except OSError as e:
+        raise write_error(path, e) from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+    except OSError as e:
+        raise write_error(path, e) from None
 
 
 def save_figure(fig: Any, path: Path, **options: Any) -> None:

@@ -180,7 +180,8 @@ def record_golden(behaviour: str | Path, backend: str = DEFAULT,
     """Run a behaviour and store its trace as its golden, replacing the old one only once the
     run has finished (an interrupted run leaves the old golden as it was)."""
     golden = golden_path(behaviour)
-    check_output(golden, [behaviour])  # a golden that is a link to its behaviour is refused
+    world = compile_behaviour(behaviour).program.world.source  # the run's other input
+    check_output(golden, [behaviour, world])  # a golden that is a link to its behaviour is refused
     fd, tmp = tempfile.mkstemp(suffix=".csv", dir=golden.parent)
     os.close(fd)
     try:

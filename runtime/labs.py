@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +19,7 @@ import yaml
 
 import labsim
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
-from labsim.foundation.files import read_text
+from labsim.foundation.files import os_words, read_input, read_text, write_new
 from labsim.foundation.kinds import golden_path
 
 LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
@@ -119,20 +118,34 @@ def copy_lab(name: str, folder: Path) -> list[Path]:
     lab = known[name]
     sources = [p for p in (lab.path, lab.golden) if p.exists()]
     targets = [folder / p.name for p in sources]
+    _refuse_targets(folder, targets)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise LabsimError([Diagnostic(str(folder), f"cannot write there: {os_words(e)}")]) from None
+    for source, target in zip(sources, targets):  # never through a link planted there since
+        write_new(target, read_input(source, "golden" if source == lab.golden else "behaviour"))
+    schema = LABS_DIR / SCHEMA_FILE  # what the lab's first line points editors at
+    # a schema there already, or a link by that name (even one to nothing), is left as it is
+    if schema.exists() and not os.path.lexists(folder / SCHEMA_FILE):
+        write_new(folder / SCHEMA_FILE, read_input(schema, "schema"))
+        targets.append(folder / SCHEMA_FILE)
+    return targets
+
+
+def _refuse_targets(folder: Path, targets: list[Path]) -> None:
+    """LabsimError when a copy would overwrite a file or write through a symbolic link (dangling
+    or not: a link to nothing would create its target wherever it points), or the folder is no folder."""
+    for t in targets:
+        if os.path.islink(t):
+            raise LabsimError([Diagnostic(str(t), "is a symbolic link; labsim new writes no file through a "
+                                          "link (remove it, or give another folder)")])
     existing = [t for t in targets if t.exists()]
     if existing:
         raise LabsimError([Diagnostic(str(existing[0]), "already exists; labsim new does not overwrite "
                                       "files (give another folder, or remove it first)")])
+    if os.path.islink(folder) and not folder.exists():
+        raise LabsimError([Diagnostic(str(folder), f"is a symbolic link to '{os.readlink(folder)}', which "
+                                      "does not exist; labsim new writes no file through a link")])
     if folder.exists() and not folder.is_dir():
         raise LabsimError([Diagnostic(str(folder), "is a file, not a folder")])
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        for source, target in zip(sources, targets):
-            shutil.copyfile(source, target)
-        schema = LABS_DIR / SCHEMA_FILE  # what the lab's first line points editors at
-        if schema.exists() and not (folder / SCHEMA_FILE).exists():
-            shutil.copyfile(schema, folder / SCHEMA_FILE)
-            targets.append(folder / SCHEMA_FILE)
-    except OSError as e:
-        raise LabsimError([Diagnostic(str(folder), f"cannot write there: {e.strerror}")]) from None
-    return targets

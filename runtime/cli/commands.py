@@ -94,10 +94,12 @@ def cmd_run(args: argparse.Namespace) -> int:
                                   budgets=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         print_diagnostics(list(behaviour.program.warnings))
+    # every input of the run: the behaviour, its world file and the trace it replays
+    inputs = [Path(args.file), Path(behaviour.program.world.source), *([Path(args.replay)] if args.replay else [])]
     if args.trace:
-        _check_writable(args.trace, [Path(args.file), Path(behaviour.program.world.source)])
+        _check_writable(args.trace, inputs)
     if args.json not in (None, "-"):
-        check_json_output(args.json, [Path(args.file), Path(behaviour.program.world.source)])
+        check_json_output(args.json, inputs)
     replay = None
     if args.replay:
         try:

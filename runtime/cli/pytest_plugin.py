@@ -5,18 +5,21 @@ It sits beside ``labsim test`` at the end of the pipeline and reuses its compari
 text. ``pytest behaviours/`` collects each behaviour file that has a golden trace beside it as
 one item named after the file; a behaviour file named on the command line is collected even
 without one, and then fails as ``labsim test`` does. ``pytest --update-goldens`` records the
-goldens instead of comparing. Items are independent, so ``pytest -n auto`` (pytest-xdist)
-runs them in parallel.
+goldens instead of comparing. A behaviour file or golden found in a folder that is a link
+out of it is a collection error, as ``labsim test`` refuses it (docs/security.md). Items are
+independent, so ``pytest -n auto`` (pytest-xdist) runs them in parallel.
 """
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
 from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import ALLOW_ENV, policy_problem
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
 from labsim.runtime.golden import check_golden, record_golden
 
@@ -34,11 +37,28 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
     if file_path.suffix not in YAML_SUFFIXES:
         return None
-    if not golden_path(file_path).exists() and not _named(file_path, parent.config):
+    named = _named(file_path, parent.config)
+    if not golden_path(file_path).exists() and not named:
         return None
+    # a file found in a folder is that folder's, as for labsim test: a link out of it is not
+    # followed, not even to see what kind of file it is (docs/security.md)
+    refused = "" if named else links_out(file_path)
+    if refused:
+        return BehaviourFile.from_parent(parent, path=file_path, refused=refused)
     if file_kind(file_path) != "behaviour":  # world files and other YAML are not collected
         return None
     return BehaviourFile.from_parent(parent, path=file_path)
+
+
+def links_out(path: Path) -> str:
+    """Why a behaviour file found in a folder, or the golden beside it, may not be read there
+    (a symbolic link that leads out of the folder, ``policy_problem``), or ''."""
+    for f in (path, golden_path(path)):
+        refused = os.path.lexists(f) and policy_problem(f.name, f.parent)
+        if refused:
+            return (f"{f}: {refused}; pytest reads files found in a folder only inside it, as labsim "
+                    f"test does (or in a folder {ALLOW_ENV} allows)")
+    return ""
 
 
 def _named(path: Path, config: pytest.Config) -> bool:
@@ -57,7 +77,13 @@ class GoldenMismatch(Exception):
 
 
 class BehaviourFile(pytest.File):
+    def __init__(self, *args: Any, refused: str = "", **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.refused = refused  # why the file may not be read (a link out of its folder), or ''
+
     def collect(self) -> Iterator[GoldenItem]:
+        if self.refused:  # a collection error: pytest shows the message alone and exits with 2
+            raise self.CollectError(self.refused)
         yield GoldenItem.from_parent(self, name=self.path.stem)
 
 

@@ -115,6 +115,7 @@ def run_plot(args: argparse.Namespace) -> int:
         trace = read_trace(args.trace)
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
+        check_output(out, drawn_from(trace))  # now that the trace says which files it names
         if trace.cut_short():
             sys.stderr.write(f"{args.trace}: warning: {trace.cut_short()}; drawn as far as it goes\n")
         if kind != "chart":
@@ -179,6 +180,17 @@ def _what_is_missing(trace: Trace, kind: str, names: list[str], chosen: bool) ->
         world, _ = trace_world(trace)
         parts = mechanism_without(trace, world.mechanism) if world is not None and world.mechanism else []
     return missing_note(trace, parts) if parts else ""
+
+
+def drawn_from(trace: Trace) -> list[Path]:
+    """Every file a picture of the trace reads, which ``-o`` must not overwrite: the trace, the
+    world file and the behaviour file its header names (as far as the access policy reads them)."""
+    from labsim.runtime.pictures.trace_behaviour import behaviour_file
+
+    world, _ = trace_world(trace)
+    behaviour = behaviour_file(trace)
+    return [Path(trace.path), *([Path(world.source)] if world is not None and world.source else []),
+            *([behaviour] if behaviour is not None else [])]
 
 
 FAR_M = 1000.0  # a pose this far past the world's bounds (or from 0 without a world) is no robot's

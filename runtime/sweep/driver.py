@@ -23,6 +23,7 @@ from typing import Any, Protocol
 from labsim.foundation import options
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+from labsim.foundation.files import check_output
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.summary_json import check_json_output
 from labsim.runtime.sweep.grid import (
@@ -124,6 +125,19 @@ def check_options(o: SweepOptions) -> tuple[list[Setting], tuple[int, ...] | Non
     return settings, seeds
 
 
+def check_outputs(o: SweepOptions, info: dict[str, FileInfo], tasks: list[Task]) -> None:
+    """No output over an input of the sweep (a behaviour, or the world file one names), by the
+    check ``labsim run`` makes, once the files are compiled and their worlds known: a run's
+    trace in ``--traces`` too."""
+    inputs = [Path(f) for f in o.files] + [Path(i.world_file) for i in info.values() if i.world_file]
+    for option, path in (("-o", o.output), ("--json", o.json), ("--plot", o.plot)):
+        if path is not None and path != "-":
+            check_output(path, inputs, option)
+    for task in tasks:
+        if task.trace is not None:
+            check_output(task.trace, inputs, "--traces")
+
+
 def _executor(o: SweepOptions, info: dict[str, FileInfo]) -> Executor:
     if o.executor == "dask":
         from labsim.runtime.sweep.dask_pool import DaskPool
@@ -145,9 +159,9 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
             if known and m not in known:
                 raise _fail(f"--maximize {m}", f"no metric '{m}'", "metrics: " + ", ".join(sorted(known)))
     tasks = grid(o.files, settings, seeds, info, o.traces, o.budgets)
+    check_outputs(o, info, tasks)
     executor = _executor(o, info)
-    show = o.progress if o.progress is not None else sys.stderr.isatty()
-    bar = SweepProgress(len(tasks), show=show)
+    bar = SweepProgress(len(tasks), show=o.progress if o.progress is not None else sys.stderr.isatty())
     rows: list[Row] = []
     interrupted = False
     try:

@@ -41,6 +41,10 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
     session = _session(path, overrides, seed, backend, backend_options, trace, warn)
     broken = False
     if isinstance(session, LiveSession) and not session.load():
+        refused = [d for d in session.problems if d.path.startswith("--trace ")]
+        if refused:  # an output over an input is the command line's mistake: no page, exit 2
+            session.close()
+            raise LabsimError(refused)
         report(session.problems)
         broken = True
     try:

@@ -18,6 +18,7 @@ from typing import Any
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.files import check_output
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.frames import (
     Json,
@@ -65,6 +66,8 @@ class LiveSession(Session):
         wanted = self.overrides if overrides is None else overrides
         try:
             behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
+            if self.trace_path:  # the world may have changed with the file: never write over it
+                check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
         except LabsimError as e:
             self.refused = list(e.diagnostics)
             if self.run is None:
