@@ -188,7 +188,7 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
     Function("centroid", (I,), Type.CENTROID, "labsim.dsl.images:centroid",
              "centroid(img): .x, .y of the set pixels (from the left and the top), .found"),
     # controllers
-    Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:pid_step",
+    Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:make_pid",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site; "
              "a tick with an inf or nan error repeats the last finite output and leaves the state alone",
              optional=1, stateful=True, names=("error", "kp", "ki", "kd", "limit")),

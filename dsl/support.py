@@ -123,38 +123,18 @@ def namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str
     return ns
 
 
-def pid_step(state: list[float], e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
-    """One tick of the lab's discrete PID: integral += e, derivative = e - previous e.
-
-    ``state`` is [integral, previous error], starting at [0, 0]. With ``limit`` the output is
-    clamped to [-limit, limit], and the integral does not grow while the output is saturated
-    in the direction the error pushes (clamping anti-windup). An output or integral that is
-    not finite (an overflow, or an inf or nan given) leaves ``state`` as it was and gives nan.
-    """
-    integral = state[0] + e
-    out = kp * e + ki * integral + kd * (e - state[1])
-    if limit is not None and abs(out) > limit:
-        if (out > 0) == (e > 0):
-            integral = state[0]  # do not wind up further
-            out = kp * e + ki * integral + kd * (e - state[1])
-        out = max(-limit, min(limit, out))
-    if out * 0.0 + integral * 0.0 != 0.0:  # inf * 0 and nan * 0 are nan: one test for both, no lookups
-        return math.nan  # the state stays finite: the next finite tick works as if this one had not been
-    state[0] = integral
-    state[1] = e
-    return out
-
-
 PID_NOT_FINITE = ("pid() of an inf or nan error or gain (the result is its last finite output; its state does "
                   "not change)")
 PID_OVERFLOW = "pid(): overflow (the result is its last finite output; its state does not change)"
 
 
-def _pid(report: Callable[[str], None]) -> Callable[..., float]:
-    """One call site's controller (docs/language.md, "PID"): a tick with an inf or nan error or
-    gain changes nothing and gives the last finite output (0 before any), with a warning.
-
-    ``pid_step`` written out in the closure: a call less on every tick of a run."""
+def make_pid(report: Callable[[str], None]) -> Callable[..., float]:
+    """One call site's controller (docs/language.md, "PID"), the lab's discrete PID: integral +=
+    error, derivative = error - previous error. With ``limit`` the output is clamped to
+    [-limit, limit], and the integral does not grow while the output is saturated in the
+    direction the error pushes (clamping anti-windup). A tick with an inf or nan error or gain,
+    or one that overflows, changes nothing and gives the last finite output (0 before any), with
+    a warning through ``report``."""
     state = [0.0, 0.0, 0.0]  # this robot's integral, previous error and last finite output at this site
 
     def pid(e: float, kp: float, ki: float, kd: float, limit: float | None = None) -> float:
@@ -200,7 +180,7 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     if kind in ("[]", "[]?"):
         return _pick(report, math.nan if kind == "[]" else False)
     if kind == "pid":
-        return _pid(report)
+        return make_pid(report)
     name, _, since = kind.partition("@")
     if name in FUNCTIONS and FUNCTIONS[name].stateful:
         factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]

@@ -7,7 +7,7 @@ from fake_backend import FakeBackend
 
 from labsim.backends.scene.models import PIONEER_P3DX
 from labsim.dsl import images
-from labsim.dsl.support import pid_step
+from labsim.dsl.support import make_pid
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.report import format_summary
 from labsim.runtime.run import compile_behaviour
@@ -80,11 +80,10 @@ def test_pid_matches_a_hand_computation(write) -> None:
 
 
 def test_pid_limit_clamps_and_stops_winding_up() -> None:
-    state = [0.0, 0.0]
-    outs = [pid_step(state, 10.0, 1.0, 1.0, 0.0, 5.0) for _ in range(5)]
+    pid = make_pid(lambda what: None)
+    outs = [pid(10.0, 1.0, 1.0, 0.0, 5.0) for _ in range(5)]
     assert outs == [5.0] * 5
-    assert state[0] == 0.0  # the integral did not grow while saturated
-    assert pid_step(state, -1.0, 1.0, 1.0, 0.0, 5.0) == -2.0
+    assert pid(-1.0, 1.0, 1.0, 0.0, 5.0) == -2.0  # -1 - 1: the integral did not grow while saturated
 
 
 def test_pid_state_is_per_robot(write) -> None:
