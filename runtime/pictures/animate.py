@@ -8,14 +8,18 @@ from old to recent, the robot itself with its heading, or a mechanism in that ti
 state and rule, the slider labels, and a top view of the slew when the arm turned.
 
 Long runs are sampled, not refused: by default a frame shows the tick at its time and the
-playback speeds up so that the animation lasts at most ``MAX_SECONDS``. Frames are encoded
-with imageio: MP4 through its ffmpeg plugin (H.264, yuv420p, which browsers play), GIF
-through Pillow. Frames are made one at a time, so memory stays flat for an MP4.
+playback speeds up so that the animation lasts at most ``MAX_SECONDS``. Each frame draws only
+what changed since the one before (the paths through ``labsim.runtime.pictures.trail``), so a
+frame costs the same however long the run, and goes to the file as soon as it is made
+(``labsim.runtime.pictures.movie``: MP4 through ffmpeg, GIF with one palette), so memory stays
+flat however many frames there are.
 """
 from __future__ import annotations
 
+import contextlib
+import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Generator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,51 +28,68 @@ import numpy as np
 
 from labsim.foundation.files import Output
 from labsim.runtime.pictures.mechanism_pose import draw_pose, mechanism_poses, slew_inset
+from labsim.runtime.pictures.movie import GifWriter, MovieWriter, Mp4Writer
 from labsim.runtime.pictures.paint import AA, INK, ONE, PAPER, SHIFT, Painter, darker, robot_colour
 from labsim.runtime.pictures.plot import render_figure
+from labsim.runtime.pictures.trail import Box, TrailPoints, Trails
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MAX_SECONDS = 30.0  # the default longest animation: a run longer than this plays faster
 FADE_S = 0.15  # the share of the run shown at full strength behind a robot; older path is pale
 MAX_FRAMES = 3000
+STEP_PX = 2.0  # an animation's path keeps a pose every this many pixels along it
 
 
-@dataclass
+@dataclass(frozen=True)
 class Track:
-    """One robot's rows: times, poses, states and rules, and the trace rows they came from."""
+    """One robot's rows: times and poses, and the trace rows they came from."""
 
     name: str
     colour: tuple[int, int, int]
     t: np.ndarray
     xy: np.ndarray  # (n, 2) metres
     heading: np.ndarray
-    caption: list[str]  # "state (rule)" per row
     rows: np.ndarray  # indices into trace.rows
+
+
+def _numbers(trace: Trace, name: str) -> np.ndarray:
+    """A column as floats, nan where a cell is not a number (or the column is missing)."""
+    if name not in trace.columns:
+        return np.full(len(trace.rows), math.nan)
+    cells = trace.column(name)
+    try:
+        return np.array(cells, dtype=float)
+    except ValueError:
+        return np.array([_number(c) for c in cells], dtype=float)
+
+
+def _number(cell: str) -> float:
+    try:
+        return float(cell)
+    except ValueError:
+        return math.nan
 
 
 def _tracks(trace: Trace) -> list[Track]:
     for needed in ("time", "robot", "x", "y"):
         if needed not in trace.columns:
             raise TraceFormatError(f"{trace.path}: the trace has no '{needed}' column")
-    col = {c: i for i, c in enumerate(trace.columns)}
-
-    def num(row: list[str], c: str) -> float:
-        try:
-            return float(row[col[c]]) if c in col else math.nan
-        except ValueError:
-            return math.nan
-
-    names = list(dict.fromkeys(r[col["robot"]] for r in trace.rows))
+    t, x, y, heading = (_numbers(trace, c) for c in ("time", "x", "y", "heading"))
+    robot = np.array(trace.column("robot"), dtype=object)
     out = []
-    for k, name in enumerate(names):
-        idx = np.array([i for i, r in enumerate(trace.rows) if r[col["robot"]] == name])
-        rows = [trace.rows[i] for i in idx]
-        caption = [f"{r[col['state']]} ({r[col['rule']]})" if "state" in col and "rule" in col and r[col["state"]]
-                   else "" for r in rows]
-        out.append(Track(name, robot_colour(k), np.array([num(r, "time") for r in rows]),
-                         np.array([(num(r, "x"), num(r, "y")) for r in rows]),
-                         np.array([num(r, "heading") for r in rows]), caption, idx))
+    for k, name in enumerate(dict.fromkeys(robot)):
+        idx = np.flatnonzero(robot == name)
+        out.append(Track(str(name), robot_colour(k), t[idx], np.column_stack((x[idx], y[idx])), heading[idx], idx))
     return out
+
+
+def _caption(trace: Trace, tr: Track, i: int) -> str:
+    """"state (rule)" of the robot's i-th row, or '' when the trace has no state there."""
+    if "state" not in trace.columns or "rule" not in trace.columns:
+        return ""
+    row = trace.rows[int(tr.rows[i])]
+    state = row[trace.columns.index("state")]
+    return f"{state} ({row[trace.columns.index('rule')]})" if state else ""
 
 
 def frame_times(t0: float, t1: float, fps: float, speed: float) -> np.ndarray:
@@ -85,8 +106,6 @@ def default_speed(duration_s: float) -> float:
 def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None = None,
             speed: float | None = None) -> int:
     """Write the animation to ``out`` (.gif or .mp4); returns the number of frames."""
-    import imageio.v2 as imageio
-
     gif = out.suffix.lower() == ".gif"
     fps = fps or (10.0 if gif else 20.0)
     tracks = _tracks(trace)
@@ -95,28 +114,51 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
     times = frame_times(t0, t1, fps, speed or default_speed(t1 - t0))
     # written beside the target under a name with the same suffix, renamed into place when whole
     target = Output(out, partial=out.with_name(f".{out.stem}.partial{out.suffix}"))
-    target.file.close()  # the writer opens it by name
-    if gif:
-        writer = imageio.get_writer(target.partial, mode="I", duration=1000 / fps, loop=0)
-    else:
-        writer = imageio.get_writer(target.partial, format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    pixelformat="yuv420p", macro_block_size=16, ffmpeg_log_level="error")
+    made = frames(trace, tracks, times, width_px)
+    writer: MovieWriter | None = None
     n = 0
     try:
-        for frame in frames(trace, tracks, times, width_px):
-            writer.append_data(frame)
+        if gif:
+            # the palette from what the frames show: the backdrop and the run's last frame
+            first, last = next(made), frame_at(trace, tracks, times, width_px)
+            writer = GifWriter(target.file, np.vstack((first, last)), fps)
+        else:
+            target.file.close()  # ffmpeg opens it by name
+            first = next(made)
+            writer = Mp4Writer(target.partial, (first.shape[1], first.shape[0]), fps)
+        for frame in itertools.chain([first], made):
+            writer.append(frame)
             n += 1
         writer.close()
     except BaseException:
-        writer.close()
+        made.close()
+        if writer is not None:
+            with contextlib.suppress(Exception):
+                writer.close()
         target.discard()
         raise
     target.commit()
     return n
 
 
-def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) -> Iterator[np.ndarray]:
-    """RGB frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes)."""
+def frame_at(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) -> np.ndarray:
+    """The last of these frames alone (its paths drawn in one step)."""
+    made = frames(trace, tracks, times[-1:], width_px, fade_s=_fade(times))
+    try:
+        return next(made)
+    finally:
+        made.close()
+
+
+def _fade(times: np.ndarray) -> float:
+    return FADE_S * max(float(times[-1] - times[0]), 1e-9)
+
+
+def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
+           fade_s: float | None = None) -> Generator[np.ndarray, None, None]:
+    """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
+    a path is pale where older than ``fade_s`` (by default a share of the frames' span)."""
+    # one function for one frame's layers: the backdrop, the paths, the robots, the caption
     world, note = trace_world(trace)
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
     P = Painter(width_px)
@@ -137,23 +179,24 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) 
         out[:, 1] = fig.top + (fig.ymax - xy[:, 1]) / fig.m_per_px
         return out
 
-    fade = FADE_S * max(float(times[-1] - times[0]), 1e-9)
+    fade = _fade(times) if fade_s is None else fade_s
     top = fig.image.shape[0]
+    trails = Trails(base, [_points(tr, px) for tr in tracks], max(2, round(2 * P.s)))
     for t in times:
-        img = base.copy()
         at = [max(0, int(np.searchsorted(tr.t, t, side="right")) - 1) for tr in tracks]
-        for tr, i in zip(tracks, at):
-            _path(img, P, px, tr, i, t - fade)
+        img = trails.advance(at, t - fade)
         if mech is not None and poses is not None:
+            img = img.copy()  # a mechanism's bodies reach anywhere: drawn on a copy
             draw_pose(img, mech, poses, int(tracks[0].rows[at[0]]), px, P, fixed=False)
         else:
             for tr, i in zip(tracks, at):
-                _robot(img, P, px, tr, i, fig.m_per_px)
+                trails.drawn_over(_robot(img, P, px, tr, i, fig.m_per_px))
+        trails.drawn_over((0, top, W, H))  # the caption
         y = top + round(4 * P.s)
         P.put(img, f"t = {t:7.2f} s", (P.pad, y + P.line_h // 2), P.text, INK, thick=max(1, round(1.6 * P.s)))
         row = trace.rows[int(tracks[0].rows[at[0]])]
         texts = ([f"{row[trace.columns.index(c)]}" for c in labels] if mech is not None
-                 else [f"{tr.name}: {tr.caption[i]}" for tr, i in zip(tracks, at)])
+                 else [f"{tr.name}: {_caption(trace, tr, i)}" for tr, i in zip(tracks, at)])
         for k, text in enumerate(texts):
             colour = tracks[k].colour if mech is None else INK
             P.put(img, text, (P.pad, y + P.line_h * (k + 1) + P.line_h // 2), P.text, darker(colour, 0.8),
@@ -161,31 +204,32 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) 
         if inset and mech is not None and poses is not None:
             slew_inset(img, P, mech, trace, (W - inset - P.pad, top + P.pad // 2, inset),
                        i=int(tracks[0].rows[at[0]]), poses=poses)
-        yield cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+        yield img
 
 
-def _path(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, recent_from: float) -> None:
-    """The path up to row i: pale where it is old, the robot's colour for the recent part."""
+def _points(tr: Track, px: object) -> TrailPoints:
+    """A track's finite poses in fixed-point pixels, for its trail: one every ``STEP_PX`` along
+    the path (the rest lie on the line between them to a tenth of a pixel, and each costs a
+    segment to draw)."""
     assert callable(px)
-    xy = tr.xy[: i + 1]
-    ok = np.isfinite(xy).all(axis=1)
-    if ok.sum() < 2:
-        return
-    pts = np.round(px(xy[ok]) * ONE).astype(np.int32).reshape(-1, 1, 2)
-    split = int(np.searchsorted(tr.t[: i + 1][ok], recent_from))
-    pale = tuple(int(c + (255 - c) * 0.6) for c in tr.colour)
-    width = max(2, round(2 * P.s))
-    if split > 1:
-        cv2.polylines(img, [pts[: split + 1]], False, pale, width, AA, SHIFT)
-    if len(pts) - split > 1:
-        cv2.polylines(img, [pts[max(0, split):]], False, tr.colour, width, AA, SHIFT)
+    ok = np.flatnonzero(np.isfinite(tr.xy).all(axis=1))
+    at = px(tr.xy[ok]) if len(ok) else np.zeros((0, 2))
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(at, axis=0).T)))) if len(ok) else np.zeros(0)
+    step = np.floor(along / STEP_PX)
+    keep = np.diff(step, prepend=-1.0) > 0
+    if len(keep):
+        keep[-1] = True
+    kept = np.zeros(len(tr.t), bool)
+    kept[ok[keep]] = True
+    return TrailPoints(tr.colour, np.round(at[keep] * ONE).astype(np.int32), tr.t[ok][keep], np.cumsum(kept))
 
 
-def _robot(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, mpp: float) -> None:
-    """The robot as a disc of its size (never under a few pixels) with a line for its heading."""
+def _robot(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, mpp: float) -> Box:
+    """The robot as a disc of its size (never under a few pixels) with a line for its heading;
+    returns the box it was drawn in."""
     assert callable(px)
     if not np.isfinite(tr.xy[i]).all():
-        return
+        return (0, 0, 0, 0)
     c = px(tr.xy[i : i + 1])[0]
     r = max(0.22 / mpp, 5 * P.s)
     centre = tuple(np.round(c * ONE).astype(int))
@@ -196,3 +240,7 @@ def _robot(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, mpp: floa
         tip = c + (r + 10 * P.s) * np.array([math.cos(h), -math.sin(h)])
         cv2.line(img, centre, tuple(np.round(tip * ONE).astype(int)), darker(tr.colour, 0.5),
                  max(2, round(2 * P.s)), AA, SHIFT)
+    reach = r + 10 * P.s + 2 * P.s + 3  # the heading line's tip, its width and its antialiased edge
+    if not (abs(c) < 1e6).all():
+        return (0, 0, img.shape[1], img.shape[0])
+    return (int(c[0] - reach), int(c[1] - reach), int(c[0] + reach) + 2, int(c[1] + reach) + 2)
