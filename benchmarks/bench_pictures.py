@@ -1,34 +1,49 @@
-"""How long `labsim plot`'s other pictures take: the road lab's 30-second MP4, the wall lab's
-25-minute GIF, a signals PNG of the wall lab's 30,000-row trace, and the road lab's map with its
-road panel and a camera strip.
+"""How long `labsim plot`'s pictures take, as a user meets them: the road lab's 30-second MP4, the
+wall lab's 25-minute GIF, the wall lab's MP4 at 10 and at 60 simulated minutes (the same 601
+frames: its time should not grow with the run), a signals PNG of the wall lab's 30,000-row
+trace, and the road lab's map with its road panel and a camera strip.
 
     python benchmarks/bench_pictures.py [--repeat 3]
 
-Prints the median CPU time of each (ffmpeg's included), from the trace file to the written file, through the same
-command as a user types (goal for the signals PNG: < 2 s).
+Each picture is made by a new `python -m labsim plot` process, from the trace file to the written
+file, the cases in a fresh random order each round. Prints for each the median wall time, the
+median CPU time (user + system, ffmpeg's included), and the peak resident memory of the process
+or its ffmpeg (the largest over the rounds), with the load average before and after; then the
+60-minute MP4's time over the 10-minute one's, the median of the per-round ratios. Goals (issue
+30): GIF <= 4 s wall and <= 200 MiB; each MP4 <= 2.5 s wall, 60 over 10 minutes <= 1.3; signals
+PNG < 2 s.
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import statistics
+import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare import children_cpu, machine
-
-from labsim.runtime.cli.main import main as labsim
+from compare import machine
+from timed_child import labsim, load, rounds
 
 LABS = Path(__file__).resolve().parent.parent / "behaviours"
-CASES = [("road lab, 30 s, MP4", "road_follow.golden.csv", "road.mp4", []),
-         ("wall lab, 25 min, GIF", "wall_follow.golden.csv", "wall.gif", []),
-         ("wall lab, 30,000 rows, signals PNG", "wall_follow.golden.csv", "signals.png", ["--signals"]),
-         ("road lab, map with road panel and camera strip", "road_follow.golden.csv", "road.png",
-          ["--camera", "pioneer[0]"])]
+
+
+def cases(d: Path) -> dict[str, list[str]]:
+    """The commands by name; the wall lab's 10- and 60-minute traces are made first, in ``d``."""
+    for minutes in (10, 60):
+        subprocess.run(labsim("run", str(LABS / "wall_follow.yaml"), "--set", f"minutes={minutes}", "--quiet",
+                              "--trace", str(d / f"wall{minutes}.csv")), check=True)
+    wall, road = str(LABS / "wall_follow.golden.csv"), str(LABS / "road_follow.golden.csv")
+    return {
+        "road lab, 30 s, MP4": labsim("plot", road, "-o", str(d / "road.mp4")),
+        "wall lab, 25 min, GIF": labsim("plot", wall, "-o", str(d / "wall.gif")),
+        "wall lab, 10 min, MP4": labsim("plot", str(d / "wall10.csv"), "-o", str(d / "wall10.mp4")),
+        "wall lab, 60 min, MP4": labsim("plot", str(d / "wall60.csv"), "-o", str(d / "wall60.mp4")),
+        "wall lab, 30,000 rows, signals PNG": labsim("plot", wall, "--signals", "-o", str(d / "signals.png")),
+        "road lab, map, road panel, camera strip": labsim("plot", road, "--camera", "pioneer[0]",
+                                                          "-o", str(d / "road.png")),
+    }
 
 
 def main() -> None:
@@ -37,15 +52,19 @@ def main() -> None:
     args = parser.parse_args()
     print(machine())
     with tempfile.TemporaryDirectory() as d:
-        for what, trace, out, extra in CASES:
-            times = []
-            for _ in range(args.repeat):
-                start = time.process_time() + children_cpu()  # the MP4's ffmpeg is a child
-                with contextlib.redirect_stdout(io.StringIO()):
-                    code = labsim(["plot", str(LABS / trace), "-o", str(Path(d) / out), *extra])
-                times.append(time.process_time() + children_cpu() - start)
-                assert code == 0, what
-            print(f"{what}: median {statistics.median(times):.2f} s CPU over {args.repeat} runs")
+        commands = cases(Path(d))
+        before = load()
+        times = rounds(commands, args.repeat)
+    print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
+    for name, runs in times.items():
+        wall = statistics.median(t.wall_s for t in runs)
+        cpu = statistics.median(t.cpu_s for t in runs)
+        peak = max(t.peak_mib for t in runs)
+        print(f"  {name}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak {peak:.0f} MiB")
+    long, short = times["wall lab, 60 min, MP4"], times["wall lab, 10 min, MP4"]
+    wall_ratio = statistics.median(a.wall_s / b.wall_s for a, b in zip(long, short))
+    cpu_ratio = statistics.median(a.cpu_s / b.cpu_s for a, b in zip(long, short))
+    print(f"  MP4, 60 over 10 minutes: {wall_ratio:.2f}x wall, {cpu_ratio:.2f}x CPU (goal <= 1.3x)")
 
 
 if __name__ == "__main__":

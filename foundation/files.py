@@ -100,6 +100,21 @@ def read_input(path: str | Path, kind: str = "behaviour", max_bytes: int | None 
         return _read_all(fd, path, kind, limit)
 
 
+def read_chunks(path: str | Path, kind: str = "trace", size: int = 4 * MIB) -> Iterator[bytes]:
+    """A file's bytes a chunk at a time, checked as ``read_input`` checks it (a regular file, at
+    most ``MAX_BYTES[kind]``): for a reader that keeps less than the whole file."""
+    limit = MAX_BYTES.get(kind, DEFAULT_MAX_BYTES)
+    with _opened(path, kind) as (fd, info):
+        if info.st_size > limit:
+            raise _error(path, f"file is {info.st_size / 1e6:.1f} MB; {kind} files are limited to {_size(limit)}")
+        total = 0
+        while chunk := os.read(fd, min(limit + 1 - total, size)):
+            total += len(chunk)
+            if total > limit:
+                raise _error(path, f"grew past {_size(limit)} while it was read; {kind} files are limited to that")
+            yield chunk
+
+
 def read_head(path: str | Path, size: int, kind: str = "labsim") -> bytes:
     """A file's first ``size`` bytes at most (what it starts with, to tell what kind of file it
     is), or LabsimError: a regular file only, as ``read_input``, whatever its length."""

@@ -21,6 +21,7 @@ import json
 import math
 import os
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
@@ -192,8 +193,31 @@ def read_trace(path: str | Path) -> Trace:
     except UnicodeDecodeError as e:
         raise TraceFormatError(f"{path}: not UTF-8 text (byte {e.start}): not a labsim trace", str(path)) from None
     first, _, rest = text.partition("\n")
+    header = parse_header(path, first, text[:4096])
+    rest, footer = footer_of(rest)
+    reader = csv.reader(io.StringIO(rest))
+    columns = read_columns(path, reader)
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    try:
+        for r in reader:
+            if r:
+                rows.append(r)
+                lines.append(reader.line_num + 1)  # +1: the header line is not in ``rest``
+    except csv.Error as e:  # a cell past the csv module's limit (131,072 characters), a NUL
+        raise _bad(path, reader.line_num + 1, f"damaged row: {e}") from None
+    if rows and len(rows[-1]) < len(columns) and not text.endswith("\n"):
+        rows.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
+        lines.pop()
+    check_rows(path, columns, rows, lines)
+    return Trace(str(path), header, columns, rows, footer, lines)
+
+
+def parse_header(path: str | Path, first: str, start: str) -> dict:
+    """The trace's header from its first line (``start``: the file's first characters, to say
+    what else it is when it is no trace)."""
     if not first.startswith(MAGIC):
-        what = kind_of_text(text[:4096], str(path))
+        what = kind_of_text(start, str(path))
         hint = ""
         if what == "behaviour":  # labsim plot wall.yaml: the trace is what a run of it writes
             hint = (f": it is a behaviour file; run it with --trace first (labsim run {path} --trace run.csv), "
@@ -213,28 +237,17 @@ def read_trace(path: str | Path) -> Trace:
                       ("robots", dict), ("metrics", dict), ("params", dict)):
         if key in header and not isinstance(header[key], kind):
             raise _bad(path, 1, f"damaged trace header: '{key}' should be a {'mapping' if kind is dict else 'text'}")
-    rest, footer = _footer(rest)
-    reader = csv.reader(io.StringIO(rest))
+    return header
+
+
+def read_columns(path: str | Path, reader: Iterator[list[str]]) -> list[str]:
+    """The column line, the first the reader gives."""
     try:
-        columns = next(reader)
+        return next(reader)
     except csv.Error as e:
         raise _bad(path, 2, f"damaged column line: {e}") from None
     except StopIteration:
         raise TraceFormatError(f"{path}: the trace has no column line", str(path)) from None
-    rows: list[list[str]] = []
-    lines: list[int] = []
-    try:
-        for r in reader:
-            if r:
-                rows.append(r)
-                lines.append(reader.line_num + 1)  # +1: the header line is not in ``rest``
-    except csv.Error as e:  # a cell past the csv module's limit (131,072 characters), a NUL
-        raise _bad(path, reader.line_num + 1, f"damaged row: {e}") from None
-    if rows and len(rows[-1]) < len(columns) and not text.endswith("\n"):
-        rows.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
-        lines.pop()
-    _check_rows(path, columns, rows, lines)
-    return Trace(str(path), header, columns, rows, footer, lines)
 
 
 def trace_world(trace: Trace) -> tuple[World | None, str]:
@@ -268,7 +281,7 @@ def trace_world(trace: Trace) -> tuple[World | None, str]:
     return None, f"{what} not found{broken}: drawn without walls"
 
 
-def _footer(rest: str) -> tuple[str, dict | None]:
+def footer_of(rest: str) -> tuple[str, dict | None]:
     """The rows without the ``# end`` line, and that line's values (None when there is none)."""
     body = rest.rstrip("\n")
     head, _, last = body.rpartition("\n")
@@ -281,7 +294,7 @@ def _footer(rest: str) -> tuple[str, dict | None]:
     return head + "\n", footer if isinstance(footer, dict) else None
 
 
-def _check_rows(path: str | Path, columns: list[str], rows: list[list[str]], lines: list[int]) -> None:
+def check_rows(path: str | Path, columns: list[str], rows: list[list[str]], lines: list[int]) -> None:
     """Every row has every field; ticks are whole numbers and times and poses numbers."""
     whole = [(columns.index(c), c) for c in _WHOLE if c in columns]
     numbers = [(columns.index(c), c) for c in _NUMBER if c in columns]

@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_OK
 from labsim.foundation.files import check_output, write_output
-from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
+from labsim.runtime.pictures.trace_sample import read_for_picture
+from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 if TYPE_CHECKING:
     import numpy as np
@@ -112,12 +113,14 @@ def run_plot(args: argparse.Namespace) -> int:
         if value is not None and value < low:
             raise _fail("labsim plot", f"{name} must be at least {low:g} (got {value:g})")
     try:
-        trace = read_trace(args.trace)
+        trace, thinned = read_for_picture(args.trace)  # in bounded memory, whatever its size
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
         check_output(out, drawn_from(trace))  # now that the trace says which files it names
         if trace.cut_short():
             sys.stderr.write(f"{args.trace}: warning: {trace.cut_short()}; drawn as far as it goes\n")
+        if thinned:
+            sys.stderr.write(f"{args.trace}: note: {thinned}\n")
         if kind != "chart":
             _check_in_world(trace)
         trace = _time_window(_with_behaviour(trace, getattr(args, "behaviour", None)), args.t_from, args.t_to)

@@ -48,7 +48,8 @@ from labsim.runtime.pictures.paint import (
     robot_colour,
 )
 from labsim.runtime.pictures.road_panel import draw_road_panel, panel_height
-from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
+from labsim.runtime.pictures.trace_sample import read_for_picture
+from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MIN_WIDTH_PX = 400
 
@@ -382,7 +383,7 @@ def plot_trace(trace_path: str | Path, out_path: str | Path, *, width_px: int = 
     (a missing directory, an extension OpenCV can't encode, ...), both with printable messages.
     """
     out = check_output(out_path)
-    fig = render_figure(read_trace(trace_path), width_px=width_px)
+    fig = render_figure(read_for_picture(str(trace_path))[0], width_px=width_px)
     # imencode + an ordinary write rather than cv2.imwrite: imwrite reports every failure as a
     # bare False, while Python's write says why (permissions, full disk) and takes any path
     ok, data = cv2.imencode(out.suffix.lower(), fig.image)

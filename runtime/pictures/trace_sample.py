@@ -1,0 +1,212 @@
+"""A trace read for a picture in bounded memory: its rows streamed from the file, a long one thinned.
+
+The first step of ``labsim plot`` (``labsim.runtime.pictures.driver``). ``labsim.runtime.trace``'s
+``read_trace`` holds the whole file and every row as text, some sixteen times the file's size: a
+picture of a 1 GiB trace would need about 18 GB. Here the file is read a few megabytes at a time
+(``labsim.foundation.files.read_chunks``), every row is checked as ``read_trace`` checks it, and
+at most about ``MAX_KEPT`` bytes of rows are kept: when the trace holds more, each robot keeps every
+k-th of its rows, its last one, and every row where something happens that a picture marks
+(an event or a slider move, the start of a collision, a new state), up to as many again. A
+picture of a trace that fits (the labs' 25-minute runs hold about a million cells) is drawn from
+every row, as before; a thinned one says so on stderr. Memory is then bounded by ``MAX_KEPT``
+whatever the file's size: within twice that for rows as a run writes them, and past it (a file
+made to defeat the estimate, with long cells on the rows kept) the kept rows' long cells are
+cut short, so that a few times ``MAX_KEPT`` is the worst (docs/pictures.md gives the figures).
+"""
+from __future__ import annotations
+
+import codecs
+import csv
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.files import read_chunks, read_head
+from labsim.runtime.trace import (
+    FOOTER,
+    MAGIC,
+    Trace,
+    TraceFormatError,
+    check_rows,
+    footer_of,
+    parse_header,
+    read_columns,
+)
+
+MAX_KEPT = 128 * 1024 * 1024  # bytes of kept rows as Python holds them (an estimate, ``_cost``)
+CELL_BYTES = 57  # a short str and its place in the row's list
+LONG_CELL = 64  # past twice MAX_KEPT, a kept row's longer cells are cut to this many characters
+BATCH = 20_000  # rows checked at a time
+
+
+@dataclass
+class _Lines:
+    """The file's lines after the header, the footer held back; what the last line was."""
+
+    path: str
+    chunks: Iterator[bytes]
+    header: str = ""
+    footer: str = ""
+    newline_at_end: bool = True
+    _rest: list[str] = field(default_factory=list)
+
+    def first(self) -> str:
+        """The header line (and the file's start, for a message when it is no trace)."""
+        it = self._all()
+        self.header = next(it, "")
+        self._it = it
+        return self.header
+
+    def __iter__(self) -> Iterator[str]:
+        held = ""
+        for line in self._it:
+            if line.startswith(FOOTER):  # the footer, if nothing but blank lines follows it
+                if held:
+                    yield held
+                held = line
+                continue
+            if held and line.strip():
+                yield held
+                held = ""
+            yield line
+        self.footer = held
+
+    def _all(self) -> Iterator[str]:
+        decoder = codecs.getincrementaldecoder("utf-8")()
+        tail = ""
+        done = 0
+        try:
+            for chunk in self.chunks:
+                text = tail + decoder.decode(chunk)
+                done += len(chunk)
+                lines = text.split("\n")
+                tail = lines.pop()
+                for line in lines:
+                    yield line + "\n"
+            tail += decoder.decode(b"", final=True)
+        except UnicodeDecodeError as e:
+            raise TraceFormatError(f"{self.path}: not UTF-8 text (byte {done + e.start}): not a labsim trace",
+                                   self.path) from None
+        self.newline_at_end = not tail
+        if tail:
+            yield tail
+
+
+def count_lines(path: str) -> tuple[int, int]:
+    """The file's lines and bytes, counted without keeping them."""
+    lines = size = 0
+    for chunk in read_chunks(path, "trace"):
+        lines += chunk.count(b"\n")
+        size += len(chunk)
+    return lines + 1, size
+
+
+def read_for_picture(path: str, max_kept: int = MAX_KEPT) -> tuple[Trace, str]:
+    """The trace, thinned to about ``max_kept`` bytes of rows when it holds more, and a note
+    saying how it was thinned ('' when it was not). Errors are ``read_trace``'s."""
+    try:
+        return _read(path, max_kept)
+    except LabsimError as e:
+        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path)) from None
+
+
+def _read(path: str, max_kept: int) -> tuple[Trace, str]:
+    lines = _Lines(path, read_chunks(path, "trace"))
+    first = lines.first()
+    # what else the file is, when it is no trace, is told from its start
+    start = first if first.startswith(MAGIC) else read_head(path, 4096, "trace").decode("utf-8", "replace")
+    header = parse_header(path, first.rstrip("\n"), start)
+    reader = csv.reader(iter(lines))
+    columns = read_columns(path, reader)
+    lines_in, size = count_lines(path)
+    every = max(1, math.ceil((size + max(lines_in - 2, 1) * (len(columns) * CELL_BYTES + 64)) / max_kept))
+    keep = _Keep(columns, every, max_kept)
+    batch: list[list[str]] = []
+    at: list[int] = []
+    try:
+        for r in reader:
+            if r:
+                batch.append(r)
+                at.append(reader.line_num + 1)
+                if len(batch) >= BATCH:
+                    keep.add(path, batch, at)
+                    batch, at = [], []
+    except csv.Error as e:
+        raise TraceFormatError(f"{path}:{reader.line_num + 1}: damaged row: {e}", path, reader.line_num + 1) from None
+    if batch and len(batch[-1]) < len(columns) and not lines.newline_at_end:
+        batch.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
+        at.pop()
+    keep.add(path, batch, at)
+    rows, where = keep.rows()
+    _, footer = footer_of(lines.footer or "\n")
+    trace = Trace(path, header, columns, rows, footer, where)
+    if every == 1:
+        return trace, ""
+    return trace, (f"{keep.seen:,} rows are more than a picture keeps in memory ({max_kept // 2 ** 20} MiB): "
+                   f"drawn from {len(rows):,} of them (one in {every} of each robot's, and every row with an event, "
+                   "a collision or a new state)")
+
+
+class _Keep:
+    """Which rows a thinned trace keeps, decided row by row, robot by robot."""
+
+    def __init__(self, columns: list[str], every: int, max_kept: int):
+        self.columns, self.every, self.max_kept = columns, every, max_kept
+        self.extra = max_kept  # bytes the rows kept for what happens on them may take
+        self.bytes = 0
+        self.index = {c: columns.index(c) for c in ("robot", "events", "collided", "state") if c in columns}
+        self.count: dict[str, int] = {}
+        self.last: dict[str, tuple[str, str]] = {}  # robot -> (collided, state) of its previous row
+        self.pending: dict[str, tuple[int, list[str]]] = {}  # robot -> its latest row not kept
+        self.kept: list[list[str]] = []
+        self.lines: list[int] = []
+        self.seen = 0
+
+    def add(self, path: str, batch: list[list[str]], at: list[int]) -> None:
+        check_rows(path, self.columns, batch, at)
+        for row, line in zip(batch, at):
+            self.seen += 1
+            if self.every == 1:
+                self.kept.append(row)
+                self.lines.append(line)
+                continue
+            robot = row[self.index["robot"]] if "robot" in self.index else ""
+            j = self.count.get(robot, 0)
+            self.count[robot] = j + 1
+            if j % self.every == 0 or (self.extra > 0 and self._marked(robot, row)):
+                self.bytes += _cost(row)
+                if self.bytes > 2 * self.max_kept:
+                    row = [c[:LONG_CELL] for c in row]
+                self.kept.append(row)
+                self.lines.append(line)
+                self.pending.pop(robot, None)
+            else:
+                self.pending[robot] = (line, row)
+            if "collided" in self.index or "state" in self.index:
+                self.last[robot] = (self._cell(row, "collided"), self._cell(row, "state"))
+
+    def _cell(self, row: list[str], name: str) -> str:
+        return row[self.index[name]] if name in self.index else ""
+
+    def _marked(self, robot: str, row: list[str]) -> bool:
+        """Something a picture marks happens on this row: an event, a collision's start, a new state."""
+        before = self.last.get(robot, ("0", ""))
+        hit = self._cell(row, "collided") not in ("", "0") and before[0] in ("", "0")
+        marked = bool(self._cell(row, "events")) or hit or self._cell(row, "state") != before[1]
+        if marked:
+            self.extra -= _cost(row)
+        return marked
+
+    def rows(self) -> tuple[list[list[str]], list[int]]:
+        """The kept rows in the file's order, each robot's last row among them."""
+        if not self.pending:
+            return self.kept, self.lines
+        tail = sorted(self.pending.values())
+        pairs = sorted([*zip(self.lines, self.kept), *tail], key=lambda p: p[0])
+        return [r for _, r in pairs], [ln for ln, _ in pairs]
+
+
+def _cost(row: list[str]) -> int:
+    """About the bytes a row of text takes in Python."""
+    return 64 + sum(len(c) for c in row) + CELL_BYTES * len(row)
