@@ -29,17 +29,20 @@ from timed_child import labsim, load, rounds
 LABS = Path(__file__).resolve().parent.parent / "behaviours"
 
 
-def cases(d: Path) -> dict[str, list[str]]:
-    """The commands by name; the wall lab's 10- and 60-minute traces are made first, in ``d``."""
+def cases(d: Path, quick: bool) -> dict[str, list[str]]:
+    """The commands by name; the wall lab's 10- and 60-minute traces are made first, in ``d``
+    (``quick``: 1 and 6 minutes, and every animation at 1 frame a second, to see that it runs)."""
     for minutes in (10, 60):
-        subprocess.run(labsim("run", str(LABS / "wall_follow.yaml"), "--set", f"minutes={minutes}", "--quiet",
+        run = minutes / 10 if quick else minutes
+        subprocess.run(labsim("run", str(LABS / "wall_follow.yaml"), "--set", f"minutes={run:g}", "--quiet",
                               "--trace", str(d / f"wall{minutes}.csv")), check=True)
     wall, road = str(LABS / "wall_follow.golden.csv"), str(LABS / "road_follow.golden.csv")
+    fps = ["--fps", "1"] if quick else []
     return {
-        "road lab, 30 s, MP4": labsim("plot", road, "-o", str(d / "road.mp4")),
-        "wall lab, 25 min, GIF": labsim("plot", wall, "-o", str(d / "wall.gif")),
-        "wall lab, 10 min, MP4": labsim("plot", str(d / "wall10.csv"), "-o", str(d / "wall10.mp4")),
-        "wall lab, 60 min, MP4": labsim("plot", str(d / "wall60.csv"), "-o", str(d / "wall60.mp4")),
+        "road lab, 30 s, MP4": labsim("plot", road, "-o", str(d / "road.mp4"), *fps),
+        "wall lab, 25 min, GIF": labsim("plot", wall, "-o", str(d / "wall.gif"), *fps),
+        "wall lab, 10 min, MP4": labsim("plot", str(d / "wall10.csv"), "-o", str(d / "wall10.mp4"), *fps),
+        "wall lab, 60 min, MP4": labsim("plot", str(d / "wall60.csv"), "-o", str(d / "wall60.mp4"), *fps),
         "wall lab, 30,000 rows, signals PNG": labsim("plot", wall, "--signals", "-o", str(d / "signals.png")),
         "road lab, map, road panel, camera strip": labsim("plot", road, "--camera", "pioneer[0]",
                                                           "-o", str(d / "road.png")),
@@ -49,10 +52,11 @@ def cases(d: Path) -> dict[str, list[str]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="short runs and few frames: does it run (no figures)")
     args = parser.parse_args()
     print(machine())
     with tempfile.TemporaryDirectory() as d:
-        commands = cases(Path(d))
+        commands = cases(Path(d), args.quick)
         before = load()
         times = rounds(commands, args.repeat)
     print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
