@@ -157,7 +157,8 @@ def _fade(times: np.ndarray) -> float:
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
            fade_s: float | None = None) -> Generator[np.ndarray, None, None]:
     """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
-    a path is pale where older than ``fade_s`` (by default a share of the frames' span)."""
+    a path is pale where older than ``fade_s`` (by default a share of the frames' span). A frame
+    is drawn over by the next: copy it to keep it."""
     # one function for one frame's layers: the backdrop, the paths, the robots, the caption
     world, note = trace_world(trace)
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
