@@ -10,6 +10,7 @@ A user's mistake is a ``LabsimError``, which ``main`` reports with exit code 2.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, format_diagnostics
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from labsim.foundation.files import check_output, policy_problem
 from labsim.foundation.inert import inert
@@ -157,18 +158,22 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok'."""
+    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok';
+    with --json, every diagnostic as JSON on stdout (``diagnostics_json``)."""
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
             behaviour = compile_behaviour(f, strict=args.strict, budgets=budgets(args))
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
-            print(behaviour.program.code.listing if args.show_code else
-                  f"{inert(f)}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
+            if not args.json:
+                print(behaviour.program.code.listing if args.show_code else
+                      f"{inert(f)}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
         except LabsimError as e:
             problems += e.diagnostics
-    if problems:
+    if args.json:
+        sys.stdout.write(json.dumps(diagnostics_json(args.files, problems), indent=2) + "\n")
+    elif problems:
         print_diagnostics(problems)
     return EXIT_USAGE if any(d.severity == "error" for d in problems) else EXIT_OK
 

@@ -89,6 +89,9 @@ def _check(p: argparse.ArgumentParser) -> None:
     p.add_argument("--show-code", action="store_true",
                    help="print the Python each file compiles to, each rule, signal and metric "
                         "under a comment with its line in the file")
+    p.add_argument("--json", action="store_true",
+                   help="print every diagnostic as JSON (file, line, column, severity, message, hint) on standard "
+                        "output instead of the text; the exit code is the same")
     _strict(p)
     _allow_path(p)
     _budget(p)
