@@ -20,7 +20,7 @@ from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.files import check_output, policy_problem, write_output
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -303,6 +303,29 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from labsim.runtime.sweep.driver import run_sweep, sweep_options
 
     return run_sweep(sweep_options(args))
+
+
+def cmd_grade(args: argparse.Namespace) -> int:
+    """Grade a class against an assignment; runtime/grade/driver.py. The feedback pages' maps are
+    drawn by the pictures' renderer, handed over here: applications do not import each other."""
+    from labsim.runtime.grade.driver import run_grade
+
+    return run_grade(args, map_picture=draw_map)
+
+
+def draw_map(trace_path: Path, out: Path) -> None:
+    """The map of a trace as a PNG file, as ``labsim plot`` draws it (runtime/pictures)."""
+    import cv2
+
+    from labsim.runtime.pictures.plot import render_figure
+    from labsim.runtime.trace import read_trace, trace_world
+
+    trace = read_trace(trace_path)
+    world, note = trace_world(trace)
+    figure = render_figure(trace, width_px=800, world=world, world_note=note)
+    ok, data = cv2.imencode(".png", figure.image)
+    if ok:
+        write_output(out, data.tobytes(), [trace_path])
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
