@@ -76,7 +76,7 @@ def messages(g: Grade) -> list[str]:
     out: list[str] = []
     for r in g.runs:
         out += [f"fault: {f}" for f in r.faults]
-        out += [f"warning: {w}" for w in r.warnings]
+        out += [f"warning: {w.splitlines()[0] if w else w}" for w in r.warnings]  # the caret is on the page
     return list(dict.fromkeys(out))[:10]
 
 

@@ -81,9 +81,14 @@ def run_job(job: Job) -> SeedRun:
         trace = str(Path(d) / "trace.csv") if job.trace else None
         with allowing(d):
             out = _run(job, local, trace, started)
+
+        def named(text: str) -> str:  # the scratch folder's names, as the teacher gave them
+            return text.replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent))
+
+        out = replace(out, message=named(out.message), warnings=tuple(map(named, out.warnings)),
+                      faults=tuple(map(named, out.faults)), logs=tuple(map(named, out.logs)))
         if trace is not None and out.status in (RAN, OVER_BUDGET) and Path(trace).exists():
-            text = read_text(trace, "trace").replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent))
-            out = replace(out, trace_gz=gzip.compress(text.encode(), mtime=0))
+            out = replace(out, trace_gz=gzip.compress(named(read_text(trace, "trace")).encode(), mtime=0))
     return out
 
 
@@ -124,7 +129,8 @@ def _run(job: Job, local: str, trace: str | None, started: float) -> SeedRun:
 def seed_run(seed: int, result: RunResult, wall_s: float) -> SeedRun:
     """A finished run as plain values."""
     status = OVER_BUDGET if result.over_budget else RAN
-    return SeedRun(seed, status, result.over_budget, result.metric_values(), result.stop_reason == STOP_CONDITION,
+    metrics = {k: float(v) for k, v in result.metric_values().items()}  # a count is a float too, as the cache keeps it
+    return SeedRun(seed, status, result.over_budget, metrics, result.stop_reason == STOP_CONDITION,
                    result.faults, sum(r.contacts for r in result.robots.values()), result.warnings, result.logs,
                    tuple(f"{r.id}: {r.text}" for r in result.rules if r.ticks == 0), result.ticks,
                    result.sim_time_s, wall_s)
