@@ -97,7 +97,9 @@ def _lists(g: Grade, warnings: list[Diagnostic]) -> list[str]:
     never = [set(r.never_fired) for r in g.runs if r.status == "ran"]
     unused = sorted(set.intersection(*never)) if never else []
     compiled = [d.format() for d in warnings]
-    run_warnings = [w for w in dict.fromkeys(w for r in g.runs for w in r.warnings) if w not in compiled]
+    firsts = {c.splitlines()[0] for c in compiled}  # the run repeats the compiler's warnings
+    run_warnings = [w for w in dict.fromkeys(w for r in g.runs for w in r.warnings)
+                    if w and w.splitlines()[0] not in firsts]
     first = g.runs[0] if g.runs else None
     sections = (("Rules that never fired (on any seed)", unused),
                 ("Runtime faults", list(dict.fromkeys(f for r in g.runs for f in r.faults))),
