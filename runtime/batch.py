@@ -43,6 +43,13 @@ class Outcome:
     wall_s: float = 0.0
 
 
+@dataclass(frozen=True)
+class _Failed:
+    """What a worker sends back when the function raised."""
+
+    message: str
+
+
 def default_jobs() -> int:
     """The cores this process may use."""
     try:
@@ -64,7 +71,11 @@ def _serve(conn: Connection, allowed: list[str]) -> None:
             return
         function, item = job
         try:
-            conn.send(function(item))
+            value = function(item)
+        except Exception as e:  # the function's own failure: that item's outcome, and the worker goes on
+            value = _Failed(f"{type(e).__name__}: {e}")
+        try:
+            conn.send(value)
         except (BrokenPipeError, OSError):
             return
 
@@ -157,6 +168,9 @@ class LocalBatch:
                 self._replace(w)
                 yield Outcome(index, DIED, message=f"the worker process died while running it (exit code {code})",
                               wall_s=took)
+                continue
+            if isinstance(value, _Failed):
+                yield Outcome(index, DIED, message=value.message, wall_s=took)
                 continue
             yield Outcome(index, DONE, value, wall_s=took)
         if self.timeout_s is not None:

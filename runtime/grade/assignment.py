@@ -220,7 +220,7 @@ class _AssignmentReader(Reader):
         weight = self.positive(fields["weight"], "weight") if "weight" in fields else 1.0
         if name in BUILTINS:
             for extra in set(fields) - {"weight"}:
-                self.error(node, f"the built-in criterion '{name}' takes a weight only, not '{extra}'")
+                self.error(fields[extra], f"the built-in criterion '{name}' takes a weight only, not '{extra}'")
             return Criterion(name, weight or 1.0)
         if not name.isidentifier():
             self.error(key, f"'{name}' is neither a metric's name nor a built-in criterion"

@@ -24,6 +24,7 @@ from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.batch import DONE, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs
 from labsim.runtime.grade.assignment import Assignment, read_assignment
 from labsim.runtime.grade.contract import (
+    CRASH,
     GRADED,
     MISMATCH,
     NOT_RUN,
@@ -73,8 +74,7 @@ def grade_class(options: Options) -> Graded:
     found = find_submissions(options.submissions)
     if not found:
         raise LabsimError([Diagnostic(" ".join(options.submissions), "no submissions (behaviour files) here")])
-    submissions = [check_submission(s, p, assignment) if p is not None
-                   else Submission(s, s, "", "", MISMATCH, why) for s, p, why in found]
+    submissions = _check_all(found, assignment, options.jobs or default_jobs())
     cache = options.out / "cache"
     runs: dict[str, list[SeedRun]] = {}
     jobs: list[Job] = []
@@ -107,6 +107,21 @@ def grade_class(options: Options) -> Graded:
     traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
                   reused, interrupted, traces)
+
+
+def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
+    """Every submission held to the contract, on ``jobs`` worker processes (each compiles one)."""
+    items = [(s, p, assignment) for s, p, _ in found if p is not None]
+    checked: dict[str, Submission] = {}
+    for o in LocalBatch(jobs).outcomes(_check, items):
+        student, path, _ = items[o.index]
+        checked[student] = (o.value if o.kind == DONE else
+                            Submission(student, str(path), "", "", CRASH, f"checking it failed: {o.message}"))
+    return [checked[s] if p is not None else Submission(s, s, "", "", MISMATCH, why) for s, p, why in found]
+
+
+def _check(item: tuple[str, Path, Assignment]) -> Submission:
+    return check_submission(*item)
 
 
 def _reference(assignment: Assignment) -> Grade | None:
@@ -177,7 +192,7 @@ def write_class(graded: Graded, options: Options, map_picture: MapPicture | None
     if pages:
         from labsim.runtime.grade.pages import write_pages
 
-        written += write_pages(options.out, graded, map_picture, inputs)
+        written += write_pages(options.out, graded, map_picture, inputs, options.jobs or default_jobs())
     counts: dict[str, int] = {}
     for g in graded.grades:
         counts[g.status] = counts.get(g.status, 0) + 1

@@ -21,6 +21,7 @@ from pathlib import Path
 from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import save_figure, write_output
 from labsim.foundation.inert import inert
+from labsim.runtime.batch import DONE, LocalBatch
 from labsim.runtime.grade.contract import STATUSES
 from labsim.runtime.grade.gradebook import messages, page_name
 from labsim.runtime.grade.score import Grade, Graded
@@ -157,28 +158,40 @@ def charts(graded: Graded, folder: Path) -> list[Path]:
 
 
 def write_pages(out: Path, graded: Graded, map_picture: Callable[[Path, Path], None] | None,
-                inputs: list[str]) -> list[Path]:
-    """The overview (``index.html``), its charts, and a feedback page (with its map) per student."""
+                inputs: list[str], jobs: int = 1) -> list[Path]:
+    """The overview (``index.html``), its charts, and a feedback page (with its map) per student;
+    the maps are drawn on ``jobs`` worker processes."""
     feedback = out / "feedback"
     feedback.mkdir(parents=True, exist_ok=True)
+    maps: list[tuple[Callable[[Path, Path], None], Path, Path]] = []
+    for g in graded.grades:
+        trace = graded.traces.get(g.student)
+        if trace and map_picture is not None:
+            stem = page_name(g.student).removesuffix(".html")
+            trace_path = out / "traces" / f"{stem}.csv"
+            trace_path.parent.mkdir(exist_ok=True)
+            write_output(trace_path, gzip.decompress(trace), inputs, "--out")
+            maps.append((map_picture, trace_path, feedback / f"{stem}.png"))
+    drawn = {maps[o.index][2].name for o in LocalBatch(jobs).outcomes(_draw, maps) if o.kind == DONE and o.value}
     written = []
     for g in graded.grades:
         name = page_name(g.student)
-        map_file = None
-        trace = graded.traces.get(g.student)
-        if trace and map_picture is not None:
-            trace_path = out / "traces" / (name.removesuffix(".html") + ".csv")
-            trace_path.parent.mkdir(exist_ok=True)
-            write_output(trace_path, gzip.decompress(trace), inputs, "--out")
-            try:
-                map_picture(trace_path, feedback / (name.removesuffix(".html") + ".png"))
-                map_file = name.removesuffix(".html") + ".png"
-            except Exception:  # a map that cannot be drawn leaves the page without it, not the class without pages
-                map_file = None
+        png = name.removesuffix(".html") + ".png"
         path = feedback / name
-        write_output(path, feedback_page(g, graded.assignment.title, map_file, graded.reference), inputs, "--out")
+        page = feedback_page(g, graded.assignment.title, png if png in drawn else None, graded.reference)
+        write_output(path, page, inputs, "--out")
         written.append(path)
-    drawn = charts(graded, out / "charts")
+    pictures = charts(graded, out / "charts")
     index = out / "index.html"
-    write_output(index, overview_page(graded, [f"charts/{p.name}" for p in drawn]), inputs, "--out")
+    write_output(index, overview_page(graded, [f"charts/{p.name}" for p in pictures]), inputs, "--out")
     return [index, *written]
+
+
+def _draw(item: tuple[Callable[[Path, Path], None], Path, Path]) -> bool:
+    """One map, on a worker: True when drawn (a map that cannot be drawn leaves its page without it)."""
+    draw, trace, png = item
+    try:
+        draw(trace, png)
+    except Exception:
+        return False
+    return True
