@@ -12,6 +12,7 @@ the batch. A submission that passes becomes a ``Submission`` the driver makes jo
 from __future__ import annotations
 
 import hashlib
+import os
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
@@ -51,6 +52,9 @@ def find_submissions(paths: list[str]) -> list[tuple[str, Path | None, str]]:
     of behaviour files (one student each; world and assignment files beside them are skipped);
     or a folder of folders, one per student, each holding one behaviour file."""
     out: list[tuple[str, Path | None, str]] = []
+    missing = [Diagnostic(str(arg), "no such file or folder") for arg in map(Path, paths) if not os.path.lexists(arg)]
+    if missing:  # a mistake on the command line, not a student's
+        raise LabsimError(missing)
     for arg in map(Path, paths):
         if not arg.is_dir():
             out.append((arg.stem, arg, ""))

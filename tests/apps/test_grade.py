@@ -188,3 +188,11 @@ def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch
         write_class(graded, options, None, pages=False)
     for name in ("gradebook.csv", "gradebook.json"):
         assert (tmp_path / "dask" / name).read_text() == (folder / "out" / name).read_text()
+
+
+def test_a_submission_that_is_not_there_is_a_mistake_on_the_command_line(tmp_path: Path, capsys) -> None:
+    from labsim.runtime.cli.main import main
+
+    assert main(["grade", str(GRADING / "assignment.yaml"), str(tmp_path / "nothere.yaml"),
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "nothere.yaml: error: no such file or folder" in capsys.readouterr().err
