@@ -84,6 +84,23 @@ def format_diagnostics(diagnostics: Iterable[Diagnostic], per_file: int = MAX_PE
     return out
 
 
+def diagnostic_dict(d: Diagnostic) -> dict[str, object]:
+    """One diagnostic as plain data (``labsim check --json``, the grader's pages): every field, and
+    its notes joined as the hint. Line and column are 1-based, 0 when it has no position; the
+    text is as the file holds it (JSON escapes it; a page escapes it again)."""
+    return {"file": d.path, "line": d.line, "column": d.col, "end_column": d.end_col, "severity": d.severity,
+            "message": d.message, "hint": "; ".join(d.notes), "notes": list(d.notes), "source_line": d.source_line}
+
+
+def diagnostics_json(files: Iterable[str], diagnostics: Iterable[Diagnostic]) -> dict[str, object]:
+    """What ``labsim check --json`` prints: each file with its error and warning counts, then
+    every diagnostic (none cut: ``MAX_PER_FILE`` is for terminals)."""
+    found = [diagnostic_dict(d) for d in diagnostics]
+    per_file = [{"file": f, "errors": sum(d["file"] == f and d["severity"] == "error" for d in found),
+                 "warnings": sum(d["file"] == f and d["severity"] == "warning" for d in found)} for f in files]
+    return {"format": "labsim-check/1", "files": per_file, "diagnostics": found}
+
+
 class LabsimError(Exception):
     """A user's mistake, with every diagnostic found; the CLI prints them and exits 2."""
 

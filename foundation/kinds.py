@@ -1,11 +1,11 @@
-"""What kind of labsim file a path holds: behaviour, world, trace or golden, by one rule.
+"""What kind of labsim file a path holds: behaviour, world, assignment, trace or golden, by one rule.
 
 Every command that must tell the kinds apart asks here: ``labsim view`` (a trace to replay or
 a behaviour to run), ``labsim test FOLDER`` and the pytest plugin (which YAML files are
 behaviours), the behaviour reader (a world file given where a behaviour belongs) and shell
 completion (which names to offer). A file says what it is by what it starts with or by its
 top-level keys, never by its name alone: a trace starts with ``TRACE_MAGIC``; a YAML file's
-version key (``labsim-world:`` or ``labsim:``) decides, and without one, keys only a behaviour
+version key (``labsim-world:``, ``labsim-assignment:`` or ``labsim:``) decides, and without one, keys only a behaviour
 has or keys only a world has. A golden is a trace named ``NAME.golden.csv``, beside its
 behaviour ``NAME.yaml``. Names (``YAML_SUFFIXES``, ``TRACE_SUFFIX``) only say which files are
 worth looking at. Only text is needed, so this sits in the foundation, and a file is read
@@ -20,13 +20,14 @@ from typing import Literal
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import MIB, read_head
 
-Kind = Literal["behaviour", "world", "trace", "golden", "unknown"]
+Kind = Literal["behaviour", "world", "assignment", "trace", "golden", "unknown"]
 
 TRACE_MAGIC = "# labsim-trace "  # a trace's first line starts so (docs/trace-format.md)
 YAML_SUFFIXES = (".yaml", ".yml")  # behaviour and world files
 TRACE_SUFFIX = ".csv"
 GOLDEN_SUFFIX = ".golden.csv"
 WORLD_VERSION_KEY, BEHAVIOUR_VERSION_KEY = "labsim-world", "labsim"
+ASSIGNMENT_VERSION_KEY = "labsim-assignment"  # a grader's assignment file (docs/grading.md)
 # keys only one kind of file has (the readers' key tables: dsl/read.py TOP_KEYS and
 # backends/scene/world_file.py KEYS; tests/test_kinds.py holds them to it)
 BEHAVIOUR_ONLY_KEYS = frozenset({"labsim", "rules", "stop", "bind"})
@@ -40,6 +41,8 @@ def kind_of_keys(keys: Collection[str]) -> Kind:
     only one kind has (a world file without its version key is still a world file)."""
     if WORLD_VERSION_KEY in keys:
         return "world"
+    if ASSIGNMENT_VERSION_KEY in keys:
+        return "assignment"
     if any(k in BEHAVIOUR_ONLY_KEYS for k in keys):
         return "behaviour"
     if any(k in WORLD_ONLY_KEYS for k in keys):

@@ -10,6 +10,7 @@ A user's mistake is a ``LabsimError``, which ``main`` reports with exit code 2.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,9 +18,9 @@ from typing import TYPE_CHECKING
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, format_diagnostics
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.files import check_output, policy_problem, write_output
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -157,18 +158,22 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok'."""
+    """Compile each file and report its problems; with --show-code, print its Python instead of 'ok';
+    with --json, every diagnostic as JSON on stdout (``diagnostics_json``)."""
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
             behaviour = compile_behaviour(f, strict=args.strict, budgets=budgets(args))
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
-            print(behaviour.program.code.listing if args.show_code else
-                  f"{inert(f)}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
+            if not args.json:
+                print(behaviour.program.code.listing if args.show_code else
+                      f"{inert(f)}: ok" + (f" ({warned} warning{'s' * (warned > 1)})" if warned else ""))
         except LabsimError as e:
             problems += e.diagnostics
-    if problems:
+    if args.json:
+        sys.stdout.write(json.dumps(diagnostics_json(args.files, problems), indent=2) + "\n")
+    elif problems:
         print_diagnostics(problems)
     return EXIT_USAGE if any(d.severity == "error" for d in problems) else EXIT_OK
 
@@ -298,6 +303,29 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from labsim.runtime.sweep.driver import run_sweep, sweep_options
 
     return run_sweep(sweep_options(args))
+
+
+def cmd_grade(args: argparse.Namespace) -> int:
+    """Grade a class against an assignment; runtime/grade/driver.py. The feedback pages' maps are
+    drawn by the pictures' renderer, handed over here: applications do not import each other."""
+    from labsim.runtime.grade.driver import run_grade
+
+    return run_grade(args, map_picture=draw_map)
+
+
+def draw_map(trace_path: Path, out: Path) -> None:
+    """The map of a trace as a PNG file, as ``labsim plot`` draws it (runtime/pictures)."""
+    import cv2
+
+    from labsim.runtime.pictures.plot import render_figure
+    from labsim.runtime.trace import read_trace, trace_world
+
+    trace = read_trace(trace_path)
+    world, note = trace_world(trace)
+    figure = render_figure(trace, width_px=800, world=world, world_note=note)
+    ok, data = cv2.imencode(".png", figure.image)
+    if ok:
+        write_output(out, data.tobytes(), [trace_path])
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

@@ -89,6 +89,9 @@ def _check(p: argparse.ArgumentParser) -> None:
     p.add_argument("--show-code", action="store_true",
                    help="print the Python each file compiles to, each rule, signal and metric "
                         "under a comment with its line in the file")
+    p.add_argument("--json", action="store_true",
+                   help="print every diagnostic as JSON (file, line, column, severity, message, hint) on standard "
+                        "output instead of the text; the exit code is the same")
     _strict(p)
     _allow_path(p)
     _budget(p)
@@ -120,7 +123,7 @@ def _worlds(p: argparse.ArgumentParser) -> None:
 
 
 def _schema(p: argparse.ArgumentParser) -> None:
-    p.add_argument("kind", choices=("behaviour", "world"))
+    p.add_argument("kind", choices=("behaviour", "world", "assignment"))
 
 
 # -- the commands of the applications ------------------------------------------------------------
@@ -132,6 +135,13 @@ def _sweep(p: argparse.ArgumentParser) -> None:
     _strict(p)
     _allow_path(p)
     _budget(p)
+
+
+def _grade(p: argparse.ArgumentParser) -> None:
+    from labsim.runtime.grade.driver import add_grade_arguments
+
+    add_grade_arguments(p)
+    _allow_path(p)
 
 
 def _plot(p: argparse.ArgumentParser) -> None:
@@ -230,6 +240,8 @@ COMMANDS = (
     Command("run", "run a behaviour and print a summary", _run),
     Command("sweep", "run behaviours over a grid of parameters and seeds, in parallel, and compare the settings",
             _sweep),
+    Command("grade", "grade a class's submissions against an assignment: a gradebook and a page for each student",
+            _grade),
     Command("check", "check behaviour files without running them", _check),
     Command("test", "re-run behaviours and compare them with their golden traces", _test),
     Command("plot", "draw a trace: the map of a run, its signals against time, or an animation", _plot),
@@ -237,7 +249,8 @@ COMMANDS = (
     Command("labs", "list the labs labsim ships (run one by name: labsim run wall_follow)", _labs),
     Command("new", "copy a lab and its golden trace into a folder, to edit and test", _new),
     Command("worlds", "list the built-in worlds", _worlds),
-    Command("schema", "print the JSON Schema of behaviour or world files, for editors (docs/editors.md)", _schema),
+    Command("schema", "print the JSON Schema of behaviour, world or assignment files, for editors (docs/editors.md)",
+            _schema),
     Command("serve", "stand in for CoppeliaSim: answer its ZMQ remote API from the embedded simulator", _serve),
     Command("scene", "build a behaviour's scene in a running CoppeliaSim (4.6 or newer)", _scene),
 )

@@ -2,9 +2,11 @@
 
 It sits beside ``labsim test`` at the end of the pipeline and reuses its comparison
 (``labsim.runtime.golden.check_golden``), so a failing item shows the same first-difference
-text. ``pytest behaviours/`` collects each behaviour file that has a golden trace beside it as
-one item named after the file; a behaviour file named on the command line is collected even
-without one, and then fails as ``labsim test`` does. ``pytest --update-goldens`` records the
+text. ``pytest behaviours/`` collects every behaviour file of the folder named, as ``labsim
+test behaviours/`` does, as one item named after the file, and one without a golden trace beside
+it fails as ``labsim test`` fails it (so does a behaviour file named on the command line);
+deeper folders, which ``labsim test`` does not look in, give the behaviour files that have a
+golden only. ``pytest --update-goldens`` records the
 goldens instead of comparing. A behaviour file or golden found in a folder that is a link
 out of it is a collection error, as ``labsim test`` refuses it (docs/security.md). Items are
 independent, so ``pytest -n auto`` (pytest-xdist) runs them in parallel.
@@ -38,7 +40,7 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourF
     if file_path.suffix not in YAML_SUFFIXES:
         return None
     named = _named(file_path, parent.config)
-    if not golden_path(file_path).exists() and not named:
+    if not golden_path(file_path).exists() and not named and not _named(file_path.parent, parent.config):
         return None
     # a file found in a folder is that folder's, as for labsim test: a link out of it is not
     # followed, not even to see what kind of file it is (docs/security.md)
@@ -62,7 +64,8 @@ def links_out(path: Path) -> str:
 
 
 def _named(path: Path, config: pytest.Config) -> bool:
-    """Whether the file was given on the command line itself (not found in a folder given)."""
+    """Whether the file (or folder) was given on the command line itself (not found in a folder
+    given); pytest without arguments names its ``testpaths``, or the folder it starts in."""
     for arg in config.args:
         candidate = Path(arg.split("::", 1)[0])
         if not candidate.is_absolute():

@@ -1,7 +1,8 @@
 """The JSON Schemas as files: what ``labsim schema`` prints and the shipped labs point editors at.
 
 The schemas are built by ``labsim.dsl.schema`` (behaviour files) and
-``labsim.backends.scene.schema`` (world files) from the readers' key tables; this module writes
+``labsim.backends.scene.schema`` (world files) and ``labsim.runtime.grade.assignment``
+(a grader's assignment files) from the readers' key tables; this module writes
 them as text, the same text as the copies shipped beside the labs (``behaviours/*.schema.json``,
 which tests/unit/test_schema.py keeps equal to it). A lab file's first line,
 ``# yaml-language-server: $schema=behaviour.schema.json``, points yaml-language-server (VS
@@ -14,11 +15,15 @@ import json
 from labsim.backends.scene.schema import Schema, world_schema
 from labsim.dsl.schema import behaviour_schema
 
-KINDS = ("behaviour", "world")
+KINDS = ("behaviour", "world", "assignment")
 MODELINE = "# yaml-language-server: $schema="
 
 
 def schema(kind: str) -> Schema:
+    if kind == "assignment":  # the grader's (runtime/grade), read only when asked for
+        from labsim.runtime.grade.assignment import assignment_schema
+
+        return assignment_schema()
     return behaviour_schema() if kind == "behaviour" else world_schema()
 
 

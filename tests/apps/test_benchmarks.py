@@ -39,6 +39,13 @@ def test_sweep_benchmark_runs() -> None:
     assert "speed-up -j 2 over -j 1" in done.stdout
 
 
+def test_grade_benchmark_runs() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_grade.py"), "--students", "2", "--seeds", "1",
+                           "--minutes", "0.1", "--no-pages"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "speed-up -j 2 over -j 1" in done.stdout and "overhead of grading" in done.stdout, done.stdout
+
+
 def test_startup_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_startup.py"), "--repeat", "1", "--minutes", "0.1"],
                           capture_output=True, text=True, timeout=300)

@@ -130,3 +130,21 @@ def test_replay_flag_feeds_a_traces_slider_moves_back(capsys, tmp_path: Path) ->
     assert cli(capsys, "run", str(crane), "-q", "--trace", str(first))[0] == 0
     assert cli(capsys, "run", str(crane), "-q", "--trace", str(second), "--replay", str(first))[0] == 0
     assert first.read_text().splitlines()[1:] == second.read_text().splitlines()[1:]
+
+
+def test_check_json_lists_every_diagnostic_with_its_position_and_the_same_exit_code(capsys) -> None:
+    import json
+
+    files = sorted(str(f) for f in FIXTURES.glob("*_with_error.yaml"))[:3]
+    code, out, err = cli(capsys, "check", "--json", str(FIXTURES / "minimal.yaml"), *files)
+    assert code == 2 and err == ""
+    found = json.loads(out)
+    assert [f["file"] for f in found["files"]] == [str(FIXTURES / "minimal.yaml"), *files]
+    assert found["files"][0] == {"file": str(FIXTURES / "minimal.yaml"), "errors": 0, "warnings": 0}
+    for f in files:  # every error the file's own comments expect, none cut
+        got = {(d["line"], d["column"]) for d in found["diagnostics"] if d["file"] == f}
+        assert {(line, col) for line, col, _ in expectations(Path(f))} <= got
+    d = found["diagnostics"][0]
+    assert set(d) >= {"file", "line", "column", "severity", "message", "hint"}
+    code, out, _ = cli(capsys, "check", "--json", str(FIXTURES / "minimal.yaml"))
+    assert code == 0 and json.loads(out)["diagnostics"] == []

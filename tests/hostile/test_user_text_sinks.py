@@ -74,6 +74,8 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("dsl/support.py", "head.format()"): DIAGNOSTIC,
     ("runtime/cli/pytest_plugin.py", "d.format()"): DIAGNOSTIC,
     ("runtime/run.py", "d.format()"): DIAGNOSTIC,
+    ("runtime/grade/pages.py", "d.format()"): DIAGNOSTIC,
+    ("runtime/grade/runs.py", "first.format()"): DIAGNOSTIC,
     ("runtime/sweep/grid.py", "errors[0].format()"): DIAGNOSTIC,
     ("runtime/view/live.py", "d.format()"): DIAGNOSTIC,
 }

@@ -48,10 +48,31 @@ def test_a_changed_threshold_fails_with_the_first_difference(pytester: pytest.Py
     assert out[start:start + len(expected)] == expected  # the same text as labsim test
 
 
-def test_a_folder_collects_only_behaviours_with_goldens(pytester: pytest.Pytester, lab: Path) -> None:
+def test_a_folder_collects_every_behaviour_as_labsim_test_does(pytester: pytest.Pytester, lab: Path) -> None:
     shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "other.yaml")
     shutil.copyfile(FIXTURES / "pendulum_world.yaml", pytester.path / "world.yaml")
     pytester.makefile(".yaml", notes="just: yaml\n")
+    result = pytester.runpytest("-p", "no:cacheprovider", "--collect-only", "-q")
+    result.stdout.fnmatch_lines(["other.yaml::other", "small.yaml::small", "2 tests collected*"])
+
+
+def test_a_behaviour_without_a_golden_in_a_folder_fails_as_labsim_test_fails_it(
+        pytester: pytest.Pytester, lab: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "other.yaml")
+    capsys.readouterr()
+    assert cli.main(["test", str(pytester.path)]) == 1
+    said = capsys.readouterr().out
+    assert "FAIL" in said and "other.golden.csv" in said and "1 passed, 1 failed" in said
+    for args in ((), (str(pytester.path),), ()):  # no argument, the folder, and again: the same verdict
+        result = pytester.runpytest("-p", "no:cacheprovider", *args)
+        result.assert_outcomes(passed=1, failed=1)
+        result.stdout.fnmatch_lines(["FAIL other.yaml: no golden trace other.golden.csv; *"])
+
+
+def test_a_behaviour_without_a_golden_in_a_deeper_folder_is_not_collected(pytester: pytest.Pytester,
+                                                                         lab: Path) -> None:
+    (pytester.path / "deeper").mkdir()
+    shutil.copyfile(FIXTURES / "minimal.yaml", pytester.path / "deeper" / "other.yaml")
     result = pytester.runpytest("-p", "no:cacheprovider", "--collect-only", "-q")
     result.stdout.fnmatch_lines(["small.yaml::small", "1 test collected*"])
 

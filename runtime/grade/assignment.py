@@ -1,0 +1,291 @@
+"""Assignment files: what a grader asks of every submission, read with positions (docs/grading.md).
+
+The first stage of ``labsim grade``: the assignment file comes in through the one safe reader
+(``labsim.foundation.source``, file kind ``assignment``) and becomes a frozen ``Assignment``:
+the world and robots a submission must use (or ``any``), the params the grader sets, the
+metrics it must define, the seeds, budgets and per-run timeout, and the criteria that turn a
+submission's metrics into a score. Every mistake is reported at once, ``path:line:col``, as a
+behaviour file's are; ``assignment_schema`` is the same table as a JSON Schema for editors.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from yaml.nodes import MappingNode, Node, ScalarNode
+
+from labsim.backends.scene.schema import DRAFT, IDENTIFIER, Schema, mapping
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
+from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
+from labsim.foundation.source import Reader, load, scalar_value
+
+KEYS = (ASSIGNMENT_VERSION_KEY, "title", "world", "robots", "params", "metrics", "seeds", "timeout_s",
+        "budgets", "criteria", "reference")
+CRITERION_KEYS = ("at_least", "at_most", "score", "weight")
+# the built-in criteria: each reads every seed's run, not a metric
+RAN_TO_STOP, NO_FAULTS, NO_COLLISIONS = "ran_to_stop", "no_faults", "no_collisions"
+BUILTINS = {RAN_TO_STOP: "ran to its stop condition on every seed",
+            NO_FAULTS: "no runtime faults (nan, inf, a domain error) on any seed",
+            NO_COLLISIONS: "no collisions on any seed"}
+ANY = "any"
+MAX_SEEDS = 100
+DEFAULT_TIMEOUT_S = 60.0
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """One line of the marking scheme: a metric's mean over the seeds against a threshold
+    (``at_least``/``at_most``: all or nothing) or a scored range (``worst`` scores 0, ``best``
+    the full weight, linear between), or a built-in criterion (all or nothing)."""
+
+    name: str  # the metric's name, or a built-in's (BUILTINS)
+    weight: float
+    at_least: float | None = None
+    at_most: float | None = None
+    worst: float | None = None
+    best: float | None = None
+
+    @property
+    def builtin(self) -> bool:
+        return self.name in BUILTINS
+
+    def describe(self) -> str:
+        """The criterion in words, as the gradebook and the pages show it."""
+        if self.builtin:
+            return BUILTINS[self.name]
+        if self.worst is not None:
+            return f"{self.name}: 0 at {self.worst:g}, full at {self.best:g}"
+        return f"{self.name} >= {self.at_least:g}" if self.at_least is not None else f"{self.name} <= {self.at_most:g}"
+
+    def fraction(self, value: float) -> float:
+        """How much of the weight a metric's value earns: 0 to 1 (a nan earns nothing)."""
+        if not math.isfinite(value):
+            return 0.0
+        if self.at_least is not None:
+            return float(value >= self.at_least)
+        if self.at_most is not None:
+            return float(value <= self.at_most)
+        assert self.worst is not None and self.best is not None
+        return min(1.0, max(0.0, (value - self.worst) / (self.best - self.worst)))
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """An assignment file, read and checked: see the module docstring and docs/grading.md."""
+
+    path: str
+    sha256: str  # of the file's text: a changed assignment grades every submission anew
+    title: str
+    world: str | None  # the world's name (a built-in's, or a world file's name); None: any
+    robots: int | None  # how many robots; None: any
+    params: Mapping[str, str]  # the params every submission declares, with the values the grader sets
+    metrics: tuple[str, ...]  # the metrics every submission defines (the criteria's among them)
+    seeds: tuple[int, ...]
+    timeout_s: float  # wall time a run may take, per run
+    budgets: Budgets
+    criteria: tuple[Criterion, ...]
+    reference: str | None = None  # a behaviour whose metrics are shown beside each student's
+    weights: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "weights", sum(c.weight for c in self.criteria))
+
+
+def read_assignment(path: str | Path) -> Assignment:
+    """The assignment file at path; LabsimError with every problem in it."""
+    doc = load(path, kind="assignment")
+    report = Report()
+    reader = _AssignmentReader(doc, report)
+    found = reader.read()
+    report.raise_if_errors()
+    assert found is not None
+    return found
+
+
+class _AssignmentReader(Reader):
+    def read(self) -> Assignment | None:
+        root = self.doc.root
+        if root is None:
+            self.error(None, "the file is empty: an assignment file is a YAML mapping that starts with "
+                             f"'{ASSIGNMENT_VERSION_KEY}: 1' (docs/grading.md)")
+            return None
+        keys = self.fields(root, KEYS, "an assignment file")
+        if keys is None:
+            return None
+        for required in (ASSIGNMENT_VERSION_KEY, "world", "robots", "criteria"):
+            if required not in keys:
+                self.error(None, f"missing required key '{required}:'", notes=("docs/grading.md",))
+        if ASSIGNMENT_VERSION_KEY in keys:
+            version = self.number(keys[ASSIGNMENT_VERSION_KEY], "the format version", integer=True)
+            if version is not None and version != 1:
+                self.error(keys[ASSIGNMENT_VERSION_KEY], "this labsim reads assignment format 1")
+        world = self._world(keys.get("world"))
+        robots = self._robots(keys.get("robots"))
+        params = self._params(keys["params"]) if "params" in keys else {}
+        criteria = self._criteria(keys["criteria"]) if "criteria" in keys else ()
+        metrics = self._names(keys["metrics"], "metrics") if "metrics" in keys else ()
+        metrics = tuple(dict.fromkeys([*metrics, *(c.name for c in criteria if not c.builtin)]))
+        seeds = self._seeds(keys["seeds"]) if "seeds" in keys else (1,)
+        timeout = self.positive(keys["timeout_s"], "timeout_s") if "timeout_s" in keys else DEFAULT_TIMEOUT_S
+        budgets = self._budgets(keys["budgets"]) if "budgets" in keys else DEFAULT_BUDGETS
+        title = self.string(keys["title"], "title") if "title" in keys else None
+        reference = self._reference(keys["reference"]) if "reference" in keys else None
+        if self.report.errors:
+            return None
+        return Assignment(self.doc.path, hashlib.sha256(self.doc.text.encode()).hexdigest(),
+                          title or Path(self.doc.path).stem, world, robots, params, metrics, seeds,
+                          timeout or DEFAULT_TIMEOUT_S, budgets, criteria, reference)
+
+    def _world(self, node: Node | None) -> str | None:
+        if node is None:
+            return None
+        name = self.name(node, "world")
+        return None if name in (None, ANY) else name
+
+    def _robots(self, node: Node | None) -> int | None:
+        if node is None or (isinstance(node, ScalarNode) and node.value == ANY):
+            return None
+        count = self.number(node, "robots (a whole number, or 'any')", integer=True)
+        if count is not None and not 0 <= count <= 1000:
+            self.error(node, "robots is a whole number from 0 to 1000, or 'any'")
+            return None
+        return None if count is None else int(count)
+
+    def _params(self, node: Node) -> dict[str, str]:
+        out: dict[str, str] = {}
+        for key, value in self.entries(node, "params") or []:
+            if not isinstance(value, ScalarNode) or isinstance(scalar_value(value), str) or value.value == "":
+                self.error(value, f"param '{key.value}' takes the value the grader sets: a number, or true or false")
+                continue
+            out[str(key.value)] = str(value.value)
+        return out
+
+    def _names(self, node: Node, what: str) -> tuple[str, ...]:
+        out = []
+        for item in self.items(node, what) or []:
+            name = self.name(item, f"an item of '{what}'")
+            if name is not None:
+                out.append(name)
+        return tuple(out)
+
+    def _seeds(self, node: Node) -> tuple[int, ...]:
+        items = self.items(node, "seeds") or []
+        if not items or len(items) > MAX_SEEDS:
+            self.error(node, f"seeds is a list of 1 to {MAX_SEEDS} seeds, e.g. [1, 2, 3]")
+            return (1,)
+        out = []
+        for item in items:
+            seed = self.number(item, "a seed", integer=True)
+            if seed is not None and seed < 0:
+                self.error(item, "a seed is 0 or a positive whole number")
+            elif seed is not None:
+                out.append(int(seed))
+        if len(set(out)) != len(out):
+            self.error(node, "each seed once: the same seed gives the same run")
+        return tuple(out) or (1,)
+
+    def _budgets(self, node: Node) -> Budgets:
+        out = DEFAULT_BUDGETS
+        for key, value in self.entries(node, "budgets") or []:
+            changed, problems = out.parse([f"{key.value}={getattr(value, 'value', '')}"])
+            for _, message in problems:
+                self.error(key if str(key.value) not in Budgets.names() else value,
+                           message.replace("give NAME=VALUE with NAME", "a budget's name is"))
+            out = changed
+        return out
+
+    def _reference(self, node: Node) -> str | None:
+        name = self.name(node, "reference")
+        return None if name is None else str(Path(self.doc.path).parent / name)
+
+    def _criteria(self, node: Node) -> tuple[Criterion, ...]:
+        out = []
+        for key, value in self.entries(node, "criteria") or []:
+            found = self._criterion(key, value)
+            if found is not None:
+                out.append(found)
+        if isinstance(node, MappingNode) and not out and not self.report.errors:
+            self.error(node, "give at least one criterion")
+        return tuple(out)
+
+    def _criterion(self, key: ScalarNode, node: Node) -> Criterion | None:
+        name = str(key.value)
+        fields = self.fields(node, CRITERION_KEYS, f"criterion '{name}'")
+        if fields is None:
+            return None
+        weight = self.positive(fields["weight"], "weight") if "weight" in fields else 1.0
+        if name in BUILTINS:
+            for extra in set(fields) - {"weight"}:
+                self.error(fields[extra], f"the built-in criterion '{name}' takes a weight only, not '{extra}'")
+            return Criterion(name, weight or 1.0)
+        if not name.isidentifier():
+            self.error(key, f"'{name}' is neither a metric's name nor a built-in criterion"
+                            f"{did_you_mean(name, BUILTINS)}", notes=(f"built-ins: {', '.join(BUILTINS)}",))
+            return None
+        given = [k for k in ("at_least", "at_most", "score") if k in fields]
+        if not given and did_you_mean(name, BUILTINS):  # a built-in misspelt, not a metric
+            self.error(key, f"unknown built-in criterion '{name}'{did_you_mean(name, BUILTINS)}",
+                       notes=(f"built-ins: {', '.join(BUILTINS)}",))
+            return None
+        if len(given) != 1:
+            self.error(node, f"criterion '{name}' takes one of at_least, at_most or score: [worst, best]")
+            return None
+        if given[0] == "score":
+            pair = self.pair(fields["score"], "score")
+            if pair is not None and pair[0] == pair[1]:
+                self.error(fields["score"], "score: [worst, best] needs two different values")
+                return None
+            return None if pair is None else Criterion(name, weight or 1.0, worst=pair[0], best=pair[1])
+        limit = self.number(fields[given[0]], given[0])
+        if limit is None:
+            return None
+        return Criterion(name, weight or 1.0, **{given[0]: limit})
+
+
+def bad_assignment(path: str, message: str) -> LabsimError:
+    """A problem with the assignment as a whole (its reference does not compile, ...)."""
+    return LabsimError([Diagnostic(path, message)])
+
+
+def assignment_schema() -> Schema:
+    """The JSON Schema of assignment files, from the reader's key tables (``labsim schema assignment``)."""
+    number: Schema = {"type": "number"}
+    criterion = mapping(CRITERION_KEYS, {
+        "at_least": {**number, "description": "passes (full weight) when the metric's mean over the seeds is at "
+                                              "least this"},
+        "at_most": {**number, "description": "passes (full weight) when the mean is at most this"},
+        "score": {"type": "array", "items": number, "minItems": 2, "maxItems": 2,
+                  "description": "[worst, best]: 0 at worst, the full weight at best, linear between"},
+        "weight": {**number, "exclusiveMinimum": 0, "description": "its share of the score (default 1)"}})
+    out = mapping(KEYS, {
+        ASSIGNMENT_VERSION_KEY: {"const": 1, "description": "the assignment format version"},
+        "title": {"type": "string", "description": "the assignment's name in the gradebook and on the pages"},
+        "world": {"type": "string", "description": "the world every submission uses, or 'any'"},
+        "robots": {"oneOf": [{"type": "integer", "minimum": 0}, {"const": ANY}],
+                   "description": "how many robots a submission runs, or 'any'"},
+        "params": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
+                   "additionalProperties": {"type": ["number", "boolean"]},
+                   "description": "params every submission declares, with the values the grader sets"},
+        "metrics": {"type": "array", "items": {"type": "string", "pattern": IDENTIFIER},
+                    "description": "metrics every submission defines (the criteria's are added)"},
+        "seeds": {"type": "array", "items": {"type": "integer", "minimum": 0}, "minItems": 1,
+                  "maxItems": MAX_SEEDS, "uniqueItems": True, "description": "one run per seed (default [1])"},
+        "timeout_s": {**number, "exclusiveMinimum": 0,
+                      "description": f"wall time each run may take (default {DEFAULT_TIMEOUT_S:g} s)"},
+        "budgets": {"type": "object", "additionalProperties": False,
+                    "properties": {n: {"type": "integer", "minimum": 0} for n in Budgets.names()},
+                    "description": "each run's budgets (docs/security.md)"},
+        "criteria": {"type": "object", "minProperties": 1, "additionalProperties": criterion,
+                     "description": "a metric's name or a built-in (" + ", ".join(BUILTINS) + ") to how it "
+                                    "scores"},
+        "reference": {"type": "string", "description": "a behaviour whose metrics are shown beside each "
+                                                       "student's (relative to this file)"},
+    }, "A labsim assignment file (docs/grading.md).", required=(ASSIGNMENT_VERSION_KEY, "world", "robots",
+                                                               "criteria"))
+    return {"$schema": DRAFT, **out}
+
+

@@ -1,0 +1,211 @@
+"""``labsim grade ASSIGNMENT SUBMISSIONS...``: a class graded, from the command line to the files.
+
+The driver of the grader: it reads the assignment (runtime/grade/assignment.py), holds every
+submission to its contract (contract.py), runs what passed, each seed a job (runs.py), on the
+shared batch layer (``labsim.runtime.batch``: local worker processes, ``-j``, or a Dask
+cluster), re-using the cache for unchanged submissions, scores them (score.py) and writes the
+gradebook (gradebook.py) and the pages (pages.py). One student's failure is their row, never
+the batch's; Ctrl-C keeps what is done (the rest are ``not run``). Exit 0 when every student
+was graded, 1 when some could not be, 2 for a bad assignment (a ``LabsimError``), 130 on Ctrl-C.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import cast
+
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+from labsim.foundation.inert import inert
+from labsim.foundation.progress import StatusLine, bar
+from labsim.runtime.batch import DONE, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs
+from labsim.runtime.grade.assignment import Assignment, read_assignment
+from labsim.runtime.grade.contract import (
+    CRASH,
+    GRADED,
+    MISMATCH,
+    NOT_RUN,
+    Submission,
+    check_submission,
+    find_submissions,
+)
+from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, write_gradebook
+from labsim.runtime.grade.runs import CRASHED, TIMED_OUT, Job, SeedRun, make_job, run_job
+from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
+
+MapPicture = Callable[[Path, Path], None]  # (trace, PNG to write): the pictures' renderer, handed over by the cli
+
+
+def add_grade_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("assignment", help="the assignment file (docs/grading.md)")
+    p.add_argument("submissions", nargs="+",
+                   help="behaviour files, folders of them (one student each), or a folder of folders (one per student)")
+    p.add_argument("--out", default="grades", metavar="DIR",
+                   help="where the gradebook, the pages and the cache go (default: %(default)s)")
+    p.add_argument("-j", "--jobs", type=int, default=None, metavar="N",
+                   help="worker processes (default: every core)")
+    p.add_argument("--executor", choices=("local", "dask"), default="local",
+                   help="run on this machine's processes, or on a Dask cluster (--scheduler)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="the Dask scheduler's address, with --executor dask")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="show a progress bar (default: when stderr is a terminal)")
+    p.add_argument("--no-cache", action="store_true", help="run every submission, even those graded before")
+    p.add_argument("--no-pages", action="store_true", help="write the gradebook only, no HTML pages")
+
+
+@dataclass(frozen=True)
+class Options:
+    assignment: str
+    submissions: list[str]
+    out: Path = Path("grades")
+    jobs: int = 0  # 0: every core
+    scheduler: object = None  # a Dask scheduler's address (or client): run there
+    cache: bool = True
+    progress: bool = False
+
+
+def grade_class(options: Options) -> Graded:
+    """Grade every submission; see the module docstring. A bad assignment raises LabsimError."""
+    assignment = read_assignment(options.assignment)
+    reference = _reference(assignment)
+    found = find_submissions(options.submissions)
+    if not found:
+        raise LabsimError([Diagnostic(" ".join(options.submissions), "no submissions (behaviour files) here")])
+    submissions = _check_all(found, assignment, options.jobs or default_jobs())
+    cache = options.out / "cache"
+    runs: dict[str, list[SeedRun]] = {}
+    jobs: list[Job] = []
+    reused = 0
+    for s in submissions:
+        if s.status != GRADED:
+            continue
+        kept = load_cached(cache, s.key, assignment.seeds) if options.cache else None
+        if kept is not None:
+            runs[s.student] = kept
+            reused += len(kept)
+            continue
+        jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
+                          assignment.timeout_s, trace=i == 0) for i, seed in enumerate(assignment.seeds)]
+    done, interrupted = _run_jobs(jobs, options, assignment.timeout_s)
+    fresh = {job.student for job in jobs}
+    for job, result in zip(jobs, done):
+        if result is not None:
+            runs.setdefault(job.student, []).append(result)
+    grades = []
+    for s in submissions:
+        mine = sorted(runs.get(s.student, []), key=lambda r: assignment.seeds.index(r.seed))
+        if s.status == GRADED and len(mine) < len(assignment.seeds):
+            grades.append(Grade(s.student, s.path, NOT_RUN, "interrupted before all its runs were done",
+                                diagnostics=s.diagnostics, runs=tuple(mine), source=s.source))
+            continue
+        if s.status == GRADED and options.cache and s.student in fresh and cacheable(mine):
+            save_cached(cache, s.key, mine)
+        grades.append(grade_of(s, mine, assignment))
+    traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
+    return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
+                  reused, interrupted, traces)
+
+
+def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
+    """Every submission held to the contract, on ``jobs`` worker processes (each compiles one)."""
+    items = [(s, p, assignment) for s, p, _ in found if p is not None]
+    checked: dict[str, Submission] = {}
+    for o in LocalBatch(jobs).outcomes(_check, items):
+        student, path, _ = items[o.index]
+        checked[student] = (o.value if o.kind == DONE else
+                            Submission(student, str(path), "", "", CRASH, f"checking it failed: {o.message}"))
+    return [checked[s] if p is not None else Submission(s, s, "", "", MISMATCH, why) for s, p, why in found]
+
+
+def _check(item: tuple[str, Path, Assignment]) -> Submission:
+    return check_submission(*item)
+
+
+def _reference(assignment: Assignment) -> Grade | None:
+    """The reference behaviour, graded like a student: a bad one is a bad assignment (exit 2)."""
+    if assignment.reference is None:
+        return None
+    submission = check_submission("reference", Path(assignment.reference), assignment)
+    if submission.status != GRADED:
+        raise LabsimError([Diagnostic(assignment.path, f"the reference behaviour {assignment.reference} does not "
+                                                       f"meet the assignment: {submission.reason}")])
+    jobs = [make_job("reference", Path(submission.path), submission.world_file, seed, assignment.params,
+                     assignment.budgets, assignment.timeout_s, trace=False) for seed in assignment.seeds]
+    return grade_of(submission, [run_job(j) for j in jobs], assignment)
+
+
+def _run_jobs(jobs: list[Job], options: Options, timeout_s: float) -> tuple[list[SeedRun | None], bool]:
+    """Every job's run (None for those Ctrl-C left undone), and whether Ctrl-C came."""
+    done: list[SeedRun | None] = [None] * len(jobs)
+    if not jobs:
+        return done, False
+    line = StatusLine() if options.progress else None
+    # the pool kills a run a little after its own deadline: the run stops itself first, with its message
+    outcomes = (dask_outcomes(options.scheduler, run_job, jobs) if options.scheduler is not None
+                else LocalBatch(options.jobs or default_jobs(), timeout_s + 5.0).outcomes(run_job, jobs))
+    finished = 0
+    try:
+        for outcome in outcomes:
+            done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
+            finished += 1
+            if line is not None and (line.due() or finished == len(jobs)):
+                line.draw(f"grading {bar(finished / len(jobs))} {finished}/{len(jobs)} runs")
+    except KeyboardInterrupt:
+        return done, True
+    finally:
+        if line is not None:
+            line.clear()
+        close = getattr(outcomes, "close", None)
+        if close is not None:
+            close()
+    return done, False
+
+
+def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
+    if outcome.kind == DONE:
+        return cast(SeedRun, outcome.value)
+    status = TIMED_OUT if outcome.kind == TIMEOUT else CRASHED
+    return SeedRun(job.seed, status, outcome.message, wall_time_s=outcome.wall_s)
+
+
+def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -> int:
+    """The command: grade, write, say what was written; its exit code."""
+    if args.executor == "dask" and not args.scheduler:
+        raise LabsimError([Diagnostic("--executor dask", "give the cluster's address: --scheduler ADDRESS")])
+    if args.jobs is not None and args.jobs < 1:
+        raise LabsimError([Diagnostic("-j", "give 1 or more worker processes")])
+    progress = args.progress if args.progress is not None else sys.stderr.isatty()
+    options = Options(args.assignment, args.submissions, Path(args.out), args.jobs or 0,
+                      args.scheduler if args.executor == "dask" else None, not args.no_cache, progress)
+    options.out.mkdir(parents=True, exist_ok=True)
+    graded = grade_class(options)
+    return write_class(graded, options, map_picture, pages=not args.no_pages)
+
+
+def write_class(graded: Graded, options: Options, map_picture: MapPicture | None, pages: bool = True) -> int:
+    """Write the gradebook and the pages of a graded class; print the counts; the exit code."""
+    inputs = [graded.assignment.path, *(g.path for g in graded.grades)]
+    written = write_gradebook(options.out, graded.grades, graded.assignment, graded.copies, graded.reference, inputs)
+    if pages:
+        from labsim.runtime.grade.pages import write_pages
+
+        written += write_pages(options.out, graded, map_picture, inputs, options.jobs or default_jobs())
+    counts: dict[str, int] = {}
+    for g in graded.grades:
+        counts[g.status] = counts.get(g.status, 0) + 1
+    print(f"{len(graded.grades)} submissions: " + ", ".join(f"{n} {status}" for status, n in counts.items()))
+    print(f"{graded.ran} runs made, {graded.reused} taken from the cache")
+    for why, students in graded.copies:
+        print(f"likely copies ({why}): {inert(', '.join(students))}")
+    for path in written[:3]:
+        print(f"wrote {path}")
+    if pages:
+        print(f"wrote {options.out / 'index.html'} and {len(graded.grades)} feedback pages in "
+              f"{options.out / 'feedback'}")
+    if graded.interrupted:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if all(g.graded for g in graded.grades) else EXIT_FAILED
+

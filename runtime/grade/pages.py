@@ -1,0 +1,197 @@
+"""The grader's pages: one feedback page per student and the class overview, static HTML.
+
+The last stage of ``labsim grade``, beside the gradebook (runtime/grade/gradebook.py); both read
+the same ``Grade`` rows. A feedback page shows the student every diagnostic with its caret, the
+criteria with their values against the thresholds (and the reference behaviour's beside them),
+each seed's run, the map of seed 1 (drawn by the pictures' renderer, which the command line
+hands over), the rules that never fired, and the faults and warnings apart from the log lines.
+The overview shows the teacher the status counts, the distribution of the score and of each
+metric (matplotlib, to PNG), the likely copies, and every student linked to their page. The
+pages load nothing from the network (a Content-Security-Policy says so to the browser) and
+every piece of text from a file or a run is escaped.
+"""
+from __future__ import annotations
+
+import gzip
+import html
+import math
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from labsim.foundation.diagnostics import Diagnostic
+from labsim.foundation.files import save_figure, write_output
+from labsim.foundation.inert import inert
+from labsim.runtime.batch import DONE, LocalBatch
+from labsim.runtime.grade.contract import STATUSES
+from labsim.runtime.grade.gradebook import messages, page_name
+from labsim.runtime.grade.score import Grade, Graded
+
+CSP = "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'"
+STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:60em;color:#222;padding:0 1em}
+table{border-collapse:collapse;margin:.5em 0 1.5em}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:left}
+th{background:#f3f3f3}.pass{color:#176317;font-weight:600}.fail{color:#a31515;font-weight:600}
+pre{background:#f7f7f7;border:1px solid #ddd;padding:.6em;overflow-x:auto}.muted{color:#777}
+.status{display:inline-block;padding:.1em .6em;border-radius:1em;background:#eee}
+.charts img{width:32%;min-width:18em;margin:.2em}"""
+
+
+def e(text: object) -> str:
+    """Text for a page: control characters made visible (line breaks kept), then HTML-escaped (quotes too)."""
+    return html.escape("\n".join(inert(line) for line in str(text).split("\n")), quote=True)
+
+
+def _page(title: str, body: list[str]) -> str:
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">"
+            f"<title>{e(title)}</title><style>{STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def _number(value: float | None) -> str:
+    if value is None:
+        return ""
+    return "nan" if not math.isfinite(value) else f"{value:.4g}"
+
+
+def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:
+    """A table of cells already escaped (the callers escape what they put in)."""
+    head = "".join(f"<th>{h}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def feedback_page(g: Grade, title: str, map_file: str | None, reference: Grade | None) -> str:
+    """One student's page; see the module docstring."""
+    score = f"{g.score:g} / 100" if g.score is not None else "not graded"
+    body = [f"<h1>{e(title)}: {e(g.student)}</h1>",
+            f"<p><span class=\"status\">{e(g.status)}</span> <strong>{e(score)}</strong></p>"]
+    if g.reason:
+        body.append(f"<p>{e(g.reason)}</p>")
+    errors = [d for d in g.diagnostics if d.severity == "error"]
+    warnings = [d for d in g.diagnostics if d.severity != "error"]
+    if errors:
+        shown = "\n".join(d.format() for d in errors)
+        body += ["<h2>Errors in the file</h2>", f"<pre class=\"diagnostics\">{e(shown)}</pre>"]
+    if g.criteria:
+        ref = {r.name: r for r in reference.criteria} if reference is not None else {}
+        rows = [[e(r.description), e(_number(r.value)) if r.value is not None else "",
+                 e(_number(ref[r.name].value)) if r.name in ref and ref[r.name].value is not None else "",
+                 f"<span class=\"{'pass' if r.passed else 'fail'}\">{'pass' if r.passed else 'fail'}</span>",
+                 e(f"{r.points:.3g} / {r.weight:g}")] for r in g.criteria]
+        body += ["<h2>Criteria</h2>", _table(["criterion", "your value (mean over the seeds)",
+                                              "reference" if reference is not None else "", "", "points"], rows)]
+    if map_file:
+        body += ["<h2>The map of seed " + e(g.runs[0].seed) + "</h2>",
+                 f"<img class=\"map\" src=\"{e(map_file)}\" alt=\"the map of the run\" style=\"max-width:100%\">"]
+    if g.runs:
+        names = list(dict.fromkeys(m for r in g.runs for m in r.metrics))
+        rows = [[e(r.seed), e(r.status), e(r.ticks), e(f"{r.sim_time_s:.1f} s"), "yes" if r.stopped else "no",
+                 e(r.collisions), e(len(r.faults)), *(e(_number(r.metrics.get(m))) for m in names)] for r in g.runs]
+        body += ["<h2>Runs</h2>", _table(["seed", "status", "ticks", "simulated", "stopped", "collisions",
+                                          "faults", *map(e, names)], rows)]
+    body += _lists(g, warnings)
+    return _page(f"{title}: {g.student}", body)
+
+
+def _lists(g: Grade, warnings: list[Diagnostic]) -> list[str]:
+    """Rules that never fired, faults, warnings and log lines, each apart."""
+    out: list[str] = []
+    never = [set(r.never_fired) for r in g.runs if r.status == "ran"]
+    unused = sorted(set.intersection(*never)) if never else []
+    compiled = [d.format() for d in warnings]
+    firsts = {c.splitlines()[0] for c in compiled}  # the run repeats the compiler's warnings
+    run_warnings = [w for w in dict.fromkeys(w for r in g.runs for w in r.warnings)
+                    if w and w.splitlines()[0] not in firsts]
+    first = g.runs[0] if g.runs else None
+    sections = (("Rules that never fired (on any seed)", unused),
+                ("Runtime faults", list(dict.fromkeys(f for r in g.runs for f in r.faults))),
+                ("Warnings", compiled + run_warnings),
+                (f"Log lines (seed {first.seed if first else ''})", list(first.logs[:50]) if first else []))
+    for heading, items in sections:
+        if items:
+            out += [f"<h2>{e(heading)}</h2>", "<pre>" + e("\n".join(items)) + "</pre>"]
+    return out
+
+
+def overview_page(graded: Graded, charts: list[str]) -> str:
+    """The class at a glance; see the module docstring."""
+    a = graded.assignment
+    counts = {s: sum(g.status == s for g in graded.grades) for s in STATUSES}
+    body = [f"<h1>{e(a.title)}: the class</h1>",
+            f"<p>{len(graded.grades)} submissions, {len(a.seeds)} seed{'s' * (len(a.seeds) > 1)} each "
+            f"({e(', '.join(map(str, a.seeds)))}); criteria: {e('; '.join(c.describe() for c in a.criteria))}</p>",
+            "<h2>Status</h2>", _table(["status", "students"], [[e(s), e(n)] for s, n in counts.items() if n]),
+            "<h2>Distributions</h2>", "<div class=\"charts\">"
+            + "".join(f"<img src=\"{e(c)}\" alt=\"{e(Path(c).stem)}\">" for c in charts) + "</div>"]
+    if graded.copies:
+        body += ["<h2>Likely copies</h2>", "<p class=\"muted\">for you to look at; not a verdict</p>",
+                 _table(["why", "students"], [[e(why), e(", ".join(s))] for why, s in graded.copies])]
+    rows = [[f"<a href=\"feedback/{e(page_name(g.student))}\">{e(g.student)}</a>", e(_number(g.score)),
+             e(g.status), e(g.reason[:160]), e(" | ".join(messages(g))[:160])] for g in graded.grades]
+    body += ["<h2>Students</h2>", _table(["student", "score", "status", "reason", "messages"], rows)]
+    return _page(f"{a.title}: the class", body)
+
+
+def charts(graded: Graded, folder: Path) -> list[Path]:
+    """A histogram of the score and of each metric's mean over the graded students."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    series = {"score": [g.score for g in graded.grades if g.score is not None]}
+    for m in graded.assignment.metrics:
+        series[m] = [g.means[m] for g in graded.grades if g.graded and math.isfinite(g.means.get(m, math.nan))]
+    out = []
+    for i, (name, values) in enumerate(series.items()):
+        fig, ax = plt.subplots(figsize=(4, 2.6), dpi=100)
+        ax.hist(values, bins=min(20, max(5, len(values) // 2)), color="#3b6ea8" if i else "#2f8f4e")
+        ax.set_title(f"{name} ({len(values)} graded)", fontsize=10)
+        ax.set_ylabel("students", fontsize=9)
+        ax.tick_params(labelsize=8)
+        fig.tight_layout()
+        path = folder / f"{i:02d}.png"  # numbered: a metric's name never becomes a file name
+        save_figure(fig, path)
+        plt.close(fig)
+        out.append(path)
+    return out
+
+
+def write_pages(out: Path, graded: Graded, map_picture: Callable[[Path, Path], None] | None,
+                inputs: list[str], jobs: int = 1) -> list[Path]:
+    """The overview (``index.html``), its charts, and a feedback page (with its map) per student;
+    the maps are drawn on ``jobs`` worker processes."""
+    feedback = out / "feedback"
+    feedback.mkdir(parents=True, exist_ok=True)
+    maps: list[tuple[Callable[[Path, Path], None], Path, Path]] = []
+    for g in graded.grades:
+        trace = graded.traces.get(g.student)
+        if trace and map_picture is not None:
+            stem = page_name(g.student).removesuffix(".html")
+            trace_path = out / "traces" / f"{stem}.csv"
+            trace_path.parent.mkdir(exist_ok=True)
+            write_output(trace_path, gzip.decompress(trace), inputs, "--out")
+            maps.append((map_picture, trace_path, feedback / f"{stem}.png"))
+    drawn = {maps[o.index][2].name for o in LocalBatch(jobs).outcomes(_draw, maps) if o.kind == DONE and o.value}
+    written = []
+    for g in graded.grades:
+        name = page_name(g.student)
+        png = name.removesuffix(".html") + ".png"
+        path = feedback / name
+        page = feedback_page(g, graded.assignment.title, png if png in drawn else None, graded.reference)
+        write_output(path, page, inputs, "--out")
+        written.append(path)
+    pictures = charts(graded, out / "charts")
+    index = out / "index.html"
+    write_output(index, overview_page(graded, [f"charts/{p.name}" for p in pictures]), inputs, "--out")
+    return [index, *written]
+
+
+def _draw(item: tuple[Callable[[Path, Path], None], Path, Path]) -> bool:
+    """One map, on a worker: True when drawn (a map that cannot be drawn leaves its page without it)."""
+    draw, trace, png = item
+    try:
+        draw(trace, png)
+    except Exception:
+        return False
+    return True

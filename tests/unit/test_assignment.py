@@ -1,0 +1,68 @@
+"""Assignment files (runtime/grade/assignment.py): read with positions, their kind, their JSON Schema."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jsonschema
+import pytest
+from helpers import FIXTURES
+
+from labsim.foundation.diagnostics import LabsimError
+from labsim.foundation.kinds import file_kind
+from labsim.runtime.cli.schemas import schema_text
+from labsim.runtime.grade.assignment import read_assignment
+from labsim.runtime.grade.score import score_criterion
+
+ASSIGNMENT = FIXTURES / "grading" / "assignment.yaml"
+
+
+def test_the_fixture_reads_and_is_an_assignment() -> None:
+    a = read_assignment(ASSIGNMENT)
+    assert file_kind(ASSIGNMENT) == "assignment"
+    assert (a.world, a.robots, dict(a.params), a.seeds, a.timeout_s) == ("walls_lab4", 1, {"minutes": "1"}, (1, 2), 30)
+    assert a.metrics == ("near_misses", "closest", "following")  # the criteria's metrics are required too
+    assert [c.name for c in a.criteria] == ["following", "closest", "ran_to_stop", "no_faults", "no_collisions"]
+    assert a.weights == 6 and a.budgets.ticks == 5000 and a.reference == str(ASSIGNMENT.parent / "reference.yaml")
+
+
+def test_the_schema_accepts_the_fixture_and_is_the_shipped_copy() -> None:
+    schema = json.loads(schema_text("assignment"))
+    import yaml
+
+    jsonschema.validate(yaml.safe_load(ASSIGNMENT.read_text()), schema)
+    assert (FIXTURES / "grading" / "assignment.schema.json").read_text() == schema_text("assignment")
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({"labsim-assignment": 1, "world": "any", "robots": "any", "criteria": {"x": {"y": 1}}},
+                            schema)
+
+
+@pytest.mark.parametrize("text, where, message", [
+    ("", "", "the file is empty"),
+    ("labsim-assignment: 1\nworld: any\nrobots: any\n", "", "missing required key 'criteria:'"),
+    ("labsim-assignment: 1\nworld: any\nrobots: lots\ncriteria: {no_faults: {}}\n", "3:9", "robots (a whole number"),
+    ("labsim-assignment: 1\nworld: any\nrobots: 1\nparams: {minutes: five}\ncriteria: {no_faults: {}}\n", "4:19",
+     "param 'minutes' takes the value the grader sets"),
+    ("labsim-assignment: 1\nworld: any\nrobots: 1\ncriteria: {no_faults: {at_least: 1}}\n", "4:34",
+     "the built-in criterion 'no_faults' takes a weight only"),
+    ("labsim-assignment: 1\nworld: any\nrobots: 1\ncriteria: {x: {score: [1, 1]}}\n", "4:23",
+     "score: [worst, best] needs two different values"),
+    ("labsim-assignment: 1\nworld: any\nrobots: 1\nbudgets: {tiks: 5}\ncriteria: {no_faults: {}}\n", "4:11",
+     "a budget's name is one of"),
+])
+def test_each_mistake_is_reported_where_it_is(tmp_path: Path, text: str, where: str, message: str) -> None:
+    path = tmp_path / "a.yaml"
+    path.write_text(text)
+    with pytest.raises(LabsimError) as e:
+        read_assignment(path)
+    found = [f"{d.line}:{d.col}" if d.line else "" for d in e.value.diagnostics if message in d.message]
+    assert where in found, [d.format() for d in e.value.diagnostics]
+
+
+def test_a_scored_range_scores_linearly_either_way() -> None:
+    a = read_assignment(ASSIGNMENT)
+    following = a.criteria[0]  # 0 at 40, full at 55, weight 2
+    assert [score_criterion(following, {"following": v}, []).points for v in (30, 47.5, 60)] == [0, 1, 2]
+    lower = type(following)("overshoot", 1.0, worst=10.0, best=0.0)  # better lower
+    assert score_criterion(lower, {"overshoot": 2.5}, []).points == 0.75
+    assert score_criterion(lower, {"overshoot": float("nan")}, []).passed is False
