@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim.frames import yaw
 from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker
-from labsim.backends.scene.models import Kind
+from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.backends.scene.object_paths import PLACEHOLDERS, fill, problem
 from labsim.backends.scene.world import World, first_road, world_channels
 
@@ -137,6 +137,9 @@ class Fleet:
                     get(str(paths["right_motor"]), h, f"robot '{req.name}', right motor"))
         for slot, ch in enumerate(req.channels):
             kind = offered.get(ch)
+            if is_lidar_beam(ch) or kind in (Kind.CONTACT, Kind.REFLECTANCE):
+                raise BackendError(f"robot '{req.name}' reads '{ch}', which the coppeliasim backend does not read "
+                                   f"yet (lidars, bumpers and ground sensors run on the pymunk backend)")
             if kind is Kind.DISTANCE:
                 path = fill(str(paths["sonar"]), k=sonars.index(ch))
                 r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))

@@ -182,7 +182,7 @@ def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
                     check_camera(cameras[ch])
                 except ValueError as e:
                     raise BackendError(f"robot '{req.name}', model '{model.name}': {e}") from None
-        for s in model.sonars:
+        for s in model.rays():
             # A ray needs finite ends (and sense() writes these numbers as literals).
             if not all(math.isfinite(v) for v in (s.x_m, s.y_m, s.angle_rad, s.range_m)) or s.range_m <= 0:
                 raise BackendError(
@@ -242,7 +242,7 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     shape.filter = pymunk.ShapeFilter(group=i + 1)
     space.add(body, shape)
 
-    sonars = {s.name: s for s in model.sonars}
+    sonars = {s.name: s for s in model.rays()}
     cameras = {c.name: c for c in model.cameras}
     specs: list[Spec] = []
     for ch in req.channels:

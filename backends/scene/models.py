@@ -25,6 +25,8 @@ class Kind(Enum):
     JOINT = "joint"  # (position m or rad, velocity m/s or rad/s)
     FORCE = "force"  # (tension N,)
     BODY = "body"  # (x_m, z_m, angle_rad) in a mechanism's vertical plane
+    CONTACT = "contact"  # a bumper: True while its part of the chassis touches something
+    REFLECTANCE = "reflectance"  # a ground sensor: 0 (black floor) .. 1 (white), no unit
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,74 @@ class Sonar:
     y_m: float
     angle_rad: float
     range_m: float
+
+
+@dataclass(frozen=True)
+class Lidar:
+    """A 2D scanning range finder: ``beams`` rays in the floor's plane, fanned over ``fov_deg``.
+
+    It sits ``x_m`` ahead of the robot's origin. Beam k (channel ``lidar{k+1}``, counted
+    from 1 as the sonars are) points at ``-fov_deg / 2 + k * step`` degrees, counter-clockwise
+    as every angle here: the first beam is the rightmost, as ROS's ``angle_min`` and
+    CoppeliaSim's 2D laser scanners order a scan. A full circle (360 degrees) has
+    ``step = 360 / beams``, so no direction is read twice and beam ``beams // 2 + 1`` looks
+    straight ahead; a narrower fan has both ends, ``step = fov_deg / (beams - 1)``. A beam
+    reads the distance to the nearest thing it meets in metres, ``inf`` beyond ``range_m``.
+    ``noise_std_m`` is the Gaussian noise the run adds to every echo (``labsim.runtime.noise``).
+    """
+
+    beams: int
+    fov_deg: float
+    range_m: float
+    noise_std_m: float = 0.0
+    x_m: float = 0.0
+
+    def angles_rad(self) -> tuple[float, ...]:
+        full = self.fov_deg >= 360.0
+        step = self.fov_deg / (self.beams if full or self.beams == 1 else self.beams - 1)
+        start = 0.0 if self.beams == 1 and not full else -self.fov_deg / 2.0
+        return tuple(math.radians(start + k * step) for k in range(self.beams))
+
+    def rays(self) -> tuple[Sonar, ...]:
+        """The beams as single rays, the form every backend casts: ``lidar1`` .. ``lidarN``."""
+        return tuple(Sonar(f"lidar{k + 1}", self.x_m, 0.0, a, self.range_m)
+                     for k, a in enumerate(self.angles_rad()))
+
+
+def is_lidar_beam(channel: str) -> bool:
+    """Whether a channel is a lidar's beam (``lidar7``): a trace leaves them out, as a group."""
+    return channel.startswith("lidar") and channel[5:].isdigit()
+
+
+@dataclass(frozen=True)
+class Bumper:
+    """A contact switch on the chassis: True while something touches the chassis near it.
+
+    Modelled as a small disc of radius ``reach_m`` centred on the chassis edge at
+    (``x_m``, ``y_m``): the switch is pressed while a wall, block or another robot comes into
+    the disc. A real bumper closes at a few millimetres of travel; ``reach_m`` stands for that
+    travel plus the contact slop the physics allows.
+    """
+
+    name: str  # channel name: bump_front_left, bump_front_right, bump_back_left, bump_back_right
+    x_m: float
+    y_m: float
+    reach_m: float = 0.01
+
+
+@dataclass(frozen=True)
+class GroundSensor:
+    """A downward-looking reflectance sensor: the brightness of the floor under (``x_m``, ``y_m``).
+
+    Reads 0 on black and 1 on white: the floor texture's luminance (ITU-R BT.601 weights,
+    0.299 R + 0.587 G + 0.114 B, over 255) at the texture pixel under the point, the floor
+    colour off the texture. Real IR ground sensors read a spot a few millimetres wide; one
+    texture pixel (1 cm at the default 100 px/m) stands for it.
+    """
+
+    name: str  # channel name: ground1 .. groundN, left to right
+    x_m: float
+    y_m: float
 
 
 @dataclass(frozen=True)
@@ -90,11 +160,21 @@ class RobotModel:
     footprint: tuple[tuple[float, float], ...]  # convex outline in the robot frame, metres
     sonars: tuple[Sonar, ...]
     cameras: tuple[Camera, ...] = ()  # none on the stock model; a behaviour file adds them
+    lidars: tuple[Lidar, ...] = ()  # at most one; a behaviour file adds it (``lidar:``)
+    bumpers: tuple[Bumper, ...] = ()
+    ground_sensors: tuple[GroundSensor, ...] = ()
+    height_m: float = 0.0  # the body's height (for pictures of the scene); 0: not given
+
+    def rays(self) -> tuple[Sonar, ...]:
+        """Every single ray the robot casts: its sonars (or IR sensors), then its lidar's beams."""
+        return self.sonars + tuple(ray for lidar in self.lidars for ray in lidar.rays())
 
     def channels(self) -> dict[str, Kind]:
         """Every channel a behaviour may read from a robot of this model, in a stable order."""
-        out: dict[str, Kind] = {s.name: Kind.DISTANCE for s in self.sonars}
+        out: dict[str, Kind] = {s.name: Kind.DISTANCE for s in self.rays()}
         out.update({c.name: Kind.IMAGE for c in self.cameras})
+        out.update({b.name: Kind.CONTACT for b in self.bumpers})
+        out.update({g.name: Kind.REFLECTANCE for g in self.ground_sensors})
         out.update(POSE_CHANNELS)
         out["forward_speed"] = Kind.NUMBER  # m/s along the heading
         out["collided"] = Kind.BOOL
