@@ -50,11 +50,12 @@ class RobotNoise:
     limit: float  # wheel speed limit, rad/s
     sonars: list[tuple[int, float]]  # (position in the robot's readings, range in m)
     cameras: list[int]  # positions of its images in its readings
-    lidar: list[tuple[int, float, float]]  # (position, range in m, noise std in m) of each beam read
     rng: random.Random
     pixels: np.random.Generator | None  # for camera noise only
     command: list[float] = field(default_factory=lambda: [0.0, 0.0])  # what the runtime last sent, rad/s
     dropped: int = 0  # sonar readings lost so far
+    # (position, range in m, noise std in m) of each lidar beam read, when the lidar has noise
+    lidar: list[tuple[int, float, float]] = field(default_factory=list)
 
 
 class NoisyIO:
@@ -160,4 +161,4 @@ def robot_noise(program: Program, index: int, name: str, model: RobotModel, nois
         import numpy as np
 
         pixels = np.random.default_rng(random.Random(f"{program.seed}/{name}/camera noise").getrandbits(64))
-    return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, lidar, rng, pixels)
+    return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, rng, pixels, lidar=lidar)
