@@ -70,3 +70,11 @@ def test_ir_sensors_and_bumpers_give_the_embedded_backends_trace(tmp_path: Path,
     sensor = "front" if "front" in columns else "pressed"
     seen = {v[columns.index(sensor)] for v in values}
     assert len(seen) > 1, seen  # the sensor read something, not only its idle value
+
+
+def test_labsim_scene_refuses_an_epuck_before_it_builds_anything(capsys: pytest.CaptureFixture[str]) -> None:
+    from labsim.runtime.cli.main import main
+
+    assert main(["scene", str(BEHAVIOURS / "line_follow.yaml"), "--port", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "builds Pioneer P3DX robots only, and robot 'epuck' has model 'epuck'" in err and "Traceback" not in err
