@@ -31,7 +31,8 @@ class Kind(Enum):
 
 @dataclass(frozen=True)
 class Sonar:
-    """One ultrasonic sensor, modelled as a single ray from its mount along its axis."""
+    """One range sensor, modelled as a single ray from its mount along its axis: a sonar, an
+    IR proximity sensor (the e-puck's prox1..prox8) or one beam of a lidar (``Lidar.rays``)."""
 
     name: str  # channel name, 1-based as CoppeliaSim's legacy API: sonar1..sonar16
     x_m: float
