@@ -133,7 +133,7 @@ def _scene(world: World | str | None, robots: Sequence[RobotRequest] | None, dt_
             raise ValueError(f"check_backend: robot '{req.name}' asks for channel(s) {', '.join(unknown)}, "
                              f"which it does not offer in world '{world.name}' (it offers: {', '.join(offered)})")
         kinds.append({c: offered[c] for c in req.channels})
-        model_specs: list[Sonar | Camera] = [*req.model.sonars, *req.model.cameras] if req.model else []
+        model_specs: list[Sonar | Camera] = [*req.model.rays(), *req.model.cameras] if req.model else []
         specs.append({s.name: s for s in model_specs})
     return Scene(world, requests, tuple(kinds), tuple(specs), float(dt_s), seed, ticks)
 

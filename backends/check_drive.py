@@ -25,6 +25,8 @@ _TYPES = {
     Kind.DISTANCE: "a distance in metres: a float >= 0, math.inf when nothing is in range",
     Kind.NUMBER: "a finite number: a float (an int for a count such as laps), not a bool",
     Kind.BOOL: "a bool (True or False, not a number)",
+    Kind.CONTACT: "a bool (True while the bumper is pressed)",
+    Kind.REFLECTANCE: "a float from 0 (black) to 1 (white)",
     Kind.JOINT: "a tuple (position, velocity) of two finite floats",
     Kind.FORCE: "a tuple (tension_N,) of one finite float >= 0 (its cable pulls, never pushes)",
     Kind.BODY: "a tuple (x_m, z_m, angle_rad) of three finite floats",
@@ -328,8 +330,10 @@ def _wrong(kind: Kind, value: object, spec: Sonar | Camera | None) -> str | None
                 value.shape == shape if shape else len(value.shape) == 3 and value.shape[2] == 3):
             return None
         return f"an RGB image: a uint8 array of shape {shape or '(height, width, 3)'}, row 0 the bottom"
-    if kind is Kind.BOOL:
+    if kind in (Kind.BOOL, Kind.CONTACT):
         ok = isinstance(value, bool)
+    elif kind is Kind.REFLECTANCE:
+        ok = _finite(value) and 0.0 <= value <= 1.0  # type: ignore[operator]
     elif kind in _TUPLE_SIZES:
         ok = (isinstance(value, tuple) and len(value) == _TUPLE_SIZES[kind] and all(_finite(v) for v in value)
               and (kind is not Kind.FORCE or value[0] >= 0))

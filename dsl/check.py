@@ -50,10 +50,12 @@ from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
 from labsim.foundation.source import Place, Text
 
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL,
-               Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY}
+               Kind.IMAGE: Type.IMAGE, Kind.JOINT: Type.JOINT, Kind.FORCE: Type.FORCE, Kind.BODY: Type.BODY,
+               Kind.CONTACT: Type.BOOL, Kind.REFLECTANCE: Type.NUMBER}
 LOGGED = (Type.NUMBER, Type.BOOL, Type.TEXT, Type.STATE)  # what a log's field may show
 _SHADOWABLE_KIND = "built-in name"  # a name added after version 1, which a file's own name hides
-_KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body"}
+_KIND_WORDS = {Kind.JOINT: "joint", Kind.FORCE: "force sensor", Kind.BODY: "body", Kind.CONTACT: "bumper",
+               Kind.REFLECTANCE: "ground sensor"}
 
 
 @dataclass(frozen=True)
@@ -337,7 +339,8 @@ class _Checker(ExprChecker):
                 self.error(node, f"unknown robot model '{r.model}'{did_you_mean(r.model, MODELS)}",
                            notes=("models: " + ", ".join(MODELS),))
             else:
-                out[r.name] = dataclasses.replace(model, cameras=(r.camera,)) if r.camera else model
+                model = dataclasses.replace(model, cameras=(r.camera,)) if r.camera else model
+                out[r.name] = dataclasses.replace(model, lidars=(r.lidar,)) if r.lidar else model
         return out
 
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:

@@ -238,7 +238,8 @@ class ExprChecker:
     def group(self, e: ast.Group, text: Text) -> Type | None:
         """[a, b, c]: members all numbers or all booleans; a range's missing names in one message."""
         if e.ranged:
-            missing = [m for m in e.members if isinstance(m, ast.Name) and m.id not in self.types]
+            missing = [m for m in e.members if isinstance(m, ast.Name) and m.id not in self.types
+                       and m.id not in self.poisoned]  # a failed lidar's beams are reported already
             if missing and not self.world_failed:
                 names = [m.id for m in missing if isinstance(m, ast.Name)]
                 which = names[0] if len(names) == 1 else f"{names[0]} .. {names[-1]}"

@@ -29,7 +29,7 @@ from labsim.foundation.source import Place, Text
 
 # Names whose value changes continuously, for ==/!= (channels of these kinds join them).
 CONTINUOUS_VARIABLES = frozenset({"time", "state_time"})
-_CONTINUOUS_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.JOINT, Kind.FORCE, Kind.BODY)
+_CONTINUOUS_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.JOINT, Kind.FORCE, Kind.BODY, Kind.REFLECTANCE)
 # Functions whose result is a whole number or a sign, whatever their arguments.
 _DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint"})
 _BINARY: dict[str, Callable[[Any, Any], Any]] = {
@@ -289,7 +289,7 @@ class Linter:
         """(the farthest distance e can read, the sonar) when e is a sonar or the nearest of sonars."""
         if isinstance(e, ast.Name):
             if e.id in self.c.distance_channels:
-                ranges = [s.range_m for m in self.c.models.values() for s in m.sonars if s.name == e.id]
+                ranges = [s.range_m for m in self.c.models.values() for s in m.rays() if s.name == e.id]
                 return (max(ranges), (e.id,)) if ranges else None
             if e.id in self.let_exprs and depth < 100:
                 return self.sonar_range(self.let_exprs[e.id], depth + 1)

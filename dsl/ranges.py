@@ -225,6 +225,8 @@ class Ranges:
         kind = self.c.channel_kinds.get(name)
         if kind is Kind.DISTANCE:
             return self.sonar(name)
+        if kind is Kind.REFLECTANCE:
+            return Range(0.0, 1.0, facts=(f"{name} is a ground sensor's reflectance, from 0 (black) to 1 (white)",))
         if name == "heading":
             return Range(-math.pi, math.pi, facts=(_HEADING,), angle=True)
         if name in ("x", "y"):
@@ -239,7 +241,7 @@ class Ranges:
         return TOP
 
     def sonar(self, name: str) -> Range:
-        ranges = [s.range_m for m in self.c.models.values() for s in m.sonars if s.name == name]
+        ranges = [s.range_m for m in self.c.models.values() for s in m.rays() if s.name == name]
         if not ranges:
             return TOP
         return Range(0.0, INF, facts=(f"{name} reads from 0 to {max(ranges):g} m (the model's range_m), "

@@ -20,10 +20,11 @@ from typing import Any
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene import object_paths
-from labsim.backends.scene.models import Camera
+from labsim.backends.scene.models import Camera, Lidar
 from labsim.backends.scene.world_names import builtin_copy
 from labsim.dsl import ast
 from labsim.dsl.builtins import Better
+from labsim.dsl.lidar import MAX_BEAMS, beam_names, read_lidar
 from labsim.dsl.noise import NoiseDecl, read_noise
 from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -45,7 +46,7 @@ _BETTER_MEANT = {"more": "higher", "high": "higher", "max": "higher", "maximum":
                  "larger": "higher", "bigger": "higher", "up": "higher", "less": "lower", "low": "lower",
                  "min": "lower", "minimum": "lower", "minimize": "lower", "smaller": "lower", "fewer": "lower",
                  "down": "lower"}
-ROBOT_KEYS = ("model", "count", "at", "camera", "paths", "params", "noise")
+ROBOT_KEYS = ("model", "count", "at", "camera", "lidar", "paths", "params", "noise")
 PATH_KEYS = ("robot", "left_motor", "right_motor", "sonar", "camera")
 CAMERA_KEYS = ("resolution", "fov_deg", "height_m", "pitch_deg", "x_m", "roll_deg")
 MAX_CAMERA_PX = 2048  # per side: beyond this a frame costs more than a tick should
@@ -73,6 +74,7 @@ class RobotDecl:
     # parameters this group sets for itself: name, one value per member (or one for all), node
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
     noise: NoiseDecl | None = None  # labsim.dsl.noise, resolved by the checker; None: none declared
+    lidar: Lidar | None = None  # labsim.dsl.lidar; the checker puts it on the group's model
 
 
 @dataclass(frozen=True)
@@ -365,13 +367,16 @@ class _Reader(Reader):
             camera = self.camera(fields["camera"]) if "camera" in fields else None
             if "camera" in fields and camera is None:
                 self.failed_names.add("camera")
+            lidar = read_lidar(self, fields["lidar"], name) if "lidar" in fields else None
+            if "lidar" in fields and lidar is None:  # reported: its beams' uses stay quiet
+                self.failed_names.update(beam_names(MAX_BEAMS))
             paths = self.paths(fields["paths"]) if "paths" in fields else ()
             own = self.robot_params(fields["params"], name, count) if "params" in fields else ()
             noise = (read_noise(self, fields["noise"], name, "camera" in fields, names=version >= 1.2)
                      if "noise" in fields else None)
             if at is not None:
                 out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths,
-                                     own, noise))
+                                     own, noise, lidar))
         return out
 
     def robot_params(self, node: Node, robot: str, count: int

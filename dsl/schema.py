@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from labsim.backends.scene.schema import IDENTIFIER, Schema, document, mapping, named, number, numbers, text
 from labsim.dsl.builtins import Better
+from labsim.dsl.lidar import LIDAR_KEYS, LIDAR_LIMITS
 from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
 from labsim.dsl.read import (
     CAMERA_KEYS,
@@ -57,6 +58,9 @@ def _robot() -> Schema:
         "count": number("how many robots of this group (default 1)", 1, 100, integer=True),
         "at": at,
         "camera": camera,
+        "lidar": mapping(LIDAR_KEYS, {
+            key: number(f"{what} (default {default:g})", lo, hi, integer=key == "beams")
+            for key, (lo, hi, default, what) in LIDAR_LIMITS.items()}, "a 2D lidar: beams lidar1 .. lidarN"),
         "paths": paths,
         "noise": _noise(),
         "params": {"type": "object",

@@ -37,7 +37,7 @@ def check_unbounded(c: Checked, report: Report) -> None:
             sensor = reach.sensor(call.args[0], guarded)
             if sensor is None:
                 continue
-            ranges = [s.range_m for m in c.models.values() for s in m.sonars if s.name == sensor]
+            ranges = [s.range_m for m in c.models.values() for s in m.rays() if s.name == sensor]
             within = f"within its range ({max(ranges):g} m, the model's range_m)" if ranges else "in range"
             bound = f"{max(ranges):g}" if ranges else "1"
             linter.warn(text.at(call.func_span),

@@ -12,6 +12,9 @@ The models, per robot, each tick:
   the sonar's range, 0 when below 0; a sonar that saw nothing stays ``inf``;
 - camera: Gaussian noise of ``std`` levels on every colour channel of every pixel, rounded
   and clipped to 0..255;
+- lidar (its own ``noise:`` key, ``labsim.dsl.lidar``): Gaussian noise of that many metres
+  on each beam that sees something, ``inf`` beyond the range, 0 below 0, drawn after the
+  sonars' draws, one per beam read, every tick;
 - wheels: each wheel turns at its command times ``1 - u`` (``u`` uniform in 0..``slip``),
   plus Gaussian noise of ``std_rad_s``, clamped to the model's limit; drawn anew every tick.
 
@@ -51,6 +54,8 @@ class RobotNoise:
     pixels: np.random.Generator | None  # for camera noise only
     command: list[float] = field(default_factory=lambda: [0.0, 0.0])  # what the runtime last sent, rad/s
     dropped: int = 0  # sonar readings lost so far
+    # (position, range in m, noise std in m) of each lidar beam read, when the lidar has noise
+    lidar: list[tuple[int, float, float]] = field(default_factory=list)
 
 
 class NoisyIO:
@@ -60,7 +65,7 @@ class NoisyIO:
                  act: Callable[[int, float, float], None], step: Callable[[], None]) -> None:
         self.robots = robots
         self._sense, self._act, self._step = sense, act, step
-        self._sensing = [r for r in robots if r.noise.sonar or r.cameras]
+        self._sensing = [r for r in robots if r.noise.sonar or r.cameras or r.lidar]
         self._wheels = {r.index: r for r in robots if r.noise.wheels}
 
     def sense(self) -> list[list[object]]:
@@ -69,6 +74,8 @@ class NoisyIO:
         for r in self._sensing:
             values = list(readings[r.index])
             self._sonars(r, values)
+            if r.lidar:
+                self._lidar(r, values)
             for k in r.cameras:
                 import numpy as np  # already imported: an image is a numpy array
 
@@ -94,6 +101,16 @@ class NoisyIO:
                 v += jitter
                 values[k] = math.inf if v > range_m else max(0.0, v)
 
+    @staticmethod
+    def _lidar(r: RobotNoise, values: list[object]) -> None:
+        gauss = r.rng.gauss
+        for k, range_m, std_m in r.lidar:
+            jitter = gauss(0.0, std_m)
+            v = values[k]
+            if isinstance(v, float) and math.isfinite(v):
+                v += jitter
+                values[k] = math.inf if v > range_m else max(0.0, v)
+
     def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
         r = self._wheels.get(robot)
         if r is None:
@@ -114,23 +131,34 @@ class NoisyIO:
     @staticmethod
     def describe(r: RobotNoise) -> str:
         """A noisy robot's models, and the sonar readings lost, for the run's summary."""
-        return r.noise.describe() + (f" ({r.dropped} sonar readings lost)" if r.noise.sonar_dropout else "")
+        lidar = f"lidar {r.lidar[0][2]:g} m" if r.lidar else ""
+        own = r.noise.describe() if r.noise else ""
+        return ("; ".join(part for part in (own, lidar) if part) or "none") + (
+            f" ({r.dropped} sonar readings lost)" if r.noise.sonar_dropout else "")
 
     def summary(self) -> dict[str, str]:
         """Each noisy robot's ``describe``, by name."""
         return {r.name: self.describe(r) for r in self.robots}
 
 
+def noisy(model: RobotModel | None, noise: Noise | None) -> bool:
+    """Whether a robot's readings or wheels get noise: its ``noise:``, or its lidar's own."""
+    return model is not None and (bool(noise) or any(lidar.noise_std_m > 0 for lidar in model.lidars))
+
+
 def robot_noise(program: Program, index: int, name: str, model: RobotModel, noise: Noise) -> RobotNoise:
     """A robot's noise, its channels found among the program's and its generators seeded."""
-    ranges = {s.name: s.range_m for s in model.sonars}
+    ranges = {s.name: s.range_m for s in model.sonars}  # a lidar's beams have their own noise
     sonars = [(k, ranges[c]) for k, c in enumerate(program.channels) if c in ranges] if noise.sonar else []
     cameras = [k for k, c in enumerate(program.channels)
                if program.channel_kinds.get(c) is Kind.IMAGE] if noise.camera else []
+    beams = {ray.name: (ray.range_m, lidar.noise_std_m) for lidar in model.lidars if lidar.noise_std_m > 0
+             for ray in lidar.rays()}
+    lidar = [(k, *beams[c]) for k, c in enumerate(program.channels) if c in beams]
     rng = random.Random(f"{program.seed}/{name}/noise")
     pixels = None
     if noise.camera:
         import numpy as np
 
         pixels = np.random.default_rng(random.Random(f"{program.seed}/{name}/camera noise").getrandbits(64))
-    return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, rng, pixels)
+    return RobotNoise(index, name, noise, model.max_wheel_speed_rad_s, sonars, cameras, rng, pixels, lidar=lidar)

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from labsim.backends.scene.models import Kind
+from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.dsl.builtins import Type
 from labsim.dsl.support import STATE
 from labsim.foundation.inert import inert
@@ -235,16 +235,21 @@ class TraceRows(Observer):
         self.recorded = t + 1  # an interrupt may land before the tick ends: count rows
 
 
+# channels with one CSV cell: numbers and booleans (a lidar's beams are distances, but see traced)
+TRACED_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL, Kind.CONTACT, Kind.REFLECTANCE)
+
+
 def traced(run: RunState) -> tuple[list[int], list[int]]:
     """Which channel values and which signal slots the trace records: numbers and booleans.
 
     Images and records have no CSV cell; a behaviour traces what it derives from them
-    (``cx: centroid(lane).x`` is a column).
+    (``cx: centroid(lane).x`` is a column). Nor has a lidar's beam: hundreds of columns of
+    one scan; trace what the behaviour reduces the scan to (``nearest: min(scan)``).
     """
     p = run.program
     kinds = p.channel_kinds
     channels = [i for i, c in enumerate(p.channels) if c not in TRACE_POSE
-                and kinds.get(c) in (Kind.DISTANCE, Kind.NUMBER, Kind.BOOL)]
+                and kinds.get(c) in TRACED_KINDS and not is_lidar_beam(c)]
     lets = [p.slot_of[n] for n in p.let_names if p.signal_types.get(n) in (Type.NUMBER, Type.BOOL)]
     return channels, lets
 

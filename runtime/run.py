@@ -27,6 +27,7 @@ from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.world import Pose, World
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.compile import compile_file
+from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program
 from labsim.dsl.support import Faults, FaultSite, metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
@@ -34,7 +35,7 @@ from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.budgets import RunWatch
 from labsim.runtime.interrupts import CallbackInterrupts
-from labsim.runtime.noise import NoisyIO, robot_noise
+from labsim.runtime.noise import NoisyIO, noisy, robot_noise
 from labsim.runtime.observers import (
     CAP_NOTE,
     LOG_RATE,
@@ -165,11 +166,11 @@ class Run:
 
     def _noise(self) -> NoisyIO | None:
         """The robots' noise in front of the backend's calls; None (and no cost) when none has any."""
-        noisy = [robot_noise(self.program, r.index, r.name, r.model, r.noise)
-                 for r in self.robots if r.noise and r.model is not None]
-        if not noisy:
+        robots = [robot_noise(self.program, r.index, r.name, r.model, r.noise or Noise())
+                  for r in self.robots if r.model is not None and noisy(r.model, r.noise)]
+        if not robots:
             return None
-        io = NoisyIO(noisy, self.sense, self._act, self.step)
+        io = NoisyIO(robots, self.sense, self._act, self.step)
         self.sense, self._act, self.step = io.sense, io.act, io.step
         return io
 

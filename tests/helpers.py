@@ -106,16 +106,17 @@ def serve_and_run(tmp_path: Path, behaviour: Path, *serve_args: str) -> tuple[li
 
 # --- the worked examples of docs/language.md ---------------------------------------------------
 
-def examples() -> dict[str, str]:
-    """The docs' YAML blocks that start with '# example: NAME'."""
-    blocks = re.findall(r"```yaml\n(# example: (\w+)\n.*?)```", (DOCS / "language.md").read_text(), re.S)
+def examples(doc: str = "language.md") -> dict[str, str]:
+    """A doc's YAML blocks that start with '# example: NAME' (docs/language.md's by default)."""
+    blocks = re.findall(r"```yaml\n(# example: (\w+)\n.*?)```", (DOCS / doc).read_text(), re.S)
     return {name: text for text, name in blocks}
 
 
-def run_example(name: str, tmp_path: Path, trace: bool = False) -> tuple[Run, object, list[str]]:
-    """The example NAME run to its end on pymunk: the run, its summary and what it warned."""
+def run_example(name: str, tmp_path: Path, trace: bool = False, doc: str = "language.md"
+                ) -> tuple[Run, object, list[str]]:
+    """The example NAME of a doc run to its end on pymunk: the run, its summary and what it warned."""
     path = tmp_path / f"{name}.yaml"
-    path.write_text(examples()[name])
+    path.write_text(examples(doc)[name])
     warned: list[str] = []
     run = Run(compile_file(path), load_backend("pymunk"), trace_path=tmp_path / "t.csv" if trace else None,
               warn=warned.append)

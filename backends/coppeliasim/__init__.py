@@ -38,6 +38,14 @@ STOPPED, PAUSED, RUNNING = 0x00, 0x08, 0x11
 # {camera: ...}`` for the channel ``camera``); when neither names it, the backend looks for
 # each alias of ``CAMERA_ALIASES`` under the robot, then for ``./c``.
 # ``collision``: what sim.checkCollision tests the robot against; None is sim.handle_all.
+# ``sonar`` may also use {n}, the sensor's number from 1 (the e-puck's ePuck_proxSensor1..8).
+# ``bumpers`` and ``ground`` name a model's bumpers (proximity sensors of their reach: detected
+# is pressed) and ground sensors (1 x 1 vision sensors looking down: sim.readVisionSensor's
+# average intensity is the reflectance) by channel. CoppeliaSim's stock e-puck names its
+# robot, motors, IR sensors and camera so (its own script: sim.getObjectHandle('ePuck_leftJoint'),
+# 'ePuck_proxSensor'..i for i = 1..8, 'ePuck_camera'); it has no ground sensors, so
+# ``ePuck_groundSensor1..3`` are labsim's names for the ones a scene adds. The Pioneer's stock
+# model has no bumpers: ``bumper_front_left`` .. are labsim's names too.
 MODEL_PATHS: dict[str, dict[str, object]] = {
     "pioneer_p3dx": {
         "robot": "/PioneerP3DX[{i}]",
@@ -46,6 +54,19 @@ MODEL_PATHS: dict[str, dict[str, object]] = {
         "sonar": "./ultrasonicSensor[{k}]",
         "cameras": {},  # found under CAMERA_ALIASES
         "collision": None,
+        "bumpers": {f"bump_{end}_{side}": f"./bumper_{end}_{side}" for end in ("front", "back")
+                    for side in ("left", "right")},
+        "ground": {},
+    },
+    "epuck": {
+        "robot": "/ePuck[{i}]",
+        "left_motor": "./ePuck_leftJoint",
+        "right_motor": "./ePuck_rightJoint",
+        "sonar": "./ePuck_proxSensor{n}",
+        "cameras": {"camera": "./ePuck_camera"},
+        "collision": None,
+        "bumpers": {},
+        "ground": {f"ground{n}": f"./ePuck_groundSensor{n}" for n in (1, 2, 3)},
     },
 }
 

@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim.frames import yaw
 from labsim.backends.coppeliasim.replies import check_sense
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.scene.ground import ROAD_CHANNELS, RoadTracker
-from labsim.backends.scene.models import Kind
+from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.backends.scene.object_paths import PLACEHOLDERS, fill, problem
 from labsim.backends.scene.world import World, first_road, world_channels
 
@@ -61,6 +61,8 @@ class _Rover:
     motors: tuple[int, int] = (-1, -1)
     sonars: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot)
     cameras: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot)
+    bumpers: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot): proximity sensors
+    ground: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot): 1-pixel vision sensors
     collide_with: int = HANDLE_ALL
     slots: dict[str, int] = field(default_factory=dict)  # pose, collided, speed, road channels
     read_position: bool = False
@@ -137,9 +139,21 @@ class Fleet:
                     get(str(paths["right_motor"]), h, f"robot '{req.name}', right motor"))
         for slot, ch in enumerate(req.channels):
             kind = offered.get(ch)
+            if is_lidar_beam(ch):
+                raise BackendError(f"robot '{req.name}' reads '{ch}', which the coppeliasim backend does not read "
+                                   f"yet (a lidar runs on the pymunk backend)")
             if kind is Kind.DISTANCE:
-                path = fill(str(paths["sonar"]), k=sonars.index(ch))
+                path = fill(str(paths["sonar"]), k=sonars.index(ch), n=sonars.index(ch) + 1)
                 r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
+            elif kind in (Kind.CONTACT, Kind.REFLECTANCE):
+                key = "bumpers" if kind is Kind.CONTACT else "ground"
+                table = paths.get(key)
+                where = table.get(ch) if isinstance(table, dict) else None
+                if where is None:
+                    raise BackendError(f"robot '{req.name}': no scene object named for '{ch}'; name it with "
+                                       f"paths={{'{key}': {{'{ch}': ...}}}}")
+                found = (get(str(where), h, f"robot '{req.name}', {ch}"), slot)
+                (r.bumpers if kind is Kind.CONTACT else r.ground).append(found)
             elif kind is Kind.IMAGE:
                 r.cameras.append((self._camera(paths, ch, h, f"robot '{req.name}', {ch}"), slot))
             else:
@@ -185,8 +199,28 @@ class Fleet:
         if self._script >= 0:  # the fleet script: every robot's readings in one call
             replies = check_sense(self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan),
                                   [r.name for r in self.rovers], self._plan)
-            return [self._sense(r, _Readings(*reply), first) for r, reply in zip(self.rovers, replies)]
-        return [self._sense(r, self._read(r), first) for r in self.rovers]
+            out = [self._sense(r, _Readings(*reply), first) for r, reply in zip(self.rovers, replies)]
+        else:
+            out = [self._sense(r, self._read(r), first) for r in self.rovers]
+        for r, values in zip(self.rovers, out):
+            if r.bumpers or r.ground:  # one request each, beside the script (it knows neither)
+                self._switches_and_ground(r, values)
+        return out
+
+    def _switches_and_ground(self, r: _Rover, values: list[object]) -> None:
+        """Bumpers (a proximity sensor that detects is pressed) and ground sensors (the average
+        intensity of a one-pixel vision sensor, ``sim.readVisionSensor``'s first packet)."""
+        call = self._conn.call
+        for h, slot in r.bumpers:
+            res = call("sim.readProximitySensor", h)
+            values[slot] = bool(isinstance(res, (list, tuple)) and res and res[0] > 0)
+        for h, slot in r.ground:
+            res = call("sim.readVisionSensor", h)
+            packet = res[1] if isinstance(res, (list, tuple)) and len(res) > 1 else None
+            if not (isinstance(packet, (list, tuple)) and len(packet) > 10 and isinstance(packet[10], (int, float))):
+                raise BackendError(f"robot '{r.name}': sim.readVisionSensor gave no intensity for a ground "
+                                   f"sensor (got {str(res)[:80]})")
+            values[slot] = min(1.0, max(0.0, float(packet[10])))
 
     def _read(self, r: _Rover) -> _Readings:
         """One robot's readings, one request each (a scene without the fleet script)."""

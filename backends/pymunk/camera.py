@@ -122,6 +122,11 @@ def draw_ground(ground: Ground) -> tuple[np.ndarray, float, float]:
     return img, xmin, ymax
 
 
+def luminance(r: float, g: float, b: float) -> float:
+    """A colour's brightness, 0 (black) to 1 (white): ITU-R BT.601 luma, as a ground sensor reads."""
+    return (0.299 * r + 0.587 * g + 0.114 * b) / 255.0
+
+
 def _colour(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
     return (int(rgb[0]), int(rgb[1]), int(rgb[2]))
 
@@ -230,6 +235,7 @@ class GroundView:
         self._border = (*(float(c) for c in ground.floor_rgb), 255.0)
         self._ppm = float(ground.px_per_m)
         self._cameras: dict[Camera, tuple] = {}
+        self._floor_luminance = luminance(*ground.floor_rgb)
 
     def _plan(self, camera: Camera) -> tuple:
         """What a camera's homography needs that does not depend on the pose."""
@@ -321,6 +327,16 @@ class GroundView:
         image[:floor] = seen
         image[floor:] = plan[6]  # a block copy: broadcasting SKY_RGB costs 4 times as much
         return image
+
+    def reflectance(self, x_m: float, y_m: float) -> float:
+        """A ground sensor's reading at a world point: the luminance of the texture pixel under
+        it, 0 (black) to 1 (white); the floor's beyond the texture (see ``models.GroundSensor``)."""
+        i, j = math.floor((self._ymax - y_m) * self._ppm), math.floor((x_m - self._xmin) * self._ppm)
+        rows, cols = self._rgba.shape[:2]
+        if 0 <= i < rows and 0 <= j < cols:
+            r, g, b, _ = self._rgba[i, j].tolist()
+            return luminance(r, g, b)
+        return self._floor_luminance
 
     @property
     def texture(self) -> np.ndarray:

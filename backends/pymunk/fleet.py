@@ -12,6 +12,11 @@ Beyond sonars, pose and ``collided``, a robot may read:
 * a camera (a name from ``RobotModel.cameras``): an RGB image of the world's ground from
   ``labsim.backends.pymunk.camera`` (walls and robots are not in it); OpenCV is imported, and
   the ground drawn, only when some robot reads a camera;
+* a lidar's beams (``lidar1`` ..): rays as the sonars', from the model's ``Lidar``;
+* a bumper (``RobotModel.bumpers``): True while a wall, block or robot comes within its reach
+  of its point on the chassis (one chipmunk point query);
+* a ground sensor (``RobotModel.ground_sensors``): the reflectance 0..1 of the ground's texture
+  under its point (``labsim.backends.pymunk.camera``, which draws the ground once);
 * ``forward_speed``: m/s, the body's velocity along its heading, as the last step moved it;
 * in a world with a road (``labsim.backends.scene.ground.world_channels``): ``road_offset``,
   ``on_road`` and ``laps``, measured at the robot's origin against the first road. Laps are
@@ -30,7 +35,15 @@ import pymunk
 
 from labsim.backends.protocol import BackendError, ContactStats, RobotRequest
 from labsim.backends.pymunk import chipmunk
-from labsim.backends.pymunk.fleet_sense import CameraRead, SensePlan, SonarRay, Spec, compile_sense
+from labsim.backends.pymunk.fleet_sense import (
+    BumperRead,
+    CameraRead,
+    GroundRead,
+    SensePlan,
+    SonarRay,
+    Spec,
+    compile_sense,
+)
 from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker
 from labsim.backends.scene.models import RobotModel
@@ -89,7 +102,7 @@ class FleetSimulator:
 
         self.space = space
         self.bodies = [plan.body for plan in plans]
-        self.sense = compile_sense(space, plans, touching, render, tracker, laps)
+        self.sense = compile_sense(space, plans, touching, render, tracker, laps, _reflectance(world, models, robots))
         self._c_space = chipmunk.c_space(space)
         self._c_bodies = [chipmunk.c_body(b) for b in self.bodies]
         self._world = world.name
@@ -182,7 +195,7 @@ def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
                     check_camera(cameras[ch])
                 except ValueError as e:
                     raise BackendError(f"robot '{req.name}', model '{model.name}': {e}") from None
-        for s in model.sonars:
+        for s in model.rays():
             # A ray needs finite ends (and sense() writes these numbers as literals).
             if not all(math.isfinite(v) for v in (s.x_m, s.y_m, s.angle_rad, s.range_m)) or s.range_m <= 0:
                 raise BackendError(
@@ -202,6 +215,19 @@ def _camera_renderer(world: World, models: list[RobotModel],
     try:
         from labsim.backends.pymunk.camera import ground_view
         return ground_view(world.ground if world.ground is not None else Ground()).render
+    except ValueError as e:
+        raise BackendError(f"world '{world.name}': {e}") from None
+
+
+def _reflectance(world: World, models: list[RobotModel],
+                 robots: Sequence[RobotRequest]) -> Callable[[float, float], float] | None:
+    """``GroundView.reflectance`` for the world's ground, or None when no robot reads a ground
+    sensor (then OpenCV is not imported and the ground not drawn)."""
+    if not any(g.name in req.channels for model, req in zip(models, robots) for g in model.ground_sensors):
+        return None
+    try:
+        from labsim.backends.pymunk.camera import ground_view
+        return ground_view(world.ground if world.ground is not None else Ground()).reflectance
     except ValueError as e:
         raise BackendError(f"world '{world.name}': {e}") from None
 
@@ -242,8 +268,10 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     shape.filter = pymunk.ShapeFilter(group=i + 1)
     space.add(body, shape)
 
-    sonars = {s.name: s for s in model.sonars}
+    sonars = {s.name: s for s in model.rays()}
     cameras = {c.name: c for c in model.cameras}
+    bumpers = {b.name: b for b in model.bumpers}
+    ground = {g.name: g for g in model.ground_sensors}
     specs: list[Spec] = []
     for ch in req.channels:
         s = sonars.get(ch)
@@ -252,6 +280,10 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
                                   s.range_m * math.sin(s.angle_rad), s.range_m))
         elif ch in cameras:
             specs.append(CameraRead(cameras[ch]))
+        elif ch in bumpers:
+            specs.append(BumperRead(bumpers[ch].x_m, bumpers[ch].y_m, bumpers[ch].reach_m))
+        elif ch in ground:
+            specs.append(GroundRead(ground[ch].x_m, ground[ch].y_m))
         else:
             specs.append(ch)  # pose, collided, forward_speed, road: checked in _check
     return SensePlan(body, pymunk.ShapeFilter(group=i + 1), tuple(specs))

@@ -51,9 +51,27 @@ class CameraRead:
     camera: Camera
 
 
-# A channel's spec: a sonar, a camera, or the name of a channel read from the body or the
-# backend's lists (x, y, heading, collided, forward_speed, road_offset, on_road, laps).
-Spec = SonarRay | CameraRead | str
+@dataclass(frozen=True)
+class BumperRead:
+    """A bumper: whether any shape but the robot's own comes within ``reach_m`` of its point."""
+
+    x_m: float
+    y_m: float
+    reach_m: float
+
+
+@dataclass(frozen=True)
+class GroundRead:
+    """A ground sensor: the floor's reflectance under its point (``reflectance(x, y)``)."""
+
+    x_m: float
+    y_m: float
+
+
+# A channel's spec: a ray (sonar, IR sensor or lidar beam), a camera, a bumper, a ground sensor,
+# or the name of a channel read from the body or the backend's lists (x, y, heading, collided,
+# forward_speed, road_offset, on_road, laps).
+Spec = SonarRay | CameraRead | BumperRead | GroundRead | str
 
 
 @dataclass(frozen=True)
@@ -76,6 +94,7 @@ CIRCLE_MARGIN_M = 1e-6
 
 _SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
 _CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
+_POINT = "point"  # the kind of a BumperRead or GroundRead spec: a point on the robot, in the world
 
 
 def _kind(spec: Spec) -> str:
@@ -83,6 +102,8 @@ def _kind(spec: Spec) -> str:
         return _SONAR
     if isinstance(spec, CameraRead):
         return _CAMERA
+    if isinstance(spec, (BumperRead, GroundRead)):
+        return _POINT
     return spec
 
 
@@ -93,6 +114,7 @@ def compile_sense(
     render: Callable[..., object] | None = None,
     tracker: RoadTracker | None = None,
     laps: list[int] | None = None,
+    reflectance: Callable[[float, float], float] | None = None,
 ) -> SenseFn:
     """Generate ``sense()`` as straight-line code for these robots and channels.
 
@@ -129,9 +151,11 @@ def compile_sense(
     the literals change no reading. Cameras
     call ``render(x, y, angle, camera)``; road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
-    robot reads.
+    robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
+    call of ``reflectance(x, y)`` at its point.
     """
     env = _names(space, touching, render, tracker, laps)
+    env["reflectance"] = reflectance
     half_width = tracker.half_width_m if tracker is not None else 0.0
     lines = ["def sense():"]
     rows = []
@@ -162,11 +186,11 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
                  half_width: float) -> list[str]:
     """Append robot r's lines to ``lines``; return the expressions of its values, in order."""
     kinds = {_kind(spec) for spec in specs}
-    if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road"}:
+    if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road", _POINT}:
         lines += [f"    p = position(body{r})", f"    x{r} = p.x", f"    y{r} = p.y"]
-    if kinds & {_SONAR, "heading", _CAMERA, "forward_speed"}:
+    if kinds & {_SONAR, "heading", _CAMERA, "forward_speed", _POINT}:
         lines.append(f"    a{r} = angle(body{r})")
-    if _SONAR in kinds:
+    if kinds & {_SONAR, _POINT}:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
@@ -179,6 +203,12 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k})")
             values.append(f"v{r}_{k}")
         elif isinstance(spec, SonarRay):  # cast above, by its group
+            values.append(f"v{r}_{k}")
+        elif isinstance(spec, (BumperRead, GroundRead)):
+            lines += [f"    px = x{r} + c * {spec.x_m!r} - s * {spec.y_m!r}",
+                      f"    py = y{r} + s * {spec.x_m!r} + c * {spec.y_m!r}"]
+            lines.append(f"    v{r}_{k} = bool(near(space, (px, py), {spec.reach_m!r}, filter{r}, nearest))"
+                         if isinstance(spec, BumperRead) else f"    v{r}_{k} = reflectance(px, py)")
             values.append(f"v{r}_{k}")
         elif spec == "forward_speed":
             lines += [

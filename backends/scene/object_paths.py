@@ -7,7 +7,8 @@ Where it sits: the reader (dsl/read.py) checks each ``paths:`` entry with ``prob
 A template is CoppeliaSim path text plus placeholders, replaced literally (docs/language.md):
 
 * ``{i}``, in ``robot``: the robot's index among the robots of its model, from 0;
-* ``{k}``, in ``sonar``: the sonar's index, from 0 (channel sonar1 is ``{k}`` = 0).
+* ``{k}``, in ``sonar``: the sonar's index, from 0 (channel sonar1 is ``{k}`` = 0); ``{n}`` its
+  number, from 1 (the e-puck's ``./ePuck_proxSensor{n}``).
 
 Nothing else in braces is a placeholder: ``{3}`` (digits) is CoppeliaSim's own "the n-th match
 anywhere below" and passes through unchanged; any other ``{...}`` is an error. Templates are
@@ -27,7 +28,7 @@ MAX_CHARS = 200
 ALLOWED = frozenset(string.ascii_letters + string.digits + "_-./:[]{}*?#")
 PLACEHOLDERS: dict[str, tuple[str, ...]] = {
     "robot": ("i",),
-    "sonar": ("k",),
+    "sonar": ("k", "n"),
     "left_motor": (),
     "right_motor": (),
     "camera": (),

@@ -55,6 +55,11 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
     why = unsupported(world)
     if why:
         raise BackendError(f"labsim scene: {why}")
+    other = next((r for r in robots if r.model is not None and r.model.name != "pioneer_p3dx"), None)
+    if other is not None and other.model is not None:  # before anything is built
+        raise BackendError(f"labsim scene: builds Pioneer P3DX robots only, and robot '{other.name}' has model "
+                           f"'{other.model.name}'; load its model into your scene by hand "
+                           "(docs/coppeliasim.md names its objects) and run with --backend coppeliasim")
     conn.open(dt_s)
     try:
         conn.require_sim()

@@ -42,7 +42,7 @@ class SceneObject:
 
     handle: int
     alias: str
-    kind: str  # robot | motor | sonar | camera | joint | force | body
+    kind: str  # robot | motor | sonar | camera | bumper | ground | joint | force | body
     parent: SceneObject | None = None
     children: list[SceneObject] = field(default_factory=list)
     robot: int = -1  # the robot it belongs to
@@ -69,10 +69,45 @@ class SceneTree:
         (obj.parent.children if obj.parent is not None else self.top).append(obj)
         return obj
 
-    def add_pioneer(self, i: int, model: RobotModel) -> SceneObject:
-        """Robot ``i``'s objects, as CoppeliaSim's Pioneer P3DX model names them; its base."""
+    def add_robot(self, i: int, model: RobotModel) -> SceneObject:
+        """Robot ``i``'s objects, as CoppeliaSim's model of it names them; its base."""
+        if model.name == "epuck":
+            return self.add_epuck(i, model)
         if model.name != "pioneer_p3dx":
             raise BackendError(f"labsim serve: no CoppeliaSim scene names for robot model '{model.name}'")
+        return self.add_pioneer(i, model)
+
+    def add_epuck(self, i: int, model: RobotModel) -> SceneObject:
+        """An e-puck's objects, by the names of CoppeliaSim's stock e-puck (its script's
+        ``ePuck_leftJoint``, ``ePuck_proxSensor1..8``, ``ePuck_camera``), and labsim's
+        ``ePuck_groundSensor1..3`` for its ground sensors (the stock model has none)."""
+        add = self.add
+        base = add(SceneObject(0, "ePuck", "robot", None, robot=i))
+        half = model.axle_length_m / 2
+        add(SceneObject(0, "ePuck_leftJoint", "motor", base, robot=i, index=0, mount=(0.0, half, 0.0, 0.0)))
+        add(SceneObject(0, "ePuck_rightJoint", "motor", base, robot=i, index=1, mount=(0.0, -half, 0.0, 0.0)))
+        for k, s in enumerate(model.sonars):
+            add(SceneObject(0, f"ePuck_proxSensor{k + 1}", "sonar", base, robot=i, index=k, name=s.name,
+                            mount=(s.x_m, s.y_m, 0.01, s.angle_rad)))
+        for c in model.cameras:
+            add(SceneObject(0, camera_alias(model.name, c.name), "camera", base, robot=i, name=c.name,
+                            mount=(c.x_m, 0.0, c.height_m - model.wheel_radius_m, 0.0),
+                            resolution=(c.width_px, c.height_px)))
+        self._add_contacts_and_ground(i, model, base, "ePuck_groundSensor")
+        return base
+
+    def _add_contacts_and_ground(self, i: int, model: RobotModel, base: SceneObject, ground: str) -> None:
+        """A model's bumpers (``bumper_front_left`` ..: proximity sensors) and ground sensors
+        (``{ground}1`` ..: vision sensors one pixel wide), under its base."""
+        for b in model.bumpers:
+            self.add(SceneObject(0, b.name.replace("bump_", "bumper_"), "bumper", base, robot=i, name=b.name,
+                                 mount=(b.x_m, b.y_m, 0.0, 0.0)))
+        for k, g in enumerate(model.ground_sensors):
+            self.add(SceneObject(0, f"{ground}{k + 1}", "ground", base, robot=i, name=g.name,
+                                 mount=(g.x_m, g.y_m, 0.0, 0.0), resolution=(1, 1)))
+
+    def add_pioneer(self, i: int, model: RobotModel) -> SceneObject:
+        """Robot ``i``'s objects, as CoppeliaSim's Pioneer P3DX model names them; its base."""
         add = self.add
         base = add(SceneObject(0, "PioneerP3DX", "robot", None, robot=i))
         half = model.axle_length_m / 2
@@ -85,6 +120,7 @@ class SceneTree:
             add(SceneObject(0, camera_alias(model.name, c.name), "camera", base, robot=i, name=c.name,
                             mount=(c.x_m, 0.0, c.height_m - ROBOT_Z_M, 0.0),
                             resolution=(c.width_px, c.height_px)))
+        self._add_contacts_and_ground(i, model, base, "groundSensor")
         # The names of V-REP and CoppeliaSim before 4.3 (sim.getObjectHandle), with #n for
         # the second robot on: old scripts still use them.
         suffix = "" if i == 0 else f"#{i - 1}"

@@ -56,7 +56,7 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
     "getObject", "getObjectHandle", "getObjectAlias", "getObjectParent",
     "setJointTargetVelocity", "getJointTargetVelocity", "setJointTargetPosition",
     "getJointTargetPosition", "getJointPosition", "getJointVelocity",
-    "readProximitySensor", "getVisionSensorImg", "getVisionSensorResolution", "readForceSensor",
+    "readProximitySensor", "readVisionSensor", "getVisionSensorImg", "getVisionSensorResolution", "readForceSensor",
     "getSimulationTime", "getSimulationState", "getSimulationTimeStep", "getFloatParam",
     "setStepping", "step", "startSimulation", "stopSimulation", "pauseSimulation",
     "getObjectPosition", "getObjectOrientation", "getObjectPose", "getObjectVelocity",
@@ -67,7 +67,7 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
 UNSUPPORTED = (
     "addLog", "getObjectQuaternion", "setObjectQuaternion", "getObjectMatrix", "getObjectChild",
-    "getObjectsInTree", "handleProximitySensor", "readVisionSensor", "getVisionSensorDepth",
+    "getObjectsInTree", "handleProximitySensor", "getVisionSensorDepth",
     "setJointPosition", "setJointTargetForce", "getJointForce", "setFloatParam",
     "getInt32Param", "setInt32Param", "getBoolParam", "setBoolParam", "setSimulationTimeStep",
     "callScriptFunction", "executeScriptString", "loadScene", "loadModel", "removeObjects",
@@ -291,11 +291,17 @@ class SimApi:
     # --- sensors -----------------------------------------------------------------------------
 
     def _sim_readProximitySensor(self, client: Client, args: Args) -> list[object]:
-        obj = self._obj(args, 0, ("sonar",), "proximity sensor")
+        obj = self._obj(args, 0, ("sonar", "bumper"), "proximity sensor")
         d = self.sim.sensed(obj)
-        if d is None or d == math.inf:  # not yet handled by a step, or nothing seen
+        if d is None or d == math.inf or d is False:  # not yet handled by a step, nothing seen, a bumper free
             return [0, 0.0, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]]
+        d = 0.0 if d is True else d  # a bumper pressed: detected at no distance
         return [1, d, [0.0, 0.0, d], -1, [0.0, 0.0, 0.0]]
+
+    def _sim_readVisionSensor(self, client: Client, args: Args) -> list[object]:
+        # a ground sensor: [result, auxPacket1], 15 values (min, max, mean of intensity r g b depth)
+        v = self.sim.sensed(self._obj(args, 0, ("ground",), "vision sensor"))
+        return [0, [v, v, v, v, 0.0] * 3] if isinstance(v, float) else [-1, []]
 
     def _sim_getVisionSensorImg(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args, 0, ("camera",), "vision sensor")

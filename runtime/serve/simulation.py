@@ -119,11 +119,12 @@ class Simulation:
         self._snap: list[list[object]] | None = None
 
     def _add_robot(self, i: int, model: RobotModel, pose: Pose) -> Robot:
-        base = self.tree.add_pioneer(i, model)
-        channels = [s.name for s in model.sonars] + ["x", "y", "heading", "collided"]
+        base = self.tree.add_robot(i, model)
+        channels = [s.name for s in model.rays()] + ["x", "y", "heading", "collided"]
         if "forward_speed" in model.channels():
             channels.append("forward_speed")
         channels += [c.name for c in model.cameras]
+        channels += [b.name for b in model.bumpers] + [g.name for g in model.ground_sensors]
         robot = Robot(model, pose, base, {ch: n for n, ch in enumerate(channels)})
         robot.last = (pose.x_m, pose.y_m, wrap(pose.heading_rad))
         return robot

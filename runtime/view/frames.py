@@ -109,7 +109,7 @@ def robot_doc(name: str, model: RobotModel | None, channels: tuple[str, ...]) ->
     return {
         "name": name, "model": model.name, "footprint": [list(p) for p in model.footprint],
         "sonars": [{"name": s.name, "x": s.x_m, "y": s.y_m, "angle": s.angle_rad, "range": s.range_m}
-                   for s in model.sonars if s.name in read],
+                   for s in model.rays() if s.name in read],
         "cameras": [c.name for c in model.cameras if c.name in read],
     }
 

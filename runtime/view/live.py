@@ -97,7 +97,7 @@ class LiveSession(Session):
         self._sensors = sensor_columns(program.channels, kinds)
         self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
-        self._sonars = [[program.channels.index(s.name) for s in r.model.sonars if s.name in program.channels]
+        self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
                          if r.model is not None else [] for r in self.run.robots]

@@ -103,7 +103,7 @@ class ReplaySession(Session):
                 robots.append(None)
                 continue
             model = MODELS.get(str(self.models.get(n)))
-            sonars = [s.name for s in model.sonars if s.name in self._i] if model else []
+            sonars = [s.name for s in model.rays() if s.name in self._i] if model else []
             robots.append({
                 "pose": [_num(row, self._i, c) for c in ("x", "y", "heading")],
                 "collided": _num(row, self._i, "collided") == 1.0,

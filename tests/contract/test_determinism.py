@@ -27,3 +27,22 @@ def test_another_seed_gives_another_run(tmp_path: Path) -> None:
     main(["run", str(LAB), *SHORT, "--trace", str(a)])
     main(["run", str(LAB), *SHORT, "--seed", "2", "--trace", str(b)])
     assert a.read_bytes() != b.read_bytes()
+
+
+def test_the_epuck_with_ground_sensors_and_a_lidar_robot_repeat_byte_for_byte(tmp_path: Path) -> None:
+    """The line-following lab (e-puck, ground sensors) and a Pioneer reading a noisy lidar and
+    its bumpers: the same trace in process twice and in a subprocess."""
+    lidar = tmp_path / "lidar.yaml"
+    lidar.write_text("labsim: 1.2\nworld: walls_lab4\nseed: 6\nstop: time >= 20\nrobots:\n"
+                     "  p: {model: pioneer_p3dx, at: random,"
+                     " lidar: {beams: 90, fov_deg: 270, range_m: 3, noise: 0.02}}\n"
+                     "let:\n  nearest: min(lidar1..lidar90)\n  side: argmin(lidar1..lidar90)\n"
+                     "  bumped: bump_front_left or bump_front_right\n"
+                     "rules:\n  - if nearest < 0.6 and side < 45 then arc(-3, 3)\n"
+                     "  - if nearest < 0.6 then arc(3, -3)\n  - else move(6)\n")
+    for lab, args in ((BEHAVIOURS / "line_follow.yaml", ["--set", "minutes=0.5", "-q"]), (lidar, ["-q"])):
+        a, b, c = (tmp_path / f"{lab.stem}-{n}.csv" for n in "abc")
+        assert main(["run", str(lab), *args, "--trace", str(a)]) == 0
+        assert main(["run", str(lab), *args, "--trace", str(b)]) == 0
+        subprocess.run([sys.executable, "-m", "labsim", "run", str(lab), *args, "--trace", str(c)], check=True)
+        assert a.read_bytes() == b.read_bytes() == c.read_bytes()

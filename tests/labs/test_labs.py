@@ -11,7 +11,7 @@ import labsim
 from labsim.runtime.cli.main import main
 from labsim.runtime.labs import LABS_DIR, behaviour_path, labs
 
-LAB_NAMES = ["crane", "road_follow", "wall_follow"]
+LAB_NAMES = ["crane", "line_follow", "road_follow", "wall_follow"]
 
 
 def test_labs_lists_every_lab_with_its_title(capsys: pytest.CaptureFixture[str]) -> None:
@@ -33,7 +33,7 @@ def test_a_misspelt_lab_name_is_a_clear_error(capsys: pytest.CaptureFixture[str]
     assert main(["run", "wal_follow"]) == 2
     err = capsys.readouterr().err
     assert "wal_follow: error: no such behaviour file or lab 'wal_follow' (did you mean 'wall_follow'?)" in err
-    assert "labs: crane, road_follow, wall_follow" in err and "Traceback" not in err
+    assert "labs: crane, line_follow, road_follow, wall_follow" in err and "Traceback" not in err
 
 
 def test_a_file_always_wins_over_a_lab_name(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -13,7 +13,7 @@ from helpers import BEHAVIOURS, FIXTURES, ROOT
 
 from labsim.backends.scene import mechanism_file, world_file
 from labsim.backends.scene.schema import SchemaDrift, mapping
-from labsim.dsl import noise, read
+from labsim.dsl import lidar, noise, read
 from labsim.runtime.cli import main as cli
 from labsim.runtime.cli.schemas import MODELINE, file_name, schema, schema_text
 
@@ -24,6 +24,7 @@ TABLES = [
     ("behaviour", "", read.TOP_KEYS),
     ("behaviour", "robots/*", read.ROBOT_KEYS),
     ("behaviour", "robots/*/camera", read.CAMERA_KEYS),
+    ("behaviour", "robots/*/lidar", lidar.LIDAR_KEYS),
     ("behaviour", "robots/*/paths", read.PATH_KEYS),
     ("behaviour", "robots/*/noise", noise.NOISE_KEYS),
     ("behaviour", "robots/*/noise/sonar", noise.SONAR_NOISE_KEYS),
@@ -85,7 +86,7 @@ def test_every_key_the_reader_accepts_is_in_the_schema_and_no_other(kind: str, p
 
 def test_every_closed_mapping_of_the_schemas_is_a_reader_table() -> None:
     # the "arc" wrapper of a path item is the one mapping with no table of its own
-    assert len(_objects(schema("behaviour"))) == 6 + 4
+    assert len(_objects(schema("behaviour"))) == 7 + 4
     assert len(_objects(schema("world"))) == 13 + 1
 
 
