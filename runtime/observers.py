@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from labsim.backends.scene.models import Kind
 from labsim.dsl.builtins import Type
@@ -212,7 +213,7 @@ class TraceRows(Observer):
         self.names = {r.name: csv_cell(r.name) for r in run.robots}
         self.cells = _row_cells(self.pose_at, self.channels, self.lets + self.sliders, len(p.labels))
         if not p.labels and self.inputs is None:  # the common case, in one generated call a row
-            self.after_act = _fast_rows(self)  # type: ignore[method-assign]
+            self.after_act = _fast_rows(self)  # type: ignore[method-assign,assignment]
 
     def at_stop(self, robot: RobotRun, values: list) -> None:
         self.after_act(robot, -1, values)
@@ -272,11 +273,12 @@ def _fast_rows(rows: TraceRows) -> Callable[[RobotRun, int, list], None]:
     rows.recorded = t + 1
 """
     line = "%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%s,%s," + "%.6g," * len(numbers) + "%.6g,%.6g,%s\n"
-    space = {"LINE": line, "general": rows.after_act, "run": rows.run, "names": rows.names, "states": rows.states,
-             "rule_ids": rows.rule_ids, "STATE": STATE, "pending": rows.writer.pending, "BATCH": BATCH,
-             "drain": rows.writer.drain, "rows": rows}
-    exec(compile(source, "<labsim trace row>", "exec"), space)  # noqa: S102 - column indices only, no file text
-    return space["after_act"]  # type: ignore[no-any-return]
+    space: dict[str, Any] = {"LINE": line, "general": rows.after_act, "run": rows.run, "names": rows.names,
+                             "states": rows.states, "rule_ids": rows.rule_ids, "STATE": STATE, "BATCH": BATCH,
+                             "pending": rows.writer.pending, "drain": rows.writer.drain, "rows": rows}
+    exec(compile(source, "<labsim trace row>", "exec"), space)  # column indices only, no file text
+    made: Callable[[RobotRun, int, list], None] = space["after_act"]
+    return made
 
 
 def _row_cells(pose: list[int], channels: list[int], slots: list[int], labels: int) -> Callable[..., str]:
@@ -290,7 +292,7 @@ def _row_cells(pose: list[int], channels: list[int], slots: list[int], labels: i
     source = (f"def cells(t, time_s, name, values, s, state, rule, labels, cmd, cell):\n"
               f"    return LINE % ({', '.join(cells)})\n")
     space: dict = {"LINE": line}
-    exec(compile(source, "<labsim trace row>", "exec"), space)  # noqa: S102 - indices only, no file text
+    exec(compile(source, "<labsim trace row>", "exec"), space)  # indices only, no file text
     return space["cells"]
 
 

@@ -15,6 +15,7 @@ way labsim sees; a killed run leaves ``PATH.partial``, readable, without the foo
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -149,10 +150,8 @@ class TraceWriter:
         """Write the footer and rename the trace into place; an unwritable footer leaves the rows."""
         if self._file.closed:
             return
-        try:
+        with contextlib.suppress(TraceWriteError):  # failed: no footer below; the rows written stay
             self.drain()
-        except TraceWriteError:
-            pass  # failed: the footer is left out below, and the rows written so far stay
         if interrupted and not self.failed:  # a signal may land between a row and the count of it
             ticks = self._ticks_written(ticks)
         footer = {"interrupted": interrupted, "ticks": ticks if ticks is not None else -1}
