@@ -59,10 +59,19 @@ def fmt(v: object) -> str:
 
 def csv_cell(text: str) -> str:
     """A text cell as ``csv.writer`` writes it (QUOTE_MINIMAL, ``"`` doubled): the row writer of
-    ``TraceRows`` builds lines itself, one format operation a row instead of a call per cell."""
+    ``TraceRows`` builds lines itself, one format operation a row instead of a call per cell.
+    A text with a character csv may quote is written by csv itself, whose rules vary a little
+    between Python versions (a lone carriage return, for one)."""
     if "," in text or '"' in text or "\n" in text or "\r" in text:
-        return '"' + text.replace('"', '""') + '"'
+        _CELL.seek(0)
+        _CELL.truncate()
+        _CELL_WRITER.writerow((text,))
+        return _CELL.getvalue()[:-1]
     return text
+
+
+_CELL = io.StringIO()
+_CELL_WRITER = csv.writer(_CELL, lineterminator="\n")
 
 
 class TraceWriteError(LabsimError):

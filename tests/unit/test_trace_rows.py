@@ -72,9 +72,9 @@ def test_a_text_cell_is_what_csv_writes(text: str) -> None:
 
 @given(st.one_of(st.floats(), st.booleans(), st.integers(-999_999, 999_999)))
 def test_percent_g_writes_what_fmt_writes(value: float) -> None:
-    assert "%.6g" % value == fmt(value)
+    assert "%.6g" % value == fmt(value)  # noqa: UP031 - the row's format is printf-style
 
 
 @given(st.integers(min_value=10**6) | st.integers(max_value=-10**6))
 def test_a_big_int_shows_where_the_two_differ(value: int) -> None:
-    assert "e+" in "%.6g" % value  # the row is then written cell by cell, as fmt() writes it
+    assert "e+" in "%.6g" % value  # noqa: UP031 - the row is then written cell by cell, as fmt() writes it
