@@ -22,13 +22,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.dsl.builtins import Type
 from labsim.dsl.support import STATE
 from labsim.foundation.inert import inert
 from labsim.runtime.state import RobotRun, RunState
-from labsim.runtime.trace import TraceWriter
+from labsim.runtime.trace import BATCH, TraceWriter, csv_cell
 
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
@@ -207,32 +208,92 @@ class TraceRows(Observer):
         self.pose_at = [run.channels.index(c) for c in TRACE_POSE]
         self.channels, self.lets = traced(run)
         self.sliders = [p.slot_of[name] for name in p.slider_names]
-
-    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
-        self.row(robot, values, rule)
+        self.states = [csv_cell(name) for name in p.state_names] or [""]
+        self.rule_ids = [csv_cell(rule.id) for rule in p.rules] + [""]  # [-1]: the stop row's empty rule
+        self.names = {r.name: csv_cell(r.name) for r in run.robots}
+        self.cells = _row_cells(self.pose_at, self.channels, self.lets + self.sliders, len(p.labels))
+        if not p.labels and self.inputs is None:  # the common case, in one generated call a row
+            self.after_act = _fast_rows(self)  # type: ignore[method-assign,assignment]
 
     def at_stop(self, robot: RobotRun, values: list) -> None:
-        self.row(robot, values, -1)
+        self.after_act(robot, -1, values)
 
-    def row(self, r: RobotRun, values: list, rule: int) -> None:
+    def after_act(self, r: RobotRun, rule: int, values: list) -> None:
+        """The row of ``r`` this tick (the hot path of a traced run: one format, one write)."""
         run, p, prog = self.run, self.run.program, r.program
         s = prog.slots
-        at = self.pose_at
-        label = p.rules[rule].id if rule >= 0 else ""
         cmd = prog.command
         labels = [inert(text) for text in p.label_text(s).values()] if p.labels else []
-        events = [p.metric_names[e] if isinstance(e, int) else "log: " + _one_field(log_line_text(p.log_text(*e)))
-                  for e in prog.events] + (self.inputs.applied if self.inputs is not None else [])
-        cell = ";".join(events)
-        if len(cell) > EVENTS_LOG_CHARS:
-            cell = _bounded_events(events)
-        state = p.state_names[s[STATE]] if p.state_names else ""
+        cell = self.events(p, prog.events) if prog.events or self.inputs is not None else ""
         t = run.tick_index
-        self.writer.write([t, round(t * run.dt, 9), r.name, values[at[0]], values[at[1]], values[at[2]],
-                           values[at[3]], state, label, *(values[i] for i in self.channels),
-                           *(s[i] for i in self.lets), *(s[i] for i in self.sliders), *labels,
-                           cmd[0], cmd[1], cell])
+        time_s = round(t * run.dt, 9)
+        try:
+            line = self.cells(t, time_s, self.names[r.name], values, s, self.states[s[STATE]], self.rule_ids[rule],
+                              [csv_cell(text) for text in labels] if labels else labels, cmd,
+                              csv_cell(cell) if cell else "")
+        except (TypeError, ValueError):
+            line = "e+"
+        if "e+" in line:  # an int of 10**6 or more (fmt() writes it whole), a value "%.6g" cannot take, or a text
+            self.writer.write([t, time_s, r.name, *(values[i] for i in self.pose_at),
+                               p.state_names[s[STATE]] if p.state_names else "", p.rules[rule].id if rule >= 0 else "",
+                               *(values[i] for i in self.channels), *(s[i] for i in self.lets + self.sliders),
+                               *labels, cmd[0], cmd[1], cell])
+        else:
+            self.writer.write_line(line)
         self.recorded = t + 1  # an interrupt may land before the tick ends: count rows
+
+    def events(self, p: object, raised: list) -> str:
+        """The tick's events cell: the count metrics that rose, the logs, the slider moves applied."""
+        events = [p.metric_names[e] if isinstance(e, int)  # type: ignore[attr-defined]
+                  else "log: " + _one_field(log_line_text(p.log_text(*e)))  # type: ignore[attr-defined]
+                  for e in raised] + (self.inputs.applied if self.inputs is not None else [])
+        cell = ";".join(events)
+        return _bounded_events(events) if len(cell) > EVENTS_LOG_CHARS else cell
+
+
+def _fast_rows(rows: TraceRows) -> Callable[[RobotRun, int, list], None]:
+    """``rows.after_act`` for a program without labels or slider inputs: a tick with no events
+    is one format and one write in one call; anything else goes the general way."""
+    numbers = [f"values[{i}]" for i in rows.channels] + [f"s[{i}]" for i in rows.lets + rows.sliders]
+    source = f"""def after_act(r, rule, values):
+    prog = r.program
+    if prog.events:
+        return general(r, rule, values)
+    s, cmd, t = prog.slots, prog.command, run.tick_index
+    try:
+        line = LINE % (t, round(t * run.dt, 9), names[r.name], {', '.join(f"values[{i}]" for i in rows.pose_at)},
+                       states[s[STATE]], rule_ids[rule], {''.join(n + ', ' for n in numbers)}cmd[0], cmd[1], "")
+    except (TypeError, ValueError):
+        return general(r, rule, values)
+    if "e+" in line:
+        return general(r, rule, values)
+    pending.append(line)
+    if len(pending) >= BATCH:
+        drain()
+    rows.recorded = t + 1
+"""
+    line = "%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%s,%s," + "%.6g," * len(numbers) + "%.6g,%.6g,%s\n"
+    space: dict[str, Any] = {"LINE": line, "general": rows.after_act, "run": rows.run, "names": rows.names,
+                             "states": rows.states, "rule_ids": rows.rule_ids, "STATE": STATE, "BATCH": BATCH,
+                             "pending": rows.writer.pending, "drain": rows.writer.drain, "rows": rows}
+    exec(compile(source, "<labsim trace row>", "exec"), space)  # column indices only, no file text
+    made: Callable[[RobotRun, int, list], None] = space["after_act"]
+    return made
+
+
+def _row_cells(pose: list[int], channels: list[int], slots: list[int], labels: int) -> Callable[..., str]:
+    """A trace row as one ``%`` format of one tuple, written for this program's columns: numbers
+    as "%.6g" (what fmt() writes for a float or a bool, and for an int below 10**6), texts as the
+    caller quoted them. The source is made of column indices only."""
+    numbers = [f"values[{i}]" for i in channels] + [f"s[{i}]" for i in slots]
+    line = ("%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%s,%s," + "%.6g," * len(numbers) + "%s," * labels + "%.6g,%.6g,%s\n")
+    cells = ["t", "time_s", "name", *(f"values[{i}]" for i in pose), "state", "rule", *numbers,
+             *(f"labels[{i}]" for i in range(labels)), "cmd[0]", "cmd[1]", "cell"]
+    source = (f"def cells(t, time_s, name, values, s, state, rule, labels, cmd, cell):\n"
+              f"    return LINE % ({', '.join(cells)})\n")
+    space: dict = {"LINE": line}
+    exec(compile(source, "<labsim trace row>", "exec"), space)  # indices only, no file text
+    return space["cells"]
 
 
 # channels with one CSV cell: numbers and booleans (a lidar's beams are distances, but see traced)

@@ -15,6 +15,7 @@ way labsim sees; a killed run leaves ``PATH.partial``, readable, without the foo
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -39,6 +40,7 @@ MAGIC = TRACE_MAGIC  # a trace's first line starts so: the one rule for file kin
 FOOTER = "# end "  # the last line: {"interrupted": bool, "ticks": int}
 FLUSH_S = 1.0  # rows reach the file at least this often (wall time)
 PARTIAL = ".partial"  # the trace's name while the run goes
+BATCH = 32  # rows formatted by TraceRows gathered before one write (a killed run loses these too)
 
 
 def fmt(v: object) -> str:
@@ -54,6 +56,23 @@ def fmt(v: object) -> str:
             return "inf" if v > 0 else "-inf"
         return f"{v:.6g}"
     return str(v)
+
+
+def csv_cell(text: str) -> str:
+    """A text cell as ``csv.writer`` writes it (QUOTE_MINIMAL, ``"`` doubled): the row writer of
+    ``TraceRows`` builds lines itself, one format operation a row instead of a call per cell.
+    A text with a character csv may quote is written by csv itself, whose rules vary a little
+    between Python versions (a lone carriage return, for one)."""
+    if "," in text or '"' in text or "\n" in text or "\r" in text:
+        _CELL.seek(0)
+        _CELL.truncate()
+        _CELL_WRITER.writerow((text,))
+        return _CELL.getvalue()[:-1]
+    return text
+
+
+_CELL = io.StringIO()
+_CELL_WRITER = csv.writer(_CELL, lineterminator="\n")
 
 
 class TraceWriteError(LabsimError):
@@ -72,7 +91,8 @@ class TraceWriter:
         self._file: TextIO = io.TextIOWrapper(self._out.file, encoding="utf-8", newline="")
         self._writer = csv.writer(self._file, lineterminator="\n")
         self.rows = 0
-        self.chars = 0  # written so far, header and rows: what the trace-size budget counts
+        self._chars = 0
+        self.pending: list[str] = []  # rows formatted but not yet written: at most BATCH - 1
         self._flushed = time.monotonic()
         self.failed = False
         try:
@@ -84,14 +104,39 @@ class TraceWriter:
 
     def _guard(self, write: object) -> None:
         try:
-            self.chars += write() or 0  # type: ignore[operator]
+            self._chars += write() or 0  # type: ignore[operator]
         except OSError as e:
             self.failed = True
             raise TraceWriteError(write_error(self.path, e).diagnostics) from None
 
+    @property
+    def chars(self) -> int:
+        """Characters written so far, header and rows: what the trace-size budget counts."""
+        self.drain()
+        return self._chars
+
     def write(self, row: list[object]) -> None:
+        self.drain()
         self._guard(lambda: self._writer.writerow([fmt(v) for v in row]))
-        self.rows += 1
+        self._wrote(1)
+
+    def write_line(self, line: str) -> None:
+        """A row already formatted as ``write`` would format it, newline included (TraceRows'
+        hot path appends to ``pending`` itself and drains every BATCH rows)."""
+        self.pending.append(line)
+        if len(self.pending) >= BATCH:
+            self.drain()
+
+    def drain(self) -> None:
+        """Write the rows gathered in ``pending``."""
+        if self.pending:
+            text, rows = "".join(self.pending), len(self.pending)
+            self.pending.clear()
+            self._guard(lambda: self._file.write(text))
+            self._wrote(rows)
+
+    def _wrote(self, rows: int) -> None:
+        self.rows += rows
         now = time.monotonic()
         if now - self._flushed >= FLUSH_S:  # a killed run loses at most a second of rows
             self._flushed = now
@@ -101,6 +146,7 @@ class TraceWriter:
         """The ticks the file holds rows of, read from its last row: exact whatever the moment
         an interrupt came; ``counted`` if the file cannot say."""
         try:
+            self.drain()
             self._file.flush()
             with open(self._out.partial, "rb") as f:
                 f.seek(max(0, f.seek(0, os.SEEK_END) - 65_536))
@@ -114,6 +160,8 @@ class TraceWriter:
         """Write the footer and rename the trace into place; an unwritable footer leaves the rows."""
         if self._file.closed:
             return
+        with contextlib.suppress(TraceWriteError):  # failed: no footer below; the rows written stay
+            self.drain()
         if interrupted and not self.failed:  # a signal may land between a row and the count of it
             ticks = self._ticks_written(ticks)
         footer = {"interrupted": interrupted, "ticks": ticks if ticks is not None else -1}

@@ -50,6 +50,10 @@ ALLOWED: dict[tuple[str, str], str] = {
         "names from FUNCTIONS, a constant tuple; a request's func is looked up in the dict built here",
     ("runtime/serve/sim_api.py", "getattr(motor, mode, True)"):
         "mode is one of two literals chosen by the handler",
+    ("runtime/observers.py", "exec(compile(source, '<labsim trace row>', 'exec'), space)"):
+        "a trace row's format, written from column indices and fixed names only; texts are arguments",
+    ("runtime/observers.py", "compile(source, '<labsim trace row>', 'exec')"):
+        "see the exec above",
     ("backends/pymunk/fleet_sense.py", "exec(compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec'), env)"):
         "code generated from the models' channel tables, no user text",
     ("backends/pymunk/fleet_sense.py", "compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec')"):
