@@ -21,7 +21,7 @@ import json
 import os
 import tempfile
 import time as clock
-from collections.abc import Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
@@ -29,7 +29,16 @@ from typing import Any
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input, read_text, write_output
-from labsim.runtime.sweep.grid import COMPILE_ERROR, RUNTIME_ERROR, FileInfo, Row, Task, row_of, run_task
+from labsim.runtime.sweep.grid import (
+    COMPILE_ERROR,
+    INTERRUPTED,
+    RUNTIME_ERROR,
+    FileInfo,
+    Row,
+    Task,
+    row_of,
+    run_task,
+)
 
 CONNECT_TIMEOUT_S = 10.0
 PER_THREAD = 2  # runs submitted ahead per worker thread
@@ -128,6 +137,14 @@ class DaskPool:
         self.info = info  # what the sweep learnt of each file: the world file it names
         self.timeout_s = timeout_s
         self.in_flight: dict[int, Task] = {}
+        self._cancel: Callable[[], None] = lambda: None  # cancels the submitted runs, while there are any
+
+    def interrupt(self, why: str) -> list[Row]:
+        """Cancel the runs submitted and not finished (their rows: interrupted, ``why`` in the message)."""
+        self._cancel()
+        rows = [Row(t, INTERRUPTED, f"stopped by {why}") for t in self.in_flight.values()]
+        self.in_flight.clear()
+        return rows
 
     def _client(self) -> Any:
         from distributed import Client
@@ -138,7 +155,7 @@ class DaskPool:
             raise LabsimError([Diagnostic(f"--scheduler {self.scheduler}", f"cannot reach the Dask scheduler: {e}",
                                           notes=("start one with: dask scheduler (docs/sweep.md)",))]) from None
 
-    def results(self, tasks: list[Task]) -> Iterator[Row]:
+    def results(self, tasks: list[Task]) -> Generator[Row, None, None]:
         from distributed import as_completed
 
         client = self._client()
@@ -148,6 +165,12 @@ class DaskPool:
             pending = list(reversed(tasks))
             running: dict[str, tuple[Task, Any]] = {}
             done = as_completed(loop=client.loop)
+
+            def cancel() -> None:
+                client.cancel([f for _, f in running.values()], force=True)
+                running.clear()
+
+            self._cancel = cancel
 
             def submit() -> None:
                 while pending and len(running) < threads * PER_THREAD:
@@ -179,9 +202,10 @@ class DaskPool:
                     yield self._row(task, future, retries.get(future.key, 0))
                 submit()
         except KeyboardInterrupt:
-            client.cancel([f for _, f in running.values()], force=True)
+            self._cancel()
             raise
         finally:
+            self._cancel = lambda: None
             client.close()
 
     def _bundles(self, tasks: list[Task]) -> dict[str, Bundle | str]:
