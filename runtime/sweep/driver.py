@@ -32,6 +32,7 @@ from labsim.runtime.sweep.grid import (
     Row,
     Setting,
     Task,
+    check_grid_size,
     grid,
     inspect_files,
     parse_seeds,
@@ -48,6 +49,10 @@ from labsim.runtime.sweep.output import (
 )
 from labsim.runtime.sweep.stats import comparison
 
+# A run's real time unless --timeout-per-run says otherwise: a file within every budget can still
+# take over an hour (a camera per robot at the pixel budget, every tick), which a class's sweep
+# should not wait for; the labs take seconds (docs/sweep.md, "Limits").
+DEFAULT_TIMEOUT_S = 600.0
 # A local worker's address space: labsim with OpenCV and a camera run maps about 650 MB; a
 # run that needs three times that is a run gone wrong (docs/sweep.md, "Limits").
 DEFAULT_MEMORY_MB = 2048
@@ -66,7 +71,7 @@ class SweepOptions:
     output: str | None = None
     json: str | None = None
     plot: str | None = None
-    timeout_s: float | None = None
+    timeout_s: float | None = DEFAULT_TIMEOUT_S
     traces: str | None = None
     maximize: list[str] = field(default_factory=list)
     progress: bool | None = None
@@ -94,6 +99,7 @@ def check_options(o: SweepOptions) -> tuple[list[Setting], tuple[int, ...] | Non
         if names.count(name) > 1:
             raise _fail(f"--set {name}", "this parameter is set twice; give all its values in one --set")
     seeds = parse_seeds(o.seeds) if o.seeds is not None else None
+    check_grid_size(o.files, settings, seeds)
     if o.jobs is not None and o.jobs < 1:
         raise _fail("-j", "give 1 or more processes")
     if o.timeout_s is not None and not o.timeout_s > 0:
@@ -264,7 +270,8 @@ def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
     sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
     sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
     sweep.add_argument("--timeout-per-run", type=options.run_timeout_s, metavar="S", dest="timeout",
-                       help="stop a run after S seconds of real time; its row says timeout")
+                       default=DEFAULT_TIMEOUT_S, help="stop a run after S seconds of real time; its row says "
+                                                       "timeout (default: %(default)g, up to 86400)")
     sweep.add_argument("--memory-per-run", type=int, metavar="MB", dest="memory_mb", default=DEFAULT_MEMORY_MB,
                        help="limit each local worker process's memory (address space) to MB, where the "
                             "platform allows; 0: no limit (default: %(default)s)")
