@@ -150,7 +150,7 @@ def _executor(o: SweepOptions, info: dict[str, FileInfo]) -> Executor:
     if o.executor == "dask":
         from labsim.runtime.sweep.dask_pool import DaskPool
 
-        return DaskPool(o.scheduler, info, timeout_s=o.timeout_s)
+        return DaskPool(o.scheduler, info, timeout_s=o.timeout_s, memory_mb=o.memory_mb)
     from labsim.runtime.sweep.pool import LocalPool, default_jobs
 
     return LocalPool(o.jobs or default_jobs(), o.timeout_s, o.memory_mb)
