@@ -161,6 +161,10 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
     128 + the signal that ended it (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP; docs/sweep.md)."""
     out = out or sys.stdout
     settings, seeds = check_options(o)
+    if o.executor == "local":
+        from labsim.runtime.sweep.pool import warm_up
+
+        warm_up()  # its imports overlap the compiles below
     info = inspect_files(o.files, settings, o.budgets)
     if o.maximize:
         known = {m for i in info.values() for m in i.metrics}

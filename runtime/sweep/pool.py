@@ -111,6 +111,17 @@ def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.co
     return context
 
 
+def warm_up() -> None:
+    """Start the fork server now, so that its imports (a fresh interpreter loading labsim and
+    the simulator, about 0.3 s) overlap the sweep's own checks and compiles instead of following
+    them: the one fixed cost a short sweep has over ``labsim run``."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        from multiprocessing import forkserver
+
+        _context()  # its preload named first
+        forkserver.ensure_running()
+
+
 @dataclass
 class _Worker:
     process: multiprocessing.process.BaseProcess
