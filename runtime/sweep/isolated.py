@@ -19,12 +19,14 @@ import sys
 from typing import Any
 
 from labsim.foundation.files import allow
+from labsim.foundation.threads import limit_blas_threads
 from labsim.runtime.sweep.ending import Stopped, WorkerSignals, die_with_parent
 from labsim.runtime.sweep.grid import INTERRUPTED
 
 
 def main() -> int:
     """Read (runner, args, allowed folders, memory MB) on stdin; write the result dict on stdout."""
+    limit_blas_threads()  # a Dask worker's environment is not the command line's
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # a print() of the run cannot reach the result
     signals = WorkerSignals()
