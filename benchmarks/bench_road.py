@@ -7,14 +7,22 @@ hand loop then does by hand what ``behaviours/road_follow.yaml`` says: gray, thr
 metrics. Both must end with the same poses, bit for bit, which shows they did the same work.
 
     python benchmarks/bench_road.py [--repeat 7]
+    python benchmarks/bench_road.py --threads [--repeat 7]
 
 Prints the median CPU time of each side, alternated in random order, and the median of the
 per-round ratios (goal: labsim <= 1.05 x hand), with the load average.
+
+``--threads`` instead runs the lab as whole ``labsim run`` processes with the native libraries
+on one thread each (labsim's default) and on their own defaults (``LABSIM_THREADS=0``: OpenCV
+and OpenBLAS a thread per core), alternated, and prints the median CPU time (the process's,
+children included) and wall time of each, and that their traces are byte-identical.
 """
 from __future__ import annotations
 
 import math
+import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -135,7 +143,54 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     return elapsed, poses
 
 
+ONE, DEFAULT = "1 thread each", "libraries' default"
+
+
+def threads(repeat: int) -> None:
+    """One thread per library against the libraries' defaults, as whole processes."""
+    import os
+    import statistics
+    import subprocess
+    import sys
+    import tempfile
+
+    from compare import alternate, children_cpu, machine, report
+
+    walls: dict[str, list[float]] = {ONE: [], DEFAULT: []}
+    traces: dict[str, bytes] = {}
+
+    def side(name: str, value: str) -> Callable[[], float]:
+        def once() -> float:
+            env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+            env["LABSIM_THREADS"] = value
+            with tempfile.TemporaryDirectory() as d:
+                trace = Path(d) / "t.csv"
+                before, start = children_cpu(), time.perf_counter()
+                subprocess.run([sys.executable, "-m", "labsim", "run", str(LAB), "-q", "--trace", str(trace)],
+                               env=env, check=True)
+                walls[name].append(time.perf_counter() - start)
+                cpu = children_cpu() - before
+                traces[name] = trace.read_bytes()
+            return cpu
+        return once
+
+    print(machine())
+    times = alternate({ONE: side(ONE, ""), DEFAULT: side(DEFAULT, "0")}, repeat)
+    report("road lab, whole `labsim run` processes (5 robots x 600 ticks); CPU of the process", times,
+           ratio=(DEFAULT, ONE), goal="CPU, default threads over one each")
+    for name, values in walls.items():
+        print(f"  {name}: median {statistics.median(values):.3f} s wall")
+    same = traces[ONE] == traces[DEFAULT]
+    print(f"  traces byte-identical: {same}")
+    print(f"  {machine()[2:]}")
+
+
 def main() -> None:
+    if "--threads" in sys.argv:
+        sys.argv.remove("--threads")
+        repeat = int(sys.argv[sys.argv.index("--repeat") + 1]) if "--repeat" in sys.argv else 7
+        threads(repeat)
+        return
     compare(__doc__.splitlines()[0], "road lab, 5 robots x 600 ticks with cameras", labsim_run, hand_run, repeat=7)
 
 

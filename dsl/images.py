@@ -13,7 +13,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from labsim.foundation.threads import limit_cv2_threads
+
 EMPTY = np.zeros((0, 0), np.uint8)
+limit_cv2_threads(cv2)  # one thread per run unless LABSIM_THREADS says otherwise (foundation/threads.py)
 
 
 class EmptyCentroid(Exception):

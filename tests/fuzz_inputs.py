@@ -11,6 +11,12 @@ Two kinds of input, both hypothesis strategies:
   drawn from the language's built-ins and numbers from the edges of a float, so that many of
   them check and run.
 
+A third kind, ``sweep_options()``, is what a user types after ``labsim sweep``: ``--set``
+values, lists and START:STOP:STEP ranges, and ``--seeds``, from ordinary to hostile (huge,
+infinite, not-a-number, negative, overflowing, empty, odd separators); ``check_sweep_options``
+takes them through every check a sweep makes before it runs, and builds the grid when it is
+small (docs/sweep.md, "Limits").
+
 ``run_input`` writes one input to a folder and takes it as far as it goes: compile (which
 reads, checks and lints), then a few ticks on the pymunk backend with a trace, and the
 summary. ``ALLOWED`` are the only exceptions it may raise; tests/hostile/test_fuzz.py runs a short
@@ -240,3 +246,42 @@ def run_input(folder: Path, data: bytes, world: bool = False) -> str:
     except ALLOWED:
         return "error"
     return "ran"
+
+
+# -- a sweep's options -----------------------------------------------------------------------
+
+SWEEP_NUMBERS = (*ORDINARY, *HOSTILE_NUMBERS, "inf", "-inf", "nan", "-0", "1e-300", "1e300", "1e16", "0.5000001",
+                 "1e-10", "-1", "", " ", "1:2", "9007199254740993")
+SMALL_GRID = 200  # a grid this small is built as well as counted
+
+
+@st.composite
+def sweep_options(draw: st.DrawFn) -> tuple[list[str], str | None]:
+    """``--set`` options (0 to 3) and a ``--seeds`` (or none), as a user might type them."""
+    number = st.sampled_from(SWEEP_NUMBERS)
+    name = st.sampled_from(("front", "side", "minutes", "x", "", "front ", "a=b"))
+    value = st.one_of(
+        st.builds(lambda n, v: f"{n}={v}", name, st.lists(number, min_size=1, max_size=4).map(",".join)),
+        st.builds(lambda n, a, b, c: f"{n}={a}:{b}:{c}", name, number, number, number),
+        st.text(alphabet="=:,-.0123456789e ", max_size=12))
+    sets = draw(st.lists(value, max_size=3))
+    seed = st.one_of(number, st.builds(lambda a, b: f"{a}-{b}", number, number))
+    seeds = draw(st.one_of(st.none(), st.lists(seed, min_size=1, max_size=4).map(",".join)))
+    return sets, seeds
+
+
+def check_sweep_options(sets: list[str], seeds: str | None) -> str:
+    """Every check ``labsim sweep`` makes of its options before anything runs; then the grid, when
+    it is small. 'error' or 'ok'; raises anything but ``ALLOWED``."""
+    from labsim.runtime.sweep.driver import SweepOptions, check_options
+    from labsim.runtime.sweep.grid import FileInfo, grid, grid_size
+
+    files = [str(ROOT / "behaviours" / "wall_follow.yaml")]
+    try:
+        settings, seed_list = check_options(SweepOptions(files, sets, seeds))
+    except ALLOWED:
+        return "error"
+    if grid_size(files, settings, seed_list) <= SMALL_GRID:
+        tasks = grid(files, settings, seed_list, {files[0]: FileInfo(files[0], seed=1)})
+        assert len(tasks) == grid_size(files, settings, seed_list)
+    return "ok"

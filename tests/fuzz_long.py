@@ -4,7 +4,8 @@
 
 Splits the inputs over ``--jobs`` processes, each running the strategies of
 tests/fuzz_inputs.py (half mutated shipped files, half generated from the grammar) under its
-own hypothesis seed, generation only (no shrinking: a failure is recorded and the run goes on).
+own hypothesis seed (a fifth of them a sweep's ``--set``/``--seeds`` options instead),
+generation only (no shrinking: a failure is recorded and the run goes on).
 Prints the count, the rate in inputs per second, and each distinct failure (exception type and
 where it was raised) with the first input that raised it, written under ``--out``. Exits 1 if
 anything but the project's own errors was raised. The short profile is tests/hostile/test_fuzz.py.
@@ -22,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from fuzz_inputs import generated, mutated, run_input
+from fuzz_inputs import check_sweep_options, generated, mutated, run_input, sweep_options
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
@@ -62,31 +63,36 @@ def _job(args: tuple[int, int, str]) -> tuple[int, dict[str, tuple[str, int, str
     done = 0
     folder = Path(tempfile.mkdtemp(prefix=f"labsim-fuzz-{job}-"))
 
-    def one(data: bytes, world: bool) -> None:
+    def one(data: bytes | tuple, world: bool | None) -> None:
         nonlocal done
         done += 1
         if done % 2000 == 0:
             print(f"job {job}: {done} inputs, {done / (time.perf_counter() - start):.0f}/s, "
                   f"{sum(n for _, n, _ in failures.values())} failed", file=sys.stderr, flush=True)
         try:
-            run_input(folder, data, world)
+            if isinstance(data, tuple):  # a sweep's options
+                check_sweep_options(*data)
+            else:
+                run_input(folder, data, bool(world))
         except Exception as e:  # anything but ALLOWED is what we look for
             key = _where(e)
             if key not in failures:
                 name = Path(out) / f"failure-{job}-{len(failures)}{'-world' if world else ''}.yaml"
-                name.write_bytes(data)
+                name.write_bytes(data if isinstance(data, bytes) else repr(data).encode())
                 failures[key] = (str(e)[:200], 0, str(name))
             message, n, name_ = failures[key]
             failures[key] = (message, n + 1, name_)
 
-    inputs = st.one_of(mutated().map(lambda m: (m[1], m[2])),
-                       generated().map(lambda text: (text.encode(), False)))
+    inputs = st.one_of(mutated().map(lambda m: (m[1], m[2])), mutated().map(lambda m: (m[1], m[2])),
+                       generated().map(lambda text: (text.encode(), False)),
+                       generated().map(lambda text: (text.encode(), False)),
+                       sweep_options().map(lambda o: (o, None)))
 
     @seed(job)
     @settings(max_examples=count, database=None, deadline=None, phases=[Phase.generate],
               suppress_health_check=list(HealthCheck))
     @given(inputs)
-    def fuzz(item: tuple[bytes, bool]) -> None:
+    def fuzz(item: tuple[bytes | tuple, bool | None]) -> None:
         one(*item)
 
     while done < count:  # hypothesis may stop a little short of max_examples; top it up

@@ -42,11 +42,13 @@ import numpy as np
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera
 from labsim.foundation.cache import cache_dir, write_atomically
+from labsim.foundation.threads import limit_cv2_threads
 
 _SHIFT = 4  # fixed-point bits for OpenCV drawing: sub-pixel accurate edges
 _ONE = 1 << _SHIFT
 FAR_M = 30.0  # floor farther than this is drawn as sky: at a few pixels a metre it is noise
 SKY_RGB = (225, 228, 232)  # light, so that a threshold for a dark road reads it as not-road
+limit_cv2_threads(cv2)  # one thread per run unless LABSIM_THREADS says otherwise (foundation/threads.py)
 
 
 def check_camera(camera: Camera) -> None:

@@ -28,6 +28,7 @@ from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, 
 from labsim.foundation.files import ALLOW_ENV, allow, os_words
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
+from labsim.foundation.threads import limit_blas_threads
 from labsim.runtime.cli import commands
 from labsim.runtime.cli.commands import behaviour_files, parse_overrides, print_diagnostics
 from labsim.runtime.cli.parser import build_parser
@@ -44,6 +45,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         autocomplete(build_parser(argv, every=True))
     args = build_parser(argv).parse_args(argv)
+    limit_blas_threads()  # before numpy is imported, by the command's run (and by its workers)
     _terminate_like_ctrl_c()
     allowed = os.environ.get(ALLOW_ENV)
     try:

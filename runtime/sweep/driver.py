@@ -15,23 +15,24 @@ import argparse
 import importlib.util
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Generator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 from labsim.foundation import options
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.files import check_output
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.summary_json import check_json_output
+from labsim.runtime.sweep.ending import ending, exit_code, sweep_signals
 from labsim.runtime.sweep.grid import (
-    INTERRUPTED,
     FileInfo,
     Row,
     Setting,
     Task,
+    check_grid_size,
     grid,
     inspect_files,
     parse_seeds,
@@ -48,6 +49,10 @@ from labsim.runtime.sweep.output import (
 )
 from labsim.runtime.sweep.stats import comparison
 
+# A run's real time unless --timeout-per-run says otherwise: a file within every budget can still
+# take over an hour (a camera per robot at the pixel budget, every tick), which a class's sweep
+# should not wait for; the labs take seconds (docs/sweep.md, "Limits").
+DEFAULT_TIMEOUT_S = 600.0
 # A local worker's address space: labsim with OpenCV and a camera run maps about 650 MB; a
 # run that needs three times that is a run gone wrong (docs/sweep.md, "Limits").
 DEFAULT_MEMORY_MB = 2048
@@ -66,7 +71,7 @@ class SweepOptions:
     output: str | None = None
     json: str | None = None
     plot: str | None = None
-    timeout_s: float | None = None
+    timeout_s: float | None = DEFAULT_TIMEOUT_S
     traces: str | None = None
     maximize: list[str] = field(default_factory=list)
     progress: bool | None = None
@@ -77,7 +82,9 @@ class SweepOptions:
 class Executor(Protocol):
     in_flight: dict[int, Task]
 
-    def results(self, tasks: list[Task]) -> Iterator[Row]: ...
+    def results(self, tasks: list[Task]) -> Generator[Row, None, None]: ...
+
+    def interrupt(self, why: str) -> list[Row]: ...
 
 
 def _fail(where: str, message: str, *notes: str) -> LabsimError:
@@ -92,6 +99,7 @@ def check_options(o: SweepOptions) -> tuple[list[Setting], tuple[int, ...] | Non
         if names.count(name) > 1:
             raise _fail(f"--set {name}", "this parameter is set twice; give all its values in one --set")
     seeds = parse_seeds(o.seeds) if o.seeds is not None else None
+    check_grid_size(o.files, settings, seeds)
     if o.jobs is not None and o.jobs < 1:
         raise _fail("-j", "give 1 or more processes")
     if o.timeout_s is not None and not o.timeout_s > 0:
@@ -142,16 +150,21 @@ def _executor(o: SweepOptions, info: dict[str, FileInfo]) -> Executor:
     if o.executor == "dask":
         from labsim.runtime.sweep.dask_pool import DaskPool
 
-        return DaskPool(o.scheduler, info, timeout_s=o.timeout_s)
+        return DaskPool(o.scheduler, info, timeout_s=o.timeout_s, memory_mb=o.memory_mb)
     from labsim.runtime.sweep.pool import LocalPool, default_jobs
 
     return LocalPool(o.jobs or default_jobs(), o.timeout_s, o.memory_mb)
 
 
 def run_sweep(o: SweepOptions, out: Any = None) -> int:
-    """Run a sweep; print its table; write its files. The exit code."""
+    """Run a sweep; print its table; write its files. The exit code: 0, 1 (a run failed), or
+    128 + the signal that ended it (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP; docs/sweep.md)."""
     out = out or sys.stdout
     settings, seeds = check_options(o)
+    if o.executor == "local":
+        from labsim.runtime.sweep.pool import warm_up
+
+        warm_up()  # its imports overlap the compiles below
     info = inspect_files(o.files, settings, o.budgets)
     if o.maximize:
         known = {m for i in info.values() for m in i.metrics}
@@ -160,54 +173,89 @@ def run_sweep(o: SweepOptions, out: Any = None) -> int:
                 raise _fail(f"--maximize {m}", f"no metric '{m}'", "metrics: " + ", ".join(sorted(known)))
     tasks = grid(o.files, settings, seeds, info, o.traces, o.budgets)
     check_outputs(o, info, tasks)
-    executor = _executor(o, info)
-    bar = SweepProgress(len(tasks), show=o.progress if o.progress is not None else sys.stderr.isatty())
-    rows: list[Row] = []
-    interrupted = False
-    try:
-        for row in executor.results(tasks):
-            rows.append(row)
-            bar.update(row)
-    except KeyboardInterrupt:
-        interrupted = True
-        rows += [Row(t, INTERRUPTED, "stopped by Ctrl-C") for t in executor.in_flight.values()]
-    finally:
-        bar.clear()
+    rows, signum, error = _run_grid(_executor(o, info), tasks, o)
     rows.sort(key=lambda r: r.task.index)
     comp = comparison(rows, tuple(o.maximize))
-    to_stdout = o.json == "-"
-    text = sys.stderr if to_stdout else out
+    meta = {"files": o.files, "settings": {s.name: list(s.values) for s in settings},
+            "seeds": list(seeds) if seeds is not None else None, "executor": o.executor,
+            "timeout_per_run_s": o.timeout_s, "interrupted": signum is not None or error is not None}
+    wrote = _write(o, rows, comp, meta, settings)  # first: a closed terminal must not cost the files
+    if error is not None:
+        raise error
+    text = sys.stderr if o.json == "-" else out
+    try:
+        _show(rows, comp, len(tasks), signum is not None, len(set(o.files)) > 1, text)
+        for path in wrote:
+            print(f"wrote {path}", file=text)
+    except OSError:  # the terminal went away (SIGHUP): the files hold everything
+        if signum is None:
+            raise
+    if signum is not None:
+        return exit_code(signum)
+    return EXIT_FAILED if any(r.failed for r in rows) else EXIT_OK
+
+
+def _run_grid(executor: Executor, tasks: list[Task],
+              o: SweepOptions) -> tuple[list[Row], int | None, Exception | None]:
+    """Every row the executor gives, the signal that ended the sweep early (None: it ran to the
+    end) and the error of labsim's own that did. Ctrl-C, SIGTERM and SIGHUP stop the runs in
+    progress, which become interrupted rows with what each did so far; so does an error, which
+    is raised again once the rows are written."""
+    bar = SweepProgress(len(tasks), show=o.progress if o.progress is not None else sys.stderr.isatty())
+    rows: list[Row] = []
+    results = executor.results(tasks)
+    try:
+        with sweep_signals():
+            for row in results:
+                rows.append(row)
+                bar.update(row)
+    except KeyboardInterrupt as e:
+        signum, why = ending(e)
+        rows += executor.interrupt(why)
+        return rows, signum, None
+    except Exception as e:  # labsim's own: reported by the command line once the rows are written
+        rows += executor.interrupt("an error in labsim")
+        return rows, None, e
+    finally:
+        results.close()
+        bar.clear()
+    return rows, None, None
+
+
+def _write(o: SweepOptions, rows: list[Row], comp: dict[str, Any], meta: dict[str, Any],
+           settings: list[Setting]) -> list[str]:
+    """The sweep's files (CSV, JSON, chart); the paths written, but standard output."""
+    wrote = []
+    if o.output:
+        write_csv(rows, o.output, [s.name for s in settings])
+        wrote.append(o.output)
+    if o.json:
+        write_json(sweep_json(rows, comp, meta), o.json)
+        wrote += [o.json] if o.json != "-" else []
+    if o.plot:
+        from labsim.runtime.sweep.plot import plot_comparison
+
+        plot_comparison(comp, o.plot)
+        wrote.append(o.plot)
+    return wrote
+
+
+def _show(rows: list[Row], comp: dict[str, Any], total: int, interrupted: bool, several_files: bool,
+          text: Any) -> None:
+    """The comparison table, the counts and the failures, on the terminal."""
     aggregates: dict[str, str] = {}
     for r in rows:
         if r.result is not None:
             aggregates.update({k: a.value for k, a in r.result.metric_aggregates.items() if k not in aggregates})
-    print(format_comparison(comp, aggregates, several_files=len(set(o.files)) > 1), file=text)
+    print(format_comparison(comp, aggregates, several_files=several_files), file=text)
     print(("interrupted: " if interrupted else "") + status_counts(rows)
-          + (f" (of {len(tasks)})" if interrupted else ""), file=text)
+          + (f" (of {total})" if interrupted else ""), file=text)
     for line in failures(rows):
         print(line, file=text)
     retried = [r for r in rows if r.retries]
     if retried:
         print(f"{len(retried)} run{'s were' if len(retried) != 1 else ' was'} started again after a Dask worker "
               f"was lost ({sum(r.retries for r in retried)} retries; the rows' retries column)", file=text)
-    meta = {"files": o.files, "settings": {s.name: list(s.values) for s in settings},
-            "seeds": list(seeds) if seeds is not None else None, "executor": o.executor,
-            "timeout_per_run_s": o.timeout_s, "interrupted": interrupted}
-    if o.output:
-        write_csv(rows, o.output, [s.name for s in settings])
-        print(f"wrote {o.output}", file=text)
-    if o.json:
-        write_json(sweep_json(rows, comp, meta), o.json)
-        if not to_stdout:
-            print(f"wrote {o.json}", file=text)
-    if o.plot:
-        from labsim.runtime.sweep.plot import plot_comparison
-
-        plot_comparison(comp, o.plot)
-        print(f"wrote {o.plot}", file=text)
-    if interrupted:
-        return EXIT_INTERRUPTED
-    return EXIT_FAILED if any(r.failed for r in rows) else EXIT_OK
 
 
 def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
@@ -226,7 +274,8 @@ def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
     sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
     sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
     sweep.add_argument("--timeout-per-run", type=options.run_timeout_s, metavar="S", dest="timeout",
-                       help="stop a run after S seconds of real time; its row says timeout")
+                       default=DEFAULT_TIMEOUT_S, help="stop a run after S seconds of real time; its row says "
+                                                       "timeout (default: %(default)g, up to 86400)")
     sweep.add_argument("--memory-per-run", type=int, metavar="MB", dest="memory_mb", default=DEFAULT_MEMORY_MB,
                        help="limit each local worker process's memory (address space) to MB, where the "
                             "platform allows; 0: no limit (default: %(default)s)")

@@ -32,7 +32,9 @@ from labsim.runtime.run import Behaviour, compile_behaviour
 OK, COMPILE_ERROR, RUNTIME_ERROR = "ok", "compile error", "runtime error"
 TIMEOUT, INTERRUPTED = "timeout", "interrupted"
 STATUSES = (OK, COMPILE_ERROR, RUNTIME_ERROR, TIMEOUT, INTERRUPTED)
-MAX_GRID = 1_000_000  # runs in one sweep; a typo such as 0:1000:0.0001 is caught before it starts
+# runs in one sweep (docs/sweep.md, "Limits"): days of runs on a class's machines, and a grid of
+# tasks that fits in memory (about 30 MB); a typo such as 0:1000:0.00001 is caught before it starts
+MAX_GRID = 100_000
 
 
 @dataclass(frozen=True)
@@ -110,32 +112,70 @@ def parse_setting(text: str) -> Setting:
     except ValueError:
         start = stop = step = math.nan
     if not all(math.isfinite(v) for v in (start, stop, step)):
-        raise LabsimError([Diagnostic(where, "a range is START:STOP:STEP with three numbers, e.g. front=0.5:1.0:0.25")])
+        raise LabsimError([Diagnostic(where, "a range is START:STOP:STEP with three finite numbers, "
+                                             "e.g. front=0.5:1.0:0.25")])
     if step <= 0 or stop < start:
         raise LabsimError([Diagnostic(where, "a range needs STOP >= START and a positive STEP")])
-    count = math.floor((stop - start) / step + 1e-9) + 1
-    if count > MAX_GRID:
-        raise LabsimError([Diagnostic(where, f"this range has {count:,} values; too many")])
-    return Setting(name, tuple(f"{start + k * step:.10g}" for k in range(count)))
+    steps = (stop - start) / step  # inf when the numbers are huge: no count to floor
+    if not steps < MAX_GRID:
+        shown = f"{math.floor(steps) + 1:,}" if steps < 10 * MAX_GRID else f"more than {10 * MAX_GRID:,}"
+        raise LabsimError([Diagnostic(where, f"this range has {shown} values; a sweep has at most "
+                                             f"{MAX_GRID:,} runs (docs/sweep.md, \"Limits\")")])
+    # STOP is reached when the steps come within rounding of it (0.5:0.5000001:1e-10 is 1,001 values)
+    return Setting(name, range_values(where, start, step, math.floor(steps * (1 + 1e-9) + 1e-9) + 1))
+
+
+def range_values(where: str, start: float, step: float, count: int) -> tuple[str, ...]:
+    """The values of a range as text, with 10 significant digits, or more (up to 17, which tells
+    any two floats apart) when 10 would show two values the same: each run's value is the one
+    its row shows. A step too small for the numbers to differ at all is refused."""
+    numbers = [start + k * step for k in range(count)]
+    if len(set(numbers)) < count:
+        raise LabsimError([Diagnostic(where, f"the step {step:g} is too small to change a number near {start:g}; "
+                                             "give a larger STEP")])
+    for digits in range(10, 18):
+        values = tuple(f"{v:.{digits}g}" for v in numbers)
+        if len(set(values)) == count:
+            return values
+    return tuple(repr(v) for v in numbers)  # not reached: 17 digits tell any two floats apart
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:
-    """``1-20``, ``1,2,5`` or ``1-5,9``: the seeds, in order, without repeats."""
-    seeds: list[int] = []
+    """``1-20``, ``1,2,5`` or ``1-5,9``: the seeds, in order, without repeats; at most MAX_GRID
+    of them, counted before any range is expanded (linear in the seeds given)."""
+    seeds: dict[int, None] = {}  # ordered, and a repeat is found in constant time
     for part in text.split(","):
         lo, dash, hi = part.strip().partition("-")
         try:
             first, last = int(lo), int(hi) if dash else int(lo)
         except ValueError:
-            raise LabsimError([Diagnostic(f"--seeds {text}",
+            raise LabsimError([Diagnostic(f"--seeds {text[:80]}",
                                           "seeds are whole numbers: 1-20, 1,2,5 or 1-5,9")]) from None
         if first < 0 or last < first or last > WHOLE_LIMIT:
-            raise LabsimError([Diagnostic(f"--seeds {text}", f"'{part.strip()[:40]}' is not a range of seeds "
-                                                             "(0 to 2**53, low-high)")])
-        if last - first >= MAX_GRID:
-            raise LabsimError([Diagnostic(f"--seeds {text}", "too many seeds")])
-        seeds += [s for s in range(first, last + 1) if s not in seeds]
+            raise LabsimError([Diagnostic(f"--seeds {text[:80]}", f"'{part.strip()[:40]}' is not a range of seeds "
+                                                                  "(0 to 2**53, low-high)")])
+        if len(seeds) + (last - first) >= MAX_GRID:
+            raise LabsimError([Diagnostic(f"--seeds {text[:80]}", f"too many seeds; a sweep has at most "
+                                                                  f"{MAX_GRID:,} runs (docs/sweep.md, \"Limits\")")])
+        seeds.update(dict.fromkeys(range(first, last + 1)))
     return tuple(seeds)
+
+
+def grid_size(files: list[str], settings: list[Setting], seeds: tuple[int, ...] | None) -> int:
+    """How many runs the grid has, counted without building it."""
+    return len(files) * math.prod(len(s.values) for s in settings) * (len(seeds) if seeds is not None else 1)
+
+
+def check_grid_size(files: list[str], settings: list[Setting], seeds: tuple[int, ...] | None) -> None:
+    """A grid over MAX_GRID runs is refused before anything is compiled or run."""
+    size = grid_size(files, settings, seeds)
+    if size > MAX_GRID:
+        parts = [f"{len(files)} file{'s' if len(files) != 1 else ''}",
+                 *(f"{len(s.values):,} values of {s.name}" for s in settings),
+                 f"{len(seeds):,} seeds" if seeds is not None else "1 seed"]
+        raise LabsimError([Diagnostic("labsim sweep", f"this grid has {size:,} runs ({' x '.join(parts)}); "
+                                                      f"a sweep has at most {MAX_GRID:,}",
+                                      notes=("split it into several sweeps, or give fewer values or seeds",))])
 
 
 def inspect_files(files: list[str], settings: list[Setting],
@@ -157,7 +197,7 @@ def inspect_files(files: list[str], settings: list[Setting],
         except LabsimError as e:
             bad = [d for d in e.diagnostics if d.path.startswith("--set ")]
             if bad and not [d for d in e.diagnostics if d.severity == "error" and d not in bad]:
-                usage += [Diagnostic(f"{d.path} (in {f})", d.message, notes=d.notes) for d in bad]
+                usage += [Diagnostic(f"{_short(d.path)} (in {f})", d.message, notes=d.notes) for d in bad]
             out[f] = FileInfo(f, error=first_error(e))
             continue
         world = Path(program.world.source)
@@ -167,6 +207,11 @@ def inspect_files(files: list[str], settings: list[Setting],
     if usage:
         raise LabsimError(usage)
     return out
+
+
+def _short(where: str, at_most: int = 80) -> str:
+    """A ``--set`` as a message's place: a 5,000-digit value is shown by its start."""
+    return where if len(where) <= at_most else where[:at_most] + "..."
 
 
 def _check_values(f: str, settings: list[Setting], params: Mapping[str, float | bool]) -> list[Diagnostic]:
@@ -184,7 +229,8 @@ def _check_values(f: str, settings: list[Setting], params: Mapping[str, float | 
                     ok = False
             if not ok:
                 kind = "true or false" if isinstance(current, bool) else "a finite number"
-                problems.append(Diagnostic(f"--set {s.name}={value} (in {f})", f"parameter '{s.name}' is {kind}"))
+                where = _short(f"--set {s.name}={value}")
+                problems.append(Diagnostic(f"{where} (in {f})", f"parameter '{s.name}' is {kind}"))
     return problems
 
 

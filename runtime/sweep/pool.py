@@ -12,23 +12,28 @@ Workers ignore Ctrl-C; the parent stops them.
 """
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
 import threading
 import time as clock
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, cast
 
 from labsim.backends import DEFAULT, REGISTRY
 from labsim.foundation.files import allow, allowed_folders
-from labsim.runtime.sweep.grid import RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
+from labsim.runtime.sweep.ending import Stopped, WorkerSignals, deaf, die_with_parent, ending
+from labsim.runtime.sweep.grid import INTERRUPTED, RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
 
 POLL_S = 0.25  # how often the parent looks at the clock while every worker is busy
 KILL_WAIT_S = 5.0  # how long to wait for a killed worker to be gone
+# how long an interrupted sweep waits for its busy workers' rows: a run ends within one block of
+# ticks (milliseconds) and then writes its trace's footer; a worker stuck elsewhere is killed
+STOP_WAIT_S = 3.0
 
 
 def default_jobs() -> int:
@@ -40,20 +45,32 @@ def default_jobs() -> int:
 
 
 def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
-    """A worker's life: receive a task, send its result, until told to stop (None) or orphaned.
-    ``allowed``: the sweep's --allow-path folders (a fork server's children do not see its
-    environment); ``memory_mb``: the worker's memory limit, 0 for none."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """A worker's life: receive a task, send its result, until told to stop (None), signalled
+    (SIGTERM, SIGHUP: the run in progress ends as for Ctrl-C, its trace closed, and its row is
+    sent) or orphaned (the parent-death signal). ``allowed``: the sweep's --allow-path folders (a
+    fork server's children do not see its environment); ``memory_mb``: the worker's memory limit,
+    0 for none."""
+    signals = WorkerSignals()
+    signals.install()
+    die_with_parent()
     allow(allowed)
     limit_memory(memory_mb)
-    while True:
+    while not signals.asked:
+        task = None
         try:
+            signals.armed = True
             task = conn.recv()
+            if task is None:
+                return
+            result = run_task(task)
+        except Stopped as e:  # between runs, or while compiling: nothing to keep but the row
+            if task is None:
+                return
+            result = {"status": INTERRUPTED, "result": None, "message": f"stopped by {e}", "task_time_s": 0.0}
         except (EOFError, OSError):
             return
-        if task is None:
-            return
-        result = run_task(task)
+        finally:
+            signals.armed = False
         try:
             conn.send(result)
         except (BrokenPipeError, OSError):  # the parent is gone: so is the reason to go on
@@ -94,6 +111,17 @@ def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.co
     return context
 
 
+def warm_up() -> None:
+    """Start the fork server now, so that its imports (a fresh interpreter loading labsim and
+    the simulator, about 0.3 s) overlap the sweep's own checks and compiles instead of following
+    them: the one fixed cost a short sweep has over ``labsim run``."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        from multiprocessing import forkserver
+
+        _context()  # its preload named first
+        forkserver.ensure_running()
+
+
 @dataclass
 class _Worker:
     process: multiprocessing.process.BaseProcess
@@ -116,6 +144,7 @@ class LocalPool:
         self.in_flight: dict[int, Task] = {}
         self._context = _context()
         self._workers: list[_Worker] = []
+        self._stopped: list[Row] | None = None  # the rows interrupt() gave, once it has run
 
     def _start(self) -> _Worker:
         parent, child = self._context.Pipe()
@@ -146,7 +175,7 @@ class LocalPool:
         w.process.join(KILL_WAIT_S)
         w.conn.close()
 
-    def results(self, tasks: list[Task]) -> Iterator[Row]:
+    def results(self, tasks: list[Task]) -> Generator[Row, None, None]:
         """Run every task; always stops every worker, also when the caller stops early."""
         pending = deque(tasks)
         self._workers = [self._start() for _ in range(min(self.jobs, len(tasks)))]
@@ -154,8 +183,44 @@ class LocalPool:
             while pending or self.in_flight:
                 self._feed(pending)
                 yield from self._collect()
+        except KeyboardInterrupt as e:  # the runs in progress end as Ctrl-C ends a run; the caller asks for their rows
+            self.interrupt(ending(e)[1])
+            raise
         finally:
             self.close()
+
+    def interrupt(self, why: str) -> list[Row]:
+        """Stop the runs in progress and give their rows: each busy worker is sent SIGTERM, which
+        ends its run as Ctrl-C ends ``labsim run`` (its trace closed with its footer, the row
+        saying interrupted, with what the run did so far), and has STOP_WAIT_S to send it; then
+        every worker is stopped. ``why`` ('Ctrl-C', 'SIGTERM', 'SIGHUP') goes in the rows'
+        message. Further calls give the same rows."""
+        if self._stopped is not None:
+            return self._stopped
+        rows: list[Row] = []
+        busy = {w.conn: w for w in self._workers if w.task is not None and w.process.is_alive()}
+        with deaf():  # a second Ctrl-C must not lose the rows being sent
+            for w in busy.values():
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(cast(int, w.process.pid), signal.SIGTERM)
+            deadline = clock.perf_counter() + STOP_WAIT_S
+            while busy and clock.perf_counter() < deadline:
+                for conn in wait(list(busy), max(0.0, deadline - clock.perf_counter())):
+                    w = busy.pop(cast(Connection, conn))
+                    try:
+                        result: dict[str, Any] = w.conn.recv()
+                    except (EOFError, OSError):  # it died instead: the row below
+                        continue
+                    task = cast(Task, w.task)
+                    w.task = None
+                    if result["status"] == INTERRUPTED:
+                        result["message"] = f"stopped by {why}"
+                    rows.append(self._done(task, result, w.name))
+            self.close()
+        rows += [Row(t, INTERRUPTED, f"stopped by {why}") for t in self.in_flight.values()]
+        self.in_flight.clear()
+        self._stopped = rows
+        return rows
 
     def _feed(self, pending: deque[Task]) -> None:
         for w in self._workers:

@@ -8,7 +8,8 @@ highest or the lowest mean, and none for a metric without a direction (a ``durat
 declares none) or one the files disagree on. When a file is run with exactly two settings,
 each metric gets Welch's unequal-variances t-test of the two means: the difference counts as
 larger than the seeds' noise when p < 0.05 (docs/sweep.md says what that does and does not
-mean). scipy.stats supplies the t distribution.
+mean). The t distribution is runtime/sweep/student_t.py (plain Python: scipy.stats's import
+alone cost more than a short sweep's runs).
 
 Only rows with status ok count; non-finite values (a ``minimum`` over nothing is ``inf``)
 are left out of n and noted.
@@ -20,6 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from labsim.dsl.builtins import Better
+from labsim.runtime.sweep import student_t
 from labsim.runtime.sweep.grid import Row
 
 ALPHA = 0.05  # the test's level, and 1 - the confidence of the intervals
@@ -53,8 +55,6 @@ class Test:
 
 
 def describe(values: list[float]) -> Stat:
-    from scipy import stats as st
-
     finite = [float(v) for v in values if isinstance(v, (int, float)) and math.isfinite(v)]
     left_out = len(values) - len(finite)
     n = len(finite)
@@ -64,14 +64,12 @@ def describe(values: list[float]) -> Stat:
     if n < 2:
         return Stat(1, mean, math.nan, math.nan, math.nan, mean, mean, left_out)
     sd = math.sqrt(math.fsum((v - mean) ** 2 for v in finite) / (n - 1))
-    half = float(st.t.ppf(1 - ALPHA / 2, n - 1)) * sd / math.sqrt(n)
+    half = student_t.quantile(1 - ALPHA / 2, n - 1) * sd / math.sqrt(n)
     return Stat(n, mean, sd, mean - half, mean + half, min(finite), max(finite), left_out)
 
 
 def welch(file: str, metric: str, a: str, b: str, xs: list[float], ys: list[float]) -> Test:
     """Welch's t-test (two-sided, unequal variances) of the means of xs and ys."""
-    from scipy import stats as st
-
     xs = [v for v in xs if math.isfinite(v)]
     ys = [v for v in ys if math.isfinite(v)]
     if len(xs) < 2 or len(ys) < 2:
@@ -80,9 +78,23 @@ def welch(file: str, metric: str, a: str, b: str, xs: list[float], ys: list[floa
     if max(xs) == min(xs) and max(ys) == min(ys):  # no spread at all: the t statistic is undefined
         verdict = "the same in every run" if diff == 0 else "different, and no spread over seeds in either"
         return Test(file, metric, a, b, diff, math.nan, verdict)
-    p = float(st.ttest_ind(ys, xs, equal_var=False).pvalue)
+    p = welch_p(xs, ys)
     verdict = "larger than the seeds' noise" if p < ALPHA else "within the seeds' noise"
     return Test(file, metric, a, b, diff, p, verdict)
+
+
+def welch_p(xs: list[float], ys: list[float]) -> float:
+    """The two-sided p of Welch's t statistic, as scipy.stats.ttest_ind(equal_var=False) gives it:
+    sample variances (n - 1), the Welch-Satterthwaite degrees of freedom."""
+    vx, vy = _variance(xs) / len(xs), _variance(ys) / len(ys)
+    t = (math.fsum(ys) / len(ys) - math.fsum(xs) / len(xs)) / math.sqrt(vx + vy)
+    df = (vx + vy) ** 2 / (vx * vx / (len(xs) - 1) + vy * vy / (len(ys) - 1))
+    return min(1.0, 2.0 * student_t.sf(abs(t), df))
+
+
+def _variance(values: list[float]) -> float:
+    mean = math.fsum(values) / len(values)
+    return math.fsum((v - mean) ** 2 for v in values) / (len(values) - 1)
 
 
 # -- grouping ---------------------------------------------------------------------------------

@@ -51,6 +51,7 @@ def test_startup_benchmark_runs() -> None:
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "labsim check: median" in done.stdout and "labsim run:   median" in done.stdout, done.stdout
+    assert "one-run sweep over labsim run: +" in done.stdout
     assert "load average" in done.stdout
 
 

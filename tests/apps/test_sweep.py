@@ -204,6 +204,9 @@ def test_ctrl_c_writes_the_rows_done_so_far(capsys, tmp_path: Path, monkeypatch)
             self.in_flight = {1: tasks[1]}
             raise KeyboardInterrupt
 
+        def interrupt(self, why: str) -> list[Row]:
+            return [Row(t, INTERRUPTED, f"stopped by {why}") for t in self.in_flight.values()]
+
     monkeypatch.setattr(sweep_driver, "_executor", lambda o, info: Stopped())
     out_csv = tmp_path / "r.csv"
     code, out, _ = cli(capsys, "sweep", LAB, "--seeds", "1-5", "-o", str(out_csv))

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzz_inputs import generated, mutated, run_input, seeds
+from fuzz_inputs import check_sweep_options, generated, mutated, run_input, seeds, sweep_options
 from hypothesis import HealthCheck, given, settings
 
 LONG = os.environ.get("LABSIM_FUZZ") == "long"
@@ -51,3 +51,18 @@ def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_pa
 
     fuzz()
     assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+
+
+@pytest.mark.slow
+def test_a_sweeps_options_give_diagnostics_not_exceptions() -> None:
+    """--set and --seeds as typed, ordinary to hostile: each refused with labsim's own message, or
+    a grid of the size counted (docs/sweep.md, "Limits")."""
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(sweep_options())
+    def fuzz(item: tuple[list[str], str | None]) -> None:
+        outcomes.append(check_sweep_options(*item))
+
+    fuzz()
+    assert "error" in outcomes and "ok" in outcomes
