@@ -111,6 +111,11 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
         problems.append(f"its world file {world_file} is not in the submission's folder")
     if problems:
         return _refused(base, MISMATCH, "; ".join(problems), program.warnings)
+    if world_file is not None:  # a changed world file is a changed submission: it is graded anew
+        try:
+            key = key_of(data + b"\0" + read_input(world_file, "world"), assignment)
+        except LabsimError as e:
+            return _refused(base, HOSTILE, _first(e.diagnostics), e.diagnostics)
     return Submission(student, str(path), key, source, GRADED, "", tuple(program.warnings), world_file)
 
 
