@@ -62,6 +62,12 @@ class RunWatch:
                       f"the warning is for runs over {self.budgets.warn_wall_s:,} s, --budget warn_wall_s=N)")
 
 
+def out_of_memory_message(memory_mb: int, ticks: int) -> str:
+    """Why a run that ran out of memory stopped (labsim.foundation.memory caps it)."""
+    return (f"the run ran out of memory after {ticks:,} ticks: it may map about {memory_mb:,} MB more than "
+            f"labsim itself (its memory budget, with a headroom); raise it with --budget memory_mb=N")
+
+
 def trace_bytes(trace: object) -> int:
     """How much a trace writer has written, in characters (bytes, but for non-ASCII labels)."""
     return int(getattr(trace, "chars", 0))

@@ -19,6 +19,9 @@ from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output
+from labsim.foundation.inert import inert
+from labsim.foundation.memory import memory_cap, out_of_memory
+from labsim.runtime.budgets import out_of_memory_message
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.frames import (
     Json,
@@ -115,11 +118,22 @@ class LiveSession(Session):
         if run is None:
             return 0
         tick = run.tick
-        for k in range(n):
-            if not tick():
-                if run.trace is not None:
-                    run.trace.close()  # the stop condition held: the trace is complete
-                return k
+        k = 0
+        try:
+            with memory_cap(run.budgets.memory_mb):  # the run's backstop, as Run.run has it
+                for k in range(n):
+                    if not tick():
+                        if run.trace is not None:
+                            run.trace.close()  # the stop condition held: the trace is complete
+                        return k
+        except Exception as e:  # running out of memory ends the run with labsim's message; the page stays
+            if not out_of_memory(e):
+                raise
+            run.over_budget = out_of_memory_message(run.budgets.memory_mb, run.tick_index)
+            run.finished = True
+            if self.warn is not None:
+                self.warn(f"{inert(self.path)}: error: {run.over_budget}")
+            return k
         return n
 
     def restart(self) -> None:

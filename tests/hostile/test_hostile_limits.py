@@ -216,7 +216,7 @@ def test_a_sweep_applies_the_budgets_to_every_run(tmp_path: Path) -> None:
 
 def test_a_sweep_worker_has_a_memory_limit() -> None:
     # what the local pool's worker does first; a run that asks for more gets MemoryError
-    code = ("from labsim.runtime.sweep.pool import limit_memory\n"
+    code = ("from labsim.foundation.memory import limit_memory\n"
             "assert limit_memory(1024)\n"
             "try:\n    bytearray(4 * 1024 ** 3)\nexcept MemoryError:\n    print('MemoryError')\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=TIMEOUT_S)
