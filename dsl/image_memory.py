@@ -3,12 +3,12 @@
 Between the checker and the code generator: ``lifetimes`` says, for each image signal, whether
 something besides other signals reads it (a rule, the stop condition, a metric, a binding, a
 label: then it is *kept* for the whole tick) or, if not, after which signal it is read for the
-last time; ``labsim.dsl.codegen`` frees it there (and a kept one as the next tick starts), so a chain of image signals holds one or two
-images at a time, not all of them. ``peak_bytes`` follows the same lifetimes through a tick, one
-robot after another as a fleet runs, with each image's size from its camera's resolution
-(RGB, 3 bytes a pixel; ``gray`` and ``threshold`` make one byte a pixel, ``crop`` keeps its
-whole source alive), and ``labsim.dsl.budget`` holds the result against the run's
-``memory_mb``. An estimate from above: every image a signal's expression makes on the way
+last time; ``labsim.dsl.codegen`` frees it there (and a kept one as the next tick starts), so
+a chain of image signals holds one or two images at a time, not all of them. ``peak_bytes``
+follows the same lifetimes through a tick, one robot after another as a fleet runs, with each
+image's size from its camera's resolution (RGB, 3 bytes a pixel; ``gray`` and ``threshold``
+make one byte a pixel, ``crop`` keeps its whole source alive), and ``labsim.dsl.budget`` holds
+the result against the run's ``memory_mb``. An estimate from above: every image a signal's expression makes on the way
 counts as alive until the signal is done.
 """
 from __future__ import annotations

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 
 MB = 1024 * 1024
 # what a run may map besides its images: the backend's buffers, a thread's malloc arena
@@ -86,7 +86,5 @@ def _restore_soft(soft: int) -> None:
     import resource
 
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    try:
+    with suppress(ValueError, OSError):  # raising a soft limit up to the hard one is allowed
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
-    except (ValueError, OSError):  # pragma: no cover - raising a soft limit up to the hard one is allowed
-        pass

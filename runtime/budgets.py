@@ -13,6 +13,7 @@ import time as clock
 from collections.abc import Callable
 
 from labsim.foundation.limits import Budgets
+from labsim.foundation.memory import HEADROOM_MB
 
 ESTIMATE_AFTER_S = 2.0  # wall time measured before the rate is trusted for an estimate
 
@@ -64,8 +65,9 @@ class RunWatch:
 
 def out_of_memory_message(memory_mb: int, ticks: int) -> str:
     """Why a run that ran out of memory stopped (labsim.foundation.memory caps it)."""
-    return (f"the run ran out of memory after {ticks:,} ticks: it may map about {memory_mb:,} MB more than "
-            f"labsim itself (its memory budget, with a headroom); raise it with --budget memory_mb=N")
+    return (f"the run ran out of memory after {ticks:,} ticks (labsim lets a run map its memory budget of "
+            f"{memory_mb:,} MB and a headroom of {HEADROOM_MB:,} MB; the system may allow less); raise the "
+            f"budget with --budget memory_mb=N")
 
 
 def trace_bytes(trace: object) -> int:

@@ -30,6 +30,7 @@ from labsim.backends.scene.world_file import load_world
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.files import Output, allowed_folders, read_input, write_error
+from labsim.foundation.json_data import loads_json
 from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name, kind_of_text
 from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
 
@@ -202,8 +203,8 @@ def read_trace(path: str | Path) -> Trace:
             hint = ": it is a world file; a behaviour runs in it (labsim run BEHAVIOUR --trace run.csv)"
         raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line){hint}", str(path))
     try:
-        header = json.loads(first[len(MAGIC):])
-    except json.JSONDecodeError as e:
+        header = loads_json(first[len(MAGIC):])
+    except ValueError as e:  # JSONDecodeError is one; so is a header nested too deep
         raise _bad(path, 1, f"damaged trace header: {e}") from None
     if not isinstance(header, dict):
         raise _bad(path, 1, "damaged trace header: not a JSON object")
@@ -275,8 +276,8 @@ def _footer(rest: str) -> tuple[str, dict | None]:
     if not last.startswith(FOOTER):
         return rest, None
     try:
-        footer = json.loads(last[len(FOOTER):])
-    except json.JSONDecodeError:
+        footer = loads_json(last[len(FOOTER):])
+    except ValueError:  # not JSON, or nested too deep: no footer
         return head + "\n", None
     return head + "\n", footer if isinstance(footer, dict) else None
 

@@ -81,7 +81,7 @@ def test_a_run_over_its_budget_or_timeout_raises_labsims_own_error() -> None:
     with pytest.raises(labsim.OverBudget, match="budget of 300 ticks") as over:
         labsim.run("wall_follow", budget={"ticks": 300})
     assert over.value.summary["ticks"] == 300
-    with pytest.raises(labsim.RunTimeout, match="still going after 0.001 s") as late:
+    with pytest.raises(labsim.RunTimeout, match=r"still going after 0\.001 s") as late:
         labsim.run("wall_follow", timeout=0.001)
     assert late.value.summary["ticks"] == 256  # checked between blocks of 256 ticks
     with pytest.raises(labsim.LabsimError, match="budget memory_mb=x"):
