@@ -1,7 +1,8 @@
 """The tick loop's budgets: ticks and trace size, and a warning for a run that will take long.
 
 ``labsim.runtime.run.Run.run`` asks ``RunWatch.check`` every 256 ticks (never per tick: the
-loop is the hot path). A run past its tick or trace budget stops there, its trace closed and
+loop is the hot path); the trace writer also counts every row against the trace budget and
+stops the run at the row that reaches it (``labsim.runtime.trace.TraceFull``). A run past its tick or trace budget stops there, its trace closed and
 kept, and the summary's ``over_budget`` says why; the command line prints the summary and
 exits 2. The budgets of a behaviour's size (robots, cameras, world) are checked when it
 compiles (``labsim.dsl.budget``). Defaults and flags: docs/security.md, "Budgets".
@@ -42,8 +43,7 @@ class RunWatch:
             return (f"the run reached its budget of {b.ticks:,} ticks ({b.ticks * self.dt:g} s simulated) "
                     f"before its stop condition held; raise it with --budget ticks=N")
         if trace is not None and trace_bytes(trace) > b.trace_mb * 1_000_000:
-            return (f"the trace {getattr(trace, 'path', '')} reached its budget of {b.trace_mb:,} MB after "
-                    f"{ticks:,} ticks; raise it with --budget trace_mb=N")
+            return trace_full_message(trace, b.trace_mb, ticks)
         if not self.warned:
             self._estimate(ticks)
         return ""
@@ -61,6 +61,12 @@ class RunWatch:
             self.warn(f"labsim: warning: this run may take about {_duration(total_s)} of wall time "
                       f"({self.expected_ticks:,} ticks to {what} at {rate:,.0f} ticks a second; "
                       f"the warning is for runs over {self.budgets.warn_wall_s:,} s, --budget warn_wall_s=N)")
+
+
+def trace_full_message(trace: object, trace_mb: int, ticks: int) -> str:
+    """Why a run whose trace reached its size budget stopped (the writer counts every row)."""
+    return (f"the trace {getattr(trace, 'path', '')} reached its budget of {trace_mb:,} MB after "
+            f"{ticks:,} ticks; raise it with --budget trace_mb=N")
 
 
 def out_of_memory_message(memory_mb: int, ticks: int) -> str:

@@ -33,7 +33,7 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
-from labsim.runtime.budgets import RunWatch, out_of_memory_message
+from labsim.runtime.budgets import RunWatch, out_of_memory_message, trace_full_message
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, robot_noise
 from labsim.runtime.observers import (
@@ -62,7 +62,7 @@ from labsim.runtime.result import (
 )
 from labsim.runtime.state import RobotRun
 from labsim.runtime.tick import make_tick
-from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
+from labsim.runtime.trace import FORMAT, TraceFull, TraceWriteError, TraceWriter
 
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
 # The summary names at most this many lines of the file whose logs were not all printed, then
@@ -196,7 +196,8 @@ class Run:
             out.append(self.log_printer)
         self.trace_rows: TraceRows | None = None
         if trace_path is not None:
-            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), trace_columns(self))
+            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), trace_columns(self),
+                                     max_chars=self.budgets.trace_mb * 1_000_000)
             self.trace_rows = TraceRows(self.trace, self.inputs)
             out.append(self.trace_rows)
         return out + list(extra)
@@ -326,6 +327,8 @@ class Run:
                 ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             self.interrupted = True
+        except TraceFull:
+            self.over_budget = trace_full_message(self.trace, self.budgets.trace_mb, self.tick_index)
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
             self.trace_error = e
             self.interrupted = True

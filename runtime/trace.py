@@ -60,11 +60,16 @@ class TraceWriteError(LabsimError):
     """The trace could not be written (a full disk, a read-only file system): the run stops."""
 
 
+class TraceFull(Exception):
+    """The trace reached its size budget (``max_chars``) with the row just written: the run stops."""
+
+
 class TraceWriter:
     """Writes a trace as rows arrive to ``PATH.partial``; ``close`` adds the footer and renames it
-    to ``PATH`` (also on errors, Ctrl-C and SIGTERM). A write the OS refuses is a TraceWriteError."""
+    to ``PATH`` (also on errors, Ctrl-C and SIGTERM). A write the OS refuses is a TraceWriteError;
+    a row that takes the trace past ``max_chars`` raises TraceFull once it is written."""
 
-    def __init__(self, path: str | Path, header: dict, columns: list[str]):
+    def __init__(self, path: str | Path, header: dict, columns: list[str], max_chars: int | None = None):
         self.path = Path(path)
         self.columns = columns
         self._out = Output(self.path, partial=str(self.path) + PARTIAL)
@@ -73,6 +78,7 @@ class TraceWriter:
         self._writer = csv.writer(self._file, lineterminator="\n")
         self.rows = 0
         self.chars = 0  # written so far, header and rows: what the trace-size budget counts
+        self.max_chars = max_chars if max_chars is not None else math.inf
         self._flushed = time.monotonic()
         self.failed = False
         try:
@@ -92,6 +98,8 @@ class TraceWriter:
     def write(self, row: list[object]) -> None:
         self._guard(lambda: self._writer.writerow([fmt(v) for v in row]))
         self.rows += 1
+        if self.chars > self.max_chars:  # checked by the row, so the file ends within a row of its budget
+            raise TraceFull(self.chars)
         now = time.monotonic()
         if now - self._flushed >= FLUSH_S:  # a killed run loses at most a second of rows
             self._flushed = now

@@ -144,7 +144,7 @@ CASES = [
     Case("world segments past the budget", ["check", "{b}", "--budget", "segments=3"], 2,
          ("b.yaml:2:8: error: world 'walls_lab4' has", "more than this run's budget of 3"), {"b.yaml": behaviour()}),
     Case("trace past its budget", ["run", "{b}", "--budget", "trace_mb=0", "--trace", "t.csv", "-q"], 2,
-         ("b.yaml: error: the trace t.csv reached its budget of 0 MB after 256 ticks",),
+         ("b.yaml: error: the trace t.csv reached its budget of 0 MB after 0 ticks",),
          {"b.yaml": behaviour("time > 100")}),
     # -- bounded output -------------------------------------------------------------------------
     Case("9000 unknown names", ["check", "{b}"], 2,

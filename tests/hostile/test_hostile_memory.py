@@ -141,3 +141,18 @@ def test_hostile_memory(case: Case, tmp_path: Path) -> None:
         if name not in OUTPUTS:
             assert (folder / name).read_bytes() == data, name
     assert {p.name for p in folder.iterdir()} <= set(before) | OUTPUTS
+
+
+WIDE = ("labsim: 1\nworld: walls_lab4\nstop: time >= 100000\nrobots:\n  g: {model: pioneer_p3dx, count: 50, at: random}\n"
+        "let:\n  a: sonar1 * 1.123456\n  b: sonar2 * 1.123456\n  c: sonar3 * 1.123456\nrules:\n  - always move(1)\n")
+
+
+def test_a_trace_stops_within_a_row_of_its_budget(tmp_path: Path) -> None:
+    # 50 robots write about 4,500 bytes a tick: checked every 256 ticks, a 1 MB budget let 1.15 MB through
+    (tmp_path / "b.yaml").write_text(WIDE, encoding="utf-8")
+    code, said, _ = run_measured(["run", "b.yaml", "--trace", "t.csv", "-q", "--budget", "trace_mb=1"], tmp_path)
+    assert code == 2 and "Traceback" not in said, said[-3000:]
+    assert "the trace t.csv reached its budget of 1 MB after" in said
+    size = (tmp_path / "t.csv").stat().st_size
+    assert 1_000_000 < size <= 1_000_000 + 1_000, size  # one row, and the footer
+    assert (tmp_path / "t.csv").read_text(encoding="utf-8").splitlines()[-1].startswith('# end {"interrupted": true')
