@@ -2,10 +2,11 @@
 
 ``labsim.runtime.run.Run.run`` asks ``RunWatch.check`` every 256 ticks (never per tick: the
 loop is the hot path); the trace writer also counts every row against the trace budget and
-stops the run at the row that reaches it (``labsim.runtime.trace.TraceFull``). A run past its tick or trace budget stops there, its trace closed and
-kept, and the summary's ``over_budget`` says why; the command line prints the summary and
-exits 2. The budgets of a behaviour's size (robots, cameras, world) are checked when it
-compiles (``labsim.dsl.budget``). Defaults and flags: docs/security.md, "Budgets".
+stops the run at the row that reaches it (``labsim.runtime.trace.TraceFull``), and a run that
+runs out of memory under its cap (``labsim.foundation.memory``) stops too. A run past a budget
+stops there, its trace closed and kept, and the summary's ``over_budget`` says why; the
+command line prints the summary and exits 2. The budgets of a behaviour's size (robots,
+cameras, world, image memory) are checked when it compiles (``labsim.dsl.budget``). Defaults and flags: docs/security.md, "Budgets".
 """
 from __future__ import annotations
 
