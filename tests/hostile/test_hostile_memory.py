@@ -144,7 +144,8 @@ def test_hostile_memory(case: Case, tmp_path: Path) -> None:
 
 
 WIDE = ("labsim: 1\nworld: walls_lab4\nstop: time >= 100000\nrobots:\n"
-        "  g: {model: pioneer_p3dx, count: 50, at: random}\nlet:\n  a: sonar1 * 1.123456\n  b: sonar2 * 1.123456\n  c: sonar3 * 1.123456\nrules:\n  - always move(1)\n")
+        "  g: {model: pioneer_p3dx, count: 50, at: random}\nlet:\n  a: sonar1 * 1.123456\n"
+        "  b: sonar2 * 1.123456\n  c: sonar3 * 1.123456\nrules:\n  - always move(1)\n")
 
 
 def test_a_trace_stops_within_a_row_of_its_budget(tmp_path: Path) -> None:
