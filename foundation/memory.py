@@ -14,6 +14,7 @@ macOS does not enforce it) both do nothing and say so by returning False: docs/s
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 
@@ -34,8 +35,12 @@ def limit_memory(memory_mb: int) -> bool:
 @contextmanager
 def memory_cap(memory_mb: int) -> Iterator[bool]:
     """For the span of the ``with``: this process may map at most ``memory_mb`` + ``HEADROOM_MB``
-    more than it has mapped now. Yields whether a cap is in force; 0 sets none."""
-    mapped = _mapped_bytes()
+    more than it has mapped now. Yields whether a cap is in force; 0 sets none.
+
+    Only the main thread sets one: the limit is the whole process's, and runs in threads (a Dask
+    worker's tasks) would set and restore it across each other; there the worker's own memory
+    limit holds (docs/security.md, "Memory")."""
+    mapped = _mapped_bytes() if threading.current_thread() is threading.main_thread() else None
     before = None if memory_mb <= 0 or mapped is None else _set_soft(mapped + (memory_mb + HEADROOM_MB) * MB)
     try:
         yield before is not None
