@@ -198,6 +198,7 @@ class _Generator(Unroller):
             slot = self.slot_of[name]
             if name in c.group_sizes:
                 self.group_signal(w, name, parsed)
+                self.drop_images(w, j)
                 continue
             with w.source(self.note(parsed.text, f"{name}: ")):
                 w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))

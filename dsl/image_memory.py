@@ -14,13 +14,14 @@ counts as alive until the signal is done.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TypeGuard
 
 from labsim.backends.scene.models import RobotModel
 from labsim.dsl import ast
 from labsim.dsl.builtins import Type
 from labsim.dsl.check import Checked
-from labsim.dsl.lint import walk
 
 ONE_CHANNEL = frozenset({"gray", "threshold"})  # image functions whose result is one byte a pixel
 SAME_SHAPE = frozenset({"invert", "crop"})  # same shape as the argument (a crop is a view into it)
@@ -63,7 +64,7 @@ def lifetimes(c: Checked) -> Lifetimes:
     for j, (name, parsed) in enumerate(c.lets):
         if name in images:
             last.setdefault(name, j)
-        for node in walk(parsed.node):
+        for node in _nodes(parsed.node):
             if isinstance(node, ast.Name) and node.id in images:
                 last[node.id] = j
     drops: dict[int, list[str]] = {}
@@ -93,7 +94,7 @@ def _robot_profile(c: Checked, life: Lifetimes, model: RobotModel | None) -> tup
     shapes: dict[str, Shape] = {}
     transient: list[int] = []
     for name, parsed in c.lets:
-        made = [_shape(c, n, cameras, shapes, biggest) for n in walk(parsed.node) if _makes_image(c, n)]
+        made = [_shape(c, n, cameras, shapes, biggest) for n in _nodes(parsed.node) if _makes_image(n, c)]
         transient.append(sum(_size(s) for s in made))
         if name in life.images:
             shapes[name] = _shape(c, parsed.node, cameras, shapes, biggest)
@@ -109,7 +110,7 @@ def _robot_profile(c: Checked, life: Lifetimes, model: RobotModel | None) -> tup
     return kept, steps, sum(_size(s) for s in shapes.values())
 
 
-def _makes_image(c: Checked, node: ast.Expr) -> bool:
+def _makes_image(node: object, c: Checked) -> TypeGuard[ast.Expr]:
     """A node whose evaluation makes a new image: an image-valued call or choice."""
     return isinstance(node, (ast.Call, ast.IfExp)) and c.node_types.get(id(node)) is Type.IMAGE
 
@@ -140,22 +141,24 @@ def _frame_bytes(model: RobotModel | None, channels: tuple[str, ...]) -> int:
 
 def _names_outside_signals(c: Checked) -> frozenset[str]:
     """Every name something other than a signal reads: rules, stop, metrics, bindings, labels,
-    function bodies. Found by walking their dataclasses whole, so a new kind of field is not missed."""
-    roots: list[object] = [c.states, c.metrics, c.file.stop, c.binds, c.labels,
-                           [f.body for f in c.functions.values()]]
-    names: set[str] = set()
-    todo = roots
+    function bodies."""
+    roots = [c.states, c.metrics, c.file.stop, c.binds, c.labels, [f.body for f in c.functions.values()]]
+    return frozenset(n.id for n in _nodes(roots) if isinstance(n, ast.Name))
+
+
+def _nodes(root: object) -> Iterator[object]:
+    """Every AST node under ``root``, found by walking dataclasses, lists, tuples and dicts whole
+    (groups, indexes, log texts and any later kind of node included), without recursion."""
+    todo = [root]
     while todo:
         item = todo.pop()
-        if isinstance(item, ast.Name):
-            names.add(item.id)
-        elif isinstance(item, (list, tuple)):
+        if isinstance(item, (list, tuple)):
             todo.extend(item)
         elif isinstance(item, dict):
             todo.extend(item.values())
         elif dataclasses.is_dataclass(item) and not isinstance(item, type) and _walkable(item):
+            yield item
             todo.extend(getattr(item, f.name) for f in dataclasses.fields(item))
-    return frozenset(names)
 
 
 def _walkable(item: object) -> bool:

@@ -89,3 +89,21 @@ def test_the_cap_holds_for_the_run_and_is_put_back() -> None:
 ])
 def test_out_of_memory_is_memoryerror_or_opencvs_allocation_error(error: BaseException, is_oom: bool) -> None:
     assert out_of_memory(error) is is_oom
+
+
+def test_an_image_a_group_reads_lives_until_the_group_is_made(tmp_path: Path) -> None:
+    body = ("let:\n  a: invert(camera)\n  b: gray(a)\n  m: [mean(a), mean(b)]\n  n: m[1]\n"
+            "rules:\n  - if max(m) > 300 then wheels(0, 0)\n  - else wheels(n, 1)\n")
+    path = behaviour(tmp_path, side=64, body=body)
+    path.write_text(path.read_text(encoding="utf-8").replace("labsim: 1\n", "labsim: 1.2\n"), encoding="utf-8")
+    behaviour_ = compile_behaviour(path)
+    lines = [ln.strip() for ln in behaviour_.program.code.source.splitlines()]
+    a = behaviour_.program.slot_of["a"]
+    freed = next(i for i, ln in enumerate(lines) if ln.startswith(f"s[{a}] = v{a} = ") and ln.endswith("None"))
+    assert freed > next(i for i, ln in enumerate(lines) if "= _g1(v" in ln)  # after the group reads it
+    run = behaviour_.bind(load_backend("pymunk"))
+    try:
+        result = run.run()
+        assert result.ticks == 2 and not result.faults  # to its stop time, mean(a) of an image every tick
+    finally:
+        run.close()
