@@ -12,10 +12,21 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 # The Python API (docs/api.md), imported on first use: `import labsim` stays cheap
-__all__ = ["Behaviour", "LabsimError", "compile_behaviour", "load_backend", "read_trace", "run"]
+__all__ = ["Behaviour", "LabsimError", "OverBudget", "RunStopped", "RunTimeout", "compile_behaviour", "load_backend",
+           "read_trace", "run"]
 
 if TYPE_CHECKING:
-    from labsim.runtime.api import Behaviour, LabsimError, compile_behaviour, load_backend, read_trace, run
+    from labsim.runtime.api import (
+        Behaviour,
+        LabsimError,
+        OverBudget,
+        RunStopped,
+        RunTimeout,
+        compile_behaviour,
+        load_backend,
+        read_trace,
+        run,
+    )
 
 
 def __getattr__(name: str) -> Any:

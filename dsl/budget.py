@@ -1,9 +1,10 @@
-"""A behaviour's size against the run's budgets: robots, camera pixels, world segments.
+"""A behaviour's size against the run's budgets: robots, camera pixels, world segments, image memory.
 
 Checked when the file compiles, before any robot is placed (placing 10,000 robots at random
 is itself quadratic) and before anything is simulated, each at its place in the file: the
 robots at the group that goes past the budget, the pixels at the camera, the segments at
-``world:``. The other budgets (ticks, trace size) are the tick loop's
+``world:``, the image memory at the signal where a tick's estimate first goes past it
+(``labsim.dsl.image_memory``). The other budgets (ticks, trace size) are the tick loop's
 (``labsim.runtime.run``). The budgets are the caller's, never the file's: see
 ``labsim.foundation.limits.Budgets``.
 """
@@ -11,8 +12,11 @@ from __future__ import annotations
 
 from labsim.backends.scene.world import World
 from labsim.dsl.check import Checked
+from labsim.dsl.image_memory import lifetimes, peak_bytes
 from labsim.foundation.diagnostics import Report
 from labsim.foundation.limits import Budgets
+
+MB = 1_000_000  # a budget's megabyte
 
 
 def check_budgets(c: Checked, budgets: Budgets, report: Report) -> None:
@@ -42,6 +46,25 @@ def check_budgets(c: Checked, budgets: Budgets, report: Report) -> None:
             report.add(doc.diagnostic(c.file.world_node, f"world '{c.world.name}' has {segments:,} segments "
                                       f"(walls, block edges, road chords and lines), more than this run's "
                                       f"budget of {budgets.segments:,}", notes=(_raise("segments", segments),)))
+    check_memory(c, budgets, report)
+
+
+def check_memory(c: Checked, budgets: Budgets, report: Report) -> None:
+    """Report the signal at which a tick's image memory goes past the run's ``memory_mb``."""
+    peak = peak_bytes(c, lifetimes(c))
+    at = peak.first_over(budgets.memory_mb * MB)
+    if at < 0:
+        return
+    name, parsed = c.lets[at]
+    needed = -(-peak.bytes // MB)
+    value = parsed.text.value
+    report.add(parsed.text.diagnostic(0, len(value), (
+        f"with signal '{name}' the images alive need more than this run's memory budget of "
+        f"{budgets.memory_mb:,} MB (every robot's, camera images included; about {needed:,} MB at the "
+        f"tick's peak)"), notes=(
+        "an image a rule, the stop condition or a metric reads is kept all tick; one only other signals "
+        "read is freed after the last of them", "smaller cameras, fewer image signals, or "
+        + _raise("memory_mb", needed))))
 
 
 def world_segments(world: World) -> int:

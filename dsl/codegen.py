@@ -31,6 +31,7 @@ from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate, Type
 from labsim.dsl.check import Checked
 from labsim.dsl.fold import TOTAL, NotConstant, fold
+from labsim.dsl.image_memory import lifetimes
 from labsim.dsl.layout import Layout, layout
 from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
@@ -62,7 +63,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     g = _Generator(checked, slots)
     source, listing, marks = render(g.module())
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
-                tuple(sorted(g.functions)), marks)
+                tuple(sorted(g.functions)), marks, bool(g.image_drops or g.image_kept))
     return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts),
                      tuple(g.when_rules))
 
@@ -94,6 +95,9 @@ class _Generator(Unroller):
         self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
         self.let_of = {name: parsed for name, parsed in checked.lets}
         self.when_rules: list[int] = []  # the index of each 'when' rule: _wf[j] counts the ticks it logged
+        life = lifetimes(checked)
+        self.image_drops = life.drops  # signal index -> image signals freed after it
+        self.image_kept = [slots.slot_of[name] for name in life.images if name in life.kept]
 
     def module(self) -> Body:
         """``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold``.
@@ -174,6 +178,7 @@ class _Generator(Unroller):
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
                 "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
+                *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
 
@@ -184,14 +189,20 @@ class _Generator(Unroller):
         """
         c = self.c
         w = Writer()
+        if self.image_kept:  # the last tick's images go before this tick's are made
+            w.line("if _drop:")
+            with w.indent():
+                w.line(" = ".join([*(f"s[{k}]" for k in self.image_kept), "None"]))
         self.state_clock(w)
-        for name, parsed in c.lets:
+        for j, (name, parsed) in enumerate(c.lets):
             slot = self.slot_of[name]
             if name in c.group_sizes:
                 self.group_signal(w, name, parsed)
+                self.drop_images(w, j)
                 continue
             with w.source(self.note(parsed.text, f"{name}: ")):
                 w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
+                self.drop_images(w, j)
         for slot, slider, parsed in self.layout.label_fields:
             with w.source(self.note(parsed.text, f"label of {slider}: ")):
                 w.line(f"s[{slot}] = {self.expr(w, parsed.node, parsed.text, 'a label')}")
@@ -199,6 +210,16 @@ class _Generator(Unroller):
         note = self.note(c.file.stop.text, "stop: ")
         stop = self.stop_condition(w)
         return w.body(), note, stop
+
+    def drop_images(self, w: Writer, j: int) -> None:
+        """Free the image signals signal j read for the last time (``labsim.dsl.image_memory``):
+        a chain of image signals then holds one or two images, not all. ``_drop`` is false for a
+        live view, which shows every image signal after the tick."""
+        dropped = [self.slot_of[name] for name in self.image_drops.get(j, ())]
+        if dropped:
+            w.line("if _drop:")
+            with w.indent():
+                w.line(" = ".join([*(f"s[{k}] = v{k}" for k in dropped), "None"]))
 
     def group_signal(self, w: Writer, name: str, parsed: Parsed) -> None:
         """A group signal's members into their slots; a group of names alone has none (its uses read them)."""

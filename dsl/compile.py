@@ -21,6 +21,7 @@ from labsim.dsl.budget import check_budgets
 from labsim.dsl.check import Checked, check
 from labsim.dsl.codegen import Generated, generate
 from labsim.dsl.crowd import check_crowd
+from labsim.dsl.image_memory import lifetimes, peak_bytes
 from labsim.dsl.lint import lint
 from labsim.dsl.placement import Start, place
 from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
@@ -102,7 +103,7 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
         logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
         stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts,
-        when_rules=generated.when_rules)
+        when_rules=generated.when_rules, image_bytes_all=peak_bytes(c, lifetimes(c)).all_bytes)
 
 
 def _group(c: Checked, d: RobotDecl) -> RobotGroup:

@@ -79,6 +79,7 @@ class Code:
     sites: tuple[tuple[str, FaultSite], ...]  # guard _gN: the operation it checks and where it is
     functions: tuple[str, ...]  # built-ins the code calls directly, bound as _<name>
     marks: tuple[int, ...] = ()  # per line of the source: the behaviour file's line it comes from, 0 for none
+    drops: bool = False  # make() takes ``_drop``: free image signals after their last use (codegen.drop_images)
 
 
 @dataclass(frozen=True)
@@ -155,16 +156,18 @@ class Program:
     fold_stop: bool = False  # format 1.1: the stopping tick is traced and folded into metrics
     texts: tuple[str, ...] = ()  # what generated code shows as text: the state names, then text values
     when_rules: tuple[int, ...] = ()  # the 'when' rules, by index in ``rules``: RobotProgram.when_fired counts them
+    image_bytes_all: int = 0  # every image signal of every robot held at once (labsim.dsl.image_memory)
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
         return "".join(p if isinstance(p, str) else _format(values[p[0]], p[1]) for p in self.logs[site][1])
 
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
-              group: RobotGroup | None = None, index: int = 0) -> RobotProgram:
+              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False) -> RobotProgram:
         """Bind the generated functions to one robot's slots, generator, model and fault sink.
 
-        ``index`` is the robot's place in its ``group``, whose own parameter values it takes.
+        ``index`` is the robot's place in its ``group``, whose own parameter values it takes;
+        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them).
         """
         code = self.code
         slots = Slots([0.0] * self.slot_count)
@@ -191,6 +194,8 @@ class Program:
             return True
         bindings.update(s=slots, cmd=command, events=events, m=metric_values, jc=joint_command, _st=[-1, 0],
                         _held=held, _texts=self.texts, _wf=when_fired)
+        if code.drops:
+            bindings["_drop"] = not keep_images
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)

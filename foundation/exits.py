@@ -15,6 +15,8 @@ EXIT_FAILED: Final = 1
 # a user's mistake (a bad behaviour file, an unknown option or parameter, an unreachable
 # simulator, a run over its budget), reported as ``path:line:col: message``, never a traceback
 EXIT_USAGE: Final = 2
+# 128 + SIGHUP, as a shell reports a process whose terminal closed: handled as Ctrl-C is
+EXIT_HANGUP: Final = 129
 # 128 + SIGINT, as a shell reports Ctrl-C: what was done so far is kept (the trace closed)
 EXIT_INTERRUPTED: Final = 130
 # 128 + SIGTERM, as a shell reports a process SIGTERM ended: handled as Ctrl-C is

@@ -7,7 +7,7 @@ Two kinds of limit, both written down in docs/worlds.md, docs/language.md and do
   at its position. They keep every later computation finite and every loop short (an arc of
   radius 1e12 would need 10^8 chords; one of 1e15 is a division by zero).
 * **Budgets** bound what one run may cost (robots, camera pixels, world segments, ticks, trace
-  size). Their defaults are generous for every lab and every world shipped; a teacher running
+  size, memory). Their defaults are generous for every lab and every world shipped; a teacher running
   a class's files raises one with ``--budget NAME=VALUE`` (``Budgets.parse``). A student's file
   cannot raise its own budget: that is the point of having one.
 
@@ -43,6 +43,9 @@ class Budgets:
     segments: int = 100_000  # world geometry: wall, block and road segments after expanding arcs
     ticks: int = 200_000  # ticks per run: 10,000 s (2 h 47 min) simulated at the default dt 0.05
     trace_mb: int = 500  # a trace file's size, in megabytes
+    # a tick's image memory, in megabytes (10**6 bytes): the checker's estimate is held against it,
+    # and the run's address space may grow by this plus a headroom (labsim.foundation.memory)
+    memory_mb: int = 1000
     warn_wall_s: int = 300  # warn once when a run is on course to take longer than this (wall clock)
 
     @staticmethod

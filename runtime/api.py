@@ -9,11 +9,13 @@ imports these lazily, so ``import labsim`` (and ``labsim check``'s start) stays 
 """
 from __future__ import annotations
 
+import time as clock
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.labs import behaviour_path
 from labsim.runtime.run import Behaviour
 from labsim.runtime.run import compile_behaviour as _compile
@@ -32,36 +34,82 @@ def _text(value: Setting) -> str:
 
 
 def compile_behaviour(behaviour: str | Path, *, params: dict[str, Setting] | None = None,
-                      seed: int | None = None) -> Behaviour:
+                      seed: int | None = None, budget: dict[str, int] | None = None) -> Behaviour:
     """Compile a behaviour file, or a shipped lab by name ('wall_follow'), once for many runs:
     ``labsim.run(compiled)``, or ``compiled.bind(labsim.load_backend()).run()`` to tick it
-    yourself. ``params`` and ``seed`` as for ``run``; raises ``LabsimError`` for a broken file."""
+    yourself. ``params``, ``seed`` and ``budget`` as for ``run``; raises ``LabsimError`` for a broken file."""
     overrides = {k: _text(v) for k, v in (params or {}).items()}
-    return _compile(behaviour_path(str(behaviour)), overrides, seed=seed)
+    return _compile(behaviour_path(str(behaviour)), overrides, seed=seed, budgets=_budgets(budget))
+
+
+class RunStopped(LabsimError):
+    """A run that did not reach its stop condition: ``summary`` is what it did until then."""
+
+    def __init__(self, path: str, message: str, summary: dict[str, Any]):
+        super().__init__([Diagnostic(path, message)])
+        self.summary = summary
+
+
+class OverBudget(RunStopped):
+    """A run a budget stopped: its ticks, its trace's size or its memory (docs/security.md)."""
+
+
+class RunTimeout(RunStopped):
+    """A run still going after ``timeout`` seconds of wall time."""
 
 
 def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None = None, seed: int | None = None,
-        backend: str = DEFAULT, trace: str | Path | None = None) -> dict[str, Any]:
+        backend: str = DEFAULT, trace: str | Path | None = None, budget: dict[str, int] | None = None,
+        timeout: float | None = None) -> dict[str, Any]:
     """Run a behaviour file, a shipped lab by name, or a compiled ``Behaviour`` to its stop condition and return its
     summary: the same figures as ``labsim run --json`` (docs/summary-json.md).
 
     ``params`` override the file's ``params:`` as ``--set`` does; ``seed`` its seed; ``trace``
-    is where to write the trace. A mistake in the file raises ``LabsimError``, whose
-    ``diagnostics`` say where.
+    is where to write the trace; ``budget`` raises or lowers the run's budgets as ``--budget``
+    does (``{"ticks": 20000, "memory_mb": 500}``); ``timeout`` stops the run after that many
+    seconds of wall time. A mistake in the file raises ``LabsimError``, whose ``diagnostics``
+    say where; a run a budget stops raises ``OverBudget``, one past its timeout ``RunTimeout``
+    (both ``LabsimError``s, with the ``summary`` so far). Ctrl-C raises ``KeyboardInterrupt``.
     """
     if isinstance(behaviour, Behaviour):
-        if params or seed is not None:
-            raise LabsimError([Diagnostic("run", "a compiled behaviour has its parameters and seed; "
+        if params or seed is not None or budget is not None:
+            raise LabsimError([Diagnostic("run", "a compiled behaviour has its parameters, seed and budgets; "
                                                  "give them to compile_behaviour")])
         compiled = behaviour
     else:
-        compiled = compile_behaviour(behaviour, params=params, seed=seed)
+        compiled = compile_behaviour(behaviour, params=params, seed=seed, budget=budget)
+    if timeout is not None and not timeout > 0:
+        raise LabsimError([Diagnostic("timeout", "give a positive number of seconds")])
     bound = compiled.bind(load_backend(backend), trace=trace)
+    deadline = None if timeout is None else clock.monotonic() + timeout
+    timed_out = []
+
+    def progress(tick: int, time_s: float) -> None:  # every 256 ticks (Run.run)
+        if deadline is not None and clock.monotonic() > deadline:
+            timed_out.append(tick)
+            raise KeyboardInterrupt  # ends the run as Ctrl-C does: the trace gets its footer
     try:
-        result = bound.run()
+        result = bound.run(progress=progress)
     finally:
         bound.close()
-    return summary_dict(result)
+    summary = summary_dict(result)
+    path = compiled.program.path
+    if timed_out:
+        raise RunTimeout(path, f"the run was still going after {timeout:g} s of wall time "
+                               f"({timed_out[0]:,} ticks); give it a longer timeout", summary)
+    if result.over_budget:
+        raise OverBudget(path, result.over_budget, summary)
+    if result.interrupted:
+        raise KeyboardInterrupt
+    return summary
+
+
+def _budgets(budget: dict[str, int] | None) -> Budgets:
+    """The run's budgets: the defaults, with ``budget``'s settings (each checked as --budget is)."""
+    out, problems = DEFAULT_BUDGETS.parse([f"{k}={v}" for k, v in (budget or {}).items()])
+    if problems:
+        raise LabsimError([Diagnostic(where.replace("--budget ", "budget "), message) for where, message in problems])
+    return out
 
 
 def read_trace(path: str | Path) -> pandas.DataFrame:
@@ -84,4 +132,5 @@ def read_trace(path: str | Path) -> pandas.DataFrame:
     return frame
 
 
-__all__ = ["Behaviour", "LabsimError", "compile_behaviour", "load_backend", "read_trace", "run"]
+__all__ = ["Behaviour", "LabsimError", "OverBudget", "RunStopped", "RunTimeout", "compile_behaviour", "load_backend",
+           "read_trace", "run"]

@@ -1,10 +1,13 @@
 """The tick loop's budgets: ticks and trace size, and a warning for a run that will take long.
 
 ``labsim.runtime.run.Run.run`` asks ``RunWatch.check`` every 256 ticks (never per tick: the
-loop is the hot path). A run past its tick or trace budget stops there, its trace closed and
-kept, and the summary's ``over_budget`` says why; the command line prints the summary and
-exits 2. The budgets of a behaviour's size (robots, cameras, world) are checked when it
-compiles (``labsim.dsl.budget``). Defaults and flags: docs/security.md, "Budgets".
+loop is the hot path); the trace writer also counts every row against the trace budget and
+stops the run at the row that reaches it (``labsim.runtime.trace.TraceFull``), and a run that
+runs out of memory under its cap (``labsim.foundation.memory``) stops too. A run past a budget
+stops there, its trace closed and kept, and the summary's ``over_budget`` says why; the
+command line prints the summary and exits 2. The budgets of a behaviour's size (robots,
+cameras, world, image memory) are checked when it compiles (``labsim.dsl.budget``). Defaults
+and flags: docs/security.md, "Budgets".
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ import time as clock
 from collections.abc import Callable
 
 from labsim.foundation.limits import Budgets
+from labsim.foundation.memory import HEADROOM_MB
 
 ESTIMATE_AFTER_S = 2.0  # wall time measured before the rate is trusted for an estimate
 
@@ -41,8 +45,7 @@ class RunWatch:
             return (f"the run reached its budget of {b.ticks:,} ticks ({b.ticks * self.dt:g} s simulated) "
                     f"before its stop condition held; raise it with --budget ticks=N")
         if trace is not None and trace_bytes(trace) > b.trace_mb * 1_000_000:
-            return (f"the trace {getattr(trace, 'path', '')} reached its budget of {b.trace_mb:,} MB after "
-                    f"{ticks:,} ticks; raise it with --budget trace_mb=N")
+            return trace_full_message(trace, b.trace_mb, ticks)
         if not self.warned:
             self._estimate(ticks)
         return ""
@@ -60,6 +63,19 @@ class RunWatch:
             self.warn(f"labsim: warning: this run may take about {_duration(total_s)} of wall time "
                       f"({self.expected_ticks:,} ticks to {what} at {rate:,.0f} ticks a second; "
                       f"the warning is for runs over {self.budgets.warn_wall_s:,} s, --budget warn_wall_s=N)")
+
+
+def trace_full_message(trace: object, trace_mb: int, ticks: int) -> str:
+    """Why a run whose trace reached its size budget stopped (the writer counts every row)."""
+    return (f"the trace {getattr(trace, 'path', '')} reached its budget of {trace_mb:,} MB after "
+            f"{ticks:,} ticks; raise it with --budget trace_mb=N")
+
+
+def out_of_memory_message(memory_mb: int, ticks: int) -> str:
+    """Why a run that ran out of memory stopped (labsim.foundation.memory caps it)."""
+    return (f"the run ran out of memory after {ticks:,} ticks (labsim lets a run map its memory budget of "
+            f"{memory_mb:,} MB and a headroom of {HEADROOM_MB:,} MB; the system may allow less); raise the "
+            f"budget with --budget memory_mb=N")
 
 
 def trace_bytes(trace: object) -> int:

@@ -33,7 +33,8 @@ from labsim.dsl.support import Faults, FaultSite, metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
-from labsim.runtime.budgets import RunWatch
+from labsim.foundation.memory import memory_cap, out_of_memory
+from labsim.runtime.budgets import RunWatch, out_of_memory_message, trace_full_message
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, noisy, robot_noise
 from labsim.runtime.observers import (
@@ -62,7 +63,7 @@ from labsim.runtime.result import (
 )
 from labsim.runtime.state import RobotRun
 from labsim.runtime.tick import make_tick
-from labsim.runtime.trace import FORMAT, TraceWriteError, TraceWriter
+from labsim.runtime.trace import FORMAT, TraceFull, TraceWriteError, TraceWriter
 
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
 # The summary names at most this many lines of the file whose logs were not all printed, then
@@ -127,7 +128,8 @@ class Run:
         self.idle = 0
         self.trace: TraceWriter | None = None
         self.trace_error: TraceWriteError | None = None  # the OS refused a trace write: the run stopped
-        self.robots = self._robots()
+        # a live view shows every image signal after the tick: kept, while they fit the memory budget
+        self.robots = self._robots(watch and program.image_bytes_all <= budgets.memory_mb * 1_000_000)
         self._actuator_sites = [
             FaultSite(f"rule {r.id}", Diagnostic(program.path, "", r.line, 1, 0, "warning", ""))
             for r in program.rules]
@@ -146,18 +148,19 @@ class Run:
         self.tick = make_tick(self, hooks(self.observers))
 
     # -- set-up ------------------------------------------------------------------------------
-    def _robots(self) -> list[RobotRun]:
+    def _robots(self, keep_images: bool) -> list[RobotRun]:
         """The robots the compiler placed, each with its program bound to its own generator."""
         p = self.program
         if p.mechanism_agent:  # no robots: one agent reads and drives the mechanism
-            program = p.robot(p.world.name, random.Random(f"{p.seed}/{p.world.name}"), self.faults, None)
+            program = p.robot(p.world.name, random.Random(f"{p.seed}/{p.world.name}"), self.faults, None,
+                                keep_images=keep_images)
             return [RobotRun(0, p.world.name, None, program, math.inf, start=Pose(0.0, 0.0, 0.0),
                              sent_joints=[math.nan] * len(p.targets))]
         robots: list[RobotRun] = []
         for start in p.starts:
             group = p.robots[start.group]
             program = p.robot(start.name, random.Random(f"{p.seed}/{start.name}"), self.faults, group.model,
-                              group, start.index)
+                              group, start.index, keep_images)
             robots.append(RobotRun(len(robots), start.name, group.model, program,
                                    group.model.max_wheel_speed_rad_s, start=start.pose,
                                    sent_joints=[math.nan] * len(p.targets), paths=group.paths,
@@ -194,7 +197,8 @@ class Run:
             out.append(self.log_printer)
         self.trace_rows: TraceRows | None = None
         if trace_path is not None:
-            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), trace_columns(self))
+            self.trace = TraceWriter(trace_path, self.header() | self._noise_header(), trace_columns(self),
+                                     max_chars=self.budgets.trace_mb * 1_000_000)
             self.trace_rows = TraceRows(self.trace, self.inputs)
             out.append(self.trace_rows)
         return out + list(extra)
@@ -307,7 +311,7 @@ class Run:
         limit = self.budgets.ticks if max_ticks is None else min(max_ticks, self.budgets.ticks)
         tick = self.tick
         try:
-            with CallbackInterrupts() as caught:  # an interrupt inside a C callback still ends the run
+            with CallbackInterrupts() as caught, memory_cap(self.budgets.memory_mb):  # docs/security.md
                 while True:
                     end = min(limit, self.tick_index + 256)
                     while self.tick_index < end:
@@ -324,9 +328,15 @@ class Run:
                 ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             self.interrupted = True
+        except TraceFull:
+            self.over_budget = trace_full_message(self.trace, self.budgets.trace_mb, self.tick_index)
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
             self.trace_error = e
             self.interrupted = True
+        except Exception as e:  # only running out of memory is the run's own end; anything else is a bug
+            if not out_of_memory(e):
+                raise
+            self.over_budget = out_of_memory_message(self.budgets.memory_mb, self.tick_index)
         finally:
             self._close_trace(not ended)
         self.wall_time_s = clock.perf_counter() - start

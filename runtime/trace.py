@@ -32,6 +32,7 @@ from labsim.backends.scene.world_file import load_world
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.files import Output, allowed_folders, read_input, write_error
+from labsim.foundation.json_data import loads_json
 from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name, kind_of_text
 from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
 
@@ -79,11 +80,16 @@ class TraceWriteError(LabsimError):
     """The trace could not be written (a full disk, a read-only file system): the run stops."""
 
 
+class TraceFull(Exception):
+    """The trace reached its size budget (``max_chars``) with the row just written: the run stops."""
+
+
 class TraceWriter:
     """Writes a trace as rows arrive to ``PATH.partial``; ``close`` adds the footer and renames it
-    to ``PATH`` (also on errors, Ctrl-C and SIGTERM). A write the OS refuses is a TraceWriteError."""
+    to ``PATH`` (also on errors, Ctrl-C and SIGTERM). A write the OS refuses is a TraceWriteError;
+    a row that takes the trace past ``max_chars`` raises TraceFull once it is written."""
 
-    def __init__(self, path: str | Path, header: dict, columns: list[str]):
+    def __init__(self, path: str | Path, header: dict, columns: list[str], max_chars: int | None = None):
         self.path = Path(path)
         self.columns = columns
         self._out = Output(self.path, partial=str(self.path) + PARTIAL)
@@ -93,6 +99,7 @@ class TraceWriter:
         self.rows = 0
         self._chars = 0
         self.pending: list[str] = []  # rows formatted but not yet written: at most BATCH - 1
+        self.max_chars = max_chars if max_chars is not None else math.inf
         self._flushed = time.monotonic()
         self.failed = False
         try:
@@ -128,15 +135,25 @@ class TraceWriter:
             self.drain()
 
     def drain(self) -> None:
-        """Write the rows gathered in ``pending``."""
-        if self.pending:
-            text, rows = "".join(self.pending), len(self.pending)
-            self.pending.clear()
+        """Write the rows gathered in ``pending``; where the size budget ends among them, up to
+        the row that reaches it (TraceFull), and the rows after it are dropped."""
+        if not self.pending:
+            return
+        lines, text = list(self.pending), "".join(self.pending)
+        self.pending.clear()
+        if self._chars + len(text) <= self.max_chars:
             self._guard(lambda: self._file.write(text))
-            self._wrote(rows)
+            self._wrote(len(lines))
+            return
+        for line in lines:
+            self._guard(lambda: self._file.write(line))  # noqa: B023 - called at once
+            self._wrote(1)
 
     def _wrote(self, rows: int) -> None:
         self.rows += rows
+        if self._chars > self.max_chars:  # checked by the row, so the file ends within a row of its budget
+            self.pending.clear()
+            raise TraceFull(self._chars)
         now = time.monotonic()
         if now - self._flushed >= FLUSH_S:  # a killed run loses at most a second of rows
             self._flushed = now
@@ -153,14 +170,14 @@ class TraceWriter:
                 last = f.read().rstrip(b"\n").rsplit(b"\n", 1)[-1]
             first = last.split(b",", 1)[0]
             return int(first) + 1 if first.isdigit() else 0  # else the columns line: no row yet
-        except (OSError, ValueError):
+        except (OSError, ValueError, TraceWriteError, TraceFull):
             return counted
 
     def close(self, ticks: int | None = None, interrupted: bool = True) -> None:
         """Write the footer and rename the trace into place; an unwritable footer leaves the rows."""
         if self._file.closed:
             return
-        with contextlib.suppress(TraceWriteError):  # failed: no footer below; the rows written stay
+        with contextlib.suppress(TraceWriteError, TraceFull):  # failed or full: the rows written stay
             self.drain()
         if interrupted and not self.failed:  # a signal may land between a row and the count of it
             ticks = self._ticks_written(ticks)
@@ -274,8 +291,8 @@ def parse_header(path: str | Path, first: str, start: str) -> dict:
             hint = ": it is a world file; a behaviour runs in it (labsim run BEHAVIOUR --trace run.csv)"
         raise TraceFormatError(f"{path}: not a labsim trace (no '{MAGIC.strip()}' header line){hint}", str(path))
     try:
-        header = json.loads(first[len(MAGIC):])
-    except json.JSONDecodeError as e:
+        header = loads_json(first[len(MAGIC):])
+    except ValueError as e:  # JSONDecodeError is one; so is a header nested too deep
         raise _bad(path, 1, f"damaged trace header: {e}") from None
     if not isinstance(header, dict):
         raise _bad(path, 1, "damaged trace header: not a JSON object")
@@ -336,8 +353,8 @@ def footer_of(rest: str) -> tuple[str, dict | None]:
     if not last.startswith(FOOTER):
         return rest, None
     try:
-        footer = json.loads(last[len(FOOTER):])
-    except json.JSONDecodeError:
+        footer = loads_json(last[len(FOOTER):])
+    except ValueError:  # not JSON, or nested too deep: no footer
         return head + "\n", None
     return head + "\n", footer if isinstance(footer, dict) else None
 

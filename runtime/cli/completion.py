@@ -17,12 +17,10 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from labsim.backends.scene.world_names import builtin_worlds
 from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_text
 from labsim.foundation.kinds import TRACE_SUFFIX, YAML_SUFFIXES
+from labsim.foundation.yaml_data import load_data
 from labsim.runtime.labs import labs
 
 # the arguments that take a behaviour file or a lab's name, by their dest
@@ -84,8 +82,8 @@ def parameters(prefix: str, parsed_args: argparse.Namespace, **_: Any) -> list[s
 
 def _parameter_names(path: Path) -> Iterable[str]:
     try:
-        data = yaml.safe_load(read_text(path, "behaviour"))  # a FIFO must not hang the shell's Tab
-    except (LabsimError, yaml.YAMLError):
+        _, data = load_data(path, "behaviour")  # labsim's one reader; a FIFO must not hang the shell's Tab
+    except LabsimError:
         return []
     params = data.get("params") if isinstance(data, dict) else None
     return [str(k) for k in params] if isinstance(params, dict) else []

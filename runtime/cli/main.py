@@ -9,8 +9,8 @@ command given, and only those), applies what every command shares (``--allow-pat
 an exit code (``labsim.foundation.exits``): 0 success; 1 a golden trace differs (or is missing);
 2 a user's mistake (a bad behaviour file, an unknown option or parameter, an unreachable
 simulator), reported as ``path:line:col: message`` without a Python traceback; 130 interrupted
-with Ctrl-C, 143 with SIGTERM (handled as Ctrl-C: the trace so far is kept and closed, the
-summary printed).
+with Ctrl-C, 143 with SIGTERM and 129 with SIGHUP (both handled as Ctrl-C: the trace so far
+is kept and closed, the summary printed).
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from pathlib import Path
 
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
+from labsim.foundation.exits import EXIT_HANGUP, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
 from labsim.foundation.files import ALLOW_ENV, allow, os_words
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
@@ -54,7 +54,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if getattr(args, "strict", False) and args.command in ("test", "view", "sweep"):
             _strict(args)
         code = _command(args.command)(args)
-        return EXIT_TERMINATED if code == EXIT_INTERRUPTED and _terminated() else code
+        return _ended_by() if code == EXIT_INTERRUPTED and _terminated() else code
     except LabsimError as e:
         print_diagnostics(e.diagnostics)
         return EXIT_USAGE
@@ -62,8 +62,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"labsim: error: {inert(str(e))}\n")
         return EXIT_USAGE
     except KeyboardInterrupt:
-        sys.stderr.write("labsim: terminated\n" if _terminated() else "labsim: interrupted\n")
-        return EXIT_TERMINATED if _terminated() else EXIT_INTERRUPTED
+        sys.stderr.write(f"labsim: {_ENDED[1]}\n" if _terminated() else "labsim: interrupted\n")
+        return _ended_by() if _terminated() else EXIT_INTERRUPTED
     except BrokenPipeError:  # `labsim run ... | head`: the reader has what it wanted
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
@@ -93,20 +93,27 @@ class Terminated(KeyboardInterrupt):
 
 
 def _terminate_like_ctrl_c() -> None:
+    """SIGTERM, and SIGHUP (the terminal closed), end a command as Ctrl-C does, each with its code."""
     def handler(signum: int, frame: object) -> None:
-        global _TERMINATED
-        _TERMINATED = True
+        _ENDED[:] = [EXIT_HANGUP, "hung up"] if signum == getattr(signal, "SIGHUP", None) else [
+            EXIT_TERMINATED, "terminated"]
         raise Terminated
 
     if threading.current_thread() is threading.main_thread():  # signals reach the main thread only
         signal.signal(signal.SIGTERM, handler)
+        if hasattr(signal, "SIGHUP"):  # not on Windows
+            signal.signal(signal.SIGHUP, handler)
 
 
 def _terminated() -> bool:
-    return _TERMINATED
+    return bool(_ENDED)
 
 
-_TERMINATED = False
+def _ended_by() -> int:
+    return int(_ENDED[0])
+
+
+_ENDED: list = []  # the exit code and word of the signal that ended the command, once one has
 
 
 def _allow_paths(folders: list[str]) -> None:

@@ -169,6 +169,7 @@ def _view(p: argparse.ArgumentParser) -> None:
                    help="give up when CoppeliaSim does not answer within this (default: 5)")
     _strict(p)
     _allow_path(p)
+    _budget(p)
 
 
 def _serve(p: argparse.ArgumentParser) -> None:

@@ -24,13 +24,10 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-import yaml
 
 from labsim.backends.scene.mechanism import Mechanism
-from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_text
 from labsim.runtime.pictures.paint import AA, BLOCK_EDGE, BLOCK_FILL, INK, MUTED, ONE, PAPER, SHIFT, Painter, PxMap
-from labsim.runtime.pictures.trace_behaviour import behaviour_file
+from labsim.runtime.pictures.trace_behaviour import behaviour_data
 from labsim.runtime.trace import Trace
 
 GHOST = (200, 200, 200)
@@ -48,11 +45,7 @@ class Poses:
 
 def _lets(trace: Trace) -> dict[str, tuple[str, str]]:
     """Trace column -> (object, "x" | "z" | "position") for lets that read one thing plainly."""
-    path = behaviour_file(trace)
-    try:
-        doc = yaml.safe_load(read_text(path, "behaviour")) if path is not None else None
-    except (LabsimError, yaml.YAMLError):
-        doc = None
+    _, doc = behaviour_data(trace)
     lets = doc.get("let") if isinstance(doc, dict) else None
     out = {}
     for name, expr in (lets or {}).items():

@@ -18,12 +18,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import yaml
 
-from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_text, save_figure
+from labsim.foundation.files import save_figure
 from labsim.runtime.pictures.paint import robot_colour
-from labsim.runtime.pictures.trace_behaviour import behaviour_file
+from labsim.runtime.pictures.trace_behaviour import behaviour_data
 from labsim.runtime.trace import Trace, TraceFormatError
 
 if TYPE_CHECKING:
@@ -59,20 +57,13 @@ def _float(s: str) -> float:
     return v if np.isfinite(v) else np.nan  # a sonar that sees nothing is a gap, not a spike
 
 
-def _behaviour_lets(trace: Trace) -> tuple[dict[str, str], dict[str, str]]:
+def _behaviour_lets(trace: Trace, warn: bool = True) -> tuple[dict[str, str], dict[str, str]]:
     """The behaviour's ``let:`` and ``metrics:`` expressions, and a unit per let from its comment.
 
     Read from the file the header names; a trace moved without its behaviour gets neither.
     """
-    path = behaviour_file(trace)
-    if path is None:
-        return {}, {}
-    try:
-        text = read_text(path, "behaviour")
-        doc = yaml.safe_load(text)
-    except (LabsimError, yaml.YAMLError):
-        return {}, {}
-    if not isinstance(doc, dict):
+    text, doc = behaviour_data(trace, warn)
+    if not doc:
         return {}, {}
     units: dict[str, str] = {}
     lets = doc["let"] if isinstance(doc.get("let"), dict) else {}
@@ -92,7 +83,7 @@ def default_signals(trace: Trace) -> list[str]:
     Falls back to the behaviour's own columns (those after the standard ones) when the
     behaviour file is not there to read.
     """
-    _, metrics = _behaviour_lets(trace)
+    _, metrics = _behaviour_lets(trace, warn=False)  # the chart reads it again, and warns
     cols = set(trace.columns) - _NOT_SIGNALS
     picked = [n for expr in metrics.values() for n in _NAME.findall(expr) if n in cols]
     if not picked:

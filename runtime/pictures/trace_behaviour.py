@@ -15,9 +15,13 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
+import sys
 from pathlib import Path
 
+from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import allowed_folders, policy_problem, read_text
+from labsim.foundation.inert import inert
+from labsim.foundation.yaml_data import load_data
 from labsim.runtime.labs import behaviour_path, shipped_behaviour
 from labsim.runtime.trace import Trace
 
@@ -39,6 +43,25 @@ def behaviour_file(trace: Trace) -> Path | None:
             if os.path.isfile(candidate) and not policy_problem(str(candidate), Path.cwd(), allowed):
                 return candidate
     return shipped_behaviour(named, str(trace.header.get("sha256") or ""))
+
+
+def behaviour_data(trace: Trace, warn: bool = True) -> tuple[str, dict]:
+    """The text and top-level mapping of the behaviour that made the trace, read by labsim's one
+    YAML reader (``labsim.foundation.yaml_data``); ("", {}) when there is none, or when the reader
+    refuses it: then (``warn``) a warning on stderr says where and why, and the pictures go on."""
+    path = behaviour_file(trace)
+    if path is None:
+        return "", {}
+    try:
+        text, data = load_data(path, "behaviour")
+    except LabsimError as e:
+        if warn:
+            d = e.diagnostics[0] if e.diagnostics else None
+            where = f"{inert(str(path))}:{d.line}:{d.col}" if d is not None and d.line else inert(str(path))
+            why = inert(d.message) if d is not None else "refused"
+            sys.stderr.write(f"{where}: warning: {why}; the pictures are drawn without this file\n")
+        return "", {}
+    return text, data if isinstance(data, dict) else {}
 
 
 def given_behaviour(trace: Trace, argument: str) -> tuple[Trace, str]:

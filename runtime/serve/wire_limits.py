@@ -22,7 +22,10 @@ The limits (docs/coppeliasim.md, "Limits of labsim serve", gives the reasons):
   fractions) build cyclic or enormous values.
 
 ``Deadline`` is the per-request time budget: loops whose length depends on what a client sent
-call ``check()``; past the budget the request is answered with ``BudgetExceeded``'s text.
+call ``check()``; past the budget the request is answered with ``BudgetExceeded``'s text. The
+budget is the CPU time of the thread answering the request (``time.thread_time``), not wall
+time: on a machine under heavy load a legitimate request waits for a core without spending
+its budget, while a request that makes the server compute for 5 s is still cut off.
 """
 from __future__ import annotations
 
@@ -51,7 +54,7 @@ class Deadline:
 
     @classmethod
     def start(cls, budget_s: float) -> contextvars.Token[float]:
-        return cls._current.set(time.perf_counter() + budget_s)
+        return cls._current.set(time.thread_time() + budget_s)
 
     @classmethod
     def end(cls, token: contextvars.Token[float]) -> None:
@@ -60,7 +63,7 @@ class Deadline:
     @classmethod
     def check(cls) -> None:
         """Raise ``BudgetExceeded`` once the current request's budget is spent."""
-        if time.perf_counter() > cls._current.get():
+        if time.thread_time() > cls._current.get():
             raise BudgetExceeded("labsim serve: the request ran past its time budget and was abandoned "
                                  "(docs/coppeliasim.md, limits of labsim serve)")
 

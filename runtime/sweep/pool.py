@@ -26,6 +26,7 @@ from typing import Any, cast
 
 from labsim.backends import DEFAULT, REGISTRY
 from labsim.foundation.files import allow, allowed_folders
+from labsim.foundation.memory import limit_memory
 from labsim.runtime.sweep.ending import Stopped, WorkerSignals, deaf, die_with_parent, ending
 from labsim.runtime.sweep.grid import INTERRUPTED, RUNTIME_ERROR, TIMEOUT, Row, Task, row_of, run_task
 
@@ -75,27 +76,6 @@ def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
             conn.send(result)
         except (BrokenPipeError, OSError):  # the parent is gone: so is the reason to go on
             return
-
-
-def limit_memory(memory_mb: int) -> bool:
-    """Cap this process's address space at memory_mb (RLIMIT_AS), where the platform has it;
-    0 leaves it alone. A run that goes past it gets MemoryError, which its row reports; an
-    allocation outside Python may kill the worker instead, and the pool replaces it."""
-    if memory_mb <= 0:
-        return False
-    try:
-        import resource
-    except ImportError:  # not on this platform (Windows): docs/sweep.md says so
-        return False
-    limit = memory_mb * 1024 * 1024
-    _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    if hard != resource.RLIM_INFINITY:
-        limit = min(limit, hard)
-    try:
-        resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
-    except (ValueError, OSError):
-        return False
-    return True
 
 
 # what every run imports: labsim and the default backend's module (named by the registry)

@@ -16,6 +16,7 @@ from collections.abc import Callable
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
 from labsim.foundation.kinds import file_kind
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.trace import TraceFormatError
 from labsim.runtime.view.session import Session
 
@@ -25,7 +26,8 @@ DEFAULT_PORT = 8765
 def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backend: str = "pymunk",
          backend_options: dict[str, object] | None = None, host: str = "127.0.0.1",
          port: int = DEFAULT_PORT, trace: str | None = None, open_browser: bool = True,
-         warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None]) -> int:
+         warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None],
+         budgets: Budgets = DEFAULT_BUDGETS) -> int:
     """Serve the page for a behaviour file or a trace until Ctrl-C; the exit code.
 
     A behaviour that does not compile is reported (``report``) and the page shows the same
@@ -38,7 +40,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
     if not 0 <= port < 65536:
         raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
-    session = _session(path, overrides, seed, backend, backend_options, trace, warn)
+    session = _session(path, overrides, seed, backend, backend_options, trace, warn, budgets)
     broken = False
     if isinstance(session, LiveSession) and not session.load():
         refused = [d for d in session.problems if d.path.startswith("--trace ")]
@@ -82,7 +84,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
 def _session(path: str, overrides: dict[str, str], seed: int | None, backend: str,
              backend_options: dict[str, object] | None, trace: str | None,
-             warn: Callable[[str], None]) -> Session:
+             warn: Callable[[str], None], budgets: Budgets = DEFAULT_BUDGETS) -> Session:
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.replay import load_replay
 
@@ -102,4 +104,4 @@ def _session(path: str, overrides: dict[str, str], seed: int | None, backend: st
     if seed is not None and seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
     return LiveSession(path, overrides, seed=seed, backend=backend, backend_options=backend_options,
-                       trace=trace, warn=warn)
+                       trace=trace, warn=warn, budgets=budgets)

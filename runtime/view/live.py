@@ -19,6 +19,10 @@ from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output
+from labsim.foundation.inert import inert
+from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
+from labsim.foundation.memory import memory_cap, out_of_memory
+from labsim.runtime.budgets import out_of_memory_message
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.frames import (
     Json,
@@ -40,7 +44,7 @@ class LiveSession(Session):
     def __init__(self, path: str | Path, overrides: dict[str, str], *, seed: int | None = None,
                  backend: str = "pymunk", backend_options: dict[str, object] | None = None,
                  trace: str | Path | None = None, warn: Callable[[str], None] | None = None,
-                 timeline: bool = True, **session: Any):
+                 timeline: bool = True, budgets: Budgets = DEFAULT_BUDGETS, **session: Any):
         super().__init__(0.05, **session)
         self.path = str(path)
         self.overrides = dict(overrides)
@@ -50,6 +54,7 @@ class LiveSession(Session):
         self.trace_path = trace
         self.warn = warn
         self.timeline = timeline
+        self.budgets = budgets  # --budget: the live runs' sizes and memory (no tick budget: a person stops it)
         self.run: Run | None = None
         self.observed: ObservedBackend | None = None
         self.problems: list[Diagnostic] = []  # the file's warnings, or why there is no run
@@ -65,7 +70,7 @@ class LiveSession(Session):
         """
         wanted = self.overrides if overrides is None else overrides
         try:
-            behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, budgets=self.budgets)
             if self.trace_path:  # the world may have changed with the file: never write over it
                 check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
         except LabsimError as e:
@@ -115,11 +120,22 @@ class LiveSession(Session):
         if run is None:
             return 0
         tick = run.tick
-        for k in range(n):
-            if not tick():
-                if run.trace is not None:
-                    run.trace.close()  # the stop condition held: the trace is complete
-                return k
+        k = 0
+        try:
+            with memory_cap(run.budgets.memory_mb):  # the run's backstop, as Run.run has it
+                for k in range(n):
+                    if not tick():
+                        if run.trace is not None:
+                            run.trace.close()  # the stop condition held: the trace is complete
+                        return k
+        except Exception as e:  # running out of memory ends the run with labsim's message; the page stays
+            if not out_of_memory(e):
+                raise
+            run.over_budget = out_of_memory_message(run.budgets.memory_mb, run.tick_index)
+            run.finished = True
+            if self.warn is not None:
+                self.warn(f"{inert(self.path)}: error: {run.over_budget}")
+            return k
         return n
 
     def restart(self) -> None:

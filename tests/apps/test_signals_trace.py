@@ -48,7 +48,7 @@ def _footer(trace: Path) -> dict:
     return json.loads(last[len("# end "):])
 
 
-@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_an_interrupted_run_closes_its_trace_with_a_footer(tmp_path: Path, sig: int, code: int) -> None:
     proc, trace = _start(tmp_path)
     proc.send_signal(sig)

@@ -144,7 +144,7 @@ CASES = [
     Case("world segments past the budget", ["check", "{b}", "--budget", "segments=3"], 2,
          ("b.yaml:2:8: error: world 'walls_lab4' has", "more than this run's budget of 3"), {"b.yaml": behaviour()}),
     Case("trace past its budget", ["run", "{b}", "--budget", "trace_mb=0", "--trace", "t.csv", "-q"], 2,
-         ("b.yaml: error: the trace t.csv reached its budget of 0 MB after 256 ticks",),
+         ("b.yaml: error: the trace t.csv reached its budget of 0 MB after 0 ticks",),
          {"b.yaml": behaviour("time > 100")}),
     # -- bounded output -------------------------------------------------------------------------
     Case("9000 unknown names", ["check", "{b}"], 2,
@@ -216,7 +216,7 @@ def test_a_sweep_applies_the_budgets_to_every_run(tmp_path: Path) -> None:
 
 def test_a_sweep_worker_has_a_memory_limit() -> None:
     # what the local pool's worker does first; a run that asks for more gets MemoryError
-    code = ("from labsim.runtime.sweep.pool import limit_memory\n"
+    code = ("from labsim.foundation.memory import limit_memory\n"
             "assert limit_memory(1024)\n"
             "try:\n    bytearray(4 * 1024 ** 3)\nexcept MemoryError:\n    print('MemoryError')\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=TIMEOUT_S)

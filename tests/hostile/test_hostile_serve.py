@@ -224,6 +224,18 @@ def test_a_big_request_checks_its_budget_while_it_is_scanned() -> None:
     assert "time budget" in cbor2.loads(server.handle(raw))["err"]
 
 
+def test_the_budget_is_cpu_time_so_waiting_for_a_core_spends_none_of_it() -> None:
+    # a loaded machine: the answering thread waits (here, sleeps) longer than its budget
+    from labsim.runtime.serve.wire_limits import Deadline
+
+    token = Deadline.start(0.05)
+    try:
+        time.sleep(0.2)
+        Deadline.check()  # no BudgetExceeded: the thread spent almost no CPU time
+    finally:
+        Deadline.end(token)
+
+
 # --- the pieces -----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize(("pattern", "text", "match"), [

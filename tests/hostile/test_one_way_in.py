@@ -37,6 +37,8 @@ ALLOWED: dict[tuple[str, str], str] = {
         "the null device, opened for writing after a broken pipe: no file is read",
     ("backends/pymunk/camera.py", "Path(__file__).read_bytes()"):
         "labsim's own source file, hashed to name a cache entry",
+    ("foundation/memory.py", "open('/proc/self/statm', encoding='ascii')"):
+        "the kernel's count of this process's pages, read to set the run's memory cap: no user path",
     ("backends/pymunk/camera.py", "np.load(path, allow_pickle=False)"):
         "a ground drawing in the user's own cache folder (foundation/cache.py), without pickles; a "
         "damaged entry is drawn again",

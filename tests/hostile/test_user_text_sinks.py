@@ -58,6 +58,8 @@ ALLOWED: dict[tuple[str, str], str] = {
         "code generated from the models' channel tables, no user text",
     ("backends/pymunk/fleet_sense.py", "compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec')"):
         "see the exec above",
+    ("dsl/image_memory.py", "getattr(item, f.name)"):
+        "f is a field of one of labsim's own AST or declaration dataclasses (dataclasses.fields), never user text",
     ("dsl/builtins.py", "getattr(importlib.import_module(module), name)"):
         "the builtin table's own module:name entries",
     ("dsl/program.py", "format(value, spec)"):

@@ -56,3 +56,33 @@ def test_a_compiled_behaviour_takes_no_more_settings() -> None:
     behaviour = labsim.compile_behaviour(ROOT / "tests" / "fixtures" / "minimal.yaml")
     with pytest.raises(labsim.LabsimError, match="give them to compile_behaviour"):
         labsim.run(behaviour, seed=3)
+
+
+def _grader() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "api.md").read_text(encoding="utf-8"), re.S)
+    return next(b for b in blocks if b.startswith("# test_grade.py"))
+
+
+def test_the_pytest_grader_in_docs_api_grades_a_folder(tmp_path: Path) -> None:
+    submissions = tmp_path / "submissions"
+    submissions.mkdir()
+    good = (ROOT / "behaviours" / "wall_follow.yaml").read_text(encoding="utf-8")
+    (submissions / "ana.yaml").write_text(good.replace("minutes: 25", "minutes: 0.2"), encoding="utf-8")
+    (submissions / "bo.yaml").write_text(good.replace("rules:", "rulez:"), encoding="utf-8")
+    (tmp_path / "test_grade.py").write_text(_grader(), encoding="utf-8")
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--noconftest",
+                           f"--rootdir={tmp_path}", "test_grade.py"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300)
+    assert "1 failed, 1 passed" in proc.stdout, proc.stdout + proc.stderr
+    assert "bo.yaml" in proc.stdout and "Traceback" not in proc.stdout
+
+
+def test_a_run_over_its_budget_or_timeout_raises_labsims_own_error() -> None:
+    with pytest.raises(labsim.OverBudget, match="budget of 300 ticks") as over:
+        labsim.run("wall_follow", budget={"ticks": 300})
+    assert over.value.summary["ticks"] == 300
+    with pytest.raises(labsim.RunTimeout, match=r"still going after 0\.001 s") as late:
+        labsim.run("wall_follow", timeout=0.001)
+    assert late.value.summary["ticks"] == 256  # checked between blocks of 256 ticks
+    with pytest.raises(labsim.LabsimError, match="budget memory_mb=x"):
+        labsim.run("wall_follow", budget={"memory_mb": "x"})  # type: ignore[dict-item]
