@@ -328,8 +328,8 @@ class Run:
                 ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             self.interrupted = True
-        except TraceFull:
-            self.over_budget = trace_full_message(self.trace, self.budgets.trace_mb, self.tick_index)
+        except TraceFull as full:
+            self.over_budget = trace_full_message(self.trace, self.budgets.trace_mb, full.tick)
         except TraceWriteError as e:  # the run stops; its summary is still shown (docs/trace-format.md)
             self.trace_error = e
             self.interrupted = True

@@ -81,7 +81,12 @@ class TraceWriteError(LabsimError):
 
 
 class TraceFull(Exception):
-    """The trace reached its size budget (``max_chars``) with the row just written: the run stops."""
+    """The trace reached its size budget (``max_chars``) with the row just written, the row of
+    tick ``tick``: the run stops."""
+
+    def __init__(self, chars: int, tick: int):
+        super().__init__(chars)
+        self.tick = tick
 
 
 class TraceWriter:
@@ -125,7 +130,7 @@ class TraceWriter:
     def write(self, row: list[object]) -> None:
         self.drain()
         self._guard(lambda: self._writer.writerow([fmt(v) for v in row]))
-        self._wrote(1)
+        self._wrote(1, row[0])
 
     def write_line(self, line: str) -> None:
         """A row already formatted as ``write`` would format it, newline included (TraceRows'
@@ -143,17 +148,17 @@ class TraceWriter:
         self.pending.clear()
         if self._chars + len(text) <= self.max_chars:
             self._guard(lambda: self._file.write(text))
-            self._wrote(len(lines))
+            self._wrote(len(lines), None)
             return
         for line in lines:
             self._guard(lambda: self._file.write(line))  # noqa: B023 - called at once
-            self._wrote(1)
+            self._wrote(1, line[:line.index(",")])
 
-    def _wrote(self, rows: int) -> None:
+    def _wrote(self, rows: int, tick: object) -> None:
         self.rows += rows
         if self._chars > self.max_chars:  # checked by the row, so the file ends within a row of its budget
             self.pending.clear()
-            raise TraceFull(self._chars)
+            raise TraceFull(self._chars, int(str(tick)))
         now = time.monotonic()
         if now - self._flushed >= FLUSH_S:  # a killed run loses at most a second of rows
             self._flushed = now

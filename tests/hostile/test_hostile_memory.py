@@ -71,7 +71,7 @@ CASES = [
     # -- the operating system's cap: what the estimate misses ends the run with labsim's message ---
     Case("a system cap below what the run needs", ["run", "b.yaml", "-q"], 2,
          ("b.yaml: error: the run ran out of memory after 0 ticks", "--budget memory_mb=N"),
-         {"b.yaml": images(30, 2000, kept=True)}, address_space_mb=750),
+         {"b.yaml": images(50, 2000, kept=True)}, address_space_mb=600),
     # -- every YAML a picture reads goes through the one safe reader -------------------------------
     Case("plot --signals of a trace whose behaviour became an alias bomb", ["plot", "t.csv", "--signals", "-o",
                                                                             "s.png"], 0,
