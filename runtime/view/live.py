@@ -17,6 +17,7 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
+from labsim.dsl.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
@@ -31,7 +32,11 @@ from labsim.runtime.view.frames import (
     world_doc,
 )
 from labsim.runtime.view.observe import ObservedBackend
+from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, Session, finite, name
+
+_NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
+SAMPLE_NUMBERS = 240  # chart numbers a frame carries at most, all robots together (a frame < 4 KB)
 
 
 class LiveSession(Session):
@@ -88,8 +93,12 @@ class LiveSession(Session):
     def _bind(self, behaviour: Behaviour) -> None:
         program = behaviour.program
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
+        self.recorder = TickRecorder()
         self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
-                                  replay=None if self.timeline else {}, watch=True)
+                                  replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
+        # where each robot's x and y sit in its readings: known once the backend is open
+        self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
+                             for r, at in zip(self.run.robots, self.observed.index)])
         self.pacer.dt_s = program.dt_s
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
@@ -137,7 +146,8 @@ class LiveSession(Session):
             return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems)
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
-                   + [{"name": n, "group": "signal"} for n in p.single_signals]
+                   + [{"name": n, "group": "signal", "numeric": p.signal_types.get(n) in _NUMERIC}
+                      for n in p.single_signals]
                    + [{"name": n, "group": "slider"} for n in p.slider_names]
                    + [{"name": n, "group": "metric"} for n in p.metric_names])
         start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
@@ -168,14 +178,14 @@ class LiveSession(Session):
         p = run.program
         metrics = run.result().robots if p.metric_names else {}
         robots = []
+        rec, dt = self.recorder, p.dt_s
+        # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
+        per = max(1, SAMPLE_NUMBERS // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
-            values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
-            values += [number(slots[s]) for s in self._lets]
-            values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
-            if p.metric_names:
-                values += [number(metrics[r.name].metrics[m]) for m in p.metric_names]
+            done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
+            values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,
@@ -184,11 +194,23 @@ class LiveSession(Session):
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
+                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
+                "samples": [[round((t + 1) * dt, 9), *(_short(v) for v in self._values(rd, sl)), *done]
+                            for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
         return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
+
+    def _values(self, read: list | None, slots: list) -> list[float | str | None]:
+        """A robot's sensor, signal and slider columns from one tick's readings and slots."""
+        p = self.run.program if self.run is not None else None
+        assert p is not None
+        values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
+        values += [number(slots[s]) for s in self._lets]
+        values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
+        return values
 
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed
@@ -286,6 +308,13 @@ class ChangeRefused(Exception):
     def __init__(self, diagnostics: list[str]):
         super().__init__("\n".join(diagnostics))
         self.diagnostics = diagnostics
+
+
+def _short(v: object) -> float | str | None:
+    """A number for a path point or chart sample: five significant digits are plenty to draw
+    (a tenth of a millimetre across a 10 m world) and keep frames small."""
+    n = number(v)
+    return float(f"{n:.5g}") if isinstance(n, float) else n
 
 
 def _part(value: object, part: int) -> float | str | None:

@@ -199,7 +199,12 @@ class ViewServer:
             now = loop.time()
             flat_out = session.playing and session.pacer.speed is None
             budget = max(0.004, last_frame + FRAME_INTERVAL_S - now) if flat_out else FRAME_INTERVAL_S * 0.8
+            before = (session.playing, session.finished)
             ran += session.catch_up(budget)
+            if (session.playing, session.finished) != before:
+                # the stop seen on a tick that ran nothing (the frame before went out with the
+                # last tick): the pages must still hear that the run ended
+                self.dirty = True
             now = loop.time()
             if now - last_frame >= FRAME_INTERVAL_S:
                 if (ran or self.dirty or session.playing) and self.pages:

@@ -392,3 +392,85 @@ def test_simulator_address_options_go_with_coppeliasim_only(capsys: pytest.Captu
         main(["view", str(WALL), "--backend", "coppeliasim", "--sim-timeout", "0", "--no-browser"])
     assert stop.value.code == 2
     assert "argument --sim-timeout: give from 0.01 to 3600 seconds, not 0" in capsys.readouterr().err
+
+
+class _Socket:
+    """A page's socket that keeps what it is sent."""
+
+    def __init__(self) -> None:
+        self.sent: list[dict] = []
+
+    async def send_str(self, text: str) -> None:
+        self.sent.append(json.loads(text))
+
+
+def test_the_end_reaches_the_page_when_the_last_tick_went_out_with_the_frame_before(write) -> None:  # type: ignore[no-untyped-def]
+    from labsim.runtime.view.server import Page, ViewServer
+
+    short = write(WALL.read_text().replace("minutes: 25", "minutes: 0.01"), "short.yaml")
+    s = live(short)
+    s.clock = time.perf_counter
+    s.handle({"type": "speed", "value": "max"})
+    s.advance(12)  # the last tick that runs: the next one sees the stop and runs nothing
+    assert not s.finished
+    s.handle({"type": "play"})
+    server = ViewServer(s, log=lambda m: None)
+    page = _Socket()
+    server.pages.append(Page(page, "test"))  # type: ignore[arg-type]
+    server.dirty = False
+
+    async def scenario() -> None:
+        task = asyncio.ensure_future(server.pace())
+        for _ in range(100):
+            await asyncio.sleep(0.02)
+            if page.sent and page.sent[-1]["finished"]:
+                break
+        task.cancel()
+    asyncio.run(scenario())
+    assert page.sent and page.sent[-1]["finished"] and not page.sent[-1]["playing"]
+    s.close()
+
+
+def _off_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    ax, ay, bx, by = *a, *b
+    vx, vy = bx - ax, by - ay
+    t = max(0.0, min(1.0, ((p[0] - ax) * vx + (p[1] - ay) * vy) / ((vx * vx + vy * vy) or 1.0)))
+    return math.hypot(p[0] - ax - t * vx, p[1] - ay - t * vy)
+
+
+def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> None:
+    from labsim.runtime.view.record import PathThinner
+
+    # a square's three sides then a circle's arc, a point every 2 mm
+    points = [(k * 0.002, 0.0) for k in range(500)] + [(1.0, k * 0.002) for k in range(500)]
+    points += [(1.0 - k * 0.002, 1.0) for k in range(500)]
+    points += [(0.5 * math.cos(k / 200), 1.5 + 0.5 * math.sin(k / 200)) for k in range(600)]
+    thin = PathThinner(0.005)
+    for x, y in points:
+        thin.add(x, y)
+    kept = thin.take() + [points[-1]]  # the frame's pose ends what was kept
+    assert len(kept) < len(points) / 10
+    assert any(math.hypot(x - 1.0, y) <= 0.007 for x, y in kept)  # the corner at (1, 0), within the tolerance
+    assert any(math.hypot(x - 1.0, y - 1.0) <= 0.007 for x, y in kept)
+    worst = max(min(_off_segment(p, a, b) for a, b in zip(kept, kept[1:])) for p in points)
+    assert worst <= 0.0105  # within about twice the tolerance of the drawn line, everywhere
+    assert thin.take() == []
+
+
+def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
+    s = live(WALL)
+    sizes = []
+    for _ in range(40):
+        s.advance(150)  # about what runs between two frames at "as fast as it goes"
+        frame = s.frame()
+        sizes.append(len(json.dumps(frame, separators=(",", ":"), allow_nan=False)))
+    robot = frame["robots"][0]
+    assert robot["path"] and all(len(p) == 2 for p in robot["path"])
+    columns = len(s.scene()["columns"])
+    assert 1 < len(robot["samples"]) <= 150 and all(len(r) == columns + 1 for r in robot["samples"])
+    times = [r[0] for r in robot["samples"]]
+    assert times == sorted(times) and times[-1] < frame["time"]
+    assert sum(sizes) / len(sizes) < 4096
+    s.advance(1)
+    assert s.frame()["robots"][0]["samples"] == []  # one tick: the frame itself shows it
+    s.close()

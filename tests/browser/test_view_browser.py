@@ -66,7 +66,7 @@ def browser() -> Iterator[Any]:
 class View:
     """A running ``labsim view`` and a page open on it."""
 
-    def __init__(self, browser: Any, args: list[str], query: str = ""):
+    def __init__(self, browser: Any, args: list[str], query: str = "", wait: bool = True):
         self.proc = subprocess.Popen([sys.executable, "-m", "labsim", "view", *args, "--port", "0", "--no-browser"],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert self.proc.stdout is not None
@@ -78,7 +78,8 @@ class View:
         self.errors: list[str] = []
         self.page.on("pageerror", lambda e: self.errors.append(str(e)))
         self.page.goto(self.url + query)
-        self.wait("window.labsimView.frames > 0")
+        if wait:  # a file that does not compile shows no frames
+            self.wait("window.labsimView.frames > 0")
 
     def wait(self, condition: str, timeout_ms: int = 8000) -> None:
         self.page.wait_for_function(condition, timeout=timeout_ms)
@@ -113,8 +114,8 @@ class View:
 def view(browser: Any) -> Iterator[Any]:
     opened: list[View] = []
 
-    def start(args: list[str], query: str = "") -> View:
-        v = View(browser, args, query)
+    def start(args: list[str], query: str = "", wait: bool = True) -> View:
+        v = View(browser, args, query, wait)
         opened.append(v)
         return v
     yield start
@@ -271,3 +272,118 @@ def test_road_labels_stand_apart_at_the_start_and_values_show_two_decimals(view:
     assert any("." in c for c in cells)
     assert all(re.fullmatch(r"–|-?\d+|-?\d+\.\d\d|-?\d\.\d\de[+-]\d+|-?inf", c) for c in cells), cells
     v.shot("road-table")
+
+
+# -- what the page must never get wrong ------------------------------------------------------
+
+def _crossings(path: list, walls: list) -> list:
+    """The drawn path's segments that cross a wall's centre line (world metres)."""
+    def side(a: list, b: list, c: list) -> float:
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    out = []
+    for p, q in zip(path, path[1:]):
+        if p is None or q is None:
+            continue
+        for ax, ay, bx, by, _ in walls:
+            a, b = [ax, ay], [bx, by]
+            if side(a, b, p) * side(a, b, q) < 0 and side(p, q, a) * side(p, q, b) < 0:
+                out.append((p, q, (ax, ay, bx, by)))
+    return out
+
+
+def test_the_path_drawn_at_full_speed_never_crosses_a_wall(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 9000", timeout_ms=60000)
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    path = v.js("window.LV_world.paths[0]")
+    walls = v.js("window.labsimView.scene.world.walls")
+    assert len(path) > 50
+    assert _crossings(path, walls) == []
+    # and the chart had a point for far more ticks than frames came
+    samples = v.js("window.labsimView.frames"), v.js("window.LV_chart.history[0].t.length")
+    assert samples[1] > 3 * samples[0], samples
+    v.shot("wall-full-speed")
+
+
+def test_the_end_of_a_run_at_full_speed_reaches_the_page(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=1"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.finished === true && window.labsimView.frame.playing === false",
+           timeout_ms=60000)
+    assert v.frame()["tick"] == 1200
+    v.wait("document.querySelector('#clock').textContent.includes('ended')")
+
+
+def _checked(v: Any) -> list[str]:
+    return v.js("[...document.querySelectorAll('#table input[type=checkbox]')].filter((b) => b.checked)"
+                ".map((b) => b.dataset.column)")
+
+
+def test_chart_picks_hold_across_play_restart_and_robot_switches(view: Any) -> None:
+    v = view(["behaviours/road_follow.yaml"])
+    first = _checked(v)
+    assert len(first) == 2
+    v.page.select_option("#robot", "2")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 20")
+    assert _checked(v) == first
+    v.page.locator(f'#table input[data-column="{first[0]}"]').uncheck()
+    picked = _checked(v)
+    v.page.click("#restart")
+    v.wait("window.labsimView.frame && window.labsimView.frame.tick === 0")
+    v.wait("document.querySelectorAll('#chart .u-over').length === 1")
+    assert _checked(v) == picked and v.js("window.labsimView.robot") == 2
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 10")
+    v.page.select_option("#robot", "0")
+    v.wait("window.labsimView.frame.tick >= 20")
+    assert _checked(v) == picked
+    assert v.js("document.querySelectorAll('#chart-now .now').length") == 1
+    v.shot("road-chart-after-restart")
+
+
+def test_check_again_after_a_fix_says_live(view: Any, tmp_path: Path) -> None:
+    good = (ROOT / "behaviours" / "wall_follow.yaml").read_text()
+    lab = tmp_path / "wall.yaml"
+    lab.write_text(good.replace("minutes: 25", "minutes: 25\n  oops: [", 1))
+    v = view([str(lab)], wait=False)
+    v.wait("document.querySelector('#status').textContent === 'does not compile'")
+    lab.write_text(good)
+    v.page.click("#recheck")
+    v.wait("document.querySelector('#status').textContent === 'live'")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 5")
+    assert v.js("document.querySelector('#diagnostics').hidden")
+
+
+def test_a_slider_value_follows_the_thumb_during_a_drag(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    box = v.page.locator('input[data-name="arm"]').bounding_box()
+    y = box["y"] + box["height"] / 2
+    v.page.mouse.move(box["x"] + box["width"] / 2, y)
+    v.page.mouse.down()
+    v.page.mouse.move(box["x"] + box["width"] * 0.8, y, steps=8)
+    value, shown = v.js("""(() => { const i = document.querySelector('input[data-name="arm"]');
+        return [Number(i.value), i.parentElement.querySelector('.value').textContent]; })()""")
+    assert value > 3 and shown == v.page.evaluate("(x) => LV.fmt(x)", value)
+    assert re.fullmatch(r"-?\d+(\.\d\d)?", shown)
+    v.page.mouse.up()
+
+
+def test_a_crane_trace_replays_the_mechanism_it_holds(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "crane.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/crane.yaml", "--trace", str(trace), "-q"],
+                   check=True, cwd=ROOT)
+    v = view([str(trace)])
+    v.wait("document.querySelector('#status').textContent === 'replay'")
+    v.page.locator("#scrubber").fill("400")
+    v.wait("window.labsimView.frame.tick === 400 && window.LV_world.drawnTick !== undefined")
+    mech = v.frame()["mechanism"]
+    assert {"Crab", "Upper_guide", "Load"} <= set(mech["bodies"]) and mech["missing"] == ["Gripper"]
+    assert "Gripper" in mech["note"]
+    v.shot("crane-replay")

@@ -5,7 +5,7 @@ window.LV = window.LV || {};
 
 LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
-const PATH_POINTS = 900;  // a robot's fading path: its last poses, one per frame
+const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
 
 LV.WorldView = class {
   constructor(canvas, onPick) {
@@ -41,6 +41,9 @@ LV.WorldView = class {
       if (typeof x !== "number" || typeof y !== "number") return;
       if (back) this.paths[i] = [];
       const p = this.paths[i];
+      // the points where the path bent since the last frame (the server keeps them), then the pose;
+      // a null point is a jump (the robot was put somewhere else): no line across it
+      for (const q of (back ? [] : r.path || [])) p.push(typeof q[0] === "number" ? q : null);
       const last = p[p.length - 1];
       if (!last || last[0] !== x || last[1] !== y) p.push([x, y]);
       if (p.length > PATH_POINTS) p.splice(0, p.length - PATH_POINTS);
@@ -158,7 +161,13 @@ LV.WorldView = class {
   _poly(points, close) {
     const ctx = this.ctx;
     ctx.beginPath();
-    points.forEach((p, i) => { const [x, y] = this.toPx(p[0], p[1]); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+    let pen = false;  // a null point lifts the pen
+    for (const p of points) {
+      if (!p) { pen = false; continue; }
+      const [x, y] = this.toPx(p[0], p[1]);
+      if (pen) ctx.lineTo(x, y); else ctx.moveTo(x, y);
+      pen = true;
+    }
     if (close) ctx.closePath();
   }
 
@@ -304,7 +313,14 @@ LV.WorldView = class {
     }
     // ropes and cables first, under the bodies
     const cable = (a, b, colour) => { this._poly([a, b], false); ctx.strokeStyle = colour; ctx.lineWidth = 1.5; ctx.stroke(); };
-    if (!partial) {
+    if (partial) {  // a replayed trace: a rope runs to its body, or to the next one the trace places
+      const placed = m.bodies.filter((q) => f.bodies[q.name] && !q.static);
+      for (const j of m.joints.filter((q) => q.rope && f.bodies[q.parent])) {
+        const child = f.bodies[j.child] ? m.bodies.find((q) => q.name === j.child) : placed[placed.length - 1];
+        if (child) cable(this._attached(m, j.parent, j.anchor),
+                         this._attached(m, child.name, [child.center[0], child.center[1] + child.size[1] / 2]), "#444");
+      }
+    } else {
       for (const j of m.joints.filter((q) => q.rope)) {
         const child = m.bodies.find((q) => q.name === j.child);
         cable(this._attached(m, j.parent, j.anchor),
@@ -326,6 +342,10 @@ LV.WorldView = class {
       ctx.fill(); ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.stroke();
     }
     this._slewDial(m);
+    if (partial && f.note) {  // say plainly what a replay cannot draw
+      ctx.fillStyle = "#8a2d00"; ctx.font = "12px system-ui";
+      ctx.fillText(f.note, 10, this.canvas.clientHeight - 10);
+    }
   }
 
   _slewDial(m) {  // the slew angle, seen from above, in a corner

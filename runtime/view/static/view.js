@@ -3,12 +3,14 @@
 // exposes the latest scene and frame (the browser tests read it).
 "use strict";
 const $ = (id) => document.getElementById(id);
-const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [] };
+const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
+                chartNames: null };
 window.labsimView = state;
 
 const world = new LV.WorldView($("world"), (i) => selectRobot(i));
-const chart = new LV.Chart($("chart"));
+const chart = new LV.Chart($("chart"), $("chart-now"));
 window.LV_world = world;  // what is drawn where (the browser tests read it)
+window.LV_chart = chart;
 
 function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
@@ -17,7 +19,7 @@ function send(msg) {
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
   state.ws = ws;
-  ws.onopen = () => { setStatus("live", "ok"); send({ type: "select", robot: state.robot }); };
+  ws.onopen = () => { setStatus("connected", "ok"); send({ type: "select", robot: state.robot }); };
   ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
   ws.onmessage = (e) => {
     let msg;
@@ -47,6 +49,7 @@ function onScene(scene) {
   $("diagnostics").hidden = scene.ok;
   $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
   if (!scene.ok) { setStatus("does not compile", "bad"); return; }
+  setStatus(scene.mode === "replay" ? "replay" : "live", "ok");  // after "Check again" too
   notice(scene.diagnostics.length ? "Warnings:" : "", scene.diagnostics.join("\n"), false);
   $("name").textContent = scene.name || "labsim view";
   $("path").textContent = scene.path + (scene.mode === "replay" ? " (replay)" : "") + (scene.trace && scene.mode === "live" ? ` → ${scene.trace}` : "");
@@ -61,7 +64,7 @@ function onScene(scene) {
   buildParams(scene);
   buildTable(scene);
   chart.reset(scene.columns, scene.robots.length);
-  pickDefaultChart(scene);
+  pickChart(scene);
   world.setScene(scene);
   if (state.robot >= scene.robots.length) selectRobot(0);
 }
@@ -93,7 +96,10 @@ function buildSliders(scene) {
     input.setAttribute("aria-label", s.name);
     input.addEventListener("pointerdown", () => { state.dragging = s.name; });
     input.addEventListener("pointerup", () => { state.dragging = null; });
-    input.addEventListener("input", () => moveSlider(s.name, Number(input.value)));
+    input.addEventListener("input", () => {  // the value follows the thumb, not the next frame
+      div.querySelector(".value").textContent = fmt(Number(input.value));
+      moveSlider(s.name, Number(input.value));
+    });
     input.addEventListener("change", () => { moveSlider(s.name, Number(input.value), true); state.dragging = null; });
     div.appendChild(input);
     div.querySelector(".text").textContent = s.name;
@@ -156,7 +162,10 @@ function buildTable(scene) {
     const tr = body.insertRow();
     const box = document.createElement("input");
     box.type = "checkbox"; box.dataset.column = c.name;
-    box.addEventListener("change", () => chart.toggle(k, box.checked));
+    box.addEventListener("change", () => {
+      chart.toggle(k, box.checked);
+      state.chartNames = chart.picked.map((q) => scene.columns[q].name);
+    });
     tr.insertCell().appendChild(box);
     tr.insertCell().textContent = c.name;
     const v = tr.insertCell(); v.className = "value";
@@ -164,14 +173,22 @@ function buildTable(scene) {
   });
 }
 
-function pickDefaultChart(scene) {
-  const wanted = new URLSearchParams(location.search).get("chart");
-  let picks;
-  if (wanted) picks = wanted.split(",").map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
-  else picks = scene.columns.map((c, k) => [c, k]).filter(([c]) => c.group === "signal" || c.group === "trace").map(([, k]) => k);
-  chart.picked = [];
-  state.pendingChart = wanted ? picks : null;  // without ?chart=: the last two numeric signals, once known
-  for (const k of (wanted ? picks : [])) { state.rows[k].box.checked = true; chart.toggle(k, true); }
+// The chart's signals, by name: the student's picks (or ?chart=a,b, or the last two numeric
+// signals), kept across Play, Restart and robot switches; a name the new run lacks is skipped.
+function pickChart(scene) {
+  if (state.chartNames === null) {
+    const wanted = new URLSearchParams(location.search).get("chart");
+    state.chartNames = wanted ? wanted.split(",") : defaultChart(scene);
+  }
+  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
+  for (const k of picks) state.rows[k].box.checked = true;
+  chart.setPicked(picks);
+}
+
+function defaultChart(scene) {
+  const skip = scene.mode === "replay" ? ["wheel_left", "wheel_right"] : [];
+  return scene.columns.filter((c) => (c.group === "signal" || c.group === "trace") && c.numeric !== false
+                              && !skip.includes(c.name)).slice(-2).map((c) => c.name);
 }
 
 // -- frames ---------------------------------------------------------------------------------
@@ -181,19 +198,7 @@ function onFrame(frame) {
   state.frames += 1;
   world.setFrame(frame);
   chart.add(frame);
-  if (state.pendingChart === null) defaultChartFromValues(frame);
   scheduleDraw();
-}
-
-function defaultChartFromValues(frame) {
-  const r = frame.robots[state.robot];
-  if (!r || frame.tick === 0) return;
-  const numeric = state.scene.columns.map((c, k) => [c, k])
-    .filter(([c, k]) => (c.group === "signal" || c.group === "trace") && typeof r.values[k] === "number").map(([, k]) => k);
-  const trace = state.scene.mode === "replay";
-  const picks = trace ? numeric.filter((k) => !["wheel_left", "wheel_right"].includes(state.scene.columns[k].name)).slice(-2) : numeric.slice(-2);
-  state.pendingChart = picks;
-  for (const k of picks) { state.rows[k].box.checked = true; chart.toggle(k, true); }
 }
 
 let drawPending = false;
@@ -238,8 +243,9 @@ function render() {
   $("scrub-time").textContent = scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "";
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    if (n in f.sliders && state.dragging !== n) input.value = f.sliders[n];
     div.querySelector(".text").textContent = f.labels[n] || n;
+    if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
+    if (n in f.sliders) input.value = f.sliders[n];
     div.querySelector(".value").textContent = n in f.sliders ? fmt(f.sliders[n]) : "";
   }
   const r = f.robots[state.robot];
