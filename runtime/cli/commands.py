@@ -290,7 +290,8 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise LabsimError([Diagnostic("--sim-timeout", "give a positive number of seconds")])
     return view(args.file, overrides=parse_overrides(args.set), seed=args.seed, backend=args.backend,
                 backend_options=options, host=args.host, port=args.port, trace=args.trace,
-                open_browser=not args.no_browser, warn=print_warning, report=print_diagnostics)
+                open_browser=not args.no_browser, warn=print_warning, report=print_diagnostics,
+                breaks=args.breaks)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

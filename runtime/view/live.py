@@ -21,6 +21,7 @@ from labsim.dsl.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
+from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
 from labsim.runtime.view.frames import (
     Json,
     channel_kinds,
@@ -45,7 +46,7 @@ class LiveSession(Session):
     def __init__(self, path: str | Path, overrides: dict[str, str], *, seed: int | None = None,
                  backend: str = "pymunk", backend_options: dict[str, object] | None = None,
                  trace: str | Path | None = None, warn: Callable[[str], None] | None = None,
-                 timeline: bool = True, **session: Any):
+                 timeline: bool = True, breaks: list[str] | None = None, **session: Any):
         super().__init__(0.05, **session)
         self.path = str(path)
         self.overrides = dict(overrides)
@@ -60,6 +61,7 @@ class LiveSession(Session):
         self.problems: list[Diagnostic] = []  # the file's warnings, or why there is no run
         self.refused: list[Diagnostic] = []  # why the last change did not compile
         self.ever_ran = False
+        self.breaks = list(breaks or [])  # as written: compiled anew for every run
 
     # -- the run ------------------------------------------------------------------------
     def load(self, overrides: dict[str, str] | None = None) -> bool:
@@ -73,6 +75,7 @@ class LiveSession(Session):
             behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
             if self.trace_path:  # the world may have changed with the file: never write over it
                 check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
+            breaks = [parse_break(behaviour.program, b) for b in self.breaks]
         except LabsimError as e:
             self.refused = list(e.diagnostics)
             if self.run is None:
@@ -81,7 +84,7 @@ class LiveSession(Session):
         self.overrides = dict(wanted)
         self.close()
         try:
-            self._bind(behaviour)
+            self._bind(behaviour, breaks)
         except (LabsimError, BackendError) as e:
             self.run = None
             self.problems = list(e.diagnostics) if isinstance(e, LabsimError) else [Diagnostic(self.path, str(e))]
@@ -90,10 +93,11 @@ class LiveSession(Session):
         self.ever_ran = True
         return True
 
-    def _bind(self, behaviour: Behaviour) -> None:
+    def _bind(self, behaviour: Behaviour, breaks: list[Breakpoint]) -> None:
         program = behaviour.program
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
         self.recorder = TickRecorder()
+        self.recorder.breaks = breaks
         self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
@@ -123,12 +127,16 @@ class LiveSession(Session):
         run = self.run
         if run is None:
             return 0
-        tick = run.tick
+        tick, rec = run.tick, self.recorder
+        rec.hit = None  # Play or Step goes on from a breakpoint
         for k in range(n):
             if not tick():
                 if run.trace is not None:
                     run.trace.close()  # the stop condition held: the trace is complete
                 return k
+            if rec.hit is not None:  # a breakpoint held on this tick: pause on it
+                self.playing = False
+                return k + 1
         return n
 
     def restart(self) -> None:
@@ -200,6 +208,7 @@ class LiveSession(Session):
             })
         first = run.robots[0].program.slots if run.robots else []
         return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
+                       breakpoints=self.breaks, hit=rec.hit,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
 
@@ -271,6 +280,9 @@ class LiveSession(Session):
         if kind == "recheck":
             self.load()
             return True
+        if kind == "break":
+            self._break(msg)
+            return False
         raise BadMessage(f"unknown message type '{kind}'")
 
     def _slider(self, msg: dict) -> None:
@@ -281,6 +293,29 @@ class LiveSession(Session):
         if slider not in self.run.program.slider_ranges:
             raise BadMessage(f"no slider '{slider}'")
         self.run.set_slider(slider, value)
+
+    def _break(self, msg: dict) -> None:
+        """Add a breakpoint (checked against this run's program) or remove one by its index."""
+        if self.run is None:
+            raise BadMessage("there is no run to set a breakpoint in")
+        if "remove" in msg:
+            k = msg["remove"]
+            if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(self.breaks):
+                raise BadMessage("'remove' must be a breakpoint's index")
+            del self.breaks[k]
+            del self.recorder.breaks[k]
+            return
+        spec = msg.get("add")
+        if not isinstance(spec, str) or not spec.strip() or len(spec) > 500:
+            raise BadMessage("'add' must be a breakpoint, as --break takes it")
+        if len(self.breaks) >= MAX_BREAKPOINTS:
+            raise ChangeRefused([f"at most {MAX_BREAKPOINTS} breakpoints"])
+        try:
+            b = parse_break(self.run.program, spec, "breakpoint")
+        except LabsimError as e:
+            raise ChangeRefused([d.format() for d in e.diagnostics]) from None
+        self.breaks.append(b.spec)
+        self.recorder.breaks.append(b)
 
     def _params(self, msg: dict) -> bool:
         values = msg.get("values")

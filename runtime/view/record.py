@@ -6,15 +6,18 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner) and keeps the tick's readings and slots for the chart. ``take_path`` and
+corner), keeps the tick's readings and slots for the chart, and asks the breakpoints
+(``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path`` and
 ``take_samples`` hand what was kept to the next frame and start again.
 """
 from __future__ import annotations
 
 import math
 
+from labsim.dsl.support import STATE
 from labsim.runtime.observers import Observer
 from labsim.runtime.state import RobotRun, RunState
+from labsim.runtime.view.breaks import Breakpoint
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
@@ -84,6 +87,8 @@ class TickRecorder(Observer):
         self.xy: list[tuple[int, int] | None] = []
         self.paths: list[PathThinner] = []
         self.samples: list[list[tuple[int, list, list]]] = []
+        self.breaks: list[Breakpoint] = []
+        self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
 
     def start(self, xy: list[tuple[int, int] | None]) -> None:
@@ -105,6 +110,21 @@ class TickRecorder(Observer):
         kept.append((self._run.tick_index, list(values), list(robot.program.slots)))
         if len(kept) > MAX_SAMPLES_KEPT:
             del kept[::2]
+        if self.breaks and self.hit is None:
+            self._check(robot, rule, values)
+
+    def _check(self, robot: RobotRun, rule: int, values: list) -> None:
+        assert self._run is not None
+        t, dt = self._run.tick_index, self._run.dt
+        for b in self.breaks:
+            if b.hit(robot, rule, values, t, dt):
+                # the state and rule of this tick (a goto takes effect on the next one)
+                p = self._run.program
+                state = int(robot.program.slots[STATE])
+                self.hit = {"tick": t, "time": round(t * dt, 9), "robot": robot.name, "what": b.spec,
+                            "state": p.state_names[state] if p.state_names else "",
+                            "rule": p.rules[rule].id if rule >= 0 else None}
+                return
 
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()

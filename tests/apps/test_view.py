@@ -6,6 +6,7 @@ a wall-clock time.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import math
 import socket
@@ -452,7 +453,7 @@ def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> No
     assert len(kept) < len(points) / 10
     assert any(math.hypot(x - 1.0, y) <= 0.007 for x, y in kept)  # the corner at (1, 0), within the tolerance
     assert any(math.hypot(x - 1.0, y - 1.0) <= 0.007 for x, y in kept)
-    worst = max(min(_off_segment(p, a, b) for a, b in zip(kept, kept[1:])) for p in points)
+    worst = max(min(_off_segment(p, a, b) for a, b in itertools.pairwise(kept)) for p in points)
     assert worst <= 0.0105  # within about twice the tolerance of the drawn line, everywhere
     assert thin.take() == []
 
@@ -474,3 +475,41 @@ def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> 
     s.advance(1)
     assert s.frame()["robots"][0]["samples"] == []  # one tick: the frame itself shows it
     s.close()
+
+
+def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    rows = read_trace(trace)
+    state = rows.columns.index("state")
+    turned = next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
+    s = live(WALL, breaks=["state:follow"])
+    s.handle({"type": "speed", "value": "max"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    hit = s.frame()["hit"]
+    assert hit["tick"] == turned and hit["state"] == rows.rows[turned][state] and not s.playing
+    assert s.tick == turned + 1
+    s.handle({"type": "step"})
+    assert s.tick == turned + 2 and s.frame()["hit"] is None
+    s.handle({"type": "break", "add": "time:4"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    assert s.frame()["hit"]["tick"] == 80 and s.frame()["breakpoints"] == ["state:follow", "time:4"]
+    with pytest.raises(ChangeRefused, match="did you mean 'sonar5'"):
+        s.handle({"type": "break", "add": "sonr5 < 0.3"})
+    with pytest.raises(ChangeRefused, match="no rule 'nope'"):
+        s.handle({"type": "break", "add": "rule:nope"})
+    with pytest.raises(BadMessage):
+        s.handle({"type": "break", "remove": 7})
+    s.handle({"type": "break", "remove": 0})
+    assert s.frame()["breakpoints"] == ["time:4"]
+    s.close()
+
+
+def test_a_bad_break_on_the_command_line_is_exit_2_with_its_column(capsys) -> None:  # type: ignore[no-untyped-def]
+    assert main(["view", str(WALL), "--break", "sonar5 < 0.3 and sonr9 > 1", "--no-browser", "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--break:1:18: error: unknown name 'sonr9' (did you mean 'sonar9'?)" in err
+    assert main(["view", str(WALL), "--break", "prev(sonar5, 0) < 1", "--no-browser", "--port", "0"]) == 2
+    assert "remembers earlier ticks" in capsys.readouterr().err

@@ -7,6 +7,7 @@ under CI (``CI=true``), where a missing browser fails. Screenshots are kept as a
 """
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -282,7 +283,7 @@ def _crossings(path: list, walls: list) -> list:
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
     out = []
-    for p, q in zip(path, path[1:]):
+    for p, q in itertools.pairwise(path):
         if p is None or q is None:
             continue
         for ax, ay, bx, by, _ in walls:
@@ -387,3 +388,40 @@ def test_a_crane_trace_replays_the_mechanism_it_holds(view: Any, tmp_path: Path)
     assert {"Crab", "Upper_guide", "Load"} <= set(mech["bodies"]) and mech["missing"] == ["Gripper"]
     assert "Gripper" in mech["note"]
     v.shot("crane-replay")
+
+
+def test_a_breakpoint_pauses_on_the_tick_the_trace_says_it_first_holds(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--set", "minutes=0.5",
+                    "--trace", str(trace), "-q"], check=True, cwd=ROOT)
+    rows = read_trace(trace)
+    sonar5 = rows.columns.index("sonar5")
+    first = next(int(r[0]) for r in rows.rows if float(r[sonar5]) < 0.5)
+    v = view(["behaviours/wall_follow.yaml", "--break", "sonar5 < 0.5"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.hit !== null && window.labsimView.frame.playing === false", timeout_ms=30000)
+    hit = v.frame()["hit"]
+    assert hit["tick"] == first and hit["what"] == "sonar5 < 0.5"
+    row = rows.rows[first]
+    assert hit["state"] == row[rows.columns.index("state")] and (hit["rule"] or "") == row[rows.columns.index("rule")]
+    v.wait(f"document.querySelector('#break-hit').textContent.includes('Paused on tick {first}')")
+    v.shot("breakpoint")
+    v.page.click("#step")  # one tick on, and the breakpoint is behind
+    v.wait(f"window.labsimView.frame.tick === {first + 2} && window.labsimView.frame.hit === null")
+    # a breakpoint from the page: a mistake is shown with its column, a good one pauses the run
+    v.page.fill("#break-text", "sonr5 < 1")
+    v.page.click("#break-form button")
+    v.wait("document.querySelector('#notice').textContent.includes(\"did you mean 'sonar5'\")")
+    rule = rows.columns.index("rule")
+    later = [(int(r[0]), r[rule]) for r in rows.rows if int(r[0]) >= first + 2]
+    pick = next(name for _, name in later if name and name != later[0][1])
+    v.page.select_option("#break-kind", "rule")
+    v.page.fill("#break-text", pick)
+    v.page.click("#break-form button")
+    v.wait("window.labsimView.frame.breakpoints.length === 2")
+    v.page.click("#play")
+    v.wait(f"window.labsimView.frame.hit !== null && window.labsimView.frame.hit.what === 'rule:{pick}'",
+           timeout_ms=30000)
+    assert v.frame()["hit"]["tick"] == next(t for t, name in later if name == pick)
+    v.shot("breakpoint-rule")

@@ -63,6 +63,8 @@ function onScene(scene) {
   buildSliders(scene);
   buildParams(scene);
   buildTable(scene);
+  $("breaks-panel").hidden = scene.mode !== "live";
+  state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
   pickChart(scene);
   world.setScene(scene);
@@ -255,10 +257,49 @@ function render() {
     $("rule").textContent = r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)";
     r.values.forEach((v, k) => { if (state.rows[k]) state.rows[k].v.textContent = fmt(v); });
   }
+  renderBreaks(f);
   renderImages(f.images);
   world.selected = state.robot;
   world.draw();
   chart.draw();
+}
+
+// -- breakpoints: the list (each with its remove button) and the one the run paused on ----------
+const BREAK_HINT = { when: "sonar5 < 0.3", state: "any, or a state's name", rule: "a rule's id", time: "12.5" };
+$("break-kind").addEventListener("change", () => { $("break-text").placeholder = BREAK_HINT[$("break-kind").value]; });
+$("break-form").addEventListener("submit", (e) => {
+  e.preventDefault();
+  const kind = $("break-kind").value, text = $("break-text").value.trim();
+  if (kind === "when" && !text) return;
+  notice("");
+  send({ type: "break", add: kind === "when" ? text : (text ? `${kind}:${text}` : kind) });
+  $("break-text").value = "";
+});
+
+function renderBreaks(f) {
+  const list = f.breakpoints || [], key = JSON.stringify(list);
+  if (state.breaksShown !== key) {
+    state.breaksShown = key;
+    const ul = $("breaks");
+    ul.innerHTML = "";
+    list.forEach((spec, k) => {
+      const li = document.createElement("li");
+      const code = document.createElement("code"); code.textContent = spec;
+      const x = document.createElement("button");
+      x.type = "button"; x.className = "remove"; x.textContent = "×"; x.title = "remove";
+      x.addEventListener("click", () => send({ type: "break", remove: k }));
+      li.appendChild(code); li.appendChild(x); ul.appendChild(li);
+    });
+  }
+  const hit = f.hit, box = $("break-hit");
+  box.hidden = !hit;
+  if (hit) {
+    const rule = hit.rule ? state.scene.rules.find((q) => q.id === hit.rule) : null;
+    box.textContent = `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${hit.what}` +
+      (state.scene.robots.length > 1 ? ` (${hit.robot})` : "") +
+      ` — state ${hit.state || "–"}, rule ${hit.rule ? `${hit.rule}: ${rule ? rule.text : ""}` : "(none fired)"}` +
+      ". Step goes on one tick, Play runs on.";
+  }
 }
 
 function renderImages(images) {
