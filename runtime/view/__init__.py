@@ -26,7 +26,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
          backend_options: dict[str, object] | None = None, host: str = "127.0.0.1",
          port: int = DEFAULT_PORT, trace: str | None = None, open_browser: bool = True,
          warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None],
-         breaks: list[str] | None = None) -> int:
+         breaks: list[str] | None = None, read_only: bool = False) -> int:
     """Serve the page for a behaviour file or a trace until Ctrl-C; the exit code.
 
     A behaviour that does not compile is reported (``report``) and the page shows the same
@@ -39,7 +39,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
     if not 0 <= port < 65536:
         raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
-    session = _session(path, overrides, seed, backend, backend_options, trace, warn, breaks or [])
+    session = _session(path, overrides, seed, backend, backend_options, trace, warn, breaks or [], read_only)
     broken = False
     if isinstance(session, LiveSession) and not session.load():
         refused = [d for d in session.problems if d.path.startswith(("--trace ", "--break"))]
@@ -83,7 +83,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
 def _session(path: str, overrides: dict[str, str], seed: int | None, backend: str,
              backend_options: dict[str, object] | None, trace: str | None,
-             warn: Callable[[str], None], breaks: list[str]) -> Session:
+             warn: Callable[[str], None], breaks: list[str], read_only: bool = False) -> Session:
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.replay import load_replay
 
@@ -104,4 +104,4 @@ def _session(path: str, overrides: dict[str, str], seed: int | None, backend: st
     if seed is not None and seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
     return LiveSession(path, overrides, seed=seed, backend=backend, backend_options=backend_options,
-                       trace=trace, warn=warn, breaks=breaks)
+                       trace=trace, warn=warn, breaks=breaks, read_only=read_only)

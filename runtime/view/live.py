@@ -11,6 +11,7 @@ the page; ``recheck`` tries again.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.dsl.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import check_output
+from labsim.foundation.files import check_output, read_text, write_output
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
 from labsim.runtime.view.frames import (
@@ -37,6 +38,7 @@ from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, Session, finite, name
 
 _NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
+MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
 SAMPLE_NUMBERS = 240  # chart numbers a frame carries at most, all robots together (a frame < 4 KB)
 
 
@@ -46,7 +48,8 @@ class LiveSession(Session):
     def __init__(self, path: str | Path, overrides: dict[str, str], *, seed: int | None = None,
                  backend: str = "pymunk", backend_options: dict[str, object] | None = None,
                  trace: str | Path | None = None, warn: Callable[[str], None] | None = None,
-                 timeline: bool = True, breaks: list[str] | None = None, **session: Any):
+                 timeline: bool = True, breaks: list[str] | None = None, read_only: bool = False,
+                 **session: Any):
         super().__init__(0.05, **session)
         self.path = str(path)
         self.overrides = dict(overrides)
@@ -62,6 +65,8 @@ class LiveSession(Session):
         self.refused: list[Diagnostic] = []  # why the last change did not compile
         self.ever_ran = False
         self.breaks = list(breaks or [])  # as written: compiled anew for every run
+        self.read_only = read_only  # no editing the file in the page
+        self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
 
     # -- the run ------------------------------------------------------------------------
     def load(self, overrides: dict[str, str] | None = None) -> bool:
@@ -72,7 +77,7 @@ class LiveSession(Session):
         """
         wanted = self.overrides if overrides is None else overrides
         try:
-            behaviour = compile_behaviour(self.path, wanted, seed=self.seed)
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, text=self.text)
             if self.trace_path:  # the world may have changed with the file: never write over it
                 check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
             breaks = [parse_break(behaviour.program, b) for b in self.breaks]
@@ -151,7 +156,7 @@ class LiveSession(Session):
     def scene(self) -> Json:
         problems = [d.format() for d in self.problems]
         if self.run is None:
-            return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems)
+            return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems, **self._source())
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
                    + [{"name": n, "group": "signal", "numeric": p.signal_types.get(n) in _NUMERIC}
@@ -169,7 +174,18 @@ class LiveSession(Session):
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
             states=list(p.state_names), stop_s=p.stop_horizon_s, timeline=self.timeline,
-            trace=str(self.trace_path) if self.trace_path else None)
+            trace=str(self.trace_path) if self.trace_path else None, **self._source())
+
+    def _source(self) -> Json:
+        """The scene's editor fields: the text the run was compiled from, whether it differs from
+        the file (an edit applied, not saved), and whether the page may edit at all."""
+        text = self.text
+        if text is None:
+            try:
+                text = read_text(self.path)
+            except LabsimError:
+                text = None
+        return {"source": text, "edited": self.text is not None, "read_only": self.read_only}
 
     def _slider_values(self) -> list[float]:
         assert self.run is not None
@@ -208,7 +224,7 @@ class LiveSession(Session):
             })
         first = run.robots[0].program.slots if run.robots else []
         return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
-                       breakpoints=self.breaks, hit=rec.hit,
+                       breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
 
@@ -283,6 +299,11 @@ class LiveSession(Session):
         if kind == "break":
             self._break(msg)
             return False
+        if kind == "place":
+            self._place(msg)
+            return False
+        if kind in ("apply", "save"):
+            return self._edit(kind, msg)
         raise BadMessage(f"unknown message type '{kind}'")
 
     def _slider(self, msg: dict) -> None:
@@ -293,6 +314,52 @@ class LiveSession(Session):
         if slider not in self.run.program.slider_ranges:
             raise BadMessage(f"no slider '{slider}'")
         self.run.set_slider(slider, value)
+
+    def _edit(self, kind: str, msg: dict) -> bool:
+        """Apply the page's text (compile it; restart with it when it compiles, else keep the run
+        and say why, with lines and columns), or save it over the file the view was opened with."""
+        text = msg.get("text")
+        if not isinstance(text, str) or len(text) > MAX_EDIT_CHARS:
+            raise BadMessage(f"'text' must be the file's text, at most {MAX_EDIT_CHARS:,} characters")
+        if self.read_only:
+            raise ChangeRefused([f"{self.path}: this view is read-only (labsim view --read-only)"])
+        if kind == "save":
+            self._save(text)
+            return False
+        before = self.text
+        self.text = text
+        if self.load():
+            return True
+        self.text = before
+        raise ChangeRefused([d.format() for d in self.refused],
+                            [{"line": d.line, "col": d.col, "message": d.message, "severity": d.severity}
+                             for d in self.refused if d.path == self.path])
+
+    def _save(self, text: str) -> None:
+        """Write the text over the view's own file, atomically (never over its world or trace,
+        never through a link)."""
+        if os.path.islink(self.path):
+            raise ChangeRefused([f"{self.path}: not saved: it is a link; save it in an editor"])
+        inputs = [self.run.program.world.source] if self.run is not None and self.run.program.world.source else []
+        try:
+            write_output(self.path, text, [*inputs, *([self.trace_path] if self.trace_path else [])])
+        except LabsimError as e:
+            raise ChangeRefused([d.format() for d in e.diagnostics]) from None
+        if self.text == text:
+            self.text = None  # the file holds what runs
+
+    def _place(self, msg: dict) -> None:
+        """Put a robot at a pose (a drag on the canvas), through the backend and into the trace."""
+        robot = msg.get("robot")
+        if self.run is None or isinstance(robot, bool) or not isinstance(robot, int) \
+                or not 0 <= robot < len(self.run.robots) or self.run.robots[robot].model is None:
+            raise BadMessage("'robot' must be the index of a robot (not a mechanism)")
+        x, y = finite(msg.get("x"), "x"), finite(msg.get("y"), "y")
+        heading = math.remainder(finite(msg.get("heading"), "heading"), math.tau)
+        why = self.run.place(robot, x, y, heading)
+        if why is not None:
+            raise ChangeRefused([f"{self.run.robots[robot].name} was not moved to ({x:.2f}, {y:.2f}): {why}"])
+        self.recorder.paths[robot].jump(x, y)
 
     def _break(self, msg: dict) -> None:
         """Add a breakpoint (checked against this run's program) or remove one by its index."""
@@ -338,11 +405,13 @@ class LiveSession(Session):
 
 
 class ChangeRefused(Exception):
-    """A page's change (a parameter) that the checks refused; the message lists why."""
+    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
+    ``places`` where in the edited text (line, column, message) for the page's editor."""
 
-    def __init__(self, diagnostics: list[str]):
+    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
         super().__init__("\n".join(diagnostics))
         self.diagnostics = diagnostics
+        self.places = places or []
 
 
 def _short(v: object) -> float | str | None:

@@ -133,7 +133,7 @@ class ViewServer:
             self._ignore(page, str(e))
             return
         except ChangeRefused as e:  # the page that asked is told why; the run goes on
-            await self._send(page, _dumps(message("error", diagnostics=e.diagnostics)))
+            await self._send(page, _dumps(message("error", diagnostics=e.diagnostics, places=e.places)))
         except Exception as e:  # a page must not be able to stop the run: say what failed, go on
             self._ignore(page, f"it failed: {type(e).__name__}: {e}")
         self.dirty = True

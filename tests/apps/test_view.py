@@ -513,3 +513,58 @@ def test_a_bad_break_on_the_command_line_is_exit_2_with_its_column(capsys) -> No
     assert "--break:1:18: error: unknown name 'sonr9' (did you mean 'sonar9'?)" in err
     assert main(["view", str(WALL), "--break", "prev(sonar5, 0) < 1", "--no-browser", "--port", "0"]) == 2
     assert "remembers earlier ticks" in capsys.readouterr().err
+
+
+def test_a_robot_put_by_hand_is_in_the_trace_and_replays_bit_for_bit(tmp_path: Path) -> None:
+    live_trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    s = live(WALL, trace=live_trace)
+    s.advance(40)
+    with pytest.raises(ChangeRefused, match=r"was not moved to .*overlap a wall"):
+        s.handle({"type": "place", "robot": 0, "x": 3.0, "y": -5.0, "heading": 0.0})
+    s.handle({"type": "place", "robot": 0, "x": 1.0, "y": 1.0, "heading": 0.3})
+    assert s.frame()["robots"][0]["pose"][:2] == [1.0, 1.0]
+    s.advance(60)
+    s.handle({"type": "place", "robot": 0, "x": -1.25, "y": 0.5, "heading": 2.0})
+    s.advance(60)
+    for bad in ({"robot": 3, "x": 0, "y": 0, "heading": 0}, {"robot": 0, "x": "a", "y": 0, "heading": 0}):
+        with pytest.raises(BadMessage):
+            s.handle({"type": "place", **bad})
+    s.close()
+    assert main(["run", str(WALL), "--replay", str(live_trace), "--trace", str(replayed), "-q"]) == 0
+    a, b = read_trace(live_trace), read_trace(replayed)
+    assert b.rows[:len(a.rows)] == a.rows
+    events = [e for e in a.column("events") if e.startswith("place")]
+    assert events == ["place pioneer 1.0 1.0 0.3", "place pioneer -1.25 0.5 2.0"]
+
+
+def test_an_edit_that_breaks_the_file_keeps_the_run_and_one_that_compiles_restarts(write) -> None:  # type: ignore[no-untyped-def]
+    lab = write(WALL.read_text(), "wall.yaml")
+    s = live(lab)
+    scene = s.scene()
+    assert scene["source"] == WALL.read_text() and not scene["edited"] and not scene["read_only"]
+    s.advance(20)
+    broken = scene["source"].replace("sonar5", "sonr5", 1)
+    with pytest.raises(ChangeRefused) as refused:
+        s.handle({"type": "apply", "text": broken})
+    place = refused.value.places[0]
+    line = next(i for i, text in enumerate(broken.split("\n"), 1) if "sonr5" in text)
+    assert place["line"] == line and "sonr5" in place["message"] and place["col"] >= 1
+    assert s.tick == 20  # the old run goes on
+    fixed = scene["source"].replace("minutes: 25", "minutes: 1")
+    assert s.handle({"type": "apply", "text": fixed}) is True
+    assert s.tick == 0 and s.scene()["edited"] and s.scene()["source"] == fixed
+    assert s.run is not None and s.run.program.stop_horizon_s == 60
+    assert lab.read_text() == WALL.read_text()  # applied, not saved
+    s.handle({"type": "save", "text": fixed})
+    assert lab.read_text() == fixed and not s.scene()["edited"]
+    assert [p.name for p in lab.parent.iterdir() if p.name.startswith(".")] == []  # no temporary left
+    s.close()
+    ro = live(lab, read_only=True)
+    assert ro.scene()["read_only"]
+    for kind in ("apply", "save"):
+        with pytest.raises(ChangeRefused, match="read-only"):
+            ro.handle({"type": kind, "text": "x"})
+    with pytest.raises(BadMessage):
+        ro.handle({"type": "apply", "text": 5})
+    assert lab.read_text() == fixed
+    ro.close()

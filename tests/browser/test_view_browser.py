@@ -103,6 +103,8 @@ class View:
         return img
 
     def close(self) -> None:
+        if self.proc.returncode is not None:  # closed already (a test that reads the trace after)
+            return
         self.page.close()
         self.proc.send_signal(signal.SIGINT)
         _, err = self.proc.communicate(timeout=20)
@@ -425,3 +427,83 @@ def test_a_breakpoint_pauses_on_the_tick_the_trace_says_it_first_holds(view: Any
            timeout_ms=30000)
     assert v.frame()["hit"]["tick"] == next(t for t, name in later if name == pick)
     v.shot("breakpoint-rule")
+
+
+def test_a_dragged_robot_replays_from_the_trace_row_for_row(view: Any, tmp_path: Path) -> None:
+    trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace)])
+    v.page.click("#step")
+    v.wait("window.labsimView.frame.tick === 1 && window.LV_world.drawn[0] !== undefined")
+    # onto the wall at x = 3 m: refused, with a message; the robot stays
+    box = v.page.locator("#world").bounding_box()  # the canvas' pixels, on the page
+
+    def on_page(expression: str) -> list[float]:
+        x, y = v.js(expression)
+        return [box["x"] + x, box["y"] + y]
+    wall = on_page("window.LV_world.toPx(3.0, -5.0)")
+    at = on_page("window.LV_world.drawn[0]")
+    v.page.mouse.move(at[0], at[1])
+    v.page.mouse.down()
+    v.page.mouse.move(wall[0], wall[1], steps=6)
+    v.page.mouse.up()
+    v.wait("document.querySelector('#notice').textContent.includes('was not moved')")
+    # two metres to the right of where it stands: moved, and the next ticks start there
+    pose = v.frame()["robots"][0]["pose"]
+    to = on_page(f"window.LV_world.toPx({pose[0] + 2.0}, {pose[1]})")
+    v.page.mouse.move(at[0], at[1])
+    v.page.mouse.down()
+    v.page.mouse.move(to[0], to[1], steps=6)
+    v.shot("drag")
+    v.page.mouse.up()
+    v.wait(f"Math.abs(window.labsimView.frame.robots[0].pose[0] - {pose[0] + 2.0}) < 0.05")
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 60")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.playing === false")
+    v.shot("drag-after")
+    v.close()  # Ctrl-C: the trace so far is kept
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--replay", str(trace),
+                    "--trace", str(replayed), "-q"], check=True, cwd=ROOT, capture_output=True)
+    a, b = read_trace(trace), read_trace(replayed)
+    assert any(e.startswith("place pioneer ") for e in a.column("events"))
+    assert b.rows[:len(a.rows)] == a.rows
+
+
+def test_the_editor_shows_errors_inline_keeps_the_run_and_restarts_on_a_fix(view: Any, tmp_path: Path) -> None:
+    lab = tmp_path / "wall.yaml"
+    text = (ROOT / "behaviours" / "wall_follow.yaml").read_text()
+    lab.write_text(text)
+    v = view([str(lab)])
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 20")
+    v.page.click("#edit")
+    v.wait("!document.querySelector('#editor-panel').hidden")
+    assert v.page.input_value("#source") == text
+    v.page.fill("#source", text.replace("sonar5", "sonr5", 1))
+    v.page.click("#apply")
+    v.wait("document.querySelectorAll('#problems li').length > 0")
+    line = next(i for i, t in enumerate(text.split("\n"), 1) if "sonar5" in t)
+    assert v.page.locator("#problems li").first.inner_text().startswith(f"line {line}, column ")
+    assert v.js("[...document.querySelectorAll('#gutter .bad')].map((d) => Number(d.textContent))") == [line]
+    v.shot("editor-error")
+    ticked = v.frame()["tick"]
+    v.wait(f"window.labsimView.frame.tick > {ticked}")  # the old run goes on
+    v.page.fill("#source", text.replace("minutes: 25", "minutes: 1"))
+    v.page.click("#apply")
+    v.wait("document.querySelector('#editor-state').textContent === 'applied, not saved'")
+    v.wait("window.labsimView.frame.tick < 20 && window.labsimView.scene.stop_s === 60")
+    assert v.js("document.querySelectorAll('#problems li').length") == 0
+    v.shot("editor")
+    v.page.click("#save")
+    v.wait("document.querySelector('#editor-state').textContent === ''")
+    assert lab.read_text() == text.replace("minutes: 25", "minutes: 1")
+
+
+def test_read_only_turns_the_editor_off_and_says_so(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--read-only"])
+    v.wait("!document.querySelector('#read-only').hidden")
+    v.page.click("#edit")
+    assert v.js("document.querySelector('#source').readOnly && document.querySelector('#apply').disabled "
+                "&& document.querySelector('#save').disabled")

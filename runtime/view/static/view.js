@@ -4,10 +4,12 @@
 "use strict";
 const $ = (id) => document.getElementById(id);
 const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
-                chartNames: null };
+                chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [] };
 window.labsimView = state;
 
-const world = new LV.WorldView($("world"), (i) => selectRobot(i));
+// a robot dragged on the canvas: the server puts it there (or says why not) and the trace records it
+const placeRobot = (i, x, y, heading) => { notice(""); send({ type: "place", robot: i, x, y, heading }); };
+const world = new LV.WorldView($("world"), (i) => selectRobot(i), placeRobot);
 const chart = new LV.Chart($("chart"), $("chart-now"));
 window.LV_world = world;  // what is drawn where (the browser tests read it)
 window.LV_chart = chart;
@@ -26,7 +28,7 @@ function connect() {
     try { msg = JSON.parse(e.data); } catch (err) { return; }
     if (msg.type === "scene") onScene(msg);
     else if (msg.type === "frame") onFrame(msg);
-    else if (msg.type === "error") notice("That change was refused:", msg.diagnostics.join("\n"), true);
+    else if (msg.type === "error") refused(msg);
   };
 }
 
@@ -48,6 +50,7 @@ function onScene(scene) {
   state.frame = null;
   $("diagnostics").hidden = scene.ok;
   $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
+  editorScene(scene);
   if (!scene.ok) { setStatus("does not compile", "bad"); return; }
   setStatus(scene.mode === "replay" ? "replay" : "live", "ok");  // after "Check again" too
   notice(scene.diagnostics.length ? "Warnings:" : "", scene.diagnostics.join("\n"), false);
@@ -67,6 +70,7 @@ function onScene(scene) {
   state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
   pickChart(scene);
+  world.onPlace = scene.mode === "live" ? placeRobot : null;
   world.setScene(scene);
   if (state.robot >= scene.robots.length) selectRobot(0);
 }
@@ -258,11 +262,107 @@ function render() {
     r.values.forEach((v, k) => { if (state.rows[k]) state.rows[k].v.textContent = fmt(v); });
   }
   renderBreaks(f);
+  if ("edited" in f) $("editor-state").textContent = f.edited ? "applied, not saved" : "";
   renderImages(f.images);
   world.selected = state.robot;
   world.draw();
   chart.draw();
 }
+
+// -- the editor: the file in a textarea with line numbers; Apply checks it (its problems at their
+// line and column, the old run going on) and restarts with it; Save writes it over the file -----
+function editorScene(scene) {
+  const live = scene.mode === "live", ro = !!scene.read_only;
+  $("edit").hidden = !live;
+  $("edit-here").hidden = !live || ro;
+  $("read-only").hidden = !(live && ro);
+  $("source").readOnly = ro;
+  $("apply").disabled = ro; $("save").disabled = ro;
+  $("editor-name").textContent = scene.path + (ro ? " (read-only: labsim view --read-only)" : "");
+  if (typeof scene.source === "string" && (!state.editing || state.applied)) {
+    $("source").value = scene.source;  // a fresh run: its text (the page's own edit, once applied)
+    state.applied = false;
+    markProblems([]);
+  }
+  $("editor-state").textContent = scene.edited ? "applied, not saved" : "";
+}
+
+function openEditor(open) {
+  state.editing = open;
+  $("editor-panel").hidden = !open;
+  if (open) { $("diagnostics").hidden = true; gutter(); $("source").focus(); }
+}
+
+function gutter(bad) {
+  const n = $("source").value.split("\n").length, marks = new Set(bad || state.badLines || []);
+  $("gutter").textContent = "";
+  for (let i = 1; i <= n; i++) {
+    const line = document.createElement("div");
+    line.textContent = String(i);
+    if (marks.has(i)) line.className = "bad";
+    $("gutter").appendChild(line);
+  }
+  $("gutter").scrollTop = $("source").scrollTop;
+}
+
+function markProblems(places) {
+  const ul = $("problems");
+  ul.innerHTML = "";
+  state.badLines = places.map((p) => p.line);
+  for (const p of places) {
+    const li = document.createElement("li");
+    li.className = p.severity === "warning" ? "warning" : "error";
+    li.textContent = `line ${p.line}, column ${p.col}: ${p.message}`;
+    li.addEventListener("click", () => goTo(p.line, p.col));
+    ul.appendChild(li);
+  }
+  gutter();
+  if (places.length) goTo(places[0].line, places[0].col);
+}
+
+function goTo(line, col) {  // put the caret at a line and column of the text
+  const lines = $("source").value.split("\n");
+  let at = 0;
+  for (let i = 0; i < line - 1 && i < lines.length; i++) at += lines[i].length + 1;
+  at += Math.max(0, col - 1);
+  $("source").focus();
+  $("source").setSelectionRange(at, at + 1);
+  $("source").scrollTop = Math.max(0, (line - 4) * 17);
+}
+
+function refused(msg) {
+  if (state.pendingEdit && msg.places && msg.places.length) {
+    state.pendingEdit = false;
+    markProblems(msg.places);
+    notice("Not applied: the file has errors (the run goes on):", msg.diagnostics.join("\n"), true);
+    return;
+  }
+  state.pendingEdit = false;
+  notice("That change was refused:", msg.diagnostics.join("\n"), true);
+}
+
+$("edit").addEventListener("click", () => openEditor(!state.editing));
+$("edit-here").addEventListener("click", () => openEditor(true));
+$("close-editor").addEventListener("click", () => openEditor(false));
+$("source").addEventListener("input", () => gutter());
+$("source").addEventListener("scroll", () => { $("gutter").scrollTop = $("source").scrollTop; });
+$("source").addEventListener("keydown", (e) => {  // Tab indents (two spaces, as YAML wants), not leaves
+  if (e.key !== "Tab") return;
+  e.preventDefault();
+  const t = $("source"), a = t.selectionStart;
+  t.setRangeText("  ", a, t.selectionEnd, "end");
+  gutter();
+});
+$("apply").addEventListener("click", () => {
+  notice(""); markProblems([]);
+  state.pendingEdit = true; state.applied = true;
+  send({ type: "apply", text: $("source").value });
+});
+$("save").addEventListener("click", () => {
+  notice("");
+  send({ type: "save", text: $("source").value });
+  state.saved = $("source").value;
+});
 
 // -- breakpoints: the list (each with its remove button) and the one the run paused on ----------
 const BREAK_HINT = { when: "sonar5 < 0.3", state: "any, or a state's name", rule: "a rule's id", time: "12.5" };
@@ -345,7 +445,7 @@ $("timeline").addEventListener("change", () => send({ type: "timeline", on: $("t
 $("recheck").addEventListener("click", () => send({ type: "recheck" }));
 $("scrubber").addEventListener("input", () => send({ type: "seek", tick: Number($("scrubber").value) }));
 document.addEventListener("keydown", (e) => {
-  if (e.target.tagName === "INPUT" || e.target.tagName === "SELECT") return;
+  if (["INPUT", "SELECT", "TEXTAREA"].includes(e.target.tagName)) return;
   if (e.key === " ") { e.preventDefault(); $("play").click(); }
   else if (e.key === ".") send({ type: "step" });
 });
