@@ -20,8 +20,9 @@ from yaml.nodes import ScalarNode
 from labsim.backends.scene.models import Kind
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, Type
-from labsim.dsl.evaluate import evaluate
+from labsim.dsl.evaluate import Unsupported, evaluate
 from labsim.dsl.infer import ExprChecker
+from labsim.dsl.lint import walk
 from labsim.dsl.parse import ParseError, parse_expr
 from labsim.dsl.program import Program
 from labsim.dsl.read import Parsed
@@ -52,7 +53,10 @@ class Watch:
             names[name] = readings[i]
         for name, i in self.slots:
             names[name] = slots[i]
-        value, _ = evaluate(self.node, names)
+        try:
+            value, _ = evaluate(self.node, names)
+        except Unsupported:  # what the checks let through and one tick cannot answer: never holds
+            return False
         return bool(value)
 
 
@@ -98,30 +102,14 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                               "tick at a time", notes=("make it a signal in the file (let:) "
                                                                        "and watch the signal",)))
     report.raise_if_errors()
-    used = _names(e)
-    return Watch(
+    return Watch(  # every name it may read (a name inside a group is read too)
         text=text, node=e,
-        channels=tuple((n, program.channels.index(n)) for n in program.channels if n in used),
+        channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
         slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
-                    if n in used and n in program.slot_of),
+                    if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
                    **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s})
 
 
-def _walk(e: object) -> list[object]:
-    out: list[object] = [e]
-    if isinstance(e, (list, tuple)):
-        return [x for item in e for x in _walk(item)]
-    for field in getattr(e, "__dataclass_fields__", {}):
-        value = getattr(e, field)
-        if isinstance(value, (ast.Expr, list, tuple)):
-            out += _walk(value)
-    return out
-
-
 def _calls(e: ast.Expr) -> list[ast.Call]:
-    return [x for x in _walk(e) if isinstance(x, ast.Call)]
-
-
-def _names(e: ast.Expr) -> set[str]:
-    return {x.id for x in _walk(e) if isinstance(x, ast.Name)}
+    return [x for x in walk(e) if isinstance(x, ast.Call)]

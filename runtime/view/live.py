@@ -115,6 +115,7 @@ class LiveSession(Session):
         self._sensors = sensor_columns(program.channels, kinds)
         self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
+        self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
         self._sonars = [[program.channels.index(s.name) for s in r.model.sonars if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
@@ -219,7 +220,7 @@ class LiveSession(Session):
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
                 "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
-                "samples": [[round((t + 1) * dt, 9), *(_short(v) for v in self._values(rd, sl)), *done]
+                "samples": [[round((t + 1) * dt, 9), *self._sample(rd, sl), *done]
                             for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
@@ -236,6 +237,19 @@ class LiveSession(Session):
         values += [number(slots[s]) for s in self._lets]
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
+
+    def _sample(self, read: list, slots: list) -> list[float | str | None]:
+        """``_values`` for a chart sample, built for speed (a frame has hundreds of them):
+        four decimals, enough to draw."""
+        out: list[float | str | None] = []
+        for value in [read[i] if k < 0 else _part(read[i], k) for _, i, k in self._sensors] + \
+                [slots[s] for s in self._sample_slots]:
+            if type(value) is float and value - value == 0.0:  # finite
+                out.append(round(value, 4))
+            else:
+                n = number(value)
+                out.append(round(n, 4) if isinstance(n, float) else n)
+        return out
 
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed

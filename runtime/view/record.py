@@ -39,6 +39,20 @@ class PathThinner:
         self._last: tuple[float, float] | None = None  # the last point seen, not kept
 
     def add(self, x: float, y: float) -> None:
+        d = self._direction
+        if d is not None:  # the common case, on every tick: still on the line (nan is not)
+            a, tol = self._anchor, self.tol
+            assert a is not None
+            dx, dy = x - a[0], y - a[1]
+            along, off = dx * d[0] + dy * d[1], dx * d[1] - dy * d[0]
+            if -tol <= off <= tol and along >= self._along - tol:
+                if along > self._along:
+                    self._along = along
+                self._last = (x, y)
+                return
+        self._add(x, y)
+
+    def _add(self, x: float, y: float) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             return
         a = self._anchor
@@ -96,6 +110,9 @@ class TickRecorder(Observer):
         self.xy = xy
         self.paths = [PathThinner() for _ in xy]
         self.samples = [[] for _ in xy]
+        self.stride = 1  # ticks between two samples kept: about twice what a frame sends
+        self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
+        self._taken = [0] * len(xy)  # per robot, the tick of the last take
 
     def bind(self, run: RunState) -> None:
         self._run = run
@@ -105,11 +122,14 @@ class TickRecorder(Observer):
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
-        kept = self.samples[i]
         assert self._run is not None
-        kept.append((self._run.tick_index, list(values), list(robot.program.slots)))
-        if len(kept) > MAX_SAMPLES_KEPT:
-            del kept[::2]
+        t = self._run.tick_index
+        if t >= self._next[i]:  # copying a tick's readings and slots costs: only the ticks a frame may send
+            self._next[i] = t + self.stride
+            kept = self.samples[i]
+            kept.append((t, list(values), list(robot.program.slots)))
+            if len(kept) > MAX_SAMPLES_KEPT:
+                del kept[::2]
         if self.breaks and self.hit is None:
             self._check(robot, rule, values)
 
@@ -133,6 +153,10 @@ class TickRecorder(Observer):
         """Up to ``at_most`` of the ticks kept since the last take, evenly spread, the last
         tick left out (the frame itself shows it)."""
         kept, self.samples[robot] = self.samples[robot][:-1], []
+        if self._run is not None:  # the next frame's ticks are like this one's: keep about 2 x at_most
+            t = self._run.tick_index
+            self.stride = max(1, (t - self._taken[robot]) // (2 * at_most))
+            self._taken[robot] = t
         if len(kept) <= at_most:
             return kept
         step = len(kept) / at_most

@@ -381,7 +381,7 @@ LV.WorldView = class {
     this._slewDial(m);
     if (partial && f.note) {  // say plainly what a replay cannot draw
       ctx.fillStyle = "#8a2d00"; ctx.font = "12px system-ui";
-      ctx.fillText(f.note, 10, this.canvas.clientHeight - 10);
+      ctx.fillText(f.note, 10, 18);  // at the top: the floor and the help line are at the bottom
     }
   }
 
