@@ -370,7 +370,10 @@ class LiveSession(Session):
             raise BadMessage("'robot' must be the index of a robot (not a mechanism)")
         x, y = finite(msg.get("x"), "x"), finite(msg.get("y"), "y")
         heading = math.remainder(finite(msg.get("heading"), "heading"), math.tau)
-        why = self.run.place(robot, x, y, heading)
+        x0, y0, x1, y1 = self.run.program.world.bounds
+        # far outside, a simulator's numbers stop meaning anything (and chipmunk may abort)
+        why = "it is outside the world" if not (x0 - 1 <= x <= x1 + 1 and y0 - 1 <= y <= y1 + 1) \
+            else self.run.place(robot, x, y, heading)
         if why is not None:
             raise ChangeRefused([f"{self.run.robots[robot].name} was not moved to ({x:.2f}, {y:.2f}): {why}"])
         self.recorder.paths[robot].jump(x, y)

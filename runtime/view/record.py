@@ -78,7 +78,7 @@ class PathThinner:
 
     def jump(self, x: float, y: float) -> None:
         """The robot was put somewhere else: the path starts again there (no line across)."""
-        self._anchor = None
+        self._anchor, self._direction, self._last = None, None, None
         self.points.append((math.nan, math.nan))
         self.add(x, y)
 

@@ -456,6 +456,14 @@ def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> No
     worst = max(min(_off_segment(p, a, b) for a, b in itertools.pairwise(kept)) for p in points)
     assert worst <= 0.0105  # within about twice the tolerance of the drawn line, everywhere
     assert thin.take() == []
+    for k in range(10):  # on a line, then put elsewhere by hand: the path lifts the pen, then goes on
+        thin.add(k * 0.01, 0.0)
+    thin.jump(5.0, 5.0)
+    for k in range(1, 10):
+        thin.add(5.0, 5.0 + k * 0.01)
+    after = thin.take()
+    gap = next(i for i, (x, _) in enumerate(after) if math.isnan(x))
+    assert after[gap + 1] == (5.0, 5.0) and all(math.isfinite(x) for x, _ in after[gap + 1:])
 
 
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
@@ -526,6 +534,8 @@ def test_a_robot_put_by_hand_is_in_the_trace_and_replays_bit_for_bit(tmp_path: P
     s.advance(60)
     s.handle({"type": "place", "robot": 0, "x": -1.25, "y": 0.5, "heading": 2.0})
     s.advance(60)
+    with pytest.raises(ChangeRefused, match="outside the world"):
+        s.handle({"type": "place", "robot": 0, "x": 1e300, "y": 0.0, "heading": 0.0})
     for bad in ({"robot": 3, "x": 0, "y": 0, "heading": 0}, {"robot": 0, "x": "a", "y": 0, "heading": 0}):
         with pytest.raises(BadMessage):
             s.handle({"type": "place", **bad})
