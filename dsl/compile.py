@@ -31,13 +31,15 @@ from labsim.dsl.unbounded import check_unbounded
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
-from labsim.foundation.source import load
+from labsim.foundation.source import load, loads
 
 
 def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
-                 strict: bool = False, budgets: Budgets = DEFAULT_BUDGETS) -> Program:
+                 strict: bool = False, budgets: Budgets = DEFAULT_BUDGETS, text: str | None = None) -> Program:
     """Load, read, check and compile a behaviour file; LabsimError lists every problem.
 
+    ``text``, when given, is compiled as the file at ``path`` would be (its world found from
+    there): a live view's edit, not yet saved.
     ``overrides`` set parameters (``--set front=1.0``); ``seed`` replaces the file's ``seed:``.
     The linter's warnings go on the Program; ``strict`` raises them as errors instead.
     ``budgets`` bound its robots, cameras and world (``labsim.dsl.budget``).
@@ -45,7 +47,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     if seed is not None and not (isinstance(seed, int) and 0 <= seed <= WHOLE_LIMIT):
         raise LabsimError([Diagnostic("seed", f"the seed is a whole number from 0 to {WHOLE_LIMIT} (2**53), "
                                               f"not {str(seed)[:40]}")])
-    doc = load(path)
+    doc = load(path) if text is None else loads(text, str(path))
     report = Report()
     bf = read(doc, report)
     checked = check(bf, report, overrides)

@@ -24,12 +24,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from labsim.backends.protocol import BackendError
 from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.dsl.builtins import Type
 from labsim.dsl.support import STATE
 from labsim.foundation.inert import inert
 from labsim.runtime.state import RobotRun, RunState
-from labsim.runtime.trace import BATCH, TraceWriter, csv_cell
+from labsim.runtime.trace import BATCH, Places, TraceWriter, csv_cell, place_event
 
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
@@ -92,13 +93,19 @@ class Inputs(Observer):
     ``applied`` for the trace's events column.
     """
 
-    def __init__(self, schedule: Schedule):
+    def __init__(self, schedule: Schedule, places: Places | None = None,
+                 place: Callable[[int, float, float, float], str | None] | None = None):
         self.schedule = schedule
         self.applied: list[str] = []  # this tick's moves, "name=value"
         self._slots: list[list] = []
+        self.places = dict(places or {})  # a replayed trace's robots put by hand, by tick
+        self.notes: dict[int, list[str]] = {}  # events done live, for the trace (a drag)
+        self._place = place
+        self._robots: dict[str, int] = {}
 
     def bind(self, run: RunState) -> None:
         self._slots = [r.program.slots for r in run.robots]
+        self._robots = {r.name: r.index for r in run.robots}
 
     def before_tick(self, tick: int) -> None:
         self.applied = []
@@ -106,6 +113,20 @@ class Inputs(Observer):
             for s in self._slots:
                 s[slot] = value
             self.applied.append(text)
+        if self.places and tick in self.places:
+            self._replace(tick)
+        if self.notes:
+            self.applied += self.notes.pop(tick, ())
+
+    def _replace(self, tick: int) -> None:
+        """Put the robots where the replayed trace's run put them, before this tick senses."""
+        for name, x, y, h in self.places.pop(tick):
+            if name not in self._robots or self._place is None:
+                raise BackendError(f"the replayed trace puts robot '{name}' by hand, which this run cannot")
+            why = self._place(self._robots[name], x, y, h)
+            if why is not None:
+                raise BackendError(f"the replayed trace puts robot '{name}' at ({x:g}, {y:g}), but {why}")
+            self.applied.append(place_event(name, x, y, h))
 
     def move(self, tick: int, slot: int, value: float, text: str) -> None:
         """A move from tick ``tick`` on (a live drag lands on the next tick's signals)."""

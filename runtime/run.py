@@ -63,7 +63,7 @@ from labsim.runtime.result import (
 )
 from labsim.runtime.state import RobotRun
 from labsim.runtime.tick import make_tick
-from labsim.runtime.trace import FORMAT, TraceFull, TraceWriteError, TraceWriter
+from labsim.runtime.trace import FORMAT, Places, TraceFull, TraceWriteError, TraceWriter, place_event
 
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
 # The summary names at most this many lines of the file whose logs were not all printed, then
@@ -73,13 +73,14 @@ UNPRINTED_SHOWN = 20
 
 def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
                       seed: int | None = None, strict: bool = False,
-                      budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
+                      budgets: Budgets = DEFAULT_BUDGETS, text: str | None = None) -> Behaviour:
     """Compile a behaviour file; raises LabsimError listing every problem in it.
 
     ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``;
-    ``budgets`` bound what its runs may cost (docs/security.md).
+    ``budgets`` bound what its runs may cost (docs/security.md); ``text`` is compiled in
+    place of the file's own (a live view's edit).
     """
-    return Behaviour(compile_file(path, overrides, seed, strict, budgets), budgets)
+    return Behaviour(compile_file(path, overrides, seed, strict, budgets, text), budgets)
 
 
 @dataclass
@@ -90,7 +91,7 @@ class Behaviour:
     def bind(self, backend: Backend, *, trace: str | Path | None = None,
              warn: Callable[[str], None] | None = None, log: Callable[[str], None] | None = None,
              replay: Replay | None = None, watch: bool = False,
-             observers: Sequence[Observer] = ()) -> Run:
+             observers: Sequence[Observer] = (), places: Places | None = None) -> Run:
         """Open the behaviour's world on a backend, ready to tick.
 
         ``warn`` is told each runtime warning as it happens, ``log`` each line a ``log(...)``
@@ -100,7 +101,7 @@ class Behaviour:
         view); ``observers`` are the caller's own, after labsim's.
         """
         return Run(self.program, backend, trace_path=trace, warn=warn, log=log, replay=replay,
-                   budgets=self.budgets, watch=watch, observers=observers)
+                   budgets=self.budgets, watch=watch, observers=observers, places=places)
 
 
 class Run:
@@ -109,7 +110,7 @@ class Run:
     def __init__(self, program: Program, backend: Backend, *, trace_path: str | Path | None = None,
                  warn: Callable[[str], None] | None = None, log: Callable[[str], None] | None = None,
                  replay: Replay | None = None, budgets: Budgets = DEFAULT_BUDGETS, watch: bool = False,
-                 observers: Sequence[Observer] = ()):
+                 observers: Sequence[Observer] = (), places: Places | None = None):
         self.program = program
         self.budgets = budgets
         self.backend = backend
@@ -142,7 +143,7 @@ class Run:
         backend.open(program.world, requests, self.dt, program.seed)
         self.sense, self._act, self.step = backend.sense, backend.act, backend.step
         self.noise = self._noise()
-        self.observers = self._observers(trace_path, log or warn, replay, watch, observers)
+        self.observers = self._observers(trace_path, log or warn, replay, watch, observers, places)
         for o in self.observers:
             o.bind(self)
         self.tick = make_tick(self, hooks(self.observers))
@@ -178,11 +179,14 @@ class Run:
         return io
 
     def _observers(self, trace_path: str | Path | None, log: Callable[[str], None] | None,
-                   replay: Replay | None, watch: bool, extra: Sequence[Observer]) -> list[Observer]:
-        """labsim's observers this run needs, then the caller's: chosen once, here."""
+                   replay: Replay | None, watch: bool, extra: Sequence[Observer],
+                   places: Places | None) -> list[Observer]:
+        """labsim's observers this run needs, then the caller's: chosen once, here. A live view
+        (``watch``) may put robots by hand: its inputs record that in the trace's events."""
         p = self.program
         out: list[Observer] = []
-        self.inputs = Inputs(self._schedule(replay)) if p.slider_names or p.timeline or replay else None
+        wanted = p.slider_names or p.timeline or replay or places or watch
+        self.inputs = Inputs(self._schedule(replay), places, getattr(self.backend, "place", None)) if wanted else None
         if self.inputs is not None:
             out.append(self.inputs)
         if p.targets:
@@ -257,6 +261,17 @@ class Run:
         value = min(hi, max(lo, value))
         assert self.inputs is not None  # a behaviour with sliders has inputs
         self.inputs.move(self.tick_index, p.slot_of[name], value, f"{name}={value:g}")
+
+    def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
+        """Put a robot at a pose now, before the next tick senses (a live view's drag); why
+        not, when refused. Recorded in the trace's events column, so a replay does the same."""
+        place = getattr(self.backend, "place", None)
+        why: str | None = place(robot, x_m, y_m, heading_rad) if place is not None else "this backend cannot"
+        if why is None:
+            assert self.inputs is not None  # a watched run has inputs
+            text = place_event(self.robots[robot].name, x_m, y_m, heading_rad)
+            self.inputs.notes.setdefault(self.tick_index, []).append(text)
+        return why
 
     @property
     def last_rule(self) -> list[int]:

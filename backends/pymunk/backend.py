@@ -121,6 +121,15 @@ class PymunkBackend:
         self.sense, self.act, self.command = sim.sense, sim.act, sim.command
         self.step, self.pose, self.contacts = sim.step, sim.pose, sim.contacts
 
+    def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
+        """Put robot ``robot`` at a pose, at rest; None when done, or why it was refused
+        (an overlap, or a world whose robots cannot be moved: a mechanism's)."""
+        place = getattr(self._sim, "place", None)
+        if place is None:
+            return "this world has no robot to move"
+        result: str | None = place(robot, x_m, y_m, heading_rad)
+        return result
+
     def close(self) -> None:
         if self.space is None:
             return

@@ -158,6 +158,24 @@ class FleetSimulator:
                 x, y = bodies[r].position
                 laps[r] = tracker.update(r, x, y)
 
+    def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
+        """Put a robot at a pose, at rest (a hand moving it: a live view's drag); None when
+        done, or why not: it would overlap a wall, a block or another robot (nothing moves)."""
+        body = self.bodies[robot]
+        before = (body.position, body.angle)
+        body.position, body.angle = (x_m, y_m), heading_rad
+        self.space.reindex_shapes_for_body(body)
+        shape = next(iter(body.shapes))
+        hits = [h for h in self.space.shape_query(shape) if h.shape is not None and h.shape.body is not body]
+        if hits:
+            body.position, body.angle = before
+            self.space.reindex_shapes_for_body(body)
+            what = "another robot" if any(h.shape.body is not self.space.static_body for h in hits) \
+                else "a wall or a block"
+            return f"it would overlap {what} there"
+        body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+        return None
+
     def pose(self, robot: int) -> tuple[float, float, float]:
         body = self.bodies[robot]
         x, y = body.position

@@ -29,7 +29,7 @@ from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.labs import copy_lab, labs
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
-from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
+from labsim.runtime.trace import TraceFormatError, place_events, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
     from labsim.runtime.serve.server import Server
@@ -101,17 +101,17 @@ def cmd_run(args: argparse.Namespace) -> int:
         _check_writable(args.trace, inputs)
     if args.json not in (None, "-"):
         check_json_output(args.json, inputs)
-    replay = None
+    replay, places = None, None
     if args.replay:
         try:
             recorded = read_trace(args.replay)
-            replay = slider_events(recorded)
+            replay, places = slider_events(recorded), place_events(recorded)
         except TraceFormatError as e:
             raise LabsimError([e.diagnostic(args.replay)]) from None
         if recorded.cut_short():
             print_warning(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
     backend = load_backend(args.backend, **_backend_options(args))
-    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay)
+    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, places=places)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
@@ -296,7 +296,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     return view(args.file, overrides=parse_overrides(args.set), seed=args.seed, backend=args.backend,
                 backend_options=options, host=args.host, port=args.port, trace=args.trace,
                 open_browser=not args.no_browser, warn=print_warning, report=print_diagnostics,
-                budgets=budgets(args))
+                budgets=budgets(args), breaks=args.breaks, read_only=args.read_only)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

@@ -161,6 +161,10 @@ def _view(p: argparse.ArgumentParser) -> None:
                                                                    "(default: %(default)s)")
     p.add_argument("--trace", metavar="PATH", help="record the live run, slider moves included, to PATH")
     p.add_argument("--no-browser", action="store_true", help="print the URL only; do not open a browser")
+    p.add_argument("--break", dest="breaks", action="append", default=[], metavar="WHEN",
+                   help="pause the live run when WHEN happens: a condition ('sonar5 < 0.3'), 'state', "
+                        "'state:NAME', 'rule:ID' or 'time:SECONDS' (repeatable)")
+    p.add_argument("--read-only", action="store_true", help="no editing or saving the file in the page")
     p.add_argument("--sim-host", type=options.host, default=None,
                    help="CoppeliaSim's address, with --backend coppeliasim (default: 127.0.0.1)")
     p.add_argument("--sim-port", type=options.port, default=None,

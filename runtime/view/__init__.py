@@ -27,7 +27,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
          backend_options: dict[str, object] | None = None, host: str = "127.0.0.1",
          port: int = DEFAULT_PORT, trace: str | None = None, open_browser: bool = True,
          warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None],
-         budgets: Budgets = DEFAULT_BUDGETS) -> int:
+         budgets: Budgets = DEFAULT_BUDGETS, breaks: list[str] | None = None, read_only: bool = False) -> int:
     """Serve the page for a behaviour file or a trace until Ctrl-C; the exit code.
 
     A behaviour that does not compile is reported (``report``) and the page shows the same
@@ -40,11 +40,11 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
     if not 0 <= port < 65536:
         raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
-    session = _session(path, overrides, seed, backend, backend_options, trace, warn, budgets)
+    session = _session(path, overrides, seed, backend, backend_options, trace, warn, breaks or [], read_only, budgets)
     broken = False
     if isinstance(session, LiveSession) and not session.load():
-        refused = [d for d in session.problems if d.path.startswith("--trace ")]
-        if refused:  # an output over an input is the command line's mistake: no page, exit 2
+        refused = [d for d in session.problems if d.path.startswith(("--trace ", "--break"))]
+        if refused:  # an output over an input, a bad breakpoint: the command line's mistake, no page, exit 2
             session.close()
             raise LabsimError(refused)
         report(session.problems)
@@ -84,14 +84,16 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
 
 def _session(path: str, overrides: dict[str, str], seed: int | None, backend: str,
              backend_options: dict[str, object] | None, trace: str | None,
-             warn: Callable[[str], None], budgets: Budgets = DEFAULT_BUDGETS) -> Session:
+             warn: Callable[[str], None], breaks: list[str], read_only: bool = False,
+             budgets: Budgets = DEFAULT_BUDGETS) -> Session:
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.replay import load_replay
 
     if not os.path.lexists(path):  # anything else there is for the one way in to judge
         raise LabsimError([Diagnostic(path, "no such file")])
     if file_kind(path) in ("trace", "golden"):  # else a behaviour: its loader says what is wrong
-        for flag, given in (("--set", overrides), ("--seed", seed is not None), ("--trace", trace)):
+        for flag, given in (("--set", overrides), ("--seed", seed is not None), ("--trace", trace),
+                            ("--break", breaks)):
             if given:
                 raise LabsimError([Diagnostic(flag, f"a replayed trace takes no {flag}")])
         try:
@@ -104,4 +106,4 @@ def _session(path: str, overrides: dict[str, str], seed: int | None, backend: st
     if seed is not None and seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
     return LiveSession(path, overrides, seed=seed, backend=backend, backend_options=backend_options,
-                       trace=trace, warn=warn, budgets=budgets)
+                       trace=trace, warn=warn, breaks=breaks, read_only=read_only, budgets=budgets)

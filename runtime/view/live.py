@@ -11,19 +11,22 @@ the page; ``recheck`` tries again.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
+from labsim.dsl.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import check_output
+from labsim.foundation.files import check_output, read_text, write_output
 from labsim.foundation.inert import inert
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
 from labsim.runtime.budgets import out_of_memory_message
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
+from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
 from labsim.runtime.view.frames import (
     Json,
     channel_kinds,
@@ -35,7 +38,12 @@ from labsim.runtime.view.frames import (
     world_doc,
 )
 from labsim.runtime.view.observe import ObservedBackend
+from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, Session, finite, name
+
+_NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
+MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
+SAMPLE_NUMBERS = 240  # chart numbers a frame carries at most, all robots together (a frame < 4 KB)
 
 
 class LiveSession(Session):
@@ -44,7 +52,8 @@ class LiveSession(Session):
     def __init__(self, path: str | Path, overrides: dict[str, str], *, seed: int | None = None,
                  backend: str = "pymunk", backend_options: dict[str, object] | None = None,
                  trace: str | Path | None = None, warn: Callable[[str], None] | None = None,
-                 timeline: bool = True, budgets: Budgets = DEFAULT_BUDGETS, **session: Any):
+                 timeline: bool = True, budgets: Budgets = DEFAULT_BUDGETS, breaks: list[str] | None = None,
+                 read_only: bool = False, **session: Any):
         super().__init__(0.05, **session)
         self.path = str(path)
         self.overrides = dict(overrides)
@@ -60,6 +69,9 @@ class LiveSession(Session):
         self.problems: list[Diagnostic] = []  # the file's warnings, or why there is no run
         self.refused: list[Diagnostic] = []  # why the last change did not compile
         self.ever_ran = False
+        self.breaks = list(breaks or [])  # as written: compiled anew for every run
+        self.read_only = read_only  # no editing the file in the page
+        self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
 
     # -- the run ------------------------------------------------------------------------
     def load(self, overrides: dict[str, str] | None = None) -> bool:
@@ -70,9 +82,10 @@ class LiveSession(Session):
         """
         wanted = self.overrides if overrides is None else overrides
         try:
-            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, budgets=self.budgets)
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, text=self.text, budgets=self.budgets)
             if self.trace_path:  # the world may have changed with the file: never write over it
                 check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
+            breaks = [parse_break(behaviour.program, b) for b in self.breaks]
         except LabsimError as e:
             self.refused = list(e.diagnostics)
             if self.run is None:
@@ -81,7 +94,7 @@ class LiveSession(Session):
         self.overrides = dict(wanted)
         self.close()
         try:
-            self._bind(behaviour)
+            self._bind(behaviour, breaks)
         except (LabsimError, BackendError) as e:
             self.run = None
             self.problems = list(e.diagnostics) if isinstance(e, LabsimError) else [Diagnostic(self.path, str(e))]
@@ -90,11 +103,16 @@ class LiveSession(Session):
         self.ever_ran = True
         return True
 
-    def _bind(self, behaviour: Behaviour) -> None:
+    def _bind(self, behaviour: Behaviour, breaks: list[Breakpoint]) -> None:
         program = behaviour.program
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
+        self.recorder = TickRecorder()
+        self.recorder.breaks = breaks
         self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
-                                  replay=None if self.timeline else {}, watch=True)
+                                  replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
+        # where each robot's x and y sit in its readings: known once the backend is open
+        self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
+                             for r, at in zip(self.run.robots, self.observed.index)])
         self.pacer.dt_s = program.dt_s
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
@@ -102,6 +120,7 @@ class LiveSession(Session):
         self._sensors = sensor_columns(program.channels, kinds)
         self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
+        self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
@@ -119,7 +138,8 @@ class LiveSession(Session):
         run = self.run
         if run is None:
             return 0
-        tick = run.tick
+        tick, rec = run.tick, self.recorder
+        rec.hit = None  # Play or Step goes on from a breakpoint
         k = 0
         try:
             with memory_cap(run.budgets.memory_mb):  # the run's backstop, as Run.run has it
@@ -128,6 +148,9 @@ class LiveSession(Session):
                         if run.trace is not None:
                             run.trace.close()  # the stop condition held: the trace is complete
                         return k
+                    if rec.hit is not None:  # a breakpoint held on this tick: pause on it
+                        self.playing = False
+                        return k + 1
         except Exception as e:  # running out of memory ends the run with labsim's message; the page stays
             if not out_of_memory(e):
                 raise
@@ -150,10 +173,11 @@ class LiveSession(Session):
     def scene(self) -> Json:
         problems = [d.format() for d in self.problems]
         if self.run is None:
-            return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems)
+            return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems, **self._source())
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
-                   + [{"name": n, "group": "signal"} for n in p.single_signals]
+                   + [{"name": n, "group": "signal", "numeric": p.signal_types.get(n) in _NUMERIC}
+                      for n in p.single_signals]
                    + [{"name": n, "group": "slider"} for n in p.slider_names]
                    + [{"name": n, "group": "metric"} for n in p.metric_names])
         start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
@@ -167,7 +191,18 @@ class LiveSession(Session):
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
             states=list(p.state_names), stop_s=p.stop_horizon_s, timeline=self.timeline,
-            trace=str(self.trace_path) if self.trace_path else None)
+            trace=str(self.trace_path) if self.trace_path else None, **self._source())
+
+    def _source(self) -> Json:
+        """The scene's editor fields: the text the run was compiled from, whether it differs from
+        the file (an edit applied, not saved), and whether the page may edit at all."""
+        text = self.text
+        if text is None:
+            try:
+                text = read_text(self.path)
+            except LabsimError:
+                text = None
+        return {"source": text, "edited": self.text is not None, "read_only": self.read_only}
 
     def _slider_values(self) -> list[float]:
         assert self.run is not None
@@ -184,14 +219,14 @@ class LiveSession(Session):
         p = run.program
         metrics = run.result().robots if p.metric_names else {}
         robots = []
+        rec, dt = self.recorder, p.dt_s
+        # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
+        per = max(1, SAMPLE_NUMBERS // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
-            values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
-            values += [number(slots[s]) for s in self._lets]
-            values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
-            if p.metric_names:
-                values += [number(metrics[r.name].metrics[m]) for m in p.metric_names]
+            done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
+            values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,
@@ -200,11 +235,37 @@ class LiveSession(Session):
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
+                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
+                "samples": [[round((t + 1) * dt, 9), *self._sample(rd, sl), *done]
+                            for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
         return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
+                       breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
+
+    def _values(self, read: list | None, slots: list) -> list[float | str | None]:
+        """A robot's sensor, signal and slider columns from one tick's readings and slots."""
+        p = self.run.program if self.run is not None else None
+        assert p is not None
+        values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
+        values += [number(slots[s]) for s in self._lets]
+        values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
+        return values
+
+    def _sample(self, read: list, slots: list) -> list[float | str | None]:
+        """``_values`` for a chart sample, built for speed (a frame has hundreds of them):
+        four decimals, enough to draw."""
+        out: list[float | str | None] = []
+        for value in [read[i] if k < 0 else _part(read[i], k) for _, i, k in self._sensors] + \
+                [slots[s] for s in self._sample_slots]:
+            if type(value) is float and value - value == 0.0:  # finite
+                out.append(round(value, 4))
+            else:
+                n = number(value)
+                out.append(round(n, 4) if isinstance(n, float) else n)
+        return out
 
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed
@@ -265,6 +326,14 @@ class LiveSession(Session):
         if kind == "recheck":
             self.load()
             return True
+        if kind == "break":
+            self._break(msg)
+            return False
+        if kind == "place":
+            self._place(msg)
+            return False
+        if kind in ("apply", "save"):
+            return self._edit(kind, msg)
         raise BadMessage(f"unknown message type '{kind}'")
 
     def _slider(self, msg: dict) -> None:
@@ -275,6 +344,78 @@ class LiveSession(Session):
         if slider not in self.run.program.slider_ranges:
             raise BadMessage(f"no slider '{slider}'")
         self.run.set_slider(slider, value)
+
+    def _edit(self, kind: str, msg: dict) -> bool:
+        """Apply the page's text (compile it; restart with it when it compiles, else keep the run
+        and say why, with lines and columns), or save it over the file the view was opened with."""
+        text = msg.get("text")
+        if not isinstance(text, str) or len(text) > MAX_EDIT_CHARS:
+            raise BadMessage(f"'text' must be the file's text, at most {MAX_EDIT_CHARS:,} characters")
+        if self.read_only:
+            raise ChangeRefused([f"{self.path}: this view is read-only (labsim view --read-only)"])
+        if kind == "save":
+            self._save(text)
+            return False
+        before = self.text
+        self.text = text
+        if self.load():
+            return True
+        self.text = before
+        raise ChangeRefused([d.format() for d in self.refused],
+                            [{"line": d.line, "col": d.col, "message": d.message, "severity": d.severity}
+                             for d in self.refused if d.path == self.path])
+
+    def _save(self, text: str) -> None:
+        """Write the text over the view's own file, atomically (never over its world or trace,
+        never through a link)."""
+        if os.path.islink(self.path):
+            raise ChangeRefused([f"{self.path}: not saved: it is a link; save it in an editor"])
+        inputs = [self.run.program.world.source] if self.run is not None and self.run.program.world.source else []
+        try:
+            write_output(self.path, text, [*inputs, *([self.trace_path] if self.trace_path else [])])
+        except LabsimError as e:
+            raise ChangeRefused([d.format() for d in e.diagnostics]) from None
+        if self.text == text:
+            self.text = None  # the file holds what runs
+
+    def _place(self, msg: dict) -> None:
+        """Put a robot at a pose (a drag on the canvas), through the backend and into the trace."""
+        robot = msg.get("robot")
+        if self.run is None or isinstance(robot, bool) or not isinstance(robot, int) \
+                or not 0 <= robot < len(self.run.robots) or self.run.robots[robot].model is None:
+            raise BadMessage("'robot' must be the index of a robot (not a mechanism)")
+        x, y = finite(msg.get("x"), "x"), finite(msg.get("y"), "y")
+        heading = math.remainder(finite(msg.get("heading"), "heading"), math.tau)
+        x0, y0, x1, y1 = self.run.program.world.bounds
+        # far outside, a simulator's numbers stop meaning anything (and chipmunk may abort)
+        why = "it is outside the world" if not (x0 - 1 <= x <= x1 + 1 and y0 - 1 <= y <= y1 + 1) \
+            else self.run.place(robot, x, y, heading)
+        if why is not None:
+            raise ChangeRefused([f"{self.run.robots[robot].name} was not moved to ({x:.2f}, {y:.2f}): {why}"])
+        self.recorder.paths[robot].jump(x, y)
+
+    def _break(self, msg: dict) -> None:
+        """Add a breakpoint (checked against this run's program) or remove one by its index."""
+        if self.run is None:
+            raise BadMessage("there is no run to set a breakpoint in")
+        if "remove" in msg:
+            k = msg["remove"]
+            if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(self.breaks):
+                raise BadMessage("'remove' must be a breakpoint's index")
+            del self.breaks[k]
+            del self.recorder.breaks[k]
+            return
+        spec = msg.get("add")
+        if not isinstance(spec, str) or not spec.strip() or len(spec) > 500:
+            raise BadMessage("'add' must be a breakpoint, as --break takes it")
+        if len(self.breaks) >= MAX_BREAKPOINTS:
+            raise ChangeRefused([f"at most {MAX_BREAKPOINTS} breakpoints"])
+        try:
+            b = parse_break(self.run.program, spec, "breakpoint")
+        except LabsimError as e:
+            raise ChangeRefused([d.format() for d in e.diagnostics]) from None
+        self.breaks.append(b.spec)
+        self.recorder.breaks.append(b)
 
     def _params(self, msg: dict) -> bool:
         values = msg.get("values")
@@ -297,11 +438,20 @@ class LiveSession(Session):
 
 
 class ChangeRefused(Exception):
-    """A page's change (a parameter) that the checks refused; the message lists why."""
+    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
+    ``places`` where in the edited text (line, column, message) for the page's editor."""
 
-    def __init__(self, diagnostics: list[str]):
+    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
         super().__init__("\n".join(diagnostics))
         self.diagnostics = diagnostics
+        self.places = places or []
+
+
+def _short(v: object) -> float | str | None:
+    """A number for a path point or chart sample: five significant digits are plenty to draw
+    (a tenth of a millimetre across a 10 m world) and keep frames small."""
+    n = number(v)
+    return float(f"{n:.5g}") if isinstance(n, float) else n
 
 
 def _part(value: object, part: int) -> float | str | None:

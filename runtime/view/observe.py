@@ -71,6 +71,19 @@ class ObservedBackend:
     def pose(self, robot: int) -> tuple[float, float, float]:
         return self.inner.pose(robot)
 
+    def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
+        """Put a robot at a pose (a drag); why not, when the backend refuses or cannot."""
+        place = getattr(self.inner, "place", None)
+        if place is None:
+            return f"the {self.name} backend cannot move a robot"
+        result: str | None = place(robot, x_m, y_m, heading_rad)
+        if result is None and self.last:  # the page draws it there before the next tick senses
+            at = self.index[robot]
+            for channel, value in zip(("x", "y", "heading"), self.inner.pose(robot)):
+                if channel in at:
+                    self.last[robot][at[channel]] = value
+        return result
+
     def contacts(self, robot: int) -> ContactStats:
         return self.inner.contacts(robot)
 

@@ -4,8 +4,10 @@
 (``trace_world``, as ``labsim plot`` finds it), and plays its rows back tick by tick at the
 speed the page sets; a ``seek`` message jumps to a tick. A frame holds what the trace recorded: every
 robot's pose, state, rule and numeric columns. A trace holds no camera images and, of a
-mechanism, only its tracked body (the trace's x, y) and the slew angle (heading), so the rest
-of a mechanism is drawn as it stood at the start.
+mechanism, its tracked body (the trace's x, y), the slew angle (heading) and whatever bodies
+the behaviour recorded as ``<body>_x`` / ``<body>_z`` signals: those are drawn where they were,
+with what is fixed to them; the frame names the bodies the trace cannot place, and the page
+says so rather than draw them where they were not.
 """
 from __future__ import annotations
 
@@ -56,6 +58,7 @@ class ReplaySession(Session):
             by_tick[t][row[self._i["robot"]] if "robot" in self._i else ""] = row
         self.position = 0
         self.labels = [c for c in cols if c.startswith("label:")]
+        self._mechanism_layout()
 
     @property
     def tick(self) -> int:
@@ -112,16 +115,57 @@ class ReplaySession(Session):
                 "sonars": [_num(row, self._i, s) for s in sonars],
                 "values": [_num(row, self._i, c) for c in self.numeric],
             })
-        mech = None
-        first_robot = robots[0] if robots else None
-        if self.world is not None and self.world.mechanism is not None and first_robot is not None:
-            x, z, slew = first_robot["pose"]
-            moving = [b.name for b in self.world.mechanism.bodies if not b.static]
-            mech = {"bodies": {moving[-1]: [x, z, 0.0]} if moving else {}, "joints": {}, "targets": {},
-                    "partial": True, "slew": slew}
         first = next(iter(rows.values()), None)
+        mech = self._mechanism(first) if self.world is not None and self.world.mechanism is not None else None
         labels = {c.removeprefix("label:"): first[self._i[c]] for c in self.labels} if first else {}
         return message("frame", **self.controls(), robots=robots, mechanism=mech, sliders={}, labels=labels)
+
+    def _mechanism(self, row: list[str] | None) -> Json | None:
+        """What the trace holds of a mechanism: its tracked body (the trace's x, y), the bodies
+        it has ``<body>_x`` / ``<body>_z`` columns for, what is fixed to those, and the slew
+        (heading); ``missing`` names the moving bodies it cannot place, which are not drawn."""
+        if row is None:
+            return None
+        bodies: dict[str, list[float | str | None]] = {}
+        for body, (cx, cz, start) in self._mech_columns.items():
+            x = _num(row, self._i, cx)
+            z = _num(row, self._i, cz) if cz is not None else start[1]
+            if isinstance(x, float) and isinstance(z, float):
+                bodies[body] = [x, z, 0.0]
+        for parent, child, dx, dz in self._mech_fixed:  # a body fixed to one placed moves with it
+            if parent in bodies and child not in bodies:
+                px, pz, _ = bodies[parent]
+                bodies[child] = [float(px) + dx, float(pz) + dz, 0.0]  # type: ignore[arg-type]
+        missing = [b for b in self._mech_moving if b not in bodies]
+        return {"bodies": bodies, "joints": {}, "targets": {}, "partial": True,
+                "slew": _num(row, self._i, "heading"), "missing": missing,
+                "note": (f"not in this trace: {', '.join(missing)} (not drawn; a rope is drawn "
+                         "straight to the next body the trace places)") if missing else ""}
+
+    def _mechanism_layout(self) -> None:
+        """Which columns place which bodies of the world's mechanism (see ``_mechanism``)."""
+        self._mech_columns: dict[str, tuple[str, str | None, tuple[float, float]]] = {}
+        self._mech_fixed: list[tuple[str, str, float, float]] = []
+        self._mech_moving: list[str] = []
+        m = self.world.mechanism if self.world is not None else None
+        if m is None:
+            return
+        lower = {c.lower(): c for c in self.numeric}
+        moving = [b for b in m.bodies if not b.static]
+        self._mech_moving = [b.name for b in moving]
+        for k, b in enumerate(moving):
+            if k == len(moving) - 1 and "x" in self._i and "y" in self._i:
+                self._mech_columns[b.name] = ("x", "y", b.center)  # the body a trace tracks
+                continue
+            x = lower.get(f"{b.name.lower()}_x") or lower.get(f"{b.name.lower()}.x")
+            z = lower.get(f"{b.name.lower()}_z") or lower.get(f"{b.name.lower()}.z")
+            if x is not None:
+                self._mech_columns[b.name] = (x, z, b.center)
+        centre = {b.name: b.center for b in m.bodies}
+        for j in m.joints:
+            if j.kind == "fixed" and j.parent in centre and j.child in centre:
+                (px, pz), (cx, cz) = centre[j.parent], centre[j.child]
+                self._mech_fixed.append((j.parent, j.child, cx - px, cz - pz))
 
     def handle_other(self, kind: str, msg: dict) -> bool:
         if kind == "seek":

@@ -133,7 +133,7 @@ class ViewServer:
             self._ignore(page, str(e))
             return
         except ChangeRefused as e:  # the page that asked is told why; the run goes on
-            await self._send(page, _dumps(message("error", diagnostics=e.diagnostics)))
+            await self._send(page, _dumps(message("error", diagnostics=e.diagnostics, places=e.places)))
         except Exception as e:  # a page must not be able to stop the run: say what failed, go on
             self._ignore(page, f"it failed: {type(e).__name__}: {e}")
         self.dirty = True
@@ -199,7 +199,12 @@ class ViewServer:
             now = loop.time()
             flat_out = session.playing and session.pacer.speed is None
             budget = max(0.004, last_frame + FRAME_INTERVAL_S - now) if flat_out else FRAME_INTERVAL_S * 0.8
+            before = (session.playing, session.finished)
             ran += session.catch_up(budget)
+            if (session.playing, session.finished) != before:
+                # the stop seen on a tick that ran nothing (the frame before went out with the
+                # last tick): the pages must still hear that the run ended
+                self.dirty = True
             now = loop.time()
             if now - last_frame >= FRAME_INTERVAL_S:
                 if (ran or self.dirty or session.playing) and self.pages:

@@ -109,7 +109,7 @@ class Session:
         while ran < due:
             n = self.advance(min(CHECK_EVERY, due - ran))
             ran += n
-            if n == 0 or self.finished:
+            if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
                 self.playing = False
                 break
             if self.clock() - start >= budget_s:

@@ -6,6 +6,7 @@ a wall-clock time.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import math
 import socket
@@ -392,3 +393,188 @@ def test_simulator_address_options_go_with_coppeliasim_only(capsys: pytest.Captu
         main(["view", str(WALL), "--backend", "coppeliasim", "--sim-timeout", "0", "--no-browser"])
     assert stop.value.code == 2
     assert "argument --sim-timeout: give from 0.01 to 3600 seconds, not 0" in capsys.readouterr().err
+
+
+class _Socket:
+    """A page's socket that keeps what it is sent."""
+
+    def __init__(self) -> None:
+        self.sent: list[dict] = []
+
+    async def send_str(self, text: str) -> None:
+        self.sent.append(json.loads(text))
+
+
+def test_the_end_reaches_the_page_when_the_last_tick_went_out_with_the_frame_before(write) -> None:  # type: ignore[no-untyped-def]
+    from labsim.runtime.view.server import Page, ViewServer
+
+    short = write(WALL.read_text().replace("minutes: 25", "minutes: 0.01"), "short.yaml")
+    s = live(short)
+    s.clock = time.perf_counter
+    s.handle({"type": "speed", "value": "max"})
+    s.advance(12)  # the last tick that runs: the next one sees the stop and runs nothing
+    assert not s.finished
+    s.handle({"type": "play"})
+    server = ViewServer(s, log=lambda m: None)
+    page = _Socket()
+    server.pages.append(Page(page, "test"))  # type: ignore[arg-type]
+    server.dirty = False
+
+    async def scenario() -> None:
+        task = asyncio.ensure_future(server.pace())
+        for _ in range(100):
+            await asyncio.sleep(0.02)
+            if page.sent and page.sent[-1]["finished"]:
+                break
+        task.cancel()
+    asyncio.run(scenario())
+    assert page.sent and page.sent[-1]["finished"] and not page.sent[-1]["playing"]
+    s.close()
+
+
+def _off_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    ax, ay, bx, by = *a, *b
+    vx, vy = bx - ax, by - ay
+    t = max(0.0, min(1.0, ((p[0] - ax) * vx + (p[1] - ay) * vy) / ((vx * vx + vy * vy) or 1.0)))
+    return math.hypot(p[0] - ax - t * vx, p[1] - ay - t * vy)
+
+
+def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> None:
+    from labsim.runtime.view.record import PathThinner
+
+    # a square's three sides then a circle's arc, a point every 2 mm
+    points = [(k * 0.002, 0.0) for k in range(500)] + [(1.0, k * 0.002) for k in range(500)]
+    points += [(1.0 - k * 0.002, 1.0) for k in range(500)]
+    points += [(0.5 * math.cos(k / 200), 1.5 + 0.5 * math.sin(k / 200)) for k in range(600)]
+    thin = PathThinner(0.005)
+    for x, y in points:
+        thin.add(x, y)
+    kept = thin.take() + [points[-1]]  # the frame's pose ends what was kept
+    assert len(kept) < len(points) / 10
+    assert any(math.hypot(x - 1.0, y) <= 0.007 for x, y in kept)  # the corner at (1, 0), within the tolerance
+    assert any(math.hypot(x - 1.0, y - 1.0) <= 0.007 for x, y in kept)
+    worst = max(min(_off_segment(p, a, b) for a, b in itertools.pairwise(kept)) for p in points)
+    assert worst <= 0.0105  # within about twice the tolerance of the drawn line, everywhere
+    assert thin.take() == []
+    for k in range(10):  # on a line, then put elsewhere by hand: the path lifts the pen, then goes on
+        thin.add(k * 0.01, 0.0)
+    thin.jump(5.0, 5.0)
+    for k in range(1, 10):
+        thin.add(5.0, 5.0 + k * 0.01)
+    after = thin.take()
+    gap = next(i for i, (x, _) in enumerate(after) if math.isnan(x))
+    assert after[gap + 1] == (5.0, 5.0) and all(math.isfinite(x) for x, _ in after[gap + 1:])
+
+
+def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
+    s = live(WALL)
+    sizes = []
+    for _ in range(40):
+        s.advance(150)  # about what runs between two frames at "as fast as it goes"
+        frame = s.frame()
+        sizes.append(len(json.dumps(frame, separators=(",", ":"), allow_nan=False)))
+    robot = frame["robots"][0]
+    assert robot["path"] and all(len(p) == 2 for p in robot["path"])
+    columns = len(s.scene()["columns"])
+    assert 1 < len(robot["samples"]) <= 150 and all(len(r) == columns + 1 for r in robot["samples"])
+    times = [r[0] for r in robot["samples"]]
+    assert times == sorted(times) and times[-1] < frame["time"]
+    assert sum(sizes) / len(sizes) < 4096
+    s.advance(1)
+    assert s.frame()["robots"][0]["samples"] == []  # one tick: the frame itself shows it
+    s.close()
+
+
+def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    rows = read_trace(trace)
+    state = rows.columns.index("state")
+    turned = next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
+    s = live(WALL, breaks=["state:follow"])
+    s.handle({"type": "speed", "value": "max"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    hit = s.frame()["hit"]
+    assert hit["tick"] == turned and hit["state"] == rows.rows[turned][state] and not s.playing
+    assert s.tick == turned + 1
+    s.handle({"type": "step"})
+    assert s.tick == turned + 2 and s.frame()["hit"] is None
+    s.handle({"type": "break", "add": "time:4"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    assert s.frame()["hit"]["tick"] == 80 and s.frame()["breakpoints"] == ["state:follow", "time:4"]
+    with pytest.raises(ChangeRefused, match="did you mean 'sonar5'"):
+        s.handle({"type": "break", "add": "sonr5 < 0.3"})
+    with pytest.raises(ChangeRefused, match="no rule 'nope'"):
+        s.handle({"type": "break", "add": "rule:nope"})
+    with pytest.raises(BadMessage):
+        s.handle({"type": "break", "remove": 7})
+    s.handle({"type": "break", "remove": 0})
+    assert s.frame()["breakpoints"] == ["time:4"]
+    s.close()
+
+
+def test_a_bad_break_on_the_command_line_is_exit_2_with_its_column(capsys) -> None:  # type: ignore[no-untyped-def]
+    assert main(["view", str(WALL), "--break", "sonar5 < 0.3 and sonr9 > 1", "--no-browser", "--port", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "--break:1:18: error: unknown name 'sonr9' (did you mean 'sonar9'?)" in err
+    assert main(["view", str(WALL), "--break", "prev(sonar5, 0) < 1", "--no-browser", "--port", "0"]) == 2
+    assert "remembers earlier ticks" in capsys.readouterr().err
+
+
+def test_a_robot_put_by_hand_is_in_the_trace_and_replays_bit_for_bit(tmp_path: Path) -> None:
+    live_trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    s = live(WALL, trace=live_trace)
+    s.advance(40)
+    with pytest.raises(ChangeRefused, match=r"was not moved to .*overlap a wall"):
+        s.handle({"type": "place", "robot": 0, "x": 3.0, "y": -5.0, "heading": 0.0})
+    s.handle({"type": "place", "robot": 0, "x": 1.0, "y": 1.0, "heading": 0.3})
+    assert s.frame()["robots"][0]["pose"][:2] == [1.0, 1.0]
+    s.advance(60)
+    s.handle({"type": "place", "robot": 0, "x": -1.25, "y": 0.5, "heading": 2.0})
+    s.advance(60)
+    with pytest.raises(ChangeRefused, match="outside the world"):
+        s.handle({"type": "place", "robot": 0, "x": 1e300, "y": 0.0, "heading": 0.0})
+    for bad in ({"robot": 3, "x": 0, "y": 0, "heading": 0}, {"robot": 0, "x": "a", "y": 0, "heading": 0}):
+        with pytest.raises(BadMessage):
+            s.handle({"type": "place", **bad})
+    s.close()
+    assert main(["run", str(WALL), "--replay", str(live_trace), "--trace", str(replayed), "-q"]) == 0
+    a, b = read_trace(live_trace), read_trace(replayed)
+    assert b.rows[:len(a.rows)] == a.rows
+    events = [e for e in a.column("events") if e.startswith("place")]
+    assert events == ["place pioneer 1.0 1.0 0.3", "place pioneer -1.25 0.5 2.0"]
+
+
+def test_an_edit_that_breaks_the_file_keeps_the_run_and_one_that_compiles_restarts(write) -> None:  # type: ignore[no-untyped-def]
+    lab = write(WALL.read_text(), "wall.yaml")
+    s = live(lab)
+    scene = s.scene()
+    assert scene["source"] == WALL.read_text() and not scene["edited"] and not scene["read_only"]
+    s.advance(20)
+    broken = scene["source"].replace("sonar5", "sonr5", 1)
+    with pytest.raises(ChangeRefused) as refused:
+        s.handle({"type": "apply", "text": broken})
+    place = refused.value.places[0]
+    line = next(i for i, text in enumerate(broken.split("\n"), 1) if "sonr5" in text)
+    assert place["line"] == line and "sonr5" in place["message"] and place["col"] >= 1
+    assert s.tick == 20  # the old run goes on
+    fixed = scene["source"].replace("minutes: 25", "minutes: 1")
+    assert s.handle({"type": "apply", "text": fixed}) is True
+    assert s.tick == 0 and s.scene()["edited"] and s.scene()["source"] == fixed
+    assert s.run is not None and s.run.program.stop_horizon_s == 60
+    assert lab.read_text() == WALL.read_text()  # applied, not saved
+    s.handle({"type": "save", "text": fixed})
+    assert lab.read_text() == fixed and not s.scene()["edited"]
+    assert [p.name for p in lab.parent.iterdir() if p.name.startswith(".")] == []  # no temporary left
+    s.close()
+    ro = live(lab, read_only=True)
+    assert ro.scene()["read_only"]
+    for kind in ("apply", "save"):
+        with pytest.raises(ChangeRefused, match="read-only"):
+            ro.handle({"type": kind, "text": "x"})
+    with pytest.raises(BadMessage):
+        ro.handle({"type": "apply", "text": 5})
+    assert lab.read_text() == fixed
+    ro.close()

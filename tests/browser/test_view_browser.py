@@ -7,6 +7,7 @@ under CI (``CI=true``), where a missing browser fails. Screenshots are kept as a
 """
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -66,7 +67,7 @@ def browser() -> Iterator[Any]:
 class View:
     """A running ``labsim view`` and a page open on it."""
 
-    def __init__(self, browser: Any, args: list[str], query: str = ""):
+    def __init__(self, browser: Any, args: list[str], query: str = "", wait: bool = True):
         self.proc = subprocess.Popen([sys.executable, "-m", "labsim", "view", *args, "--port", "0", "--no-browser"],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert self.proc.stdout is not None
@@ -78,7 +79,8 @@ class View:
         self.errors: list[str] = []
         self.page.on("pageerror", lambda e: self.errors.append(str(e)))
         self.page.goto(self.url + query)
-        self.wait("window.labsimView.frames > 0")
+        if wait:  # a file that does not compile shows no frames
+            self.wait("window.labsimView.frames > 0")
 
     def wait(self, condition: str, timeout_ms: int = 8000) -> None:
         self.page.wait_for_function(condition, timeout=timeout_ms)
@@ -101,6 +103,8 @@ class View:
         return img
 
     def close(self) -> None:
+        if self.proc.returncode is not None:  # closed already (a test that reads the trace after)
+            return
         self.page.close()
         self.proc.send_signal(signal.SIGINT)
         _, err = self.proc.communicate(timeout=20)
@@ -113,8 +117,8 @@ class View:
 def view(browser: Any) -> Iterator[Any]:
     opened: list[View] = []
 
-    def start(args: list[str], query: str = "") -> View:
-        v = View(browser, args, query)
+    def start(args: list[str], query: str = "", wait: bool = True) -> View:
+        v = View(browser, args, query, wait)
         opened.append(v)
         return v
     yield start
@@ -271,3 +275,235 @@ def test_road_labels_stand_apart_at_the_start_and_values_show_two_decimals(view:
     assert any("." in c for c in cells)
     assert all(re.fullmatch(r"–|-?\d+|-?\d+\.\d\d|-?\d\.\d\de[+-]\d+|-?inf", c) for c in cells), cells
     v.shot("road-table")
+
+
+# -- what the page must never get wrong ------------------------------------------------------
+
+def _crossings(path: list, walls: list) -> list:
+    """The drawn path's segments that cross a wall's centre line (world metres)."""
+    def side(a: list, b: list, c: list) -> float:
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    out = []
+    for p, q in itertools.pairwise(path):
+        if p is None or q is None:
+            continue
+        for ax, ay, bx, by, _ in walls:
+            a, b = [ax, ay], [bx, by]
+            if side(a, b, p) * side(a, b, q) < 0 and side(p, q, a) * side(p, q, b) < 0:
+                out.append((p, q, (ax, ay, bx, by)))
+    return out
+
+
+def test_the_path_drawn_at_full_speed_never_crosses_a_wall(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 9000", timeout_ms=60000)
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    path = v.js("window.LV_world.paths[0]")
+    walls = v.js("window.labsimView.scene.world.walls")
+    assert len(path) > 50
+    assert _crossings(path, walls) == []
+    # and the chart had a point for far more ticks than frames came
+    samples = v.js("window.labsimView.frames"), v.js("window.LV_chart.history[0].t.length")
+    assert samples[1] > 3 * samples[0], samples
+    v.shot("wall-full-speed")
+
+
+def test_the_end_of_a_run_at_full_speed_reaches_the_page(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=1"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.finished === true && window.labsimView.frame.playing === false",
+           timeout_ms=60000)
+    assert v.frame()["tick"] == 1200
+    v.wait("document.querySelector('#clock').textContent.includes('ended')")
+
+
+def _checked(v: Any) -> list[str]:
+    return v.js("[...document.querySelectorAll('#table input[type=checkbox]')].filter((b) => b.checked)"
+                ".map((b) => b.dataset.column)")
+
+
+def test_chart_picks_hold_across_play_restart_and_robot_switches(view: Any) -> None:
+    v = view(["behaviours/road_follow.yaml"])
+    first = _checked(v)
+    assert len(first) == 2
+    v.page.select_option("#robot", "2")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 20")
+    assert _checked(v) == first
+    v.page.locator(f'#table input[data-column="{first[0]}"]').uncheck()
+    picked = _checked(v)
+    v.page.click("#restart")
+    v.wait("window.labsimView.frame && window.labsimView.frame.tick === 0")
+    v.wait("document.querySelectorAll('#chart .u-over').length === 1")
+    assert _checked(v) == picked and v.js("window.labsimView.robot") == 2
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 10")
+    v.page.select_option("#robot", "0")
+    v.wait("window.labsimView.frame.tick >= 20")
+    assert _checked(v) == picked
+    assert v.js("document.querySelectorAll('#chart-now .now').length") == 1
+    v.shot("road-chart-after-restart")
+
+
+def test_check_again_after_a_fix_says_live(view: Any, tmp_path: Path) -> None:
+    good = (ROOT / "behaviours" / "wall_follow.yaml").read_text()
+    lab = tmp_path / "wall.yaml"
+    lab.write_text(good.replace("minutes: 25", "minutes: 25\n  oops: [", 1))
+    v = view([str(lab)], wait=False)
+    v.wait("document.querySelector('#status').textContent === 'does not compile'")
+    lab.write_text(good)
+    v.page.click("#recheck")
+    v.wait("document.querySelector('#status').textContent === 'live'")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 5")
+    assert v.js("document.querySelector('#diagnostics').hidden")
+
+
+def test_a_slider_value_follows_the_thumb_during_a_drag(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    box = v.page.locator('input[data-name="arm"]').bounding_box()
+    y = box["y"] + box["height"] / 2
+    v.page.mouse.move(box["x"] + box["width"] / 2, y)
+    v.page.mouse.down()
+    v.page.mouse.move(box["x"] + box["width"] * 0.8, y, steps=8)
+    value, shown = v.js("""(() => { const i = document.querySelector('input[data-name="arm"]');
+        return [Number(i.value), i.parentElement.querySelector('.value').textContent]; })()""")
+    assert value > 3 and shown == v.page.evaluate("(x) => LV.fmt(x)", value)
+    assert re.fullmatch(r"-?\d+(\.\d\d)?", shown)
+    v.page.mouse.up()
+
+
+def test_a_crane_trace_replays_the_mechanism_it_holds(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "crane.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/crane.yaml", "--trace", str(trace), "-q"],
+                   check=True, cwd=ROOT)
+    v = view([str(trace)])
+    v.wait("document.querySelector('#status').textContent === 'replay'")
+    v.page.locator("#scrubber").fill("400")
+    v.wait("window.labsimView.frame.tick === 400 && window.LV_world.drawnTick !== undefined")
+    mech = v.frame()["mechanism"]
+    assert {"Crab", "Upper_guide", "Load"} <= set(mech["bodies"]) and mech["missing"] == ["Gripper"]
+    assert "Gripper" in mech["note"]
+    v.shot("crane-replay")
+
+
+def test_a_breakpoint_pauses_on_the_tick_the_trace_says_it_first_holds(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--set", "minutes=0.5",
+                    "--trace", str(trace), "-q"], check=True, cwd=ROOT)
+    rows = read_trace(trace)
+    sonar5 = rows.columns.index("sonar5")
+    first = next(int(r[0]) for r in rows.rows if float(r[sonar5]) < 0.5)
+    v = view(["behaviours/wall_follow.yaml", "--break", "sonar5 < 0.5"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.hit !== null && window.labsimView.frame.playing === false", timeout_ms=30000)
+    hit = v.frame()["hit"]
+    assert hit["tick"] == first and hit["what"] == "sonar5 < 0.5"
+    row = rows.rows[first]
+    assert hit["state"] == row[rows.columns.index("state")] and (hit["rule"] or "") == row[rows.columns.index("rule")]
+    v.wait(f"document.querySelector('#break-hit').textContent.includes('Paused on tick {first}')")
+    v.shot("breakpoint")
+    v.page.click("#step")  # one tick on, and the breakpoint is behind
+    v.wait(f"window.labsimView.frame.tick === {first + 2} && window.labsimView.frame.hit === null")
+    # a breakpoint from the page: a mistake is shown with its column, a good one pauses the run
+    v.page.fill("#break-text", "sonr5 < 1")
+    v.page.click("#break-form button")
+    v.wait("document.querySelector('#notice').textContent.includes(\"did you mean 'sonar5'\")")
+    rule = rows.columns.index("rule")
+    later = [(int(r[0]), r[rule]) for r in rows.rows if int(r[0]) >= first + 2]
+    pick = next(name for _, name in later if name and name != later[0][1])
+    v.page.select_option("#break-kind", "rule")
+    v.page.fill("#break-text", pick)
+    v.page.click("#break-form button")
+    v.wait("window.labsimView.frame.breakpoints.length === 2")
+    v.page.click("#play")
+    v.wait(f"window.labsimView.frame.hit !== null && window.labsimView.frame.hit.what === 'rule:{pick}'",
+           timeout_ms=30000)
+    assert v.frame()["hit"]["tick"] == next(t for t, name in later if name == pick)
+    v.shot("breakpoint-rule")
+
+
+def test_a_dragged_robot_replays_from_the_trace_row_for_row(view: Any, tmp_path: Path) -> None:
+    trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace)])
+    v.page.click("#step")
+    v.wait("window.labsimView.frame.tick === 1 && window.LV_world.drawn[0] !== undefined")
+    # onto the wall at x = 3 m: refused, with a message; the robot stays
+    box = v.page.locator("#world").bounding_box()  # the canvas' pixels, on the page
+
+    def on_page(expression: str) -> list[float]:
+        x, y = v.js(expression)
+        return [box["x"] + x, box["y"] + y]
+    wall = on_page("window.LV_world.toPx(3.0, -5.0)")
+    at = on_page("window.LV_world.drawn[0]")
+    v.page.mouse.move(at[0], at[1])
+    v.page.mouse.down()
+    v.page.mouse.move(wall[0], wall[1], steps=6)
+    v.page.mouse.up()
+    v.wait("document.querySelector('#notice').textContent.includes('was not moved')")
+    # two metres to the right of where it stands: moved, and the next ticks start there
+    pose = v.frame()["robots"][0]["pose"]
+    to = on_page(f"window.LV_world.toPx({pose[0] + 2.0}, {pose[1]})")
+    v.page.mouse.move(at[0], at[1])
+    v.page.mouse.down()
+    v.page.mouse.move(to[0], to[1], steps=6)
+    v.shot("drag")
+    v.page.mouse.up()
+    v.wait(f"Math.abs(window.labsimView.frame.robots[0].pose[0] - {pose[0] + 2.0}) < 0.05")
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 60")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.playing === false")
+    v.shot("drag-after")
+    v.close()  # Ctrl-C: the trace so far is kept
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--replay", str(trace),
+                    "--trace", str(replayed), "-q"], check=True, cwd=ROOT, capture_output=True)
+    a, b = read_trace(trace), read_trace(replayed)
+    assert any(e.startswith("place pioneer ") for e in a.column("events"))
+    assert b.rows[:len(a.rows)] == a.rows
+
+
+def test_the_editor_shows_errors_inline_keeps_the_run_and_restarts_on_a_fix(view: Any, tmp_path: Path) -> None:
+    lab = tmp_path / "wall.yaml"
+    text = (ROOT / "behaviours" / "wall_follow.yaml").read_text()
+    lab.write_text(text)
+    v = view([str(lab)])
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 20")
+    v.page.click("#edit")
+    v.wait("!document.querySelector('#editor-panel').hidden")
+    assert v.page.input_value("#source") == text
+    v.page.fill("#source", text.replace("sonar5", "sonr5", 1))
+    v.page.click("#apply")
+    v.wait("document.querySelectorAll('#problems li').length > 0")
+    line = next(i for i, t in enumerate(text.split("\n"), 1) if "sonar5" in t)
+    assert v.page.locator("#problems li").first.inner_text().startswith(f"line {line}, column ")
+    assert v.js("[...document.querySelectorAll('#gutter .bad')].map((d) => Number(d.textContent))") == [line]
+    v.shot("editor-error")
+    ticked = v.frame()["tick"]
+    v.wait(f"window.labsimView.frame.tick > {ticked}")  # the old run goes on
+    v.page.fill("#source", text.replace("minutes: 25", "minutes: 1"))
+    v.page.click("#apply")
+    v.wait("document.querySelector('#editor-state').textContent === 'applied, not saved'")
+    v.wait("window.labsimView.frame.tick < 20 && window.labsimView.scene.stop_s === 60")
+    assert v.js("document.querySelectorAll('#problems li').length") == 0
+    v.shot("editor")
+    v.page.click("#save")
+    v.wait("document.querySelector('#editor-state').textContent === ''")
+    assert lab.read_text() == text.replace("minutes: 25", "minutes: 1")
+
+
+def test_read_only_turns_the_editor_off_and_says_so(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--read-only"])
+    v.wait("!document.querySelector('#read-only').hidden")
+    v.page.click("#edit")
+    assert v.js("document.querySelector('#source').readOnly && document.querySelector('#apply').disabled "
+                "&& document.querySelector('#save').disabled")

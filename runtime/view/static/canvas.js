@@ -5,13 +5,15 @@ window.LV = window.LV || {};
 
 LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
-const PATH_POINTS = 900;  // a robot's fading path: its last poses, one per frame
+const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
 
 LV.WorldView = class {
-  constructor(canvas, onPick) {
+  constructor(canvas, onPick, onPlace) {
     this.canvas = canvas;
     this.ctx = canvas.getContext("2d");
     this.onPick = onPick;
+    this.onPlace = onPlace;  // (robot, x, y, heading): a robot dragged to a new pose; null: no dragging
+    this.ghost = null;  // the pose a robot is being dragged to: {i, x, y, th}
     this.scene = null;
     this.frame = null;
     this.selected = 0;
@@ -41,6 +43,9 @@ LV.WorldView = class {
       if (typeof x !== "number" || typeof y !== "number") return;
       if (back) this.paths[i] = [];
       const p = this.paths[i];
+      // the points where the path bent since the last frame (the server keeps them), then the pose;
+      // a null point is a jump (the robot was put somewhere else): no line across it
+      for (const q of (back ? [] : r.path || [])) p.push(typeof q[0] === "number" ? q : null);
       const last = p[p.length - 1];
       if (!last || last[0] !== x || last[1] !== y) p.push([x, y]);
       if (p.length > PATH_POINTS) p.splice(0, p.length - PATH_POINTS);
@@ -95,19 +100,28 @@ LV.WorldView = class {
     const c = this.canvas;
     let drag = null;
     c.addEventListener("pointerdown", (e) => {
-      drag = { x: e.offsetX, y: e.offsetY, cx: this.cx, cy: this.cy, moved: false };
+      // on a robot (live): drag it somewhere else, or with Shift turn it; elsewhere: pan
+      const grab = this.onPlace ? this._robotAt(e.offsetX, e.offsetY) : -1;
+      drag = { x: e.offsetX, y: e.offsetY, cx: this.cx, cy: this.cy, moved: false, robot: grab, turn: e.shiftKey };
       c.setPointerCapture(e.pointerId);
     });
     c.addEventListener("pointermove", (e) => {
       if (!drag) return;
       const dx = e.offsetX - drag.x, dy = e.offsetY - drag.y;
       if (Math.abs(dx) + Math.abs(dy) > 3) { drag.moved = true; c.classList.add("dragging"); }
+      if (drag.robot >= 0) { if (drag.moved) this._dragRobot(drag, e.offsetX, e.offsetY); return; }
       this.cx = drag.cx - dx / this.scale; this.cy = drag.cy + dy / this.scale;
       this.draw();
     });
     c.addEventListener("pointerup", (e) => {
       if (drag && !drag.moved) this._pick(e.offsetX, e.offsetY);
+      else if (drag && drag.robot >= 0 && this.ghost) {
+        const g = this.ghost;
+        this.onPlace(g.i, g.x, g.y, g.th);
+      }
+      this.ghost = null;
       drag = null; c.classList.remove("dragging");
+      this.draw();
     });
     c.addEventListener("wheel", (e) => {
       e.preventDefault();
@@ -119,6 +133,24 @@ LV.WorldView = class {
       this.draw();
     }, { passive: false });
     c.addEventListener("dblclick", () => this.fit());
+  }
+
+  _robotAt(px, py) {  // the robot drawn under a point of the canvas, or -1
+    let best = -1, bestD = Math.max(12, 0.25 * this.scale);
+    this.drawn.forEach((p, i) => {
+      const d = p ? Math.hypot(p[0] - px, p[1] - py) : Infinity;
+      if (d < bestD) { best = i; bestD = d; }
+    });
+    return best;
+  }
+
+  _dragRobot(drag, px, py) {  // where the dragged robot would go: moved with the pointer, or turned to face it
+    const r = this.frame && this.frame.robots[drag.robot];
+    if (!r || !r.pose) return;
+    const [x, y, th] = r.pose, [wx, wy] = this.toWorld(px, py), [sx, sy] = this.toWorld(drag.x, drag.y);
+    this.ghost = drag.turn ? { i: drag.robot, x, y, th: Math.atan2(wy - y, wx - x) }
+      : { i: drag.robot, x: x + wx - sx, y: y + wy - sy, th };
+    this.draw();
   }
 
   _pick(px, py) {
@@ -158,7 +190,13 @@ LV.WorldView = class {
   _poly(points, close) {
     const ctx = this.ctx;
     ctx.beginPath();
-    points.forEach((p, i) => { const [x, y] = this.toPx(p[0], p[1]); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
+    let pen = false;  // a null point lifts the pen
+    for (const p of points) {
+      if (!p) { pen = false; continue; }
+      const [x, y] = this.toPx(p[0], p[1]);
+      if (pen) ctx.lineTo(x, y); else ctx.moveTo(x, y);
+      pen = true;
+    }
     if (close) ctx.closePath();
   }
 
@@ -224,6 +262,14 @@ LV.WorldView = class {
       this.drawn[i] = this.toPx(x, y);
     });
     this._labels();
+    const g = this.ghost;
+    if (g && scene.robots[g.i]) {  // where a dragged robot goes when let go
+      const c = Math.cos(g.th), s = Math.sin(g.th), fp = scene.robots[g.i].footprint;
+      this._poly((fp.length ? fp : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]])
+        .map((p) => [g.x + p[0] * c - p[1] * s, g.y + p[0] * s + p[1] * c]), true);
+      ctx.setLineDash([5, 4]); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke(); ctx.setLineDash([]);
+      this._poly([[g.x, g.y], [g.x + 0.35 * c, g.y + 0.35 * s]], false); ctx.stroke();
+    }
   }
 
   _labels() {  // after every robot, so that no robot covers another's name
@@ -304,7 +350,14 @@ LV.WorldView = class {
     }
     // ropes and cables first, under the bodies
     const cable = (a, b, colour) => { this._poly([a, b], false); ctx.strokeStyle = colour; ctx.lineWidth = 1.5; ctx.stroke(); };
-    if (!partial) {
+    if (partial) {  // a replayed trace: a rope runs to its body, or to the next one the trace places
+      const placed = m.bodies.filter((q) => f.bodies[q.name] && !q.static);
+      for (const j of m.joints.filter((q) => q.rope && f.bodies[q.parent])) {
+        const child = f.bodies[j.child] ? m.bodies.find((q) => q.name === j.child) : placed[placed.length - 1];
+        if (child) cable(this._attached(m, j.parent, j.anchor),
+                         this._attached(m, child.name, [child.center[0], child.center[1] + child.size[1] / 2]), "#444");
+      }
+    } else {
       for (const j of m.joints.filter((q) => q.rope)) {
         const child = m.bodies.find((q) => q.name === j.child);
         cable(this._attached(m, j.parent, j.anchor),
@@ -326,6 +379,10 @@ LV.WorldView = class {
       ctx.fill(); ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.stroke();
     }
     this._slewDial(m);
+    if (partial && f.note) {  // say plainly what a replay cannot draw
+      ctx.fillStyle = "#8a2d00"; ctx.font = "12px system-ui";
+      ctx.fillText(f.note, 10, 18);  // at the top: the floor and the help line are at the bottom
+    }
   }
 
   _slewDial(m) {  // the slew angle, seen from above, in a corner

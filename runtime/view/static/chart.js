@@ -1,12 +1,17 @@
 // labsim view: a chart of the numeric columns the student picks, over simulated time, for the
-// selected robot. History is kept for every robot and column, one sample per frame.
+// selected robot. History is kept for every robot and column: each frame brings samples of the
+// ticks since the last one (the server picks them) and its own values. Each picked signal has
+// its own y scale, so that a swing of 0.5 m beside a tension of 2,000 N is not a flat line:
+// the first four get an axis in their colour, and the legend above shows every one's value now.
 "use strict";
 window.LV = window.LV || {};
 const HISTORY = 20000;  // samples kept per robot; the oldest half goes when it is full
+const AXES = 4;  // signals with an axis of their own; beyond, a signal is drawn to its own scale, unmarked
 
 LV.Chart = class {
-  constructor(el) {
+  constructor(el, legend) {
     this.el = el;
+    this.legend = legend;
     this.plot = null;
     this.picked = [];  // column indices
     this.columns = [];
@@ -15,8 +20,10 @@ LV.Chart = class {
     new ResizeObserver(() => this._size()).observe(el);
   }
 
+  // a new run: new columns, no history, nothing picked until setPicked
   reset(columns, robots) {
     this.columns = columns;
+    this.picked = [];
     this.history = Array.from({ length: robots }, () => ({ t: [], cols: columns.map(() => []) }));
     this._rebuild();
   }
@@ -27,12 +34,19 @@ LV.Chart = class {
       if (!r || !h) return;
       const t = frame.time;
       if (h.t.length && t < h.t[h.t.length - 1]) { h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); }
-      if (h.t.length && t === h.t[h.t.length - 1]) return;
-      h.t.push(t);
-      r.values.forEach((v, k) => { if (h.cols[k]) h.cols[k].push(typeof v === "number" ? v : null); });
+      for (const s of r.samples || []) this._push(h, s[0], s.slice(1));
+      this._push(h, t, r.values);
       if (h.t.length > HISTORY) { const cut = HISTORY / 2; h.t.splice(0, cut); h.cols.forEach((c) => c.splice(0, cut)); }
     });
   }
+
+  _push(h, t, values) {
+    if (h.t.length && t <= h.t[h.t.length - 1]) return;
+    h.t.push(t);
+    h.cols.forEach((c, k) => c.push(typeof values[k] === "number" ? values[k] : null));
+  }
+
+  setPicked(picks) { this.picked = picks.slice(); this._rebuild(); }
 
   toggle(k, on) {
     this.picked = this.picked.filter((q) => q !== k);
@@ -42,17 +56,28 @@ LV.Chart = class {
 
   select(robot) { this.robot = robot; this._rebuild(); }
 
+  _colour(i) { return LV.PALETTE[(i + 3) % LV.PALETTE.length]; }
+
   _rebuild() {
     if (this.plot) { this.plot.destroy(); this.plot = null; }
     this.el.innerHTML = "";
+    this._legend();
     if (!this.picked.length) { this.el.innerHTML = '<p class="muted">No signal picked.</p>'; return; }
-    const series = [{ label: "time (s)" }].concat(this.picked.map((k, i) => ({
-      label: this.columns[k].name + (this.columns[k].group === "metric" ? " (metric)" : ""),
-      stroke: LV.PALETTE[(i + 3) % LV.PALETTE.length], width: 1.5, spanGaps: false, points: { show: false },
-      value: (u, v) => (v === null || v === undefined ? "--" : LV.fmt(v)),  // as the table prints it
-    })));
-    this.plot = new uPlot({ width: this._w(), height: 180, series, legend: { live: true },
-                            scales: { x: { time: false } }, axes: [{ label: "" }, {}] }, this._data(), this.el);
+    const scales = { x: { time: false } }, axes = [{ label: "" }];
+    const series = [{ label: "time (s)" }].concat(this.picked.map((k, i) => {
+      scales["s" + i] = { auto: true };
+      if (i < AXES) {
+        axes.push({ scale: "s" + i, side: i % 2 ? 1 : 3, stroke: this._colour(i), size: 56,
+                    grid: { show: i === 0 }, values: (u, vs) => vs.map((v) => LV.fmtAxis(v)) });
+      }
+      return {
+        label: this.columns[k].name + (this.columns[k].group === "metric" ? " (metric)" : ""), scale: "s" + i,
+        stroke: this._colour(i), width: 1.5, spanGaps: false, points: { show: false },
+        value: (u, v) => (v === null || v === undefined ? "--" : LV.fmt(v)),  // as the table prints it
+      };
+    }));
+    this.plot = new uPlot({ width: this._w(), height: 180, series, legend: { live: true }, scales, axes },
+                          this._data(), this.el);
   }
 
   _data() {
@@ -60,9 +85,41 @@ LV.Chart = class {
     return [h.t].concat(this.picked.map((k) => h.cols[k] || []));
   }
 
+  // the values now, one per picked signal, in its colour (uPlot's legend shows them under the cursor)
+  _legend() {
+    if (!this.legend) return;
+    const h = this.history[this.robot];
+    if (this.legend.children.length !== this.picked.length) {
+      this.legend.innerHTML = "";
+      this.picked.forEach((k, i) => {
+        const s = document.createElement("span");
+        s.className = "now"; s.style.color = this._colour(i);
+        this.legend.appendChild(s);
+      });
+    }
+    this.picked.forEach((k, i) => {
+      const col = h && h.cols[k], v = col && col.length ? col[col.length - 1] : null;
+      const s = this.legend.children[i];
+      s.dataset.column = String(k);
+      s.style.color = this._colour(i);
+      s.textContent = `${this.columns[k].name} ${LV.fmt(v)}`;
+    });
+  }
+
   _w() { return Math.max(200, this.el.clientWidth - 10); }
 
   _size() { if (this.plot) this.plot.setSize({ width: this._w(), height: 180 }); }
 
-  draw() { if (this.plot) this.plot.setData(this._data()); }
+  draw() {
+    this._legend();
+    if (this.plot) this.plot.setData(this._data());
+  }
+};
+
+// an axis tick: short, whatever the scale (0.0012, 2,000, 1.5e+6)
+LV.fmtAxis = (v) => {
+  if (v === null || v === undefined) return "";
+  const a = Math.abs(v);
+  if (a !== 0 && (a >= 1e5 || a < 1e-3)) return v.toExponential(1);
+  return String(Number(v.toPrecision(4)));
 };

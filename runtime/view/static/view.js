@@ -3,12 +3,16 @@
 // exposes the latest scene and frame (the browser tests read it).
 "use strict";
 const $ = (id) => document.getElementById(id);
-const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [] };
+const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
+                chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [] };
 window.labsimView = state;
 
-const world = new LV.WorldView($("world"), (i) => selectRobot(i));
-const chart = new LV.Chart($("chart"));
+// a robot dragged on the canvas: the server puts it there (or says why not) and the trace records it
+const placeRobot = (i, x, y, heading) => { notice(""); send({ type: "place", robot: i, x, y, heading }); };
+const world = new LV.WorldView($("world"), (i) => selectRobot(i), placeRobot);
+const chart = new LV.Chart($("chart"), $("chart-now"));
 window.LV_world = world;  // what is drawn where (the browser tests read it)
+window.LV_chart = chart;
 
 function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
@@ -17,14 +21,14 @@ function send(msg) {
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
   state.ws = ws;
-  ws.onopen = () => { setStatus("live", "ok"); send({ type: "select", robot: state.robot }); };
+  ws.onopen = () => { setStatus("connected", "ok"); send({ type: "select", robot: state.robot }); };
   ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
   ws.onmessage = (e) => {
     let msg;
     try { msg = JSON.parse(e.data); } catch (err) { return; }
     if (msg.type === "scene") onScene(msg);
     else if (msg.type === "frame") onFrame(msg);
-    else if (msg.type === "error") notice("That change was refused:", msg.diagnostics.join("\n"), true);
+    else if (msg.type === "error") refused(msg);
   };
 }
 
@@ -46,7 +50,9 @@ function onScene(scene) {
   state.frame = null;
   $("diagnostics").hidden = scene.ok;
   $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
+  editorScene(scene);
   if (!scene.ok) { setStatus("does not compile", "bad"); return; }
+  setStatus(scene.mode === "replay" ? "replay" : "live", "ok");  // after "Check again" too
   notice(scene.diagnostics.length ? "Warnings:" : "", scene.diagnostics.join("\n"), false);
   $("name").textContent = scene.name || "labsim view";
   $("path").textContent = scene.path + (scene.mode === "replay" ? " (replay)" : "") + (scene.trace && scene.mode === "live" ? ` → ${scene.trace}` : "");
@@ -60,8 +66,11 @@ function onScene(scene) {
   buildSliders(scene);
   buildParams(scene);
   buildTable(scene);
+  $("breaks-panel").hidden = scene.mode !== "live";
+  state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
-  pickDefaultChart(scene);
+  pickChart(scene);
+  world.onPlace = scene.mode === "live" ? placeRobot : null;
   world.setScene(scene);
   if (state.robot >= scene.robots.length) selectRobot(0);
 }
@@ -93,7 +102,10 @@ function buildSliders(scene) {
     input.setAttribute("aria-label", s.name);
     input.addEventListener("pointerdown", () => { state.dragging = s.name; });
     input.addEventListener("pointerup", () => { state.dragging = null; });
-    input.addEventListener("input", () => moveSlider(s.name, Number(input.value)));
+    input.addEventListener("input", () => {  // the value follows the thumb, not the next frame
+      div.querySelector(".value").textContent = fmt(Number(input.value));
+      moveSlider(s.name, Number(input.value));
+    });
     input.addEventListener("change", () => { moveSlider(s.name, Number(input.value), true); state.dragging = null; });
     div.appendChild(input);
     div.querySelector(".text").textContent = s.name;
@@ -156,7 +168,10 @@ function buildTable(scene) {
     const tr = body.insertRow();
     const box = document.createElement("input");
     box.type = "checkbox"; box.dataset.column = c.name;
-    box.addEventListener("change", () => chart.toggle(k, box.checked));
+    box.addEventListener("change", () => {
+      chart.toggle(k, box.checked);
+      state.chartNames = chart.picked.map((q) => scene.columns[q].name);
+    });
     tr.insertCell().appendChild(box);
     tr.insertCell().textContent = c.name;
     const v = tr.insertCell(); v.className = "value";
@@ -164,14 +179,22 @@ function buildTable(scene) {
   });
 }
 
-function pickDefaultChart(scene) {
-  const wanted = new URLSearchParams(location.search).get("chart");
-  let picks;
-  if (wanted) picks = wanted.split(",").map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
-  else picks = scene.columns.map((c, k) => [c, k]).filter(([c]) => c.group === "signal" || c.group === "trace").map(([, k]) => k);
-  chart.picked = [];
-  state.pendingChart = wanted ? picks : null;  // without ?chart=: the last two numeric signals, once known
-  for (const k of (wanted ? picks : [])) { state.rows[k].box.checked = true; chart.toggle(k, true); }
+// The chart's signals, by name: the student's picks (or ?chart=a,b, or the last two numeric
+// signals), kept across Play, Restart and robot switches; a name the new run lacks is skipped.
+function pickChart(scene) {
+  if (state.chartNames === null) {
+    const wanted = new URLSearchParams(location.search).get("chart");
+    state.chartNames = wanted ? wanted.split(",") : defaultChart(scene);
+  }
+  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
+  for (const k of picks) state.rows[k].box.checked = true;
+  chart.setPicked(picks);
+}
+
+function defaultChart(scene) {
+  const skip = scene.mode === "replay" ? ["wheel_left", "wheel_right"] : [];
+  return scene.columns.filter((c) => (c.group === "signal" || c.group === "trace") && c.numeric !== false
+                              && !skip.includes(c.name)).slice(-2).map((c) => c.name);
 }
 
 // -- frames ---------------------------------------------------------------------------------
@@ -181,19 +204,7 @@ function onFrame(frame) {
   state.frames += 1;
   world.setFrame(frame);
   chart.add(frame);
-  if (state.pendingChart === null) defaultChartFromValues(frame);
   scheduleDraw();
-}
-
-function defaultChartFromValues(frame) {
-  const r = frame.robots[state.robot];
-  if (!r || frame.tick === 0) return;
-  const numeric = state.scene.columns.map((c, k) => [c, k])
-    .filter(([c, k]) => (c.group === "signal" || c.group === "trace") && typeof r.values[k] === "number").map(([, k]) => k);
-  const trace = state.scene.mode === "replay";
-  const picks = trace ? numeric.filter((k) => !["wheel_left", "wheel_right"].includes(state.scene.columns[k].name)).slice(-2) : numeric.slice(-2);
-  state.pendingChart = picks;
-  for (const k of picks) { state.rows[k].box.checked = true; chart.toggle(k, true); }
 }
 
 let drawPending = false;
@@ -238,8 +249,9 @@ function render() {
   $("scrub-time").textContent = scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "";
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    if (n in f.sliders && state.dragging !== n) input.value = f.sliders[n];
     div.querySelector(".text").textContent = f.labels[n] || n;
+    if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
+    if (n in f.sliders) input.value = f.sliders[n];
     div.querySelector(".value").textContent = n in f.sliders ? fmt(f.sliders[n]) : "";
   }
   const r = f.robots[state.robot];
@@ -249,10 +261,145 @@ function render() {
     $("rule").textContent = r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)";
     r.values.forEach((v, k) => { if (state.rows[k]) state.rows[k].v.textContent = fmt(v); });
   }
+  renderBreaks(f);
+  if ("edited" in f) $("editor-state").textContent = f.edited ? "applied, not saved" : "";
   renderImages(f.images);
   world.selected = state.robot;
   world.draw();
   chart.draw();
+}
+
+// -- the editor: the file in a textarea with line numbers; Apply checks it (its problems at their
+// line and column, the old run going on) and restarts with it; Save writes it over the file -----
+function editorScene(scene) {
+  const live = scene.mode === "live", ro = !!scene.read_only;
+  $("edit").hidden = !live;
+  $("edit-here").hidden = !live || ro;
+  $("read-only").hidden = !(live && ro);
+  $("source").readOnly = ro;
+  $("apply").disabled = ro; $("save").disabled = ro;
+  $("editor-name").textContent = scene.path + (ro ? " (read-only: labsim view --read-only)" : "");
+  if (typeof scene.source === "string" && (!state.editing || state.applied)) {
+    $("source").value = scene.source;  // a fresh run: its text (the page's own edit, once applied)
+    state.applied = false;
+    markProblems([]);
+  }
+  $("editor-state").textContent = scene.edited ? "applied, not saved" : "";
+}
+
+function openEditor(open) {
+  state.editing = open;
+  $("editor-panel").hidden = !open;
+  if (open) { $("diagnostics").hidden = true; gutter(); $("source").focus(); }
+}
+
+function gutter(bad) {
+  const n = $("source").value.split("\n").length, marks = new Set(bad || state.badLines || []);
+  $("gutter").textContent = "";
+  for (let i = 1; i <= n; i++) {
+    const line = document.createElement("div");
+    line.textContent = String(i);
+    if (marks.has(i)) line.className = "bad";
+    $("gutter").appendChild(line);
+  }
+  $("gutter").scrollTop = $("source").scrollTop;
+}
+
+function markProblems(places) {
+  const ul = $("problems");
+  ul.innerHTML = "";
+  state.badLines = places.map((p) => p.line);
+  for (const p of places) {
+    const li = document.createElement("li");
+    li.className = p.severity === "warning" ? "warning" : "error";
+    li.textContent = `line ${p.line}, column ${p.col}: ${p.message}`;
+    li.addEventListener("click", () => goTo(p.line, p.col));
+    ul.appendChild(li);
+  }
+  gutter();
+  if (places.length) goTo(places[0].line, places[0].col);
+}
+
+function goTo(line, col) {  // put the caret at a line and column of the text
+  const lines = $("source").value.split("\n");
+  let at = 0;
+  for (let i = 0; i < line - 1 && i < lines.length; i++) at += lines[i].length + 1;
+  at += Math.max(0, col - 1);
+  $("source").focus();
+  $("source").setSelectionRange(at, at + 1);
+  $("source").scrollTop = Math.max(0, (line - 4) * 17);
+}
+
+function refused(msg) {
+  if (state.pendingEdit && msg.places && msg.places.length) {
+    state.pendingEdit = false;
+    markProblems(msg.places);
+    notice("Not applied: the file has errors (the run goes on):", msg.diagnostics.join("\n"), true);
+    return;
+  }
+  state.pendingEdit = false;
+  notice("That change was refused:", msg.diagnostics.join("\n"), true);
+}
+
+$("edit").addEventListener("click", () => openEditor(!state.editing));
+$("edit-here").addEventListener("click", () => openEditor(true));
+$("close-editor").addEventListener("click", () => openEditor(false));
+$("source").addEventListener("input", () => gutter());
+$("source").addEventListener("scroll", () => { $("gutter").scrollTop = $("source").scrollTop; });
+$("source").addEventListener("keydown", (e) => {  // Tab indents (two spaces, as YAML wants), not leaves
+  if (e.key !== "Tab") return;
+  e.preventDefault();
+  const t = $("source"), a = t.selectionStart;
+  t.setRangeText("  ", a, t.selectionEnd, "end");
+  gutter();
+});
+$("apply").addEventListener("click", () => {
+  notice(""); markProblems([]);
+  state.pendingEdit = true; state.applied = true;
+  send({ type: "apply", text: $("source").value });
+});
+$("save").addEventListener("click", () => {
+  notice("");
+  send({ type: "save", text: $("source").value });
+  state.saved = $("source").value;
+});
+
+// -- breakpoints: the list (each with its remove button) and the one the run paused on ----------
+const BREAK_HINT = { when: "sonar5 < 0.3", state: "any, or a state's name", rule: "a rule's id", time: "12.5" };
+$("break-kind").addEventListener("change", () => { $("break-text").placeholder = BREAK_HINT[$("break-kind").value]; });
+$("break-form").addEventListener("submit", (e) => {
+  e.preventDefault();
+  const kind = $("break-kind").value, text = $("break-text").value.trim();
+  if (kind === "when" && !text) return;
+  notice("");
+  send({ type: "break", add: kind === "when" ? text : (text ? `${kind}:${text}` : kind) });
+  $("break-text").value = "";
+});
+
+function renderBreaks(f) {
+  const list = f.breakpoints || [], key = JSON.stringify(list);
+  if (state.breaksShown !== key) {
+    state.breaksShown = key;
+    const ul = $("breaks");
+    ul.innerHTML = "";
+    list.forEach((spec, k) => {
+      const li = document.createElement("li");
+      const code = document.createElement("code"); code.textContent = spec;
+      const x = document.createElement("button");
+      x.type = "button"; x.className = "remove"; x.textContent = "×"; x.title = "remove";
+      x.addEventListener("click", () => send({ type: "break", remove: k }));
+      li.appendChild(code); li.appendChild(x); ul.appendChild(li);
+    });
+  }
+  const hit = f.hit, box = $("break-hit");
+  box.hidden = !hit;
+  if (hit) {
+    const rule = hit.rule ? state.scene.rules.find((q) => q.id === hit.rule) : null;
+    box.textContent = `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${hit.what}` +
+      (state.scene.robots.length > 1 ? ` (${hit.robot})` : "") +
+      ` — state ${hit.state || "–"}, rule ${hit.rule ? `${hit.rule}: ${rule ? rule.text : ""}` : "(none fired)"}` +
+      ". Step goes on one tick, Play runs on.";
+  }
 }
 
 function renderImages(images) {
@@ -298,7 +445,7 @@ $("timeline").addEventListener("change", () => send({ type: "timeline", on: $("t
 $("recheck").addEventListener("click", () => send({ type: "recheck" }));
 $("scrubber").addEventListener("input", () => send({ type: "seek", tick: Number($("scrubber").value) }));
 document.addEventListener("keydown", (e) => {
-  if (e.target.tagName === "INPUT" || e.target.tagName === "SELECT") return;
+  if (["INPUT", "SELECT", "TEXTAREA"].includes(e.target.tagName)) return;
   if (e.key === " ") { e.preventDefault(); $("play").click(); }
   else if (e.key === ".") send({ type: "step" });
 });

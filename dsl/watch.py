@@ -1,0 +1,115 @@
+"""A condition to watch a compiled run by: a live view's breakpoint (``labsim view --break``).
+
+Outside the file, after it compiled: ``compile_watch`` parses one expression of the language
+(``labsim.dsl.parse``) and checks it as the stop condition is checked (``ExprChecker.expect``,
+a boolean), against the names the compiled ``Program`` has: the sensors its behaviour reads,
+its signals, parameters, sliders, states, ``time``, ``tick``, ``dt`` and ``state``. Its
+diagnostics are the file's kind, with the line and column in the condition's own text
+(``--break:1:8: unknown name 'sonr5' (did you mean 'sonar5'?)``). A ``Watch`` is evaluated
+once a tick with the reference evaluator (``labsim.dsl.evaluate``), which sees one tick:
+functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import yaml
+from yaml.nodes import ScalarNode
+
+from labsim.backends.scene.models import Kind
+from labsim.dsl import ast
+from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, Type
+from labsim.dsl.evaluate import Unsupported, evaluate
+from labsim.dsl.infer import ExprChecker
+from labsim.dsl.lint import walk
+from labsim.dsl.parse import ParseError, parse_expr
+from labsim.dsl.program import Program
+from labsim.dsl.read import Parsed
+from labsim.dsl.support import STATE
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.source import Document
+
+MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
+_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL}
+_VARIABLES = {"time": Type.NUMBER, "tick": Type.NUMBER, "dt": Type.NUMBER, "state": Type.STATE}
+
+
+@dataclass(frozen=True)
+class Watch:
+    """A checked condition: its text, its tree, and where each name it reads comes from."""
+
+    text: str
+    node: ast.Expr
+    channels: tuple[tuple[str, int], ...]  # name -> index into a robot's readings
+    slots: tuple[tuple[str, int], ...]  # signals and sliders: name -> slot
+    constants: Mapping[str, object]  # parameters, states (their indices), dt
+
+    def holds(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> bool:
+        """Whether the condition holds on a tick, from the robot's readings and slots."""
+        names: dict[str, object] = dict(self.constants)
+        names["time"], names["tick"], names["state"] = tick * dt_s, float(tick), slots[STATE]
+        for name, i in self.channels:
+            names[name] = readings[i]
+        for name, i in self.slots:
+            names[name] = slots[i]
+        try:
+            value, _ = evaluate(self.node, names)
+        except Unsupported:  # what the checks let through and one tick cannot answer: never holds
+            return False
+        return bool(value)
+
+
+def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
+    """The condition ``text`` checked against the program's names; LabsimError says what is
+    wrong, at ``where``:1:column."""
+    if len(text) > MAX_WATCH_CHARS:
+        raise LabsimError([Diagnostic(where, f"a condition of at most {MAX_WATCH_CHARS} characters, "
+                                             f"not {len(text):,}")])
+    doc = Document(where, text, None)
+    node = ScalarNode("tag:yaml.org,2002:str", text, yaml.Mark(where, 0, 0, 0, text, 0),
+                      yaml.Mark(where, len(text), 0, len(text), text, len(text)))
+    parsed_text = doc.text_of(node)
+    report = Report()
+    try:
+        e = parse_expr(text)
+    except ParseError as p:
+        report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=p.notes))
+        raise LabsimError(report.diagnostics) from None
+    checker = ExprChecker(doc, report)
+    for name, kind in program.channel_kinds.items():
+        if kind in _KIND_TYPES:
+            checker.declare(name, _KIND_TYPES[kind], "sensor")
+    single = set(program.single_signals)
+    for name, t in program.signal_types.items():
+        if name in single:
+            checker.declare(name, t, "signal")
+    for name in program.params:
+        checker.declare(name, Type.NUMBER, "parameter")
+    for name in program.slider_names:
+        checker.declare(name, Type.NUMBER, "slider")
+    for name in program.state_names:
+        checker.declare(name, Type.STATE, "state")
+    for name, t in _VARIABLES.items():
+        checker.declare(name, t, "built-in variable")
+    for name in CONSTANTS:
+        checker.declare(name, Type.NUMBER, "constant")
+    checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
+    for call in _calls(e):
+        if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
+            report.add(parsed_text.diagnostic(call.span[0], call.span[1],
+                                              f"{call.func}() remembers earlier ticks; a breakpoint sees one "
+                                              "tick at a time", notes=("make it a signal in the file (let:) "
+                                                                       "and watch the signal",)))
+    report.raise_if_errors()
+    return Watch(  # every name it may read (a name inside a group is read too)
+        text=text, node=e,
+        channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
+        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
+                    if n in program.slot_of),
+        constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
+                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s})
+
+
+def _calls(e: ast.Expr) -> list[ast.Call]:
+    return [x for x in walk(e) if isinstance(x, ast.Call)]

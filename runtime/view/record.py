@@ -1,0 +1,163 @@
+"""What a live view keeps of the ticks between two frames: each robot's path and chart samples.
+
+A page gets at most 30 frames a second, and at "as fast as it goes" hundreds of ticks run
+between two of them: drawn from the frames alone, a path cuts corners through walls and a
+chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observer``
+(``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
+loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
+(which keeps only the points where the path bends, so a frame stays small without losing a
+corner), keeps the tick's readings and slots for the chart, and asks the breakpoints
+(``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path`` and
+``take_samples`` hand what was kept to the next frame and start again.
+"""
+from __future__ import annotations
+
+import math
+
+from labsim.dsl.support import STATE
+from labsim.runtime.observers import Observer
+from labsim.runtime.state import RobotRun, RunState
+from labsim.runtime.view.breaks import Breakpoint
+
+PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
+MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
+MAX_SAMPLES_KEPT = 1024  # per robot between two frames: beyond, every other one goes
+
+
+class PathThinner:
+    """A path as the points where it bends: a point is kept when the path, from the last kept
+    point, leaves the straight line it set out on by more than ``tolerance_m`` (or turns
+    back). Every point between two kept ones lies within about ``tolerance_m`` of the segment
+    between them, so a corner is never cut. One check per point: no look-back."""
+
+    def __init__(self, tolerance_m: float = PATH_TOLERANCE_M):
+        self.tol = tolerance_m
+        self.points: list[tuple[float, float]] = []  # kept since the last take
+        self._anchor: tuple[float, float] | None = None  # the last kept point
+        self._direction: tuple[float, float] | None = None  # unit vector from the anchor
+        self._along = 0.0  # the furthest along the direction so far, m
+        self._last: tuple[float, float] | None = None  # the last point seen, not kept
+
+    def add(self, x: float, y: float) -> None:
+        d = self._direction
+        if d is not None:  # the common case, on every tick: still on the line (nan is not)
+            a, tol = self._anchor, self.tol
+            assert a is not None
+            dx, dy = x - a[0], y - a[1]
+            along, off = dx * d[0] + dy * d[1], dx * d[1] - dy * d[0]
+            if -tol <= off <= tol and along >= self._along - tol:
+                if along > self._along:
+                    self._along = along
+                self._last = (x, y)
+                return
+        self._add(x, y)
+
+    def _add(self, x: float, y: float) -> None:
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return
+        a = self._anchor
+        if a is None:
+            self._keep((x, y))
+            return
+        dx, dy = x - a[0], y - a[1]
+        d = self._direction
+        if d is None:  # still within the tolerance of the anchor: no direction yet
+            dist = math.hypot(dx, dy)
+            if dist >= self.tol:
+                self._direction, self._along = (dx / dist, dy / dist), dist
+            self._last = (x, y)
+            return
+        along = dx * d[0] + dy * d[1]
+        if abs(dx * d[1] - dy * d[0]) > self.tol or along < self._along - self.tol:
+            assert self._last is not None  # a direction is set by a point, which is the last seen
+            self._keep(self._last)
+            self.add(x, y)  # again, from the point just kept
+            return
+        self._along = max(self._along, along)
+        self._last = (x, y)
+
+    def jump(self, x: float, y: float) -> None:
+        """The robot was put somewhere else: the path starts again there (no line across)."""
+        self._anchor, self._direction, self._last = None, None, None
+        self.points.append((math.nan, math.nan))
+        self.add(x, y)
+
+    def _keep(self, p: tuple[float, float]) -> None:
+        self.points.append(p)
+        if len(self.points) > MAX_PATH_POINTS:
+            del self.points[: len(self.points) - MAX_PATH_POINTS]
+        self._anchor, self._direction, self._along, self._last = p, None, 0.0, None
+
+    def take(self) -> list[tuple[float, float]]:
+        """The points kept since the last take (the frame's pose follows them on the page)."""
+        out, self.points = self.points, []
+        return out
+
+
+class TickRecorder(Observer):
+    """See the module docstring. ``start`` is called once the run is bound, before it ticks."""
+
+    def __init__(self) -> None:
+        self.xy: list[tuple[int, int] | None] = []
+        self.paths: list[PathThinner] = []
+        self.samples: list[list[tuple[int, list, list]]] = []
+        self.breaks: list[Breakpoint] = []
+        self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
+        self._run: RunState | None = None
+
+    def start(self, xy: list[tuple[int, int] | None]) -> None:
+        """``xy[i]``: where robot i's x and y sit in its readings (None: a mechanism, no path)."""
+        self.xy = xy
+        self.paths = [PathThinner() for _ in xy]
+        self.samples = [[] for _ in xy]
+        self.stride = 1  # ticks between two samples kept: about twice what a frame sends
+        self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
+        self._taken = [0] * len(xy)  # per robot, the tick of the last take
+
+    def bind(self, run: RunState) -> None:
+        self._run = run
+
+    def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        i = robot.index
+        xy = self.xy[i]
+        if xy is not None:
+            self.paths[i].add(values[xy[0]], values[xy[1]])
+        assert self._run is not None
+        t = self._run.tick_index
+        if t >= self._next[i]:  # copying a tick's readings and slots costs: only the ticks a frame may send
+            self._next[i] = t + self.stride
+            kept = self.samples[i]
+            kept.append((t, list(values), list(robot.program.slots)))
+            if len(kept) > MAX_SAMPLES_KEPT:
+                del kept[::2]
+        if self.breaks and self.hit is None:
+            self._check(robot, rule, values)
+
+    def _check(self, robot: RobotRun, rule: int, values: list) -> None:
+        assert self._run is not None
+        t, dt = self._run.tick_index, self._run.dt
+        for b in self.breaks:
+            if b.hit(robot, rule, values, t, dt):
+                # the state and rule of this tick (a goto takes effect on the next one)
+                p = self._run.program
+                state = int(robot.program.slots[STATE])
+                self.hit = {"tick": t, "time": round(t * dt, 9), "robot": robot.name, "what": b.spec,
+                            "state": p.state_names[state] if p.state_names else "",
+                            "rule": p.rules[rule].id if rule >= 0 else None}
+                return
+
+    def take_path(self, robot: int) -> list[tuple[float, float]]:
+        return self.paths[robot].take()
+
+    def take_samples(self, robot: int, at_most: int) -> list[tuple[int, list, list]]:
+        """Up to ``at_most`` of the ticks kept since the last take, evenly spread, the last
+        tick left out (the frame itself shows it)."""
+        kept, self.samples[robot] = self.samples[robot][:-1], []
+        if self._run is not None:  # the next frame's ticks are like this one's: keep about 2 x at_most
+            t = self._run.tick_index
+            self.stride = max(1, (t - self._taken[robot]) // (2 * at_most))
+            self._taken[robot] = t
+        if len(kept) <= at_most:
+            return kept
+        step = len(kept) / at_most
+        return [kept[min(len(kept) - 1, int((k + 1) * step) - 1)] for k in range(at_most)]
