@@ -90,6 +90,9 @@ class RobotModel:
     footprint: tuple[tuple[float, float], ...]  # convex outline in the robot frame, metres
     sonars: tuple[Sonar, ...]
     cameras: tuple[Camera, ...] = ()  # none on the stock model; a behaviour file adds them
+    # What other robots' cameras see of it: its footprint raised to height_m, in rgb (0..255).
+    height_m: float = 0.2
+    rgb: tuple[int, int, int] = (128, 128, 128)
 
     def channels(self) -> dict[str, Kind]:
         """Every channel a behaviour may read from a robot of this model, in a stable order."""
@@ -120,6 +123,10 @@ POSE_CHANNELS: dict[str, Kind] = {"x": Kind.NUMBER, "y": Kind.NUMBER, "heading":
 # * Mass 9 kg: the Pioneer 3 datasheet (robot without batteries).
 # * Footprint: the chassis outline through the sonar mounts (which sit on its edge) plus the
 #   wheels, 0.42 m long and 0.38 m wide (datasheet: 455 x 381 mm including the bumpers).
+# * Height 0.237 m: the Pioneer 3 datasheet's 237 mm (body, without accessories); what other
+#   robots' cameras see is the footprint raised to this height.
+# * Colour red (200, 30, 30): the real robot's and CoppeliaSim's model's red body; the shade is
+#   a choice, not a measured figure.
 _P3DX_SONARS = (
     (0.1067, 0.1382, 90), (0.1557, 0.1250, 50), (0.1909, 0.0831, 30), (0.2095, 0.0273, 10),
     (0.2095, -0.0273, -10), (0.1909, -0.0785, -30), (0.1558, -0.1203, -50), (0.1067, -0.1382, -90),
@@ -143,6 +150,8 @@ PIONEER_P3DX = RobotModel(
     sonars=tuple(
         Sonar(f"sonar{i + 1}", x, y, math.radians(a), 1.0) for i, (x, y, a) in enumerate(_P3DX_SONARS)
     ),
+    height_m=0.237,
+    rgb=(200, 30, 30),
 )
 
 MODELS: dict[str, RobotModel] = {m.name: m for m in (PIONEER_P3DX,)}
