@@ -15,14 +15,16 @@ top below it) is clipped to the camera's near plane, projected with the same pin
 the ground (``camera_axes``) and filled with ``cv2.fillConvexPoly`` at 1/16 pixel. A solid
 always hides the floor behind it (it stands on it). When the faces of two solids may overlap
 in the picture, every face is drawn through a per-pixel depth test: a plane's inverse depth is
-an affine function of the pixel, so one multiply-add per pixel gives it. The faces of one convex
-solid never overlap, so a lone solid needs no test. No antialiasing, nothing random: the same
-poses give the same bytes.
+an affine function of the pixel, so one multiply-add per pixel gives it. The faces of one
+convex solid never overlap, so a lone solid needs no test, and a solid looks the same either
+way. A top has the solid's colour; a side 0.6 to 0.9 of it, the more squarely it faces the
+camera, so edges show. No antialiasing, nothing random: the same poses give the same bytes.
 
-Cost: each solid is first tested against the camera's frustum (a capsule around a wall's
-segment, a sphere around a robot or block), in plain Python, so a solid out of view costs a few
-microseconds; solids whose every point is deeper than ``FAR_M`` are not drawn, as the floor
-there is sky. ``benchmarks/bench_road.py`` measures the whole tick.
+Cost: each solid is first tested against the camera's reach (how far its lowest-looking ray
+goes before the floor) and frustum (a capsule around a wall's segment, a sphere around a robot
+or block), in plain Python, so a solid out of view costs a few microseconds; solids whose every
+point is deeper than ``FAR_M`` are not drawn, as the floor there is sky.
+``benchmarks/bench_road.py`` measures the whole tick.
 """
 from __future__ import annotations
 
@@ -42,9 +44,6 @@ from labsim.backends.scene.world import Block, Wall, World
 NEAR_M = 0.01  # faces are clipped this far in front of the camera
 _SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly: edges to 1/16 pixel
 _ONE = 1 << _SHIFT
-# Flat shading: a side facing the light gets 0.9 of its colour, one facing away 0.5, a top all
-# of it; a fixed light (from the north-west, horizontally) keeps frames the same at every pose.
-_LIGHT = (-0.6, 0.8)
 
 
 @dataclass(frozen=True)
@@ -110,11 +109,12 @@ def _segment_distance(p: tuple[float, float], a: tuple[float, float], b: tuple[f
 class _Lens:
     """What a camera's projection needs that does not depend on the pose."""
 
-    axes_t: np.ndarray  # rows: the picture's right, its downwards, the viewing direction
+    axes_t: tuple[tuple[float, float, float], ...]  # rows: the picture's right, its downwards, the view
     f: float  # focal length, pixels
     c0: float  # the column and row of the optical axis (pixel centres are whole numbers)
     r0: float
     planes: tuple[tuple[float, float, float, float], ...]  # (nx, ny, nz, offset): outside when > 0
+    reach_m: float  # nothing farther than this, horizontally, is in view
     mount_x_m: float
     height_m: float
     width_px: int
@@ -131,7 +131,42 @@ def _lens(camera: Camera) -> _Lens:
     planes = ((0.0, 0.0, -1.0, NEAR_M), (0.0, 0.0, 1.0, -FAR_M),
               (1 / kx, 0.0, -tx / kx, 0.0), (-1 / kx, 0.0, -tx / kx, 0.0),
               (0.0, 1 / ky, -ty / ky, 0.0), (0.0, -1 / ky, -ty / ky, 0.0))
-    return _Lens(axes.T.copy(), f, w / 2 - 0.5, h / 2 - 0.5, planes, float(camera.x_m), float(camera.height_m), w, h)
+    # How far a ray at the picture's edge goes before it is below the floor: no solid beyond
+    # that can be seen, whatever its height. Sampled densely along the edges, with a margin.
+    t = np.linspace(-1.0, 1.0, 65)
+    edge = np.concatenate([np.column_stack((t * tx, np.full_like(t, s * ty))) for s in (-1, 1)]
+                          + [np.column_stack((np.full_like(t, s * tx), t * ty)) for s in (-1, 1)])
+    rays = axes @ np.column_stack((edge, np.ones(len(edge)))).T
+    falls = rays[2] < 0
+    reach = FAR_M + 1.0
+    if falls.all():
+        reach = min(reach, 1.02 * camera.height_m * float((np.hypot(rays[0], rays[1]) / -rays[2]).max()) + 0.01)
+    rows = tuple((float(r[0]), float(r[1]), float(r[2])) for r in axes.T)
+    return _Lens(rows, f, w / 2 - 0.5, h / 2 - 0.5, planes, reach, float(camera.x_m), float(camera.height_m), w, h)
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """A solid's numbers for drawing, in its own frame: corners, outward side normals (not unit)
+    and their lengths, each side's plane offset n . corner, and each side's four corners among
+    the prism's (the floor ring, then the top ring)."""
+
+    solid: Solid
+    corners: np.ndarray  # n x 2
+    normals: np.ndarray  # n x 2
+    lengths: np.ndarray  # n
+    offsets: np.ndarray  # n
+    quads: np.ndarray  # n x 4, indices into the 2n corners of the prism
+
+
+def _shape(solid: Solid) -> _Shape:
+    corners = np.asarray(solid.outline, float)
+    n = len(corners)
+    edge = np.roll(corners, -1, axis=0) - corners
+    normals = np.column_stack((edge[:, 1], -edge[:, 0]))  # outward: the outline runs counter-clockwise
+    k = np.arange(n)
+    quads = np.column_stack((k, (k + 1) % n, n + (k + 1) % n, n + k))
+    return _Shape(solid, corners, normals, np.hypot(edge[:, 0], edge[:, 1]), (normals * corners).sum(axis=1), quads)
 
 
 class SceneView:
@@ -145,8 +180,8 @@ class SceneView:
     def __init__(self, ground: GroundView, statics: Sequence[Solid],
                  robots: Sequence[tuple[Any, Solid]] = ()) -> None:
         self._ground = ground
-        self._statics = tuple(statics)
-        self._robots = [(chipmunk.c_body(body), solid) for body, solid in robots]
+        self._statics = [_shape(s) for s in statics]
+        self._robots = [(chipmunk.c_body(body), _shape(solid)) for body, solid in robots]
         self._lenses: dict[Camera, _Lens] = {}
 
     def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1) -> np.ndarray:
@@ -155,38 +190,41 @@ class SceneView:
         if lens is None:
             lens = self._lenses[camera] = _lens(camera)
         ch, sh = math.cos(heading_rad), math.sin(heading_rad)
-        eye = (x_m + lens.mount_x_m * ch, y_m + lens.mount_x_m * sh, lens.height_m)
+        ex, ey = x_m + lens.mount_x_m * ch, y_m + lens.mount_x_m * sh
+        eye = (ex, ey, lens.height_m)
         # World offsets to camera coordinates: the robot's heading undone, then the axes.
-        turn = np.array([[ch, sh, 0.0], [-sh, ch, 0.0], [0.0, 0.0, 1.0]])
-        g = lens.axes_t @ turn
-        rows = tuple(tuple(float(v) for v in row) for row in g)
-        seen = [(np.asarray(s.outline), s) for s in self._statics if _may_see(lens, rows, eye, s, s.a, s.b)]
-        for i, (body, solid) in enumerate(self._robots):
+        g = [(r[0] * ch - r[1] * sh, r[0] * sh + r[1] * ch, r[2]) for r in lens.axes_t]
+        reach = lens.reach_m
+        seen: list[tuple[_Shape, float, float, float]] = []  # a shape and its pose
+        for shape in self._statics:
+            solid = shape.solid
+            # most solids are out of reach: a cheap test of the distance first
+            if _segment_distance((ex, ey), solid.a, solid.b) - solid.radius_m <= reach \
+                    and _may_see(lens, g, eye, solid, solid.a, solid.b):
+                seen.append((shape, 0.0, 0.0, 0.0))
+        for i, (body, shape) in enumerate(self._robots):
             if i == robot:
                 continue
             p = chipmunk.body_position(body)
             at = (p.x, p.y)
-            if _may_see(lens, rows, eye, solid, at, at):
-                a = chipmunk.body_angle(body)
-                c, s = math.cos(a), math.sin(a)
-                outline = np.asarray(solid.outline) @ np.array([[c, s], [-s, c]]) + at
-                seen.append((outline, solid))
+            solid = shape.solid
+            if math.hypot(at[0] - ex, at[1] - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, at, at):
+                seen.append((shape, p.x, p.y, chipmunk.body_angle(body)))
         if seen:
             _draw(image, lens, g, eye, seen)
         return image
 
 
-def _may_see(lens: _Lens, g: tuple[tuple[float, ...], ...], eye: tuple[float, float, float], solid: Solid,
+def _may_see(lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float], solid: Solid,
              a: tuple[float, float], b: tuple[float, float]) -> bool:
     """Whether the capsule around a-b (raised to half the solid's height) reaches into the
     frustum: for each plane, the part of a-b not farther out than the radius is cut down
     (Liang-Barsky); nothing left means out of view. Conservative: it may keep a solid whose
     corners all lie outside different planes, which then draws nothing."""
     z = solid.height_m / 2 - eye[2]
-    da = (a[0] - eye[0], a[1] - eye[1], z)
-    db = (b[0] - eye[0], b[1] - eye[1], z)
-    qa = [r[0] * da[0] + r[1] * da[1] + r[2] * z for r in g]
-    qb = [r[0] * db[0] + r[1] * db[1] + r[2] * z for r in g]
+    ax, ay, bx, by = a[0] - eye[0], a[1] - eye[1], b[0] - eye[0], b[1] - eye[1]
+    qa = [r[0] * ax + r[1] * ay + r[2] * z for r in g]
+    qb = [r[0] * bx + r[1] * by + r[2] * z for r in g]
     lo, hi, rho = 0.0, 1.0, solid.radius_m
     for nx, ny, nz, off in lens.planes:
         sa = nx * qa[0] + ny * qa[1] + nz * qa[2] + off - rho
@@ -202,62 +240,103 @@ def _may_see(lens: _Lens, g: tuple[tuple[float, ...], ...], eye: tuple[float, fl
     return True
 
 
-def _faces(outline: np.ndarray, solid: Solid, g: np.ndarray,
-           eye: tuple[float, float, float]) -> list[tuple[np.ndarray, np.ndarray, float, tuple[int, int, int]]]:
-    """The faces of a prism the camera looks at: each as its corners in camera coordinates, its
-    plane's normal there and offset (normal . q = offset for a point q on it), and its colour."""
+Face = tuple[np.ndarray, int, tuple[int, int, int]]  # fixed-point pixel corners, side (-1: top), colour
+Plane = tuple[np.ndarray, float]  # in camera coordinates: normal . q = offset on the face
+
+
+def _faces(shape: _Shape, x: float, y: float, a: float, g: list[tuple[float, float, float]],
+           eye: tuple[float, float, float], lens: _Lens) -> tuple[list[Face], Any]:
+    """The faces of a prism at pose (x, y, a) that the camera looks at, projected, and what
+    ``_planes`` needs to give their planes for the depth test.
+
+    Worked in the solid's own frame, where its numbers are fixed: the camera's position there
+    decides which sides face it (a side's plane is n . p = n . corner, and the camera is in
+    front of it when n . eye > n . corner), and one 2 x 3 matrix takes its corners to camera
+    coordinates. A side is shaded by how squarely it faces the camera, a top is its colour.
+    """
     ex, ey, ez = eye
-    rel = outline - (ex, ey)
-    base = rel @ g[:, :2].T - ez * g[:, 2]  # the outline on the floor, camera coordinates
-    up = solid.height_m * g[:, 2]
-    top = base + up
-    edge = np.roll(outline, -1, axis=0) - outline
-    out: list[tuple[np.ndarray, np.ndarray, float, tuple[int, int, int]]] = []
-    n = len(outline)
-    for i in range(n):
-        nx, ny = float(edge[i, 1]), float(-edge[i, 0])  # outward: the outline runs counter-clockwise
-        # The side's plane, n . (p - eye) = n . (corner i - eye); the camera is in front of
-        # the side when that is negative.
-        offset = nx * float(rel[i, 0]) + ny * float(rel[i, 1])
-        if offset >= 0:
+    c, s = math.cos(a), math.sin(a)
+    dx, dy = ex - x, ey - y
+    eye_x, eye_y = c * dx + s * dy, -s * dx + c * dy  # the camera in the solid's frame
+    solid = shape.solid
+    facing = shape.normals @ (eye_x, eye_y) - shape.offsets  # > 0: the side faces the camera
+    sides = np.flatnonzero(facing > 0)
+    top = ez > solid.height_m
+    if not len(sides) and not top:
+        return [], None
+    # q = G (R p + (x, y) - eye, z - ez): the solid's frame to camera coordinates
+    m = np.array([[r[0] * c + r[1] * s, -r[0] * s + r[1] * c, r[0] * (x - ex) + r[1] * (y - ey) - r[2] * ez]
+                  for r in g])
+    base = shape.corners @ m[:, :2].T + m[:, 2]
+    corners = np.vstack((base, base + np.array([r[2] * solid.height_m for r in g])))
+    first = shape.corners[0]
+    distance = math.hypot(eye_x - first[0], eye_y - first[1]) + 1e-12
+    shade = 0.6 + 0.3 * np.minimum(1.0, facing[sides] / (shape.lengths[sides] * distance))
+    rgbs = [(r, gr, b) for r, gr, b in np.rint(np.outer(shade, solid.rgb)).astype(int).tolist()]
+    ks = sides.tolist()
+    n = len(shape.corners)
+    later = (ks, facing, c, s, top)
+    if corners[:, 2].min() >= NEAR_M:  # all in front of the camera: project the corners once
+        z = corners[:, 2]
+        pts = np.column_stack((lens.f * corners[:, 0] / z + lens.c0, lens.r0 - lens.f * corners[:, 1] / z))
+        if pts.min() >= -2 and pts[:, 0].max() <= lens.width_px + 1 and pts[:, 1].max() <= lens.height_px + 1:
+            fixed = np.rint(pts * _ONE).astype(np.int32)
+            quads = fixed[shape.quads[sides]]
+            faces: list[Face] = [(quads[i], k, rgb) for i, (k, rgb) in enumerate(zip(ks, rgbs))]
+            if top:
+                faces.append((fixed[n:], -1, solid.rgb))
+            return faces, later
+    faces = []
+    for k, rgb in [*zip(ks, rgbs), (-1, solid.rgb)]:  # near or across the picture's edge: one by one
+        if k < 0 and not top:
             continue
-        j = (i + 1) % n
-        length = math.hypot(nx, ny)
-        shade = 0.7 + 0.2 * (nx * _LIGHT[0] + ny * _LIGHT[1]) / length
-        rgb = (round(solid.rgb[0] * shade), round(solid.rgb[1] * shade), round(solid.rgb[2] * shade))
-        normal = g[:, 0] * nx + g[:, 1] * ny
-        out.append((np.array([base[i], base[j], top[j], top[i]]), normal, offset, rgb))
-    if ez > solid.height_m:  # the top, seen from above
-        out.append((top, g[:, 2].copy(), solid.height_m - ez, solid.rgb))
+        projected = _project(corners[shape.quads[k]] if k >= 0 else corners[n:], lens)
+        if projected is not None:
+            faces.append((projected, k, rgb))
+    return faces, later
+
+
+def _planes(faces: list[Face], later: Any, shape: _Shape, g: list[tuple[float, float, float]],
+            eye: tuple[float, float, float]) -> list[Plane]:
+    """Each face's plane in camera coordinates, normal . q = offset (see ``_faces``)."""
+    _, facing, c, s, _ = later
+    out: list[Plane] = []
+    for _, k, _ in faces:
+        if k < 0:
+            out.append((np.array([r[2] for r in g]), shape.solid.height_m - eye[2]))
+        else:
+            out.append((_side_normal(g, shape.normals[k], c, s), -float(facing[k])))
     return out
 
 
-def _draw(image: np.ndarray, lens: _Lens, g: np.ndarray, eye: tuple[float, float, float],
-          seen: list[tuple[np.ndarray, Solid]]) -> None:
+def _side_normal(g: list[tuple[float, float, float]], normal: np.ndarray, c: float, s: float) -> np.ndarray:
+    """A side's normal (solid frame) in camera coordinates: turned by the solid's angle, then G."""
+    nx, ny = c * float(normal[0]) - s * float(normal[1]), s * float(normal[0]) + c * float(normal[1])
+    return np.array([r[0] * nx + r[1] * ny for r in g])
+
+
+def _draw(image: np.ndarray, lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float],
+          seen: list[tuple[_Shape, float, float, float]]) -> None:
     """Fill the visible faces of the solids seen; through a depth buffer when two may overlap."""
-    polygons = []  # per solid: its faces as (fixed-point pixel corners, plane, colour)
-    boxes = []
-    for outline, solid in seen:
-        faces = []
-        for corners, normal, offset, rgb in _faces(outline, solid, g, eye):
-            pts = _project(corners, lens)
-            if pts is not None:
-                faces.append((pts, normal, offset, rgb))
+    solids = []  # per solid: its faces, its shape and what gives their planes, and its pixel box
+    for shape, x, y, a in seen:
+        faces, later = _faces(shape, x, y, a, g, eye, lens)
         if faces:
             every = np.vstack([f[0] for f in faces])
-            polygons.append(faces)
-            boxes.append((*every.min(axis=0), *every.max(axis=0)))
-    if not polygons:
+            low, high = every.min(axis=0), every.max(axis=0)
+            solids.append((faces, shape, later, (int(low[0]), int(low[1]), int(high[0]), int(high[1]))))
+    if not solids:
         return
-    if not _overlap(boxes):
-        for faces in polygons:
-            for pts, _, _, rgb in faces:
+    if len(solids) == 1 or not _overlap([box for *_, box in solids]):
+        for faces, *_ in solids:
+            for pts, _, rgb in faces:
                 cv2.fillConvexPoly(image, pts, rgb, cv2.LINE_8, _SHIFT)
         return
     depth = np.zeros(image.shape[:2])  # inverse depth, 1/m: 0 is the floor and sky, farthest
-    for faces in polygons:
-        for pts, normal, offset, rgb in faces:
-            _fill_nearer(image, depth, lens, pts, normal, offset, rgb)
+    for faces, shape, later, box in solids:
+        planes = _planes(faces, later, shape, g, eye)
+        _merge_nearer(image, depth, lens, [(pts, normal, offset, rgb) for (pts, _, rgb), (normal, offset)
+                                           in zip(faces, planes)], box)
 
 
 def _overlap(boxes: list[tuple[int, int, int, int]]) -> bool:
@@ -317,30 +396,37 @@ def _clip_box(pts: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np
     return np.array(poly).reshape(-1, 2)
 
 
-def _fill_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens, pts: np.ndarray, normal: np.ndarray,
-                 offset: float, rgb: tuple[int, int, int]) -> None:
-    """Fill a face where it is nearer than what is drawn there.
+def _merge_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens,
+                  faces: list[tuple[np.ndarray, np.ndarray, float, tuple[int, int, int]]],
+                  box: tuple[int, int, int, int]) -> None:
+    """Draw a solid where it is nearer than what is drawn there.
 
-    On the face's plane (normal . q = offset), the point seen through pixel (c, r) is at depth
-    d along the axis with q = d (xn, yn, 1), xn = (c - c0) / f, yn = (r0 - r) / f; so
-    1 / d = (normal . (xn, yn, 1)) / offset, affine in c and r.
+    Its faces are filled in the same order as when it is drawn alone, each face's number into
+    a small buffer, so it looks the same as alone (a pixel on the edge of two faces goes to the
+    later). Each pixel's depth is then that of its face: on a plane normal . q = offset, the
+    point seen through pixel (c, r) is at depth d along the axis with q = d (xn, yn, 1),
+    xn = (c - c0) / f, yn = (r0 - r) / f; so 1 / d = (normal . (xn, yn, 1)) / offset, affine
+    in c and r.
     """
     h, w = depth.shape
-    left, top = max(0, int(pts[:, 0].min()) >> _SHIFT), max(0, int(pts[:, 1].min()) >> _SHIFT)
-    right = min(w, (int(pts[:, 0].max()) >> _SHIFT) + 2)
-    bottom = min(h, (int(pts[:, 1].max()) >> _SHIFT) + 2)
+    left, top = max(0, int(box[0]) >> _SHIFT), max(0, int(box[1]) >> _SHIFT)
+    right, bottom = min(w, (int(box[2]) >> _SHIFT) + 2), min(h, (int(box[3]) >> _SHIFT) + 2)
     if left >= right or top >= bottom:
         return
-    mask = np.zeros((bottom - top, right - left), np.uint8)
-    cv2.fillConvexPoly(mask, pts - np.array([left << _SHIFT, top << _SHIFT], np.int32), 1, cv2.LINE_8, _SHIFT)
-    f, nx, ny, nz = lens.f, float(normal[0]), float(normal[1]), float(normal[2])
-    a, b = nx / (f * offset), -ny / (f * offset)
-    c = (nz - nx * lens.c0 / f + ny * lens.r0 / f) / offset
-    inverse = a * np.arange(left, right) + (b * np.arange(top, bottom) + c)[:, None]
-    region = depth[top:bottom, left:right]
-    nearer = (mask != 0) & (inverse > region)
-    region[nearer] = inverse[nearer]
-    image[top:bottom, left:right][nearer] = rgb
+    which = np.zeros((bottom - top, right - left), np.uint8)
+    corner = np.array([left << _SHIFT, top << _SHIFT], np.int32)
+    for k, (pts, _, _, _) in enumerate(faces):
+        cv2.fillConvexPoly(which, pts - corner, k + 1, cv2.LINE_8, _SHIFT)
+    cols, rows = np.arange(left, right, dtype=float), np.arange(top, bottom, dtype=float)[:, None]
+    f = lens.f
+    region, picture = depth[top:bottom, left:right], image[top:bottom, left:right]
+    for k, (_, normal, offset, rgb) in enumerate(faces):
+        nx, ny, nz = float(normal[0]), float(normal[1]), float(normal[2])
+        inverse = (nx / (f * offset)) * cols + ((-ny / (f * offset)) * rows
+                                                + (nz - nx * lens.c0 / f + ny * lens.r0 / f) / offset)
+        nearer = (which == k + 1) & (inverse > region)
+        region[nearer] = inverse[nearer]
+        picture[nearer] = rgb
 
 
 def scene_view(ground: GroundView, world: World, robots: Sequence[tuple[Any, RobotModel]] = ()) -> SceneView:
