@@ -1,6 +1,7 @@
 """Camera images for the pymunk backend: the world's ground seen through a pinhole camera.
 
-The pymunk scene is flat, so a camera can only see the floor. When a world loads, its
+This module draws the floor; ``labsim.backends.pymunk.scene_view`` then draws what stands on
+it (walls, blocks, other robots) over each frame. When a world loads, its
 ``Ground`` (``labsim.backends.scene.ground``: floor colour, roads, lines, patches) is drawn once into
 a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspective`` of that
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
@@ -15,16 +16,15 @@ What the image shows, and what it does not:
   near edge of the floor): CoppeliaSim's row order, the array ``sim.getVisionSensorImg`` hands a
   script (docs/decisions.md, "Camera images in CoppeliaSim's row order"). Whatever shows a
   frame to a person flips it upright (``upright``).
-* Only the ground. Walls, blocks and robots (this one and the others) are not drawn: the
-  scene has no heights, and the labs that use cameras look down at the road.
+* Only the ground: walls, blocks and robots are drawn over it by ``scene_view``.
 * Above the floor's horizon (and beyond ``FAR_M`` of floor) the image shows ``SKY_RGB``, a
   light gray: a camera may look straight ahead. Only the rows that see floor are warped; with
   rows bottom first the sky is the image's last rows.
 * Bilinear sampling, no mipmapping: detail finer than a camera pixel aliases in the far rows.
 
-``GroundView.render`` is called from the backend's generated ``sense()`` for each camera
-channel a behaviour reads; a 128 x 128 frame costs about 50 us on the road loop, most of it the
-warp (``benchmarks/bench_road.py`` measures the whole tick).
+``GroundView.render`` is called by ``SceneView.render``, from the backend's generated
+``sense()``, for each camera channel a behaviour reads; a 128 x 128 frame costs about 50 us
+on the road loop, most of it the warp (``benchmarks/bench_road.py`` measures the whole tick).
 """
 from __future__ import annotations
 

@@ -40,7 +40,8 @@ class Sonar:
 
 @dataclass(frozen=True)
 class Camera:
-    """A forward-looking vision sensor on a robot, seeing the world's ground.
+    """A forward-looking vision sensor on a robot, seeing the world's ground and the robots,
+    walls and blocks standing on it.
 
     The image is RGB, ``height_px`` rows by ``width_px`` columns, in CoppeliaSim's row order:
     row 0 is the BOTTOM row of the picture (the near edge of the floor), column 0 the left.

@@ -190,7 +190,7 @@ def world_schema() -> Schema:
         "description": text("one line about the world"),
         "bounds": numbers("[xmin, ymin, xmax, ymax] in metres: where robots may be placed", 4),
         "wall_thickness": number("metres (default 0.1)", exclusive_minimum=0),
-        "wall_height": number("metres: how high walls stand for cameras (default 0.8)", MIN_SIZE_M, MAX_SIZE_M),
+        "wall_height": number("metres: how high walls stand for cameras (default 0.5)", MIN_SIZE_M, MAX_SIZE_M),
         "walls": {"type": "array", "description": "wall segments", "items": mapping(WALL_KEYS, {
             "from": _point("one end"), "to": _point("the other end"),
             "thickness": number("metres (default wall_thickness)", exclusive_minimum=0),

@@ -17,11 +17,11 @@ from labsim.backends.scene.world_names import BUILTIN_DIR as BUILTIN_DIR  # the 
 from labsim.backends.scene.world_names import builtin_worlds as builtin_worlds  # imported from here too
 
 PLACEMENT_CLEARANCE_M = 0.6  # a robot placed 'at: random' is this far from walls and other robots
-# What cameras see of walls and blocks when a world file does not say: CoppeliaSim's model
-# browser offers 80 cm high walls; a block is a box half a metre high. The colours are light
-# enough that a threshold for a dark road reads them as not-road, and darker than the default
-# floor, so that an edge shows.
-WALL_HEIGHT_M = 0.8
+# What cameras see of walls and blocks when a world file does not say: half a metre, above the
+# Pioneer's sonars (0.1 to 0.3 m), as `labsim scene` has always built them in CoppeliaSim. The
+# colours are light enough that a threshold for a dark road reads them as not-road, and darker
+# than the default floor, so that an edge shows.
+WALL_HEIGHT_M = 0.5
 WALL_RGB = (175, 175, 170)
 BLOCK_HEIGHT_M = 0.5
 BLOCK_RGB = (150, 120, 90)

@@ -9,7 +9,7 @@ behaviour file's, with the world file's path, line and column, all of them at on
     labsim-world: 1
     name: walls_lab4
     bounds: [-7.5, -7.5, 7.5, 7.5]          # xmin, ymin, xmax, ymax in metres
-    wall_height: 0.8                         # default for walls, metres (default 0.8)
+    wall_height: 0.5                         # default for walls, metres (default 0.5)
     walls:                                   # segments; thickness defaults to wall_thickness
       - {from: [-7.5, -7.5], to: [7.5, -7.5], height: 1.0, color: [175, 175, 170]}
     blocks:                                  # solid boxes: centre, size, optional angle_deg,

@@ -188,3 +188,15 @@ def test_world_file_heights_and_colours(tmp_path: Path) -> None:
     assert load_world(path, report) is None
     (error,) = report.errors
     assert (error.line, error.col) == (3, 40) and "height" in error.message
+
+
+def test_solids_across_the_pictures_edge_and_behind_the_camera_are_clipped() -> None:
+    # a long wall across the view, its ends far outside the picture, and one beside and
+    # behind the camera, reaching past its near plane
+    across = Wall((2.0, -50.0), (2.0, 50.0), 0.1, 1.0, (90, 90, 90))
+    beside = Wall((-3.0, 0.6), (1.5, 0.6), 0.1, 1.0, (60, 60, 60))
+    img = SceneView(GROUND, [wall_solid(across), wall_solid(beside)]).render(0.0, 0.0, 0.0, LEVEL)
+    drawn = coloured(img)
+    assert drawn[64].all()  # the row at the camera's height: wall from edge to edge
+    left = drawn[:, :20]
+    assert left.all(axis=1).sum() > 60  # the wall beside fills the left edge over many rows
