@@ -1,7 +1,7 @@
 """Interpreter overhead on the road-following lab: labsim against a hand-written loop.
 
 Five robots, 600 ticks (30 s), a 128 x 128 camera each. Both sides drive the same pymunk scene
-(built by the pymunk backend from ``road_loop``) and render with the same ground renderer; the
+(built by the pymunk backend from ``road_loop``) and render with the same scene renderer; the
 hand loop then does by hand what ``behaviours/road_follow.yaml`` says: gray, threshold at 20
 (not inverted), the row of the centroid from the image moments, the PID, the wheel speeds, and the lab's five
 metrics. Both must end with the same poses, bit for bit, which shows they did the same work.
@@ -31,6 +31,7 @@ from compare import compare, labsim_scene, labsim_side
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
 from labsim.backends.pymunk.camera import ground_view
+from labsim.backends.pymunk.scene_view import scene_view
 from labsim.backends.scene.ground import RoadTracker
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
@@ -53,7 +54,8 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # --- from here on, a hand-written controller on raw pymunk, OpenCV and the renderer ---
     dt, speed, kp, ki, kd, scale = 0.05, 5.0, 0.05, 0.01, 0.0, 0.5
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
-    render = ground_view(world.ground).render
+    # the camera sees the ground and the other robots on it, as labsim's does
+    render = scene_view(ground_view(world.ground), world, [(b, model) for b in bodies]).render
     road = world.ground.roads[0]
     tracker = RoadTracker(road)
     half_width = road.width_m / 2
@@ -101,11 +103,11 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     tick = 0
     while tick * dt < 30:
         sensed = []
-        for b in bodies:  # every robot senses before any acts
+        for i, b in enumerate(bodies):  # every robot senses before any acts
             p = position(b._body)
             x, y = p.x, p.y
             a = get_angle(b._body)
-            image = render(x, y, a, camera)
+            image = render(x, y, a, camera, i)
             v = velocity(b._body)
             sensed.append((image, v.x * cos(a) + v.y * sin(a), tracker.offset(x, y)))
         for i, b in enumerate(bodies):

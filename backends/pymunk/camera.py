@@ -1,6 +1,7 @@
 """Camera images for the pymunk backend: the world's ground seen through a pinhole camera.
 
-The pymunk scene is flat, so a camera can only see the floor. When a world loads, its
+This module draws the floor; ``labsim.backends.pymunk.scene_view`` then draws what stands on
+it (walls, blocks, other robots) over each frame. When a world loads, its
 ``Ground`` (``labsim.backends.scene.ground``: floor colour, roads, lines, patches) is drawn once into
 a top-down texture at ``Ground.px_per_m``. A frame is then one ``cv2.warpPerspective`` of that
 texture: for a pinhole camera above a plane, image pixels and floor points are related by a
@@ -15,16 +16,15 @@ What the image shows, and what it does not:
   near edge of the floor): CoppeliaSim's row order, the array ``sim.getVisionSensorImg`` hands a
   script (docs/decisions.md, "Camera images in CoppeliaSim's row order"). Whatever shows a
   frame to a person flips it upright (``upright``).
-* Only the ground. Walls, blocks and robots (this one and the others) are not drawn: the
-  scene has no heights, and the labs that use cameras look down at the road.
+* Only the ground: walls, blocks and robots are drawn over it by ``scene_view``.
 * Above the floor's horizon (and beyond ``FAR_M`` of floor) the image shows ``SKY_RGB``, a
   light gray: a camera may look straight ahead. Only the rows that see floor are warped; with
   rows bottom first the sky is the image's last rows.
 * Bilinear sampling, no mipmapping: detail finer than a camera pixel aliases in the far rows.
 
-``GroundView.render`` is called from the backend's generated ``sense()`` for each camera
-channel a behaviour reads; a 128 x 128 frame costs about 50 us on the road loop, most of it the
-warp (``benchmarks/bench_road.py`` measures the whole tick).
+``GroundView.render`` is called by ``SceneView.render``, from the backend's generated
+``sense()``, for each camera channel a behaviour reads; a 128 x 128 frame costs about 50 us
+on the road loop, most of it the warp (``benchmarks/bench_road.py`` measures the whole tick).
 """
 from __future__ import annotations
 
@@ -217,6 +217,29 @@ def _paint_polygon(img: np.ndarray, pts: np.ndarray, rgb: tuple[int, int, int]) 
     _blend(img, top, left, np.clip(inside + 0.5, 0.0, 1.0), rgb)
 
 
+def camera_axes(camera: Camera) -> tuple[np.ndarray, float]:
+    """The camera's axes in a frame turned with the robot (x forward, y left, z up), as the
+    columns of a 3x3 matrix (the picture's right, its downwards, the viewing direction), and
+    its focal length in pixels.
+
+    Pixel (c, r) -> the ray's direction, for a robot heading along +x:
+      d = forward + xn * right + yn * down, xn = (c + 0.5 - w/2) / f, yn = (h/2 - r - 0.5) / f
+    (pixel centres; rows count from the bottom, so yn, the picture's downwards, shrinks as r
+    grows: the flip to CoppeliaSim's row order is folded in here and costs nothing per frame),
+    with forward = (cp, 0, -sp), right = (0, -1, 0), down = -up, up = (sp, 0, cp). A roll turns
+    right and up about forward: right' = cr right - sr up, up' = cr up + sr right. The axes are
+    orthonormal, so their transpose takes a direction back to (xn, yn, 1) times its depth.
+    """
+    w = camera.width_px
+    f = (w / 2) / math.tan(math.radians(camera.fov_deg) / 2)  # focal length, pixels
+    p = math.radians(camera.pitch_deg)
+    cp, sp = math.cos(p), math.sin(p)
+    right, up = np.array([0.0, -1.0, 0.0]), np.array([sp, 0.0, cp])
+    roll = math.radians(camera.roll_deg)
+    cr, sr = math.cos(roll), math.sin(roll)
+    return np.column_stack((cr * right - sr * up, -(cr * up + sr * right), (cp, 0.0, -sp))), f
+
+
 class GroundView:
     """A ground drawn once, and cameras rendered from it.
 
@@ -243,23 +266,12 @@ class GroundView:
         """What a camera's homography needs that does not depend on the pose."""
         check_camera(camera)
         w, h = camera.width_px, camera.height_px
-        f = (w / 2) / math.tan(math.radians(camera.fov_deg) / 2)  # focal length, pixels
+        axes, f = camera_axes(camera)
         p = math.radians(camera.pitch_deg)
         cp, sp = math.cos(p), math.sin(p)
-        # Pixel (c, r) -> the ray's direction in a frame turned with the robot but not pitched
-        # (x forward, y left, z up), for a robot heading along +x:
-        #   d = forward + xn * right - yn * up, xn = (c + 0.5 - w/2) / f, yn = (h/2 - r - 0.5) / f
-        # (pixel centres; rows count from the bottom, so yn, the picture's downwards, shrinks as
-        # r grows: the flip to CoppeliaSim's row order is folded in here and costs nothing per
-        # frame), with forward = (cp, 0, -sp), right = (0, -1, 0), up = (sp, 0, cp). As a matrix
-        # applied to (c, r, 1):
-        # A roll turns right and up about forward: right' = cr right - sr up, up' = cr up + sr right.
+        # As a matrix applied to pixel (c, r, 1): the ray's direction (see camera_axes).
         k_inv = np.array([[1 / f, 0, (0.5 - w / 2) / f], [0, -1 / f, (h / 2 - 0.5) / f], [0, 0, 1]])
-        right, up = np.array([0.0, -1.0, 0.0]), np.array([sp, 0.0, cp])
-        roll = math.radians(camera.roll_deg)
-        cr, sr = math.cos(roll), math.sin(roll)
-        axes = np.column_stack((cr * right - sr * up, -(cr * up + sr * right), (cp, 0.0, -sp)))
-        if roll:
+        if camera.roll_deg:
             return self._plan_rolled(camera, axes @ k_inv)
         # The rows that see floor nearer than FAR_M come first (from the bottom); the rows above
         # them are sky. The ray through row r (at the centre column) falls dz = -(sp + yn cp)

@@ -10,8 +10,9 @@ and dt give bit-identical readings in every run and process.
 Beyond sonars, pose and ``collided``, a robot may read:
 
 * a camera (a name from ``RobotModel.cameras``): an RGB image of the world's ground from
-  ``labsim.backends.pymunk.camera`` (walls and robots are not in it); OpenCV is imported, and
-  the ground drawn, only when some robot reads a camera;
+  ``labsim.backends.pymunk.camera``, with the walls, blocks and other robots standing on it
+  drawn by ``labsim.backends.pymunk.scene_view``; OpenCV is imported, and the ground drawn,
+  only when some robot reads a camera;
 * a lidar's beams (``lidar1`` ..): rays as the sonars', from the model's ``Lidar``;
 * a bumper (``RobotModel.bumpers``): True while a wall, block or robot comes within its reach
   of its point on the chassis (one chipmunk point query);
@@ -92,7 +93,7 @@ class FleetSimulator:
         touching = [0] * n  # contacts in progress, per robot
         count = [0] * n
         _count_contacts(space, touching, count)
-        render = _camera_renderer(world, models, robots)
+        render = _camera_renderer(world, models, robots, [plan.body for plan in plans])
         tracker = _road_tracker(world)
         lap_robots = [i for i, req in enumerate(robots) if "laps" in req.channels]
         laps = [0] * n  # completed laps, for the robots that read them
@@ -224,15 +225,17 @@ def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
     return models
 
 
-def _camera_renderer(world: World, models: list[RobotModel],
-                     robots: Sequence[RobotRequest]) -> Callable[..., object] | None:
-    """``GroundView.render`` for the world's ground, or None when no robot reads a camera (then
-    OpenCV is not imported and the ground not drawn)."""
+def _camera_renderer(world: World, models: list[RobotModel], robots: Sequence[RobotRequest],
+                     bodies: list[pymunk.Body]) -> Callable[..., object] | None:
+    """``SceneView.render`` for the world's ground, walls, blocks and these robots' bodies, or
+    None when no robot reads a camera (then OpenCV is not imported and the ground not drawn)."""
     if not any(c.name in req.channels for model, req in zip(models, robots) for c in model.cameras):
         return None
     try:
         from labsim.backends.pymunk.camera import ground_view
-        return ground_view(world.ground if world.ground is not None else Ground()).render
+        from labsim.backends.pymunk.scene_view import scene_view
+        ground = ground_view(world.ground if world.ground is not None else Ground())
+        return scene_view(ground, world, list(zip(bodies, models))).render
     except ValueError as e:
         raise BackendError(f"world '{world.name}': {e}") from None
 

@@ -149,7 +149,8 @@ def compile_sense(
     pymunk's wrappers make, without their allocations (measured in
     ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
     the literals change no reading. Cameras
-    call ``render(x, y, angle, camera)``; road channels call ``tracker.offset`` once per robot;
+    call ``render(x, y, angle, camera, robot)`` (the robot's index, whose own body its camera
+    does not see); road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
     call of ``reflectance(x, y)`` at its point.
@@ -200,7 +201,7 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
             env[f"cam{r}_{k}"] = spec.camera
-            lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k})")
+            lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k}, {r})")
             values.append(f"v{r}_{k}")
         elif isinstance(spec, SonarRay):  # cast above, by its group
             values.append(f"v{r}_{k}")

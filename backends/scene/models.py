@@ -111,7 +111,8 @@ class GroundSensor:
 
 @dataclass(frozen=True)
 class Camera:
-    """A forward-looking vision sensor on a robot, seeing the world's ground.
+    """A forward-looking vision sensor on a robot, seeing the world's ground and the robots,
+    walls and blocks standing on it.
 
     The image is RGB, ``height_px`` rows by ``width_px`` columns, in CoppeliaSim's row order:
     row 0 is the BOTTOM row of the picture (the near edge of the floor), column 0 the left.
@@ -164,7 +165,9 @@ class RobotModel:
     lidars: tuple[Lidar, ...] = ()  # at most one; a behaviour file adds it (``lidar:``)
     bumpers: tuple[Bumper, ...] = ()
     ground_sensors: tuple[GroundSensor, ...] = ()
-    height_m: float = 0.0  # the body's height (for pictures of the scene); 0: not given
+    # What other robots' cameras see of it: its footprint raised to height_m, in rgb (0..255).
+    height_m: float = 0.2
+    rgb: tuple[int, int, int] = (128, 128, 128)
 
     def rays(self) -> tuple[Sonar, ...]:
         """Every single ray the robot casts: its sonars (or IR sensors), then its lidar's beams."""
@@ -204,6 +207,10 @@ POSE_CHANNELS: dict[str, Kind] = {"x": Kind.NUMBER, "y": Kind.NUMBER, "heading":
 # * Bumpers: the datasheet's optional front and rear bumper rings, as four switches, one per
 #   corner of the outline (at the outer sonar mounts of each quarter), closing within 2 cm.
 #   labsim's own simplification: the real rings have five segments each.
+# * Height 0.237 m: the Pioneer 3 datasheet's 237 mm (body, without accessories); what other
+#   robots' cameras see is the footprint raised to this height.
+# * Colour red (200, 30, 30): the real robot's and CoppeliaSim's model's red body; the shade is
+#   a choice, not a measured figure.
 _P3DX_SONARS = (
     (0.1067, 0.1382, 90), (0.1557, 0.1250, 50), (0.1909, 0.0831, 30), (0.2095, 0.0273, 10),
     (0.2095, -0.0273, -10), (0.1909, -0.0785, -30), (0.1558, -0.1203, -50), (0.1067, -0.1382, -90),
@@ -232,6 +239,7 @@ PIONEER_P3DX = RobotModel(
         Bumper("bump_back_left", -0.1943, 0.0785, 0.02), Bumper("bump_back_right", -0.1943, -0.0785, 0.02),
     ),
     height_m=0.237,  # Pioneer 3 datasheet: 237 mm body height
+    rgb=(200, 30, 30),
 )
 
 

@@ -30,7 +30,7 @@ from labsim.backends.scene.world_file import (
     ROAD_KEYS,
     WALL_KEYS,
 )
-from labsim.foundation.limits import MAX_COORD_M, MAX_RADIUS_M, MIN_SIZE_M
+from labsim.foundation.limits import MAX_COORD_M, MAX_RADIUS_M, MAX_SIZE_M, MIN_SIZE_M
 
 Schema = dict[str, Any]
 DRAFT = "http://json-schema.org/draft-07/schema#"  # the draft yaml-language-server reads best
@@ -190,13 +190,18 @@ def world_schema() -> Schema:
         "description": text("one line about the world"),
         "bounds": numbers("[xmin, ymin, xmax, ymax] in metres: where robots may be placed", 4),
         "wall_thickness": number("metres (default 0.1)", exclusive_minimum=0),
+        "wall_height": number("metres: how high walls stand for cameras (default 0.5)", MIN_SIZE_M, MAX_SIZE_M),
         "walls": {"type": "array", "description": "wall segments", "items": mapping(WALL_KEYS, {
             "from": _point("one end"), "to": _point("the other end"),
             "thickness": number("metres (default wall_thickness)", exclusive_minimum=0),
+            "height": number("metres: how high it stands for cameras (default wall_height)", MIN_SIZE_M, MAX_SIZE_M),
+            "color": _colour("[175, 175, 170]"),
         }, required=("from", "to"))},
         "blocks": {"type": "array", "description": "solid boxes", "items": mapping(BLOCK_KEYS, {
             "center": _point("the centre"), "size": numbers("[width, depth] in metres", 2),
             "angle_deg": number("rotation in degrees (default 0)"),
+            "height": number("metres: how high it stands for cameras (default 0.5)", MIN_SIZE_M, MAX_SIZE_M),
+            "color": _colour("[150, 120, 90]"),
         }, required=("center", "size"))},
         "spawns": {"type": "array", "description": "numbered start poses ('at: spawn' takes them in order)",
                    "items": pose},

@@ -17,6 +17,14 @@ from labsim.backends.scene.world_names import BUILTIN_DIR as BUILTIN_DIR  # the 
 from labsim.backends.scene.world_names import builtin_worlds as builtin_worlds  # imported from here too
 
 PLACEMENT_CLEARANCE_M = 0.6  # a robot placed 'at: random' is this far from walls and other robots
+# What cameras see of walls and blocks when a world file does not say: half a metre, above the
+# Pioneer's sonars (0.1 to 0.3 m), as `labsim scene` has always built them in CoppeliaSim. The
+# colours are light enough that a threshold for a dark road reads them as not-road, and darker
+# than the default floor, so that an edge shows.
+WALL_HEIGHT_M = 0.5
+WALL_RGB = (175, 175, 170)
+BLOCK_HEIGHT_M = 0.5
+BLOCK_RGB = (150, 120, 90)
 
 
 @dataclass(frozen=True)
@@ -28,18 +36,24 @@ class Pose:
 
 @dataclass(frozen=True)
 class Wall:
-    """A straight wall: the segment a-b, thickness_m wide (centred on the segment)."""
+    """A straight wall: the segment a-b, thickness_m wide (centred on the segment), height_m
+    high, seen by cameras in rgb."""
 
     a: tuple[float, float]
     b: tuple[float, float]
     thickness_m: float
+    height_m: float = WALL_HEIGHT_M
+    rgb: tuple[int, int, int] = WALL_RGB
 
 
 @dataclass(frozen=True)
 class Block:
-    """A solid convex polygon (a box, a pillar), corners counter-clockwise, world frame."""
+    """A solid convex polygon (a box, a pillar), corners counter-clockwise, world frame,
+    height_m high, seen by cameras in rgb."""
 
     corners: tuple[tuple[float, float], ...]
+    height_m: float = BLOCK_HEIGHT_M
+    rgb: tuple[int, int, int] = BLOCK_RGB
 
 
 @dataclass(frozen=True)

@@ -9,10 +9,11 @@ behaviour file's, with the world file's path, line and column, all of them at on
     labsim-world: 1
     name: walls_lab4
     bounds: [-7.5, -7.5, 7.5, 7.5]          # xmin, ymin, xmax, ymax in metres
+    wall_height: 0.5                         # default for walls, metres (default 0.5)
     walls:                                   # segments; thickness defaults to wall_thickness
-      - {from: [-7.5, -7.5], to: [7.5, -7.5]}
-    blocks:                                  # solid boxes: centre, size, optional angle_deg
-      - {center: [6.5, 6.5], size: [2, 2]}
+      - {from: [-7.5, -7.5], to: [7.5, -7.5], height: 1.0, color: [175, 175, 170]}
+    blocks:                                  # solid boxes: centre, size, optional angle_deg,
+      - {center: [6.5, 6.5], size: [2, 2]}   # height (default 0.5) and color
     spawns:                                  # [x, y, heading_deg]
       - [0, 0, 90]
     ground:                                  # what cameras see (optional)
@@ -60,7 +61,16 @@ from labsim.backends.scene.ground import (
     Road,
 )
 from labsim.backends.scene.mechanism_file import read_mechanism
-from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.backends.scene.world import (
+    BLOCK_HEIGHT_M,
+    BLOCK_RGB,
+    WALL_HEIGHT_M,
+    WALL_RGB,
+    Block,
+    Pose,
+    Wall,
+    World,
+)
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.kinds import WORLD_VERSION_KEY
 from labsim.foundation.limits import (
@@ -73,14 +83,14 @@ from labsim.foundation.limits import (
 )
 from labsim.foundation.source import Document, Reader, load, scalar_value
 
-KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "walls", "blocks", "spawns",
-        "ground", "mechanism")
+KEYS = ("labsim-world", "name", "description", "bounds", "wall_thickness", "wall_height", "walls", "blocks",
+        "spawns", "ground", "mechanism")
 GROUND_KEYS = ("floor", "px_per_m", "roads", "lines", "patches")
 ROAD_KEYS = ("width", "color", "closed", "path")
 LINE_KEYS = ("from", "to", "width", "color")
 PATCH_KEYS = ("center", "size", "color", "angle_deg")
-WALL_KEYS = ("from", "to", "thickness")
-BLOCK_KEYS = ("center", "size", "angle_deg")
+WALL_KEYS = ("from", "to", "thickness", "height", "color")
+BLOCK_KEYS = ("center", "size", "angle_deg", "height", "color")
 ARC_KEYS = ("center", "radius", "to_deg")
 
 ARC_ON_CIRCLE_M = 0.01  # how far an arc's start may be off its circle
@@ -193,7 +203,8 @@ class _WorldReader(Reader):
                 if b[0] >= b[2] or b[1] >= b[3]:
                     self.error(f["bounds"], "bounds are [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax")
                 bounds = (b[0], b[1], b[2], b[3])
-        walls, blocks = self.walls(f, thickness), self.blocks(f)
+        height = self.height(f["wall_height"], "wall_height") if "wall_height" in f else WALL_HEIGHT_M
+        walls, blocks = self.walls(f, thickness, height or WALL_HEIGHT_M), self.blocks(f)
         spawns = []
         for item in self.list_of(f, "spawns"):
             p = self.numbers(item, "a spawn pose [x, y, heading_deg]", (2, 3))
@@ -206,7 +217,19 @@ class _WorldReader(Reader):
         return World(name, description, bounds, walls, blocks, tuple(spawns), self.doc.path,
                      ground=ground, mechanism=mechanism)
 
-    def walls(self, f: dict[str, Node], thickness: float) -> tuple[Wall, ...]:
+    def height(self, node: Node, what: str) -> float | None:
+        """How high a wall or block stands, for cameras: a length from MIN_SIZE_M to MAX_SIZE_M."""
+        return self.length(node, what, MAX_SIZE_M)
+
+    def looks(self, item: dict[str, Node], height: float,
+              rgb: tuple[int, int, int]) -> tuple[float, tuple[int, int, int]]:
+        """An item's optional height and color, or the defaults given (also after an error, which
+        is reported and drops the world)."""
+        h = self.height(item["height"], "height") if "height" in item else height
+        c = self.colour(item["color"], "color") if "color" in item else rgb
+        return (height if h is None else h), (rgb if c is None else c)
+
+    def walls(self, f: dict[str, Node], thickness: float, height: float) -> tuple[Wall, ...]:
         walls = []
         for item in self.list_of(f, "walls"):
             w = self.fields(item, WALL_KEYS, "walls") or {}
@@ -223,7 +246,7 @@ class _WorldReader(Reader):
                 elif not MIN_SIZE_M <= t <= MAX_THICKNESS_M:
                     self.error(w.get("thickness", item), f"a wall's thickness must be from {MIN_SIZE_M:g} "
                                                         f"to {MAX_THICKNESS_M:g} m, not {t:g}")
-                walls.append(Wall((a[0], a[1]), (b[0], b[1]), t))
+                walls.append(Wall((a[0], a[1]), (b[0], b[1]), t, *self.looks(w, height, WALL_RGB)))
         return tuple(walls)
 
     def blocks(self, f: dict[str, Node]) -> tuple[Block, ...]:
@@ -240,7 +263,8 @@ class _WorldReader(Reader):
                     self.error(bl["size"], "a block's size must be positive")
                     continue
                 if angle is not None:
-                    blocks.append(Block(_box(c[0], c[1], s[0], s[1], math.radians(angle))))
+                    blocks.append(Block(_box(c[0], c[1], s[0], s[1], math.radians(angle)),
+                                        *self.looks(bl, BLOCK_HEIGHT_M, BLOCK_RGB)))
         return tuple(blocks)
 
     # --- ground ---------------------------------------------------------------------------------

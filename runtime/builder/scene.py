@@ -15,7 +15,8 @@ cited at each call):
   ground (the picture its cameras see, ``labsim.backends.pymunk.camera.draw_ground``, written
   to a PNG), aliased ``labsimGround``;
 * each wall a static, respondable cuboid aliased ``wall``: as long as the wall plus its
-  thickness (labsim's walls have rounded ends), ``WALL_HEIGHT_M`` high; each block a static
+  thickness (labsim's walls have rounded ends), as high as the world says (``Wall.height_m``,
+  the height labsim's own cameras see); each block a static
   cuboid aliased ``block`` when it is a rectangle, else a prism (``sim.createMeshShape``);
 * one stock Pioneer P3DX per robot (CoppeliaSim's own ``models/robots/mobile/pioneer
   p3dx.ttm``, ``sim.loadModel``), its script removed (it drives the wheels itself and would
@@ -40,7 +41,6 @@ from labsim.backends.scene.world import Block, Wall, World
 from labsim.foundation.files import SCRATCH_PREFIX
 from labsim.runtime.builder.mechanism import build_mechanism
 
-WALL_HEIGHT_M = 0.5  # above the Pioneer's sonars (0.1 to 0.3 m), below its cameras
 PIONEER_MODEL = "models/robots/mobile/pioneer p3dx.ttm"  # under CoppeliaSim's resources folder
 
 
@@ -160,9 +160,9 @@ def _ground(conn: Connection, world: World) -> None:
 def _wall(conn: Connection, wall: Wall) -> None:
     (ax, ay), (bx, by), t = wall.a, wall.b, wall.thickness_m
     length = math.hypot(bx - ax, by - ay)
-    h = _cuboid(conn, [length + t, t, WALL_HEIGHT_M])
+    h = _cuboid(conn, [length + t, t, wall.height_m])
     _static(conn, h, "wall")
-    _place(conn, h, (ax + bx) / 2, (ay + by) / 2, WALL_HEIGHT_M / 2, math.atan2(by - ay, bx - ax))
+    _place(conn, h, (ax + bx) / 2, (ay + by) / 2, wall.height_m / 2, math.atan2(by - ay, bx - ax))
 
 
 def _block(conn: Connection, block: Block) -> None:
@@ -170,12 +170,12 @@ def _block(conn: Connection, block: Block) -> None:
     box = _rectangle(c)
     if box is not None:
         cx, cy, w, d, yaw = box
-        h = _cuboid(conn, [w, d, WALL_HEIGHT_M])
+        h = _cuboid(conn, [w, d, block.height_m])
         _static(conn, h, "block")
-        _place(conn, h, cx, cy, WALL_HEIGHT_M / 2, yaw)
+        _place(conn, h, cx, cy, block.height_m / 2, yaw)
         return
     n = len(c)
-    vertices = [v for x, y in c for v in (x, y, 0.0)] + [v for x, y in c for v in (x, y, WALL_HEIGHT_M)]
+    vertices = [v for x, y in c for v in (x, y, 0.0)] + [v for x, y in c for v in (x, y, block.height_m)]
     fan = ([k for i in range(1, n - 1) for k in (0, i + 1, i)]  # the bottom, facing down
            + [k for i in range(1, n - 1) for k in (n, n + i, n + i + 1)])  # the top
     sides = [k for i in range(n) for k in (i, (i + 1) % n, n + (i + 1) % n, i, n + (i + 1) % n, n + i)]

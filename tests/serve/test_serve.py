@@ -209,6 +209,29 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     assert len(part) == 8 * 6 * 3 and res == [32, 24]
 
 
+def test_serve_camera_sees_the_robot_ahead_as_the_backend_does() -> None:
+    world = load_world(builtin_worlds()["road_compact"], Report())
+    cam = Camera("camera", 64, 48, 50.0, 1.0, 15.0)
+    model = dataclasses.replace(PIONEER_P3DX, cameras=(cam,))
+    poses = [Pose(-6.0, -15.0, 0.0), Pose(-3.0, -15.2, 0.4)]  # the second 3 m ahead of the first
+    wire = Wire(Server(world, [RobotRequest(f"r{i}", model, p, ()) for i, p in enumerate(poses)], port=0))
+    v = wire("sim.getObject", "/PioneerP3DX[0]/Vision_sensor")
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    wire("sim.step")
+    img, _ = wire("sim.getVisionSensorImg", v)
+    from labsim.backends.pymunk.backend import PymunkBackend
+
+    direct = PymunkBackend()
+    direct.open(world, [RobotRequest(f"r{i}", model, p, ("camera",)) for i, p in enumerate(poses)], 0.05, 0)
+    direct.step()
+    expected = direct.sense()[0][0]
+    direct.close()
+    assert img == np.ascontiguousarray(expected).tobytes()
+    seen = np.frombuffer(img, np.uint8).reshape(48, 64, 3)
+    assert ((seen[..., 0] > 120) & (seen[..., 1] < 60)).sum() > 20  # the red robot ahead
+
+
 def test_mechanism_joints_by_alias() -> None:
     crane = load_world(builtin_worlds()["crane"], Report())
     with pytest.raises(Exception, match="mechanism"):

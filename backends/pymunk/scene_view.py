@@ -1,0 +1,435 @@
+"""Camera images that see the scene: other robots, walls and blocks standing on the ground.
+
+The step after ``labsim.backends.pymunk.camera`` in the pymunk backend's ``sense()``: that
+module warps the ground into a frame, and this one draws over it everything that stands on the
+floor, each as an upright prism (its outline raised to its height, flat-shaded):
+
+* other robots: their model's ``footprint``, ``height_m`` and ``rgb``
+  (``labsim.backends.scene.models``), at their bodies' poses when ``sense()`` runs. A camera
+  does not see the robot it is mounted on.
+* walls: the box around the segment, as thick as the wall, its ends squared off over pymunk's
+  round caps; blocks: their corners. Both with the world file's ``height`` and ``color``.
+
+Projection and occlusion are exact for prisms: each visible face (a side facing the camera, a
+top below it) is clipped to the camera's near plane, projected with the same pinhole model as
+the ground (``camera_axes``) and filled with ``cv2.fillConvexPoly`` at 1/16 pixel. A solid
+always hides the floor behind it (it stands on it). When the faces of two solids may overlap
+in the picture, every face is drawn through a per-pixel depth test: a plane's inverse depth is
+an affine function of the pixel, so one multiply-add per pixel gives it. The faces of one
+convex solid never overlap, so a lone solid needs no test, and a solid looks the same either
+way. A top has the solid's colour; a side 0.6 to 0.9 of it, the more squarely it faces the
+camera, so edges show. No antialiasing, nothing random: the same poses give the same bytes.
+
+Cost: each solid is first tested against the camera's reach (how far its lowest-looking ray
+goes before the floor) and frustum (a capsule around a wall's segment, a sphere around a robot
+or block), in plain Python, so a solid out of view costs a few microseconds; solids whose every
+point is deeper than ``FAR_M`` are not drawn, as the floor there is sky.
+``benchmarks/bench_road.py`` measures the whole tick.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from labsim.backends.pymunk import chipmunk
+from labsim.backends.pymunk.camera import FAR_M, GroundView, camera_axes
+from labsim.backends.scene.models import Camera, RobotModel
+from labsim.backends.scene.world import Block, Wall, World
+
+NEAR_M = 0.01  # faces are clipped this far in front of the camera
+_SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly: edges to 1/16 pixel
+_ONE = 1 << _SHIFT
+
+
+@dataclass(frozen=True)
+class Solid:
+    """An upright prism: a convex outline (counter-clockwise, metres), its height and colour.
+
+    ``a``, ``b`` and ``radius_m`` bound it for culling: every point of the prism lies within
+    ``radius_m`` of the segment a-b raised to half its height.
+    """
+
+    outline: tuple[tuple[float, float], ...]
+    height_m: float
+    rgb: tuple[int, int, int]
+    a: tuple[float, float]
+    b: tuple[float, float]
+    radius_m: float
+
+
+def _ccw(points: Sequence[tuple[float, float]]) -> tuple[tuple[float, float], ...]:
+    area2 = sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(points, [*points[1:], points[0]]))
+    return tuple(points) if area2 >= 0 else tuple(reversed(points))
+
+
+def _solid(outline: Sequence[tuple[float, float]], height: float, rgb: tuple[int, int, int],
+           a: tuple[float, float] | None = None, b: tuple[float, float] | None = None) -> Solid:
+    """A prism; bounded by a sphere around its outline's centre unless a spine a-b is given."""
+    if a is None or b is None:
+        xs, ys = [p[0] for p in outline], [p[1] for p in outline]
+        a = b = ((min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2)
+    reach = max(_segment_distance(p, a, b) for p in outline)
+    return Solid(_ccw(outline), height, rgb, a, b, math.hypot(reach, height / 2) * (1 + 1e-9) + 1e-9)
+
+
+def wall_solid(wall: Wall) -> Solid:
+    (ax, ay), (bx, by) = wall.a, wall.b
+    length = math.hypot(bx - ax, by - ay)
+    t2 = wall.thickness_m / 2
+    ux, uy = (bx - ax) / length * t2, (by - ay) / length * t2  # along, t/2 long
+    nx, ny = -uy, ux  # across, to the left
+    box = [(ax - ux - nx, ay - uy - ny), (bx + ux - nx, by + uy - ny),
+           (bx + ux + nx, by + uy + ny), (ax - ux + nx, ay - uy + ny)]
+    return _solid(box, wall.height_m, wall.rgb, wall.a, wall.b)
+
+
+def block_solid(block: Block) -> Solid:
+    return _solid(block.corners, block.height_m, block.rgb)
+
+
+def robot_solid(model: RobotModel) -> Solid:
+    """A robot's prism in its own frame, bounded by a sphere about its origin (the body's
+    position), which is where ``render`` puts it."""
+    return _solid(model.footprint, model.height_m, model.rgb, (0.0, 0.0), (0.0, 0.0))
+
+
+def _segment_distance(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    n2 = dx * dx + dy * dy
+    t = 0.0 if n2 == 0 else max(0.0, min(1.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / n2))
+    return math.hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy)
+
+
+@dataclass(frozen=True)
+class _Lens:
+    """What a camera's projection needs that does not depend on the pose."""
+
+    axes_t: tuple[tuple[float, float, float], ...]  # rows: the picture's right, its downwards, the view
+    f: float  # focal length, pixels
+    c0: float  # the column and row of the optical axis (pixel centres are whole numbers)
+    r0: float
+    planes: tuple[tuple[float, float, float, float], ...]  # (nx, ny, nz, offset): outside when > 0
+    reach_m: float  # nothing farther than this, horizontally, is in view
+    mount_x_m: float
+    height_m: float
+    width_px: int
+    height_px: int
+
+
+def _lens(camera: Camera) -> _Lens:
+    axes, f = camera_axes(camera)
+    w, h = camera.width_px, camera.height_px
+    tx, ty = w / 2 / f, h / 2 / f
+    kx, ky = math.hypot(1, tx), math.hypot(1, ty)
+    # The frustum in camera coordinates (right, down, forward), each plane as a unit normal
+    # pointing out and an offset: the near plane, the far one, then the picture's four edges.
+    planes = ((0.0, 0.0, -1.0, NEAR_M), (0.0, 0.0, 1.0, -FAR_M),
+              (1 / kx, 0.0, -tx / kx, 0.0), (-1 / kx, 0.0, -tx / kx, 0.0),
+              (0.0, 1 / ky, -ty / ky, 0.0), (0.0, -1 / ky, -ty / ky, 0.0))
+    # How far a ray at the picture's edge goes before it is below the floor: no solid beyond
+    # that can be seen, whatever its height. Sampled densely along the edges, with a margin.
+    t = np.linspace(-1.0, 1.0, 65)
+    edge = np.concatenate([np.column_stack((t * tx, np.full_like(t, s * ty))) for s in (-1, 1)]
+                          + [np.column_stack((np.full_like(t, s * tx), t * ty)) for s in (-1, 1)])
+    rays = axes @ np.column_stack((edge, np.ones(len(edge)))).T
+    falls = rays[2] < 0
+    reach = FAR_M + 1.0
+    if falls.all():
+        reach = min(reach, 1.02 * camera.height_m * float((np.hypot(rays[0], rays[1]) / -rays[2]).max()) + 0.01)
+    rows = tuple((float(r[0]), float(r[1]), float(r[2])) for r in axes.T)
+    return _Lens(rows, f, w / 2 - 0.5, h / 2 - 0.5, planes, reach, float(camera.x_m), float(camera.height_m), w, h)
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """A solid's numbers for drawing, in its own frame: corners, outward side normals (not unit)
+    and their lengths, each side's plane offset n . corner, and each side's four corners among
+    the prism's (the floor ring, then the top ring)."""
+
+    solid: Solid
+    corners: np.ndarray  # n x 2
+    normals: np.ndarray  # n x 2
+    lengths: np.ndarray  # n
+    offsets: np.ndarray  # n
+    quads: np.ndarray  # n x 4, indices into the 2n corners of the prism
+
+
+def _shape(solid: Solid) -> _Shape:
+    corners = np.asarray(solid.outline, float)
+    n = len(corners)
+    edge = np.roll(corners, -1, axis=0) - corners
+    normals = np.column_stack((edge[:, 1], -edge[:, 0]))  # outward: the outline runs counter-clockwise
+    k = np.arange(n)
+    quads = np.column_stack((k, (k + 1) % n, n + (k + 1) % n, n + k))
+    return _Shape(solid, corners, normals, np.hypot(edge[:, 0], edge[:, 1]), (normals * corners).sum(axis=1), quads)
+
+
+class SceneView:
+    """A world's ground, its walls and blocks, and its robots' bodies, seen by cameras.
+
+    ``render(x_m, y_m, heading_rad, camera, robot)`` is ``GroundView.render`` with the solids
+    drawn over it; ``robot`` is the index of the robot the camera is on (-1: none), whose body
+    is left out. ``bodies`` are the robots' pymunk bodies, read when a frame is rendered.
+    """
+
+    def __init__(self, ground: GroundView, statics: Sequence[Solid],
+                 robots: Sequence[tuple[Any, Solid]] = ()) -> None:
+        self._ground = ground
+        self._statics = [_shape(s) for s in statics]
+        self._robots = [(chipmunk.c_body(body), _shape(solid)) for body, solid in robots]
+        self._lenses: dict[Camera, _Lens] = {}
+
+    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1) -> np.ndarray:
+        image = self._ground.render(x_m, y_m, heading_rad, camera)
+        lens = self._lenses.get(camera)
+        if lens is None:
+            lens = self._lenses[camera] = _lens(camera)
+        ch, sh = math.cos(heading_rad), math.sin(heading_rad)
+        ex, ey = x_m + lens.mount_x_m * ch, y_m + lens.mount_x_m * sh
+        eye = (ex, ey, lens.height_m)
+        # World offsets to camera coordinates: the robot's heading undone, then the axes.
+        g = [(r[0] * ch - r[1] * sh, r[0] * sh + r[1] * ch, r[2]) for r in lens.axes_t]
+        reach = lens.reach_m
+        seen: list[tuple[_Shape, float, float, float]] = []  # a shape and its pose
+        for shape in self._statics:
+            solid = shape.solid
+            # most solids are out of reach: a cheap test of the distance first
+            if _segment_distance((ex, ey), solid.a, solid.b) - solid.radius_m <= reach \
+                    and _may_see(lens, g, eye, solid, solid.a, solid.b):
+                seen.append((shape, 0.0, 0.0, 0.0))
+        for i, (body, shape) in enumerate(self._robots):
+            if i == robot:
+                continue
+            p = chipmunk.body_position(body)
+            at = (p.x, p.y)
+            solid = shape.solid
+            if math.hypot(at[0] - ex, at[1] - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, at, at):
+                seen.append((shape, p.x, p.y, chipmunk.body_angle(body)))
+        if seen:
+            _draw(image, lens, g, eye, seen)
+        return image
+
+
+def _may_see(lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float], solid: Solid,
+             a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether the capsule around a-b (raised to half the solid's height) reaches into the
+    frustum: for each plane, the part of a-b not farther out than the radius is cut down
+    (Liang-Barsky); nothing left means out of view. Conservative: it may keep a solid whose
+    corners all lie outside different planes, which then draws nothing."""
+    z = solid.height_m / 2 - eye[2]
+    ax, ay, bx, by = a[0] - eye[0], a[1] - eye[1], b[0] - eye[0], b[1] - eye[1]
+    qa = [r[0] * ax + r[1] * ay + r[2] * z for r in g]
+    qb = [r[0] * bx + r[1] * by + r[2] * z for r in g]
+    lo, hi, rho = 0.0, 1.0, solid.radius_m
+    for nx, ny, nz, off in lens.planes:
+        sa = nx * qa[0] + ny * qa[1] + nz * qa[2] + off - rho
+        sb = nx * qb[0] + ny * qb[1] + nz * qb[2] + off - rho
+        if sa > 0 and sb > 0:
+            return False
+        if sa > 0:  # a is out, b in: keep from the crossing on
+            lo = max(lo, sa / (sa - sb))
+        elif sb > 0:
+            hi = min(hi, sa / (sa - sb))
+        if lo > hi:
+            return False
+    return True
+
+
+Face = tuple[np.ndarray, int, tuple[int, int, int]]  # fixed-point pixel corners, side (-1: top), colour
+Plane = tuple[np.ndarray, float]  # in camera coordinates: normal . q = offset on the face
+
+
+def _faces(shape: _Shape, x: float, y: float, a: float, g: list[tuple[float, float, float]],
+           eye: tuple[float, float, float], lens: _Lens) -> tuple[list[Face], Any]:
+    """The faces of a prism at pose (x, y, a) that the camera looks at, projected, and what
+    ``_planes`` needs to give their planes for the depth test.
+
+    Worked in the solid's own frame, where its numbers are fixed: the camera's position there
+    decides which sides face it (a side's plane is n . p = n . corner, and the camera is in
+    front of it when n . eye > n . corner), and one 2 x 3 matrix takes its corners to camera
+    coordinates. A side is shaded by how squarely it faces the camera, a top is its colour.
+    """
+    ex, ey, ez = eye
+    c, s = math.cos(a), math.sin(a)
+    dx, dy = ex - x, ey - y
+    eye_x, eye_y = c * dx + s * dy, -s * dx + c * dy  # the camera in the solid's frame
+    solid = shape.solid
+    facing = shape.normals @ (eye_x, eye_y) - shape.offsets  # > 0: the side faces the camera
+    sides = np.flatnonzero(facing > 0)
+    top = ez > solid.height_m
+    if not len(sides) and not top:
+        return [], None
+    # q = G (R p + (x, y) - eye, z - ez): the solid's frame to camera coordinates
+    m = np.array([[r[0] * c + r[1] * s, -r[0] * s + r[1] * c, r[0] * (x - ex) + r[1] * (y - ey) - r[2] * ez]
+                  for r in g])
+    base = shape.corners @ m[:, :2].T + m[:, 2]
+    corners = np.vstack((base, base + np.array([r[2] * solid.height_m for r in g])))
+    first = shape.corners[0]
+    distance = math.hypot(eye_x - first[0], eye_y - first[1]) + 1e-12
+    shade = 0.6 + 0.3 * np.minimum(1.0, facing[sides] / (shape.lengths[sides] * distance))
+    rgbs = [(r, gr, b) for r, gr, b in np.rint(np.outer(shade, solid.rgb)).astype(int).tolist()]
+    ks = sides.tolist()
+    n = len(shape.corners)
+    later = (ks, facing, c, s, top)
+    if corners[:, 2].min() >= NEAR_M:  # all in front of the camera: project the corners once
+        z = corners[:, 2]
+        pts = np.column_stack((lens.f * corners[:, 0] / z + lens.c0, lens.r0 - lens.f * corners[:, 1] / z))
+        if pts.min() >= -2 and pts[:, 0].max() <= lens.width_px + 1 and pts[:, 1].max() <= lens.height_px + 1:
+            fixed = np.rint(pts * _ONE).astype(np.int32)
+            quads = fixed[shape.quads[sides]]
+            faces: list[Face] = [(quads[i], k, rgb) for i, (k, rgb) in enumerate(zip(ks, rgbs))]
+            if top:
+                faces.append((fixed[n:], -1, solid.rgb))
+            return faces, later
+    faces = []
+    for k, rgb in [*zip(ks, rgbs), (-1, solid.rgb)]:  # near or across the picture's edge: one by one
+        if k < 0 and not top:
+            continue
+        projected = _project(corners[shape.quads[k]] if k >= 0 else corners[n:], lens)
+        if projected is not None:
+            faces.append((projected, k, rgb))
+    return faces, later
+
+
+def _planes(faces: list[Face], later: Any, shape: _Shape, g: list[tuple[float, float, float]],
+            eye: tuple[float, float, float]) -> list[Plane]:
+    """Each face's plane in camera coordinates, normal . q = offset (see ``_faces``)."""
+    _, facing, c, s, _ = later
+    out: list[Plane] = []
+    for _, k, _ in faces:
+        if k < 0:
+            out.append((np.array([r[2] for r in g]), shape.solid.height_m - eye[2]))
+        else:
+            out.append((_side_normal(g, shape.normals[k], c, s), -float(facing[k])))
+    return out
+
+
+def _side_normal(g: list[tuple[float, float, float]], normal: np.ndarray, c: float, s: float) -> np.ndarray:
+    """A side's normal (solid frame) in camera coordinates: turned by the solid's angle, then G."""
+    nx, ny = c * float(normal[0]) - s * float(normal[1]), s * float(normal[0]) + c * float(normal[1])
+    return np.array([r[0] * nx + r[1] * ny for r in g])
+
+
+def _draw(image: np.ndarray, lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float],
+          seen: list[tuple[_Shape, float, float, float]]) -> None:
+    """Fill the visible faces of the solids seen; through a depth buffer when two may overlap."""
+    solids = []  # per solid: its faces, its shape and what gives their planes, and its pixel box
+    for shape, x, y, a in seen:
+        faces, later = _faces(shape, x, y, a, g, eye, lens)
+        if faces:
+            every = np.vstack([f[0] for f in faces])
+            low, high = every.min(axis=0), every.max(axis=0)
+            solids.append((faces, shape, later, (int(low[0]), int(low[1]), int(high[0]), int(high[1]))))
+    if not solids:
+        return
+    if len(solids) == 1 or not _overlap([box for *_, box in solids]):
+        for faces, *_ in solids:
+            for pts, _, rgb in faces:
+                cv2.fillConvexPoly(image, pts, rgb, cv2.LINE_8, _SHIFT)
+        return
+    depth = np.zeros(image.shape[:2])  # inverse depth, 1/m: 0 is the floor and sky, farthest
+    for faces, shape, later, box in solids:
+        planes = _planes(faces, later, shape, g, eye)
+        _merge_nearer(image, depth, lens, [(pts, normal, offset, rgb) for (pts, _, rgb), (normal, offset)
+                                           in zip(faces, planes)], box)
+
+
+def _overlap(boxes: list[tuple[int, int, int, int]]) -> bool:
+    return any(a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
+               for k, a in enumerate(boxes) for b in boxes[k + 1:])
+
+
+def _project(corners: np.ndarray, lens: _Lens) -> np.ndarray | None:
+    """A face's corners (camera coordinates) as fixed-point pixel corners for OpenCV, clipped
+    to the near plane and to a margin around the picture; None when nothing of it is left."""
+    if corners[:, 2].min() < NEAR_M:
+        corners = _clip_near(corners)
+        if len(corners) < 3:
+            return None
+    z = corners[:, 2]
+    cols = lens.f * corners[:, 0] / z + lens.c0
+    rows = lens.r0 - lens.f * corners[:, 1] / z
+    pts = np.column_stack((cols, rows))
+    w, h = lens.width_px, lens.height_px
+    if pts.min() < -2 or cols.max() > w + 1 or rows.max() > h + 1:
+        pts = _clip_box(pts, -2.0, -2.0, w + 1.0, h + 1.0)
+        if len(pts) < 3:
+            return None
+    return np.round(pts * _ONE).astype(np.int32)
+
+
+def _clip_near(corners: np.ndarray) -> np.ndarray:
+    """Sutherland-Hodgman: the part of a convex polygon at depth NEAR_M or more."""
+    out = []
+    n = len(corners)
+    for k in range(n):
+        p, q = corners[k], corners[(k + 1) % n]
+        if p[2] >= NEAR_M:
+            out.append(p)
+        if (p[2] >= NEAR_M) != (q[2] >= NEAR_M):
+            out.append(p + (q - p) * ((NEAR_M - p[2]) / (q[2] - p[2])))
+    return np.array(out).reshape(-1, 3)
+
+
+def _clip_box(pts: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    """Sutherland-Hodgman: the part of a convex polygon inside the box [x0, x1] x [y0, y1]."""
+    poly = [(float(x), float(y)) for x, y in pts]
+    for axis, bound, keep_below in ((0, x0, False), (0, x1, True), (1, y0, False), (1, y1, True)):
+        out = []
+        for k, p in enumerate(poly):
+            q = poly[(k + 1) % len(poly)]
+            p_in = (p[axis] <= bound) if keep_below else (p[axis] >= bound)
+            q_in = (q[axis] <= bound) if keep_below else (q[axis] >= bound)
+            if p_in:
+                out.append(p)
+            if p_in != q_in:
+                t = (bound - p[axis]) / (q[axis] - p[axis])
+                out.append((p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t))
+        poly = out
+        if not poly:
+            break
+    return np.array(poly).reshape(-1, 2)
+
+
+def _merge_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens,
+                  faces: list[tuple[np.ndarray, np.ndarray, float, tuple[int, int, int]]],
+                  box: tuple[int, int, int, int]) -> None:
+    """Draw a solid where it is nearer than what is drawn there.
+
+    Its faces are filled in the same order as when it is drawn alone, each face's number into
+    a small buffer, so it looks the same as alone (a pixel on the edge of two faces goes to the
+    later). Each pixel's depth is then that of its face: on a plane normal . q = offset, the
+    point seen through pixel (c, r) is at depth d along the axis with q = d (xn, yn, 1),
+    xn = (c - c0) / f, yn = (r0 - r) / f; so 1 / d = (normal . (xn, yn, 1)) / offset, affine
+    in c and r.
+    """
+    h, w = depth.shape
+    left, top = max(0, int(box[0]) >> _SHIFT), max(0, int(box[1]) >> _SHIFT)
+    right, bottom = min(w, (int(box[2]) >> _SHIFT) + 2), min(h, (int(box[3]) >> _SHIFT) + 2)
+    if left >= right or top >= bottom:
+        return
+    which = np.zeros((bottom - top, right - left), np.uint8)
+    corner = np.array([left << _SHIFT, top << _SHIFT], np.int32)
+    for k, (pts, _, _, _) in enumerate(faces):
+        cv2.fillConvexPoly(which, pts - corner, k + 1, cv2.LINE_8, _SHIFT)
+    cols, rows = np.arange(left, right, dtype=float), np.arange(top, bottom, dtype=float)[:, None]
+    f = lens.f
+    region, picture = depth[top:bottom, left:right], image[top:bottom, left:right]
+    for k, (_, normal, offset, rgb) in enumerate(faces):
+        nx, ny, nz = float(normal[0]), float(normal[1]), float(normal[2])
+        inverse = (nx / (f * offset)) * cols + ((-ny / (f * offset)) * rows
+                                                + (nz - nx * lens.c0 / f + ny * lens.r0 / f) / offset)
+        nearer = (which == k + 1) & (inverse > region)
+        region[nearer] = inverse[nearer]
+        picture[nearer] = rgb
+
+
+def scene_view(ground: GroundView, world: World, robots: Sequence[tuple[Any, RobotModel]] = ()) -> SceneView:
+    """The SceneView of a world's walls and blocks and of robots (pymunk body, model)."""
+    statics = [wall_solid(w) for w in world.walls] + [block_solid(b) for b in world.blocks]
+    return SceneView(ground, statics, [(body, robot_solid(model)) for body, model in robots])
