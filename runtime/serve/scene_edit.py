@@ -37,6 +37,7 @@ A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
@@ -44,13 +45,13 @@ from pathlib import Path
 from typing import Protocol
 
 from labsim.backends.coppeliasim import RUNNING, STOPPED
-from labsim.backends.protocol import RobotRequest
+from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.ground import Ground, Texture
 from labsim.backends.scene.models import PIONEER_P3DX, Camera
 from labsim.backends.scene.world import Block, Pose, Wall, World
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_served
-from labsim.runtime.serve.built import Sensor, Shape
+from labsim.runtime.serve.built import Sensor, Shape, shape_options
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
     MECHANISM_CONSTANTS,
@@ -119,6 +120,7 @@ class SceneEditor:
         self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state == RUNNING
                                       and self.server.simulation.steps > 0)
         self.mechanism_edit = MechanismEditor(self)
+        self._good = self._state()  # what the last rebuild was made of (_settle)
 
     def _handle(self) -> int:
         self._next += 1
@@ -148,10 +150,23 @@ class SceneEditor:
 
     def _after_edits(self, name: str) -> Handler:
         def call(client: Client, args: Args) -> list[object] | Wait:
-            if self.dirty:
-                self.apply()
+            self._settle()
             return self.server.sim_handlers()[name](client, args)
         return call
+
+    def _settle(self) -> None:
+        """Rebuild the simulation from the edits, if any, and only while it is stopped: a shape
+        added to a running scene becomes an obstacle from the next start (a rebuild would end
+        the run). An edit set that cannot be simulated is this request's error, and the scene
+        goes back to the last one that could be: never a server that fails every request after."""
+        if not self.dirty or self.server.simulation.state != STOPPED:
+            return
+        try:
+            self.apply()
+        except (BackendError, LabsimError) as e:
+            self._restore()
+            raise SimError(f"labsim serve: the scene as edited cannot be simulated ({e}); the edits since "
+                           f"it last could are undone") from None
 
     def _info(self, ret: list[object] | Wait) -> list[object]:
         assert isinstance(ret, list) and isinstance(ret[0], dict)
@@ -182,8 +197,8 @@ class SceneEditor:
                 hw, hd = s.size[0] / 2, s.size[1] / 2
                 bounds = (rounded(s.x - hw), rounded(s.y - hd), rounded(s.x + hw), rounded(s.y + hd))
                 floor_z = s.z
-            elif not s.static or h in bodies:
-                continue
+            elif not (s.static or s.respondable) or h in bodies:
+                continue  # robots pass through a non-respondable shape; a body is the mechanism's
             elif s.kind == "cuboid" and s.alias == "wall":
                 half = (s.size[0] - s.size[1]) / 2
                 walls.append(Wall((rounded(s.x - half * c), rounded(s.y - half * si)),
@@ -193,6 +208,10 @@ class SceneEditor:
                 local = ((-w / 2, -d / 2), (w / 2, -d / 2), (w / 2, d / 2), (-w / 2, d / 2))
                 blocks.append(Block(tuple((rounded(s.x + x * c - y * si), rounded(s.y + x * si + y * c))
                                           for x, y in local)))
+            elif s.kind == "cylinder":  # a fixed post: its footprint as a 16-sided block
+                r = s.size[0] / 2
+                blocks.append(Block(tuple((rounded(s.x + r * math.cos(k * math.pi / 8)),
+                                           rounded(s.y + r * math.sin(k * math.pi / 8))) for k in range(16))))
             else:
                 blocks.append(Block(tuple((rounded(s.x + x), rounded(s.y + y)) for x, y in s.corners)))
         return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
@@ -211,6 +230,18 @@ class SceneEditor:
         requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
         self.server.rebuild(self.world(), requests)
         self.dirty = False
+        self._good = self._state()
+
+    def _state(self) -> tuple[object, ...]:
+        mech, host = self.mechanism_edit, self.script_host
+        return copy.deepcopy((self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents,
+                              mech.tilts, mech.ends, mech.masses, host.dummies, host.scripts))
+
+    def _restore(self) -> None:
+        mech, host = self.mechanism_edit, self.script_host
+        (self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents, mech.tilts, mech.ends,
+         mech.masses, host.dummies, host.scripts) = copy.deepcopy(self._good)  # type: ignore[assignment]
+        self.dirty = False
 
     # --- edits -------------------------------------------------------------------------------
 
@@ -219,7 +250,9 @@ class SceneEditor:
             raise SimError("labsim serve: the scene is built while the simulation is stopped")
 
     def _new(self, shape: Shape) -> list[object]:
-        self._stopped()
+        if self.server.simulation.state != STOPPED:
+            self.server.log("labsim serve: a shape added while the simulation runs is an obstacle from its "
+                            "next start")
         h = self._next
         self._next += 1
         self.shapes[h] = shape
@@ -245,7 +278,8 @@ class SceneEditor:
         if kind is None:
             raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
         sizes = floats(args[1], 3)
-        return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid"))
+        return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid",
+                               **shape_options(args)))
 
     def _createMeshShape(self, client: Client, args: Args) -> list[object]:
         # sim.createMeshShape(int options, float shadingAngle, list vertices, list indices): 4.6
@@ -279,6 +313,9 @@ class SceneEditor:
         if args[1] == EDIT_CONSTANTS["shapeintparam_static"]:
             shape.static = bool(args[2])
             self.dirty = True
+        elif args[1] == EDIT_CONSTANTS["shapeintparam_respondable"]:
+            shape.respondable = bool(args[2])
+            self.dirty = True
         return []
 
     def _setFloatParam(self, client: Client, args: Args) -> list[object]:
@@ -308,10 +345,13 @@ class SceneEditor:
         if not args[0].replace("\\", "/").lower().endswith("/" + PIONEER_FILE):
             raise SimError(f"labsim serve: the stand-in loads only CoppeliaSim's models/robots/mobile/"
                            f"{PIONEER_FILE}, not '{args[0]}'")
-        if self.dirty:
-            self.apply()
+        if self.mechanism_edit.parts:
+            raise SimError("labsim serve: this scene holds a mechanism's joints; a labsim world has either a "
+                           "mechanism or robots (sim.loadScene gives a lab's scene, or start from an empty one)")
+        self._settle()
         self.robots.append(Pose(0.0, 0.0, 0.0))
-        self.apply()
+        self.dirty = True
+        self._settle()
         i = len(self.robots) - 1
         script = self._next
         self._next += 1
@@ -322,8 +362,7 @@ class SceneEditor:
         # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6; -1 when it has none
         if len(args) < 2:
             raise SimError(E_FEW)
-        if self.dirty:
-            self.apply()
+        self._settle()
         obj = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
         if obj is None or obj.kind != "robot":
             return [-1]
@@ -339,7 +378,6 @@ class SceneEditor:
         shape = self._shape(args)
         if shape is None:
             return self._simulation("sim.setObjectPosition", client, args)
-        self._stopped()
         value, _rel = value_and_frame(args, "shapes")
         shape.x, shape.y, shape.z = floats(value, 3)
         self.dirty = True
@@ -349,7 +387,6 @@ class SceneEditor:
         shape = self._shape(args)
         if shape is None:
             return self._simulation("sim.setObjectOrientation", client, args)
-        self._stopped()
         value, _rel = value_and_frame(args, "shapes")
         alpha, beta, gamma = floats(value, 3)
         if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
@@ -371,8 +408,7 @@ class SceneEditor:
         return [[0.0, 0.0, shape.yaw]]
 
     def _simulation(self, name: str, client: Client, args: Args) -> list[object]:
-        if self.dirty:
-            self.apply()
+        self._settle()
         ret = self.server.sim_handlers()[name](client, args)
         assert isinstance(ret, list)
         return ret
@@ -398,8 +434,7 @@ class SceneEditor:
         if len(args) < 2:
             raise SimError(E_FEW)
         sensor = self.sensors.get(args[0])
-        if self.dirty:
-            self.apply()
+        self._settle()
         parent = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
         if sensor is None or parent is None or parent.kind != "robot":
             raise SimError("labsim serve: only a built vision sensor is parented, and only to a robot")

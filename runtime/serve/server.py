@@ -298,6 +298,15 @@ class Server:
 
     def _request(self, req: dict[str, Any]) -> dict[str, Any]:
         now = time.perf_counter()
+        if req["func"] == "_*end*_":
+            # What the C++, Java, MATLAB and Octave clients send as they close: the add-on answers
+            # an empty map and forgets the client (its stepping level with it), as here.
+            gone = self._clients.pop(str(req["uuid"]), None)
+            if gone is not None:
+                self.log(f"labsim serve: client {gone.uuid[:8]} ({gone.lang}) left")
+                if gone.stepping > 0 and not self.simulation.stepping():
+                    self.simulation.next_due = now + self.dt_s  # free-running from now, as after setStepping(False)
+            return {}
         client = self._clients.get(str(req["uuid"]))
         if client is None:
             client = self._arrive(str(req["uuid"]), req, now)
