@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
-from labsim.runtime.serve.built import Shape, shape_options
+from labsim.runtime.serve.built import primitive, rounded
 from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, Wait
 from labsim.runtime.serve.simulation import Client
 
@@ -43,7 +43,6 @@ MECHANISM_CALLS = ("sim.createJoint", "sim.createForceSensor", "sim.setJointInte
 WRAPPED = ("sim.createPrimitiveShape", "sim.setObjectAlias", "sim.setObjectMatrix", "sim.setObjectParent",
            "sim.setObjectInt32Param")
 NOT_BODIES = {"wall", "block", "labsimFloor", "labsimGround", "Cuboid", "Cylinder", "Shape", "Plane"}
-_ROUND = 9
 
 
 @dataclass(eq=False)
@@ -175,8 +174,7 @@ class MechanismEditor:
         if len(args) < 2 or args[0] != 5:  # sim.primitiveshape_cylinder; the rest is the editor's
             return None
         sizes = floats(args[1], 3)
-        return list(self.editor._new(Shape("cylinder", (sizes[0], sizes[1], sizes[2]), alias="Cylinder",
-                                           **shape_options(args))))
+        return list(self.editor._new(primitive("cylinder", sizes, args, "Cylinder")))
 
     def _own_setObjectAlias(self, args: Args) -> list[object] | None:
         part = self.parts.get(args[0]) if args and isinstance(args[0], int) else None
@@ -292,11 +290,6 @@ class MechanismEditor:
         motor = None if part.free else MotorSpec(part.force, part.maxvel, part.maxaccel)
         return JointSpec(part.alias, kind, names.get(parent, ""), names[child], (rounded(m[3]), rounded(m[11])),
                          axis, limits, motor, rope)
-
-
-def rounded(v: float) -> float:
-    """A coordinate as the stand-in keeps it: rounded to _ROUND digits, never -0.0."""
-    return round(v, _ROUND) + 0.0  # + 0.0: no -0.0
 
 
 def floats(value: object, n: int) -> list[float]:

@@ -66,11 +66,8 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 # Functions a CoppeliaSim script commonly calls that this stand-in does not offer: listed in
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
 UNSUPPORTED = (
-    "addLog", "getObjectQuaternion", "setObjectQuaternion", "getObjectMatrix", "getObjectChild",
-    "getObjectsInTree", "handleProximitySensor", "readVisionSensor", "getVisionSensorDepth",
-    "setJointPosition", "setJointTargetForce", "getJointForce", "setFloatParam",
-    "getInt32Param", "setInt32Param", "getBoolParam", "setBoolParam", "setSimulationTimeStep",
-    "callScriptFunction", "executeScriptString", "loadScene", "loadModel", "removeObjects",
+    "getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
+    "loadModel",
 )
 
 _MECHANISM = ("joint", "force", "body")
