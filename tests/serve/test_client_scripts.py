@@ -14,12 +14,12 @@ import pytest
 pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from helpers import PATIENCE_S  # noqa: E402
+from helpers import PATIENCE_S
 
-from labsim.backends.scene.world import World, builtin_worlds  # noqa: E402
-from labsim.backends.scene.world_file import load_world  # noqa: E402
-from labsim.foundation.diagnostics import Report  # noqa: E402
-from labsim.runtime.serve.server import Server  # noqa: E402
+from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.scene.world_file import load_world
+from labsim.foundation.diagnostics import Report
+from labsim.runtime.serve.server import Server
 
 CLIENTS = Path(__file__).parent / "clients"
 LAB = load_world(builtin_worlds()["walls_lab4"], Report())
