@@ -40,6 +40,7 @@ from labsim.runtime.serve.wire_limits import Deadline
 RESOURCES = "/labsim-serve"  # CoppeliaSim's folders, as the stand-in names them (it reads none)
 VERSION = 40600  # sim.intparam_program_version: the stand-in answers as CoppeliaSim 4.6.0
 MAIN_SCRIPT = 3_000_000  # the main script's handle (sim.getScript(sim.scripttype_main))
+MAX_WAIT_S = 60.0  # of simulation time, per sim.wait call
 NEAR_M, FAR_M = 0.01, 10.0  # a vision sensor's clipping planes, as labsim scene makes them
 
 # simConst.h (CoppeliaSim 4.6 to 4.10): the names a script reads from zmqRemoteApi.info
@@ -230,6 +231,8 @@ class SessionCalls:
             return [min(0.0, 2.0 - dt) if dt > 2.0 else 0.0]
         if sim.state != RUNNING:
             return [0.0]
+        if dt > MAX_WAIT_S:  # one request must end within its budget; a script loops for longer waits
+            raise SimError(f"labsim serve: sim.wait takes at most {MAX_WAIT_S:g} s of simulation time a call")
         n = math.ceil(dt / sim.dt_s - 1e-9)
         for _ in range(n):
             Deadline.check()

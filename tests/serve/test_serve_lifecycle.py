@@ -158,3 +158,15 @@ def test_scripts_meet_the_wheel_limit_behaviours_meet() -> None:
     assert request(srv, "a", "sim.getJointTargetVelocity", left) == {"ret": [94.0]}  # what was asked
     (rate,) = request(srv, "a", "sim.getJointVelocity", left)["ret"]
     assert rate == pytest.approx(PIONEER_P3DX.max_wheel_speed_rad_s, rel=1e-6)  # what the wheel does
+
+
+def test_the_scene_calls_take_wrong_arguments_cleanly() -> None:
+    from hostile_serve import WRONG_ARGS
+
+    srv = Server(LAB, 1, port=0)
+    for func in ("sim.loadScene", "sim.closeScene"):
+        for args in WRONG_ARGS:
+            reply = request(srv, "h", func, *args)
+            assert "internal error" not in reply.get("err", ""), (func, args, reply)
+    assert request(srv, "h", "sim.startSimulation") == {"ret": []}
+    assert request(srv, "h", "sim.loadScene", "wall_follow")["err"].startswith("simulation is not stopped.")
