@@ -4,7 +4,8 @@ Where it sits: a CoppeliaSim client (labsim's own ``CoppeliaSimBackend``, or a s
 using ``coppeliasim_zmqremoteapi_client``) talks to this server exactly as it would to
 CoppeliaSim's ZMQ remote API add-on. This module is the wire loop: the socket, the framing,
 the clients and the real-time clock. What a call does is in ``sim_api`` (the ``sim.*``
-functions), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
+functions), ``sim_objects`` and ``sim_session`` (the calls scripts make beyond a lab's, answered
+first), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
 objects and CoppeliaSim's path language). No CoppeliaSim is needed.
 
 The wire (protocol v2, docs/coppeliasim.md and the reference notes it cites): one ZMQ REP
@@ -14,10 +15,13 @@ timeout]}``; a reply is ``{"ret": [...]}``, ``{"err": "..."}`` or ``{"func": "_*
 ``_*executed*_``, as CoppeliaSim does. Errors carry CoppeliaSim's texts (``No such function:
 ...``, ``object does not exist, or alias/path is ill formatted.``) followed by labsim's hint.
 
-Clients come and go: a new client finds the scene as the last one left it, except that a
-stepping client that went away without stopping the simulation (killed, crashed) has its
-simulation stopped when the next client arrives, once it has been silent for ``takeover_s``:
-otherwise the next program would find a half-run simulation frozen at its last step.
+Clients come and go, several at once, each with its own stepping level; ``_*end*_`` (sent by
+the C++, Java, MATLAB and Octave clients as they close) is answered with an empty map and the
+client forgotten, as the add-on does. A new client finds the scene as the last one left it,
+except that a stepping client that went away without stopping the simulation (killed,
+crashed) has its simulation stopped when the next client arrives, once it has been silent for
+``takeover_s``: otherwise the next program would find a half-run simulation frozen at its
+last step.
 
 A hostile or broken client cannot wedge it (docs/security.md, "The server"): a message over
 ``MAX_MESSAGE_BYTES`` is dropped by ZeroMQ, every frame of a request is read and a request of

@@ -170,3 +170,17 @@ def test_the_scene_calls_take_wrong_arguments_cleanly() -> None:
             assert "internal error" not in reply.get("err", ""), (func, args, reply)
     assert request(srv, "h", "sim.startSimulation") == {"ret": []}
     assert request(srv, "h", "sim.loadScene", "wall_follow")["err"].startswith("simulation is not stopped.")
+
+
+def test_a_lab_loaded_by_name_in_an_empty_server_keeps_its_walls_when_a_box_is_added() -> None:
+    srv = Server(NONE, 0, port=0, empty=True)
+    assert request(srv, "a", "sim.loadScene", "wall_follow") == {"ret": []}
+    assert srv.world.walls == LAB.walls and len(srv.simulation.robots) == 1
+    (box,) = request(srv, "a", "sim.createPrimitiveShape", 3, [0.4, 0.4, 0.3], 24)["ret"]
+    request(srv, "a", "sim.setObjectPosition", box, [1.0, 1.0, 0.15], -1)
+    assert request(srv, "a", "sim.getSimulationState") == {"ret": [0]}  # rebuilt: the lab and the box
+    assert srv.world.walls == LAB.walls and len(srv.world.blocks) == len(LAB.blocks) + 1
+    assert len(srv.simulation.robots) == 1
+    assert "file not found." in request(srv, "a", "sim.loadScene", "/scenes/lab4.ttt")["err"]
+    assert request(srv, "a", "sim.closeScene") == {"ret": [0]}
+    assert srv.world.walls == () and srv.simulation.robots == []
