@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_PARENT, HANDLE_WORLD, STOPPED
+from labsim.backends.coppeliasim.fleet_script import ALIAS as FLEET_ALIAS
 from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import glob_match
 from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait
@@ -150,7 +151,9 @@ class ObjectCalls:
             if not index.isdigit() or len(index) > 9:
                 return None
             n = int(index)
-        found = [h for h, d in self.dummies.items() if d.parent == -1 and (
+        # the fleet script's dummy is found only while it carries labsim's script (script_host),
+        # which the backend takes the fast path on
+        found = [h for h, d in self.dummies.items() if d.parent == -1 and d.alias != FLEET_ALIAS and (
             glob_match(name, d.alias) or (d.alias == "Dummy" and name == "dummy"))]
         return found[n] if n < len(found) else None
 
@@ -185,22 +188,28 @@ class ObjectCalls:
             raise SimError("labsim serve: a robot's parts stay where its model mounts them; parent dummies "
                            "(sim.createDummy) to them instead")
         parent = _handle(args, 1)
+        taken = self._also_inner("sim.setObjectParent", client, args)  # --empty: a cable end, the fleet's
         if parent != -1:
-            world = self._world(client, parent)
+            try:
+                world = self._world(client, parent)
+            except SimError:
+                if not taken:  # no such object
+                    raise
+                world = mx.IDENTITY  # a mechanism's part being built: it has no pose yet
             if not (len(args) > 2 and args[2]):  # keep the local pose: it was relative to the world
                 d.matrix = mx.times(world, d.matrix)
-        if parent != -1 and self._dummy([parent]) is None:
-            self._inner("sim.getObjectAlias", client, [parent])  # it exists, or CoppeliaSim's error
         d.parent = parent
-        self._also_inner("sim.setObjectParent", client, args)
         return []
 
-    def _also_inner(self, name: str, client: Client, args: Args) -> None:
+    def _also_inner(self, name: str, client: Client, args: Args) -> bool:
         """In --empty, tell the scene editor too: a dummy may be the fleet script's or a
-        mechanism's cable end (mechanism_edit reads those from their matrix and parent)."""
+        mechanism's cable end (mechanism_edit reads those from their matrix and parent).
+        Whether the editor took it (a dummy of the client's own it does not know)."""
         if self.server.editor is not None and name in self.server.base_handlers():
-            with contextlib.suppress(SimError):  # a dummy of the client's own, which the editor does not know
+            with contextlib.suppress(SimError):
                 self._inner(name, client, args)
+                return True
+        return False
 
     def _removeObject(self, client: Client, args: Args) -> list[object]:
         h = _handle(args)
