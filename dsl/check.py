@@ -85,7 +85,7 @@ class Checked:
     channel_kinds: dict[str, Kind] = field(default_factory=dict)
     node_types: dict[int, Type] = field(default_factory=dict)  # id(AST node) -> its type
     sliders: list[SliderDecl] = field(default_factory=list)
-    labels: list[tuple[str, tuple]] = field(default_factory=list)  # slider -> label parts
+    labels: list[tuple[str, str, tuple]] = field(default_factory=list)  # label, slider, its parts
     binds: list[BindDecl] = field(default_factory=list)
     mechanism_agent: bool = False  # no robots: one agent, the world's mechanism
     used: frozenset[str] = frozenset()  # every name an expression reads
@@ -234,8 +234,9 @@ class _Checker(ExprChecker):
             out.append(slider)
         return out
 
-    def labels(self) -> list[tuple[str, tuple]]:
-        """Each slider's label fields must be numbers or booleans."""
+    def labels(self) -> list[tuple[str, str, tuple]]:
+        """Each slider's label fields must be numbers or booleans; a label is the slider's name or
+        its ``label_name`` (format 1.2, which sliders may share)."""
         out = []
         for slider in self.bf.sliders:
             if slider.label is None:
@@ -247,7 +248,8 @@ class _Checker(ExprChecker):
                     if t is not None and t not in (Type.NUMBER, Type.BOOL):
                         self.error(parsed.text.at(parsed.node.span),
                                    f"a label shows numbers and booleans, not {t.a}")
-            out.append((slider.name, slider.label.parts))
+            name = slider.name if slider.label_name is None else str(slider.label_name.value)
+            out.append((name, slider.name, slider.label.parts))
         return out
 
     def binds(self) -> list[BindDecl]:

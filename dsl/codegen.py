@@ -203,6 +203,9 @@ class _Generator(Unroller):
             with w.source(self.note(parsed.text, f"{name}: ")):
                 w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
                 self.drop_images(w, j)
+        for shared in self.layout.shared_labels:  # the slider whose value changed last shows its text
+            for k, (slot, last) in enumerate(shared.sliders):
+                w.line(f"if s[{slot}] != s[{last}]: s[{shared.choice}] = {k}; s[{last}] = s[{slot}]")
         for slot, slider, parsed in self.layout.label_fields:
             with w.source(self.note(parsed.text, f"label of {slider}: ")):
                 w.line(f"s[{slot}] = {self.expr(w, parsed.node, parsed.text, 'a label')}")

@@ -15,7 +15,7 @@ from types import MappingProxyType
 from labsim.dsl import ast
 from labsim.dsl.builtins import JOINT_ACTIONS, STATE_CLOCK
 from labsim.dsl.check import Checked
-from labsim.dsl.program import LabelPart
+from labsim.dsl.program import LabelPart, SharedLabel
 from labsim.dsl.read import Parsed
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME
 
@@ -26,9 +26,10 @@ class Layout:
 
     slot_of: Mapping[str, int]  # time, tick, state, channels, signals, sliders -> slot
     slot_count: int
-    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> text and (slot, format spec)
+    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # label -> text and (slot, format spec)
     label_fields: tuple[tuple[int, str, Parsed], ...]  # slot, slider, the field's expression
     targets: tuple[tuple[str, str], ...]  # (joint, "velocity" | "position")
+    shared_labels: tuple[SharedLabel, ...] = ()  # labels several sliders write, and their slots
     # a group signal's members: their slots, or None when the group only names values that have
     # slots or are constants (sonar1..sonar8), which its uses read directly
     members: Mapping[str, tuple[int, ...] | None] = field(default_factory=lambda: MappingProxyType({}))
@@ -44,9 +45,9 @@ def layout(c: Checked) -> Layout:
     base = FIRST_CHANNEL + len(c.channels) + len(c.lets) + len(sliders)
     for k, name in enumerate(sliders):
         slot_of[name] = base - len(sliders) + k
-    labels: list[tuple[str, tuple[LabelPart, ...]]] = []
+    texts: dict[str, list[tuple[str, tuple[LabelPart, ...]]]] = {}  # label -> its sliders and texts
     fields: list[tuple[int, str, Parsed]] = []
-    for slider, parts in c.labels:
+    for label, slider, parts in c.labels:
         compiled: list[LabelPart] = []
         for part in parts:
             if isinstance(part, tuple):
@@ -55,7 +56,8 @@ def layout(c: Checked) -> Layout:
                 compiled.append((slot, part[1]))
             else:
                 compiled.append(part)
-        labels.append((slider, tuple(compiled)))
+        texts.setdefault(label, []).append((slider, tuple(compiled)))
+    labels = tuple((label, written[0][1]) for label, written in texts.items())
     # joint targets set by bind: and by set_velocity/set_position, in a fixed order
     targets: list[tuple[str, str]] = []
     for b in c.binds:
@@ -71,6 +73,13 @@ def layout(c: Checked) -> Layout:
                         targets.append((joint.id, JOINT_ACTIONS[a.name]))
     # per-tick variables and per-robot constants, only for behaviours that read them
     count = base + len(fields)
+    shared: list[SharedLabel] = []
+    for label, written in texts.items():
+        if len(written) > 1:  # a slot for the slider showing, and one per slider for its last value
+            watched = tuple((slot_of[slider], count + 1 + k) for k, (slider, _) in enumerate(written))
+            shared.append(SharedLabel(label, count, watched, tuple(parts for _, parts in written),
+                                      tuple(slider for slider, _ in written)))
+            count += 1 + len(written)
     members: dict[str, tuple[int, ...] | None] = {}
     for name, parsed in c.lets:
         if name in c.group_sizes:
@@ -84,8 +93,8 @@ def layout(c: Checked) -> Layout:
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
-    return Layout(MappingProxyType(slot_of), count, tuple(labels), tuple(fields), tuple(targets),
-                  MappingProxyType(members))
+    return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
+                  members=MappingProxyType(members), shared_labels=tuple(shared))
 
 
 def _names_only(e: ast.Expr, members: dict[str, tuple[int, ...] | None]) -> bool:

@@ -35,6 +35,18 @@ LabelPart = str | tuple[int, str]  # literal text, or (slot, format spec) of a f
 
 
 @dataclass(frozen=True)
+class SharedLabel:
+    """A label several sliders write (``label_name``, format 1.2): it shows the text of the slider
+    whose value changed last, as a script's slider callbacks writing into one label do."""
+
+    name: str
+    choice: int  # the slot holding which slider's text shows: its index in ``sliders``
+    sliders: tuple[tuple[int, int], ...]  # each slider's slot, and the slot of its value last tick
+    texts: tuple[tuple[LabelPart, ...], ...]  # each slider's text
+    names: tuple[str, ...] = ()  # the sliders, in the order of ``sliders``
+
+
+@dataclass(frozen=True)
 class RuleLabel:
     """A rule as the summary and the trace name it: ``wander:2``."""
 
@@ -143,7 +155,7 @@ class Program:
     slider_names: tuple[str, ...]
     slider_ranges: Mapping[str, tuple[float, float]]
     slider_start: Mapping[str, float]
-    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # slider -> its label's parts
+    labels: tuple[tuple[str, tuple[LabelPart, ...]], ...]  # label -> its parts (a shared one: see shared_labels)
     timeline: tuple[TimelineEvent, ...]
     # where values live, and the generated code that reads and writes them
     slot_of: Mapping[str, int]
@@ -157,6 +169,7 @@ class Program:
     texts: tuple[str, ...] = ()  # what generated code shows as text: the state names, then text values
     when_rules: tuple[int, ...] = ()  # the 'when' rules, by index in ``rules``: RobotProgram.when_fired counts them
     image_bytes_all: int = 0  # every image signal of every robot held at once (labsim.dsl.image_memory)
+    shared_labels: tuple[SharedLabel, ...] = ()  # labels several sliders write (format 1.2)
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
@@ -181,6 +194,9 @@ class Program:
                 slots[self.robot_slots[param]] = values[index]
         for slider in self.slider_names:
             slots[self.slot_of[slider]] = self.slider_start[slider]
+        for shared in self.shared_labels:  # the first slider's text shows until one moves
+            for slot, last in shared.sliders:
+                slots[last] = slots[slot]
         command: list = [0.0, 0.0, 0]
         joint_command = [math.nan] * len(self.targets)
         events: list[int] = []
@@ -219,10 +235,17 @@ class Program:
         """Parameters that differ between robots, and their slots."""
         return {p: slot for p, slot in self.slot_of.items() if p in self.params}
 
+    def label_of(self, slider: str) -> str:
+        """The label a slider's text goes into: its own name, or the one it shares."""
+        return next((sh.name for sh in self.shared_labels if slider in sh.names), slider)
+
     def label_text(self, slots: list) -> dict[str, str]:
-        """Each slider's label, formatted from the label fields' values in the slots."""
+        """Each label, formatted from the label fields' values in the slots."""
         out = {}
+        shared = {sh.name: sh for sh in self.shared_labels}
         for slider, parts in self.labels:
+            if slider in shared:
+                parts = shared[slider].texts[int(slots[shared[slider].choice])]
             text = []
             for part in parts:
                 if isinstance(part, tuple):

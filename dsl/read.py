@@ -39,7 +39,7 @@ VERSIONS = (1, 1.1, 1.2)  # docs/language.md; a file's version keeps its meaning
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
             "functions", "let", "rules", "metrics", "sliders", "bind", "timeline")
 REQUIRED = ("labsim", "world", "stop")  # robots and rules: see check.py (a mechanism needs neither)
-SLIDER_KEYS = ("min", "max", "value", "label")
+SLIDER_KEYS = ("min", "max", "value", "label", "label_name")  # label_name: format 1.2
 METRIC_KEYS = ("value", "better")  # a metric written as a mapping: its aggregate, and which way is better
 # Words students write for a direction, and the one they mean
 _BETTER_MEANT = {"more": "higher", "high": "higher", "max": "higher", "maximum": "higher", "maximize": "higher",
@@ -121,6 +121,7 @@ class SliderDecl:
     value: float
     label: Label | None
     key: Node
+    label_name: Node | None = None  # format 1.2: the label it writes, shared with sliders naming the same
 
 
 @dataclass(frozen=True)
@@ -280,7 +281,7 @@ class _Reader(Reader):
         if "metrics" in keys:
             bf.metrics = self.metrics(keys["metrics"])
         if "sliders" in keys:
-            bf.sliders = self.sliders(keys["sliders"])
+            bf.sliders = self.sliders(keys["sliders"], bf.version)
         if "bind" in keys:
             bf.binds = self.binds(keys["bind"])
         if "timeline" in keys:
@@ -590,7 +591,7 @@ class _Reader(Reader):
 
     # -- a mechanism's controls ----------------------------------------------------------------
 
-    def sliders(self, node: Node) -> list[SliderDecl]:
+    def sliders(self, node: Node, version: float = FORMAT_VERSION) -> list[SliderDecl]:
         out = []
         for key, value in self.mapping(node, "sliders"):
             name = self.identifier(key, "slider")
@@ -613,8 +614,25 @@ class _Reader(Reader):
                 elif v is not None:
                     start = v
             label = self.label(fields["label"], name or "") if "label" in fields else None
-            out.append(SliderDecl(name, lo, hi, start, label, key))
+            out.append(SliderDecl(name, lo, hi, start, label, key, self.label_name(fields, version)))
         return out
+
+    def label_name(self, fields: dict[str, Node], version: float) -> Node | None:
+        """``label_name: speed`` (format 1.2): the label this slider's text goes into; sliders that
+        name the same label share it, and it shows the text of the one moved last."""
+        node = fields.get("label_name")
+        if node is None:
+            return None
+        if version < 1.2:
+            self.error(node, "'label_name' is format 1.2: start the file with 'labsim: 1.2'")
+        elif "label" not in fields:
+            self.error(node, "'label_name' says where the slider's label goes: give the slider a 'label:'")
+        elif not isinstance(node, ScalarNode) or not str(node.value).isidentifier() or not str(node.value).isascii():
+            self.error(node, "a label's name uses letters, digits and '_', starting with a letter",
+                       notes=("e.g. label_name: speed",))
+        else:
+            return node
+        return None
 
     def label(self, node: Node, slider: str = "") -> Label | None:
         """'Arm Speed: {0.02 * arm:.2f}': text, and {expression:format} fields; or 'Arm Speed: %.2f'."""

@@ -94,6 +94,9 @@ def _controls() -> dict[str, Schema]:
         "max": number("the slider's highest value"),
         "value": number("where it starts (default 0 if within range, else min)"),
         "label": text("its label: text with {expression} or {expression:.2f} fields"),
+        "label_name": {"type": "string", "pattern": IDENTIFIER,
+                       "description": "format 1.2: the label its text goes into; sliders naming the same "
+                                      "label share it, which shows the text of the one moved last"},
     }, "a slider a person moves in labsim view", required=("min", "max"))
     return {
         "sliders": named(slider, "sliders, by name; programs read them by name"),

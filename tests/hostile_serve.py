@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import cbor2
 
 from labsim.runtime.serve.sim_api import FUNCTIONS, UNSUPPORTED
+from labsim.runtime.serve.sim_objects import OBJECT_CALLS
+from labsim.runtime.serve.sim_session import SESSION_CALLS
 
 Frames = list[bytes]
 
@@ -195,6 +197,10 @@ WRONG_ARGS: list[list[object]] = [
     [1, -1, [1e308] * 3], [1, [1e308] * 7, -1], [2, 1e308], [5, float("-inf")], [4, 2, [0, 0], [10**6, 10**6]],
     [7, 0, [-5, 3], [2**63, 1]], [None] * 8, [True, False, True],
 ]
-EVERY_FUNCTION = (*FUNCTIONS, *(f"sim.{name}" for name in UNSUPPORTED), "zmqRemoteApi.require", "zmqRemoteApi.info")
+# (less the two that replace the scene the cases share: tests/serve/test_serve_lifecycle.py sends them these)
+SCENE_CHANGING = ("sim.loadScene", "sim.closeScene")
+EVERY_FUNCTION = (*FUNCTIONS, *(f"sim.{name}" for name in UNSUPPORTED),
+                  *(f for f in (*SESSION_CALLS, *OBJECT_CALLS) if f not in SCENE_CHANGING),
+                  "zmqRemoteApi.require", "zmqRemoteApi.info")
 CASES += [Case(f"{func} with wrong arguments", (lambda func=func: [[req(func, *args)] for args in WRONG_ARGS]), CLEAN)
           for func in EVERY_FUNCTION]

@@ -22,7 +22,7 @@ cited at each call):
   p3dx.ttm``, ``sim.loadModel``), its script removed (it drives the wheels itself and would
   fight labsim's commands), at the robot's start pose;
 * each camera a vision sensor with the behaviour's resolution, field of view, mount, pitch
-  and roll, under its robot, aliased ``visionSensor``.
+  and roll, under its robot, aliased ``Vision_sensor`` (the name the labs' scenes and scripts use).
 
 A world's mechanism (the crane) is ``mechanism_builder``'s: bodies as primitive shapes, joints
 in the modes its motors take, force sensors, gravity and damping, with labsim's names.
@@ -248,7 +248,9 @@ def _camera(conn: Connection, robot_h: int, robot_z: float, cam: Camera) -> None
                       [near, far, fov, 0.02, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
     conn.call("sim.setObjectParent", h, robot_h, True)  # (int objectHandle, int parent, bool keepInPlace): 4.6
     conn.call("sim.setObjectMatrix", h, camera_matrix(cam, robot_z), robot_h)  # (handle, matrix, relativeTo): 4.6
-    conn.call("sim.setObjectAlias", h, CAMERA_ALIASES[0])
+    # the labs' own name (their scenes were made in CoppeliaSim 4.6-4.7), so a lab's script finds
+    # the camera in a scene built here; the backend and the stand-in answer both names
+    conn.call("sim.setObjectAlias", h, CAMERA_ALIASES[-1])
 
 
 def camera_matrix(cam: Camera, robot_z: float) -> list[float]:

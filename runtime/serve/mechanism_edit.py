@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
-from labsim.runtime.serve.built import Shape
+from labsim.runtime.serve.built import primitive, rounded
 from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, Wait
 from labsim.runtime.serve.simulation import Client
 
@@ -43,7 +43,6 @@ MECHANISM_CALLS = ("sim.createJoint", "sim.createForceSensor", "sim.setJointInte
 WRAPPED = ("sim.createPrimitiveShape", "sim.setObjectAlias", "sim.setObjectMatrix", "sim.setObjectParent",
            "sim.setObjectInt32Param")
 NOT_BODIES = {"wall", "block", "labsimFloor", "labsimGround", "Cuboid", "Cylinder", "Shape", "Plane"}
-_ROUND = 9
 
 
 @dataclass(eq=False)
@@ -112,6 +111,7 @@ class MechanismEditor:
     # --- the mechanism's calls -----------------------------------------------------------------
 
     def _createJoint(self, args: Args) -> list[object]:
+        self._no_robots()
         if len(args) < 2 or args[0] not in (10, 11):
             raise SimError("labsim serve: the stand-in builds revolute and prismatic joints")
         h = self.editor._handle()
@@ -119,9 +119,15 @@ class MechanismEditor:
         return [h]
 
     def _createForceSensor(self, args: Args) -> list[object]:
+        self._no_robots()
         h = self.editor._handle()
         self.parts[h] = _Part("force")
         return [h]
+
+    def _no_robots(self) -> None:
+        if self.editor.robots:
+            raise SimError("labsim serve: this scene holds robots; a labsim world has either robots or a "
+                           "mechanism, so it takes no joints or force sensors (build them in an empty scene)")
 
     def _setJointInterval(self, args: Args) -> list[object]:
         part = self._part(args, 3)
@@ -168,7 +174,7 @@ class MechanismEditor:
         if len(args) < 2 or args[0] != 5:  # sim.primitiveshape_cylinder; the rest is the editor's
             return None
         sizes = floats(args[1], 3)
-        return list(self.editor._new(Shape("cylinder", (sizes[0], sizes[1], sizes[2]), alias="Cylinder")))
+        return list(self.editor._new(primitive("cylinder", sizes, args, "Cylinder")))
 
     def _own_setObjectAlias(self, args: Args) -> list[object] | None:
         part = self.parts.get(args[0]) if args and isinstance(args[0], int) else None
@@ -223,6 +229,8 @@ class MechanismEditor:
 
     def bodies(self) -> dict[int, str]:
         """Handle -> name of every shape that is a mechanism's body."""
+        if self.editor.robots:  # a scene with robots has no mechanism: its shapes are obstacles
+            return {}
         return {h: s.alias for h, s in self.editor.shapes.items()
                 if s.kind in ("cuboid", "cylinder") and s.alias not in NOT_BODIES}
 
@@ -282,11 +290,6 @@ class MechanismEditor:
         motor = None if part.free else MotorSpec(part.force, part.maxvel, part.maxaccel)
         return JointSpec(part.alias, kind, names.get(parent, ""), names[child], (rounded(m[3]), rounded(m[11])),
                          axis, limits, motor, rope)
-
-
-def rounded(v: float) -> float:
-    """A coordinate as the stand-in keeps it: rounded to _ROUND digits, never -0.0."""
-    return round(v, _ROUND) + 0.0  # + 0.0: no -0.0
 
 
 def floats(value: object, n: int) -> list[float]:

@@ -37,28 +37,25 @@ A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
 
 from labsim.backends.coppeliasim import RUNNING, STOPPED
-from labsim.backends.protocol import RobotRequest
-from labsim.backends.scene.ground import Ground, Texture
+from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import PIONEER_P3DX, Camera
-from labsim.backends.scene.world import Block, Pose, Wall, World
+from labsim.backends.scene.world import Pose, World
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_served
-from labsim.runtime.serve.built import Sensor, Shape
+from labsim.runtime.serve.built import Sensor, Shape, camera, primitive, read_shapes
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
     MECHANISM_CONSTANTS,
     MechanismEditor,
     floats,
-    rounded,
 )
-from labsim.runtime.serve.scene_tree import ROBOT_Z_M
 from labsim.runtime.serve.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.runtime.serve.sim_api import (
     E_ARGS,
@@ -76,6 +73,7 @@ from labsim.runtime.serve.simulation import Client, Simulation
 FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
 PIONEER_FILE = "pioneer p3dx.ttm"  # models/robots/mobile/ in CoppeliaSim's resources
 RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
+EMPTY = World("scene", "an empty scene", (-10.0, -10.0, 10.0, 10.0))  # its bounds: with no floor built
 
 # simConst.h values (CoppeliaSim 4.6); the client reads them from zmqRemoteApi.info.
 EDIT_CONSTANTS: dict[str, int] = {
@@ -108,17 +106,20 @@ class Host(Protocol):
 class SceneEditor:
     """Edits of an empty scene, and the handlers that take them (``handlers()``)."""
 
-    def __init__(self, server: Host) -> None:
+    def __init__(self, server: Host, base: World = EMPTY, base_robots: Sequence[RobotRequest] = ()) -> None:
         self.server = server
+        self.base = base  # the scene sim.loadScene loaded: the edits add to it
+        self.base_models = [r.model for r in base_robots if r.model is not None]
         self.shapes: dict[int, Shape] = {}
         self.scripts: dict[int, int] = {}  # script handle -> robot index
         self.sensors: dict[int, Sensor] = {}
-        self.robots: list[Pose] = []
+        self.robots: list[Pose] = [r.pose for r in base_robots]
         self.dirty = False
         self._next = FIRST_HANDLE
         self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state == RUNNING
                                       and self.server.simulation.steps > 0)
         self.mechanism_edit = MechanismEditor(self)
+        self._good = self._state()  # what the last rebuild was made of (_settle)
 
     def _handle(self) -> int:
         self._next += 1
@@ -148,10 +149,23 @@ class SceneEditor:
 
     def _after_edits(self, name: str) -> Handler:
         def call(client: Client, args: Args) -> list[object] | Wait:
-            if self.dirty:
-                self.apply()
+            self._settle()
             return self.server.sim_handlers()[name](client, args)
         return call
+
+    def _settle(self) -> None:
+        """Rebuild the simulation from the edits, if any, and only while it is stopped: a shape
+        added to a running scene becomes an obstacle from the next start (a rebuild would end
+        the run). An edit set that cannot be simulated is this request's error, and the scene
+        goes back to the last one that could be: never a server that fails every request after."""
+        if not self.dirty or self.server.simulation.state != STOPPED:
+            return
+        try:
+            self.apply()
+        except (BackendError, LabsimError) as e:
+            self._restore()
+            raise SimError(f"labsim serve: the scene as edited cannot be simulated ({e}); the edits since "
+                           f"it last could are undone") from None
 
     def _info(self, ret: list[object] | Wait) -> list[object]:
         assert isinstance(ret, list) and isinstance(ret[0], dict)
@@ -167,36 +181,13 @@ class SceneEditor:
     # --- rebuilding the simulation -------------------------------------------------------------
 
     def world(self) -> World:
-        """The world the built shapes make (walls, blocks, the floor's bounds)."""
-        walls: list[Wall] = []
-        blocks: list[Block] = []
-        bounds = (-10.0, -10.0, 10.0, 10.0)
-        ground: Ground | None = None
-        floor_z: float | None = None
-        bodies = self.mechanism_edit.bodies()  # a mechanism's, not walls or blocks
-        for h, s in self.shapes.items():
-            c, si = math.cos(s.yaw), math.sin(s.yaw)
-            if s.kind == "texture":
-                ground = _textured(s)
-            elif s.kind == "plane":
-                hw, hd = s.size[0] / 2, s.size[1] / 2
-                bounds = (rounded(s.x - hw), rounded(s.y - hd), rounded(s.x + hw), rounded(s.y + hd))
-                floor_z = s.z
-            elif not s.static or h in bodies:
-                continue
-            elif s.kind == "cuboid" and s.alias == "wall":
-                half = (s.size[0] - s.size[1]) / 2
-                walls.append(Wall((rounded(s.x - half * c), rounded(s.y - half * si)),
-                                  (rounded(s.x + half * c), rounded(s.y + half * si)), rounded(s.size[1])))
-            elif s.kind == "cuboid":
-                w, d = s.size[0], s.size[1]
-                local = ((-w / 2, -d / 2), (w / 2, -d / 2), (w / 2, d / 2), (-w / 2, d / 2))
-                blocks.append(Block(tuple((rounded(s.x + x * c - y * si), rounded(s.y + x * si + y * c))
-                                          for x, y in local)))
-            else:
-                blocks.append(Block(tuple((rounded(s.x + x), rounded(s.y + y)) for x, y in s.corners)))
-        return World("scene", "a scene built through the remote API", bounds, tuple(walls), tuple(blocks),
-                     ground=ground, mechanism=self.mechanism_edit.mechanism(floor_z))
+        """The world the built shapes make (walls, blocks, the floor's bounds), over the loaded
+        scene's (``base``: sim.loadScene, else nothing)."""
+        walls, blocks, bounds, ground, floor_z = read_shapes(self.shapes, self.mechanism_edit.bodies())
+        b = self.base
+        mechanism = self.mechanism_edit.mechanism(floor_z) or b.mechanism
+        return World(b.name, "a scene built through the remote API", bounds or b.bounds, b.walls + walls,
+                     b.blocks + blocks, spawns=b.spawns, ground=ground or b.ground, mechanism=mechanism)
 
     def apply(self) -> None:
         """Rebuild the server's simulation from the edits (the robots keep the poses they were given)."""
@@ -206,10 +197,23 @@ class SceneEditor:
         cameras: dict[int, list[Camera]] = {}
         for sensor in self.sensors.values():
             if sensor.robot >= 0 and sensor.matrix:
-                cameras.setdefault(sensor.robot, []).append(_camera(sensor))
-        models = [dataclasses.replace(PIONEER_P3DX, cameras=tuple(cameras.get(i, ()))) for i in range(len(poses))]
+                cameras.setdefault(sensor.robot, []).append(camera(sensor))
+        models = [self.base_models[i] if i < len(self.base_models)  # a loaded scene's robots keep their cameras
+                  else dataclasses.replace(PIONEER_P3DX, cameras=tuple(cameras.get(i, ()))) for i in range(len(poses))]
         requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
         self.server.rebuild(self.world(), requests)
+        self.dirty = False
+        self._good = self._state()
+
+    def _state(self) -> tuple[object, ...]:
+        mech, host = self.mechanism_edit, self.script_host
+        return copy.deepcopy((self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents,
+                              mech.tilts, mech.ends, mech.masses, host.dummies, host.scripts))
+
+    def _restore(self) -> None:
+        mech, host = self.mechanism_edit, self.script_host
+        (self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents, mech.tilts, mech.ends,
+         mech.masses, host.dummies, host.scripts) = copy.deepcopy(self._good)  # type: ignore[assignment]
         self.dirty = False
 
     # --- edits -------------------------------------------------------------------------------
@@ -219,7 +223,9 @@ class SceneEditor:
             raise SimError("labsim serve: the scene is built while the simulation is stopped")
 
     def _new(self, shape: Shape) -> list[object]:
-        self._stopped()
+        if self.server.simulation.state != STOPPED:
+            self.server.log("labsim serve: a shape added while the simulation runs is an obstacle from its "
+                            "next start")
         h = self._next
         self._next += 1
         self.shapes[h] = shape
@@ -245,7 +251,7 @@ class SceneEditor:
         if kind is None:
             raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
         sizes = floats(args[1], 3)
-        return self._new(Shape(kind, (sizes[0], sizes[1], sizes[2]), alias="Plane" if kind == "plane" else "Cuboid"))
+        return self._new(primitive(kind, sizes, args, "Plane" if kind == "plane" else "Cuboid"))
 
     def _createMeshShape(self, client: Client, args: Args) -> list[object]:
         # sim.createMeshShape(int options, float shadingAngle, list vertices, list indices): 4.6
@@ -279,6 +285,9 @@ class SceneEditor:
         if args[1] == EDIT_CONSTANTS["shapeintparam_static"]:
             shape.static = bool(args[2])
             self.dirty = True
+        elif args[1] == EDIT_CONSTANTS["shapeintparam_respondable"]:
+            shape.respondable = bool(args[2])
+            self.dirty = True
         return []
 
     def _setFloatParam(self, client: Client, args: Args) -> list[object]:
@@ -308,10 +317,13 @@ class SceneEditor:
         if not args[0].replace("\\", "/").lower().endswith("/" + PIONEER_FILE):
             raise SimError(f"labsim serve: the stand-in loads only CoppeliaSim's models/robots/mobile/"
                            f"{PIONEER_FILE}, not '{args[0]}'")
-        if self.dirty:
-            self.apply()
+        if self.mechanism_edit.parts:
+            raise SimError("labsim serve: this scene holds a mechanism's joints; a labsim world has either a "
+                           "mechanism or robots (sim.loadScene gives a lab's scene, or start from an empty one)")
+        self._settle()
         self.robots.append(Pose(0.0, 0.0, 0.0))
-        self.apply()
+        self.dirty = True
+        self._settle()
         i = len(self.robots) - 1
         script = self._next
         self._next += 1
@@ -322,8 +334,7 @@ class SceneEditor:
         # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6; -1 when it has none
         if len(args) < 2:
             raise SimError(E_FEW)
-        if self.dirty:
-            self.apply()
+        self._settle()
         obj = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
         if obj is None or obj.kind != "robot":
             return [-1]
@@ -339,7 +350,6 @@ class SceneEditor:
         shape = self._shape(args)
         if shape is None:
             return self._simulation("sim.setObjectPosition", client, args)
-        self._stopped()
         value, _rel = value_and_frame(args, "shapes")
         shape.x, shape.y, shape.z = floats(value, 3)
         self.dirty = True
@@ -349,7 +359,6 @@ class SceneEditor:
         shape = self._shape(args)
         if shape is None:
             return self._simulation("sim.setObjectOrientation", client, args)
-        self._stopped()
         value, _rel = value_and_frame(args, "shapes")
         alpha, beta, gamma = floats(value, 3)
         if abs(alpha) > 1e-9 or abs(beta) > 1e-9:
@@ -371,8 +380,7 @@ class SceneEditor:
         return [[0.0, 0.0, shape.yaw]]
 
     def _simulation(self, name: str, client: Client, args: Args) -> list[object]:
-        if self.dirty:
-            self.apply()
+        self._settle()
         ret = self.server.sim_handlers()[name](client, args)
         assert isinstance(ret, list)
         return ret
@@ -398,8 +406,7 @@ class SceneEditor:
         if len(args) < 2:
             raise SimError(E_FEW)
         sensor = self.sensors.get(args[0])
-        if self.dirty:
-            self.apply()
+        self._settle()
         parent = self.server.simulation.tree.objects.get(args[1]) if isinstance(args[1], int) else None
         if sensor is None or parent is None or parent.kind != "robot":
             raise SimError("labsim serve: only a built vision sensor is parented, and only to a robot")
@@ -441,33 +448,3 @@ class SceneEditor:
         height, width = picture.shape[:2]
         [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
         return [h, h, [width, height]]
-
-
-
-def _textured(s: Shape) -> Ground:
-    """The ground a textured plane shows: its picture, placed and scaled as the plane is."""
-    import cv2
-    import numpy as np
-
-    bgr = cv2.imdecode(np.frombuffer(s.png, np.uint8), cv2.IMREAD_COLOR)
-    assert bgr is not None  # sim.createTexture decoded it already
-    b, g, r = (int(v) for v in bgr[0, 0])  # the margin around what is painted: the floor
-    ppm = round(s.px[0] / s.size[0], 6)
-    return Ground(floor_rgb=(r, g, b), px_per_m=ppm,
-                  texture=Texture(s.png, rounded(s.x - s.size[0] / 2), rounded(s.y + s.size[1] / 2)))
-
-
-def _camera(s: Sensor) -> Camera:
-    """A vision sensor's pose and optics as labsim's camera (see scene_builder.camera_matrix)."""
-    m = s.matrix
-    y_axis, z_axis = (m[1], m[5], m[9]), (m[2], m[6], m[10])
-    pitch = math.asin(max(-1.0, min(1.0, -z_axis[2])))
-    up = (math.sin(pitch), 0.0, math.cos(pitch))
-    roll = math.atan2(-y_axis[1], sum(a * b for a, b in zip(y_axis, up)))
-    w, h = s.resolution
-    fov = s.angle_rad if w >= h else 2 * math.atan(math.tan(s.angle_rad / 2) * w / h)
-    return Camera("camera", w, h, _deg(fov), rounded(m[11] + ROBOT_Z_M), _deg(pitch), rounded(m[3]), _deg(roll))
-
-
-def _deg(v: float) -> float:
-    return round(math.degrees(v), 6) + 0.0

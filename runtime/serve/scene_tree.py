@@ -7,7 +7,8 @@ wire: it is names, handles and parents.
 
 What the tree holds, for each Pioneer P3DX robot ``i`` (``/PioneerP3DX[i]`` in the order
 given): ``leftMotor``, ``rightMotor``, 16 ``ultrasonicSensor`` children and, when its model has
-cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it); for a world with a
+cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it, also
+answering to 4.8's ``visionSensor``); for a world with a
 mechanism (the crane), its joints (all but fixed ones), force sensors and moving bodies at
 the top level, by their names. Handles are 1, 2, 3, ... in the order objects are added.
 
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from labsim.backends.coppeliasim import camera_alias
+from labsim.backends.coppeliasim import CAMERA_ALIASES, camera_alias
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import PIONEER_P3DX, Kind, RobotModel
@@ -50,6 +51,7 @@ class SceneObject:
     name: str = ""  # channel, joint, force sensor or body name
     mount: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # x, y, z, yaw in the parent frame
     resolution: tuple[int, int] = (0, 0)  # vision sensors: (resX, resY)
+    also: tuple[str, ...] = ()  # other aliases it answers to in paths (one name set: docs/coppeliasim.md)
 
 
 class SceneTree:
@@ -117,9 +119,11 @@ class SceneTree:
                                   mount=(s.x_m, s.y_m, SONAR_Z_M, s.angle_rad)))
                   for k, s in enumerate(model.sonars)]
         for c in model.cameras:
-            add(SceneObject(0, camera_alias(model.name, c.name), "camera", base, robot=i, name=c.name,
+            alias = camera_alias(model.name, c.name)
+            add(SceneObject(0, alias, "camera", base, robot=i, name=c.name,
                             mount=(c.x_m, 0.0, c.height_m - ROBOT_Z_M, 0.0),
-                            resolution=(c.width_px, c.height_px)))
+                            resolution=(c.width_px, c.height_px),
+                            also=tuple(a for a in CAMERA_ALIASES if a != alias and alias in CAMERA_ALIASES)))
         self._add_contacts_and_ground(i, model, base, "groundSensor")
         # The names of V-REP and CoppeliaSim before 4.3 (sim.getObjectHandle), with #n for
         # the second robot on: old scripts still use them.
@@ -269,7 +273,7 @@ def glob_match(pattern: str, text: str) -> bool:
 
 def _matches(level: list[SceneObject], pattern: str) -> list[SceneObject]:
     Deadline.check()
-    return [o for o in level if glob_match(pattern, o.alias)]
+    return [o for o in level if glob_match(pattern, o.alias) or any(glob_match(pattern, a) for a in o.also)]
 
 
 def _nth_below(level: list[SceneObject], pattern: str, k: int) -> SceneObject | None:

@@ -4,7 +4,8 @@ Where it sits: a CoppeliaSim client (labsim's own ``CoppeliaSimBackend``, or a s
 using ``coppeliasim_zmqremoteapi_client``) talks to this server exactly as it would to
 CoppeliaSim's ZMQ remote API add-on. This module is the wire loop: the socket, the framing,
 the clients and the real-time clock. What a call does is in ``sim_api`` (the ``sim.*``
-functions), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
+functions), ``sim_objects`` and ``sim_session`` (the calls scripts make beyond a lab's, answered
+first), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
 objects and CoppeliaSim's path language). No CoppeliaSim is needed.
 
 The wire (protocol v2, docs/coppeliasim.md and the reference notes it cites): one ZMQ REP
@@ -14,10 +15,13 @@ timeout]}``; a reply is ``{"ret": [...]}``, ``{"err": "..."}`` or ``{"func": "_*
 ``_*executed*_``, as CoppeliaSim does. Errors carry CoppeliaSim's texts (``No such function:
 ...``, ``object does not exist, or alias/path is ill formatted.``) followed by labsim's hint.
 
-Clients come and go: a new client finds the scene as the last one left it, except that a
-stepping client that went away without stopping the simulation (killed, crashed) has its
-simulation stopped when the next client arrives, once it has been silent for ``takeover_s``:
-otherwise the next program would find a half-run simulation frozen at its last step.
+Clients come and go, several at once, each with its own stepping level; ``_*end*_`` (sent by
+the C++, Java, MATLAB and Octave clients as they close) is answered with an empty map and the
+client forgotten, as the add-on does. A new client finds the scene as the last one left it,
+except that a stepping client that went away without stopping the simulation (killed,
+crashed) has its simulation stopped when the next client arrives, once it has been silent for
+``takeover_s``: otherwise the next program would find a half-run simulation frozen at its
+last step.
 
 A hostile or broken client cannot wedge it (docs/security.md, "The server"): a message over
 ``MAX_MESSAGE_BYTES`` is dropped by ZeroMQ, every frame of a request is read and a request of
@@ -43,6 +47,8 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
 from labsim.runtime.serve.scene_edit import SceneEditor
 from labsim.runtime.serve.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
+from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
+from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
 from labsim.runtime.serve.simulation import Client, Simulation, robot_specs
 from labsim.runtime.serve.wire_limits import MAX_MESSAGE_BYTES, REQUEST_BUDGET_S, BudgetExceeded, Deadline
 from labsim.runtime.serve.wire_limits import refusal as wire_refusal
@@ -95,7 +101,10 @@ class Server:
         self._clients = self.simulation.clients
         # --empty: the scene is built through the remote API (labsim scene), see scene_edit
         self.editor = SceneEditor(self) if empty else None
-        self._funcs = self.editor.handlers() if self.editor is not None else self._sim_funcs
+        self._editor_funcs = self.editor.handlers() if self.editor is not None else {}
+        # what scripts call beyond a lab's needs, over whichever of the two answers the rest
+        self.object_calls, self.session_calls = ObjectCalls(self), SessionCalls(self)
+        self._extra = {**self.session_calls.handlers(), **self.object_calls.handlers(), "zmqRemoteApi.info": self._info}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._context: zmq.Context | None = None
@@ -137,6 +146,35 @@ class Server:
         simulation.clients = self._clients
         self.world, self.simulation = world, simulation
         self._sim_funcs = SimApi(simulation).handlers()
+
+    def base_handlers(self) -> dict[str, Handler]:
+        """The handlers under sim_objects' and sim_session's: the scene editor's, or the simulation's."""
+        return self._editor_funcs if self.editor is not None else self._sim_funcs
+
+    def load(self, world: World, robots: int | Sequence[RobotRequest], dt_s: float) -> None:
+        """sim.loadScene: a new scene (stopped), keeping the connected clients; in --empty, later
+        edits add to it."""
+        specs = robot_specs(world, robots)
+        requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(specs)]
+        dt_before = self.dt_s
+        self.dt_s = dt_s
+        try:
+            self.rebuild(world, requests)
+        except BaseException:
+            self.dt_s = dt_before
+            raise
+        self.object_calls.clear()
+        if self.editor is not None:
+            self.editor = SceneEditor(self, world, requests)
+            self._editor_funcs = self.editor.handlers()
+
+    def _info(self, client: Client, args: list[Any]) -> list[object]:
+        ret = self.base_handlers()["zmqRemoteApi.info"](client, args)
+        assert isinstance(ret, list) and isinstance(ret[0], dict)
+        info = dict(ret[0])
+        info.update({name.removeprefix("sim."): {"func": {}} for name in (*SESSION_CALLS, *OBJECT_CALLS)})
+        info.update({name: {"const": value} for name, value in {**SESSION_CONSTANTS, **OBJECT_CONSTANTS}.items()})
+        return [info]
 
     @property
     def simulation_time_s(self) -> float:
@@ -298,6 +336,15 @@ class Server:
 
     def _request(self, req: dict[str, Any]) -> dict[str, Any]:
         now = time.perf_counter()
+        if req["func"] == "_*end*_":
+            # What the C++, Java, MATLAB and Octave clients send as they close: the add-on answers
+            # an empty map and forgets the client (its stepping level with it), as here.
+            gone = self._clients.pop(str(req["uuid"]), None)
+            if gone is not None:
+                self.log(f"labsim serve: client {gone.uuid[:8]} ({gone.lang}) left")
+                if gone.stepping > 0 and not self.simulation.stepping():
+                    self.simulation.next_due = now + self.dt_s  # free-running from now, as after setStepping(False)
+            return {}
         client = self._clients.get(str(req["uuid"]))
         if client is None:
             client = self._arrive(str(req["uuid"]), req, now)
@@ -313,7 +360,7 @@ class Server:
             if pending:
                 self.simulation.client_step(client)
             return {"ret": []}
-        handler = self._funcs.get(func)
+        handler = self._extra.get(func) or self.base_handlers().get(func)
         if handler is None:
             name = func.removeprefix("sim.")
             if func.startswith("sim.") and name in UNSUPPORTED:

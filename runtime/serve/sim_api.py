@@ -66,11 +66,8 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 # Functions a CoppeliaSim script commonly calls that this stand-in does not offer: listed in
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
 UNSUPPORTED = (
-    "addLog", "getObjectQuaternion", "setObjectQuaternion", "getObjectMatrix", "getObjectChild",
-    "getObjectsInTree", "handleProximitySensor", "getVisionSensorDepth",
-    "setJointPosition", "setJointTargetForce", "getJointForce", "setFloatParam",
-    "getInt32Param", "setInt32Param", "getBoolParam", "setBoolParam", "setSimulationTimeStep",
-    "callScriptFunction", "executeScriptString", "loadScene", "loadModel", "removeObjects",
+    "getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
+    "loadModel",
 )
 
 _MECHANISM = ("joint", "force", "body")
@@ -239,6 +236,8 @@ class SimApi:
         self.sim.mech_targets[obj.name] = (mode, value)
         if self.sim.state != STOPPED:
             self.sim.mech_pending[obj.name] = (mode, value)
+        else:  # the scene's value: kept into the next run, as CoppeliaSim keeps a joint's target
+            self.sim.mech_scene[obj.name] = (mode, value)
 
     def _joint(self, args: Args) -> SceneObject:
         return self._obj(args, 0, ("motor", "joint"), "joint")
@@ -247,7 +246,10 @@ class SimApi:
         obj = self._joint(args)
         v = _num(args, 1)
         if obj.kind == "motor":
-            self._robot(obj).target[obj.index] = v
+            r = self._robot(obj)
+            r.target[obj.index] = v
+            if self.sim.state == STOPPED:
+                r.scene_target[obj.index] = v
         else:
             self._set_joint(obj, "velocity", v)
         return []
@@ -263,15 +265,16 @@ class SimApi:
         obj = self._joint(args)
         p = _num(args, 1)
         if obj.kind == "motor":
-            raise SimError("labsim serve: the wheel motors are velocity-controlled; "
-                           "use sim.setJointTargetVelocity")
+            # CoppeliaSim keeps it and ignores it: the wheels' motors are in velocity mode
+            self._robot(obj).target_pos[obj.index] = p
+            return []
         self._set_joint(obj, "position", p)
         return []
 
     def _sim_getJointTargetPosition(self, client: Client, args: Args) -> list[object]:
         obj = self._joint(args)
         if obj.kind == "motor":
-            return [0.0]
+            return [self._robot(obj).target_pos[obj.index]]
         mode, value = self.sim.mech_targets.get(obj.name, ("velocity", 0.0))
         return [value if mode == "position" else self.sim.joint_state(obj)[0]]
 

@@ -60,6 +60,8 @@ class Robot:
     obj: SceneObject
     row: dict[str, int] = field(default_factory=dict)  # channel -> index in its sense() row
     target: list[float] = field(default_factory=lambda: [0.0, 0.0])  # rad/s asked by a client
+    scene_target: list[float] = field(default_factory=lambda: [0.0, 0.0])  # rad/s set while stopped: the scene's
+    target_pos: list[float] = field(default_factory=lambda: [0.0, 0.0])  # rad, kept and unused (velocity mode)
     acted: list[float] = field(default_factory=lambda: [0.0, 0.0])  # rad/s the backend has
     wheel: list[float] = field(default_factory=lambda: [0.0, 0.0])  # wheel angles, rad, from odometry
     wheel_rate: list[float] = field(default_factory=lambda: [0.0, 0.0])  # rad/s over the last step
@@ -109,6 +111,7 @@ class Simulation:
         self.mech_row: dict[str, int] = {}
         self.mech_targets: dict[str, tuple[str, float]] = {}  # joint -> (mode, value) asked
         self.mech_pending: dict[str, tuple[str, float]] = {}  # not yet given to the backend
+        self.mech_scene: dict[str, tuple[str, float]] = {}  # set while stopped: the scene's, kept into a run
         self._add_mechanism(world)
 
         self.clients: dict[str, Client] = {}
@@ -176,11 +179,12 @@ class Simulation:
         self._snap = None
         self.next_due = time.perf_counter() + self.dt_s
         for r in self.robots:
-            r.target, r.acted = [0.0, 0.0], [0.0, 0.0]
+            # a target set while stopped is the scene's value, kept into the run (as CoppeliaSim does)
+            r.target, r.acted = list(r.scene_target), [0.0, 0.0]
             r.wheel, r.wheel_rate, r.yaw_rate = [0.0, 0.0], [0.0, 0.0], 0.0
             r.last = (r.pose.x_m, r.pose.y_m, wrap(r.pose.heading_rad))
-        self.mech_targets.clear()
-        self.mech_pending.clear()
+        self.mech_targets = dict(self.mech_scene)
+        self.mech_pending = dict(self.mech_scene)
         self.log(f"labsim serve: simulation started (dt {self.dt_s:g} s)")
 
     def stop(self) -> None:
@@ -195,9 +199,9 @@ class Simulation:
         self._snap = None
         for c in self.clients.values():
             c.stepping = 0  # CoppeliaSim's stopSimulation resets every client's stepping level
-        for r in self.robots:
-            r.target, r.wheel, r.wheel_rate, r.yaw_rate = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0], 0.0
-        self.mech_targets.clear()
+        for r in self.robots:  # the scene's values come back, as CoppeliaSim restores a scene
+            r.target, r.wheel, r.wheel_rate, r.yaw_rate = list(r.scene_target), [0.0, 0.0], [0.0, 0.0], 0.0
+        self.mech_targets = dict(self.mech_scene)
         self.mech_pending.clear()
 
     def pause(self) -> None:
@@ -230,7 +234,10 @@ class Simulation:
         assert backend is not None
         for i, r in enumerate(self.robots):
             if r.target != r.acted:
-                backend.act(i, r.target[0], r.target[1])
+                # the model's wheel limit, as a behaviour's commands meet it (runtime/run.py): one
+                # algorithm moves alike as a script and as a behaviour (docs/coppeliasim.md)
+                top = r.model.max_wheel_speed_rad_s
+                backend.act(i, *(max(-top, min(top, v)) for v in r.target))
                 r.acted = list(r.target)
         if self.mech is not None and self.mech_pending:
             for joint, (mode, value) in self.mech_pending.items():

@@ -187,7 +187,7 @@ class LiveSession(Session):
             robots=[robot_doc(r.name, r.model, p.channels) for r in self.run.robots],
             columns=columns, params={k: number(v) for k, v in p.params.items()},
             overrides=self.overrides,
-            sliders=[{"name": n, "min": lo, "max": hi, "value": start[n]}
+            sliders=[{"name": n, "min": lo, "max": hi, "value": start[n], "label": p.label_of(n)}
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
             states=list(p.state_names), stop_s=p.stop_horizon_s, timeline=self.timeline,

@@ -73,7 +73,8 @@ def test_crane_frame_has_the_mechanism_and_labels() -> None:
     m = frame["mechanism"]
     assert set(m["bodies"]) == {"Crab", "Upper_guide", "Gripper", "Load"}
     assert {"Arm_Actuator", "Crab_Actuator", "Hoist_Actuator"} <= set(m["joints"])
-    assert frame["labels"]["arm"] == "Arm Speed: 0.00"
+    assert frame["labels"] == {"speed": "Hoist Speed: -0.01"}  # one label, as the lab's: hoist moved last
+    assert {sl["name"]: sl["label"] for sl in s.scene()["sliders"]} == dict.fromkeys(("arm", "crab", "hoist"), "speed")
     s.close()
 
 
@@ -140,10 +141,10 @@ def test_slider_messages_reach_the_run() -> None:
     s.handle({"type": "slider", "name": "arm", "value": 5})
     s.advance(20)  # one second of simulated time
     frame = s.frame()
-    assert frame["labels"]["arm"] == "Arm Speed: 0.10"
+    assert frame["labels"]["speed"] == "Arm Speed: 0.10"
     assert frame["sliders"]["arm"] == 5
     mode, value = frame["mechanism"]["targets"]["Arm_Actuator"]
-    assert mode == "velocity" and math.isclose(value, 0.1)
+    assert mode == "velocity" and math.isclose(value, 0.5)  # the slider's value, within the motor's max_speed
     s.close()
 
 
@@ -264,7 +265,7 @@ def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
                 if msg["type"] == "frame" and msg["tick"] >= 1:
                     labels = msg["labels"]
                     break
-            assert labels == {"arm": "Arm Speed: 0.10", "crab": "Crab Speed: 0.00", "hoist": "Hoist Speed: 0.00"}
+            assert labels == {"speed": "Arm Speed: 0.10"}
             await b.close()  # a closed tab: the other one goes on
             await a.send_str(json.dumps({"type": "step"}))
             for _ in range(50):

@@ -133,8 +133,8 @@ def test_crane_slider_moves_the_arm_and_the_crane(view: Any) -> None:
     v.wait("window.labsimView.frame.tick >= 10")
     dragged_at = v.frame()["time"]
     v.page.locator('input[data-name="arm"]').fill("5")
-    v.wait("window.labsimView.frame.labels.arm === 'Arm Speed: 0.10'")
-    v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.1")
+    v.wait("window.labsimView.frame.labels.speed === 'Arm Speed: 0.10'")
+    v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.5")  # the slider, within max_speed
     assert v.frame()["time"] - dragged_at <= 1.0
     # the page draws a frame on the next animation frame: wait for it rather than read at once
     v.wait("document.querySelector('#sliders .slider .text').textContent === 'Arm Speed: 0.10'")

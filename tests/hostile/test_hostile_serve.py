@@ -291,8 +291,8 @@ def test_an_internal_error_is_a_reply_without_a_traceback_or_an_address() -> Non
     """A handler that fails, or returns what cbor2 cannot encode, is answered and logged."""
     logged: list[str] = []
     server = Server(LAB, 1, port=0, log=logged.append)
-    server._funcs["sim.getSimulationTime"] = lambda client, args: [object()]
-    server._funcs["sim.getSimulationState"] = lambda client, args: [1 / 0]
+    server.base_handlers()["sim.getSimulationTime"] = lambda client, args: [object()]
+    server.base_handlers()["sim.getSimulationState"] = lambda client, args: [1 / 0]
     for func in ("sim.getSimulationTime", "sim.getSimulationState"):
         reply = cbor2.loads(server.handle(req(func)))
         assert reply["err"].startswith("labsim serve: internal error") and " at 0x" not in reply["err"], reply

@@ -46,6 +46,10 @@ ALLOWED: dict[tuple[str, str], str] = {
         "names from the three literals of wrap(), never from a request",
     ("runtime/serve/scene_edit.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
         "names from the module's fixed table of functions, never from a request",
+    ("runtime/serve/sim_objects.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+        "names from OBJECT_CALLS, a constant tuple, never from a request",
+    ("runtime/serve/sim_session.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+        "names from SESSION_CALLS, a constant tuple, never from a request",
     ("runtime/serve/sim_api.py", "getattr(self, '_sim_' + name.removeprefix('sim.'))"):
         "names from FUNCTIONS, a constant tuple; a request's func is looked up in the dict built here",
     ("runtime/serve/sim_api.py", "getattr(motor, mode, True)"):

@@ -34,7 +34,7 @@ def test_the_load_is_lifted_moved_lowered_and_raised(lab) -> None:
     assert summary.ticks == 1200 and summary.faults == ()
     m = summary.robots["crane"].metrics
     assert 2.5 < m["highest_load"] < 3.0  # lifted about 2.4 m
-    assert m["final_slew"] == pytest.approx(0.1 * 8, abs=1e-9)  # arm = 5 -> 0.1 rad/s for 8 s
+    assert m["final_slew"] == pytest.approx(0.1 * 8, abs=1e-9)  # arm = 0.1 -> 0.1 rad/s for 8 s
     x = column(trace, "crab_x")
     assert max(x) == pytest.approx(1 + 3.6, abs=0.05)  # out at 0.6 m/s for 6 s, then back
     assert x[-1] == pytest.approx(1.0, abs=0.05)
@@ -73,21 +73,30 @@ def test_the_force_sensor_reads_the_weight_at_rest_and_more_while_lifting(lab) -
 def test_timeline_events_land_on_their_tick_and_are_traced(lab) -> None:
     _, trace = lab
     events = {int(row[0]): row[-1] for row in trace.rows if row[-1]}
-    assert events[0] == "hoist=-8"
-    assert events[120] == "hoist=0;arm=5"
-    assert events[160] == "crab=6"
+    assert events[0] == "hoist=-0.4"
+    assert events[120] == "hoist=0;arm=0.1"
+    assert events[160] == "crab=0.6"
     assert events[280] == "crab=0;arm=0"
     assert len(events) == 10
     arm = column(trace, "arm")
-    assert arm[119] == 0 and arm[120] == 5  # the slider moves on the event's tick
+    assert arm[119] == 0 and arm[120] == 0.1  # the slider moves on the event's tick
 
 
 def test_labels_in_the_trace_and_the_summary(lab) -> None:
     summary, trace = lab
-    labels = trace.column("label:arm")
-    assert labels[0] == "Arm Speed: 0.00" and labels[200] == "Arm Speed: 0.10"
-    assert summary.robots["crane"].labels == {"arm": "Arm Speed: 0.00", "crab": "Crab Speed: 0.00",
-                                                 "hoist": "Hoist Speed: 0.00"}
+    # one label, as the lab's script has it: the slider moved last writes 0.02 x its value
+    assert "label:arm" not in trace.columns
+    labels = trace.column("label:speed")
+    assert labels[0] == "Hoist Speed: -0.01"  # hoist = -0.4 on the first tick
+    assert labels[160] == "Crab Speed: 0.01" and labels[600] == "Crab Speed: -0.01"
+    assert summary.robots["crane"].labels == {"speed": "Hoist Speed: 0.00"}
+
+
+def test_the_lab_sets_each_joint_to_its_slider() -> None:
+    text = LAB.read_text()
+    for joint, slider in (("Arm", "arm"), ("Crab", "crab"), ("Hoist", "hoist")):
+        assert f"{joint}_Actuator.velocity: clamp({slider}, " in text  # within the motor's max_speed
+        assert f'"{joint} Speed: {{0.02 * {slider}:.2f}}", label_name: speed' in text
 
 
 @pytest.mark.slow
@@ -106,8 +115,9 @@ def test_a_live_slider_move_is_an_event_like_the_timeline(tmp_path: Path) -> Non
     run.set_slider("crab", 99)  # clamped to the slider's range
     run.tick()
     run.close()
-    rows = read_trace(tmp_path / "t.csv").rows
-    assert rows[10][-1] == "crab=10"
+    trace = read_trace(tmp_path / "t.csv")
+    assert trace.rows[10][-1] == "crab=10"
+    assert trace.column("label:speed")[9:11] == ["Hoist Speed: -0.01", "Crab Speed: 0.20"]  # the shared label follows
 
 
 def test_the_golden_trace_holds(capsys) -> None:
@@ -119,7 +129,7 @@ def test_a_trace_replays_its_slider_moves(lab, tmp_path: Path) -> None:
     from labsim.runtime.trace import slider_events
     _, trace = lab
     moves = slider_events(trace)
-    assert moves[160] == [("crab", 6.0)]
+    assert moves[160] == [("crab", 0.6)]
     # replayed into a behaviour without a timeline, the run is the same run
     text = LAB.read_text()
     no_timeline = tmp_path / "crane.yaml"

@@ -50,7 +50,7 @@ def test_the_crane_built_by_labsim_scene_gives_labsim_serve_cranes_trace(empty: 
                      "--backend", "coppeliasim", "--port", str(port)]) == 0
     finally:
         stop(proc)
-    assert trace_rows(built) == trace_rows(served) and len(trace_rows(built)) == 1 + 1200
+    assert trace_rows(built) == trace_rows(served) and len(trace_rows(built)) == 1 + 1201  # format 1.2: tick 1200 too
     embedded = tmp_path / "embedded.csv"
     assert main(["run", str(CRANE), "-q", "--trace", str(embedded)]) == 0
     assert trace_rows(built) == trace_rows(embedded)  # after the slew too: frames._unslewed

@@ -93,7 +93,7 @@ def test_each_memory_function_tick_by_tick(name: str, calls: list[tuple], expect
 def test_printf_label_shows_the_slider(tmp_path: Path) -> None:
     crane = BEHAVIOURS / "crane.yaml"
     path = tmp_path / "crane.yaml"
-    path.write_text(crane.read_text().replace('"Arm Speed: {0.02 * arm:.2f}"', '"Arm: %.1f %%"'))
+    path.write_text(crane.read_text().replace('"Arm Speed: {0.02 * arm:.2f}", label_name: speed', '"Arm: %.1f %%"'))
     program = compile_file(path)
     slots = [0.0] * program.slot_count
     (field,) = [part for slider, parts in program.labels if slider == "arm"

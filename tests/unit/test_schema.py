@@ -125,10 +125,11 @@ VALID = sorted(BEHAVIOURS.glob("*.yaml")) + sorted(WORLDS.glob("*.yaml")) \
 # fixtures whose mistakes are names, types of expressions, or rule text: out of the schema's reach
 OUT_OF_REACH = sorted(p for p in FIXTURES.glob("*_with_error.yaml")
                       if p.stem not in ("camera_with_error", "crane_with_error", "structure_with_error",
-                                        "noise_with_error", "metric_better_with_error",
+                                        "noise_with_error", "metric_better_with_error", "label_name_with_error",
                                         "yaml_quote_with_error"))  # that one is not YAML at all
 COVERED = [FIXTURES / f"{n}.yaml" for n in ("camera_with_error", "crane_with_error", "structure_with_error",
-                                            "noise_with_error", "metric_better_with_error")]
+                                            "noise_with_error", "metric_better_with_error",
+                                            "label_name_with_error")]
 
 
 @pytest.mark.parametrize("path", VALID + OUT_OF_REACH, ids=lambda p: p.name)

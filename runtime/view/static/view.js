@@ -99,6 +99,7 @@ function buildSliders(scene) {
     const input = document.createElement("input");
     Object.assign(input, { type: "range", min: s.min, max: s.max, step: (s.max - s.min) / 200, value: s.value });
     input.dataset.name = s.name;
+    input.dataset.label = s.label || s.name;  // a label several sliders share shows by each
     input.setAttribute("aria-label", s.name);
     input.addEventListener("pointerdown", () => { state.dragging = s.name; });
     input.addEventListener("pointerup", () => { state.dragging = null; });
@@ -249,7 +250,7 @@ function render() {
   $("scrub-time").textContent = scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "";
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    div.querySelector(".text").textContent = f.labels[n] || n;
+    div.querySelector(".text").textContent = f.labels[input.dataset.label] || n;
     if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
     if (n in f.sliders) input.value = f.sliders[n];
     div.querySelector(".value").textContent = n in f.sliders ? fmt(f.sliders[n]) : "";
