@@ -4,6 +4,7 @@ the behaviour file says what it lacks and how to give it."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -34,8 +35,7 @@ def crane_naming(tmp_path: Path, behaviour: str, sha256: str = "") -> Path:
     first, rest = text.split("\n", 1)
     first = first.replace('"behaviour": "behaviours/crane.yaml"', f'"behaviour": "{behaviour}"')
     if sha256:
-        first = first.replace('"sha256": "df2e390803e525be8cafaada0b8170e2c97285a427db9cec1a15bf61b8312fa1"',
-                              f'"sha256": "{sha256}"')
+        first = re.sub(r'(?<=[{ ])"sha256": "[0-9a-f]{64}"', f'"sha256": "{sha256}"', first)
     out = tmp_path / "c.csv"
     ticks = rest.count("\n") - 1  # the rows, without the columns line
     out.write_text(first + "\n" + rest + f'# end {{"interrupted": false, "ticks": {ticks}}}\n')

@@ -62,7 +62,7 @@ def test_the_asyncio_example_with_requests_in_flight_ends() -> None:
 def test_a_students_wall_follower_runs_and_ends_where_it_did() -> None:
     out = lines(run("wall_student.py", Server(LAB, 1, port=0)))
     assert out == [
-        "CoppeliaSim 40600", "objects in the robot 19 sonars 16", "script -1",
+        "CoppeliaSim 40600", "objects in the robot 23 sonars 16", "script -1",
         "no script: script function does not exist.",
         "at -4.121 -4.208 heading 1.275 quaternion w 0.804", "left wheel 4.0 rad/s force 0.0",
         "built matches True", "system time advanced True"]
@@ -85,6 +85,6 @@ def test_a_script_loading_a_ttt_scene_stops_there_with_the_clear_error() -> None
 
 def test_a_camera_script_loads_the_road_lab_by_name_and_reads_its_camera_every_way() -> None:
     out = lines(run("road_camera.py", Server(LAB, 1, port=0)))
-    assert out[:4] == ["scene road_loop", "same camera True", "before a step -1", "packet 15 mean intensity 0.463"]
+    assert out[:4] == ["scene road_loop", "same camera True", "before a step -1", "packet 15 mean intensity 0.44"]
     assert out[4] == "nearest floor 3.69 m; farthest 10.0 m"  # the floor through the camera's optics; the far plane
     assert out[5] == "robot at -11.37 -62.79"
