@@ -31,8 +31,8 @@ ASSIGNMENT_VERSION_KEY = "labsim-assignment"  # a grader's assignment file (docs
 # keys only one kind of file has (the readers' key tables: dsl/read.py TOP_KEYS and
 # backends/scene/world_file.py KEYS; tests/test_kinds.py holds them to it)
 BEHAVIOUR_ONLY_KEYS = frozenset({"labsim", "rules", "stop", "bind"})
-WORLD_ONLY_KEYS = frozenset({"labsim-world", "bounds", "wall_thickness", "walls", "blocks", "spawns", "ground",
-                             "mechanism"})
+WORLD_ONLY_KEYS = frozenset({"labsim-world", "bounds", "wall_thickness", "wall_height", "walls", "blocks", "spawns",
+                             "ground", "mechanism"})
 HEAD_BYTES = MIB  # the most a behaviour or world file may be: its keys are all in there
 
 

@@ -148,9 +148,8 @@ def compile_sense(
     filter as a C struct, so a group's test skips the same shapes as its rays: the same calls
     pymunk's wrappers make, without their allocations (measured in
     ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
-    the literals change no reading. Cameras
-    call ``render(x, y, angle, camera, robot)`` (the robot's index, whose own body its camera
-    does not see); road channels call ``tracker.offset`` once per robot;
+    the literals change no reading. Cameras call ``render(x, y, angle, camera, robot)`` (the
+    robot's index, whose own body its camera does not see); road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
     call of ``reflectance(x, y)`` at its point.

@@ -11,10 +11,9 @@ docs/coppeliasim.md lists what is offered and where it differs from CoppeliaSim.
 Semantics kept from CoppeliaSim, and where the stand-in differs:
 
 * Proximity and vision sensors report what the last step saw: before the first step after
-  ``startSimulation`` a sonar detects nothing and an image is black. A sonar that sees
-  nothing reads ``[0, 0.0, [0, 0, 0], -1, [0, 0, 0]]``; one that sees something reads ``[1, d,
-  [0, 0, d], -1, [0, 0, 0]]``: the detected object's handle and the surface normal are not
-  modelled.
+  ``startSimulation`` a sonar detects nothing and an image is black. A sonar that sees nothing
+  reads ``[0, 0.0, [0, 0, 0], -1, [0, 0, 0]]``; one that sees something ``[1, d, [0, 0, d], -1,
+  [0, 0, 0]]``: the detected object's handle and the surface normal are not modelled.
 * Orientations are yaw only (``[0, 0, yaw]``): the scene is flat. A mechanism's parts tilt in
   their vertical plane, turned by the slew, and are given in the world frame only. Robots
   can be placed (set position / orientation / pose) only while the simulation is stopped.
@@ -65,10 +64,8 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 
 # Functions a CoppeliaSim script commonly calls that this stand-in does not offer: listed in
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
-UNSUPPORTED = (
-    "getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
-    "loadModel",
-)
+UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
+               "loadModel")
 
 _MECHANISM = ("joint", "force", "body")
 

@@ -87,4 +87,4 @@ def test_a_camera_script_loads_the_road_lab_by_name_and_reads_its_camera_every_w
     out = lines(run("road_camera.py", Server(LAB, 1, port=0)))
     assert out[:4] == ["scene road_loop", "same camera True", "before a step -1", "packet 15 mean intensity 0.44"]
     assert out[4] == "nearest floor 3.69 m; farthest 10.0 m"  # the floor through the camera's optics; the far plane
-    assert out[5] == "robot at -11.37 -62.79"
+    assert out[5] == "robot at -11.37 -62.78"
