@@ -163,3 +163,23 @@ def straight(x0: float, y0: float, x1: float, y1: float, n: int = 50) -> list:
     heading = math.atan2(y1 - y0, x1 - x0)
     return [(x0 + (x1 - x0) * i / (n - 1), y0 + (y1 - y0) * i / (n - 1), heading, 0, "")
             for i in range(n)]
+
+
+# On Linux a child's peak resident set (wait4's ru_maxrss) starts from its parent's at fork,
+# the address space it copied: a test process grown to hundreds of MB would inflate every figure.
+# So a small launcher forks the command measured and reports what wait4 says of it.
+_PEAK_LAUNCHER = ("import os, subprocess, sys\n"
+                  "p = subprocess.Popen(sys.argv[2:])\n"
+                  "_, status, usage = os.wait4(p.pid, 0)\n"
+                  "open(sys.argv[1], 'w').write(f'{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}')\n")
+
+
+def measured_command(report: Path, argv: list[str]) -> list[str]:
+    """``argv`` run by the launcher, which writes its exit code and peak resident set to ``report``."""
+    return [sys.executable, "-c", _PEAK_LAUNCHER, str(report), *argv]
+
+
+def measured_result(report: Path) -> tuple[int, float]:
+    """(exit code, peak resident set in MiB) of a command run by ``measured_command``."""
+    code, kib = report.read_text().split()
+    return int(code), int(kib) / 1024  # Linux reports kilobytes

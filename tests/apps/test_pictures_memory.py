@@ -2,13 +2,13 @@
 written frame by frame; the peak resident memory of a `labsim plot` process is measured."""
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
-from helpers import BEHAVIOURS
+from helpers import BEHAVIOURS, measured_command, measured_result
 
 from labsim.runtime.pictures.trace_sample import read_for_picture
 from labsim.runtime.trace import read_trace
@@ -35,15 +35,16 @@ def long_trace(path: Path, megabytes: float) -> int:
 
 
 def peak_mib(*args: str) -> float:
-    """The peak resident memory of ``labsim ARGS`` in a process of its own (or its ffmpeg)."""
-    proc = subprocess.Popen([sys.executable, "-m", "labsim", *args], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
-    assert proc.stderr is not None
-    err = proc.stderr.read().decode()
-    _, status, usage = os.wait4(proc.pid, 0)
-    assert os.waitstatus_to_exitcode(status) == 0, err
+    """The peak resident memory of ``labsim ARGS`` in a process of its own (or its ffmpeg),
+    taken by a small launcher (helpers.measured_command)."""
+    report = Path(tempfile.mkdtemp()) / "peak"
+    proc = subprocess.run(measured_command(report, [sys.executable, "-m", "labsim", *args]),
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, check=False)
+    err = proc.stderr.decode()
+    code, peak = measured_result(report)
+    assert code == 0, err
     assert "Traceback" not in err
-    return usage.ru_maxrss / 1024
+    return peak
 
 
 def test_a_trace_that_fits_is_read_whole_and_the_same() -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import resource
+import signal
 import subprocess
 import sys
 import threading
@@ -16,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from helpers import measured_command, measured_result
 
 pytestmark = pytest.mark.slow  # every case is a labsim process of its own
 
@@ -97,25 +99,28 @@ OUTPUTS = {"t.csv", "s.png", "m.png"}
 
 
 def run_measured(args: list[str], cwd: Path, address_space_mb: int = 0) -> tuple[int, str, float]:
-    """Run labsim; its exit code, its output, and its peak resident set in MB (wait4's rusage)."""
+    """Run labsim; its exit code, its output, and its peak resident set in MB (wait4's rusage,
+    taken by a small launcher: helpers.measured_command)."""
     def cap() -> None:
         if address_space_mb:
             resource.setrlimit(resource.RLIMIT_AS, (address_space_mb * MB, address_space_mb * MB))
 
     out_path = cwd.parent / f"{cwd.name}.out"  # outside the case's folder, whose files are checked
+    report = cwd.parent / f"{cwd.name}.peak"
     with out_path.open("w+", encoding="utf-8") as out:
-        proc = subprocess.Popen([sys.executable, "-m", "labsim", *args], cwd=cwd, stdout=out,
-                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=cap)
-        timer = threading.Timer(TIMEOUT_S, proc.kill)
+        proc = subprocess.Popen(measured_command(report, [sys.executable, "-m", "labsim", *args]), cwd=cwd,
+                                stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, preexec_fn=cap,
+                                start_new_session=True)
+        timer = threading.Timer(TIMEOUT_S, lambda: os.killpg(proc.pid, signal.SIGKILL))
         timer.start()
         try:
-            _, status, usage = os.wait4(proc.pid, 0)
+            proc.wait()
         finally:
             timer.cancel()
-        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
         out.seek(0)
         said = out.read()
-    return proc.returncode, said, usage.ru_maxrss / 1024  # Linux reports kilobytes
+    code, peak = measured_result(report)
+    return code, said, peak
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
