@@ -23,9 +23,10 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
     assert "same final poses: yes" in done.stdout, done.stdout
 
 
-@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py"])
+@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py", "bench_trace.py"])
 def test_benchmark_runs(script: str) -> None:
-    small = {"bench_plot.py": ["--mb", "5"], "bench_pictures.py": ["--quick"]}.get(script, [])  # a short try
+    small = {"bench_plot.py": ["--mb", "5"], "bench_pictures.py": ["--quick"],  # a short try
+             "bench_trace.py": ["--minutes", "1"]}.get(script, [])
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1", *small],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
