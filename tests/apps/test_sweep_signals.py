@@ -84,7 +84,9 @@ def test_a_signalled_sweep_writes_its_rows_closes_its_traces_and_leaves_no_worke
     footers = _footers(tmp_path)
     assert footers["minutes=0.05"] == [{"interrupted": False, "ticks": 60}] * 2
     assert [f["interrupted"] for f in footers["minutes=10000"]] == [True, True]
-    assert all(f["ticks"] > 60 and int(r[3]) > 60 for f, r in zip(footers["minutes=10000"], rows[2:]))
+    # a worker the signal reached first may end before it sends its count: its row leaves ticks
+    # blank, its trace's footer has them
+    assert all(f["ticks"] > 60 and (r[3] == "" or int(r[3]) > 60) for f, r in zip(footers["minutes=10000"], rows[2:]))
     if sig != signal.SIGHUP:  # after a hangup there is no terminal to show the table on
         assert "interrupted: 4 runs: 2 ok, 2 interrupted (of 4)" in out
 
