@@ -14,27 +14,14 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare import alternate, machine, report
-
-from labsim.backends import load_backend
-from labsim.runtime.run import compile_behaviour
+from compare import alternate, machine, report, run_phase
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 TINY = ("noise: {sonar: {std_m: 1.0e-9, dropout: 1.0e-9}, wheels: {std_rad_s: 1.0e-9, slip: 1.0e-9}}")
-
-
-def once(path: Path, minutes: float) -> tuple[float, int]:
-    run = compile_behaviour(path, {"minutes": str(minutes)}).bind(load_backend("pymunk"), warn=lambda m: None)
-    start = time.process_time()
-    summary = run.run()
-    elapsed = time.process_time() - start
-    run.close()
-    return elapsed, summary.ticks
 
 
 def main() -> None:
@@ -52,7 +39,7 @@ def main() -> None:
 
         def side(path: Path) -> Callable[[], float]:
             def once_timed() -> float:
-                elapsed, ticks[0] = once(path, args.minutes)
+                elapsed, ticks[0] = run_phase(path, {"minutes": str(args.minutes)})
                 return elapsed
             return once_timed
 

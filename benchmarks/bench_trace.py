@@ -14,27 +14,13 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare import alternate, machine, report
-
-from labsim.backends import load_backend
-from labsim.runtime.run import compile_behaviour
+from compare import alternate, machine, report, run_phase
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
-
-
-def once(minutes: float, trace: Path | None) -> tuple[float, int]:
-    run = compile_behaviour(LAB, {"minutes": str(minutes)}).bind(load_backend("pymunk"), trace=trace,
-                                                                 warn=lambda m: None)
-    start = time.process_time()
-    summary = run.run()
-    elapsed = time.process_time() - start
-    run.close()
-    return elapsed, summary.ticks
 
 
 def main() -> None:
@@ -48,7 +34,7 @@ def main() -> None:
 
         def side(trace: Path | None) -> Callable[[], float]:
             def timed() -> float:
-                elapsed, ticks[0] = once(args.minutes, trace)
+                elapsed, ticks[0] = run_phase(LAB, {"minutes": str(args.minutes)}, trace)
                 return elapsed
             return timed
 

@@ -46,6 +46,19 @@ def cpu_timed(fn: Callable[[], object]) -> tuple[float, object]:
     return time.process_time() - start, result
 
 
+def run_phase(path: Path, params: dict[str, str], trace: Path | None = None) -> tuple[float, int]:
+    """The CPU seconds of one run's run phase (compiled and bound beforehand), and its ticks."""
+    from labsim.backends import load_backend
+    from labsim.runtime.run import compile_behaviour
+
+    run = compile_behaviour(path, params).bind(load_backend("pymunk"), trace=trace, warn=lambda m: None)
+    start = time.process_time()
+    summary = run.run()
+    elapsed = time.process_time() - start
+    run.close()
+    return elapsed, summary.ticks
+
+
 def children_cpu() -> float:
     """CPU seconds used so far by this process's finished children (user + system)."""
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -52,6 +52,17 @@ OBJECT_CALLS = tuple(f"sim.{n}" for n in (
 ))
 
 
+
+def call_base(server: Any, name: str, client: Client, args: Args) -> list[object]:
+    """A call answered by the stand-in's base handlers (``sim_api``), under a session's or the
+    objects' own wrapper of the same name."""
+    handler = server.base_handlers().get(name)
+    if handler is None:
+        raise SimError(E_HANDLE)
+    ret = handler(client, args)
+    assert not isinstance(ret, Wait)
+    return ret
+
 class Host(Protocol):
     """What the object calls need of the server (``server.Server``)."""
 
@@ -104,12 +115,7 @@ class ObjectCalls:
         self.colours.clear()
 
     def _inner(self, name: str, client: Client, args: Args) -> list[object]:
-        handler = self.server.base_handlers().get(name)
-        if handler is None:
-            raise SimError(E_HANDLE)
-        ret = handler(client, args)
-        assert not isinstance(ret, Wait)
-        return ret
+        return call_base(self.server, name, client, args)
 
     # --- dummies -----------------------------------------------------------------------------
 

@@ -34,6 +34,7 @@ from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, shown
+from labsim.runtime.serve.sim_objects import call_base
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.wire_limits import Deadline
 
@@ -130,12 +131,7 @@ class SessionCalls:
         return {name: getattr(self, "_" + name.removeprefix("sim.")) for name in SESSION_CALLS}
 
     def _inner(self, name: str, client: Client, args: Args) -> list[object]:
-        handler = self.server.base_handlers().get(name)
-        if handler is None:
-            raise SimError(E_HANDLE)
-        ret = handler(client, args)
-        assert not isinstance(ret, Wait)
-        return ret
+        return call_base(self.server, name, client, args)
 
     def _stopped(self) -> None:
         if self.server.simulation.state != STOPPED:
