@@ -14,8 +14,10 @@ import re
 import select
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from pathlib import Path
+
+import pytest
 
 from labsim.backends import load_backend
 from labsim.backends.scene.world import builtin_worlds
@@ -183,3 +185,10 @@ def measured_result(report: Path) -> tuple[int, float]:
     """(exit code, peak resident set in MiB) of a command run by ``measured_command``."""
     code, kib = report.read_text().split()
     return int(code), int(kib) / 1024  # Linux reports kilobytes
+
+
+def cases(items: list, long: Collection[str] = ()) -> list:
+    """Parametrised cases named by their ``name``; those named in ``long`` are marked ``slow`` and
+    ``long`` (minutes on a loaded machine: .ci/run runs them in a stage of their own)."""
+    return [pytest.param(c, id=c.name, marks=(pytest.mark.slow, pytest.mark.long) if c.name in long else ())
+            for c in items]

@@ -65,6 +65,7 @@ def test_a_long_trace_is_thinned_keeping_every_event_and_each_robot_s_last_row(t
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_plots_of_a_long_trace_stay_in_bounded_memory(tmp_path: Path) -> None:
     path = tmp_path / "long.csv"
     long_trace(path, 60)  # 430,000 rows: read whole, 16 times its size in text and lists

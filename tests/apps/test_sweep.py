@@ -368,6 +368,7 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> N
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, cluster) -> None:
     import os
     import signal

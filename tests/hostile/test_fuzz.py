@@ -27,6 +27,7 @@ def test_the_seeds_are_the_shipped_behaviours_fixtures_and_worlds() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_mutated_files_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
     outcomes: list[str] = []
 
@@ -41,6 +42,7 @@ def test_mutated_files_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
     outcomes: list[str] = []
 
@@ -54,6 +56,7 @@ def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_pa
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_a_sweeps_options_give_diagnostics_not_exceptions() -> None:
     """--set and --seeds as typed, ordinary to hostile: each refused with labsim's own message, or
     a grid of the size counted (docs/sweep.md, "Limits")."""

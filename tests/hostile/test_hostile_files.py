@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from helpers import ROOT
+from helpers import ROOT, cases
 
 pytestmark = pytest.mark.slow  # every case is a labsim process of its own
 
@@ -194,7 +194,7 @@ def _digests(folder: Path) -> dict[str, str]:
             if p.is_file() and not p.is_symlink() and os.access(p, os.R_OK)}
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+@pytest.mark.parametrize("case", cases(CASES, long={"trace of 2 GiB (sparse)"}))
 def test_hostile_file(case: Case, tmp_path: Path) -> None:
     if not case.as_root_too and os.geteuid() == 0:
         pytest.skip("root may enter any folder")

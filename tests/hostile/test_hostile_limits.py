@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from helpers import cases
 
 pytestmark = pytest.mark.slow  # every case is a labsim process of its own, a few of them seconds of work
 
@@ -159,7 +160,7 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+@pytest.mark.parametrize("case", cases(CASES, long={"9000 unknown names", "a 980 KB line with a mistake at its end"}))
 def test_hostile_limit(case: Case, tmp_path: Path) -> None:
     for name, text in case.files.items():
         (tmp_path / name).write_text(text, encoding="utf-8")

@@ -31,6 +31,7 @@ def test_with_the_lab_constants_all_five_stay_on_the_road_for_30_s(lab_run: LabR
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_with_the_lab_constants_all_five_stay_on_the_road_for_ten_minutes(lab_run: LabRun) -> None:
     summary = lab_run(LAB, seconds="600")
     # in the curves the camera, looking ahead, cuts corners by about a third of a metre,
@@ -40,6 +41,7 @@ def test_with_the_lab_constants_all_five_stay_on_the_road_for_ten_minutes(lab_ru
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_a_camera_looking_just_ahead_lets_the_lab_gains_weave_off_the_road(tmp_path: Path,
                                                                           lab_run: LabRun) -> None:
     # what the behaviour file's comment and docs/road-following.md say about its camera
@@ -53,6 +55,7 @@ def test_a_camera_looking_just_ahead_lets_the_lab_gains_weave_off_the_road(tmp_p
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_with_more_gain_the_near_camera_holds_the_compact_loop(tmp_path: Path, lab_run: LabRun) -> None:
     # docs/road-following.md: road_compact is for controllers with real proportional gain
     lab = tmp_path / "compact.yaml"

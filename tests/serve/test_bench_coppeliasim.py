@@ -18,6 +18,8 @@ pytestmark = pytest.mark.slow  # the benchmark runs every lab through labsim ser
 SCRIPT = BENCHMARKS / "bench_coppeliasim.py"
 
 
+@pytest.mark.slow
+@pytest.mark.long
 def test_the_coppeliasim_benchmark_reports_every_lab_both_ways() -> None:
     done = subprocess.run([sys.executable, str(SCRIPT), "--repeat", "1", "--minutes", "0.1"],
                           capture_output=True, text=True, timeout=600)

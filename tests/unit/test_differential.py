@@ -25,6 +25,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
@@ -272,6 +273,8 @@ def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, .
     return len(exprs), folded
 
 
+@pytest.mark.slow
+@pytest.mark.long
 def test_folding_generated_code_and_evaluator_agree(tmp_path: Path) -> None:
     counts: list[tuple[int, int]] = []
 

@@ -53,6 +53,7 @@ def expected_states(n: int, jump: int, ticks: int) -> list[tuple[str, str]]:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_3000_rules_check_and_run(tmp_path: Path) -> None:
     path = tmp_path / "rules.yaml"
     path.write_text(many_rules(3000, 71))
@@ -66,6 +67,7 @@ def test_3000_rules_check_and_run(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_3000_states_check_and_run(tmp_path: Path) -> None:
     path = tmp_path / "states.yaml"
     path.write_text(many_states(3000, 71))
