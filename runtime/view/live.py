@@ -37,9 +37,10 @@ from labsim.runtime.view.frames import (
     sensor_columns,
     world_doc,
 )
+from labsim.runtime.view.hands import block_message, blocks_doc, place_message
 from labsim.runtime.view.observe import ObservedBackend
 from labsim.runtime.view.record import TickRecorder
-from labsim.runtime.view.session import BadMessage, Session, finite, name
+from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
 _NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
 MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
@@ -240,7 +241,9 @@ class LiveSession(Session):
                             for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
-        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
+        blocks = blocks_doc(run)
+        changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old
+        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
@@ -330,11 +333,23 @@ class LiveSession(Session):
             self._break(msg)
             return False
         if kind == "place":
-            self._place(msg)
+            self._need_run()
+            assert self.run is not None
+            robot, x, y = place_message(self.run, msg)
+            self.recorder.paths[robot].jump(x, y)
+            return False
+        if kind == "block":
+            self._need_run()
+            assert self.run is not None
+            block_message(self.run, msg)
             return False
         if kind in ("apply", "save"):
             return self._edit(kind, msg)
         raise BadMessage(f"unknown message type '{kind}'")
+
+    def _need_run(self) -> None:
+        if self.run is None:
+            raise BadMessage("there is no run to change")
 
     def _slider(self, msg: dict) -> None:
         slider = name(msg.get("name"), "name")
@@ -378,22 +393,6 @@ class LiveSession(Session):
         if self.text == text:
             self.text = None  # the file holds what runs
 
-    def _place(self, msg: dict) -> None:
-        """Put a robot at a pose (a drag on the canvas), through the backend and into the trace."""
-        robot = msg.get("robot")
-        if self.run is None or isinstance(robot, bool) or not isinstance(robot, int) \
-                or not 0 <= robot < len(self.run.robots) or self.run.robots[robot].model is None:
-            raise BadMessage("'robot' must be the index of a robot (not a mechanism)")
-        x, y = finite(msg.get("x"), "x"), finite(msg.get("y"), "y")
-        heading = math.remainder(finite(msg.get("heading"), "heading"), math.tau)
-        x0, y0, x1, y1 = self.run.program.world.bounds
-        # far outside, a simulator's numbers stop meaning anything (and chipmunk may abort)
-        why = "it is outside the world" if not (x0 - 1 <= x <= x1 + 1 and y0 - 1 <= y <= y1 + 1) \
-            else self.run.place(robot, x, y, heading)
-        if why is not None:
-            raise ChangeRefused([f"{self.run.robots[robot].name} was not moved to ({x:.2f}, {y:.2f}): {why}"])
-        self.recorder.paths[robot].jump(x, y)
-
     def _break(self, msg: dict) -> None:
         """Add a breakpoint (checked against this run's program) or remove one by its index."""
         if self.run is None:
@@ -435,16 +434,6 @@ class LiveSession(Session):
     def _failed(self) -> bool:
         """A change that did not compile: the page gets the diagnostics, the run goes on."""
         raise ChangeRefused([d.format() for d in self.refused])
-
-
-class ChangeRefused(Exception):
-    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
-    ``places`` where in the edited text (line, column, message) for the page's editor."""
-
-    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
-        super().__init__("\n".join(diagnostics))
-        self.diagnostics = diagnostics
-        self.places = places or []
 
 
 def _short(v: object) -> float | str | None:

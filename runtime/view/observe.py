@@ -84,6 +84,14 @@ class ObservedBackend:
                     self.last[robot][at[channel]] = value
         return result
 
+    def set_block(self, block: int, corners: tuple[tuple[float, float], ...] | None) -> str | None:
+        """Move, add or remove a block (a drag); why not, when the backend refuses or cannot."""
+        set_block = getattr(self.inner, "set_block", None)
+        if set_block is None:
+            return f"the {self.name} backend cannot move, add or remove blocks"
+        result: str | None = set_block(block, corners)
+        return result
+
     def contacts(self, robot: int) -> ContactStats:
         return self.inner.contacts(robot)
 

@@ -29,8 +29,7 @@ from aiohttp import WSMsgType, web
 from labsim.foundation.numbers import NumberError, to_float
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message, number
 from labsim.runtime.view.guard import REFUSED_HOST, LogBudget, host_allowed, http_logger
-from labsim.runtime.view.live import ChangeRefused
-from labsim.runtime.view.session import BadMessage, Session
+from labsim.runtime.view.session import BadMessage, ChangeRefused, Session
 
 # resolved: an install may reach this module through links, and the static route serves only
 # files that really lie inside the folder it is given

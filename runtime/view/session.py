@@ -27,6 +27,16 @@ class BadMessage(ValueError):
     """A page's message that cannot be used: malformed, unknown, or out of range."""
 
 
+class ChangeRefused(Exception):
+    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
+    ``places`` where in the edited text (line, column, message) for the page's editor."""
+
+    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
+        super().__init__("\n".join(diagnostics))
+        self.diagnostics = diagnostics
+        self.places = places or []
+
+
 class Pacer:
     """How many ticks are due: simulated time = wall time x speed since the last anchor.
 

@@ -507,3 +507,50 @@ def test_read_only_turns_the_editor_off_and_says_so(view: Any) -> None:
     v.page.click("#edit")
     assert v.js("document.querySelector('#source').readOnly && document.querySelector('#apply').disabled "
                 "&& document.querySelector('#save').disabled")
+
+
+def test_blocks_moved_added_and_removed_replay_from_the_trace_row_for_row(view: Any, tmp_path: Path) -> None:
+    trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace)])
+    v.page.click("#step")
+    v.wait("window.labsimView.frame.tick === 1 && !document.querySelector('#block-tools').hidden")
+    box = v.page.locator("#world").bounding_box()
+
+    def on_page(x: float, y: float) -> list[float]:
+        px, py = v.js(f"window.LV_world.toPx({x}, {y})")
+        return [box["x"] + px, box["y"] + py]
+
+    def drag(a: list[float], b: list[float]) -> None:
+        v.page.mouse.move(*a)
+        v.page.mouse.down()
+        v.page.mouse.move(*b, steps=6)
+        v.page.mouse.up()
+    # the box in the far corner (centre 6.5, 6.5) onto the inner wall: refused, said, nothing moves
+    drag(on_page(6.5, 6.5), on_page(0.0, 1.5))
+    v.wait("document.querySelector('#notice').textContent.includes('block 0 was not moved')")
+    assert "blocks" not in v.frame()
+    drag(on_page(6.5, 6.5), on_page(4.5, 6.0))  # two metres west, half a metre south
+    v.wait("window.labsimView.frame.blocks !== undefined")
+    (k, corners), = v.frame()["blocks"]
+    assert k == 0 and abs(sum(c[0] for c in corners) / 4 - 4.5) < 0.05
+    v.page.click("#add-block")
+    v.page.mouse.click(*on_page(-6.0, 6.0))
+    v.wait("window.labsimView.frame.blocks.length === 2")
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 30")
+    v.page.mouse.click(*on_page(4.5, 6.0))  # pick the moved box, then remove it, while running
+    v.wait("!document.querySelector('#remove-block').disabled")
+    v.page.click("#remove-block")
+    v.wait("window.labsimView.frame.blocks.length === 1 && window.labsimView.frame.blocks[0][0] === 1")
+    v.wait("window.labsimView.frame.tick >= 60")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.playing === false")
+    v.shot("blocks")
+    v.close()  # Ctrl-C: the trace so far is kept
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--replay", str(trace),
+                    "--trace", str(replayed), "-q"], check=True, cwd=ROOT, capture_output=True)
+    a, b = read_trace(trace), read_trace(replayed)
+    events = [e.split(" ")[:3] for cell in a.column("events") for e in cell.split(";") if e.startswith("block ")]
+    assert events == [["block", "move", "0"], ["block", "add", "1"], ["block", "remove", "0"]]
+    assert b.rows[:len(a.rows)] == a.rows

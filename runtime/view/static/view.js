@@ -10,6 +10,8 @@ window.labsimView = state;
 // a robot dragged on the canvas: the server puts it there (or says why not) and the trace records it
 const placeRobot = (i, x, y, heading) => { notice(""); send({ type: "place", robot: i, x, y, heading }); };
 const world = new LV.WorldView($("world"), (i) => selectRobot(i), placeRobot);
+// a block dragged, added or removed: the same, through the backend and into the trace
+const changeBlock = (msg) => { notice(""); send({ type: "block", ...msg }); blockTools(); };
 const chart = new LV.Chart($("chart"), $("chart-now"));
 window.LV_world = world;  // what is drawn where (the browser tests read it)
 window.LV_chart = chart;
@@ -71,9 +73,27 @@ function onScene(scene) {
   chart.reset(scene.columns, scene.robots.length);
   pickChart(scene);
   world.onPlace = scene.mode === "live" ? placeRobot : null;
+  const blocks = scene.mode === "live" && scene.world && !scene.world.mechanism;
+  world.onBlock = blocks ? changeBlock : null;
+  world.pickedBlock = null; world.adding = false;
+  $("block-tools").hidden = !blocks;
+  blockTools();
   world.setScene(scene);
   if (state.robot >= scene.robots.length) selectRobot(0);
 }
+
+function blockTools() {  // Remove block: only with a block picked that still stands
+  $("remove-block").disabled = world.pickedBlock === null || !world.blocks().has(world.pickedBlock);
+  $("add-block").classList.toggle("on", world.adding);
+}
+$("add-block").addEventListener("click", () => {
+  world.adding = !world.adding; $("world").classList.toggle("adding", world.adding); blockTools();
+});
+$("remove-block").addEventListener("click", () => {
+  if (world.pickedBlock !== null) changeBlock({ op: "remove", block: world.pickedBlock });
+  world.pickedBlock = null; blockTools();
+});
+$("world").addEventListener("pointerup", () => setTimeout(blockTools, 0));
 
 function buildRobots(scene) {
   const sel = $("robot");
@@ -204,6 +224,7 @@ function onFrame(frame) {
   state.frame = frame;
   state.frames += 1;
   world.setFrame(frame);
+  if (world.onBlock) blockTools();
   chart.add(frame);
   scheduleDraw();
 }
