@@ -132,6 +132,16 @@ class LiveSession(Session):
         return self.run.tick_index if self.run is not None else 0
 
     @property
+    def shown_tick(self) -> int:
+        # the pose, readings, rule and state a frame shows are those of the last tick run, as the
+        # trace's row of that tick has them (``tick`` counts the ticks run: one more)
+        return max(0, self.tick - 1)
+
+    @property
+    def ran(self) -> int:
+        return self.tick
+
+    @property
     def finished(self) -> bool:
         return self.run is None or self.run.finished
 
@@ -232,12 +242,12 @@ class LiveSession(Session):
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,
                 "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
-                "state": p.state_names[int(slots[self._state_slot])] if p.state_names else "",
+                "state": p.state_names[int(self._state_of(r.index, slots))] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
                 "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
-                "samples": [[round((t + 1) * dt, 9), *self._sample(rd, sl), *done]
+                "samples": [[round(t * dt, 9), *self._sample(rd, sl), *done]
                             for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
@@ -247,6 +257,11 @@ class LiveSession(Session):
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
+
+    def _state_of(self, robot: int, slots: list) -> object:
+        """The state of the tick shown (a goto on it takes effect on the next), or the first."""
+        state = self.recorder.states[robot]
+        return slots[self._state_slot] if state is None else state
 
     def _values(self, read: list | None, slots: list) -> list[float | str | None]:
         """A robot's sensor, signal and slider columns from one tick's readings and slots."""

@@ -83,6 +83,16 @@ class Session:
     def finished(self) -> bool:
         raise NotImplementedError
 
+    @property
+    def shown_tick(self) -> int:
+        """The tick whose values a frame shows (a replay's row; a live run's last tick run)."""
+        return self.tick
+
+    @property
+    def ran(self) -> int:
+        """Ticks shown so far, this one included (0: a live run that has not ticked yet)."""
+        return self.tick + 1
+
     def advance(self, n: int) -> int:
         """Run up to n ticks; how many ran (fewer once the run has ended)."""
         raise NotImplementedError
@@ -154,7 +164,8 @@ class Session:
     def controls(self) -> Json:
         """The frame's fields every session has."""
         rtf = self.real_time_factor() if self.playing else None
-        return {"tick": self.tick, "time": round(self.tick * self.dt_s, 9), "playing": self.playing,
+        shown = self.shown_tick
+        return {"tick": shown, "time": round(shown * self.dt_s, 9), "ran": self.ran, "playing": self.playing,
                 "finished": self.finished, "speed": self.pacer.speed if self.pacer.speed is not None else "max",
                 "rtf": rtf if rtf is not None and math.isfinite(rtf) else None}
 

@@ -212,6 +212,18 @@ function pickChart(scene) {
   chart.setPicked(picks);
 }
 
+// paused on a condition: tick what it reads in the chart, so that its values up to this tick show
+function chartHit(hit) {
+  const names = new Set(hit.what.match(/[A-Za-z_][A-Za-z0-9_.]*/g) || []);
+  const cols = state.scene.columns;
+  const add = cols.map((c, k) => k).filter((k) => names.has(cols[k].name) && cols[k].numeric !== false
+                                           && state.rows[k] && !state.rows[k].box.checked);
+  if (!add.length) return;
+  for (const k of add) state.rows[k].box.checked = true;
+  chart.setPicked(chart.picked.concat(add));
+  state.chartNames = chart.picked.map((k) => cols[k].name);
+}
+
 function defaultChart(scene) {
   const skip = scene.mode === "replay" ? ["wheel_left", "wheel_right"] : [];
   return scene.columns.filter((c) => (c.group === "signal" || c.group === "trace") && c.numeric !== false
@@ -226,6 +238,8 @@ function onFrame(frame) {
   world.setFrame(frame);
   if (world.onBlock) blockTools();
   chart.add(frame);
+  if (frame.hit && (!state.lastHit || state.lastHit !== frame.hit.tick)) chartHit(frame.hit);
+  state.lastHit = frame.hit ? frame.hit.tick : null;
   scheduleDraw();
 }
 
@@ -262,7 +276,9 @@ function render() {
   $("play").textContent = f.playing ? "Pause" : "Play";
   $("play").disabled = f.finished && !f.playing;
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
-  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (tick ${f.tick})${f.finished ? " — ended" : ""}`;
+  // the tick whose pose, values, state and rule the page shows (a live run's last tick run)
+  const at = f.ran === 0 ? "not started" : `tick ${f.tick}`;
+  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`;
   $("rtf").textContent = f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "";
   if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
   if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
