@@ -242,7 +242,7 @@ class LiveSession(Session):
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,
                 "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
-                "state": p.state_names[int(self._state_of(r.index, slots))] if p.state_names else "",
+                "state": p.state_names[self._state_of(r.index, slots)] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
@@ -258,10 +258,10 @@ class LiveSession(Session):
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
 
-    def _state_of(self, robot: int, slots: list) -> object:
+    def _state_of(self, robot: int, slots: list) -> int:
         """The state of the tick shown (a goto on it takes effect on the next), or the first."""
         state = self.recorder.states[robot]
-        return slots[self._state_slot] if state is None else state
+        return int(slots[self._state_slot] if state is None else state)
 
     def _values(self, read: list | None, slots: list) -> list[float | str | None]:
         """A robot's sensor, signal and slider columns from one tick's readings and slots."""

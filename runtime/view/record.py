@@ -110,7 +110,7 @@ class TickRecorder(Observer):
         self.xy = xy
         self.paths = [PathThinner() for _ in xy]
         self.samples = [[] for _ in xy]
-        self.states: list[object] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
+        self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.stride = 1  # ticks between two samples kept: about twice what a frame sends
         self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
         self._taken = [0] * len(xy)  # per robot, the tick of the last take
