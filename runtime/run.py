@@ -196,8 +196,10 @@ class Run:
             command = getattr(self.backend, "command", None)
             assert command is not None  # a behaviour that moves joints runs on a backend with joints
             out.append(JointCommands(p.targets, command))
-        self.watcher = Watcher() if watch else None
-        if self.watcher is not None:
+        # a caller's observer may be the watcher (a live view's recorder): one hook a tick, not two
+        given = next((o for o in extra if isinstance(o, Watcher)), None)
+        self.watcher = given or (Watcher() if watch else None)
+        if self.watcher is not None and given is None:
             out.append(self.watcher)
         self.log_printer = LogPrinter(log) if p.logs else None
         if self.log_printer is not None:

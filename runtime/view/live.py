@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +74,7 @@ class LiveSession(Session):
         self.breaks = list(breaks or [])  # as written: compiled anew for every run
         self.read_only = read_only  # no editing the file in the page
         self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
+        self._capped = False  # inside ticking(): the memory cap is set
 
     # -- the run ------------------------------------------------------------------------
     def load(self, overrides: dict[str, str] | None = None) -> bool:
@@ -113,7 +115,7 @@ class LiveSession(Session):
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
         self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
-                             for r, at in zip(self.run.robots, self.observed.index)])
+                             for r, at in zip(self.run.robots, self.observed.index)], self.observed.last)
         self.pacer.dt_s = program.dt_s
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
@@ -152,8 +154,8 @@ class LiveSession(Session):
         tick, rec = run.tick, self.recorder
         rec.hit = None  # Play or Step goes on from a breakpoint
         k = 0
-        try:
-            with memory_cap(run.budgets.memory_mb):  # the run's backstop, as Run.run has it
+        try:  # the run's backstop, as Run.run has it (set by ticking() when catching up)
+            with nullcontext() if self._capped else memory_cap(run.budgets.memory_mb):
                 for k in range(n):
                     if not tick():
                         if run.trace is not None:
@@ -171,6 +173,20 @@ class LiveSession(Session):
                 self.warn(f"{inert(self.path)}: error: {run.over_budget}")
             return k
         return n
+
+    @contextmanager
+    def ticking(self) -> Iterator[object]:
+        # reading the process's size and setting a limit costs a file read and two system
+        # calls: once a frame, not once every CHECK_EVERY ticks (it was a tenth of a tick's time)
+        if self.run is None or self._capped:
+            yield None
+            return
+        with memory_cap(self.run.budgets.memory_mb):
+            self._capped = True
+            try:
+                yield None
+            finally:
+                self._capped = False
 
     def restart(self) -> None:
         self.load()
@@ -288,7 +304,7 @@ class LiveSession(Session):
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed
         assert obs is not None
-        if not obs.last:
+        if not obs.last or obs.last[robot] is None:
             return [number(start.x_m), number(start.y_m), number(start.heading_rad)]
         return [number(obs.reading(robot, c)) for c in ("x", "y", "heading")]
 
@@ -318,6 +334,8 @@ class LiveSession(Session):
         if run is None or obs is None or not obs.last or not 0 <= robot < len(run.robots):
             return None
         read = obs.last[robot]
+        if read is None:
+            return None
         out: Json = {"robot": robot, "camera": None, "derived": []}
         for i in self._cameras[robot]:
             out["camera"] = png_data_url(read[i])

@@ -14,6 +14,7 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
@@ -126,18 +127,24 @@ class Session:
         start = self.clock()
         due = self.pacer.due(start, self.tick)
         ran = 0
-        while ran < due:
-            n = self.advance(min(CHECK_EVERY, due - ran))
-            ran += n
-            if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
-                self.playing = False
-                break
-            if self.clock() - start >= budget_s:
-                if self.pacer.speed is not None:
-                    self.pacer.anchor(self.clock(), self.tick)
-                break
+        with self.ticking():
+            while ran < due:
+                n = self.advance(min(CHECK_EVERY, due - ran))
+                ran += n
+                if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
+                    self.playing = False
+                    break
+                if self.clock() - start >= budget_s:
+                    if self.pacer.speed is not None:
+                        self.pacer.anchor(self.clock(), self.tick)
+                    break
         self.note_rate()
         return ran
+
+    def ticking(self) -> AbstractContextManager[object]:
+        """What holds around a frame's worth of ``advance`` calls (a live run's memory cap:
+        set once a frame, not once every few ticks)."""
+        return nullcontext()
 
     def note_rate(self) -> None:
         self._rate.append((self.clock(), self.tick))
