@@ -25,3 +25,35 @@ def test_other_events_are_not_changes(text: str) -> None:
 def test_malformed_changes_are_refused(text: str) -> None:
     with pytest.raises(ValueError):
         parse_event(text)
+
+
+def test_a_camera_sees_a_block_added_and_removed_and_a_block_on_a_robot_is_refused() -> None:
+    """Through the pymunk backend, with no step between: what the robot reads changes at once."""
+    import math
+
+    import numpy as np
+    from helpers import ROOT
+
+    from labsim.backends import load_backend
+    from labsim.runtime.run import compile_behaviour
+
+    behaviour = compile_behaviour(ROOT / "behaviours" / "road_follow.yaml")
+    backend = load_backend("pymunk")
+    run = behaviour.bind(backend)
+    run.tick()
+    p = behaviour.program
+    camera = next(c.name for c in run.robots[0].model.cameras if c.name in p.channels)  # type: ignore[union-attr]
+    k = p.channels.index(camera)
+    x, y, h = backend.pose(0)
+    ahead = (x + 5.0 * math.cos(h), y + 5.0 * math.sin(h))  # the mast camera looks 30 degrees down
+    before = np.array(backend.sense()[0][k])
+    block = len(p.world.blocks)
+    corners = tuple((ahead[0] + dx, ahead[1] + dy) for dx, dy in ((-0.3, -0.3), (0.3, -0.3), (0.3, 0.3), (-0.3, 0.3)))
+    assert backend.set_block(block, corners) is None
+    seen = np.array(backend.sense()[0][k])
+    assert (seen != before).any()
+    assert backend.set_block(block, None) is None
+    assert (np.array(backend.sense()[0][k]) == before).all()
+    on_robot = tuple((x + dx, y + dy) for dx, dy in ((-0.1, -0.1), (0.1, -0.1), (0.1, 0.1), (-0.1, 0.1)))
+    assert backend.set_block(block + 1, on_robot) == "it would overlap a robot there"
+    run.close()
