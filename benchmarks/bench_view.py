@@ -57,7 +57,7 @@ async def _watched() -> tuple[float, list[Pose], float, float]:
         while True:
             text = (await ws.receive()).data
             msg = json.loads(text)
-            if msg["type"] == "frame" and msg["tick"] > 0:
+            if msg["type"] == "frame" and msg["ran"] > 0:
                 frames += 1
                 sent += len(text.encode())
                 if msg["finished"]:

@@ -29,8 +29,9 @@ from labsim.backends.scene.models import Kind, is_lidar_beam
 from labsim.dsl.builtins import Type
 from labsim.dsl.support import STATE
 from labsim.foundation.inert import inert
+from labsim.runtime.hands import Hand, Hands, event_text
 from labsim.runtime.state import RobotRun, RunState
-from labsim.runtime.trace import BATCH, Places, TraceWriter, csv_cell, place_event
+from labsim.runtime.trace import BATCH, TraceWriter, csv_cell
 
 TRACE_POSE = ("x", "y", "heading", "collided")  # what the trace records of every robot, in its columns
 
@@ -93,19 +94,17 @@ class Inputs(Observer):
     ``applied`` for the trace's events column.
     """
 
-    def __init__(self, schedule: Schedule, places: Places | None = None,
-                 place: Callable[[int, float, float, float], str | None] | None = None):
+    def __init__(self, schedule: Schedule, hands: Hands | None = None,
+                 apply: Callable[[Hand], str | None] | None = None):
         self.schedule = schedule
         self.applied: list[str] = []  # this tick's moves, "name=value"
         self._slots: list[list] = []
-        self.places = dict(places or {})  # a replayed trace's robots put by hand, by tick
+        self.hands = dict(hands or {})  # a replayed trace's changes by hand (robots, blocks), by tick
         self.notes: dict[int, list[str]] = {}  # events done live, for the trace (a drag)
-        self._place = place
-        self._robots: dict[str, int] = {}
+        self._apply = apply
 
     def bind(self, run: RunState) -> None:
         self._slots = [r.program.slots for r in run.robots]
-        self._robots = {r.name: r.index for r in run.robots}
 
     def before_tick(self, tick: int) -> None:
         self.applied = []
@@ -113,20 +112,18 @@ class Inputs(Observer):
             for s in self._slots:
                 s[slot] = value
             self.applied.append(text)
-        if self.places and tick in self.places:
-            self._replace(tick)
+        if self.hands and tick in self.hands:
+            self._redo(tick)
         if self.notes:
             self.applied += self.notes.pop(tick, ())
 
-    def _replace(self, tick: int) -> None:
-        """Put the robots where the replayed trace's run put them, before this tick senses."""
-        for name, x, y, h in self.places.pop(tick):
-            if name not in self._robots or self._place is None:
-                raise BackendError(f"the replayed trace puts robot '{name}' by hand, which this run cannot")
-            why = self._place(self._robots[name], x, y, h)
+    def _redo(self, tick: int) -> None:
+        """Change the world as the replayed trace's run did by hand, before this tick senses."""
+        for hand in self.hands.pop(tick):
+            why = self._apply(hand) if self._apply is not None else "this run cannot"
             if why is not None:
-                raise BackendError(f"the replayed trace puts robot '{name}' at ({x:g}, {y:g}), but {why}")
-            self.applied.append(place_event(name, x, y, h))
+                raise BackendError(f"the replayed trace's '{event_text(hand)[:80]}' cannot be done: {why}")
+            self.applied.append(event_text(hand))
 
     def move(self, tick: int, slot: int, value: float, text: str) -> None:
         """A move from tick ``tick`` on (a live drag lands on the next tick's signals)."""

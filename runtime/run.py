@@ -35,6 +35,7 @@ from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
 from labsim.runtime.budgets import RunWatch, out_of_memory_message, trace_full_message
+from labsim.runtime.hands import Hand, Hands, HandsOn, event_text
 from labsim.runtime.interrupts import CallbackInterrupts
 from labsim.runtime.noise import NoisyIO, noisy, robot_noise
 from labsim.runtime.observers import (
@@ -63,7 +64,7 @@ from labsim.runtime.result import (
 )
 from labsim.runtime.state import RobotRun
 from labsim.runtime.tick import make_tick
-from labsim.runtime.trace import FORMAT, Places, TraceFull, TraceWriteError, TraceWriter, place_event
+from labsim.runtime.trace import FORMAT, TraceFull, TraceWriteError, TraceWriter
 
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
 # The summary names at most this many lines of the file whose logs were not all printed, then
@@ -91,17 +92,18 @@ class Behaviour:
     def bind(self, backend: Backend, *, trace: str | Path | None = None,
              warn: Callable[[str], None] | None = None, log: Callable[[str], None] | None = None,
              replay: Replay | None = None, watch: bool = False,
-             observers: Sequence[Observer] = (), places: Places | None = None) -> Run:
+             observers: Sequence[Observer] = (), hands: Hands | None = None) -> Run:
         """Open the behaviour's world on a backend, ready to tick.
 
         ``warn`` is told each runtime warning as it happens, ``log`` each line a ``log(...)``
         prints (``warn`` when not given); ``replay`` (tick -> slider settings, see
         ``slider_events``) replaces the file's timeline: a recorded run's slider moves, fed
         back. ``watch`` keeps the rule each robot fired last (``Run.last_rule``, for a live
-        view); ``observers`` are the caller's own, after labsim's.
+        view); ``observers`` are the caller's own, after labsim's; ``hands`` a recorded run's
+        changes by hand (``labsim.runtime.hands.hand_events``), done again.
         """
         return Run(self.program, backend, trace_path=trace, warn=warn, log=log, replay=replay,
-                   budgets=self.budgets, watch=watch, observers=observers, places=places)
+                   budgets=self.budgets, watch=watch, observers=observers, hands=hands)
 
 
 class Run:
@@ -110,7 +112,7 @@ class Run:
     def __init__(self, program: Program, backend: Backend, *, trace_path: str | Path | None = None,
                  warn: Callable[[str], None] | None = None, log: Callable[[str], None] | None = None,
                  replay: Replay | None = None, budgets: Budgets = DEFAULT_BUDGETS, watch: bool = False,
-                 observers: Sequence[Observer] = (), places: Places | None = None):
+                 observers: Sequence[Observer] = (), hands: Hands | None = None):
         self.program = program
         self.budgets = budgets
         self.backend = backend
@@ -143,7 +145,8 @@ class Run:
         backend.open(program.world, requests, self.dt, program.seed)
         self.sense, self._act, self.step = backend.sense, backend.act, backend.step
         self.noise = self._noise()
-        self.observers = self._observers(trace_path, log or warn, replay, watch, observers, places)
+        self.hands_on = HandsOn(program.world, [r.name for r in self.robots], backend)
+        self.observers = self._observers(trace_path, log or warn, replay, watch, observers, hands)
         for o in self.observers:
             o.bind(self)
         self.tick = make_tick(self, hooks(self.observers))
@@ -180,21 +183,23 @@ class Run:
 
     def _observers(self, trace_path: str | Path | None, log: Callable[[str], None] | None,
                    replay: Replay | None, watch: bool, extra: Sequence[Observer],
-                   places: Places | None) -> list[Observer]:
+                   hands: Hands | None) -> list[Observer]:
         """labsim's observers this run needs, then the caller's: chosen once, here. A live view
-        (``watch``) may put robots by hand: its inputs record that in the trace's events."""
+        (``watch``) may change the world by hand: its inputs record that in the trace's events."""
         p = self.program
         out: list[Observer] = []
-        wanted = p.slider_names or p.timeline or replay or places or watch
-        self.inputs = Inputs(self._schedule(replay), places, getattr(self.backend, "place", None)) if wanted else None
+        wanted = p.slider_names or p.timeline or replay or hands or watch
+        self.inputs = Inputs(self._schedule(replay), hands, self.hands_on.apply) if wanted else None
         if self.inputs is not None:
             out.append(self.inputs)
         if p.targets:
             command = getattr(self.backend, "command", None)
             assert command is not None  # a behaviour that moves joints runs on a backend with joints
             out.append(JointCommands(p.targets, command))
-        self.watcher = Watcher() if watch else None
-        if self.watcher is not None:
+        # a caller's observer may be the watcher (a live view's recorder): one hook a tick, not two
+        given = next((o for o in extra if isinstance(o, Watcher)), None)
+        self.watcher = given or (Watcher() if watch else None)
+        if self.watcher is not None and given is None:
             out.append(self.watcher)
         self.log_printer = LogPrinter(log) if p.logs else None
         if self.log_printer is not None:
@@ -262,15 +267,14 @@ class Run:
         assert self.inputs is not None  # a behaviour with sliders has inputs
         self.inputs.move(self.tick_index, p.slot_of[name], value, f"{name}={value:g}")
 
-    def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
-        """Put a robot at a pose now, before the next tick senses (a live view's drag); why
-        not, when refused. Recorded in the trace's events column, so a replay does the same."""
-        place = getattr(self.backend, "place", None)
-        why: str | None = place(robot, x_m, y_m, heading_rad) if place is not None else "this backend cannot"
+    def hand(self, hand: Hand) -> str | None:
+        """Change the world now, before the next tick senses (a live view's drag: a robot put, a
+        block moved, added or removed); why not, when refused. Recorded in the trace's events
+        column, so a replay does the same (``labsim.runtime.hands``)."""
+        why = self.hands_on.apply(hand)
         if why is None:
             assert self.inputs is not None  # a watched run has inputs
-            text = place_event(self.robots[robot].name, x_m, y_m, heading_rad)
-            self.inputs.notes.setdefault(self.tick_index, []).append(text)
+            self.inputs.notes.setdefault(self.tick_index, []).append(event_text(hand))
         return why
 
     @property

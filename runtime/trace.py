@@ -410,39 +410,3 @@ def slider_events(trace: Trace) -> dict[int, list[tuple[str, float]]]:
                 if (name, number) not in settings:  # one row per robot repeats them
                     settings.append((name, number))
     return out
-
-
-Places = dict[int, list[tuple[str, float, float, float]]]  # tick -> (robot, x m, y m, heading rad)
-PLACE = "place"  # an event: a robot put at a pose by hand (labsim view), docs/trace-format.md
-
-
-def place_event(robot: str, x_m: float, y_m: float, heading_rad: float) -> str:
-    """The events cell's text of a robot put at a pose: ``place pioneer 1.5 -0.25 3.0``, each
-    number written so that it reads back as the same float (a replay is bit for bit)."""
-    return f"{PLACE} {robot} {x_m!r} {y_m!r} {heading_rad!r}"
-
-
-def place_events(trace: Trace) -> Places:
-    """The robots a trace's run put by hand (its events column), by tick, for a replay."""
-    out: Places = {}
-    if "tick" not in trace.columns or "events" not in trace.columns:
-        return out
-    lines = trace.lines or range(3, 3 + len(trace.rows))
-    for tick, text, line in zip(trace.column("tick"), trace.column("events"), lines):
-        for event in text.split(";") if text else ():
-            parts = event.split(" ")
-            if parts[0] != PLACE or event.startswith("log: "):
-                continue
-            try:
-                if len(parts) != 5:
-                    raise ValueError
-                x, y, h = (to_float(v) for v in parts[2:])
-                if not all(math.isfinite(v) for v in (x, y, h)):
-                    raise ValueError
-            except (ValueError, NumberError):
-                raise _bad(trace.path, line,
-                           f"event '{event[:60]}': a placement is 'place ROBOT X Y HEADING'") from None
-            done = out.setdefault(int(tick), [])
-            if (parts[1], x, y, h) not in done:  # one row per robot repeats them
-                done.append((parts[1], x, y, h))
-    return out

@@ -130,6 +130,16 @@ class PymunkBackend:
         result: str | None = place(robot, x_m, y_m, heading_rad)
         return result
 
+    def set_block(self, block: int, corners: tuple[tuple[float, float], ...] | None) -> str | None:
+        """Put block ``block`` (a world's are numbered from 0 in file order; a new one takes the
+        next number) at these corners, counter-clockwise, or remove it (None); None when done, or
+        why it was refused (it would overlap a wall or a robot; a mechanism's world has none)."""
+        set_block = getattr(self._sim, "set_block", None)
+        if set_block is None:
+            return "this world has no blocks to change"
+        result: str | None = set_block(block, corners)
+        return result
+
     def close(self) -> None:
         if self.space is None:
             return

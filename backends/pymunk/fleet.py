@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import replace
+from typing import Any
 
 import pymunk
 
@@ -48,7 +50,7 @@ from labsim.backends.pymunk.fleet_sense import (
 from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker
 from labsim.backends.scene.models import RobotModel
-from labsim.backends.scene.world import World, first_road, world_channels
+from labsim.backends.scene.world import Block, World, first_road, world_channels
 
 # Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
 # along walls rather than sticking to them, yet a glancing contact still turns them a little.
@@ -78,7 +80,7 @@ class FleetSimulator:
         space.collision_slop = COLLISION_SLOP_M
         # Insertion order fixes pymunk's internal order, hence determinism: walls, blocks,
         # then robots, each in the order given.
-        _add_obstacles(space, world)
+        self._blocks = _add_obstacles(space, world)  # block number -> its shape (a live view moves them)
         n = len(robots)
         vs = [0.0] * n  # commanded forward speed per robot, m/s (act() writes them)
         ws = [0.0] * n  # commanded turn rate per robot, rad/s
@@ -93,7 +95,8 @@ class FleetSimulator:
         touching = [0] * n  # contacts in progress, per robot
         count = [0] * n
         _count_contacts(space, touching, count)
-        render = _camera_renderer(world, models, robots, [plan.body for plan in plans])
+        self._scene = _camera_scene(world, models, robots, [plan.body for plan in plans])
+        render = self._scene.render if self._scene is not None else None
         tracker = _road_tracker(world)
         lap_robots = [i for i, req in enumerate(robots) if "laps" in req.channels]
         laps = [0] * n  # completed laps, for the robots that read them
@@ -107,6 +110,7 @@ class FleetSimulator:
         self._c_space = chipmunk.c_space(space)
         self._c_bodies = [chipmunk.c_body(b) for b in self.bodies]
         self._world = world.name
+        self._world_blocks = world.blocks
         self._substep_s = dt_s / substeps
         self._substep_range = range(substeps)
         # Laps: the first road's tracker and the robots that read laps (a world without a
@@ -177,6 +181,37 @@ class FleetSimulator:
         body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
         return None
 
+    def set_block(self, block: int, corners: Sequence[tuple[float, float]] | None) -> str | None:
+        """Move block ``block`` to these corners, add it (a new number) or remove it (None): a hand
+        changing the room (a live view's drag). None when done, or why not: it would overlap a wall
+        or a robot (blocks may overlap blocks). Cameras see the change from the next frame."""
+        old = self._blocks.get(block)
+        new = None
+        if corners is not None:
+            new = _block_shape(self.space.static_body, corners)
+            new.cache_bb()
+            hits = [h.shape for h in self.space.shape_query(new) if h.shape is not None]
+            if any(h.body is not self.space.static_body for h in hits):
+                return "it would overlap a robot there"
+            blocks = set(self._blocks.values())
+            if any(h not in blocks for h in hits):
+                return "it would overlap a wall there"
+        if old is not None:
+            self.space.remove(old)
+            del self._blocks[block]
+        if new is not None:
+            self.space.add(new)
+            self._blocks[block] = new
+        if self._scene is not None:
+            from labsim.backends.pymunk.scene_view import block_solid
+            self._scene.set_block(block, None if corners is None else block_solid(self._solid_of(block, corners)))
+        return None
+
+    def _solid_of(self, block: int, corners: Sequence[tuple[float, float]]) -> Block:
+        """The block as cameras see it: a world's block keeps its height and colour."""
+        given = self._world_blocks[block] if block < len(self._world_blocks) else Block(())
+        return replace(given, corners=tuple(corners))
+
     def pose(self, robot: int) -> tuple[float, float, float]:
         body = self.bodies[robot]
         x, y = body.position
@@ -225,9 +260,9 @@ def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
     return models
 
 
-def _camera_renderer(world: World, models: list[RobotModel], robots: Sequence[RobotRequest],
-                     bodies: list[pymunk.Body]) -> Callable[..., object] | None:
-    """``SceneView.render`` for the world's ground, walls, blocks and these robots' bodies, or
+def _camera_scene(world: World, models: list[RobotModel], robots: Sequence[RobotRequest],
+                  bodies: list[pymunk.Body]) -> Any:
+    """The ``SceneView`` of the world's ground, walls, blocks and these robots' bodies, or
     None when no robot reads a camera (then OpenCV is not imported and the ground not drawn)."""
     if not any(c.name in req.channels for model, req in zip(models, robots) for c in model.cameras):
         return None
@@ -235,7 +270,7 @@ def _camera_renderer(world: World, models: list[RobotModel], robots: Sequence[Ro
         from labsim.backends.pymunk.camera import ground_view
         from labsim.backends.pymunk.scene_view import scene_view
         ground = ground_view(world.ground if world.ground is not None else Ground())
-        return scene_view(ground, world, list(zip(bodies, models))).render
+        return scene_view(ground, world, list(zip(bodies, models)))
     except ValueError as e:
         raise BackendError(f"world '{world.name}': {e}") from None
 
@@ -262,17 +297,24 @@ def _road_tracker(world: World) -> RoadTracker | None:
         raise BackendError(f"world '{world.name}': {e}") from None
 
 
-def _add_obstacles(space: pymunk.Space, world: World) -> None:
-    """The world's walls, then its blocks, as static shapes in file order."""
+def _add_obstacles(space: pymunk.Space, world: World) -> dict[int, pymunk.Poly]:
+    """The world's walls, then its blocks, as static shapes in file order; the blocks' shapes."""
     static = space.static_body
     for wall in world.walls:
         seg = pymunk.Segment(static, wall.a, wall.b, wall.thickness_m / 2.0)
         seg.friction, seg.elasticity, seg.collision_type = FRICTION, ELASTICITY, _STATIC_TYPE
         space.add(seg)
-    for block in world.blocks:
-        poly = pymunk.Poly(static, block.corners)
-        poly.friction, poly.elasticity, poly.collision_type = FRICTION, ELASTICITY, _STATIC_TYPE
-        space.add(poly)
+    blocks = {}
+    for k, block in enumerate(world.blocks):
+        blocks[k] = _block_shape(static, block.corners)
+        space.add(blocks[k])
+    return blocks
+
+
+def _block_shape(static: pymunk.Body, corners: Sequence[tuple[float, float]]) -> pymunk.Poly:
+    poly = pymunk.Poly(static, corners)
+    poly.friction, poly.elasticity, poly.collision_type = FRICTION, ELASTICITY, _STATIC_TYPE
+    return poly
 
 
 def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel) -> SensePlan:

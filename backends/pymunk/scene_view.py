@@ -178,11 +178,21 @@ class SceneView:
     """
 
     def __init__(self, ground: GroundView, statics: Sequence[Solid],
-                 robots: Sequence[tuple[Any, Solid]] = ()) -> None:
+                 robots: Sequence[tuple[Any, Solid]] = (), blocks: Sequence[Solid] = ()) -> None:
         self._ground = ground
-        self._statics = [_shape(s) for s in statics]
+        self._walls = [_shape(s) for s in statics]
+        self._blocks = {k: _shape(b) for k, b in enumerate(blocks)}  # by number: a live view moves them
+        self._statics = self._walls + list(self._blocks.values())
         self._robots = [(chipmunk.c_body(body), _shape(solid)) for body, solid in robots]
         self._lenses: dict[Camera, _Lens] = {}
+
+    def set_block(self, block: int, solid: Solid | None) -> None:
+        """Block ``block`` moved, added (a new number) or removed (None)."""
+        if solid is None:
+            self._blocks.pop(block, None)
+        else:
+            self._blocks[block] = _shape(solid)
+        self._statics = self._walls + list(self._blocks.values())
 
     def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1) -> np.ndarray:
         image = self._ground.render(x_m, y_m, heading_rad, camera)
@@ -431,5 +441,5 @@ def _merge_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens,
 
 def scene_view(ground: GroundView, world: World, robots: Sequence[tuple[Any, RobotModel]] = ()) -> SceneView:
     """The SceneView of a world's walls and blocks and of robots (pymunk body, model)."""
-    statics = [wall_solid(w) for w in world.walls] + [block_solid(b) for b in world.blocks]
-    return SceneView(ground, statics, [(body, robot_solid(model)) for body, model in robots])
+    return SceneView(ground, [wall_solid(w) for w in world.walls],
+                     [(body, robot_solid(model)) for body, model in robots], [block_solid(b) for b in world.blocks])

@@ -26,10 +26,11 @@ from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.cli.report import ProgressBar, format_summary
 from labsim.runtime.golden import check_golden, record_golden
+from labsim.runtime.hands import hand_events
 from labsim.runtime.labs import copy_lab, labs
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
-from labsim.runtime.trace import TraceFormatError, place_events, read_trace, slider_events
+from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
     from labsim.runtime.serve.server import Server
@@ -101,17 +102,17 @@ def cmd_run(args: argparse.Namespace) -> int:
         _check_writable(args.trace, inputs)
     if args.json not in (None, "-"):
         check_json_output(args.json, inputs)
-    replay, places = None, None
+    replay, hands = None, None
     if args.replay:
         try:
             recorded = read_trace(args.replay)
-            replay, places = slider_events(recorded), place_events(recorded)
+            replay, hands = slider_events(recorded), hand_events(recorded)
         except TraceFormatError as e:
             raise LabsimError([e.diagnostic(args.replay)]) from None
         if recorded.cut_short():
             print_warning(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
     backend = load_backend(args.backend, **_backend_options(args))
-    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, places=places)
+    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, hands=hands)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +38,10 @@ from labsim.runtime.view.frames import (
     sensor_columns,
     world_doc,
 )
+from labsim.runtime.view.hands import block_message, blocks_doc, place_message
 from labsim.runtime.view.observe import ObservedBackend
 from labsim.runtime.view.record import TickRecorder
-from labsim.runtime.view.session import BadMessage, Session, finite, name
+from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
 _NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
 MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
@@ -72,6 +74,7 @@ class LiveSession(Session):
         self.breaks = list(breaks or [])  # as written: compiled anew for every run
         self.read_only = read_only  # no editing the file in the page
         self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
+        self._capped = False  # inside ticking(): the memory cap is set
 
     # -- the run ------------------------------------------------------------------------
     def load(self, overrides: dict[str, str] | None = None) -> bool:
@@ -112,7 +115,7 @@ class LiveSession(Session):
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
         self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
-                             for r, at in zip(self.run.robots, self.observed.index)])
+                             for r, at in zip(self.run.robots, self.observed.index)], self.observed.last)
         self.pacer.dt_s = program.dt_s
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
@@ -131,6 +134,16 @@ class LiveSession(Session):
         return self.run.tick_index if self.run is not None else 0
 
     @property
+    def shown_tick(self) -> int:
+        # the pose, readings, rule and state a frame shows are those of the last tick run, as the
+        # trace's row of that tick has them (``tick`` counts the ticks run: one more)
+        return max(0, self.tick - 1)
+
+    @property
+    def ran(self) -> int:
+        return self.tick
+
+    @property
     def finished(self) -> bool:
         return self.run is None or self.run.finished
 
@@ -141,8 +154,8 @@ class LiveSession(Session):
         tick, rec = run.tick, self.recorder
         rec.hit = None  # Play or Step goes on from a breakpoint
         k = 0
-        try:
-            with memory_cap(run.budgets.memory_mb):  # the run's backstop, as Run.run has it
+        try:  # the run's backstop, as Run.run has it (set by ticking() when catching up)
+            with nullcontext() if self._capped else memory_cap(run.budgets.memory_mb):
                 for k in range(n):
                     if not tick():
                         if run.trace is not None:
@@ -160,6 +173,20 @@ class LiveSession(Session):
                 self.warn(f"{inert(self.path)}: error: {run.over_budget}")
             return k
         return n
+
+    @contextmanager
+    def ticking(self) -> Iterator[object]:
+        # reading the process's size and setting a limit costs a file read and two system
+        # calls: once a frame, not once every CHECK_EVERY ticks (it was a tenth of a tick's time)
+        if self.run is None or self._capped:
+            yield None
+            return
+        with memory_cap(self.run.budgets.memory_mb):
+            self._capped = True
+            try:
+                yield None
+            finally:
+                self._capped = False
 
     def restart(self) -> None:
         self.load()
@@ -231,19 +258,26 @@ class LiveSession(Session):
             robots.append({
                 "pose": self._pose(r.index, r.start) if r.model is not None else None,
                 "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
-                "state": p.state_names[int(slots[self._state_slot])] if p.state_names else "",
+                "state": p.state_names[self._state_of(r.index, slots)] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
                 "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
-                "samples": [[round((t + 1) * dt, 9), *self._sample(rd, sl), *done]
+                "samples": [[round(t * dt, 9), *self._sample(rd, sl), *done]
                             for t, rd, sl in rec.take_samples(r.index, per)],
             })
         first = run.robots[0].program.slots if run.robots else []
-        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(),
+        blocks = blocks_doc(run)
+        changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old
+        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
+
+    def _state_of(self, robot: int, slots: list) -> int:
+        """The state of the tick shown (a goto on it takes effect on the next), or the first."""
+        state = self.recorder.states[robot]
+        return int(slots[self._state_slot] if state is None else state)
 
     def _values(self, read: list | None, slots: list) -> list[float | str | None]:
         """A robot's sensor, signal and slider columns from one tick's readings and slots."""
@@ -270,7 +304,7 @@ class LiveSession(Session):
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed
         assert obs is not None
-        if not obs.last:
+        if not obs.last or obs.last[robot] is None:
             return [number(start.x_m), number(start.y_m), number(start.heading_rad)]
         return [number(obs.reading(robot, c)) for c in ("x", "y", "heading")]
 
@@ -300,6 +334,8 @@ class LiveSession(Session):
         if run is None or obs is None or not obs.last or not 0 <= robot < len(run.robots):
             return None
         read = obs.last[robot]
+        if read is None:
+            return None
         out: Json = {"robot": robot, "camera": None, "derived": []}
         for i in self._cameras[robot]:
             out["camera"] = png_data_url(read[i])
@@ -330,11 +366,23 @@ class LiveSession(Session):
             self._break(msg)
             return False
         if kind == "place":
-            self._place(msg)
+            self._need_run()
+            assert self.run is not None
+            robot, x, y = place_message(self.run, msg)
+            self.recorder.paths[robot].jump(x, y)
+            return False
+        if kind == "block":
+            self._need_run()
+            assert self.run is not None
+            block_message(self.run, msg)
             return False
         if kind in ("apply", "save"):
             return self._edit(kind, msg)
         raise BadMessage(f"unknown message type '{kind}'")
+
+    def _need_run(self) -> None:
+        if self.run is None:
+            raise BadMessage("there is no run to change")
 
     def _slider(self, msg: dict) -> None:
         slider = name(msg.get("name"), "name")
@@ -377,22 +425,6 @@ class LiveSession(Session):
             raise ChangeRefused([d.format() for d in e.diagnostics]) from None
         if self.text == text:
             self.text = None  # the file holds what runs
-
-    def _place(self, msg: dict) -> None:
-        """Put a robot at a pose (a drag on the canvas), through the backend and into the trace."""
-        robot = msg.get("robot")
-        if self.run is None or isinstance(robot, bool) or not isinstance(robot, int) \
-                or not 0 <= robot < len(self.run.robots) or self.run.robots[robot].model is None:
-            raise BadMessage("'robot' must be the index of a robot (not a mechanism)")
-        x, y = finite(msg.get("x"), "x"), finite(msg.get("y"), "y")
-        heading = math.remainder(finite(msg.get("heading"), "heading"), math.tau)
-        x0, y0, x1, y1 = self.run.program.world.bounds
-        # far outside, a simulator's numbers stop meaning anything (and chipmunk may abort)
-        why = "it is outside the world" if not (x0 - 1 <= x <= x1 + 1 and y0 - 1 <= y <= y1 + 1) \
-            else self.run.place(robot, x, y, heading)
-        if why is not None:
-            raise ChangeRefused([f"{self.run.robots[robot].name} was not moved to ({x:.2f}, {y:.2f}): {why}"])
-        self.recorder.paths[robot].jump(x, y)
 
     def _break(self, msg: dict) -> None:
         """Add a breakpoint (checked against this run's program) or remove one by its index."""
@@ -437,21 +469,13 @@ class LiveSession(Session):
         raise ChangeRefused([d.format() for d in self.refused])
 
 
-class ChangeRefused(Exception):
-    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
-    ``places`` where in the edited text (line, column, message) for the page's editor."""
-
-    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
-        super().__init__("\n".join(diagnostics))
-        self.diagnostics = diagnostics
-        self.places = places or []
-
-
 def _short(v: object) -> float | str | None:
-    """A number for a path point or chart sample: five significant digits are plenty to draw
-    (a tenth of a millimetre across a 10 m world) and keep frames small."""
+    """A path point's coordinate: a tenth of a millimetre is plenty to draw and keeps frames
+    small (``round`` is three times as fast as formatting to significant digits)."""
+    if type(v) is float and v - v == 0.0:  # finite
+        return round(v, 4)
     n = number(v)
-    return float(f"{n:.5g}") if isinstance(n, float) else n
+    return round(n, 4) if isinstance(n, float) else n
 
 
 def _part(value: object, part: int) -> float | str | None:

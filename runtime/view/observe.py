@@ -1,10 +1,12 @@
 """What a live view sees of a run: a backend wrapped to keep each tick's readings.
 
 ``labsim view`` binds a compiled behaviour to an ``ObservedBackend`` instead of the backend
-itself. The run cannot tell the difference: every call goes through to the real backend.
-The wrapper adds what the page draws and the behaviour may not read (a robot's pose, a
-mechanism's every moving body and joint) to the channels the run asks for, keeps the
-readings of the last ``sense()`` and the joint targets the run last commanded. The added
+itself. The run cannot tell the difference: every call goes through to the real backend
+(``sense``, ``act`` and ``step`` are the backend's own, unwrapped: they are called every
+tick). The wrapper adds what the page draws and the behaviour may not read (a robot's pose, a
+mechanism's every moving body and joint) to the channels the run asks for, holds each robot's
+readings of the last tick run (``last``, written by the view's recorder as each robot acts,
+``labsim.runtime.view.record``) and the joint targets the run last commanded. The added
 channels sit between the behaviour's own channels and the ones a trace asks for, so the
 run's view of its readings (the first ``len(program.channels)`` values, and the trace's
 last four) is unchanged.
@@ -36,7 +38,7 @@ class ObservedBackend:
         self.inner = inner
         self.name = getattr(inner, "name", "?")
         self._n = len(program_channels)
-        self.last: list[list[object]] = []
+        self.last: list[list[object] | None] = []  # per robot; None before its first tick
         self.index: list[dict[str, int]] = []
         self.targets: dict[str, tuple[str, float]] = {}  # joint -> (mode, value) last commanded
 
@@ -52,11 +54,12 @@ class ObservedBackend:
             self.index.append({c: i for i, c in enumerate(channels)})
             out.append(replace(req, channels=tuple(channels)))
         self.inner.open(world, out, dt_s, seed)
-        self.last = []
+        self.last = [None] * len(robots)
+        # called every tick and nothing to keep of them: the backend's own, without a wrapping call
+        self.sense, self.act, self.step = self.inner.sense, self.inner.act, self.inner.step  # type: ignore[method-assign]
 
     def sense(self) -> list[list[object]]:
-        self.last = self.inner.sense()
-        return self.last
+        return self.inner.sense()
 
     def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
         self.inner.act(robot, left_rad_s, right_rad_s)
@@ -77,11 +80,21 @@ class ObservedBackend:
         if place is None:
             return f"the {self.name} backend cannot move a robot"
         result: str | None = place(robot, x_m, y_m, heading_rad)
-        if result is None and self.last:  # the page draws it there before the next tick senses
+        row = self.last[robot] if self.last else None
+        if result is None and row is not None:  # the page draws it there before the next tick senses
             at = self.index[robot]
+            row = self.last[robot] = list(row)  # a copy: the tick's own readings stay as they were read
             for channel, value in zip(("x", "y", "heading"), self.inner.pose(robot)):
                 if channel in at:
-                    self.last[robot][at[channel]] = value
+                    row[at[channel]] = value
+        return result
+
+    def set_block(self, block: int, corners: tuple[tuple[float, float], ...] | None) -> str | None:
+        """Move, add or remove a block (a drag); why not, when the backend refuses or cannot."""
+        set_block = getattr(self.inner, "set_block", None)
+        if set_block is None:
+            return f"the {self.name} backend cannot move, add or remove blocks"
+        result: str | None = set_block(block, corners)
         return result
 
     def contacts(self, robot: int) -> ContactStats:
@@ -92,7 +105,6 @@ class ObservedBackend:
 
     def reading(self, robot: int, channel: str) -> object:
         """The last value of a channel for a robot, or None before the first tick."""
-        if not self.last:
-            return None
+        row = self.last[robot] if self.last else None
         i = self.index[robot].get(channel)
-        return None if i is None else self.last[robot][i]
+        return None if i is None or row is None else row[i]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 from labsim.dsl.support import STATE
-from labsim.runtime.observers import Observer
+from labsim.runtime.observers import Watcher
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
 
@@ -94,8 +94,12 @@ class PathThinner:
         return out
 
 
-class TickRecorder(Observer):
-    """See the module docstring. ``start`` is called once the run is bound, before it ticks."""
+class TickRecorder(Watcher):
+    """See the module docstring. ``start`` is called once the run is bound, before it ticks.
+
+    It is the run's ``Watcher`` too (the rule each robot fired last), and it keeps each robot's
+    readings of the last tick run in the list ``start`` is given (``ObservedBackend.last``):
+    one hook a tick for everything the view keeps, as each robot acts."""
 
     def __init__(self) -> None:
         self.xy: list[tuple[int, int] | None] = []
@@ -104,21 +108,29 @@ class TickRecorder(Observer):
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
+        self.last: list = []
 
-    def start(self, xy: list[tuple[int, int] | None]) -> None:
-        """``xy[i]``: where robot i's x and y sit in its readings (None: a mechanism, no path)."""
+    def start(self, xy: list[tuple[int, int] | None], last: list) -> None:
+        """``xy[i]``: where robot i's x and y sit in its readings (None: a mechanism, no path);
+        ``last[i]`` gets robot i's readings each tick."""
         self.xy = xy
+        self.last = last
         self.paths = [PathThinner() for _ in xy]
         self.samples = [[] for _ in xy]
+        self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.stride = 1  # ticks between two samples kept: about twice what a frame sends
         self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
         self._taken = [0] * len(xy)  # per robot, the tick of the last take
 
     def bind(self, run: RunState) -> None:
+        super().bind(run)
         self._run = run
 
     def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
         i = robot.index
+        self.last_rule[i] = rule
+        self.last[i] = values
+        self.states[i] = robot.program.slots[STATE]  # a goto changes it after the tick: the frame shows this one
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])

@@ -27,10 +27,9 @@ from typing import Any
 from aiohttp import WSMsgType, web
 
 from labsim.foundation.numbers import NumberError, to_float
-from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message, number
+from labsim.runtime.view.frames import FLAT_OUT_INTERVAL_S, FRAME_INTERVAL_S, Json, message, number
 from labsim.runtime.view.guard import REFUSED_HOST, LogBudget, host_allowed, http_logger
-from labsim.runtime.view.live import ChangeRefused
-from labsim.runtime.view.session import BadMessage, Session
+from labsim.runtime.view.session import BadMessage, ChangeRefused, Session
 
 # resolved: an install may reach this module through links, and the static route serves only
 # files that really lie inside the folder it is given
@@ -185,7 +184,8 @@ class ViewServer:
         task.add_done_callback(self._tasks.discard)
 
     async def pace(self) -> None:
-        """Tick and send frames until cancelled: at most one frame per 1/30 s.
+        """Tick and send frames until cancelled: at most one frame per 1/30 s (1/20 s at "as
+        fast as it goes", see ``FLAT_OUT_INTERVAL_S``).
 
         At a set speed the loop sleeps between frames; at "as fast as it goes" it ticks until
         the next frame is due and only yields to the event loop in between, so the pages'
@@ -198,7 +198,8 @@ class ViewServer:
         while True:
             now = loop.time()
             flat_out = session.playing and session.pacer.speed is None
-            budget = max(0.004, last_frame + FRAME_INTERVAL_S - now) if flat_out else FRAME_INTERVAL_S * 0.8
+            interval = FLAT_OUT_INTERVAL_S if flat_out else FRAME_INTERVAL_S
+            budget = max(0.004, last_frame + interval - now) if flat_out else FRAME_INTERVAL_S * 0.8
             before = (session.playing, session.finished)
             ran += session.catch_up(budget)
             if (session.playing, session.finished) != before:
@@ -206,14 +207,14 @@ class ViewServer:
                 # last tick): the pages must still hear that the run ended
                 self.dirty = True
             now = loop.time()
-            if now - last_frame >= FRAME_INTERVAL_S:
+            if now - last_frame >= interval:
                 if (ran or self.dirty or session.playing) and self.pages:
                     await self.send_frame()
                 last_frame, ran = now, 0
             if flat_out and session.playing:
                 await asyncio.sleep(0)
             else:
-                await asyncio.sleep(max(0.0, last_frame + FRAME_INTERVAL_S - loop.time()))
+                await asyncio.sleep(max(0.0, last_frame + interval - loop.time()))
 
 
 def bind_socket(host: str, port: int) -> socket.socket:

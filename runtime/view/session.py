@@ -14,6 +14,7 @@ import math
 import time
 from collections import deque
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
@@ -25,6 +26,16 @@ MAX_NAME = 200  # longest slider or parameter name a message may carry
 
 class BadMessage(ValueError):
     """A page's message that cannot be used: malformed, unknown, or out of range."""
+
+
+class ChangeRefused(Exception):
+    """A page's change (a parameter, an edit) that the checks refused; the message lists why,
+    ``places`` where in the edited text (line, column, message) for the page's editor."""
+
+    def __init__(self, diagnostics: list[str], places: list[dict[str, object]] | None = None):
+        super().__init__("\n".join(diagnostics))
+        self.diagnostics = diagnostics
+        self.places = places or []
 
 
 class Pacer:
@@ -73,6 +84,16 @@ class Session:
     def finished(self) -> bool:
         raise NotImplementedError
 
+    @property
+    def shown_tick(self) -> int:
+        """The tick whose values a frame shows (a replay's row; a live run's last tick run)."""
+        return self.tick
+
+    @property
+    def ran(self) -> int:
+        """Ticks shown so far, this one included (0: a live run that has not ticked yet)."""
+        return self.tick + 1
+
     def advance(self, n: int) -> int:
         """Run up to n ticks; how many ran (fewer once the run has ended)."""
         raise NotImplementedError
@@ -106,18 +127,24 @@ class Session:
         start = self.clock()
         due = self.pacer.due(start, self.tick)
         ran = 0
-        while ran < due:
-            n = self.advance(min(CHECK_EVERY, due - ran))
-            ran += n
-            if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
-                self.playing = False
-                break
-            if self.clock() - start >= budget_s:
-                if self.pacer.speed is not None:
-                    self.pacer.anchor(self.clock(), self.tick)
-                break
+        with self.ticking():
+            while ran < due:
+                n = self.advance(min(CHECK_EVERY, due - ran))
+                ran += n
+                if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
+                    self.playing = False
+                    break
+                if self.clock() - start >= budget_s:
+                    if self.pacer.speed is not None:
+                        self.pacer.anchor(self.clock(), self.tick)
+                    break
         self.note_rate()
         return ran
+
+    def ticking(self) -> AbstractContextManager[object]:
+        """What holds around a frame's worth of ``advance`` calls (a live run's memory cap:
+        set once a frame, not once every few ticks)."""
+        return nullcontext()
 
     def note_rate(self) -> None:
         self._rate.append((self.clock(), self.tick))
@@ -144,7 +171,8 @@ class Session:
     def controls(self) -> Json:
         """The frame's fields every session has."""
         rtf = self.real_time_factor() if self.playing else None
-        return {"tick": self.tick, "time": round(self.tick * self.dt_s, 9), "playing": self.playing,
+        shown = self.shown_tick
+        return {"tick": shown, "time": round(shown * self.dt_s, 9), "ran": self.ran, "playing": self.playing,
                 "finished": self.finished, "speed": self.pacer.speed if self.pacer.speed is not None else "max",
                 "rtf": rtf if rtf is not None and math.isfinite(rtf) else None}
 

@@ -19,7 +19,7 @@ import pytest
 from helpers import ROOT
 
 from labsim.runtime.cli.main import main
-from labsim.runtime.trace import read_trace
+from labsim.runtime.trace import fmt, read_trace
 from labsim.runtime.view.frames import SCHEMA
 from labsim.runtime.view.live import ChangeRefused, LiveSession
 from labsim.runtime.view.replay import load_replay
@@ -55,8 +55,9 @@ def test_scene_and_frame_follow_the_schema(path: Path) -> None:
         assert key in scene
     s.advance(5)
     frame = json.loads(json.dumps(s.frame(), allow_nan=False))
-    assert frame["type"] == "frame" and frame["v"] == SCHEMA and frame["tick"] == 5
-    assert math.isclose(frame["time"], 5 * scene["dt"])
+    # the tick shown is the last one run (its row in a trace), after 5 ticks run
+    assert frame["type"] == "frame" and frame["v"] == SCHEMA and frame["tick"] == 4 and frame["ran"] == 5
+    assert math.isclose(frame["time"], 4 * scene["dt"])
     assert len(frame["robots"]) == len(scene["robots"])
     for robot, doc in zip(frame["robots"], scene["robots"]):
         assert len(robot["values"]) == len(scene["columns"]) and _numbers_or_marks(robot["values"])
@@ -262,7 +263,7 @@ def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
             labels = None
             for _ in range(50):
                 msg = await a.receive_json(timeout=5)
-                if msg["type"] == "frame" and msg["tick"] >= 1:
+                if msg["type"] == "frame" and msg["ran"] >= 1:
                     labels = msg["labels"]
                     break
             assert labels == {"speed": "Arm Speed: 0.10"}
@@ -270,9 +271,9 @@ def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
             await a.send_str(json.dumps({"type": "step"}))
             for _ in range(50):
                 msg = await a.receive_json(timeout=5)
-                if msg["type"] == "frame" and msg["tick"] >= 2:
+                if msg["type"] == "frame" and msg["ran"] >= 2:
                     break
-            assert msg["tick"] == 2
+            assert msg["ran"] == 2 and msg["tick"] == 1
             await a.close()
         assert sum("ignored a message" in line for line in logs) == 4
         task.cancel()
@@ -383,7 +384,7 @@ def test_a_live_view_through_labsim_serve_sees_the_embedded_run(tmp_path: Path) 
         a, b = remote.frame(), embedded.frame()
         remote.close()
         embedded.close()
-    assert a["tick"] == b["tick"] == 40
+    assert a["tick"] == b["tick"] == 39 and a["ran"] == b["ran"] == 40
     assert a["robots"] == b["robots"]
 
 
@@ -579,3 +580,32 @@ def test_an_edit_that_breaks_the_file_keeps_the_run_and_one_that_compiles_restar
         ro.handle({"type": "apply", "text": 5})
     assert lab.read_text() == fixed
     ro.close()
+
+
+def test_a_frame_shows_the_tick_the_trace_has_a_row_for(tmp_path: Path) -> None:
+    """After n ticks the frame says tick n - 1, and its time, pose, state, rule and sonars are
+    that row's; its chart samples are rows too, at their own ticks' times."""
+    trace = tmp_path / "wall.csv"
+    s = live(WALL, trace=trace)
+    assert s.frame()["tick"] == 0 and s.frame()["ran"] == 0
+    sonar5 = next(k for k, c in enumerate(s.scene()["columns"]) if c["name"] == "sonar5")
+    frames = []
+    for n in (1, 46, 1, 30):  # the wall lab goes from wander to follow on tick 47
+        s.advance(n)
+        frames.append(s.frame())
+    s.close()
+    rows = read_trace(trace)
+    col = {c: rows.columns.index(c) for c in ("tick", "time", "x", "y", "state", "rule", "sonar5")}
+    by_tick = {int(r[col["tick"]]): r for r in rows.rows}
+    assert [f["tick"] for f in frames] == [0, 46, 47, 77] and [f["ran"] for f in frames] == [1, 47, 48, 78]
+    assert {f["robots"][0]["state"] for f in frames} == {"wander", "follow"}
+    for f in frames:
+        row, robot = by_tick[f["tick"]], f["robots"][0]
+        assert fmt(f["time"]) == row[col["time"]]
+        assert [fmt(v) for v in robot["pose"][:2]] == [row[col["x"]], row[col["y"]]]
+        assert robot["state"] == row[col["state"]] and (robot["rule"] or "") == row[col["rule"]]
+        for sample in robot["samples"]:
+            tick = round(sample[0] / 0.05)
+            assert sample[0] == round(tick * 0.05, 9) and tick < f["tick"]
+            value, recorded = sample[1 + sonar5], by_tick[tick][col["sonar5"]]
+            assert value == recorded if isinstance(value, str) else abs(float(recorded) - value) < 1e-3

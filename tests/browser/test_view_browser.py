@@ -213,9 +213,9 @@ def test_malformed_messages_leave_the_page_and_run_working(view: Any) -> None:
     v.js("""(() => { const ws = window.labsimView.ws;
         ws.send('{bad json'); ws.send(new Uint8Array([0, 1, 2])); ws.send('{"type": "slider", "name": 7}');
         ws.send('{"type": "speed", "value": -5}'); ws.send('"play"'); ws.send('{"type": "step"}'); })()""")
-    v.wait("window.labsimView.frame.tick === 1")
+    v.wait("window.labsimView.frame.ran === 1")
     v.page.click("#step")
-    v.wait("window.labsimView.frame.tick === 2")
+    v.wait("window.labsimView.frame.ran === 2")
     assert v.js("window.labsimView.ws.readyState") == 1
 
 
@@ -262,14 +262,15 @@ def test_value_cells_print_two_decimals_as_a_label_does(view: Any) -> None:
 def test_road_labels_stand_apart_at_the_start_and_values_show_two_decimals(view: Any) -> None:
     v = view(["behaviours/road_follow.yaml"])
     v.wait("window.LV_world.labels.filter((b) => b).length === 5")
-    assert v.frame()["tick"] == 0
+    assert v.frame()["ran"] == 0 and "(not started)" in v.page.inner_text("#clock")
     boxes = v.js("window.LV_world.labels")
     assert _apart(boxes) == [], boxes
     width, height = v.js("[window.LV_world.canvas.clientWidth, window.LV_world.canvas.clientHeight]")
     assert all(0 <= b["x"] <= width - b["w"] and 0 <= b["y"] <= height - b["h"] for b in boxes)
     v.shot("road-labels", "#world")
-    v.page.click("#step")  # tick 0 has read no sensor yet: one tick gives the table its numbers
-    v.wait("window.labsimView.frame.tick === 1")
+    v.page.click("#step")  # no tick has read a sensor yet: one tick gives the table its numbers
+    v.wait("window.labsimView.frame.ran === 1")
+    assert "(tick 0)" in v.page.inner_text("#clock")
     v.wait("[...document.querySelectorAll('#table td.value')].some((td) => /\\./.test(td.textContent))")
     cells = v.js("[...document.querySelectorAll('#table td.value')].map((td) => td.textContent)")
     assert any("." in c for c in cells)
@@ -318,7 +319,7 @@ def test_the_end_of_a_run_at_full_speed_reaches_the_page(view: Any) -> None:
     v.page.click("#play")
     v.wait("window.labsimView.frame.finished === true && window.labsimView.frame.playing === false",
            timeout_ms=60000)
-    assert v.frame()["tick"] == 1200
+    assert v.frame()["tick"] == 1199 and v.frame()["ran"] == 1200  # the trace's last row is tick 1199
     v.wait("document.querySelector('#clock').textContent.includes('ended')")
 
 
@@ -338,7 +339,7 @@ def test_chart_picks_hold_across_play_restart_and_robot_switches(view: Any) -> N
     v.page.locator(f'#table input[data-column="{first[0]}"]').uncheck()
     picked = _checked(v)
     v.page.click("#restart")
-    v.wait("window.labsimView.frame && window.labsimView.frame.tick === 0")
+    v.wait("window.labsimView.frame && window.labsimView.frame.ran === 0")
     v.wait("document.querySelectorAll('#chart .u-over').length === 1")
     assert _checked(v) == picked and v.js("window.labsimView.robot") == 2
     v.page.click("#play")
@@ -408,9 +409,26 @@ def test_a_breakpoint_pauses_on_the_tick_the_trace_says_it_first_holds(view: Any
     row = rows.rows[first]
     assert hit["state"] == row[rows.columns.index("state")] and (hit["rule"] or "") == row[rows.columns.index("rule")]
     v.wait(f"document.querySelector('#break-hit').textContent.includes('Paused on tick {first}')")
+    # the header says the tick paused on, whose rule and values are shown, at its time
+    assert f"(tick {first})" in v.page.inner_text("#clock")
+    assert v.page.inner_text("#clock").startswith(f"t = {first * 0.05:.2f} s")
+    assert v.page.inner_text("#rule").startswith(hit["rule"] or "(none fired)")
+    assert v.page.inner_text("#state") == (hit["state"] or "–")
+    # the chart has what the condition reads, up to this tick, and its legend the values then
+    v.wait("document.querySelector('#table input[data-column=\"sonar5\"]').checked")
+    k = rows.columns.index("sonar5")
+    t, values = v.js("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'sonar5');"
+                     " return [c.history[0].t, c.history[0].cols[k]]; })()")
+    assert abs(t[-1] - first * 0.05) < 1e-9 and 0 < values[-1] < 0.5
+    assert len(t) > 10 and t[0] == 0.0  # every frame's samples: from tick 0 on
+    by_tick = {int(r[0]): float(r[k]) for r in rows.rows}
+    for time_s, value in zip(t, values):
+        assert value is None or abs(value - by_tick[round(time_s / 0.05)]) < 1e-3, (time_s, value)
+    legend = v.js("[...document.querySelectorAll('#chart .u-legend .u-value')].map((e) => e.textContent)")
+    assert "--" not in legend[1:], legend
     v.shot("breakpoint")
     v.page.click("#step")  # one tick on, and the breakpoint is behind
-    v.wait(f"window.labsimView.frame.tick === {first + 2} && window.labsimView.frame.hit === null")
+    v.wait(f"window.labsimView.frame.tick === {first + 1} && window.labsimView.frame.hit === null")
     # a breakpoint from the page: a mistake is shown with its column, a good one pauses the run
     v.page.fill("#break-text", "sonr5 < 1")
     v.page.click("#break-form button")
@@ -433,7 +451,7 @@ def test_a_dragged_robot_replays_from_the_trace_row_for_row(view: Any, tmp_path:
     trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
     v = view(["behaviours/wall_follow.yaml", "--trace", str(trace)])
     v.page.click("#step")
-    v.wait("window.labsimView.frame.tick === 1 && window.LV_world.drawn[0] !== undefined")
+    v.wait("window.labsimView.frame.ran === 1 && window.LV_world.drawn[0] !== undefined")
     # onto the wall at x = 3 m: refused, with a message; the robot stays
     box = v.page.locator("#world").bounding_box()  # the canvas' pixels, on the page
 
@@ -493,7 +511,8 @@ def test_the_editor_shows_errors_inline_keeps_the_run_and_restarts_on_a_fix(view
     v.page.fill("#source", text.replace("minutes: 25", "minutes: 1"))
     v.page.click("#apply")
     v.wait("document.querySelector('#editor-state').textContent === 'applied, not saved'")
-    v.wait("window.labsimView.frame.tick < 20 && window.labsimView.scene.stop_s === 60")
+    # a restart sends the scene, then frames: between the two the page has no frame
+    v.wait("window.labsimView.frame && window.labsimView.frame.tick < 20 && window.labsimView.scene.stop_s === 60")
     assert v.js("document.querySelectorAll('#problems li').length") == 0
     v.shot("editor")
     v.page.click("#save")
@@ -507,3 +526,50 @@ def test_read_only_turns_the_editor_off_and_says_so(view: Any) -> None:
     v.page.click("#edit")
     assert v.js("document.querySelector('#source').readOnly && document.querySelector('#apply').disabled "
                 "&& document.querySelector('#save').disabled")
+
+
+def test_blocks_moved_added_and_removed_replay_from_the_trace_row_for_row(view: Any, tmp_path: Path) -> None:
+    trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace)])
+    v.page.click("#step")
+    v.wait("window.labsimView.frame.ran === 1 && !document.querySelector('#block-tools').hidden")
+    box = v.page.locator("#world").bounding_box()
+
+    def on_page(x: float, y: float) -> list[float]:
+        px, py = v.js(f"window.LV_world.toPx({x}, {y})")
+        return [box["x"] + px, box["y"] + py]
+
+    def drag(a: list[float], b: list[float]) -> None:
+        v.page.mouse.move(*a)
+        v.page.mouse.down()
+        v.page.mouse.move(*b, steps=6)
+        v.page.mouse.up()
+    # the box in the far corner (centre 6.5, 6.5) onto the inner wall: refused, said, nothing moves
+    drag(on_page(6.5, 6.5), on_page(0.0, 1.5))
+    v.wait("document.querySelector('#notice').textContent.includes('block 0 was not moved')")
+    assert "blocks" not in v.frame()
+    drag(on_page(6.5, 6.5), on_page(4.5, 6.0))  # two metres west, half a metre south
+    v.wait("window.labsimView.frame.blocks !== undefined")
+    (k, corners), = v.frame()["blocks"]
+    assert k == 0 and abs(sum(c[0] for c in corners) / 4 - 4.5) < 0.05
+    v.page.click("#add-block")
+    v.page.mouse.click(*on_page(-6.0, 6.0))
+    v.wait("window.labsimView.frame.blocks.length === 2")
+    v.page.select_option("#speed", "10")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 30")
+    v.page.mouse.click(*on_page(4.5, 6.0))  # pick the moved box, then remove it, while running
+    v.wait("!document.querySelector('#remove-block').disabled")
+    v.page.click("#remove-block")
+    v.wait("window.labsimView.frame.blocks.length === 1 && window.labsimView.frame.blocks[0][0] === 1")
+    v.wait("window.labsimView.frame.tick >= 60")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.playing === false")
+    v.shot("blocks")
+    v.close()  # Ctrl-C: the trace so far is kept
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--replay", str(trace),
+                    "--trace", str(replayed), "-q"], check=True, cwd=ROOT, capture_output=True)
+    a, b = read_trace(trace), read_trace(replayed)
+    events = [e.split(" ")[:3] for cell in a.column("events") for e in cell.split(";") if e.startswith("block ")]
+    assert events == [["block", "move", "0"], ["block", "add", "1"], ["block", "remove", "0"]]
+    assert b.rows[:len(a.rows)] == a.rows

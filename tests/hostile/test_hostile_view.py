@@ -182,9 +182,9 @@ def test_a_5000_digit_integer_is_labsims_number_error(capfd: pytest.CaptureFixtu
             await ws.send_str(json.dumps({"type": "step"}))
             for _ in range(100):
                 msg = await ws.receive_json(timeout=10)
-                if msg["type"] == "frame" and msg["tick"] == 1:
+                if msg["type"] == "frame" and msg["ran"] == 1:
                     break
-            assert msg["tick"] == 1  # the run went on
+            assert msg["ran"] == 1  # the run went on
             await ws.close()
 
     logs = _serve(scenario)
@@ -208,7 +208,7 @@ def test_300_connections_share_one_log_limit() -> None:
             await ws.send_str(json.dumps({"type": "step"}))
             for _ in range(100):
                 msg = await ws.receive_json(timeout=10)
-                if msg["type"] == "frame" and msg["tick"] == 1:
+                if msg["type"] == "frame" and msg["ran"] == 1:
                     break
             await ws.close()
 

@@ -7,6 +7,17 @@ LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", 
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
 const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
 
+LV.centre = (corners) => [corners.reduce((a, p) => a + p[0], 0) / corners.length,
+                          corners.reduce((a, p) => a + p[1], 0) / corners.length];
+LV.inside = (corners, x, y) => {  // a point in a polygon (even-odd)
+  let inside = false;
+  for (let i = 0, j = corners.length - 1; i < corners.length; j = i++) {
+    const [xi, yi] = corners[i], [xj, yj] = corners[j];
+    if ((yi > y) !== (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi) inside = !inside;
+  }
+  return inside;
+};
+
 LV.WorldView = class {
   constructor(canvas, onPick, onPlace) {
     this.canvas = canvas;
@@ -14,6 +25,10 @@ LV.WorldView = class {
     this.onPick = onPick;
     this.onPlace = onPlace;  // (robot, x, y, heading): a robot dragged to a new pose; null: no dragging
     this.ghost = null;  // the pose a robot is being dragged to: {i, x, y, th}
+    this.onBlock = null;  // (message): a block moved, added or removed; null: no changing blocks
+    this.adding = false;  // the next click on the canvas adds a block there
+    this.pickedBlock = null;  // the number of the block last clicked (Remove block removes it)
+    this.blockGhost = null;  // where a dragged block would go: {k, dx, dy}
     this.scene = null;
     this.frame = null;
     this.selected = 0;
@@ -102,7 +117,8 @@ LV.WorldView = class {
     c.addEventListener("pointerdown", (e) => {
       // on a robot (live): drag it somewhere else, or with Shift turn it; elsewhere: pan
       const grab = this.onPlace ? this._robotAt(e.offsetX, e.offsetY) : -1;
-      drag = { x: e.offsetX, y: e.offsetY, cx: this.cx, cy: this.cy, moved: false, robot: grab, turn: e.shiftKey };
+      const block = grab < 0 && this.onBlock ? this._blockAt(e.offsetX, e.offsetY) : null;
+      drag = { x: e.offsetX, y: e.offsetY, cx: this.cx, cy: this.cy, moved: false, robot: grab, turn: e.shiftKey, block };
       c.setPointerCapture(e.pointerId);
     });
     c.addEventListener("pointermove", (e) => {
@@ -110,16 +126,30 @@ LV.WorldView = class {
       const dx = e.offsetX - drag.x, dy = e.offsetY - drag.y;
       if (Math.abs(dx) + Math.abs(dy) > 3) { drag.moved = true; c.classList.add("dragging"); }
       if (drag.robot >= 0) { if (drag.moved) this._dragRobot(drag, e.offsetX, e.offsetY); return; }
+      if (drag.block !== null) {  // a block follows the pointer, drawn dashed until let go
+        if (drag.moved) this.blockGhost = { k: drag.block, dx: dx / this.scale, dy: -dy / this.scale };
+        this.draw(); return;
+      }
       this.cx = drag.cx - dx / this.scale; this.cy = drag.cy + dy / this.scale;
       this.draw();
     });
     c.addEventListener("pointerup", (e) => {
-      if (drag && !drag.moved) this._pick(e.offsetX, e.offsetY);
-      else if (drag && drag.robot >= 0 && this.ghost) {
+      if (drag && !drag.moved && this.adding && this.onBlock) {
+        const [x, y] = this.toWorld(e.offsetX, e.offsetY);
+        this.adding = false; c.classList.remove("adding");
+        this.onBlock({ op: "add", x, y });
+      } else if (drag && !drag.moved) {
+        this.pickedBlock = drag.block;
+        if (drag.block === null) this._pick(e.offsetX, e.offsetY);
+      } else if (drag && drag.robot >= 0 && this.ghost) {
         const g = this.ghost;
         this.onPlace(g.i, g.x, g.y, g.th);
+      } else if (drag && drag.block !== null && this.blockGhost) {
+        const [cx, cy] = LV.centre(this.blocks().get(drag.block)), g = this.blockGhost;
+        this.pickedBlock = drag.block;
+        this.onBlock({ op: "move", block: drag.block, x: cx + g.dx, y: cy + g.dy });
       }
-      this.ghost = null;
+      this.ghost = null; this.blockGhost = null;
       drag = null; c.classList.remove("dragging");
       this.draw();
     });
@@ -142,6 +172,19 @@ LV.WorldView = class {
       if (d < bestD) { best = i; bestD = d; }
     });
     return best;
+  }
+
+  blocks() {  // the blocks as they stand: number -> corners (a frame has them once one changed)
+    const listed = this.frame && this.frame.blocks;
+    const w = this.scene && this.scene.world;
+    return new Map(listed || (w ? w.blocks.map((c, k) => [k, c]) : []));
+  }
+
+  _blockAt(px, py) {  // the number of the block under a point of the canvas, or null
+    const [x, y] = this.toWorld(px, py);
+    let found = null;
+    this.blocks().forEach((corners, k) => { if (LV.inside(corners, x, y)) found = k; });
+    return found;
   }
 
   _dragRobot(drag, px, py) {  // where the dragged robot would go: moved with the pointer, or turned to face it
@@ -224,10 +267,16 @@ LV.WorldView = class {
       this._poly([[ax, ay], [bx, by]], false);
       ctx.lineWidth = Math.max(2, t * this.scale); ctx.stroke();
     }
-    for (const corners of world.blocks) {
+    this.blocks().forEach((corners, k) => {
       this._poly(corners, true); ctx.fillStyle = "#b9b9b9"; ctx.fill();
-      ctx.strokeStyle = "#5f5f5f"; ctx.lineWidth = 1.5; ctx.stroke();
-    }
+      const picked = k === this.pickedBlock && this.onBlock;
+      ctx.strokeStyle = picked ? "#111" : "#5f5f5f"; ctx.lineWidth = picked ? 3 : 1.5; ctx.stroke();
+      const g = this.blockGhost;
+      if (g && g.k === k) {  // where a dragged block goes when let go
+        this._poly(corners.map((p) => [p[0] + g.dx, p[1] + g.dy]), true);
+        ctx.setLineDash([5, 4]); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke(); ctx.setLineDash([]);
+      }
+    });
   }
 
   _robots() {

@@ -35,7 +35,10 @@ LV.Chart = class {
       const t = frame.time;
       if (h.t.length && t < h.t[h.t.length - 1]) { h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); }
       for (const s of r.samples || []) this._push(h, s[0], s.slice(1));
-      this._push(h, t, r.values);
+      if (frame.ran !== 0) {  // before the first tick there are no values yet
+        this._push(h, t, r.values);
+        h.now = r.values;  // as sent: "inf" stays "inf" in the legends (the lines have a gap there)
+      }
       if (h.t.length > HISTORY) { const cut = HISTORY / 2; h.t.splice(0, cut); h.cols.forEach((c) => c.splice(0, cut)); }
     });
   }
@@ -73,11 +76,17 @@ LV.Chart = class {
       return {
         label: this.columns[k].name + (this.columns[k].group === "metric" ? " (metric)" : ""), scale: "s" + i,
         stroke: this._colour(i), width: 1.5, spanGaps: false, points: { show: false },
-        value: (u, v) => (v === null || v === undefined ? "--" : LV.fmt(v)),  // as the table prints it
+        value: (u, v, _s, idx) => this._value(k, v, idx),
       };
     }));
     this.plot = new uPlot({ width: this._w(), height: 180, series, legend: { live: true }, scales, axes },
                           this._data(), this.el);
+  }
+
+  _value(k, v, idx) {  // a legend's value, as the table prints it; the last tick's even when not a number
+    if (v !== null && v !== undefined) return LV.fmt(v);
+    const h = this.history[this.robot];
+    return h && h.now && idx === h.t.length - 1 ? LV.fmt(h.now[k]) : "–";
   }
 
   _data() {
@@ -98,7 +107,7 @@ LV.Chart = class {
       });
     }
     this.picked.forEach((k, i) => {
-      const col = h && h.cols[k], v = col && col.length ? col[col.length - 1] : null;
+      const col = h && h.cols[k], v = h && h.now ? h.now[k] : (col && col.length ? col[col.length - 1] : null);
       const s = this.legend.children[i];
       s.dataset.column = String(k);
       s.style.color = this._colour(i);
@@ -112,7 +121,11 @@ LV.Chart = class {
 
   draw() {
     this._legend();
-    if (this.plot) this.plot.setData(this._data());
+    if (!this.plot) return;
+    const data = this._data();
+    this.plot.setData(data);
+    // away from the cursor, uPlot's legend says "--": show the last tick's values instead
+    if (this.plot.cursor.left < 0 && data[0].length) this.plot.setLegend({ idx: data[0].length - 1 });
   }
 };
 

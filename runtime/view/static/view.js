@@ -10,6 +10,8 @@ window.labsimView = state;
 // a robot dragged on the canvas: the server puts it there (or says why not) and the trace records it
 const placeRobot = (i, x, y, heading) => { notice(""); send({ type: "place", robot: i, x, y, heading }); };
 const world = new LV.WorldView($("world"), (i) => selectRobot(i), placeRobot);
+// a block dragged, added or removed: the same, through the backend and into the trace
+const changeBlock = (msg) => { notice(""); send({ type: "block", ...msg }); blockTools(); };
 const chart = new LV.Chart($("chart"), $("chart-now"));
 window.LV_world = world;  // what is drawn where (the browser tests read it)
 window.LV_chart = chart;
@@ -71,9 +73,27 @@ function onScene(scene) {
   chart.reset(scene.columns, scene.robots.length);
   pickChart(scene);
   world.onPlace = scene.mode === "live" ? placeRobot : null;
+  const blocks = scene.mode === "live" && scene.world && !scene.world.mechanism;
+  world.onBlock = blocks ? changeBlock : null;
+  world.pickedBlock = null; world.adding = false;
+  $("block-tools").hidden = !blocks;
+  blockTools();
   world.setScene(scene);
   if (state.robot >= scene.robots.length) selectRobot(0);
 }
+
+function blockTools() {  // Remove block: only with a block picked that still stands
+  $("remove-block").disabled = world.pickedBlock === null || !world.blocks().has(world.pickedBlock);
+  $("add-block").classList.toggle("on", world.adding);
+}
+$("add-block").addEventListener("click", () => {
+  world.adding = !world.adding; $("world").classList.toggle("adding", world.adding); blockTools();
+});
+$("remove-block").addEventListener("click", () => {
+  if (world.pickedBlock !== null) changeBlock({ op: "remove", block: world.pickedBlock });
+  world.pickedBlock = null; blockTools();
+});
+$("world").addEventListener("pointerup", () => setTimeout(blockTools, 0));
 
 function buildRobots(scene) {
   const sel = $("robot");
@@ -192,6 +212,18 @@ function pickChart(scene) {
   chart.setPicked(picks);
 }
 
+// paused on a condition: tick what it reads in the chart, so that its values up to this tick show
+function chartHit(hit) {
+  const names = new Set(hit.what.match(/[A-Za-z_][A-Za-z0-9_.]*/g) || []);
+  const cols = state.scene.columns;
+  const add = cols.map((c, k) => k).filter((k) => names.has(cols[k].name) && cols[k].numeric !== false
+                                           && state.rows[k] && !state.rows[k].box.checked);
+  if (!add.length) return;
+  for (const k of add) state.rows[k].box.checked = true;
+  chart.setPicked(chart.picked.concat(add));
+  state.chartNames = chart.picked.map((k) => cols[k].name);
+}
+
 function defaultChart(scene) {
   const skip = scene.mode === "replay" ? ["wheel_left", "wheel_right"] : [];
   return scene.columns.filter((c) => (c.group === "signal" || c.group === "trace") && c.numeric !== false
@@ -204,7 +236,10 @@ function onFrame(frame) {
   state.frame = frame;
   state.frames += 1;
   world.setFrame(frame);
+  if (world.onBlock) blockTools();
   chart.add(frame);
+  if (frame.hit && (!state.lastHit || state.lastHit !== frame.hit.tick)) chartHit(frame.hit);
+  state.lastHit = frame.hit ? frame.hit.tick : null;
   scheduleDraw();
 }
 
@@ -241,7 +276,9 @@ function render() {
   $("play").textContent = f.playing ? "Pause" : "Play";
   $("play").disabled = f.finished && !f.playing;
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
-  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (tick ${f.tick})${f.finished ? " — ended" : ""}`;
+  // the tick whose pose, values, state and rule the page shows (a live run's last tick run)
+  const at = f.ran === 0 ? "not started" : `tick ${f.tick}`;
+  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`;
   $("rtf").textContent = f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "";
   if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
   if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
