@@ -173,9 +173,7 @@ def compile_sense(
     lines = ["def sense():"]
     rows = []
     for r, plan in enumerate(robots):
-        env[f"body{r}"] = chipmunk.c_body(plan.body)
-        env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
-        _add_fan(space, r, plan, env)
+        _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
         rows.append(f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
@@ -249,8 +247,11 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
     return values
 
 
-def _add_fan(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
-    """Robot r's lidar fan as ``fan{r}``, its beams in the order of the specs, if it reads any."""
+def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
+    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and its lidar fan as
+    ``fan{r}`` (its beams in the order of the specs) if it reads any."""
+    env[f"body{r}"] = chipmunk.c_body(plan.body)
+    env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
     beams = [spec for spec in plan.specs if isinstance(spec, LidarBeam)]
     if beams:
         from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
