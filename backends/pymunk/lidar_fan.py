@@ -40,6 +40,7 @@ TOUCH_M = 5e-324
 # beyond the rounding of the angles, so no beam that meets it is left out.
 ANGLE_MARGIN_RAD = 1e-9
 TAU = 2.0 * math.pi
+maximum = np.maximum  # its reduce, without ndarray.max's Python layer
 
 
 @dataclass(frozen=True)
@@ -153,6 +154,8 @@ class LidarFan:
         self._range_m = range_m
         self._inv_range = 1.0 / range_m
         self._near: _Near | None = None
+        self._inf = np.full(len(angles_rad), math.inf)  # copied as each cast's ranges
+        self._zero = np.zeros(len(angles_rad))  # 1 / t where no face is seen (read, never written)
 
     def cast(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:
         """Every beam's range in metres (inf beyond range_m) for the body at this pose."""
@@ -172,12 +175,15 @@ class LidarFan:
         if self._moving:
             faces, circles = self._with_moving(ox, oy, faces, circles)
         inv = self._faces(ox, oy, c, s, faces)
+        out = self._inf.copy()
+        np.divide(1.0, inv, out=out, where=inv >= self._inv_range)
+        ranges: list[float] = out.tolist()
         hits = self._circles(ox, oy, c, s, circles)
         if hits:
-            np.maximum.at(inv, hits[0], hits[1])
-        out = np.full(self._beams, math.inf)
-        np.divide(1.0, inv, out=out, where=inv >= self._inv_range)
-        return out.tolist()
+            for k, v in zip(*hits):
+                if v >= self._inv_range and 1.0 / v < ranges[k]:
+                    ranges[k] = 1.0 / v
+        return ranges
 
     def cast_through_chipmunk(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:
         """What ``cast`` gives, by casting each beam through chipmunk as a sonar is (the oracle
@@ -203,7 +209,10 @@ class LidarFan:
 
     def _faces(self, ox: float, oy: float, c: float, s: float, faces: list[Face]) -> np.ndarray:
         """1 / t of the nearest face each beam crosses (<= 0 for none): see the module docstring."""
-        rows: list[float] = []  # per face: cross(p1, u) / num, cross(-p2, u) / num, cross(-e, u) / num
+        # per face: cross(p1, u) / num, cross(-p2, u) / num, cross(-e, u) / num, as (x, y) pairs
+        rows_a: list[float] = []
+        rows_b: list[float] = []
+        rows_e: list[float] = []
         for p1x, p1y, p2x, p2y in faces:
             ax, ay, bx, by = p1x - ox, p1y - oy, p2x - ox, p2y - oy
             num = ax * by - ay * bx  # cross(p1, p2), turning-free: > 0 seen from outside
@@ -212,13 +221,16 @@ class LidarFan:
                 # in the lidar's frame (turned by -angle)
                 q1x, q1y = (c * ax + s * ay) * k, (c * ay - s * ax) * k
                 q2x, q2y = (c * bx + s * by) * k, (c * by - s * bx) * k
-                rows += (q1x, q1y, -q2x, -q2y, q1x - q2x, q1y - q2y)
-        n = len(rows) // 6
+                rows_a += (q1x, q1y)
+                rows_b += (-q2x, -q2y)
+                rows_e += (q1x - q2x, q1y - q2y)
+        n = len(rows_a) // 2
         if n == 0:
-            return np.zeros(self._beams)
-        cross = np.array(rows).reshape(3 * n, 2) @ self._cross  # one matrix product: every beam and face
-        # 1 / t, the last row, where the beam lies between p1 and p2 (both others >= 0), else < 0
-        return np.copysign(cross[2::3], np.minimum(cross[0::3], cross[1::3])).max(axis=0)
+            return self._zero
+        # one matrix product: every beam and face
+        cross = np.array(rows_a + rows_b + rows_e).reshape(3 * n, 2) @ self._cross
+        # 1 / t, the last rows, where the beam lies between p1 and p2 (both others >= 0), else < 0
+        return maximum.reduce(np.copysign(cross[2 * n:], np.minimum(cross[:n], cross[n:2 * n])))
 
     def _circles(self, ox: float, oy: float, c: float, s: float,
                  circles: list[Circle]) -> tuple[list[int], list[float]] | None:
