@@ -9,13 +9,15 @@ two round ends; a polygon its edges, and its bevel circles when it has a radius)
 faces and circles near the lidar are put in its frame, and one matrix product with the beams'
 fixed directions gives, for every beam and face, the two cross products that say whether the
 beam crosses the face and where. The ranges are those of chipmunk's cast up to rounding
-(about 1e-15 m; ``tests/contract/test_lidar_fan.py`` compares them on random worlds).
+(within 1e-12 m but for a beam that grazes a round end; ``tests/contract/test_lidar_fan.py``
+compares them on random worlds), and two of chipmunk's ways are kept: a lidar inside a shape
+reads 0 on every beam, and a lidar in a wall's band casts through chipmunk (``_rays``).
 
 Distances are found as their inverses, 1 / t, which a face gives without a division per beam:
 a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
 ``1 / t = (cross(p1, u) + cross(u, p2)) / cross(p1, p2)`` with both cross products >= 0. A
-missed beam reads 0 there, so the nearest face is a maximum over faces, and ``inf`` is the
-inverse of 0 with no special case.
+missed beam reads 0 or less there, so the nearest face is a maximum over faces, and a beam
+whose maximum is below 1 / range_m reads ``inf``.
 """
 from __future__ import annotations
 
