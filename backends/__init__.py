@@ -1,16 +1,17 @@
 """Simulator backends behind one small protocol (``labsim.backends.protocol``).
 
 Backends are registered as "module:Class" strings and imported only when chosen, so the
-CoppeliaSim client is never imported by a run on the embedded backend. ``ground_camera`` is
-the one other way in: a camera's view of a world's ground, rendered without a scene, for
-pictures drawn after a run. ``check_backend`` (``labsim.backends.check``) runs the backend
+CoppeliaSim client is never imported by a run on the embedded backend. ``ground_camera`` and
+``scene_camera`` are the other ways in: a camera's view of a world's ground, or of the world
+with its robots posed by the caller, rendered without a scene, for pictures drawn after a run.
+``check_backend`` (``labsim.backends.check``) runs the backend
 contract on any backend, a new one's included; it is imported when first asked for.
 """
 from __future__ import annotations
 
 import importlib
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from labsim.backends.protocol import Backend, BackendError
@@ -21,7 +22,8 @@ if TYPE_CHECKING:
     from labsim.backends.check import BackendContractError as BackendContractError
     from labsim.backends.check import check_backend as check_backend
     from labsim.backends.scene.ground import Ground
-    from labsim.backends.scene.models import Camera
+    from labsim.backends.scene.models import Camera, RobotModel
+    from labsim.backends.scene.world import World
 
 REGISTRY: dict[str, str] = {
     "pymunk": "labsim.backends.pymunk.backend:PymunkBackend",
@@ -33,6 +35,8 @@ DEFAULT = "pymunk"
 # Cameras on a ground without a running scene, for pictures of a finished run: the same
 # lazy "module:function" as the backends, so the runtime still never imports a simulator.
 GROUND_CAMERAS: dict[str, str] = {"pymunk": "labsim.backends.pymunk.camera:ground_view"}
+# ... and cameras on a world with its robots posed by the caller (a trace's poses)
+SCENE_CAMERAS: dict[str, str] = {"pymunk": "labsim.backends.pymunk.scene_view:posed_scene"}
 
 
 def load_backend(name: str, **options: object) -> Backend:
@@ -56,6 +60,25 @@ def ground_camera(ground: Ground, backend: str = DEFAULT) -> Callable[[float, fl
     """
     view = _resolve(GROUND_CAMERAS, backend, f"backend '{backend}' cannot render a camera without a scene")(ground)
     render: Callable[[float, float, float, Camera], np.ndarray] = view.render
+    return render
+
+
+SceneRender = Callable[[float, float, float, "Camera", int, Sequence[tuple[float, float, float] | None]], "np.ndarray"]
+
+
+def scene_camera(ground: Ground, world: World | None, models: Sequence[RobotModel],
+                 backend: str = DEFAULT) -> SceneRender:
+    """A renderer of what a camera sees of a world with its robots standing where a caller
+    says, as the backend draws a run's cameras: ``render(x_m, y_m, heading_rad, camera, robot,
+    poses)`` -> RGB image (row 0 the bottom), ``poses`` each robot's (x, y, heading) or None,
+    in the order of ``models``, and ``robot`` the index of the one the camera is on.
+
+    No scene is opened (``labsim plot --camera``). Raises BackendError for a backend that
+    cannot render a scene on its own.
+    """
+    view = _resolve(SCENE_CAMERAS, backend, f"backend '{backend}' cannot render a camera without a scene")(
+        ground, world, models)
+    render: SceneRender = view.render
     return render
 
 

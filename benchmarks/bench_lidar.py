@@ -1,10 +1,12 @@
 """A 360-beam lidar on one robot: ticks per CPU second, the backend alone and a whole run.
 
 ``benchmarks/lidar_wander.yaml`` puts a Pioneer with a 360-beam, 5 m lidar in the wall lab's
-room. Two figures: the pymunk backend's ``sense()`` and ``step()`` alone for the robot reading
-every beam (the rays, grouped and cast through chipmunk as the sonars are), and labsim's whole
-run of the behaviour (the scan reduced with ``min`` and ``argmin`` every tick). Goal: >= 20,000
-ticks per CPU second.
+room. Three figures, each side timed in CPU seconds in alternated rounds (a fresh random order
+each round, so a load that comes and goes falls on both): the fan cast
+(``labsim.backends.pymunk.lidar_fan``) against casting every beam through chipmunk, over the
+same poses of the robot; the pymunk backend's ``sense()`` and ``step()`` alone for the robot
+reading every beam; and labsim's whole run of the behaviour (the scan reduced with ``min``
+and ``argmin`` every tick). Goal: >= 20,000 ticks per CPU second.
 
     python benchmarks/bench_lidar.py [--repeat 5] [--ticks 2000]
 """
@@ -15,14 +17,35 @@ import statistics
 import time
 from pathlib import Path
 
-from compare import labsim_scene, machine
+from compare import alternate, labsim_scene, machine, pair_ratios
 
 LAB = Path(__file__).resolve().parent / "lidar_wander.yaml"
 GOAL = 20_000
 
 
+def poses_and_fan(ticks: int) -> tuple[list[tuple[float, float, float]], object]:
+    """The robot's poses over ``ticks`` ticks of a slow arc, and its lidar fan."""
+    _program, backend, run = labsim_scene(LAB)
+    backend.act(0, 3.0, 2.0)
+    poses = []
+    for _ in range(ticks):
+        backend.sense()
+        backend.step()
+        poses.append(backend.pose(0))
+    fan = backend._sim.sense.__globals__["fan0"].__self__  # the LidarFan the generated sense() calls
+    return poses, fan
+
+
+def casts(poses: list[tuple[float, float, float]], cast: object) -> float:
+    """CPU seconds of one cast per pose."""
+    start = time.process_time()
+    for x, y, a in poses:
+        cast(x, y, a)  # type: ignore[operator]
+    return time.process_time() - start
+
+
 def backend_alone(ticks: int) -> float:
-    """Ticks per CPU second of the backend's sense() and step(), the robot driving a slow arc."""
+    """CPU seconds of the backend's sense() and step() for ``ticks`` ticks, the robot driving a slow arc."""
     _program, backend, run = labsim_scene(LAB)
     backend.act(0, 3.0, 2.0)
     start = time.process_time()
@@ -31,18 +54,18 @@ def backend_alone(ticks: int) -> float:
         backend.step()
     elapsed = time.process_time() - start
     run.close()
-    return ticks / elapsed
+    return elapsed
 
 
 def whole_run(ticks: int) -> float:
-    """Ticks per CPU second of labsim running the behaviour for ``ticks`` ticks."""
+    """CPU seconds of labsim running the behaviour for ``ticks`` ticks."""
     _program, _backend, run = labsim_scene(LAB)
     start = time.process_time()
     for _ in range(ticks):
         run.tick()
     elapsed = time.process_time() - start
     run.close()
-    return ticks / elapsed
+    return elapsed
 
 
 def main() -> None:
@@ -51,11 +74,23 @@ def main() -> None:
     parser.add_argument("--ticks", type=int, default=2000)
     args = parser.parse_args()
     print(machine())
-    for name, fn in (("backend sense + step", backend_alone), ("labsim run", whole_run)):
-        rates = [fn(args.ticks) for _ in range(args.repeat)]
+    poses, fan = poses_and_fan(args.ticks)
+    times = alternate({
+        "fan cast": lambda: casts(poses, fan.cast),  # type: ignore[attr-defined]
+        "chipmunk casts": lambda: casts(poses, fan.cast_through_chipmunk),  # type: ignore[attr-defined]
+        "backend sense + step": lambda: backend_alone(args.ticks),
+        "labsim run": lambda: whole_run(args.ticks),
+    }, args.repeat)
+    for name, seconds in times.items():
+        rates = [args.ticks / s for s in seconds]
         median = statistics.median(rates)
         print(f"  {name}: median {median:,.0f} ticks per CPU second over {args.repeat} x {args.ticks} ticks "
-              f"(goal >= {GOAL:,}: {'met' if median >= GOAL else 'NOT met'})")
+              f"(runs: {', '.join(f'{r:,.0f}' for r in rates)})"
+              + ("" if "casts" in name else f"; goal >= {GOAL:,}: {'met' if median >= GOAL else 'NOT met'}"))
+    ratios = pair_ratios(times["chipmunk casts"], times["fan cast"])
+    print(f"  chipmunk casts / fan cast, per round: median {statistics.median(ratios):.1f} "
+          f"({', '.join(f'{r:.1f}' for r in ratios)})")
+    print(f"  {machine()}")
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ import cbor2
 from labsim.runtime.serve.sim_api import FUNCTIONS, UNSUPPORTED
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS
 from labsim.runtime.serve.sim_session import SESSION_CALLS
+from labsim.runtime.serve.sim_signals import SIGNAL_CALLS
 
 Frames = list[bytes]
 
@@ -200,7 +201,7 @@ WRONG_ARGS: list[list[object]] = [
 # (less the two that replace the scene the cases share: tests/serve/test_serve_lifecycle.py sends them these)
 SCENE_CHANGING = ("sim.loadScene", "sim.closeScene")
 EVERY_FUNCTION = (*FUNCTIONS, *(f"sim.{name}" for name in UNSUPPORTED),
-                  *(f for f in (*SESSION_CALLS, *OBJECT_CALLS) if f not in SCENE_CHANGING),
+                  *(f for f in (*SESSION_CALLS, *OBJECT_CALLS, *SIGNAL_CALLS) if f not in SCENE_CHANGING),
                   "zmqRemoteApi.require", "zmqRemoteApi.info")
 CASES += [Case(f"{func} with wrong arguments", (lambda func=func: [[req(func, *args)] for args in WRONG_ARGS]), CLEAN)
           for func in EVERY_FUNCTION]

@@ -84,3 +84,13 @@ def camera_alias(model: str, channel: str) -> str:
     if path is None:
         return CAMERA_ALIASES[-1] if model in MODEL_PATHS and channel == "camera" else channel
     return str(path).rsplit("/", 1)[-1]
+
+
+def lidar_signals(i: int) -> tuple[str, str]:
+    """The string signals that carry the lidar of the i-th robot of its model (docs/coppeliasim.md):
+    the points CoppeliaSim's stock 2D laser scanners publish (``sim.packFloatTable`` of x, y, z
+    in the sensor's frame, one triple a beam that detects something), then every beam's range
+    in beam order (``sim.packDoubleTable``, inf where nothing is in range), which the backend reads.
+    The first robot's carry the stock names; the next ones' end in their number."""
+    suffix = str(i) if i else ""
+    return f"measuredDataAtThisTime{suffix}", f"labsimLidarRanges{suffix}"

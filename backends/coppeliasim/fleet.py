@@ -16,17 +16,19 @@ through the backend's ``connection``. A world's mechanism is ``mechanism``'s bus
   (yaw), a camera ``sim.getVisionSensorImg`` as it comes (rows bottom first, labsim's order too). ``collided`` is
   ``sim.checkCollision(robot, sim.handle_all)``, read every tick for every robot because the
   contact count of the summary is built from it (a contact = a tick on which it turns true).
-  Road channels are computed here from the pose, as the embedded backend computes them.
+  Road channels are computed here from the pose, as the embedded backend computes them. A
+  lidar's beams are one ``sim.getStringSignal`` a tick (``lidar_signals``: every range, packed doubles).
 * ``act`` sends a wheel's target velocity only when that wheel's command changed.
 """
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from labsim.backends.coppeliasim import CAMERA_ALIASES, HANDLE_ALL, MODEL_PATHS
+from labsim.backends.coppeliasim import CAMERA_ALIASES, HANDLE_ALL, MODEL_PATHS, lidar_signals
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.coppeliasim.frames import yaw
@@ -63,6 +65,8 @@ class _Rover:
     cameras: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot)
     bumpers: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot): proximity sensors
     ground: list[tuple[int, int]] = field(default_factory=list)  # (handle, slot): 1-pixel vision sensors
+    lidar: list[tuple[int, int]] = field(default_factory=list)  # (beam index from 0, slot)
+    lidar_signal: str = ""  # the string signal with every beam's range (lidar_signals)
     collide_with: int = HANDLE_ALL
     slots: dict[str, int] = field(default_factory=dict)  # pose, collided, speed, road channels
     read_position: bool = False
@@ -140,9 +144,9 @@ class Fleet:
         for slot, ch in enumerate(req.channels):
             kind = offered.get(ch)
             if is_lidar_beam(ch):
-                raise BackendError(f"robot '{req.name}' reads '{ch}', which the coppeliasim backend does not read "
-                                   f"yet (a lidar runs on the pymunk backend)")
-            if kind is Kind.DISTANCE:
+                r.lidar.append((int(ch[5:]) - 1, slot))
+                r.lidar_signal = lidar_signals(i)[1]
+            elif kind is Kind.DISTANCE:
                 path = fill(str(paths["sonar"]), k=sonars.index(ch), n=sonars.index(ch) + 1)
                 r.sonars.append((get(path, h, f"robot '{req.name}', {ch}"), slot))
             elif kind in (Kind.CONTACT, Kind.REFLECTANCE):
@@ -205,7 +209,27 @@ class Fleet:
         for r, values in zip(self.rovers, out):
             if r.bumpers or r.ground:  # one request each, beside the script (it knows neither)
                 self._switches_and_ground(r, values)
+            if r.lidar:
+                self._lidar(r, values)
         return out
+
+    def _lidar(self, r: _Rover, values: list[object]) -> None:
+        """A lidar's beams: one sim.getStringSignal of every beam's range, packed doubles; no
+        signal (the first tick of a scene whose scanner has not run) reads nothing in range."""
+        data = self._conn.call("sim.getStringSignal", r.lidar_signal)
+        if data is None:
+            for _, slot in r.lidar:
+                values[slot] = math.inf
+            return
+        if not isinstance(data, (bytes, bytearray)) or len(data) % 8:
+            raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' is not packed doubles "
+                               f"(got {str(data)[:80]})")
+        ranges = struct.unpack(f"<{len(data) // 8}d", data)
+        for k, slot in r.lidar:
+            if k >= len(ranges):
+                raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' has {len(ranges)} beams, "
+                                   f"and the behaviour reads lidar{k + 1}")
+            values[slot] = ranges[k]
 
     def _switches_and_ground(self, r: _Rover, values: list[object]) -> None:
         """Bumpers (a proximity sensor that detects is pressed) and ground sensors (the average

@@ -13,7 +13,8 @@ Beyond sonars, pose and ``collided``, a robot may read:
   ``labsim.backends.pymunk.camera``, with the walls, blocks and other robots standing on it
   drawn by ``labsim.backends.pymunk.scene_view``; OpenCV is imported, and the ground drawn,
   only when some robot reads a camera;
-* a lidar's beams (``lidar1`` ..): rays as the sonars', from the model's ``Lidar``;
+* a lidar's beams (``lidar1`` ..), from the model's ``Lidar``: the whole fan cast at once
+  (``labsim.backends.pymunk.lidar_fan``), reading what single rays would;
 * a bumper (``RobotModel.bumpers``): True while a wall, block or robot comes within its reach
   of its point on the chassis (one chipmunk point query);
 * a ground sensor (``RobotModel.ground_sensors``): the reflectance 0..1 of the ground's texture
@@ -42,6 +43,7 @@ from labsim.backends.pymunk.fleet_sense import (
     BumperRead,
     CameraRead,
     GroundRead,
+    LidarBeam,
     SensePlan,
     SonarRay,
     Spec,
@@ -331,7 +333,8 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     shape.filter = pymunk.ShapeFilter(group=i + 1)
     space.add(body, shape)
 
-    sonars = {s.name: s for s in model.rays()}
+    sonars = {s.name: s for s in model.sonars}
+    beams = {f"lidar{k + 1}": (lidar, a) for lidar in model.lidars for k, a in enumerate(lidar.angles_rad())}
     cameras = {c.name: c for c in model.cameras}
     bumpers = {b.name: b for b in model.bumpers}
     ground = {g.name: g for g in model.ground_sensors}
@@ -341,6 +344,9 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
         if s is not None:
             specs.append(SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad),
                                   s.range_m * math.sin(s.angle_rad), s.range_m))
+        elif ch in beams:
+            lidar, angle = beams[ch]
+            specs.append(LidarBeam(lidar.x_m, lidar.range_m, angle))
         elif ch in cameras:
             specs.append(CameraRead(cameras[ch]))
         elif ch in bumpers:

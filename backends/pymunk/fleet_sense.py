@@ -45,6 +45,16 @@ class SonarRay:
 
 
 @dataclass(frozen=True)
+class LidarBeam:
+    """One beam of a lidar mounted ``x_m`` ahead of the robot's origin, at ``angle_rad`` in the
+    robot frame; a robot's beams are cast together, as one fan (``lidar_fan.LidarFan``)."""
+
+    x_m: float
+    range_m: float
+    angle_rad: float
+
+
+@dataclass(frozen=True)
 class CameraRead:
     """A camera channel: the image ``render`` gives for the robot's pose."""
 
@@ -68,10 +78,10 @@ class GroundRead:
     y_m: float
 
 
-# A channel's spec: a ray (sonar, IR sensor or lidar beam), a camera, a bumper, a ground sensor,
+# A channel's spec: a ray (sonar or IR sensor), a lidar beam, a camera, a bumper, a ground sensor,
 # or the name of a channel read from the body or the backend's lists (x, y, heading, collided,
 # forward_speed, road_offset, on_road, laps).
-Spec = SonarRay | CameraRead | BumperRead | GroundRead | str
+Spec = SonarRay | LidarBeam | CameraRead | BumperRead | GroundRead | str
 
 
 @dataclass(frozen=True)
@@ -94,6 +104,7 @@ CIRCLE_MARGIN_M = 1e-6
 
 _SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
 _CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
+_LIDAR = "lidar"  # the kind of a LidarBeam spec
 _POINT = "point"  # the kind of a BumperRead or GroundRead spec: a point on the robot, in the world
 
 
@@ -104,6 +115,8 @@ def _kind(spec: Spec) -> str:
         return _CAMERA
     if isinstance(spec, (BumperRead, GroundRead)):
         return _POINT
+    if isinstance(spec, LidarBeam):
+        return _LIDAR
     return spec
 
 
@@ -160,8 +173,7 @@ def compile_sense(
     lines = ["def sense():"]
     rows = []
     for r, plan in enumerate(robots):
-        env[f"body{r}"] = chipmunk.c_body(plan.body)
-        env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
+        _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
         rows.append(f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
@@ -186,9 +198,9 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
                  half_width: float) -> list[str]:
     """Append robot r's lines to ``lines``; return the expressions of its values, in order."""
     kinds = {_kind(spec) for spec in specs}
-    if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road", _POINT}:
+    if kinds & {_SONAR, "x", "y", _CAMERA, "road_offset", "on_road", _POINT, _LIDAR}:
         lines += [f"    p = position(body{r})", f"    x{r} = p.x", f"    y{r} = p.y"]
-    if kinds & {_SONAR, "heading", _CAMERA, "forward_speed", _POINT}:
+    if kinds & {_SONAR, "heading", _CAMERA, "forward_speed", _POINT, _LIDAR}:
         lines.append(f"    a{r} = angle(body{r})")
     if kinds & {_SONAR, _POINT}:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
@@ -196,6 +208,9 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
     for group in ray_groups(specs):
         lines += _group_lines(r, group, specs)
+    beams = [k for k, spec in enumerate(specs) if isinstance(spec, LidarBeam)]
+    if beams:
+        lines.append(f"    scan{r} = fan{r}(x{r}, y{r}, a{r})")
     values = []
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
@@ -204,6 +219,12 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             values.append(f"v{r}_{k}")
         elif isinstance(spec, SonarRay):  # cast above, by its group
             values.append(f"v{r}_{k}")
+        elif isinstance(spec, LidarBeam):  # cast above, in the order of the specs
+            if beams == list(range(beams[0], beams[0] + len(beams))):  # one run: spliced at its first
+                if k == beams[0]:
+                    values.append(f"*scan{r}")
+            else:
+                values.append(f"scan{r}[{beams.index(k)}]")
         elif isinstance(spec, (BumperRead, GroundRead)):
             lines += [f"    px = x{r} + c * {spec.x_m!r} - s * {spec.y_m!r}",
                       f"    py = y{r} + s * {spec.x_m!r} + c * {spec.y_m!r}"]
@@ -224,6 +245,18 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
                 "laps": f"laps[{r}]",
             }[spec])
     return values
+
+
+def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
+    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and its lidar fan as
+    ``fan{r}`` (its beams in the order of the specs) if it reads any."""
+    env[f"body{r}"] = chipmunk.c_body(plan.body)
+    env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
+    beams = [spec for spec in plan.specs if isinstance(spec, LidarBeam)]
+    if beams:
+        from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
+        env[f"fan{r}"] = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams],
+                                  beams[0].x_m, beams[0].range_m).cast
 
 
 def ray_groups(specs: tuple[Spec, ...]) -> list[list[int]]:

@@ -35,9 +35,11 @@ from typing import Any
 
 import cv2
 import numpy as np
+import pymunk
 
 from labsim.backends.pymunk import chipmunk
-from labsim.backends.pymunk.camera import FAR_M, GroundView, camera_axes
+from labsim.backends.pymunk.camera import FAR_M, GroundView, camera_axes, ground_view
+from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera, RobotModel
 from labsim.backends.scene.world import Block, Wall, World
 
@@ -443,3 +445,36 @@ def scene_view(ground: GroundView, world: World, robots: Sequence[tuple[Any, Rob
     """The SceneView of a world's walls and blocks and of robots (pymunk body, model)."""
     return SceneView(ground, [wall_solid(w) for w in world.walls],
                      [(body, robot_solid(model)) for body, model in robots], [block_solid(b) for b in world.blocks])
+
+
+class PosedScene:
+    """A world seen by a camera with its robots where a caller puts them, with no simulation:
+    ``labsim plot --camera`` re-renders a robot's frames from a trace's poses this way, through
+    the same ``SceneView`` a run's cameras use, so a frame shows what the robot saw then.
+
+    ``render(x_m, y_m, heading_rad, camera, robot, poses)``: ``poses`` holds each robot's
+    (x, y, heading) or None (not in the picture), in the order of ``models``; ``robot`` is the
+    index of the robot the camera is on, which it does not see.
+    """
+
+    def __init__(self, ground: GroundView, world: World | None, models: Sequence[RobotModel]) -> None:
+        # bodies outside any space: the view reads only their poses, which render() sets
+        self._bodies = [pymunk.Body(body_type=pymunk.Body.KINEMATIC) for _ in models]
+        statics = [] if world is None else [wall_solid(w) for w in world.walls] + [block_solid(b) for b in world.blocks]
+        self._view = SceneView(ground, statics, [(b, robot_solid(m)) for b, m in zip(self._bodies, models)])
+
+    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int,
+               poses: Sequence[tuple[float, float, float] | None]) -> np.ndarray:
+        for body, pose in zip(self._bodies, poses):
+            # a robot with no pose then stands far beyond any camera's reach
+            body.position = (pose[0], pose[1]) if pose is not None else (_NOWHERE_M, _NOWHERE_M)
+            body.angle = pose[2] if pose is not None else 0.0
+        return self._view.render(x_m, y_m, heading_rad, camera, robot)
+
+
+def posed_scene(ground: Ground, world: World | None, models: Sequence[RobotModel]) -> PosedScene:
+    """The PosedScene of a world (None: the ground alone) and these robots' models."""
+    return PosedScene(ground_view(ground), world, models)
+
+
+_NOWHERE_M = 1e9

@@ -2,9 +2,11 @@
 
 A stage after the run, beside the still map of ``labsim.runtime.pictures.plot``. A trace records poses,
 not images, so the frames are re-rendered: the camera's mount and resolution come from the
-behaviour file the trace header names (compiled with ``labsim.dsl.compile``), the ground from
-the world the map draws, and the image from the embedded backend's camera, reached through the
-backend registry (``labsim.backends.ground_camera``) like every simulator. A few times spread
+behaviour file the trace header names (compiled with ``labsim.dsl.compile``), the ground, walls
+and blocks from the world the map draws, the other robots (their models from the same file) at
+their poses of the same tick, and the image from the embedded backend's scene camera, the
+renderer the run's cameras use, reached through the backend registry
+(``labsim.backends.scene_camera``) like every simulator. A few times spread
 over the robot's rows each give one frame, numbered; the same numbers mark the robot's pose at
 those times on the map, so a frame can be matched to where the robot was.
 """
@@ -17,9 +19,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from labsim.backends import BackendError, ground_camera
+from labsim.backends import BackendError, scene_camera
 from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.models import Camera, upright
+from labsim.backends.scene.models import Camera, RobotModel, upright
 from labsim.backends.scene.world import World
 from labsim.dsl.compile import compile_file
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
@@ -46,57 +48,87 @@ def _fail(where: str, message: str) -> LabsimError:
     return LabsimError([Diagnostic(where, message)])
 
 
-def robot_camera(trace: Trace, robot: str) -> Camera:
-    """The camera of ``robot`` as the trace's behaviour file declares it."""
-    names = list(dict.fromkeys(trace.column("robot"))) if "robot" in trace.columns else []
-    if robot not in names:
-        raise _fail(trace.path, f"--camera {robot}: no robot of that name in the trace (robots: {', '.join(names)})")
+def _names(trace: Trace) -> list[str]:
+    return list(dict.fromkeys(trace.column("robot"))) if "robot" in trace.columns else []
+
+
+def _program_models(trace: Trace) -> tuple[str, dict[str, RobotModel]]:
+    """The behaviour file that made the trace, and its robot groups' models by group name."""
     path = behaviour_file(trace)
     if path is None:
         raise _fail(trace.path, f"--camera needs the behaviour file that made the trace, for the camera's mount; "
                                 f"the trace {not_found(trace)}")
     program = compile_file(path)  # a file with mistakes is a LabsimError of its own, with positions
-    group = re.sub(r"\[\d+\]$", "", robot)
-    with_camera = [g.name for g in program.robots if g.model.cameras]
-    model = program.models.get(group)
+    return str(path), {g.name: g.model for g in program.robots if g.model is not None}
+
+
+def _group(robot: str) -> str:
+    return re.sub(r"\[\d+\]$", "", robot)
+
+
+def robot_camera(trace: Trace, robot: str) -> Camera:
+    """The camera of ``robot`` as the trace's behaviour file declares it."""
+    return _camera_and_models(trace, robot)[0]
+
+
+def _camera_and_models(trace: Trace, robot: str) -> tuple[Camera, dict[str, RobotModel]]:
+    names = _names(trace)
+    if robot not in names:
+        raise _fail(trace.path, f"--camera {robot}: no robot of that name in the trace (robots: {', '.join(names)})")
+    path, models = _program_models(trace)
+    with_camera = [name for name, model in models.items() if model.cameras]
+    model = models.get(_group(robot))
     if model is None or not model.cameras:
         have = f"robots with one: {', '.join(with_camera)}" if with_camera else "no robot in it has one"
-        raise _fail(str(path), f"--camera {robot}: the behaviour gives this robot no camera ({have})")
-    return model.cameras[0]
+        raise _fail(path, f"--camera {robot}: the behaviour gives this robot no camera ({have})")
+    return model.cameras[0], models
 
 
 def shots(trace: Trace, robot: str, world: World | None, frames: int = FRAMES) -> tuple[Camera, list[Shot]]:
-    """The robot's camera and its frames at ``frames`` times spread from its first row to its last."""
-    camera = robot_camera(trace, robot)
+    """The robot's camera and its frames at ``frames`` times spread from its first row to its
+    last, each with the other robots where the trace has them at that time."""
+    camera, models = _camera_and_models(trace, robot)
     for needed in ("time", "x", "y", "heading"):
         if needed not in trace.columns:
             raise _fail(trace.path, f"--camera needs the trace's '{needed}' column, which it does not have")
-    col = {c: trace.columns.index(c) for c in ("time", "x", "y", "heading", "robot")}
-    rows = []
-    for r in trace.rows:
-        if r[col["robot"]] != robot:
-            continue
-        try:
-            pose = tuple(float(r[col[c]]) for c in ("time", "x", "y", "heading"))
-        except ValueError:
-            continue
-        if all(math.isfinite(v) for v in pose):
-            rows.append(pose)
+    names = [n for n in _names(trace) if _group(n) in models]
+    poses = _poses(trace)
+    rows = [(t, *pose) for t, who, pose in poses if who == robot]
     if not rows:
         raise _fail(trace.path, f"--camera {robot}: the trace has no pose of this robot")
+    at_time: dict[float, dict[str, tuple[float, float, float]]] = {}
+    for when, who, pose in poses:
+        at_time.setdefault(when, {})[who] = pose
     ground = world.ground if world is not None and isinstance(world.ground, Ground) else Ground()
     try:
-        render = ground_camera(ground)
+        render = scene_camera(ground, world, [models[_group(n)] for n in names])
     except BackendError as e:
         raise _fail(trace.path, str(e)) from None
+    me = names.index(robot)
     picks = sorted({round(k * (len(rows) - 1) / max(frames - 1, 1)) for k in range(frames)})
     out = []
     for i in picks:
         t, x, y, h = rows[i]
+        others = [at_time[t].get(n) for n in names]
         # rendered bottom row first, as CoppeliaSim sends it; the strip shows it upright
-        out.append(Shot(t, x, y, h, cv2.cvtColor(np.ascontiguousarray(upright(render(x, y, h, camera))),
-                                                 cv2.COLOR_RGB2BGR)))
+        image = render(x, y, h, camera, me, others)
+        out.append(Shot(t, x, y, h, cv2.cvtColor(np.ascontiguousarray(upright(image)), cv2.COLOR_RGB2BGR)))
     return camera, out
+
+
+def _poses(trace: Trace) -> list[tuple[float, str, tuple[float, float, float]]]:
+    """(time, robot, (x, y, heading)) of every row with a finite pose, in the trace's order."""
+    col = {c: trace.columns.index(c) for c in ("time", "x", "y", "heading", "robot")}
+    out = []
+    for r in trace.rows:
+        try:
+            t = float(r[col["time"]])
+            pose = (float(r[col["x"]]), float(r[col["y"]]), float(r[col["heading"]]))
+        except ValueError:
+            continue
+        if math.isfinite(t) and all(math.isfinite(v) for v in pose):
+            out.append((t, r[col["robot"]], pose))
+    return out
 
 
 def draw_strip(width_px: int, robot: str, camera: Camera, frames: list[Shot],

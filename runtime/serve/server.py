@@ -4,8 +4,8 @@ Where it sits: a CoppeliaSim client (labsim's own ``CoppeliaSimBackend``, or a s
 using ``coppeliasim_zmqremoteapi_client``) talks to this server exactly as it would to
 CoppeliaSim's ZMQ remote API add-on. This module is the wire loop: the socket, the framing,
 the clients and the real-time clock. What a call does is in ``sim_api`` (the ``sim.*``
-functions), ``sim_objects`` and ``sim_session`` (the calls scripts make beyond a lab's, answered
-first), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
+functions), ``sim_objects``, ``sim_session`` and ``sim_signals`` (the calls scripts make beyond a
+lab's, answered first), over ``simulation`` (the pymunk backend behind the scene) and ``scene_tree`` (the
 objects and CoppeliaSim's path language). No CoppeliaSim is needed.
 
 The wire (protocol v2, docs/coppeliasim.md and the reference notes it cites): one ZMQ REP
@@ -49,6 +49,7 @@ from labsim.runtime.serve.scene_edit import SceneEditor
 from labsim.runtime.serve.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
 from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
+from labsim.runtime.serve.sim_signals import SIGNAL_CALLS, SignalCalls
 from labsim.runtime.serve.simulation import Client, Simulation, robot_specs
 from labsim.runtime.serve.wire_limits import MAX_MESSAGE_BYTES, REQUEST_BUDGET_S, BudgetExceeded, Deadline
 from labsim.runtime.serve.wire_limits import refusal as wire_refusal
@@ -104,7 +105,9 @@ class Server:
         self._editor_funcs = self.editor.handlers() if self.editor is not None else {}
         # what scripts call beyond a lab's needs, over whichever of the two answers the rest
         self.object_calls, self.session_calls = ObjectCalls(self), SessionCalls(self)
-        self._extra = {**self.session_calls.handlers(), **self.object_calls.handlers(), "zmqRemoteApi.info": self._info}
+        self.signal_calls = SignalCalls(lambda: self.simulation)  # a lidar's scan, as CoppeliaSim's scanners
+        self._extra = {**self.session_calls.handlers(), **self.object_calls.handlers(),
+                       **self.signal_calls.handlers(), "zmqRemoteApi.info": self._info}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._context: zmq.Context | None = None
@@ -172,7 +175,8 @@ class Server:
         ret = self.base_handlers()["zmqRemoteApi.info"](client, args)
         assert isinstance(ret, list) and isinstance(ret[0], dict)
         info = dict(ret[0])
-        info.update({name.removeprefix("sim."): {"func": {}} for name in (*SESSION_CALLS, *OBJECT_CALLS)})
+        info.update({name.removeprefix("sim."): {"func": {}}
+                     for name in (*SESSION_CALLS, *OBJECT_CALLS, *SIGNAL_CALLS)})
         info.update({name: {"const": value} for name, value in {**SESSION_CONSTANTS, **OBJECT_CONSTANTS}.items()})
         return [info]
 

@@ -138,6 +138,24 @@ def test_camera_frames_are_what_the_robot_saw() -> None:
         assert images.centroid(lane)[1] == pytest.approx(float(row[ci]), abs=1e-3), shot.t_s
 
 
+def test_camera_frames_show_the_robot_ahead_as_the_run_saw_it() -> None:
+    # the road lab's cameras see the other robots (pioneer[1], red, 12.5 m ahead of pioneer[0]):
+    # the strip re-renders them, so every robot's frames give the centroid the run traced
+    trace = read_trace(ROAD)
+    ti, ri, ci = (trace.columns.index(c) for c in ("time", "robot", "cy"))
+    for robot in ("pioneer[0]", "pioneer[1]", "pioneer[2]"):
+        _, frames = shots(trace, robot, world_of(trace))
+        for shot in frames:
+            row = next(r for r in trace.rows if r[ri] == robot and float(r[ti]) == shot.t_s)
+            lane = images.threshold(images.gray(cv2.cvtColor(shot.image[::-1], cv2.COLOR_BGR2RGB)), 20)
+            # the trace's poses have 6 digits: a robot's edge in the picture may move a pixel
+            assert images.centroid(lane)[1] == pytest.approx(float(row[ci]), abs=0.02), (robot, shot.t_s)
+    _, frames = shots(trace, "pioneer[0]", world_of(trace))
+    for shot in frames:  # BGR: the Pioneer's red body, far ahead, a few dozen pixels
+        b, g, r = (shot.image[..., k].astype(int) for k in range(3))
+        assert 10 <= ((r > 120) & (g < 60) & (b < 60)).sum() <= 200, shot.t_s
+
+
 def test_camera_strip_under_the_map(capsys, tmp_path: Path) -> None:
     plain, strip = tmp_path / "map.png", tmp_path / "cam.png"
     assert cli(capsys, "plot", str(ROAD), "-o", str(plain), "--to", "3")[0] == 0

@@ -50,6 +50,8 @@ ALLOWED: dict[tuple[str, str], str] = {
         "names from OBJECT_CALLS, a constant tuple, never from a request",
     ("runtime/serve/sim_session.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
         "names from SESSION_CALLS, a constant tuple, never from a request",
+    ("runtime/serve/sim_signals.py", "getattr(self, '_' + name.removeprefix('sim.'))"):
+        "names from SIGNAL_CALLS, a constant tuple, never from a request",
     ("runtime/serve/sim_api.py", "getattr(self, '_sim_' + name.removeprefix('sim.'))"):
         "names from FUNCTIONS, a constant tuple; a request's func is looked up in the dict built here",
     ("runtime/serve/sim_api.py", "getattr(motor, mode, True)"):

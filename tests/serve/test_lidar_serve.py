@@ -1,0 +1,94 @@
+"""The lidar through `labsim serve`: the string signals CoppeliaSim's laser scanners publish.
+
+A script reads ``measuredDataAtThisTime`` (x, y, z of each beam that detects, packed float32)
+with ``sim.getStringSignal`` and ``sim.unpackFloatTable``, as for CoppeliaSim's Hokuyo; the
+coppeliasim backend reads every beam's range in doubles, so a behaviour's trace through the
+stand-in is the embedded backend's, row for row.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("cbor2")
+zmq = pytest.importorskip("zmq")
+pytest.importorskip("coppeliasim_zmqremoteapi_client")
+
+from helpers import PATIENCE_S, examples, serve_and_run  # noqa: E402
+
+from labsim.backends.protocol import RobotRequest  # noqa: E402
+from labsim.backends.pymunk.backend import PymunkBackend  # noqa: E402
+from labsim.backends.scene.models import PIONEER_P3DX, Lidar  # noqa: E402
+from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
+from labsim.backends.scene.world_file import load_world  # noqa: E402
+from labsim.foundation.diagnostics import Report  # noqa: E402
+from labsim.runtime.serve.server import Server  # noqa: E402
+
+pytestmark = pytest.mark.slow  # labsim serve processes, and runs through them
+
+WALLS = load_world(builtin_worlds()["walls_lab4"], Report())
+LIDAR = Lidar(90, 270, 6.0, x_m=0.1)
+MODEL = dataclasses.replace(PIONEER_P3DX, lidars=(LIDAR,))
+POSE = Pose(4.0, 3.5, 0.6)  # near the box and the room's corner: some beams in range, some not
+
+
+def test_the_docs_lidar_example_gives_the_embedded_backends_trace(tmp_path: Path) -> None:
+    lab = tmp_path / "lidar.yaml"
+    lab.write_text(examples("worlds.md")["lidar_avoid"].replace("stop: time >= 60", "stop: time >= 12"))
+    ref, remote = serve_and_run(tmp_path, lab, "--for", str(lab))
+    assert remote == ref and len(ref) > 200
+    nearest = ref[0].split(",").index("nearest")
+    assert len({row.split(",")[nearest] for row in ref[1:]}) > 50  # the scan changed as it drove
+
+
+def _embedded() -> list[float]:
+    b = PymunkBackend()
+    b.open(WALLS, [RobotRequest("p", MODEL, POSE, tuple(f"lidar{k + 1}" for k in range(LIDAR.beams)))], 0.05, 1)
+    out = [float(v) for v in b.sense()[0]]  # type: ignore[arg-type]
+    b.close()
+    return out
+
+
+def test_a_script_reads_the_scan_as_from_coppeliasims_hokuyo() -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    want = _embedded()
+    assert 10 < sum(math.isfinite(d) for d in want) < LIDAR.beams
+    saved = dict(sys.modules["__main__"].__dict__)
+    with Server(WALLS, [RobotRequest("p", MODEL, POSE, ())], port=0) as server:
+        client = RemoteAPIClient("127.0.0.1", server.port)
+        client.socket.setsockopt(zmq.RCVTIMEO, int(PATIENCE_S * 1000))
+        client.socket.setsockopt(zmq.LINGER, 0)
+        try:
+            sim = client.require("sim")
+            assert sim.getStringSignal("measuredDataAtThisTime") is None  # stopped: no scan yet
+            sim.setStepping(True)
+            sim.startSimulation()
+            sim.step()
+            data = sim.getStringSignal("measuredDataAtThisTime")
+            points = sim.unpackFloatTable(data)
+            ranges = sim.unpackDoubleTable(sim.getStringSignal("labsimLidarRanges"))
+            mine = sim.packFloatTable([1.5, -2.25, 3.0])
+            sim.setStringSignal("mine", mine)
+            assert sim.unpackFloatTable(sim.getStringSignal("mine")) == [1.5, -2.25, 3.0]
+            sim.clearStringSignal("mine")
+            assert sim.getStringSignal("mine") is None
+            sim.stopSimulation()
+        finally:
+            client.socket.close(0)
+            client.context.term()
+            sys.modules["__main__"].__dict__.pop("require", None)
+            sys.modules["__main__"].__dict__.update(saved)
+    assert ranges == want  # doubles: the ranges the behaviour sees, exactly
+    # float32 points, in the sensor's frame, of the beams that detect: their distances and
+    # directions are the beams', to float32's precision
+    assert len(points) == 3 * sum(math.isfinite(d) for d in want)
+    hits = [(a, d) for a, d in zip(LIDAR.angles_rad(), want) if math.isfinite(d)]
+    for (a, d), k in zip(hits, range(0, len(points), 3)):
+        x, y, z = points[k:k + 3]
+        assert math.hypot(x, y) == pytest.approx(d, rel=1e-6) and z == 0.0
+        assert math.atan2(y, x) == pytest.approx(a, abs=1e-6)
