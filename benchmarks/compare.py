@@ -111,14 +111,17 @@ def report(title: str, times: dict[str, list[float]], ratio: tuple[str, str] | N
     return median
 
 
-def labsim_side(lab: Path, robots: int) -> tuple[float, list[Pose]]:
-    """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses."""
+def labsim_side(lab: Path, robots: int, walls: list[float] | None = None) -> tuple[float, list[Pose]]:
+    """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses
+    (its wall time appended to ``walls`` when given)."""
     behaviour = compile_behaviour(lab)
     backend = load_backend("pymunk")
     run = behaviour.bind(backend, warn=lambda m: None)
-    start = time.process_time()
+    wall, start = time.perf_counter(), time.process_time()
     run.run()
     elapsed = time.process_time() - start
+    if walls is not None:
+        walls.append(time.perf_counter() - wall)
     poses = [backend.pose(i) for i in range(robots)]
     run.close()
     return elapsed, poses
