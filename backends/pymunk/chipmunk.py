@@ -136,13 +136,18 @@ class WheelDrives:
                     self._held[robot] = False
                     lib.cpBodySetVelocityUpdateFunc(self._c[robot], self._own)
                     self._by_hand.append(robot)
-        c, vs, ws, cos, sin = self._c, self._vs, self._ws, math.cos, math.sin
-        for robot in self._by_hand:
+        self._set(self._by_hand, self._c, self._vs, self._ws)
+
+    @staticmethod
+    def _set(robots: list[int], c: list[Any], vs: Sequence[float], ws: Sequence[float],
+             cos: Callable[[float], float] = math.cos, sin: Callable[[float], float] = math.sin,
+             get_angle: Any = body_angle, set_v: Any = set_velocity, set_w: Any = set_angular_velocity) -> None:
+        for robot in robots:  # the functions as default arguments: locals, not globals, in the loop
             body = c[robot]
-            a = body_angle(body)
+            a = get_angle(body)
             v = vs[robot]
-            set_velocity(body, (v * cos(a), v * sin(a)))
-            set_angular_velocity(body, ws[robot])
+            set_v(body, (v * cos(a), v * sin(a)))
+            set_w(body, ws[robot])
 
 
 def _through_pymunk(drive: Callable[[Any, object, float, float], None]) -> Callable[..., None]:
