@@ -1,25 +1,40 @@
-"""Interpreter overhead on the wall-following lab: labsim against a hand-written pymunk loop.
+"""Interpreter overhead on the wall-following lab: labsim against two hand-written pymunk loops.
 
-Both sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
-for the lab's 30,000 ticks: the same six sonar rays per tick, the same random numbers, the
-same rules, wheel clamping and metrics. The hand loop is what a competent student would
-write in plain Python against pymunk; labsim runs ``behaviours/wall_follow.yaml``. They must
-end at the same pose (bit for bit), which shows they did the same work.
+All three sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
+for the lab's 30,000 ticks: the same six sonars per tick, the same random numbers, the same
+rules, wheel clamping and metrics. labsim runs ``behaviours/wall_follow.yaml``; the two loops
+do by hand what it says:
+
+- "labsim's internals, by hand": the loop written the way labsim's backend works inside, with
+  chipmunk's C functions through pymunk's raw cffi layer, the sonars cast in groups under one
+  test of a circle (``ray_groups``), and the wheel drive as a C velocity callback. It measures
+  what labsim's interpreter costs over the same machinery (goal: labsim <= 1.05 x it).
+- "plain pymunk loop": what a student writes on pymunk's public API: ``body.position`` and
+  ``body.angle``, every sonar a ``space.segment_query_first``, the wheel speeds set as
+  ``body.velocity`` and ``body.angular_velocity`` before each ``space.step``. This is the user's
+  anchor: what labsim costs against doing the lab by hand.
+
+The final poses must agree to 1e-12 m (the internals loop bit for bit; the plain loop computes
+the rays' ends in another order of operations), which shows all did the same lab.
 
     python benchmarks/bench_wall.py [--repeat 5]
 
-Prints the median CPU time of each side, alternated in random order, and the median of the
-per-round ratios (goal: labsim <= 1.05 x hand), with the load average.
+Prints the median CPU time of each side (the runs are in this process, no children) and its
+wall time, alternated in random order, the medians of the per-round ratios of labsim to each
+loop, and the load average.
 """
 from __future__ import annotations
 
+import argparse
 import math
 import random
+import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pymunk
-from compare import compare, labsim_scene, labsim_side
+from compare import Pose, Side, alternate, labsim_scene, labsim_side, machine, report, same_poses
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
 from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
@@ -27,13 +42,17 @@ from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_g
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
+WALLS: dict[str, list[float]] = {}  # each side's wall times, in order
+LABSIM, INTERNALS, PLAIN = "labsim", "labsim's internals, by hand", "plain pymunk loop"
+
+
 def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
-    return labsim_side(LAB, 1)
+    return labsim_side(LAB, 1, WALLS.setdefault(LABSIM, []))
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
-    # Long and flat on purpose: this is the loop a student would write by hand, the baseline
-    # labsim's interpreter is measured against, so it is not factored into helpers.
+    # Long and flat on purpose: labsim's backend written out by hand, the baseline labsim's
+    # interpreter is measured against, so it is not factored into helpers.
     # The scene: built exactly as labsim builds it (same start pose from the same seed).
     p, backend, run = labsim_scene(LAB)
     space: pymunk.Space = backend.space
@@ -57,8 +76,8 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         cx, cy, circle = enclosing_circle([as_specs[i] for i in members])
         groups.append((cx, cy, circle, [(i, *rays[i]) for i in members]))
     # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
-    # result struct for the ray casts and one for the groups' tests, and the wheel drive as a
-    # C velocity callback.
+    # result struct for the ray casts and one for the groups' tests, and the wheel drive set
+    # after each step while the body is free, through a C velocity callback while it touches.
     ray_filter = ffi.new("cpShapeFilter *", (1, pymunk.ShapeFilter.ALL_CATEGORIES(), pymunk.ShapeFilter.ALL_MASKS()))[0]
     drive = [0.0, 0.0]  # forward speed m/s, turn rate rad/s
     cp_body, cp_space = body._body, space._space
@@ -71,13 +90,14 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         set_v(b, (drive[0] * cos(a), drive[0] * sin(a)))
         set_w(b, drive[1])
 
-    lib.cpBodySetVelocityUpdateFunc(cp_body, velocity)
+    own = ffi.addressof(lib, "cpBodyUpdateVelocity")  # chipmunk's own velocity update
     touching = [0]
     contacts = [0]
 
     def begin(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
         if touching[0] == 0:
             contacts[0] += 1
+            lib.cpBodySetVelocityUpdateFunc(cp_body, velocity)  # driven inside the step while touching
         touching[0] += 1
 
     def separate(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
@@ -89,12 +109,13 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     position, step = lib.cpBodyGetPosition, lib.cpSpaceStep
     inf = math.inf
 
-    start = time.process_time()
+    wall, start = time.perf_counter(), time.process_time()
     following = False
     left_cmd = right_cmd = 0.0
     sent = (math.nan, math.nan)
     near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, inf
     contact_time = 0.0
+    released = 0  # contacts after which the body went back to chipmunk's own update
     tick = 0
     while tick * dt < 25 * 60:
         p = position(cp_body)
@@ -156,8 +177,114 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         step(cp_space, dt)
         if touching[0]:
             contact_time += dt
+        else:  # free: the wheel speeds along the new heading, set after the step
+            if contacts[0] != released:
+                released = contacts[0]
+                lib.cpBodySetVelocityUpdateFunc(cp_body, own)
+            a = get_angle(cp_body)
+            set_v(cp_body, (drive[0] * cos(a), drive[0] * sin(a)))
+            set_w(cp_body, drive[1])
         tick += 1
     elapsed = time.process_time() - start
+    WALLS.setdefault(INTERNALS, []).append(time.perf_counter() - wall)
+    x, y = body.position
+    pose = (x, y, math.remainder(body.angle, 2 * math.pi))
+    run.close()
+    return elapsed, [pose]
+
+
+def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
+    # Long and flat on purpose, as a student writes it: pymunk's public API only.
+    p, backend, run = labsim_scene(LAB)  # the same scene, start pose and seed
+    space: pymunk.Space = backend.space
+    body: pymunk.Body = backend.bodies[0]
+    model = p.models["pioneer"]
+    # (labsim's contact handler, which would put a touching body under its wheel callback, is
+    # replaced by this loop's own below: the body keeps chipmunk's own velocity update)
+
+    dt = 0.05
+    front, side, hold, cruise = 0.5, 0.3, 0.45, 4.0
+    radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
+    rng = random.Random(f"{p.seed}/pioneer")
+    sonars = {s.name: s for s in model.sonars}
+    rays = [(sonars[n].x_m, sonars[n].y_m, sonars[n].angle_rad, sonars[n].range_m)
+            for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
+    ray_filter = pymunk.ShapeFilter(group=1)  # the robot's own shape is in group 1
+    touching = [0]
+
+    def begin(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        touching[0] += 1
+
+    def separate(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        touching[0] -= 1
+
+    space.on_collision(None, None, begin=begin, separate=separate)
+
+    wall, start = time.perf_counter(), time.process_time()
+    following = False
+    left_cmd = right_cmd = 0.0
+    near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, math.inf
+    contact_time = 0.0
+    v = w = 0.0
+    tick = 0
+    while tick * dt < 25 * 60:
+        x, y = body.position
+        a = body.angle
+        d = []
+        for mx, my, angle, reach in rays:
+            ox = x + math.cos(a) * mx - math.sin(a) * my
+            oy = y + math.sin(a) * mx + math.cos(a) * my
+            end = (ox + math.cos(a + angle) * reach, oy + math.sin(a + angle) * reach)
+            hit = space.segment_query_first((ox, oy), end, 0.0, ray_filter)
+            d.append(hit.alpha * reach if hit else math.inf)
+        s2, s5, s8, s9, s14, s15 = d
+        r = rng.randint(0, 100)
+        ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
+        both = s8 < math.inf and s9 < math.inf
+        steer = 4 * (s9 - s8) + 3 * (hold - right) if both else 0
+
+        was_following = following
+        if not following:
+            if ahead <= front or right <= front:
+                following = True
+            else:
+                left_cmd, right_cmd = r - 1, r + 1
+        elif ahead <= front:
+            left_cmd, right_cmd = -2, 2
+        elif right <= side:
+            left_cmd, right_cmd = cruise - 2, cruise
+        elif left <= side:
+            left_cmd, right_cmd = cruise, cruise - 1
+        elif both:
+            left_cmd, right_cmd = cruise - steer, cruise + steer
+        elif s8 < math.inf or s9 < math.inf:
+            left_cmd = right_cmd = cruise
+        else:
+            left_cmd, right_cmd = cruise, cruise / 3
+
+        wl = max(-limit, min(limit, left_cmd))
+        wr = max(-limit, min(limit, right_cmd))
+        v, w = radius / 2 * (wl + wr), radius / axle * (wr - wl)
+        if touching[0] == 0:  # against a wall, the wall takes away what it blocks
+            body.velocity = (v * math.cos(a), v * math.sin(a))
+            body.angular_velocity = w
+
+        near = min(ahead, right, left) < 0.25
+        if near and not was_near:
+            near_misses += 1
+        was_near = near
+        if was_following and s8 == math.inf and s9 == math.inf:
+            overshoot_ticks += 1
+        if was_following and (s8 < math.inf or s9 < math.inf):
+            following_ticks += 1
+        closest = min(closest, ahead, right, left)
+
+        space.step(dt)
+        if touching[0]:
+            contact_time += dt
+        tick += 1
+    elapsed = time.process_time() - start
+    WALLS.setdefault(PLAIN, []).append(time.perf_counter() - wall)
     x, y = body.position
     pose = (x, y, math.remainder(body.angle, 2 * math.pi))
     run.close()
@@ -165,7 +292,30 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 
 def main() -> None:
-    compare(__doc__.splitlines()[0], "wall lab, 30000 ticks", labsim_run, hand_run, repeat=5)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    print(machine())
+    poses: dict[str, list[Pose]] = {}
+
+    def side(name: str, run: Side) -> Callable[[], float]:
+        def once() -> float:
+            seconds, poses[name] = run()
+            return seconds
+        return once
+
+    times = alternate({INTERNALS: side(INTERNALS, hand_run), PLAIN: side(PLAIN, plain_run),
+                       LABSIM: side(LABSIM, labsim_run)}, args.repeat)
+    report("wall lab, 30000 ticks", times, (LABSIM, INTERNALS), "<= 1.05")
+    ratio = statistics.median(times[LABSIM][i] / times[PLAIN][i] for i in range(args.repeat))
+    print(f"  {LABSIM} / {PLAIN}: median of per-round ratios {ratio:.3f}   (below 1: labsim is faster)")
+    for name, values in WALLS.items():
+        print(f"  {name}: median {statistics.median(values):.4f} s wall")
+    for name in (INTERNALS, PLAIN):
+        gap = max(abs(a - b) for p, q in zip(poses[LABSIM], poses[name]) for a, b in zip(p, q))
+        print(f"  {name}: final pose {'agrees' if same_poses(poses[LABSIM], poses[name]) else 'DIFFERS'} "
+              f"with labsim's (largest difference {gap:.1e})")
+    print(f"  {machine()[2:]}")
 
 
 if __name__ == "__main__":

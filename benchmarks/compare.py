@@ -46,17 +46,26 @@ def cpu_timed(fn: Callable[[], object]) -> tuple[float, object]:
     return time.process_time() - start, result
 
 
-def run_phase(path: Path, params: dict[str, str], trace: Path | None = None) -> tuple[float, int]:
-    """The CPU seconds of one run's run phase (compiled and bound beforehand), and its ticks."""
-    from labsim.backends import load_backend
-    from labsim.runtime.run import compile_behaviour
-
+def run_phase(path: Path, params: dict[str, str], trace: Path | None = None,
+              walls: list[float] | None = None) -> tuple[float, int]:
+    """The CPU seconds of one run's run phase (compiled and bound beforehand), and its ticks;
+    its wall seconds are appended to ``walls`` when given."""
     run = compile_behaviour(path, params).bind(load_backend("pymunk"), trace=trace, warn=lambda m: None)
-    start = time.process_time()
+    wall, start = time.perf_counter(), time.process_time()
     summary = run.run()
     elapsed = time.process_time() - start
+    if walls is not None:
+        walls.append(time.perf_counter() - wall)
     run.close()
     return elapsed, summary.ticks
+
+
+def report_walls(walls: dict[str, list[float]]) -> None:
+    """Each side's median wall time, after ``report``'s CPU figures (an in-process side has no
+    children: its CPU time is the process's own)."""
+    width = max(len(name) for name in walls)
+    for name, values in walls.items():
+        print(f"  {name:<{width}}  {statistics.median(values):.4f} s wall")
 
 
 def children_cpu() -> float:
@@ -102,14 +111,17 @@ def report(title: str, times: dict[str, list[float]], ratio: tuple[str, str] | N
     return median
 
 
-def labsim_side(lab: Path, robots: int) -> tuple[float, list[Pose]]:
-    """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses."""
+def labsim_side(lab: Path, robots: int, walls: list[float] | None = None) -> tuple[float, list[Pose]]:
+    """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses
+    (its wall time appended to ``walls`` when given)."""
     behaviour = compile_behaviour(lab)
     backend = load_backend("pymunk")
     run = behaviour.bind(backend, warn=lambda m: None)
-    start = time.process_time()
+    wall, start = time.perf_counter(), time.process_time()
     run.run()
     elapsed = time.process_time() - start
+    if walls is not None:
+        walls.append(time.perf_counter() - wall)
     poses = [backend.pose(i) for i in range(robots)]
     run.close()
     return elapsed, poses

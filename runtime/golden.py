@@ -23,8 +23,8 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_input
 from labsim.foundation.kinds import golden_path as golden_path  # the one rule for file kinds names goldens
 from labsim.runtime.result import RunResult
-from labsim.runtime.run import compile_behaviour
-from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, read_trace
+from labsim.runtime.run import Behaviour, compile_behaviour
+from labsim.runtime.trace import FOOTER, Trace, TraceFormatError, footer_of, parse_header, read_trace
 
 ABS_TOL = 1e-6
 REL_TOL = 1e-5
@@ -156,7 +156,7 @@ def check_golden(behaviour: str | Path, backend: str = DEFAULT, options: dict[st
     plugin both report what this returns). ``record_with`` is the command that records a missing
     golden (default: ``labsim test FILE --update-goldens``); ``shown_as`` is the file's name in
     the text (default: the path as given). Raises LabsimError for a broken file."""
-    compile_behaviour(behaviour)  # a broken file is reported as broken, not as missing its golden
+    compiled = compile_behaviour(behaviour)  # a broken file is reported as broken, not as missing its golden
     f = Path(shown_as if shown_as is not None else behaviour)
     golden = golden_path(f)
     if not golden_path(behaviour).exists():
@@ -164,8 +164,10 @@ def check_golden(behaviour: str | Path, backend: str = DEFAULT, options: dict[st
         return Verdict(False, [f"FAIL {f}: no golden trace {golden}; record one with: {how}"])
     with tempfile.TemporaryDirectory() as d:
         actual = Path(d) / "actual.csv"
-        record_trace(behaviour, actual, backend, options)
+        record_trace(behaviour, actual, backend, options, compiled)
         try:
+            if _same_rows(golden_path(behaviour), actual):
+                return Verdict(True, [f"ok   {f}"])
             expected_trace = read_trace(golden_path(behaviour))
         except TraceFormatError as e:
             return Verdict(False, [f"FAIL {f}: {e}"])
@@ -173,6 +175,24 @@ def check_golden(behaviour: str | Path, backend: str = DEFAULT, options: dict[st
     if difference is None:
         return Verdict(True, [f"ok   {f}"])
     return Verdict(False, [f"FAIL {f} (golden {golden})"] + ["  " + line for line in str(difference).splitlines()])
+
+
+def _same_rows(golden: Path, actual: Path) -> bool:
+    """Whether the golden's columns and rows are the run's, byte for byte: then ``compare`` finds
+    no difference, whatever the headers say (their notes only explain a difference), and the two
+    traces need not be parsed (a third of checking the wall lab's golden). The golden's header
+    must still be one (else TraceFormatError, as ``read_trace`` says)."""
+    try:
+        expected = read_input(golden, "golden").decode("utf-8")
+        ran = read_input(actual, "trace").decode("utf-8")
+    except (LabsimError, UnicodeDecodeError):
+        return False  # read_trace says what is wrong
+    first, _, rows = expected.partition("\n")
+    body, _ = footer_of(ran.partition("\n")[2])
+    if rows != body:
+        return False
+    parse_header(golden, first, expected[:4096])
+    return True
 
 
 def record_golden(behaviour: str | Path, backend: str = DEFAULT,
@@ -206,9 +226,10 @@ def _drop_footer(path: str | Path) -> None:
 
 
 def record_trace(behaviour: str | Path, trace_path: str | Path, backend: str = DEFAULT,
-                 options: dict[str, object] | None = None) -> RunResult:
-    """Run a behaviour as its file says (no overrides), writing its trace to trace_path."""
-    compiled = compile_behaviour(behaviour)
+                 options: dict[str, object] | None = None, compiled: Behaviour | None = None) -> RunResult:
+    """Run a behaviour as its file says (no overrides), writing its trace to trace_path
+    (``compiled``: the file compiled already, as it is, when the caller has it)."""
+    compiled = compiled if compiled is not None else compile_behaviour(behaviour)
     run = compiled.bind(load_backend(backend, **(options or {})), trace=trace_path)
     try:
         summary = run.run()

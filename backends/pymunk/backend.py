@@ -63,11 +63,11 @@ class PymunkBackend:
     * ``space``: the ``pymunk.Space`` holding the scene.
     * ``bodies``: in a robot world, the robots' ``pymunk.Body`` objects, in the order of
       ``open``'s ``robots`` (a mechanism world has none). A body's position is the
-      robot-frame origin (the middle of the wheel axle), its angle the heading. Each body's
-      velocity update (a chipmunk callback, ``labsim.backends.pymunk.chipmunk``) applies the
-      wheel commands last given to ``act``, so code driving the scene by hand should call
-      ``act`` and ``space.step``, or set its own ``velocity_func`` (which replaces it); a
-      velocity set directly lasts only until the next step.
+      robot-frame origin (the middle of the wheel axle), its angle the heading. The wheel
+      commands last given to ``act`` are applied by ``step`` (after each physics step for a
+      free body, inside it through a chipmunk callback for a touching one:
+      ``labsim.backends.pymunk.chipmunk.WheelDrives``), so code driving the scene by hand
+      should call ``act`` and ``step``, or set its own ``velocity_func`` and step the space.
     """
 
     name = "pymunk"

@@ -71,32 +71,83 @@ def c_space(space: pymunk.Space) -> Any:
     return space._space
 
 
-def wheel_drive(body: pymunk.Body, vs: Sequence[float], ws: Sequence[float], robot: int) -> Any:
-    """Make body's velocity update impose vs[robot] along its heading and ws[robot] as its turn.
+class WheelDrives:
+    """The bodies' wheel drive: each body's velocity is vs[robot] along its heading and ws[robot]
+    as its turn, set anew after every step (``after_step``) for a free body and by a C velocity
+    callback inside the step for a body in contact (``hold``).
 
-    The update runs inside the step, after contacts are found and before they are solved (see
-    ``labsim.backends.pymunk.fleet``). It is installed as a C callback of chipmunk's own, so a
-    step calls it without going through pymunk's ``velocity_func`` machinery. Where the
-    platform refuses to make C callbacks at run time (``ffi.callback`` needs memory that is
-    both writable and executable), the same function goes through ``velocity_func`` instead.
-    Returns what must stay referenced as long as the body is stepped.
+    A body's velocity must be the command's inside a step, after contacts are found and before
+    they are solved (see ``labsim.backends.pymunk.fleet``), so that the solver can take away what
+    an obstacle blocks. For a body with no contact in a step nothing acts on its velocity after
+    that point: chipmunk's own update leaves it as it is (no gravity, forces or damping here),
+    and setting it after the step, from the heading the step gave, is bit for bit what the
+    callback would have set. That spares a free body the C -> Python callback every step. A
+    contact's ``begin`` handler, which runs before the step's velocity update, calls ``hold``
+    for both bodies, so a body is under its callback in every step where it touches; it goes
+    back to being set by hand after the first step that ends with it free.
+
+    Where the platform refuses to make C callbacks at run time (``ffi.callback`` needs memory
+    that is both writable and executable), every body goes through pymunk's ``velocity_func``
+    at every step instead, as before.
     """
-    cos, sin = math.cos, math.sin
-    get_angle, set_v, set_w = body_angle, set_velocity, set_angular_velocity
 
-    def drive(cp_body: Any, _gravity: object, _damping: float, _dt: float) -> None:
-        a = get_angle(cp_body)
-        v = vs[robot]
-        set_v(cp_body, (v * cos(a), v * sin(a)))
-        set_w(cp_body, ws[robot])
+    def __init__(self, bodies: Sequence[pymunk.Body], vs: Sequence[float], ws: Sequence[float]) -> None:
+        self._c = [c_body(b) for b in bodies]
+        self._vs, self._ws = vs, ws
+        cos, sin = math.cos, math.sin
+        get_angle, set_v, set_w = body_angle, set_velocity, set_angular_velocity
 
-    try:
-        callback = ffi.callback("cpBodyVelocityFunc", drive)
-    except (MemoryError, RuntimeError):  # no executable memory for a callback: pymunk's route
-        body.velocity_func = _through_pymunk(drive)
-        return drive
-    lib.cpBodySetVelocityUpdateFunc(body._body, callback)
-    return callback
+        def drive(robot: int) -> Callable[[Any, object, float, float], None]:
+            def velocity(cp_body: Any, _gravity: object, _damping: float, _dt: float) -> None:
+                a = get_angle(cp_body)
+                v = vs[robot]
+                set_v(cp_body, (v * cos(a), v * sin(a)))
+                set_w(cp_body, ws[robot])
+            return velocity
+
+        drives = [drive(r) for r in range(len(bodies))]
+        try:
+            self._callbacks: list[Any] = [ffi.callback("cpBodyVelocityFunc", d) for d in drives]
+        except (MemoryError, RuntimeError):  # no executable memory for a callback: pymunk's route
+            for body, d in zip(bodies, drives):
+                body.velocity_func = _through_pymunk(d)
+            self._callbacks = drives
+            self._held = [True] * len(bodies)  # for good
+            self._by_hand: list[int] = []
+            self._own: Any = None
+            return
+        self._held = [False] * len(bodies)  # under the callback
+        self._by_hand = list(range(len(bodies)))  # the others, set after each step (order is immaterial)
+        self._own = ffi.addressof(lib, "cpBodyUpdateVelocity")  # chipmunk's own update
+
+    def hold(self, robot: int) -> None:
+        """Put the body under its callback (a contact of it has begun in this step)."""
+        if not self._held[robot]:
+            self._held[robot] = True
+            lib.cpBodySetVelocityUpdateFunc(self._c[robot], self._callbacks[robot])
+            self._by_hand.remove(robot)
+
+    def after_step(self, touching: Sequence[int]) -> None:
+        """After a step: release the held bodies that touch nothing now, and set the velocity
+        of every free body from its command and its new heading."""
+        if len(self._by_hand) < len(self._c) and self._own is not None:
+            for robot, held in enumerate(self._held):
+                if held and touching[robot] == 0:
+                    self._held[robot] = False
+                    lib.cpBodySetVelocityUpdateFunc(self._c[robot], self._own)
+                    self._by_hand.append(robot)
+        self._set(self._by_hand, self._c, self._vs, self._ws)
+
+    @staticmethod
+    def _set(robots: list[int], c: list[Any], vs: Sequence[float], ws: Sequence[float],
+             cos: Callable[[float], float] = math.cos, sin: Callable[[float], float] = math.sin,
+             get_angle: Any = body_angle, set_v: Any = set_velocity, set_w: Any = set_angular_velocity) -> None:
+        for robot in robots:  # the functions as default arguments: locals, not globals, in the loop
+            body = c[robot]
+            a = get_angle(body)
+            v = vs[robot]
+            set_v(body, (v * cos(a), v * sin(a)))
+            set_w(body, ws[robot])
 
 
 def _through_pymunk(drive: Callable[[Any, object, float, float], None]) -> Callable[..., None]:

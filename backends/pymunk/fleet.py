@@ -87,16 +87,17 @@ class FleetSimulator:
         vs = [0.0] * n  # commanded forward speed per robot, m/s (act() writes them)
         ws = [0.0] * n  # commanded turn rate per robot, rad/s
         plans = [_add_robot(space, i, req, model) for i, (req, model) in enumerate(zip(robots, models))]
-        # Each body's velocity update imposes its wheel commands inside the step, after
+        # A touching body's velocity update imposes its wheel commands inside the step, after
         # contacts are found and before they are solved, so the solver can still take away
         # the part of the motion an obstacle blocks, and the next step moves the body with
         # what is left. Setting the velocity before step() instead would overwrite that
         # corrected velocity, and a robot driving into a wall would sink into it by about
-        # v * dt every step. The callbacks must live as long as the space.
-        self._drives = [chipmunk.wheel_drive(plan.body, vs, ws, i) for i, plan in enumerate(plans)]
+        # v * dt every step. A free body's is set after each step, to the same numbers
+        # (chipmunk.WheelDrives says why). The callbacks must live as long as the space.
+        self._drives = chipmunk.WheelDrives([plan.body for plan in plans], vs, ws)
         touching = [0] * n  # contacts in progress, per robot
         count = [0] * n
-        _count_contacts(space, touching, count)
+        _count_contacts(space, touching, count, self._drives.hold)
         self._scene = _camera_scene(world, models, robots, [plan.body for plan in plans])
         render = self._scene.render if self._scene is not None else None
         tracker = _road_tracker(world)
@@ -148,11 +149,12 @@ class FleetSimulator:
                            f"'{joint}' to command")
 
     def step(self) -> None:
-        space, touching, h = self._c_space, self._touching, self._substep_s
+        space, touching, h, after_step = self._c_space, self._touching, self._substep_s, self._drives.after_step
         for _ in self._substep_range:
             # chipmunk's step itself: pymunk's Space.step adds the handling of shapes added or
             # removed from callbacks, and the fleet's callbacks only count contacts.
-            chipmunk.space_step(space, h)  # each body's velocity update applies its wheel commands
+            chipmunk.space_step(space, h)  # a touching body's velocity update applies its wheel commands
+            after_step(touching)  # and a free body's are set now
             if any(touching):
                 time_s = self._time_s
                 for r, t in enumerate(touching):
@@ -358,8 +360,11 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     return SensePlan(body, pymunk.ShapeFilter(group=i + 1), tuple(specs))
 
 
-def _count_contacts(space: pymunk.Space, touching: list[int], count: list[int]) -> None:
-    """Keep touching[r] (contacts in progress) and count[r] (contacts begun) for each robot.
+def _count_contacts(space: pymunk.Space, touching: list[int], count: list[int],
+                    hold: Callable[[int], None]) -> None:
+    """Keep touching[r] (contacts in progress) and count[r] (contacts begun) for each robot,
+    and ``hold(r)`` each robot a contact of which begins (its wheel drive then goes through
+    the step's velocity update).
 
     A contact is counted when a robot goes from touching nothing to touching something, so
     pressing against a wall for many ticks, or sliding along it into a corner, is one contact.
@@ -371,6 +376,7 @@ def _count_contacts(space: pymunk.Space, touching: list[int], count: list[int]) 
             if r >= 0:
                 if touching[r] == 0:
                     count[r] += 1
+                    hold(r)
                 touching[r] += 1
 
     def separate(arbiter: pymunk.Arbiter, _space: pymunk.Space, _data: object) -> None:

@@ -15,8 +15,12 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import Kind
+
+if TYPE_CHECKING:  # numpy only where a road is measured: `labsim check` reads grounds without it
+    import numpy as np
 
 RGB = tuple[int, int, int]
 Point = tuple[float, float]
@@ -149,14 +153,33 @@ ROAD_CHANNELS: dict[str, Kind] = {
 
 # --- geometry ---------------------------------------------------------------------------------
 
-_RECENT = 64  # points RoadTracker remembers: a tick's robots, several times over
+_RECENT = 1024  # points RoadTracker remembers: a tick's robots (up to 100 in a group), several times over
+_CELL_M = 2.0  # the side of a cell of RoadTracker's index of segments
+_MARGIN_M = 2.0  # a cell lists every segment that comes within this of it
+_MAX_CELLS = 200_000  # entries of the index at most (a few MB)
+_SLACK_M = 1e-6  # far more than the rounding of a computed distance, far less than a segment
+
+
+def _closest(x: float, y: float, ax: np.ndarray, ay: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+             len2: np.ndarray) -> tuple[int, float, float, float]:
+    """Over segments a -> a + d (numpy arrays): the first nearest to (x, y), the parameter of
+    its nearest point and the vector from that point to (x, y)."""
+    px = x - ax
+    py = y - ay
+    t = (px * dx + py * dy) / len2
+    t.clip(0.0, 1.0, out=t)  # the array's methods: numpy's functions add a wrapper call
+    qx = px - t * dx  # from the nearest point of each segment to (x, y)
+    qy = py - t * dy
+    k = int((qx * qx + qy * qy).argmin())
+    return k, float(t[k]), float(qx[k]), float(qy[k])
 
 
 class RoadTracker:
     """Where points are relative to one road, and how many laps each robot has driven on it.
 
     * ``locate(x, y)`` -> ``(offset_m, s_m)``: the nearest point of the centreline (over all
-      its segments, so it is right wherever the robot is), the signed distance to it
+      its segments, so it is right wherever the robot is; a grid of cells, each listing the
+      segments near it, finds it among a few), the signed distance to it
       (positive to the left of the road's direction) and its arc length from the first point.
       At a corner of the polyline the side is judged against the bisector of the two segments'
       directions; past an end of an open road the offset is the distance to that end.
@@ -205,6 +228,31 @@ class RoadTracker:
         # The points located lately: a fleet's step() locates each robot for its laps, and the
         # next sense() asks for the road offset at the very same point.
         self._recent: dict[tuple[float, float], tuple[float, float]] = {}
+        self._cells = self._index()
+
+    def _index(self) -> dict[tuple[int, int], list[tuple[int, float, float, float, float, float]]]:
+        """Per grid cell (ix, iy): the segments that come within _MARGIN_M of it, in order, with
+        their numbers as plain floats (a loop over a few floats costs less than numpy's calls
+        on a few elements, about 2.5 µs each). Each segment is entered in the cells its bounding
+        box, grown by the margin, overlaps: a point of the segment within the margin of a cell
+        lies in that box, so the cell lists every segment that close to it."""
+        import numpy as np  # imported already by __init__
+
+        members: dict[tuple[int, int], list[int]] = {}
+        bx, by = self._ax + self._dx, self._ay + self._dy
+        low_x, high_x = np.minimum(self._ax, bx) - _MARGIN_M, np.maximum(self._ax, bx) + _MARGIN_M
+        low_y, high_y = np.minimum(self._ay, by) - _MARGIN_M, np.maximum(self._ay, by) + _MARGIN_M
+        cells = ((np.floor(high_x / _CELL_M) - np.floor(low_x / _CELL_M) + 1)
+                 * (np.floor(high_y / _CELL_M) - np.floor(low_y / _CELL_M) + 1)).sum()
+        if cells > _MAX_CELLS:  # long diagonal segments would fill too many: every locate scans them all
+            return {}
+        for k in range(self._n):
+            for ix in range(math.floor(low_x[k] / _CELL_M), math.floor(high_x[k] / _CELL_M) + 1):
+                for iy in range(math.floor(low_y[k] / _CELL_M), math.floor(high_y[k] / _CELL_M) + 1):
+                    members.setdefault((ix, iy), []).append(k)
+        numbers = list(zip(range(self._n), self._ax.tolist(), self._ay.tolist(), self._dx.tolist(),
+                           self._dy.tolist(), self._len2.tolist()))
+        return {cell: [numbers[k] for k in ks] for cell, ks in members.items()}
 
     def locate(self, x: float, y: float) -> tuple[float, float]:
         """(signed lateral offset in metres, arc length in metres) of the nearest centreline point."""
@@ -216,16 +264,36 @@ class RoadTracker:
             found = self._recent[key] = self._locate(x, y)
         return found
 
+    def _nearest(self, x: float, y: float) -> tuple[int, float, float, float]:
+        """The nearest segment (the first of equals), the parameter of its nearest point and
+        the vector from there to (x, y): from the point's cell of the index when the circle
+        through that nearest point lies inside the cell grown by the margin (every segment that
+        near is then in the cell's list, which keeps the segments' order, so the first of
+        equals is the same), else over every segment. The arithmetic is the same either way."""
+        ix, iy = math.floor(x / _CELL_M), math.floor(y / _CELL_M)
+        cell = self._cells.get((ix, iy))
+        if cell is not None:
+            best = math.inf
+            k = -1
+            tk = ex = ey = 0.0
+            for j, ax, ay, dx, dy, len2 in cell:  # as _closest does, operation for operation
+                px = x - ax
+                py = y - ay
+                t = (px * dx + py * dy) / len2
+                t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+                qx = px - t * dx
+                qy = py - t * dy
+                d = qx * qx + qy * qy
+                if d < best:
+                    best, k, tk, ex, ey = d, j, t, qx, qy
+            reach = math.hypot(ex, ey) + _SLACK_M
+            if (x - reach >= ix * _CELL_M - _MARGIN_M and x + reach <= (ix + 1) * _CELL_M + _MARGIN_M
+                    and y - reach >= iy * _CELL_M - _MARGIN_M and y + reach <= (iy + 1) * _CELL_M + _MARGIN_M):
+                return k, tk, ex, ey
+        return _closest(x, y, self._ax, self._ay, self._dx, self._dy, self._len2)
+
     def _locate(self, x: float, y: float) -> tuple[float, float]:
-        px = x - self._ax
-        py = y - self._ay
-        t = (px * self._dx + py * self._dy) / self._len2
-        t.clip(0.0, 1.0, out=t)  # the array's methods: numpy's functions add a wrapper call
-        qx = px - t * self._dx  # from the nearest point of each segment to (x, y)
-        qy = py - t * self._dy
-        k = int((qx * qx + qy * qy).argmin())
-        tk = float(t[k])
-        ex, ey = float(qx[k]), float(qy[k])
+        k, tk, ex, ey = self._nearest(x, y)
         ux, uy = float(self._ux[k]), float(self._uy[k])
         # At a corner the nearest point is the vertex; the side is judged against the bisector,
         # as neither segment's own direction says which side of the corner the point is on.

@@ -462,3 +462,36 @@ ground:
       path: [[0, 0], [2000, 0]]
 """)
     assert err[:2] == (5, 3) and "px_per_m: 15 or less" in err[2]
+
+
+def _scan(t: RoadTracker, x: float, y: float) -> tuple[int, float, float, float]:
+    from labsim.backends.scene.ground import _closest
+
+    return _closest(x, y, t._ax, t._ay, t._dx, t._dy, t._len2)
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_the_index_finds_the_segment_a_scan_of_them_all_finds(closed: bool) -> None:
+    # Bit for bit, the first of equals included: on the road, beside it, far off it, on its
+    # points and on the cells' edges, where a wrong index would show.
+    import numpy as np
+
+    rng = np.random.default_rng(7)
+    arc = [(20 * math.cos(a), 20 * math.sin(a)) for a in np.linspace(0, 1.5 * math.pi, 300)]
+    road = Road(points=((-30.0, -30.0), (-10.0, -30.0), *arc, (-30.0, 20.0)), width_m=3.0, closed=closed)
+    t = RoadTracker(road)
+    assert t._cells
+    points = [(float(x), float(y)) for x, y in rng.uniform(-40, 30, (3000, 2))]
+    points += [(float(x) + float(dx), float(y) + float(dy)) for (x, y), (dx, dy)
+               in zip(arc, rng.normal(0, 1.5, (len(arc), 2)))]
+    points += [p for p in road.points] + [(2.0 * i, 2.0 * j) for i in range(-20, 15) for j in range(-20, 15)]
+    points += [(-20.0, -30.0 + 1e-13), (-20.0, -32.0), (-20.0, -28.0)]  # on a cell's edge and the margin's
+    for x, y in points:
+        assert t._nearest(x, y) == _scan(t, x, y)
+
+
+def test_a_road_of_long_diagonals_is_not_indexed_but_still_located() -> None:
+    road = Road(points=((0.0, 0.0), (5000.0, 5000.0), (0.0, 9000.0)), width_m=3.0, closed=True)
+    t = RoadTracker(road)
+    assert not t._cells
+    assert t.locate(2500.0, 2500.0) == pytest.approx((0.0, 2500 * math.sqrt(2)))

@@ -5,7 +5,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import random
 import re
 import statistics
 from pathlib import Path
@@ -17,7 +16,7 @@ from helpers import BENCHMARKS, DOCS, FIXTURES
 from labsim.backends import load_backend
 from labsim.dsl.noise import Noise
 from labsim.runtime.cli.report import format_summary
-from labsim.runtime.noise import NoisyIO, RobotNoise
+from labsim.runtime.noise import Draws, NoisyIO, RobotNoise
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.trace import read_trace
 
@@ -46,8 +45,7 @@ def _io(noise: Noise, readings: list[object], sonars: list[tuple[int, float]], c
         seed: str = "0") -> tuple[NoisyIO, list[tuple[int, float, float]]]:
     """A NoisyIO over a fake backend that always reads ``readings``; acts are collected."""
     sent: list[tuple[int, float, float]] = []
-    robot = RobotNoise(0, "pioneer", noise, 12.3, sonars, list(cameras), random.Random(seed),
-                       np.random.default_rng(0))
+    robot = RobotNoise(0, "pioneer", noise, 12.3, sonars, list(cameras), Draws(seed), np.random.default_rng(0))
     io = NoisyIO([robot], lambda: [list(readings)], lambda i, a, b: sent.append((i, a, b)), lambda: None)
     return io, sent
 

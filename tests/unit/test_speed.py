@@ -159,6 +159,53 @@ def test_wheel_drive_without_run_time_callbacks_moves_the_robot_the_same(monkeyp
     assert poses() == fast
 
 
+CRASHES = """\
+labsim: 1
+world: walls_lab4
+dt: 0.05
+seed: 4
+stop: time >= 60
+robots:
+  pioneer: {model: pioneer_p3dx, count: 4, at: random}
+let:
+  turn: 4 * sin(time / 3 + x)
+rules:
+  - always wheels(8 - turn, 8 + turn)
+"""
+
+
+def test_free_robots_set_after_the_step_move_as_under_the_callback(monkeypatch: pytest.MonkeyPatch,
+                                                                    tmp_path: Path) -> None:
+    """Four robots driving fast into walls and each other: driving the free ones after each step,
+    and the touching ones through the callback, gives the poses and contacts of driving them all
+    through the callback at every step (pymunk's velocity_func, where callbacks are refused)."""
+    path = tmp_path / "crashes.yaml"
+    path.write_text(CRASHES)
+
+    def outcome() -> list[object]:
+        backend = load_backend("pymunk")
+        bound = compile_behaviour(path).bind(backend, warn=lambda m: None)
+        bound.run()
+        seen = [(backend.pose(r), backend.contacts(r)) for r in range(4)]
+        bound.close()
+        return seen
+
+    mixed = outcome()
+    counts = [contacts.count for _, contacts in mixed]
+    assert sum(counts) >= 10 and sum(c > 0 for c in counts) >= 2  # they did crash, often
+    real = chipmunk.ffi
+
+    class NoCallbacks:
+        def __getattr__(self, name: str) -> object:
+            return getattr(real, name)
+
+        def callback(self, *args: object) -> object:
+            raise MemoryError("no executable memory")
+
+    monkeypatch.setattr(chipmunk, "ffi", NoCallbacks())
+    assert outcome() == mixed
+
+
 # --- the road lab's shortcuts ------------------------------------------------------------------
 
 def test_centroid_of_a_threshold_is_that_of_binary_moments() -> None:
