@@ -367,7 +367,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
               f"tcp://{args.host}:{server.port}; Ctrl-C stops", flush=True)
 
     log = None if args.quiet else print_warning
-    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready, empty=args.empty)
+    # the fleet script unless asked not to: a tick in 3 or 4 round trips (docs/coppeliasim.md)
+    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready, empty=args.empty,
+          fleet_script=not args.per_object)
     print("labsim serve: stopped", flush=True)
     return EXIT_OK
 
