@@ -33,7 +33,8 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
                                     "bench_lidar.py", "bench_noise.py", "bench_groups.py"])
 def test_benchmark_runs(script: str) -> None:
     small = {"bench_plot.py": ["--mb", "5"], "bench_pictures.py": ["--quick"],  # a short try
-             "bench_trace.py": ["--minutes", "1"], "bench_lidar.py": ["--ticks", "100"], "bench_noise.py": ["--minutes", "1"]}.get(script, [])
+             "bench_trace.py": ["--minutes", "1"], "bench_lidar.py": ["--ticks", "100"],
+             "bench_noise.py": ["--minutes", "1"]}.get(script, [])
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1", *small],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
