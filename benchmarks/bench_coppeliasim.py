@@ -2,17 +2,21 @@
 
     python benchmarks/bench_coppeliasim.py [--repeat 3] [--minutes 1]
 
-Each lab runs through ``labsim serve`` on this machine, two ways:
+Each lab runs through ``labsim serve`` on this machine, three ways:
 
-* *per object*: ``labsim serve --for LAB`` (a scene without the fleet script): one request
-  per sonar, pose, wheel change and collision check, two for the step;
-* *fleet script*: ``labsim serve --empty`` + ``labsim scene LAB``, which adds the fleet
-  script: the whole fleet's readings in one call, its wheel changes in one, two for the step.
+* *per object*: ``labsim serve --for LAB --per-object`` (a scene without the fleet script, as
+  one built by hand): one request per sonar, pose, wheel change and collision check, two for
+  the step;
+* *serve --for*: ``labsim serve --for LAB``, the student's path: the served scene carries the
+  fleet script, so the whole fleet's readings go in one call, its wheel changes in one, two
+  for the step;
+* *fleet script*: ``labsim serve --empty`` + ``labsim scene LAB``, which adds the fleet script.
 
-It prints, per lab and way, the round trips per tick (requests during the run / ticks) and the
-median real-time factor (simulated seconds / wall seconds, the run phase only), with the
-machine's load average. A real CoppeliaSim adds its own physics and rendering time per step;
-the round trips per tick are the same there.
+It prints, per lab and way, the round trips per tick (requests during the run / ticks), the
+median real-time factor (simulated seconds / wall seconds, the run phase only), and the CPU
+seconds of the client's runs and of the ``labsim serve`` child over its whole life (start-up
+and scene building included), with the machine's load average. A real CoppeliaSim adds its
+own physics and rendering time per step; the round trips per tick are the same there.
 """
 from __future__ import annotations
 
@@ -56,27 +60,37 @@ def once(lab: Path, port: int, ticks: int) -> tuple[float, float, float]:
     return during / summary.ticks, summary.sim_time_s, summary.wall_time_s
 
 
-def measure(lab: Path, way: str, repeat: int, ticks: int) -> tuple[float, float] | None:
-    """(round trips per tick, median real-time factor) of ``lab`` run ``way``, None if it cannot be built."""
+def stop(proc: subprocess.Popen[str]) -> float:
+    """Stop a ``labsim serve`` child; its CPU seconds (user + system) over its life."""
+    proc.terminate()
+    _, _, usage = os.wait4(proc.pid, 0)
+    proc.returncode = 0  # reaped here: Popen must not wait for it again
+    return usage.ru_utime + usage.ru_stime
+
+
+def measure(lab: Path, way: str, repeat: int, ticks: int) -> tuple[float, float, float, float] | None:
+    """(round trips per tick, median real-time factor, client CPU s, server CPU s) of ``lab``
+    run ``way``, None if it cannot be built."""
     if way == "per object":
+        proc, port = serve("-q", "--for", str(lab), "--per-object")
+    elif way == "serve --for":
         proc, port = serve("-q", "--for", str(lab))
     else:
         proc, port = serve("-q", "--empty")
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
             built = cli(["scene", str(lab), "--port", str(port)]) == 0
         if not built:
-            proc.terminate()
-            proc.wait()
+            stop(proc)
             print(f"  {lab.stem:12} {way:13} not built: {err.getvalue().strip()}")
             return None
+    cpu = time.process_time()
     try:
         runs = [once(lab, port, ticks) for _ in range(repeat)]
     finally:
-        proc.terminate()
-        proc.wait()
+        server_cpu = stop(proc)
     trips = runs[0][0]
     factor = statistics.median(sim / wall for _, sim, wall in runs)
-    return trips, factor
+    return trips, factor, time.process_time() - cpu, server_cpu
 
 
 def main() -> None:
@@ -86,15 +100,17 @@ def main() -> None:
     args = parser.parse_args()
     print(f"coppeliasim backend through labsim serve; load average {os.getloadavg()[0]:.2f}, "
           f"{os.cpu_count()} cores; median of {args.repeat}")
-    print(f"  {'lab':12} {'way':13} {'round trips/tick':>17} {'x real time':>12}")
+    print(f"  {'lab':12} {'way':13} {'round trips/tick':>17} {'x real time':>12} {'wall s':>7} "
+          f"{'client CPU s':>13} {'server CPU s':>13}")
     for name in ("wall_follow", "road_follow", "crane"):
         lab = LABS / f"{name}.yaml"
         ticks = int(args.minutes * 60 / compile_behaviour(lab).program.dt_s)
-        for way in ("per object", "fleet script"):
+        for way in ("per object", "serve --for", "fleet script"):
             start = time.perf_counter()
             got = measure(lab, way, args.repeat, ticks)
             if got is not None:
-                print(f"  {name:12} {way:13} {got[0]:17.2f} {got[1]:11.1f}x   ({time.perf_counter() - start:.0f} s)")
+                print(f"  {name:12} {way:13} {got[0]:17.2f} {got[1]:11.1f}x {time.perf_counter() - start:7.1f} "
+                      f"{got[2]:13.2f} {got[3]:13.2f}")
 
 
 if __name__ == "__main__":

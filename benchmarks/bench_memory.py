@@ -12,9 +12,11 @@ With ``--trace`` each run also writes its trace to a temporary file.
 from __future__ import annotations
 
 import argparse
+import resource
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -34,13 +36,17 @@ print(code, peak // 1024 if sys.platform == "darwin" else peak)
 """
 
 
-def peak_kib(minutes: float, trace: Path | None) -> int:
+def peak_kib(minutes: float, trace: Path | None) -> tuple[int, float, float]:
+    """The run's peak RSS in KiB, its process's wall and CPU seconds (user + system)."""
     argv = ["run", str(LAB), "--set", f"minutes={minutes:g}"] + (["--trace", str(trace)] if trace else [])
+    before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     done = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, check=False)
+    wall, after = time.perf_counter() - start, resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
     code, peak = done.stdout.split()[-2:] if done.stdout.strip() else ("?", "0")
     if code != "0":
         raise SystemExit(f"labsim {' '.join(argv)} failed ({code}):\n{done.stderr}")
-    return int(peak)
+    return int(peak), wall, cpu
 
 
 def main() -> None:
@@ -52,10 +58,11 @@ def main() -> None:
     peaks = []
     with tempfile.TemporaryDirectory() as d:
         for minutes in args.minutes:
-            peak = peak_kib(minutes, Path(d) / "trace.csv" if args.trace else None)
+            peak, wall, cpu = peak_kib(minutes, Path(d) / "trace.csv" if args.trace else None)
             peaks.append(peak)
             print(f"wall lab, {minutes:g} simulated minutes ({round(minutes * 60 / 0.05):,} ticks)"
-                  f"{', with trace' if args.trace else ''}: peak RSS {peak / 1024:.1f} MiB")
+                  f"{', with trace' if args.trace else ''}: peak RSS {peak / 1024:.1f} MiB "
+                  f"({wall:.2f} s wall, {cpu:.2f} s CPU, the whole process)")
     print(f"  peak RSS, longest run minus shortest: {(peaks[-1] - peaks[0]) / 1024:+.1f} MiB   (goal: flat)")
 
 

@@ -9,6 +9,11 @@ another job on the machine slows far less than wall-clock time. ``report`` print
 median and the median of the per-round ratios (one ratio per round, both sides measured
 moments apart: steadier than the ratio of the medians), and ``machine`` the line that says
 when and where, with the load average, so that the figures can be pasted as they are.
+Beside the time a side measures itself, ``alternate`` takes each side's whole call (its
+set-up included) in wall time and in CPU time with its children's (workers, ffmpeg, a
+browser: whatever it started and waited for), and ``report`` prints both with the load
+average at the end: a CPU figure alone hides work done in other processes, a wall figure
+alone hides the load.
 """
 from __future__ import annotations
 
@@ -74,18 +79,32 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def alternate(sides: dict[str, Callable[[], float]], repeat: int, seed: int | None = None) -> dict[str, list[float]]:
+class Times(dict[str, list[float]]):
+    """Each side's own times by name (what ``alternate`` returned before), and of each side's
+    whole calls: ``wall`` seconds and ``cpu`` seconds, this process's and its children's."""
+
+    def __init__(self, names: Sequence[str]) -> None:
+        super().__init__({name: [] for name in names})
+        self.wall: dict[str, list[float]] = {name: [] for name in names}
+        self.cpu: dict[str, list[float]] = {name: [] for name in names}
+
+
+def alternate(sides: dict[str, Callable[[], float]], repeat: int, seed: int | None = None) -> Times:
     """Run each side ``repeat`` times, every round in a fresh random order; their times by name.
 
-    A side returns the seconds it measured itself (only the part that is timed).
+    A side returns the seconds it measured itself (only the part that is timed); its whole
+    call is timed too, in wall and CPU (children included) seconds (``Times``).
     """
     rng = random.Random(seed)
-    times: dict[str, list[float]] = {name: [] for name in sides}
+    times = Times(list(sides))
     names = list(sides)
     for _ in range(repeat):
         rng.shuffle(names)
         for name in names:
+            wall, cpu = time.perf_counter(), time.process_time() + children_cpu()
             times[name].append(sides[name]())
+            times.wall[name].append(time.perf_counter() - wall)
+            times.cpu[name].append(time.process_time() + children_cpu() - cpu)
     return times
 
 
@@ -103,6 +122,15 @@ def report(title: str, times: dict[str, list[float]], ratio: tuple[str, str] | N
     width = max(len(name) for name in times)
     for name, values in times.items():
         print(f"  {name:<{width}}  {statistics.median(values):.4f} {unit}   ({', '.join(f'{v:.4f}' for v in values)})")
+    if isinstance(times, Times):
+        print("  each side's whole call (set-up included), medians: wall time first, then CPU time of the "
+              "process and the children it waited for:")
+        for name in times:
+            print(f"  {name:<{width}}  {statistics.median(times.wall[name]):.4f} s wall, "
+                  f"{statistics.median(times.cpu[name]):.4f} s CPU")
+        one, five, _ = os.getloadavg()
+        print(f"  load average at the end: {one:.2f} {five:.2f} (1, 5 min; {os.cpu_count()} cores): "
+              "wall times grow with it")
     if ratio is None:
         return None
     top, bottom = ratio

@@ -24,16 +24,23 @@ from labsim.foundation.files import check_output, policy_problem, write_output
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
-from labsim.runtime.cli.report import ProgressBar, format_summary
-from labsim.runtime.golden import check_golden, record_golden
 from labsim.runtime.hands import hand_events
 from labsim.runtime.labs import copy_lab, labs
-from labsim.runtime.run import compile_behaviour
-from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
+    from labsim.runtime.run import Behaviour
     from labsim.runtime.serve.server import Server
+
+
+def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
+                      strict: bool = False, budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
+    """``runtime.run.compile_behaviour``, imported on the first call: the language's compiler
+    (lark, the checker, the code generator) is a quarter of a second of start-up that the
+    commands which never compile (``plot`` of a trace, ``labs``, ``worlds``) need not pay."""
+    from labsim.runtime.run import compile_behaviour as compile_
+
+    return compile_(path, overrides, seed=seed, strict=strict, budgets=budgets)
 
 
 # -- what several commands share -----------------------------------------------------------------
@@ -89,6 +96,9 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 # -- the commands on the tick loop ---------------------------------------------------------------
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from labsim.runtime.cli.report import ProgressBar, format_summary
+    from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
+
     overrides = parse_overrides(args.set)
     if args.seed is not None and args.seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
@@ -203,6 +213,8 @@ def cmd_test(args: argparse.Namespace) -> int:
 
 def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> bool:
     """Record, or compare with, one behaviour's golden; False when it fails."""
+    from labsim.runtime.golden import check_golden, record_golden
+
     if args.update_goldens:
         compile_behaviour(f)  # a broken file is reported as broken before anything is written
         golden, summary = record_golden(f, args.backend, options)
@@ -368,7 +380,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
               f"tcp://{args.host}:{server.port}; Ctrl-C stops", flush=True)
 
     log = None if args.quiet else print_warning
-    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready, empty=args.empty)
+    # the fleet script unless asked not to: a tick in 3 or 4 round trips (docs/coppeliasim.md)
+    serve(world, robots, args.port, args.host, dt_s=dt, log=log, ready=ready, empty=args.empty,
+          fleet_script=not args.per_object)
     print("labsim serve: stopped", flush=True)
     return EXIT_OK
 

@@ -30,10 +30,9 @@ from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
 from labsim.foundation.threads import limit_blas_threads
 from labsim.runtime.cli import commands
-from labsim.runtime.cli.commands import behaviour_files, parse_overrides, print_diagnostics
+from labsim.runtime.cli.commands import behaviour_files, compile_behaviour, parse_overrides, print_diagnostics
 from labsim.runtime.cli.parser import build_parser
 from labsim.runtime.labs import LABS_DIR, behaviour_path
-from labsim.runtime.run import compile_behaviour
 
 Command = Callable[[argparse.Namespace], int]
 

@@ -195,6 +195,9 @@ def _serve(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", "-q", action="store_true", help="do not log clients and simulations")
     p.add_argument("--empty", action="store_true",
                    help="start from an empty scene, to be built through the remote API (labsim scene)")
+    p.add_argument("--per-object", action="store_true",
+                   help="serve the scene without labsim's fleet script, as a scene built by hand: "
+                        "clients read it object by object (more round trips a tick)")
     _allow_path(p)
 
 

@@ -1,12 +1,14 @@
-"""The stand-in's scripts: ``labsim serve --empty`` answers the fleet script ``labsim scene`` adds.
+"""The stand-in's scripts: ``labsim serve`` answers the fleet script ``labsim scene`` adds.
 
-Where it sits: ``scene_edit.SceneEditor.handlers`` passes its handler table through
-``ScriptHost.wrap``, which adds the calls that put a script in the scene (a dummy, a child
-script, its text) and ``sim.callScriptFunction``. The stand-in runs no Lua: it recognises the
-one script labsim writes (``fleet_script.LUA``, compared as text) and does what its two
-functions do, through the same ``sim.*`` handlers a client's per-object calls reach, so the
-fast path reads exactly what the per-object path reads. Any other script is refused with an
-error saying so.
+Where it sits: ``scene_edit.SceneEditor.handlers`` (``--empty``) passes its handler table
+through ``ScriptHost.wrap``, which adds the calls that put a script in the scene (a dummy, a
+child script, its text) and ``sim.callScriptFunction``; a served lab's scene (``serve --for``,
+``serve WORLD``) goes through ``ScriptHost.serve``, which puts the fleet script in it from the
+start, as ``labsim scene`` would have, and adds only the calls that find and call it. The
+stand-in runs no Lua: it recognises the one script labsim writes (``fleet_script.LUA``,
+compared as text) and does what its functions do, through the same ``sim.*`` handlers a
+client's per-object calls reach, so the fast path reads exactly what the per-object path
+reads. Any other script is refused with an error saying so.
 """
 from __future__ import annotations
 
@@ -48,6 +50,27 @@ class ScriptHost:
             out[name] = getattr(self, "_" + name.removeprefix("sim."))
         for name in ("sim.getObject", "sim.getScript", "sim.setObjectAlias"):
             out[name] = self._wrapped(name, funcs[name])
+        return out
+
+    def serve(self, funcs: dict[str, Handler], fallback: dict[str, Handler]) -> dict[str, Handler]:
+        """``funcs`` of a served lab's scene with the fleet script in it: ``sim.getObject`` finds
+        its dummy, ``sim.getScript`` its script, ``sim.callScriptFunction`` calls it; any other
+        object or script goes to ``fallback`` (the session's answers). The building calls stay
+        ``--empty``'s: the script is there from the start, as ``labsim scene`` would put it."""
+        if self.fleet() < 0:
+            dummy, script = self._new_handle(), self._new_handle()
+            self.scripts[script] = fs.LUA
+            self.dummies[dummy] = _Dummy(fs.ALIAS, script)
+        out = dict(funcs)
+        self._funcs = out
+        out["sim.getObject"] = self._wrapped("sim.getObject", funcs["sim.getObject"])
+        out["sim.getScript"] = self._wrapped("sim.getScript", fallback["sim.getScript"])
+        other = fallback["sim.callScriptFunction"]
+
+        def call(client: Client, args: Args) -> list[object] | Wait:
+            ours = len(args) > 1 and isinstance(args[0], str) and args[1] in self.scripts
+            return self._callScriptFunction(client, args) if ours else other(client, args)
+        out["sim.callScriptFunction"] = call
         return out
 
     def fleet(self) -> int:

@@ -32,6 +32,7 @@ queue keeps its place.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import signal
 import threading
@@ -46,6 +47,7 @@ from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
 from labsim.runtime.serve.scene_edit import SceneEditor
+from labsim.runtime.serve.script_host import ScriptHost
 from labsim.runtime.serve.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
 from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
@@ -70,6 +72,7 @@ TAKEOVER_S = 2.0
 POLL_MS = 100  # how often an idle server looks at its stop flag
 MAX_UUID_CHARS = 256  # the client sends a 36-character uuid4
 MAX_CLIENTS = 1000  # clients remembered at once; past it the longest silent is forgotten
+FLEET_HANDLE = 1_500_000  # the served fleet script's dummy and script: past the tree's, before dummies'
 
 
 class Server:
@@ -78,13 +81,15 @@ class Server:
     ``robots``: a count of Pioneer P3DX robots, placed at the world's spawn poses (then at free
     random poses), or a sequence of ``RobotRequest``s whose ``model`` and ``pose`` are used
     (their channels are not: the server offers every channel of the model).
-    ``port=0`` binds a free port; ``port`` then says which.
+    ``port=0`` binds a free port; ``port`` then says which. ``fleet_script``: the scene
+    carries labsim's fleet script, as a scene ``labsim scene`` built does (``labsim serve``
+    serves one so; without it a client reads object by object, as in a scene built by hand).
     """
 
     def __init__(self, world: World, robots: int | Sequence[RobotRequest] = 1, *, host: str = "127.0.0.1",
                  port: int = DEFAULT_PORT, dt_s: float = 0.05, takeover_s: float = TAKEOVER_S,
                  log: Callable[[str], None] | None = None, empty: bool = False,
-                 budget_s: float = REQUEST_BUDGET_S) -> None:
+                 budget_s: float = REQUEST_BUDGET_S, fleet_script: bool = False) -> None:
         if not (isinstance(dt_s, (int, float)) and math.isfinite(dt_s) and dt_s > 0):
             raise BackendError(f"labsim serve: the time step must be positive, not {dt_s!r}")
         self.world = world
@@ -98,7 +103,11 @@ class Server:
         # in labsim scene's temporary folders and --allow-path folders (foundation/files.served_problem)
         self.messages = 0  # requests answered, for tests and the log
         self.simulation = Simulation(world, 0 if empty else robots, self.dt_s, self.log)
-        self._sim_funcs = SimApi(self.simulation).handlers()
+        # fleet_script: the served scene carries labsim's fleet script, as labsim scene builds it
+        # (--empty has its own, built by the client); the handles are outside the tree's
+        self.fleet_script = ScriptHost(itertools.count(FLEET_HANDLE).__next__, lambda: None, self._stepped) \
+            if fleet_script and not empty else None
+        self._sim_funcs = self._with_script(SimApi(self.simulation).handlers())
         self._clients = self.simulation.clients
         # --empty: the scene is built through the remote API (labsim scene), see scene_edit
         self.editor = SceneEditor(self) if empty else None
@@ -148,7 +157,19 @@ class Server:
         simulation = Simulation(world, robots, self.dt_s, self.log)
         simulation.clients = self._clients
         self.world, self.simulation = world, simulation
-        self._sim_funcs = SimApi(simulation).handlers()
+        self._sim_funcs = self._with_script(SimApi(simulation).handlers())
+
+    def _with_script(self, funcs: dict[str, Handler]) -> dict[str, Handler]:
+        """``funcs`` with the fleet script's calls when the served scene carries it."""
+        if self.fleet_script is None:
+            return funcs
+        fallback: dict[str, Handler] = {"sim.getScript": lambda c, a: self.session_calls.no_script(c, a),
+                                        "sim.callScriptFunction": lambda c, a: self.session_calls.no_function(c, a)}
+        return self.fleet_script.serve(funcs, fallback)
+
+    def _stepped(self) -> bool:
+        """A child script is initialized by the simulation's first step (script_host)."""
+        return self.simulation.state == RUNNING and self.simulation.steps > 0
 
     def base_handlers(self) -> dict[str, Handler]:
         """The handlers under sim_objects' and sim_session's: the scene editor's, or the simulation's."""
@@ -403,13 +424,15 @@ class Server:
 def serve(world: World, robots: int | Sequence[RobotRequest] = 1, port: int = DEFAULT_PORT,
           host: str = "127.0.0.1", *, dt_s: float = 0.05, takeover_s: float = TAKEOVER_S,
           log: Callable[[str], None] | None = None,
-          ready: Callable[[Server], None] | None = None, empty: bool = False) -> None:
+          ready: Callable[[Server], None] | None = None, empty: bool = False,
+          fleet_script: bool = False) -> None:
     """Serve until Ctrl-C (SIGINT), SIGTERM or ``stop()`` on the server given to ``ready``.
 
     ``ready(server)`` is called once the socket is bound (``server.port`` is then the real
     port, also for ``port=0``).
     """
-    server = Server(world, robots, host=host, port=port, dt_s=dt_s, takeover_s=takeover_s, log=log, empty=empty)
+    server = Server(world, robots, host=host, port=port, dt_s=dt_s, takeover_s=takeover_s, log=log, empty=empty,
+                    fleet_script=fleet_script)
     server.bind()
     previous = None
     if threading.current_thread() is threading.main_thread():

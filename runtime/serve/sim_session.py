@@ -12,7 +12,7 @@ flat-world and no-Lua answers (docs/coppeliasim.md, the compatibility table):
   ``.ttt`` file cannot be read and says so. ``sim.saveScene`` writes no ``.ttt`` file.
 * No script runs: ``sim.getScript`` hands out the main script's handle and -1 for an object's
   simulation script, and ``sim.callScriptFunction`` answers CoppeliaSim's "script function does
-  not exist." (``--empty`` answers labsim's own fleet script first).
+  not exist." (labsim's own fleet script is answered first: ``script_host``).
 * A vision sensor's depth is the floor's, through the camera's optics: a flat world's only
   surface a camera sees at a distance; its packet is the image's statistics.
 * ``sim.getJointForce`` is 0 (labsim's motors report no torque); ``sim.setJointTargetForce`` is
@@ -246,6 +246,10 @@ class SessionCalls:
             return [MAIN_SCRIPT]
         if "sim.getScript" in self.server.base_handlers():
             return self._inner("sim.getScript", client, args)
+        return self.no_script(client, args)
+
+    def no_script(self, client: Client, args: Args) -> list[object]:
+        """sim.getScript of an object that carries none: every object but the fleet script's dummy."""
         obj = args[1] if len(args) > 1 else None
         if isinstance(obj, int) and obj not in self.server.simulation.tree.objects:
             raise SimError(E_HANDLE)
@@ -255,7 +259,11 @@ class SessionCalls:
         # 4.6: (string functionName, int scriptHandle, ...); 4.8 on: (int scriptHandle, string functionName, ...)
         if "sim.callScriptFunction" in self.server.base_handlers():
             handler = self.server.base_handlers()["sim.callScriptFunction"]
-            return handler(client, args)  # --empty: labsim's fleet script, else its error
+            return handler(client, args)  # labsim's fleet script, else its error
+        return self.no_function(client, args)
+
+    def no_function(self, client: Client, args: Args) -> list[object]:
+        """sim.callScriptFunction of any script but labsim's fleet script: no Lua runs here."""
         if len(args) < 2:
             raise SimError(E_FEW)
         name = args[0] if isinstance(args[0], str) else args[1]

@@ -1,10 +1,13 @@
 """The local executor of a sweep: N worker processes on this machine, one run at a time each.
 
-A worker is a clean process (forked from multiprocessing's fork server, a fresh interpreter
-that has imported labsim and the simulator and never runs anything, so a new worker costs
-milliseconds, not the half second of imports; ``spawn`` where there is no fork server;
-nothing of the parent's state, threads or open files is inherited) that compiles and runs
-the tasks it is sent
+A worker is a process forked from the sweep itself on Linux, once the sweep has imported
+labsim and compiled its files, so that it starts with nothing to import (a fork server's fresh
+interpreter put its third of a second of imports on a short sweep's critical path); it closes
+the other workers' pipes it inherited, and the sweep forks only while it has no other thread.
+Elsewhere, or when the process has other threads (a sweep started from a program that runs
+some, as pytest-xdist does), a worker is forked from multiprocessing's fork server, a fresh
+interpreter that has imported labsim and the simulator and never runs anything (``spawn``
+where there is no fork server). A worker compiles and runs the tasks it is sent
 (runtime/sweep/grid.py ``run_task``) and sends back each result. A run past its time limit, or a
 worker that dies, costs that one process: it is killed, the run becomes a ``timeout`` or
 ``runtime error`` row, and a new worker takes its place; the other workers carry on.
@@ -16,6 +19,7 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time as clock
 from collections import deque
@@ -45,14 +49,18 @@ def default_jobs() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
+def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0, inherited: tuple[int, ...] = ()) -> None:
     """A worker's life: receive a task, send its result, until told to stop (None), signalled
     (SIGTERM, SIGHUP: the run in progress ends as for Ctrl-C, its trace closed, and its row is
     sent) or orphaned (the parent-death signal). ``allowed``: the sweep's --allow-path folders (a
     fork server's children do not see its environment); ``memory_mb``: the worker's memory limit,
-    0 for none."""
+    0 for none; ``inherited``: the sweep's ends of the pipes, which a worker forked from the
+    sweep holds copies of and closes (while open, a worker would not see its sweep go)."""
     signals = WorkerSignals()
     signals.install()
+    for fd in inherited:
+        with contextlib.suppress(OSError):
+            os.close(fd)
     die_with_parent()
     allow(allowed)
     limit_memory(memory_mb)
@@ -82,8 +90,21 @@ def _serve(conn: Connection, allowed: list[str], memory_mb: int = 0) -> None:
 PRELOAD = ["labsim.runtime.sweep.pool", REGISTRY[DEFAULT].partition(":")[0]]
 
 
-def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.context.SpawnContext:
-    """The fork server, with labsim imported in it; ``spawn`` where there is none (Windows)."""
+Context = (multiprocessing.context.ForkContext | multiprocessing.context.ForkServerContext
+           | multiprocessing.context.SpawnContext)
+
+
+def fork_here() -> bool:
+    """Whether workers are forked from this process: on Linux, while it runs no other thread
+    (a thread holding a lock at the fork would leave the worker's copy of the lock held)."""
+    return sys.platform.startswith("linux") and threading.active_count() == 1
+
+
+def _context() -> Context:
+    """This process forked (``fork_here``), else the fork server, with labsim imported in it;
+    ``spawn`` where there is none (Windows)."""
+    if fork_here():
+        return multiprocessing.get_context("fork")
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
@@ -92,10 +113,10 @@ def _context() -> multiprocessing.context.ForkServerContext | multiprocessing.co
 
 
 def warm_up() -> None:
-    """Start the fork server now, so that its imports (a fresh interpreter loading labsim and
-    the simulator, about 0.3 s) overlap the sweep's own checks and compiles instead of following
-    them: the one fixed cost a short sweep has over ``labsim run``."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
+    """Start the fork server now, when workers will come from it, so that its imports (a fresh
+    interpreter loading labsim and the simulator, about 0.3 s) overlap the sweep's own checks
+    and compiles instead of following them. Workers forked from the sweep need none."""
+    if not fork_here() and "forkserver" in multiprocessing.get_all_start_methods():
         from multiprocessing import forkserver
 
         _context()  # its preload named first
@@ -129,8 +150,11 @@ class LocalPool:
     def _start(self) -> _Worker:
         parent, child = self._context.Pipe()
         allowed = [str(p) for p in allowed_folders()]
-        process = self._context.Process(target=_serve, args=(child, allowed, self.memory_mb), daemon=True,
-                                        name="labsim-sweep-worker")
+        # a forked worker's copies of the sweep's pipe ends (a fork server's children have none)
+        inherited = tuple(c.fileno() for c in [parent, *(w.conn for w in self._workers)] if not c.closed) \
+            if self._context.get_start_method() == "fork" else ()
+        process = self._context.Process(target=_serve, args=(child, allowed, self.memory_mb, inherited),
+                                        daemon=True, name="labsim-sweep-worker")
         # a terminal's Ctrl-C reaches every process of the group: a worker ignores it from its
         # first instruction (an ignored signal stays ignored across exec), so that it does not
         # die with a traceback while still importing; the parent stops the workers itself

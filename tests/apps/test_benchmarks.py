@@ -14,6 +14,11 @@ from helpers import BENCHMARKS
 pytestmark = pytest.mark.slow  # each benchmark runs once, in a process of its own
 
 
+def honest(out: str) -> bool:
+    """A benchmark's output gives wall time and CPU time, and the load they were taken under."""
+    return "wall" in out and "CPU" in out and "load" in out
+
+
 @pytest.mark.parametrize("script", ["bench_wall.py", "bench_road.py"])
 def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1"],
@@ -21,16 +26,20 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str) -> Non
     assert done.returncode == 0, done.stderr
     assert "labsim / hand-written loop: median of per-round ratios" in done.stdout
     assert "same final poses: yes" in done.stdout, done.stdout
+    assert honest(done.stdout), done.stdout
 
 
-@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py", "bench_trace.py"])
+@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py", "bench_trace.py",
+                                    "bench_lidar.py", "bench_noise.py", "bench_groups.py"])
 def test_benchmark_runs(script: str) -> None:
     small = {"bench_plot.py": ["--mb", "5"], "bench_pictures.py": ["--quick"],  # a short try
-             "bench_trace.py": ["--minutes", "1"]}.get(script, [])
+             "bench_trace.py": ["--minutes", "1"], "bench_lidar.py": ["--ticks", "100"],
+             "bench_noise.py": ["--minutes", "1"]}.get(script, [])
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--repeat", "1", *small],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "median" in done.stdout
+    assert honest(done.stdout), done.stdout
 
 
 def test_sweep_benchmark_runs() -> None:
@@ -38,6 +47,7 @@ def test_sweep_benchmark_runs() -> None:
                            "--no-dask"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "speed-up -j 2 over -j 1" in done.stdout
+    assert honest(done.stdout), done.stdout
 
 
 def test_grade_benchmark_runs() -> None:
@@ -45,6 +55,7 @@ def test_grade_benchmark_runs() -> None:
                            "--minutes", "0.1", "--no-pages"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "speed-up -j 2 over -j 1" in done.stdout and "overhead of grading" in done.stdout, done.stdout
+    assert honest(done.stdout), done.stdout
 
 
 def test_startup_benchmark_runs() -> None:
@@ -53,7 +64,7 @@ def test_startup_benchmark_runs() -> None:
     assert done.returncode == 0, done.stderr
     assert "labsim check: median" in done.stdout and "labsim run:   median" in done.stdout, done.stdout
     assert "one-run sweep over labsim run: +" in done.stdout
-    assert "load average" in done.stdout
+    assert "load average" in done.stdout and honest(done.stdout)
 
 
 def test_memory_benchmark_runs() -> None:
@@ -61,6 +72,7 @@ def test_memory_benchmark_runs() -> None:
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stdout.count("peak RSS") == 3, done.stdout
+    assert honest(done.stdout), done.stdout
 
 
 def test_irsim_benchmark_runs_or_says_it_is_skipped() -> None:

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import io
 import math
+from pathlib import Path
 
 import cv2
 import imageio.v2 as imageio
 import numpy as np
+import pytest
 from helpers import BEHAVIOURS
 
 from labsim.runtime.pictures.animate import _tracks, default_speed, frame_times, frames
@@ -100,3 +102,18 @@ def test_wall_lab_frames_look_as_a_whole_redraw_draws_them() -> None:
     alone = next(frames(trace, tracks, times[-1:], 720, fade_s=fade))
     differ = np.abs(last.astype(int) - alone.astype(int)).max(axis=2)
     assert (differ > 64).sum() < 0.01 * differ.size
+
+
+def test_an_mp4_whose_ffmpeg_fails_raises_in_the_drawing_thread(tmp_path: Path) -> None:
+    """The frames go to ffmpeg from a thread of their own; ffmpeg's failure (here: no folder to
+    write in) reaches the caller at a later frame or at close, never a hang or a lost error."""
+    from labsim.runtime.pictures.movie import Mp4Writer
+
+    writer = Mp4Writer(tmp_path / "no such folder" / "run.mp4", (64, 64), 10.0)
+    frame = np.zeros((64, 64, 3), np.uint8)
+    with pytest.raises(Exception):  # noqa: B017 - whichever error the pipe or ffmpeg gives
+        for _ in range(1000):
+            writer.append(frame)
+        writer.close()
+    writer.close()  # closing again after the error is quiet
+    assert not (tmp_path / "no such folder").exists()

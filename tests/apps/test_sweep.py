@@ -5,6 +5,7 @@ import csv
 import json
 import math
 import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -400,3 +401,21 @@ def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, cluster) 
     retried = [r for r in rows if r["retries"]]
     assert retried and "retried 1 time(s) after a worker was lost" in retried[0]["message"]
     assert "started again after a Dask worker was lost" in out
+
+
+def test_workers_are_forked_from_the_sweep_only_while_it_runs_no_other_thread() -> None:
+    """A thread holding a lock at a fork would leave the worker's copy held: with another
+    thread running, workers come from the fork server as before."""
+    import threading
+
+    from labsim.runtime.sweep.pool import fork_here
+
+    release = threading.Event()
+    other = threading.Thread(target=release.wait)
+    other.start()
+    try:
+        assert not fork_here()
+    finally:
+        release.set()
+        other.join()
+    assert fork_here() == (sys.platform.startswith("linux") and threading.active_count() == 1)

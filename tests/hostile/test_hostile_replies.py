@@ -89,14 +89,15 @@ class Proxy:
 
 @pytest.fixture(scope="module")
 def served():
-    proc, port = serve("-q")
+    # a scene without the fleet script: each reply checked here is a per-object call's
+    proc, port = serve("-q", "--per-object")
     yield port
     stop(proc)
 
 
 @pytest.fixture(scope="module")
 def crane():
-    proc, port = serve("-q", "crane", "--robots", "0")
+    proc, port = serve("-q", "crane", "--robots", "0", "--per-object")
     yield port
     stop(proc)
 

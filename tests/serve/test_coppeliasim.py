@@ -68,7 +68,8 @@ def test_wall_lab_gives_the_embedded_backends_trace(served: int, tmp_path: Path,
 
     assert body(out) == body(expected) and "collision" in body(out)[1]
     trips = float(out.split("\n")[-2].split()[0])
-    assert "round trips per tick" in out and 8 <= trips <= 14
+    # labsim serve's scene carries the fleet script: 3 a tick, 4 when a wheel command changed
+    assert "round trips per tick" in out and 3 <= trips <= 4.3
     # deterministic across processes too
     subprocess.run([sys.executable, "-m", "labsim", "run", str(LAB), "--set", "minutes=1", "-q",
                     "--trace", str(sub), "--backend", "coppeliasim", "--port", str(served)],

@@ -102,3 +102,31 @@ def test_the_stand_in_runs_no_other_script(empty: int) -> None:
         sim.callScriptFunction(fs.SENSE, script, [])
     client.socket.close(0)
     client.context.term()
+
+
+def test_a_served_lab_carries_the_fleet_script_and_the_crane_keeps_its_trace(tmp_path: Path, capsys) -> None:
+    """``labsim serve --for`` (the student's path) serves the scene with the fleet script in it,
+    as ``labsim scene`` builds it: the crane in 3 round trips a tick, the same trace."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    from labsim.runtime.run import compile_behaviour
+    from labsim.runtime.serve.server import Server
+
+    lab = tmp_path / "crane.yaml"
+    lab.write_text((BEHAVIOURS / "crane.yaml").read_text().replace("stop: time >= 60", "stop: time >= 5"))
+    program = compile_behaviour(lab).program
+    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+    with Server(program.world, 0, port=0, dt_s=program.dt_s, fleet_script=True) as server:
+        assert main(["run", str(lab), "--trace", str(remote),
+                     "--backend", "coppeliasim", "--port", str(server.port)]) == 0
+        out = capsys.readouterr().out
+        client = RemoteAPIClient("127.0.0.1", server.port)
+        sim = client.require("sim")
+        script = sim.getScript(sim.scripttype_childscript, sim.getObject(f"/{fs.ALIAS}"))
+        with pytest.raises(Exception, match="script function does not exist"):  # no other script runs
+            sim.callScriptFunction("hello", script + 1)
+        client.socket.close(0)
+        client.context.term()
+    assert _trips(out) <= 3.2  # labsimParts (1) and the step (2); a few more to open and close
+    assert trace_rows(remote) == trace_rows(ref)
