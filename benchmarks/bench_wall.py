@@ -1,7 +1,7 @@
 """Interpreter overhead on the wall-following lab: labsim against a hand-written pymunk loop.
 
 Both sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
-for the lab's 30,000 ticks: the same six sonar rays per tick, the same random numbers, the
+for the lab's 30,000 ticks: the same six sonar cones per tick (5 rays each), the same random numbers, the
 same rules, wheel clamping and metrics. The hand loop is what a competent student would
 write in plain Python against pymunk; labsim runs ``behaviours/wall_follow.yaml``. They must
 end at the same pose (bit for bit), which shows they did the same work.
@@ -22,7 +22,8 @@ import pymunk
 from compare import compare, labsim_scene, labsim_side
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
-from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
+from labsim.backends.pymunk.fleet import sonar_spec
+from labsim.backends.pymunk.fleet_sense import enclosing_circle, ray_groups
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -46,16 +47,23 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
     rng = random.Random(f"{p.seed}/pioneer")
     sonars = {s.name: s for s in model.sonars}
-    rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
-             sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
-    # The rays in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
-    # under one test of the circle that holds its rays: when no shape comes into the circle,
-    # none of its rays can hit, and they read inf without being cast.
-    as_specs = tuple(SonarRay(x, y, ux * reach, uy * reach, reach) for x, y, ux, uy, reach in rays)
+    # Each sonar a cone: a fan of rays, the nearest hit met within its incidence limit counts
+    # (fleet.sonar_spec gives the rays' ends and the limit as the backend casts them).
+    specs = tuple(sonar_spec(sonars[n]) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15"))
+    # The sonars in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
+    # under one test of the circle that holds its cones, each cone under one of its own: when no
+    # shape comes into a circle, none of its rays can hit, and they read inf without being cast.
     groups = []
-    for members in ray_groups(as_specs):
-        cx, cy, circle = enclosing_circle([as_specs[i] for i in members])
-        groups.append((cx, cy, circle, [(i, *rays[i]) for i in members]))
+    for members in ray_groups(specs):
+        cx, cy, circle = enclosing_circle([specs[i] for i in members])
+        cones = []
+        for i in members:
+            sp = specs[i]
+            assert sp.incidence_cos is not None
+            kx, ky, kr = enclosing_circle([sp])
+            lim = -sp.incidence_cos * sp.range_m  # normal . ray at most this: met within the limit
+            cones.append((i, sp.mount_x_m, sp.mount_y_m, kx, ky, kr, sp.fan, sp.range_m, lim))
+        groups.append((cx, cy, circle, cones))
     # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
     # result struct for the ray casts and one for the groups' tests, and the wheel drive as a
     # C velocity callback.
@@ -102,13 +110,19 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         a = get_angle(cp_body)
         c, s = cos(a), sin(a)
         d = [inf] * 6
-        for cx, cy, circle, members in groups:
+        for cx, cy, circle, cones in groups:
             if crowded(cp_space, (x + c * cx - s * cy, y + s * cx + c * cy), circle, ray_filter, nearest):
-                for i, mx, my, ux, uy, reach in members:
+                for i, mx, my, kx, ky, kr, fan, reach, lim in cones:
+                    if not crowded(cp_space, (x + c * kx - s * ky, y + s * kx + c * ky), kr, ray_filter, nearest):
+                        continue
                     ox, oy = x + c * mx - s * my, y + s * mx + c * my
-                    hit = query(cp_space, (ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach),
-                                0.0, ray_filter, info)
-                    d[i] = info.alpha * reach if hit else inf
+                    v = inf
+                    for ex, ey in fan:
+                        wx, wy = c * ex - s * ey, s * ex + c * ey
+                        if query(cp_space, (ox, oy), (ox + wx, oy + wy), 0.0, ray_filter, info) \
+                                and info.alpha * reach < v and info.normal.x * wx + info.normal.y * wy <= lim:
+                            v = info.alpha * reach
+                    d[i] = v
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(0, 100)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
