@@ -12,6 +12,7 @@ the same world, requests, commands and dt give bit-identical readings in every r
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import cast
 
 import pymunk
 
@@ -139,6 +140,13 @@ class PymunkBackend:
             return "this world has no blocks to change"
         result: str | None = set_block(block, corners)
         return result
+
+    def sonar_hit(self, robot: int, channel: str) -> tuple[float, float] | None:
+        """Where a sonar robot ``robot`` reads detects something now: (distance m, direction of
+        the ray of its cone that found it, rad counter-clockwise from its axis), or None
+        (``labsim.backends.pymunk.fleet.FleetSimulator.sonar_hit``)."""
+        hit = getattr(self._sim, "sonar_hit", None)
+        return None if hit is None else cast("tuple[float, float] | None", hit(robot, channel))
 
     def close(self) -> None:
         if self.space is None:

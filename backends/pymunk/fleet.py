@@ -3,8 +3,8 @@
 ``labsim.backends.pymunk.backend.PymunkBackend`` opens a ``FleetSimulator`` for every world
 without a mechanism. It builds a top-down pymunk scene from the ``World`` (walls as static
 segments, blocks as static polygons) and one dynamic body per robot, drives each body as a
-differential-drive robot without lateral slip, reads sonars as single ray casts, and counts
-contacts through collision callbacks. It is deterministic: the same world, robots, commands
+differential-drive robot without lateral slip, reads sonars as ray casts (a fan of rays for a
+sonar's cone), and counts contacts through collision callbacks. It is deterministic: the same world, robots, commands
 and dt give bit-identical readings in every run and process.
 
 Beyond sonars, pose and ``collided``, a robot may read:
@@ -48,10 +48,11 @@ from labsim.backends.pymunk.fleet_sense import (
     SonarRay,
     Spec,
     compile_sense,
+    cone_hit,
 )
 from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker
-from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.models import RobotModel, Sonar
 from labsim.backends.scene.world import Block, World, first_road, world_channels
 
 # Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
@@ -109,6 +110,8 @@ class FleetSimulator:
 
         self.space = space
         self.bodies = [plan.body for plan in plans]
+        self._plans = plans
+        self._channels = [list(req.channels) for req in robots]
         self.sense = compile_sense(space, plans, touching, render, tracker, laps, _reflectance(world, models, robots))
         self._c_space = chipmunk.c_space(space)
         self._c_bodies = [chipmunk.c_body(b) for b in self.bodies]
@@ -223,6 +226,19 @@ class FleetSimulator:
 
     def contacts(self, robot: int) -> ContactStats:
         return ContactStats(self._count[robot], self._time_s[robot])
+
+    def sonar_hit(self, robot: int, channel: str) -> tuple[float, float] | None:
+        """Where a sonar the robot reads detects something now: (distance m, the direction of
+        the ray that found it, radians counter-clockwise from the sonar's axis), or None. The
+        distance is the one ``sense()`` reads in this state (``fleet_sense.cone_hit``)."""
+        plan = self._plans[robot]
+        spec = plan.specs[self._channels[robot].index(channel)]
+        assert isinstance(spec, SonarRay)
+        found = cone_hit(self.space, plan, spec)
+        if found is None:
+            return None
+        dx, dy = spec.ends()[found[1]]
+        return found[0], math.atan2(dy, dx) - math.atan2(spec.end_dy_m, spec.end_dx_m)
 
 
 def _check(world: World, robots: Sequence[RobotRequest]) -> list[RobotModel]:
@@ -344,8 +360,7 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
     for ch in req.channels:
         s = sonars.get(ch)
         if s is not None:
-            specs.append(SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad),
-                                  s.range_m * math.sin(s.angle_rad), s.range_m))
+            specs.append(sonar_spec(s))
         elif ch in beams:
             lidar, angle = beams[ch]
             specs.append(LidarBeam(lidar.x_m, lidar.range_m, angle))
@@ -358,6 +373,15 @@ def _add_robot(space: pymunk.Space, i: int, req: RobotRequest, model: RobotModel
         else:
             specs.append(ch)  # pose, collided, forward_speed, road: checked in _check
     return SensePlan(body, pymunk.ShapeFilter(group=i + 1), tuple(specs))
+
+
+def sonar_spec(s: Sonar) -> SonarRay:
+    """A model's sonar as the ray, or the fan of rays, ``sense()`` casts (robot frame)."""
+    fan = tuple((s.range_m * math.cos(a), s.range_m * math.sin(a)) for a in s.ray_angles_rad()) \
+        if s.cone_deg > 0.0 else ()
+    limit = math.radians(s.incidence_limit_deg)
+    return SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad), s.range_m * math.sin(s.angle_rad),
+                    s.range_m, fan, math.cos(limit) if fan and s.incidence_limit_deg < 90.0 else None)
 
 
 def _count_contacts(space: pymunk.Space, touching: list[int], count: list[int],

@@ -9,8 +9,10 @@ through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
 A robot's rays are cast in groups (``ray_groups``): the rays whose directions lie within a
 quarter turn of each other share one circle that holds them all, and one point query asks
 whether any shape comes into it. Mostly none does (a robot near a wall has it on one side),
-and then every ray of the group reads ``inf`` without being cast. The test is conservative,
-so the readings are those of casting every ray, bit for bit.
+and then every ray of the group reads ``inf`` without being cast. A sonar's cone (a fan of
+rays, ``SonarRay.fan``) is one member of its group, and its rays go under a second test of
+the cone's own circle. The tests are conservative, so the readings are those of casting every
+ray, bit for bit.
 """
 from __future__ import annotations
 
@@ -31,10 +33,13 @@ SenseFn = Callable[[], list[list[object]]]
 
 @dataclass(frozen=True)
 class SonarRay:
-    """A sonar as a ray in the robot frame: its mount, and its end's offset from the mount.
+    """A sonar in the robot frame: its mount, and its axis's end's offset from the mount.
 
     The end is the whole range along the sonar's axis, so a hit's alpha times the range is
-    the distance.
+    the distance. A cone (``labsim.backends.scene.models.Sonar.cone_deg``) has its rays' ends
+    in ``fan``, from its right edge to its left, and reads the nearest hit among them; with
+    ``incidence_cos`` a hit counts only where the ray meets the surface within that angle of
+    its normal (normal . ray <= -incidence_cos * range). A lone ray has neither.
     """
 
     mount_x_m: float
@@ -42,6 +47,12 @@ class SonarRay:
     end_dx_m: float
     end_dy_m: float
     range_m: float
+    fan: tuple[tuple[float, float], ...] = ()
+    incidence_cos: float | None = None
+
+    def ends(self) -> tuple[tuple[float, float], ...]:
+        """Every ray's end, as offsets from the mount: the fan's, or the axis's alone."""
+        return self.fan or ((self.end_dx_m, self.end_dy_m),)
 
 
 @dataclass(frozen=True)
@@ -96,7 +107,8 @@ class SensePlan:
 # Rays whose directions lie within this angle of a group's first ray join its group.
 GROUP_SPREAD_RAD = math.pi / 2
 # ... up to this many rays. Four neighbouring sonars of the Pioneer's ring fit a circle of
-# 0.86 m; a larger group's circle is seldom empty (measured in docs/decisions.md §24).
+# 0.86 m as single rays, 0.99 m as cones; a larger group's circle is seldom empty (measured
+# in docs/decisions.md §24, for single rays).
 GROUP_SIZE = 4
 # Added to a group's circle, in metres: far beyond the rounding of the poses and ray ends
 # (about 1e-15 of the coordinates), so a shape the circle misses cannot touch a ray.
@@ -282,13 +294,14 @@ def ray_groups(specs: tuple[Spec, ...]) -> list[list[int]]:
 
 
 def enclosing_circle(rays: list[SonarRay]) -> tuple[float, float, float]:
-    """A circle in the robot frame that holds every point of these rays: centre x, y and radius.
+    """A circle in the robot frame that holds every point of these rays (every ray of a
+    cone): centre x, y and radius.
 
     Its centre is the middle of the box around the rays' ends; a ray is a segment, so a circle
     that holds both of its ends holds all of it. The radius includes ``CIRCLE_MARGIN_M``.
     """
     ends = [(ray.mount_x_m, ray.mount_y_m) for ray in rays]
-    ends += [(ray.mount_x_m + ray.end_dx_m, ray.mount_y_m + ray.end_dy_m) for ray in rays]
+    ends += [(ray.mount_x_m + dx, ray.mount_y_m + dy) for ray in rays for dx, dy in ray.ends()]
     xs, ys = [x for x, _ in ends], [y for _, y in ends]
     cx, cy = (min(xs) + max(xs)) / 2.0, (min(ys) + max(ys)) / 2.0
     return cx, cy, max(math.hypot(x - cx, y - cy) for x, y in ends) + CIRCLE_MARGIN_M
@@ -300,13 +313,71 @@ def _direction(ray: SonarRay) -> float:
 
 def _ray_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
     mx, my, ex, ey, rng = ray.mount_x_m, ray.mount_y_m, ray.end_dx_m, ray.end_dy_m, ray.range_m
-    return [
-        f"{indent}ox = x{r} + c * {mx!r} - s * {my!r}",
-        f"{indent}oy = y{r} + s * {mx!r} + c * {my!r}",
+    lines = [f"{indent}ox = x{r} + c * {mx!r} - s * {my!r}", f"{indent}oy = y{r} + s * {mx!r} + c * {my!r}"]
+    if ray.fan:
+        return lines + _fan_lines(r, k, ray, indent)
+    return lines + [
         f"{indent}hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
         f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
         f"{indent}v{r}_{k} = info.alpha * {rng!r} if hit else inf",
     ]
+
+
+def _fan_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
+    """A cone's rays, each keeping its hit when nearer than the nearest so far (and, with an
+    incidence limit, met squarely enough); ``cone_hit`` is the same casts, written as a loop.
+
+    The rays go under one test of the cone's own circle, as a group's go under the group's:
+    a wall beside the robot is near its group's circle but seldom near every cone of it.
+    """
+    rng = ray.range_m
+    cx, cy, radius = enclosing_circle([ray])
+    lines = [f"{indent}v = inf",
+             f"{indent}if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
+             f"{radius!r}, filter{r}, nearest):"]
+    indent += "    "
+    for ex, ey in ray.fan:
+        check = "" if ray.incidence_cos is None else \
+            f" and info.normal.x * wx + info.normal.y * wy <= {-ray.incidence_cos * rng!r}"
+        lines += [
+            f"{indent}wx = c * {ex!r} - s * {ey!r}",
+            f"{indent}wy = s * {ex!r} + c * {ey!r}",
+            f"{indent}if query(space, (ox, oy), (ox + wx, oy + wy), 0.0, filter{r}, info) "
+            f"and info.alpha * {rng!r} < v{check}:",
+            f"{indent}    v = info.alpha * {rng!r}",
+        ]
+    return lines + [f"{indent[:-4]}v{r}_{k} = v"]
+
+
+def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:
+    """What one sonar of ``plan``'s robot detects now: its distance and the index of the ray
+    that found it (in ``ray.ends()``), or None. The same chipmunk calls, in the same order and
+    with the same arithmetic, as the generated ``sense()`` makes, so the distance is its
+    reading bit for bit: ``labsim serve`` asks it where in the cone the detected point lies.
+    """
+    cp_space, body, info = chipmunk.c_space(space), chipmunk.c_body(plan.body), chipmunk.query_info()
+    f = chipmunk.shape_filter(plan.ray_filter)
+    p = chipmunk.body_position(body)
+    a = chipmunk.body_angle(body)
+    c, s = math.cos(a), math.sin(a)
+    mx, my, rng = ray.mount_x_m, ray.mount_y_m, ray.range_m
+    ox = p.x + c * mx - s * my
+    oy = p.y + s * mx + c * my
+    if not ray.fan:
+        ex, ey = ray.end_dx_m, ray.end_dy_m
+        hit = chipmunk.segment_query_first(cp_space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey),
+                                           0.0, f, info)
+        return (info.alpha * rng, 0) if hit else None
+    best: tuple[float, int] | None = None
+    for i, (ex, ey) in enumerate(ray.fan):
+        wx = c * ex - s * ey
+        wy = s * ex + c * ey
+        if chipmunk.segment_query_first(cp_space, (ox, oy), (ox + wx, oy + wy), 0.0, f, info) \
+                and info.alpha * rng < (math.inf if best is None else best[0]) \
+                and (ray.incidence_cos is None
+                     or info.normal.x * wx + info.normal.y * wy <= -ray.incidence_cos * rng):
+            best = (info.alpha * rng, i)
+    return best
 
 
 def _group_lines(r: int, group: list[int], specs: tuple[Spec, ...]) -> list[str]:

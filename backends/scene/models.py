@@ -29,16 +29,39 @@ class Kind(Enum):
     REFLECTANCE = "reflectance"  # a ground sensor: 0 (black floor) .. 1 (white), no unit
 
 
+# How many rays stand for a sonar's cone, spread evenly from one edge to the other; the
+# reasons for 7 are in docs/decisions.md, "Sonar cones".
+CONE_RAYS = 5
+
+
 @dataclass(frozen=True)
 class Sonar:
-    """One range sensor, modelled as a single ray from its mount along its axis: a sonar, an
-    IR proximity sensor (the e-puck's prox1..prox8) or one beam of a lidar (``Lidar.rays``)."""
+    """One range sensor from its mount along its axis: a sonar, an IR proximity sensor (the
+    e-puck's prox1..prox8) or one beam of a lidar (``Lidar.rays``).
+
+    With ``cone_deg`` 0 it is a single ray along its axis. Otherwise it stands for a proximity
+    sensor whose detection volume is a cone ``cone_deg`` wide: the floor's plane cuts it into
+    a fan, cast as ``CONE_RAYS`` rays from edge to edge (``ray_angles_rad``), and the sensor
+    reads the nearest hit of any of them. A hit counts only where the ray meets the surface
+    within ``incidence_limit_deg`` of its normal (CoppeliaSim's "limited angle detection";
+    90 is no limit): an ultrasonic echo off a surface seen too obliquely does not come back.
+    """
 
     name: str  # channel name, 1-based as CoppeliaSim's legacy API: sonar1..sonar16
     x_m: float
     y_m: float
     angle_rad: float
     range_m: float
+    cone_deg: float = 0.0  # full opening angle of the detection cone; 0: a single ray
+    incidence_limit_deg: float = 90.0  # widest angle between a ray and the normal of what it hits
+
+    def ray_angles_rad(self) -> tuple[float, ...]:
+        """The directions of its rays in the robot frame, from the cone's right edge to its left."""
+        if self.cone_deg <= 0.0:
+            return (self.angle_rad,)
+        half = math.radians(self.cone_deg) / 2.0
+        step = 2.0 * half / (CONE_RAYS - 1)
+        return tuple(self.angle_rad - half + k * step for k in range(CONE_RAYS))
 
 
 @dataclass(frozen=True)
@@ -192,13 +215,21 @@ POSE_CHANNELS: dict[str, Kind] = {"x": Kind.NUMBER, "y": Kind.NUMBER, "heading":
 # --- Pioneer P3DX ---------------------------------------------------------------------------
 # Sources, in order of trust (see ../shared/reference/coppeliasim-zmq-protocol.md, section 6):
 # * Sonar poses and angles: course code reproducing CoppeliaSim's model (`robot_p3dx.py`,
-#   SENSORS list); the angles match the real robot's sonar ring (90, 50, 30, 10, -10, ...).
+#   SENSORS list); the angles match the real robot's sonar ring (90, 50, 30, 10, -10, ...),
+#   and the sensors' own poses in the stock model (read as the volume below) agree within
+#   0.4 mm; they sit 0.068 m above the model's base.
 # * Wheel radius 0.0975 m (wheel diameter 195 mm): the same course code and the Pioneer 3
 #   datasheet agree.
 # * Axle length 0.331 m: uncertain, third-party figures range 0.311..0.381; 0.331 is the
 #   half-axle 0.1655 seen in code written against CoppeliaSim's model.
-# * Sonar range 1.0 m: uncertain (the course code's SENSOR_RANGE); the model's own
-#   Braitenberg script needs only 0.5 m.
+# * Sonar volume, read from the stock model itself as CoppeliaSim saved it inside two public
+#   scenes (docs/coppeliasim.md, "The Pioneer's ultrasonic sensors", says how): each of the 16
+#   `Pioneer_p3dx_ultrasonicSensor`s is a cone-type proximity sensor (sensor subtype 33),
+#   offset 0, range 1.0 m beyond a 5 mm close radius, opening angle 30 degrees, closest-point
+#   detection, limited angle detection on at 45 degrees, detecting "ultrasonic"-detectable
+#   objects. labsim keeps range 1.0 m (the volume's far cap lies at 1.005 m from the sensor's
+#   point, 5 mm labsim leaves out) and casts the cone's cut by the floor's plane: a fan of
+#   30 degrees (CONE_RAYS rays).
 # * Max wheel speed 12.3 rad/s: the real P3DX's 1.2 m/s top speed / 0.0975 m. CoppeliaSim's
 #   model sets no joint velocity limit that could be confirmed, so this is the real robot's.
 # * Mass 9 kg: the Pioneer 3 datasheet (robot without batteries).
@@ -232,7 +263,8 @@ PIONEER_P3DX = RobotModel(
         (-0.0975, 0.19), (0.0975, 0.19), (0.1557, 0.1250), (0.1909, 0.0831),
     ),
     sonars=tuple(
-        Sonar(f"sonar{i + 1}", x, y, math.radians(a), 1.0) for i, (x, y, a) in enumerate(_P3DX_SONARS)
+        Sonar(f"sonar{i + 1}", x, y, math.radians(a), 1.0, cone_deg=30.0, incidence_limit_deg=45.0)
+        for i, (x, y, a) in enumerate(_P3DX_SONARS)
     ),
     bumpers=(
         Bumper("bump_front_left", 0.1909, 0.0831, 0.02), Bumper("bump_front_right", 0.1909, -0.0831, 0.02),

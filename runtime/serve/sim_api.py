@@ -295,8 +295,8 @@ class SimApi:
         d = self.sim.sensed(obj)
         if d is None or d == math.inf or d is False:  # not yet handled by a step, nothing seen, a bumper free
             return [0, 0.0, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]]
-        d = 0.0 if d is True else d  # a bumper pressed: detected at no distance
-        return [1, d, [0.0, 0.0, d], -1, [0.0, 0.0, 0.0]]
+        dist = d if isinstance(d, float) else 0.0  # a bumper pressed: detected at no distance
+        return [1, dist, self.sim.detected_point(obj, dist), -1, [0.0, 0.0, 0.0]]
 
     def _sim_readVisionSensor(self, client: Client, args: Args) -> list[object]:
         # a ground sensor: [result, auxPacket1], 15 values (min, max, mean of intensity r g b depth)

@@ -22,6 +22,7 @@ Semantics kept from CoppeliaSim, and where the stand-in differs (docs/coppeliasi
 """
 from __future__ import annotations
 
+import math
 import random
 import time
 from collections.abc import Callable, Sequence
@@ -273,6 +274,17 @@ class Simulation:
         if self._backend is None or self.steps == 0:
             return None
         return self.snapshot()[obj.robot][self.robots[obj.robot].row[obj.name]]
+
+    def detected_point(self, obj: SceneObject, distance_m: float) -> list[float]:
+        """Where a proximity sensor detected something ``distance_m`` away, in its own frame as
+        the stock Pioneer's sensors have it (z along the axis, x to its left, y up): along the
+        ray of a sonar's cone that found it; along the axis where the backend cannot tell
+        which, or the state has changed since the step's reading (a noisy reading, a robot
+        moved while stopped), and for a bumper."""
+        hit = getattr(self._backend, "sonar_hit", None) if obj.kind == "sonar" else None
+        found = hit(obj.robot, obj.name) if hit is not None else None
+        a = float(found[1]) if found is not None and found[0] == distance_m else 0.0
+        return [distance_m * math.sin(a), 0.0, distance_m * math.cos(a)]
 
     def part(self, name: str) -> Sequence[float]:
         """A mechanism channel's value now: (position, velocity), (tension,) or (x, z, angle)."""

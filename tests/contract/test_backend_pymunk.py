@@ -11,7 +11,7 @@ import pytest
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError, BackendStateError, RobotRequest
 from labsim.backends.pymunk.backend import PymunkBackend
-from labsim.backends.scene.models import PIONEER_P3DX, RobotModel
+from labsim.backends.scene.models import CONE_RAYS, PIONEER_P3DX, RobotModel
 from labsim.backends.scene.world import Block, Pose, Wall, World
 
 M = PIONEER_P3DX
@@ -51,20 +51,50 @@ def opened(world: World, *poses: Pose, channels: tuple[str, ...] = ALL, **kw: in
 
 
 def expected_in_room(pose: Pose, sonar_name: str, face: float = FACE) -> float:
-    """Distance from a sonar's mount along its ray to the nearest face of ``room(face)``."""
+    """Distance from a sonar's mount to the nearest face of ``room(face)`` its cone detects:
+    the nearest first hit of its rays that meets the face within the incidence limit."""
     s = next(s for s in M.sonars if s.name == sonar_name)
     c, si = math.cos(pose.heading_rad), math.sin(pose.heading_rad)
     ox = pose.x_m + c * s.x_m - si * s.y_m
     oy = pose.y_m + si * s.x_m + c * s.y_m
-    a = pose.heading_rad + s.angle_rad
-    dx, dy = math.cos(a), math.sin(a)
-    ts = []
-    if abs(dx) > 1e-12:
-        ts.append(((face if dx > 0 else -face) - ox) / dx)
-    if abs(dy) > 1e-12:
-        ts.append(((face if dy > 0 else -face) - oy) / dy)
-    t = min(ts)
-    return t if t <= s.range_m else math.inf
+    best = math.inf
+    for angle in s.ray_angles_rad():
+        a = pose.heading_rad + angle
+        dx, dy = math.cos(a), math.sin(a)
+        hits = []  # (distance, cosine of the angle between the ray and the face's normal)
+        if abs(dx) > 1e-12:
+            hits.append((((face if dx > 0 else -face) - ox) / dx, abs(dx)))
+        if abs(dy) > 1e-12:
+            hits.append((((face if dy > 0 else -face) - oy) / dy, abs(dy)))
+        t, cos_incidence = min(hits)
+        if t <= s.range_m and cos_incidence >= math.cos(math.radians(s.incidence_limit_deg)) - 1e-12:
+            best = min(best, t)
+    return best
+
+
+def fan_distance(mount: tuple[float, float], axis_rad: float,
+                 segments: list[tuple[tuple[float, float], tuple[float, float]]]) -> float:
+    """A Pioneer sonar's reading by hand: the nearest hit of its cone's rays (30 degrees, from
+    edge to edge) on these segments (world frame) that meets its segment within 45 degrees of
+    the segment's normal; inf when none does within 1 m."""
+    s = M.sonars[0]
+    best = math.inf
+    for k in range(CONE_RAYS):
+        a = axis_rad + math.radians(-s.cone_deg / 2 + k * s.cone_deg / (CONE_RAYS - 1))
+        dx, dy = math.cos(a), math.sin(a)
+        first = (math.inf, 0.0)
+        for (x1, y1), (x2, y2) in segments:
+            ex, ey = x2 - x1, y2 - y1
+            den = dx * ey - dy * ex
+            if abs(den) < 1e-12:
+                continue
+            t = ((x1 - mount[0]) * ey - (y1 - mount[1]) * ex) / den  # along the ray
+            u = ((x1 - mount[0]) * dy - (y1 - mount[1]) * dx) / den  # along the segment
+            if t >= 0.0 and 0.0 <= u <= 1.0 and t < first[0]:
+                first = (t, abs(dx * ey - dy * ex) / math.hypot(ex, ey))  # |cos| of the incidence
+        if first[0] <= s.range_m and first[1] >= math.cos(math.radians(s.incidence_limit_deg)):
+            best = min(best, first[0])
+    return best
 
 
 def run(b: PymunkBackend, ticks: int, left: float, right: float, robot: int = 0) -> None:
@@ -80,10 +110,11 @@ def test_sonars_read_the_wall_distance_from_their_mount() -> None:
     b = opened(room(), pose)
     got = dict(zip(ALL, b.sense()[0]))
     # By hand: sonar1 (+90 deg) sits at y = 0.2 + 0.1382 and looks straight at the wall face
-    # at y = 1; sonar5 (-10 deg) sits at x = 0.3 + 0.2095 and looks at x = 1 at 10 degrees.
+    # at y = 1; sonar5 (-10 deg) sits at x = 0.3 + 0.2095, and its 30-degree cone (-25 to +5
+    # deg) holds the perpendicular to x = 1, so it reads the wall's nearest point, as sonar4.
     assert got["sonar1"] == pytest.approx(1.0 - 0.3382, abs=0.01)
-    assert got["sonar5"] == pytest.approx((1.0 - 0.5095) / math.cos(math.radians(10)), abs=0.01)
-    assert got["sonar4"] == pytest.approx((1.0 - 0.5095) / math.cos(math.radians(10)), abs=0.01)
+    assert got["sonar5"] == pytest.approx(1.0 - 0.5095, abs=0.01)
+    assert got["sonar4"] == pytest.approx(1.0 - 0.5095, abs=0.01)
     assert got["sonar8"] == math.inf  # the wall below is 1.06 m away, beyond the 1 m range
     for name in SONARS:
         want = expected_in_room(pose, name)
@@ -112,6 +143,58 @@ def test_sonars_match_the_geometry_at_any_heading(pose: Pose) -> None:
     b.close()
 
 
+def wall_facing(mount: tuple[float, float], direction_deg: float, distance_m: float, length_m: float,
+                normal_deg: float | None = None) -> Wall:
+    """A thin wall whose face's point in ``direction_deg`` from ``mount`` (world frame) is
+    ``distance_m`` away; the face's normal points back along ``normal_deg`` (by default the
+    direction itself, so the wall faces the mount squarely)."""
+    thick = 0.02
+    d = math.radians(direction_deg)
+    n = math.radians(direction_deg if normal_deg is None else normal_deg)
+    px, py = mount[0] + distance_m * math.cos(d), mount[1] + distance_m * math.sin(d)
+    cx, cy = px + thick / 2 * math.cos(n), py + thick / 2 * math.sin(n)  # the wall's centre line
+    tx, ty = -math.sin(n) * length_m / 2, math.cos(n) * length_m / 2
+    return Wall((cx - tx, cy - ty), (cx + tx, cy + ty), thick)
+
+
+def test_a_wall_off_the_axis_inside_the_cone_is_seen_at_its_distance() -> None:
+    """A worked example on sonar4 (axis +10 degrees; cone 30 degrees, rays at -5, 2.5, 10,
+    17.5 and 25 in the robot's frame). A short wall (12 cm) 12 degrees off the axis, 0.5 m
+    from the mount and facing it, spans 15.2 to 28.8 degrees: the rays at 17.5 and 25 meet it,
+    the nearer at 0.5 / cos(3 deg) (CoppeliaSim's exact nearest point: 0.5 m, 1.4 mm less). A
+    single ray along the axis would miss it. 12 degrees the other side (-8.8 to 4.8) the rays
+    at -5 and 2.5 meet it, -5 again 3 degrees from its normal. The same wall 25 degrees off
+    the axis (28.2 to 41.8, or -21.8 to -8.2), outside the cone, is not seen at all."""
+    s4 = M.sonars[3]
+    mount, axis = (s4.x_m, s4.y_m), math.degrees(s4.angle_rad)
+    for off, want in [(12.0, 0.5 / math.cos(math.radians(3.0))), (-12.0, 0.5 / math.cos(math.radians(3.0))),
+                      (25.0, math.inf), (-25.0, math.inf)]:
+        world = World("w", "one wall", (-3.0, -3.0, 3.0, 3.0), (wall_facing(mount, axis + off, 0.5, 0.12),))
+        b = opened(world, Pose(0.0, 0.0, 0.0), channels=("sonar4",))
+        assert b.sense()[0][0] == pytest.approx(want, abs=1e-9), off
+        b.close()
+
+
+def test_a_wall_met_more_obliquely_than_45_degrees_is_not_seen() -> None:
+    """CoppeliaSim's limited angle detection: a long wall crossing sonar4's axis 0.5 m out,
+    its normal 60 degrees off the axis, is met by every ray of the cone at 45 to 75 degrees:
+    the edge ray at 25 degrees meets it at exactly 45 and counts; turned to 65 degrees it is
+    met at 50 or more, and the sonar reads nothing, where a single ray would have read it."""
+    s4 = M.sonars[3]
+    mount, axis = (s4.x_m, s4.y_m), math.degrees(s4.angle_rad)
+    for normal_off, seen in [(55.0, True), (65.0, False)]:
+        wall = wall_facing(mount, axis, 0.5, 3.0, normal_deg=axis + normal_off)
+        b = opened(World("w", "one wall", (-3.0, -3.0, 3.0, 3.0), (wall,)), Pose(0.0, 0.0, 0.0),
+                   channels=("sonar4",))
+        got = b.sense()[0][0]
+        face = wall.a, wall.b  # the hand-made oracle on the wall's face, offset half a thickness
+        nx, ny = math.cos(math.radians(axis + normal_off)), math.sin(math.radians(axis + normal_off))
+        shifted = [((face[0][0] - 0.01 * nx, face[0][1] - 0.01 * ny), (face[1][0] - 0.01 * nx, face[1][1] - 0.01 * ny))]
+        assert got == pytest.approx(fan_distance(mount, s4.angle_rad, shifted), abs=1e-6)
+        assert (got < math.inf) is seen, normal_off
+        b.close()
+
+
 def test_a_block_is_seen() -> None:
     block = Block(((0.6, -0.3), (0.8, -0.3), (0.8, 0.3), (0.6, 0.3)))
     b = opened(room(blocks=(block,)), Pose(0.0, 0.0, 0.0), channels=("sonar4", "sonar5"))
@@ -133,11 +216,10 @@ def test_another_robot_is_detected() -> None:
     b = opened(EMPTY, a_pose, b_pose, channels=("sonar1", "sonar4", "sonar5"))
     ra, rb = b.sense()
     assert 0.6 < ra[1] < 0.7 and 0.6 < ra[2] < 0.7  # sonar4 / sonar5 see B's flank
-    # B's sonar1 (+90 deg, pointing at world -x) starts at x = 1 - 0.1382, y = 0.1067 and hits
-    # A's footprint edge (0.1557, 0.1250)-(0.1909, 0.0831) at that height.
-    y = 0.1067
-    edge_x = 0.1557 + (0.1250 - y) / (0.1250 - 0.0831) * (0.1909 - 0.1557)
-    assert rb[0] == pytest.approx((1.0 - 0.1382) - edge_x, abs=0.01)
+    # B's sonar1 (+90 deg, pointing at world -x) starts at x = 1 - 0.1382, y = 0.1067; its
+    # cone's rays meet A's outline, the nearest of them squarely enough to count.
+    outline = [(M.footprint[k], M.footprint[(k + 1) % len(M.footprint)]) for k in range(len(M.footprint))]
+    assert rb[0] == pytest.approx(fan_distance((1.0 - 0.1382, 0.1067), math.pi, outline), abs=0.005)
     alone = opened(EMPTY, a_pose, channels=("sonar1", "sonar4", "sonar5"))
     assert alone.sense() == [[math.inf] * 3]
 

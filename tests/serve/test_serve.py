@@ -139,7 +139,12 @@ def test_step_waits_then_advances_one_step(wire: Wire) -> None:
     assert wire.raw("_*executed*_") == {"ret": []}
     assert wire("sim.getSimulationTime") == pytest.approx(0.05)
     res, dist, point, obj, normal = wire("sim.readProximitySensor", sonar5)
-    assert res == 1 and 0 < dist < 1 and point == [0.0, 0.0, dist]  # robot 1 faces the 8 m wall, 0.65 m away
+    # robot 1 faces the 8 m wall squarely, 0.65 m away; sonar5 looks 10 degrees right of that,
+    # and the ray of its cone 7.5 degrees left of its axis (nearest the wall's normal) finds
+    # the wall: the detected point, in the sensor's frame (z its axis, x its left), lies there
+    a = math.radians(7.5)
+    assert res == 1 and 0 < dist < 1
+    assert point == pytest.approx([dist * math.sin(a), 0.0, dist * math.cos(a)], abs=1e-12)
     wire("sim.stopSimulation")
     assert wire("sim.getSimulationState") == 0 and wire("sim.getSimulationTime") == 0.0
     assert wire.raw("sim.step") == {"func": "_*wait*_", "args": []}  # stopped: one wait, no step

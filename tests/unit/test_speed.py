@@ -17,9 +17,10 @@ from helpers import BEHAVIOURS
 from labsim.backends import load_backend
 from labsim.backends.protocol import RobotRequest
 from labsim.backends.pymunk import camera, chipmunk
-from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
+from labsim.backends.pymunk.fleet import sonar_spec
+from labsim.backends.pymunk.fleet_sense import enclosing_circle, ray_groups
 from labsim.backends.scene.ground import Ground, Road, RoadTracker
-from labsim.backends.scene.models import PIONEER_P3DX
+from labsim.backends.scene.models import CONE_RAYS, PIONEER_P3DX
 from labsim.backends.scene.world import Block, Pose, Wall, World
 from labsim.dsl import parse
 from labsim.dsl.builtins import _max, _min
@@ -107,31 +108,36 @@ def test_rays_cast_in_groups_read_what_casting_every_ray_reads(monkeypatch: pyte
             (x, y), a = body.position, body.angle
             c, s = math.cos(a), math.sin(a)
             want = []
-            for name in channels[r]:
-                n = by_name[name]
-                ex, ey = n.range_m * math.cos(n.angle_rad), n.range_m * math.sin(n.angle_rad)
+            for name in channels[r]:  # every ray of every cone, through pymunk's own query
+                n, spec = by_name[name], sonar_spec(by_name[name])
                 ox, oy = x + c * n.x_m - s * n.y_m, y + s * n.x_m + c * n.y_m
-                hit = space.segment_query_first((ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0,
-                                                pymunk.ShapeFilter(group=r + 1))
-                want.append(hit.alpha * n.range_m if hit is not None else math.inf)
+                nearest = math.inf
+                for ex, ey in spec.fan:
+                    wx, wy = c * ex - s * ey, s * ex + c * ey
+                    hit = space.segment_query_first((ox, oy), (ox + wx, oy + wy), 0.0, pymunk.ShapeFilter(group=r + 1))
+                    assert spec.incidence_cos is not None
+                    if hit is not None and hit.normal.x * wx + hit.normal.y * wy <= -spec.incidence_cos * n.range_m:
+                        nearest = min(nearest, hit.alpha * n.range_m)
+                want.append(nearest)
             assert got[r] == want
     backend.close()
     assert 0 < tests["empty"] < tests["made"], tests
 
 
 def test_the_pioneers_ring_of_sonars_makes_four_groups_of_four() -> None:
-    rays = tuple(SonarRay(s.x_m, s.y_m, s.range_m * math.cos(s.angle_rad), s.range_m * math.sin(s.angle_rad),
-                          s.range_m) for s in PIONEER_P3DX.sonars)
+    rays = tuple(sonar_spec(s) for s in PIONEER_P3DX.sonars)
     groups = [[PIONEER_P3DX.sonars[k].name for k in group] for group in ray_groups(rays)]
     assert groups == [["sonar12", "sonar11", "sonar10", "sonar8"], ["sonar9", "sonar7", "sonar6", "sonar5"],
                       ["sonar4", "sonar3", "sonar2", "sonar1"], ["sonar16", "sonar15", "sonar14", "sonar13"]]
-    for group in ray_groups(rays):  # each circle holds its rays' ends
+    for group in ray_groups(rays):  # each circle holds every ray of its cones
         cx, cy, radius = enclosing_circle([rays[k] for k in group])
         for k in group:
             ray = rays[k]
-            for x, y in [(ray.mount_x_m, ray.mount_y_m), (ray.mount_x_m + ray.end_dx_m, ray.mount_y_m + ray.end_dy_m)]:
+            assert len(ray.ends()) == CONE_RAYS
+            for x, y in [(ray.mount_x_m, ray.mount_y_m)] + [(ray.mount_x_m + dx, ray.mount_y_m + dy)
+                                                             for dx, dy in ray.ends()]:
                 assert math.hypot(x - cx, y - cy) < radius
-        assert radius < 0.9
+        assert radius < 1.0  # 0.99 m: four neighbouring cones of 1 m and 30 degrees
 
 
 def test_wheel_drive_without_run_time_callbacks_moves_the_robot_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
