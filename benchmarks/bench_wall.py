@@ -1,17 +1,21 @@
 """Interpreter overhead on the wall-following lab: labsim against two hand-written pymunk loops.
 
 All three sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
-for the lab's 30,000 ticks: the same six sonars per tick, the same random numbers, the same
-rules, wheel clamping and metrics. labsim runs ``behaviours/wall_follow.yaml``; the two loops
-do by hand what it says:
+for the lab's 30,000 ticks: the same six sonar cones per tick (5 rays across each 30-degree
+cone, the nearest hit met within 45 degrees of the surface's normal), the same random
+numbers, the same rules, wheel clamping and metrics. labsim runs ``behaviours/wall_follow.yaml``;
+the two loops do by hand what it says:
 
 - "labsim's internals, by hand": the loop written the way labsim's backend works inside, with
   chipmunk's C functions through pymunk's raw cffi layer, the sonars cast in groups under one
-  test of a circle (``ray_groups``), and the wheel drive as a C velocity callback. It measures
-  what labsim's interpreter costs over the same machinery (goal: labsim <= 1.05 x it).
+  test of a circle (``ray_groups``) and each cone under one of its own, and the wheel drive as
+  a C velocity callback. It measures what labsim's interpreter costs over the same machinery
+  (goal: labsim <= 1.05 x it).
 - "plain pymunk loop": what a student writes on pymunk's public API: ``body.position`` and
-  ``body.angle``, every sonar a ``space.segment_query_first``, the wheel speeds set as
-  ``body.velocity`` and ``body.angular_velocity`` before each ``space.step``. This is the user's
+  ``body.angle``, every ray of every cone a ``space.segment_query_first`` (the hit's
+  ``normal`` for the incidence limit), the wheel speeds set as ``body.velocity`` and
+  ``body.angular_velocity`` before each ``space.step``, and while the robot touches a wall
+  through ``body.velocity_func`` inside the step (as labsim drives it). This is the user's
   anchor: what labsim costs against doing the lab by hand.
 
 The final poses must agree to 1e-12 m (the internals loop bit for bit; the plain loop computes
@@ -37,7 +41,8 @@ import pymunk
 from compare import Pose, Side, alternate, labsim_scene, labsim_side, machine, report, same_poses
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
-from labsim.backends.pymunk.fleet_sense import SonarRay, enclosing_circle, ray_groups
+from labsim.backends.pymunk.fleet import sonar_spec
+from labsim.backends.pymunk.fleet_sense import enclosing_circle, ray_groups
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -65,16 +70,23 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
     rng = random.Random(f"{p.seed}/pioneer")
     sonars = {s.name: s for s in model.sonars}
-    rays = [(sonars[n].x_m, sonars[n].y_m, math.cos(sonars[n].angle_rad), math.sin(sonars[n].angle_rad),
-             sonars[n].range_m) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
-    # The rays in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
-    # under one test of the circle that holds its rays: when no shape comes into the circle,
-    # none of its rays can hit, and they read inf without being cast.
-    as_specs = tuple(SonarRay(x, y, ux * reach, uy * reach, reach) for x, y, ux, uy, reach in rays)
+    # Each sonar a cone: a fan of rays, the nearest hit met within its incidence limit counts
+    # (fleet.sonar_spec gives the rays' ends and the limit as the backend casts them).
+    specs = tuple(sonar_spec(sonars[n]) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15"))
+    # The sonars in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
+    # under one test of the circle that holds its cones, each cone under one of its own: when no
+    # shape comes into a circle, none of its rays can hit, and they read inf without being cast.
     groups = []
-    for members in ray_groups(as_specs):
-        cx, cy, circle = enclosing_circle([as_specs[i] for i in members])
-        groups.append((cx, cy, circle, [(i, *rays[i]) for i in members]))
+    for members in ray_groups(specs):
+        cx, cy, circle = enclosing_circle([specs[i] for i in members])
+        cones = []
+        for i in members:
+            sp = specs[i]
+            assert sp.incidence_cos is not None
+            kx, ky, kr = enclosing_circle([sp])
+            lim = -sp.incidence_cos * sp.range_m  # normal . ray at most this: met within the limit
+            cones.append((i, sp.mount_x_m, sp.mount_y_m, kx, ky, kr, sp.fan, sp.range_m, lim))
+        groups.append((cx, cy, circle, cones))
     # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
     # result struct for the ray casts and one for the groups' tests, and the wheel drive set
     # after each step while the body is free, through a C velocity callback while it touches.
@@ -123,13 +135,19 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         a = get_angle(cp_body)
         c, s = cos(a), sin(a)
         d = [inf] * 6
-        for cx, cy, circle, members in groups:
+        for cx, cy, circle, cones in groups:
             if crowded(cp_space, (x + c * cx - s * cy, y + s * cx + c * cy), circle, ray_filter, nearest):
-                for i, mx, my, ux, uy, reach in members:
+                for i, mx, my, kx, ky, kr, fan, reach, lim in cones:
+                    if not crowded(cp_space, (x + c * kx - s * ky, y + s * kx + c * ky), kr, ray_filter, nearest):
+                        continue
                     ox, oy = x + c * mx - s * my, y + s * mx + c * my
-                    hit = query(cp_space, (ox, oy), (ox + (c * ux - s * uy) * reach, oy + (s * ux + c * uy) * reach),
-                                0.0, ray_filter, info)
-                    d[i] = info.alpha * reach if hit else inf
+                    v = inf
+                    for ex, ey in fan:
+                        wx, wy = c * ex - s * ey, s * ex + c * ey
+                        if query(cp_space, (ox, oy), (ox + wx, oy + wy), 0.0, ray_filter, info) \
+                                and info.alpha * reach < v and info.normal.x * wx + info.normal.y * wy <= lim:
+                            v = info.alpha * reach
+                    d[i] = v
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(0, 100)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
@@ -199,20 +217,32 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     space: pymunk.Space = backend.space
     body: pymunk.Body = backend.bodies[0]
     model = p.models["pioneer"]
-    # (labsim's contact handler, which would put a touching body under its wheel callback, is
-    # replaced by this loop's own below: the body keeps chipmunk's own velocity update)
+    # (labsim's contact handler is replaced by this loop's own below, which does the same: a
+    # body touching a wall is driven through its velocity_func, inside the step)
 
     dt = 0.05
     front, side, hold, cruise = 0.5, 0.3, 0.45, 4.0
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
     rng = random.Random(f"{p.seed}/pioneer")
     sonars = {s.name: s for s in model.sonars}
-    rays = [(sonars[n].x_m, sonars[n].y_m, sonars[n].angle_rad, sonars[n].range_m)
-            for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
+    # Each sonar a cone of rays from edge to edge; it reads the nearest hit that a ray meets
+    # within the incidence limit of the surface's normal (an echo seen too obliquely is lost).
+    cones = [(sonars[n].x_m, sonars[n].y_m, sonars[n].ray_angles_rad(), sonars[n].range_m,
+              math.cos(math.radians(sonars[n].incidence_limit_deg)))
+             for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15")]
     ray_filter = pymunk.ShapeFilter(group=1)  # the robot's own shape is in group 1
-    touching = [0]
+    v = w = 0.0  # the wheels' forward speed m/s and turn rate rad/s
+    touching, driven = [0], [False]
+
+    def wheels(b: pymunk.Body, gravity: object, damping: float, step: float) -> None:
+        # against a wall, the wheels drive inside the step, and the wall takes what it blocks
+        b.velocity = (v * math.cos(b.angle), v * math.sin(b.angle))
+        b.angular_velocity = w
 
     def begin(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
+        if touching[0] == 0:
+            body.velocity_func = wheels
+            driven[0] = True
         touching[0] += 1
 
     def separate(arbiter: pymunk.Arbiter, s: pymunk.Space, data: object) -> None:
@@ -225,18 +255,22 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     left_cmd = right_cmd = 0.0
     near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, math.inf
     contact_time = 0.0
-    v = w = 0.0
     tick = 0
     while tick * dt < 25 * 60:
         x, y = body.position
         a = body.angle
         d = []
-        for mx, my, angle, reach in rays:
+        for mx, my, angles, reach, square in cones:
             ox = x + math.cos(a) * mx - math.sin(a) * my
             oy = y + math.sin(a) * mx + math.cos(a) * my
-            end = (ox + math.cos(a + angle) * reach, oy + math.sin(a + angle) * reach)
-            hit = space.segment_query_first((ox, oy), end, 0.0, ray_filter)
-            d.append(hit.alpha * reach if hit else math.inf)
+            nearest = math.inf
+            for angle in angles:
+                ux, uy = math.cos(a + angle), math.sin(a + angle)
+                hit = space.segment_query_first((ox, oy), (ox + ux * reach, oy + uy * reach), 0.0, ray_filter)
+                # met within the limit: the ray against the normal by at least cos(limit)
+                if hit and hit.alpha * reach < nearest and hit.normal.x * ux + hit.normal.y * uy <= -square:
+                    nearest = hit.alpha * reach
+            d.append(nearest)
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(0, 100)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
@@ -265,7 +299,7 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
         wl = max(-limit, min(limit, left_cmd))
         wr = max(-limit, min(limit, right_cmd))
         v, w = radius / 2 * (wl + wr), radius / axle * (wr - wl)
-        if touching[0] == 0:  # against a wall, the wall takes away what it blocks
+        if touching[0] == 0:  # free: set now (touching, ``wheels`` sets them in the step)
             body.velocity = (v * math.cos(a), v * math.sin(a))
             body.angular_velocity = w
 
@@ -282,6 +316,9 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
         space.step(dt)
         if touching[0]:
             contact_time += dt
+        elif driven[0]:  # free again: back to pymunk's own velocity update
+            body.velocity_func = pymunk.Body.update_velocity
+            driven[0] = False
         tick += 1
     elapsed = time.process_time() - start
     WALLS.setdefault(PLAIN, []).append(time.perf_counter() - wall)
