@@ -5,8 +5,10 @@ submission to its contract (contract.py), runs what passed, each seed a job (run
 shared batch layer (``labsim.runtime.batch``: local worker processes, ``-j``, or a Dask
 cluster), re-using the cache for unchanged submissions, scores them (score.py) and writes the
 gradebook (gradebook.py) and the pages (pages.py). One student's failure is their row, never
-the batch's; Ctrl-C keeps what is done (the rest are ``not run``). Exit 0 when every student
-was graded, 1 when some could not be, 2 for a bad assignment (a ``LabsimError``), 130 on Ctrl-C.
+the batch's. Ctrl-C, SIGTERM and SIGHUP stop the runs in progress and keep what is done: the
+students whose runs all finished are cached and graded, the others are ``interrupted`` rows,
+and a second grading runs only those. Exit 0 when every student was graded, 1 when some could
+not be, 2 for a bad assignment (a ``LabsimError``), 128 + the signal that stopped it (130, 143, 129).
 """
 from __future__ import annotations
 
@@ -18,16 +20,18 @@ from pathlib import Path
 from typing import cast
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
-from labsim.runtime.batch import DONE, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs
+from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs, warm_up
+from labsim.runtime.ending import batch_signals, ending, exit_code
+from labsim.runtime.grade import runs as seed_runs
 from labsim.runtime.grade.assignment import Assignment, read_assignment
 from labsim.runtime.grade.contract import (
     CRASH,
     GRADED,
+    INTERRUPTED,
     MISMATCH,
-    NOT_RUN,
     Submission,
     check_submission,
     find_submissions,
@@ -36,6 +40,7 @@ from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, 
 from labsim.runtime.grade.runs import CRASHED, TIMED_OUT, Job, SeedRun, make_job, run_job
 from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
 
+PRELOAD = ("labsim.runtime.grade.runs",)  # what a worker runs, imported once in the fork server
 MapPicture = Callable[[Path, Path], None]  # (trace, PNG to write): the pictures' renderer, handed over by the cli
 
 
@@ -70,6 +75,8 @@ class Options:
 def grade_class(options: Options) -> Graded:
     """Grade every submission; see the module docstring. A bad assignment raises LabsimError."""
     assignment = read_assignment(options.assignment)
+    if options.scheduler is None:
+        warm_up(PRELOAD)  # the workers' imports overlap the reference's runs and the checks
     reference = _reference(assignment)
     found = find_submissions(options.submissions)
     if not found:
@@ -89,7 +96,7 @@ def grade_class(options: Options) -> Graded:
             continue
         jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
                           assignment.timeout_s, trace=i == 0) for i, seed in enumerate(assignment.seeds)]
-    done, interrupted = _run_jobs(jobs, options, assignment.timeout_s)
+    done, ended_by = _run_jobs(jobs, options, assignment.timeout_s)
     fresh = {job.student for job in jobs}
     for job, result in zip(jobs, done):
         if result is not None:
@@ -98,7 +105,8 @@ def grade_class(options: Options) -> Graded:
     for s in submissions:
         mine = sorted(runs.get(s.student, []), key=lambda r: assignment.seeds.index(r.seed))
         if s.status == GRADED and len(mine) < len(assignment.seeds):
-            grades.append(Grade(s.student, s.path, NOT_RUN, "interrupted before all its runs were done",
+            grades.append(Grade(s.student, s.path, INTERRUPTED, "the grading was stopped before its runs were done; "
+                                                                "grade again to finish it",
                                 diagnostics=s.diagnostics, runs=tuple(mine), source=s.source))
             continue
         if s.status == GRADED and options.cache and s.student in fresh and cacheable(mine):
@@ -106,7 +114,7 @@ def grade_class(options: Options) -> Graded:
         grades.append(grade_of(s, mine, assignment))
     traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
-                  reused, interrupted, traces)
+                  reused, ended_by, traces)
 
 
 def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
@@ -134,39 +142,56 @@ def _reference(assignment: Assignment) -> Grade | None:
                                                        f"meet the assignment: {submission.reason}")])
     jobs = [make_job("reference", Path(submission.path), submission.world_file, seed, assignment.params,
                      assignment.budgets, assignment.timeout_s, trace=False) for seed in assignment.seeds]
-    return grade_of(submission, [run_job(j) for j in jobs], assignment)
+    runs = [run_job(j) for j in jobs]
+    if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
+        raise KeyboardInterrupt
+    return grade_of(submission, runs, assignment)
 
 
-def _run_jobs(jobs: list[Job], options: Options, timeout_s: float) -> tuple[list[SeedRun | None], bool]:
-    """Every job's run (None for those Ctrl-C left undone), and whether Ctrl-C came."""
+def _run_jobs(jobs: list[Job], options: Options, timeout_s: float) -> tuple[list[SeedRun | None], int]:
+    """Every job's run (None for those a signal left undone), and the signal that stopped the
+    grading (0: none). A signal stops the runs in progress (``LocalBatch.interrupt``); a run
+    that finished meanwhile is kept."""
     done: list[SeedRun | None] = [None] * len(jobs)
     if not jobs:
-        return done, False
+        return done, 0
     line = StatusLine() if options.progress else None
     # the pool kills a run a little after its own deadline: the run stops itself first, with its message
-    outcomes = (dask_outcomes(options.scheduler, run_job, jobs) if options.scheduler is not None
-                else LocalBatch(options.jobs or default_jobs(), timeout_s + 5.0).outcomes(run_job, jobs))
+    local = None if options.scheduler is not None else LocalBatch(
+        options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
+    outcomes = dask_outcomes(options.scheduler, run_job, jobs) if local is None else local.outcomes(run_job, jobs)
     finished = 0
     try:
-        for outcome in outcomes:
+        with batch_signals():
+            for outcome in outcomes:
+                done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
+                finished += 1
+                if line is not None and (line.due() or finished == len(jobs)):
+                    line.draw(f"grading {bar(finished / len(jobs))} {finished}/{len(jobs)} runs")
+    except KeyboardInterrupt as e:
+        signum, why = ending(e)
+        for outcome in local.interrupt(why) if local is not None else []:
             done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
-            finished += 1
-            if line is not None and (line.due() or finished == len(jobs)):
-                line.draw(f"grading {bar(finished / len(jobs))} {finished}/{len(jobs)} runs")
-    except KeyboardInterrupt:
-        return done, True
+        return _kept(done), signum
     finally:
         if line is not None:
             line.clear()
         close = getattr(outcomes, "close", None)
         if close is not None:
             close()
-    return done, False
+    return _kept(done), 0
+
+
+def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
+    """The runs that ended by themselves: one a signal stopped is no result (it runs again next time)."""
+    return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
 
 
 def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
     if outcome.kind == DONE:
         return cast(SeedRun, outcome.value)
+    if outcome.kind == STOPPED:
+        return SeedRun(job.seed, seed_runs.STOPPED, outcome.message, wall_time_s=outcome.wall_s)
     status = TIMED_OUT if outcome.kind == TIMEOUT else CRASHED
     return SeedRun(job.seed, status, outcome.message, wall_time_s=outcome.wall_s)
 
@@ -205,7 +230,9 @@ def write_class(graded: Graded, options: Options, map_picture: MapPicture | None
     if pages:
         print(f"wrote {options.out / 'index.html'} and {len(graded.grades)} feedback pages in "
               f"{options.out / 'feedback'}")
-    if graded.interrupted:
-        return EXIT_INTERRUPTED
+    if graded.ended_by:
+        print(f"interrupted: {sum(g.status == INTERRUPTED for g in graded.grades)} submissions left to grade; "
+              "grading again runs only those")
+        return exit_code(graded.ended_by)
     return EXIT_OK if all(g.graded for g in graded.grades) else EXIT_FAILED
 
