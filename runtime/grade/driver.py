@@ -96,8 +96,13 @@ def grade_class(options: Options) -> Graded:
             continue
         jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
                           assignment.timeout_s, trace=i == 0) for i, seed in enumerate(assignment.seeds)]
-    done, ended_by = _run_jobs(jobs, options, assignment.timeout_s)
-    fresh = {job.student for job in jobs}
+    keys = {s.student: s.key for s in submissions}
+
+    def finished(student: str, mine: list[SeedRun]) -> None:  # kept at once: a signal later costs none of it
+        if options.cache and cacheable(mine):
+            save_cached(cache, keys[student], mine)
+
+    done, ended_by = _run_jobs(jobs, options, assignment.timeout_s, finished)
     for job, result in zip(jobs, done):
         if result is not None:
             runs.setdefault(job.student, []).append(result)
@@ -109,8 +114,6 @@ def grade_class(options: Options) -> Graded:
                                                                 "grade again to finish it",
                                 diagnostics=s.diagnostics, runs=tuple(mine), source=s.source))
             continue
-        if s.status == GRADED and options.cache and s.student in fresh and cacheable(mine):
-            save_cached(cache, s.key, mine)
         grades.append(grade_of(s, mine, assignment))
     traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
@@ -148,43 +151,58 @@ def _reference(assignment: Assignment) -> Grade | None:
     return grade_of(submission, runs, assignment)
 
 
-def _run_jobs(jobs: list[Job], options: Options, timeout_s: float) -> tuple[list[SeedRun | None], int]:
+class _Runs:
+    """Each job's run as it comes; a student whose runs are all done is handed to ``finished``
+    at once (the cache), so that whatever stops the grading later costs none of it."""
+
+    def __init__(self, jobs: list[Job], finished: Callable[[str, list[SeedRun]], None]) -> None:
+        self.jobs = jobs
+        self.done: list[SeedRun | None] = [None] * len(jobs)
+        self.finished = finished
+        self._left: dict[str, list[int]] = {}
+        for i, job in enumerate(jobs):
+            self._left.setdefault(job.student, []).append(i)
+        self.count = 0
+
+    def take(self, outcome: Outcome) -> None:
+        job = self.jobs[outcome.index]
+        run = self.done[outcome.index] = _seed_run(job, outcome)
+        self.count += 1
+        if run.status != seed_runs.STOPPED and all(self.done[i] is not None for i in self._left[job.student]):
+            self.finished(job.student, [cast(SeedRun, self.done[i]) for i in self._left[job.student]])
+
+
+def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
+              finished: Callable[[str, list[SeedRun]], None]) -> tuple[list[SeedRun | None], int]:
     """Every job's run (None for those a signal left undone), and the signal that stopped the
     grading (0: none). A signal stops the runs in progress (``LocalBatch.interrupt``); a run
     that finished meanwhile is kept."""
-    done: list[SeedRun | None] = [None] * len(jobs)
+    runs = _Runs(jobs, finished)
     if not jobs:
-        return done, 0
+        return runs.done, 0
     line = StatusLine() if options.progress else None
     # the pool kills a run a little after its own deadline: the run stops itself first, with its message
     local = None if options.scheduler is not None else LocalBatch(
         options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
     outcomes = dask_outcomes(options.scheduler, run_job, jobs) if local is None else local.outcomes(run_job, jobs)
-    finished = 0
     try:
         with batch_signals():
             for outcome in outcomes:
-                done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
-                finished += 1
-                if line is not None and (line.due() or finished == len(jobs)):
-                    line.draw(f"grading {bar(finished / len(jobs))} {finished}/{len(jobs)} runs")
+                runs.take(outcome)
+                if line is not None and (line.due() or runs.count == len(jobs)):
+                    line.draw(f"grading {bar(runs.count / len(jobs))} {runs.count}/{len(jobs)} runs")
     except KeyboardInterrupt as e:
         signum, why = ending(e)
         for outcome in local.interrupt(why) if local is not None else []:
-            done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
-        return _kept(done), signum
+            runs.take(outcome)
+        return _kept(runs.done), signum
     finally:
         if line is not None:
             line.clear()
         close = getattr(outcomes, "close", None)
         if close is not None:
             close()
-    return _kept(done), 0
-
-
-def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
-    """The runs that ended by themselves: one a signal stopped is no result (it runs again next time)."""
-    return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
+    return _kept(runs.done), 0
 
 
 def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
@@ -194,6 +212,11 @@ def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
         return SeedRun(job.seed, seed_runs.STOPPED, outcome.message, wall_time_s=outcome.wall_s)
     status = TIMED_OUT if outcome.kind == TIMEOUT else CRASHED
     return SeedRun(job.seed, status, outcome.message, wall_time_s=outcome.wall_s)
+
+
+def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
+    """The runs that ended by themselves: one a signal stopped is no result (it runs again next time)."""
+    return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
 
 
 def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -> int:
