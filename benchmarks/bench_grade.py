@@ -60,9 +60,9 @@ def grade(folder: Path, jobs: int, pages: bool) -> float:
     start = time.perf_counter()
     graded = grade_class(options)
     if pages:
-        from labsim.runtime.cli.commands import draw_map
+        from labsim.runtime.cli.commands import draw_pictures
 
-        write_class(graded, options, draw_map)
+        write_class(graded, options, draw_pictures)
     else:
         write_class(graded, options, None, pages=False)
     elapsed = time.perf_counter() - start

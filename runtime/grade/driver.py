@@ -41,7 +41,8 @@ from labsim.runtime.grade.runs import CRASHED, TIMED_OUT, Job, SeedRun, make_job
 from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
 
 PRELOAD = ("labsim.runtime.grade.runs",)  # what a worker runs, imported once in the fork server
-MapPicture = Callable[[Path, Path], None]  # (trace, PNG to write): the pictures' renderer, handed over by the cli
+# (trace, PNG, GIF to write): the pictures' renderer, handed over by the command line
+MapPicture = Callable[[Path, Path, Path], None]
 
 
 def add_grade_arguments(p: argparse.ArgumentParser) -> None:
