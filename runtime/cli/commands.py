@@ -336,7 +336,8 @@ def draw_pictures(trace_path: Path, png: Path, gif: Path | None = None) -> None:
     if gif is not None and trace.rows and "time" in trace.columns:
         i = trace.columns.index("time")
         duration_s = float(trace.rows[-1][i]) - float(trace.rows[0][i])
-        animate(trace, gif, width_px=GIF_WIDTH_PX, fps=GIF_FPS, speed=max(duration_s, 1e-3) / GIF_SECONDS)
+        animate(trace, gif, width_px=GIF_WIDTH_PX, fps=GIF_FPS, speed=max(duration_s, 1e-3) / GIF_SECONDS,
+                world=(world, note))
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
