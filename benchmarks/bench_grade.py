@@ -167,11 +167,11 @@ def main() -> None:
         for name in cpu:
             if name != "bare -j 2":
                 over = statistics.median(pair_ratios(cpu[name], cpu["bare -j 2"]))
-                print(f"overhead of {name} over the bare runs, CPU: {100 * (over - 1):+.1f}% "
+                print(f"overhead of grading ({name}) over the bare runs, CPU: {100 * (over - 1):+.1f}% "
                       f"(median of per-round ratios; goal <= 10%)")
         if args.speed_up:
             one = side(folder, graded, 1, walls, "j1")
-            print(f"{graded} -j 1: CPU {one:.1f} s, wall {walls['j1'][0]:.1f} s; speed-up of -j 2 (wall): "
+            print(f"{graded} -j 1: CPU {one:.1f} s, wall {walls['j1'][0]:.1f} s; speed-up -j 2 over -j 1 (wall): "
                   f"{walls['j1'][0] / statistics.median(walls[f'{graded} -j 2']):.2f}x (goal >= 1.8x)")
     print(machine())
 
