@@ -29,8 +29,9 @@ from labsim.runtime.run import compile_behaviour
 
 # a student's status: graded, or why not
 GRADED, MISMATCH, COMPILE_ERROR, HOSTILE = "graded", "contract mismatch", "compile error", "hostile file"
-TIMEOUT, BUDGET, CRASH, NOT_RUN = "timeout", "budget stop", "crash", "not run"
-STATUSES = (GRADED, MISMATCH, COMPILE_ERROR, HOSTILE, TIMEOUT, BUDGET, CRASH, NOT_RUN)
+# INTERRUPTED: a signal (Ctrl-C, SIGTERM, SIGHUP) stopped the grading before its runs were done
+TIMEOUT, BUDGET, CRASH, INTERRUPTED = "timeout", "budget stop", "crash", "interrupted"
+STATUSES = (GRADED, MISMATCH, COMPILE_ERROR, HOSTILE, TIMEOUT, BUDGET, CRASH, INTERRUPTED)
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,10 @@ submission to its contract (contract.py), runs what passed, each seed a job (run
 shared batch layer (``labsim.runtime.batch``: local worker processes, ``-j``, or a Dask
 cluster), re-using the cache for unchanged submissions, scores them (score.py) and writes the
 gradebook (gradebook.py) and the pages (pages.py). One student's failure is their row, never
-the batch's; Ctrl-C keeps what is done (the rest are ``not run``). Exit 0 when every student
-was graded, 1 when some could not be, 2 for a bad assignment (a ``LabsimError``), 130 on Ctrl-C.
+the batch's. Ctrl-C, SIGTERM and SIGHUP stop the runs in progress and keep what is done: the
+students whose runs all finished are cached and graded, the others are ``interrupted`` rows,
+and a second grading runs only those. Exit 0 when every student was graded, 1 when some could
+not be, 2 for a bad assignment (a ``LabsimError``), 128 + the signal that stopped it (130, 143, 129).
 """
 from __future__ import annotations
 
@@ -18,25 +20,29 @@ from pathlib import Path
 from typing import cast
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK
+from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
-from labsim.runtime.batch import DONE, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs
+from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs, warm_up
+from labsim.runtime.ending import batch_signals, ending, exit_code
+from labsim.runtime.grade import runs as seed_runs
 from labsim.runtime.grade.assignment import Assignment, read_assignment
 from labsim.runtime.grade.contract import (
     CRASH,
     GRADED,
+    INTERRUPTED,
     MISMATCH,
-    NOT_RUN,
     Submission,
     check_submission,
     find_submissions,
 )
 from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, write_gradebook
-from labsim.runtime.grade.runs import CRASHED, TIMED_OUT, Job, SeedRun, make_job, run_job
+from labsim.runtime.grade.runs import CRASHED, OVER_BUDGET, RAN, TIMED_OUT, Job, SeedRun, make_job, run_job
 from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
 
-MapPicture = Callable[[Path, Path], None]  # (trace, PNG to write): the pictures' renderer, handed over by the cli
+PRELOAD = ("labsim.runtime.grade.runs",)  # what a worker runs, imported once in the fork server
+# (trace, PNG, GIF to write): the pictures' renderer, handed over by the command line
+MapPicture = Callable[[Path, Path, Path], None]
 
 
 def add_grade_arguments(p: argparse.ArgumentParser) -> None:
@@ -53,7 +59,8 @@ def add_grade_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
     p.add_argument("--no-cache", action="store_true", help="run every submission, even those graded before")
-    p.add_argument("--no-pages", action="store_true", help="write the gradebook only, no HTML pages")
+    p.add_argument("--no-pages", action="store_true", help="write the gradebook only: no HTML pages, and no traces "
+                                                           "(seed 1 runs untraced, about a third faster)")
 
 
 @dataclass(frozen=True)
@@ -65,11 +72,14 @@ class Options:
     scheduler: object = None  # a Dask scheduler's address (or client): run there
     cache: bool = True
     progress: bool = False
+    pages: bool = True  # the pages need seed 1's trace; the gradebook alone does not (it costs a third of a run)
 
 
 def grade_class(options: Options) -> Graded:
     """Grade every submission; see the module docstring. A bad assignment raises LabsimError."""
     assignment = read_assignment(options.assignment)
+    if options.scheduler is None:
+        warm_up(PRELOAD)  # the workers' imports overlap the reference's runs and the checks
     reference = _reference(assignment)
     found = find_submissions(options.submissions)
     if not found:
@@ -83,14 +93,22 @@ def grade_class(options: Options) -> Graded:
         if s.status != GRADED:
             continue
         kept = load_cached(cache, s.key, assignment.seeds) if options.cache else None
+        if kept is not None and options.pages and not kept[0].trace_gz and kept[0].status in (RAN, OVER_BUDGET):
+            kept = None  # graded before with --no-pages: its map needs the trace
         if kept is not None:
             runs[s.student] = kept
             reused += len(kept)
             continue
         jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
-                          assignment.timeout_s, trace=i == 0) for i, seed in enumerate(assignment.seeds)]
-    done, interrupted = _run_jobs(jobs, options, assignment.timeout_s)
-    fresh = {job.student for job in jobs}
+                          assignment.timeout_s, trace=options.pages and i == 0)
+                 for i, seed in enumerate(assignment.seeds)]
+    keys = {s.student: s.key for s in submissions}
+
+    def finished(student: str, mine: list[SeedRun]) -> None:  # kept at once: a signal later costs none of it
+        if options.cache and cacheable(mine):
+            save_cached(cache, keys[student], mine)
+
+    done, ended_by = _run_jobs(jobs, options, assignment.timeout_s, finished)
     for job, result in zip(jobs, done):
         if result is not None:
             runs.setdefault(job.student, []).append(result)
@@ -98,15 +116,14 @@ def grade_class(options: Options) -> Graded:
     for s in submissions:
         mine = sorted(runs.get(s.student, []), key=lambda r: assignment.seeds.index(r.seed))
         if s.status == GRADED and len(mine) < len(assignment.seeds):
-            grades.append(Grade(s.student, s.path, NOT_RUN, "interrupted before all its runs were done",
+            grades.append(Grade(s.student, s.path, INTERRUPTED, "the grading was stopped before its runs were done; "
+                                                                "grade again to finish it",
                                 diagnostics=s.diagnostics, runs=tuple(mine), source=s.source))
             continue
-        if s.status == GRADED and options.cache and s.student in fresh and cacheable(mine):
-            save_cached(cache, s.key, mine)
         grades.append(grade_of(s, mine, assignment))
     traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
-                  reused, interrupted, traces)
+                  reused, ended_by, traces)
 
 
 def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
@@ -134,41 +151,78 @@ def _reference(assignment: Assignment) -> Grade | None:
                                                        f"meet the assignment: {submission.reason}")])
     jobs = [make_job("reference", Path(submission.path), submission.world_file, seed, assignment.params,
                      assignment.budgets, assignment.timeout_s, trace=False) for seed in assignment.seeds]
-    return grade_of(submission, [run_job(j) for j in jobs], assignment)
+    runs = [run_job(j) for j in jobs]
+    if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
+        raise KeyboardInterrupt
+    return grade_of(submission, runs, assignment)
 
 
-def _run_jobs(jobs: list[Job], options: Options, timeout_s: float) -> tuple[list[SeedRun | None], bool]:
-    """Every job's run (None for those Ctrl-C left undone), and whether Ctrl-C came."""
-    done: list[SeedRun | None] = [None] * len(jobs)
+class _Runs:
+    """Each job's run as it comes; a student whose runs are all done is handed to ``finished``
+    at once (the cache), so that whatever stops the grading later costs none of it."""
+
+    def __init__(self, jobs: list[Job], finished: Callable[[str, list[SeedRun]], None]) -> None:
+        self.jobs = jobs
+        self.done: list[SeedRun | None] = [None] * len(jobs)
+        self.finished = finished
+        self._left: dict[str, list[int]] = {}
+        for i, job in enumerate(jobs):
+            self._left.setdefault(job.student, []).append(i)
+        self.count = 0
+
+    def take(self, outcome: Outcome) -> None:
+        job = self.jobs[outcome.index]
+        run = self.done[outcome.index] = _seed_run(job, outcome)
+        self.count += 1
+        if run.status != seed_runs.STOPPED and all(self.done[i] is not None for i in self._left[job.student]):
+            self.finished(job.student, [cast(SeedRun, self.done[i]) for i in self._left[job.student]])
+
+
+def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
+              finished: Callable[[str, list[SeedRun]], None]) -> tuple[list[SeedRun | None], int]:
+    """Every job's run (None for those a signal left undone), and the signal that stopped the
+    grading (0: none). A signal stops the runs in progress (``LocalBatch.interrupt``); a run
+    that finished meanwhile is kept."""
+    runs = _Runs(jobs, finished)
     if not jobs:
-        return done, False
+        return runs.done, 0
     line = StatusLine() if options.progress else None
     # the pool kills a run a little after its own deadline: the run stops itself first, with its message
-    outcomes = (dask_outcomes(options.scheduler, run_job, jobs) if options.scheduler is not None
-                else LocalBatch(options.jobs or default_jobs(), timeout_s + 5.0).outcomes(run_job, jobs))
-    finished = 0
+    local = None if options.scheduler is not None else LocalBatch(
+        options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
+    outcomes = dask_outcomes(options.scheduler, run_job, jobs) if local is None else local.outcomes(run_job, jobs)
     try:
-        for outcome in outcomes:
-            done[outcome.index] = _seed_run(jobs[outcome.index], outcome)
-            finished += 1
-            if line is not None and (line.due() or finished == len(jobs)):
-                line.draw(f"grading {bar(finished / len(jobs))} {finished}/{len(jobs)} runs")
-    except KeyboardInterrupt:
-        return done, True
+        with batch_signals():
+            for outcome in outcomes:
+                runs.take(outcome)
+                if line is not None and (line.due() or runs.count == len(jobs)):
+                    line.draw(f"grading {bar(runs.count / len(jobs))} {runs.count}/{len(jobs)} runs")
+    except KeyboardInterrupt as e:
+        signum, why = ending(e)
+        for outcome in local.interrupt(why) if local is not None else []:
+            runs.take(outcome)
+        return _kept(runs.done), signum
     finally:
         if line is not None:
             line.clear()
         close = getattr(outcomes, "close", None)
         if close is not None:
             close()
-    return done, False
+    return _kept(runs.done), 0
 
 
 def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
     if outcome.kind == DONE:
         return cast(SeedRun, outcome.value)
+    if outcome.kind == STOPPED:
+        return SeedRun(job.seed, seed_runs.STOPPED, outcome.message, wall_time_s=outcome.wall_s)
     status = TIMED_OUT if outcome.kind == TIMEOUT else CRASHED
     return SeedRun(job.seed, status, outcome.message, wall_time_s=outcome.wall_s)
+
+
+def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
+    """The runs that ended by themselves: one a signal stopped is no result (it runs again next time)."""
+    return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
 
 
 def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -> int:
@@ -179,7 +233,8 @@ def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -
         raise LabsimError([Diagnostic("-j", "give 1 or more worker processes")])
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
     options = Options(args.assignment, args.submissions, Path(args.out), args.jobs or 0,
-                      args.scheduler if args.executor == "dask" else None, not args.no_cache, progress)
+                      args.scheduler if args.executor == "dask" else None, not args.no_cache, progress,
+                      pages=not args.no_pages)
     options.out.mkdir(parents=True, exist_ok=True)
     graded = grade_class(options)
     return write_class(graded, options, map_picture, pages=not args.no_pages)
@@ -205,7 +260,9 @@ def write_class(graded: Graded, options: Options, map_picture: MapPicture | None
     if pages:
         print(f"wrote {options.out / 'index.html'} and {len(graded.grades)} feedback pages in "
               f"{options.out / 'feedback'}")
-    if graded.interrupted:
-        return EXIT_INTERRUPTED
+    if graded.ended_by:
+        print(f"interrupted: {sum(g.status == INTERRUPTED for g in graded.grades)} submissions left to grade; "
+              "grading again runs only those")
+        return exit_code(graded.ended_by)
     return EXIT_OK if all(g.graded for g in graded.grades) else EXIT_FAILED
 

@@ -59,7 +59,7 @@ def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def feedback_page(g: Grade, title: str, map_file: str | None, reference: Grade | None) -> str:
+def feedback_page(g: Grade, title: str, pictures: tuple[str, str | None] | None, reference: Grade | None) -> str:
     """One student's page; see the module docstring."""
     score = f"{g.score:g} / 100" if g.score is not None else "not graded"
     body = [f"<h1>{e(title)}: {e(g.student)}</h1>",
@@ -79,9 +79,13 @@ def feedback_page(g: Grade, title: str, map_file: str | None, reference: Grade |
                  e(f"{r.points:.3g} / {r.weight:g}")] for r in g.criteria]
         body += ["<h2>Criteria</h2>", _table(["criterion", "your value (mean over the seeds)",
                                               "reference" if reference is not None else "", "", "points"], rows)]
-    if map_file:
+    if pictures:
+        map_file, gif_file = pictures
         body += ["<h2>The map of seed " + e(g.runs[0].seed) + "</h2>",
                  f"<img class=\"map\" src=\"{e(map_file)}\" alt=\"the map of the run\" style=\"max-width:100%\">"]
+        if gif_file:
+            body += [f"<p><img class=\"animation\" src=\"{e(gif_file)}\" alt=\"the run, animated\" "
+                     "style=\"max-width:100%\"></p>"]
     if g.runs:
         names = list(dict.fromkeys(m for r in g.runs for m in r.metrics))
         rows = [[e(r.seed), e(r.status), e(r.ticks), e(f"{r.sim_time_s:.1f} s"), "yes" if r.stopped else "no",
@@ -157,13 +161,17 @@ def charts(graded: Graded, folder: Path) -> list[Path]:
     return out
 
 
-def write_pages(out: Path, graded: Graded, map_picture: Callable[[Path, Path], None] | None,
+Pictures = Callable[[Path, Path, Path], None]  # (trace, PNG, GIF): a map and a short animation
+
+
+def write_pages(out: Path, graded: Graded, map_picture: Pictures | None,
                 inputs: list[str], jobs: int = 1) -> list[Path]:
-    """The overview (``index.html``), its charts, and a feedback page (with its map) per student;
-    the maps are drawn on ``jobs`` worker processes."""
+    """The overview (``index.html``), its charts, and a feedback page (with its map and its
+    animation) per student whose run left a trace; the pictures are drawn on ``jobs`` worker
+    processes."""
     feedback = out / "feedback"
     feedback.mkdir(parents=True, exist_ok=True)
-    maps: list[tuple[Callable[[Path, Path], None], Path, Path]] = []
+    maps: list[tuple[Pictures, Path, Path]] = []
     for g in graded.grades:
         trace = graded.traces.get(g.student)
         if trace and map_picture is not None:
@@ -178,7 +186,9 @@ def write_pages(out: Path, graded: Graded, map_picture: Callable[[Path, Path], N
         name = page_name(g.student)
         png = name.removesuffix(".html") + ".png"
         path = feedback / name
-        page = feedback_page(g, graded.assignment.title, png if png in drawn else None, graded.reference)
+        gif = png.removesuffix(".png") + ".gif"
+        shown = (png, gif if (feedback / gif).is_file() else None) if png in drawn else None
+        page = feedback_page(g, graded.assignment.title, shown, graded.reference)
         write_output(path, page, inputs, "--out")
         written.append(path)
     pictures = charts(graded, out / "charts")
@@ -187,11 +197,13 @@ def write_pages(out: Path, graded: Graded, map_picture: Callable[[Path, Path], N
     return [index, *written]
 
 
-def _draw(item: tuple[Callable[[Path, Path], None], Path, Path]) -> bool:
-    """One map, on a worker: True when drawn (a map that cannot be drawn leaves its page without it)."""
+def _draw(item: tuple[Pictures, Path, Path]) -> bool:
+    """One student's pictures, on a worker: True when drawn (a map that cannot be drawn leaves its
+    page without it)."""
     draw, trace, png = item
+    png.with_suffix(".gif").unlink(missing_ok=True)  # a last grading's: never shown beside this one's map
     try:
-        draw(trace, png)
+        draw(trace, png, png.with_suffix(".gif"))
     except Exception:
         return False
     return True

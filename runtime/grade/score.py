@@ -61,7 +61,7 @@ class Graded:
     reference: Grade | None
     ran: int  # runs made now
     reused: int  # runs taken from the cache
-    interrupted: bool
+    ended_by: int  # the signal that stopped the grading before every run was done (0: none)
     traces: dict[str, bytes] = field(default_factory=dict)  # student -> seed 1's trace, gzip
 
 

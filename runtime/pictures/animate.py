@@ -26,6 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from labsim.backends.scene.world import World
 from labsim.foundation.files import Output
 from labsim.runtime.pictures.mechanism_pose import draw_pose, mechanism_poses, slew_inset
 from labsim.runtime.pictures.movie import GifWriter, MovieWriter, Mp4Writer
@@ -104,8 +105,10 @@ def default_speed(duration_s: float) -> float:
 
 
 def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None = None,
-            speed: float | None = None) -> int:
-    """Write the animation to ``out`` (.gif or .mp4); returns the number of frames."""
+            speed: float | None = None, world: tuple[World | None, str] | None = None) -> int:
+    """Write the animation to ``out`` (.gif or .mp4); returns the number of frames. ``world``:
+    the trace's world and note (``trace_world``) when the caller has read them already."""
+    world = world or trace_world(trace)  # read once: it is a YAML file, parsed anew each time
     gif = out.suffix.lower() == ".gif"
     fps = fps or (10.0 if gif else 20.0)
     tracks = _tracks(trace)
@@ -114,13 +117,13 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
     times = frame_times(t0, t1, fps, speed or default_speed(t1 - t0))
     # written beside the target under a name with the same suffix, renamed into place when whole
     target = Output(out, partial=out.with_name(f".{out.stem}.partial{out.suffix}"))
-    made = frames(trace, tracks, times, width_px)
+    made = frames(trace, tracks, times, width_px, known=world)
     writer: MovieWriter | None = None
     n = 0
     try:
         if gif:
             # the palette from what the frames show: the backdrop and the run's last frame
-            first, last = next(made), frame_at(trace, tracks, times, width_px)
+            first, last = next(made), frame_at(trace, tracks, times, width_px, world)
             writer = GifWriter(target.file, np.vstack((first, last)), fps)
         else:
             target.file.close()  # ffmpeg opens it by name
@@ -141,9 +144,10 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
     return n
 
 
-def frame_at(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int) -> np.ndarray:
+def frame_at(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
+             world: tuple[World | None, str] | None = None) -> np.ndarray:
     """The last of these frames alone (its paths drawn in one step)."""
-    made = frames(trace, tracks, times[-1:], width_px, fade_s=_fade(times))
+    made = frames(trace, tracks, times[-1:], width_px, fade_s=_fade(times), known=world)
     try:
         return next(made)
     finally:
@@ -155,12 +159,13 @@ def _fade(times: np.ndarray) -> float:
 
 
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
-           fade_s: float | None = None) -> Generator[np.ndarray, None, None]:
+           fade_s: float | None = None, known: tuple[World | None, str] | None = None
+           ) -> Generator[np.ndarray, None, None]:
     """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
     a path is pale where older than ``fade_s`` (by default a share of the frames' span). A frame
     is drawn over by the next: copy it to keep it."""
     # one function for one frame's layers: the backdrop, the paths, the robots, the caption
-    world, note = trace_world(trace)
+    world, note = known or trace_world(trace)  # ``known``: read by the caller already
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
     P = Painter(width_px)
     mech = world.mechanism if world is not None else None

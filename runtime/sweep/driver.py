@@ -25,8 +25,8 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.files import check_output
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
+from labsim.runtime.ending import batch_signals, ending, exit_code
 from labsim.runtime.summary_json import check_json_output
-from labsim.runtime.sweep.ending import ending, exit_code, sweep_signals
 from labsim.runtime.sweep.grid import (
     FileInfo,
     Row,
@@ -80,8 +80,6 @@ class SweepOptions:
 
 
 class Executor(Protocol):
-    in_flight: dict[int, Task]
-
     def results(self, tasks: list[Task]) -> Generator[Row, None, None]: ...
 
     def interrupt(self, why: str) -> list[Row]: ...
@@ -205,7 +203,7 @@ def _run_grid(executor: Executor, tasks: list[Task],
     rows: list[Row] = []
     results = executor.results(tasks)
     try:
-        with sweep_signals():
+        with batch_signals():
             for row in results:
                 rows.append(row)
                 bar.update(row)

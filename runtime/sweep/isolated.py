@@ -6,7 +6,7 @@ and reads its result back: a run that exhausts memory or crashes the interpreter
 process, never the Dask worker, so it is that run's failure and no other run's (Dask would
 otherwise retry every run the lost worker held, and give up on them too). The child ends its
 run as Ctrl-C ends ``labsim run`` when it gets SIGTERM (the task's deadline, or the sweep's
-Ctrl-C), and dies with the Dask worker (runtime/sweep/ending.py).
+Ctrl-C), and dies with the Dask worker (runtime/ending.py).
 
 Only labsim's own objects cross the pipe, written by labsim on both sides; the run's own
 output (``log()`` lines) goes to standard error, never into the result.
@@ -20,7 +20,7 @@ from typing import Any
 
 from labsim.foundation.files import allow
 from labsim.foundation.threads import limit_blas_threads
-from labsim.runtime.sweep.ending import Stopped, WorkerSignals, die_with_parent
+from labsim.runtime.ending import Stopped, WorkerSignals, die_with_parent
 from labsim.runtime.sweep.grid import INTERRUPTED
 
 
@@ -33,7 +33,7 @@ def main() -> int:
     signals.install()
     die_with_parent()
     job: dict[str, Any] = pickle.load(sys.stdin.buffer)
-    from labsim.runtime.sweep.pool import limit_memory
+    from labsim.foundation.memory import limit_memory
 
     allow(job["allowed"])
     limit_memory(job["memory_mb"])

@@ -58,7 +58,8 @@ def test_sweep_benchmark_runs() -> None:
 
 def test_grade_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_grade.py"), "--students", "2", "--seeds", "1",
-                           "--minutes", "0.1", "--no-pages"], capture_output=True, text=True, timeout=300)
+                           "--minutes", "0.1", "--no-pages", "--rounds", "1", "--speed-up"],
+                          capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert "speed-up -j 2 over -j 1" in done.stdout and "overhead of grading" in done.stdout, done.stdout
     assert honest(done.stdout), done.stdout

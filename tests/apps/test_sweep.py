@@ -409,7 +409,7 @@ def test_workers_are_forked_from_the_sweep_only_while_it_runs_no_other_thread() 
     thread running, workers come from the fork server as before."""
     import threading
 
-    from labsim.runtime.sweep.pool import fork_here
+    from labsim.runtime.batch import fork_here
 
     release = threading.Event()
     other = threading.Thread(target=release.wait)

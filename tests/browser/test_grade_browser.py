@@ -89,12 +89,18 @@ def test_the_overview_shows_its_charts_and_every_student(browser: Any, pages: Pa
 
 
 def test_a_feedback_page_shows_the_carets_and_the_map(browser: Any, pages: Path) -> None:
-    page, _ = _open(browser, pages / "feedback" / "compile_many_errors.html")
+    page, asked = _open(browser, pages / "feedback" / "compile_many_errors.html")
     shown = page.inner_text("pre.diagnostics")
     assert shown.count("^") == 3 and "did you mean 'sonar9'?" in shown
+    assert page.locator("img.map").count() == 0 and page.locator("img.animation").count() == 0  # it never ran
     _shot(page, "grade_feedback_errors")
-    page, _ = _open(browser, pages / "feedback" / "nan_wheels.html")
+    page, asked = _open(browser, pages / "feedback" / "nan_wheels.html")
     assert page.eval_on_selector("img.map", "i => i.naturalWidth") > 400
+    # the short animation: small, loaded from beside the page, nothing from the network
+    assert page.eval_on_selector("img.animation", "i => i.complete && i.naturalWidth") == 400
+    gif = pages / "feedback" / "nan_wheels.gif"
+    assert gif.read_bytes()[:6] == b"GIF89a" and gif.stat().st_size < 200_000
+    assert all(url.startswith("file://") for url in asked)
     text = page.inner_text("body")
     assert "Runtime faults" in text and "nan wheel command" in text and "fail" in text
     _shot(page, "grade_feedback_map")

@@ -1,13 +1,14 @@
-"""How a sweep and its workers end: the signals each one handles, and workers that die with the sweep.
+"""How a batch and its workers end: the signals each one handles, and workers that die with the batch.
 
-The sweep's driver (runtime/sweep/driver.py) turns SIGTERM and SIGHUP (a closed terminal, a
-logout) into the Ctrl-C it already handles: the runs in progress are asked to stop, and every
-row done so far is written (docs/sweep.md, "Ending a sweep"). A local worker
-(runtime/sweep/pool.py) ignores Ctrl-C (the parent stops it) and takes SIGTERM and SIGHUP as
-the end of its run: the tick loop ends as for Ctrl-C, so the run's trace gets its footer, and
-the worker sends its row back and exits. On Linux a worker also asks the kernel for SIGTERM
-when the process that forked it dies (``PR_SET_PDEATHSIG``): a sweep killed with SIGKILL, whose
-own handlers never run, still takes its workers with it, each closing its trace.
+Part of the batch layer (runtime/batch.py) that ``labsim sweep`` and ``labsim grade`` share.
+The application's driver turns SIGTERM and SIGHUP (a closed terminal, a logout) into the
+Ctrl-C it already handles (``batch_signals``): the runs in progress are asked to stop, and
+everything done so far is written (docs/sweep.md, "Ending a sweep"; docs/grading.md). A local
+worker ignores Ctrl-C (the parent stops it) and takes SIGTERM and SIGHUP as the end of its
+run: the tick loop ends as for Ctrl-C, so the run's trace gets its footer, and the worker sends
+its value back and exits. On Linux a worker also asks the kernel for SIGTERM when the process
+that forked it dies (``PR_SET_PDEATHSIG``): a batch killed with SIGKILL, whose own handlers
+never run, still takes its workers with it, each closing its trace.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from collections.abc import Iterator
 from types import FrameType
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
-# what ends a sweep, and what each one tells the shell: 128 + the signal's number, as a shell
+# what ends a batch, and what each one tells the shell: 128 + the signal's number, as a shell
 # reports a process that signal ended (foundation/exits.py has 130 and 143)
 ENDINGS: dict[int, str] = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 if hasattr(signal, "SIGHUP"):  # not on Windows
@@ -29,7 +30,7 @@ if hasattr(signal, "SIGHUP"):  # not on Windows
 
 
 class Stopped(KeyboardInterrupt):
-    """A signal that ends a sweep or a worker's run, handled as Ctrl-C is; ``signum`` says which."""
+    """A signal that ends a batch or a worker's run, handled as Ctrl-C is; ``signum`` says which."""
 
     def __init__(self, signum: int = signal.SIGINT) -> None:
         super().__init__(ENDINGS.get(signum, f"signal {signum}"))
@@ -38,7 +39,7 @@ class Stopped(KeyboardInterrupt):
 
 def ending(e: KeyboardInterrupt) -> tuple[int, str]:
     """The signal behind an interrupt and its name: Ctrl-C unless a Stopped says otherwise, or
-    the command line's own SIGTERM (its class is named Terminated; the sweep may not import it)."""
+    the command line's own SIGTERM (its class is named Terminated; an application may not import it)."""
     if isinstance(e, Stopped):
         return e.signum, ENDINGS.get(e.signum, str(e))
     if type(e).__name__ == "Terminated":
@@ -59,8 +60,8 @@ def _hangup_and_term() -> list[int]:
 
 
 @contextlib.contextmanager
-def sweep_signals() -> Iterator[None]:
-    """In the sweep's process: SIGTERM and SIGHUP raise Stopped while the sweep runs, as Ctrl-C
+def batch_signals() -> Iterator[None]:
+    """In the batch's parent process: SIGTERM and SIGHUP raise Stopped while the batch runs, as Ctrl-C
     raises KeyboardInterrupt; the previous handlers come back after."""
     if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
         yield
@@ -75,7 +76,7 @@ def sweep_signals() -> Iterator[None]:
 
 @contextlib.contextmanager
 def deaf() -> Iterator[None]:
-    """Every ending signal ignored for a short while: the time a sweep gives its workers to
+    """Every ending signal ignored for a short while: the time a batch gives its workers to
     close their traces and send their rows, which a second Ctrl-C must not cut short."""
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -91,14 +92,14 @@ def deaf() -> Iterator[None]:
 class WorkerSignals:
     """In a worker: SIGTERM and SIGHUP end the run in progress (raised as Stopped while ``armed``)
     or, between runs, the worker (``asked``). Disarmed while a row is sent, so that a signal
-    never cuts a message to the sweep in half."""
+    never cuts a message to the batch in half."""
 
     def __init__(self) -> None:
         self.asked: int = 0  # the signal that asked this worker to stop; 0: none
         self.armed = False
 
     def install(self) -> None:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C: the sweep stops its workers
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C: the batch stops its workers
         for s in _hangup_and_term():
             signal.signal(s, self._handle)
 
@@ -113,10 +114,10 @@ def die_with_parent() -> bool:
     """Ask the kernel for SIGTERM when this process's parent dies (Linux), and leave at once if
     it died already (before the request). False where the platform has no such request.
 
-    A worker's parent is multiprocessing's fork server, which exits when the sweep's end of a
+    A worker's parent is multiprocessing's fork server, which exits when the batch's end of a
     pipe closes, unless a worker holds a copy of that end (every forked child is given one, to
     start processes of its own, which a worker never does): the worker closes its copy first,
-    or a killed sweep's busy workers would keep the fork server, and so themselves, alive."""
+    or a killed batch's busy workers would keep the fork server, and so themselves, alive."""
     _let_go_of_the_fork_server()
     if not sys.platform.startswith("linux"):
         return False
