@@ -420,7 +420,8 @@ def test_a_breakpoint_pauses_on_the_tick_the_trace_says_it_first_holds(view: Any
     t, values = v.js("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'sonar5');"
                      " return [c.history[0].t, c.history[0].cols[k]]; })()")
     assert abs(t[-1] - first * 0.05) < 1e-9 and 0 < values[-1] < 0.5
-    assert len(t) > 10 and t[0] == 0.0  # every frame's samples: from tick 0 on
+    # every frame's samples, from the run's start on (a frame's samples are thinned: the first may be tick 1 or 2)
+    assert len(t) > 10 and t[0] <= 0.1
     by_tick = {int(r[0]): float(r[k]) for r in rows.rows}
     for time_s, value in zip(t, values):
         assert value is None or abs(value - by_tick[round(time_s / 0.05)]) < 1e-3, (time_s, value)
