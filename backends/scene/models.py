@@ -30,7 +30,7 @@ class Kind(Enum):
 
 
 # How many rays stand for a sonar's cone, spread evenly from one edge to the other; the
-# reasons for 7 are in docs/decisions.md, "Sonar cones".
+# reasons for 5 are in docs/decisions.md, "Sonar cones".
 CONE_RAYS = 5
 
 
