@@ -45,7 +45,7 @@ from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, fini
 
 _NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
 MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
-SAMPLE_NUMBERS = 240  # chart numbers a frame carries at most, all robots together (a frame < 4 KB)
+SAMPLE_NUMBERS = 180  # chart numbers a frame carries at most, all robots together (a frame < 4 KB with the path)
 
 
 class LiveSession(Session):
