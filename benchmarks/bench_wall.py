@@ -34,11 +34,10 @@ import math
 import random
 import statistics
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pymunk
-from compare import Pose, Side, alternate, labsim_scene, labsim_side, machine, report, same_poses
+from compare import alternate_poses, labsim_scene, labsim_side, machine, report, same_poses
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
 from labsim.backends.pymunk.fleet import sonar_spec
@@ -333,16 +332,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     print(machine())
-    poses: dict[str, list[Pose]] = {}
-
-    def side(name: str, run: Side) -> Callable[[], float]:
-        def once() -> float:
-            seconds, poses[name] = run()
-            return seconds
-        return once
-
-    times = alternate({INTERNALS: side(INTERNALS, hand_run), PLAIN: side(PLAIN, plain_run),
-                       LABSIM: side(LABSIM, labsim_run)}, args.repeat)
+    times, poses = alternate_poses({INTERNALS: hand_run, PLAIN: plain_run, LABSIM: labsim_run}, args.repeat)
     report("wall lab, 30000 ticks", times, (LABSIM, INTERNALS), "<= 1.05")
     ratio = statistics.median(times[LABSIM][i] / times[PLAIN][i] for i in range(args.repeat))
     print(f"  {LABSIM} / {PLAIN}: median of per-round ratios {ratio:.3f}   (below 1: labsim is faster)")

@@ -168,12 +168,9 @@ def same_poses(a: list[Pose], b: list[Pose]) -> bool:
         math.isclose(x, y, rel_tol=0, abs_tol=1e-12) for p, q in zip(a, b) for x, y in zip(p, q))
 
 
-def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repeat: int = 7) -> float:
-    """Parse --repeat, time both sides in alternation, print the figures; return the ratio."""
-    parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("--repeat", type=int, default=repeat)
-    args = parser.parse_args()
-    print(machine())
+def alternate_poses(sides: dict[str, Side], repeat: int) -> tuple[Times, dict[str, list[Pose]]]:
+    """``alternate`` for sides that return (seconds, final poses): their times, and each side's
+    poses of its last round."""
     poses: dict[str, list[Pose]] = {}
 
     def side(name: str, run: Side) -> Callable[[], float]:
@@ -182,13 +179,21 @@ def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repe
             return seconds
         return once
 
-    times = alternate({"hand-written loop": side("hand", hand_run), "labsim": side("labsim", labsim_run)},
-                      args.repeat)
+    return alternate({name: side(name, run) for name, run in sides.items()}, repeat), poses
+
+
+def compare(description: str, title: str, labsim_run: Side, hand_run: Side, repeat: int = 7) -> float:
+    """Parse --repeat, time both sides in alternation, print the figures; return the ratio."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--repeat", type=int, default=repeat)
+    args = parser.parse_args()
+    print(machine())
+    times, poses = alternate_poses({"hand-written loop": hand_run, "labsim": labsim_run}, args.repeat)
     ratio = report(title, times, ("labsim", "hand-written loop"), "<= 1.05")
-    same = same_poses(poses["labsim"], poses["hand"])
+    same = same_poses(poses["labsim"], poses["hand-written loop"])
     print(f"  same final poses: {'yes' if same else 'NO'}")
     if not same:
-        for p, q in zip(poses["labsim"], poses["hand"]):
+        for p, q in zip(poses["labsim"], poses["hand-written loop"]):
             print(f"    labsim {p}  hand {q}")
     assert ratio is not None
     return ratio
