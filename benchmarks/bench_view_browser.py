@@ -8,8 +8,9 @@ Each round runs `labsim run behaviours/wall_follow.yaml --json -` (its own wall 
 "as fast as it goes" and plays to the end. It prints, per side, the wall time of the ticks
 (the view's from Play to the frame that says the run ended), the CPU time of the processes
 (the view's server, and Chromium with all its children), the view's ticks a second over
-`labsim run`'s (goal >= 0.8; issue 30: run/view wall time <= 1.2 the other way round) and the
-frames and bytes the page received. The machine's load is printed first: on a shared machine
+`labsim run`'s (goal >= 0.8; issue 30: run/view wall time <= 1.2 the other way round), the
+frames and bytes the page received, and the page's own time a frame (its performance.now()
+counters). The machine's load is printed first: on a shared machine
 the figures move with it. Needs `playwright` and a Chromium (`LABSIM_CHROMIUM` or `chromium`).
 """
 from __future__ import annotations
@@ -61,8 +62,10 @@ def _child_cpu() -> float:
     return spent
 
 
-def _view(browser: object) -> tuple[float, float, float, int, float]:
-    """`labsim view` and a page: the ticks' wall time, server CPU, browser CPU, frames, bytes a frame."""
+def _view(browser: object) -> tuple[float, float, float, int, float, float, float]:
+    """`labsim view` and a page: the ticks' wall time, server CPU, browser CPU, frames, bytes a frame,
+    and the page's own time a frame drawn, ms: the script's (parsing and taking in a frame, the
+    canvas and the table) and the chart's (its own counters, ``window.labsimView.cost``)."""
     proc = subprocess.Popen([sys.executable, "-m", "labsim", "view", LAB, "--port", "0", "--no-browser"], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout is not None
@@ -84,12 +87,15 @@ def _view(browser: object) -> tuple[float, float, float, int, float]:
     server_cpu, browser_cpu = _cpu([server]) - server0, _cpu(chromium) - browser0
     frames = page.evaluate("window.labsimView.frames") - frames0
     size = page.evaluate("window.benchBytes") / max(1, frames)
+    cost = page.evaluate("window.labsimView.cost")
+    script = (cost["parse"] + cost["frame"] + cost["draw"]) / max(1, cost["draws"])
+    chart = cost["chart"] / max(1, cost["charts"])
     assert page.evaluate("window.labsimView.frame.ran") == 30000
     page.close()
     proc.terminate()
     proc.communicate(timeout=20)
     _child_cpu()  # the server's CPU is counted above: not again with the next run's
-    return wall, server_cpu, browser_cpu, frames, size
+    return wall, server_cpu, browser_cpu, frames, size, script, chart
 
 
 def main() -> None:
@@ -109,7 +115,7 @@ def main() -> None:
             views.append(_view(browser))
         browser.close()
     run_wall, run_cpu = (statistics.median(x) for x in zip(*runs))
-    wall, server, chrome, frames, size = (statistics.median(x) for x in zip(*views))
+    wall, server, chrome, frames, size, script, chart = (statistics.median(x) for x in zip(*views))
     ratios = [r[0] / v[0] for r, v in zip(runs, views)]
     print(f'wall lab, 30,000 ticks at "as fast as it goes", medians of {args.repeat} rounds:')
     print(f"  labsim run           {run_wall:.3f} s wall (the ticks)   "
@@ -118,7 +124,8 @@ def main() -> None:
           f"{chrome:.3f} s CPU Chromium (all its processes)")
     print(f"  ticks a second, view over run: {statistics.median(ratios):.3f} (rounds: "
           f"{', '.join(f'{r:.3f}' for r in ratios)}; goal >= 0.8)   view/run wall: {1 / statistics.median(ratios):.2f}")
-    print(f"  frames {frames:.0f} ({frames / wall:.1f} a second), {size:,.0f} bytes a frame")
+    print(f"  frames {frames:.0f} ({frames / wall:.1f} a second), {size:,.0f} bytes a frame; the page's script "
+          f"{script:.2f} ms a frame drawn, its chart {chart:.2f} ms a chart drawn")
 
 
 if __name__ == "__main__":

@@ -2,7 +2,10 @@
 
 aiohttp serves HTTP and WebSockets from one event loop (docs/decisions.md says why). The
 session (a live run or a replayed trace) lives in this process; a pacing task calls
-``Session.catch_up`` and sends every open page one frame, at most 30 times a second. Pages
+``Session.catch_up`` and sends every open page one frame, at most 30 times a second. A page
+that acknowledges frames (``{"type": "ack"}``, sent once it has drawn one) gets the next only
+after it did, and a frame nobody is ready for is not built: the tick loop never waits for a
+browser, and a slow page gets fewer frames rather than a queue of them. Pages
 send small JSON messages (docs/view.md); one that is malformed, unknown or hostile is logged
 and ignored, and never reaches the run. Every page sees the same run; each page picks which
 robot's camera it receives. A WebSocket must come from the page's own origin (or from a
@@ -35,16 +38,25 @@ from labsim.runtime.view.session import BadMessage, ChangeRefused, Session
 # files that really lie inside the folder it is given
 STATIC = Path(__file__).resolve().parent / "static"
 MAX_MESSAGE_BYTES = 64 * 1024
+ACK_WAIT_S = 0.004  # at a set speed, how long the loop sleeps before looking again for a page ready for a frame
 
 
 @dataclass(eq=False)
 class Page:
-    """One open page: its socket, the robot whose camera it shows, and whether a send is under way."""
+    """One open page: its socket, the robot whose camera it shows, whether a send is under way,
+    and, for a page that acknowledges frames (``acks``), whether the last one is not yet
+    acknowledged (``waiting``). A client that never acknowledges gets every frame it can take."""
 
     ws: web.WebSocketResponse
     peer: str
     robot: int = 0
     busy: bool = False
+    acks: bool = False
+    waiting: bool = False
+
+    @property
+    def ready(self) -> bool:
+        return not self.busy and not (self.acks and self.waiting)
 
 
 class ViewServer:
@@ -120,6 +132,10 @@ class ViewServer:
         except (ValueError, RecursionError):  # JSONDecodeError is a ValueError
             self._ignore(page, f"not JSON: {text[:60]!r}")
             return
+        if isinstance(msg, dict) and msg.get("type") == "ack":
+            # the page drew the last frame: it may have the next (nothing changed: not dirty)
+            page.acks, page.waiting = True, False
+            return
         try:
             if isinstance(msg, dict) and msg.get("type") == "select":
                 robot = msg.get("robot")
@@ -155,14 +171,20 @@ class ViewServer:
                 cache[page.robot] = images
         return frame[:-1] + ',"images":' + images + "}"
 
-    async def send_frame(self) -> None:
+    async def send_frame(self) -> bool:
+        """A frame to every page ready for one (False, and no frame built, when none is: its
+        path points and chart samples then wait in the recorder for the next)."""
+        ready = [page for page in self.pages if page.ready]
+        if not ready:
+            return False
         frame = self._frame_json()
         cache: dict[int, str] = {}
-        for page in list(self.pages):
-            if not page.busy:  # a page still receiving the last frame skips this one
-                self._spawn(self._send(page, self._frame_text(page, frame, cache)))
+        for page in ready:  # a page still receiving or drawing the last frame skips this one
+            page.waiting = True
+            self._spawn(self._send(page, self._frame_text(page, frame, cache)))
         self.frames_sent += 1
         self.dirty = False
+        return True
 
     async def broadcast(self, text: str) -> None:
         for page in list(self.pages):
@@ -189,7 +211,9 @@ class ViewServer:
 
         At a set speed the loop sleeps between frames; at "as fast as it goes" it ticks until
         the next frame is due and only yields to the event loop in between, so the pages'
-        messages are still read.
+        messages are still read. A frame that is due while no page is ready for it (each is
+        drawing the last) waits: the run ticks on in short stretches (or, at a set speed, the
+        loop sleeps a few milliseconds) until a page acknowledges.
         """
         loop = asyncio.get_running_loop()
         session = self.session
@@ -207,12 +231,16 @@ class ViewServer:
                 # last tick): the pages must still hear that the run ended
                 self.dirty = True
             now = loop.time()
+            waiting = False
             if now - last_frame >= interval:
-                if (ran or self.dirty or session.playing) and self.pages:
-                    await self.send_frame()
-                last_frame, ran = now, 0
+                if (ran or self.dirty or session.playing) and self.pages and not await self.send_frame():
+                    waiting = True  # due, but every page is busy with the last one: again soon
+                else:
+                    last_frame, ran = now, 0
             if flat_out and session.playing:
                 await asyncio.sleep(0)
+            elif waiting:
+                await asyncio.sleep(ACK_WAIT_S)
             else:
                 await asyncio.sleep(max(0.0, last_frame + interval - loop.time()))
 

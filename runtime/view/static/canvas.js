@@ -37,6 +37,13 @@ LV.WorldView = class {
     this.drawnTick = null;  // the tick of the frame last drawn
     this.labels = [];  // each robot's name label on the canvas (labels.js lays them out)
     this.scale = 40; this.cx = 0; this.cy = 0;  // px per m, the world point at the centre
+    // the canvas' size in CSS pixels: reading clientWidth is a call into the layout engine, and
+    // toPx runs for every point of every path on every frame (it was a tenth of the page's time)
+    this.w = canvas.clientWidth; this.h = canvas.clientHeight;
+    // what does not move (grid, ground, walls) drawn once per view to a canvas of its own, and
+    // copied in each frame; `backdropKey` says for which pan, zoom and size it was drawn
+    this.backdrop = document.createElement("canvas");
+    this.backdropKey = null;
     this._pointer();
     new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
   }
@@ -44,6 +51,7 @@ LV.WorldView = class {
   setScene(scene) {
     this.scene = scene;
     this.frame = null;
+    this.backdropKey = null;
     this.paths = (scene.robots || []).map(() => []);
     this._resize();
     this.fit();
@@ -86,25 +94,27 @@ LV.WorldView = class {
 
   fit() {
     const [x0, y0, x1, y1] = this.bounds();
-    const w = this.canvas.clientWidth || 600, h = this.canvas.clientHeight || 400;
+    this._measure();
+    const w = this.w || 600, h = this.h || 400;
     this.scale = Math.min(w / ((x1 - x0) * 1.08), h / ((y1 - y0) * 1.08));
     this.cx = (x0 + x1) / 2; this.cy = (y0 + y1) / 2;
     this.draw();
   }
 
   toPx(x, y) {
-    return [this.canvas.clientWidth / 2 + (x - this.cx) * this.scale,
-            this.canvas.clientHeight / 2 - (y - this.cy) * this.scale];
+    return [this.w / 2 + (x - this.cx) * this.scale, this.h / 2 - (y - this.cy) * this.scale];
   }
 
   toWorld(px, py) {
-    return [this.cx + (px - this.canvas.clientWidth / 2) / this.scale,
-            this.cy - (py - this.canvas.clientHeight / 2) / this.scale];
+    return [this.cx + (px - this.w / 2) / this.scale, this.cy - (py - this.h / 2) / this.scale];
   }
+
+  _measure() { this.w = this.canvas.clientWidth; this.h = this.canvas.clientHeight; }
 
   _resize() {
     const dpr = window.devicePixelRatio || 1;
-    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    this._measure();
+    const w = this.w, h = this.h;
     if (this.canvas.width !== Math.round(w * dpr) || this.canvas.height !== Math.round(h * dpr)) {
       this.canvas.width = Math.round(w * dpr); this.canvas.height = Math.round(h * dpr);
     }
@@ -207,19 +217,38 @@ LV.WorldView = class {
   }
 
   draw() {
-    const ctx = this.ctx, w = this.canvas.clientWidth, h = this.canvas.clientHeight;
-    ctx.fillStyle = "#fafafa"; ctx.fillRect(0, 0, w, h);
-    if (!this.scene) return;
+    const ctx = this.ctx, w = this.w, h = this.h;
+    if (!this.scene) { ctx.fillStyle = "#fafafa"; ctx.fillRect(0, 0, w, h); return; }
     const world = this.scene.world;
-    this._grid();
-    if (world && world.ground) this._ground(world.ground);
-    if (world) this._walls(world);
+    this._backdrop();
+    ctx.save(); ctx.setTransform(1, 0, 0, 1, 0, 0); ctx.drawImage(this.backdrop, 0, 0); ctx.restore();
+    if (world) this._blocks();
     if (world && world.mechanism) this._mechanism(world.mechanism);
     else this._robots();
   }
 
+  // the grid, the ground and the walls, drawn again only when the view moved or the canvas changed
+  // size: a wall lab's 16 walls and its grid were redrawn for each of 20 frames a second
+  _backdrop() {
+    const c = this.canvas, key = [this.scale, this.cx, this.cy, c.width, c.height, this.w, this.h].join();
+    if (key === this.backdropKey) return;
+    this.backdropKey = key;
+    const b = this.backdrop, main = this.ctx, world = this.scene.world;
+    if (b.width !== c.width || b.height !== c.height) { b.width = c.width; b.height = c.height; }
+    this.ctx = b.getContext("2d");  // the drawing helpers draw on this.ctx: point them at the backdrop
+    try {
+      this.ctx.setTransform(c.width / Math.max(1, this.w), 0, 0, c.height / Math.max(1, this.h), 0, 0);
+      this.ctx.fillStyle = "#fafafa"; this.ctx.fillRect(0, 0, this.w, this.h);
+      this._grid();
+      if (world && world.ground) this._ground(world.ground);
+      if (world) this._walls(world);
+    } finally {
+      this.ctx = main;
+    }
+  }
+
   _grid() {
-    const ctx = this.ctx, w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    const ctx = this.ctx, w = this.w, h = this.h;
     const step = [0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 50].find((s) => s * this.scale >= 40) || 100;
     const [x0, y1] = this.toWorld(0, 0), [x1, y0] = this.toWorld(w, h);
     ctx.strokeStyle = "#ececec"; ctx.lineWidth = 1; ctx.beginPath();
@@ -230,11 +259,12 @@ LV.WorldView = class {
     ctx.fillText(`grid ${step} m`, w - 70, 14);
   }
 
-  _poly(points, close) {
+  _poly(points, close, from = 0, to = points.length) {  // points[from..to): a path's piece without a copy
     const ctx = this.ctx;
     ctx.beginPath();
     let pen = false;  // a null point lifts the pen
-    for (const p of points) {
+    for (let i = from; i < to; i++) {
+      const p = points[i];
       if (!p) { pen = false; continue; }
       const [x, y] = this.toPx(p[0], p[1]);
       if (pen) ctx.lineTo(x, y); else ctx.moveTo(x, y);
@@ -267,6 +297,11 @@ LV.WorldView = class {
       this._poly([[ax, ay], [bx, by]], false);
       ctx.lineWidth = Math.max(2, t * this.scale); ctx.stroke();
     }
+    ctx.lineCap = "butt";
+  }
+
+  _blocks() {  // every frame: a block may be dragged, moved, added or removed
+    const ctx = this.ctx;
     this.blocks().forEach((corners, k) => {
       this._poly(corners, true); ctx.fillStyle = "#b9b9b9"; ctx.fill();
       const picked = k === this.pickedBlock && this.onBlock;
@@ -291,7 +326,7 @@ LV.WorldView = class {
       ctx.strokeStyle = colour; ctx.lineWidth = i === this.selected ? 2.5 : 1.5; ctx.lineJoin = "round";
       for (let s = 0; s < n - 1; s += chunk) {
         ctx.globalAlpha = 0.08 + 0.75 * ((s + chunk) / n);
-        this._poly(path.slice(s, Math.min(n, s + chunk + 1)), false); ctx.stroke();
+        this._poly(path, false, s, Math.min(n, s + chunk + 1)); ctx.stroke();
       }
       ctx.globalAlpha = 1;
       const r = frame && frame.robots[i];
@@ -329,7 +364,7 @@ LV.WorldView = class {
     const sizes = robots.map((r, i) => { ctx.font = font(i); return [ctx.measureText(r.name).width + 8, 15]; });
     const reach = Math.max(0, ...robots.map((r) => Math.max(0, ...r.footprint.map((p) => Math.hypot(p[0], p[1])))));
     const order = [this.selected].concat(robots.map((_, i) => i).filter((i) => i !== this.selected));
-    const w = this.canvas.clientWidth, h = this.canvas.clientHeight;
+    const w = this.w, h = this.h;
     // a robot panned or zoomed out of sight has no label: one at the edge would point nowhere
     const seen = robots.map((_, i) => { const p = this.drawn[i]; return p && p[0] >= 0 && p[0] <= w && p[1] >= 0 && p[1] <= h ? p : null; });
     this.labels = LV.layoutLabels(seen, sizes, { width: w, height: h, marker: Math.min(40, Math.max(9, reach * this.scale)) }, order);
@@ -440,7 +475,7 @@ LV.WorldView = class {
     let a = 0;
     if (f && f.joints && f.joints[m.slew]) a = f.joints[m.slew][0];
     else if (f && typeof f.slew === "number") a = f.slew;
-    const ctx = this.ctx, x = this.canvas.clientWidth - 60, y = 70, r = 40;
+    const ctx = this.ctx, x = this.w - 60, y = 70, r = 40;
     ctx.fillStyle = "rgba(255,255,255,0.9)"; ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
     ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
     ctx.strokeStyle = "#e07b39"; ctx.lineWidth = 4;

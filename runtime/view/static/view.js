@@ -4,7 +4,10 @@
 "use strict";
 const $ = (id) => document.getElementById(id);
 const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
-                chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [] };
+                chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [],
+                // the page's own cost, ms, summed over the frames (benchmarks/bench_view_browser.py reads it)
+                cost: { parse: 0, frame: 0, draw: 0, chart: 0, draws: 0, charts: 0 }, chartAt: -Infinity };
+const CHART_MS = 100;  // the chart is drawn again at most 10 times a second: its history is long
 window.labsimView = state;
 
 // a robot dragged on the canvas: the server puts it there (or says why not) and the trace records it
@@ -27,9 +30,12 @@ function connect() {
   ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
   ws.onmessage = (e) => {
     let msg;
+    const t0 = performance.now();
     try { msg = JSON.parse(e.data); } catch (err) { return; }
+    const t1 = performance.now();
+    state.cost.parse += t1 - t0;
     if (msg.type === "scene") onScene(msg);
-    else if (msg.type === "frame") onFrame(msg);
+    else if (msg.type === "frame") { onFrame(msg); state.cost.frame += performance.now() - t1; }
     else if (msg.type === "error") refused(msg);
   };
 }
@@ -231,8 +237,12 @@ function defaultChart(scene) {
 }
 
 // -- frames ---------------------------------------------------------------------------------
+// Every frame is acknowledged once the page has drawn it ({"type": "ack"}): the server sends the
+// next one only then, so a page that draws slowly gets fewer frames instead of a queue of them
+// and the run never waits for it. A frame with nothing to draw is acknowledged at once.
 function onFrame(frame) {
-  if (!state.scene || !state.scene.ok) return;
+  if (!state.scene || !state.scene.ok) { send({ type: "ack" }); return; }
+  state.unacked = true;
   state.frame = frame;
   state.frames += 1;
   world.setFrame(frame);
@@ -247,7 +257,11 @@ let drawPending = false;
 function scheduleDraw() {
   if (drawPending) return;
   drawPending = true;
-  requestAnimationFrame(() => { drawPending = false; render(); });
+  requestAnimationFrame(() => {
+    drawPending = false;
+    render();
+    if (state.unacked) { state.unacked = false; send({ type: "ack" }); }
+  });
 }
 
 // A value cell, as a label's {x:.2f} field prints it: two decimals, for every group (sensors,
@@ -273,6 +287,7 @@ const fmt = LV.fmt;
 function render() {
   const f = state.frame, scene = state.scene;
   if (!f || !scene) return;
+  const t0 = performance.now();
   $("play").textContent = f.playing ? "Pause" : "Play";
   $("play").disabled = f.finished && !f.playing;
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
@@ -297,14 +312,27 @@ function render() {
     $("state").textContent = r.state || "–";
     const rule = scene.rules.find((q) => q.id === r.rule);
     $("rule").textContent = r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)";
-    r.values.forEach((v, k) => { if (state.rows[k]) state.rows[k].v.textContent = fmt(v); });
+    r.values.forEach((v, k) => { if (state.rows[k]) setText(state.rows[k].v, fmt(v)); });
   }
   renderBreaks(f);
   if ("edited" in f) $("editor-state").textContent = f.edited ? "applied, not saved" : "";
   renderImages(f.images);
   world.selected = state.robot;
   world.draw();
-  chart.draw();
+  const t1 = performance.now();
+  state.cost.draw += t1 - t0; state.cost.draws += 1;
+  // while the run plays the chart keeps to CHART_MS; a paused or ended run's chart is drawn now
+  if (!f.playing || t1 - state.chartAt >= CHART_MS) {
+    chart.draw();
+    state.chartAt = performance.now();
+    state.cost.chart += state.chartAt - t1; state.cost.charts += 1;
+  } else if (!state.chartLater) {  // the frames may stop coming: the last one still reaches the chart
+    state.chartLater = setTimeout(() => { state.chartLater = null; scheduleDraw(); }, CHART_MS);
+  }
+}
+
+function setText(el, text) {  // a cell written only when it changes: each write costs a layout
+  if (el.textContent !== text) el.textContent = text;
 }
 
 // -- the editor: the file in a textarea with line numbers; Apply checks it (its problems at their
