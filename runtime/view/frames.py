@@ -23,10 +23,11 @@ from labsim.backends.scene.world import World
 
 SCHEMA = 1  # the message schema version; docs/view.md describes it
 FRAME_INTERVAL_S = 1 / 30  # at most 30 frames a second, whatever the speed
-# At "as fast as it goes" 20: every frame carries the path and chart samples of the ticks since
-# the last, so fewer frames lose nothing, and each costs the server and the page about 1.5 and
-# 5 ms that the run's ticks then get (docs/decisions.md, "Blocks in the view")
-FLAT_OUT_INTERVAL_S = 1 / 20
+# At "as fast as it goes" 10: every frame carries the path and chart samples of the ticks since
+# the last, so fewer frames lose nothing drawn, and each costs the server about 1.3 ms and a
+# headless Chromium about 10 ms of CPU (mostly its compositor's, out of the page's reach) that
+# on 2 cores the run's ticks then lack (docs/decisions.md, "The view with a real browser")
+FLAT_OUT_INTERVAL_S = 1 / 10
 
 Json = dict[str, Any]
 
