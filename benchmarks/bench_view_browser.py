@@ -10,8 +10,10 @@ Each round runs `labsim run behaviours/wall_follow.yaml --json -` (its own wall 
 (the view's server, and Chromium with all its children), the view's ticks a second over
 `labsim run`'s (goal >= 0.8; issue 30: run/view wall time <= 1.2 the other way round), the
 frames and bytes the page received, and the page's own time a frame (its performance.now()
-counters). The machine's load is printed first: on a shared machine
-the figures move with it. Needs `playwright` and a Chromium (`LABSIM_CHROMIUM` or `chromium`).
+counters), and the CPU times over that of `labsim run`'s ticks (its process's less that of a
+run that stops at once): figures that the machine's load moves less than wall times. The
+machine's load is printed first: on a shared machine the figures move with it. Needs
+`playwright` and a Chromium (`LABSIM_CHROMIUM` or `chromium`).
 """
 from __future__ import annotations
 
@@ -43,12 +45,18 @@ def _cpu(procs: list[psutil.Process]) -> float:
     return total
 
 
-def _run() -> tuple[float, float]:
+def _run(*extra: str) -> tuple[float, float]:
     """`labsim run`: the ticks' wall time (its summary's) and the process's CPU time."""
-    proc = subprocess.Popen([sys.executable, "-m", "labsim", "run", LAB, "--json", "-", "-q"], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "labsim", "run", LAB, "--json", "-", "-q", *extra], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     out, _ = proc.communicate()
     return json.loads(out)["wall_time_s"], _child_cpu()
+
+
+def _start_cpu() -> float:
+    """The CPU time of a `labsim run` of the same file that stops at once: its start (imports,
+    compiling, opening the world), to take from a whole run's for the CPU of its ticks."""
+    return _run("--set", "minutes=0")[1]
 
 
 _seen = [0.0]
@@ -110,13 +118,18 @@ def main() -> None:
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=exe, args=["--headless", "--no-sandbox", "--disable-gpu"])
         _child_cpu()
+        starts = []
         for _ in range(args.repeat):
             runs.append(_run())
+            starts.append(_start_cpu())
             views.append(_view(browser))
         browser.close()
     run_wall, run_cpu = (statistics.median(x) for x in zip(*runs))
     wall, server, chrome, frames, size, script, chart = (statistics.median(x) for x in zip(*views))
     ratios = [r[0] / v[0] for r, v in zip(runs, views)]
+    ticks_cpu = [r[1] - s for r, s in zip(runs, starts)]
+    cpu_server = statistics.median(v[1] / t for v, t in zip(views, ticks_cpu))
+    cpu_all = statistics.median((v[1] + v[2]) / t for v, t in zip(views, ticks_cpu))
     print(f'wall lab, 30,000 ticks at "as fast as it goes", medians of {args.repeat} rounds:')
     print(f"  labsim run           {run_wall:.3f} s wall (the ticks)   "
           f"{run_cpu:.3f} s CPU (the process, start included)")
@@ -124,6 +137,8 @@ def main() -> None:
           f"{chrome:.3f} s CPU Chromium (all its processes)")
     print(f"  ticks a second, view over run: {statistics.median(ratios):.3f} (rounds: "
           f"{', '.join(f'{r:.3f}' for r in ratios)}; goal >= 0.8)   view/run wall: {1 / statistics.median(ratios):.2f}")
+    print(f"  CPU over the run's ticks' CPU ({statistics.median(ticks_cpu):.3f} s: the run's less its start's, "
+          f"{statistics.median(starts):.3f} s): view server {cpu_server:.3f}, server + Chromium {cpu_all:.3f}")
     print(f"  frames {frames:.0f} ({frames / wall:.1f} a second), {size:,.0f} bytes a frame; the page's script "
           f"{script:.2f} ms a frame drawn, its chart {chart:.2f} ms a chart drawn")
 
