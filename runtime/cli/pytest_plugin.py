@@ -23,17 +23,34 @@ import pytest
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import ALLOW_ENV, policy_problem
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
-from labsim.runtime.golden import check_golden, record_golden
 
 if TYPE_CHECKING:
     from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
 
 
-def pytest_addoption(parser: pytest.Parser) -> None:
+def pytest_addoption(parser: pytest.Parser, pluginmanager: pytest.PytestPluginManager) -> None:
+    _no_rewrite(pluginmanager)
     group = parser.getgroup("labsim", "labsim golden traces")
     group.addoption("--update-goldens", action="store_true", default=False,
                     help="record the golden traces of the behaviour files collected, instead of comparing "
                          "(as labsim test --update-goldens does)")
+
+
+def _no_rewrite(pluginmanager: pytest.PytestPluginManager) -> None:
+    """Keep pytest from rewriting the asserts of labsim's own modules. pytest marks the whole
+    package of a plugin it loads by entry point for rewriting, so every labsim module a run
+    imports was parsed and compiled anew by pytest (with no bytecode cache, a third of ``pytest
+    behaviours/``'s CPU); labsim's asserts are its own checks, not a test's, and need no
+    rewritten message. Only this module and its few imports above are rewritten, the run's
+    modules (imported by ``runtest``) are not. pytest has no public call for this: without the
+    attribute it is left as it is."""
+    hook = getattr(pluginmanager, "rewrite_hook", None)
+    marked = getattr(hook, "_must_rewrite", None)
+    cache = getattr(hook, "_marked_for_rewrite_cache", None)
+    if isinstance(marked, set) and "labsim" in marked:
+        marked.discard("labsim")
+        if isinstance(cache, dict):
+            cache.clear()
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
@@ -94,6 +111,8 @@ class GoldenItem(pytest.Item):
     """One behaviour file re-run on the default backend and compared with its golden."""
 
     def runtest(self) -> None:
+        from labsim.runtime.golden import check_golden, record_golden  # the run's modules: after _no_rewrite
+
         if self.config.getoption("update_goldens"):
             golden, summary = record_golden(self.path)
             self.user_properties.append(("golden", str(golden)))

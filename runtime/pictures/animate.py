@@ -117,7 +117,8 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
     times = frame_times(t0, t1, fps, speed or default_speed(t1 - t0))
     # written beside the target under a name with the same suffix, renamed into place when whole
     target = Output(out, partial=out.with_name(f".{out.stem}.partial{out.suffix}"))
-    made = frames(trace, tracks, times, width_px, known=world)
+    changed: list[Box] = []  # where each frame differs from the one before: an MP4 converts only that
+    made = frames(trace, tracks, times, width_px, known=world, changed=changed)
     writer: MovieWriter | None = None
     n = 0
     try:
@@ -130,7 +131,7 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
             first = next(made)
             writer = Mp4Writer(target.partial, (first.shape[1], first.shape[0]), fps)
         for frame in itertools.chain([first], made):
-            writer.append(frame)
+            writer.append(frame, changed)
             n += 1
         writer.close()
     except BaseException:
@@ -159,11 +160,12 @@ def _fade(times: np.ndarray) -> float:
 
 
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
-           fade_s: float | None = None, known: tuple[World | None, str] | None = None
-           ) -> Generator[np.ndarray, None, None]:
+           fade_s: float | None = None, known: tuple[World | None, str] | None = None,
+           changed: list[Box] | None = None) -> Generator[np.ndarray, None, None]:
     """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
     a path is pale where older than ``fade_s`` (by default a share of the frames' span). A frame
-    is drawn over by the next: copy it to keep it."""
+    is drawn over by the next: copy it to keep it. ``changed``, when given, holds at each frame
+    the boxes outside which it equals the frame before (the whole frame for the first)."""
     # one function for one frame's layers: the backdrop, the paths, the robots, the caption
     world, note = known or trace_world(trace)  # ``known``: read by the caller already
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
@@ -188,9 +190,10 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
     fade = _fade(times) if fade_s is None else fade_s
     top = fig.image.shape[0]
     trails = Trails(base, [_points(tr, px) for tr in tracks], max(2, round(2 * P.s)))
-    for t in times:
+    for f, t in enumerate(times):
         at = [max(0, int(np.searchsorted(tr.t, t, side="right")) - 1) for tr in tracks]
         img = trails.advance(at, t - fade)
+        whole = mech is not None or f == 0
         if mech is not None and poses is not None:
             img = img.copy()  # a mechanism's bodies reach anywhere: drawn on a copy
             draw_pose(img, mech, poses, int(tracks[0].rows[at[0]]), px, P, fixed=False)
@@ -210,6 +213,8 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
         if inset and mech is not None and poses is not None:
             slew_inset(img, P, mech, trace, (W - inset - P.pad, top + P.pad // 2, inset),
                        i=int(tracks[0].rows[at[0]]), poses=poses)
+        if changed is not None:
+            changed[:] = [(0, 0, W, H)] if whole else trails.changed()
         yield img
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import codecs
 import csv
+import itertools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -54,25 +55,36 @@ class _Lines:
     def first(self) -> str:
         """The header line (and the file's start, for a message when it is no trace)."""
         it = self._all()
-        self.header = next(it, "")
-        self._it = it
+        lines, footer_in = next(it, ([], False))
+        while not lines:  # a first chunk without a whole line: the header is longer than a chunk
+            more = next(it, None)
+            if more is None:
+                break
+            lines, footer_in = more
+        self.header = lines[0] if lines else ""
+        self._it = itertools.chain([(lines[1:], footer_in)], it)
         return self.header
 
     def __iter__(self) -> Iterator[str]:
         held = ""
-        for line in self._it:
-            if line.startswith(FOOTER):  # the footer, if nothing but blank lines follows it
-                if held:
-                    yield held
-                held = line
+        for lines, footer_in in self._it:
+            if not held and not footer_in:  # most chunks: no line to look at one by one
+                yield from lines
                 continue
-            if held and line.strip():
-                yield held
-                held = ""
-            yield line
+            for line in lines:
+                if line.startswith(FOOTER):  # the footer, if nothing but blank lines follows it
+                    if held:
+                        yield held
+                    held = line
+                    continue
+                if held and line.strip():
+                    yield held
+                    held = ""
+                yield line
         self.footer = held
 
-    def _all(self) -> Iterator[str]:
+    def _all(self) -> Iterator[tuple[list[str], bool]]:
+        """The file's lines a chunk at a time, and whether a line among them may be the footer."""
         decoder = codecs.getincrementaldecoder("utf-8")()
         tail = ""
         done = 0
@@ -82,15 +94,14 @@ class _Lines:
                 done += len(chunk)
                 lines = text.split("\n")
                 tail = lines.pop()
-                for line in lines:
-                    yield line + "\n"
+                yield [line + "\n" for line in lines], FOOTER in text
             tail += decoder.decode(b"", final=True)
         except UnicodeDecodeError as e:
             raise TraceFormatError(f"{self.path}: not UTF-8 text (byte {done + e.start}): not a labsim trace",
                                    self.path) from None
         self.newline_at_end = not tail
         if tail:
-            yield tail
+            yield [tail], FOOTER in tail
 
 
 def count_lines(path: str) -> tuple[int, int]:

@@ -54,6 +54,7 @@ class Trails:
         margin = width_px + 2  # a round cap's radius and the antialiased edge, with room to spare
         self._robots = []
         self._dirty: list[Box] = []  # drawn over since the last frame: restored by the next
+        self._redrawn: list[Box] = []  # restored or redrawn by the last ``advance``
         for r in robots:
             a, b = r.pts[:-1], r.pts[1:]
             lo = (np.minimum(a, b) >> SHIFT) - margin
@@ -78,7 +79,13 @@ class Trails:
             st.shown, st.pale = shown, recent
         for box in boxes:
             self._redraw(box)
+        self._redrawn = boxes
         return self.shown
+
+    def changed(self) -> list[Box]:
+        """The boxes outside which the shown layer is as it was at the previous frame (what the
+        last ``advance`` redrew, and what was drawn over since): an encoder converts only these."""
+        return [*self._redrawn, *self._dirty]
 
     def drawn_over(self, box: Box) -> None:
         """Say that the shown layer was drawn on inside ``box`` (a robot, a caption): the next
