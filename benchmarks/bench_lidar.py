@@ -91,7 +91,8 @@ def main() -> None:
         wall = statistics.median(args.ticks / s for s in times.wall[name])  # the whole call, set-up included
         print(f"  {name}: median {median:,.0f} ticks per CPU second over {args.repeat} x {args.ticks} ticks "
               f"(runs: {', '.join(f'{r:,.0f}' for r in rates)}); {wall:,.0f} ticks per wall second, set-up included"
-              + ("" if "casts" in name or "floor" in name else f"; goal >= {GOAL:,}: {'met' if median >= GOAL else 'NOT met'}"))
+              + ("" if "casts" in name or "floor" in name
+                 else f"; goal >= {GOAL:,}: {'met' if median >= GOAL else 'NOT met'}"))
     ratios = pair_ratios(times["chipmunk casts"], times["fan cast"])
     print(f"  chipmunk casts / fan cast, per round: median {statistics.median(ratios):.1f} "
           f"({', '.join(f'{r:.1f}' for r in ratios)})")
