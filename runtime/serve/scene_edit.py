@@ -48,6 +48,7 @@ from typing import Protocol
 from labsim.backends.coppeliasim import MODEL_PATHS, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.object_paths import fill
 from labsim.backends.scene.world import Pose, World
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_served
@@ -153,7 +154,7 @@ class SceneEditor:
         """Robot i's path in the scene: its model's, numbered among the robots of that model."""
         model = self.loaded[i] if i in self.loaded else self.base_models[i]
         j = sum(1 for k in range(i) if (self.loaded.get(k) or self.base_models[k]).name == model.name)
-        return str(MODEL_PATHS[model.name]["robot"]).format(i=j)
+        return fill(str(MODEL_PATHS[model.name]["robot"]), i=j)
 
     def _after_edits(self, name: str) -> Handler:
         def call(client: Client, args: Args) -> list[object] | Wait:
