@@ -11,7 +11,8 @@ fixed directions gives, for every beam and face, the two cross products that say
 beam crosses the face and where. The ranges are those of chipmunk's cast up to rounding
 (within 1e-12 m but for a beam that grazes a round end; ``tests/contract/test_lidar_fan.py``
 compares them on random worlds), and two of chipmunk's ways are kept: a lidar inside a shape
-reads 0 on every beam, and a lidar in a wall's band casts through chipmunk (``_rays``).
+reads 0 on every beam, and in a wall's band the beams that can meet that wall are cast through
+chipmunk (``_band_beams``).
 
 Distances are found as their inverses, 1 / t, which a face gives without a division per beam:
 a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
@@ -54,8 +55,9 @@ class Outline:
     p2: np.ndarray  # (F, 2)
     centres: np.ndarray  # (K, 2)
     radii: np.ndarray  # (K,)
-    # each round-ended segment: its unit normal n (chipmunk's), n . a, its radius, its first face
-    walls: list[tuple[float, float, float, float, int]]
+    # each round-ended segment: its unit normal n (chipmunk's), n . a, its radius, its first
+    # face, its ends a and b
+    walls: list[tuple[float, float, float, float, int, float, float, float, float]]
 
 
 def rejects(a: pymunk.ShapeFilter, b: pymunk.ShapeFilter) -> bool:
@@ -71,7 +73,7 @@ def outline(shapes: list[pymunk.Shape]) -> Outline:
     p2: list[tuple[float, float]] = []
     centres: list[tuple[float, float]] = []
     radii: list[float] = []
-    walls: list[tuple[float, float, float, float, int]] = []
+    walls: list[tuple[float, float, float, float, int, float, float, float, float]] = []
     for shape in shapes:
         if isinstance(shape, pymunk.Segment):
             (ax, ay), (bx, by), r = shape.a, shape.b, shape.radius
@@ -85,7 +87,7 @@ def outline(shapes: list[pymunk.Shape]) -> Outline:
                 radii += [r, r]
                 if length > 0.0:
                     nx, ny = nx / r, ny / r
-                    walls.append((nx, ny, nx * ax + ny * ay, r, len(p1) - 2))
+                    walls.append((nx, ny, nx * ax + ny * ay, r, len(p1) - 2, ax, ay, bx, by))
         elif isinstance(shape, pymunk.Poly):
             verts = [(v.x, v.y) for v in shape.get_vertices()]  # counter-clockwise, as chipmunk keeps them
             r = shape.radius
@@ -105,6 +107,7 @@ def outline(shapes: list[pymunk.Shape]) -> Outline:
 
 
 Face = tuple[float, float, float, float]  # p1.x, p1.y, p2.x, p2.y, world metres
+Band = tuple[float, float, float, float, float, float, float, float]  # _Near.bands
 Circle = tuple[float, float, float]  # centre x, y, radius squared
 
 
@@ -116,8 +119,8 @@ class _Near:
     y_m: float
     faces: list[Face]
     circles: list[Circle]
-    # walls whose band (their line, r either side) comes near: (n.x, n.y, n . a, r) each
-    bands: list[tuple[float, float, float, float]]
+    # walls whose band (their line, r either side) comes near: (n.x, n.y, n . a, r, a.x, a.y, b.x, b.y) each
+    bands: list[Band]
 
 
 class LidarFan:
@@ -170,9 +173,7 @@ class LidarFan:
         near = self._near
         if near is None or math.hypot(ox - near.x_m, oy - near.y_m) > SLACK_M:
             near = self._near = self._choose(ox, oy)
-        for nx, ny, at, r in near.bands:
-            if abs(nx * ox + ny * oy - at) <= r:  # in a wall's band: chipmunk's own reading
-                return self._rays(ox, oy, c, s)
+        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]]
         faces, circles = near.faces, near.circles
         if self._moving:
             faces, circles = self._with_moving(ox, oy, faces, circles)
@@ -185,6 +186,8 @@ class LidarFan:
             for k, v in zip(*hits):
                 if v >= self._inv_range and 1.0 / v < ranges[k]:
                     ranges[k] = 1.0 / v
+        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
+            self._band_beams(ox, oy, c, s, inside, ranges)
         return ranges
 
     def cast_through_chipmunk(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:
@@ -194,13 +197,15 @@ class LidarFan:
         return self._rays(x_m + c * self._mount_x_m, y_m + s * self._mount_x_m, c, s)
 
     def _rays(self, ox: float, oy: float, c: float, s: float) -> list[float]:
-        """Each beam cast through chipmunk, as a sonar is: for a lidar in a wall's band.
+        """Each beam cast through chipmunk, as a sonar is: the oracle the fan is tested
+        against, and what a lidar among moving round-ended segments reads.
 
-        There chipmunk's segment query of a round-ended wall is not the capsule's geometry:
-        it tests the beam against the long face on the lidar's side, which is then behind the
-        lidar, and looks at the round ends only when the beam's line misses that face (a beam
-        that meets a round end can read farther, or nothing). The band is as wide as the wall,
-        so a robot crosses it in a tick or two, and these ticks cost what every tick once did.
+        In a wall's band (its line, as wide as the wall, beyond its ends) chipmunk's segment
+        query of the wall is not the capsule's geometry: it tests the beam against the long
+        face on the lidar's side, which is then behind the lidar, and looks at the round ends
+        only when the beam's line misses that face (a beam that meets a round end can read
+        farther, or nothing). There ``_band_beams`` casts through chipmunk the beams that can
+        meet that wall.
         """
         out = []
         query, space, flt, info, rng = chipmunk.segment_query_first, self._space, self._filter, self._seg, self._range_m
@@ -208,6 +213,36 @@ class LidarFan:
             hit = query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info)
             out.append(info.alpha * rng if hit else math.inf)
         return out
+
+    def _band_beams(self, ox: float, oy: float, c: float, s: float, bands: list[Band], ranges: list[float]) -> None:
+        """Each beam that can meet a wall whose band the lidar is in, cast through chipmunk into
+        ``ranges`` (see ``_rays`` for why chipmunk reads otherwise there). Every point chipmunk's
+        query of the wall can report lies in the wall's capsule, whose directions from the lidar
+        (outside it: the point test said so) are those between its two round ends' extents; the
+        other beams cannot meet the wall, and the fan reads them as chipmunk does. A robot
+        crosses a band in a tick or two, and then casts a few beams, not all of them."""
+        query, space, flt, info, rng = chipmunk.segment_query_first, self._space, self._filter, self._seg, self._range_m
+        for _nx, _ny, _at, r, ax, ay, bx, by in bands:
+            (mid_a, half_a), (mid_b, half_b) = (self._extent(ox, oy, c, s, ax, ay, r),
+                                                self._extent(ox, oy, c, s, bx, by, r))
+            to_b = (mid_b - mid_a + math.pi) % TAU - math.pi  # b's direction from a's, in [-pi, pi)
+            lo, hi = min(-half_a, to_b - half_b), max(half_a, to_b + half_b)
+            for first, last in _arcs(mid_a + lo, mid_a + hi):
+                for j in range(bisect.bisect_left(self._by_angle, first), bisect.bisect_right(self._by_angle, last)):
+                    k = self._order[j]
+                    ex, ey = self._ends[k]
+                    hit = query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info)
+                    ranges[k] = info.alpha * rng if hit else math.inf
+
+    @staticmethod
+    def _extent(ox: float, oy: float, c: float, s: float, x: float, y: float, r: float) -> tuple[float, float]:
+        """The direction in [0, 2 pi) of a circle at (x, y) seen from the lidar, in its frame,
+        and its half-width in radians with a margin (the whole circle when the lidar is in it)."""
+        dx, dy = x - ox, y - oy
+        qx, qy = c * dx + s * dy, c * dy - s * dx
+        distance = math.hypot(qx, qy)
+        half = math.asin(r / distance) if distance > r else math.pi
+        return math.atan2(qy, qx) % TAU, half + ANGLE_MARGIN_RAD
 
     def _faces(self, ox: float, oy: float, c: float, s: float, faces: list[Face]) -> np.ndarray:
         """1 / t of the nearest face each beam crosses (<= 0 for none): see the module docstring."""
@@ -283,7 +318,7 @@ class LidarFan:
         faces = np.column_stack((st.p1[keep], st.p2[keep])).tolist()
         circles = np.column_stack((centres, radii * radii)).tolist()
         far = distance.tolist()
-        bands = [(nx, ny, at, r) for nx, ny, at, r, face in st.walls
+        bands = [(nx, ny, at, r, ax, ay, bx, by) for nx, ny, at, r, face, ax, ay, bx, by in st.walls
                  if far[face] - r <= reach and abs(nx * ox + ny * oy - at) <= r + SLACK_M]
         return _Near(ox, oy, [tuple(f) for f in faces], [tuple(c) for c in circles], bands)
 

@@ -18,11 +18,15 @@ cited at each call):
   thickness (labsim's walls have rounded ends), as high as the world says (``Wall.height_m``,
   the height labsim's own cameras see); each block a static
   cuboid aliased ``block`` when it is a rectangle, else a prism (``sim.createMeshShape``);
-* one stock Pioneer P3DX per robot (CoppeliaSim's own ``models/robots/mobile/pioneer
-  p3dx.ttm``, ``sim.loadModel``), its script removed (it drives the wheels itself and would
-  fight labsim's commands), at the robot's start pose;
-* each camera a vision sensor with the behaviour's resolution, field of view, mount, pitch
-  and roll, under its robot, aliased ``Vision_sensor`` (the name the labs' scenes and scripts use).
+* one stock model per robot (CoppeliaSim's own ``models/robots/mobile/pioneer p3dx.ttm`` or
+  ``e-puck.ttm``, ``sim.loadModel``), its script removed (it drives the wheels itself and
+  would fight labsim's commands), at the robot's start pose;
+* each camera of a Pioneer a vision sensor with the behaviour's resolution, field of view,
+  mount, pitch and roll, under its robot, aliased ``Vision_sensor`` (the name the labs' scenes
+  and scripts use); an e-puck's camera is its model's own ``ePuck_camera``;
+* each ground sensor of an e-puck (the stock model has none) a 1 x 1 vision sensor under it,
+  looking down from just above the floor at the sensor's point, aliased
+  ``ePuck_groundSensor1..3`` (the names the backend reads, ``MODEL_PATHS``).
 
 A world's mechanism (the crane) is ``mechanism_builder``'s: bodies as primitive shapes, joints
 in the modes its motors take, force sensors, gravity and damping, with labsim's names.
@@ -32,16 +36,19 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 
-from labsim.backends.coppeliasim import CAMERA_ALIASES
+from labsim.backends.coppeliasim import CAMERA_ALIASES, MODEL_PATHS
 from labsim.backends.coppeliasim import fleet_script as fs
 from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.protocol import BackendError, RobotRequest
-from labsim.backends.scene.models import Camera
+from labsim.backends.scene.models import Camera, GroundSensor
 from labsim.backends.scene.world import Block, Wall, World
 from labsim.foundation.files import SCRATCH_PREFIX
 from labsim.runtime.builder.mechanism import build_mechanism
 
-PIONEER_MODEL = "models/robots/mobile/pioneer p3dx.ttm"  # under CoppeliaSim's resources folder
+# Each model's file under CoppeliaSim's resources folder, and what the log calls it
+MODEL_FILES = {"pioneer_p3dx": "models/robots/mobile/pioneer p3dx.ttm", "epuck": "models/robots/mobile/e-puck.ttm"}
+MODEL_LABELS = {"pioneer_p3dx": "Pioneer P3DX", "epuck": "e-puck"}
+GROUND_SENSOR_Z_M = 0.005  # a ground sensor's height above the floor: under the chassis, over the tape
 
 
 def unsupported(world: World) -> str:
@@ -55,9 +62,10 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
     why = unsupported(world)
     if why:
         raise BackendError(f"labsim scene: {why}")
-    other = next((r for r in robots if r.model is not None and r.model.name != "pioneer_p3dx"), None)
+    other = next((r for r in robots if r.model is not None and r.model.name not in MODEL_FILES), None)
     if other is not None and other.model is not None:  # before anything is built
-        raise BackendError(f"labsim scene: builds Pioneer P3DX robots only, and robot '{other.name}' has model "
+        raise BackendError(f"labsim scene: builds Pioneer P3DX and e-puck robots only, and robot '{other.name}' "
+                           f"has model "
                            f"'{other.model.name}'; load its model into your scene by hand "
                            "(docs/coppeliasim.md names its objects) and run with --backend coppeliasim")
     conn.open(dt_s)
@@ -84,7 +92,7 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
         for req in robots:
             _robot(conn, req)
         if robots:
-            log(f"labsim scene: {len(robots)} Pioneer P3DX, their scripts removed")
+            log(f"labsim scene: {_counted(robots)}, their scripts removed")
         if robots or mech is not None:
             log(_fleet_script(conn))
         if save:
@@ -95,6 +103,17 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             log(f"labsim scene: saved {save}")
     finally:
         conn.close()
+
+
+def _counted(robots: Sequence[RobotRequest]) -> str:
+    """The robots built, by model: "5 Pioneer P3DX", "1 e-puck (3 ground sensors added)"."""
+    parts = []
+    for name, label in MODEL_LABELS.items():
+        mine = [r.model for r in robots if r.model is not None and r.model.name == name]
+        grounds = sum(len(m.ground_sensors) for m in mine) if MODEL_PATHS[name]["ground"] else 0
+        if mine:
+            parts.append(f"{len(mine)} {label}" + (f" ({grounds} ground sensors added)" if grounds else ""))
+    return " and ".join(parts)
 
 
 def _static(conn: Connection, h: int, alias: str, respondable: bool = True) -> None:
@@ -217,9 +236,10 @@ def _fleet_script(conn: Connection) -> str:
 def _robot(conn: Connection, req: RobotRequest) -> None:
     sim = conn.sim
     # sim.getStringParam(sim.stringparam_resourcesdir), sim.loadModel(string filename): CoppeliaSim 4.6
+    assert req.model is not None
     resources = conn.call("sim.getStringParam", sim.stringparam_resourcesdir)
-    h = int(conn.call("sim.loadModel", f"{resources}/{PIONEER_MODEL}"))
-    # The stock model's child script sets the wheels' speeds every step (a Braitenberg
+    h = int(conn.call("sim.loadModel", f"{resources}/{MODEL_FILES[req.model.name]}"))
+    # The stock models' child scripts set the wheels' speeds every step (a Braitenberg
     # walk); labsim sends a wheel's target only when it changes, so the script would win.
     # sim.getScript(int scriptType, int objectHandle): CoppeliaSim 4.6, -1 when there is none;
     # sim.removeScript(int scriptHandle): CoppeliaSim 4.6.
@@ -232,9 +252,28 @@ def _robot(conn: Connection, req: RobotRequest) -> None:
     pose = req.pose
     conn.call("sim.setObjectPosition", h, [pose.x_m, pose.y_m, z], conn.world_h)
     conn.call("sim.setObjectOrientation", h, [alpha, beta, pose.heading_rad], conn.world_h)
-    assert req.model is not None
-    for camera in req.model.cameras:
-        _camera(conn, h, z, camera)
+    if not MODEL_PATHS[req.model.name]["cameras"]:  # else the model's own camera, named in MODEL_PATHS
+        for camera in req.model.cameras:
+            _camera(conn, h, z, camera)
+    aliases = MODEL_PATHS[req.model.name]["ground"]
+    assert isinstance(aliases, dict)
+    for g in req.model.ground_sensors if aliases else ():
+        _ground_sensor(conn, h, z, g, str(aliases[g.name]).rsplit("/", 1)[-1])
+
+
+def _ground_sensor(conn: Connection, robot_h: int, robot_z: float, g: GroundSensor, alias: str) -> None:
+    """A ground sensor: a 1 x 1 vision sensor under the robot, its z axis (the way it looks)
+    straight down, GROUND_SENSOR_Z_M above the floor; sim.readVisionSensor's average intensity
+    of its one pixel is the reflectance the backend reads."""
+    # sim.createVisionSensor(int options, list intParams, list floatParams): CoppeliaSim 4.6;
+    # options bit 1: perspective; near 1 mm, far 2 cm (the floor is 5 mm below), a 10 degree cone
+    h = int(conn.call("sim.createVisionSensor", 2, [1, 1, 0, 0],
+                      [0.001, 0.02, math.radians(10.0), 0.005, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
+    conn.call("sim.setObjectAlias", h, alias)  # first: the stand-in tells a ground sensor by its alias
+    conn.call("sim.setObjectParent", h, robot_h, True)  # (int objectHandle, int parent, bool keepInPlace): 4.6
+    # turned half a turn about x: z down, y to the robot's right, x ahead (rows [x y z | position])
+    matrix = [1.0, 0.0, 0.0, g.x_m, 0.0, -1.0, 0.0, g.y_m, 0.0, 0.0, -1.0, GROUND_SENSOR_Z_M - robot_z]
+    conn.call("sim.setObjectMatrix", h, matrix, robot_h)  # (handle, matrix, relativeTo): 4.6
 
 
 def _camera(conn: Connection, robot_h: int, robot_z: float, cam: Camera) -> None:

@@ -1,17 +1,20 @@
 """What the stand-in's scene editing builds: shapes and vision sensors, as plain data.
 
 ``scene_edit`` makes them from remote calls, ``mechanism_edit`` reads a mechanism back from
-them; both import them from here, so neither imports the other for its data. ``read_shapes``
-and ``camera`` read them back as labsim's walls, blocks, floor, ground and cameras.
+them; both import them from here, so neither imports the other for its data. ``read_shapes``,
+``camera`` and ``robot_model`` read them back as labsim's walls, blocks, floor, ground, cameras
+and the robots' models with the sensors built on them.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
+from labsim.backends.coppeliasim import MODEL_PATHS
+from labsim.backends.protocol import BackendError
 from labsim.backends.scene.ground import Ground, Texture
-from labsim.backends.scene.models import Camera
+from labsim.backends.scene.models import EPUCK, PIONEER_P3DX, Camera, GroundSensor, RobotModel
 from labsim.backends.scene.world import Block, Wall
 from labsim.runtime.serve.scene_tree import ROBOT_Z_M
 
@@ -38,7 +41,8 @@ class Shape:
 
 @dataclass(eq=False)
 class Sensor:
-    """A vision sensor built through the remote API: it becomes its robot's camera."""
+    """A vision sensor built through the remote API: it becomes its robot's camera, or one of
+    its ground sensors when its alias is one (``robot_model``)."""
 
     resolution: tuple[int, int]
     angle_rad: float  # the view angle, across the larger side
@@ -127,3 +131,35 @@ def camera(s: Sensor) -> Camera:
 
 def _deg(v: float) -> float:
     return round(math.degrees(v), 6) + 0.0
+
+
+# What sim.loadModel loads, by the file's name under models/robots/mobile/ (CoppeliaSim 4.6's
+# resources): labsim's model of it.
+LOADED_MODELS: dict[str, RobotModel] = {"pioneer p3dx.ttm": PIONEER_P3DX, "e-puck.ttm": EPUCK}
+
+
+def robot_model(loaded: RobotModel, sensors: list[Sensor]) -> RobotModel:
+    """A loaded robot with the vision sensors built on it. A sensor aliased as one of the
+    model's ground sensors (``ePuck_groundSensor1..3``: ``MODEL_PATHS``) is that ground sensor,
+    read where its matrix puts it; the others are cameras of a model whose cameras are found by
+    alias (the Pioneer). An e-puck keeps its stock ``ePuck_camera``, and its ground sensors are
+    only those built (the stock model has none)."""
+    paths, stock_cameras = MODEL_PATHS[loaded.name]["ground"], MODEL_PATHS[loaded.name]["cameras"]
+    assert isinstance(paths, dict)
+    channel_of = {str(path).rsplit("/", 1)[-1]: channel for channel, path in paths.items()}
+    grounds: dict[str, GroundSensor] = {}
+    cameras: list[Camera] = []
+    for s in sensors:
+        if s.alias in channel_of:
+            if s.resolution != (1, 1) or s.matrix[10] > -0.999:  # its z axis: the way it looks
+                raise BackendError(f"the ground sensor {s.alias} is a 1 x 1 vision sensor looking down")
+            channel = channel_of[s.alias]
+            grounds[channel] = GroundSensor(channel, rounded(s.matrix[3]), rounded(s.matrix[7]))
+        elif stock_cameras:  # the model names its own camera: no other is read
+            raise BackendError(f"a {loaded.name} keeps its model's camera; a vision sensor aliased "
+                               f"'{s.alias}' on it is neither that nor a ground sensor")
+        else:
+            cameras.append(camera(s))
+    order = [channel for channel in paths if channel in grounds]
+    return replace(loaded, cameras=loaded.cameras if stock_cameras else tuple(cameras),
+                   ground_sensors=tuple(grounds[c] for c in order) if paths else loaded.ground_sensors)

@@ -14,9 +14,10 @@ What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene
   any other static cuboid is a block (a box); a static mesh (``sim.createMeshShape``) is a
   block, its corners the vertices at the floor;
 * a plane (``sim.primitiveshape_plane``) is the floor: the world's bounds;
-* ``sim.loadModel`` of CoppeliaSim's ``pioneer p3dx.ttm`` adds a Pioneer P3DX at the origin,
-  with its own script (``sim.getScript``, ``sim.removeScript`` take it away; a simulation
-  started with a script left is logged, since on CoppeliaSim it would drive the wheels);
+* ``sim.loadModel`` of CoppeliaSim's ``pioneer p3dx.ttm`` or ``e-puck.ttm`` adds a Pioneer
+  P3DX or an e-puck at the origin, with its own script (``sim.getScript``,
+  ``sim.removeScript`` take it away; a simulation started with a script left is logged,
+  since on CoppeliaSim it would drive the wheels);
 * ``sim.setSimulationTimeStep(dt)`` (or the older ``sim.setFloatParam(sim.floatparam_simulation_time_step,
   dt)``) sets the time step.
 
@@ -29,7 +30,9 @@ reproduces the embedded backend's trace.
   floor's colour its corner pixel's;
 * a vision sensor (``sim.createVisionSensor``) parented to a robot (``sim.setObjectParent``)
   and placed with ``sim.setObjectMatrix`` becomes that robot's camera: resolution, view
-  angle, mount, pitch and roll read back from them (angles rounded to 1e-6 degrees).
+  angle, mount, pitch and roll read back from them (angles rounded to 1e-6 degrees); one
+  aliased as a ground sensor (``ePuck_groundSensor1..3``) is that ground sensor
+  (``built.robot_model``).
 
 A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the fleet script
 ``script_host``'s. Not built here (the stand-in answers with an error saying so):
@@ -38,18 +41,18 @@ A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the
 from __future__ import annotations
 
 import copy
-import dataclasses
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
 
-from labsim.backends.coppeliasim import RUNNING, STOPPED
+from labsim.backends.coppeliasim import MODEL_PATHS, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
-from labsim.backends.scene.models import PIONEER_P3DX, Camera
+from labsim.backends.scene.models import RobotModel
+from labsim.backends.scene.object_paths import fill
 from labsim.backends.scene.world import Pose, World
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_served
-from labsim.runtime.serve.built import Sensor, Shape, camera, primitive, read_shapes
+from labsim.runtime.serve.built import LOADED_MODELS, Sensor, Shape, primitive, read_shapes, robot_model
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
     MECHANISM_CONSTANTS,
@@ -71,7 +74,6 @@ from labsim.runtime.serve.sim_api import (
 from labsim.runtime.serve.simulation import Client, Simulation
 
 FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
-PIONEER_FILE = "pioneer p3dx.ttm"  # models/robots/mobile/ in CoppeliaSim's resources
 RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
 EMPTY = World("scene", "an empty scene", (-10.0, -10.0, 10.0, 10.0))  # its bounds: with no floor built
 
@@ -114,6 +116,7 @@ class SceneEditor:
         self.scripts: dict[int, int] = {}  # script handle -> robot index
         self.sensors: dict[int, Sensor] = {}
         self.robots: list[Pose] = [r.pose for r in base_robots]
+        self.loaded: dict[int, RobotModel] = {}  # robot index -> the model sim.loadModel loaded
         self.dirty = False
         self._next = FIRST_HANDLE
         self.script_host = ScriptHost(self._handle, self._stopped, lambda: self.server.simulation.state == RUNNING
@@ -144,8 +147,14 @@ class SceneEditor:
 
     def _warn_scripts(self) -> None:
         for i in sorted(self.scripts.values()):
-            self.server.log(f"labsim serve: /PioneerP3DX[{i}] still has its script; in CoppeliaSim it would "
+            self.server.log(f"labsim serve: {self._path(i)} still has its script; in CoppeliaSim it would "
                             f"drive the wheels and fight the client's commands (sim.removeScript)")
+
+    def _path(self, i: int) -> str:
+        """Robot i's path in the scene: its model's, numbered among the robots of that model."""
+        model = self.loaded[i] if i in self.loaded else self.base_models[i]
+        j = sum(1 for k in range(i) if (self.loaded.get(k) or self.base_models[k]).name == model.name)
+        return fill(str(MODEL_PATHS[model.name]["robot"]), i=j)
 
     def _after_edits(self, name: str) -> Handler:
         def call(client: Client, args: Args) -> list[object] | Wait:
@@ -194,26 +203,26 @@ class SceneEditor:
         sim = self.server.simulation
         poses = [r.pose for r in sim.robots] + self.robots[len(sim.robots):]
         self.robots = poses
-        cameras: dict[int, list[Camera]] = {}
+        built: dict[int, list[Sensor]] = {}
         for sensor in self.sensors.values():
             if sensor.robot >= 0 and sensor.matrix:
-                cameras.setdefault(sensor.robot, []).append(camera(sensor))
+                built.setdefault(sensor.robot, []).append(sensor)
         models = [self.base_models[i] if i < len(self.base_models)  # a loaded scene's robots keep their cameras
-                  else dataclasses.replace(PIONEER_P3DX, cameras=tuple(cameras.get(i, ()))) for i in range(len(poses))]
-        requests = [RobotRequest(f"PioneerP3DX[{i}]", m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
+                  else robot_model(self.loaded[i], built.get(i, [])) for i in range(len(poses))]
+        requests = [RobotRequest(self._path(i).lstrip("/"), m, p, ()) for i, (m, p) in enumerate(zip(models, poses))]
         self.server.rebuild(self.world(), requests)
         self.dirty = False
         self._good = self._state()
 
     def _state(self) -> tuple[object, ...]:
         mech, host = self.mechanism_edit, self.script_host
-        return copy.deepcopy((self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents,
-                              mech.tilts, mech.ends, mech.masses, host.dummies, host.scripts))
+        return copy.deepcopy((self.shapes, self.sensors, self.scripts, self.robots, self.loaded, mech.parts,
+                              mech.parents, mech.tilts, mech.ends, mech.masses, host.dummies, host.scripts))
 
     def _restore(self) -> None:
         mech, host = self.mechanism_edit, self.script_host
-        (self.shapes, self.sensors, self.scripts, self.robots, mech.parts, mech.parents, mech.tilts, mech.ends,
-         mech.masses, host.dummies, host.scripts) = copy.deepcopy(self._good)  # type: ignore[assignment]
+        (self.shapes, self.sensors, self.scripts, self.robots, self.loaded, mech.parts, mech.parents, mech.tilts,
+         mech.ends, mech.masses, host.dummies, host.scripts) = copy.deepcopy(self._good)  # type: ignore[assignment]
         self.dirty = False
 
     # --- edits -------------------------------------------------------------------------------
@@ -314,14 +323,16 @@ class SceneEditor:
         self._stopped()
         if not args or not isinstance(args[0], str):
             raise SimError(E_ARGS)
-        if not args[0].replace("\\", "/").lower().endswith("/" + PIONEER_FILE):
+        name = args[0].replace("\\", "/").lower().rsplit("/", 1)[-1]
+        if not args[0].replace("\\", "/").lower().endswith("/" + name) or name not in LOADED_MODELS:
             raise SimError(f"labsim serve: the stand-in loads only CoppeliaSim's models/robots/mobile/"
-                           f"{PIONEER_FILE}, not '{args[0]}'")
+                           f"{' and '.join(LOADED_MODELS)}, not '{shown(args[0])}'")
         if self.mechanism_edit.parts:
             raise SimError("labsim serve: this scene holds a mechanism's joints; a labsim world has either a "
                            "mechanism or robots (sim.loadScene gives a lab's scene, or start from an empty one)")
         self._settle()
         self.robots.append(Pose(0.0, 0.0, 0.0))
+        self.loaded[len(self.robots) - 1] = LOADED_MODELS[name]
         self.dirty = True
         self._settle()
         i = len(self.robots) - 1

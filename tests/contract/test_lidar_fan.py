@@ -108,3 +108,18 @@ def test_the_fan_is_deterministic_across_instances() -> None:
     second = LidarFan(space, body, pymunk.ShapeFilter(group=1), angles, 0.1, 5.0)
     poses = [(-3.0 + 0.37 * k, -2.0 + 0.21 * k, 0.4 * k) for k in range(20)]
     assert [first.cast(*p) for p in poses] == [second.cast(*p) for p in reversed(poses)][::-1]
+
+
+@pytest.mark.parametrize("x", [0.06, 0.2, 1.0, 3.0, 4.9])
+@pytest.mark.parametrize("dy", [-0.049, 0.0, 0.03])
+def test_in_a_walls_band_the_beams_that_can_meet_it_read_what_chipmunk_reads(x: float, dy: float) -> None:
+    """Along the inner wall's band beyond its free end, near it and far, at several headings:
+    the beams cast through chipmunk are enough for every beam to read chipmunk's range."""
+    space, body = _room_with_inner_wall()
+    angles = [math.radians(-180 + k) for k in range(360)]
+    fan = LidarFan(space, body, pymunk.ShapeFilter(group=1), angles, 0.0, 8.0)
+    for heading in (0.0, 0.3, 2.0, -2.9):
+        body.position, body.angle = (x, 1.0 + dy), heading
+        space.reindex_shapes_for_body(body)
+        got, want = fan.cast(x, 1.0 + dy, heading), fan.cast_through_chipmunk(x, 1.0 + dy, heading)
+        assert got == pytest.approx(want, abs=1e-12, rel=0)

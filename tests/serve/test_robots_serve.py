@@ -7,6 +7,7 @@ its ground sensors, which the stock model lacks, labsim's ``ePuck_groundSensor1.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -72,9 +73,32 @@ def test_ir_sensors_and_bumpers_give_the_embedded_backends_trace(tmp_path: Path,
     assert len(seen) > 1, seen  # the sensor read something, not only its idle value
 
 
-def test_labsim_scene_refuses_an_epuck_before_it_builds_anything(capsys: pytest.CaptureFixture[str]) -> None:
+def test_labsim_scene_builds_the_line_lab_and_a_run_there_gives_the_embedded_trace(
+        empty: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The tape as a textured plane, the stock e-puck (``e-puck.ttm``) with its script removed,
+    and its three ground sensors built as 1 x 1 vision sensors looking down: the stand-in reads
+    them back where they were put, so the run is the embedded one, row for row."""
+    from helpers import trace_rows
+
     from labsim.runtime.cli.main import main
 
-    assert main(["scene", str(BEHAVIOURS / "line_follow.yaml"), "--port", "1"]) == 2
-    err = capsys.readouterr().err
-    assert "builds Pioneer P3DX robots only, and robot 'epuck' has model 'epuck'" in err and "Traceback" not in err
+    lab = tmp_path / "line.yaml"
+    lab.write_text((BEHAVIOURS / "line_follow.yaml").read_text().replace("minutes: 2 ", "minutes: 0.1667"))
+    assert main(["scene", str(lab), "--port", str(empty)]) == 0
+    assert "1 e-puck (3 ground sensors added), their scripts removed" in capsys.readouterr().out
+    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+    assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) > 500
+
+
+def test_labsim_scene_refuses_a_model_it_has_no_file_for(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from labsim.backends.coppeliasim.connection import Connection
+    from labsim.backends.protocol import BackendError, RobotRequest
+    from labsim.backends.scene.models import EPUCK
+    from labsim.backends.scene.world import Pose, World
+    from labsim.runtime.builder.scene import build
+
+    other = RobotRequest("k", dataclasses.replace(EPUCK, name="khepera"), Pose(0.0, 0.0, 0.0), ())
+    with pytest.raises(BackendError, match="builds Pioneer P3DX and e-puck robots only, and robot 'k'"):
+        build(Connection("127.0.0.1", 1, 1.0), World("w", "", (0, 0, 1, 1)), [other], 0.05)

@@ -96,3 +96,24 @@ def test_a_pioneer_loaded_with_its_script_is_logged_and_other_models_refused() -
         assert any("still has its script" in line for line in lines)
         client.socket.close(0)
         client.context.term()
+
+
+def test_an_epucks_ground_sensors_are_the_vision_sensors_built_as_them() -> None:
+    """Read back where their matrices put them, in the model's order; one looking up, or a
+    camera of the builder's own on an e-puck (whose camera is its model's), is refused."""
+    from labsim.backends.protocol import BackendError
+    from labsim.backends.scene.models import EPUCK, PIONEER_P3DX
+    from labsim.runtime.serve.built import Sensor, robot_model
+
+    def down(alias: str, x: float, y: float, z_axis_z: float = -1.0) -> Sensor:
+        return Sensor((1, 1), 0.17, 0, [1.0, 0.0, 0.0, x, 0.0, -1.0, 0.0, y, 0.0, 0.0, z_axis_z, -0.015], alias)
+
+    built = robot_model(EPUCK, [down("ePuck_groundSensor3", 0.03, -0.01), down("ePuck_groundSensor1", 0.03, 0.01)])
+    assert [(g.name, g.x_m, g.y_m) for g in built.ground_sensors] == [("ground1", 0.03, 0.01), ("ground3", 0.03, -0.01)]
+    assert built.cameras == EPUCK.cameras
+    assert robot_model(EPUCK, []).ground_sensors == ()  # the stock e-puck has none
+    with pytest.raises(BackendError, match="ePuck_groundSensor2 is a 1 x 1 vision sensor looking down"):
+        robot_model(EPUCK, [down("ePuck_groundSensor2", 0.03, 0.0, z_axis_z=1.0)])
+    with pytest.raises(BackendError, match="keeps its model's camera"):
+        robot_model(EPUCK, [down("Vision_sensor", 0.03, 0.0)])
+    assert robot_model(PIONEER_P3DX, []) == PIONEER_P3DX
