@@ -23,7 +23,7 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
-from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs, warm_up
+from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, DaskBatch, LocalBatch, Outcome, default_jobs, warm_up
 from labsim.runtime.ending import batch_signals, ending, exit_code
 from labsim.runtime.grade import runs as seed_runs
 from labsim.runtime.grade.assignment import Assignment, read_assignment
@@ -191,9 +191,9 @@ def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
         return runs.done, 0
     line = StatusLine() if options.progress else None
     # the pool kills a run a little after its own deadline: the run stops itself first, with its message
-    local = None if options.scheduler is not None else LocalBatch(
+    batch = DaskBatch(options.scheduler) if options.scheduler is not None else LocalBatch(
         options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
-    outcomes = dask_outcomes(options.scheduler, run_job, jobs) if local is None else local.outcomes(run_job, jobs)
+    outcomes = batch.outcomes(run_job, jobs)
     try:
         with batch_signals():
             for outcome in outcomes:
@@ -202,7 +202,7 @@ def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
                     line.draw(f"grading {bar(runs.count / len(jobs))} {runs.count}/{len(jobs)} runs")
     except KeyboardInterrupt as e:
         signum, why = ending(e)
-        for outcome in local.interrupt(why) if local is not None else []:
+        for outcome in batch.interrupt(why):
             runs.take(outcome)
         return _kept(runs.done), signum
     finally:

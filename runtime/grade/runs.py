@@ -24,6 +24,7 @@ from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets
+from labsim.runtime.batch import stop_asked
 from labsim.runtime.recording import Recording
 from labsim.runtime.result import STOP_CONDITION, RunResult
 from labsim.runtime.run import Run, compile_behaviour
@@ -113,6 +114,8 @@ def _run(job: Job, local: str, started: float) -> SeedRun:
     def deadline(tick: int, sim_time_s: float) -> None:
         if clock.perf_counter() > limit:
             raise _Deadline(f"stopped after its time limit of {job.timeout_s:g} s, at {sim_time_s:.1f} s simulated")
+        if stop_asked():  # on Dask, the grading was stopped: the run ends as Ctrl-C ends it
+            raise KeyboardInterrupt
 
     world = behaviour.program.world
     # a mechanism's pictures read its joints from a trace's columns: such a run is traced to a file
