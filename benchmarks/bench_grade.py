@@ -40,6 +40,7 @@ from compare import alternate, machine, pair_ratios
 from labsim.backends import DEFAULT, load_backend
 from labsim.runtime.batch import LocalBatch
 from labsim.runtime.grade.driver import Options, grade_class, write_class
+from labsim.runtime.pictures.feedback import feedback_pictures
 from labsim.runtime.run import compile_behaviour
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
@@ -75,15 +76,10 @@ def bare_run(job: tuple[str, int, float]) -> float:
 def grade(folder: Path, jobs: int, pages: bool, out: Path) -> float:
     out.mkdir()
     options = Options(str(folder / "assignment.yaml"), [str(folder / "class")], out, jobs=jobs, cache=False,
-                      pages=pages)
+                      pages=pages, pictures=feedback_pictures if pages else None)
     start = time.perf_counter()
     graded = grade_class(options)
-    if pages:
-        from labsim.runtime.cli.commands import draw_pictures
-
-        write_class(graded, options, draw_pictures)
-    else:
-        write_class(graded, options, None, pages=False)
+    write_class(graded, options, pages=pages)
     elapsed = time.perf_counter() - start
     bad = [g for g in graded.grades if not g.graded]
     if bad:

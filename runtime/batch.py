@@ -14,13 +14,15 @@ one process: it is killed, the item's outcome says so, and a new worker takes it
 ignore Ctrl-C, take SIGTERM and SIGHUP as the end of their item (runtime/ending.py: a run ends
 as Ctrl-C ends ``labsim run``, its trace closed with its footer) and die with their parent; the
 caller stops them with ``interrupt``, which gives the outcomes of the items in progress.
-``dask_outcomes`` does the same on a Dask distributed cluster, where a worker thread cannot be
-killed, so the function must stop itself at its own deadline. The function and the items must
+``DaskBatch`` does the same on a Dask distributed cluster, where a worker thread cannot be
+killed, so the function must stop itself at its own deadline, and when the batch is stopped
+(``stop_asked``, which looks at a Dask ``Event`` the caller's ``interrupt`` sets). The function and the items must
 pickle.
 """
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import multiprocessing
 import os
 import signal
@@ -330,38 +332,135 @@ class LocalBatch:
         self._workers = []
 
 
+STOP_POLL_S = 0.5  # Dask: how often a function asking ``stop_asked`` looks at the batch's Event (a round trip)
+_STOP: contextvars.ContextVar[Callable[[], bool] | None] = contextvars.ContextVar("labsim_batch_stop", default=None)
+
+
+def stop_asked() -> bool:
+    """Whether the Dask batch running this function was stopped (Ctrl-C, SIGTERM on its caller):
+    a function that takes long asks now and then and ends its work as a signal would end it.
+    Always False outside a Dask batch (a local worker is signalled instead); it costs a look at
+    the clock, and a look at the cluster every STOP_POLL_S."""
+    asked = _STOP.get()
+    return asked is not None and asked()
+
+
+def _watched(function: Callable[[Any], Any], item: Any, stop: str) -> Any:
+    """function(item) on a Dask worker, with ``stop_asked`` looking at the Event named ``stop``."""
+    from distributed import Event
+
+    try:
+        event: Any = Event(stop)
+    except ValueError:  # not on a worker (called directly): nothing can ask it to stop
+        return function(item)
+    looked = [clock.perf_counter()]  # when it last looked
+    told = [False]
+
+    def asked() -> bool:
+        now = clock.perf_counter()
+        if not told[0] and now - looked[0] >= STOP_POLL_S:
+            looked[0] = now
+            with contextlib.suppress(Exception):  # the scheduler out of reach: go on, its timeout stops it
+                told[0] = bool(event.is_set())
+        return told[0]
+
+    token = _STOP.set(asked)
+    try:
+        return function(item)
+    finally:
+        _STOP.reset(token)
+
+
+class DaskBatch:
+    """``outcomes(function, items)`` on the Dask cluster at ``scheduler`` (an address, or a
+    ``distributed.Client``'s), each as it finishes; ``interrupt(why)`` after a signal: the
+    items not yet started are cancelled, the running ones are told to stop (a Dask ``Event``
+    their function sees through ``stop_asked``) and give their outcomes within STOP_WAIT_S,
+    as a local worker does when sent SIGTERM. A worker thread cannot be killed: the function
+    must also stop itself at its own deadline."""
+
+    def __init__(self, scheduler: object, connect_timeout_s: float = 10.0) -> None:
+        self.scheduler = scheduler
+        self.connect_timeout_s = connect_timeout_s
+        self.stop = f"labsim-batch-stop-{os.getpid()}-{clock.time_ns()}"  # the Event its functions watch
+        self._client: Any = None
+        self._futures: dict[Any, tuple[int, float]] = {}  # future -> (index, when submitted)
+        self._stopped: list[Outcome] | None = None
+
+    def outcomes(self, function: Callable[[Any], Any], items: list[Any]) -> Generator[Outcome, None, None]:
+        from distributed import Client, as_completed
+
+        owned = isinstance(self.scheduler, str)
+        client: Any = Client(self.scheduler, timeout=self.connect_timeout_s) if owned else self.scheduler
+        self._client = client
+        try:
+            threads = max(1, sum(client.nthreads().values()))
+            pending = deque(enumerate(items))
+            flow = as_completed()
+
+            def submit() -> None:
+                while pending and len(self._futures) < threads * PER_THREAD:
+                    index, item = pending.popleft()
+                    future = client.submit(_watched, function, item, self.stop, pure=False)
+                    self._futures[future] = (index, clock.perf_counter())
+                    flow.add(future)
+
+            submit()
+            for future in flow:
+                if future not in self._futures:  # interrupted meanwhile: its outcome was given there
+                    continue
+                yield self._outcome(future, *self._futures.pop(future))
+                submit()
+        except KeyboardInterrupt as e:  # the runs in progress end as Ctrl-C ends a run; the caller asks for them
+            self.interrupt(ending(e)[1])
+            raise
+        finally:
+            self.interrupt("the end of the batch")  # stops whatever is left when the caller stops early
+            if owned:
+                client.close()
+
+    @staticmethod
+    def _outcome(future: Any, index: int, started: float) -> Outcome:
+        took = clock.perf_counter() - started
+        try:
+            value = future.result()
+        except Exception as e:  # a lost worker, too many retries: that item's outcome
+            return Outcome(index, DIED, message=f"{type(e).__name__}: {e}", wall_s=took)
+        return Outcome(index, DONE, value, wall_s=took)
+
+    def interrupt(self, why: str) -> list[Outcome]:
+        """Stop the items in progress and give their outcomes (see the class docstring): one that
+        ended meanwhile is ``DONE``; one with no answer by then is ``STOPPED``, with ``why``.
+        Further calls give the same outcomes."""
+        if self._stopped is not None:
+            return self._stopped
+        got: list[Outcome] = []
+        self._stopped = got
+        if not self._futures or self._client is None:
+            return got
+        from distributed import Event
+        from distributed import wait as dask_wait
+
+        client, futures = self._client, dict(self._futures)
+        self._futures.clear()
+        with deaf():  # a second Ctrl-C must not lose the values being sent
+            with contextlib.suppress(Exception):
+                Event(self.stop, client=client).set()  # the running functions stop themselves
+                running = {key for keys in client.processing().values() for key in keys}
+                client.cancel([f for f in futures if f.status == "pending" and f.key not in running])
+            with contextlib.suppress(Exception):
+                dask_wait(list(futures), timeout=STOP_WAIT_S + STOP_POLL_S)
+            for future, (index, started) in futures.items():
+                outcome = self._outcome(future, index, started) if future.status == "finished" else None
+                got.append(outcome if outcome is not None and outcome.kind == DONE
+                           else Outcome(index, STOPPED, message=f"stopped by {why}"))
+            with contextlib.suppress(Exception):
+                client.cancel(list(futures))
+        return got
+
+
 def dask_outcomes(scheduler: object, function: Callable[[Any], Any], items: list[Any],
                   connect_timeout_s: float = 10.0) -> Iterator[Outcome]:
-    """Run function(item) for every item on the Dask cluster at ``scheduler`` (an address, or a
-    ``distributed.Client``'s); outcomes as they finish. The function stops itself at its deadline."""
-    from distributed import Client, as_completed
-
-    client: Any = scheduler if not isinstance(scheduler, str) else Client(scheduler, timeout=connect_timeout_s)
-    owned = isinstance(scheduler, str)
-    try:
-        threads = max(1, sum(client.nthreads().values()))
-        pending = deque(enumerate(items))
-        futures: dict[Any, tuple[int, float]] = {}
-        flow = as_completed()
-
-        def submit() -> None:
-            while pending and len(futures) < threads * PER_THREAD:
-                index, item = pending.popleft()
-                future = client.submit(function, item, pure=False)
-                futures[future] = (index, clock.perf_counter())
-                flow.add(future)
-
-        submit()
-        for future in flow:
-            index, started = futures.pop(future)
-            took = clock.perf_counter() - started
-            try:
-                value = future.result()
-            except Exception as e:  # a lost worker, too many retries: that item's outcome
-                yield Outcome(index, DIED, message=f"{type(e).__name__}: {e}", wall_s=took)
-            else:
-                yield Outcome(index, DONE, value, wall_s=took)
-            submit()
-    finally:
-        if owned:
-            client.close()
+    """``DaskBatch(scheduler).outcomes(function, items)``: run function(item) for every item on
+    the Dask cluster at ``scheduler``; outcomes as they finish."""
+    return DaskBatch(scheduler, connect_timeout_s).outcomes(function, items)

@@ -57,6 +57,8 @@ Schedule = dict[int, list[tuple[int, float, str]]]  # tick -> (slot, value, "nam
 class Observer:
     """A watcher of ticks; see the module docstring. The base hooks do nothing."""
 
+    reads: tuple[str, ...] = ()  # the channels it reads of every robot, read for it even when the behaviour does not
+
     def bind(self, run: RunState) -> None:
         """Once, when the run is bound: read what the run set up."""
 
@@ -262,11 +264,17 @@ class TraceRows(Observer):
 
     def events(self, p: object, raised: list) -> str:
         """The tick's events cell: the count metrics that rose, the logs, the slider moves applied."""
-        events = [p.metric_names[e] if isinstance(e, int)  # type: ignore[attr-defined]
-                  else "log: " + _one_field(log_line_text(p.log_text(*e)))  # type: ignore[attr-defined]
-                  for e in raised] + (self.inputs.applied if self.inputs is not None else [])
-        cell = ";".join(events)
-        return _bounded_events(events) if len(cell) > EVENTS_LOG_CHARS else cell
+        return events_cell(p, raised, self.inputs.applied if self.inputs is not None else [])
+
+
+def events_cell(p: object, raised: list, applied: list[str] | None = None) -> str:
+    """A tick's events cell (``p`` the program): the count metrics that rose, the logs, the slider
+    moves ``applied``."""
+    events = [p.metric_names[e] if isinstance(e, int)  # type: ignore[attr-defined]
+              else "log: " + _one_field(log_line_text(p.log_text(*e)))  # type: ignore[attr-defined]
+              for e in raised] + (applied or [])
+    cell = ";".join(events)
+    return _bounded_events(events) if len(cell) > EVENTS_LOG_CHARS else cell
 
 
 def _fast_rows(rows: TraceRows) -> Callable[[RobotRun, int, list], None]:
@@ -384,6 +392,7 @@ __all__ = [
     "Observer",
     "TraceRows",
     "Watcher",
+    "events_cell",
     "hooks",
     "log_line_text",
 ]

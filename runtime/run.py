@@ -138,9 +138,10 @@ class Run:
             for r in program.rules]
         # the trace records every robot's pose and contact state: a channel the behaviour reads
         # too is read once and lands in both; the others are read after the behaviour's own.
-        # Without a trace they are not read at all.
-        traced = TRACE_POSE if trace_path is not None else ()
-        self.channels = program.channels + tuple(c for c in traced if c not in program.channels)
+        # Without a trace they are not read at all. An observer names the channels it reads of
+        # every robot (``Observer.reads``: an in-memory recording's poses) and gets them so too.
+        traced = (*(TRACE_POSE if trace_path is not None else ()), *(c for o in observers for c in o.reads))
+        self.channels = program.channels + tuple(dict.fromkeys(c for c in traced if c not in program.channels))
         requests = [RobotRequest(r.name, r.model, r.start, self.channels, r.paths) for r in self.robots]
         backend.open(program.world, requests, self.dt, program.seed)
         self.sense, self._act, self.step = backend.sense, backend.act, backend.step

@@ -27,7 +27,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from labsim.backends.scene.world import World
 from labsim.backends.scene.world_file import load_world
@@ -37,6 +37,9 @@ from labsim.foundation.files import Output, allowed_folders, read_input, write_e
 from labsim.foundation.json_data import loads_json
 from labsim.foundation.kinds import TRACE_MAGIC, is_golden_name, kind_of_text
 from labsim.foundation.numbers import WHOLE_LIMIT, NumberError, to_float
+
+if TYPE_CHECKING:
+    import numpy as np
 
 FORMAT = 1
 MAGIC = TRACE_MAGIC  # a trace's first line starts so: the one rule for file kinds knows it too
@@ -215,6 +218,9 @@ class Trace:
     # the behaviour file a reader was told made the trace (``labsim plot --behaviour``), which
     # pictures read before the one the header names
     behaviour_given: str = ""
+    # columns already numbers, which the pictures read instead of the rows' cells (left empty):
+    # a run recorded in memory (labsim.runtime.recording) is drawn without a text round trip
+    numbers: dict[str, np.ndarray] = field(default_factory=dict)
 
     def column(self, name: str) -> list[str]:
         i = self.columns.index(name)

@@ -20,7 +20,7 @@ from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem, write_output
+from labsim.foundation.files import check_output, policy_problem
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -323,34 +323,9 @@ def cmd_grade(args: argparse.Namespace) -> int:
     """Grade a class against an assignment; runtime/grade/driver.py. The feedback pages' maps are
     drawn by the pictures' renderer, handed over here: applications do not import each other."""
     from labsim.runtime.grade.driver import run_grade
+    from labsim.runtime.pictures.feedback import feedback_pictures
 
-    return run_grade(args, map_picture=draw_pictures)
-
-
-GIF_WIDTH_PX, GIF_FPS, GIF_SECONDS = 400, 5, 3  # a feedback page's animation: 16 frames, about 60 kB
-
-
-def draw_pictures(trace_path: Path, png: Path, gif: Path | None = None) -> None:
-    """A feedback page's pictures of a trace: its map as a PNG file, as ``labsim plot`` draws it,
-    and, when ``gif`` is given, a short small animation (``labsim plot --animate``'s frames,
-    GIF_SECONDS long at GIF_FPS frames a second, GIF_WIDTH_PX wide), from one reading of the trace."""
-    import cv2
-
-    from labsim.runtime.pictures.animate import animate
-    from labsim.runtime.pictures.plot import render_figure
-    from labsim.runtime.trace import read_trace, trace_world
-
-    trace = read_trace(trace_path)
-    world, note = trace_world(trace)
-    figure = render_figure(trace, width_px=800, world=world, world_note=note)
-    ok, data = cv2.imencode(".png", figure.image)
-    if ok:
-        write_output(png, data.tobytes(), [trace_path])
-    if gif is not None and trace.rows and "time" in trace.columns:
-        i = trace.columns.index("time")
-        duration_s = float(trace.rows[-1][i]) - float(trace.rows[0][i])
-        animate(trace, gif, width_px=GIF_WIDTH_PX, fps=GIF_FPS, speed=max(duration_s, 1e-3) / GIF_SECONDS,
-                world=(world, note))
+    return run_grade(args, pictures=feedback_pictures)
 
 
 def cmd_serve(args: argparse.Namespace) -> int:

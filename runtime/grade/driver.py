@@ -23,7 +23,7 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
-from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, LocalBatch, Outcome, dask_outcomes, default_jobs, warm_up
+from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, DaskBatch, LocalBatch, Outcome, default_jobs, warm_up
 from labsim.runtime.ending import batch_signals, ending, exit_code
 from labsim.runtime.grade import runs as seed_runs
 from labsim.runtime.grade.assignment import Assignment, read_assignment
@@ -37,12 +37,10 @@ from labsim.runtime.grade.contract import (
     find_submissions,
 )
 from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, write_gradebook
-from labsim.runtime.grade.runs import CRASHED, OVER_BUDGET, RAN, TIMED_OUT, Job, SeedRun, make_job, run_job
+from labsim.runtime.grade.runs import CRASHED, OVER_BUDGET, RAN, TIMED_OUT, Job, Pictures, SeedRun, make_job, run_job
 from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
 
 PRELOAD = ("labsim.runtime.grade.runs",)  # what a worker runs, imported once in the fork server
-# (trace, PNG, GIF to write): the pictures' renderer, handed over by the command line
-MapPicture = Callable[[Path, Path, Path], None]
 
 
 def add_grade_arguments(p: argparse.ArgumentParser) -> None:
@@ -59,8 +57,8 @@ def add_grade_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
     p.add_argument("--no-cache", action="store_true", help="run every submission, even those graded before")
-    p.add_argument("--no-pages", action="store_true", help="write the gradebook only: no HTML pages, and no traces "
-                                                           "(seed 1 runs untraced, about a third faster)")
+    p.add_argument("--no-pages", action="store_true", help="write the gradebook only: no HTML pages, and no pictures "
+                                                           "of seed 1's run")
 
 
 @dataclass(frozen=True)
@@ -72,7 +70,10 @@ class Options:
     scheduler: object = None  # a Dask scheduler's address (or client): run there
     cache: bool = True
     progress: bool = False
-    pages: bool = True  # the pages need seed 1's trace; the gradebook alone does not (it costs a third of a run)
+    pages: bool = True  # the pages need seed 1's pictures; the gradebook alone does not
+    # a run and its world to a map and an animation: the pictures' renderer, handed over by the
+    # command line (applications do not import each other); None: pages without pictures
+    pictures: Pictures | None = None
 
 
 def grade_class(options: Options) -> Graded:
@@ -89,18 +90,19 @@ def grade_class(options: Options) -> Graded:
     runs: dict[str, list[SeedRun]] = {}
     jobs: list[Job] = []
     reused = 0
+    draw = options.pictures if options.pages else None
     for s in submissions:
         if s.status != GRADED:
             continue
         kept = load_cached(cache, s.key, assignment.seeds) if options.cache else None
-        if kept is not None and options.pages and not kept[0].trace_gz and kept[0].status in (RAN, OVER_BUDGET):
-            kept = None  # graded before with --no-pages: its map needs the trace
+        if kept is not None and draw is not None and not kept[0].map_png and kept[0].status in (RAN, OVER_BUDGET):
+            kept = None  # graded before with --no-pages: its page needs the pictures of its run
         if kept is not None:
             runs[s.student] = kept
             reused += len(kept)
             continue
         jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
-                          assignment.timeout_s, trace=options.pages and i == 0)
+                          assignment.timeout_s, pictures=draw if i == 0 else None)
                  for i, seed in enumerate(assignment.seeds)]
     keys = {s.student: s.key for s in submissions}
 
@@ -121,9 +123,10 @@ def grade_class(options: Options) -> Graded:
                                 diagnostics=s.diagnostics, runs=tuple(mine), source=s.source))
             continue
         grades.append(grade_of(s, mine, assignment))
-    traces = {g.student: g.runs[0].trace_gz for g in grades if g.runs and g.runs[0].trace_gz}
+    pictures = {g.student: (g.runs[0].map_png, g.runs[0].animation_gif) for g in grades
+                if g.runs and g.runs[0].map_png}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
-                  reused, ended_by, traces)
+                  reused, ended_by, pictures)
 
 
 def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
@@ -150,7 +153,7 @@ def _reference(assignment: Assignment) -> Grade | None:
         raise LabsimError([Diagnostic(assignment.path, f"the reference behaviour {assignment.reference} does not "
                                                        f"meet the assignment: {submission.reason}")])
     jobs = [make_job("reference", Path(submission.path), submission.world_file, seed, assignment.params,
-                     assignment.budgets, assignment.timeout_s, trace=False) for seed in assignment.seeds]
+                     assignment.budgets, assignment.timeout_s, pictures=None) for seed in assignment.seeds]
     runs = [run_job(j) for j in jobs]
     if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
         raise KeyboardInterrupt
@@ -188,9 +191,9 @@ def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
         return runs.done, 0
     line = StatusLine() if options.progress else None
     # the pool kills a run a little after its own deadline: the run stops itself first, with its message
-    local = None if options.scheduler is not None else LocalBatch(
+    batch = DaskBatch(options.scheduler) if options.scheduler is not None else LocalBatch(
         options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
-    outcomes = dask_outcomes(options.scheduler, run_job, jobs) if local is None else local.outcomes(run_job, jobs)
+    outcomes = batch.outcomes(run_job, jobs)
     try:
         with batch_signals():
             for outcome in outcomes:
@@ -199,7 +202,7 @@ def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
                     line.draw(f"grading {bar(runs.count / len(jobs))} {runs.count}/{len(jobs)} runs")
     except KeyboardInterrupt as e:
         signum, why = ending(e)
-        for outcome in local.interrupt(why) if local is not None else []:
+        for outcome in batch.interrupt(why):
             runs.take(outcome)
         return _kept(runs.done), signum
     finally:
@@ -225,7 +228,7 @@ def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
     return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
 
 
-def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -> int:
+def run_grade(args: argparse.Namespace, pictures: Pictures | None = None) -> int:
     """The command: grade, write, say what was written; its exit code."""
     if args.executor == "dask" and not args.scheduler:
         raise LabsimError([Diagnostic("--executor dask", "give the cluster's address: --scheduler ADDRESS")])
@@ -234,20 +237,20 @@ def run_grade(args: argparse.Namespace, map_picture: MapPicture | None = None) -
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
     options = Options(args.assignment, args.submissions, Path(args.out), args.jobs or 0,
                       args.scheduler if args.executor == "dask" else None, not args.no_cache, progress,
-                      pages=not args.no_pages)
+                      pages=not args.no_pages, pictures=pictures)
     options.out.mkdir(parents=True, exist_ok=True)
     graded = grade_class(options)
-    return write_class(graded, options, map_picture, pages=not args.no_pages)
+    return write_class(graded, options, pages=not args.no_pages)
 
 
-def write_class(graded: Graded, options: Options, map_picture: MapPicture | None, pages: bool = True) -> int:
+def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
     """Write the gradebook and the pages of a graded class; print the counts; the exit code."""
     inputs = [graded.assignment.path, *(g.path for g in graded.grades)]
     written = write_gradebook(options.out, graded.grades, graded.assignment, graded.copies, graded.reference, inputs)
     if pages:
         from labsim.runtime.grade.pages import write_pages
 
-        written += write_pages(options.out, graded, map_picture, inputs, options.jobs or default_jobs())
+        written += write_pages(options.out, graded, inputs)
     counts: dict[str, int] = {}
     for g in graded.grades:
         counts[g.status] = counts.get(g.status, 0) + 1

@@ -28,7 +28,7 @@ from labsim.runtime.grade.runs import RAN, SeedRun
 from labsim.runtime.grade.score import Grade
 
 FORMAT = "labsim-gradebook/1"
-CACHE_FORMAT = "labsim-grade-cache/1"
+CACHE_FORMAT = "labsim-grade-cache/2"  # 2: a run keeps its pictures, no longer its trace
 
 
 def _number(value: float | None, digits: int = 6) -> float | None:
@@ -132,7 +132,8 @@ def _run_dict(r: SeedRun) -> dict[str, Any]:
     out = asdict(r)
     out["metrics"] = {k: (v if math.isfinite(v) else repr(v)) for k, v in r.metrics.items()}
     out["diagnostics"] = [asdict(d) for d in r.diagnostics]
-    out["trace_gz"] = base64.b64encode(r.trace_gz).decode()
+    out["map_png"] = base64.b64encode(r.map_png).decode()
+    out["animation_gif"] = base64.b64encode(r.animation_gif).decode()
     return out
 
 
@@ -140,7 +141,8 @@ def _run_of(d: dict[str, Any]) -> SeedRun:
     d = dict(d)
     d["metrics"] = {k: float(v) for k, v in d["metrics"].items()}
     d["diagnostics"] = tuple(Diagnostic(**{**x, "notes": tuple(x["notes"])}) for x in d["diagnostics"])
-    d["trace_gz"] = base64.b64decode(d["trace_gz"])
+    d["map_png"] = base64.b64decode(d["map_png"])
+    d["animation_gif"] = base64.b64decode(d["animation_gif"])
     for name in ("faults", "warnings", "logs", "never_fired"):
         d[name] = tuple(d[name])
     return SeedRun(**d)

@@ -12,16 +12,14 @@ every piece of text from a file or a run is escaped.
 """
 from __future__ import annotations
 
-import gzip
 import html
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 
 from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import save_figure, write_output
 from labsim.foundation.inert import inert
-from labsim.runtime.batch import DONE, LocalBatch
 from labsim.runtime.grade.contract import STATUSES
 from labsim.runtime.grade.gradebook import messages, page_name
 from labsim.runtime.grade.score import Grade, Graded
@@ -161,49 +159,26 @@ def charts(graded: Graded, folder: Path) -> list[Path]:
     return out
 
 
-Pictures = Callable[[Path, Path, Path], None]  # (trace, PNG, GIF): a map and a short animation
-
-
-def write_pages(out: Path, graded: Graded, map_picture: Pictures | None,
-                inputs: list[str], jobs: int = 1) -> list[Path]:
-    """The overview (``index.html``), its charts, and a feedback page (with its map and its
-    animation) per student whose run left a trace; the pictures are drawn on ``jobs`` worker
-    processes."""
+def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
+    """The overview (``index.html``), its charts, and a feedback page per student, with the map
+    and the animation of their first seed beside it when its worker drew them."""
     feedback = out / "feedback"
     feedback.mkdir(parents=True, exist_ok=True)
-    maps: list[tuple[Pictures, Path, Path]] = []
-    for g in graded.grades:
-        trace = graded.traces.get(g.student)
-        if trace and map_picture is not None:
-            stem = page_name(g.student).removesuffix(".html")
-            trace_path = out / "traces" / f"{stem}.csv"
-            trace_path.parent.mkdir(exist_ok=True)
-            write_output(trace_path, gzip.decompress(trace), inputs, "--out")
-            maps.append((map_picture, trace_path, feedback / f"{stem}.png"))
-    drawn = {maps[o.index][2].name for o in LocalBatch(jobs).outcomes(_draw, maps) if o.kind == DONE and o.value}
     written = []
     for g in graded.grades:
         name = page_name(g.student)
-        png = name.removesuffix(".html") + ".png"
+        png, gif = name.removesuffix(".html") + ".png", name.removesuffix(".html") + ".gif"
+        map_png, animation_gif = graded.pictures.get(g.student, (b"", b""))
+        for file, data in ((png, map_png), (gif, animation_gif)):
+            if data:
+                write_output(feedback / file, data, inputs, "--out")
+            else:  # a last grading's: never shown beside this one's page
+                (feedback / file).unlink(missing_ok=True)
+        shown = (png, gif if animation_gif else None) if map_png else None
         path = feedback / name
-        gif = png.removesuffix(".png") + ".gif"
-        shown = (png, gif if (feedback / gif).is_file() else None) if png in drawn else None
-        page = feedback_page(g, graded.assignment.title, shown, graded.reference)
-        write_output(path, page, inputs, "--out")
+        write_output(path, feedback_page(g, graded.assignment.title, shown, graded.reference), inputs, "--out")
         written.append(path)
     pictures = charts(graded, out / "charts")
     index = out / "index.html"
     write_output(index, overview_page(graded, [f"charts/{p.name}" for p in pictures]), inputs, "--out")
     return [index, *written]
-
-
-def _draw(item: tuple[Pictures, Path, Path]) -> bool:
-    """One student's pictures, on a worker: True when drawn (a map that cannot be drawn leaves its
-    page without it)."""
-    draw, trace, png = item
-    png.with_suffix(".gif").unlink(missing_ok=True)  # a last grading's: never shown beside this one's map
-    try:
-        draw(trace, png, png.with_suffix(".gif"))
-    except Exception:
-        return False
-    return True

@@ -5,29 +5,36 @@ submission has met the assignment's contract (runtime/grade/contract.py). A job 
 behaviour file's bytes and its world file's, so a local worker process and a Dask worker run it
 the same way: ``run_job`` lays them out in a scratch folder, compiles with the grader's params
 and the seed, runs under the assignment's budgets and stops itself at the per-run timeout, and
-hands back a ``SeedRun`` of plain values (never an exception), with the trace, compressed, when
-the job asks for it (the feedback page's map). Names of the scratch folder never leave it.
+hands back a ``SeedRun`` of plain values (never an exception). A job that carries the pictures'
+renderer (seed 1's, for the feedback page) records its run in memory (``labsim.runtime.recording``)
+and draws the map and the animation right there, so that only their bytes come back: no trace is
+written, sent or read again. Names of the scratch folder never leave it.
 """
 from __future__ import annotations
 
-import gzip
 import tempfile
 import time as clock
 import traceback
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
+from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import allowing, read_input, read_text
+from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets
+from labsim.runtime.batch import stop_asked
+from labsim.runtime.recording import Recording
 from labsim.runtime.result import STOP_CONDITION, RunResult
-from labsim.runtime.run import compile_behaviour
+from labsim.runtime.run import Run, compile_behaviour
+from labsim.runtime.trace import Trace, read_trace
 
 # what became of a run
 RAN, TIMED_OUT, OVER_BUDGET, CRASHED, NOT_COMPILED = "ran", "timeout", "budget stop", "crash", "compile error"
 STOPPED = "interrupted"  # a signal ended it before its end: not a result, so never cached nor graded
+# a run and its world to a map (PNG) and a short animation (GIF): the pictures' renderer, handed over
+Pictures = Callable[[Trace, World | None], tuple[bytes, bytes]]
 
 
 @dataclass(frozen=True)
@@ -42,7 +49,7 @@ class Job:
     params: tuple[tuple[str, str], ...]
     budgets: Budgets
     timeout_s: float
-    trace: bool = False  # send the trace back (the feedback page draws seed 1's)
+    pictures: Pictures | None = None  # draw the run (the feedback page's seed 1)
 
 
 @dataclass(frozen=True)
@@ -63,7 +70,8 @@ class SeedRun:
     sim_time_s: float = 0.0
     wall_time_s: float = 0.0
     diagnostics: tuple[Diagnostic, ...] = ()
-    trace_gz: bytes = b""  # the run's trace, gzip-compressed, when the job asked for it
+    map_png: bytes = b""  # the run's pictures, when the job asked for them
+    animation_gif: bytes = b""
 
 
 class _Deadline(Exception):
@@ -79,23 +87,18 @@ def run_job(job: Job) -> SeedRun:
             target.parent.mkdir(parents=True, exist_ok=True)
             target.write_bytes(data)
         local = str(Path(d) / job.behaviour)
-        trace = str(Path(d) / "trace.csv") if job.trace else None
         with allowing(d):
-            out = _run(job, local, trace, started)
+            out = _run(job, local, started)
 
         def named(text: str) -> str:  # the scratch folder's names, as the teacher gave them
             return text.replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent))
 
         out = replace(out, message=named(out.message), warnings=tuple(map(named, out.warnings)),
                       faults=tuple(map(named, out.faults)), logs=tuple(map(named, out.logs)))
-        if trace is not None and out.status in (RAN, OVER_BUDGET) and Path(trace).exists():
-            # level 1: a third of the size for a twelfth of level 9's time (about 12 ms, not 140, for a
-            # 5-minute run's 0.8 MB); the bytes only cross a pipe or the cluster's network once
-            out = replace(out, trace_gz=gzip.compress(named(read_text(trace, "trace")).encode(), 1, mtime=0))
     return out
 
 
-def _run(job: Job, local: str, trace: str | None, started: float) -> SeedRun:
+def _run(job: Job, local: str, started: float) -> SeedRun:
     def took() -> float:
         return clock.perf_counter() - started
 
@@ -111,9 +114,15 @@ def _run(job: Job, local: str, trace: str | None, started: float) -> SeedRun:
     def deadline(tick: int, sim_time_s: float) -> None:
         if clock.perf_counter() > limit:
             raise _Deadline(f"stopped after its time limit of {job.timeout_s:g} s, at {sim_time_s:.1f} s simulated")
+        if stop_asked():  # on Dask, the grading was stopped: the run ends as Ctrl-C ends it
+            raise KeyboardInterrupt
 
+    world = behaviour.program.world
+    # a mechanism's pictures read its joints from a trace's columns: such a run is traced to a file
+    traced = str(Path(local).parent / "trace.csv") if job.pictures and world.mechanism is not None else None
+    recording = Recording() if job.pictures and traced is None else None
     try:
-        run = behaviour.bind(load_backend(DEFAULT), trace=trace)
+        run = behaviour.bind(load_backend(DEFAULT), trace=traced, observers=[recording] if recording else [])
     except Exception as e:
         return SeedRun(job.seed, CRASHED, _exception_line(e), wall_time_s=took())
     try:
@@ -126,7 +135,21 @@ def _run(job: Job, local: str, trace: str | None, started: float) -> SeedRun:
         return SeedRun(job.seed, CRASHED, _exception_line(e), wall_time_s=took())
     finally:
         run.close()
-    return seed_run(job.seed, result, took())
+    out = seed_run(job.seed, result, took())
+    if job.pictures is not None and out.status in (RAN, OVER_BUDGET):
+        png, gif = _pictures(job.pictures, run, recording, traced, local, world)
+        out = replace(out, map_png=png, animation_gif=gif)
+    return out
+
+
+def _pictures(draw: Pictures, run: Run, recording: Recording | None, traced: str | None, local: str,
+              world: World) -> tuple[bytes, bytes]:
+    """The run's map and animation; none when they cannot be drawn (the page shows the rest)."""
+    try:
+        trace = recording.trace(local, run.header()) if recording is not None else read_trace(str(traced))
+        return draw(trace, world)
+    except Exception:
+        return b"", b""
 
 
 def seed_run(seed: int, result: RunResult, wall_s: float) -> SeedRun:
@@ -150,7 +173,7 @@ def _exception_line(e: BaseException) -> str:
 
 
 def make_job(student: str, behaviour: Path, world_file: str | None, seed: int, params: Mapping[str, str],
-             budgets: Budgets, timeout_s: float, trace: bool) -> Job:
+             budgets: Budgets, timeout_s: float, pictures: Pictures | None) -> Job:
     """A job for a submission whose world is built in (``world_file`` None) or a file beside it."""
     files = [(behaviour.name, read_input(behaviour, "behaviour"))]
     base = "."
@@ -158,5 +181,5 @@ def make_job(student: str, behaviour: Path, world_file: str | None, seed: int, p
         rel = Path(world_file).resolve().relative_to(behaviour.resolve().parent)
         files.append((str(rel), read_input(world_file, "world")))
     return Job(student, seed, str(Path(base) / behaviour.name), tuple(files), str(behaviour),
-               tuple(sorted(params.items())), budgets, timeout_s, trace)
+               tuple(sorted(params.items())), budgets, timeout_s, pictures)
 

@@ -62,7 +62,8 @@ class Graded:
     ran: int  # runs made now
     reused: int  # runs taken from the cache
     ended_by: int  # the signal that stopped the grading before every run was done (0: none)
-    traces: dict[str, bytes] = field(default_factory=dict)  # student -> seed 1's trace, gzip
+    # student -> the pictures of seed 1's run: its map (PNG) and its animation (GIF, or b"")
+    pictures: dict[str, tuple[bytes, bytes]] = field(default_factory=dict)
 
 
 def grade_of(submission: Submission, runs: list[SeedRun], assignment: Assignment) -> Grade:

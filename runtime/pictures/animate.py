@@ -17,6 +17,7 @@ flat however many frames there are.
 from __future__ import annotations
 
 import contextlib
+import io
 import itertools
 import math
 from collections.abc import Generator
@@ -55,6 +56,8 @@ class Track:
 
 def _numbers(trace: Trace, name: str) -> np.ndarray:
     """A column as floats, nan where a cell is not a number (or the column is missing)."""
+    if name in trace.numbers:  # a run recorded in memory: numbers already
+        return trace.numbers[name]
     if name not in trace.columns:
         return np.full(len(trace.rows), math.nan)
     cells = trace.column(name)
@@ -143,6 +146,23 @@ def animate(trace: Trace, out: Path, *, width_px: int = 720, fps: float | None =
         raise
     target.commit()
     return n
+
+
+def gif_bytes(trace: Trace, *, width_px: int, fps: float, speed: float,
+              world: tuple[World | None, str]) -> bytes:
+    """An animated GIF in memory, as ``animate`` writes one (a feedback page's short one): its
+    frames are kept until the last, whose colours the palette needs too, rather than drawing the
+    last one twice; for a few frames only."""
+    tracks = _tracks(trace)
+    t0 = min(float(tr.t[0]) for tr in tracks)
+    t1 = max(float(tr.t[-1]) for tr in tracks)
+    kept = [frame.copy() for frame in frames(trace, tracks, frame_times(t0, t1, fps, speed), width_px, known=world)]
+    out = io.BytesIO()
+    writer = GifWriter(out, np.vstack((kept[0], kept[-1])), fps)
+    for frame in kept:
+        writer.append(frame)
+    writer.close()
+    return out.getvalue()
 
 
 def frame_at(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,

@@ -56,6 +56,8 @@ MIN_WIDTH_PX = 400
 # -- the data ----------------------------------------------------------------------------------
 
 def _floats(trace: Trace, name: str) -> np.ndarray:
+    if name in trace.numbers:  # a run recorded in memory: numbers already
+        return trace.numbers[name]
     i = trace.columns.index(name)
     try:
         return np.array([r[i] for r in trace.rows], dtype=float)

@@ -132,12 +132,12 @@ def test_a_second_grading_runs_only_the_changed_submission(tmp_path: Path, monke
     changed.write_text(changed.read_text().replace("front: 0.6 ", "front: 0.55 "))
     third = grade_class(options)
     assert (third.ran, third.reused) == (1, 1)  # only valid_03 ran again
-    write_class(third, options, None, pages=False)
+    write_class(third, options, pages=False)
     fresh = Options("assignment.yaml", ["class"], Path("fresh"), jobs=1, cache=False)
     Path("fresh").mkdir()
     graded = grade_class(fresh)
     assert graded.ran == 2
-    write_class(graded, fresh, None, pages=False)
+    write_class(graded, fresh, pages=False)
     for name in ("gradebook.csv", "gradebook.json"):
         assert (tmp_path / "out" / name).read_text() == (tmp_path / "fresh" / name).read_text()
 
@@ -185,7 +185,7 @@ def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch
                           cache=False)
         options.out.mkdir()
         graded = grade_class(options)
-        write_class(graded, options, None, pages=False)
+        write_class(graded, options, pages=False)
     for name in ("gradebook.csv", "gradebook.json"):
         assert (tmp_path / "dask" / name).read_text() == (folder / "out" / name).read_text()
 

@@ -114,3 +114,41 @@ def test_a_second_grading_runs_only_the_interrupted_students(tmp_path: Path) -> 
     assert again.returncode == 0, again.stderr
     assert "2 runs made, 2 taken from the cache" in again.stdout
     assert set(_statuses(tmp_path).values()) == {"graded"}
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as c:
+        yield c
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signalled_grading_on_dask_stops_its_runs_and_keeps_what_is_done(
+        tmp_path: Path, cluster, sig: int, code: int) -> None:
+    import distributed
+
+    _class(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "labsim", "grade", "assignment.yaml", "class", "--out", "out",
+                             "--executor", "dask", "--scheduler", cluster.scheduler_address], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _when_the_long_runs_go(tmp_path, proc)
+    with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+        assert sum(_busy(client).values()) == 2  # the two long runs, going
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=PATIENCE_S)
+        # the runs stopped themselves (a worker thread cannot be killed), before the grader ended
+        assert sum(_busy(client).values()) == 0
+    assert proc.returncode == code, err
+    assert "Traceback" not in err
+    assert _statuses(tmp_path) == {"a_quick": "graded", "b_quick": "graded", "y_long": "interrupted",
+                                   "z_long": "interrupted"}
+    assert "2 runs made, 0 taken from the cache" in out
+    assert "interrupted: 2 submissions left to grade" in out
+
+
+def _busy(client) -> dict[str, int]:
+    """Each Dask worker's threads running a task now (a cancelled task's thread runs on until its
+    function returns: what the scheduler says would not tell)."""
+    return client.run(lambda dask_worker: len(dask_worker.active_threads))
