@@ -2,7 +2,8 @@
 runs (each made once per session and shared by every test that reads it), and a ``labsim serve
 --empty`` of a test's own. What test modules import lives in tests/helpers.py; the tiers
 (unit, contract, labs, hostile, serve, apps, browser) are the subfolders, and ``-m "not slow"``
-leaves out the long tests."""
+leaves out the long tests. Every test under tests/browser is marked ``browser`` here, and slow
+tests are handed out first (see ``pytest_collection_modifyitems``)."""
 from __future__ import annotations
 
 import atexit
@@ -13,16 +14,43 @@ from pathlib import Path
 
 import pytest
 from helpers import LabRun, serve, stop
+from hypothesis import settings
 
 from labsim.backends import load_backend
 from labsim.runtime.result import RunResult
 from labsim.runtime.run import compile_behaviour
+
+# No test asserts a wall-clock time, and hypothesis's default deadline (200 ms an example) is
+# one: on a shared machine under load it fails tests that hold (an example took 390 ms at a load
+# of 14). Tests that set their own settings keep them; the rest inherit no deadline.
+settings.register_profile("labsim", deadline=None)
+settings.load_profile("labsim")
 
 # the suite's own cache folder (grammar tables, drawn grounds), not the user's: set before
 # anything is built, and inherited by every labsim process a test starts
 if "LABSIM_CACHE_DIR" not in os.environ:
     os.environ["LABSIM_CACHE_DIR"] = tempfile.mkdtemp(prefix="labsim-test-cache-")
     atexit.register(shutil.rmtree, os.environ["LABSIM_CACHE_DIR"], True)
+
+
+BROWSER = Path(__file__).resolve().parent / "browser"
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest's own hook deselects by marker
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark the browser tier ``browser`` and put the slow tests first.
+
+    The marker comes from the folder, not from each module, so that a new browser test is left
+    out of the plain command and run in .ci/run's browser stage without anyone remembering it.
+    Slow first: with ``--dist worksteal`` the seconds-long tests start while both workers are
+    busy and the quick ones fill the gaps, instead of one long test running alone at the end.
+    The sort is stable, so a module's tests keep their order (and their module fixtures).
+    """
+    for item in items:
+        if item.path.resolve().is_relative_to(BROWSER):
+            item.add_marker(pytest.mark.slow)
+            item.add_marker(pytest.mark.browser)
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
 
 
 @pytest.fixture
