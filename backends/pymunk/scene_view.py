@@ -39,6 +39,7 @@ import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.camera import FAR_M, GroundView, camera_axes, ground_view
+from labsim.backends.pymunk.polygon_clip import clip_box, clip_near
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera, RobotModel
 from labsim.backends.scene.world import Block, Wall, World
@@ -186,7 +187,18 @@ class SceneView:
         self._blocks = {k: _shape(b) for k, b in enumerate(blocks)}  # by number: a live view moves them
         self._statics = self._walls + list(self._blocks.values())
         self._robots = [(chipmunk.c_body(body), _shape(solid)) for body, solid in robots]
+        self._radii = np.array([shape.solid.radius_m for _, shape in self._robots], float)
         self._lenses: dict[Camera, _Lens] = {}
+
+    def poses(self) -> np.ndarray:
+        """The robots' poses now, one row (x m, y m, angle rad) each: read once for every camera
+        of a tick and handed to ``render``, where reading each body per camera made a tick's
+        cameras cost O(robots^2) C calls."""
+        out = np.empty((len(self._robots), 3))
+        for i, (body, _) in enumerate(self._robots):
+            p = chipmunk.body_position(body)
+            out[i] = p.x, p.y, chipmunk.body_angle(body)
+        return out
 
     def set_block(self, block: int, solid: Solid | None) -> None:
         """Block ``block`` moved, added (a new number) or removed (None)."""
@@ -196,7 +208,9 @@ class SceneView:
             self._blocks[block] = _shape(solid)
         self._statics = self._walls + list(self._blocks.values())
 
-    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1) -> np.ndarray:
+    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1,
+               poses: np.ndarray | None = None) -> np.ndarray:
+        """The camera's image; ``poses`` as ``poses()`` gives them (None: read now)."""
         image = self._ground.render(x_m, y_m, heading_rad, camera)
         lens = self._lenses.get(camera)
         if lens is None:
@@ -214,17 +228,34 @@ class SceneView:
             if _segment_distance((ex, ey), solid.a, solid.b) - solid.radius_m <= reach \
                     and _may_see(lens, g, eye, solid, solid.a, solid.b):
                 seen.append((shape, 0.0, 0.0, 0.0))
-        for i, (body, shape) in enumerate(self._robots):
-            if i == robot:
-                continue
-            p = chipmunk.body_position(body)
-            at = (p.x, p.y)
-            solid = shape.solid
-            if math.hypot(at[0] - ex, at[1] - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, at, at):
-                seen.append((shape, p.x, p.y, chipmunk.body_angle(body)))
+        if self._robots:
+            seen += self._robots_seen(lens, g, eye, robot, self.poses() if poses is None else poses)
         if seen:
             _draw(image, lens, g, eye, seen)
         return image
+
+    def _robots_seen(self, lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float],
+                     robot: int, poses: np.ndarray) -> list[tuple[_Shape, float, float, float]]:
+        """The robots (other than ``robot``) that may be in view, in their order, with their poses.
+
+        One numpy test of every robot's distance keeps those within the camera's reach, with a
+        micrometre to spare so that no robot the exact test below keeps is lost to rounding;
+        only those few go through the scalar tests the renderer always made (distance, then
+        frustum), so the same robots are drawn as when each was tested in turn.
+        """
+        ex, ey, _ = eye
+        reach = lens.reach_m
+        near = np.hypot(poses[:, 0] - ex, poses[:, 1] - ey) - self._radii <= reach + 1e-6
+        if 0 <= robot < len(near):
+            near[robot] = False
+        seen = []
+        for i in np.flatnonzero(near).tolist():
+            shape = self._robots[i][1]
+            x, y, a = poses[i].tolist()
+            solid = shape.solid
+            if math.hypot(x - ex, y - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, (x, y), (x, y)):
+                seen.append((shape, x, y, a))
+        return seen
 
 
 def _may_see(lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float], solid: Solid,
@@ -360,7 +391,7 @@ def _project(corners: np.ndarray, lens: _Lens) -> np.ndarray | None:
     """A face's corners (camera coordinates) as fixed-point pixel corners for OpenCV, clipped
     to the near plane and to a margin around the picture; None when nothing of it is left."""
     if corners[:, 2].min() < NEAR_M:
-        corners = _clip_near(corners)
+        corners = clip_near(corners, NEAR_M)
         if len(corners) < 3:
             return None
     z = corners[:, 2]
@@ -369,43 +400,10 @@ def _project(corners: np.ndarray, lens: _Lens) -> np.ndarray | None:
     pts = np.column_stack((cols, rows))
     w, h = lens.width_px, lens.height_px
     if pts.min() < -2 or cols.max() > w + 1 or rows.max() > h + 1:
-        pts = _clip_box(pts, -2.0, -2.0, w + 1.0, h + 1.0)
+        pts = clip_box(pts, -2.0, -2.0, w + 1.0, h + 1.0)
         if len(pts) < 3:
             return None
     return np.round(pts * _ONE).astype(np.int32)
-
-
-def _clip_near(corners: np.ndarray) -> np.ndarray:
-    """Sutherland-Hodgman: the part of a convex polygon at depth NEAR_M or more."""
-    out = []
-    n = len(corners)
-    for k in range(n):
-        p, q = corners[k], corners[(k + 1) % n]
-        if p[2] >= NEAR_M:
-            out.append(p)
-        if (p[2] >= NEAR_M) != (q[2] >= NEAR_M):
-            out.append(p + (q - p) * ((NEAR_M - p[2]) / (q[2] - p[2])))
-    return np.array(out).reshape(-1, 3)
-
-
-def _clip_box(pts: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
-    """Sutherland-Hodgman: the part of a convex polygon inside the box [x0, x1] x [y0, y1]."""
-    poly = [(float(x), float(y)) for x, y in pts]
-    for axis, bound, keep_below in ((0, x0, False), (0, x1, True), (1, y0, False), (1, y1, True)):
-        out = []
-        for k, p in enumerate(poly):
-            q = poly[(k + 1) % len(poly)]
-            p_in = (p[axis] <= bound) if keep_below else (p[axis] >= bound)
-            q_in = (q[axis] <= bound) if keep_below else (q[axis] >= bound)
-            if p_in:
-                out.append(p)
-            if p_in != q_in:
-                t = (bound - p[axis]) / (q[axis] - p[axis])
-                out.append((p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t))
-        poly = out
-        if not poly:
-            break
-    return np.array(poly).reshape(-1, 2)
 
 
 def _merge_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens,
