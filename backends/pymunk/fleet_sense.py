@@ -175,8 +175,7 @@ def compile_sense(
     pymunk's wrappers make, without their allocations (measured in
     ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
     the literals change no reading. Cameras call ``render(x, y, angle, camera, robot)`` (the
-    robot's index, whose own body its camera does not see; ``_scene_lines`` on ``poses``); road
-    channels call ``tracker.offset`` once per robot;
+    robot's index, not seen by its camera; ``_scene_lines``); road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
     call of ``reflectance(x, y)`` at its point.

@@ -1,12 +1,34 @@
 """Clipping a convex polygon for the camera's scene renderer: to the near plane, and to a box.
 
 Used by ``labsim.backends.pymunk.scene_view`` on a face that crosses the camera's near plane or
-the picture's edge, before it is filled; plain Sutherland-Hodgman, in the renderer's order of
+the picture's edge, before it is filled (``project_face``); plain Sutherland-Hodgman, in the renderer's order of
 operations, so that a face clipped here gives the same fixed-point corners every time.
 """
 from __future__ import annotations
 
 import numpy as np
+
+
+def project_face(corners: np.ndarray, f: float, c0: float, r0: float, width_px: int, height_px: int,
+                 near_m: float, one: int) -> np.ndarray | None:
+    """A face's corners (camera coordinates: right, down, forward; ``f`` the focal length and
+    ``c0``, ``r0`` the optical axis's column and row, pixels) as fixed-point pixel corners for
+    OpenCV (``one`` to a pixel), clipped to the near plane and to a margin around the picture;
+    None when nothing of it is left."""
+    if corners[:, 2].min() < near_m:
+        corners = clip_near(corners, near_m)
+        if len(corners) < 3:
+            return None
+    z = corners[:, 2]
+    cols = f * corners[:, 0] / z + c0
+    rows = r0 - f * corners[:, 1] / z
+    pts = np.column_stack((cols, rows))
+    w, h = width_px, height_px
+    if pts.min() < -2 or cols.max() > w + 1 or rows.max() > h + 1:
+        pts = clip_box(pts, -2.0, -2.0, w + 1.0, h + 1.0)
+        if len(pts) < 3:
+            return None
+    return np.round(pts * one).astype(np.int32)
 
 
 def clip_near(corners: np.ndarray, near_m: float) -> np.ndarray:

@@ -225,3 +225,22 @@ def test_culling_robots_out_of_reach_leaves_every_pixel_as_drawing_them_all() ->
         assert image.tobytes() == every.render(x, y, a, camera, i).tobytes(), f"robot {i}'s camera"
         seen += bool(is_rgb(image, PIONEER_P3DX.rgb, 60).any())
     assert seen >= 10  # crowded: many cameras do see other robots
+
+
+def test_robots_of_one_model_projected_together_get_the_corners_each_gets_alone() -> None:
+    # _draw projects all the robots of one shape a camera sees in one stacked product; each
+    # must get the fixed-point corners, sides and shades the product of its pose alone gives.
+    from labsim.backends.pymunk import scene_view as sv
+
+    behaviour = compile_behaviour(ROAD_LAB)
+    camera = behaviour.program.models["pioneer"].cameras[0]
+    lens = sv._lens(camera)
+    shape = sv._shape(robot_solid(PIONEER_P3DX))
+    rng = np.random.default_rng(5)
+    eye = (0.0, 0.0, camera.height_m)
+    g = [tuple(r) for r in lens.axes_t]
+    poses = [(float(rng.uniform(0.3, 12)), float(rng.uniform(-4, 4)), float(rng.uniform(-4, 4))) for _ in range(40)]
+    together = sv._faces(shape, poses, g, eye, lens)
+    for pose, (faces, _) in zip(poses, together):
+        [(alone, _)] = sv._faces(shape, [pose], g, eye, lens)
+        assert [(f.tobytes(), k, rgb) for f, k, rgb in faces] == [(f.tobytes(), k, rgb) for f, k, rgb in alone]
