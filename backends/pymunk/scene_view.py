@@ -189,6 +189,7 @@ class SceneView:
         shapes: dict[Solid, _Shape] = {}  # one for equal solids: _draw draws those together
         self._robots = [(chipmunk.c_body(body), shapes.setdefault(solid, _shape(solid))) for body, solid in robots]
         self._radii = np.array([shape.solid.radius_m for _, shape in self._robots], float)
+        self._half_heights = np.array([shape.solid.height_m / 2 for _, shape in self._robots], float)
         self._lenses: dict[Camera, _Lens] = {}
 
     def poses(self) -> np.ndarray:
@@ -239,22 +240,26 @@ class SceneView:
                      robot: int, poses: np.ndarray) -> list[tuple[_Shape, float, float, float]]:
         """The robots (other than ``robot``) that may be in view, in their order, with their poses.
 
-        One numpy test of every robot's distance keeps those within the camera's reach, with a
-        micrometre to spare so that no robot the exact test below keeps is lost to rounding;
-        only those few go through the scalar tests the renderer always made (distance, then
-        frustum), so the same robots are drawn as when each was tested in turn.
+        Numpy tests every robot at once: its distance, within the camera's reach with a
+        micrometre to spare (the exact scalar test follows for those kept), then ``_may_see``'s
+        frustum test, which for a robot's sphere (a = b) is "no plane has it outside", in the
+        same floating-point operations, in the same order, as the scalar test made per robot.
         """
-        ex, ey, _ = eye
+        ex, ey, ez = eye
         reach = lens.reach_m
-        near = np.hypot(poses[:, 0] - ex, poses[:, 1] - ey) - self._radii <= reach + 1e-6
+        ax, ay = poses[:, 0] - ex, poses[:, 1] - ey
+        near = np.hypot(ax, ay) - self._radii <= reach + 1e-6
         if 0 <= robot < len(near):
             near[robot] = False
+        z = self._half_heights - ez
+        q = [r[0] * ax + r[1] * ay + r[2] * z for r in g]
+        for nx, ny, nz, off in lens.planes:
+            near &= nx * q[0] + ny * q[1] + nz * q[2] + off - self._radii <= 0
         seen = []
         for i in np.flatnonzero(near).tolist():
             shape = self._robots[i][1]
             x, y, a = poses[i].tolist()
-            solid = shape.solid
-            if math.hypot(x - ex, y - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, (x, y), (x, y)):
+            if math.hypot(x - ex, y - ey) - shape.solid.radius_m <= reach:
                 seen.append((shape, x, y, a))
         return seen
 
