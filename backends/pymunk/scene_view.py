@@ -22,9 +22,11 @@ camera, so edges show. No antialiasing, nothing random: the same poses give the 
 
 Cost: each solid is first tested against the camera's reach (how far its lowest-looking ray
 goes before the floor) and frustum (a capsule around a wall's segment, a sphere around a robot
-or block), in plain Python, so a solid out of view costs a few microseconds; solids whose every
-point is deeper than ``FAR_M`` are not drawn, as the floor there is sky.
-``benchmarks/bench_road.py`` measures the whole tick.
+or block); solids whose every point is deeper than ``FAR_M`` are not drawn, as the floor there
+is sky. Robots are tested all at once, in numpy, from poses read once a tick (``poses``), and
+the robots of one model a camera sees are projected together, so that a camera costs the
+same whatever the fleet's size, plus what it draws. ``benchmarks/bench_road.py`` measures the
+whole tick, ``benchmarks/bench_road_robots.py`` the tick per robot at 1 to 100 robots.
 """
 from __future__ import annotations
 
@@ -47,6 +49,7 @@ from labsim.backends.scene.world import Block, Wall, World
 NEAR_M = 0.01  # faces are clipped this far in front of the camera
 _SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly: edges to 1/16 pixel
 _ONE = 1 << _SHIFT
+_FLIP = np.array([1.0, -1.0])
 
 
 @dataclass(frozen=True)
@@ -317,14 +320,14 @@ def _faces(shape: _Shape, poses: list[tuple[float, float, float]], g: list[tuple
                    for r in g] for (x, y, _), (c, s) in zip(poses, trig)])
     base = np.matmul(shape.corners, m[:, :, :2].transpose(0, 2, 1)) + m[:, None, :, 2]
     corners = np.concatenate((base, base + np.array([r[2] * solid.height_m for r in g])), axis=1)
-    z = corners[:, :, 2]
+    z = corners[:, :, 2:]
     with np.errstate(divide="ignore", invalid="ignore"):  # a solid with a corner behind the camera is not used
-        cols = lens.f * corners[:, :, 0] / z + lens.c0
-        rows = lens.r0 - lens.f * corners[:, :, 1] / z
-        fixed = np.rint(np.stack((cols, rows), axis=2) * _ONE).astype(np.int32)
+        # column f x / z + c0, row r0 - f y / z: r0 + -(f y / z) is the same number
+        pts = lens.f * corners[:, :, :2] / z * _FLIP + (lens.c0, lens.r0)
+        fixed = np.rint(pts * _ONE).astype(np.int32)
     # all in front of the camera and within the picture's margin: its corners projected once
-    inside = ((z.min(axis=1) >= NEAR_M) & (np.minimum(cols.min(axis=1), rows.min(axis=1)) >= -2)
-              & (cols.max(axis=1) <= lens.width_px + 1) & (rows.max(axis=1) <= lens.height_px + 1)).tolist()
+    inside = ((z.min(axis=(1, 2)) >= NEAR_M) & (pts.min(axis=(1, 2)) >= -2)
+              & (pts.max(axis=1) <= (lens.width_px + 1, lens.height_px + 1)).all(axis=1)).tolist()
     n = len(shape.corners)
     first_x, first_y = shape.corners[0]
     lengths = shape.lengths.tolist()
@@ -340,8 +343,7 @@ def _faces(shape: _Shape, poses: list[tuple[float, float, float]], g: list[tuple
             shade = 0.6 + 0.3 * min(1.0, row[k] / (lengths[k] * distance))
             rgbs.append((round(shade * solid.rgb[0]), round(shade * solid.rgb[1]), round(shade * solid.rgb[2])))
         if inside[i]:
-            quads = fixed[i][shape.quads[ks]]
-            faces: list[Face] = [(quads[j], k, rgb) for j, (k, rgb) in enumerate(zip(ks, rgbs))]
+            faces: list[Face] = list(zip(fixed[i][shape.quads[ks]], ks, rgbs))
             if top:
                 faces.append((fixed[i][n:], -1, solid.rgb))
         else:
