@@ -50,6 +50,7 @@ NEAR_M = 0.01  # faces are clipped this far in front of the camera
 _SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly: edges to 1/16 pixel
 _ONE = 1 << _SHIFT
 _FLIP = np.array([1.0, -1.0])
+_CROWD = 8  # robots: more, and a camera first tests their distances in numpy (see _robots_seen)
 
 
 @dataclass(frozen=True)
@@ -192,7 +193,6 @@ class SceneView:
         shapes: dict[Solid, _Shape] = {}  # one for equal solids: _draw draws those together
         self._robots = [(chipmunk.c_body(body), shapes.setdefault(solid, _shape(solid))) for body, solid in robots]
         self._radii = np.array([shape.solid.radius_m for _, shape in self._robots], float)
-        self._half_heights = np.array([shape.solid.height_m / 2 for _, shape in self._robots], float)
         self._lenses: dict[Camera, _Lens] = {}
 
     def poses(self) -> np.ndarray:
@@ -243,26 +243,27 @@ class SceneView:
                      robot: int, poses: np.ndarray) -> list[tuple[_Shape, float, float, float]]:
         """The robots (other than ``robot``) that may be in view, in their order, with their poses.
 
-        Numpy tests every robot at once: its distance, within the camera's reach with a
-        micrometre to spare (the exact scalar test follows for those kept), then ``_may_see``'s
-        frustum test, which for a robot's sphere (a = b) is "no plane has it outside", in the
-        same floating-point operations, in the same order, as the scalar test made per robot.
+        In a crowd (more than ``_CROWD`` robots) one numpy test of every robot's distance first
+        keeps those within the camera's reach, with a micrometre to spare; in a small fleet
+        that test costs more than the scalar tests it saves. Either way the robots kept go
+        through the scalar tests the renderer always made (distance, then frustum), so the
+        same robots are drawn as when each was tested in turn.
         """
-        ex, ey, ez = eye
+        ex, ey, _ = eye
         reach = lens.reach_m
-        ax, ay = poses[:, 0] - ex, poses[:, 1] - ey
-        near = np.hypot(ax, ay) - self._radii <= reach + 1e-6
-        if 0 <= robot < len(near):
-            near[robot] = False
-        z = self._half_heights - ez
-        q = [r[0] * ax + r[1] * ay + r[2] * z for r in g]
-        for nx, ny, nz, off in lens.planes:
-            near &= nx * q[0] + ny * q[1] + nz * q[2] + off - self._radii <= 0
+        if len(self._robots) > _CROWD:
+            near = np.hypot(poses[:, 0] - ex, poses[:, 1] - ey) - self._radii <= reach + 1e-6
+            candidates = np.flatnonzero(near).tolist()
+        else:
+            candidates = range(len(self._robots))
         seen = []
-        for i in np.flatnonzero(near).tolist():
+        for i in candidates:
+            if i == robot:
+                continue
             shape = self._robots[i][1]
             x, y, a = poses[i].tolist()
-            if math.hypot(x - ex, y - ey) - shape.solid.radius_m <= reach:
+            solid = shape.solid
+            if math.hypot(x - ex, y - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, (x, y), (x, y)):
                 seen.append((shape, x, y, a))
         return seen
 
