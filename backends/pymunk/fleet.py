@@ -101,6 +101,7 @@ class FleetSimulator:
         _count_contacts(space, touching, count, self._drives.hold)
         self._scene = _camera_scene(world, models, robots, [plan.body for plan in plans])
         render = self._scene.render if self._scene is not None else None
+        poses = self._scene.poses if self._scene is not None else None
         tracker = _road_tracker(world)
         lap_robots = [i for i, req in enumerate(robots) if "laps" in req.channels]
         laps = [0] * n  # completed laps, for the robots that read them
@@ -112,7 +113,8 @@ class FleetSimulator:
         self.bodies = [plan.body for plan in plans]
         self._plans = plans
         self._channels = [list(req.channels) for req in robots]
-        self.sense = compile_sense(space, plans, touching, render, tracker, laps, _reflectance(world, models, robots))
+        self.sense = compile_sense(space, plans, touching, render, tracker, laps, _reflectance(world, models, robots),
+                                   poses)
         self._c_space = chipmunk.c_space(space)
         self._c_bodies = [chipmunk.c_body(b) for b in self.bodies]
         self._world = world.name

@@ -140,6 +140,7 @@ def compile_sense(
     tracker: RoadTracker | None = None,
     laps: list[int] | None = None,
     reflectance: Callable[[float, float], float] | None = None,
+    poses: Callable[[], object] | None = None,
 ) -> SenseFn:
     """Generate ``sense()`` as straight-line code for these robots and channels.
 
@@ -174,7 +175,7 @@ def compile_sense(
     pymunk's wrappers make, without their allocations (measured in
     ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
     the literals change no reading. Cameras call ``render(x, y, angle, camera, robot)`` (the
-    robot's index, whose own body its camera does not see); road channels call ``tracker.offset`` once per robot;
+    robot's index, not seen by its camera; ``_scene_lines``); road channels call ``tracker.offset`` once per robot;
     ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
     robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
     call of ``reflectance(x, y)`` at its point.
@@ -182,7 +183,7 @@ def compile_sense(
     env = _names(space, touching, render, tracker, laps)
     env["reflectance"] = reflectance
     half_width = tracker.half_width_m if tracker is not None else 0.0
-    lines = ["def sense():"]
+    lines = ["def sense():", *_scene_lines(robots, poses, env)]
     rows = []
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
@@ -191,6 +192,17 @@ def compile_sense(
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
+
+
+def _scene_lines(robots: list[SensePlan], poses: Callable[[], object] | None, env: dict[str, object]) -> list[str]:
+    """With cameras and ``poses``: every robot's pose read once, at the top, for all the tick's
+    cameras (``render(..., scene)``): reading each body per camera cost O(robots^2) C calls.
+    Bodies do not move while ``sense()`` runs."""
+    env["poses"] = poses
+    if poses is None or not any(isinstance(spec, CameraRead) for plan in robots for spec in plan.specs):
+        env["poses"] = None
+        return []
+    return ["    scene = poses()"]
 
 
 def _names(space: pymunk.Space, touching: list[int], render: Callable[..., object] | None,
@@ -227,7 +239,8 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
             env[f"cam{r}_{k}"] = spec.camera
-            lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k}, {r})")
+            scene = ", scene" if env["poses"] is not None else ""
+            lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k}, {r}{scene})")
             values.append(f"v{r}_{k}")
         elif isinstance(spec, SonarRay):  # cast above, by its group
             values.append(f"v{r}_{k}")

@@ -22,9 +22,11 @@ camera, so edges show. No antialiasing, nothing random: the same poses give the 
 
 Cost: each solid is first tested against the camera's reach (how far its lowest-looking ray
 goes before the floor) and frustum (a capsule around a wall's segment, a sphere around a robot
-or block), in plain Python, so a solid out of view costs a few microseconds; solids whose every
-point is deeper than ``FAR_M`` are not drawn, as the floor there is sky.
-``benchmarks/bench_road.py`` measures the whole tick.
+or block); solids whose every point is deeper than ``FAR_M`` are not drawn, as the floor there
+is sky. Robots are tested all at once, in numpy, from poses read once a tick (``poses``), and
+the robots of one model a camera sees are projected together, so that a camera costs the
+same whatever the fleet's size, plus what it draws. ``benchmarks/bench_road.py`` measures the
+whole tick, ``benchmarks/bench_road_robots.py`` the tick per robot at 1 to 100 robots.
 """
 from __future__ import annotations
 
@@ -39,6 +41,7 @@ import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.camera import FAR_M, GroundView, camera_axes, ground_view
+from labsim.backends.pymunk.polygon_clip import project_face
 from labsim.backends.scene.ground import Ground
 from labsim.backends.scene.models import Camera, RobotModel
 from labsim.backends.scene.world import Block, Wall, World
@@ -46,6 +49,8 @@ from labsim.backends.scene.world import Block, Wall, World
 NEAR_M = 0.01  # faces are clipped this far in front of the camera
 _SHIFT = 4  # fixed-point bits for cv2.fillConvexPoly: edges to 1/16 pixel
 _ONE = 1 << _SHIFT
+_FLIP = np.array([1.0, -1.0])
+_CROWD = 8  # robots: more, and a camera first tests their distances in numpy (see _robots_seen)
 
 
 @dataclass(frozen=True)
@@ -185,8 +190,20 @@ class SceneView:
         self._walls = [_shape(s) for s in statics]
         self._blocks = {k: _shape(b) for k, b in enumerate(blocks)}  # by number: a live view moves them
         self._statics = self._walls + list(self._blocks.values())
-        self._robots = [(chipmunk.c_body(body), _shape(solid)) for body, solid in robots]
+        shapes: dict[Solid, _Shape] = {}  # one for equal solids: _draw draws those together
+        self._robots = [(chipmunk.c_body(body), shapes.setdefault(solid, _shape(solid))) for body, solid in robots]
+        self._radii = np.array([shape.solid.radius_m for _, shape in self._robots], float)
         self._lenses: dict[Camera, _Lens] = {}
+
+    def poses(self) -> np.ndarray:
+        """The robots' poses now, one row (x m, y m, angle rad) each: read once for every camera
+        of a tick and handed to ``render``, where reading each body per camera made a tick's
+        cameras cost O(robots^2) C calls."""
+        out = np.empty((len(self._robots), 3))
+        for i, (body, _) in enumerate(self._robots):
+            p = chipmunk.body_position(body)
+            out[i] = p.x, p.y, chipmunk.body_angle(body)
+        return out
 
     def set_block(self, block: int, solid: Solid | None) -> None:
         """Block ``block`` moved, added (a new number) or removed (None)."""
@@ -196,7 +213,9 @@ class SceneView:
             self._blocks[block] = _shape(solid)
         self._statics = self._walls + list(self._blocks.values())
 
-    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1) -> np.ndarray:
+    def render(self, x_m: float, y_m: float, heading_rad: float, camera: Camera, robot: int = -1,
+               poses: np.ndarray | None = None) -> np.ndarray:
+        """The camera's image; ``poses`` as ``poses()`` gives them (None: read now)."""
         image = self._ground.render(x_m, y_m, heading_rad, camera)
         lens = self._lenses.get(camera)
         if lens is None:
@@ -214,17 +233,39 @@ class SceneView:
             if _segment_distance((ex, ey), solid.a, solid.b) - solid.radius_m <= reach \
                     and _may_see(lens, g, eye, solid, solid.a, solid.b):
                 seen.append((shape, 0.0, 0.0, 0.0))
-        for i, (body, shape) in enumerate(self._robots):
-            if i == robot:
-                continue
-            p = chipmunk.body_position(body)
-            at = (p.x, p.y)
-            solid = shape.solid
-            if math.hypot(at[0] - ex, at[1] - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, at, at):
-                seen.append((shape, p.x, p.y, chipmunk.body_angle(body)))
+        if self._robots:
+            seen += self._robots_seen(lens, g, eye, robot, self.poses() if poses is None else poses)
         if seen:
             _draw(image, lens, g, eye, seen)
         return image
+
+    def _robots_seen(self, lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float],
+                     robot: int, poses: np.ndarray) -> list[tuple[_Shape, float, float, float]]:
+        """The robots (other than ``robot``) that may be in view, in their order, with their poses.
+
+        In a crowd (more than ``_CROWD`` robots) one numpy test of every robot's distance first
+        keeps those within the camera's reach, with a micrometre to spare; in a small fleet
+        that test costs more than the scalar tests it saves. Either way the robots kept go
+        through the scalar tests the renderer always made (distance, then frustum), so the
+        same robots are drawn as when each was tested in turn.
+        """
+        ex, ey, _ = eye
+        reach = lens.reach_m
+        if len(self._robots) > _CROWD:
+            near = np.hypot(poses[:, 0] - ex, poses[:, 1] - ey) - self._radii <= reach + 1e-6
+            candidates = np.flatnonzero(near).tolist()
+        else:
+            candidates = range(len(self._robots))
+        seen = []
+        for i in candidates:
+            if i == robot:
+                continue
+            shape = self._robots[i][1]
+            x, y, a = poses[i].tolist()
+            solid = shape.solid
+            if math.hypot(x - ex, y - ey) - solid.radius_m <= reach and _may_see(lens, g, eye, solid, (x, y), (x, y)):
+                seen.append((shape, x, y, a))
+        return seen
 
 
 def _may_see(lens: _Lens, g: list[tuple[float, float, float]], eye: tuple[float, float, float], solid: Solid,
@@ -256,56 +297,75 @@ Face = tuple[np.ndarray, int, tuple[int, int, int]]  # fixed-point pixel corners
 Plane = tuple[np.ndarray, float]  # in camera coordinates: normal . q = offset on the face
 
 
-def _faces(shape: _Shape, x: float, y: float, a: float, g: list[tuple[float, float, float]],
-           eye: tuple[float, float, float], lens: _Lens) -> tuple[list[Face], Any]:
-    """The faces of a prism at pose (x, y, a) that the camera looks at, projected, and what
+def _faces(shape: _Shape, poses: list[tuple[float, float, float]], g: list[tuple[float, float, float]],
+           eye: tuple[float, float, float], lens: _Lens) -> list[tuple[list[Face], Any]]:
+    """For each pose (x, y, a) of a prism, the faces the camera looks at, projected, and what
     ``_planes`` needs to give their planes for the depth test.
 
     Worked in the solid's own frame, where its numbers are fixed: the camera's position there
     decides which sides face it (a side's plane is n . p = n . corner, and the camera is in
     front of it when n . eye > n . corner), and one 2 x 3 matrix takes its corners to camera
     coordinates. A side is shaded by how squarely it faces the camera, a top is its colour.
+    All poses at once, as stacked products: numpy computes each slice of a stacked matmul as
+    the product of that one pose would be, so a crowd costs a few numpy calls, not a few per robot.
     """
     ex, ey, ez = eye
-    c, s = math.cos(a), math.sin(a)
-    dx, dy = ex - x, ey - y
-    eye_x, eye_y = c * dx + s * dy, -s * dx + c * dy  # the camera in the solid's frame
     solid = shape.solid
-    facing = shape.normals @ (eye_x, eye_y) - shape.offsets  # > 0: the side faces the camera
-    sides = np.flatnonzero(facing > 0)
     top = ez > solid.height_m
-    if not len(sides) and not top:
-        return [], None
+    trig = [(math.cos(a), math.sin(a)) for _, _, a in poses]
+    # the camera in each solid's frame
+    local = [(c * (ex - x) + s * (ey - y), -s * (ex - x) + c * (ey - y)) for (x, y, _), (c, s) in zip(poses, trig)]
+    facing = np.matmul(shape.normals, np.array(local)[:, :, None])[:, :, 0] - shape.offsets  # > 0: faces it
     # q = G (R p + (x, y) - eye, z - ez): the solid's frame to camera coordinates
-    m = np.array([[r[0] * c + r[1] * s, -r[0] * s + r[1] * c, r[0] * (x - ex) + r[1] * (y - ey) - r[2] * ez]
-                  for r in g])
-    base = shape.corners @ m[:, :2].T + m[:, 2]
-    corners = np.vstack((base, base + np.array([r[2] * solid.height_m for r in g])))
-    first = shape.corners[0]
-    distance = math.hypot(eye_x - first[0], eye_y - first[1]) + 1e-12
-    shade = 0.6 + 0.3 * np.minimum(1.0, facing[sides] / (shape.lengths[sides] * distance))
-    rgbs = [(r, gr, b) for r, gr, b in np.rint(np.outer(shade, solid.rgb)).astype(int).tolist()]
-    ks = sides.tolist()
+    m = np.array([[[r[0] * c + r[1] * s, -r[0] * s + r[1] * c, r[0] * (x - ex) + r[1] * (y - ey) - r[2] * ez]
+                   for r in g] for (x, y, _), (c, s) in zip(poses, trig)])
+    base = np.matmul(shape.corners, m[:, :, :2].transpose(0, 2, 1)) + m[:, None, :, 2]
+    corners = np.concatenate((base, base + np.array([r[2] * solid.height_m for r in g])), axis=1)
+    z = corners[:, :, 2:]
+    with np.errstate(divide="ignore", invalid="ignore"):  # a solid with a corner behind the camera is not used
+        # column f x / z + c0, row r0 - f y / z: r0 + -(f y / z) is the same number
+        pts = lens.f * corners[:, :, :2] / z * _FLIP + (lens.c0, lens.r0)
+        fixed = np.rint(pts * _ONE).astype(np.int32)
+    # all in front of the camera and within the picture's margin: its corners projected once
+    inside = ((z.min(axis=(1, 2)) >= NEAR_M) & (pts.min(axis=(1, 2)) >= -2)
+              & (pts.max(axis=1) <= (lens.width_px + 1, lens.height_px + 1)).all(axis=1)).tolist()
     n = len(shape.corners)
-    later = (ks, facing, c, s, top)
-    if corners[:, 2].min() >= NEAR_M:  # all in front of the camera: project the corners once
-        z = corners[:, 2]
-        pts = np.column_stack((lens.f * corners[:, 0] / z + lens.c0, lens.r0 - lens.f * corners[:, 1] / z))
-        if pts.min() >= -2 and pts[:, 0].max() <= lens.width_px + 1 and pts[:, 1].max() <= lens.height_px + 1:
-            fixed = np.rint(pts * _ONE).astype(np.int32)
-            quads = fixed[shape.quads[sides]]
-            faces: list[Face] = [(quads[i], k, rgb) for i, (k, rgb) in enumerate(zip(ks, rgbs))]
+    first_x, first_y = shape.corners[0]
+    lengths = shape.lengths.tolist()
+    out: list[tuple[list[Face], Any]] = []
+    for i, ((c, s), (eye_x, eye_y), row) in enumerate(zip(trig, local, facing.tolist())):
+        ks = [k for k, f in enumerate(row) if f > 0]
+        if not ks and not top:
+            out.append(([], None))
+            continue
+        distance = math.hypot(eye_x - first_x, eye_y - first_y) + 1e-12
+        rgbs = []
+        for k in ks:  # the same float operations numpy made, and rint's rounding half to even
+            shade = 0.6 + 0.3 * min(1.0, row[k] / (lengths[k] * distance))
+            rgbs.append((round(shade * solid.rgb[0]), round(shade * solid.rgb[1]), round(shade * solid.rgb[2])))
+        if inside[i]:
+            faces: list[Face] = list(zip(fixed[i][shape.quads[ks]], ks, rgbs))
             if top:
-                faces.append((fixed[n:], -1, solid.rgb))
-            return faces, later
+                faces.append((fixed[i][n:], -1, solid.rgb))
+        else:
+            faces = _clipped_faces(shape, corners[i], ks, rgbs, top, lens)
+        out.append((faces, (ks, facing[i], c, s, top)))
+    return out
+
+
+def _clipped_faces(shape: _Shape, corners: np.ndarray, ks: list[int], rgbs: list[tuple[int, int, int]],
+                   top: bool, lens: _Lens) -> list[Face]:
+    """A solid near the camera or across the picture's edge: its faces clipped one by one."""
+    n = len(shape.corners)
     faces = []
-    for k, rgb in [*zip(ks, rgbs), (-1, solid.rgb)]:  # near or across the picture's edge: one by one
+    for k, rgb in [*zip(ks, rgbs), (-1, shape.solid.rgb)]:
         if k < 0 and not top:
             continue
-        projected = _project(corners[shape.quads[k]] if k >= 0 else corners[n:], lens)
+        projected = project_face(corners[shape.quads[k]] if k >= 0 else corners[n:], lens.f, lens.c0, lens.r0,
+                                 lens.width_px, lens.height_px, NEAR_M, _ONE)
         if projected is not None:
             faces.append((projected, k, rgb))
-    return faces, later
+    return faces
 
 
 def _planes(faces: list[Face], later: Any, shape: _Shape, g: list[tuple[float, float, float]],
@@ -331,10 +391,16 @@ def _draw(image: np.ndarray, lens: _Lens, g: list[tuple[float, float, float]], e
           seen: list[tuple[_Shape, float, float, float]]) -> None:
     """Fill the visible faces of the solids seen; through a depth buffer when two may overlap."""
     solids = []  # per solid: its faces, its shape and what gives their planes, and its pixel box
-    for shape, x, y, a in seen:
-        faces, later = _faces(shape, x, y, a, g, eye, lens)
+    together: dict[int, list[int]] = {}  # robots of one model share their shape: drawn at once
+    for j, (shape, *_) in enumerate(seen):
+        together.setdefault(id(shape), []).append(j)
+    made: list[tuple[list[Face], Any]] = [([], None)] * len(seen)
+    for js in together.values():
+        for j, done in zip(js, _faces(seen[js[0]][0], [seen[j][1:] for j in js], g, eye, lens)):
+            made[j] = done
+    for (shape, *_), (faces, later) in zip(seen, made):
         if faces:
-            every = np.vstack([f[0] for f in faces])
+            every = np.concatenate([f[0] for f in faces])
             low, high = every.min(axis=0), every.max(axis=0)
             solids.append((faces, shape, later, (int(low[0]), int(low[1]), int(high[0]), int(high[1]))))
     if not solids:
@@ -354,58 +420,6 @@ def _draw(image: np.ndarray, lens: _Lens, g: list[tuple[float, float, float]], e
 def _overlap(boxes: list[tuple[int, int, int, int]]) -> bool:
     return any(a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
                for k, a in enumerate(boxes) for b in boxes[k + 1:])
-
-
-def _project(corners: np.ndarray, lens: _Lens) -> np.ndarray | None:
-    """A face's corners (camera coordinates) as fixed-point pixel corners for OpenCV, clipped
-    to the near plane and to a margin around the picture; None when nothing of it is left."""
-    if corners[:, 2].min() < NEAR_M:
-        corners = _clip_near(corners)
-        if len(corners) < 3:
-            return None
-    z = corners[:, 2]
-    cols = lens.f * corners[:, 0] / z + lens.c0
-    rows = lens.r0 - lens.f * corners[:, 1] / z
-    pts = np.column_stack((cols, rows))
-    w, h = lens.width_px, lens.height_px
-    if pts.min() < -2 or cols.max() > w + 1 or rows.max() > h + 1:
-        pts = _clip_box(pts, -2.0, -2.0, w + 1.0, h + 1.0)
-        if len(pts) < 3:
-            return None
-    return np.round(pts * _ONE).astype(np.int32)
-
-
-def _clip_near(corners: np.ndarray) -> np.ndarray:
-    """Sutherland-Hodgman: the part of a convex polygon at depth NEAR_M or more."""
-    out = []
-    n = len(corners)
-    for k in range(n):
-        p, q = corners[k], corners[(k + 1) % n]
-        if p[2] >= NEAR_M:
-            out.append(p)
-        if (p[2] >= NEAR_M) != (q[2] >= NEAR_M):
-            out.append(p + (q - p) * ((NEAR_M - p[2]) / (q[2] - p[2])))
-    return np.array(out).reshape(-1, 3)
-
-
-def _clip_box(pts: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
-    """Sutherland-Hodgman: the part of a convex polygon inside the box [x0, x1] x [y0, y1]."""
-    poly = [(float(x), float(y)) for x, y in pts]
-    for axis, bound, keep_below in ((0, x0, False), (0, x1, True), (1, y0, False), (1, y1, True)):
-        out = []
-        for k, p in enumerate(poly):
-            q = poly[(k + 1) % len(poly)]
-            p_in = (p[axis] <= bound) if keep_below else (p[axis] >= bound)
-            q_in = (q[axis] <= bound) if keep_below else (q[axis] >= bound)
-            if p_in:
-                out.append(p)
-            if p_in != q_in:
-                t = (bound - p[axis]) / (q[axis] - p[axis])
-                out.append((p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t))
-        poly = out
-        if not poly:
-            break
-    return np.array(poly).reshape(-1, 2)
 
 
 def _merge_nearer(image: np.ndarray, depth: np.ndarray, lens: _Lens,

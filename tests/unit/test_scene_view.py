@@ -200,3 +200,47 @@ def test_solids_across_the_pictures_edge_and_behind_the_camera_are_clipped() -> 
     assert drawn[64].all()  # the row at the camera's height: wall from edge to edge
     left = drawn[:, :20]
     assert left.all(axis=1).sum() > 60  # the wall beside fills the left edge over many rows
+
+
+def test_culling_robots_out_of_reach_leaves_every_pixel_as_drawing_them_all() -> None:
+    # A crowded road: 60 robots along the lab's road, jittered and turned, some nose to tail,
+    # seen by each one's road camera. Without the cull every robot goes through the renderer's
+    # scalar reach and frustum tests, as before the cull existed (an infinite radius passes
+    # the vectorised test); with it, only those the vectorised test keeps.
+    behaviour = compile_behaviour(ROAD_LAB)
+    world, camera = behaviour.program.world, behaviour.program.models["pioneer"].cameras[0]
+    road = world.ground.roads[0]
+    rng = np.random.default_rng(3)
+    picks = rng.choice(len(road.points), 60)
+    bodies = [body_at(float(road.points[k][0] + rng.normal(0, 0.5)), float(road.points[k][1] + rng.normal(0, 0.5)),
+                      float(rng.uniform(-math.pi, math.pi))) for k in picks]
+    culled = scene_view(GroundView(world.ground), world, [(b, PIONEER_P3DX) for b in bodies])
+    every = scene_view(GroundView(world.ground), world, [(b, PIONEER_P3DX) for b in bodies])
+    every._radii = np.full(len(bodies), np.inf)
+    poses = culled.poses()
+    seen = 0
+    for i, body in enumerate(bodies):
+        x, y, a = body.position.x, body.position.y, body.angle
+        image = culled.render(x, y, a, camera, i, poses)
+        assert image.tobytes() == every.render(x, y, a, camera, i).tobytes(), f"robot {i}'s camera"
+        seen += bool(is_rgb(image, PIONEER_P3DX.rgb, 60).any())
+    assert seen >= 10  # crowded: many cameras do see other robots
+
+
+def test_robots_of_one_model_projected_together_get_the_corners_each_gets_alone() -> None:
+    # _draw projects all the robots of one shape a camera sees in one stacked product; each
+    # must get the fixed-point corners, sides and shades the product of its pose alone gives.
+    from labsim.backends.pymunk import scene_view as sv
+
+    behaviour = compile_behaviour(ROAD_LAB)
+    camera = behaviour.program.models["pioneer"].cameras[0]
+    lens = sv._lens(camera)
+    shape = sv._shape(robot_solid(PIONEER_P3DX))
+    rng = np.random.default_rng(5)
+    eye = (0.0, 0.0, camera.height_m)
+    g = [tuple(r) for r in lens.axes_t]
+    poses = [(float(rng.uniform(0.3, 12)), float(rng.uniform(-4, 4)), float(rng.uniform(-4, 4))) for _ in range(40)]
+    together = sv._faces(shape, poses, g, eye, lens)
+    for pose, (faces, _) in zip(poses, together):
+        [(alone, _)] = sv._faces(shape, [pose], g, eye, lens)
+        assert [(f.tobytes(), k, rgb) for f, k, rgb in faces] == [(f.tobytes(), k, rgb) for f, k, rgb in alone]
