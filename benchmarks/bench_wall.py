@@ -21,7 +21,7 @@ the two loops do by hand what it says:
 The final poses must agree to 1e-12 m (the internals loop bit for bit; the plain loop computes
 the rays' ends in another order of operations), which shows all did the same lab.
 
-    python benchmarks/bench_wall.py [--repeat 5]
+    python benchmarks/bench_wall.py [--repeat 5] [--minutes 25]
 
 Prints the median CPU time of each side (the runs are in this process, no children) and its
 wall time, alternated in random order, the medians of the per-round ratios of labsim to each
@@ -47,18 +47,19 @@ LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
 
 WALLS: dict[str, list[float]] = {}  # each side's wall times, in order
+MINUTES = [25.0]  # the lab's simulated minutes (its own 25 unless --minutes says less)
 LABSIM, INTERNALS, PLAIN = "labsim", "labsim's internals, by hand", "plain pymunk loop"
 
 
 def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
-    return labsim_side(LAB, 1, WALLS.setdefault(LABSIM, []))
+    return labsim_side(LAB, 1, WALLS.setdefault(LABSIM, []), {"minutes": repr(MINUTES[0])})
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # Long and flat on purpose: labsim's backend written out by hand, the baseline labsim's
     # interpreter is measured against, so it is not factored into helpers.
     # The scene: built exactly as labsim builds it (same start pose from the same seed).
-    p, backend, run = labsim_scene(LAB)
+    p, backend, run = labsim_scene(LAB, {"minutes": repr(MINUTES[0])})
     space: pymunk.Space = backend.space
     body: pymunk.Body = backend.bodies[0]
     model = p.models["pioneer"]
@@ -128,7 +129,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     contact_time = 0.0
     released = 0  # contacts after which the body went back to chipmunk's own update
     tick = 0
-    while tick * dt < 25 * 60:
+    while tick * dt < MINUTES[0] * 60:
         p = position(cp_body)
         x, y = p.x, p.y
         a = get_angle(cp_body)
@@ -212,7 +213,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
 
 def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     # Long and flat on purpose, as a student writes it: pymunk's public API only.
-    p, backend, run = labsim_scene(LAB)  # the same scene, start pose and seed
+    p, backend, run = labsim_scene(LAB, {"minutes": repr(MINUTES[0])})  # the same scene, start pose and seed
     space: pymunk.Space = backend.space
     body: pymunk.Body = backend.bodies[0]
     model = p.models["pioneer"]
@@ -255,7 +256,7 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, math.inf
     contact_time = 0.0
     tick = 0
-    while tick * dt < 25 * 60:
+    while tick * dt < MINUTES[0] * 60:
         x, y = body.position
         a = body.angle
         d = []
@@ -330,10 +331,13 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--minutes", type=float, default=25.0,
+                        help="simulated minutes (a shorter try; the lab's 25 by default)")
     args = parser.parse_args()
+    MINUTES[0] = args.minutes
     print(machine())
     times, poses = alternate_poses({INTERNALS: hand_run, PLAIN: plain_run, LABSIM: labsim_run}, args.repeat)
-    report("wall lab, 30000 ticks", times, (LABSIM, INTERNALS), "<= 1.05")
+    report(f"wall lab, {round(args.minutes * 1200)} ticks", times, (LABSIM, INTERNALS), "<= 1.05")
     ratio = statistics.median(times[LABSIM][i] / times[PLAIN][i] for i in range(args.repeat))
     print(f"  {LABSIM} / {PLAIN}: median of per-round ratios {ratio:.3f}   (below 1: labsim is faster)")
     for name, values in WALLS.items():

@@ -139,10 +139,11 @@ def report(title: str, times: dict[str, list[float]], ratio: tuple[str, str] | N
     return median
 
 
-def labsim_side(lab: Path, robots: int, walls: list[float] | None = None) -> tuple[float, list[Pose]]:
+def labsim_side(lab: Path, robots: int, walls: list[float] | None = None,
+                params: dict[str, str] | None = None) -> tuple[float, list[Pose]]:
     """One labsim run of a behaviour file on the pymunk backend: its CPU time and final poses
     (its wall time appended to ``walls`` when given)."""
-    behaviour = compile_behaviour(lab)
+    behaviour = compile_behaviour(lab, params or {})
     backend = load_backend("pymunk")
     run = behaviour.bind(backend, warn=lambda m: None)
     wall, start = time.perf_counter(), time.process_time()
@@ -155,10 +156,10 @@ def labsim_side(lab: Path, robots: int, walls: list[float] | None = None) -> tup
     return elapsed, poses
 
 
-def labsim_scene(lab: Path):
+def labsim_scene(lab: Path, params: dict[str, str] | None = None):
     """The scene a hand-written loop drives: bound exactly as labsim binds it (same seed, same
     start poses). Returns the compiled program, the pymunk backend and the bound run."""
-    behaviour = compile_behaviour(lab)
+    behaviour = compile_behaviour(lab, params or {})
     backend = load_backend("pymunk")
     return behaviour.program, backend, behaviour.bind(backend, warn=lambda m: None)
 
