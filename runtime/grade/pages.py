@@ -6,7 +6,7 @@ criteria with their values against the thresholds (and the reference behaviour's
 each seed's run, the map of seed 1 (drawn by the pictures' renderer, which the command line
 hands over), the rules that never fired, and the faults and warnings apart from the log lines.
 The overview shows the teacher the status counts, the distribution of the score and of each
-metric (matplotlib, to PNG), the likely copies, and every student linked to their page. The
+metric (SVG histograms, ``histogram.py``), the likely copies, and every student linked to their page. The
 pages load nothing from the network (a Content-Security-Policy says so to the browser) and
 every piece of text from a file or a run is escaped.
 """
@@ -18,10 +18,11 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from labsim.foundation.diagnostics import Diagnostic
-from labsim.foundation.files import save_figure, write_output
+from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert
 from labsim.runtime.grade.contract import STATUSES
 from labsim.runtime.grade.gradebook import messages, page_name
+from labsim.runtime.grade.histogram import histogram_svg
 from labsim.runtime.grade.score import Grade, Graded
 
 CSP = "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'"
@@ -133,28 +134,18 @@ def overview_page(graded: Graded, charts: list[str]) -> str:
     return _page(f"{a.title}: the class", body)
 
 
-def charts(graded: Graded, folder: Path) -> list[Path]:
-    """A histogram of the score and of each metric's mean over the graded students."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def charts(graded: Graded, folder: Path, inputs: list[str]) -> list[Path]:
+    """A histogram of the score and of each metric's mean over the graded students (SVG)."""
     folder.mkdir(parents=True, exist_ok=True)
     series = {"score": [g.score for g in graded.grades if g.score is not None]}
     for m in graded.assignment.metrics:
         series[m] = [g.means[m] for g in graded.grades if g.graded and math.isfinite(g.means.get(m, math.nan))]
     out = []
     for i, (name, values) in enumerate(series.items()):
-        fig, ax = plt.subplots(figsize=(4, 2.6), dpi=100)
-        ax.hist(values, bins=min(20, max(5, len(values) // 2)), color="#3b6ea8" if i else "#2f8f4e")
-        ax.set_title(f"{name} ({len(values)} graded)", fontsize=10)
-        ax.set_ylabel("students", fontsize=9)
-        ax.tick_params(labelsize=8)
-        fig.tight_layout()
-        path = folder / f"{i:02d}.png"  # numbered: a metric's name never becomes a file name
-        save_figure(fig, path)
-        plt.close(fig)
+        path = folder / f"{i:02d}.svg"  # numbered: a metric's name never becomes a file name
+        svg = histogram_svg(f"{name} ({len(values)} graded)", values, "#3b6ea8" if i else "#2f8f4e")
+        write_output(path, svg, inputs, "--out")
+        (folder / f"{i:02d}.png").unlink(missing_ok=True)  # a last grading's, drawn by matplotlib
         out.append(path)
     return out
 
@@ -178,7 +169,7 @@ def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
         path = feedback / name
         write_output(path, feedback_page(g, graded.assignment.title, shown, graded.reference), inputs, "--out")
         written.append(path)
-    pictures = charts(graded, out / "charts")
+    pictures = charts(graded, out / "charts", inputs)
     index = out / "index.html"
     write_output(index, overview_page(graded, [f"charts/{p.name}" for p in pictures]), inputs, "--out")
     return [index, *written]
