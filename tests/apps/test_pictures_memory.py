@@ -53,6 +53,24 @@ def test_a_trace_that_fits_is_read_whole_and_the_same() -> None:
     assert sampled.header == whole.header and sampled.footer == whole.footer
 
 
+def test_rows_read_in_batches_keep_their_lines_across_blank_lines_and_quoted_newlines(tmp_path: Path) -> None:
+    # rows are taken from the csv reader in batches and their lines counted after: a quoted cell
+    # with newlines and a blank line must leave every later row on its own line, as read_trace says
+    text = GOLDEN.read_text().splitlines(keepends=True)
+    state = text[1].split(",").index("state")
+    cells = text[5].split(",")
+    cells[state] = '"two\nlines"'
+    text[5] = ",".join(cells)
+    text.insert(9, "\n")
+    path = tmp_path / "quoted.csv"
+    path.write_text("".join(text))
+    whole, (sampled, note) = read_trace(path), read_for_picture(str(path))
+    assert note == "" and sampled.rows == whole.rows and sampled.lines == whole.lines
+    assert sampled.rows[3][state] == "two\nlines" and sampled.lines[3:6] == [7, 8, 9]
+    assert all(sampled.numbers[c].tolist() == [float(r[whole.columns.index(c)]) for r in whole.rows]
+               for c in ("time", "x", "y", "heading"))
+
+
 def test_a_long_trace_is_thinned_keeping_every_event_and_each_robot_s_last_row(tmp_path: Path) -> None:
     path = tmp_path / "long.csv"
     rows = long_trace(path, 12)
