@@ -23,11 +23,12 @@ from labsim.backends.scene.world import World
 
 SCHEMA = 1  # the message schema version; docs/view.md describes it
 FRAME_INTERVAL_S = 1 / 30  # at most 30 frames a second, whatever the speed
-# At "as fast as it goes" 10: every frame carries the path and chart samples of the ticks since
+# At "as fast as it goes" 20: every frame carries the path and chart samples of the ticks since
 # the last, so fewer frames lose nothing drawn, and each costs the server about 1.3 ms and a
-# headless Chromium about 10 ms of CPU (mostly its compositor's, out of the page's reach) that
-# on 2 cores the run's ticks then lack (docs/decisions.md, "The view with a real browser")
-FLAT_OUT_INTERVAL_S = 1 / 10
+# headless Chromium about 10 ms of CPU (mostly its compositor's, out of the page's reach); 10
+# would halve the browser's share but carry twice the path a frame, over the 4 KB a frame the
+# view keeps to (docs/decisions.md, "The view with a real browser")
+FLAT_OUT_INTERVAL_S = 1 / 20
 
 Json = dict[str, Any]
 
