@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import machine
-from timed_child import labsim, load, rounds
+from timed_child import labsim, load, print_medians, rounds
 
 LABS = Path(__file__).resolve().parent.parent / "behaviours"
 
@@ -60,11 +60,7 @@ def main() -> None:
         before = load()
         times = rounds(commands, args.repeat)
     print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
-    for name, runs in times.items():
-        wall = statistics.median(t.wall_s for t in runs)
-        cpu = statistics.median(t.cpu_s for t in runs)
-        peak = max(t.peak_mib for t in runs)
-        print(f"  {name}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak {peak:.0f} MiB")
+    print_medians(times)
     long, short = times["wall lab, 60 min, MP4"], times["wall lab, 10 min, MP4"]
     wall_ratio = statistics.median(a.wall_s / b.wall_s for a, b in zip(long, short))
     cpu_ratio = statistics.median(a.cpu_s / b.cpu_s for a, b in zip(long, short))

@@ -12,14 +12,13 @@ trace's size (docs/pictures.md states the bound).
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import machine
-from timed_child import MIB, labsim, load, rounds
+from timed_child import MIB, labsim, load, print_medians, rounds
 
 TRACE = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.golden.csv"
 
@@ -63,10 +62,7 @@ def main() -> None:
         before = load()
         times = rounds(cases, args.repeat)
     print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
-    for name, runs in times.items():
-        wall = statistics.median(t.wall_s for t in runs)
-        cpu = statistics.median(t.cpu_s for t in runs)
-        print(f"  {name}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak {max(t.peak_mib for t in runs):.0f} MiB")
+    print_medians(times)
 
 
 if __name__ == "__main__":

@@ -14,13 +14,12 @@ behaviours are this checkout's, and pytest starts in its root (its pyproject's o
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import machine
-from timed_child import load, rounds
+from timed_child import load, print_medians, rounds
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -37,10 +36,7 @@ def main() -> None:
     before = load()
     times = rounds(cases, args.repeat)
     print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
-    for name, runs in times.items():
-        wall = statistics.median(t.wall_s for t in runs)
-        cpu = statistics.median(t.cpu_s for t in runs)
-        print(f"  {name}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak {max(t.peak_mib for t in runs):.0f} MiB")
+    print_medians(times)
 
 
 if __name__ == "__main__":

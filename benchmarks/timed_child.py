@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import random
+import statistics
 import subprocess
 import sys
 import time
@@ -60,3 +61,11 @@ def rounds(cases: dict[str, list[str]], repeat: int, seed: int | None = None) ->
 def load() -> str:
     one, five, fifteen = os.getloadavg()
     return f"load {one:.2f} {five:.2f} {fifteen:.2f}"
+
+
+def print_medians(times: dict[str, list[Timing]]) -> None:
+    """Each case's median wall and CPU time and its peak memory, one line each."""
+    for name, runs in times.items():
+        wall = statistics.median(t.wall_s for t in runs)
+        cpu = statistics.median(t.cpu_s for t in runs)
+        print(f"  {name}: {wall:.2f} s wall, {cpu:.2f} s CPU, peak {max(t.peak_mib for t in runs):.0f} MiB")

@@ -24,6 +24,17 @@ async def _frame(ws: Any, timeout: float = 10) -> dict:
             return dict(msg)
 
 
+async def _connect(http: Any, url: str) -> Any:
+    """The view's websocket, once its server listens (it starts beside the test)."""
+    import aiohttp
+    for _ in range(200):
+        try:
+            return await http.ws_connect(url + "/ws")
+        except aiohttp.ClientConnectorError:
+            await asyncio.sleep(0.02)
+    raise AssertionError(f"the view at {url} never listened")
+
+
 def test_a_page_that_acknowledges_gets_the_next_frame_only_after_and_the_run_goes_on() -> None:
     aiohttp = pytest.importorskip("aiohttp")
     from labsim.runtime.view.server import bind_socket, serve
@@ -36,12 +47,7 @@ def test_a_page_that_acknowledges_gets_the_next_frame_only_after_and_the_run_goe
         url = f"http://127.0.0.1:{sock.getsockname()[1]}"
         task = asyncio.ensure_future(serve(s, sock, url, log=logs.append))
         async with aiohttp.ClientSession() as http:
-            for _ in range(200):
-                try:
-                    ws = await http.ws_connect(url + "/ws")
-                    break
-                except aiohttp.ClientConnectorError:
-                    await asyncio.sleep(0.02)
+            ws = await _connect(http, url)
             assert (await ws.receive_json())["type"] == "scene"
             await _frame(ws)
             await ws.send_str(json.dumps({"type": "speed", "value": "max"}))
@@ -82,12 +88,7 @@ def test_a_client_that_never_acknowledges_gets_every_frame_it_can_take() -> None
         url = f"http://127.0.0.1:{sock.getsockname()[1]}"
         task = asyncio.ensure_future(serve(s, sock, url, log=lambda m: None))
         async with aiohttp.ClientSession() as http:
-            for _ in range(200):
-                try:
-                    ws = await http.ws_connect(url + "/ws")
-                    break
-                except aiohttp.ClientConnectorError:
-                    await asyncio.sleep(0.02)
+            ws = await _connect(http, url)
             await ws.receive_json()
             await ws.send_str(json.dumps({"type": "speed", "value": "max"}))
             await ws.send_str(json.dumps({"type": "play"}))
