@@ -9,13 +9,15 @@ library. Nothing here is collected as a test.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 import select
 import subprocess
 import sys
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -192,3 +194,12 @@ def cases(items: list, long: Collection[str] = ()) -> list:
     ``long`` (minutes on a loaded machine: .ci/run runs them in a stage of their own)."""
     return [pytest.param(c, id=c.name, marks=(pytest.mark.slow, pytest.mark.long) if c.name in long else ())
             for c in items]
+
+
+@contextlib.contextmanager
+def local_cluster() -> Iterator[Any]:
+    """A Dask cluster of two worker processes on this machine; the test is skipped without Dask."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as c:
+        yield c

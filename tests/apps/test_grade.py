@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import FIXTURES
+from helpers import FIXTURES, local_cluster
 
 from labsim.runtime.grade.driver import Options, grade_class, write_class
 
@@ -177,10 +177,9 @@ def test_a_bad_assignment_exits_2_with_every_mistake(tmp_path: Path, capsys) -> 
 
 @pytest.mark.slow
 def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch) -> None:
-    distributed = pytest.importorskip("distributed")
     folder, _ = graded_class
     monkeypatch.chdir(folder)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c:
+    with local_cluster() as c:
         options = Options("assignment.yaml", ["class"], tmp_path / "dask", scheduler=c.scheduler_address,
                           cache=False)
         options.out.mkdir()

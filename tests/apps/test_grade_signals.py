@@ -15,7 +15,7 @@ from pathlib import Path
 
 import psutil
 import pytest
-from helpers import FIXTURES
+from helpers import FIXTURES, local_cluster
 
 pytestmark = pytest.mark.slow  # labsim grades, signalled mid-run
 
@@ -118,9 +118,7 @@ def test_a_second_grading_runs_only_the_interrupted_students(tmp_path: Path) -> 
 
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as c:
+    with local_cluster() as c:
         yield c
 
 

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import BEHAVIOURS, DOCS, FIXTURES
+from helpers import BEHAVIOURS, DOCS, FIXTURES, local_cluster
 
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.main import main
@@ -334,9 +334,7 @@ def test_a_sweep_over_a_noise_parameter(capsys, tmp_path: Path) -> None:
 @pytest.fixture(scope="module")
 def cluster():
     """A Dask cluster of two worker processes on this machine, for this module's tests."""
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as c:
+    with local_cluster() as c:
         yield c
 
 

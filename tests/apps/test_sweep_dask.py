@@ -15,7 +15,7 @@ from pathlib import Path
 
 import psutil
 import pytest
-from helpers import BEHAVIOURS
+from helpers import BEHAVIOURS, local_cluster
 
 from labsim.runtime.cli.main import main
 
@@ -29,8 +29,7 @@ ISOLATED = "labsim.runtime.sweep.isolated"
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as c:
+    with local_cluster() as c:
         yield c
 
 
