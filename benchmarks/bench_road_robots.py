@@ -8,6 +8,11 @@ centreline (each heading along it, so that every robot follows the road as in th
 microseconds per robot-tick of each, and the median of the per-round ratios of the largest fleet
 to five robots (goal: <= 1.15: a robot costs the same however many drive), with the load average.
 The runs are in this process: there are no children, and the CPU time is the process's.
+
+``--split-drawing`` adds, for five robots and the largest fleet, a side where each camera still
+finds the robots in its view (the cull and the frustum tests are paid) but draws none of them:
+the ratio of those two sides is the tick core's own growth with the fleet, apart from the
+drawing of robots that are really in view (none at five robots, about four a camera at 100).
 """
 from __future__ import annotations
 
@@ -23,6 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compare import alternate, machine, pair_ratios, run_phase
 
+from labsim.backends.pymunk import scene_view
 from labsim.runtime.run import compile_behaviour
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "road_follow.yaml"
@@ -58,37 +64,58 @@ def fleet(n: int, folder: Path) -> Path:
     return path
 
 
+def not_drawing(seen: Callable[..., list[object]]) -> Callable[..., list[object]]:
+    """``SceneView._robots_seen`` that finds the robots in view as it does, then draws none."""
+    def tested_not_drawn(*args: object, **kwargs: object) -> list[object]:
+        seen(*args, **kwargs)
+        return []
+    return tested_not_drawn
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--seconds", type=float, default=5)
     parser.add_argument("--robots", type=int, nargs="+", default=[1, 5, 20, 100])
+    parser.add_argument("--split-drawing", action="store_true",
+                        help="also time 5 robots and the largest fleet with the robots in view not drawn")
     args = parser.parse_args()
     print(machine())
     cpu: dict[str, list[float]] = {}
     wall: dict[str, list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        def side(n: int) -> Callable[[], float]:
+        seen = scene_view.SceneView._robots_seen
+
+        def side(n: int, drawn: bool = True) -> Callable[[], float]:
             path = fleet(n, Path(tmp))
-            walls = wall.setdefault(f"{n} robots", [])
+            walls = wall.setdefault(f"{n} robots" + ("" if drawn else ", not drawn"), [])
 
             def once() -> float:
-                elapsed, ticks = run_phase(path, {"seconds": str(args.seconds)}, walls=walls)
+                scene_view.SceneView._robots_seen = seen if drawn else not_drawing(seen)  # type: ignore[method-assign]
+                try:
+                    elapsed, ticks = run_phase(path, {"seconds": str(args.seconds)}, walls=walls)
+                finally:
+                    scene_view.SceneView._robots_seen = seen  # type: ignore[method-assign]
                 walls[-1] /= ticks * n
                 return elapsed / (ticks * n)
             return once
 
-        cpu = alternate({f"{n} robots": side(n) for n in args.robots}, args.repeat)
+        sides = {f"{n} robots": side(n) for n in args.robots}
+        if args.split_drawing:
+            sides |= {f"{n} robots, not drawn": side(n, drawn=False) for n in sorted({5, max(args.robots)})}
+        cpu = alternate(sides, args.repeat)
     print(f"road lab, {args.seconds:g} s simulated, per robot-tick, medians of {args.repeat} rounds in random order:")
     for name in cpu:
-        print(f"  {name:>10}  {statistics.median(cpu[name]) * 1e6:8.1f} µs CPU"
+        print(f"  {name:>20}  {statistics.median(cpu[name]) * 1e6:8.1f} µs CPU"
               f"  {statistics.median(wall[name]) * 1e6:8.1f} µs wall"
               f"   (CPU {', '.join(f'{v * 1e6:.1f}' for v in cpu[name])})")
-    top, five = f"{max(args.robots)} robots", "5 robots"
-    if top in cpu and five in cpu and top != five:
-        for label, times in (("CPU", cpu), ("wall", wall)):
-            ratio = statistics.median(pair_ratios(times[top], times[five]))
-            print(f"  {top} / {five}, {label} per robot-tick: median of per-round ratios {ratio:.3f}   (goal <= 1.15)")
+    for tail in ("", ", not drawn"):
+        top, five = f"{max(args.robots)} robots{tail}", f"5 robots{tail}"
+        if top in cpu and five in cpu and top != five:
+            for label, times in (("CPU", cpu), ("wall", wall)):
+                ratio = statistics.median(pair_ratios(times[top], times[five]))
+                print(f"  {top} / {five}, {label} per robot-tick: median of per-round ratios {ratio:.3f}"
+                      "   (goal <= 1.15)")
     print(f"  {machine()[2:]}")
 
 

@@ -50,6 +50,16 @@ def test_benchmark_runs(script: str) -> None:
     assert honest(done.stdout), done.stdout
 
 
+def test_road_robots_benchmark_splits_the_drawing_of_robots_in_view() -> None:
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_road_robots.py"), "--repeat", "1",
+                           "--seconds", "0.2", "--robots", "5", "12", "--split-drawing"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "12 robots / 5 robots, CPU per robot-tick" in done.stdout
+    assert "12 robots, not drawn / 5 robots, not drawn, CPU per robot-tick" in done.stdout
+    assert honest(done.stdout), done.stdout
+
+
 def test_sweep_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_sweep.py"), "--runs", "2", "--minutes", "0.2",
                            "--no-dask"], capture_output=True, text=True, timeout=300)
