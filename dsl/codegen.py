@@ -37,7 +37,7 @@ from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
-from labsim.dsl.unroll import PLAIN, Unroller, extreme, reduce
+from labsim.dsl.unroll import ON_SEQUENCE, PLAIN, VALUES, Unroller, extreme, reduce, reduce_sequence
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
@@ -115,7 +115,9 @@ class _Generator(Unroller):
         """
         c = self.c
         n = len(c.channels)
-        channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n))
+        # the channels' slots, and VALUES (all of them as one sequence): signals(), fold() and
+        # both() have them as their argument ``values``, decide() reads them from the slots
+        channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n)) | {VALUES}
         computed = {self.slot_of[name] for name, _ in c.lets}
         computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
         signals, stop_note, stop = self.signals()
@@ -134,7 +136,7 @@ class _Generator(Unroller):
                 w.line("s[1] = v1")
                 if n:
                     w.line(f"s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}] = values")
-                _unpack(w, channels)
+                _unpack(w, signals.reads & channels, n)
                 _loads(w, signal_loads)
                 w.insert(signals)
                 with w.source(stop_note):
@@ -142,7 +144,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def decide():")
             with w.indent():
-                _loads(w, decide_reads)
+                _loads(w, decide_reads, n)
                 w.insert(rules)
                 for metric in metrics:
                     w.insert(metric)
@@ -150,7 +152,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def fold(v0, v1, values):")
             with w.indent():
-                _unpack(w, channels)
+                _unpack(w, metric_reads & channels, n)
                 _loads(w, metric_reads - channels - {TIME, TICK})
                 for metric, m in zip(metrics, c.metrics):
                     if m.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
@@ -159,7 +161,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def both(v0, v1, values):")
             with w.indent():
-                _unpack(w, channels)
+                _unpack(w, (signals.reads | decide_reads) & channels, n)
                 _loads(w, signal_loads)
                 w.insert(signals)
                 with w.source(stop_note):
@@ -507,6 +509,11 @@ class _Generator(Unroller):
             # run's first tick (v1, the tick, is 0) takes the initial value
             return f"(s[{slot}] if v{TICK} else {self.expr(w, e.args[1], text, where)})"
         if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
+            sequence = self.sequence(w, e.args[0]) if e.func in ON_SEQUENCE else None
+            if sequence is not None:  # a run of the channel values: one call on them (unroll.VALUES)
+                code, function = reduce_sequence(e.func, *sequence)
+                self.functions.add(function)
+                return code
             if e.func in ("min", "max"):
                 self.functions.add(e.func)
             return reduce(e.func, self.members(w, e.args[0], text, where))
@@ -549,16 +556,23 @@ def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:
     return out
 
 
-def _unpack(w: Writer, channels: frozenset[int]) -> None:
-    """The tick's channel values into their locals."""
-    if channels:
-        w.line(", ".join(f"v{i}" for i in sorted(channels)) + ", = values")
+def _unpack(w: Writer, read: frozenset[int], n: int) -> None:
+    """The channel values the code reads one by one into their locals: all n in one unpacking
+    when it reads half of them or more, else each by its index (a lidar's scan reduced as one
+    sequence needs no local per beam)."""
+    read = read - {VALUES}
+    if 2 * len(read) >= n:
+        if read:
+            w.line(", ".join(f"v{i}" for i in range(FIRST_CHANNEL, FIRST_CHANNEL + n)) + ", = values")
+        return
+    for i in sorted(read):
+        w.line(f"v{i} = values[{i - FIRST_CHANNEL}]")
 
 
-def _loads(w: Writer, slots: frozenset[int] | set[int]) -> None:
-    """Slots into their locals, once per function."""
+def _loads(w: Writer, slots: frozenset[int] | set[int], n: int = 0) -> None:
+    """Slots into their locals, once per function; VALUES (all n channels) as ``values``."""
     for i in sorted(slots):
-        w.line(f"v{i} = s[{i}]")
+        w.line(f"values = s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}]" if i == VALUES else f"v{i} = s[{i}]")
 
 
 def _fold_metric(w: Writer, aggregate: Aggregate, e: str, i: int) -> None:
