@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import bisect
 import math
+from array import array
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +46,17 @@ TOUCH_M = 5e-324
 ANGLE_MARGIN_RAD = 1e-9
 TAU = 2.0 * math.pi
 maximum = np.maximum  # its reduce, without ndarray.max's Python layer
+
+# The C kernel (_fan.c) when the install built it, else None and the numpy fan: KERNEL says
+# which casts (docs/decisions.md, "Lidar kernel").
+Kernel = Callable[[float, float, float, float, list, list, bytes, float], list]
+try:
+    from labsim.backends.pymunk._fan import cast as _kernel_cast
+except ImportError:  # no C compiler at install time: the numpy fan, a few times slower
+    _kernel: Kernel | None = None
+else:
+    _kernel = _kernel_cast
+KERNEL = "c" if _kernel is not None else "numpy"
 
 
 @dataclass(frozen=True)
@@ -129,11 +142,13 @@ class LidarFan:
     ``angles_rad`` are the beams' directions in the robot frame, in the order ``cast`` returns
     them; ``mount_x_m`` the lidar's place ahead of the body's origin. Static shapes are taken
     apart once; other bodies' shapes (other robots) are put where their bodies are every tick.
-    A tick's work per face or circle is plain Python (a handful of them), per beam numpy.
+    A tick's work is one call of the C kernel (``KERNEL == "c"``), or with numpy plain Python
+    per face or circle (a handful of them) and numpy per beam; ``compiled=False`` takes the
+    numpy fan even where the kernel was built (the tests compare the two).
     """
 
     def __init__(self, space: pymunk.Space, body: pymunk.Body, ray_filter: pymunk.ShapeFilter,
-                 angles_rad: list[float], mount_x_m: float, range_m: float) -> None:
+                 angles_rad: list[float], mount_x_m: float, range_m: float, *, compiled: bool = True) -> None:
         seen = [s for s in space.shapes if not s.sensor and not rejects(s.filter, ray_filter) and s.body is not None]
         static = outline([s for s in seen if _body(s).body_type == pymunk.Body.STATIC])
         self._static = Outline(static.p1, static.p2, *_unique(static.centres, static.radii), static.walls)
@@ -154,6 +169,9 @@ class LidarFan:
         order = sorted(range(len(angles_rad)), key=lambda k: angles_rad[k] % TAU)
         self._by_angle = [angles_rad[k] % TAU for k in order]
         self._order = order
+        self._kernel = _kernel if compiled else None
+        # the kernel's table of the beams: cos, sin, the sorted directions and their beams
+        self._table = array("d", self._cos + self._sin + self._by_angle + [float(k) for k in order]).tobytes()
         self._beams = len(angles_rad)
         self._mount_x_m = mount_x_m
         self._range_m = range_m
@@ -177,6 +195,11 @@ class LidarFan:
         faces, circles = near.faces, near.circles
         if self._moving:
             faces, circles = self._with_moving(ox, oy, faces, circles)
+        if self._kernel is not None:
+            ranges = self._kernel(ox, oy, c, s, faces, circles, self._table, self._inv_range)
+            if inside:
+                self._band_beams(ox, oy, c, s, inside, ranges)
+            return ranges
         inv = self._faces(ox, oy, c, s, faces)
         out = self._inf.copy()
         np.divide(1.0, inv, out=out, where=inv >= self._inv_range)
