@@ -303,6 +303,18 @@ def argmax_of(values: Values) -> float:
     return at
 
 
+def argmin_at(values: Values, least: float) -> float:
+    """``argmin`` of a sequence whose ``min_of`` is ``least``, computed this tick: where the
+    first member equal to it is, as ``argmin_of`` finds it; a nan minimum means a member is
+    nan, and argmin passes nans over, so then the whole search."""
+    return float(values.index(least)) if least == least else argmin_of(values)
+
+
+def argmax_at(values: Values, most: float) -> float:
+    """``argmax`` of a sequence whose ``max_of`` is ``most``, computed this tick."""
+    return float(values.index(most)) if most == most else argmax_of(values)
+
+
 def min_of(values: Values) -> float:
     """``_min(*values)`` of a sequence of two or more values: C's ``min`` keeps the first of
     equals as ``_min`` does (-0.0 before 0.0 when it comes first); nan if a value is nan."""
@@ -332,7 +344,8 @@ def sum_of(values: Values) -> float:
 
 
 SEQUENCE_FUNCTIONS: dict[str, Callable[[Values], float]] = {
-    "min_of": min_of, "max_of": max_of, "argmin_of": argmin_of, "argmax_of": argmax_of, "sum_of": sum_of}
+    "min_of": min_of, "max_of": max_of, "argmin_of": argmin_of, "argmax_of": argmax_of, "sum_of": sum_of,
+    "argmin_at": argmin_at, "argmax_at": argmax_at}
 
 
 # Names added after version 1: a version 1 file may have used them for its own parameters,

@@ -23,6 +23,7 @@ slots each piece reads; what version 1.2 added (groups, user functions) is apart
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -37,12 +38,14 @@ from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
-from labsim.dsl.unroll import ON_SEQUENCE, PLAIN, VALUES, Unroller, extreme, reduce, reduce_sequence
+from labsim.dsl.unroll import LOCAL, ON_SEQUENCE, PLAIN, VALUES, Unroller, extreme, reduce, reduce_sequence
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
 
 INF = math.inf
+# A signal that is the minimum or maximum of a run of the channel values, as generated
+EXTREME_OF = re.compile(r"^_(min|max)_of\((values(?:\[\d+:\d+\])?)\)$")
 CHAIN = 64  # the longest if/elif chain generated: Python's compiler recurses once per elif
 
 
@@ -88,6 +91,8 @@ class _Generator(Unroller):
         self.constants = _constants(checked, slots.slot_of)
         self.sites: list[tuple[str, FaultSite]] = []
         self.functions: set[str] = set()  # built-ins called directly
+        # ("min" | "max", a sequence's Python) -> the slot of a signal that is that reduction
+        self.extremes: dict[tuple[str, str], int] = {}
         self.notes = Notes()  # the marker comments, in the order they are made
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
         self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
@@ -203,8 +208,12 @@ class _Generator(Unroller):
                 self.drop_images(w, j)
                 continue
             with w.source(self.note(parsed.text, f"{name}: ")):
-                w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
+                code = self.expr(w, parsed.node, parsed.text, "signal " + repr(name))
+                w.line(f"s[{slot}] = v{slot} = " + code)
                 self.drop_images(w, j)
+            extreme_of = EXTREME_OF.match(code)
+            if extreme_of:  # argmin of the same values, later, is where this is (unroll.reduce_sequence)
+                self.extremes.setdefault((extreme_of[1], extreme_of[2]), slot)
         for shared in self.layout.shared_labels:  # the slider whose value changed last shows its text
             for k, (slot, last) in enumerate(shared.sliders):
                 w.line(f"if s[{slot}] != s[{last}]: s[{shared.choice}] = {k}; s[{last}] = s[{slot}]")
@@ -511,7 +520,9 @@ class _Generator(Unroller):
         if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
             sequence = self.sequence(w, e.args[0]) if e.func in ON_SEQUENCE else None
             if sequence is not None:  # a run of the channel values: one call on them (unroll.VALUES)
-                code, function = reduce_sequence(e.func, *sequence)
+                code, function = reduce_sequence(e.func, *sequence, self.extremes)
+                for slot in LOCAL.findall(code):  # argmin_at reads the minimum's signal
+                    w.read(int(slot))
                 self.functions.add(function)
                 return code
             if e.func in ("min", "max"):

@@ -178,10 +178,18 @@ VALUES = -1
 ON_SEQUENCE = frozenset({"min", "max", "argmin", "argmax", "sum", "mean"})
 
 
-def reduce_sequence(func: str, sequence: str, n: int) -> tuple[str, str]:
-    """A reduction of a group held as a sequence: the Python and the function it calls."""
+def reduce_sequence(func: str, sequence: str, n: int, extremes: dict[tuple[str, str], int]) -> tuple[str, str]:
+    """A reduction of a group held as a sequence: the Python and the function it calls.
+
+    ``extremes`` holds the signals already computed as the minimum or maximum of a sequence:
+    argmin of the same values is then where that minimum is (``argmin_at``), without a second
+    pass of C's min over a lidar's 360 beams (the scan's nearest point and its direction are
+    the usual pair)."""
     if func == "mean":
         return f"(_sum_of({sequence}) / {float(n)!r})", "sum_of"
+    slot = extremes.get((func[3:], sequence)) if func in ("argmin", "argmax") else None
+    if slot is not None:
+        return f"_{func}_at({sequence}, v{slot})", f"{func}_at"
     return f"_{func}_of({sequence})", f"{func}_of"
 
 

@@ -17,7 +17,19 @@ from pathlib import Path
 import pytest
 
 from labsim.dsl import codegen
-from labsim.dsl.builtins import _max, _min, argmax, argmax_of, argmin, argmin_of, max_of, min_of, sum_of
+from labsim.dsl.builtins import (
+    _max,
+    _min,
+    argmax,
+    argmax_at,
+    argmax_of,
+    argmin,
+    argmin_at,
+    argmin_of,
+    max_of,
+    min_of,
+    sum_of,
+)
 from labsim.dsl.compile import compile_file
 from labsim.dsl.program import Program
 from labsim.dsl.support import Faults
@@ -53,6 +65,8 @@ def test_each_sequence_form_gives_the_member_by_member_answer(seed: int) -> None
     assert _bits(max_of(values)) == _bits(_max(*values))
     assert _bits(argmin_of(values)) == _bits(argmin(*values))
     assert _bits(argmax_of(values)) == _bits(argmax(*values))
+    assert _bits(argmin_at(values, min_of(values))) == _bits(argmin(*values))
+    assert _bits(argmax_at(values, max_of(values))) == _bits(argmax(*values))
     unrolled = eval("(" + " + ".join(f"v[{k}]" for k in range(len(values))) + ")", {"v": values})
     assert _bits(sum_of(values)) == _bits(unrolled)
 
@@ -102,7 +116,9 @@ def test_a_scan_is_reduced_over_the_values_with_no_local_per_beam(write, monkeyp
         "  - if min(lidar1..lidar90) < 1 then arc(-3, 3)\n"
         "  - else move(far + away + total_ + avg)\n"))
     source = fast.code.source
-    assert "_min_of(values)" in source and "_argmin_of(values)" in source and "_min_of(values[0:90])" in source
+    assert "_min_of(values)" in source and "_min_of(values[0:90])" in source
+    # the direction of the nearest beam and of the farthest: where the signals above found them
+    assert "_argmin_at(values, v364)" in source and "_argmax_at(values, v366)" in source
     assert not re.search(r"\bv3\b", source.split("def make")[1])  # neither unpacked nor loaded
     assert "values = s[3:363]" in source  # decide() takes them from the slots
     _same_runs(fast, plain)
@@ -135,5 +151,5 @@ def test_sonar_groups_read_slices_and_other_groups_their_members(write, monkeypa
 def test_the_lidar_benchmark_compiles_to_two_calls_on_the_values() -> None:
     program = compile_file(Path(__file__).resolve().parents[2] / "benchmarks" / "lidar_wander.yaml")
     both = program.code.source.split("def both")[1]
-    assert "s[364] = v364 = _min_of(values)" in both and "s[365] = v365 = _argmin_of(values)" in both
+    assert "s[364] = v364 = _min_of(values)" in both and "s[365] = v365 = _argmin_at(values, v364)" in both
     assert "= values" not in both.split("s[364]")[0]  # no unpacking before the reductions
