@@ -21,6 +21,10 @@
  * meets a face or circle is left out; the exact test sorts the others out */
 #define ANGLE_MARGIN_RAD 1e-9
 
+/* Every beam that sees nothing reads this one inf: a float made per beam cost more than the
+ * geometry (a room's lidar misses most of its beams). */
+static PyObject *miss = NULL;
+
 /* The beams' table, B of each: cos, sin (robot frame), direction in [0, 2 pi) sorted, and the
  * beam (its place in cast's output) of each sorted direction. */
 typedef struct {
@@ -181,7 +185,13 @@ static PyObject *cast(PyObject *self, PyObject *args) {
     } else if (faces(&t, ox, oy, c, s, face_list, inv) == 0 && circles(&t, ox, oy, c, s, circle_list, inv) == 0) {
         out = PyList_New(beams);
         for (Py_ssize_t b = 0; out != NULL && b < beams; b++) {
-            PyObject *range = PyFloat_FromDouble(inv[b] >= inv_range ? 1.0 / inv[b] : Py_HUGE_VAL);
+            PyObject *range;
+            if (inv[b] >= inv_range) {
+                range = PyFloat_FromDouble(1.0 / inv[b]);
+            } else {
+                range = miss;
+                Py_INCREF(range);
+            }
             if (range == NULL) {
                 Py_CLEAR(out);
                 break;
@@ -207,4 +217,7 @@ static struct PyModuleDef module = {
     NULL, NULL, NULL, NULL,
 };
 
-PyMODINIT_FUNC PyInit__fan(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__fan(void) {
+    if (miss == NULL && (miss = PyFloat_FromDouble(Py_HUGE_VAL)) == NULL) return NULL;
+    return PyModule_Create(&module);
+}

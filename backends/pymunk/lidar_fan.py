@@ -1,4 +1,4 @@
-"""A lidar's whole fan of beams cast at once with numpy, outside chipmunk: the pymunk backend's lidar.
+"""A lidar's whole fan of beams cast at once, in C or with numpy, outside chipmunk: the pymunk backend's lidar.
 
 ``labsim.backends.pymunk.fleet_sense`` calls ``LidarFan.cast`` once a tick for each robot that
 reads lidar beams, where a sonar is one chipmunk ray cast (chipmunk's segment query costs
@@ -19,6 +19,11 @@ a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
 ``1 / t = (cross(p1, u) + cross(u, p2)) / cross(p1, p2)`` with both cross products >= 0. A
 missed beam reads 0 or less there, so the nearest face is a maximum over faces, and a beam
 whose maximum is below 1 / range_m reads ``inf``.
+
+Where the install built ``_fan.c`` (a C compiler was there) one call of it does the faces, the
+circles and the list of ranges, each face and circle tried only by the beams within its
+angular extent; else numpy does them as above. ``KERNEL`` says which ("c" or "numpy"); both
+read the same to 1e-12 m (docs/decisions.md, "Lidar kernel").
 """
 from __future__ import annotations
 
@@ -191,7 +196,8 @@ class LidarFan:
         near = self._near
         if near is None or math.hypot(ox - near.x_m, oy - near.y_m) > SLACK_M:
             near = self._near = self._choose(ox, oy)
-        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]]
+        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]] \
+            if near.bands else near.bands
         faces, circles = near.faces, near.circles
         if self._moving:
             faces, circles = self._with_moving(ox, oy, faces, circles)
