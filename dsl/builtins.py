@@ -343,7 +343,7 @@ def sum_of(values: Values) -> float:
     return functools.reduce(operator.add, values)
 
 
-SEQUENCE_FUNCTIONS: dict[str, Callable[[Values], float]] = {
+SEQUENCE_FUNCTIONS: dict[str, Callable[..., float]] = {
     "min_of": min_of, "max_of": max_of, "argmin_of": argmin_of, "argmax_of": argmax_of, "sum_of": sum_of,
     "argmin_at": argmin_at, "argmax_at": argmax_at}
 

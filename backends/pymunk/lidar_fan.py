@@ -56,11 +56,11 @@ maximum = np.maximum  # its reduce, without ndarray.max's Python layer
 # which casts (docs/decisions.md, "Lidar kernel").
 Kernel = Callable[[float, float, float, float, list, list, bytes, float], list]
 try:
-    from labsim.backends.pymunk._fan import cast as _kernel_cast
+    from labsim.backends.pymunk import _fan
 except ImportError:  # no C compiler at install time: the numpy fan, a few times slower
     _kernel: Kernel | None = None
 else:
-    _kernel = _kernel_cast
+    _kernel = _fan.cast
 KERNEL = "c" if _kernel is not None else "numpy"
 
 
@@ -203,9 +203,15 @@ class LidarFan:
             faces, circles = self._with_moving(ox, oy, faces, circles)
         if self._kernel is not None:
             ranges = self._kernel(ox, oy, c, s, faces, circles, self._table, self._inv_range)
-            if inside:
-                self._band_beams(ox, oy, c, s, inside, ranges)
-            return ranges
+        else:
+            ranges = self._numpy_ranges(ox, oy, c, s, faces, circles)
+        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
+            self._band_beams(ox, oy, c, s, inside, ranges)
+        return ranges
+
+    def _numpy_ranges(self, ox: float, oy: float, c: float, s: float, faces: list[Face],
+                      circles: list[Circle]) -> list[float]:
+        """What the C kernel gives, with numpy: the faces' and the circles' nearest, or inf."""
         inv = self._faces(ox, oy, c, s, faces)
         out = self._inf.copy()
         np.divide(1.0, inv, out=out, where=inv >= self._inv_range)
@@ -215,8 +221,6 @@ class LidarFan:
             for k, v in zip(*hits):
                 if v >= self._inv_range and 1.0 / v < ranges[k]:
                     ranges[k] = 1.0 / v
-        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
-            self._band_beams(ox, oy, c, s, inside, ranges)
         return ranges
 
     def cast_through_chipmunk(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:
