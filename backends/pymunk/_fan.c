@@ -218,6 +218,6 @@ static struct PyModuleDef module = {
 };
 
 PyMODINIT_FUNC PyInit__fan(void) {
-    if (miss == NULL && (miss = PyFloat_FromDouble(Py_HUGE_VAL)) == NULL) return NULL;
+    if (miss == NULL && (miss = PyFloat_FromDouble(HUGE_VAL)) == NULL) return NULL;
     return PyModule_Create(&module);
 }
