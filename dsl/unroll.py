@@ -140,6 +140,8 @@ class Unroller:
         member = members[int(k)]
         for slot in LOCAL.findall(member):
             w.read(int(slot))
+        if SEQUENCE_READ.search(member):  # [min(scan), lidar5][0]: the scan as one sequence
+            w.read(VALUES)
         return member
 
     def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
@@ -193,8 +195,10 @@ def reduce_sequence(func: str, sequence: str, n: int, extremes: dict[tuple[str, 
     return f"_{func}_of({sequence})", f"{func}_of"
 
 
-# A slot's local in generated Python: what an expression reads.
+# A slot's local in generated Python, and the channel values as one sequence: what an
+# expression reads.
 LOCAL = re.compile(r"\bv(\d+)\b")
+SEQUENCE_READ = re.compile(r"\bvalues\b")
 # A slot's local or a plain literal: safe to name more than once in an expression.
 PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
 

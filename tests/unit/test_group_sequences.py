@@ -127,7 +127,8 @@ def test_a_scan_is_reduced_over_the_values_with_no_local_per_beam(write, monkeyp
 def test_a_member_used_alone_keeps_its_local(write, monkeypatch: pytest.MonkeyPatch) -> None:
     fast, plain = _both_ways(write, monkeypatch, LIDAR + (
         "let:\n  scan: lidar1..lidar360\n  nearest: min(scan)\n  ahead: scan[180]\n"
-        "rules:\n  - if lidar90 < nearest + 0.1 or ahead < 0.5 then arc(3, -3)\n  - else move(nearest)\n"))
+        "rules:\n  - if lidar90 < nearest + 0.1 or ahead < 0.5 then arc(3, -3)\n"
+        "  - if [min(lidar1..lidar90), lidar5][0] < 0.3 then arc(-3, 3)\n  - else move(nearest)\n"))
     source = fast.code.source
     assert "_min_of(values)" in source
     assert "v183 = values[180]" in source and "v92 = values[89]" in source
