@@ -7,7 +7,9 @@ raises, and the guarded call turns that into the documented result (docs/languag
 """
 from __future__ import annotations
 
+import functools
 import math
+import operator
 import random
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -264,6 +266,23 @@ REDUCTIONS: dict[str, Reduction] = {r.name: r for r in (
 
 def argmin(*values: float) -> float:
     """Where the smallest value is, from 0, the first of equals; nan values are passed over (nan if all are)."""
+    return argmin_of(values)
+
+
+def argmax(*values: float) -> float:
+    """Where the largest value is, from 0, the first of equals; nan values are passed over (nan if all are)."""
+    return argmax_of(values)
+
+
+# The reductions of a group that is a run of the tick's channel values, called on that list
+# (or a slice of it) rather than on one argument per member: a 360-beam scan is then never
+# unpacked into locals nor passed as 360 arguments (docs/decisions.md, "Lidar kernel"). Each
+# gives what the member-by-member form gives, bit for bit (tests/unit/test_group_sequences.py).
+Values = list[float] | tuple[float, ...]
+
+
+def argmin_of(values: Values) -> float:
+    """``argmin`` of a sequence of two or more values."""
     if values and _no_nan(sum(values)):  # C's min and index: the first member equal to the smallest
         return float(values.index(min(values)))
     best, at = math.inf, math.nan
@@ -273,8 +292,8 @@ def argmin(*values: float) -> float:
     return at
 
 
-def argmax(*values: float) -> float:
-    """Where the largest value is, from 0, the first of equals; nan values are passed over (nan if all are)."""
+def argmax_of(values: Values) -> float:
+    """``argmax`` of a sequence of two or more values."""
     if values and _no_nan(sum(values)):
         return float(values.index(max(values)))
     best, at = -math.inf, math.nan
@@ -282,6 +301,51 @@ def argmax(*values: float) -> float:
         if v > best or (v == best and at != at):
             best, at = v, float(k)
     return at
+
+
+def argmin_at(values: Values, least: float) -> float:
+    """``argmin`` of a sequence whose ``min_of`` is ``least``, computed this tick: where the
+    first member equal to it is, as ``argmin_of`` finds it; a nan minimum means a member is
+    nan, and argmin passes nans over, so then the whole search."""
+    return float(values.index(least)) if least == least else argmin_of(values)
+
+
+def argmax_at(values: Values, most: float) -> float:
+    """``argmax`` of a sequence whose ``max_of`` is ``most``, computed this tick."""
+    return float(values.index(most)) if most == most else argmax_of(values)
+
+
+def min_of(values: Values) -> float:
+    """``_min(*values)`` of a sequence of two or more values: C's ``min`` keeps the first of
+    equals as ``_min`` does (-0.0 before 0.0 when it comes first); nan if a value is nan."""
+    if _no_nan(sum(values)):
+        return min(values)
+    for x in values:
+        if x != x:
+            return math.nan
+    return min(values)  # no nan after all: inf beside -inf made the sum nan
+
+
+def max_of(values: Values) -> float:
+    """``_max(*values)`` of a sequence of two or more values."""
+    if _no_nan(sum(values)):
+        return max(values)
+    for x in values:
+        if x != x:
+            return math.nan
+    return max(values)
+
+
+def sum_of(values: Values) -> float:
+    """The members added left to right from the first, as ``(a + b + c)`` adds them (Python's
+    ``sum`` starts from 0, which turns a first -0.0 into 0.0, and from 3.12 compensates its
+    rounding)."""
+    return functools.reduce(operator.add, values)
+
+
+SEQUENCE_FUNCTIONS: dict[str, Callable[..., float]] = {
+    "min_of": min_of, "max_of": max_of, "argmin_of": argmin_of, "argmax_of": argmax_of, "sum_of": sum_of,
+    "argmin_at": argmin_at, "argmax_at": argmax_at}
 
 
 # Names added after version 1: a version 1 file may have used them for its own parameters,

@@ -23,6 +23,7 @@ slots each piece reads; what version 1.2 added (groups, user functions) is apart
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -37,12 +38,14 @@ from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
-from labsim.dsl.unroll import PLAIN, Unroller, extreme, reduce
+from labsim.dsl.unroll import LOCAL, ON_SEQUENCE, PLAIN, VALUES, Unroller, extreme, reduce, reduce_sequence
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
 
 INF = math.inf
+# A signal that is the minimum or maximum of a run of the channel values, as generated
+EXTREME_OF = re.compile(r"^_(min|max)_of\((values(?:\[\d+:\d+\])?)\)$")
 CHAIN = 64  # the longest if/elif chain generated: Python's compiler recurses once per elif
 
 
@@ -88,6 +91,8 @@ class _Generator(Unroller):
         self.constants = _constants(checked, slots.slot_of)
         self.sites: list[tuple[str, FaultSite]] = []
         self.functions: set[str] = set()  # built-ins called directly
+        # ("min" | "max", a sequence's Python) -> the slot of a signal that is that reduction
+        self.extremes: dict[tuple[str, str], int] = {}
         self.notes = Notes()  # the marker comments, in the order they are made
         self.logs: list[tuple[int, tuple[LabelPart, ...]]] = []  # each log(): its line, text and (value, format)
         self.stop_parts: tuple[str, ...] = ()  # the stop condition's top-level 'or' parts, as written
@@ -115,7 +120,9 @@ class _Generator(Unroller):
         """
         c = self.c
         n = len(c.channels)
-        channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n))
+        # the channels' slots, and VALUES (all of them as one sequence): signals(), fold() and
+        # both() have them as their argument ``values``, decide() reads them from the slots
+        channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n)) | {VALUES}
         computed = {self.slot_of[name] for name, _ in c.lets}
         computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
         signals, stop_note, stop = self.signals()
@@ -134,7 +141,7 @@ class _Generator(Unroller):
                 w.line("s[1] = v1")
                 if n:
                     w.line(f"s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}] = values")
-                _unpack(w, channels)
+                _unpack(w, signals.reads & channels, n)
                 _loads(w, signal_loads)
                 w.insert(signals)
                 with w.source(stop_note):
@@ -142,7 +149,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def decide():")
             with w.indent():
-                _loads(w, decide_reads)
+                _loads(w, decide_reads, n)
                 w.insert(rules)
                 for metric in metrics:
                     w.insert(metric)
@@ -150,7 +157,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def fold(v0, v1, values):")
             with w.indent():
-                _unpack(w, channels)
+                _unpack(w, metric_reads & channels, n)
                 _loads(w, metric_reads - channels - {TIME, TICK})
                 for metric, m in zip(metrics, c.metrics):
                     if m.aggregate is not Aggregate.DURATION:  # the stopping tick lasts no time
@@ -159,7 +166,7 @@ class _Generator(Unroller):
             w.line()
             w.line("def both(v0, v1, values):")
             with w.indent():
-                _unpack(w, channels)
+                _unpack(w, (signals.reads | decide_reads) & channels, n)
                 _loads(w, signal_loads)
                 w.insert(signals)
                 with w.source(stop_note):
@@ -201,8 +208,12 @@ class _Generator(Unroller):
                 self.drop_images(w, j)
                 continue
             with w.source(self.note(parsed.text, f"{name}: ")):
-                w.line(f"s[{slot}] = v{slot} = " + self.expr(w, parsed.node, parsed.text, "signal " + repr(name)))
+                code = self.expr(w, parsed.node, parsed.text, "signal " + repr(name))
+                w.line(f"s[{slot}] = v{slot} = " + code)
                 self.drop_images(w, j)
+            extreme_of = EXTREME_OF.match(code)
+            if extreme_of:  # argmin of the same values, later, is where this is (unroll.reduce_sequence)
+                self.extremes.setdefault((extreme_of[1], extreme_of[2]), slot)
         for shared in self.layout.shared_labels:  # the slider whose value changed last shows its text
             for k, (slot, last) in enumerate(shared.sliders):
                 w.line(f"if s[{slot}] != s[{last}]: s[{shared.choice}] = {k}; s[{last}] = s[{slot}]")
@@ -507,6 +518,13 @@ class _Generator(Unroller):
             # run's first tick (v1, the tick, is 0) takes the initial value
             return f"(s[{slot}] if v{TICK} else {self.expr(w, e.args[1], text, where)})"
         if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
+            sequence = self.sequence(w, e.args[0]) if e.func in ON_SEQUENCE else None
+            if sequence is not None:  # a run of the channel values: one call on them (unroll.VALUES)
+                code, function = reduce_sequence(e.func, *sequence, self.extremes)
+                for slot in LOCAL.findall(code):  # argmin_at reads the minimum's signal
+                    w.read(int(slot))
+                self.functions.add(function)
+                return code
             if e.func in ("min", "max"):
                 self.functions.add(e.func)
             return reduce(e.func, self.members(w, e.args[0], text, where))
@@ -549,16 +567,23 @@ def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:
     return out
 
 
-def _unpack(w: Writer, channels: frozenset[int]) -> None:
-    """The tick's channel values into their locals."""
-    if channels:
-        w.line(", ".join(f"v{i}" for i in sorted(channels)) + ", = values")
+def _unpack(w: Writer, read: frozenset[int], n: int) -> None:
+    """The channel values the code reads one by one into their locals: all n in one unpacking
+    when it reads half of them or more, else each by its index (a lidar's scan reduced as one
+    sequence needs no local per beam)."""
+    read = read - {VALUES}
+    if 2 * len(read) >= n:
+        if read:
+            w.line(", ".join(f"v{i}" for i in range(FIRST_CHANNEL, FIRST_CHANNEL + n)) + ", = values")
+        return
+    for i in sorted(read):
+        w.line(f"v{i} = values[{i - FIRST_CHANNEL}]")
 
 
-def _loads(w: Writer, slots: frozenset[int] | set[int]) -> None:
-    """Slots into their locals, once per function."""
+def _loads(w: Writer, slots: frozenset[int] | set[int], n: int = 0) -> None:
+    """Slots into their locals, once per function; VALUES (all n channels) as ``values``."""
     for i in sorted(slots):
-        w.line(f"v{i} = s[{i}]")
+        w.line(f"values = s[{FIRST_CHANNEL}:{FIRST_CHANNEL + n}]" if i == VALUES else f"v{i} = s[{i}]")
 
 
 def _fold_metric(w: Writer, aggregate: Aggregate, e: str, i: int) -> None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import RobotModel
-from labsim.dsl.builtins import FUNCTIONS, Aggregate, Type, argmax, argmin
+from labsim.dsl.builtins import FUNCTIONS, SEQUENCE_FUNCTIONS, Aggregate, Type, argmax, argmin
 from labsim.dsl.memory import PRIMED
 from labsim.foundation.diagnostics import Diagnostic
 
@@ -116,7 +116,7 @@ def namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str
                              "_random": rng.random, "_uniform": rng.uniform, "_gauss": rng.gauss,
                              "_argmin": argmin, "_argmax": argmax}
     for name in functions:
-        ns["_" + name] = FUNCTIONS[name].resolve()
+        ns["_" + name] = SEQUENCE_FUNCTIONS[name] if name in SEQUENCE_FUNCTIONS else FUNCTIONS[name].resolve()
     # drive(v, w) turns m/s and rad/s into wheel rad/s with the robot's own geometry
     ns["_radius"] = model.wheel_radius_m if model else 1.0
     ns["_half_axle"] = model.axle_length_m / 2 if model else 0.5

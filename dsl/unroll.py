@@ -18,6 +18,7 @@ from labsim.dsl.builtins import Type
 from labsim.dsl.check import Checked
 from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.layout import Layout
+from labsim.dsl.support import FIRST_CHANNEL
 from labsim.dsl.writer import Writer
 from labsim.foundation.source import Text
 
@@ -87,6 +88,34 @@ class Unroller:
             return body
         raise AssertionError(f"cannot compile the group {e!r}")
 
+    def sequence(self, w: Writer, e: ast.Expr) -> tuple[str, int] | None:
+        """Python for a group that is a run of more than three of the tick's channel values, in
+        order, as that sequence (``values``, or a slice of it), and its size; None for any other
+        group (up to three members, ``extreme`` writes min and max without a call).
+
+        A lidar's scan ``lidar1..lidar360`` is then reduced in one call on the list the backend
+        gave, with no local per member: the writer records ``VALUES``, which the generator
+        turns into ``values`` being there (it is signals()'s argument; decide() reads it from
+        the slots)."""
+        if isinstance(e, ast.Name) and not (self.env and e.id in self.env[-1]) and e.id in self.layout.members:
+            if self.layout.members[e.id] is not None:
+                return None  # a group with slots of its own
+            e = self.let_of[e.id].node
+        if not isinstance(e, ast.Group) or not all(isinstance(m, ast.Name) for m in e.members):
+            return None
+        names = [m.id for m in e.members]  # type: ignore[attr-defined]  # all Names, just tested
+        if self.env and any(name in self.env[-1] for name in names):
+            return None
+        slots = [self.layout.slot_of.get(name, -1) for name in names]
+        first, end = slots[0], slots[0] + len(slots)
+        if (len(slots) <= 3 or first < FIRST_CHANNEL or end > FIRST_CHANNEL + len(self.c.channels)
+                or slots != list(range(first, end))):
+            return None
+        w.read(VALUES)
+        if end - first == len(self.c.channels):
+            return "values", len(slots)
+        return f"values[{first - FIRST_CHANNEL}:{end - FIRST_CHANNEL}]", len(slots)
+
     def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
         """An operand of an operator on groups: its members, or its value once per member."""
         if self.c.node_types.get(id(e)) in (Type.NUMBERS, Type.BOOLS):
@@ -94,16 +123,26 @@ class Unroller:
         return [self.expr(w, e, text, where)] * n
 
     def index(self, w: Writer, e: ast.Index, text: Text, where: str) -> str:
-        """front[2]: the member itself; front[k] for a k known only at run time, through a guard."""
-        members = self.members(w, e.value, text, where)
+        """front[2]: the member itself; front[k] for a k known only at run time, through a guard.
+
+        front[2] reads only that member's locals: a member of a scan picked alone must not load
+        the other 359 beams."""
+        scratch = Writer()
+        members = self.members(scratch, e.value, text, where)
         try:
             k = fold(e.index, self.constants)
         except NotConstant:
+            w.insert(scratch.body())
             kind = "[]?" if self.c.node_types.get(id(e)) is Type.BOOL else "[]"
             k_code = self.expr(w, e.index, text, where)
             return f"{self.site(kind, text, e.span, where)}(({', '.join(members)},), {k_code})"
         assert isinstance(k, (int, float)) and float(k).is_integer()  # the checker refused other numbers
-        return members[int(k)]
+        member = members[int(k)]
+        for slot in LOCAL.findall(member):
+            w.read(int(slot))
+        if SEQUENCE_READ.search(member):  # [min(scan), lidar5][0]: the scan as one sequence
+            w.read(VALUES)
+        return member
 
     def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
         """A user function's body in place of its call: a parameter whose argument folds is a
@@ -133,6 +172,33 @@ class Unroller:
             self.constants = outer
 
 
+# What a writer records as read when code uses the tick's channel values as one sequence
+# (``values``): no slot has this number.
+VALUES = -1
+# The reductions with a form on such a sequence (labsim.dsl.builtins.SEQUENCE_FUNCTIONS); mean
+# is the sum's, divided.
+ON_SEQUENCE = frozenset({"min", "max", "argmin", "argmax", "sum", "mean"})
+
+
+def reduce_sequence(func: str, sequence: str, n: int, extremes: dict[tuple[str, str], int]) -> tuple[str, str]:
+    """A reduction of a group held as a sequence: the Python and the function it calls.
+
+    ``extremes`` holds the signals already computed as the minimum or maximum of a sequence:
+    argmin of the same values is then where that minimum is (``argmin_at``), without a second
+    pass of C's min over a lidar's 360 beams (the scan's nearest point and its direction are
+    the usual pair)."""
+    if func == "mean":
+        return f"(_sum_of({sequence}) / {float(n)!r})", "sum_of"
+    slot = extremes.get((func[3:], sequence)) if func in ("argmin", "argmax") else None
+    if slot is not None:
+        return f"_{func}_at({sequence}, v{slot})", f"{func}_at"
+    return f"_{func}_of({sequence})", f"{func}_of"
+
+
+# A slot's local in generated Python, and the channel values as one sequence: what an
+# expression reads.
+LOCAL = re.compile(r"\bv(\d+)\b")
+SEQUENCE_READ = re.compile(r"\bvalues\b")
 # A slot's local or a plain literal: safe to name more than once in an expression.
 PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
 

@@ -188,7 +188,7 @@ def compile_sense(
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
-        rows.append(f"[{', '.join(values)}]")
+        rows.append(f"scan{r}" if values == [f"*scan{r}"] else f"[{', '.join(values)}]")  # a lidar alone: its new list
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])

@@ -1,4 +1,4 @@
-"""A lidar's whole fan of beams cast at once with numpy, outside chipmunk: the pymunk backend's lidar.
+"""A lidar's whole fan of beams cast at once, in C or with numpy, outside chipmunk: the pymunk backend's lidar.
 
 ``labsim.backends.pymunk.fleet_sense`` calls ``LidarFan.cast`` once a tick for each robot that
 reads lidar beams, where a sonar is one chipmunk ray cast (chipmunk's segment query costs
@@ -19,11 +19,18 @@ a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
 ``1 / t = (cross(p1, u) + cross(u, p2)) / cross(p1, p2)`` with both cross products >= 0. A
 missed beam reads 0 or less there, so the nearest face is a maximum over faces, and a beam
 whose maximum is below 1 / range_m reads ``inf``.
+
+Where the install built ``_fan.c`` (a C compiler was there) one call of it does the faces, the
+circles and the list of ranges, each face and circle tried only by the beams within its
+angular extent; else numpy does them as above. ``KERNEL`` says which ("c" or "numpy"); both
+read the same to 1e-12 m (docs/decisions.md, "Lidar kernel").
 """
 from __future__ import annotations
 
 import bisect
 import math
+from array import array
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +51,17 @@ TOUCH_M = 5e-324
 ANGLE_MARGIN_RAD = 1e-9
 TAU = 2.0 * math.pi
 maximum = np.maximum  # its reduce, without ndarray.max's Python layer
+
+# The C kernel (_fan.c) when the install built it, else None and the numpy fan: KERNEL says
+# which casts (docs/decisions.md, "Lidar kernel").
+Kernel = Callable[[float, float, float, float, list, list, bytes, float], list]
+try:
+    from labsim.backends.pymunk import _fan
+except ImportError:  # no C compiler at install time: the numpy fan, a few times slower
+    _kernel: Kernel | None = None
+else:
+    _kernel = _fan.cast
+KERNEL = "c" if _kernel is not None else "numpy"
 
 
 @dataclass(frozen=True)
@@ -129,11 +147,13 @@ class LidarFan:
     ``angles_rad`` are the beams' directions in the robot frame, in the order ``cast`` returns
     them; ``mount_x_m`` the lidar's place ahead of the body's origin. Static shapes are taken
     apart once; other bodies' shapes (other robots) are put where their bodies are every tick.
-    A tick's work per face or circle is plain Python (a handful of them), per beam numpy.
+    A tick's work is one call of the C kernel (``KERNEL == "c"``), or with numpy plain Python
+    per face or circle (a handful of them) and numpy per beam; ``compiled=False`` takes the
+    numpy fan even where the kernel was built (the tests compare the two).
     """
 
     def __init__(self, space: pymunk.Space, body: pymunk.Body, ray_filter: pymunk.ShapeFilter,
-                 angles_rad: list[float], mount_x_m: float, range_m: float) -> None:
+                 angles_rad: list[float], mount_x_m: float, range_m: float, *, compiled: bool = True) -> None:
         seen = [s for s in space.shapes if not s.sensor and not rejects(s.filter, ray_filter) and s.body is not None]
         static = outline([s for s in seen if _body(s).body_type == pymunk.Body.STATIC])
         self._static = Outline(static.p1, static.p2, *_unique(static.centres, static.radii), static.walls)
@@ -154,6 +174,9 @@ class LidarFan:
         order = sorted(range(len(angles_rad)), key=lambda k: angles_rad[k] % TAU)
         self._by_angle = [angles_rad[k] % TAU for k in order]
         self._order = order
+        self._kernel = _kernel if compiled else None
+        # the kernel's table of the beams: cos, sin, the sorted directions and their beams
+        self._table = array("d", self._cos + self._sin + self._by_angle + [float(k) for k in order]).tobytes()
         self._beams = len(angles_rad)
         self._mount_x_m = mount_x_m
         self._range_m = range_m
@@ -173,10 +196,22 @@ class LidarFan:
         near = self._near
         if near is None or math.hypot(ox - near.x_m, oy - near.y_m) > SLACK_M:
             near = self._near = self._choose(ox, oy)
-        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]]
+        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]] \
+            if near.bands else near.bands
         faces, circles = near.faces, near.circles
         if self._moving:
             faces, circles = self._with_moving(ox, oy, faces, circles)
+        if self._kernel is not None:
+            ranges = self._kernel(ox, oy, c, s, faces, circles, self._table, self._inv_range)
+        else:
+            ranges = self._numpy_ranges(ox, oy, c, s, faces, circles)
+        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
+            self._band_beams(ox, oy, c, s, inside, ranges)
+        return ranges
+
+    def _numpy_ranges(self, ox: float, oy: float, c: float, s: float, faces: list[Face],
+                      circles: list[Circle]) -> list[float]:
+        """What the C kernel gives, with numpy: the faces' and the circles' nearest, or inf."""
         inv = self._faces(ox, oy, c, s, faces)
         out = self._inf.copy()
         np.divide(1.0, inv, out=out, where=inv >= self._inv_range)
@@ -186,8 +221,6 @@ class LidarFan:
             for k, v in zip(*hits):
                 if v >= self._inv_range and 1.0 / v < ranges[k]:
                     ranges[k] = 1.0 / v
-        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
-            self._band_beams(ox, oy, c, s, inside, ranges)
         return ranges
 
     def cast_through_chipmunk(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:

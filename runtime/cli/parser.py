@@ -10,6 +10,7 @@ only when they are the command. Shell completion asks for every command's option
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -48,13 +49,28 @@ def build_parser(argv: Sequence[str] | None = None, *, every: bool = False) -> a
     when ``every``."""
     named = _command_named(sys.argv[1:] if argv is None else argv)
     p = _Parser(prog="labsim", description="Run robotics labs written as behaviour files.")
-    p.add_argument("--version", action="version", version=f"labsim {__version__}")
+    p.add_argument("--version", action=_Version, help="show labsim's version and its lidar's kernel, and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for command in COMMANDS:
         declared = sub.add_parser(command.name, help=command.help)
         if every or command.name == named:
             command.declare(declared)
     return p
+
+
+class _Version(argparse.Action):
+    """``--version``: labsim's version, and whether the lidar casts with its C kernel (built
+    where ``pip install`` found a compiler) or with numpy; asked without importing numpy."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        kernel = "C" if importlib.util.find_spec("labsim.backends.pymunk._fan") is not None else "numpy"
+        print(f"labsim {__version__} (lidar fan: {kernel})")
+        parser.exit()
 
 
 def _command_named(argv: Sequence[str]) -> str | None:

@@ -1,0 +1,3 @@
+# The C kernel's signature (backends/pymunk/_fan.c), for mypy: built only where a compiler was.
+def cast(ox: float, oy: float, c: float, s: float, faces: list, circles: list, table: bytes,
+         inv_range: float) -> list[float]: ...
