@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_OK
 from labsim.foundation.files import check_output, write_output
-from labsim.runtime.pictures.trace_sample import read_for_picture
+from labsim.runtime.pictures.trace_sample import Wanted, read_for_picture
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 if TYPE_CHECKING:
@@ -113,7 +113,10 @@ def run_plot(args: argparse.Namespace) -> int:
         if value is not None and value < low:
             raise _fail("labsim plot", f"{name} must be at least {low:g} (got {value:g})")
     try:
-        trace, thinned = read_for_picture(args.trace)  # in bounded memory, whatever its size
+        wanted: Wanted | None = None
+        if kind == "movie":  # an animation reads a few columns: only those are split into cells
+            from labsim.runtime.pictures.animate import movie_columns as wanted
+        trace, thinned = read_for_picture(args.trace, wanted=wanted)  # in bounded memory, whatever its size
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
         check_output(out, drawn_from(trace))  # now that the trace says which files it names

@@ -16,11 +16,13 @@ cut short, so that a few times ``MAX_KEPT`` is the worst (docs/pictures.md gives
 from __future__ import annotations
 
 import codecs
+import contextlib
 import csv
+import gc
 import itertools
 import math
 import operator
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -28,6 +30,7 @@ import numpy as np
 
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_chunks, read_head
+from labsim.runtime.pictures.trace_plain import NotPlain, narrow, plain_rows
 from labsim.runtime.trace import (
     FOOTER,
     MAGIC,
@@ -43,6 +46,8 @@ MAX_KEPT = 128 * 1024 * 1024  # bytes of kept rows as Python holds them (an esti
 CELL_BYTES = 57  # a short str and its place in the row's list
 LONG_CELL = 64  # past twice MAX_KEPT, a kept row's longer cells are cut to this many characters
 BATCH = 20_000  # rows checked at a time
+CHECKED = ("tick", "time", "x", "y", "heading")  # the columns ``check_rows`` reads: always read
+Wanted = Callable[[str, dict, list[str]], "list[str] | None"]  # (path, header, columns) -> names
 
 
 @dataclass
@@ -69,22 +74,25 @@ class _Lines:
         self._it = itertools.chain([(lines[1:], footer_in)], it)
         return self.header
 
-    def __iter__(self) -> Iterator[str]:
+    def batches(self) -> Iterator[list[str]]:
+        """The lines after the header a chunk at a time, the footer held back (``self.footer``)."""
         held = ""
         for lines, footer_in in self._it:
             if not held and not footer_in:  # most chunks: no line to look at one by one
-                yield from lines
+                yield lines
                 continue
+            out = []
             for line in lines:
                 if line.startswith(FOOTER):  # the footer, if nothing but blank lines follows it
                     if held:
-                        yield held
+                        out.append(held)
                     held = line
                     continue
                 if held and line.strip():
-                    yield held
+                    out.append(held)
                     held = ""
-                yield line
+                out.append(line)
+            yield out
         self.footer = held
 
     def _all(self) -> Iterator[tuple[list[str], bool]]:
@@ -117,30 +125,56 @@ def count_lines(path: str) -> tuple[int, int]:
     return lines + 1, size
 
 
-def read_for_picture(path: str, max_kept: int = MAX_KEPT) -> tuple[Trace, str]:
+def read_for_picture(path: str, max_kept: int = MAX_KEPT, wanted: Wanted | None = None) -> tuple[Trace, str]:
     """The trace, thinned to about ``max_kept`` bytes of rows when it holds more, and a note
-    saying how it was thinned ('' when it was not). Errors are ``read_trace``'s."""
+    saying how it was thinned ('' when it was not). Errors are ``read_trace``'s. ``wanted``, given
+    the path, the header and the columns, names the columns the picture reads (None: all); a trace that is
+    not thinned is then read only as far as those (``labsim.runtime.pictures.trace_plain``), and
+    its ``columns`` are the ones read, in the file's order."""
     try:
-        return _read(path, max_kept)
+        with _no_gc():
+            return _read(path, max_kept, wanted)
     except LabsimError as e:
         raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path)) from None
 
 
-def _read(path: str, max_kept: int) -> tuple[Trace, str]:
+@contextlib.contextmanager
+def _no_gc() -> Iterator[None]:
+    """The cyclic garbage collector off while the rows are made: every row is a new list, and the
+    collector walked all those read so far again and again (a fifth of reading an hour's trace);
+    lists of strings make no cycles for it to find."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def _read(path: str, max_kept: int, wanted: Wanted | None) -> tuple[Trace, str]:
     lines = _Lines(path, read_chunks(path, "trace"))
     first = lines.first()
     # what else the file is, when it is no trace, is told from its start
     start = first if first.startswith(MAGIC) else read_head(path, 4096, "trace").decode("utf-8", "replace")
     header = parse_header(path, first.rstrip("\n"), start)
-    reader = csv.reader(iter(lines))
-    columns = read_columns(path, reader)
+    cursor = _Cursor(lines.batches())
+    columns = read_columns(path, csv.reader(cursor))
     lines_in, size = count_lines(path)
     every = max(1, math.ceil((size + max(lines_in - 2, 1) * (len(columns) * CELL_BYTES + 64)) / max_kept))
+    names = wanted(path, header, columns) if wanted is not None and every == 1 else None
+    if names is not None:
+        try:
+            return _read_plain(path, header, lines, cursor, columns, names), ""
+        except (NotPlain, TraceFormatError):  # read again by the csv module: its rows, or its message
+            return _read(path, max_kept, None)
+    reader = csv.reader(itertools.chain.from_iterable(cursor.rest()))
     keep = _Keep(columns, every, max_kept)
     try:
-        batch, at = _rows_by_batch(path, reader, keep)
+        batch, at = _rows_by_batch(path, reader, keep, cursor.taken)
     except csv.Error as e:
-        raise TraceFormatError(f"{path}:{reader.line_num + 1}: damaged row: {e}", path, reader.line_num + 1) from None
+        line = cursor.taken + reader.line_num + 1
+        raise TraceFormatError(f"{path}:{line}: damaged row: {e}", path, line) from None
     if batch and len(batch[-1]) < len(columns) and not lines.newline_at_end:
         batch.pop()  # a run killed mid-write leaves half a line: the ticks before it still stand
         at.pop()
@@ -153,6 +187,42 @@ def _read(path: str, max_kept: int) -> tuple[Trace, str]:
     return trace, (f"{keep.seen:,} rows are more than a picture keeps in memory ({max_kept // 2 ** 20} MiB): "
                    f"drawn from {len(rows):,} of them (one in {every} of each robot's, and every row with an event, "
                    "a collision or a new state)")
+
+
+def _read_plain(path: str, header: dict, lines: _Lines, cursor: _Cursor, columns: list[str],
+                wanted: list[str]) -> Trace:
+    """The rows cut to the wanted columns (``trace_plain``), checked as ``read_trace`` checks them."""
+    names, upto = narrow(columns, [*wanted, *CHECKED])
+    rows, at = plain_rows(cursor.rest(), len(columns), upto, cursor.taken + 2)
+    check_rows(path, names, rows, at)
+    _, footer = footer_of(lines.footer or "\n")
+    return Trace(path, header, names, rows, footer, at, numbers=_numbers(names, rows))
+
+
+class _Cursor:
+    """The lines after the header: one at a time for the csv module to read the column line, then
+    the rest a batch at a time; ``taken``: the lines given one at a time."""
+
+    def __init__(self, batches: Iterator[list[str]]):
+        self._batches = batches
+        self._batch: list[str] = []
+        self._at = 0
+        self.taken = 0
+
+    def __iter__(self) -> _Cursor:
+        return self
+
+    def __next__(self) -> str:
+        while self._at == len(self._batch):
+            self._batch, self._at = next(self._batches), 0
+        self._at += 1
+        self.taken += 1
+        return self._batch[self._at - 1]
+
+    def rest(self) -> Iterator[list[str]]:
+        """The lines not given yet, a batch at a time."""
+        yield self._batch[self._at:]
+        yield from self._batches
 
 
 Rows = tuple[list[list[str]], list[int]]
@@ -168,20 +238,21 @@ class CsvReader(Protocol):
     def __next__(self) -> list[str]: ...
 
 
-def _rows_by_batch(path: str, reader: CsvReader, keep: _Keep) -> Rows:
-    """The rows given to ``keep`` a batch at a time, each with its line in the file; the last
-    batch is returned, not given (a half-written last row may have to go first). The rows are
+def _rows_by_batch(path: str, reader: CsvReader, keep: _Keep, before: int) -> Rows:
+    """The rows given to ``keep`` a batch at a time, each with its line in the file (``before``:
+    the lines after the header the reader did not see); the last batch is returned, not given (a
+    half-written last row may have to go first). The rows are
     taken from the reader in C (``islice``) and their lines counted after, instead of a Python
     step per row, which was half of reading an hour-long trace: a row ends as many lines after
     the one before as the newlines in its quoted cells, plus one (blank lines give no row)."""
     batch: list[list[str]] = []
     at: list[int] = []
     while True:
-        start = reader.line_num
+        start = before + reader.line_num
         got = list(itertools.islice(reader, BATCH - len(batch)))
         if not got:
             return batch, at
-        if reader.line_num - start == len(got) and all(got):  # each row one line: most files
+        if before + reader.line_num - start == len(got) and all(got):  # each row one line: most files
             batch += got
             at += range(start + 2, start + 2 + len(got))
         else:
