@@ -12,9 +12,13 @@ file again with the csv module, whose rows, lines and messages stay the referenc
 """
 from __future__ import annotations
 
+import collections
 import csv
 import itertools
+import operator
 from collections.abc import Iterable
+
+_REST, _AFTER = operator.itemgetter(-1), operator.itemgetter(2)
 
 
 class NotPlain(Exception):
@@ -51,10 +55,10 @@ def plain_rows(batches: Iterable[list[str]], fields: int, upto: int,
             raise NotPlain
         if upto + 1 >= fields:
             got = [p.split(",") for p in parts]
-        else:
+        else:  # the rest of each line holds the columns not read, then the last one: that one only
             got = [p.split(",", upto) for p in parts]
-            for r in got:  # the rest of the line holds the columns not read, then the last one
-                r[-1] = r[-1][r[-1].rfind(",") + 1:]
+            last = map(_AFTER, map(str.rpartition, map(_REST, got), itertools.repeat(",")))
+            collections.deque(map(operator.setitem, got, itertools.repeat(-1), last), maxlen=0)  # in C
         rows += got
         lines += range(line, line + len(parts))
         line += len(batch)

@@ -194,9 +194,21 @@ def _read_plain(path: str, header: dict, lines: _Lines, cursor: _Cursor, columns
     """The rows cut to the wanted columns (``trace_plain``), checked as ``read_trace`` checks them."""
     names, upto = narrow(columns, [*wanted, *CHECKED])
     rows, at = plain_rows(cursor.rest(), len(columns), upto, cursor.taken + 2)
-    check_rows(path, names, rows, at)
+    numbers = _numbers(names, rows)
+    # numpy reads a str as float() does: a number column it converted needs no check of its own
+    if not (_ticks_ok(names, rows) and all(c in numbers for c in CHECKED[1:] if c in names)):
+        check_rows(path, names, rows, at)
     _, footer = footer_of(lines.footer or "\n")
-    return Trace(path, header, names, rows, footer, at, numbers=_numbers(names, rows))
+    return Trace(path, header, names, rows, footer, at, numbers=numbers)
+
+
+def _ticks_ok(columns: list[str], rows: list[list[str]]) -> bool:
+    """Every tick cell is a whole number, as ``check_rows`` has it: digits, none empty."""
+    if "tick" not in columns:
+        return True
+    cells = list(map(operator.itemgetter(columns.index("tick")), rows))
+    joined = "".join(cells)
+    return all(cells) and joined.isascii() and (joined.isdigit() or not joined)
 
 
 class _Cursor:

@@ -83,3 +83,29 @@ def test_a_damaged_row_has_the_csv_reader_s_message(tmp_path: Path, change: str)
     with pytest.raises(TraceFormatError) as narrow:
         read_for_picture(path, wanted=movie_columns)
     assert str(narrow.value) == str(whole.value) and narrow.value.line == whole.value.line == 6
+
+
+def test_numpy_reads_a_number_cell_as_float_does() -> None:
+    # the plain read checks its number columns by converting them with numpy (Trace.numbers)
+    for cell in ["1.5", " 2 ", "1_0", "\u0661\u0662", "inf", "-Infinity", "nan", "1e400", "0x10", "", "1,5", "--1"]:
+        try:
+            expected: float | None = float(cell)
+        except ValueError:
+            expected = None
+        try:
+            got: float | None = float(np.array([cell], dtype=float)[0])
+        except ValueError:
+            got = None
+        assert got == expected or (got != got and expected != expected), cell
+
+
+def test_a_bad_tick_has_the_csv_reader_s_message(tmp_path: Path) -> None:
+    lines = GOLDEN.read_text().splitlines(keepends=True)
+    lines[7] = "7a" + lines[7][lines[7].index(","):]
+    path = tmp_path / "tick.csv"
+    path.write_text("".join(lines))
+    with pytest.raises(TraceFormatError) as whole:
+        read_for_picture(str(path))
+    with pytest.raises(TraceFormatError) as narrow:
+        read_for_picture(str(path), wanted=movie_columns)
+    assert str(narrow.value) == str(whole.value) and "column 'tick' holds '7a'" in str(whole.value)
