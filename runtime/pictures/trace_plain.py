@@ -33,33 +33,35 @@ def narrow(columns: list[str], wanted: Iterable[str]) -> tuple[list[str], int]:
     return columns[:upto] + columns[-1:], upto
 
 
-def plain_rows(batches: Iterable[list[str]], fields: int, upto: int,
-               first_line: int) -> tuple[list[list[str]], list[int]]:
-    """The rows of these batches of lines (each ending in a newline but perhaps the file's last),
-    cut to ``narrow``'s columns, and each row's line in the file (the first is ``first_line``).
-    A last line without a newline and with too few fields is a row a killed run left half written:
-    dropped, as ``read_trace`` drops it."""
+def plain_rows(blocks: Iterable[str], fields: int, upto: int, first_line: int) -> tuple[list[list[str]], list[int]]:
+    """The rows of these blocks of whole lines (each ending in a newline but perhaps the file's
+    last), cut to ``narrow``'s columns, and each row's line in the file (the first is
+    ``first_line``). A last line without a newline and with too few fields is a row a killed run
+    left half written: dropped, as ``read_trace`` drops it."""
     rows: list[list[str]] = []
     lines: list[int] = []
     limit = csv.field_size_limit()
     line = first_line
-    for batch in batches:
-        text = "".join(batch)
+    for text in blocks:
         if '"' in text or "\r" in text or "\0" in text:
             raise NotPlain
         parts = text.split("\n")
-        if not parts[-1] or parts[-1].count(",") < fields - 1:
-            parts.pop()  # the "" after the last newline, or the half-written row
+        ends = not parts[-1]
+        if ends:
+            parts.pop()  # the "" after the last newline
+        count = len(parts)
+        if not ends and parts[-1].count(",") < fields - 1:
+            parts.pop()  # the half-written row
         if parts and (not all(parts) or max(map(len, parts)) >= limit
                       or set(map(str.count, parts, itertools.repeat(","))) != {fields - 1}):
             raise NotPlain
         if upto + 1 >= fields:
-            got = [p.split(",") for p in parts]
+            got = list(map(str.split, parts, itertools.repeat(",")))
         else:  # the rest of each line holds the columns not read, then the last one: that one only
-            got = [p.split(",", upto) for p in parts]
+            got = list(map(str.split, parts, itertools.repeat(","), itertools.repeat(upto)))
             last = map(_AFTER, map(str.rpartition, map(_REST, got), itertools.repeat(",")))
             collections.deque(map(operator.setitem, got, itertools.repeat(-1), last), maxlen=0)  # in C
         rows += got
         lines += range(line, line + len(parts))
-        line += len(batch)
+        line += count
     return rows, lines

@@ -64,25 +64,27 @@ class _Lines:
     def first(self) -> str:
         """The header line (and the file's start, for a message when it is no trace)."""
         it = self._all()
-        lines, footer_in = next(it, ([], False))
-        while not lines:  # a first chunk without a whole line: the header is longer than a chunk
+        block, footer_in = next(it, ("", False))
+        while not block:  # a first chunk without a whole line: the header is longer than a chunk
             more = next(it, None)
             if more is None:
                 break
-            lines, footer_in = more
-        self.header = lines[0] if lines else ""
-        self._it = itertools.chain([(lines[1:], footer_in)], it)
+            block, footer_in = more
+        head, newline, rest = block.partition("\n")
+        self.header = head + newline
+        self._it = itertools.chain([(rest, footer_in)], it)
         return self.header
 
-    def batches(self) -> Iterator[list[str]]:
-        """The lines after the header a chunk at a time, the footer held back (``self.footer``)."""
+    def blocks(self) -> Iterator[str]:
+        """The lines after the header, whole lines a chunk at a time, the footer held back
+        (``self.footer``)."""
         held = ""
-        for lines, footer_in in self._it:
+        for block, footer_in in self._it:
             if not held and not footer_in:  # most chunks: no line to look at one by one
-                yield lines
+                yield block
                 continue
             out = []
-            for line in lines:
+            for line in lines_of(block):
                 if line.startswith(FOOTER):  # the footer, if nothing but blank lines follows it
                     if held:
                         out.append(held)
@@ -92,11 +94,12 @@ class _Lines:
                     out.append(held)
                     held = ""
                 out.append(line)
-            yield out
+            yield "".join(out)
         self.footer = held
 
-    def _all(self) -> Iterator[tuple[list[str], bool]]:
-        """The file's lines a chunk at a time, and whether a line among them may be the footer."""
+    def _all(self) -> Iterator[tuple[str, bool]]:
+        """The file's text a chunk at a time, cut after a newline (but for the file's last line), and
+        whether a line in it may be the footer."""
         decoder = codecs.getincrementaldecoder("utf-8")()
         tail = ""
         done = 0
@@ -104,16 +107,23 @@ class _Lines:
             for chunk in self.chunks:
                 text = tail + decoder.decode(chunk)
                 done += len(chunk)
-                lines = text.split("\n")
-                tail = lines.pop()
-                yield [line + "\n" for line in lines], FOOTER in text
+                cut = text.rfind("\n") + 1
+                tail = text[cut:]
+                yield text[:cut], FOOTER in text
             tail += decoder.decode(b"", final=True)
         except UnicodeDecodeError as e:
             raise TraceFormatError(f"{self.path}: not UTF-8 text (byte {done + e.start}): not a labsim trace",
                                    self.path) from None
         self.newline_at_end = not tail
         if tail:
-            yield [tail], FOOTER in tail
+            yield tail, FOOTER in tail
+
+
+def lines_of(block: str) -> list[str]:
+    """A block's lines, each with its newline (the file's last line may have none)."""
+    lines = block.split("\n")
+    last = lines.pop()
+    return [line + "\n" for line in lines] + ([last] if last else [])
 
 
 def count_lines(path: str) -> tuple[int, int]:
@@ -158,7 +168,7 @@ def _read(path: str, max_kept: int, wanted: Wanted | None) -> tuple[Trace, str]:
     # what else the file is, when it is no trace, is told from its start
     start = first if first.startswith(MAGIC) else read_head(path, 4096, "trace").decode("utf-8", "replace")
     header = parse_header(path, first.rstrip("\n"), start)
-    cursor = _Cursor(lines.batches())
+    cursor = _Cursor(lines.blocks())
     columns = read_columns(path, csv.reader(cursor))
     lines_in, size = count_lines(path)
     every = max(1, math.ceil((size + max(lines_in - 2, 1) * (len(columns) * CELL_BYTES + 64)) / max_kept))
@@ -168,7 +178,7 @@ def _read(path: str, max_kept: int, wanted: Wanted | None) -> tuple[Trace, str]:
             return _read_plain(path, header, lines, cursor, columns, names), ""
         except (NotPlain, TraceFormatError):  # read again by the csv module: its rows, or its message
             return _read(path, max_kept, None)
-    reader = csv.reader(itertools.chain.from_iterable(cursor.rest()))
+    reader = csv.reader(itertools.chain.from_iterable(map(lines_of, cursor.rest())))
     keep = _Keep(columns, every, max_kept)
     try:
         batch, at = _rows_by_batch(path, reader, keep, cursor.taken)
@@ -213,11 +223,11 @@ def _ticks_ok(columns: list[str], rows: list[list[str]]) -> bool:
 
 class _Cursor:
     """The lines after the header: one at a time for the csv module to read the column line, then
-    the rest a batch at a time; ``taken``: the lines given one at a time."""
+    the rest a block at a time; ``taken``: the lines given one at a time."""
 
-    def __init__(self, batches: Iterator[list[str]]):
-        self._batches = batches
-        self._batch: list[str] = []
+    def __init__(self, blocks: Iterator[str]):
+        self._blocks = blocks
+        self._lines: list[str] = []
         self._at = 0
         self.taken = 0
 
@@ -225,16 +235,16 @@ class _Cursor:
         return self
 
     def __next__(self) -> str:
-        while self._at == len(self._batch):
-            self._batch, self._at = next(self._batches), 0
+        while self._at == len(self._lines):
+            self._lines, self._at = lines_of(next(self._blocks)), 0
         self._at += 1
         self.taken += 1
-        return self._batch[self._at - 1]
+        return self._lines[self._at - 1]
 
-    def rest(self) -> Iterator[list[str]]:
-        """The lines not given yet, a batch at a time."""
-        yield self._batch[self._at:]
-        yield from self._batches
+    def rest(self) -> Iterator[str]:
+        """The text not given yet, whole lines a block at a time."""
+        yield "".join(self._lines[self._at:])
+        yield from self._blocks
 
 
 Rows = tuple[list[list[str]], list[int]]

@@ -155,8 +155,8 @@ class Trails:
             # no recent path here (the caption under the map, a robot off its path)
             self.shown[y0:y1, x0:x1] = pale
             return
-        a = np.where(when >= self._recent_from, self._alpha[y0:y1, x0:x1], 0).astype(np.uint16)[..., None]
-        self.shown[y0:y1, x0:x1] = (pale * (255 - a) + self._colour[y0:y1, x0:x1] * a + 127) // 255
+        a = np.where(when >= self._recent_from, self._alpha[y0:y1, x0:x1], 0).astype(np.float32)
+        self.shown[y0:y1, x0:x1] = cv2.blendLinear(self._colour[y0:y1, x0:x1], pale, a, 255 - a)
 
 
 def _pale(colour: tuple[int, int, int]) -> tuple[int, int, int]:
