@@ -210,7 +210,16 @@ def _check_in_world(trace: Trace) -> None:
     xi, yi, ri = (trace.columns.index(c) if c in trace.columns else -1 for c in ("x", "y", "robot"))
     if xi < 0 or yi < 0:
         return
-    for row, line in zip(trace.rows, trace.lines):
+    rows, lines = trace.rows, trace.lines
+    if "x" in trace.numbers and "y" in trace.numbers and len(trace.numbers["x"]) == len(rows) == len(lines):
+        import numpy as np
+
+        # the columns as numbers already (Trace.numbers): the first far row found in C, said as below
+        xs, ys = trace.numbers["x"], trace.numbers["y"]
+        far = np.flatnonzero(((xs < x0 - FAR_M) | (xs > x1 + FAR_M) | (ys < y0 - FAR_M) | (ys > y1 + FAR_M))
+                             & (xs == xs) & (ys == ys))
+        rows, lines = [rows[int(k)] for k in far[:1]], [lines[int(k)] for k in far[:1]]
+    for row, line in zip(rows, lines):
         x, y = float(row[xi]), float(row[yi])
         if (x < x0 - FAR_M or x > x1 + FAR_M or y < y0 - FAR_M or y > y1 + FAR_M) and x == x and y == y:
             where = f"world '{world.name}' ({x0:g}..{x1:g} x {y0:g}..{y1:g} m)" if world else "the origin"

@@ -109,3 +109,21 @@ def test_a_bad_tick_has_the_csv_reader_s_message(tmp_path: Path) -> None:
     with pytest.raises(TraceFormatError) as narrow:
         read_for_picture(str(path), wanted=movie_columns)
     assert str(narrow.value) == str(whole.value) and "column 'tick' holds '7a'" in str(whole.value)
+
+
+def test_the_first_pose_far_outside_the_world_is_found_from_the_numbers(tmp_path: Path) -> None:
+    from labsim.foundation.diagnostics import LabsimError
+    from labsim.runtime.pictures.driver import _check_in_world
+
+    lines = GOLDEN.read_text().splitlines(keepends=True)
+    columns = lines[1].rstrip("\n").split(",")
+    for at, x, y in ((5, "nan", "1e308"), (9, "-1e300", "0")):  # a row with x nan is drawn without it
+        cells = lines[at].split(",")
+        cells[columns.index("x")], cells[columns.index("y")] = x, y
+        lines[at] = ",".join(cells)
+    path = tmp_path / "far.csv"
+    path.write_text("".join(lines))
+    trace, _ = read_for_picture(str(path), wanted=movie_columns)
+    with pytest.raises(LabsimError) as far:
+        _check_in_world(trace)
+    assert far.value.diagnostics[0].line == 10 and "(-1e+300, 0)" in far.value.diagnostics[0].message
