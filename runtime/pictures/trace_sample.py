@@ -205,7 +205,7 @@ def _read_plain(path: str, header: dict, lines: _Lines, cursor: _Cursor, columns
     names, upto = narrow(columns, [*wanted, *CHECKED])
     rows, at = plain_rows(cursor.rest(), len(columns), upto, cursor.taken + 2)
     numbers = _numbers(names, rows)
-    # numpy reads a str as float() does: a number column it converted needs no check of its own
+    # a number column converted (by float(), as check_rows reads it) needs no check of its own
     if not (_ticks_ok(names, rows) and all(c in numbers for c in CHECKED[1:] if c in names)):
         check_rows(path, names, rows, at)
     _, footer = footer_of(lines.footer or "\n")
@@ -296,8 +296,9 @@ def _numbers(columns: list[str], rows: list[list[str]]) -> dict[str, np.ndarray]
     out: dict[str, np.ndarray] = {}
     for name in ("time", "x", "y", "heading", "collided"):
         if name in columns:
-            try:  # as the readers convert a column: the same values, cell for cell
-                out[name] = np.array(list(map(operator.itemgetter(columns.index(name)), rows)), dtype=float)
+            try:  # float() of each cell, as the readers' numpy conversion and check_rows read it
+                cells = map(operator.itemgetter(columns.index(name)), rows)
+                out[name] = np.fromiter(map(float, cells), float, len(rows))
             except ValueError:
                 continue
     return out
