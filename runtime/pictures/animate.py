@@ -54,6 +54,20 @@ class Track:
     rows: np.ndarray  # indices into trace.rows
 
 
+# what an animation of robots reads of a trace (its tracks, captions, and the backdrop's legend
+# of events), with what ``labsim plot`` reads before it draws (--from/--to, the world's bounds)
+MOVIE_COLUMNS = ("tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule", "events")
+
+
+def movie_columns(path: str, header: dict, columns: list[str]) -> list[str] | None:
+    """The columns an animation of this trace reads (``read_for_picture``'s ``wanted``): None,
+    all of them, for a mechanism, whose joints and labels have columns of their own."""
+    world, _ = trace_world(Trace(path, header, columns, []))
+    if world is not None and world.mechanism is not None:
+        return None
+    return [c for c in columns if c in MOVIE_COLUMNS]
+
+
 def _numbers(trace: Trace, name: str) -> np.ndarray:
     """A column as floats, nan where a cell is not a number (or the column is missing)."""
     if name in trace.numbers:  # a run recorded in memory: numbers already

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_OK
 from labsim.foundation.files import check_output, write_output
-from labsim.runtime.pictures.trace_sample import read_for_picture
+from labsim.runtime.pictures.trace_sample import Wanted, read_for_picture
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 if TYPE_CHECKING:
@@ -113,7 +113,10 @@ def run_plot(args: argparse.Namespace) -> int:
         if value is not None and value < low:
             raise _fail("labsim plot", f"{name} must be at least {low:g} (got {value:g})")
     try:
-        trace, thinned = read_for_picture(args.trace)  # in bounded memory, whatever its size
+        wanted: Wanted | None = None
+        if kind == "movie":  # an animation reads a few columns: only those are split into cells
+            from labsim.runtime.pictures.animate import movie_columns as wanted
+        trace, thinned = read_for_picture(args.trace, wanted=wanted)  # in bounded memory, whatever its size
         if not trace.rows:
             raise _fail(args.trace, "the trace has no rows: nothing ran")
         check_output(out, drawn_from(trace))  # now that the trace says which files it names
@@ -207,7 +210,16 @@ def _check_in_world(trace: Trace) -> None:
     xi, yi, ri = (trace.columns.index(c) if c in trace.columns else -1 for c in ("x", "y", "robot"))
     if xi < 0 or yi < 0:
         return
-    for row, line in zip(trace.rows, trace.lines):
+    rows, lines = trace.rows, trace.lines
+    if "x" in trace.numbers and "y" in trace.numbers and len(trace.numbers["x"]) == len(rows) == len(lines):
+        import numpy as np
+
+        # the columns as numbers already (Trace.numbers): the first far row found in C, said as below
+        xs, ys = trace.numbers["x"], trace.numbers["y"]
+        far = np.flatnonzero(((xs < x0 - FAR_M) | (xs > x1 + FAR_M) | (ys < y0 - FAR_M) | (ys > y1 + FAR_M))
+                             & (xs == xs) & (ys == ys))
+        rows, lines = [rows[int(k)] for k in far[:1]], [lines[int(k)] for k in far[:1]]
+    for row, line in zip(rows, lines):
         x, y = float(row[xi]), float(row[yi])
         if (x < x0 - FAR_M or x > x1 + FAR_M or y < y0 - FAR_M or y > y1 + FAR_M) and x == x and y == y:
             where = f"world '{world.name}' ({x0:g}..{x1:g} x {y0:g}..{y1:g} m)" if world else "the origin"

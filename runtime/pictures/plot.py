@@ -86,6 +86,9 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
     models = trace.header.get("robots") or {}
     order = list(dict.fromkeys([*(n for n in models if n in set(names)), *names]))
     ei = trace.columns.index("events") if "events" in trace.columns else -1
+    cells = trace.column("events") if ei >= 0 else []
+    # most rows have no events: the rows that have are found in C, not looked at one by one
+    with_events = np.fromiter(map(bool, cells), bool, len(cells))
 
     paths = []
     for k, name in enumerate(order):
@@ -98,12 +101,10 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
         hit = onset & ok
         events: dict[str, list[int]] = {}
         if ei >= 0:
-            for j in idx:
-                cell = trace.rows[j][ei]
-                if cell:  # most rows have no events: skip them without splitting
-                    for ev in cell.split(";"):
-                        if ev:
-                            events.setdefault(ev, []).append(int(j))
+            for j in idx[with_events[idx]]:
+                for ev in cells[j].split(";"):
+                    if ev:
+                        events.setdefault(ev, []).append(int(j))
         h = heading[idx][ok]
         paths.append(RobotPath(
             name=str(name), model=str(models.get(name, "")), colour=robot_colour(k),

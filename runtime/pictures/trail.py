@@ -2,18 +2,22 @@
 
 Part of ``labsim.runtime.pictures.animate``: every frame shows each robot's path up to the
 frame's time, pale where it is older than the fade and in the robot's colour for the recent
-part. Redrawing the whole path on every frame made an animation's cost grow with the run's
-length; here two layers are kept instead and only what changed since the last frame is drawn:
-the *pale layer* (the backdrop and every path segment that has become old, drawn pale, never
-undone) and the *shown layer* (the pale layer with the recent segments in colour on top). A
-frame draws its new segments pale on the pale layer, copies the pale layer back into the small
-boxes where segments appeared or turned pale, and redraws there, clipped to each box, the
-recent segments that cross it. The pixels are those of drawing the pale and then the recent
-polylines whole (within OpenCV's rounding at a box's edge), except that every robot's recent
-path lies above every pale one.
+part. A frame's work is what changed since the last one, whatever the run's length: the *pale
+layer* (the backdrop and every segment that has become old, drawn pale, never undone), the
+*recent layer* (pixel by pixel: how much of it the recent passes cover, in which colour, and the
+time of the latest), and the *shown layer* (the recent layer over the pale one). A frame's new
+segments are one *pass*: drawn once, as a coverage, and laid over what recent passes left in
+their pixels, as OpenCV blends a line over a picture. A pass is recent while its last segment
+is; once it is old, the pixels whose latest pass it was show the pale layer again. Redrawing
+every recent segment crossing a changed box instead cost as much as the robot's passes over it
+in the fade, six times as many in an hour's run as in ten minutes. What this changes in the
+picture (docs/pictures.md): a pass turns pale as a whole, within one frame's path of where the
+segment-by-segment cut falls, and a pixel keeps the coverage of older passes while a later
+one over it is recent (edges where the robot went round again are drawn at full strength).
 """
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
 import cv2
@@ -51,6 +55,15 @@ class Trails:
         self.pale_layer = backdrop.copy()
         self.shown = backdrop.copy()
         self.width = width_px
+        h, w = backdrop.shape[:2]
+        # the recent layer, pixel by pixel: the time of the latest pass over it (the start of its
+        # last segment), how much of the pixel the passes still recent cover (of 255), in whose colour
+        self._when = np.full((h, w), -np.inf)
+        self._alpha = np.zeros((h, w), np.uint8)
+        self._colour = np.zeros((h, w, 3), np.uint8)
+        self._recent_from = -np.inf
+        self._inked: Box = (w, h, 0, 0)  # a box around every pass drawn: outside it, the pale layer
+        self._passes: list[tuple[float, Box]] = []  # the recent ones, a heap by time
         margin = width_px + 2  # a round cap's radius and the antialiased edge, with room to spare
         self._robots = []
         self._dirty: list[Box] = []  # drawn over since the last frame: restored by the next
@@ -66,6 +79,9 @@ class Trails:
         robot's rows), pale before ``recent_from``. The array is the trails' own: what is drawn on
         it must be in boxes given to ``drawn_over`` before the next call."""
         boxes, self._dirty = self._dirty, []
+        self._recent_from = recent_from
+        while self._passes and self._passes[0][0] < recent_from:  # passes that turned old: pale where
+            boxes.append(heapq.heappop(self._passes)[1])  # no later pass still recent covers them
         for st, row in zip(self._robots, rows):
             p = st.points
             shown = max(st.shown, int(p.upto[row]))
@@ -74,11 +90,12 @@ class Trails:
                 cv2.polylines(self.pale_layer, [p.pts[st.pale:recent + 1].reshape(-1, 1, 2)], False,
                               _pale(p.colour), self.width, AA, SHIFT)
                 boxes.append(self._box(st, st.pale, recent))
-            if shown > st.shown and shown > 1:  # segments that appeared
-                boxes.append(self._box(st, max(st.shown - 1, 0), shown - 1))
+            first = max(st.shown - 1, recent, 0)
+            if shown - 1 > first:  # segments that appeared, and are recent
+                boxes.append(self._pass(st, first, shown - 1))
             st.shown, st.pale = shown, recent
         for box in boxes:
-            self._redraw(box)
+            self._compose(box)
         self._redrawn = boxes
         return self.shown
 
@@ -98,33 +115,48 @@ class Trails:
         h, w = self.shown.shape[:2]
         return (max(int(lo[0]), 0), max(int(lo[1]), 0), min(int(hi[0]), w), min(int(hi[1]), h))
 
-    def _redraw(self, box: Box) -> None:
-        """The shown layer inside ``box``: the pale layer, and every recent segment crossing the box
-        drawn over it in order. They are drawn on a piece a few pixels wider than the box, of which
-        only the box is kept: OpenCV's antialiasing is off at the edge of what it draws on."""
+    def _pass(self, st: _State, first: int, end: int) -> Box:
+        """Segments first..end-1 put on the recent layer as one pass, of the time of its last
+        segment: drawn once, as a coverage, on a piece as large as their box (which leaves room
+        for the line's antialiased edge), and laid over what the passes still recent left there."""
+        box = self._box(st, first, end)
+        x0, y0, x1, y1 = box
+        if x0 >= x1 or y0 >= y1:
+            return box
+        p = st.points
+        cover = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        line = (p.pts[first:end + 1] - (x0 * ONE, y0 * ONE)).reshape(-1, 1, 2)
+        cv2.polylines(cover, [line], False, 255, self.width, AA, SHIFT)
+        hit = cover > 0
+        when, alpha, colour = self._when[y0:y1, x0:x1], self._alpha[y0:y1, x0:x1], self._colour[y0:y1, x0:x1]
+        # the pass over what is still recent there, as OpenCV blends a line over a picture
+        c = cover[hit].astype(np.float32) / 255
+        under = np.where(when[hit] >= self._recent_from, alpha[hit], 0).astype(np.float32) / 255 * (1 - c)
+        both = c + under
+        mixed = (np.array(p.colour, np.float32) * c[:, None] + colour[hit] * under[:, None]) / both[:, None]
+        alpha[hit] = np.rint(both * 255)
+        colour[hit] = np.rint(mixed)
+        when[hit] = p.t[end - 1]
+        heapq.heappush(self._passes, (float(p.t[end - 1]), box))
+        u0, v0, u1, v1 = self._inked
+        self._inked = (min(u0, x0), min(v0, y0), max(u1, x1), max(v1, y1))
+        return box
+
+    def _compose(self, box: Box) -> None:
+        """The shown layer inside ``box``: the pale layer, and the recent layer's colour over it
+        where its pass is still recent, by its coverage (as OpenCV blends an antialiased edge)."""
         h, w = self.shown.shape[:2]
         x0, y0, x1, y1 = max(box[0], 0), max(box[1], 0), min(box[2], w), min(box[3], h)
         if x0 >= x1 or y0 >= y1:
             return
-        m = self.width + 2
-        u0, v0, u1, v1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
-        part = self.pale_layer[v0:v1, u0:u1].copy()
-        origin = (u0 * ONE, v0 * ONE)
-        for st in self._robots:
-            first, end = st.pale, st.shown - 1  # recent segments: pale..shown-2
-            if end <= first:
-                continue
-            lo, hi = st.lo[first:end], st.hi[first:end]
-            inside = np.flatnonzero((lo[:, 0] < u1) & (hi[:, 0] > u0) & (lo[:, 1] < v1) & (hi[:, 1] > v0))
-            if not len(inside):
-                continue
-            # runs of consecutive segments, each one polyline through its poses
-            cut = np.flatnonzero(np.diff(inside) > 1)
-            starts = np.concatenate(([inside[0]], inside[cut + 1])) + first
-            ends = np.concatenate((inside[cut], [inside[-1]])) + first + 2
-            lines = [(st.points.pts[a:b] - origin).reshape(-1, 1, 2) for a, b in zip(starts, ends)]
-            cv2.polylines(part, lines, False, st.points.colour, self.width, AA, SHIFT)
-        self.shown[y0:y1, x0:x1] = part[y0 - v0:y1 - v0, x0 - u0:x1 - u0]
+        pale, when = self.pale_layer[y0:y1, x0:x1], self._when[y0:y1, x0:x1]
+        u0, v0, u1, v1 = self._inked
+        if x1 <= u0 or x0 >= u1 or y1 <= v0 or y0 >= v1 or when.max() < self._recent_from:
+            # no recent path here (the caption under the map, a robot off its path)
+            self.shown[y0:y1, x0:x1] = pale
+            return
+        a = np.where(when >= self._recent_from, self._alpha[y0:y1, x0:x1], 0).astype(np.float32)
+        self.shown[y0:y1, x0:x1] = cv2.blendLinear(self._colour[y0:y1, x0:x1], pale, a, 255 - a)
 
 
 def _pale(colour: tuple[int, int, int]) -> tuple[int, int, int]:

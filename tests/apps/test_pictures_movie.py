@@ -29,16 +29,17 @@ def _loops(k: int, n: int = 400) -> tuple[np.ndarray, np.ndarray]:
     return np.round(xy * ONE).astype(np.int32), np.linspace(0.0, 40.0, n)
 
 
-def _whole(pts: list[np.ndarray], shown: list[int], pale: list[int]) -> np.ndarray:
-    """What the trails stand for: every pale path, then every recent one, each drawn whole."""
+def _whole(pts: list[np.ndarray], passes: list[tuple[int, int]], pale: list[int]) -> np.ndarray:
+    """What the trails stand for: every pale path, then every recent pass (a frame's new segments,
+    recent while the last one is) in the order they came, each robot's in turn."""
     img = np.full((220, 260, 3), BACKDROP, np.uint8)
     for p, k, c in zip(pts, pale, COLOURS):
         if k:
             cv2.polylines(img, [p[: k + 1].reshape(-1, 1, 2)], False, tuple(int(v + (255 - v) * 0.6) for v in c),
                           2, AA, SHIFT)
-    for p, n, k, c in zip(pts, shown, pale, COLOURS):
-        if n - k > 1:
-            cv2.polylines(img, [p[k:n].reshape(-1, 1, 2)], False, c, 2, AA, SHIFT)
+    for first, end in passes:
+        for p, c in zip(pts, COLOURS):
+            cv2.polylines(img, [p[first:end + 1].reshape(-1, 1, 2)], False, c, 2, AA, SHIFT)
     return img
 
 
@@ -51,7 +52,9 @@ def test_trails_drawn_a_frame_at_a_time_match_the_paths_drawn_whole() -> None:
         t = paths[0][1][row]
         shown = trails.advance([row, row], t - 8.0).copy()
         pale = [min(int(np.searchsorted(p[1], t - 8.0)), row) for p in paths]
-        whole = _whole([p[0] for p in paths], [row + 1] * 2, pale)
+        # the frames' passes: segments row-7..row-1, recent while segment row-1 is
+        passes = [(r - 7, r) for r in range(7, row + 1, 7) if paths[0][1][r - 1] >= t - 8.0]
+        whole = _whole([p[0] for p in paths], passes, pale)
         differ = np.abs(shown.astype(int) - whole.astype(int)).max(axis=2)
         drawn = (np.abs(whole.astype(int) - np.array(BACKDROP)).max(axis=2) > 0).sum()
         # the same pixels but for antialiased edges where the drawing was cut into pieces
