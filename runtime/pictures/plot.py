@@ -12,6 +12,7 @@ also writes the file.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -170,8 +171,8 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     events = _event_names(trace.header, paths)
     P = Painter(width_px)
     at = _layout(trace, P, width_px, world, paths, events, 3 if world_note else 2, backdrop)
-    img = np.full((at.height, width_px, 3), PAPER, np.uint8)
     panels = (("road panel",) if at.road else ()) + (("slew panel",) if at.inset else ())
+    img = _background(world, width_px, at).copy()
     fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, panels)
     _draw_map(img, P, fig, at, trace, world, paths, events, backdrop)
     _draw_title(img, P, trace, world, paths, world_note, at.map_left)
@@ -244,9 +245,28 @@ def _layout(trace: Trace, P: Painter, width_px: int, world: World | None, paths:
                    panel_h)
 
 
-def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trace, world: World | None,
-              paths: list[RobotPath], events: list[str], backdrop: bool) -> None:
-    """The map in its frame: the floor, the metre grid, the world, a mechanism, the run."""
+def _background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    """The figure before the run is drawn on it: the paper, the map's floor, its grid and axes,
+    and the world; the same pixels for every run of a world at one size, so drawn once a
+    process (``labsim grade`` draws a map and a GIF for each student of a class in one world).
+    Read-only: copy it to draw on. A world that cannot be a key (unhashable) is drawn each time."""
+    try:
+        return _cached_background(world, width_px, at)
+    except TypeError:  # an unhashable world
+        return _draw_background(world, width_px, at)
+
+
+@functools.lru_cache(maxsize=8)  # a few worlds at two sizes (a feedback page's map and GIF)
+def _cached_background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    img = _draw_background(world, width_px, at)
+    img.flags.writeable = False  # shared by every later figure: drawn on only through a copy
+    return img
+
+
+def _draw_background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    P = Painter(width_px)
+    img = np.full((at.height, width_px, 3), PAPER, np.uint8)
+    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, ())
     box = (at.map_left, at.map_top), (at.map_left + at.map_w, at.map_top + at.map_h)
     ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
     # a ground's floor colour replaces the map's background; the grid stays visible on it
@@ -255,6 +275,13 @@ def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trac
     grid(img, P, fig, at.map_w, at.map_h, (at.x0, at.y0, at.x1, at.y1),
          "z (m)" if world is not None and world.mechanism is not None else "y (m)")
     _draw_world(img, P, world, ground, at.px, at.mpp)
+    return img
+
+
+def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trace, world: World | None,
+              paths: list[RobotPath], events: list[str], backdrop: bool) -> None:
+    """On the background (``_background``): a mechanism, the run, the map's frame."""
+    box = (at.map_left, at.map_top), (at.map_left + at.map_w, at.map_top + at.map_h)
     if world is not None and world.mechanism is not None:
         draw_run_mechanism(img, P, world.mechanism, trace, at.px, backdrop)
     if not backdrop:
