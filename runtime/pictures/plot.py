@@ -172,8 +172,9 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     P = Painter(width_px)
     at = _layout(trace, P, width_px, world, paths, events, 3 if world_note else 2, backdrop)
     panels = (("road panel",) if at.road else ()) + (("slew panel",) if at.inset else ())
-    img = _background(world, width_px, at).copy()
-    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, panels)
+    base = _background(world, width_px, at)
+    img = base.copy()
+    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, panels, base)
     _draw_map(img, P, fig, at, trace, world, paths, events, backdrop)
     _draw_title(img, P, trace, world, paths, world_note, at.map_left)
     if at.road and world is not None:
