@@ -83,14 +83,22 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
     xs, ys = _floats(trace, "x"), _floats(trace, "y")
     heading = _floats(trace, "heading") if "heading" in trace.columns else np.full(len(xs), np.nan)
     collided = (_floats(trace, "collided") > 0.5) if "collided" in trace.columns else np.zeros(len(xs), bool)
-    names = np.array(trace.column("robot"), dtype=object)
+    column = trace.column("robot")
+    seen = dict.fromkeys(column)  # each name once, in the order of the rows
+    names = np.array(column, dtype=object)
     models = trace.header.get("robots") or {}
-    order = list(dict.fromkeys([*(n for n in models if n in set(names)), *names]))
+    order = list(dict.fromkeys([*(n for n in models if n in seen), *seen]))
     ei = trace.columns.index("events") if "events" in trace.columns else -1
+    # the rows with events, by robot: most rows have none, so they are found in one pass
+    with_events: dict[str, list[int]] = {}
+    for j, row in enumerate(trace.rows) if ei >= 0 else ():
+        if row[ei]:
+            with_events.setdefault(column[j], []).append(j)
 
     paths = []
     for k, name in enumerate(order):
-        idx = np.flatnonzero(names == name)  # rows are tick-ordered, so this is the path in time
+        # rows are tick-ordered, so this is the path in time
+        idx = np.arange(len(column)) if len(seen) == 1 else np.flatnonzero(names == name)
         x, y = xs[idx], ys[idx]
         ok = np.isfinite(x) & np.isfinite(y)
         c = collided[idx]
@@ -98,13 +106,10 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
         onset = c & ~np.concatenate(([False], c[:-1]))
         hit = onset & ok
         events: dict[str, list[int]] = {}
-        if ei >= 0:
-            for j in idx:
-                cell = trace.rows[j][ei]
-                if cell:  # most rows have no events: skip them without splitting
-                    for ev in cell.split(";"):
-                        if ev:
-                            events.setdefault(ev, []).append(int(j))
+        for j in with_events.get(name, ()):
+            for ev in trace.rows[j][ei].split(";"):
+                if ev:
+                    events.setdefault(ev, []).append(j)
         h = heading[idx][ok]
         paths.append(RobotPath(
             name=str(name), model=str(models.get(name, "")), colour=robot_colour(k),
@@ -374,7 +379,8 @@ def _duration(trace: Trace) -> float | None:
     if not trace.rows or "time" not in trace.columns:
         return None
     try:
-        last = float(trace.rows[-1][trace.columns.index("time")])
+        times = trace.numbers.get("time")  # a run recorded in memory: numbers only
+        last = float(times[-1]) if times is not None else float(trace.rows[-1][trace.columns.index("time")])
     except ValueError:
         return None
     dt = trace.header.get("dt")
