@@ -53,6 +53,7 @@ from labsim.runtime.pictures.trace_sample import read_for_picture
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MIN_WIDTH_PX = 400
+PATH_STEP_PX = 1.0  # a map's path keeps a point every this many pixels along it
 
 # -- the data ----------------------------------------------------------------------------------
 
@@ -333,7 +334,7 @@ def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: lis
     line_w = max(2, round(2 * s))
     for p in paths:
         if len(p.xy) > 1:
-            pts = np.round(px(p.xy) * ONE).astype(np.int32).reshape(-1, 1, 2)
+            pts = np.round(_pixel_apart(px(p.xy)) * ONE).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(img, [pts], False, p.colour, line_w, AA, SHIFT)
     for k, ev in enumerate(events):
         for p in paths:
@@ -355,6 +356,16 @@ def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: lis
                             tuple(np.round(tip * ONE).astype(int)), darker(p.colour),
                             max(2, round(2 * s)), AA, SHIFT, 0.35)
         P.end(img, ends[1:], p.colour)
+
+
+def _pixel_apart(at: np.ndarray) -> np.ndarray:
+    """A path's points (pixels) one every ``PATH_STEP_PX`` or more along it, and its last: a thick
+    antialiased polyline costs a segment and a round join a point, and a run's ticks lie closer
+    than a pixel apart at a map's scale (the wall lab's 6,000 poses over some 4,000 pixels)."""
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(at, axis=0).T))))
+    keep = np.diff(np.floor(along / PATH_STEP_PX), prepend=-1.0) > 0
+    keep[-1] = True
+    return at[keep]
 
 
 def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> list[str]:
