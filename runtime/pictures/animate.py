@@ -205,13 +205,13 @@ def _fade(times: np.ndarray) -> float:
 
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
            fade_s: float | None = None, known: tuple[World | None, str] | None = None,
-           changed: list[Box] | None = None,
-           drawn_on: list[np.ndarray] | None = None) -> Generator[np.ndarray, None, None]:
+           changed: list[Box] | None = None, drawn_on: list[np.ndarray] | None = None,
+           ) -> Generator[np.ndarray, None, None]:
     """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
     a path is pale where older than ``fade_s`` (by default a share of the frames' span). A frame
-    is drawn over by the next: copy it to keep it. ``changed``, when given, holds at each frame
-    the boxes outside which it equals the frame before (the whole frame for the first);
-    ``drawn_on`` gets the backdrop's ``Figure.background`` before the first frame."""
+    is drawn over by the next: copy it to keep it. ``changed``, when given, holds at each frame the
+    boxes outside which it equals the frame before (the whole frame for the first); ``drawn_on``
+    gets the backdrop's ``Figure.background`` before the first frame."""
     # one function for one frame's layers: the backdrop, the paths, the robots, the caption
     world, note = known or trace_world(trace)  # ``known``: read by the caller already
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
@@ -224,8 +224,7 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
     labels = [c for c in trace.columns if c.startswith("label:")]
     lines = 1 + (len(labels) if mech is not None else len(tracks))
     band = max(P.line_h * lines + P.pad, inset + 2 * P.pad)
-    h, w = fig.image.shape[0] + band, fig.image.shape[1]
-    H, W = -(-h // 16) * 16, -(-w // 16) * 16
+    H, W = -(-(fig.image.shape[0] + band) // 16) * 16, -(-fig.image.shape[1] // 16) * 16
     base = np.full((H, W, 3), PAPER, np.uint8)
     base[: fig.image.shape[0], : fig.image.shape[1]] = fig.image
 
