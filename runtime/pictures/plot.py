@@ -361,7 +361,7 @@ def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: lis
 def _pixel_apart(at: np.ndarray) -> np.ndarray:
     """A path's points (pixels) one every ``PATH_STEP_PX`` or more along it, and its last: a thick
     antialiased polyline costs a segment and a round join a point, and a run's ticks lie closer
-    than a pixel apart at a map's scale (the wall lab's 6,000 poses over some 4,000 pixels)."""
+    than a pixel apart at a map's scale (the wall lab's 6,000 poses over some 3,500 pixels)."""
     along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(at, axis=0).T))))
     keep = np.diff(np.floor(along / PATH_STEP_PX), prepend=-1.0) > 0
     keep[-1] = True
