@@ -178,7 +178,7 @@ def speed_up(folder: Path, graded: str, measured: dict[str, list[Measured]], run
     for base in ("bare", graded):
         one = measured[f"{base} -j 1"][0].wall_s
         ratios[base] = one / statistics.median(m.wall_s for m in measured[f"{base} -j 2"])
-        print(f"speed-up of -j 2 over -j 1 (wall), {base}: {ratios[base]:.2f}x"
+        print(f"speed-up -j 2 over -j 1 (wall), {base}: {ratios[base]:.2f}x"
               + (" (goal >= 1.8x)" if base == graded else " (the machine's ceiling)"))
     print(f"grading's speed-up over the bare runs' (1.00: grading scales as the bare runs do): "
           f"{ratios[graded] / ratios['bare']:.2f}")
