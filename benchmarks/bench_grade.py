@@ -17,14 +17,21 @@ order (benchmarks/compare.py ``alternate``):
 The overhead of grading over the bare runs (goal: <= 10%) is read from **CPU time**: the side's
 process and every process under it (its fork server and workers, which this process adopts as
 their subreaper so that their time is counted when they end): another user's load slows that far
-less than wall time. Wall times are printed too, with the load average. ``--speed-up`` also
-grades once with ``-j 1`` and prints the wall-time speed-up of ``-j 2`` (goal: >= 1.8x), which
-means something only on a quiet machine.
+less than wall time. Each side also says its parent process's own CPU (the rest is its workers'),
+and for a grading the parent's CPU in ``grade_class`` and in ``write_class`` (serial, after the
+runs); wall times are printed with the 1-minute load average before and after each side.
+``--speed-up`` also runs the bare runs and the grading once each with ``-j 1`` and prints both
+wall-time speed-ups of ``-j 2`` (goal for grading: >= 1.8x): the bare runs' is the machine's
+ceiling (two workers against one on these cores under this load, no grading at all), so grading's
+over the bare runs' says what grading itself costs of the speed-up, even on a busy machine.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
+import io
+import json
 import os
 import random
 import resource
@@ -33,6 +40,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from compare import alternate, machine, pair_ratios
@@ -73,18 +81,21 @@ def bare_run(job: tuple[str, int, float]) -> float:
         run.close()
 
 
-def grade(folder: Path, jobs: int, pages: bool, out: Path) -> float:
+def grade(folder: Path, jobs: int, pages: bool, out: Path) -> dict[str, float]:
+    """Grade the class; the parent process's own CPU seconds in each part (the workers' are not in
+    them): ``grade_class`` (the checks, the runs' hand-out and collection) and ``write_class``."""
     out.mkdir()
     options = Options(str(folder / "assignment.yaml"), [str(folder / "class")], out, jobs=jobs, cache=False,
                       pages=pages, pictures=feedback_pictures if pages else None)
-    start = time.perf_counter()
+    start = time.process_time()
     graded = grade_class(options)
-    write_class(graded, options, pages=pages)
-    elapsed = time.perf_counter() - start
+    ran = time.process_time()
+    with contextlib.redirect_stdout(io.StringIO()):
+        write_class(graded, options, pages=pages)
     bad = [g for g in graded.grades if not g.graded]
     if bad:
         raise SystemExit(f"{len(bad)} students not graded: {bad[0].status}: {bad[0].reason}")
-    return elapsed
+    return {"grade_class": ran - start, "write_class": time.process_time() - ran}
 
 
 PR_SET_CHILD_SUBREAPER = 36  # linux/prctl.h: orphaned descendants become this process's children
@@ -101,28 +112,80 @@ def tree_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def side(folder: Path, phase: str, jobs: int, walls: dict[str, list[float]], name: str) -> float:
-    """One side, as a process of its own: its CPU seconds (the whole tree); its wall time into ``walls``."""
-    before = tree_cpu()
+@dataclass(frozen=True)
+class Measured:
+    """One side's run: CPU of its whole process tree and of its parent process alone (the rest is
+    its workers' and fork server's), its wall time, and the 1-minute load average around it."""
+
+    cpu_s: float
+    parent_cpu_s: float
+    wall_s: float
+    load: tuple[float, float]  # before, after
+    parts: dict[str, float]  # the parent's CPU by part (grading sides)
+
+
+def side(folder: Path, phase: str, jobs: int, measured: dict[str, list[Measured]], name: str) -> float:
+    """One side, as a process of its own: its CPU seconds (the whole tree); all it measured into ``measured``."""
+    before, load = tree_cpu(), os.getloadavg()[0]
     start = time.perf_counter()
-    subprocess.run([sys.executable, __file__, "--phase", phase, "--folder", str(folder), "--jobs", str(jobs)],
-                   check=True, stdout=subprocess.DEVNULL)
-    walls.setdefault(name, []).append(time.perf_counter() - start)
-    return tree_cpu() - before
+    done = subprocess.run([sys.executable, __file__, "--phase", phase, "--folder", str(folder), "--jobs", str(jobs)],
+                          check=True, stdout=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - start
+    cpu = tree_cpu() - before
+    told = json.loads(done.stdout.strip().splitlines()[-1])  # the phase's last line: its own CPU
+    measured.setdefault(name, []).append(
+        Measured(cpu, told["parent_cpu_s"], wall, (load, os.getloadavg()[0]), told.get("parts", {})))
+    return cpu
 
 
 def phase(args: argparse.Namespace) -> None:
-    """One side, in this process: ``bare`` runs, or ``grade`` / ``grade-nopages``."""
+    """One side, in this process: ``bare`` runs, or ``grade`` / ``grade-nopages``; its last line of
+    output is its own CPU (this process alone), as JSON."""
     folder = Path(args.folder)
+    parts: dict[str, float] = {}
     if args.phase == "bare":
         minutes = float((folder / "minutes").read_text())
         items = [(str(f), s, minutes) for f in sorted((folder / "class").iterdir())
                  for s in range(1, int((folder / "seeds").read_text()) + 1)]
         for _ in LocalBatch(args.jobs).outcomes(bare_run, items):
             pass
-        return
-    out = folder / f"out-{args.phase}-{os.getpid()}"
-    grade(folder, args.jobs, args.phase == "grade", out)
+    else:
+        parts = grade(folder, args.jobs, args.phase == "grade", folder / f"out-{args.phase}-{os.getpid()}")
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    print(json.dumps({"parent_cpu_s": usage.ru_utime + usage.ru_stime, "parts": parts}))
+
+
+def _line(name: str, values: list[Measured], runs: int) -> str:
+    cpu, wall = [m.cpu_s for m in values], [m.wall_s for m in values]
+    parent = statistics.median(m.parent_cpu_s for m in values)
+    loads = f"{min(m.load[0] for m in values):.1f}-{max(max(m.load) for m in values):.1f}"
+    return (f"  {name:<20} CPU {statistics.median(cpu):7.1f} s ({', '.join(f'{v:.1f}' for v in cpu)}): "
+            f"parent {parent:.1f} s, workers {statistics.median(cpu) - parent:.1f} s; wall "
+            f"{statistics.median(wall):7.1f} s ({', '.join(f'{v:.1f}' for v in wall)}), "
+            f"{runs / statistics.median(wall):.2f} runs/s; load {loads}")
+
+
+def speed_up(folder: Path, graded: str, measured: dict[str, list[Measured]], runs: int) -> None:
+    """The bare runs and the grading once each with -j 1, in a random order: each one's -j 2 over
+    -j 1 (wall). The bare runs' ratio is the machine's ceiling: what two worker processes give
+    over one on these cores under this load, with no grading at all."""
+    sides = {"bare -j 1": lambda: side(folder, "bare", 1, measured, "bare -j 1"),
+             f"{graded} -j 1": lambda: side(folder, graded, 1, measured, f"{graded} -j 1")}
+    alternate(sides, 1, seed=2)
+    for name in sides:
+        print(_line(name, measured[name], runs))
+    ratios = {}
+    for base in ("bare", graded):
+        one = measured[f"{base} -j 1"][0].wall_s
+        ratios[base] = one / statistics.median(m.wall_s for m in measured[f"{base} -j 2"])
+        print(f"speed-up -j 2 over -j 1 (wall), {base}: {ratios[base]:.2f}x"
+              + (" (goal >= 1.8x)" if base == graded else " (the machine's ceiling)"))
+    print(f"grading's speed-up over the bare runs' (1.00: grading scales as the bare runs do): "
+          f"{ratios[graded] / ratios['bare']:.2f}")
+    for name in (f"{graded} -j 2", f"{graded} -j 1"):
+        parts = measured[name][-1].parts
+        print(f"  {name}: the parent's CPU in grade_class {parts.get('grade_class', 0):.2f} s, "
+              f"in write_class {parts.get('write_class', 0):.2f} s (serial, after the runs)")
 
 
 def main() -> None:
@@ -133,7 +196,8 @@ def main() -> None:
     p.add_argument("--rounds", type=int, default=2, help="rounds of the alternated sides (default: 2)")
     p.add_argument("--no-pages", action="store_true", help="grade without the pages")
     p.add_argument("--split", action="store_true", help="also grade without the pages, to tell their share")
-    p.add_argument("--speed-up", action="store_true", help="also grade with -j 1 once (wall time)")
+    p.add_argument("--speed-up", action="store_true",
+                   help="also run the bare runs and the grading with -j 1 once each (wall time)")
     p.add_argument("--phase", choices=("bare", "grade", "grade-nopages"), help=argparse.SUPPRESS)
     p.add_argument("--folder", help=argparse.SUPPRESS)
     p.add_argument("--jobs", type=int, default=2, help=argparse.SUPPRESS)
@@ -148,27 +212,21 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-grade-") as d:
         folder = Path(d)
         make_class(folder, args.students, args.seeds, args.minutes)
-        walls: dict[str, list[float]] = {}
+        measured: dict[str, list[Measured]] = {}
         graded = "grade-nopages" if args.no_pages else "grade"
-        sides = {"bare -j 2": lambda: side(folder, "bare", 2, walls, "bare -j 2"),
-                 f"{graded} -j 2": lambda: side(folder, graded, 2, walls, f"{graded} -j 2")}
-        if args.split and not args.no_pages:
-            sides["grade-nopages -j 2"] = lambda: side(folder, "grade-nopages", 2, walls, "grade-nopages -j 2")
+        names = ["bare -j 2", f"{graded} -j 2"] + (["grade-nopages -j 2"] if args.split and not args.no_pages else [])
+        sides = {name: (lambda name=name: side(folder, name.split()[0], 2, measured, name)) for name in names}
         cpu = alternate(sides, args.rounds, seed=1)
-        print(f"CPU seconds of each side's process tree, medians of {args.rounds} rounds in random order:")
-        for name, values in cpu.items():
-            print(f"  {name:<20} CPU {statistics.median(values):7.1f} s ({', '.join(f'{v:.1f}' for v in values)}); "
-                  f"wall {statistics.median(walls[name]):7.1f} s ({', '.join(f'{v:.1f}' for v in walls[name])}), "
-                  f"{runs / statistics.median(walls[name]):.2f} runs/s")
+        print(f"each side's process tree (parent and workers), medians of {args.rounds} rounds in random order:")
+        for name in cpu:
+            print(_line(name, measured[name], runs))
         for name in cpu:
             if name != "bare -j 2":
                 over = statistics.median(pair_ratios(cpu[name], cpu["bare -j 2"]))
                 print(f"overhead of grading ({name}) over the bare runs, CPU: {100 * (over - 1):+.1f}% "
                       f"(median of per-round ratios; goal <= 10%)")
         if args.speed_up:
-            one = side(folder, graded, 1, walls, "j1")
-            print(f"{graded} -j 1: CPU {one:.1f} s, wall {walls['j1'][0]:.1f} s; speed-up -j 2 over -j 1 (wall): "
-                  f"{walls['j1'][0] / statistics.median(walls[f'{graded} -j 2']):.2f}x (goal >= 1.8x)")
+            speed_up(folder, graded, measured, runs)
     print(machine())
 
 

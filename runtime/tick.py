@@ -52,7 +52,7 @@ def make_tick(run: RunState, hooks: Hooks) -> Callable[[], bool]:
         return False
 
     if len(run.robots) == 1:
-        return _single(run, before, act, stop, inline=not after and run.robots[0].model is not None)
+        return _single(run, before, act, stop, after, inline=run.robots[0].model is not None)
     return _fleet(run, before, act, stop)
 
 
@@ -77,9 +77,11 @@ def _make_act(run: RunState, after: tuple[Hook, ...]) -> Act:
     return act
 
 
-def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[list, list], bool], *,
-            inline: bool) -> Callable[[], bool]:
-    """One robot: signals, stop and decision in one generated call (``both``)."""
+def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[list, list], bool],
+            after: tuple[Hook, ...], *, inline: bool) -> Callable[[], bool]:
+    """One robot: signals, stop and decision in one generated call (``both``); the common tick (a
+    rule acted, no events) inline, ``act``'s steps in its order, so that an observer (a feedback
+    page's recording) does not also cost a call of ``act`` a tick."""
     r1 = run.robots[0]
     s1, cmd1, events1, both = r1.program.slots, r1.program.command, r1.program.events, r1.program.both
     sense, step, send, fired = run.sense, run.step, run.send, run.fired
@@ -103,6 +105,8 @@ def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[l
                 send(r1, cmd1[0], cmd1[1], rule)
             if r1.clamping:
                 r1.clamped_ticks += 1
+            for h in after:
+                h(r1, rule, values)
             s1[STATE] = cmd1[2]
         else:
             act(r1, s1, cmd1, events1, rule, values)

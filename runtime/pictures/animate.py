@@ -30,10 +30,23 @@ import numpy as np
 from labsim.backends.scene.world import World
 from labsim.foundation.files import Output
 from labsim.runtime.pictures.mechanism_pose import draw_pose, mechanism_poses, slew_inset
-from labsim.runtime.pictures.movie import GifWriter, MovieWriter, Mp4Writer
-from labsim.runtime.pictures.paint import AA, INK, ONE, PAPER, SHIFT, Painter, darker, robot_colour
+from labsim.runtime.pictures.movie import GifWriter, MovieWriter, Mp4Writer, run_palette
+from labsim.runtime.pictures.paint import (
+    AA,
+    COLLISION,
+    INK,
+    MUTED,
+    ONE,
+    PAPER,
+    SHIFT,
+    WARNING,
+    Painter,
+    darker,
+    event_colour,
+    robot_colour,
+)
 from labsim.runtime.pictures.plot import render_figure
-from labsim.runtime.pictures.trail import Box, TrailPoints, Trails
+from labsim.runtime.pictures.trail import Box, TrailPoints, Trails, pale
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MAX_SECONDS = 30.0  # the default longest animation: a run longer than this plays faster
@@ -170,13 +183,24 @@ def gif_bytes(trace: Trace, *, width_px: int, fps: float, speed: float,
     tracks = _tracks(trace)
     t0 = min(float(tr.t[0]) for tr in tracks)
     t1 = max(float(tr.t[-1]) for tr in tracks)
-    kept = [frame.copy() for frame in frames(trace, tracks, frame_times(t0, t1, fps, speed), width_px, known=world)]
+    drawn_on: list[np.ndarray] = []
+    made = frames(trace, tracks, frame_times(t0, t1, fps, speed), width_px, known=world, drawn_on=drawn_on)
+    first = next(made)
     out = io.BytesIO()
-    writer = GifWriter(out, np.vstack((kept[0], kept[-1])), fps)
-    for frame in kept:
+    writer = GifWriter(out, None, fps, palette=run_palette(drawn_on[0], _run_colours(tracks)))
+    for frame in itertools.chain([first], made):
         writer.append(frame)
     writer.close()
     return out.getvalue()
+
+
+def _run_colours(tracks: list[Track]) -> list[tuple[int, int, int]]:
+    """What a run's frames draw over their background: each robot's path, pale path, outline,
+    caption and markers, the text, a collision's cross and the events' triangles."""
+    robots = [c for tr in tracks for c in (tr.colour, pale(tr.colour), darker(tr.colour, 0.5),
+                                             darker(tr.colour, 0.8), darker(tr.colour))]
+    events = [c for k in range(4) for c in (event_colour(k), darker(event_colour(k), 0.45))]
+    return [PAPER, INK, MUTED, COLLISION, WARNING, *robots[:30], *events]
 
 
 def frame_at(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
@@ -195,14 +219,18 @@ def _fade(times: np.ndarray) -> float:
 
 def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
            fade_s: float | None = None, known: tuple[World | None, str] | None = None,
-           changed: list[Box] | None = None) -> Generator[np.ndarray, None, None]:
+           changed: list[Box] | None = None, drawn_on: list[np.ndarray] | None = None,
+           ) -> Generator[np.ndarray, None, None]:
     """BGR frames, one per time, all the same size (a multiple of 16 each way, as H.264 likes);
     a path is pale where older than ``fade_s`` (by default a share of the frames' span). A frame
-    is drawn over by the next: copy it to keep it. ``changed``, when given, holds at each frame
-    the boxes outside which it equals the frame before (the whole frame for the first)."""
+    is drawn over by the next: copy it to keep it. ``changed``, when given, holds at each frame the
+    boxes outside which it equals the frame before (the whole frame for the first); ``drawn_on``
+    gets the backdrop's ``Figure.background`` before the first frame."""
     # one function for one frame's layers: the backdrop, the paths, the robots, the caption
     world, note = known or trace_world(trace)  # ``known``: read by the caller already
     fig = render_figure(trace, width_px=width_px, world=world, world_note=note, backdrop=True)
+    if drawn_on is not None and fig.background is not None:
+        drawn_on.append(fig.background)
     P = Painter(width_px)
     mech = world.mechanism if world is not None else None
     poses = mechanism_poses(trace, mech) if mech is not None else None
@@ -210,8 +238,7 @@ def frames(trace: Trace, tracks: list[Track], times: np.ndarray, width_px: int,
     labels = [c for c in trace.columns if c.startswith("label:")]
     lines = 1 + (len(labels) if mech is not None else len(tracks))
     band = max(P.line_h * lines + P.pad, inset + 2 * P.pad)
-    h, w = fig.image.shape[0] + band, fig.image.shape[1]
-    H, W = -(-h // 16) * 16, -(-w // 16) * 16
+    H, W = -(-(fig.image.shape[0] + band) // 16) * 16, -(-fig.image.shape[1] // 16) * 16
     base = np.full((H, W, 3), PAPER, np.uint8)
     base[: fig.image.shape[0], : fig.image.shape[1]] = fig.image
 

@@ -27,8 +27,11 @@ def feedback_pictures(trace: Trace, world: World | None, world_note: str = "") -
     png = data.tobytes() if ok else b""
     gif = b""
     if trace.rows and "time" in trace.columns:
+        recorded = trace.numbers.get("time")  # a recorded run's times are numbers only
         i = trace.columns.index("time")
-        duration_s = float(trace.rows[-1][i]) - float(trace.rows[0][i])
+        first, last = ((float(recorded[0]), float(recorded[-1])) if recorded is not None
+                       else (float(trace.rows[0][i]), float(trace.rows[-1][i])))
+        duration_s = last - first
         gif = gif_bytes(trace, width_px=GIF_WIDTH_PX, fps=GIF_FPS, speed=max(duration_s, 1e-3) / GIF_SECONDS,
                         world=(world, world_note))
     return png, gif

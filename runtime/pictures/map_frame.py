@@ -39,6 +39,9 @@ class Figure:
     left: int  # pixel column of xmin
     top: int  # pixel row of ymax
     panels: tuple[str, ...] = ()  # what is drawn beside the map: "road panel", "slew panel"
+    # the read-only background the figure was drawn on (paper, floor, grid, world): the same array
+    # for every figure of a world at one size, so what is derived from it can be kept with it
+    background: np.ndarray | None = None
 
     def to_px(self, x: float, y: float) -> tuple[float, float]:
         """Pixel (column, row) of world point (x, y); y grows up in the world, down in images."""

@@ -7,15 +7,18 @@ converted to yuv420p here (only the boxes that changed since the last frame), by
 own: the next frames are drawn while ffmpeg takes the last ones, so that drawing and encoding
 share the wall time instead of adding up (a few frames wait in between, so memory stays flat). A
 GIF gets one palette for the whole animation, chosen once from a sample of what the frames show
-(the backdrop, the run's last frame), instead of a palette per frame; each frame is mapped to it
+(the backdrop, the run's last frame), instead of a palette per frame (or, for a feedback page's
+short GIF, from the world's background and the colours a run draws, made once a process per world:
+``run_palette``); each frame is mapped to it
 without dithering (flat colours stay flat), and only the box that changed since the previous frame
 is written, as Pillow's own animated GIFs do.
 """
 from __future__ import annotations
 
+import functools
 import queue
 import threading
-from collections.abc import Generator
+from collections.abc import Generator, Sequence
 from pathlib import Path
 from typing import BinaryIO, Protocol
 
@@ -29,6 +32,10 @@ from PIL import GifImagePlugin, Image
 PRESET = "ultrafast"
 QUEUED = 8  # frames converted and waiting for ffmpeg at most (about 0.7 MB each at 720 px)
 COMMON = 96  # a GIF palette's entries taken by the sample's most frequent colours, exactly
+BLEND_UNDER = 8  # a run palette's blends: over the background's this many most frequent colours
+GROUND_COLOURS = 24  # a run palette's background colours kept exactly (the octree has the rest)
+RUN_COLOURS = 48  # and of the run's first this many colours (a fleet's others come from the octree)
+Colour = tuple[int, int, int]  # BGR
 
 
 Box = tuple[int, int, int, int]  # x0, y0, x1, y1 pixels, x1 and y1 excluded
@@ -119,12 +126,17 @@ def to_i420(frame: np.ndarray, changed: list[Box] | None, last: np.ndarray | Non
 
 
 class GifWriter:
-    """An animated GIF, looping, one global palette, each frame's changed box only."""
+    """An animated GIF, looping, one global palette, each frame's changed box only: the palette
+    of a ``sample`` of what the frames show, or one given (``palette_image``, ``run_palette``)."""
 
-    def __init__(self, file: BinaryIO, sample: np.ndarray, fps: float):
+    def __init__(self, file: BinaryIO, sample: np.ndarray | None, fps: float, palette: Image.Image | None = None):
         self._file = file
         self._duration_ms = 1000 / fps
-        self._palette = palette_image(sample)
+        if palette is None:
+            assert sample is not None, "a GIF needs a sample of its frames or a palette"
+            palette = palette_image(sample)
+        self._palette = palette
+        self._colours = palette.getpalette() or []  # once: each frame's piece carries it
         self._last: np.ndarray | None = None
 
     def append(self, frame: np.ndarray, changed: list[Box] | None = None) -> None:
@@ -138,14 +150,14 @@ class GifWriter:
         self._last = idx
         x0, y0, x1, y1 = box
         part = Image.fromarray(np.ascontiguousarray(idx[y0:y1, x0:x1]), "L")
-        part.putpalette(self._palette.getpalette() or [])
+        part.putpalette(self._colours)
         for chunk in GifImagePlugin.getdata(part, offset=(x0, y0), duration=self._duration_ms):
             self._file.write(chunk)
 
     def _header(self, width: int, height: int) -> None:
-        bgr = (self._palette.getpalette() or [])[: 3 * 256]
+        bgr = self._colours[: 3 * 256]
         bgr += [0] * (3 * 256 - len(bgr))
-        rgb = bytes(v for k in range(256) for v in (bgr[3 * k + 2], bgr[3 * k + 1], bgr[3 * k]))
+        rgb = np.array(bgr, np.uint8).reshape(-1, 3)[:, ::-1].tobytes()
         self._file.write(b"GIF89a" + width.to_bytes(2, "little") + height.to_bytes(2, "little")
                          + bytes((0xF7, 0, 0)) + rgb)
         self._file.write(b"!\xff\x0bNETSCAPE2.0\x03\x01\x00\x00\x00")  # loop for ever
@@ -162,6 +174,56 @@ def _changed(before: np.ndarray, after: np.ndarray) -> tuple[int, int, int, int]
     if not len(rows):
         return (0, 0, 1, 1)
     return (int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+
+
+class _Same:
+    """An array as a cache key by identity (arrays are not hashable), kept alive by the cache so
+    that its id is not reused while the key is there."""
+
+    def __init__(self, array: np.ndarray):
+        self.array = array
+
+    def __hash__(self) -> int:
+        return id(self.array)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Same) and other.array is self.array
+
+
+def run_palette(background: np.ndarray, colours: Sequence[Colour]) -> Image.Image:
+    """A palette for an animation drawn on ``background`` (read-only, the same array for every
+    run of a world at one size: ``Figure.background``) with ``colours`` (what the run adds: its
+    paths, robots, markers, text), made without looking at the frames, so that it is made once a
+    process for every run of a world rather than from each run's frames: ``colours`` and the
+    background's most frequent colours exactly, the rest from an octree over the background and
+    every blend of two of them in eighths (the antialiased edges of a colour drawn over another)."""
+    return _run_palette(_Same(background), tuple(colours))
+
+
+@functools.lru_cache(maxsize=8)
+def _run_palette(background: _Same, colours: tuple[Colour, ...]) -> Image.Image:
+    base = background.array
+    pixels = base.reshape(-1, 3)
+    packed = (pixels[:, 0].astype(np.uint32) << 16) | (pixels[:, 1].astype(np.uint32) << 8) | pixels[:, 2]
+    values, counts = np.unique(packed, return_counts=True)
+    common = values[np.argsort(counts, kind="stable")[::-1][:GROUND_COLOURS]]
+    ground = [((int(v) >> 16) & 255, (int(v) >> 8) & 255, int(v) & 255) for v in common]
+    run = list(dict.fromkeys(colours))[:RUN_COLOURS]
+    exact = list(dict.fromkeys([*run, *ground]))[:256 - 64]  # and at least 64 for the edges between
+    under = np.array([*run, *ground[:BLEND_UNDER]], float)  # the run's colours and the ground they lie on
+    a = np.arange(1, 8)[:, None, None] / 8
+    pairs = under[None, :, None, :] * a[..., None] + under[None, None, :, :] * (1 - a[..., None])
+    # the blends weigh as much as the background in the octree: few pixels each, but on every edge
+    blends = np.round(pairs).astype(np.uint8).reshape(-1, 3)
+    sample = np.vstack((pixels, np.tile(blends, (max(1, len(pixels) // len(blends)), 1))))
+    rest = Image.fromarray(np.ascontiguousarray(sample.reshape(-1, 1, 3)), "RGB").quantize(
+        256 - len(exact), method=Image.Quantize.FASTOCTREE)
+    more = rest.getpalette() or []
+    found = exact + [tuple(more[3 * k: 3 * k + 3]) for k in range(len(more) // 3)]
+    flat = [v for c in list(dict.fromkeys(found))[:256] for v in c]
+    pal = Image.new("P", (1, 1))
+    pal.putpalette(flat + [0] * (3 * 256 - len(flat)))
+    return pal
 
 
 def palette_image(sample: np.ndarray) -> Image.Image:

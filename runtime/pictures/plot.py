@@ -12,6 +12,7 @@ also writes the file.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +53,7 @@ from labsim.runtime.pictures.trace_sample import read_for_picture
 from labsim.runtime.trace import Trace, TraceFormatError, trace_world
 
 MIN_WIDTH_PX = 400
+PATH_STEP_PX = 1.0  # a map's path keeps a point every this many pixels along it
 
 # -- the data ----------------------------------------------------------------------------------
 
@@ -82,9 +84,11 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
     xs, ys = _floats(trace, "x"), _floats(trace, "y")
     heading = _floats(trace, "heading") if "heading" in trace.columns else np.full(len(xs), np.nan)
     collided = (_floats(trace, "collided") > 0.5) if "collided" in trace.columns else np.zeros(len(xs), bool)
-    names = np.array(trace.column("robot"), dtype=object)
+    column = trace.column("robot")
+    seen = dict.fromkeys(column)  # each name once, in the order of the rows
+    names = np.array(column, dtype=object)
     models = trace.header.get("robots") or {}
-    order = list(dict.fromkeys([*(n for n in models if n in set(names)), *names]))
+    order = list(dict.fromkeys([*(n for n in models if n in seen), *seen]))
     ei = trace.columns.index("events") if "events" in trace.columns else -1
     cells = trace.column("events") if ei >= 0 else []
     # most rows have no events: the rows that have are found in C, not looked at one by one
@@ -92,7 +96,8 @@ def robot_paths(trace: Trace) -> list[RobotPath]:
 
     paths = []
     for k, name in enumerate(order):
-        idx = np.flatnonzero(names == name)  # rows are tick-ordered, so this is the path in time
+        # rows are tick-ordered, so this is the path in time
+        idx = np.arange(len(column)) if len(seen) == 1 else np.flatnonzero(names == name)
         x, y = xs[idx], ys[idx]
         ok = np.isfinite(x) & np.isfinite(y)
         c = collided[idx]
@@ -171,9 +176,10 @@ def render_figure(trace: Trace, *, width_px: int = 1000, world: World | None = N
     events = _event_names(trace.header, paths)
     P = Painter(width_px)
     at = _layout(trace, P, width_px, world, paths, events, 3 if world_note else 2, backdrop)
-    img = np.full((at.height, width_px, 3), PAPER, np.uint8)
     panels = (("road panel",) if at.road else ()) + (("slew panel",) if at.inset else ())
-    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, panels)
+    base = _background(world, width_px, at)
+    img = base.copy()
+    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, panels, base)
     _draw_map(img, P, fig, at, trace, world, paths, events, backdrop)
     _draw_title(img, P, trace, world, paths, world_note, at.map_left)
     if at.road and world is not None:
@@ -245,9 +251,28 @@ def _layout(trace: Trace, P: Painter, width_px: int, world: World | None, paths:
                    panel_h)
 
 
-def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trace, world: World | None,
-              paths: list[RobotPath], events: list[str], backdrop: bool) -> None:
-    """The map in its frame: the floor, the metre grid, the world, a mechanism, the run."""
+def _background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    """The figure before the run is drawn on it: the paper, the map's floor, its grid and axes,
+    and the world; the same pixels for every run of a world at one size, so drawn once a
+    process (``labsim grade`` draws a map and a GIF for each student of a class in one world).
+    Read-only: copy it to draw on. A world that cannot be a key (unhashable) is drawn each time."""
+    try:
+        return _cached_background(world, width_px, at)
+    except TypeError:  # an unhashable world
+        return _draw_background(world, width_px, at)
+
+
+@functools.lru_cache(maxsize=8)  # a few worlds at two sizes (a feedback page's map and GIF)
+def _cached_background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    img = _draw_background(world, width_px, at)
+    img.flags.writeable = False  # shared by every later figure: drawn on only through a copy
+    return img
+
+
+def _draw_background(world: World | None, width_px: int, at: _Layout) -> np.ndarray:
+    P = Painter(width_px)
+    img = np.full((at.height, width_px, 3), PAPER, np.uint8)
+    fig = Figure(img, at.x0, at.y1, at.mpp, at.map_left, at.map_top, ())
     box = (at.map_left, at.map_top), (at.map_left + at.map_w, at.map_top + at.map_h)
     ground = world.ground if world is not None and isinstance(world.ground, Ground) else None
     # a ground's floor colour replaces the map's background; the grid stays visible on it
@@ -256,6 +281,13 @@ def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trac
     grid(img, P, fig, at.map_w, at.map_h, (at.x0, at.y0, at.x1, at.y1),
          "z (m)" if world is not None and world.mechanism is not None else "y (m)")
     _draw_world(img, P, world, ground, at.px, at.mpp)
+    return img
+
+
+def _draw_map(img: np.ndarray, P: Painter, fig: Figure, at: _Layout, trace: Trace, world: World | None,
+              paths: list[RobotPath], events: list[str], backdrop: bool) -> None:
+    """On the background (``_background``): a mechanism, the run, the map's frame."""
+    box = (at.map_left, at.map_top), (at.map_left + at.map_w, at.map_top + at.map_h)
     if world is not None and world.mechanism is not None:
         draw_run_mechanism(img, P, world.mechanism, trace, at.px, backdrop)
     if not backdrop:
@@ -301,7 +333,7 @@ def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: lis
     line_w = max(2, round(2 * s))
     for p in paths:
         if len(p.xy) > 1:
-            pts = np.round(px(p.xy) * ONE).astype(np.int32).reshape(-1, 1, 2)
+            pts = np.round(_pixel_apart(px(p.xy)) * ONE).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(img, [pts], False, p.colour, line_w, AA, SHIFT)
     for k, ev in enumerate(events):
         for p in paths:
@@ -323,6 +355,16 @@ def _draw_paths(img: np.ndarray, P: Painter, paths: list[RobotPath], events: lis
                             tuple(np.round(tip * ONE).astype(int)), darker(p.colour),
                             max(2, round(2 * s)), AA, SHIFT, 0.35)
         P.end(img, ends[1:], p.colour)
+
+
+def _pixel_apart(at: np.ndarray) -> np.ndarray:
+    """A path's points (pixels) one every ``PATH_STEP_PX`` or more along it, and its last: a thick
+    antialiased polyline costs a segment and a round join a point, and a run's ticks lie closer
+    than a pixel apart at a map's scale (the wall lab's 6,000 poses over some 3,500 pixels)."""
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(at, axis=0).T))))
+    keep = np.diff(np.floor(along / PATH_STEP_PX), prepend=-1.0) > 0
+    keep[-1] = True
+    return at[keep]
 
 
 def _run_facts(trace: Trace, world: World | None, paths: list[RobotPath]) -> list[str]:
@@ -347,7 +389,8 @@ def _duration(trace: Trace) -> float | None:
     if not trace.rows or "time" not in trace.columns:
         return None
     try:
-        last = float(trace.rows[-1][trace.columns.index("time")])
+        times = trace.numbers.get("time")  # a run recorded in memory: numbers only
+        last = float(times[-1]) if times is not None else float(trace.rows[-1][trace.columns.index("time")])
     except ValueError:
         return None
     dt = trace.header.get("dt")

@@ -88,7 +88,7 @@ class Trails:
             recent = max(st.pale, min(int(np.searchsorted(p.t, recent_from)), max(shown - 1, 0)))
             if recent > st.pale:  # segments that turned old: pale for good
                 cv2.polylines(self.pale_layer, [p.pts[st.pale:recent + 1].reshape(-1, 1, 2)], False,
-                              _pale(p.colour), self.width, AA, SHIFT)
+                              pale(p.colour), self.width, AA, SHIFT)
                 boxes.append(self._box(st, st.pale, recent))
             first = max(st.shown - 1, recent, 0)
             if shown - 1 > first:  # segments that appeared, and are recent
@@ -159,7 +159,7 @@ class Trails:
         self.shown[y0:y1, x0:x1] = cv2.blendLinear(self._colour[y0:y1, x0:x1], pale, a, 255 - a)
 
 
-def _pale(colour: tuple[int, int, int]) -> tuple[int, int, int]:
+def pale(colour: tuple[int, int, int]) -> tuple[int, int, int]:
     """A robot's colour faded most of the way to white: its path's old part."""
     b, g, r = (int(c + (255 - c) * 0.6) for c in colour)
     return (b, g, r)

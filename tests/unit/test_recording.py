@@ -28,4 +28,7 @@ def test_the_recording_holds_what_the_trace_holds(tmp_path: Path) -> None:
         assert np.allclose(memory.numbers[name], np.array(file.column(name), dtype=float), rtol=1e-5, atol=1e-6)
     for name in ("robot", "state", "rule", "events"):
         assert memory.column(name) == file.column(name), name
-    assert float(memory.column("time")[-1]) == float(file.column("time")[-1])  # what the picture's title says
+    assert memory.numbers["tick"].tolist() == [float(t) for t in file.column("tick")]
+    assert float(memory.numbers["time"][-1]) == float(file.column("time")[-1])  # what the picture's title says
+    # the number columns are numbers only: their cells are left empty, as ``Trace.numbers`` says
+    assert set(memory.column("time")) == set(memory.column("x")) == {""}
