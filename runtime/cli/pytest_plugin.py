@@ -14,6 +14,7 @@ independent, so ``pytest -n auto`` (pytest-xdist) runs them in parallel.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -51,6 +52,31 @@ def _no_rewrite(pluginmanager: pytest.PytestPluginManager) -> None:
         marked.discard("labsim")
         if isinstance(cache, dict):
             cache.clear()
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    _skip_idle_hypothesis(session.config)
+
+
+def _skip_idle_hypothesis(config: pytest.Config) -> None:
+    """Leave out the hypothesis plugin's end-of-session summary when hypothesis never ran. Its
+    summary imports hypothesis whatever the session held, and pytest rewrites the asserts of
+    every hypothesis module it imports (a plugin's whole distribution is marked): without a
+    bytecode cache about 1.3 s of CPU, most of ``pytest behaviours/``'s start and collection. The
+    summary can only say something when hypothesis was imported (a test used it, here or in an
+    xdist worker whose reports carry its keys) or one of its options was given: then it stays.
+    The plugin's names are read from it, so another version that lacks them is left alone."""
+    plugin = config.pluginmanager.get_plugin("hypothesispytest")
+    any_option = getattr(plugin, "_any_hypothesis_option", None)
+    keys = [getattr(plugin, k, None) for k in ("STATS_KEY", "FAILING_EXAMPLES_KEY")]
+    if plugin is None or "hypothesis" in sys.modules or not callable(any_option) or None in keys:
+        return
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    reports = [r for rs in getattr(reporter, "stats", {}).values() for r in rs]
+    if any_option(config) or any(k in getattr(r, "__dict__", {}) for r in reports for k in keys):
+        return
+    config.pluginmanager.unregister(plugin)
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
