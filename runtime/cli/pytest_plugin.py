@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import ALLOW_ENV, policy_problem
-from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
+# labsim's own modules are imported where they are used, once _no_rewrite has run: imported
+# here, with this module, pytest would rewrite their asserts too (without a bytecode cache, parsed
+# and compiled anew by pytest in every session that has labsim installed)
 
 if TYPE_CHECKING:
     from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
@@ -80,6 +80,8 @@ def _skip_idle_hypothesis(config: pytest.Config) -> None:
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
+    from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
+
     if file_path.suffix not in YAML_SUFFIXES:
         return None
     named = _named(file_path, parent.config)
@@ -98,6 +100,9 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourF
 def links_out(path: Path) -> str:
     """Why a behaviour file found in a folder, or the golden beside it, may not be read there
     (a symbolic link that leads out of the folder, ``policy_problem``), or ''."""
+    from labsim.foundation.files import ALLOW_ENV, policy_problem
+    from labsim.foundation.kinds import golden_path
+
     for f in (path, golden_path(path)):
         refused = os.path.lexists(f) and policy_problem(f.name, f.parent)
         if refused:
@@ -160,6 +165,8 @@ class GoldenItem(pytest.Item):
                      style: TracebackStyle | None = None) -> str:
         if isinstance(excinfo.value, GoldenMismatch):
             return str(excinfo.value)
+        from labsim.foundation.diagnostics import LabsimError
+
         if isinstance(excinfo.value, LabsimError):
             return "\n".join([f"FAIL {self.path}: it does not compile"]
                              + [d.format() for d in excinfo.value.diagnostics])
