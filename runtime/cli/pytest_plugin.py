@@ -69,7 +69,7 @@ def _skip_idle_hypothesis(config: pytest.Config) -> None:
     The plugin's names are read from it, so another version that lacks them is left alone."""
     plugin = config.pluginmanager.get_plugin("hypothesispytest")
     any_option = getattr(plugin, "_any_hypothesis_option", None)
-    keys = [getattr(plugin, k, None) for k in ("STATS_KEY", "FAILING_EXAMPLES_KEY")]
+    keys = [getattr(plugin, "STATS_KEY", None), getattr(plugin, "FAILING_EXAMPLES_KEY", None)]
     if plugin is None or "hypothesis" in sys.modules or not callable(any_option) or None in keys:
         return
     reporter = config.pluginmanager.get_plugin("terminalreporter")
