@@ -14,15 +14,16 @@ independent, so ``pytest -n auto`` (pytest-xdist) runs them in parallel.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import ALLOW_ENV, policy_problem
-from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
+# labsim's own modules are imported where they are used, once _no_rewrite has run: imported
+# here, with this module, pytest would rewrite their asserts too (without a bytecode cache, parsed
+# and compiled anew by pytest in every session that has labsim installed)
 
 if TYPE_CHECKING:
     from _pytest._code.code import TracebackStyle  # what pytest's own repr_failure takes
@@ -53,7 +54,34 @@ def _no_rewrite(pluginmanager: pytest.PytestPluginManager) -> None:
             cache.clear()
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    _skip_idle_hypothesis(session.config)
+
+
+def _skip_idle_hypothesis(config: pytest.Config) -> None:
+    """Leave out the hypothesis plugin's end-of-session summary when hypothesis never ran. Its
+    summary imports hypothesis whatever the session held, and pytest rewrites the asserts of
+    every hypothesis module it imports (a plugin's whole distribution is marked): without a
+    bytecode cache about 1.3 s of CPU, most of ``pytest behaviours/``'s start and collection. The
+    summary can only say something when hypothesis was imported (a test used it, here or in an
+    xdist worker whose reports carry its keys) or one of its options was given: then it stays.
+    The plugin's names are read from it, so another version that lacks them is left alone."""
+    plugin = config.pluginmanager.get_plugin("hypothesispytest")
+    any_option = getattr(plugin, "_any_hypothesis_option", None)
+    keys = [getattr(plugin, "STATS_KEY", None), getattr(plugin, "FAILING_EXAMPLES_KEY", None)]
+    if plugin is None or "hypothesis" in sys.modules or not callable(any_option) or None in keys:
+        return
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    reports = [r for rs in getattr(reporter, "stats", {}).values() for r in rs]
+    if any_option(config) or any(k in getattr(r, "__dict__", {}) for r in reports for k in keys):
+        return
+    config.pluginmanager.unregister(plugin)
+
+
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourFile | None:
+    from labsim.foundation.kinds import YAML_SUFFIXES, file_kind, golden_path
+
     if file_path.suffix not in YAML_SUFFIXES:
         return None
     named = _named(file_path, parent.config)
@@ -72,6 +100,9 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> BehaviourF
 def links_out(path: Path) -> str:
     """Why a behaviour file found in a folder, or the golden beside it, may not be read there
     (a symbolic link that leads out of the folder, ``policy_problem``), or ''."""
+    from labsim.foundation.files import ALLOW_ENV, policy_problem
+    from labsim.foundation.kinds import golden_path
+
     for f in (path, golden_path(path)):
         refused = os.path.lexists(f) and policy_problem(f.name, f.parent)
         if refused:
@@ -134,6 +165,8 @@ class GoldenItem(pytest.Item):
                      style: TracebackStyle | None = None) -> str:
         if isinstance(excinfo.value, GoldenMismatch):
             return str(excinfo.value)
+        from labsim.foundation.diagnostics import LabsimError
+
         if isinstance(excinfo.value, LabsimError):
             return "\n".join([f"FAIL {self.path}: it does not compile"]
                              + [d.format() for d in excinfo.value.diagnostics])

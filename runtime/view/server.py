@@ -104,7 +104,9 @@ class ViewServer:
         if origin is not None and origin.split("://", 1)[-1] != request.host:
             self.log(f"labsim view: refused a WebSocket from origin {origin[:80]}")
             raise web.HTTPForbidden(text="this run only answers its own page")
-        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES, heartbeat=20)
+        # no permessage-deflate: a frame is under 4 KB and the page usually on this machine, where
+        # deflating it here and inflating it in the browser is CPU both sides spend for nothing
+        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES, heartbeat=20, compress=False)
         await ws.prepare(request)
         page = Page(ws, request.remote or "?")
         self.pages.append(page)

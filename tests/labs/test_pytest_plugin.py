@@ -107,3 +107,27 @@ def test_xdist_runs_them_in_parallel(pytester: pytest.Pytester, lab: Path) -> No
     shutil.copyfile(lab.with_name("small.golden.csv"), pytester.path / "twin.golden.csv")
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "2")
     result.assert_outcomes(passed=2)
+
+
+PROBE = '''
+import sys
+
+
+def pytest_unconfigure(config):
+    with open("hypothesis_imported.txt", "w") as f:
+        f.write(str("hypothesis" in sys.modules))
+'''
+
+
+@pytest.mark.slow
+def test_goldens_alone_do_not_import_hypothesis_for_its_summary(pytester: pytest.Pytester, lab: Path) -> None:
+    pytest.importorskip("_hypothesis_pytestplugin")
+    pytester.makepyfile(probe=PROBE)
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-p", "probe")
+    result.assert_outcomes(passed=1)
+    assert (pytester.path / "hypothesis_imported.txt").read_text() == "False"
+    # asked for its statistics, the hypothesis plugin says what it says as before
+    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-p", "probe", "--hypothesis-show-statistics")
+    result.assert_outcomes(passed=1)
+    result.stdout.fnmatch_lines(["*Hypothesis Statistics*"])
+    assert (pytester.path / "hypothesis_imported.txt").read_text() == "True"

@@ -109,9 +109,12 @@ LV.Chart = class {
     this.picked.forEach((k, i) => {
       const col = h && h.cols[k], v = h && h.now ? h.now[k] : (col && col.length ? col[col.length - 1] : null);
       const s = this.legend.children[i];
-      s.dataset.column = String(k);
-      s.style.color = this._colour(i);
-      s.textContent = `${this.columns[k].name} ${LV.fmt(v)}`;
+      // written only when changed: the same text written again still costs a style and layout pass
+      const colour = this._colour(i);
+      if (s.dataset.column !== String(k)) s.dataset.column = String(k);
+      if (s.dataset.colour !== colour) { s.dataset.colour = colour; s.style.color = colour; }
+      const text = `${this.columns[k].name} ${LV.fmt(v)}`;
+      if (s.textContent !== text) s.textContent = text;
     });
   }
 

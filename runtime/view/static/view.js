@@ -288,34 +288,36 @@ function render() {
   const f = state.frame, scene = state.scene;
   if (!f || !scene) return;
   const t0 = performance.now();
-  $("play").textContent = f.playing ? "Pause" : "Play";
-  $("play").disabled = f.finished && !f.playing;
+  // every text below is written only when it changes (setText): a write of the same text still
+  // replaces the element's text and costs the page a style and layout pass, 20 times a second
+  setText($("play"), f.playing ? "Pause" : "Play");
+  if ($("play").disabled !== (f.finished && !f.playing)) $("play").disabled = f.finished && !f.playing;
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
   // the tick whose pose, values, state and rule the page shows (a live run's last tick run)
   const at = f.ran === 0 ? "not started" : `tick ${f.tick}`;
-  $("clock").textContent = `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`;
-  $("rtf").textContent = f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "";
+  setText($("clock"), `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`);
+  setText($("rtf"), f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "");
   if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
   if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
     $("scrubber").value = String(f.tick);
   }
-  $("scrub-time").textContent = scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "";
+  setText($("scrub-time"), scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "");
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    div.querySelector(".text").textContent = f.labels[input.dataset.label] || n;
+    setText(div.querySelector(".text"), f.labels[input.dataset.label] || n);
     if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
     if (n in f.sliders) input.value = f.sliders[n];
-    div.querySelector(".value").textContent = n in f.sliders ? fmt(f.sliders[n]) : "";
+    setText(div.querySelector(".value"), n in f.sliders ? fmt(f.sliders[n]) : "");
   }
   const r = f.robots[state.robot];
   if (r) {
-    $("state").textContent = r.state || "–";
+    setText($("state"), r.state || "–");
     const rule = scene.rules.find((q) => q.id === r.rule);
-    $("rule").textContent = r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)";
+    setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
     r.values.forEach((v, k) => { if (state.rows[k]) setText(state.rows[k].v, fmt(v)); });
   }
   renderBreaks(f);
-  if ("edited" in f) $("editor-state").textContent = f.edited ? "applied, not saved" : "";
+  if ("edited" in f) setText($("editor-state"), f.edited ? "applied, not saved" : "");
   renderImages(f.images);
   world.selected = state.robot;
   world.draw();
@@ -458,7 +460,7 @@ function renderBreaks(f) {
     });
   }
   const hit = f.hit, box = $("break-hit");
-  box.hidden = !hit;
+  if (box.hidden !== !hit) box.hidden = !hit;
   if (hit) {
     const rule = hit.rule ? state.scene.rules.find((q) => q.id === hit.rule) : null;
     box.textContent = `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${hit.what}` +
@@ -483,7 +485,7 @@ function renderImages(images) {
   }
   want.forEach(([name, url], i) => {
     const fig = box.children[i];
-    fig.querySelector("figcaption").textContent = name;
+    setText(fig.querySelector("figcaption"), name);
     const img = fig.querySelector("img");
     if (img.src !== url) img.src = url;
   });
