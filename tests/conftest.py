@@ -1,10 +1,9 @@
 """The suite's fixtures and hooks: its own cache folder, a tiny behaviour writer, the labs' long
 runs (each made once per session and shared by every test that reads it), a Dask cluster shared
-the same way, and a ``labsim serve --empty`` of a test's own. What test modules import lives in
-tests/helpers.py; the tiers (unit, contract, labs, hostile, serve, apps, browser) are the
-subfolders, and ``-m "not slow"`` leaves out the long tests. Every test under tests/browser is
-marked ``browser`` here, and slow tests are handed out first (see
-``pytest_collection_modifyitems``)."""
+the same way, and a ``labsim serve --empty`` of a test's own. What test modules import lives in tests/helpers.py; the tiers
+(unit, contract, labs, hostile, serve, apps, browser) are the subfolders, and ``-m "not slow"``
+leaves out the long tests. Every test under tests/browser is marked ``browser`` here, and slow
+tests are handed out first (see ``pytest_collection_modifyitems``)."""
 from __future__ import annotations
 
 import atexit
