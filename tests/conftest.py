@@ -1,6 +1,6 @@
 """The suite's fixtures and hooks: its own cache folder, a tiny behaviour writer, the labs' long
-runs (each made once per session and shared by every test that reads it), a Dask cluster shared
-the same way, and a ``labsim serve --empty`` of a test's own. What test modules import lives in tests/helpers.py; the tiers
+runs (each made once per session and shared by every test that reads it), and a ``labsim serve
+--empty`` of a test's own. What test modules import lives in tests/helpers.py; the tiers
 (unit, contract, labs, hostile, serve, apps, browser) are the subfolders, and ``-m "not slow"``
 leaves out the long tests. Every test under tests/browser is marked ``browser`` here, and slow
 tests are handed out first (see ``pytest_collection_modifyitems``)."""
@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from helpers import LabRun, local_cluster, serve, stop
+from helpers import LabRun, serve, stop
 from hypothesis import settings
 
 from labsim.backends import load_backend
@@ -84,18 +84,6 @@ def lab_run() -> LabRun:
         return done[key]
 
     return run
-
-
-@pytest.fixture(scope="session")
-def cluster():
-    """A Dask cluster of two worker processes (tests/helpers.local_cluster), started once per
-    session (per xdist worker) for the sweep and grading tests that send it runs.
-
-    Starting one cost a few seconds in each of four modules. A test that hands it runs waits for
-    them to end or to be stopped, so the next one finds it idle; a test that kills a Dask worker
-    starts a cluster of its own."""
-    with local_cluster() as c:
-        yield c
 
 
 @pytest.fixture

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import FIXTURES
+from helpers import FIXTURES, local_cluster
 
 from labsim.runtime.grade.driver import Options, grade_class, write_class
 
@@ -176,14 +176,15 @@ def test_a_bad_assignment_exits_2_with_every_mistake(tmp_path: Path, capsys) -> 
 
 
 @pytest.mark.slow
-def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch, cluster) -> None:
+def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch) -> None:
     folder, _ = graded_class
     monkeypatch.chdir(folder)
-    options = Options("assignment.yaml", ["class"], tmp_path / "dask", scheduler=cluster.scheduler_address,
-                      cache=False)
-    options.out.mkdir()
-    graded = grade_class(options)
-    write_class(graded, options, pages=False)
+    with local_cluster() as c:
+        options = Options("assignment.yaml", ["class"], tmp_path / "dask", scheduler=c.scheduler_address,
+                          cache=False)
+        options.out.mkdir()
+        graded = grade_class(options)
+        write_class(graded, options, pages=False)
     for name in ("gradebook.csv", "gradebook.json"):
         assert (tmp_path / "dask" / name).read_text() == (folder / "out" / name).read_text()
 

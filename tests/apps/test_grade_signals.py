@@ -15,7 +15,7 @@ from pathlib import Path
 
 import psutil
 import pytest
-from helpers import FIXTURES
+from helpers import FIXTURES, local_cluster
 
 pytestmark = pytest.mark.slow  # labsim grades, signalled mid-run
 
@@ -114,6 +114,12 @@ def test_a_second_grading_runs_only_the_interrupted_students(tmp_path: Path) -> 
     assert again.returncode == 0, again.stderr
     assert "2 runs made, 2 taken from the cache" in again.stdout
     assert set(_statuses(tmp_path).values()) == {"graded"}
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with local_cluster() as c:
+        yield c
 
 
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])

@@ -331,10 +331,9 @@ def test_a_sweep_over_a_noise_parameter(capsys, tmp_path: Path) -> None:
 
 # -- the Dask executor ------------------------------------------------------------------------
 
-@pytest.fixture
-def own_cluster():
-    """A Dask cluster of this test's own: it kills one of the workers (the others share the
-    session's, tests/conftest.py)."""
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask cluster of two worker processes on this machine, for this module's tests."""
     with local_cluster() as c:
         yield c
 
@@ -370,15 +369,13 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> N
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, own_cluster) -> None:
+def test_a_lost_dask_worker_s_runs_are_retried(capsys, tmp_path: Path, cluster) -> None:
     import os
     import signal
     import threading
     import time
 
     from distributed import Client
-
-    cluster = own_cluster
 
     def kill_a_busy_worker() -> None:
         with Client(cluster.scheduler_address, set_as_default=False) as client:

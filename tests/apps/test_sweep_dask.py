@@ -15,7 +15,7 @@ from pathlib import Path
 
 import psutil
 import pytest
-from helpers import BEHAVIOURS
+from helpers import BEHAVIOURS, local_cluster
 
 from labsim.runtime.cli.main import main
 
@@ -25,6 +25,12 @@ distributed = pytest.importorskip("distributed")
 LAB = str(BEHAVIOURS / "wall_follow.yaml")
 PATIENCE_S = 60.0
 ISOLATED = "labsim.runtime.sweep.isolated"
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with local_cluster() as c:
+        yield c
 
 
 def _workers(cluster) -> dict[str, int]:
