@@ -66,7 +66,9 @@ def test_a_run_that_kills_its_process_fails_alone(capsys, tmp_path: Path, cluste
     killer = threading.Thread(target=kill_one_run)
     killer.start()
     path = tmp_path / "r.json"
-    code = main(["sweep", LAB, "--set", "minutes=60", "--seeds", "1-4", "--executor", "dask",
+    # 20 simulated minutes: the run is still going when it is killed (a second of CPU after its
+    # process's start-up), and the three that live cost a third of what 60 minutes did
+    code = main(["sweep", LAB, "--set", "minutes=20", "--seeds", "1-4", "--executor", "dask",
                  "--scheduler", cluster.scheduler_address, "--json", str(path)])
     killer.join()
     out, err = capsys.readouterr()

@@ -525,6 +525,7 @@ def test_a_bad_break_on_the_command_line_is_exit_2_with_its_column(capsys) -> No
     assert "remembers earlier ticks" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # seconds: a live session, its trace and a replay of it; handed out first
 def test_a_robot_put_by_hand_is_in_the_trace_and_replays_bit_for_bit(tmp_path: Path) -> None:
     live_trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
     s = live(WALL, trace=live_trace)

@@ -24,6 +24,7 @@ def live(path: Path, **kw: object) -> LiveSession:
     return s
 
 
+@pytest.mark.slow  # seconds: a live session, its trace and a replay of it; handed out first
 def test_blocks_changed_by_hand_are_in_the_trace_and_replay_bit_for_bit(tmp_path: Path) -> None:
     live_trace, replayed = tmp_path / "live.csv", tmp_path / "replayed.csv"
     s = live(WALL, trace=live_trace)

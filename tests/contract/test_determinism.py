@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from helpers import BEHAVIOURS
 
 from labsim.runtime.cli.main import main
@@ -29,6 +30,7 @@ def test_another_seed_gives_another_run(tmp_path: Path) -> None:
     assert a.read_bytes() != b.read_bytes()
 
 
+@pytest.mark.slow  # seconds: two labs run three times each, one in a process of its own; handed out first
 def test_the_epuck_with_ground_sensors_and_a_lidar_robot_repeat_byte_for_byte(tmp_path: Path) -> None:
     """The line-following lab (e-puck, ground sensors) and a Pioneer reading a noisy lidar and
     its bumpers: the same trace in process twice and in a subprocess."""

@@ -224,12 +224,22 @@ def test_a_sweep_worker_has_a_memory_limit() -> None:
     assert proc.stdout.strip() == "MemoryError", proc.stderr
 
 
-def test_a_run_its_budget_stops_is_not_recorded_as_a_golden(tmp_path: Path) -> None:
+@pytest.mark.parametrize("ticks", [pytest.param(200_000, marks=(pytest.mark.slow, pytest.mark.long)), 1000])
+def test_a_run_its_budget_stops_is_not_recorded_as_a_golden(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                             ticks: int) -> None:
+    """The default budget of 200,000 ticks (seconds of CPU: the long stage), and the same path to
+    the refusal with a budget of 1,000 ticks given to the golden's compile (the plain command)."""
     from labsim.foundation.diagnostics import LabsimError
+    from labsim.foundation.limits import Budgets
+    from labsim.runtime import golden
     from labsim.runtime.golden import golden_path, record_golden
 
+    if ticks != Budgets().ticks:
+        compile_behaviour = golden.compile_behaviour
+        monkeypatch.setattr(golden, "compile_behaviour",
+                            lambda path: compile_behaviour(path, budgets=Budgets(ticks=ticks)))
     path = tmp_path / "b.yaml"
     path.write_text(behaviour("x > 100000"), encoding="utf-8")
-    with pytest.raises(LabsimError, match=r"budget of 200,000 ticks.*no golden recorded"):
+    with pytest.raises(LabsimError, match=rf"budget of {ticks:,} ticks.*no golden recorded"):
         record_golden(path)
     assert not golden_path(path).exists() and sorted(p.name for p in tmp_path.iterdir()) == ["b.yaml"]

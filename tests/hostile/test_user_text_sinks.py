@@ -139,6 +139,7 @@ def _scan() -> set[tuple[str, str]]:
     return found
 
 
+@pytest.mark.slow  # seconds: walks the whole package's code; handed out first
 def test_no_user_text_reaches_a_format_or_attribute_sink() -> None:
     found = _scan()
     new = sorted(found - ALLOWED.keys())

@@ -24,6 +24,7 @@ def assert_all_on_the_road(summary: RunResult, seconds: float, max_offset_m: flo
     assert summary.faults == ()  # every frame saw road
 
 
+@pytest.mark.slow  # seconds: five camera robots for 30 s (shared with the module's other tests); handed out first
 def test_with_the_lab_constants_all_five_stay_on_the_road_for_30_s(lab_run: LabRun) -> None:
     summary = lab_run(LAB)
     assert_all_on_the_road(summary, 30.0, 0.75)  # the road is 3 m wide

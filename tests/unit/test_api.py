@@ -63,6 +63,7 @@ def _grader() -> str:
     return next(b for b in blocks if b.startswith("# test_grade.py"))
 
 
+@pytest.mark.slow  # seconds: a pytest session of its own, grading a folder; handed out first
 def test_the_pytest_grader_in_docs_api_grades_a_folder(tmp_path: Path) -> None:
     submissions = tmp_path / "submissions"
     submissions.mkdir()

@@ -8,6 +8,7 @@ the file's lines, and a function's run from its ``def`` to its last line, docstr
 from __future__ import annotations
 
 import ast
+import functools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -33,6 +34,14 @@ def package_files() -> list[Path]:
     return files
 
 
+@functools.cache
+def parsed(path: Path) -> tuple[str, ast.Module]:
+    """A module's text and tree, read and parsed once for every test here (each walks the whole
+    package; parsing it was most of their time). Trees are read, never changed."""
+    text = path.read_text(encoding="utf-8")
+    return text, ast.parse(text)
+
+
 def functions(tree: ast.Module) -> Iterator[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:
     """Every function and method, nested ones too, with its qualified name (``Run._make_tick``)."""
     def walk(node: ast.AST, prefix: str) -> Iterator[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:
@@ -54,18 +63,18 @@ def gives_reason(docstring: str | None, marker: str) -> bool:
 def long_modules() -> list[str]:
     out = []
     for path in package_files():
-        text = path.read_text(encoding="utf-8")
+        text, tree = parsed(path)
         lines = len(text.splitlines())
-        if lines > MAX_MODULE_LINES and not gives_reason(ast.get_docstring(ast.parse(text)), MODULE_REASON):
+        if lines > MAX_MODULE_LINES and not gives_reason(ast.get_docstring(tree), MODULE_REASON):
             out.append(f"{path.relative_to(ROOT).as_posix()}: {lines} lines")
     return out
 
 
+@functools.cache  # two tests ask; the list is read, never changed
 def long_functions() -> list[tuple[str, str, int]]:
     out = []
     for path in package_files():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        for name, node in functions(tree):
+        for name, node in functions(parsed(path)[1]):
             lines = (node.end_lineno or node.lineno) - node.lineno + 1
             if lines > MAX_FUNCTION_LINES and not gives_reason(ast.get_docstring(node), FUNCTION_REASON):
                 out.append((path.relative_to(ROOT).as_posix(), name, lines))
@@ -116,7 +125,7 @@ def test_docs_architecture_lists_every_module() -> None:
     """docs/architecture.md has a line for every module with a docstring, and none that is gone."""
     text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
     modules = {path.relative_to(ROOT).as_posix() for path in package_files()
-               if path.suffix == ".py" and ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))}
+               if path.suffix == ".py" and ast.get_docstring(parsed(path)[1])}
     listed = {line.split("`")[1] for line in text.splitlines() if line.startswith("| `") and line.count("`") >= 2}
     missing = sorted(m for m in modules if m not in listed and m not in ("__init__.py", "__main__.py"))
     assert not missing, "docs/architecture.md, 'Every module', has no line for: " + ", ".join(missing)
