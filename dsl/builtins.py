@@ -276,7 +276,7 @@ def argmax(*values: float) -> float:
 
 # The reductions of a group that is a run of the tick's channel values, called on that list
 # (or a slice of it) rather than on one argument per member: a 360-beam scan is then never
-# unpacked into locals nor passed as 360 arguments (docs/decisions.md, "Lidar kernel"). Each
+# unpacked into locals nor passed as 360 arguments (docs/decisions.md §60). Each
 # gives what the member-by-member form gives, bit for bit (tests/unit/test_group_sequences.py).
 Values = list[float] | tuple[float, ...]
 

@@ -1,5 +1,5 @@
 /* A lidar's fan of beams against faces and circles, in C: the optional kernel of
- * labsim.backends.pymunk.lidar_fan (docs/decisions.md, "Lidar kernel").
+ * labsim.backends.pymunk.lidar_fan (docs/decisions.md §60).
  *
  * LidarFan.cast calls cast() once a tick with the faces and circles near the lidar (world
  * metres, as lidar_fan's _Near holds them) and the beams' table; it returns every beam's range

@@ -23,7 +23,7 @@ whose maximum is below 1 / range_m reads ``inf``.
 Where the install built ``_fan.c`` (a C compiler was there) one call of it does the faces, the
 circles and the list of ranges, each face and circle tried only by the beams within its
 angular extent; else numpy does them as above. ``KERNEL`` says which ("c" or "numpy"); both
-read the same to 1e-12 m (docs/decisions.md, "Lidar kernel").
+read the same to 1e-12 m (docs/decisions.md §60).
 """
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ TAU = 2.0 * math.pi
 maximum = np.maximum  # its reduce, without ndarray.max's Python layer
 
 # The C kernel (_fan.c) when the install built it, else None and the numpy fan: KERNEL says
-# which casts (docs/decisions.md, "Lidar kernel").
+# which casts (docs/decisions.md §60).
 Kernel = Callable[[float, float, float, float, list, list, bytes, float], list]
 try:
     from labsim.backends.pymunk import _fan
