@@ -47,6 +47,10 @@ def main() -> None:
         (link / "labsim").symlink_to(other)
         env = {**os.environ, "PYTHONPATH": str(link)}
         cases[f"{other}: pytest behaviours/"] = (_pytest(other), env)
+        newer = sorted(_goldens(ROOT) - _goldens(other))
+        if newer:  # the same goldens on both sides as well: this tree's less those the other lacks
+            cases[f"pytest behaviours/ without {', '.join(newer)} (the goldens both have)"] = (
+                [*base, "-k", " and ".join(f"not {name}" for name in newer)], None)
         cases[f"{other}:   of which start and collection"] = ([*_pytest(other), "--collect-only"], env)
     print(machine())
     before = load()
@@ -58,6 +62,11 @@ def main() -> None:
             times[name].append(timed(*cases[name]))
     print(f"medians of {args.repeat} rounds in random order ({before} before, {load()} after):")
     print_medians(times)
+
+
+def _goldens(root: Path) -> set[str]:
+    """The behaviours with a golden trace in a checkout."""
+    return {path.name.removesuffix(".golden.csv") for path in (root / "behaviours").glob("*.golden.csv")}
 
 
 def _pytest(root: Path) -> list[str]:
