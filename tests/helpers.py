@@ -54,6 +54,18 @@ def trace_rows(path: Path) -> list[str]:
     return [line for line in path.read_text().splitlines()[1:] if not line.startswith("#")]
 
 
+def embedded_and_served(lab: Path, port: int, folder: Path, *options: str) -> tuple[list[str], list[str]]:
+    """The rows of ``labsim run LAB`` on the embedded backend and through the CoppeliaSim backend
+    on ``port`` (a scene ``labsim scene`` built there), each traced into ``folder``."""
+    from labsim.runtime.cli.main import main
+
+    ref, remote = folder / "ref.csv", folder / "remote.csv"
+    assert main(["run", str(lab), "-q", *options, "--trace", str(ref)]) == 0
+    assert main(["run", str(lab), "-q", *options, "--trace", str(remote),
+                 "--backend", "coppeliasim", "--port", str(port)]) == 0
+    return trace_rows(ref), trace_rows(remote)
+
+
 def inner_rows(path: Path) -> list[str]:
     """A trace's lines less the first (the header, which names the backend) and the last (the footer)."""
     return path.read_text().splitlines()[1:-1]

@@ -78,7 +78,7 @@ def test_labsim_scene_builds_the_line_lab_and_a_run_there_gives_the_embedded_tra
     """The tape as a textured plane, the stock e-puck (``e-puck.ttm``) with its script removed,
     and its three ground sensors built as 1 x 1 vision sensors looking down: the stand-in reads
     them back where they were put, so the run is the embedded one, row for row."""
-    from helpers import trace_rows
+    from helpers import embedded_and_served
 
     from labsim.runtime.cli.main import main
 
@@ -86,10 +86,8 @@ def test_labsim_scene_builds_the_line_lab_and_a_run_there_gives_the_embedded_tra
     lab.write_text((BEHAVIOURS / "line_follow.yaml").read_text().replace("minutes: 2 ", "minutes: 0.1667"))
     assert main(["scene", str(lab), "--port", str(empty)]) == 0
     assert "1 e-puck (3 ground sensors added), their scripts removed" in capsys.readouterr().out
-    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
-    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
-    assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
-    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) > 500
+    ref, remote = embedded_and_served(lab, empty, tmp_path)
+    assert remote == ref and len(ref) > 500
 
 
 def test_labsim_scene_refuses_a_model_it_has_no_file_for(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

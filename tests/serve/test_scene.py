@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from helpers import BEHAVIOURS, trace_rows
+from helpers import BEHAVIOURS, embedded_and_served
 
 from labsim.backends.scene.models import Camera
 from labsim.backends.scene.world import World, builtin_worlds
@@ -28,11 +28,8 @@ def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     assert main(["scene", str(lab), "--port", str(empty)]) == 0
     out = capsys.readouterr().out
     assert "6 walls and 1 blocks" in out and "1 Pioneer P3DX, their scripts removed" in out
-    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
-    assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(ref)]) == 0
-    assert main(["run", str(lab), "-q", "--set", "minutes=1", "--trace", str(remote),
-                 "--backend", "coppeliasim", "--port", str(empty)]) == 0
-    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1200
+    ref, remote = embedded_and_served(lab, empty, tmp_path, "--set", "minutes=1")
+    assert remote == ref and len(ref) == 1 + 1200
 
 
 def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
@@ -56,10 +53,8 @@ def test_the_road_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     lab.write_text((BEHAVIOURS / "road_follow.yaml").read_text().replace("seconds: 30 ", "seconds: 3"))
     assert main(["scene", str(lab), "--port", str(empty)]) == 0
     assert "5 Pioneer P3DX" in capsys.readouterr().out
-    ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
-    assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
-    assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim", "--port", str(empty)]) == 0
-    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 5 * 60
+    ref, remote = embedded_and_served(lab, empty, tmp_path)
+    assert remote == ref and len(ref) == 1 + 5 * 60
 
 
 def test_what_the_stand_in_cannot_build_is_a_clear_error(empty: int, tmp_path: Path, capsys) -> None:
