@@ -13,7 +13,7 @@ YAML file reaches the runtime except what is prepared here.
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
@@ -44,9 +44,16 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     The linter's warnings go on the Program; ``strict`` raises them as errors instead.
     ``budgets`` bound its robots, cameras and world (``labsim.dsl.budget``).
     """
-    if seed is not None and not (isinstance(seed, int) and 0 <= seed <= WHOLE_LIMIT):
-        raise LabsimError([Diagnostic("seed", f"the seed is a whole number from 0 to {WHOLE_LIMIT} (2**53), "
-                                              f"not {str(seed)[:40]}")])
+    _check_seed(seed)
+    return prepare(path, overrides, strict, budgets, text).program(seed)
+
+
+def prepare(path: str | Path, overrides: dict[str, str] | None = None, strict: bool = False,
+            budgets: Budgets = DEFAULT_BUDGETS, text: str | None = None) -> Prepared:
+    """The part of ``compile_file`` no seed changes (the file loaded, read and checked): a file
+    compiled for several seeds, as a grader's runs are, is read, checked and generated once,
+    and only its robots are placed again for each seed (``Prepared.program``). A file with
+    errors raises LabsimError here, as ``compile_file`` does."""
     doc = load(path) if text is None else loads(text, str(path))
     report = Report()
     bf = read(doc, report)
@@ -54,22 +61,50 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     if not report.errors:
         check_budgets(checked, budgets, report)
     report.raise_if_errors()
-    seed = bf.seed if seed is None else seed
-    starts, unplaced = place(checked, seed)
-    if unplaced is not None:
-        report.add(unplaced)
-    check_stop(checked, report)
-    check_crowd(checked, starts, report)
-    report.raise_if_errors()
-    lint(checked, report)
-    check_unbounded(checked, report)
-    if strict:
-        report.diagnostics = [replace(d, severity="error", notes=(*d.notes, "a warning, made an error by --strict"))
-                              if d.severity == "warning" else d for d in report.diagnostics]
+    return Prepared(checked, tuple(report.diagnostics), strict, code_filename(bf.path, overrides))
+
+
+@dataclass
+class Prepared:
+    """A checked file, ready to be compiled for any seed (see ``prepare``)."""
+
+    checked: Checked
+    diagnostics: tuple[Diagnostic, ...]  # what reading and checking it found (no errors)
+    strict: bool
+    filename: str  # the generated code's, for tracebacks (``code_filename``)
+    _generated: Generated | None = None  # generated once, for the first seed that compiles
+
+    def program(self, seed: int | None = None) -> Program:
+        """The Program for ``seed`` (None: the file's own ``seed:``), exactly as ``compile_file``
+        gives it; LabsimError for the errors of this seed (a robot that finds no place) and the
+        rest that come after placing (the stop condition, crowding, ``strict``'s warnings)."""
+        _check_seed(seed)
+        checked = self.checked
+        report = Report(list(self.diagnostics))
+        seed = checked.file.seed if seed is None else seed
+        starts, unplaced = place(checked, seed)
+        if unplaced is not None:
+            report.add(unplaced)
+        check_stop(checked, report)
+        check_crowd(checked, starts, report)
         report.raise_if_errors()
-    generated = generate(checked, code_filename(bf.path, overrides))
-    warnings = tuple(sorted((d for d in report.diagnostics if d.severity == "warning"), key=lambda d: (d.line, d.col)))
-    return _program(checked, generated, warnings, seed, starts)
+        lint(checked, report)
+        check_unbounded(checked, report)
+        if self.strict:
+            report.diagnostics = [replace(d, severity="error", notes=(*d.notes, "a warning, made an error by --strict"))
+                                  if d.severity == "warning" else d for d in report.diagnostics]
+            report.raise_if_errors()
+        if self._generated is None:
+            self._generated = generate(checked, self.filename)
+        warnings = tuple(sorted((d for d in report.diagnostics if d.severity == "warning"),
+                                key=lambda d: (d.line, d.col)))
+        return _program(checked, self._generated, warnings, seed, starts)
+
+
+def _check_seed(seed: int | None) -> None:
+    if seed is not None and not (isinstance(seed, int) and 0 <= seed <= WHOLE_LIMIT):
+        raise LabsimError([Diagnostic("seed", f"the seed is a whole number from 0 to {WHOLE_LIMIT} (2**53), "
+                                              f"not {str(seed)[:40]}")])
 
 
 def code_filename(path: str, overrides: dict[str, str] | None = None) -> str:
