@@ -1,14 +1,15 @@
 """``labsim grade ASSIGNMENT SUBMISSIONS...``: a class graded, from the command line to the files.
 
 The driver of the grader: it reads the assignment (runtime/grade/assignment.py), holds every
-submission to its contract (contract.py), runs what passed, each seed a job (runs.py), on the
-shared batch layer (``labsim.runtime.batch``: local worker processes, ``-j``, or a Dask
-cluster), re-using the cache for unchanged submissions, scores them (score.py) and writes the
-gradebook (gradebook.py) and the pages (pages.py). One student's failure is their row, never
-the batch's. Ctrl-C, SIGTERM and SIGHUP stop the runs in progress and keep what is done: the
-students whose runs all finished are cached and graded, the others are ``interrupted`` rows,
-and a second grading runs only those. Exit 0 when every student was graded, 1 when some could
-not be, 2 for a bad assignment (a ``LabsimError``), 128 + the signal that stopped it (130, 143, 129).
+submission to its contract (contract.py), runs what passed, each student a job of all its
+seeds (runs.py: one compile for them), on the shared batch layer (``labsim.runtime.batch``:
+local worker processes, ``-j``, or a Dask cluster), re-using the cache for unchanged
+submissions, scores them (score.py) and writes the gradebook (gradebook.py) and the pages
+(pages.py). One student's failure is their row, never the batch's. Ctrl-C, SIGTERM and SIGHUP
+stop the runs in progress and keep what is done: the students whose runs all finished are
+cached and graded, the others are ``interrupted`` rows, and a second grading runs only those.
+Exit 0 when every student was graded, 1 when some could not be, 2 for a bad assignment (a
+``LabsimError``), 128 + the signal that stopped it (130, 143, 129).
 """
 from __future__ import annotations
 
@@ -101,9 +102,9 @@ def grade_class(options: Options) -> Graded:
             runs[s.student] = kept
             reused += len(kept)
             continue
-        jobs += [make_job(s.student, Path(s.path), s.world_file, seed, assignment.params, assignment.budgets,
-                          assignment.timeout_s, pictures=draw if i == 0 else None)
-                 for i, seed in enumerate(assignment.seeds)]
+        # one job a student: its seeds share one compile (runtime/grade/runs.py)
+        jobs.append(make_job(s.student, Path(s.path), s.world_file, assignment.seeds, assignment.params,
+                             assignment.budgets, assignment.timeout_s, pictures=draw))
     keys = {s.student: s.key for s in submissions}
 
     def finished(student: str, mine: list[SeedRun]) -> None:  # kept at once: a signal later costs none of it
@@ -111,9 +112,8 @@ def grade_class(options: Options) -> Graded:
             save_cached(cache, keys[student], mine)
 
     done, ended_by = _run_jobs(jobs, options, assignment.timeout_s, finished)
-    for job, result in zip(jobs, done):
-        if result is not None:
-            runs.setdefault(job.student, []).append(result)
+    for job, mine in zip(jobs, done):
+        runs[job.student] = mine
     grades = []
     for s in submissions:
         mine = sorted(runs.get(s.student, []), key=lambda r: assignment.seeds.index(r.seed))
@@ -125,8 +125,8 @@ def grade_class(options: Options) -> Graded:
         grades.append(grade_of(s, mine, assignment))
     pictures = {g.student: (g.runs[0].map_png, g.runs[0].animation_gif) for g in grades
                 if g.runs and g.runs[0].map_png}
-    return Graded(assignment, grades, likely_copies(grades), reference, sum(r is not None for r in done),
-                  reused, ended_by, pictures)
+    return Graded(assignment, grades, likely_copies(grades), reference, sum(map(len, done)), reused, ended_by,
+                  pictures)
 
 
 def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
@@ -152,80 +152,79 @@ def _reference(assignment: Assignment) -> Grade | None:
     if submission.status != GRADED:
         raise LabsimError([Diagnostic(assignment.path, f"the reference behaviour {assignment.reference} does not "
                                                        f"meet the assignment: {submission.reason}")])
-    jobs = [make_job("reference", Path(submission.path), submission.world_file, seed, assignment.params,
-                     assignment.budgets, assignment.timeout_s, pictures=None) for seed in assignment.seeds]
-    runs = [run_job(j) for j in jobs]
+    runs = run_job(make_job("reference", Path(submission.path), submission.world_file, assignment.seeds,
+                            assignment.params, assignment.budgets, assignment.timeout_s, pictures=None))
     if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
         raise KeyboardInterrupt
-    return grade_of(submission, runs, assignment)
+    return grade_of(submission, list(runs), assignment)
 
 
 class _Runs:
-    """Each job's run as it comes; a student whose runs are all done is handed to ``finished``
-    at once (the cache), so that whatever stops the grading later costs none of it."""
+    """Each student's runs as they come; a student whose runs are all done is handed to
+    ``finished`` at once (the cache), so that whatever stops the grading later costs none of it."""
 
-    def __init__(self, jobs: list[Job], finished: Callable[[str, list[SeedRun]], None]) -> None:
+    def __init__(self, jobs: list[Job], timeout_s: float, finished: Callable[[str, list[SeedRun]], None]) -> None:
         self.jobs = jobs
-        self.done: list[SeedRun | None] = [None] * len(jobs)
+        self.timeout_s = timeout_s
+        self.done: list[list[SeedRun]] = [[] for _ in jobs]  # the runs that ended by themselves
         self.finished = finished
-        self._left: dict[str, list[int]] = {}
-        for i, job in enumerate(jobs):
-            self._left.setdefault(job.student, []).append(i)
-        self.count = 0
+        self.count = 0  # runs made
+        self.total = sum(len(job.seeds) for job in jobs)
 
     def take(self, outcome: Outcome) -> None:
         job = self.jobs[outcome.index]
-        run = self.done[outcome.index] = _seed_run(job, outcome)
-        self.count += 1
-        if run.status != seed_runs.STOPPED and all(self.done[i] is not None for i in self._left[job.student]):
-            self.finished(job.student, [cast(SeedRun, self.done[i]) for i in self._left[job.student]])
+        mine = self.done[outcome.index] = [r for r in self._seed_runs(job, outcome) if r.status != seed_runs.STOPPED]
+        self.count += len(mine)
+        if len(mine) == len(job.seeds):
+            self.finished(job.student, mine)
+
+    def _seed_runs(self, job: Job, outcome: Outcome) -> tuple[SeedRun, ...]:
+        """A signal's stop is no result (it runs again next time); a killed or dead worker is
+        every seed's row, with why."""
+        if outcome.kind == DONE:
+            return cast(tuple[SeedRun, ...], outcome.value)
+        if outcome.kind == STOPPED:
+            return ()
+        status, message = CRASHED, outcome.message
+        if outcome.kind == TIMEOUT:
+            status, message = TIMED_OUT, (f"it did not stop at its time limit of {self.timeout_s:g} s a run, "
+                                          "and was killed")
+        return tuple(SeedRun(seed, status, message, wall_time_s=outcome.wall_s) for seed in job.seeds)
 
 
 def _run_jobs(jobs: list[Job], options: Options, timeout_s: float,
-              finished: Callable[[str, list[SeedRun]], None]) -> tuple[list[SeedRun | None], int]:
-    """Every job's run (None for those a signal left undone), and the signal that stopped the
-    grading (0: none). A signal stops the runs in progress (``LocalBatch.interrupt``); a run
-    that finished meanwhile is kept."""
-    runs = _Runs(jobs, finished)
+              finished: Callable[[str, list[SeedRun]], None]) -> tuple[list[list[SeedRun]], int]:
+    """Each job's runs that ended by themselves (fewer than its seeds when a signal stopped it),
+    and the signal that stopped the grading (0: none). A signal stops the runs in progress
+    (``LocalBatch.interrupt``); a run that finished meanwhile is kept."""
+    runs = _Runs(jobs, timeout_s, finished)
     if not jobs:
         return runs.done, 0
     line = StatusLine() if options.progress else None
-    # the pool kills a run a little after its own deadline: the run stops itself first, with its message
+    # a job is a student's runs; the pool kills it a little after the last one's deadline: each
+    # run stops itself first, with its message
+    seeds = max(len(job.seeds) for job in jobs)
     batch = DaskBatch(options.scheduler) if options.scheduler is not None else LocalBatch(
-        options.jobs or default_jobs(), timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
+        options.jobs or default_jobs(), seeds * timeout_s + 5.0, name="labsim-grade-worker", preload=PRELOAD)
     outcomes = batch.outcomes(run_job, jobs)
     try:
         with batch_signals():
             for outcome in outcomes:
                 runs.take(outcome)
-                if line is not None and (line.due() or runs.count == len(jobs)):
-                    line.draw(f"grading {bar(runs.count / len(jobs))} {runs.count}/{len(jobs)} runs")
+                if line is not None and (line.due() or runs.count == runs.total):
+                    line.draw(f"grading {bar(runs.count / runs.total)} {runs.count}/{runs.total} runs")
     except KeyboardInterrupt as e:
         signum, why = ending(e)
         for outcome in batch.interrupt(why):
             runs.take(outcome)
-        return _kept(runs.done), signum
+        return runs.done, signum
     finally:
         if line is not None:
             line.clear()
         close = getattr(outcomes, "close", None)
         if close is not None:
             close()
-    return _kept(runs.done), 0
-
-
-def _seed_run(job: Job, outcome: Outcome) -> SeedRun:
-    if outcome.kind == DONE:
-        return cast(SeedRun, outcome.value)
-    if outcome.kind == STOPPED:
-        return SeedRun(job.seed, seed_runs.STOPPED, outcome.message, wall_time_s=outcome.wall_s)
-    status = TIMED_OUT if outcome.kind == TIMEOUT else CRASHED
-    return SeedRun(job.seed, status, outcome.message, wall_time_s=outcome.wall_s)
-
-
-def _kept(done: list[SeedRun | None]) -> list[SeedRun | None]:
-    """The runs that ended by themselves: one a signal stopped is no result (it runs again next time)."""
-    return [r if r is not None and r.status != seed_runs.STOPPED else None for r in done]
+    return runs.done, 0
 
 
 def run_grade(args: argparse.Namespace, pictures: Pictures | None = None) -> int:

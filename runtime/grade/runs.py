@@ -1,14 +1,17 @@
-"""One graded run, on whichever worker takes it: a submission's files, the grader's params, a seed.
+"""A submission's graded runs, on whichever worker takes them: its files, the grader's params, its seeds.
 
-``labsim grade`` (runtime/grade/driver.py) makes a ``Job`` per submission and seed once the
-submission has met the assignment's contract (runtime/grade/contract.py). A job carries the
-behaviour file's bytes and its world file's, so a local worker process and a Dask worker run it
-the same way: ``run_job`` lays them out in a scratch folder, compiles with the grader's params
-and the seed, runs under the assignment's budgets and stops itself at the per-run timeout, and
-hands back a ``SeedRun`` of plain values (never an exception). A job that carries the pictures'
-renderer (seed 1's, for the feedback page) records its run in memory (``labsim.runtime.recording``)
-and draws the map and the animation right there, so that only their bytes come back: no trace is
-written, sent or read again. Names of the scratch folder never leave it.
+``labsim grade`` (runtime/grade/driver.py) makes a ``Job`` per submission once it has met the
+assignment's contract (runtime/grade/contract.py). A job carries the behaviour file's bytes and
+its world file's, so a local worker process and a Dask worker run it the same way: ``run_job``
+lays them out in a scratch folder, reads and checks the file with the grader's params once
+(``labsim.dsl.compile.prepare``), and for each seed places the robots, runs under the
+assignment's budgets and stops itself at the per-run timeout, handing back a ``SeedRun`` of
+plain values for each (never an exception). The seeds' runs share one compile because a
+student's seeds go to one worker (decisions, "Grading speed"). The first seed's run, when the
+job carries the pictures' renderer (for the feedback page), is recorded in memory
+(``labsim.runtime.recording``) and drawn right there, so that only the map's and the
+animation's bytes come back: no trace is written, sent or read again. Names of the scratch
+folder never leave it.
 """
 from __future__ import annotations
 
@@ -21,13 +24,14 @@ from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
+from labsim.dsl.compile import prepare
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets
 from labsim.runtime.batch import stop_asked
 from labsim.runtime.recording import Recording
 from labsim.runtime.result import STOP_CONDITION, RunResult
-from labsim.runtime.run import Run, compile_behaviour
+from labsim.runtime.run import Behaviour, Run
 from labsim.runtime.trace import Trace, read_trace
 
 # what became of a run
@@ -39,17 +43,17 @@ Pictures = Callable[[Trace, World | None], tuple[bytes, bytes]]
 
 @dataclass(frozen=True)
 class Job:
-    """One submission x one seed, with everything a worker on another machine needs."""
+    """One submission and its seeds, with everything a worker on another machine needs."""
 
     student: str
-    seed: int
+    seeds: tuple[int, ...]
     behaviour: str  # the file's path inside ``files``
     files: tuple[tuple[str, bytes], ...]  # (relative path, bytes): the behaviour and its world file
     shown_as: str  # the behaviour's path as the teacher gave it (messages name it so)
     params: tuple[tuple[str, str], ...]
     budgets: Budgets
     timeout_s: float
-    pictures: Pictures | None = None  # draw the run (the feedback page's seed 1)
+    pictures: Pictures | None = None  # draw the first seed's run (the feedback page's)
 
 
 @dataclass(frozen=True)
@@ -78,8 +82,9 @@ class _Deadline(Exception):
     pass
 
 
-def run_job(job: Job) -> SeedRun:
-    """Run one job in a scratch folder; a ``SeedRun`` whatever happens."""
+def run_job(job: Job) -> tuple[SeedRun, ...]:
+    """Run one job's seeds in a scratch folder; a ``SeedRun`` for each whatever happens, up to
+    the first that a signal stopped (the runs after it are not made)."""
     started = clock.perf_counter()
     with tempfile.TemporaryDirectory(prefix="labsim-grade-") as d:
         for rel, data in job.files:
@@ -88,27 +93,46 @@ def run_job(job: Job) -> SeedRun:
             target.write_bytes(data)
         local = str(Path(d) / job.behaviour)
         with allowing(d):
-            out = _run(job, local, started)
+            out = _runs(job, local, started)
 
         def named(text: str) -> str:  # the scratch folder's names, as the teacher gave them
             return text.replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent))
 
-        out = replace(out, message=named(out.message), warnings=tuple(map(named, out.warnings)),
-                      faults=tuple(map(named, out.faults)), logs=tuple(map(named, out.logs)))
+    return tuple(replace(r, message=named(r.message), warnings=tuple(map(named, r.warnings)),
+                         faults=tuple(map(named, r.faults)), logs=tuple(map(named, r.logs))) for r in out)
+
+
+def _runs(job: Job, local: str, started: float) -> list[SeedRun]:
+    try:
+        prepared = prepare(local, dict(job.params), budgets=job.budgets)
+    except LabsimError as e:  # the same errors whatever the seed
+        return [_not_compiled(seed, e, local, job.shown_as, started) for seed in job.seeds]
+    out: list[SeedRun] = []
+    for i, seed in enumerate(job.seeds):
+        if i:
+            started = clock.perf_counter()  # each run has the whole time limit; the first counts the compile
+        try:
+            program = prepared.program(seed)
+        except LabsimError as e:
+            out.append(_not_compiled(seed, e, local, job.shown_as, started))
+            continue
+        out.append(_run(job, Behaviour(program, job.budgets), seed, local, started, pictures=i == 0))
+        if out[-1].status == STOPPED:
+            break
     return out
 
 
-def _run(job: Job, local: str, started: float) -> SeedRun:
+def _not_compiled(seed: int, e: LabsimError, local: str, shown_as: str, started: float) -> SeedRun:
+    diagnostics = tuple(_renamed(d, local, shown_as) for d in e.diagnostics)
+    first = next((d for d in diagnostics if d.severity == "error"), diagnostics[0] if diagnostics else None)
+    return SeedRun(seed, NOT_COMPILED, first.format().splitlines()[0] if first else str(e),
+                   wall_time_s=clock.perf_counter() - started, diagnostics=diagnostics)
+
+
+def _run(job: Job, behaviour: Behaviour, seed: int, local: str, started: float, pictures: bool) -> SeedRun:
     def took() -> float:
         return clock.perf_counter() - started
 
-    try:
-        behaviour = compile_behaviour(local, dict(job.params), seed=job.seed, budgets=job.budgets)
-    except LabsimError as e:
-        diagnostics = tuple(_renamed(d, local, job.shown_as) for d in e.diagnostics)
-        first = next((d for d in diagnostics if d.severity == "error"), diagnostics[0] if diagnostics else None)
-        return SeedRun(job.seed, NOT_COMPILED, first.format().splitlines()[0] if first else str(e),
-                       wall_time_s=took(), diagnostics=diagnostics)
     limit = started + job.timeout_s
 
     def deadline(tick: int, sim_time_s: float) -> None:
@@ -118,26 +142,27 @@ def _run(job: Job, local: str, started: float) -> SeedRun:
             raise KeyboardInterrupt
 
     world = behaviour.program.world
+    draw = job.pictures if pictures else None
     # a mechanism's pictures read its joints from a trace's columns: such a run is traced to a file
-    traced = str(Path(local).parent / "trace.csv") if job.pictures and world.mechanism is not None else None
-    recording = Recording() if job.pictures and traced is None else None
+    traced = str(Path(local).parent / "trace.csv") if draw and world.mechanism is not None else None
+    recording = Recording() if draw and traced is None else None
     try:
         run = behaviour.bind(load_backend(DEFAULT), trace=traced, observers=[recording] if recording else [])
     except Exception as e:
-        return SeedRun(job.seed, CRASHED, _exception_line(e), wall_time_s=took())
+        return SeedRun(seed, CRASHED, _exception_line(e), wall_time_s=took())
     try:
         result = run.run(progress=deadline)
     except _Deadline as e:
-        return SeedRun(job.seed, TIMED_OUT, str(e), wall_time_s=took())
+        return SeedRun(seed, TIMED_OUT, str(e), wall_time_s=took())
     except MemoryError:
-        return SeedRun(job.seed, OVER_BUDGET, "it ran out of memory", wall_time_s=took())
+        return SeedRun(seed, OVER_BUDGET, "it ran out of memory", wall_time_s=took())
     except Exception as e:  # a bug in labsim, or a simulator's failure: that student's row says so
-        return SeedRun(job.seed, CRASHED, _exception_line(e), wall_time_s=took())
+        return SeedRun(seed, CRASHED, _exception_line(e), wall_time_s=took())
     finally:
         run.close()
-    out = seed_run(job.seed, result, took())
-    if job.pictures is not None and out.status in (RAN, OVER_BUDGET):
-        png, gif = _pictures(job.pictures, run, recording, traced, local, world)
+    out = seed_run(seed, result, took())
+    if draw is not None and out.status in (RAN, OVER_BUDGET):
+        png, gif = _pictures(draw, run, recording, traced, local, world)
         out = replace(out, map_png=png, animation_gif=gif)
     return out
 
@@ -172,14 +197,13 @@ def _exception_line(e: BaseException) -> str:
     return f"{type(e).__name__}: {e}{where}"
 
 
-def make_job(student: str, behaviour: Path, world_file: str | None, seed: int, params: Mapping[str, str],
-             budgets: Budgets, timeout_s: float, pictures: Pictures | None) -> Job:
+def make_job(student: str, behaviour: Path, world_file: str | None, seeds: tuple[int, ...],
+             params: Mapping[str, str], budgets: Budgets, timeout_s: float, pictures: Pictures | None) -> Job:
     """A job for a submission whose world is built in (``world_file`` None) or a file beside it."""
     files = [(behaviour.name, read_input(behaviour, "behaviour"))]
     base = "."
     if world_file is not None:
         rel = Path(world_file).resolve().relative_to(behaviour.resolve().parent)
         files.append((str(rel), read_input(world_file, "world")))
-    return Job(student, seed, str(Path(base) / behaviour.name), tuple(files), str(behaviour),
+    return Job(student, tuple(seeds), str(Path(base) / behaviour.name), tuple(files), str(behaviour),
                tuple(sorted(params.items())), budgets, timeout_s, pictures)
-
