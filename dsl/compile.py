@@ -7,6 +7,8 @@ One stage per module: ``labsim.foundation.source.load`` (YAML with positions) ->
 (Python source, compiled once) -> ``labsim.dsl.program.Program``, which the runtime binds to
 each robot; the generated code calls ``labsim.dsl.support`` as it runs. Every stage adds its
 problems to one ``Report``, so a file's errors are all raised together, as a LabsimError.
+Only placing the robots depends on the seed: ``prepare`` does the rest once, and
+``Prepared.program(seed)`` gives each seed's Program (a grader runs a file on several seeds).
 
 This module also turns what the checker knows into the Program's plain fields: nothing of the
 YAML file reaches the runtime except what is prepared here.
