@@ -209,9 +209,17 @@ def cases(items: list, long: Collection[str] = ()) -> list:
 
 
 @contextlib.contextmanager
-def local_cluster() -> Iterator[Any]:
-    """A Dask cluster of two worker processes on this machine; the test is skipped without Dask."""
+def local_cluster(processes: bool = True) -> Iterator[Any]:
+    """A Dask cluster on this machine: two worker processes, or (``processes=False``) one worker
+    of two threads in this process, which starts in a fraction of a second: the quick check of
+    the Dask path in the plain command (nothing crosses a process), the processes' in ``-m long``.
+    The test is skipped without Dask."""
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as c:
+    with distributed.LocalCluster(n_workers=2 if processes else 1, threads_per_worker=1 if processes else 2,
+                                  processes=processes, dashboard_address=None, silence_logs=50) as c:
         yield c
+
+
+# a module's cluster fixture's params: in threads (quick), and in processes (-m long)
+CLUSTERS = [pytest.param(False, id="threads"),
+            pytest.param(True, id="processes", marks=(pytest.mark.slow, pytest.mark.long))]

@@ -12,6 +12,9 @@ import pytest
 from helpers import BENCHMARKS
 
 pytestmark = pytest.mark.slow  # each benchmark runs once, in a process of its own
+# the benchmarks whose one try takes seconds of CPU (many labsim processes, pictures, two pools)
+# run in `-m long`; the plain command keeps the quick ones, which share their scaffolding
+LONG = pytest.mark.long
 
 
 def honest(out: str) -> bool:
@@ -19,6 +22,7 @@ def honest(out: str) -> bool:
     return "wall" in out and "CPU" in out and "load" in out
 
 
+@LONG
 @pytest.mark.parametrize(("script", "said"), [
     ("bench_wall.py", ("labsim / labsim's internals, by hand: median of per-round ratios",
                        "labsim / plain pymunk loop: median of per-round ratios",
@@ -37,7 +41,8 @@ def test_benchmark_runs_and_both_sides_end_at_the_same_poses(script: str, said: 
     assert honest(done.stdout), done.stdout
 
 
-@pytest.mark.parametrize("script", ["bench_crane.py", "bench_plot.py", "bench_pictures.py", "bench_trace.py",
+@pytest.mark.parametrize("script", ["bench_crane.py", pytest.param("bench_plot.py", marks=LONG),
+                                    pytest.param("bench_pictures.py", marks=LONG), "bench_trace.py",
                                     "bench_lidar.py", "bench_noise.py", "bench_groups.py"])
 def test_benchmark_runs(script: str) -> None:
     small = {"bench_plot.py": ["--mb", "5"], "bench_pictures.py": ["--quick"],  # a short try
@@ -68,6 +73,7 @@ def test_sweep_benchmark_runs() -> None:
     assert honest(done.stdout), done.stdout
 
 
+@LONG
 def test_grade_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_grade.py"), "--students", "2", "--seeds", "1",
                            "--minutes", "0.1", "--no-pages", "--rounds", "1", "--speed-up"],
@@ -77,6 +83,7 @@ def test_grade_benchmark_runs() -> None:
     assert honest(done.stdout), done.stdout
 
 
+@LONG
 def test_startup_benchmark_runs() -> None:
     done = subprocess.run([sys.executable, str(BENCHMARKS / "bench_startup.py"), "--repeat", "1", "--minutes", "0.1"],
                           capture_output=True, text=True, timeout=300)

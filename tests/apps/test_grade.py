@@ -2,6 +2,7 @@
 the right reason, the gradebook against its golden, the cache, and Dask giving the same gradebook."""
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -175,7 +176,24 @@ def test_a_bad_assignment_exits_2_with_every_mistake(tmp_path: Path, capsys) -> 
     assert "a.yaml:7:12: error: criterion 'closest' takes one of at_least, at_most or score" in err
 
 
+def test_dask_in_threads_gives_the_same_gradebook(tmp_path: Path, monkeypatch) -> None:
+    """The quick check of the Dask path; the whole class on worker processes is in ``-m long``."""
+    monkeypatch.chdir(tmp_path)
+    _small_class(tmp_path)
+    for name, scheduler in (("local", None), ("dask", "threads")):
+        with local_cluster(processes=False) if scheduler else contextlib.nullcontext() as c:
+            options = Options("assignment.yaml", ["class"], Path(name), jobs=2, cache=False,
+                              scheduler=c.scheduler_address if c else None)
+            options.out.mkdir()
+            graded = grade_class(options)
+            write_class(graded, options, pages=False)
+        assert graded.ran == 2
+    for name in ("gradebook.csv", "gradebook.json"):
+        assert (tmp_path / "dask" / name).read_text() == (tmp_path / "local" / name).read_text()
+
+
 @pytest.mark.slow
+@pytest.mark.long  # a cluster of worker processes grading the whole class
 def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch) -> None:
     folder, _ = graded_class
     monkeypatch.chdir(folder)

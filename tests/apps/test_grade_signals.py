@@ -122,6 +122,8 @@ def cluster():
         yield c
 
 
+@pytest.mark.slow
+@pytest.mark.long  # a cluster of worker processes, and a grading process signalled mid-run
 @pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_a_signalled_grading_on_dask_stops_its_runs_and_keeps_what_is_done(
         tmp_path: Path, cluster, sig: int, code: int) -> None:

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from helpers import BEHAVIOURS, DOCS, FIXTURES, local_cluster
+from helpers import BEHAVIOURS, CLUSTERS, DOCS, FIXTURES, local_cluster
 
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.main import main
@@ -331,15 +331,21 @@ def test_a_sweep_over_a_noise_parameter(capsys, tmp_path: Path) -> None:
 
 # -- the Dask executor ------------------------------------------------------------------------
 
+@pytest.fixture(scope="module", params=CLUSTERS)
+def any_cluster(request):
+    """A Dask cluster on this machine: in threads (quick), and in processes (-m long)."""
+    with local_cluster(request.param) as c:
+        yield c
+
+
 @pytest.fixture(scope="module")
 def cluster():
-    """A Dask cluster of two worker processes on this machine, for this module's tests."""
+    """A Dask cluster of two worker processes on this machine, one of which a test kills."""
     with local_cluster() as c:
         yield c
 
 
-@pytest.mark.slow
-def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> None:
+def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, any_cluster) -> None:
     """Also a world file beside the behaviour, which travels with the task, and a broken file."""
     (tmp_path / "worlds").mkdir()
     (tmp_path / "labs").mkdir()
@@ -351,7 +357,7 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> N
     results = {}
     for executor in ("local", "dask"):
         path = tmp_path / f"{executor}.json"
-        extra = ["--executor", "dask", "--scheduler", cluster.scheduler_address] if executor == "dask" else ["-j", "2"]
+        extra = ["--executor", "dask", "--scheduler", any_cluster.scheduler_address] if executor == "dask" else ["-j", "2"]
         code, out, _ = cli(capsys, "sweep", *files, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2",
                            "--json", str(path), "--traces", str(tmp_path), *extra,
                            "--allow-path", str(tmp_path / "worlds"))  # own.yaml reads ../worlds
@@ -362,7 +368,7 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, cluster) -> N
     local, remote = results["local"], results["dask"]
     assert [(r["status"], r["message"]) for r in local] == [(r["status"], r["message"]) for r in remote]
     assert [r["summary"] and same(r["summary"]) for r in local] == [r["summary"] and same(r["summary"]) for r in remote]
-    assert all(r["worker"].startswith("tcp://") for r in remote if r["status"] == OK)
+    assert all(r["worker"].startswith(("tcp://", "inproc://")) for r in remote if r["status"] == OK)  # Dask's
     assert remote[4]["summary"]["world"] == "walls_lab4" and remote[4]["file"] == str(own)
     assert {p.name: p.read_text() for p in tmp_path.glob("*.csv")} == traces  # byte for byte
 

@@ -19,7 +19,7 @@ from helpers import BEHAVIOURS, local_cluster
 
 from labsim.runtime.cli.main import main
 
-pytestmark = pytest.mark.slow  # a Dask cluster of two processes on this machine
+pytestmark = [pytest.mark.slow, pytest.mark.long]  # a Dask cluster of two processes, a worker killed
 distributed = pytest.importorskip("distributed")
 
 LAB = str(BEHAVIOURS / "wall_follow.yaml")
