@@ -357,7 +357,8 @@ def test_dask_gives_the_same_rows_as_local(capsys, tmp_path: Path, any_cluster) 
     results = {}
     for executor in ("local", "dask"):
         path = tmp_path / f"{executor}.json"
-        extra = ["--executor", "dask", "--scheduler", any_cluster.scheduler_address] if executor == "dask" else ["-j", "2"]
+        extra = (["--executor", "dask", "--scheduler", any_cluster.scheduler_address] if executor == "dask"
+                 else ["-j", "2"])
         code, out, _ = cli(capsys, "sweep", *files, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-2",
                            "--json", str(path), "--traces", str(tmp_path), *extra,
                            "--allow-path", str(tmp_path / "worlds"))  # own.yaml reads ../worlds
