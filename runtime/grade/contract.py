@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -22,7 +23,7 @@ from labsim import __version__
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
-from labsim.foundation.files import read_input
+from labsim.foundation.files import os_words, policy_problem, read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind
 from labsim.runtime.grade.assignment import Assignment
 from labsim.runtime.run import compile_behaviour
@@ -48,37 +49,112 @@ class Submission:
     world_file: str | None = None  # a world file beside it (None: a built-in world)
 
 
-def find_submissions(paths: list[str]) -> list[tuple[str, Path | None, str]]:
-    """(student, behaviour file or None, why not) for each argument: a behaviour file; a folder
-    of behaviour files (one student each; world and assignment files beside them are skipped);
-    or a folder of folders, one per student, each holding one behaviour file."""
-    out: list[tuple[str, Path | None, str]] = []
+@dataclass(frozen=True)
+class Found:
+    """A submission found on the command line: its student's id, its behaviour file (None when
+    there is none to grade), and the status and reason of one refused before a byte of it is read."""
+
+    student: str
+    path: Path | None
+    status: str = GRADED
+    reason: str = ""
+
+
+def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...]]]:
+    """Every submission the arguments hold, and the groups of students whose names collided.
+
+    An argument is a behaviour file; a folder of behaviour files (one student each; world and
+    assignment files beside them are skipped); or a folder of folders, one per student, each
+    holding one behaviour file. A student's id is their file's stem (their folder's name), or
+    where two of those would be one name (``alice.yaml`` and ``alice.yml``, ``Bob`` and ``bob``,
+    the same name in two folders) their path relative to the submissions folder, suffix and all,
+    led by the folder's name when that is still not enough. A file found in a folder is that
+    folder's: a link out of it, and anything but a regular file (a FIFO, a device), is a ``hostile
+    file`` row and nothing is read through it (docs/security.md)."""
     missing = [Diagnostic(str(arg), "no such file or folder") for arg in map(Path, paths) if not os.path.lexists(arg)]
     if missing:  # a mistake on the command line, not a student's
         raise LabsimError(missing)
+    entries: list[tuple[Path, str, Found]] = []  # (submissions folder, path relative to it, what was found)
     for arg in map(Path, paths):
-        if not arg.is_dir():
-            out.append((arg.stem, arg, ""))
+        if not arg.is_dir():  # named by the teacher: read as named (the one way in still refuses a FIFO)
+            entries.append((arg.parent, arg.name, Found(arg.stem, arg)))
             continue
-        files = sorted(p for p in arg.iterdir() if p.suffix in YAML_SUFFIXES and not p.is_dir())
-        folders = sorted(p for p in arg.iterdir() if p.is_dir())
+        listed = sorted(arg.iterdir())
+        files = [p for p in listed if p.suffix in YAML_SUFFIXES and not _is_folder(p, arg)]
+        folders = [p for p in listed if _is_folder(p, arg) or (p.is_dir() and _not_readable(p, arg))]
         if folders and not files:
-            out += [_one_folder(f) for f in folders]
-        else:
-            out += [(p.stem, p, "") for p in files if file_kind(p) not in ("world", "assignment")]
-    return out
+            entries += [(arg, f.name, _one_folder(f, arg)) for f in folders]
+            continue
+        for p in files:
+            refused = _not_readable(p, arg)
+            if refused:
+                entries.append((arg, p.name, Found(p.stem, None, HOSTILE, refused)))
+            elif file_kind(p) not in ("world", "assignment"):
+                entries.append((arg, p.name, Found(p.stem, p)))
+    return _named(entries)
 
 
-def _behaviours(files: list[Path]) -> list[Path]:
-    return [p for p in files if file_kind(p) == "behaviour"]
+def _is_folder(p: Path, root: Path) -> bool:
+    return p.is_dir() and not _not_readable(p, root)
 
 
-def _one_folder(folder: Path) -> tuple[str, Path | None, str]:
-    found = _behaviours(sorted(p for p in folder.iterdir() if p.suffix in YAML_SUFFIXES))
+def _not_readable(p: Path, root: Path) -> str:
+    """Why a file or folder found in the submissions folder ``root`` is not read: a link out of
+    it (``policy_problem``, with no ``--allow-path`` folder: a class reads nothing of the
+    teacher's), or no regular file nor folder; '' when it may be read."""
+    rel = str(p.relative_to(root))
+    why = policy_problem(rel, root, allowed=[])
+    if why:
+        return f"{p}: {why}; a submission is read only inside its submissions folder"
+    try:
+        mode = os.stat(p).st_mode
+    except OSError as e:
+        return f"{p}: cannot read it: {os_words(e)}"
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
+        return f"{p}: is {kind}, not a behaviour file"
+    return ""
+
+
+def _one_folder(folder: Path, root: Path) -> Found:
+    refused = _not_readable(folder, root)
+    if refused:
+        return Found(folder.name, None, HOSTILE, refused)
+    listed = sorted(p for p in folder.iterdir() if p.suffix in YAML_SUFFIXES)
+    for p in listed:
+        refused = _not_readable(p, root)
+        if refused:
+            return Found(folder.name, None, HOSTILE, refused)
+    found = [p for p in listed if p.is_file() and file_kind(p) == "behaviour"]
     if len(found) != 1:
-        return folder.name, None, (f"the folder {folder} holds {len(found)} behaviour files; a student's folder "
-                                   "holds one")
-    return folder.name, found[0], ""
+        return Found(folder.name, None, MISMATCH, f"the folder {folder} holds {len(found)} behaviour files; a "
+                                                  "student's folder holds one")
+    return Found(folder.name, found[0])
+
+
+def _named(entries: list[tuple[Path, str, Found]]) -> tuple[list[Found], list[tuple[str, ...]]]:
+    """Each submission's id, unique whatever the disk's case rules (see ``find_submissions``)."""
+    def groups(names: list[str]) -> dict[str, list[int]]:
+        out: dict[str, list[int]] = {}
+        for i, name in enumerate(names):
+            out.setdefault(name.casefold(), []).append(i)
+        return out
+
+    names = [f.student for _, _, f in entries]
+    collided = [g for g in groups(names).values() if len(g) > 1]
+    for group in collided:
+        for i in group:
+            names[i] = entries[i][1]  # the path relative to its submissions folder, suffix and all
+    for group in groups(names).values():
+        if len(group) > 1:
+            for i in group:
+                names[i] = f"{entries[i][0].name or entries[i][0]}/{entries[i][1]}"
+    for group in groups(names).values():
+        for n, i in enumerate(group[1:], start=2):  # the same folder given twice: numbered
+            names[i] = f"{names[i]} ({n})"
+    found = [replace(f, student=name) for (_, _, f), name in zip(entries, names)]
+    return found, [tuple(names[i] for i in g) for g in collided]
 
 
 def key_of(data: bytes, assignment: Assignment) -> str:
@@ -109,7 +185,8 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
     problems = contract_problems(program, assignment)
     world_file = None if builtin_name(program.world.source) else program.world.source
     if world_file is not None and not _inside(Path(world_file), path.parent):
-        problems.append(f"its world file {world_file} is not in the submission's folder")
+        return _refused(base, HOSTILE, f"its world file {world_file} resolves outside the student's folder; "
+                                       "nothing outside it is read", program.warnings)
     if problems:
         return _refused(base, MISMATCH, "; ".join(problems), program.warnings)
     if world_file is not None:  # a changed world file is a changed submission: it is graded anew

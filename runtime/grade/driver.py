@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
+from urllib.parse import urlsplit
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
@@ -33,6 +34,7 @@ from labsim.runtime.grade.contract import (
     GRADED,
     INTERRUPTED,
     MISMATCH,
+    Found,
     Submission,
     check_submission,
     find_submissions,
@@ -58,6 +60,9 @@ def add_grade_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="show a progress bar (default: when stderr is a terminal)")
     p.add_argument("--no-cache", action="store_true", help="run every submission, even those graded before")
+    p.add_argument("--feedback-url", default="", metavar="PREFIX",
+                   help="where the --out folder will be online (https://.../grades/): the gradebook's and canvas.csv's "
+                        "links to the feedback pages become absolute, as an LMS needs them")
     p.add_argument("--no-pages", action="store_true", help="write the gradebook only: no HTML pages, and no pictures "
                                                            "of seed 1's run")
 
@@ -75,6 +80,7 @@ class Options:
     # a run and its world to a map and an animation: the pictures' renderer, handed over by the
     # command line (applications do not import each other); None: pages without pictures
     pictures: Pictures | None = None
+    feedback_url: str = ""  # the links to the pages lead with it (absolute, for an LMS)
 
 
 def grade_class(options: Options) -> Graded:
@@ -83,7 +89,7 @@ def grade_class(options: Options) -> Graded:
     if options.scheduler is None:
         warm_up(PRELOAD)  # the workers' imports overlap the reference's runs and the checks
     reference = _reference(assignment)
-    found = find_submissions(options.submissions)
+    found, collisions = find_submissions(options.submissions)
     if not found:
         raise LabsimError([Diagnostic(" ".join(options.submissions), "no submissions (behaviour files) here")])
     submissions = _check_all(found, assignment, options.jobs or default_jobs())
@@ -126,18 +132,21 @@ def grade_class(options: Options) -> Graded:
     pictures = {g.student: (g.runs[0].map_png, g.runs[0].animation_gif) for g in grades
                 if g.runs and g.runs[0].map_png}
     return Graded(assignment, grades, likely_copies(grades), reference, sum(map(len, done)), reused, ended_by,
-                  pictures)
+                  pictures, collisions)
 
 
-def _check_all(found: list[tuple[str, Path | None, str]], assignment: Assignment, jobs: int) -> list[Submission]:
-    """Every submission held to the contract, on ``jobs`` worker processes (each compiles one)."""
-    items = [(s, p, assignment) for s, p, _ in found if p is not None]
+def _check_all(found: list[Found], assignment: Assignment, jobs: int) -> list[Submission]:
+    """Every submission held to the contract, on ``jobs`` worker processes (each compiles one);
+    one refused when it was found (a link out, a FIFO, a folder without one behaviour) is its row."""
+    items = [(f.student, f.path, assignment) for f in found if f.path is not None and f.status == GRADED]
     checked: dict[str, Submission] = {}
     for o in LocalBatch(jobs).outcomes(_check, items):
         student, path, _ = items[o.index]
         checked[student] = (o.value if o.kind == DONE else
                             Submission(student, str(path), "", "", CRASH, f"checking it failed: {o.message}"))
-    return [checked[s] if p is not None else Submission(s, s, "", "", MISMATCH, why) for s, p, why in found]
+    return [checked[f.student] if f.student in checked else
+            Submission(f.student, str(f.path or f.student), "", "", f.status if f.status != GRADED else MISMATCH,
+                       f.reason) for f in found]
 
 
 def _check(item: tuple[str, Path, Assignment]) -> Submission:
@@ -236,16 +245,29 @@ def run_grade(args: argparse.Namespace, pictures: Pictures | None = None) -> int
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
     options = Options(args.assignment, args.submissions, Path(args.out), args.jobs or 0,
                       args.scheduler if args.executor == "dask" else None, not args.no_cache, progress,
-                      pages=not args.no_pages, pictures=pictures)
+                      pages=not args.no_pages, pictures=pictures, feedback_url=feedback_prefix(args.feedback_url))
     options.out.mkdir(parents=True, exist_ok=True)
     graded = grade_class(options)
     return write_class(graded, options, pages=not args.no_pages)
 
 
+def feedback_prefix(url: str) -> str:
+    """``--feedback-url``: an http(s) address, ending in '/' so that ``feedback/NAME.html`` follows it."""
+    if not url:
+        return ""
+    parts = urlsplit(url)
+    if parts.scheme not in ("http", "https") or not parts.netloc or any(ch in url for ch in "\"<> \t\n\r"):
+        raise LabsimError([Diagnostic("--feedback-url", f"give the http(s) address the --out folder will have "
+                                                         f"online, e.g. https://example.edu/lab4/grades/, not "
+                                                         f"{inert(url[:80])!r}")])
+    return url if url.endswith("/") else url + "/"
+
+
 def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
     """Write the gradebook and the pages of a graded class; print the counts; the exit code."""
     inputs = [graded.assignment.path, *(g.path for g in graded.grades)]
-    written = write_gradebook(options.out, graded.grades, graded.assignment, graded.copies, graded.reference, inputs)
+    written = write_gradebook(options.out, graded.grades, graded.assignment, graded.copies, graded.reference, inputs,
+                              options.feedback_url, graded.collisions)
     if pages:
         from labsim.runtime.grade.pages import write_pages
 
@@ -257,6 +279,8 @@ def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
     print(f"{graded.ran} runs made, {graded.reused} taken from the cache")
     for why, students in graded.copies:
         print(f"likely copies ({why}): {inert(', '.join(students))}")
+    for group in graded.collisions:
+        print(f"names that collide, each its own row: {inert(', '.join(group))}")
     for path in written[:3]:
         print(f"wrote {path}")
     if pages:

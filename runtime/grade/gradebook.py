@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import csv
+import hashlib
 import io
 import json
 import math
@@ -38,16 +39,19 @@ def _number(value: float | None, digits: int = 6) -> float | None:
     return round(value, digits)
 
 
-def csv_rows(grades: list[Grade], assignment: Assignment) -> list[list[object]]:
-    """The gradebook: a header, then one row per student."""
+def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "") -> list[list[object]]:
+    """The gradebook: a header, then one row per student; ``feedback_url`` leads each page's
+    link (where the teacher puts the ``feedback`` folder online), else the link is relative."""
     header: list[object] = ["Student", "Score", "Status", "Reason", "Feedback"]
     header += [f"pass {c.name}" for c in assignment.criteria]
     header += [f"mean {m}" for m in assignment.metrics]
     header += ["Messages"]
     rows: list[list[object]] = [header]
+    pages = page_names([g.student for g in grades])
     for g in grades:
         passed = {r.name: ("pass" if r.passed else "fail") for r in g.criteria}
-        row: list[object] = [g.student, _number(g.score, 2), g.status, g.reason, f"feedback/{page_name(g.student)}"]
+        link = f"{feedback_url}feedback/{pages[g.student]}"
+        row: list[object] = [g.student, _number(g.score, 2), g.status, g.reason, link]
         row += [passed.get(c.name, "") for c in assignment.criteria]
         row += [_number(g.means.get(m)) for m in assignment.metrics]
         row += [" | ".join(messages(g))]
@@ -55,11 +59,17 @@ def csv_rows(grades: list[Grade], assignment: Assignment) -> list[list[object]]:
     return rows
 
 
-def canvas_rows(grades: list[Grade], assignment: Assignment) -> list[list[object]]:
+def canvas_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "") -> list[list[object]]:
     """Canvas's grade import: Student, ID, SIS User ID, SIS Login ID, Section, then the
-    assignment's column; the student's name goes in SIS Login ID, which Canvas matches on."""
-    rows: list[list[object]] = [["Student", "ID", "SIS User ID", "SIS Login ID", "Section", assignment.title]]
-    rows += [[g.student, "", "", g.student, "", _number(g.score, 2)] for g in grades]
+    assignment's column; the student's name goes in SIS Login ID, which Canvas matches on. With
+    ``feedback_url``, a ``Notes`` column (Canvas's own notes column, which its import fills when
+    the gradebook shows it) holds each page's absolute link."""
+    header: list[object] = ["Student", "ID", "SIS User ID", "SIS Login ID", "Section", assignment.title]
+    pages = page_names([g.student for g in grades])
+    rows: list[list[object]] = [header + (["Notes"] if feedback_url else [])]
+    for g in grades:
+        rows.append([g.student, "", "", g.student, "", _number(g.score, 2)]
+                    + ([f"{feedback_url}feedback/{pages[g.student]}"] if feedback_url else []))
     return rows
 
 
@@ -80,11 +90,23 @@ def messages(g: Grade) -> list[str]:
     return list(dict.fromkeys(out))[:10]
 
 
-def page_name(student: str) -> str:
-    """The feedback page's file name: the student's name with anything but letters, digits,
-    '-', '_' and '.' replaced, so no name reaches outside the folder."""
-    safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in student).lstrip(".") or "student"
-    return f"{safe}.html"
+def page_names(students: list[str]) -> dict[str, str]:
+    """Each student's feedback page's file name (``NAME.html``; its pictures take ``NAME.png``
+    and ``NAME.gif``): the id with anything but letters, digits, '-', '_' and '.' replaced, so
+    that no name reaches outside the folder, and a short hash of the id added wherever that
+    changed it or two names would be one file on a disk blind to case, so that no two students
+    ever share a page (``a b`` and ``a_b``, ``.c`` and ``c``, ``Bob`` and ``bob``)."""
+    safe = {s: "".join(ch if ch.isascii() and (ch.isalnum() or ch in "-_.") else "_" for ch in s).lstrip(".")
+            for s in students}
+    counts: dict[str, int] = {}
+    for name in safe.values():
+        counts[name.casefold()] = counts.get(name.casefold(), 0) + 1
+    out = {}
+    for student, name in safe.items():
+        if name != student or counts[name.casefold()] > 1 or not name:
+            name = f"{name or 'student'}-{hashlib.sha256(student.encode()).hexdigest()[:8]}"
+        out[student] = f"{name}.html"
+    return out
 
 
 def grade_dict(g: Grade) -> dict[str, Any]:
@@ -103,7 +125,7 @@ def grade_dict(g: Grade) -> dict[str, Any]:
 
 
 def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tuple[str, tuple[str, ...]]],
-                   reference: Grade | None) -> str:
+                   reference: Grade | None, collisions: list[tuple[str, ...]] | None = None) -> str:
     counts: dict[str, int] = {}
     for g in grades:
         counts[g.status] = counts.get(g.status, 0) + 1
@@ -112,17 +134,20 @@ def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tup
                                              "criteria": [c.describe() for c in assignment.criteria]},
             "counts": counts, "students": [grade_dict(g) for g in grades],
             "likely_copies": [{"why": why, "students": list(students)} for why, students in copies],
+            "name_collisions": [list(group) for group in collisions or []],
             "reference": grade_dict(reference) if reference is not None else None}
     return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def write_gradebook(out: Path, grades: list[Grade], assignment: Assignment,
                     copies: list[tuple[str, tuple[str, ...]]], reference: Grade | None,
-                    inputs: list[str]) -> list[Path]:
+                    inputs: list[str], feedback_url: str = "",
+                    collisions: list[tuple[str, ...]] | None = None) -> list[Path]:
     written = [out / "gradebook.csv", out / "gradebook.json", out / "canvas.csv"]
-    write_output(written[0], csv_text(csv_rows(grades, assignment)), inputs, "--out")
-    write_output(written[1], gradebook_json(grades, assignment, copies, reference), inputs, "--out")
-    write_output(written[2], csv_text(canvas_rows(grades, assignment)), inputs, "--out")
+    write_output(written[0], csv_text(csv_rows(grades, assignment, feedback_url)), inputs, "--out")
+    write_output(written[1], gradebook_json(grades, assignment, copies, reference, collisions or []), inputs,
+                 "--out")
+    write_output(written[2], csv_text(canvas_rows(grades, assignment, feedback_url)), inputs, "--out")
     return written
 
 

@@ -21,7 +21,7 @@ from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert
 from labsim.runtime.grade.contract import STATUSES
-from labsim.runtime.grade.gradebook import messages, page_name
+from labsim.runtime.grade.gradebook import messages, page_names
 from labsim.runtime.grade.histogram import histogram_svg
 from labsim.runtime.grade.score import Grade, Graded
 
@@ -125,10 +125,15 @@ def overview_page(graded: Graded, charts: list[str]) -> str:
             "<h2>Status</h2>", _table(["status", "students"], [[e(s), e(n)] for s, n in counts.items() if n]),
             "<h2>Distributions</h2>", "<div class=\"charts\">"
             + "".join(f"<img src=\"{e(c)}\" alt=\"{e(Path(c).stem)}\">" for c in charts) + "</div>"]
+    if graded.collisions:
+        body += ["<h2>Names that collide</h2>", "<p class=\"muted\">these submissions would have had one name; "
+                 "each has its own row and page under the name shown</p>",
+                 _table(["students"], [[e(", ".join(group))] for group in graded.collisions])]
     if graded.copies:
         body += ["<h2>Likely copies</h2>", "<p class=\"muted\">for you to look at; not a verdict</p>",
                  _table(["why", "students"], [[e(why), e(", ".join(s))] for why, s in graded.copies])]
-    rows = [[f"<a href=\"feedback/{e(page_name(g.student))}\">{e(g.student)}</a>", e(_number(g.score)),
+    pages = page_names([g.student for g in graded.grades])
+    rows = [[f"<a href=\"feedback/{e(pages[g.student])}\">{e(g.student)}</a>", e(_number(g.score)),
              e(g.status), e(g.reason[:160]), e(" | ".join(messages(g))[:160])] for g in graded.grades]
     body += ["<h2>Students</h2>", _table(["student", "score", "status", "reason", "messages"], rows)]
     return _page(f"{a.title}: the class", body)
@@ -156,8 +161,9 @@ def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
     feedback = out / "feedback"
     feedback.mkdir(parents=True, exist_ok=True)
     written = []
+    pages = page_names([g.student for g in graded.grades])
     for g in graded.grades:
-        name = page_name(g.student)
+        name = pages[g.student]
         png, gif = name.removesuffix(".html") + ".png", name.removesuffix(".html") + ".gif"
         map_png, animation_gif = graded.pictures.get(g.student, (b"", b""))
         for file, data in ((png, map_png), (gif, animation_gif)):

@@ -64,6 +64,8 @@ class Graded:
     ended_by: int  # the signal that stopped the grading before every run was done (0: none)
     # student -> the pictures of seed 1's run: its map (PNG) and its animation (GIF, or b"")
     pictures: dict[str, tuple[bytes, bytes]] = field(default_factory=dict)
+    # the groups of students whose names alone would have been one (alice.yaml and alice.yml)
+    collisions: list[tuple[str, ...]] = field(default_factory=list)
 
 
 def grade_of(submission: Submission, runs: list[SeedRun], assignment: Assignment) -> Grade:
