@@ -12,28 +12,43 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, is_dataclass
+from dataclasses import fields as fields_of
 from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode
 
+from labsim.backends.scene.ground import ROAD_CHANNELS
+from labsim.backends.scene.models import MODELS, Kind
 from labsim.backends.scene.schema import DRAFT, IDENTIFIER, Schema, mapping
+from labsim.dsl import ast as dsl_ast
+from labsim.dsl.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, Better
+from labsim.dsl.parse import ParseError, parse_expr
+from labsim.dsl.read import MetricDecl, Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
-from labsim.foundation.source import Reader, load, scalar_value
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.source import Reader, TextSpan, load, scalar_value
 
-KEYS = (ASSIGNMENT_VERSION_KEY, "title", "world", "robots", "params", "metrics", "seeds", "timeout_s",
-        "budgets", "criteria", "reference")
-CRITERION_KEYS = ("at_least", "at_most", "score", "weight")
+KEYS = (ASSIGNMENT_VERSION_KEY, "title", "world", "robots", "params", "measure", "metrics", "seeds", "timeout_s",
+        "budgets", "criteria", "gate_score", "reference")
+CRITERION_KEYS = ("at_least", "at_most", "score", "weight", "required", "from")
+STUDENT = "student"  # from: student, a criterion on a metric the student's file defines
 # the built-in criteria: each reads every seed's run, not a metric
-RAN_TO_STOP, NO_FAULTS, NO_COLLISIONS = "ran_to_stop", "no_faults", "no_collisions"
+RAN_TO_STOP, NO_FAULTS, NO_COLLISIONS, MOVED = "ran_to_stop", "no_faults", "no_collisions", "moved"
 BUILTINS = {RAN_TO_STOP: "ran to its stop condition on every seed",
             NO_FAULTS: "no runtime faults (nan, inf, a domain error) on any seed",
-            NO_COLLISIONS: "no collisions on any seed"}
+            NO_COLLISIONS: "no collisions on any seed",
+            MOVED: "every robot drove at least {at_least:g} m on every seed"}
 ANY = "any"
 MAX_SEEDS = 100
 DEFAULT_TIMEOUT_S = 60.0
+MAX_TIMEOUT_S = 3600.0  # an hour a run: a longer one is a mistake in the assignment, not a lab
+MAX_PARAM = float(WHOLE_LIMIT)  # a grader's param value, either sign: 2**53, as for seeds
+# what a measured metric may read besides the sensors: what no student's file can write
+MEASURE_VARIABLES = ("time", "tick", "dt")
+MEASURED_SUFFIX = " (measured)"  # a measured metric's name in a student's program: no file can write it
 
 
 @dataclass(frozen=True)
@@ -48,6 +63,8 @@ class Criterion:
     at_most: float | None = None
     worst: float | None = None
     best: float | None = None
+    required: bool = False  # a gate: failing it gives the assignment's gate_score whatever the rest
+    student: bool = False  # from: student, a metric of the student's own file (else a measured one)
 
     @property
     def builtin(self) -> bool:
@@ -56,7 +73,7 @@ class Criterion:
     def describe(self) -> str:
         """The criterion in words, as the gradebook and the pages show it."""
         if self.builtin:
-            return BUILTINS[self.name]
+            return BUILTINS[self.name].format(at_least=self.at_least or 0.0)
         if self.worst is not None:
             return f"{self.name}: 0 at {self.worst:g}, full at {self.best:g}"
         return f"{self.name} >= {self.at_least:g}" if self.at_least is not None else f"{self.name} <= {self.at_most:g}"
@@ -89,7 +106,22 @@ class Assignment:
     budgets: Budgets
     criteria: tuple[Criterion, ...]
     reference: str | None = None  # a behaviour whose metrics are shown beside each student's
+    measure: tuple[MetricDecl, ...] = ()  # the metrics the grader measures on every run (its own names)
+    gate_score: float = 0.0  # the score of a student who fails a required criterion
     weights: float = field(init=False)
+
+    @property
+    def moves(self) -> bool:
+        """Whether a criterion reads the distance each robot drove (the built-in ``moved``)."""
+        return any(c.name == MOVED for c in self.criteria)
+
+    @property
+    def measured(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.measure)
+
+    def definition(self, metric: str) -> str:
+        """A measured metric's formula, as the assignment writes it ('' for another)."""
+        return next((" ".join(m.value.text.value.split()) for m in self.measure if m.name == metric), "")
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "weights", sum(c.weight for c in self.criteria))
@@ -126,11 +158,16 @@ class _AssignmentReader(Reader):
         world = self._world(keys.get("world"))
         robots = self._robots(keys.get("robots"))
         params = self._params(keys["params"]) if "params" in keys else {}
-        criteria = self._criteria(keys["criteria"]) if "criteria" in keys else ()
+        measure = self._measure(keys["measure"], set(params)) if "measure" in keys else ()
+        criteria = self._criteria(keys["criteria"], {m.name for m in measure} if "measure" in keys else None) \
+            if "criteria" in keys else ()
         metrics = self._names(keys["metrics"], "metrics") if "metrics" in keys else ()
-        metrics = tuple(dict.fromkeys([*metrics, *(c.name for c in criteria if not c.builtin)]))
+        # the student's file defines the metrics named, and those of criteria on its own metrics
+        metrics = tuple(dict.fromkeys([*metrics, *(c.name for c in criteria
+                                                   if not c.builtin and (c.student or "measure" not in keys))]))
         seeds = self._seeds(keys["seeds"]) if "seeds" in keys else (1,)
-        timeout = self.positive(keys["timeout_s"], "timeout_s") if "timeout_s" in keys else DEFAULT_TIMEOUT_S
+        timeout = self._timeout(keys["timeout_s"]) if "timeout_s" in keys else DEFAULT_TIMEOUT_S
+        gate_score = self._gate_score(keys["gate_score"]) if "gate_score" in keys else 0.0
         budgets = self._budgets(keys["budgets"]) if "budgets" in keys else DEFAULT_BUDGETS
         title = self.string(keys["title"], "title") if "title" in keys else None
         reference = self._reference(keys["reference"]) if "reference" in keys else None
@@ -138,7 +175,7 @@ class _AssignmentReader(Reader):
             return None
         return Assignment(self.doc.path, hashlib.sha256(self.doc.text.encode()).hexdigest(),
                           title or Path(self.doc.path).stem, world, robots, params, metrics, seeds,
-                          timeout or DEFAULT_TIMEOUT_S, budgets, criteria, reference)
+                          timeout or DEFAULT_TIMEOUT_S, budgets, criteria, reference, measure, gate_score)
 
     def _world(self, node: Node | None) -> str | None:
         if node is None:
@@ -161,8 +198,76 @@ class _AssignmentReader(Reader):
             if not isinstance(value, ScalarNode) or isinstance(scalar_value(value), str) or value.value == "":
                 self.error(value, f"param '{key.value}' takes the value the grader sets: a number, or true or false")
                 continue
+            number = scalar_value(value)
+            if isinstance(number, (int, float)) and not isinstance(number, bool) and not (
+                    math.isfinite(number) and abs(number) <= MAX_PARAM):
+                self.error(value, f"param '{key.value}' is a finite number from -2**53 to 2**53, not {value.value}")
+                continue
             out[str(key.value)] = str(value.value)
         return out
+
+    def _timeout(self, node: Node) -> float | None:
+        value = self.positive(node, "timeout_s")
+        if value is not None and value > MAX_TIMEOUT_S:
+            self.error(node, f"timeout_s is the wall time a run may take, at most {MAX_TIMEOUT_S:g} s (an hour)")
+            return None
+        return value
+
+    def _gate_score(self, node: Node) -> float:
+        value = self.number(node, "gate_score")
+        if value is not None and not 0 <= value <= 100:
+            self.error(node, "gate_score is the score (0 to 100) of a student who fails a required criterion")
+            return 0.0
+        return value or 0.0
+
+    def _measure(self, node: Node, params: set[str]) -> tuple[MetricDecl, ...]:
+        """The metrics the grader measures, in the behaviour language's metric syntax; each may
+        read only what a student's file cannot write (``MEASURE_VARIABLES``, the sensors and
+        pose, the grader's params, the world's channels)."""
+        out = []
+        readable = measurable_names() | params
+        for key, value in self.entries(node, "measure") or []:
+            name = str(key.value)
+            if not name.isidentifier() or not name.isascii():
+                self.error(key, f"'{name}' is not a valid metric name: use letters, digits and '_', starting with a "
+                                "letter")
+                continue
+            better: Better | None = None
+            if isinstance(value, MappingNode):
+                fields = self.fields(value, ("value", "better"), f"measured metric '{name}'")
+                if fields is None or "value" not in fields:
+                    self.error(key, f"measured metric '{name}' needs 'value:', the aggregate over the run")
+                    continue
+                if "better" in fields:
+                    word = scalar_value(fields["better"]) if isinstance(fields["better"], ScalarNode) else None
+                    if word not in ("higher", "lower"):
+                        self.error(fields["better"], f"'better' of metric '{name}' is higher or lower")
+                        continue
+                    better = Better(word)
+                value = fields["value"]
+            if not isinstance(value, ScalarNode) or not isinstance(scalar_value(value), str):
+                self.error(value, f"measured metric '{name}' is an aggregate over the run written as text, e.g. "
+                                  "count(collided)")
+                continue
+            text = self.doc.text_of(value)
+            try:
+                tree = parse_expr(text.value)
+            except ParseError as e:
+                self.error(TextSpan(text, e.start, e.end), e.message, e.notes)
+                continue
+            if not (isinstance(tree, dsl_ast.Call) and tree.func in AGGREGATES):
+                self.error(TextSpan(text, *tree.span), f"measured metric '{name}' must be an aggregate over the run: "
+                                                        + ", ".join(f"{a}(...)" for a in AGGREGATES))
+                continue
+            bad = _unreadable(tree, readable)
+            for what, span in bad:
+                self.error(TextSpan(text, *span), f"measured metric '{name}' reads {what}; a measured metric reads "
+                                                  "only what the student's file cannot write",
+                           notes=("it may read the sensors, the pose (x, y, heading), collided, forward_speed, "
+                                  "time, tick, dt and the grader's params",))
+            if not bad:
+                out.append(MetricDecl(name, Parsed(tree, text), key, better))
+        return tuple(out)
 
     def _names(self, node: Node, what: str) -> tuple[str, ...]:
         out = []
@@ -180,8 +285,9 @@ class _AssignmentReader(Reader):
         out = []
         for item in items:
             seed = self.number(item, "a seed", integer=True)
-            if seed is not None and seed < 0:
-                self.error(item, "a seed is 0 or a positive whole number")
+            if seed is not None and not 0 <= seed <= WHOLE_LIMIT:
+                self.error(item, f"a seed is a whole number from 0 to 2**53 ({WHOLE_LIMIT}), as labsim run --seed "
+                                 "takes it")
             elif seed is not None:
                 out.append(int(seed))
         if len(set(out)) != len(out):
@@ -202,26 +308,52 @@ class _AssignmentReader(Reader):
         name = self.name(node, "reference")
         return None if name is None else str(Path(self.doc.path).parent / name)
 
-    def _criteria(self, node: Node) -> tuple[Criterion, ...]:
+    def _criteria(self, node: Node, measured: set[str] | None) -> tuple[Criterion, ...]:
         out = []
         for key, value in self.entries(node, "criteria") or []:
-            found = self._criterion(key, value)
+            found = self._criterion(key, value, measured)
             if found is not None:
                 out.append(found)
         if isinstance(node, MappingNode) and not out and not self.report.errors:
             self.error(node, "give at least one criterion")
         return tuple(out)
 
-    def _criterion(self, key: ScalarNode, node: Node) -> Criterion | None:
+    def _criterion(self, key: ScalarNode, node: Node, measured: set[str] | None) -> Criterion | None:
+        """One criterion; ``measured``: the names under ``measure:`` (None: the assignment has none,
+        and its criteria read the student's metrics, as before ``measure:`` was)."""
         name = str(key.value)
         fields = self.fields(node, CRITERION_KEYS, f"criterion '{name}'")
         if fields is None:
             return None
         weight = self.positive(fields["weight"], "weight") if "weight" in fields else 1.0
+        required = self.flag(fields["required"], "required") if "required" in fields else False
+        student = False
+        if "from" in fields:
+            student = scalar_value(fields["from"]) == STUDENT if isinstance(fields["from"], ScalarNode) else False
+            if not student:
+                self.error(fields["from"], "from: student is the one source a criterion names: a metric the "
+                                           "student's file defines")
         if name in BUILTINS:
-            for extra in set(fields) - {"weight"}:
-                self.error(fields[extra], f"the built-in criterion '{name}' takes a weight only, not '{extra}'")
-            return Criterion(name, weight or 1.0)
+            allowed = {"weight", "required", *(("at_least",) if name == MOVED else ())}
+            for extra in set(fields) - allowed:
+                self.error(fields[extra], f"the built-in criterion '{name}' takes "
+                                          f"{'at_least (metres), ' if name == MOVED else ''}a weight and required "
+                                          f"only, not '{extra}'")
+            if name != MOVED:
+                return Criterion(name, weight or 1.0, required=required)
+            if "at_least" not in fields:
+                self.error(key, "moved takes at_least: METRES, the distance each robot must drive")
+                return None
+            metres = self.number(fields["at_least"], "at_least")
+            if metres is not None and metres < 0:
+                self.error(fields["at_least"], "moved: at_least is a distance, 0 or more metres")
+                return None
+            return None if metres is None else Criterion(name, weight or 1.0, at_least=metres, required=required)
+        if measured is not None and not student and name not in measured:
+            self.error(key, f"criterion '{name}' names no measured metric{did_you_mean(name, measured)}",
+                       notes=("define it under measure:, or write from: student for a metric the student's file "
+                              "defines (the page then says the student defined it)",))
+            return None
         if not name.isidentifier():
             self.error(key, f"'{name}' is neither a metric's name nor a built-in criterion"
                             f"{did_you_mean(name, BUILTINS)}", notes=(f"built-ins: {', '.join(BUILTINS)}",))
@@ -239,11 +371,56 @@ class _AssignmentReader(Reader):
             if pair is not None and pair[0] == pair[1]:
                 self.error(fields["score"], "score: [worst, best] needs two different values")
                 return None
-            return None if pair is None else Criterion(name, weight or 1.0, worst=pair[0], best=pair[1])
+            return None if pair is None else Criterion(name, weight or 1.0, worst=pair[0], best=pair[1],
+                                                       required=required, student=student)
         limit = self.number(fields[given[0]], given[0])
         if limit is None:
             return None
-        return Criterion(name, weight or 1.0, **{given[0]: limit})
+        return Criterion(name, weight or 1.0, **{given[0]: limit}, required=required, student=student)
+
+    def flag(self, node: Node, what: str) -> bool:
+        value = scalar_value(node) if isinstance(node, ScalarNode) else None
+        if not isinstance(value, bool):
+            self.error(node, f"{what} is true or false")
+            return False
+        return value
+
+
+def measurable_names() -> set[str]:
+    """The names a measured metric may read: every robot model's sensors and pose, ``collided``
+    and ``forward_speed``, the world's channels, ``MEASURE_VARIABLES`` and the constants."""
+    names: set[str] = set(MEASURE_VARIABLES) | set(CONSTANTS) | set(ROAD_CHANNELS)
+    for model in MODELS.values():
+        names |= {n for n, kind in model.channels().items() if kind is not Kind.IMAGE}
+    return names
+
+
+def _unreadable(e: dsl_ast.Expr, readable: set[str]) -> list[tuple[str, tuple[int, int]]]:
+    """What an expression reads that a measured metric may not: (words, span) each."""
+    out: list[tuple[str, tuple[int, int]]] = []
+
+    def walk(node: object) -> None:
+        if isinstance(node, dsl_ast.Name):
+            if node.id not in readable:
+                out.append((f"'{node.id}', which is not a sensor, the pose or a param of the grader's", node.span))
+        elif isinstance(node, dsl_ast.Call):
+            if node.func not in FUNCTIONS and node.func not in AGGREGATES and node.func != DETECTED:
+                out.append((f"'{node.func}(...)', which is not a built-in function", node.func_span))
+            if node.func == DETECTED:  # detected(sonar5) names a sensor
+                for arg in node.args:
+                    walk(arg)
+                return
+        elif isinstance(node, dsl_ast.Attribute):
+            out.append((f"'.{node.attr}' of a robot the student names", node.span))
+            return
+        if is_dataclass(node):
+            for f in fields_of(node):
+                value = getattr(node, f.name)
+                for item in value if isinstance(value, tuple) else (value,):
+                    if isinstance(item, dsl_ast.Expr):
+                        walk(item)
+    walk(e)
+    return out
 
 
 def bad_assignment(path: str, message: str) -> LabsimError:

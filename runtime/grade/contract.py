@@ -22,17 +22,20 @@ from pathlib import Path
 from labsim import __version__
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.program import Program
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.files import os_words, policy_problem, read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind
 from labsim.runtime.grade.assignment import Assignment
-from labsim.runtime.run import compile_behaviour
+from labsim.runtime.grade.copies import structures
+from labsim.runtime.grade.measure import graded_file, prepare_read, the_assignments, unmeasurable
 
 # a student's status: graded, or why not
 GRADED, MISMATCH, COMPILE_ERROR, HOSTILE = "graded", "contract mismatch", "compile error", "hostile file"
 # INTERRUPTED: a signal (Ctrl-C, SIGTERM, SIGHUP) stopped the grading before its runs were done
 TIMEOUT, BUDGET, CRASH, INTERRUPTED = "timeout", "budget stop", "crash", "interrupted"
-STATUSES = (GRADED, MISMATCH, COMPILE_ERROR, HOSTILE, TIMEOUT, BUDGET, CRASH, INTERRUPTED)
+# ran, but failed a required criterion: the status names it ("failed gate: no_faults")
+FAILED_GATE = "failed gate"
+STATUSES = (GRADED, FAILED_GATE, MISMATCH, COMPILE_ERROR, HOSTILE, TIMEOUT, BUDGET, CRASH, INTERRUPTED)
 
 
 @dataclass(frozen=True)
@@ -47,6 +50,9 @@ class Submission:
     reason: str = ""
     diagnostics: tuple[Diagnostic, ...] = ()  # every diagnostic of the file, warnings too
     world_file: str | None = None  # a world file beside it (None: a built-in world)
+    # the file's structure with its names, comments, order (and, second, its numbers) set aside:
+    # likely copies share it (runtime/grade/copies.py); empty when it does not read
+    structure: tuple[str, str] = ("", "")
 
 
 @dataclass(frozen=True)
@@ -157,6 +163,14 @@ def _named(entries: list[tuple[Path, str, Found]]) -> tuple[list[Found], list[tu
     return found, [tuple(names[i] for i in g) for g in collided]
 
 
+def _text(data: bytes) -> str | None:
+    """The file's text as the compiler reads it, or None to let the compiler say why it is not text."""
+    try:
+        return data.decode("utf-8").lstrip("\ufeff")
+    except UnicodeDecodeError:
+        return None
+
+
 def key_of(data: bytes, assignment: Assignment) -> str:
     digest = hashlib.sha256(data + b"\0" + __version__.encode() + b"\0" + assignment.sha256.encode())
     return digest.hexdigest()
@@ -177,11 +191,19 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
     key = key_of(data, assignment)
     source = normalised(data.decode("utf-8", "replace"))
     base = Submission(student, str(path), key, source)
+    report = Report()
     try:
-        program = compile_behaviour(path, budgets=assignment.budgets).program
+        bf = graded_file(path, report, assignment.measure, assignment.moves, text=_text(data))
+        base = replace(base, structure=structures(bf))
+        program = prepare_read(bf, report, budgets=assignment.budgets).program(None)
     except LabsimError as e:
+        if the_assignments(e.diagnostics, assignment.path):
+            return _refused(base, MISMATCH, unmeasurable(e, assignment.path),
+                            [d for d in e.diagnostics if d.path != assignment.path])
         status = classify(e.diagnostics)
         return _refused(base, status, _first(e.diagnostics), e.diagnostics)
+    warnings = tuple(w for w in program.warnings if w.path == program.path)  # not the grader's metrics'
+    program = replace(program, warnings=warnings)
     problems = contract_problems(program, assignment)
     world_file = None if builtin_name(program.world.source) else program.world.source
     if world_file is not None and not _inside(Path(world_file), path.parent):
@@ -194,7 +216,7 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
             key = key_of(data + b"\0" + read_input(world_file, "world"), assignment)
         except LabsimError as e:
             return _refused(base, HOSTILE, _first(e.diagnostics), e.diagnostics)
-    return Submission(student, str(path), key, source, GRADED, "", tuple(program.warnings), world_file)
+    return replace(base, key=key, diagnostics=tuple(program.warnings), world_file=world_file)
 
 
 def _refused(base: Submission, status: str, reason: str, diagnostics: Iterable[Diagnostic]) -> Submission:

@@ -110,7 +110,8 @@ def grade_class(options: Options) -> Graded:
             continue
         # one job a student: its seeds share one compile (runtime/grade/runs.py)
         jobs.append(make_job(s.student, Path(s.path), s.world_file, assignment.seeds, assignment.params,
-                             assignment.budgets, assignment.timeout_s, pictures=draw))
+                             assignment.budgets, assignment.timeout_s, pictures=draw, measure=assignment.measure,
+                             moved=assignment.moves))
     keys = {s.student: s.key for s in submissions}
 
     def finished(student: str, mine: list[SeedRun]) -> None:  # kept at once: a signal later costs none of it
@@ -162,7 +163,8 @@ def _reference(assignment: Assignment) -> Grade | None:
         raise LabsimError([Diagnostic(assignment.path, f"the reference behaviour {assignment.reference} does not "
                                                        f"meet the assignment: {submission.reason}")])
     runs = run_job(make_job("reference", Path(submission.path), submission.world_file, assignment.seeds,
-                            assignment.params, assignment.budgets, assignment.timeout_s, pictures=None))
+                            assignment.params, assignment.budgets, assignment.timeout_s, pictures=None,
+                            measure=assignment.measure, moved=assignment.moves))
     if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
         raise KeyboardInterrupt
     return grade_of(submission, list(runs), assignment)
@@ -290,5 +292,5 @@ def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
         print(f"interrupted: {sum(g.status == INTERRUPTED for g in graded.grades)} submissions left to grade; "
               "grading again runs only those")
         return exit_code(graded.ended_by)
-    return EXIT_OK if all(g.graded for g in graded.grades) else EXIT_FAILED
+    return EXIT_OK if all(g.scored for g in graded.grades) else EXIT_FAILED
 

@@ -29,7 +29,7 @@ from labsim.runtime.grade.runs import RAN, SeedRun
 from labsim.runtime.grade.score import Grade
 
 FORMAT = "labsim-gradebook/1"
-CACHE_FORMAT = "labsim-grade-cache/2"  # 2: a run keeps its pictures, no longer its trace
+CACHE_FORMAT = "labsim-grade-cache/3"  # 2: a run keeps its pictures, no longer its trace; 3: measured metrics
 
 
 def _number(value: float | None, digits: int = 6) -> float | None:
@@ -44,7 +44,8 @@ def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = ""
     link (where the teacher puts the ``feedback`` folder online), else the link is relative."""
     header: list[object] = ["Student", "Score", "Status", "Reason", "Feedback"]
     header += [f"pass {c.name}" for c in assignment.criteria]
-    header += [f"mean {m}" for m in assignment.metrics]
+    header += [f"mean {m}" for m in assignment.measured]
+    header += [f"mean {m}" + (" (student's)" if m in assignment.measured else "") for m in assignment.metrics]
     header += ["Messages"]
     rows: list[list[object]] = [header]
     pages = page_names([g.student for g in grades])
@@ -53,6 +54,7 @@ def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = ""
         link = f"{feedback_url}feedback/{pages[g.student]}"
         row: list[object] = [g.student, _number(g.score, 2), g.status, g.reason, link]
         row += [passed.get(c.name, "") for c in assignment.criteria]
+        row += [_number(g.measured.get(m)) for m in assignment.measured]
         row += [_number(g.means.get(m)) for m in assignment.metrics]
         row += [" | ".join(messages(g))]
         rows.append(row)
@@ -113,11 +115,16 @@ def grade_dict(g: Grade) -> dict[str, Any]:
     """A grade as JSON: no wall times, no traces (the same class grades to the same JSON)."""
     return {"student": g.student, "path": g.path, "status": g.status, "reason": g.reason,
             "score": _number(g.score, 2),
+            "gate": g.gate or None,
             "criteria": [{"name": r.name, "description": r.description, "value": _number(r.value),
-                          "passed": r.passed, "points": _number(r.points), "weight": r.weight} for r in g.criteria],
+                          "passed": r.passed, "points": _number(r.points), "weight": r.weight,
+                          "required": r.required, "from": r.source, "why": r.why} for r in g.criteria],
             "means": {k: _number(v) for k, v in g.means.items()},
+            "measured": {k: _number(v) for k, v in g.measured.items()},
             "runs": [{"seed": r.seed, "status": r.status, "message": r.message, "stopped": r.stopped,
-                      "metrics": {k: _number(v) for k, v in r.metrics.items()}, "faults": list(r.faults),
+                      "metrics": {k: _number(v) for k, v in r.metrics.items()},
+                      "measured": {k: _number(v) for k, v in r.measured.items()},
+                      "distance_m": _number(r.distance_m), "faults": list(r.faults),
                       "collisions": r.collisions, "ticks": r.ticks, "never_fired": list(r.never_fired)}
                      for r in g.runs],
             "diagnostics": [diagnostic_dict(d) for d in g.diagnostics],
@@ -131,7 +138,9 @@ def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tup
         counts[g.status] = counts.get(g.status, 0) + 1
     data = {"format": FORMAT, "assignment": {"title": assignment.title, "path": assignment.path,
                                              "seeds": list(assignment.seeds),
-                                             "criteria": [c.describe() for c in assignment.criteria]},
+                                             "criteria": [c.describe() for c in assignment.criteria],
+                                             "measure": {m: assignment.definition(m) for m in assignment.measured},
+                                             "gate_score": assignment.gate_score},
             "counts": counts, "students": [grade_dict(g) for g in grades],
             "likely_copies": [{"why": why, "students": list(students)} for why, students in copies],
             "name_collisions": [list(group) for group in collisions or []],
@@ -156,6 +165,7 @@ def write_gradebook(out: Path, grades: list[Grade], assignment: Assignment,
 def _run_dict(r: SeedRun) -> dict[str, Any]:
     out = asdict(r)
     out["metrics"] = {k: (v if math.isfinite(v) else repr(v)) for k, v in r.metrics.items()}
+    out["measured"] = {k: (v if math.isfinite(v) else repr(v)) for k, v in r.measured.items()}
     out["diagnostics"] = [asdict(d) for d in r.diagnostics]
     out["map_png"] = base64.b64encode(r.map_png).decode()
     out["animation_gif"] = base64.b64encode(r.animation_gif).decode()
@@ -165,6 +175,7 @@ def _run_dict(r: SeedRun) -> dict[str, Any]:
 def _run_of(d: dict[str, Any]) -> SeedRun:
     d = dict(d)
     d["metrics"] = {k: float(v) for k, v in d["metrics"].items()}
+    d["measured"] = {k: float(v) for k, v in d["measured"].items()}
     d["diagnostics"] = tuple(Diagnostic(**{**x, "notes": tuple(x["notes"])}) for x in d["diagnostics"])
     d["map_png"] = base64.b64decode(d["map_png"])
     d["animation_gif"] = base64.b64decode(d["animation_gif"])

@@ -24,11 +24,12 @@ from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
-from labsim.dsl.compile import prepare
+from labsim.dsl.read import MetricDecl
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets
 from labsim.runtime.batch import stop_asked
+from labsim.runtime.grade.measure import SPEED_METRIC, prepare_graded, split_metrics
 from labsim.runtime.recording import Recording
 from labsim.runtime.result import STOP_CONDITION, RunResult
 from labsim.runtime.run import Behaviour, Run
@@ -54,6 +55,8 @@ class Job:
     budgets: Budgets
     timeout_s: float
     pictures: Pictures | None = None  # draw the first seed's run (the feedback page's)
+    measure: tuple[MetricDecl, ...] = ()  # the assignment's measured metrics (runtime/grade/measure.py)
+    moved: bool = False  # measure the distance each robot drives (the built-in criterion moved)
 
 
 @dataclass(frozen=True)
@@ -63,7 +66,7 @@ class SeedRun:
     seed: int
     status: str  # RAN, TIMED_OUT, OVER_BUDGET, CRASHED, NOT_COMPILED or STOPPED
     message: str = ""
-    metrics: Mapping[str, float] = field(default_factory=dict)
+    metrics: Mapping[str, float] = field(default_factory=dict)  # the student's own metrics
     stopped: bool = False  # its stop condition held
     faults: tuple[str, ...] = ()
     collisions: int = 0
@@ -76,6 +79,8 @@ class SeedRun:
     diagnostics: tuple[Diagnostic, ...] = ()
     map_png: bytes = b""  # the run's pictures, when the job asked for them
     animation_gif: bytes = b""
+    measured: Mapping[str, float] = field(default_factory=dict)  # the assignment's measured metrics
+    distance_m: float | None = None  # the least distance a robot drove (when the assignment asks)
 
 
 class _Deadline(Exception):
@@ -104,7 +109,7 @@ def run_job(job: Job) -> tuple[SeedRun, ...]:
 
 def _runs(job: Job, local: str, started: float) -> list[SeedRun]:
     try:
-        prepared = prepare(local, dict(job.params), budgets=job.budgets)
+        prepared = prepare_graded(local, dict(job.params), job.budgets, job.measure, job.moved)
     except LabsimError as e:  # the same errors whatever the seed
         return [_not_compiled(seed, e, local, job.shown_as, started) for seed in job.seeds]
     out: list[SeedRun] = []
@@ -178,13 +183,16 @@ def _pictures(draw: Pictures, run: Run, recording: Recording | None, traced: str
 
 
 def seed_run(seed: int, result: RunResult, wall_s: float) -> SeedRun:
-    """A finished run as plain values."""
+    """A finished run as plain values: the student's metrics apart from the grader's."""
     status = OVER_BUDGET if result.over_budget else STOPPED if result.interrupted else RAN
-    metrics = {k: float(v) for k, v in result.metric_values().items()}  # a count is a float too, as the cache keeps it
+    values = {k: float(v) for k, v in result.metric_values().items()}  # a count is a float too, as the cache keeps it
+    metrics, measured = split_metrics(values)
+    speeds = [float(r.metrics[SPEED_METRIC]) for r in result.robots.values() if SPEED_METRIC in r.metrics]
+    distance = min((s * result.sim_time_s if s == s else 0.0 for s in speeds), default=None)
     return SeedRun(seed, status, result.over_budget, metrics, result.stop_reason == STOP_CONDITION,
                    result.faults, sum(r.contacts for r in result.robots.values()), result.warnings, result.logs,
                    tuple(f"{r.id}: {r.text}" for r in result.rules if r.ticks == 0), result.ticks,
-                   result.sim_time_s, wall_s)
+                   result.sim_time_s, wall_s, measured=measured, distance_m=distance)
 
 
 def _renamed(d: Diagnostic, local: str, shown: str) -> Diagnostic:
@@ -198,7 +206,8 @@ def _exception_line(e: BaseException) -> str:
 
 
 def make_job(student: str, behaviour: Path, world_file: str | None, seeds: tuple[int, ...],
-             params: Mapping[str, str], budgets: Budgets, timeout_s: float, pictures: Pictures | None) -> Job:
+             params: Mapping[str, str], budgets: Budgets, timeout_s: float, pictures: Pictures | None,
+             measure: tuple[MetricDecl, ...] = (), moved: bool = False) -> Job:
     """A job for a submission whose world is built in (``world_file`` None) or a file beside it."""
     files = [(behaviour.name, read_input(behaviour, "behaviour"))]
     base = "."
@@ -206,4 +215,4 @@ def make_job(student: str, behaviour: Path, world_file: str | None, seeds: tuple
         rel = Path(world_file).resolve().relative_to(behaviour.resolve().parent)
         files.append((str(rel), read_input(world_file, "world")))
     return Job(student, tuple(seeds), str(Path(base) / behaviour.name), tuple(files), str(behaviour),
-               tuple(sorted(params.items())), budgets, timeout_s, pictures)
+               tuple(sorted(params.items())), budgets, timeout_s, pictures, measure, moved)

@@ -1,0 +1,79 @@
+"""Likely copies through renames: a behaviour file's structure, with everything a copier changes set aside.
+
+The contract check (runtime/grade/contract.py) reads every submission that parses, whatever
+becomes of it after, and ``structures`` turns what was read into two fingerprints: the file's
+program with every name its author chose (params, signals, states, functions and their
+arguments, metrics, robots) replaced by what kind of name it is, comments, spacing and the
+order of keys, rules, signals and metrics set aside; and the same with every number set aside
+too. The grader (runtime/grade/score.py) lists the students who share one as likely copies,
+for the teacher to look at: a copy with its params, signals or metrics renamed, or its rules
+reordered, has the first of its original; one that also changed its gains, the second.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import fields, is_dataclass
+
+from labsim.dsl import ast
+from labsim.dsl.read import BehaviourFile
+from labsim.runtime.grade.assignment import MEASURED_SUFFIX
+
+
+def structures(bf: BehaviourFile) -> tuple[str, str]:
+    """The file's two fingerprints (numbers kept, numbers set aside); see the module docstring."""
+    kinds: dict[str, str] = {}
+    for name in bf.params:
+        kinds[name] = "param"
+    for name, _, _ in bf.lets:
+        kinds[name] = "signal"
+    for name in bf.states:
+        kinds[name] = "state"
+    for f in bf.functions:
+        kinds[f.name] = "function"
+        kinds.update({p: "argument" for p in f.params})
+    for m in bf.metrics:
+        kinds[m.name] = "metric"
+    for r in bf.robots:
+        kinds[r.name] = "robot"
+    return _fingerprint(bf, kinds, numbers=True), _fingerprint(bf, kinds, numbers=False)
+
+
+def _fingerprint(bf: BehaviourFile, kinds: dict[str, str], numbers: bool) -> str:
+    def shape(node: object) -> str:
+        return _shape(node, kinds, numbers)
+
+    def value(v: object) -> str:
+        return repr(v) if numbers else "N"
+
+    parts = [f"world {bf.world} dt {value(bf.dt_s)}", f"stop {shape(bf.stop.node) if bf.stop else ''}"]
+    parts.append("robots " + " ".join(sorted(f"{r.model}*{r.count}@{value(r.at)}" for r in bf.robots)))
+    parts.append("params " + " ".join(sorted(value(v) for v, _ in bf.params.values())))
+    parts.append("functions " + " ".join(sorted(f"{len(f.params)}:{shape(f.body.node)}" for f in bf.functions)))
+    parts.append("signals " + " ".join(sorted(shape(p.node) for _, p, _ in bf.lets)))
+    parts.append("states " + " ".join(sorted("[" + " ".join(sorted(shape(r.rule) for r in rules)) + "]"
+                                             for rules, _ in bf.states.values())))
+    parts.append("metrics " + " ".join(sorted(f"{m.better}:{shape(m.value.node)}" for m in bf.metrics
+                                              if not m.name.endswith(MEASURED_SUFFIX))))
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _shape(node: object, kinds: dict[str, str], numbers: bool) -> str:
+    """An expression, rule or action as text, its author's names replaced by their kinds."""
+    if isinstance(node, ast.Number):
+        return repr(node.value) if numbers else "N"
+    if isinstance(node, ast.Name):
+        return kinds.get(node.id, node.id)
+    if isinstance(node, (ast.Call, ast.Action)):
+        name = node.func if isinstance(node, ast.Call) else node.name
+        return f"{kinds.get(name, name)}({','.join(_shape(a, kinds, numbers) for a in node.args)})"
+    if isinstance(node, ast.Goto):
+        return "goto state"
+    if isinstance(node, str):
+        return node
+    if isinstance(node, tuple):
+        return "(" + ",".join(_shape(item, kinds, numbers) for item in node) + ")"
+    if is_dataclass(node):
+        inner = ",".join(_shape(getattr(node, f.name), kinds, numbers) for f in fields(node)
+                         if not f.name.endswith("span"))
+        return f"{type(node).__name__}({inner})"
+    return repr(node)
