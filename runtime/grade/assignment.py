@@ -159,8 +159,10 @@ class _AssignmentReader(Reader):
         robots = self._robots(keys.get("robots"))
         params = self._params(keys["params"]) if "params" in keys else {}
         measure = self._measure(keys["measure"], set(params)) if "measure" in keys else ()
-        criteria = self._criteria(keys["criteria"], {m.name for m in measure} if "measure" in keys else None) \
-            if "criteria" in keys else ()
+        declared = {str(k.value) for k, _ in self.entries(keys["measure"], "measure") or []} \
+            if "measure" in keys and isinstance(keys["measure"], MappingNode) else set()  # a wrong one said so
+        criteria = self._criteria(keys["criteria"], {m.name for m in measure} | declared if "measure" in keys
+                                  else None) if "criteria" in keys else ()
         metrics = self._names(keys["metrics"], "metrics") if "metrics" in keys else ()
         # the student's file defines the metrics named, and those of criteria on its own metrics
         metrics = tuple(dict.fromkeys([*metrics, *(c.name for c in criteria
@@ -437,7 +439,9 @@ def assignment_schema() -> Schema:
         "at_most": {**number, "description": "passes (full weight) when the mean is at most this"},
         "score": {"type": "array", "items": number, "minItems": 2, "maxItems": 2,
                   "description": "[worst, best]: 0 at worst, the full weight at best, linear between"},
-        "weight": {**number, "exclusiveMinimum": 0, "description": "its share of the score (default 1)"}})
+        "weight": {**number, "exclusiveMinimum": 0, "description": "its share of the score (default 1)"},
+        "required": {"type": "boolean", "description": "a gate: failing it gives the assignment's gate_score"},
+        "from": {"const": STUDENT, "description": "a metric the student's file defines, not a measured one"}})
     out = mapping(KEYS, {
         ASSIGNMENT_VERSION_KEY: {"const": 1, "description": "the assignment format version"},
         "title": {"type": "string", "description": "the assignment's name in the gradebook and on the pages"},
@@ -447,11 +451,21 @@ def assignment_schema() -> Schema:
         "params": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
                    "additionalProperties": {"type": ["number", "boolean"]},
                    "description": "params every submission declares, with the values the grader sets"},
+        "measure": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
+                    "additionalProperties": {"oneOf": [
+                        {"type": "string"},
+                        {"type": "object", "additionalProperties": False, "required": ["value"],
+                         "properties": {"value": {"type": "string"}, "better": {"enum": ["higher", "lower"]}}}]},
+                    "description": "metrics the grader measures on every run, in the behaviour language's metric "
+                                   "syntax, e.g. hits: count(collided); they read only sensors, the pose, time and "
+                                   "the grader's params"},
+        "gate_score": {"type": "number", "minimum": 0, "maximum": 100,
+                       "description": "the score of a student who fails a required criterion (default 0)"},
         "metrics": {"type": "array", "items": {"type": "string", "pattern": IDENTIFIER},
                     "description": "metrics every submission defines (the criteria's are added)"},
-        "seeds": {"type": "array", "items": {"type": "integer", "minimum": 0}, "minItems": 1,
+        "seeds": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": WHOLE_LIMIT}, "minItems": 1,
                   "maxItems": MAX_SEEDS, "uniqueItems": True, "description": "one run per seed (default [1])"},
-        "timeout_s": {**number, "exclusiveMinimum": 0,
+        "timeout_s": {**number, "exclusiveMinimum": 0, "maximum": MAX_TIMEOUT_S,
                       "description": f"wall time each run may take (default {DEFAULT_TIMEOUT_S:g} s)"},
         "budgets": {"type": "object", "additionalProperties": False,
                     "properties": {n: {"type": "integer", "minimum": 0} for n in Budgets.names()},

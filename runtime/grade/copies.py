@@ -15,12 +15,15 @@ import hashlib
 from dataclasses import fields, is_dataclass
 
 from labsim.dsl import ast
-from labsim.dsl.read import BehaviourFile
+from labsim.dsl.read import BehaviourFile, RobotDecl
 from labsim.runtime.grade.assignment import MEASURED_SUFFIX
 
 
 def structures(bf: BehaviourFile) -> tuple[str, str]:
-    """The file's two fingerprints (numbers kept, numbers set aside); see the module docstring."""
+    """The file's two fingerprints (numbers kept, numbers set aside), or empty ones for a file
+    with no rules (an empty file, a YAML list: nothing a copy would share); see the module docstring."""
+    if not bf.states:
+        return "", ""
     kinds: dict[str, str] = {}
     for name in bf.params:
         kinds[name] = "param"
@@ -46,7 +49,8 @@ def _fingerprint(bf: BehaviourFile, kinds: dict[str, str], numbers: bool) -> str
         return repr(v) if numbers else "N"
 
     parts = [f"world {bf.world} dt {value(bf.dt_s)}", f"stop {shape(bf.stop.node) if bf.stop else ''}"]
-    parts.append("robots " + " ".join(sorted(f"{r.model}*{r.count}@{value(r.at)}" for r in bf.robots)))
+    parts.append("robots " + " ".join(sorted(f"{r.model}*{r.count}@{value(r.at)} {_gear(r, numbers)}"
+                                             for r in bf.robots)))
     parts.append("params " + " ".join(sorted(value(v) for v, _ in bf.params.values())))
     parts.append("functions " + " ".join(sorted(f"{len(f.params)}:{shape(f.body.node)}" for f in bf.functions)))
     parts.append("signals " + " ".join(sorted(shape(p.node) for _, p, _ in bf.lets)))
@@ -55,6 +59,14 @@ def _fingerprint(bf: BehaviourFile, kinds: dict[str, str], numbers: bool) -> str
     parts.append("metrics " + " ".join(sorted(f"{m.better}:{shape(m.value.node)}" for m in bf.metrics
                                               if not m.name.endswith(MEASURED_SUFFIX))))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _gear(robot: RobotDecl, numbers: bool) -> str:
+    """What a robot carries beyond its model: its camera (its settings with ``numbers``), lidar and noise."""
+    camera = robot.camera
+    out = [f"camera={camera!r}" if numbers else "camera"] if camera is not None else []
+    out += [name for name, value in (("lidar", robot.lidar), ("noise", robot.noise)) if value is not None]
+    return " ".join(out)
 
 
 def _shape(node: object, kinds: dict[str, str], numbers: bool) -> str:

@@ -90,7 +90,9 @@ def test_likely_copies_are_listed(graded_class) -> None:
     folder, done = graded_class
     book = json.loads((folder / "out" / "gradebook.json").read_text())
     assert {tuple(c["students"]) for c in book["likely_copies"]} == \
-        {("copy_comments", "valid_02"), ("copy_renamed_param", "valid_01")}
+        {("copy_comments", "valid_02"), ("copy_renamed_param", "valid_01"), ("renamed_metric", "renamed_param")}
+    whys = {tuple(c["students"]): c["why"] for c in book["likely_copies"]}
+    assert whys[("copy_renamed_param", "valid_01")] == "the same program once names, comments and order are set aside"
     assert "likely copies" in done.stdout
 
 

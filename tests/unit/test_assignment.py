@@ -44,7 +44,7 @@ def test_the_schema_accepts_the_fixture_and_is_the_shipped_copy() -> None:
     ("labsim-assignment: 1\nworld: any\nrobots: 1\nparams: {minutes: five}\ncriteria: {no_faults: {}}\n", "4:19",
      "param 'minutes' takes the value the grader sets"),
     ("labsim-assignment: 1\nworld: any\nrobots: 1\ncriteria: {no_faults: {at_least: 1}}\n", "4:34",
-     "the built-in criterion 'no_faults' takes a weight only"),
+     "the built-in criterion 'no_faults' takes a weight and required only"),
     ("labsim-assignment: 1\nworld: any\nrobots: 1\ncriteria: {x: {score: [1, 1]}}\n", "4:23",
      "score: [worst, best] needs two different values"),
     ("labsim-assignment: 1\nworld: any\nrobots: 1\nbudgets: {tiks: 5}\ncriteria: {no_faults: {}}\n", "4:11",
@@ -66,3 +66,64 @@ def test_a_scored_range_scores_linearly_either_way() -> None:
     lower = type(following)("overshoot", 1.0, worst=10.0, best=0.0)  # better lower
     assert score_criterion(lower, {"overshoot": 2.5}, []).points == 0.75
     assert score_criterion(lower, {"overshoot": float("nan")}, []).passed is False
+
+
+HEAD = "labsim-assignment: 1\nworld: any\nrobots: 1\n"
+
+
+@pytest.mark.parametrize("text, where, message", [
+    (HEAD + "seeds: [1e300]\ncriteria: {no_faults: {}}\n", "4:9",
+     "a seed is a whole number from 0 to 2**53 (9007199254740992), as labsim run --seed takes it"),
+    (HEAD + "seeds: [-1]\ncriteria: {no_faults: {}}\n", "4:9", "a seed is a whole number from 0 to 2**53"),
+    (HEAD + "timeout_s: 1e308\ncriteria: {no_faults: {}}\n", "4:12",
+     "timeout_s is the wall time a run may take, at most 3600 s (an hour)"),
+    (HEAD + "params: {minutes: 1e308}\ncriteria: {no_faults: {}}\n", "4:19",
+     "param 'minutes' is a finite number from -2**53 to 2**53, not 1e308"),
+    (HEAD + "params: {minutes: .nan}\ncriteria: {no_faults: {}}\n", "4:19",
+     "param 'minutes' is a finite number from -2**53 to 2**53, not .nan"),
+    (HEAD + "gate_score: 150\ncriteria: {no_faults: {}}\n", "4:13",
+     "gate_score is the score (0 to 100) of a student who fails a required criterion"),
+    (HEAD + "measure:\n  near: count(right < 0.3)\ncriteria: {near: {at_most: 1}}\n", "5:15",
+     "measured metric 'near' reads 'right', which is not a sensor, the pose or a param of the grader's; a measured "
+     "metric reads only what the student's file cannot write"),
+    (HEAD + "measure:\n  s: maximum(steer(sonar1))\ncriteria: {s: {at_most: 1}}\n", "5:14",
+     "measured metric 's' reads 'steer(...)', which is not a built-in function"),
+    (HEAD + "measure:\n  s: duration(state == follow)\ncriteria: {s: {at_most: 1}}\n", "5:15",
+     "measured metric 's' reads 'state'"),
+    (HEAD + "measure:\n  s: min(sonar1, sonar2)\ncriteria: {s: {at_most: 1}}\n", "5:6",
+     "measured metric 's' must be an aggregate over the run"),
+    (HEAD + "measure:\n  s: count(collided\ncriteria: {s: {at_most: 1}}\n", "5:11", "unclosed '('"),
+    (HEAD + "measure:\n  hits: count(collided)\ncriteria: {hit: {at_most: 1}}\n", "6:12",
+     "criterion 'hit' names no measured metric (did you mean 'hits'?)"),
+    (HEAD + "measure:\n  hits: count(collided)\ncriteria: {mine: {at_most: 1, from: teacher}}\n", "6:37",
+     "from: student is the one source a criterion names"),
+    (HEAD + "criteria: {moved: {weight: 2}}\n", "4:12", "moved takes at_least: METRES"),
+    (HEAD + "criteria: {no_faults: {required: yes please}}\n", "4:34", "required is true or false"),
+])
+def test_each_value_mistake_is_reported_where_it_is(tmp_path: Path, text: str, where: str, message: str) -> None:
+    path = tmp_path / "a.yaml"
+    path.write_text(text)
+    with pytest.raises(LabsimError) as e:
+        read_assignment(path)
+    found = [f"{d.line}:{d.col}" for d in e.value.diagnostics if message in d.message]
+    assert found == [where], [d.format() for d in e.value.diagnostics]
+
+
+def test_measured_metrics_gates_and_student_metrics_read() -> None:
+    text = (HEAD + "params: {gain: 2}\nmeasure:\n  hits: count(collided)\n"
+            "  closest: {value: minimum(min(sonar1..sonar16)), better: higher}\n"
+            "  fast: mean(abs(forward_speed) * gain)\n"
+            "criteria:\n  hits: {at_most: 0, required: true}\n  closest: {at_least: 0.2}\n"
+            "  near_misses: {at_most: 3, from: student}\n  moved: {at_least: 1.5, required: true}\n"
+            "gate_score: 10\n")
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "a.yaml"
+        path.write_text(text)
+        a = read_assignment(path)
+    assert a.measured == ("hits", "closest", "fast") and a.metrics == ("near_misses",)
+    assert a.definition("closest") == "minimum(min(sonar1..sonar16))" and a.gate_score == 10
+    assert [(c.name, c.required, c.student) for c in a.criteria] == [
+        ("hits", True, False), ("closest", False, False), ("near_misses", False, True), ("moved", True, False)]
+    assert a.criteria[3].describe() == "every robot drove at least 1.5 m on every seed" and a.moves
