@@ -14,16 +14,20 @@ from __future__ import annotations
 
 import html
 import math
+import re
+import shlex
 from collections.abc import Iterable
 from pathlib import Path
 
+from labsim.dsl import ast as dsl_ast
 from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert
+from labsim.runtime.grade.assignment import MOVED, Assignment, Criterion
 from labsim.runtime.grade.contract import STATUSES
 from labsim.runtime.grade.gradebook import messages, page_names
 from labsim.runtime.grade.histogram import histogram_svg
-from labsim.runtime.grade.score import Grade, Graded
+from labsim.runtime.grade.score import Grade, Graded, first_fault
 
 CSP = "default-src 'none'; img-src 'self'; style-src 'unsafe-inline'"
 STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:60em;color:#222;padding:0 1em}
@@ -58,12 +62,89 @@ def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def feedback_page(g: Grade, title: str, pictures: tuple[str, str | None] | None, reference: Grade | None) -> str:
+_WORDS = {"count": "how many times this became true", "duration": "the seconds during which this held",
+          "minimum": "the least value over the run of", "maximum": "the greatest value over the run of",
+          "mean": "the mean over the run of", "rms": "the root mean square over the run of",
+          "final": "the value at the end of the run of"}
+_METRES = re.compile(r"^(sonar|prox)\d+$|^[xy]$")
+
+
+def metric_words(assignment: Assignment, metric: str) -> tuple[str, str, str]:
+    """A measured metric in words, its formula as the assignment writes it, and its unit."""
+    decl = next((m for m in assignment.measure if m.name == metric), None)
+    if decl is None or not isinstance(decl.value.node, dsl_ast.Call):
+        return "", "", ""
+    call = decl.value.node
+    names = {n.id for n in _names(call)}
+    unit = ("s" if call.func == "duration" else "" if call.func == "count" else
+            "m" if names and all(_METRES.match(n) for n in names) else
+            "m/s" if names == {"forward_speed"} else "")
+    return _WORDS.get(call.func, call.func), assignment.definition(metric), unit
+
+
+def _names(node: object) -> list[dsl_ast.Name]:
+    if isinstance(node, dsl_ast.Name):
+        return [node]
+    out: list[dsl_ast.Name] = []
+    for value in vars(node).values() if hasattr(node, "__dict__") else ():
+        for item in value if isinstance(value, tuple) else (value,):
+            if isinstance(item, dsl_ast.Expr):
+                out += _names(item)
+    return out
+
+
+def _needed(c: Criterion) -> str:
+    if c.builtin:
+        return f"at least {c.at_least:g} m" if c.name == MOVED else "yes"
+    if c.worst is not None:
+        return f"0 points at {c.worst:g}, full at {c.best:g}"
+    return f"at least {c.at_least:g}" if c.at_least is not None else f"at most {c.at_most:g}"
+
+
+def run_command(g: Grade, assignment: Assignment, seed: int) -> str:
+    """The ``labsim run`` command that makes a seed's run again, with the grader's params."""
+    sets = " ".join(f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(assignment.params.items()))
+    return " ".join(p for p in ("labsim run", shlex.quote(Path(g.path).name), sets, f"--seed {seed}") if p)
+
+
+def _criteria_rows(g: Grade, assignment: Assignment, reference: Grade | None) -> list[list[str]]:
+    ref = {r.name: r for r in reference.criteria} if reference is not None else {}
+    by_name = {c.name: c for c in assignment.criteria}
+    rows = []
+    for r in g.criteria:
+        c = by_name[r.name]
+        if r.source == "built-in":
+            words, formula, unit = r.description, "", "m" if r.name == MOVED else ""
+        elif r.source == "student":
+            words, formula, unit = "a metric you defined in your file (from: student)", "", ""
+        else:
+            words, formula, unit = metric_words(assignment, r.name)
+            words += " (mean over the seeds)"
+        definition = e(words) + (f"<br><code>{e(formula)}</code>" if formula else "")
+        value = "" if r.value is None else e(_number(r.value) + (f" {unit}" if unit else ""))
+        shown = ("" if r.name not in ref or ref[r.name].value is None else e(_number(ref[r.name].value)))
+        verdict = f"<span class=\"{'pass' if r.passed else 'fail'}\">{'pass' if r.passed else 'fail'}</span>"
+        if r.required:
+            verdict += " <strong>(required)</strong>"
+        if r.why:
+            verdict += f"<br><small>{e(r.why)}</small>"
+        rows.append([f"<strong>{e(r.name)}</strong>", definition, value, shown, e(_needed(c) + (f" {unit}" if unit
+                     and c.name != MOVED and c.worst is None else "")), e(f"{r.points:.3g} / {r.weight:g}"), verdict])
+    return rows
+
+
+def feedback_page(g: Grade, assignment: Assignment, pictures: tuple[str, str | None] | None,
+                  reference: Grade | None) -> str:
     """One student's page; see the module docstring."""
+    title = assignment.title
     score = f"{g.score:g} / 100" if g.score is not None else "not graded"
     body = [f"<h1>{e(title)}: {e(g.student)}</h1>",
             f"<p><span class=\"status\">{e(g.status)}</span> <strong>{e(score)}</strong></p>"]
-    if g.reason:
+    if g.gate:
+        why = next((r.why for r in g.criteria if r.name == g.gate), "")
+        body.append(f"<p class=\"fail\">The required criterion {e(g.gate)} failed, so the score is "
+                    f"{assignment.gate_score:g} whatever the others earned. Why: {e(why)}</p>")
+    elif g.reason:
         body.append(f"<p>{e(g.reason)}</p>")
     errors = [d for d in g.diagnostics if d.severity == "error"]
     warnings = [d for d in g.diagnostics if d.severity != "error"]
@@ -71,28 +152,42 @@ def feedback_page(g: Grade, title: str, pictures: tuple[str, str | None] | None,
         shown = "\n".join(d.format() for d in errors)
         body += ["<h2>Errors in the file</h2>", f"<pre class=\"diagnostics\">{e(shown)}</pre>"]
     if g.criteria:
-        ref = {r.name: r for r in reference.criteria} if reference is not None else {}
-        rows = [[e(r.description), e(_number(r.value)) if r.value is not None else "",
-                 e(_number(ref[r.name].value)) if r.name in ref and ref[r.name].value is not None else "",
-                 f"<span class=\"{'pass' if r.passed else 'fail'}\">{'pass' if r.passed else 'fail'}</span>",
-                 e(f"{r.points:.3g} / {r.weight:g}")] for r in g.criteria]
-        body += ["<h2>Criteria</h2>", _table(["criterion", "your value (mean over the seeds)",
-                                              "reference" if reference is not None else "", "", "points"], rows)]
+        body += ["<h2>Criteria</h2>", _table(["criterion", "what it measures", "your value", "reference"
+                                              if reference is not None else "", "needed", "points", "result"],
+                                             _criteria_rows(g, assignment, reference))]
     if pictures:
         map_file, gif_file = pictures
         body += ["<h2>The map of seed " + e(g.runs[0].seed) + "</h2>",
-                 f"<img class=\"map\" src=\"{e(map_file)}\" alt=\"the map of the run\" style=\"max-width:100%\">"]
+                 "<p class=\"muted\">the path from the ring (start) to the arrow (end); a red cross marks each "
+                 "collision</p>",
+                 f"<img class=\"map\" src=\"{e(map_file)}\" alt=\"the map of the run\" style=\"width:100%\">"]
         if gif_file:
             body += [f"<p><img class=\"animation\" src=\"{e(gif_file)}\" alt=\"the run, animated\" "
                      "style=\"max-width:100%\"></p>"]
     if g.runs:
-        names = list(dict.fromkeys(m for r in g.runs for m in r.metrics))
-        rows = [[e(r.seed), e(r.status), e(r.ticks), e(f"{r.sim_time_s:.1f} s"), "yes" if r.stopped else "no",
-                 e(r.collisions), e(len(r.faults)), *(e(_number(r.metrics.get(m))) for m in names)] for r in g.runs]
-        body += ["<h2>Runs</h2>", _table(["seed", "status", "ticks", "simulated", "stopped", "collisions",
-                                          "faults", *map(e, names)], rows)]
+        body += _runs(g, assignment)
     body += _lists(g, warnings)
     return _page(f"{title}: {g.student}", body)
+
+
+def _runs(g: Grade, assignment: Assignment) -> list[str]:
+    """Each seed's run: what it did, its first fault, and the command that makes it again."""
+    names = list(dict.fromkeys(m for r in g.runs for m in r.measured))
+    own = list(dict.fromkeys(m for r in g.runs for m in r.metrics))
+    distance = any(r.distance_m is not None for r in g.runs)
+    rows = []
+    for r in g.runs:
+        fault = first_fault([r])
+        rows.append([e(r.seed), e(r.status), e(r.ticks), e(f"{r.sim_time_s:.1f} s"), "yes" if r.stopped else "no",
+                     e(r.collisions), *([e(_number(r.distance_m) + " m")] if distance else []),
+                     *(e(_number(r.measured.get(m))) for m in names), *(e(_number(r.metrics.get(m))) for m in own),
+                     e(fault[1]) if fault else "none"])
+    header = ["seed", "status", "ticks", "simulated", "stopped", "collisions", *(["driven"] if distance else []),
+              *map(e, names), *(e(f"{m} (yours)") for m in own), "first fault (rule, tick, robot)"]
+    commands = "\n".join(run_command(g, assignment, r.seed) for r in g.runs)
+    return ["<h2>Runs</h2>", "<div style=\"overflow-x:auto\">" + _table(header, rows) + "</div>",
+            "<p>To watch a run again, in your file's folder (the grader's params and seed):</p>",
+            f"<pre class=\"commands\">{e(commands)}</pre>"]
 
 
 def _lists(g: Grade, warnings: list[Diagnostic]) -> list[str]:
@@ -118,20 +213,36 @@ def _lists(g: Grade, warnings: list[Diagnostic]) -> list[str]:
 def overview_page(graded: Graded, charts: list[str]) -> str:
     """The class at a glance; see the module docstring."""
     a = graded.assignment
-    counts = {s: sum(g.status == s for g in graded.grades) for s in STATUSES}
+    counts: dict[str, int] = {}
+    for g in graded.grades:
+        counts[g.status] = counts.get(g.status, 0) + 1
+    order = {s: i for i, s in enumerate(STATUSES)}
+    statuses = sorted(counts, key=lambda s: (order.get(s.split(":")[0], len(order)), s))
+    scored = [g for g in graded.grades if g.criteria]
+    passes = [[f"<strong>{e(c.name)}</strong>" + (" (required)" if c.required else ""), e(c.describe()),
+               e(f"{sum(r.passed for g in scored for r in g.criteria if r.name == c.name)} of {len(scored)}")]
+              for c in a.criteria]
     body = [f"<h1>{e(a.title)}: the class</h1>",
             f"<p>{len(graded.grades)} submissions, {len(a.seeds)} seed{'s' * (len(a.seeds) > 1)} each "
-            f"({e(', '.join(map(str, a.seeds)))}); criteria: {e('; '.join(c.describe() for c in a.criteria))}</p>",
-            "<h2>Status</h2>", _table(["status", "students"], [[e(s), e(n)] for s, n in counts.items() if n]),
+            f"({e(', '.join(map(str, a.seeds)))}); the grader's params: "
+            f"{e(', '.join(f'{k} = {v}' for k, v in a.params.items()) or 'none')}</p>",
+            "<h2>Status</h2>", _table(["status", "students"], [[e(s), e(counts[s])] for s in statuses]),
+            "<h2>Criteria</h2>", _table(["criterion", "what passes", "passed (of the students who ran)"], passes),
             "<h2>Distributions</h2>", "<div class=\"charts\">"
             + "".join(f"<img src=\"{e(c)}\" alt=\"{e(Path(c).stem)}\">" for c in charts) + "</div>"]
+    if a.measure:
+        body += ["<h2>What the grader measures</h2>",
+                 _table(["metric", "what it measures", "formula"],
+                        [[e(m), e(metric_words(a, m)[0] + (f" ({metric_words(a, m)[2]})" if metric_words(a, m)[2]
+                                                          else "")), f"<code>{e(a.definition(m))}</code>"]
+                         for m in a.measured])]
     if graded.collisions:
         body += ["<h2>Names that collide</h2>", "<p class=\"muted\">these submissions would have had one name; "
                  "each has its own row and page under the name shown</p>",
                  _table(["students"], [[e(", ".join(group))] for group in graded.collisions])]
     if graded.copies:
         body += ["<h2>Likely copies</h2>", "<p class=\"muted\">for you to look at; not a verdict</p>",
-                 _table(["why", "students"], [[e(why), e(", ".join(s))] for why, s in graded.copies])]
+                 _table(["what matched", "students"], [[e(why), e(", ".join(s))] for why, s in graded.copies])]
     pages = page_names([g.student for g in graded.grades])
     rows = [[f"<a href=\"feedback/{e(pages[g.student])}\">{e(g.student)}</a>", e(_number(g.score)),
              e(g.status), e(g.reason[:160]), e(" | ".join(messages(g))[:160])] for g in graded.grades]
@@ -140,18 +251,26 @@ def overview_page(graded: Graded, charts: list[str]) -> str:
 
 
 def charts(graded: Graded, folder: Path, inputs: list[str]) -> list[Path]:
-    """A histogram of the score and of each metric's mean over the graded students (SVG)."""
+    """A histogram of the score and of each metric's mean over the students who ran (SVG)."""
     folder.mkdir(parents=True, exist_ok=True)
-    series = {"score": [g.score for g in graded.grades if g.score is not None]}
-    for m in graded.assignment.metrics:
-        series[m] = [g.means[m] for g in graded.grades if g.graded and math.isfinite(g.means.get(m, math.nan))]
+    a = graded.assignment
+    series = {"score (of 100)": [g.score for g in graded.grades if g.score is not None]}
+    for m in a.measured:
+        unit = metric_words(a, m)[2]
+        series[f"{m}{f' ({unit})' if unit else ''}"] = [
+            g.measured[m] for g in graded.grades if g.criteria and math.isfinite(g.measured.get(m, math.nan))]
+    for m in a.metrics:
+        series[f"{m} (students')" if m in a.measured else m] = [
+            g.means[m] for g in graded.grades if g.criteria and math.isfinite(g.means.get(m, math.nan))]
     out = []
     for i, (name, values) in enumerate(series.items()):
         path = folder / f"{i:02d}.svg"  # numbered: a metric's name never becomes a file name
-        svg = histogram_svg(f"{name} ({len(values)} graded)", values, "#3b6ea8" if i else "#2f8f4e")
+        svg = histogram_svg(f"{name}: {len(values)} students", values, "#3b6ea8" if i else "#2f8f4e")
         write_output(path, svg, inputs, "--out")
         (folder / f"{i:02d}.png").unlink(missing_ok=True)  # a last grading's, drawn by matplotlib
         out.append(path)
+    for stale in sorted(folder.glob("*.svg"))[len(out):]:  # a last grading's, with more metrics
+        stale.unlink()
     return out
 
 
@@ -173,7 +292,7 @@ def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
                 (feedback / file).unlink(missing_ok=True)
         shown = (png, gif if animation_gif else None) if map_png else None
         path = feedback / name
-        write_output(path, feedback_page(g, graded.assignment.title, shown, graded.reference), inputs, "--out")
+        write_output(path, feedback_page(g, graded.assignment, shown, graded.reference), inputs, "--out")
         written.append(path)
     pictures = charts(graded, out / "charts", inputs)
     index = out / "index.html"

@@ -16,7 +16,7 @@ from labsim.runtime.pictures.animate import gif_bytes
 from labsim.runtime.pictures.plot import render_figure
 from labsim.runtime.trace import Trace
 
-MAP_WIDTH_PX = 800
+MAP_WIDTH_PX = 960
 GIF_WIDTH_PX, GIF_FPS, GIF_SECONDS = 400, 5, 3  # 16 frames, about 60 kB
 
 
