@@ -79,8 +79,9 @@ class Criterion:
         return f"{self.name} >= {self.at_least:g}" if self.at_least is not None else f"{self.name} <= {self.at_most:g}"
 
     def fraction(self, value: float) -> float:
-        """How much of the weight a metric's value earns: 0 to 1 (a nan earns nothing)."""
-        if not math.isfinite(value):
+        """How much of the weight a metric's value earns: 0 to 1 (a nan earns nothing; an inf is
+        beyond any threshold, on the side it is)."""
+        if math.isnan(value):
             return 0.0
         if self.at_least is not None:
             return float(value >= self.at_least)

@@ -52,7 +52,7 @@ def _page(title: str, body: list[str]) -> str:
 def _number(value: float | None) -> str:
     if value is None:
         return ""
-    return "nan" if not math.isfinite(value) else f"{value:.4g}"
+    return f"{value:.4g}"  # nan and inf as such
 
 
 def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:

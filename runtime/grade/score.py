@@ -107,7 +107,7 @@ def grade_of(submission: Submission, runs: list[SeedRun], assignment: Assignment
 
 
 def metric_means(runs: list[SeedRun], measured: bool = False) -> dict[str, float]:
-    """Each metric's mean over the runs that have it (nan where none has a finite value): the
+    """Each metric's mean over the runs that have a value of it (nan where none has): the
     student's own metrics, or with ``measured`` the assignment's."""
     def of(r: SeedRun) -> Mapping[str, float]:
         return r.measured if measured else r.metrics
@@ -115,7 +115,8 @@ def metric_means(runs: list[SeedRun], measured: bool = False) -> dict[str, float
     names = list(dict.fromkeys(n for r in runs for n in of(r)))
     out = {}
     for name in names:
-        values = [of(r)[name] for r in runs if name in of(r) and math.isfinite(of(r)[name])]
+        # a nan is no value; an inf is one (the closest approach of a robot no sonar ever saw a wall from)
+        values = [of(r)[name] for r in runs if name in of(r) and not math.isnan(of(r)[name])]
         out[name] = sum(values) / len(values) if values else math.nan
     return out
 
