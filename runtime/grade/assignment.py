@@ -13,7 +13,6 @@ import hashlib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, is_dataclass
-from dataclasses import fields as fields_of
 from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode
@@ -40,7 +39,7 @@ RAN_TO_STOP, NO_FAULTS, NO_COLLISIONS, MOVED = "ran_to_stop", "no_faults", "no_c
 BUILTINS = {RAN_TO_STOP: "ran to its stop condition on every seed",
             NO_FAULTS: "no runtime faults (nan, inf, a domain error) on any seed",
             NO_COLLISIONS: "no collisions on any seed",
-            MOVED: "every robot drove at least {at_least:g} m on every seed"}
+            MOVED: "every robot drove at least the distance asked on every seed"}
 ANY = "any"
 MAX_SEEDS = 100
 DEFAULT_TIMEOUT_S = 60.0
@@ -73,7 +72,9 @@ class Criterion:
     def describe(self) -> str:
         """The criterion in words, as the gradebook and the pages show it."""
         if self.builtin:
-            return BUILTINS[self.name].format(at_least=self.at_least or 0.0)
+            if self.name == MOVED:
+                return f"every robot drove at least {self.at_least or 0.0:g} m on every seed"
+            return BUILTINS[self.name]
         if self.worst is not None:
             return f"{self.name}: 0 at {self.worst:g}, full at {self.best:g}"
         return f"{self.name} >= {self.at_least:g}" if self.at_least is not None else f"{self.name} <= {self.at_most:g}"
@@ -417,8 +418,7 @@ def _unreadable(e: dsl_ast.Expr, readable: set[str]) -> list[tuple[str, tuple[in
             out.append((f"'.{node.attr}' of a robot the student names", node.span))
             return
         if is_dataclass(node):
-            for f in fields_of(node):
-                value = getattr(node, f.name)
+            for value in vars(node).values():  # the node's fields (an ast node has no other attribute)
                 for item in value if isinstance(value, tuple) else (value,):
                     if isinstance(item, dsl_ast.Expr):
                         walk(item)

@@ -12,7 +12,7 @@ reordered, has the first of its original; one that also changed its gains, the s
 from __future__ import annotations
 
 import hashlib
-from dataclasses import fields, is_dataclass
+from dataclasses import is_dataclass
 
 from labsim.dsl import ast
 from labsim.dsl.read import BehaviourFile, RobotDecl
@@ -85,7 +85,7 @@ def _shape(node: object, kinds: dict[str, str], numbers: bool) -> str:
     if isinstance(node, tuple):
         return "(" + ",".join(_shape(item, kinds, numbers) for item in node) + ")"
     if is_dataclass(node):
-        inner = ",".join(_shape(getattr(node, f.name), kinds, numbers) for f in fields(node)
-                         if not f.name.endswith("span"))
+        inner = ",".join(_shape(value, kinds, numbers) for name, value in vars(node).items()
+                         if not name.endswith("span"))
         return f"{type(node).__name__}({inner})"
     return repr(node)

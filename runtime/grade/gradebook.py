@@ -70,8 +70,8 @@ def canvas_rows(grades: list[Grade], assignment: Assignment, feedback_url: str =
     pages = page_names([g.student for g in grades])
     rows: list[list[object]] = [header + (["Notes"] if feedback_url else [])]
     for g in grades:
-        rows.append([g.student, "", "", g.student, "", _number(g.score, 2)]
-                    + ([f"{feedback_url}feedback/{pages[g.student]}"] if feedback_url else []))
+        row: list[object] = [g.student, "", "", g.student, "", _number(g.score, 2)]
+        rows.append(row + ([f"{feedback_url}feedback/{pages[g.student]}"] if feedback_url else []))
     return rows
 
 
