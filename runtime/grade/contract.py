@@ -27,7 +27,7 @@ from labsim.foundation.files import os_words, policy_problem, read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind
 from labsim.runtime.grade.assignment import Assignment
 from labsim.runtime.grade.copies import structures
-from labsim.runtime.grade.measure import graded_file, prepare_read, the_assignments, unmeasurable
+from labsim.runtime.grade.measure import graded_file, graders, prepare_read, the_assignments, unmeasurable
 
 # a student's status: graded, or why not
 GRADED, MISMATCH, COMPILE_ERROR, HOSTILE = "graded", "contract mismatch", "compile error", "hostile file"
@@ -199,9 +199,10 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
     except LabsimError as e:
         if the_assignments(e.diagnostics, assignment.path):
             return _refused(base, MISMATCH, unmeasurable(e, assignment.path),
-                            [d for d in e.diagnostics if d.path != assignment.path])
-        status = classify(e.diagnostics)
-        return _refused(base, status, _first(e.diagnostics), e.diagnostics)
+                            [d for d in e.diagnostics if not graders(d, assignment.path)])
+        own = [d for d in e.diagnostics if not graders(d, assignment.path)]  # the file's, not the grader's
+        status = classify(own)
+        return _refused(base, status, _first(own), own)
     warnings = tuple(w for w in program.warnings if w.path == program.path)  # not the grader's metrics'
     program = replace(program, warnings=warnings)
     problems = contract_problems(program, assignment)

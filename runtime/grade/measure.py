@@ -30,8 +30,11 @@ SPEED_METRIC = "speed" + MEASURED_SUFFIX
 _SPEED_TEXT = "mean(abs(forward_speed))"
 
 
+SPEED_PATH = "<the grader's distance driven>"
+
+
 def _speed_decl() -> MetricDecl:
-    doc = loads(f'speed: "{_SPEED_TEXT}"\n', "<the grader's distance driven>")
+    doc = loads(f'speed: "{_SPEED_TEXT}"\n', SPEED_PATH)
     assert doc.root is not None
     key, value = doc.root.value[0]
     return MetricDecl(SPEED_METRIC, Parsed(parse_expr(_SPEED_TEXT), doc.text_of(value)), key)
@@ -42,6 +45,8 @@ def graded_file(path: str | Path, report: Report, measure: tuple[MetricDecl, ...
     """The student's file read, with the measured metrics added under their measured names."""
     doc = load(path) if text is None else loads(text, str(path))
     bf = read(doc, report)
+    if report.errors:  # the file's own mistakes are what its author reads first; none of the grader's
+        return bf
     bf.metrics = [*bf.metrics, *(replace(m, name=m.name + MEASURED_SUFFIX) for m in measure),
                   *((_speed_decl(),) if moved else ())]
     return bf
@@ -74,10 +79,15 @@ def split_metrics(values: dict[str, float]) -> tuple[dict[str, float], dict[str,
     return own, measured
 
 
+def graders(d: Diagnostic, assignment_path: str) -> bool:
+    """Whether a diagnostic is about the grader's metrics (the assignment's text), not the student's file."""
+    return d.path in (assignment_path, SPEED_PATH)
+
+
 def the_assignments(diagnostics: list[Diagnostic], assignment_path: str) -> bool:
-    """Whether the first error is in a measured metric (the assignment's text, not the student's)."""
+    """Whether every error is in the grader's metrics: the file is fine, but cannot be measured so."""
     errors = [d for d in diagnostics if d.severity == "error"]
-    return bool(errors) and errors[0].path == assignment_path
+    return bool(errors) and all(graders(d, assignment_path) for d in errors)
 
 
 def unmeasurable(e: LabsimError, assignment_path: str) -> str:

@@ -120,3 +120,21 @@ def test_the_gradebook_matches_its_golden(graded) -> None:
         if UPDATE:
             golden.write_text(text)
         assert text == golden.read_text(), f"{made} differs from {golden.name} (LABSIM_UPDATE_GRADEBOOK=1 records it)"
+
+
+def test_a_file_the_measure_cannot_read_is_a_mismatch_and_its_own_mistakes_come_first(tmp_path: Path) -> None:
+    from labsim.runtime.grade.assignment import read_assignment
+    from labsim.runtime.grade.contract import check_submission
+
+    text = (MEASURED / "assignment.yaml").read_text().replace("world: walls_lab4", "world: any")
+    (tmp_path / "a.yaml").write_text(text.replace("reference: reference.yaml\n", ""))
+    a = read_assignment(tmp_path / "a.yaml")
+    epuck = check_submission("e", FIXTURES.parent.parent / "behaviours" / "line_follow.yaml", a)
+    assert (epuck.status, epuck.reason) == ("contract mismatch", "the assignment's measured metrics cannot be measured "
+                                            "on this file: a.yaml:11:24: sonar1..sonar16 names sonar1 .. sonar16, "
+                                            "which do not exist")
+    (tmp_path / "bad.yaml").write_text("- x\n")
+    bad = check_submission("b", tmp_path / "bad.yaml", a)
+    assert (bad.status, bad.reason) == ("compile error", "bad.yaml:1:1: a behaviour file is a YAML mapping of keys "
+                                                         "such as 'world:', 'robots:' and 'rules:'")
+    assert [d.path for d in bad.diagnostics] == [str(tmp_path / "bad.yaml")]
