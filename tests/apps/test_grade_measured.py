@@ -138,3 +138,9 @@ def test_a_file_the_measure_cannot_read_is_a_mismatch_and_its_own_mistakes_come_
     assert (bad.status, bad.reason) == ("compile error", "bad.yaml:1:1: a behaviour file is a YAML mapping of keys "
                                                          "such as 'world:', 'robots:' and 'rules:'")
     assert [d.path for d in bad.diagnostics] == [str(tmp_path / "bad.yaml")]
+
+
+def test_the_docs_show_the_worked_assignment_as_it_is() -> None:
+    docs = (FIXTURES.parent.parent / "docs" / "grading.md").read_text()
+    shown = docs.split("### A worked assignment", 1)[1].split("```yaml\n", 1)[1].split("```", 1)[0]
+    assert shown == (MEASURED / "assignment.yaml").read_text()
