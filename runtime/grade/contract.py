@@ -240,6 +240,10 @@ def contract_problems(program: Program, assignment: Assignment) -> list[str]:
     for name in assignment.params:
         if name not in params:
             out.append(f"missing param '{name}'{did_you_mean(name, params)}")
+    for group in program.robots:  # a robot's own value would stand in for the grader's
+        for name, _ in group.params:
+            if name in assignment.params:
+                out.append(f"robot '{group.name}' sets its own value of the grader's param '{name}'")
     for name in assignment.metrics:
         if name not in metrics:
             out.append(f"missing metric '{name}'{did_you_mean(name, metrics)}")

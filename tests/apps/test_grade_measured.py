@@ -144,3 +144,17 @@ def test_the_docs_show_the_worked_assignment_as_it_is() -> None:
     docs = (FIXTURES.parent.parent / "docs" / "grading.md").read_text()
     shown = docs.split("### A worked assignment", 1)[1].split("```yaml\n", 1)[1].split("```", 1)[0]
     assert shown == (MEASURED / "assignment.yaml").read_text()
+
+
+def test_a_robot_that_sets_its_own_value_of_a_graders_param_is_a_mismatch(tmp_path: Path) -> None:
+    from labsim.runtime.grade.assignment import read_assignment
+    from labsim.runtime.grade.contract import check_submission
+
+    text = (MEASURED / "class" / "honest_1.yaml").read_text().replace("labsim: 1\n", "labsim: 1.2\n")
+    sneaky = tmp_path / "sneaky.yaml"  # its robot runs 3 s, whatever the grader sets
+    sneaky.write_text(text.replace("at: random}", "at: random, params: {minutes: 0.05}}"))
+    (tmp_path / "a.yaml").write_text((MEASURED / "assignment.yaml").read_text().replace("reference: reference.yaml\n",
+                                                                                        ""))
+    s = check_submission("sneaky", sneaky, read_assignment(tmp_path / "a.yaml"))
+    assert (s.status, s.reason) == ("contract mismatch", "robot 'pioneer' sets its own value of the grader's param "
+                                                         "'minutes'")
