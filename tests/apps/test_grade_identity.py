@@ -101,3 +101,26 @@ def test_colliding_students_each_get_their_own_row_result_and_page(tmp_path: Pat
     assert "Names that collide" in Path("out/index.html").read_text()
     page = (tmp_path / "out" / rows["a b"]["Feedback"]).read_text()
     assert "a b" in page and "a_b</h1>" not in page
+
+
+@pytest.mark.parametrize("url", ["javascript:alert(1)", "lms.example.edu/grades", "https://x.edu/a b/", "file:///etc/"])
+def test_a_feedback_url_is_an_http_address(tmp_path: Path, capsys, url: str) -> None:
+    from labsim.runtime.cli.main import main
+
+    assert main(["grade", str(GRADING / "assignment.yaml"), str(VALID_01), "--out", str(tmp_path / "o"),
+                 "--feedback-url", url]) == 2
+    assert "--feedback-url: error: give the http(s) address the --out folder will have online" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "o" / "gradebook.csv").exists()
+
+
+def test_a_measure_that_reads_a_students_signal_grades_no_one(tmp_path: Path, capsys) -> None:
+    from labsim.runtime.cli.main import main
+
+    bad = tmp_path / "a.yaml"
+    bad.write_text("labsim-assignment: 1\nworld: any\nrobots: 1\nmeasure:\n  x: count(steer > 1)\n"
+                   "criteria: {x: {at_most: 0}}\n")
+    assert main(["grade", str(bad), str(VALID_01), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "a.yaml:5:12: error: measured metric 'x' reads 'steer', which is not a sensor" in err
+    assert "Traceback" not in err and not (tmp_path / "o" / "gradebook.csv").exists()
