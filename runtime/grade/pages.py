@@ -52,7 +52,7 @@ def _page(title: str, body: list[str]) -> str:
 def _number(value: float | None) -> str:
     if value is None:
         return ""
-    return f"{value:.4g}"  # nan and inf as such
+    return "no value" if math.isnan(value) else f"{value:.4g}"  # an inf as such
 
 
 def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:
@@ -107,6 +107,10 @@ def run_command(g: Grade, assignment: Assignment, seed: int) -> str:
     return " ".join(p for p in ("labsim run", shlex.quote(Path(g.path).name), sets, f"--seed {seed}") if p)
 
 
+def _with_unit(value: float | None, unit: str) -> str:
+    return "" if value is None else e(_number(value) + (f" {unit}" if unit and not math.isnan(value) else ""))
+
+
 def _criteria_rows(g: Grade, assignment: Assignment, reference: Grade | None) -> list[list[str]]:
     ref = {r.name: r for r in reference.criteria} if reference is not None else {}
     by_name = {c.name: c for c in assignment.criteria}
@@ -121,8 +125,8 @@ def _criteria_rows(g: Grade, assignment: Assignment, reference: Grade | None) ->
             words, formula, unit = metric_words(assignment, r.name)
             words += " (mean over the seeds)"
         definition = e(words) + (f"<br><code>{e(formula)}</code>" if formula else "")
-        value = "" if r.value is None else e(_number(r.value) + (f" {unit}" if unit else ""))
-        shown = ("" if r.name not in ref or ref[r.name].value is None else e(_number(ref[r.name].value)))
+        value = _with_unit(r.value, unit)
+        shown = _with_unit(ref[r.name].value, unit) if r.name in ref else ""
         verdict = f"<span class=\"{'pass' if r.passed else 'fail'}\">{'pass' if r.passed else 'fail'}</span>"
         if r.required:
             verdict += " <strong>(required)</strong>"
@@ -179,7 +183,8 @@ def _runs(g: Grade, assignment: Assignment) -> list[str]:
     for r in g.runs:
         fault = first_fault([r])
         rows.append([e(r.seed), e(r.status), e(r.ticks), e(f"{r.sim_time_s:.1f} s"), "yes" if r.stopped else "no",
-                     e(r.collisions), *([e(_number(r.distance_m) + " m")] if distance else []),
+                     e(r.collisions), *([e(_number(r.distance_m) + " m") if r.distance_m is not None else ""]
+                                        if distance else []),
                      *(e(_number(r.measured.get(m))) for m in names), *(e(_number(r.metrics.get(m))) for m in own),
                      e(fault[1]) if fault else "none"])
     header = ["seed", "status", "ticks", "simulated", "stopped", "collisions", *(["driven"] if distance else []),
