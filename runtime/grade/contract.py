@@ -58,7 +58,8 @@ class Submission:
 @dataclass(frozen=True)
 class Found:
     """A submission found on the command line: its student's id, its behaviour file (None when
-    there is none to grade), and the status and reason of one refused before a byte of it is read."""
+    there is none; the refused file itself for a hostile one, never read), and the status and
+    reason of one refused before a byte of it is read."""
 
     student: str
     path: Path | None
@@ -94,7 +95,7 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
         for p in files:
             refused = _not_readable(p, arg)
             if refused:
-                entries.append((arg, p.name, Found(p.stem, None, HOSTILE, refused)))
+                entries.append((arg, p.name, Found(p.stem, p, HOSTILE, refused)))
             elif file_kind(p) not in ("world", "assignment"):
                 entries.append((arg, p.name, Found(p.stem, p)))
     return _named(entries)
@@ -126,12 +127,12 @@ def _not_readable(p: Path, root: Path) -> str:
 def _one_folder(folder: Path, root: Path) -> Found:
     refused = _not_readable(folder, root)
     if refused:
-        return Found(folder.name, None, HOSTILE, refused)
+        return Found(folder.name, folder, HOSTILE, refused)
     listed = sorted(p for p in folder.iterdir() if p.suffix in YAML_SUFFIXES)
     for p in listed:
         refused = _not_readable(p, root)
         if refused:
-            return Found(folder.name, None, HOSTILE, refused)
+            return Found(folder.name, p, HOSTILE, refused)
     found = [p for p in listed if p.is_file() and file_kind(p) == "behaviour"]
     if len(found) != 1:
         return Found(folder.name, None, MISMATCH, f"the folder {folder} holds {len(found)} behaviour files; a "
