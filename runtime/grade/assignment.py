@@ -236,6 +236,9 @@ class _AssignmentReader(Reader):
                 self.error(key, f"'{name}' is not a valid metric name: use letters, digits and '_', starting with a "
                                 "letter")
                 continue
+            if name in BUILTINS:
+                self.error(key, f"'{name}' is the name of a built-in criterion; choose another name for the metric")
+                continue
             better: Better | None = None
             if isinstance(value, MappingNode):
                 fields = self.fields(value, ("value", "better"), f"measured metric '{name}'")

@@ -98,6 +98,8 @@ HEAD = "labsim-assignment: 1\nworld: any\nrobots: 1\n"
     (HEAD + "measure:\n  hits: count(collided)\ncriteria: {mine: {at_most: 1, from: teacher}}\n", "6:37",
      "from: student is the one source a criterion names"),
     (HEAD + "criteria: {moved: {weight: 2}}\n", "4:12", "moved takes at_least: METRES"),
+    (HEAD + "measure:\n  moved: final(x)\ncriteria: {no_faults: {}}\n", "5:3",
+     "'moved' is the name of a built-in criterion; choose another name for the metric"),
     (HEAD + "criteria: {no_faults: {required: yes please}}\n", "4:34", "required is true or false"),
 ])
 def test_each_value_mistake_is_reported_where_it_is(tmp_path: Path, text: str, where: str, message: str) -> None:
