@@ -62,10 +62,13 @@ def _table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-_WORDS = {"count": "how many times this became true", "duration": "the seconds during which this held",
-          "minimum": "the least value over the run of", "maximum": "the greatest value over the run of",
-          "mean": "the mean over the run of", "rms": "the root mean square over the run of",
-          "final": "the value at the end of the run of"}
+_WORDS = {"count": "how many times the condition became true",
+          "duration": "the seconds during which the condition held",
+          "minimum": "the least value of the expression over the run",
+          "maximum": "the greatest value of the expression over the run",
+          "mean": "the mean of the expression over the run",
+          "rms": "the root mean square of the expression over the run",
+          "final": "the value of the expression at the end of the run"}
 _METRES = re.compile(r"^(sonar|prox)\d+$|^[xy]$")
 
 

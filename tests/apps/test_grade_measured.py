@@ -104,7 +104,7 @@ def test_the_pages_teach(graded) -> None:
                              r"--seed 2</pre>", page), name
     parker = (feedback / "forged_parker.html").read_text()
     assert "<code>duration(min(sonar7, sonar8, sonar9, sonar10) &lt; 0.8)</code>" in parker
-    assert "the seconds during which this held (mean over the seeds)" in parker
+    assert "the seconds during which the condition held (mean over the seeds)" in parker
     assert "a metric you defined in your file (from: student)" in parker
     assert "labsim run forged_parker.yaml --set minutes=0.5 --seed 2" in parker
     assert re.search(r"seed 1: a robot drove 0(\.00)? m, less than the 2 m asked", parker)
