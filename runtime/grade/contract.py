@@ -1,9 +1,13 @@
 """A submission against the assignment's contract, before anything of it runs.
 
-The second stage of ``labsim grade``: each submission (a behaviour file, or a folder holding
-one) is compiled as the student wrote it, with every diagnostic kept, and then held to the
-assignment: its world, its number of robots, the params the grader sets (each must be
-declared, and take the grader's value) and the metrics the criteria read. What fails here is
+The second stage of ``labsim grade``: ``find_submissions`` gives each student one id (their
+path relative to the submissions folder where stems collide) and refuses, unread, a link out of
+the submissions folder, a FIFO or a device. Each submission (a behaviour file, or a folder
+holding one) is then compiled as the student wrote it, with the assignment's measured metrics
+added (runtime/grade/measure.py) and every diagnostic kept, its structure fingerprinted for
+likely copies (runtime/grade/copies.py), and held to the assignment: its world, its number of
+robots, the params the grader sets (each must be declared, take the grader's value, and not be
+set again by a robot) and the metrics the criteria read. What fails here is
 that student's row with its reason — ``hostile file`` (the one way in refused it), ``budget
 stop`` (too many robots, camera pixels, ...), ``compile error`` (all its diagnostics) or
 ``contract mismatch`` (what is missing, with the closest name the file has) — and never stops

@@ -5,7 +5,10 @@ The third stage of ``labsim grade``: a ``Submission`` (runtime/grade/contract.py
 renderer reads (the gradebook CSV and JSON, the feedback page, the overview). A submission the
 contract refused, or whose run timed out, went over a budget or crashed, has no score: its
 status says why. A graded one scores each criterion on the mean of its metric over the seeds
-(a built-in criterion on every seed's run) and its score is the weighted share, 0 to 100.
+(the assignment's measured metric, or with ``from: student`` the file's own; a built-in
+criterion on every seed's run) and its score is the weighted share, 0 to 100, unless it failed
+a required criterion (a gate): then its status names the gate and its score is the
+assignment's ``gate_score``.
 """
 from __future__ import annotations
 
