@@ -5,11 +5,11 @@ assignment's contract (runtime/grade/contract.py). A job carries the behaviour f
 its world file's, so a local worker process and a Dask worker run it the same way: ``run_job``
 lays them out in a scratch folder, reads and checks the file with the grader's params and
 measured metrics once (``labsim.runtime.grade.measure.prepare_graded``), and for each seed
-places the robots, runs under the assignment's budgets and stops itself at the per-run
-timeout, handing back a ``SeedRun`` of plain values for each (never an exception). The seeds' runs share one compile because a
-student's seeds go to one worker (decisions, "Grading speed"). The first seed's run, when the
-job carries the pictures' renderer (for the feedback page), is recorded in memory
-(``labsim.runtime.recording``) and drawn right there, so that only the map's and the
+places the robots, runs under the assignment's budgets and stops itself at the per-run timeout,
+handing back a ``SeedRun`` of plain values for each (never an exception). The seeds' runs share
+one compile because a student's seeds go to one worker (decisions, "Grading speed"). The first
+seed's run, when the job carries the pictures' renderer (for the feedback page), is recorded in
+memory (``labsim.runtime.recording``) and drawn right there, so that only the map's and the
 animation's bytes come back: no trace is written, sent or read again. Names of the scratch
 folder never leave it.
 """
