@@ -129,3 +129,13 @@ def test_measured_metrics_gates_and_student_metrics_read() -> None:
     assert [(c.name, c.required, c.student) for c in a.criteria] == [
         ("hits", True, False), ("closest", False, False), ("near_misses", False, True), ("moved", True, False)]
     assert a.criteria[3].describe() == "every robot drove at least 1.5 m on every seed" and a.moves
+
+
+def test_the_schema_accepts_the_worked_assignment() -> None:
+    import yaml
+
+    schema = json.loads(schema_text("assignment"))
+    jsonschema.validate(yaml.safe_load((FIXTURES / "grading" / "measured" / "assignment.yaml").read_text()), schema)
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({"labsim-assignment": 1, "world": "any", "robots": "any", "seeds": [1e300],
+                             "criteria": {"x": {"at_least": 1}}}, schema)
