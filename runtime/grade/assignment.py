@@ -109,7 +109,7 @@ class Assignment:
     criteria: tuple[Criterion, ...]
     reference: str | None = None  # a behaviour whose metrics are shown beside each student's
     measure: tuple[MetricDecl, ...] = ()  # the metrics the grader measures on every run (its own names)
-    gate_score: float = 0.0  # the score of a student who fails a required criterion
+    gate_score: float = 0.0  # the score (at most) of a student who fails a required criterion
     weights: float = field(init=False)
 
     @property

@@ -8,7 +8,7 @@ status says why. A graded one scores each criterion on the mean of its metric ov
 (the assignment's measured metric, or with ``from: student`` the file's own; a built-in
 criterion on every seed's run) and its score is the weighted share, 0 to 100, unless it failed
 a required criterion (a gate): then its status names the gate and its score is the
-assignment's ``gate_score``.
+assignment's ``gate_score``, or what the criteria earned if that is less.
 """
 from __future__ import annotations
 
@@ -103,7 +103,8 @@ def grade_of(submission: Submission, runs: list[SeedRun], assignment: Assignment
     total = sum(r.points for r in results) / assignment.weights * 100 if assignment.weights else 0.0
     gate = next((r for r in results if r.required and not r.passed), None)
     if gate is not None:  # a gate failed: the assignment's score for it, whatever the rest earned
-        return replace(base, status=f"{FAILED_GATE}: {gate.name}", score=assignment.gate_score,
+        # never more than the criteria earned: failing a gate cannot raise a score
+        return replace(base, status=f"{FAILED_GATE}: {gate.name}", score=min(round(total, 2), assignment.gate_score),
                        reason=" ".join(f"required criterion '{gate.name}' failed: {gate.why}".split()),
                        means=means, measured=measured, criteria=results, gate=gate.name)
     return replace(base, score=round(total, 2), means=means, measured=measured, criteria=results)
