@@ -23,8 +23,9 @@ from labsim.dsl import ast as dsl_ast
 from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert
+from labsim.foundation.kinds import YAML_SUFFIXES
 from labsim.runtime.grade.assignment import MOVED, Assignment, Criterion
-from labsim.runtime.grade.contract import STATUSES
+from labsim.runtime.grade.contract import HOSTILE, STATUSES
 from labsim.runtime.grade.gradebook import messages, page_names
 from labsim.runtime.grade.histogram import histogram_svg
 from labsim.runtime.grade.score import Grade, Graded, first_fault
@@ -173,6 +174,11 @@ def feedback_page(g: Grade, assignment: Assignment, pictures: tuple[str, str | N
                      "style=\"max-width:100%\"></p>"]
     if g.runs:
         body += _runs(g, assignment)
+    elif g.status != HOSTILE and g.path.endswith(YAML_SUFFIXES):  # it did not run: how the grader would run it
+        commands = "\n".join(run_command(g, assignment, seed) for seed in assignment.seeds)
+        body += ["<h2>Running it as the grader does</h2>",
+                 "<p>In your file's folder, with the grader's params and seeds:</p>",
+                 f"<pre class=\"commands\">{e(commands)}</pre>"]
     body += _lists(g, warnings)
     return _page(f"{title}: {g.student}", body)
 

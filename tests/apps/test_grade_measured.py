@@ -102,6 +102,10 @@ def test_the_pages_teach(graded) -> None:
             name = Path(rows[student]["Feedback"]).name
             assert re.search(r"labsim run [^\n]+ --set minutes=0.5 --seed 1\nlabsim run [^\n]+ --set minutes=0.5 "
                              r"--seed 2</pre>", page), name
+    copy = (feedback / "copy_of_honest_3.html").read_text()  # it did not run: how the grader would run it
+    assert "labsim run copy_of_honest_3.yaml --set minutes=0.5 --seed 1\nlabsim run copy_of_honest_3.yaml --set " \
+           "minutes=0.5 --seed 2</pre>" in copy
+    assert "labsim run" not in (feedback / "s22.html").read_text()
     parker = (feedback / "forged_parker.html").read_text()
     assert "<code>duration(min(sonar7, sonar8, sonar9, sonar10) &lt; 0.8)</code>" in parker
     assert "the seconds during which the condition held (mean over the seeds)" in parker
