@@ -292,6 +292,35 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return run_plot(args)
 
 
+def cmd_lsp(args: argparse.Namespace) -> int:
+    """The language server over stdio until the editor says exit (runtime/lsp/server.py); the
+    assignment files' reader and schema are the grader's, handed in from here."""
+    from labsim.runtime.grade.assignment import assignment_schema
+    from labsim.runtime.lsp.server import default_checkers, serve
+
+    checkers = default_checkers()
+    checkers.check["assignment"] = _check_assignment_text
+    checkers.schema["assignment"] = assignment_schema
+    serve(checkers)
+    return EXIT_OK
+
+
+def _check_assignment_text(path: str, text: str) -> list[Diagnostic]:
+    """What ``labsim grade`` says of an assignment file holding ``text`` (read_assignment, on the
+    editor's unsaved text)."""
+    from labsim.foundation.diagnostics import Report
+    from labsim.foundation.source import loads
+    from labsim.runtime.grade.assignment import _AssignmentReader
+
+    try:
+        doc = loads(text, path)
+    except LabsimError as e:
+        return list(e.diagnostics)
+    report = Report()
+    _AssignmentReader(doc, report).read()
+    return report.diagnostics
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     """Serve the page of a live run or a replayed trace until Ctrl-C; see docs/view.md."""
     from labsim.runtime.view import view

@@ -83,7 +83,8 @@ def _command(name: str) -> Command:
             "plot": commands.cmd_plot, "view": commands.cmd_view, "labs": commands.cmd_labs,
             "new": commands.cmd_new, "worlds": commands.cmd_worlds, "serve": commands.cmd_serve,
             "sweep": commands.cmd_sweep, "grade": commands.cmd_grade, "schema": commands.cmd_schema,
-            "scene": commands.cmd_scene}[name]
+            "scene": commands.cmd_scene,
+            "lsp": commands.cmd_lsp}[name]
 
 
 class Terminated(KeyboardInterrupt):

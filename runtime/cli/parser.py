@@ -144,6 +144,12 @@ def _schema(p: argparse.ArgumentParser) -> None:
 
 # -- the commands of the applications ------------------------------------------------------------
 
+def _lsp(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--stdio", action="store_true",
+                   help="talk over standard input and output (the default and only way; editors pass it)")
+    _allow_path(p)
+
+
 def _sweep(p: argparse.ArgumentParser) -> None:
     from labsim.runtime.sweep.driver import add_sweep_arguments
 
@@ -275,6 +281,7 @@ COMMANDS = (
     Command("worlds", "list the built-in worlds", _worlds),
     Command("schema", "print the JSON Schema of behaviour, world or assignment files, for editors (docs/editors.md)",
             _schema),
+    Command("lsp", "a language server for editors: check-as-you-type, completion, hover (docs/editors.md)", _lsp),
     Command("serve", "stand in for CoppeliaSim: answer its ZMQ remote API from the embedded simulator", _serve),
     Command("scene", "build a behaviour's scene in a running CoppeliaSim (4.6 or newer)", _scene),
 )
