@@ -84,7 +84,7 @@ def _command(name: str) -> Command:
             "new": commands.cmd_new, "worlds": commands.cmd_worlds, "serve": commands.cmd_serve,
             "sweep": commands.cmd_sweep, "grade": commands.cmd_grade, "schema": commands.cmd_schema,
             "scene": commands.cmd_scene,
-            "lsp": commands.cmd_lsp}[name]
+            "lsp": commands.cmd_lsp, "export": commands.cmd_export}[name]
 
 
 class Terminated(KeyboardInterrupt):
