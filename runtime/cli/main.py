@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, view, sweep, grade, labs, new, worlds, serve, scene.
+"""The ``labsim`` command line: run, check, test, plot, view, sweep, grade, serve, scene, export, lsp, ...
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
