@@ -361,7 +361,7 @@ def _check_assignment_text(path: str, text: str) -> list[Diagnostic]:
         return list(e.diagnostics)
     report = Report()
     _AssignmentReader(doc, report).read()
-    return report.diagnostics
+    return sorted(report.diagnostics, key=lambda d: (d.path, d.line, d.col))  # as read_assignment raises them
 
 
 def cmd_view(args: argparse.Namespace) -> int:

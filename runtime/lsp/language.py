@@ -49,7 +49,7 @@ def check_world(path: str, text: str) -> list[Diagnostic]:
     if not _declares_world(doc):
         return [Diagnostic(path, "not a labsim world file (it has no 'labsim-world: 1' line)")]
     _WorldReader(doc, report).read()
-    return report.diagnostics
+    return sorted(report.diagnostics, key=lambda d: (d.path, d.line, d.col))  # as a LabsimError lists them
 
 
 def behaviour_keys() -> dict[str, Any]:

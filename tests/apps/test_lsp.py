@@ -267,3 +267,25 @@ def _apply(text: str, edits: list[dict]) -> str:
     for a, b, new in spans:
         text = text[:a] + new + text[b:]
     return text
+
+
+def test_an_assignment_file_gets_the_graders_diagnostics_and_keys(tmp_path: Path, client: Client) -> None:
+    from labsim.foundation.diagnostics import LabsimError
+    from labsim.runtime.grade.assignment import read_assignment
+
+    text = ("labsim-assignment: 1\ntitle: Lab 4\nworld: walls_lab4\nseeds: [1, 2]\ntimout_s: 30\n"
+            "criteria:\n  closest: {at_least: 0.2}\n")
+    f = tmp_path / "assignment.yaml"
+    f.write_text(text, encoding="utf-8")
+    with pytest.raises(LabsimError) as raised:
+        read_assignment(f)
+    client.initialize(tmp_path)
+    uri = client.open(f, text)
+    found = client.wait_diagnostics(uri)
+    assert [(d["data"]["message"], d["data"]["line"], d["data"]["column"]) for d in found] == [
+        (e.message, e.line, e.col) for e in raised.value.diagnostics]
+    assert any("unknown key 'timout_s'" in d["message"] and d["range"]["start"] == {"line": 4, "character": 0}
+               for d in found)
+    answer = client.request("textDocument/completion", {"textDocument": {"uri": uri},
+                                                         "position": {"line": 4, "character": 3}})
+    assert {"timeout_s", "criteria", "budgets", "reference"} <= {i["label"] for i in answer["result"]["items"]}
