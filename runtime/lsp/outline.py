@@ -139,14 +139,15 @@ def _span(node: Node) -> Span:
 
 
 def _declare(out: Outline, doc: Document, key: ScalarNode, value: Node, kind: str) -> None:
-    name, span = key.value, _span(key)
+    name, span, text = key.value, _span(key), _value_text(doc, value)
     if kind == "function":  # steer(offset, gain): the name before its parameters
         m = NAME.match(key.value)
         if m is None:
             return
         name, span = m.group(), Span(key.start_mark.index, key.start_mark.index + m.end())
+        text = f"{key.value}: {text}"
     if NAME.fullmatch(name):
-        out.define(Definition(name, kind, span, _value_text(doc, value)))
+        out.define(Definition(name, kind, span, text))
 
 
 def _value_text(doc: Document, node: Node) -> str:
@@ -198,6 +199,13 @@ def _uses(doc: Document, node: Node, out: Outline, section: str) -> None:
                 _names(doc, k, out)  # "at 2: arm = 0": the slider names are on both sides
             if section == "bind" and isinstance(k, ScalarNode):
                 continue  # Arm_Actuator.velocity: a joint of the scene
+            if section == "functions" and isinstance(k, ScalarNode):
+                # a function's parameters are its own names in its body, not the file's signals
+                own = set(NAME.findall(k.value)[1:])
+                before = len(out.references)
+                _uses(doc, v, out, section)
+                out.references[before:] = [(n, s) for n, s in out.references[before:] if n not in own]
+                continue
             _uses(doc, v, out, section)
 
 

@@ -1,36 +1,61 @@
 """Positions between labsim's diagnostics and the Language Server Protocol.
 
 labsim counts lines and columns from 1, in characters (code points); the protocol counts both
-from 0, and columns in UTF-16 code units, so a character beyond the Basic Multilingual Plane
-(an emoji in a comment) is two columns to an editor. Every conversion of the server goes
-through here.
+from 0, and columns in the code units the client and server agreed on at initialization:
+UTF-16 unless the client offers another (Neovim prefers UTF-8), so a character beyond the
+Basic Multilingual Plane (an emoji in a comment) is two UTF-16 columns to VS Code and four
+UTF-8 columns to Neovim. Every conversion of the server goes through here.
 """
 from __future__ import annotations
 
 import bisect
 import re
+from collections.abc import Callable
+
+UTF16, UTF8, UTF32 = "utf-16", "utf-8", "utf-32"
+
+
+def _utf16_width(ch: str) -> int:
+    return 2 if ord(ch) > 0xFFFF else 1
+
+
+def _utf8_width(ch: str) -> int:
+    n = ord(ch)
+    return 1 if n < 0x80 else 2 if n < 0x800 else 3 if n < 0x10000 else 4
+
+
+_WIDTHS: dict[str, Callable[[str], int]] = {UTF16: _utf16_width, UTF8: _utf8_width, UTF32: lambda ch: 1}
+
+
+def units(text: str, encoding: str = UTF16) -> int:
+    """How many code units of ``encoding`` ``text`` is."""
+    if text.isascii() or encoding == UTF32:
+        return len(text)
+    width = _WIDTHS.get(encoding, _utf16_width)
+    return sum(width(ch) for ch in text)
 
 
 def utf16_len(text: str) -> int:
-    """How many UTF-16 code units ``text`` is."""
-    return len(text) + sum(1 for ch in text if ord(ch) > 0xFFFF)
+    return units(text, UTF16)
 
 
-def utf16_to_index(line: str, units: int) -> int:
-    """The character index in ``line`` at ``units`` UTF-16 code units (clamped to the line)."""
-    count = 0
+def units_to_index(line: str, count: int, encoding: str = UTF16) -> int:
+    """The character index in ``line`` at ``count`` code units (clamped to the line)."""
+    width = _WIDTHS.get(encoding, _utf16_width)
+    seen = 0
     for i, ch in enumerate(line):
-        if count >= units:
+        if seen >= count:
             return i
-        count += 2 if ord(ch) > 0xFFFF else 1
+        seen += width(ch)
     return len(line)
 
 
 class Lines:
-    """A document's text, to turn character indices into (line, UTF-16 column) and back."""
+    """A document's text, to turn character indices into (line, column in code units) and back."""
 
-    def __init__(self, text: str) -> None:
+    def __init__(self, text: str, encoding: str = UTF16) -> None:
         self.text = text
+        self.encoding = encoding if encoding in _WIDTHS else UTF16
         self.starts = [0] + [m.end() for m in re.finditer("\n", text)]
 
     def line(self, n: int) -> str:
@@ -41,19 +66,19 @@ class Lines:
         return self.text[self.starts[n]:end].removesuffix("\r")
 
     def position(self, index: int) -> tuple[int, int]:
-        """(0-based line, UTF-16 column) of a character index into the text."""
+        """(0-based line, column in code units) of a character index into the text."""
         index = max(0, min(index, len(self.text)))
         n = bisect.bisect_right(self.starts, index) - 1
-        return n, utf16_len(self.text[self.starts[n]:index])
+        return n, units(self.text[self.starts[n]:index], self.encoding)
 
-    def index(self, line: int, units: int) -> int:
+    def index(self, line: int, column: int) -> int:
         """The character index of a protocol position (clamped to the text)."""
         if line >= len(self.starts):
             return len(self.text)
         if line < 0:
             return 0
-        return self.starts[line] + utf16_to_index(self.line(line), units)
+        return self.starts[line] + units_to_index(self.line(line), column, self.encoding)
 
     def column(self, line: int, col: int) -> int:
-        """The UTF-16 column of labsim's 1-based character column ``col`` on 0-based ``line``."""
-        return utf16_len(self.line(line)[:max(0, col - 1)])
+        """The protocol's column of labsim's 1-based character column ``col`` on 0-based ``line``."""
+        return units(self.line(line)[:max(0, col - 1)], self.encoding)

@@ -4,8 +4,8 @@ The editor sends the text as the student types; the server answers with:
 
 - diagnostics: ``labsim check``'s errors and warnings (the same message, hint and severity),
   checked ``DEBOUNCE_S`` after the last keystroke (at once on open and save), on the unsaved
-  text, at 0-based lines and UTF-16 columns (``positions``); a world file's problems are
-  shown on the behaviour's ``world:`` line too. Text over the checker's limit
+  text, at 0-based lines and UTF-16 columns (or the units the client chose: ``positions``);
+  a world file's problems are shown on the behaviour's ``world:`` line too. Text over the checker's limit
   (``MAX_BYTES``) is not checked: one diagnostic says so, as ``labsim check`` would;
 - completion: the sensors of each robot's model, the file's signals, params, states, functions
   and sliders, the built-ins with their signatures, the models and worlds after ``model:`` and
@@ -113,7 +113,10 @@ def build(checkers: Checkers | None = None) -> LabsimServer:
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_SAVE)
     async def did_save(ls: LabsimServer, params: lsp.DidSaveTextDocumentParams) -> None:
-        await _schedule(ls, params.text_document.uri, 0.0)
+        # a saved world file changes what the behaviours open beside it say: all are checked again
+        for uri in [params.text_document.uri, *ls.workspace.text_documents]:
+            if uri == params.text_document.uri or uri not in ls.pending:
+                await _schedule(ls, uri, 0.0)
 
     @server.feature(lsp.TEXT_DOCUMENT_DID_CLOSE)
     def did_close(ls: LabsimServer, params: lsp.DidCloseTextDocumentParams) -> None:
@@ -195,7 +198,7 @@ async def _check_later(ls: LabsimServer, uri: str, delay: float) -> None:
 def _diagnose(ls: LabsimServer, uri: str, text: str) -> list[lsp.Diagnostic]:
     """The document's diagnostics, as the protocol's; its outline kept for completion."""
     path = uri_path(uri)
-    lines = Lines(text)
+    lines = Lines(text, _encoding(ls))
     size = len(text.encode("utf-8", "surrogatepass"))
     if size > MAX_BYTES:  # the limit `labsim check` reads a file with, in its words
         kind = "behaviour"
@@ -253,9 +256,14 @@ def _range(lines: Lines, span: Span) -> tuple[lsp.Position, lsp.Position]:
 
 # -- what the features share ----------------------------------------------------------------------
 
+def _encoding(ls: LabsimServer) -> str:
+    """The columns' code units, as agreed with the client at initialization (UTF-16 by default)."""
+    return str(ls.workspace.position_encoding or "utf-16")
+
+
 def _document(ls: LabsimServer, uri: str) -> tuple[str, Lines]:
     text = ls.workspace.get_text_document(uri).source
-    return text, Lines(text)
+    return text, Lines(text, _encoding(ls))
 
 
 def _outline(ls: LabsimServer, uri: str, text: str) -> Outline | None:

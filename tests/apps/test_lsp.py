@@ -242,12 +242,33 @@ def test_a_yaml_file_that_is_no_labsim_file_gets_no_diagnostics(tmp_path: Path, 
     assert client.wait_diagnostics(client.open(tmp_path / "ci.yml", "on: push\njobs: {build: {}}\n")) == []
 
 
+def test_a_client_that_prefers_utf8_gets_utf8_columns(tmp_path: Path) -> None:
+    """Neovim offers UTF-8 first: the columns after an emoji count its four bytes."""
+    text = WALL.replace("  ahead: min(sonar5, sonar2)", '  ahead: min(sonar5, sonar2) if "🤖" == "🤖" else sonr9')
+    f = tmp_path / "emoji.yaml"
+    f.write_text(text, encoding="utf-8")
+    c = Client()
+    try:
+        answer = c.request("initialize", {"processId": None, "rootUri": tmp_path.as_uri(),
+                                          "capabilities": {"general": {"positionEncodings": ["utf-8", "utf-16"]}}})
+        assert answer["result"]["capabilities"]["positionEncoding"] == "utf-8"
+        c.notify("initialized", {})
+        d = next(x for x in c.wait_diagnostics(c.open(f, text)) if "sonr9" in x["message"])
+        e = next(x for x in _check_json(f) if "sonr9" in x["message"])
+        assert d["range"]["start"]["character"] == e["column"] - 1 + 2 * 3
+        assert c.close() == 0
+    finally:
+        c.kill()
+
+
 def test_positions_round_trip_through_utf16() -> None:
     lines = Lines("a: 1\nb: '🤖x'\r\nc")
     assert lines.position(lines.text.index("x")) == (1, 6)
     assert lines.index(1, 6) == lines.text.index("x")
     assert lines.line(1) == "b: '🤖x'" and lines.line(5) == ""
     assert lines.index(99, 0) == len(lines.text)
+    utf8 = Lines(lines.text, "utf-8")
+    assert utf8.position(lines.text.index("x")) == (1, 8) and utf8.index(1, 8) == lines.text.index("x")
 
 
 def _renamed_in_code(text: str, old: str, new: str) -> str:
