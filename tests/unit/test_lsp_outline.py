@@ -54,7 +54,7 @@ def test_uses_skip_a_functions_own_parameters_and_words_in_text() -> None:
     # not the word 'offset' of the log's text
     assert _uses("offset") == ["10:3", "11:15", "16:27"]
     assert _uses("gain") == ["8:3", "11:23"]  # not steer's parameter gain
-    assert _uses("back") == ["15:31", "17:3", "18:17"]
+    assert _uses("back") == ["15:31", "17:3", "18:19"]
     assert _uses("near") == ["12:3", "15:10"]  # not the word near inside the log's text
 
 
