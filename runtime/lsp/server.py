@@ -328,6 +328,11 @@ def _completion(ls: LabsimServer, uri: str, position: lsp.Position) -> lsp.Compl
         return lsp.CompletionList(False, [_item(m, "model", "robot model") for m in language.model_names()])
     if kind != "behaviour":
         return lsp.CompletionList(False, [])
+    if re.search(r"\bgoto\s+\w*$", before):  # only a state can follow
+        return lsp.CompletionList(False, [i for i in _names(ls, found) if i.kind == KIND_ICONS["state"]])
+    if re.search(r"\bdetected\(\s*\w*$", before):  # a distance sensor's name
+        return lsp.CompletionList(False, [_item(s.name, "sensor", f"sensor of {robot}", s.doc)
+                                          for robot, s in _sensors(found) if "`inf`" in s.doc])
     return lsp.CompletionList(False, _names(ls, found))
 
 
@@ -384,9 +389,15 @@ def _schema_keys(ls: LabsimServer, kind: str, lines: Lines, line: int, indent: i
         if node is None:
             return []
     props = node.get("properties", {}) if isinstance(node, dict) else {}
-    return [_item(name, "key", str(spec.get("type", "")) if isinstance(spec, dict) else "",
+    return [_item(name, "key", _type_words(spec.get("type", "")) if isinstance(spec, dict) else "",
                   spec.get("description", "") if isinstance(spec, dict) else "")
             for name, spec in props.items()]
+
+
+def _type_words(t: object) -> str:
+    """A schema's type as words: 'string or number'; a mapping is what a YAML reader calls it."""
+    names = t if isinstance(t, list) else [t] if t else []
+    return " or ".join({"object": "mapping", "array": "list"}.get(str(n), str(n)) for n in names)
 
 
 def _child(node: Any, name: str) -> Any:
@@ -428,13 +439,25 @@ def _hover(ls: LabsimServer, uri: str, position: lsp.Position) -> lsp.Hover | No
     except LookupError:
         return None
     parts: list[str] = []
-    for d in (found.definitions.get(name, []) if found is not None else []):
+    line_no, start_units = _range(lines, span)[0].line, _range(lines, span)[0].character
+    line = lines.line(line_no)
+    at = lines.index(line_no, start_units) - lines.starts[line_no]
+    if re.fullmatch(r"\s*(?:-\s+)?", line[:at]) and re.match(r"\s*:", line[at + len(name):]):
+        kind = found.kind if found is not None else kind_of_text(lines.text)
+        keys = _schema_keys(ls, kind, lines, line_no, len(line) - len(line.lstrip(" ")))
+        described = next((k for k in keys if k.label == name), None)
+        if described is not None and described.documentation is not None and not (
+                found is not None and name in found.definitions):
+            doc = described.documentation
+            text = doc.value if isinstance(doc, lsp.MarkupContent) else str(doc)
+            parts.append(f"**key** `{name}` ({described.detail}): {text}")
+    for d in (found.definitions.get(name, []) if found is not None and not parts else []):
         if d.kind == "state":
             rules = "\n".join(f"{k}. {r}" for k, r in enumerate(d.text.splitlines(), 1))
             parts.append(f"**state** `{name}`: its rules, in order\n```\n{rules}\n```")
         else:
             parts.append(f"**{d.kind}** `{name}`\n```\n{d.text}\n```")
-    for robot, sensor in _sensors(found):
+    for robot, sensor in (_sensors(found) if not parts else ()):
         if sensor.name == name:
             parts.append(f"**sensor** of `{robot}`: {sensor.doc}")
             break

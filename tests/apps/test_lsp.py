@@ -144,7 +144,14 @@ def test_completion_hover_definition_and_rename(tmp_path: Path, client: Client) 
     assert "sonar17" not in items
     assert {"ahead", "front", "wander", "follow", "min", "arc", "detected"} <= set(items)
     assert items["clamp"]["detail"] == "clamp(x, lo, hi) -> number"
-    client.change(uri, WALL, 3)
+    g = _line_of(WALL, "goto follow")
+    typing = lines[:]
+    typing[g] = typing[g][:typing[g].index("goto ") + 5]
+    client.change(uri, "\n".join(typing), 3)
+    answer = client.request("textDocument/completion", {"textDocument": {"uri": uri},
+                                                         "position": {"line": g, "character": len(typing[g])}})
+    assert {i["label"] for i in answer["result"]["items"]} == {"wander", "follow"}
+    client.change(uri, WALL, 4)
 
     col = lines[n].index("sonar5")
     hover = client.request("textDocument/hover", {"textDocument": {"uri": uri},
@@ -156,6 +163,10 @@ def test_completion_hover_definition_and_rename(tmp_path: Path, client: Client) 
     hover = client.request("textDocument/hover", {"textDocument": {"uri": uri}, "position": at})["result"]
     assert "**param** `front`" in hover["contents"]["value"] and "0.5" in hover["contents"]["value"]
 
+    s = _line_of(WALL, "stop: time")
+    hover = client.request("textDocument/hover", {"textDocument": {"uri": uri},
+                                                  "position": {"line": s, "character": 1}})["result"]
+    assert hover["contents"]["value"].startswith("**key** `stop` (string or number or boolean): when the run ends")
     target = client.request("textDocument/definition", {"textDocument": {"uri": uri}, "position": at})["result"]
     p = _line_of(WALL, "  front: 0.5")
     assert target == [{"uri": uri, "range": {"start": {"line": p, "character": 2}, "end": {"line": p, "character": 7}}}]
