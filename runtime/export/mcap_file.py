@@ -3,7 +3,8 @@
 One channel set per robot, each message stamped with the tick's simulated time (tick x dt,
 exact, rather than the trace's 6-digit ``time`` cell), JSON-encoded with a JSON Schema:
 
-- ``/ROBOT/pose`` (``foxglove.PoseInFrame``) and ``/tf`` (``foxglove.FrameTransform``, frame
+- ``/ROBOT/pose`` (``foxglove.PoseInFrame``; ROBOT is the robot's name, ``pioneer[2]`` as
+  ``pioneer_2``: ``topic_names``) and ``/tf`` (``foxglove.FrameTransform``, frame
   ``ROBOT`` in ``world``): Foxglove's 3D panel draws the robot and, with the topic's history
   on, its path;
 - ``/ROBOT/trace`` (``labsim.TraceRow``): every column of the row, numbers as numbers, so any
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -137,23 +139,24 @@ def write_mcap(trace: Trace, world: World | None, stream: Any) -> Exported:
     text = [name in TEXT_COLUMNS or name.startswith("label:") for name in columns]
     row_schemas: dict[str, int] = {}
     dt = trace.header.get("dt")
-    robots: dict[str, None] = {}
+    topics = topic_names(dict.fromkeys(r[col["robot"]] for r in trace.rows))
+    writer.add_metadata("labsim topics", topics)  # robot -> the name its topics use
     ticks: set[int] = set()
     for row in trace.rows:
         robot, tick = row[col["robot"]], int(row[col["tick"]])
-        robots[robot] = None
+        part = topics[robot]
         ticks.add(tick)
         at_ns = _stamp(tick, dt, row[col["time"]] if "time" in col else "0")
         stamp = {"sec": min(at_ns // _NS, 2 ** 32 - 1), "nsec": at_ns % _NS}
         x, y, heading = (_number(row[col[c]]) for c in ("x", "y", "heading"))
         position = {"x": x, "y": y, "z": 0.0}
         rotation = _yaw(heading)
-        put(f"/{robot}/pose", "foxglove.PoseInFrame", at_ns,
+        put(f"/{part}/pose", "foxglove.PoseInFrame", at_ns,
             {"timestamp": stamp, "frame_id": FRAME, "pose": {"position": position, "orientation": rotation}})
         put("/tf", "foxglove.FrameTransform", at_ns,
             {"timestamp": stamp, "parent_frame_id": FRAME, "child_frame_id": robot, "translation": position,
              "rotation": rotation})
-        topic = f"/{robot}/trace"
+        topic = f"/{part}/trace"
         if topic not in row_schemas:
             name = "labsim.TraceRow"
             schema = {"title": name, "type": "object", "properties": {
@@ -164,12 +167,26 @@ def write_mcap(trace: Trace, world: World | None, stream: Any) -> Exported:
         put(topic, "", at_ns, values)
         if "state" in col or "rule" in col:
             state, rule = (row[col[c]] if c in col else "" for c in ("state", "rule"))
-            put(f"/{robot}/state", "labsim.State", at_ns, {"state": state, "rule": rule})
+            put(f"/{part}/state", "labsim.State", at_ns, {"state": state, "rule": rule})
         for event in _events(row[col["events"]] if "events" in col else ""):
             put("/events", "foxglove.Log", at_ns, {"timestamp": stamp, "level": LOG_INFO, "message": event,
                                                    "name": robot, "file": "", "line": 0})
     writer.finish()
-    return Exported(tuple(robots), len(ticks), counts["messages"], "")
+    return Exported(tuple(topics), len(ticks), counts["messages"], "")
+
+
+def topic_names(robots: Iterable[str]) -> dict[str, str]:
+    """Each robot's name as a topic's part: ``pioneer[2]`` is ``pioneer_2``, as Foxglove's message
+    paths and Rerun's entity paths take it without quotes; a name taken twice gets ``_2``, ``_3``."""
+    out: dict[str, str] = {}
+    for robot in robots:
+        base = re.sub(r"[^A-Za-z0-9_]+", "_", robot).strip("_") or "robot"
+        name, k = base, 1
+        while name in out.values():
+            k += 1
+            name = f"{base}_{k}"
+        out[robot] = name
+    return out
 
 
 def _stamp(tick: int, dt: object, time_cell: str) -> int:

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from labsim.runtime.export.mcap_file import export_trace
+from labsim.runtime.export.mcap_file import export_trace, topic_names
 from labsim.runtime.labs import LABS_DIR
 from labsim.runtime.trace import read_trace
 
@@ -45,9 +45,11 @@ def test_each_labs_trace_reads_back_from_its_mcap(golden: Path, tmp_path: Path) 
     assert done.robots == tuple(robots) and done.world_note == ""
     found = _messages(out)
     dt = trace.header["dt"]
+    topics = topic_names(robots)
+    assert sorted(t for t in found if t.endswith("/pose")) == sorted(f"/{t}/pose" for t in topics.values())
     for robot in robots:
         rows = [r for r in trace.rows if r[col["robot"]] == robot]
-        poses = found[f"/{robot}/pose"]
+        poses = found[f"/{topics[robot]}/pose"]
         assert len(poses) == len(rows) == len({r[col["tick"]] for r in rows})  # a message per tick
         for (schema, at, m), r in zip(poses, rows):
             assert schema == "foxglove.PoseInFrame" and m["frame_id"] == "world"
@@ -56,14 +58,14 @@ def test_each_labs_trace_reads_back_from_its_mcap(golden: Path, tmp_path: Path) 
             q = m["pose"]["orientation"]
             assert math.atan2(q["z"], q["w"]) * 2 == pytest.approx(math.remainder(float(r[col["heading"]]), math.tau),
                                                                    abs=1e-12)
-        rows_back = found[f"/{robot}/trace"]
+        rows_back = found[f"/{topics[robot]}/trace"]
         assert len(rows_back) == len(rows)
         for (_, _, m), r in zip(rows_back, rows):
             assert list(m) == trace.columns
             for c, i in col.items():
                 expected = r[i] if c in ("robot", "state", "rule", "events") or c.startswith("label:") else _cell(r[i])
                 assert m[c] == expected, (c, r[i])
-        states = found[f"/{robot}/state"]
+        states = found[f"/{topics[robot]}/state"]
         assert [(m["state"], m["rule"]) for _, _, m in states] == [(r[col["state"]], r[col["rule"]]) for r in rows]
     tf = found["/tf"]
     assert {m["child_frame_id"] for _, _, m in tf} == set(robots) and len(tf) == len(trace.rows)
@@ -97,6 +99,11 @@ def test_the_wall_labs_walls_are_boxes_where_the_world_has_them(tmp_path: Path) 
     first = world.walls[0]
     assert cubes[0]["pose"]["position"]["x"] == pytest.approx((first.a[0] + first.b[0]) / 2)
     assert cubes[0]["size"]["z"] == first.height_m
+
+
+def test_topic_names_are_plain_and_distinct() -> None:
+    assert topic_names(["pioneer[0]", "pioneer_0", "a b", "é", "crane"]) == {
+        "pioneer[0]": "pioneer_0", "pioneer_0": "pioneer_0_2", "a b": "a_b", "é": "robot", "crane": "crane"}
 
 
 def _labsim(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
