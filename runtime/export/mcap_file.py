@@ -88,7 +88,7 @@ def export_trace(trace_path: str | Path, out: str | Path) -> Exported:
     if out.suffix.lower() != ".mcap":
         raise LabsimError([Diagnostic(str(out), f"'{out.suffix or out.name}' is not a kind of file labsim export "
                                                 "writes; use .mcap")])
-    check_output(out, [trace_path], "-o")
+    check_output(out, [trace_path])  # as labsim plot checks its output
     try:
         trace = read_trace(trace_path)
     except TraceFormatError as e:
