@@ -344,6 +344,9 @@ def cmd_lsp(args: argparse.Namespace) -> int:
     checkers = default_checkers()
     checkers.check["assignment"] = _check_assignment_text
     checkers.schema["assignment"] = assignment_schema
+    if sys.stdin.isatty():  # a person, not an editor: say what this is and how to leave
+        sys.stderr.write("labsim lsp speaks the Language Server Protocol on standard input and output; an editor "
+                         "starts it (docs/editors.md). Ctrl-C ends it.\n")
     serve(checkers)
     return EXIT_OK
 

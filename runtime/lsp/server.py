@@ -151,8 +151,21 @@ def build(checkers: Checkers | None = None) -> LabsimServer:
     return server
 
 
+class _LogLine(logging.Formatter):
+    """One line a problem on stderr, the editor's log: what a client sent wrong (pygls says so)
+    without pygls's traceback; a failure of labsim's own keeps its traceback, for a bug report."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        if record.name.startswith("pygls"):
+            record.exc_info, record.exc_text = None, None
+        return super().format(record)
+
+
 def serve(checkers: Checkers | None = None) -> None:
     """Answer an editor on stdin and stdout until it says exit."""
+    handler = logging.StreamHandler()
+    handler.setFormatter(_LogLine("labsim lsp: %(message)s"))
+    logging.basicConfig(level=logging.WARNING, handlers=[handler], force=True)
     build(checkers).start_io()
 
 
