@@ -112,35 +112,36 @@ def export_trace(trace_path: str | Path, out: str | Path) -> Exported:
     return Exported(exported.robots, exported.ticks, exported.messages, note, trace.cut_short())
 
 
+class _Out:
+    """The MCAP writer with its schemas registered once and a channel per topic, made on first use."""
+
+    def __init__(self, stream: Any, row_schema: dict[str, Any]) -> None:
+        self.writer = Writer(stream, compression=CompressionType.ZSTD)
+        self.writer.start(profile=PROFILE, library="labsim")
+        self.schemas = {name: self.writer.register_schema(name, "jsonschema", json.dumps(s).encode())
+                        for name, s in {**SCHEMAS, "labsim.TraceRow": row_schema}.items()}
+        self.channels: dict[str, int] = {}
+        self.messages = 0
+
+    def put(self, topic: str, schema: str, at_ns: int, message: dict[str, Any]) -> None:
+        if topic not in self.channels:
+            self.channels[topic] = self.writer.register_channel(topic, "json", self.schemas[schema])
+        self.writer.add_message(self.channels[topic], at_ns, json.dumps(message, allow_nan=False).encode(), at_ns)
+        self.messages += 1
+
+
 def write_mcap(trace: Trace, world: World | None, stream: Any) -> Exported:
     """The MCAP file of a checked trace, written to a binary stream."""
-    writer = Writer(stream, compression=CompressionType.ZSTD)
-    writer.start(profile=PROFILE, library="labsim")
-    schema_ids = {name: writer.register_schema(name, "jsonschema", json.dumps(s).encode()) for name, s in
-                  SCHEMAS.items()}
-    writer.add_metadata("labsim", {k: json.dumps(v, sort_keys=True) for k, v in trace.header.items()})
-    channels: dict[str, int] = {}
-
-    def channel(topic: str, schema: str) -> int:
-        if topic not in channels:
-            channels[topic] = writer.register_channel(topic, "json", schema_ids[schema])
-        return channels[topic]
-
-    counts = {"messages": 0}
-
-    def put(topic: str, schema: str, at_ns: int, message: dict[str, Any]) -> None:
-        writer.add_message(channel(topic, schema), at_ns, json.dumps(message, allow_nan=False).encode(), at_ns)
-        counts["messages"] += 1
-
-    scene = _scene(world)
-    put("/world", "foxglove.SceneUpdate", 0, scene)
     columns = trace.columns
     col = {name: i for i, name in enumerate(columns)}
     text = [name in TEXT_COLUMNS or name.startswith("label:") for name in columns]
-    row_schemas: dict[str, int] = {}
-    dt = trace.header.get("dt")
+    out = _Out(stream, {"title": "labsim.TraceRow", "type": "object", "properties": {
+        c: {"type": "string" if t else ["number", "null"]} for c, t in zip(columns, text)}})
+    out.writer.add_metadata("labsim", {k: json.dumps(v, sort_keys=True) for k, v in trace.header.items()})
     topics = topic_names(dict.fromkeys(r[col["robot"]] for r in trace.rows))
-    writer.add_metadata("labsim topics", topics)  # robot -> the name its topics use
+    out.writer.add_metadata("labsim topics", topics)  # robot -> the name its topics use
+    out.put("/world", "foxglove.SceneUpdate", 0, _scene(world))
+    dt = trace.header.get("dt")
     ticks: set[int] = set()
     for row in trace.rows:
         robot, tick = row[col["robot"]], int(row[col["tick"]])
@@ -149,30 +150,22 @@ def write_mcap(trace: Trace, world: World | None, stream: Any) -> Exported:
         at_ns = _stamp(tick, dt, row[col["time"]] if "time" in col else "0")
         stamp = {"sec": min(at_ns // _NS, 2 ** 32 - 1), "nsec": at_ns % _NS}
         x, y, heading = (_number(row[col[c]]) for c in ("x", "y", "heading"))
-        position = {"x": x, "y": y, "z": 0.0}
-        rotation = _yaw(heading)
-        put(f"/{part}/pose", "foxglove.PoseInFrame", at_ns,
-            {"timestamp": stamp, "frame_id": FRAME, "pose": {"position": position, "orientation": rotation}})
-        put("/tf", "foxglove.FrameTransform", at_ns,
-            {"timestamp": stamp, "parent_frame_id": FRAME, "child_frame_id": robot, "translation": position,
-             "rotation": rotation})
-        topic = f"/{part}/trace"
-        if topic not in row_schemas:
-            name = "labsim.TraceRow"
-            schema = {"title": name, "type": "object", "properties": {
-                c: {"type": "string" if t else ["number", "null"]} for c, t in zip(columns, text)}}
-            row_schemas[topic] = writer.register_schema(name, "jsonschema", json.dumps(schema).encode())
-            channels[topic] = writer.register_channel(topic, "json", row_schemas[topic])
-        values = {c: cell if t else _number(cell) for c, cell, t in zip(columns, row, text)}
-        put(topic, "", at_ns, values)
+        position, rotation = {"x": x, "y": y, "z": 0.0}, _yaw(heading)
+        out.put(f"/{part}/pose", "foxglove.PoseInFrame", at_ns,
+                {"timestamp": stamp, "frame_id": FRAME, "pose": {"position": position, "orientation": rotation}})
+        out.put("/tf", "foxglove.FrameTransform", at_ns,
+                {"timestamp": stamp, "parent_frame_id": FRAME, "child_frame_id": robot, "translation": position,
+                 "rotation": rotation})
+        out.put(f"/{part}/trace", "labsim.TraceRow", at_ns,
+                {c: cell if t else _number(cell) for c, cell, t in zip(columns, row, text)})
         if "state" in col or "rule" in col:
             state, rule = (row[col[c]] if c in col else "" for c in ("state", "rule"))
-            put(f"/{part}/state", "labsim.State", at_ns, {"state": state, "rule": rule})
+            out.put(f"/{part}/state", "labsim.State", at_ns, {"state": state, "rule": rule})
         for event in _events(row[col["events"]] if "events" in col else ""):
-            put("/events", "foxglove.Log", at_ns, {"timestamp": stamp, "level": LOG_INFO, "message": event,
-                                                   "name": robot, "file": "", "line": 0})
-    writer.finish()
-    return Exported(tuple(topics), len(ticks), counts["messages"], "")
+            out.put("/events", "foxglove.Log", at_ns, {"timestamp": stamp, "level": LOG_INFO, "message": event,
+                                                       "name": robot, "file": "", "line": 0})
+    out.writer.finish()
+    return Exported(tuple(topics), len(ticks), out.messages, "")
 
 
 def topic_names(robots: Iterable[str]) -> dict[str, str]:

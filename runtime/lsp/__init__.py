@@ -4,5 +4,6 @@ An application of its own (docs/architecture.md): editors start it over stdio an
 with ``labsim check``'s diagnostics as the student types, completion, hover, go to definition
 and rename (docs/editors.md). ``language`` is its one door into the language's checker and
 tables; ``outline`` finds the names a file declares and uses; ``positions`` converts between
-Python's characters and the protocol's UTF-16 columns; ``server`` wires them to pygls.
+Python's characters and the protocol's columns; ``features`` answers completion, hover,
+definition and rename; ``session`` holds what they share; ``server`` wires them to pygls.
 """
