@@ -15,7 +15,7 @@ from typing import Any
 
 from lsprotocol import types as lsp
 
-from labsim.foundation.kinds import kind_of_text
+from labsim.foundation.kinds import file_kind, kind_of_text
 from labsim.foundation.source import MAX_BYTES
 from labsim.runtime.lsp import language
 from labsim.runtime.lsp.outline import NAME, Outline, Span, outline
@@ -128,21 +128,17 @@ def _names(ls: LabsimServer, found: Outline | None) -> list[lsp.CompletionItem]:
 
 
 def _world_files(uri: str) -> list[lsp.CompletionItem]:
-    """The world files in the behaviour's folder, by the name ``world:`` gives them."""
+    """The world files in the behaviour's folder, by the name ``world:`` gives them: each told by
+    its first bytes through the one way in (a FIFO or a folder named .yaml is no world, and is
+    never waited on)."""
+    if not uri.startswith("file:"):
+        return []
     folder = Path(uri_path(uri)).parent
-    out = []
     try:
         candidates = sorted(folder.glob("*.y*ml"))[:200]
     except OSError:
         return []
-    for f in candidates:
-        try:
-            head = f.read_text("utf-8", "replace")[:4096] if f.stat().st_size < MAX_BYTES else ""
-        except OSError:
-            continue
-        if kind_of_text(head) == "world":
-            out.append(_item(f.name, "world", "world file"))
-    return out
+    return [_item(f.name, "world", "world file") for f in candidates if file_kind(f) == "world"]
 
 
 def _schema_keys(ls: LabsimServer, kind: str, lines: Lines, line: int, indent: int) -> list[lsp.CompletionItem]:

@@ -4,6 +4,7 @@ outlives bad requests and huge documents."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -223,6 +224,11 @@ def test_keys_models_and_worlds_complete_from_the_schema(tmp_path: Path, client:
     assert {"pioneer_p3dx", "epuck"} <= labels(5, 11)
     client.change(uri, "labsim: 1\nworld: \n", 2)
     assert {"walls_lab4", "road_loop"} <= labels(1, 7)
+    (tmp_path / "arena.yaml").write_text("labsim-world: 1\nbounds: [0, 0, 4, 4]\n", encoding="utf-8")
+    os.mkfifo(tmp_path / "trap.yaml")  # never opened for reading: it would wait for a writer
+    (tmp_path / "notes.yaml").write_text("on: push\n", encoding="utf-8")
+    found = labels(1, 7)
+    assert "arena.yaml" in found and "trap.yaml" not in found and "notes.yaml" not in found
 
 
 def test_bad_requests_and_a_huge_document_do_not_end_the_server(tmp_path: Path, client: Client) -> None:
