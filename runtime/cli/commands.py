@@ -108,8 +108,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print_diagnostics(list(behaviour.program.warnings))
     # every input of the run: the behaviour, its world file and the trace it replays
     inputs = [Path(args.file), Path(behaviour.program.world.source), *([Path(args.replay)] if args.replay else [])]
-    if args.trace:
-        _check_writable(args.trace, inputs)
+    mcap_out = _mcap_trace(args, inputs)  # --trace run.mcap: the CSV trace first, beside it, then exported
     if args.json not in (None, "-"):
         check_json_output(args.json, inputs)
     replay, hands = None, None
@@ -132,6 +131,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             bar.clear()
         run.close()
     unwritten: LabsimError | None = run.trace_error
+    if mcap_out is not None and unwritten is None:
+        unwritten = _export_run(args.trace, mcap_out)
     if args.json is not None:
         try:
             emit_json(summary_dict(summary), args.json)
@@ -150,6 +151,33 @@ def cmd_run(args: argparse.Namespace) -> int:
     if summary.over_budget:
         return EXIT_USAGE
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
+
+
+def _mcap_trace(args: argparse.Namespace, inputs: list[Path]) -> str | None:
+    """``--trace``'s target checked; for ``run.mcap``, ``args.trace`` becomes the CSV trace the run
+    writes first (``.run.mcap.csv`` beside it, removed once exported) and the MCAP name is returned."""
+    if not args.trace:
+        return None
+    _check_writable(args.trace, inputs)
+    if Path(args.trace).suffix.lower() != ".mcap":
+        return None
+    out = args.trace
+    args.trace = str(Path(out).with_name(f".{Path(out).name}.csv"))
+    _check_writable(args.trace, inputs)
+    return str(out)
+
+
+def _export_run(csv_trace: str, out: str) -> LabsimError | None:
+    """The run's CSV trace written as MCAP at ``out`` (the CSV removed); the error, if any, for
+    after the summary. A run that made no rows leaves its CSV, which says so."""
+    from labsim.runtime.export.mcap_file import export_trace
+
+    try:
+        export_trace(csv_trace, out)
+    except LabsimError as e:
+        return e
+    Path(csv_trace).unlink(missing_ok=True)
+    return None
 
 
 def _round_trips(backend: object, ticks: int) -> str:
@@ -290,6 +318,53 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from labsim.runtime.pictures.driver import run_plot
 
     return run_plot(args)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """A trace as an MCAP file (runtime/export/mcap_file.py; docs/mcap.md)."""
+    from labsim.runtime.export.mcap_file import export_trace
+
+    done = export_trace(args.trace, args.output)
+    robots = len(done.robots)
+    print(f"wrote {inert(args.output)}: {robots} robot{'s' * (robots != 1)}, {done.ticks} ticks, "
+          f"{done.messages} messages")
+    if done.cut_short:
+        print_warning(f"{args.trace}: warning: {done.cut_short}; exported as far as it goes")
+    if done.world_note:
+        print_warning(f"{args.trace}: warning: {done.world_note.replace('drawn', 'exported')}")
+    return EXIT_OK
+
+
+def cmd_lsp(args: argparse.Namespace) -> int:
+    """The language server over stdio until the editor says exit (runtime/lsp/server.py); the
+    assignment files' reader and schema are the grader's, handed in from here."""
+    from labsim.runtime.grade.assignment import assignment_schema
+    from labsim.runtime.lsp.server import default_checkers, serve
+
+    checkers = default_checkers()
+    checkers.check["assignment"] = _check_assignment_text
+    checkers.schema["assignment"] = assignment_schema
+    if sys.stdin.isatty():  # a person, not an editor: say what this is and how to leave
+        sys.stderr.write("labsim lsp speaks the Language Server Protocol on standard input and output; an editor "
+                         "starts it (docs/editors.md). Ctrl-C ends it.\n")
+    serve(checkers)
+    return EXIT_OK
+
+
+def _check_assignment_text(path: str, text: str) -> list[Diagnostic]:
+    """What ``labsim grade`` says of an assignment file holding ``text`` (read_assignment, on the
+    editor's unsaved text)."""
+    from labsim.foundation.diagnostics import Report
+    from labsim.foundation.source import loads
+    from labsim.runtime.grade.assignment import _AssignmentReader
+
+    try:
+        doc = loads(text, path)
+    except LabsimError as e:
+        return list(e.diagnostics)
+    report = Report()
+    _AssignmentReader(doc, report).read()
+    return sorted(report.diagnostics, key=lambda d: (d.path, d.line, d.col))  # as read_assignment raises them
 
 
 def cmd_view(args: argparse.Namespace) -> int:

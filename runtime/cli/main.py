@@ -1,4 +1,4 @@
-"""The ``labsim`` command line: run, check, test, plot, view, sweep, grade, labs, new, worlds, serve, scene.
+"""The ``labsim`` command line: run, check, test, plot, view, sweep, grade, serve, scene, export, lsp, ...
 
 A behaviour argument is a file, or the name of a lab labsim ships (``labsim run wall_follow``;
 ``labsim labs`` lists them, ``labsim new wall_follow`` copies one to edit).
@@ -83,7 +83,8 @@ def _command(name: str) -> Command:
             "plot": commands.cmd_plot, "view": commands.cmd_view, "labs": commands.cmd_labs,
             "new": commands.cmd_new, "worlds": commands.cmd_worlds, "serve": commands.cmd_serve,
             "sweep": commands.cmd_sweep, "grade": commands.cmd_grade, "schema": commands.cmd_schema,
-            "scene": commands.cmd_scene}[name]
+            "scene": commands.cmd_scene,
+            "lsp": commands.cmd_lsp, "export": commands.cmd_export}[name]
 
 
 class Terminated(KeyboardInterrupt):

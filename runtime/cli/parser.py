@@ -84,7 +84,8 @@ def _command_named(argv: Sequence[str]) -> str | None:
 def _run(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help=BEHAVIOUR_HELP)
     _set_seed(p)
-    p.add_argument("--trace", metavar="PATH", help="write the trace (CSV) to PATH")
+    p.add_argument("--trace", metavar="PATH", help="write the trace (CSV) to PATH; to PATH.mcap, as an MCAP file "
+                                                   "(labsim export, docs/mcap.md)")
     p.add_argument("--replay", metavar="TRACE", help="move the sliders as a recorded trace did "
                                                      "(instead of the file's timeline)")
     p.add_argument("--backend", default=DEFAULT, choices=sorted(REGISTRY), help="simulator (default: %(default)s)")
@@ -143,6 +144,20 @@ def _schema(p: argparse.ArgumentParser) -> None:
 
 
 # -- the commands of the applications ------------------------------------------------------------
+
+def _export(p: argparse.ArgumentParser) -> None:
+    p.description = ("Write a trace as an MCAP file that Foxglove and Rerun open: the robots' poses, every "
+                     "column as a channel to plot, states, events and the world's walls (docs/mcap.md).")
+    p.add_argument("trace", help="a trace written by labsim run --trace (or a golden)")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.mcap", help="the MCAP file to write")
+    _allow_path(p)
+
+
+def _lsp(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--stdio", action="store_true",
+                   help="talk over standard input and output (the default and only way; editors pass it)")
+    _allow_path(p)
+
 
 def _sweep(p: argparse.ArgumentParser) -> None:
     from labsim.runtime.sweep.driver import add_sweep_arguments
@@ -275,6 +290,8 @@ COMMANDS = (
     Command("worlds", "list the built-in worlds", _worlds),
     Command("schema", "print the JSON Schema of behaviour, world or assignment files, for editors (docs/editors.md)",
             _schema),
+    Command("export", "write a trace as an MCAP file, for Foxglove and Rerun (docs/mcap.md)", _export),
+    Command("lsp", "a language server for editors: check-as-you-type, completion, hover (docs/editors.md)", _lsp),
     Command("serve", "stand in for CoppeliaSim: answer its ZMQ remote API from the embedded simulator", _serve),
     Command("scene", "build a behaviour's scene in a running CoppeliaSim (4.6 or newer)", _scene),
 )
