@@ -8,14 +8,16 @@ compiles once for many runs (``Behaviour.bind(load_backend()).run()``). The pack
 imports these lazily, so ``import labsim`` (and ``labsim check``'s start) stays cheap.
 
 The summary ``run`` returns is a dict, a ``RunSummary``: in Jupyter it shows as a table with
-the run's map (``_repr_html_``), drawn from the run recorded in memory, thinned to at most
-``DRAWN_TICKS`` ticks so that a notebook's loop of runs keeps little. The pictures are drawn by
+the run's map (``_repr_html_``), drawn from its trace file, or else from the same run made again
+on the embedded simulator when the summary is first shown (the same file and seed give the
+same run, so a summary never shown costs nothing), thinned to at most ``DRAWN_TICKS`` ticks. The pictures are drawn by
 the pictures' renderer named in ``PICTURES`` ("module:name", as the backends' registry names
 its backends), imported when a summary is first shown: the tick loop imports no application.
 """
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import importlib
 import math
@@ -97,12 +99,7 @@ def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None 
         compiled = compile_behaviour(behaviour, params=params, seed=seed, budget=budget)
     if timeout is not None and not timeout > 0:
         raise LabsimError([Diagnostic("timeout", "give a positive number of seconds")])
-    # a mechanism's pictures read its joints from the trace's columns: one run without a trace
-    # writes one in a temporary folder, read back for its pictures
-    recording = Recording() if compiled.program.world.mechanism is None else None
-    scratch = tempfile.TemporaryDirectory(prefix="labsim-run-") if recording is None and trace is None else None
-    traced = trace if scratch is None else Path(scratch.name) / "run.csv"
-    bound = compiled.bind(load_backend(backend), trace=traced, observers=[recording] if recording else [])
+    bound = compiled.bind(load_backend(backend), trace=trace)
     deadline = None if timeout is None else clock.monotonic() + timeout
     timed_out = []
 
@@ -111,16 +108,13 @@ def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None 
             timed_out.append(tick)
             raise KeyboardInterrupt  # ends the run as Ctrl-C does: the trace gets its footer
     try:
-        try:
-            result = bound.run(progress=progress)
-        finally:
-            bound.close()
-        drawn = (_thinned(recording.trace(compiled.program.path, bound.header())) if recording is not None
-                 else _thinned(_read_trace(traced)) if scratch is not None and traced is not None else None)
+        result = bound.run(progress=progress)
     finally:
-        if scratch is not None:
-            scratch.cleanup()
-    summary = RunSummary(summary_dict(result), drawn, str(trace) if trace is not None else None, animation)
+        bound.close()
+    # the map is drawn when the summary is first shown: the embedded simulator gives the same
+    # run again from the same compiled file and seed, so a run that is never shown costs nothing
+    again = None if timed_out or result.interrupted or backend != DEFAULT else functools.partial(_again, compiled)
+    summary = RunSummary(summary_dict(result), str(trace) if trace is not None else None, animation, again)
     path = compiled.program.path
     if timed_out:
         raise RunTimeout(path, f"the run was still going after {timeout:g} s of wall time "
@@ -143,9 +137,14 @@ class RunSummary(dict):  # the summary as `labsim run --json` writes it
     """What ``run`` returns: the summary dict (docs/summary-json.md), shown in Jupyter as a table
     of the run's figures with its map, and a short animation when ``animation`` (``html``)."""
 
-    def __init__(self, summary: dict[str, Any], drawn: Trace | None, trace: str | None, animation: bool) -> None:
+    def __init__(self, summary: dict[str, Any], trace: str | None, animation: bool,
+                 again: Callable[[], Trace] | None = None) -> None:
         super().__init__(summary)
-        self._drawn, self._trace, self._animation = drawn, trace, animation
+        self._trace, self._animation, self._again = trace, animation, again
+        self._drawn: Trace | None = None
+
+    def __reduce__(self) -> tuple[Any, ...]:  # a copy or a pickle keeps the figures and the trace's path, not the run
+        return (RunSummary, (dict(self), self._trace, self._animation))
 
     def _repr_html_(self) -> str:
         return self.html(self._animation)
@@ -154,15 +153,23 @@ class RunSummary(dict):  # the summary as `labsim run --json` writes it
         """The summary as HTML: a table, then the map (and the animation when asked)."""
         return summary_table(self) + self._pictures(animation)
 
+    def drawn(self) -> Trace | None:
+        """The run the map draws, thinned (``_thinned``): read from its trace file, else run again
+        on the embedded simulator (the same file and seed give the same run), once."""
+        if self._drawn is None and self._trace is not None:
+            self._drawn = _thinned(_read_trace(self._trace))
+        elif self._drawn is None and self._again is not None:
+            self._drawn = self._again()
+        return self._drawn
+
     def _pictures(self, animation: bool) -> str:
-        drawn = self._drawn
-        if drawn is None and self._trace is not None:
-            try:
-                drawn = _read_trace(self._trace)
-            except TraceFormatError as e:
-                return _note(f"no map: {e}")
+        try:
+            drawn = self.drawn()
+        except TraceFormatError as e:
+            return _note(f"no map: {e}")
         if drawn is None:
-            return _note("no map: a mechanism's run is drawn from its trace; run it with trace='run.csv'")
+            return _note("no map: only a whole run on the embedded simulator is drawn again; "
+                         "run it with trace='run.csv'")
         module, name = PICTURES.split(":")
         draw: Pictures = getattr(importlib.import_module(module), name)
         try:
@@ -232,6 +239,27 @@ def _note(text: str) -> str:
 def _image(mime: str, data: bytes, alt: str) -> str:
     return (f"<img src='data:{mime};base64,{base64.b64encode(data).decode('ascii')}' alt='{html.escape(alt)}' "
             "style='max-width:100%'>") if data else ""
+
+
+def _again(compiled: Behaviour) -> Trace:
+    """The compiled behaviour run again on the embedded simulator, recorded for its map (a
+    mechanism's joints are read from a trace's columns: its run writes one to a scratch folder)."""
+    if compiled.program.world.mechanism is None:
+        recording = Recording()
+        bound = compiled.bind(load_backend(DEFAULT), observers=[recording])
+        try:
+            bound.run()
+        finally:
+            bound.close()
+        return _thinned(recording.trace(compiled.program.path, bound.header()))
+    with tempfile.TemporaryDirectory(prefix="labsim-run-") as scratch:
+        traced = Path(scratch) / "run.csv"
+        bound = compiled.bind(load_backend(DEFAULT), trace=traced)
+        try:
+            bound.run()
+        finally:
+            bound.close()
+        return _thinned(_read_trace(traced))
 
 
 def _thinned(trace: Trace) -> Trace:

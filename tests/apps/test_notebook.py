@@ -51,7 +51,8 @@ def test_the_animation_when_asked_and_a_mechanism_drawn_from_a_trace_of_its_own(
 @pytest.mark.slow
 def test_a_long_run_keeps_a_thinned_recording_for_its_map() -> None:
     summary = labsim.run("wall_follow", params={"minutes": 4})
-    kept = summary._drawn
+    assert summary._drawn is None  # nothing is recorded until the summary is shown
+    kept = summary.drawn()
     assert summary["ticks"] == 4800 and kept is not None
     assert len(kept.rows) <= api.DRAWN_TICKS + sum(1 for r in kept.rows if r[-1])
     assert kept.numbers["tick"][-1] == 4799 and kept.numbers["tick"][0] == 0
@@ -68,5 +69,25 @@ def test_file_text_is_escaped(tmp_path: Path) -> None:
 
 
 def test_a_summary_whose_trace_is_gone_says_so() -> None:
-    summary = api.RunSummary({"schema": "labsim-summary", "robots": {}}, None, "/no/such/run.csv", False)
+    summary = api.RunSummary({"schema": "labsim-summary", "robots": {}}, "/no/such/run.csv", False)
     assert "<em>no map: /no/such/run.csv: no such trace file</em>" in summary._repr_html_()
+
+
+@pytest.mark.slow
+def test_the_map_is_the_run_the_summary_reports(tmp_path: Path) -> None:
+    traced = labsim.run("wall_follow", params={"minutes": 0.5}, trace=tmp_path / "run.csv")
+    again = labsim.run("wall_follow", params={"minutes": 0.5})
+    kept, made_again = traced.drawn(), again.drawn()
+    assert kept is not None and made_again is not None and traced["ticks"] == again["ticks"] == 600
+    assert len(kept.rows) == len(made_again.rows) == 600
+    for column in ("tick", "x", "y", "heading"):
+        written = [float(v) for v in kept.column(column)]
+        assert written == pytest.approx(list(made_again.numbers[column]), abs=1e-5), column
+
+
+def test_a_copy_keeps_the_figures_not_the_run() -> None:
+    import copy
+    import pickle
+    summary = api.RunSummary({"schema": "labsim-summary", "robots": {}}, None, False, lambda: None)  # type: ignore[arg-type,return-value]
+    for copied in (copy.deepcopy(summary), pickle.loads(pickle.dumps(summary))):
+        assert dict(copied) == dict(summary) and copied._again is None
