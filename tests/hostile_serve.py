@@ -155,7 +155,9 @@ CASES: list[Case] = [
     Case("an index of 5,000 digits", one(req("sim.getObject", "/PioneerP3DX{" + "9" * 5_000 + "}")), Err(E_PATH)),
     Case("unicode digits in an index", one(req("sim.getObject", "/PioneerP3DX[\u0663]")), Err(E_PATH)),
     Case("control characters in a path", one(req("sim.getObject", "/Pioneer\x00P3DX\n")), Err(E_PATH)),
-    Case("a relative path with no proxy", one(req("sim.getObject", "./" + "*" * 40)), Err(E_PATH)),
+    Case("a relative path with no proxy: from the top", one(req("sim.getObject", "./" + "*" * 40 + "Z")), Err(E_PATH)),
+    Case("a thousand star segments", one(req("sim.getObject", "/" + "*/" * 1000 + "Z")), Err(E_PATH)),
+    Case("star segments from the model", one(req("sim.getObject", ":/" + "*?/" * 500 + "Z")), Err(E_PATH)),
     Case("a format string as a path", one(req("sim.getObject", "/P{i.__class__.__mro__[1]}")), Err(E_PATH)),
     # --- size, depth and count (issue: memory to gigabytes, minutes of work) -------------------
     Case("a 50 MB text", one(req("sim.getObject", "x" * (50 * MIB))), Err(E_TEXT)),

@@ -68,6 +68,7 @@ from labsim.runtime.serve.sim_api import (
     Handler,
     SimError,
     Wait,
+    as_handle,
     shown,
     value_and_frame,
 )
@@ -245,9 +246,7 @@ class SceneEditor:
         """The built shape ``args[0]`` names, or None for an object of the simulation."""
         if not args:
             raise SimError(E_FEW)
-        h = args[0]
-        if not isinstance(h, int) or isinstance(h, bool):
-            raise SimError(E_ARGS)
+        h = as_handle(args[0])
         if h >= FIRST_HANDLE and h not in self.shapes and h not in self.sensors:
             raise SimError(E_HANDLE)
         return self.shapes.get(h)

@@ -48,7 +48,17 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
 from labsim.runtime.serve.scene_edit import SceneEditor
 from labsim.runtime.serve.script_host import ScriptHost
-from labsim.runtime.serve.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
+from labsim.runtime.serve.sim_api import (
+    E_ARGS,
+    FUNCTIONS,
+    UNSUPPORTED,
+    WAIT,
+    Handler,
+    SimApi,
+    SimError,
+    lua_numbers,
+    shown,
+)
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
 from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
 from labsim.runtime.serve.sim_signals import SIGNAL_CALLS, SignalCalls
@@ -393,7 +403,7 @@ class Server:
                                f"(docs/coppeliasim.md lists what is)"}
             return {"err": f"No such function: {shown(func)}"}
         try:
-            ret = handler(client, args)
+            ret = handler(client, lua_numbers(func, args))
         except SimError as e:
             return {"err": f"{e} (in function '{func}')"}
         if ret is WAIT:

@@ -97,6 +97,37 @@ def shown(value: object) -> str:
     return f"a {type(value).__name__}"
 
 
+# Calls whose arguments keep a whole float a float: the value comes back as it was given.
+FLOAT_VALUES = frozenset({"sim.setFloatSignal", "sim.setFloatParam", "sim.callScriptFunction"})
+
+
+def lua_numbers(func: str, args: Args) -> Args:
+    """A request's arguments as CoppeliaSim's Lua functions take them: a number is a number,
+    so a whole float (numpy's 4.0, a handle kept in ``np.zeros(16)``) is accepted wherever an
+    integer is (``luaToInt``: ``lua_tointeger``, else the number cast). Whole floats at the top
+    level, and in a top-level map (``sim.getObject``'s options), become ints."""
+    if func in FLOAT_VALUES:
+        return args
+    out: Args = []
+    for a in args:
+        if isinstance(a, float) and a.is_integer() and abs(a) < 2 ** 53:
+            a = int(a)
+        elif isinstance(a, dict):
+            a = {k: int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
+                 for k, v in a.items()}
+        out.append(a)
+    return out
+
+
+def as_handle(value: object) -> int:
+    """A handle from any number, as CoppeliaSim casts one (4.7 is 4); not a number: the type error."""
+    if isinstance(value, float) and math.isfinite(value) and abs(value) < 2 ** 31:
+        return int(value)
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise SimError(E_ARGS)
+    return value
+
+
 def _num(args: Args, i: int, default: float | None = None) -> float:
     if len(args) <= i or args[i] is None:
         if default is None:
@@ -111,10 +142,7 @@ def _num(args: Args, i: int, default: float | None = None) -> float:
 def _int(args: Args, i: int, default: int) -> int:
     if len(args) <= i or args[i] is None:
         return default
-    v = args[i]
-    if not isinstance(v, int) or isinstance(v, bool):
-        raise SimError(E_ARGS)
-    return v
+    return as_handle(args[i])
 
 
 def _vec(args: Args, i: int, n: int) -> list[float]:
@@ -144,10 +172,7 @@ class SimApi:
     def _obj(self, args: Args, i: int = 0, kinds: tuple[str, ...] = (), what: str = "") -> SceneObject:
         if len(args) <= i:
             raise SimError(E_FEW)
-        h = args[i]
-        if not isinstance(h, int) or isinstance(h, bool):
-            raise SimError(E_ARGS)
-        obj = self.tree.objects.get(h)
+        obj = self.tree.objects.get(as_handle(args[i]))
         if obj is None:
             raise SimError(E_HANDLE)
         if kinds and obj.kind not in kinds:
@@ -201,11 +226,15 @@ class SimApi:
             # programmatically"); a pre-4.3 name is for the deprecated sim.getObjectHandle
             raise SimError(f"{E_PATH} (labsim serve: '{path}' is an object name from before CoppeliaSim 4.3; "
                            f"sim.getObject takes a path: '{self.tree.path(old, short=True)}')")
-        robots = [self.tree.path(r.obj) for r in self.sim.robots]
-        hint = (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: "
-                + ", ".join(robots) if robots else "this scene has no robots")
-        if path.startswith(("./", ":/")) and proxy is None:
-            hint = "a relative path needs the proxy option, e.g. {'proxy': robotHandle}"
+        near = self.tree.similar(path)
+        if near is not None:
+            # the stand-in answers only the names of the scene it stands for: a script that
+            # passes here runs on CoppeliaSim with that scene (docs/coppeliasim.md)
+            hint = f"this scene's object is '{self.tree.path(near, short=True)}'"
+        else:
+            robots = [self.tree.path(r.obj) for r in self.sim.robots]
+            hint = (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: "
+                    + ", ".join(robots) if robots else "this scene has no robots")
         raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {hint})")
 
     def _sim_getObjectHandle(self, client: Client, args: Args) -> list[object]:

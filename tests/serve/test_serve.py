@@ -117,7 +117,10 @@ def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     assert "object does not exist" in err and "before CoppeliaSim 4.3" in err and "/PioneerP3DX[1]/leftMotor" in err
     assert wire("sim.getObject", "Pioneer_p3dx_leftMotor#0", {"noError": True}) == -1
     assert wire("sim.getObject", "/PioneerP3DX[7]", {"noError": True}) == -1
-    assert "proxy" in wire.raw("sim.getObject", "./leftMotor")["err"]  # relative needs a proxy
+    # a remote client has no emitting object: ./x and :/x search from the top, as /x does
+    assert wire("sim.getObject", "./leftMotor") == wire("sim.getObject", "/leftMotor") == \
+        wire("sim.getObject", ":/leftMotor") == wire("sim.getObject", "/PioneerP3DX[0]/leftMotor")
+    assert wire("sim.getObject", ".", {"noError": True}) == wire("sim.getObject", "..", {"noError": True}) == -1
     assert wire("sim.getObjectAlias", sonar5) == "ultrasonicSensor"
     assert wire("sim.getObjectAlias", sonar5, 0) == "ultrasonicSensor[4]"
     assert wire("sim.getObjectAlias", sonar5, 2) == "/PioneerP3DX[0]/ultrasonicSensor[4]"
