@@ -73,10 +73,9 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
         conn.require_sim()
         conn.stop_running()
         sim = conn.sim
-        if hasattr(sim, "setSimulationTimeStep"):  # sim.setSimulationTimeStep(float dt): CoppeliaSim 4.7
-            conn.call("sim.setSimulationTimeStep", dt_s)
-        else:  # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): 4.6 (deprecated later)
-            conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
+        # the time step as CoppeliaSim 4.6 to 4.10 set it: sim.setFloatParam(sim.floatparam_simulation_time_step,
+        # dt) (coppeliaSimLib registers no sim.setSimulationTimeStep in any version)
+        conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
         mech = world.mechanism
         if mech is None or mech.floor_z_m is not None:
             _floor(conn, world)

@@ -18,8 +18,8 @@ What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene
   P3DX or an e-puck at the origin, with its own script (``sim.getScript``,
   ``sim.removeScript`` take it away; a simulation started with a script left is logged,
   since on CoppeliaSim it would drive the wheels);
-* ``sim.setSimulationTimeStep(dt)`` (or the older ``sim.setFloatParam(sim.floatparam_simulation_time_step,
-  dt)``) sets the time step.
+* ``sim.setFloatParam(sim.floatparam_simulation_time_step, dt)`` sets the time step, as in
+  CoppeliaSim 4.6 to 4.10 (none of them has a ``sim.setSimulationTimeStep``).
 
 Coordinates are rounded to the nanometre and angles to the nanoradian when the world is
 rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
@@ -41,6 +41,7 @@ A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -74,6 +75,7 @@ from labsim.runtime.serve.sim_api import (
 )
 from labsim.runtime.serve.simulation import Client, Simulation
 
+MAX_SIZE_M = 10_000.0  # a built shape's largest size: a room of 10 km is no lab's
 FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
 RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
 EMPTY = World("scene", "an empty scene", (-10.0, -10.0, 10.0, 10.0))  # its bounds: with no floor built
@@ -87,7 +89,6 @@ EDIT_CONSTANTS: dict[str, int] = {
 }
 EDITS = tuple(f"sim.{n}" for n in (
     "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
-    "setSimulationTimeStep",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
     "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
@@ -259,6 +260,11 @@ class SceneEditor:
         if kind is None:
             raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
         sizes = floats(args[1], 3)
+        flat = 2 if kind == "plane" else 3  # a plane's third size is its (nil) thickness
+        if not all(math.isfinite(v) and 0 < v <= MAX_SIZE_M for v in sizes[:flat]) or \
+                not (math.isfinite(sizes[2]) and 0 <= sizes[2] <= MAX_SIZE_M):
+            raise SimError(f"labsim serve: a {kind}'s sizes are finite numbers of metres, greater than 0 and at "
+                           f"most {MAX_SIZE_M:g}, not {', '.join(f'{v:g}' for v in sizes)}")
         return self._new(primitive(kind, sizes, args, "Plane" if kind == "plane" else "Cuboid"))
 
     def _createMeshShape(self, client: Client, args: Args) -> list[object]:
@@ -308,9 +314,6 @@ class SceneEditor:
         self.server.dt_s = float(args[1])
         self.dirty = True
         return []
-
-    def _setSimulationTimeStep(self, client: Client, args: Args) -> list[object]:
-        return self._setFloatParam(client, [1, *args[:1]])
 
     def _getStringParam(self, client: Client, args: Args) -> list[object]:
         if not args or args[0] != EDIT_CONSTANTS["stringparam_resourcesdir"]:

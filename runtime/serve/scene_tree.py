@@ -302,6 +302,17 @@ class SceneTree:
                 return found
         return None
 
+    def hint(self, path: str) -> str:
+        """What a path that found nothing missed: the scene's object it most likely meant (the
+        stand-in answers only the names of the scene it stands for, so that a script that
+        passes here runs on CoppeliaSim with that scene), else the robots the scene has."""
+        near = self.similar(path)
+        if near is not None:
+            return f"this scene's object is '{self.path(near, short=True)}'"
+        robots = [self.path(o) for o in self.top if o.kind == "robot"]
+        return (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: " + ", ".join(robots)
+                if robots else "this scene has no robots")
+
     def similar(self, path: str) -> SceneObject | None:
         """The object a path that found nothing most likely meant: one whose alias is the path's
         last alias written another way (``visionSensor`` for ``Vision_sensor``), or close to it."""

@@ -56,7 +56,6 @@ from labsim.runtime.serve.sim_api import (
     Handler,
     SimApi,
     SimError,
-    lua_numbers,
     shown,
 )
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
@@ -83,6 +82,29 @@ POLL_MS = 100  # how often an idle server looks at its stop flag
 MAX_UUID_CHARS = 256  # the client sends a 36-character uuid4
 MAX_CLIENTS = 1000  # clients remembered at once; past it the longest silent is forgotten
 FLEET_HANDLE = 1_500_000  # the served fleet script's dummy and script: past the tree's, before dummies'
+
+
+# Calls whose arguments keep a whole float a float: the value comes back as it was given.
+FLOAT_VALUES = frozenset({"sim.setFloatSignal", "sim.setFloatParam", "sim.callScriptFunction"})
+
+
+def lua_numbers(func: str, args: list[Any]) -> list[Any]:
+    """A request's arguments as CoppeliaSim's Lua functions take them: a number is a number,
+    so a whole float (numpy's 4.0, a handle kept in ``np.zeros(16)``) is accepted wherever an
+    integer is (``luaToInt``: ``lua_tointeger``, else the number cast). Whole floats at the top
+    level, and in a top-level map (``sim.getObject``'s options), become ints."""
+    if func in FLOAT_VALUES:
+        return args
+    out: list[Any] = []
+    for a in args:
+        if isinstance(a, float) and a.is_integer() and abs(a) < 2 ** 53:
+            a = int(a)
+        elif isinstance(a, dict):
+            a = {k: int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
+                 for k, v in a.items()}
+        out.append(a)
+    return out
+
 
 
 class Server:

@@ -64,8 +64,7 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 
 # Functions a CoppeliaSim script commonly calls that this stand-in does not offer: listed in
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
-UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
-               "loadModel")
+UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "loadModel")
 
 _MECHANISM = ("joint", "force", "body")
 
@@ -95,28 +94,6 @@ def shown(value: object) -> str:
     if value is None or isinstance(value, (bool, int, float)):
         return str(value)
     return f"a {type(value).__name__}"
-
-
-# Calls whose arguments keep a whole float a float: the value comes back as it was given.
-FLOAT_VALUES = frozenset({"sim.setFloatSignal", "sim.setFloatParam", "sim.callScriptFunction"})
-
-
-def lua_numbers(func: str, args: Args) -> Args:
-    """A request's arguments as CoppeliaSim's Lua functions take them: a number is a number,
-    so a whole float (numpy's 4.0, a handle kept in ``np.zeros(16)``) is accepted wherever an
-    integer is (``luaToInt``: ``lua_tointeger``, else the number cast). Whole floats at the top
-    level, and in a top-level map (``sim.getObject``'s options), become ints."""
-    if func in FLOAT_VALUES:
-        return args
-    out: Args = []
-    for a in args:
-        if isinstance(a, float) and a.is_integer() and abs(a) < 2 ** 53:
-            a = int(a)
-        elif isinstance(a, dict):
-            a = {k: int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
-                 for k, v in a.items()}
-        out.append(a)
-    return out
 
 
 def as_handle(value: object) -> int:
@@ -226,16 +203,7 @@ class SimApi:
             # programmatically"); a pre-4.3 name is for the deprecated sim.getObjectHandle
             raise SimError(f"{E_PATH} (labsim serve: '{path}' is an object name from before CoppeliaSim 4.3; "
                            f"sim.getObject takes a path: '{self.tree.path(old, short=True)}')")
-        near = self.tree.similar(path)
-        if near is not None:
-            # the stand-in answers only the names of the scene it stands for: a script that
-            # passes here runs on CoppeliaSim with that scene (docs/coppeliasim.md)
-            hint = f"this scene's object is '{self.tree.path(near, short=True)}'"
-        else:
-            robots = [self.tree.path(r.obj) for r in self.sim.robots]
-            hint = (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: "
-                    + ", ".join(robots) if robots else "this scene has no robots")
-        raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {hint})")
+        raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {self.tree.hint(path)})")
 
     def _sim_getObjectHandle(self, client: Client, args: Args) -> list[object]:
         """Deprecated since CoppeliaSim 4.3, kept in 4.6: a path, or a name from before 4.3."""
