@@ -33,7 +33,7 @@ def test_run_prints_a_summary(capsys) -> None:
 def test_run_writes_a_trace_and_plot_draws_it(capsys, tmp_path: Path) -> None:
     trace, png = tmp_path / "run.csv", tmp_path / "run.png"
     assert cli(capsys, "run", str(LAB), "--set", "minutes=0.2", "--trace", str(trace), "-q")[0] == 0
-    assert len(trace.read_text().splitlines()) == 2 + 241 + 1  # header, columns, rows (the stopping tick's too), the "# end" footer
+    assert len(trace.read_text().splitlines()) == 2 + 241 + 1  # header, columns, rows and the stopping tick, footer
     code, out, _ = cli(capsys, "plot", str(trace), "-o", str(png))
     assert code == 0 and png.stat().st_size > 10_000
 
