@@ -179,6 +179,18 @@ CASES: list[Case] = [
     Case("a shared-value cycle", one(_request_with_raw_arg(b"\xd8\x1c\x81\xd8\x1d\x00")), Err(E_TAGS)),
     Case("a decimal fraction of exponent 2**63", one(_request_with_raw_arg(
         b"\xc4\x82\x1b" + (2**63 - 1).to_bytes(8, "big") + b"\x01")), Err(E_TAGS)),
+    # --- what a client makes the server keep or decode (issue: 1.2 GB of signals, a 31 s unpack)
+    Case("unpackFloatTable of 40 MB", one(req("sim.unpackFloatTable", b"\0" * (40 * MIB))),
+         Err("an unpack returns at most 1048576 values; this one would return 10485760")),
+    Case("unpackDoubleTable of 9 MB, counted", one(req("sim.unpackDoubleTable", b"\0" * (9 * MIB), 0, 2**62)),
+         Err("an unpack returns at most 1048576 values; this one would return 1179648")),
+    Case("unpack with a start past the end", one(req("sim.unpackFloatTable", b"\0" * 8, 2**62, 5)), RET),
+    Case("a 17 MB string signal", one(req("sim.setStringSignal", "big", b"\0" * (17 * MIB))),
+         Err("a signal holds at most 16 MiB; 'big' was given 17825792 bytes")),
+    Case("an int32 signal of 2**40", one(req("sim.setInt32Signal", "n", 2**40)), Err("an int32 signal holds")),
+    Case("a float signal of a text", one(req("sim.setFloatSignal", "f", "x")), Err(E_ARGS)),
+    Case("an int32 signal of NaN", one(req("sim.setInt32Signal", "n", float("nan"))), Err(E_ARGS)),
+    Case("a float handle of 1e300", one(req("sim.getObjectAlias", 1e300)), Err(E_ARGS)),
     Case("a 70 MB message, over the socket's limit", one(req("sim.getObject", b"\0" * (70 * MIB))), DROPPED),
     # --- frames (issue: a 2-frame request was never answered) ----------------------------------
     Case("two frames", lambda: [[req("sim.getSimulationTime"), req("sim.getSimulationTime")]], Err(E_FRAMES)),

@@ -201,8 +201,8 @@ class Fleet:
     def sense(self, first: bool) -> list[list[object]]:
         """Every robot's channels; ``first``: the first sense() since open (no contact time yet)."""
         if self._script >= 0:  # the fleet script: every robot's readings in one call
-            replies = check_sense(self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan),
-                                  [r.name for r in self.rovers], self._plan)
+            reply = self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan)
+            replies = self._conn.checked(lambda: check_sense(reply, [r.name for r in self.rovers], self._plan))
             out = [self._sense(r, _Readings(*reply), first) for r, reply in zip(self.rovers, replies)]
         else:
             out = [self._sense(r, self._read(r), first) for r in self.rovers]

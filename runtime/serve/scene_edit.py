@@ -60,6 +60,7 @@ from labsim.runtime.serve.mechanism_edit import (
     MechanismEditor,
     floats,
 )
+from labsim.runtime.serve.scene_tree import glob_match
 from labsim.runtime.serve.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.runtime.serve.sim_api import (
     E_ARGS,
@@ -91,7 +92,7 @@ EDITS = tuple(f"sim.{n}" for n in (
     "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
-    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
+    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix", "getObjectAlias", "getObject",
 ))
 
 
@@ -190,6 +191,10 @@ class SceneEditor:
         return [info]
 
     # --- rebuilding the simulation -------------------------------------------------------------
+
+    def built_handles(self) -> dict[str, int]:
+        """Name -> handle of what a mechanism was built from: the simulation answers to those."""
+        return self.mechanism_edit.handles()
 
     def world(self) -> World:
         """The world the built shapes make (walls, blocks, the floor's bounds), over the loaded
@@ -380,14 +385,24 @@ class SceneEditor:
         self.dirty = True
         return []
 
-    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+    def _simulated(self, args: Args) -> Shape | None:
+        """The built shape ``args[0]`` names, unless the simulation moves it (a mechanism's body,
+        which answers to its built handle): then None, and the simulation answers for it."""
         shape = self._shape(args)
+        if shape is not None:
+            self._settle()
+            if as_handle(args[0]) in self.server.simulation.tree.objects:
+                return None
+        return shape
+
+    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._simulated(args)
         if shape is None:
             return self._simulation("sim.getObjectPosition", client, args)
         return [[shape.x, shape.y, shape.z]]
 
     def _getObjectOrientation(self, client: Client, args: Args) -> list[object]:
-        shape = self._shape(args)
+        shape = self._simulated(args)
         if shape is None:
             return self._simulation("sim.getObjectOrientation", client, args)
         return [[0.0, 0.0, shape.yaw]]
@@ -397,6 +412,36 @@ class SceneEditor:
         ret = self.server.sim_handlers()[name](client, args)
         assert isinstance(ret, list)
         return ret
+
+    def _getObjectAlias(self, client: Client, args: Args) -> list[object]:
+        # a built wall, block or floor is no object of the simulation's tree: its alias is here
+        shape = self._shape(args)
+        h = as_handle(args[0])
+        self._settle()
+        if shape is None or h in self.server.simulation.tree.objects:
+            return self._simulation("sim.getObjectAlias", client, args)
+        options = as_handle(args[1]) if len(args) > 1 and args[1] is not None else -1
+        tree = self.server.simulation.tree.objects
+        same = [k for k, s in self.shapes.items() if s.alias == shape.alias and k not in tree]
+        n = same.index(h)
+        return [shape.alias if options == -1 else f"{shape.alias}[{n}]" if options == 0 else f"/{shape.alias}[{n}]"]
+
+    def _getObject(self, client: Client, args: Args) -> list[object]:
+        # the simulation's objects by CoppeliaSim's paths, then the built walls, blocks and floors
+        # at the top level: "/wall", "/wall[3]", "./labsimFloor"
+        try:
+            return self._simulation("sim.getObject", client, args)
+        except SimError:
+            path = args[0] if args and isinstance(args[0], str) else ""
+            name = path.removeprefix("/").removeprefix("./").removeprefix(":/")
+            alias, _, rest = name.partition("[")
+            n = 0 if not rest else int(rest[:-1]) if rest.endswith("]") and rest[:-1].isdigit() and len(rest) <= 10 \
+                else -1
+            tree = self.server.simulation.tree.objects
+            same = [k for k, s in self.shapes.items() if k not in tree and alias and glob_match(alias, s.alias)]
+            if "/" not in name and 0 <= n < len(same):
+                return [same[n]]
+            raise
 
     def _saveScene(self, client: Client, args: Args) -> list[object]:
         raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")

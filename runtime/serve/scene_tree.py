@@ -67,9 +67,10 @@ class SceneTree:
 
     # --- building ----------------------------------------------------------------------------
 
-    def add(self, obj: SceneObject) -> SceneObject:
-        """Give ``obj`` the next handle and put it last among its parent's children."""
-        obj.handle = len(self.objects) + 1
+    def add(self, obj: SceneObject, handle: int | None = None) -> SceneObject:
+        """Give ``obj`` the next handle (or ``handle``: the one it was built with) and put it
+        last among its parent's children."""
+        obj.handle = handle if handle is not None and handle not in self.objects else len(self.objects) + 1
         self.objects[obj.handle] = obj
         (obj.parent.children if obj.parent is not None else self.top).append(obj)
         return obj
@@ -137,12 +138,14 @@ class SceneTree:
             self._old_names[f"Pioneer_p3dx_ultrasonicSensor{k + 1}{suffix}"] = s
         return base
 
-    def add_mechanism(self, mechanism: Mechanism) -> list[str]:
+    def add_mechanism(self, mechanism: Mechanism, handles: dict[str, int] | None = None) -> list[str]:
         """A mechanism's joints (all but fixed ones), force sensors and moving bodies, at the
-        top level by their names; returns those names, which are its channels, in order."""
+        top level by their names; returns those names, which are its channels, in order.
+        ``handles``: the handles the parts were built with (``serve --empty``), so that each
+        object answers to one handle."""
         channels = list(mechanism.channels().items())
         for name, kind in channels:
-            self.add(SceneObject(0, name, _KINDS[kind], None, name=name))
+            self.add(SceneObject(0, name, _KINDS[kind], None, name=name), (handles or {}).get(name))
         return [name for name, _ in channels]
 
     # --- reading -----------------------------------------------------------------------------

@@ -186,7 +186,8 @@ class Server:
 
     def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None:
         """A new simulation of ``world`` and ``robots`` (stopped), keeping the connected clients."""
-        simulation = Simulation(world, robots, self.dt_s, self.log)
+        handles = self.editor.built_handles() if self.editor is not None else None
+        simulation = Simulation(world, robots, self.dt_s, self.log, handles)
         simulation.clients = self._clients
         self.world, self.simulation = world, simulation
         self._sim_funcs = self._with_script(SimApi(simulation).handlers())

@@ -262,8 +262,8 @@ class ObjectCalls:
         if d is not None:
             return d.matrix
         editor = self.server.editor
-        if editor is not None and h in editor.shapes:
-            s = editor.shapes[h]
+        if editor is not None and h in editor.shapes and h not in self.server.simulation.tree.objects:
+            s = editor.shapes[h]  # a wall, block or floor: where it was built (a body moves: below)
             return mx.from_euler((s.x, s.y, s.z), (0.0, 0.0, s.yaw))
         handler = self.server.base_handlers()["sim.getObjectPose"]
         ret = handler(client or _NOBODY, [h, HANDLE_WORLD])
@@ -375,7 +375,7 @@ class ObjectCalls:
             kids.setdefault(o.parent.handle if o.parent is not None else -1, []).append(
                 (o.handle, _KIND_TYPE.get(o.kind, 0)))
         if editor is not None:
-            kids.setdefault(-1, []).extend((h, 0) for h in editor.shapes)
+            kids.setdefault(-1, []).extend((h, 0) for h in editor.shapes if h not in tree.objects)
         for h, d in self.dummies.items():
             kids.setdefault(d.parent, []).append((h, TYPES["dummy"]))
         return kids
