@@ -42,7 +42,6 @@ from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import Camera, GroundSensor
 from labsim.backends.scene.world import Block, Wall, World
-from labsim.foundation.files import SCRATCH_PREFIX
 from labsim.runtime.builder.mechanism import build_mechanism
 
 # Each model's file under CoppeliaSim's resources folder, and what the log calls it
@@ -149,11 +148,9 @@ def _floor(conn: Connection, world: World) -> None:
 
 
 def _ground(conn: Connection, world: World) -> None:
-    """The painted floor: labsim's drawing of it as the texture of a plane just above the floor."""
-    import tempfile
-    from pathlib import Path
-
-    import cv2
+    """The painted floor: labsim's drawing of it as the texture of a plane just above the floor,
+    sent as data: a CoppeliaSim on another machine cannot read a file on this one."""
+    import numpy as np
 
     from labsim.backends.pymunk.camera import draw_ground
 
@@ -162,15 +159,17 @@ def _ground(conn: Connection, world: World) -> None:
     ppm = float(world.ground.px_per_m)
     height_px, width_px = picture.shape[:2]
     w, h = width_px / ppm, height_px / ppm
-    # a scratch folder labsim serve may read the picture from (foundation/files.served_problem)
-    with tempfile.TemporaryDirectory(prefix=SCRATCH_PREFIX) as folder:
-        png = str(Path(folder) / f"{world.name}-ground.png")
-        cv2.imwrite(png, cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
-        # sim.createTexture(string fileName, int options, list planeSizes): CoppeliaSim 4.6;
-        # it makes a plane of that size with the picture on it, and returns the plane's handle
-        # (then the texture's id and resolution). CoppeliaSim reads the file at once.
-        ret = conn.call("sim.createTexture", png, 0, [w, h])
-    plane = int(ret[0] if isinstance(ret, (list, tuple)) else ret)
+    # sim.createTexture(string fileName, int options, list planeSizes, list scalingUV, list xy_g,
+    # int fixedResolution, list resolution): CoppeliaSim 4.6 to 4.10; an empty fileName makes a
+    # plane of that size with a blank texture of that resolution, and returns the plane's
+    # handle, the texture's id and its resolution (coppeliaSimLib simCreateTexture_internal)
+    ret = conn.call("sim.createTexture", "", 0, [w, h], [w, h], [0.0, 0.0, 0.0], 0, [width_px, height_px])
+    if not isinstance(ret, (list, tuple)) or len(ret) < 2:
+        raise BackendError(f"labsim scene: sim.createTexture answered {ret!r}, not a plane and a texture id")
+    plane, texture = int(ret[0]), int(ret[1])
+    # sim.writeTexture(int textureId, int options, buffer data): RGB rows from the picture's top,
+    # the order CoppeliaSim's own loader gives a texture read from a file (imgLoaderSaver.cpp)
+    conn.call("sim.writeTexture", texture, 0, np.ascontiguousarray(picture, dtype=np.uint8).tobytes())
     _static(conn, plane, "labsimGround", respondable=False)
     _place(conn, plane, xmin + w / 2, ymax - h / 2, 0.001, 0.0)
 

@@ -541,3 +541,25 @@ def test_a_built_shape_answers_to_one_handle() -> None:
         assert err.startswith("labsim serve: a cuboid's sizes are finite numbers of metres, greater than 0 and at "
                               "most 10000, not "), err
     assert wire("sim.createPrimitiveShape", 1, [2.0, 2.0, 0.0], 0) > wall  # a plane is flat
+
+
+def test_a_texture_is_sent_as_data_and_written_where_it_is_asked() -> None:
+    from labsim.runtime.serve.scene_edit import EMPTY
+
+    server = Server(EMPTY, 0, port=0, empty=True)
+    wire = Wire(server)
+    plane, texture, res = wire("sim.createTexture", "", 0, [2.0, 1.0], [2.0, 1.0], [0.0, 0.0, 0.0], 0, [4, 2])
+    assert texture == plane and res == [4, 2]
+    assert wire("sim.writeTexture", texture, 0, bytes(range(24))) == 1
+    assert wire("sim.writeTexture", float(texture), 0, b"\xff" * 3, 3, 1, 1, 1) == 1  # one pixel, bottom right
+    import cv2
+
+    shape = server.editor.shapes[plane]
+    rgb = cv2.cvtColor(cv2.imdecode(np.frombuffer(shape.png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    assert rgb[0].tolist() == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11]]  # the first row written first
+    assert rgb[1].tolist() == [[12, 13, 14], [15, 16, 17], [18, 19, 20], [255, 255, 255]]
+    assert "needs 24 bytes of RGB, was given 3" in wire.raw("sim.writeTexture", texture, 0, b"abc")["err"]
+    assert wire.raw("sim.writeTexture", 5, 0, b"abc")["err"].startswith("texture does not exist.")
+    assert "1 to 4096 pixels a side, not 100000 x 2" in wire.raw(
+        "sim.createTexture", "", 0, [1.0, 1.0], None, None, 0, [100_000, 2])["err"]
+    assert "plane sizes are finite" in wire.raw("sim.createTexture", "", 0, [float("nan"), 1.0])["err"]
