@@ -67,6 +67,9 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
                            f"has model "
                            f"'{other.model.name}'; load its model into your scene by hand "
                            "(docs/coppeliasim.md names its objects) and run with --backend coppeliasim")
+    unbuilt = _unbuilt_sensors(robots)
+    if unbuilt:  # before anything is built: never a scene that silently lacks a sensor
+        raise BackendError(f"labsim scene: {unbuilt}")
     conn.open(dt_s)
     try:
         conn.require_sim()
@@ -101,6 +104,26 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             log(f"labsim scene: saved {save}")
     finally:
         conn.close()
+
+
+def _unbuilt_sensors(robots: Sequence[RobotRequest]) -> str:
+    """Why a robot's sensors cannot all be built, naming the first sensor that cannot, or ""."""
+    for req in robots:
+        model = req.model
+        assert model is not None
+        if model.lidars:
+            beams = model.lidars[0].beams
+            return (f"robot '{req.name}' has a lidar (lidar1..lidar{beams}), and labsim scene builds no laser "
+                    f"scanner: the scene would read nothing in range on every beam. Add a scanner to your "
+                    f"CoppeliaSim scene by hand that publishes every beam's range as the string signal "
+                    f"'labsimLidarRanges' (docs/coppeliasim.md, \"A lidar's scan\"), or run the behaviour on the "
+                    f"embedded backend")
+        bumpers = [ch for ch in req.channels if ch in {b.name for b in model.bumpers}]
+        if bumpers and model.name == "pioneer_p3dx":
+            return (f"robot '{req.name}' reads {bumpers[0]}, and CoppeliaSim's Pioneer P3DX has no bumpers: "
+                    f"labsim scene builds none. Add proximity sensors of 2 cm aliased bumper_front_left .. "
+                    f"bumper_back_right under the robot by hand (docs/coppeliasim.md), or read its sonars")
+    return ""
 
 
 def _counted(robots: Sequence[RobotRequest]) -> str:
