@@ -33,6 +33,8 @@ CALLS = (
     "getObjectFloatParam", "jointfloatparam_velocity", "getVisionSensorCharImage", "readVisionSensor",
     "handleVisionSensor", "getVisionSensorDepth", "getObjectsInTree", "setShapeColor", "setObjectParent",
     "removeObject", "getSystemTime", "wait", "callScriptFunction", "getScript", "saveScene", "closeScene",
+    "getObjectChild", "checkProximitySensor", "getVisionSensorImage", "setJointForce", "setInt32Signal",
+    "getInt32Signal", "clearInt32Signal", "setFloatSignal", "getFloatSignal",
 )
 
 
