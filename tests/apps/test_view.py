@@ -145,7 +145,7 @@ def test_slider_messages_reach_the_run() -> None:
     assert frame["labels"]["speed"] == "Arm Speed: 0.10"
     assert frame["sliders"]["arm"] == 5
     mode, value = frame["mechanism"]["targets"]["Arm_Actuator"]
-    assert mode == "velocity" and math.isclose(value, 0.5)  # the slider's value, within the motor's max_speed
+    assert mode == "velocity" and math.isclose(value, 5.0)  # the slider's value: the script's setJointTargetVelocity
     s.close()
 
 
