@@ -547,7 +547,9 @@ class SceneEditor:
         if w < 0 or h < 0 or w > MAX_TEXTURE_PX or h > MAX_TEXTURE_PX or len(data) < 3 * w * h:
             raise SimError(f"labsim serve: sim.writeTexture of {w} x {h} pixels needs {3 * w * h} bytes of RGB, "
                            f"was given {len(data)}")
-        picture = cv2.cvtColor(cv2.imdecode(np.frombuffer(shape.png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+        decoded = cv2.imdecode(np.frombuffer(shape.png, np.uint8), cv2.IMREAD_COLOR)
+        assert decoded is not None  # the stand-in's own encoding of the texture
+        picture = cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
         patch = np.frombuffer(bytes(data[:3 * w * h]), np.uint8).reshape(h, w, 3)
         x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, width), min(y + h, height)
         if x1 > x0 and y1 > y0:  # the part inside the texture, as CoppeliaSim writes it
