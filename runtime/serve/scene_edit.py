@@ -25,7 +25,8 @@ Coordinates are rounded to the nanometre and angles to the nanoradian when the w
 rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
 reproduces the embedded backend's trace.
 
-* ``sim.createTexture`` of a PNG makes a textured plane; the ground its cameras see is that
+* ``sim.createTexture`` of a PNG, or of a blank texture ``sim.writeTexture`` fills
+  (``texture_edit``), makes a textured plane; the ground its cameras see is that
   picture, placed and scaled as the plane is (``labsim.backends.scene.ground.Texture``), the
   floor's colour its corner pixel's;
 * a vision sensor (``sim.createVisionSensor``) parented to a robot (``sim.setObjectParent``)
@@ -52,8 +53,15 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.object_paths import fill
 from labsim.backends.scene.world import Pose, World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_served
-from labsim.runtime.serve.built import LOADED_MODELS, Sensor, Shape, primitive, read_shapes, robot_model
+from labsim.runtime.serve.built import (
+    LOADED_MODELS,
+    MAX_SIZE_M,
+    Sensor,
+    Shape,
+    primitive,
+    read_shapes,
+    robot_model,
+)
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
     MECHANISM_CONSTANTS,
@@ -75,8 +83,8 @@ from labsim.runtime.serve.sim_api import (
     value_and_frame,
 )
 from labsim.runtime.serve.simulation import Client, Simulation
+from labsim.runtime.serve.texture_edit import TextureEdits
 
-MAX_SIZE_M = 10_000.0  # a built shape's largest size: a room of 10 km is no lab's
 FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
 RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
 EMPTY = World("scene", "an empty scene", (-10.0, -10.0, 10.0, 10.0))  # its bounds: with no floor built
@@ -95,7 +103,6 @@ EDITS = tuple(f"sim.{n}" for n in (
     "createVisionSensor", "createTexture", "writeTexture", "setObjectParent", "setObjectMatrix", "getObjectAlias",
     "getObject",
 ))
-MAX_TEXTURE_PX = 4096  # a texture's side: labsim's largest painted floor (road_loop) is 2570 pixels
 
 
 class Host(Protocol):
@@ -110,7 +117,7 @@ class Host(Protocol):
     def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None: ...
 
 
-class SceneEditor:
+class SceneEditor(TextureEdits):
     """Edits of an empty scene, and the handlers that take them (``handlers()``)."""
 
     def __init__(self, server: Host, base: World = EMPTY, base_robots: Sequence[RobotRequest] = ()) -> None:
@@ -487,75 +494,3 @@ class SceneEditor:
         sensor.matrix = floats(args[1], 12)
         self.dirty = True
         return []
-
-    def _createTexture(self, client: Client, args: Args) -> list[object]:
-        # sim.createTexture(string fileName, int options, list planeSizes, list scalingUV, list xy_g,
-        # int fixedResolution, list resolution): CoppeliaSim 4.6; returns the textured plane's
-        # handle, the texture's id (here the plane's handle) and its resolution. An empty
-        # fileName: a blank texture of that resolution (default 512 x 512), for sim.writeTexture
-        import cv2
-        import numpy as np
-
-        if len(args) < 3 or not isinstance(args[0], str):
-            raise SimError(E_FEW if len(args) < 3 else E_ARGS)
-        sizes = floats(args[2], 2)
-        if not all(math.isfinite(v) and 0 < v <= MAX_SIZE_M for v in sizes):
-            raise SimError(f"labsim serve: a texture's plane sizes are finite numbers of metres, greater than 0 and "
-                           f"at most {MAX_SIZE_M:g}, not {', '.join(f'{v:g}' for v in sizes)}")
-        if args[0] == "":
-            res = [as_handle(v) for v in floats(args[6], 2)] if len(args) > 6 and args[6] is not None else [512, 512]
-            if not all(1 <= v <= MAX_TEXTURE_PX for v in res):
-                raise SimError(f"labsim serve: a texture is 1 to {MAX_TEXTURE_PX} pixels a side, not "
-                               f"{res[0]} x {res[1]}")
-            ok, encoded = cv2.imencode(".png", np.zeros((res[1], res[0], 3), np.uint8))
-            assert ok
-            png, (width, height) = encoded.tobytes(), res
-        else:
-            try:  # the one way in, kept to the folders a client may read (docs/security.md, "The server")
-                png = read_served(args[0], self.server.folder, "texture")
-            except LabsimError as e:
-                raise SimError(f"labsim serve: cannot read the texture '{shown(args[0])}': "
-                               f"{e.diagnostics[0].message}") from None
-            picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
-            if picture is None:
-                raise SimError(f"labsim serve: the texture '{shown(args[0])}' is not an image")
-            height, width = picture.shape[:2]
-        [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
-        return [h, h, [width, height]]
-
-    def _writeTexture(self, client: Client, args: Args) -> list[object]:
-        # sim.writeTexture(int textureId, int options, buffer data, int posX = 0, int posY = 0,
-        # int sizeX = 0, int sizeY = 0, float interpol = 0): CoppeliaSim 4.6; RGB rows in the
-        # texture's order (the first row is the picture's top, as a file loads); a size of 0:
-        # the whole texture
-        import cv2
-        import numpy as np
-
-        if len(args) < 3:
-            raise SimError(E_FEW)
-        shape = self.shapes.get(as_handle(args[0]))
-        data = args[2].encode() if isinstance(args[2], str) else args[2]
-        if shape is None or shape.kind != "texture":
-            raise SimError("texture does not exist.")
-        if not isinstance(data, (bytes, bytearray)):
-            raise SimError(E_ARGS)
-        nums = [as_handle(a) if a is not None else 0 for a in args[3:7]] + [0] * 4
-        width, height = shape.px
-        x, y = (nums[0], nums[1])
-        w, h = (nums[2] or width, nums[3] or height)
-        x, y = (0 if nums[2] == 0 else x), (0 if nums[3] == 0 else y)
-        if w < 0 or h < 0 or w > MAX_TEXTURE_PX or h > MAX_TEXTURE_PX or len(data) < 3 * w * h:
-            raise SimError(f"labsim serve: sim.writeTexture of {w} x {h} pixels needs {3 * w * h} bytes of RGB, "
-                           f"was given {len(data)}")
-        decoded = cv2.imdecode(np.frombuffer(shape.png, np.uint8), cv2.IMREAD_COLOR)
-        assert decoded is not None  # the stand-in's own encoding of the texture
-        picture = cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
-        patch = np.frombuffer(bytes(data[:3 * w * h]), np.uint8).reshape(h, w, 3)
-        x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, width), min(y + h, height)
-        if x1 > x0 and y1 > y0:  # the part inside the texture, as CoppeliaSim writes it
-            picture[y0:y1, x0:x1] = patch[y0 - y:y1 - y, x0 - x:x1 - x]
-        ok, encoded = cv2.imencode(".png", cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
-        assert ok
-        shape.png = encoded.tobytes()
-        self.dirty = True
-        return [1]
