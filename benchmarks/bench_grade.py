@@ -60,8 +60,8 @@ def make_class(folder: Path, students: int, seeds: int, minutes: float) -> None:
     (folder / "class").mkdir()
     for i in range(students):
         gains = text.replace("front: 0.5 ", f"front: {rng.uniform(0.35, 0.8):.3f} ")
-        gains = gains.replace("hold: 0.45 ", f"hold: {rng.uniform(0.35, 0.6):.3f} ")
-        gains = gains.replace("cruise: 4 ", f"cruise: {rng.uniform(3, 5):.2f} ")
+        gains = gains.replace("side: 0.3 ", f"side: {rng.uniform(0.25, 0.35):.3f} ")
+        gains = gains.replace("cruise: 2 ", f"cruise: {rng.uniform(1.5, 2):.2f} ")
         (folder / "class" / f"student_{i:03d}.yaml").write_text(gains)
     (folder / "assignment.yaml").write_text(
         f"labsim-assignment: 1\ntitle: bench\nworld: walls_lab4\nrobots: 1\nparams: {{minutes: {minutes:g}}}\n"

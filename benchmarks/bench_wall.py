@@ -66,7 +66,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
 
     # --- from here on, a hand-written controller on raw pymunk ---
     dt = 0.05
-    front, side, hold, cruise = 0.5, 0.3, 0.45, 4.0
+    front, side, cruise = 0.5, 0.3, 2.0
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
     rng = random.Random(f"{p.seed}/pioneer")
     sonars = {s.name: s for s in model.sonars}
@@ -126,6 +126,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     left_cmd = right_cmd = 0.0
     sent = (math.nan, math.nan)
     near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, inf
+    turn_squares, turn_ticks, prev_h = 0.0, 0, None
     contact_time = 0.0
     released = 0  # contacts after which the body went back to chipmunk's own update
     tick = 0
@@ -149,28 +150,35 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
                             v = info.alpha * reach
                     d[i] = v
         s2, s5, s8, s9, s14, s15 = d
-        r = rng.randint(0, 100)
-        ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
-        steer = 4 * (s9 - s8) + 3 * (hold - right) if s8 < inf and s9 < inf else 0
+        r = rng.randint(-2, 2)
+        ahead, right, left = min(s5, s2), min(s8, s9), min(s15, s14)
+        h = math.remainder(a, 2 * math.pi)
+        turned = h - (h if prev_h is None else prev_h)
+        turn = math.degrees(math.atan2(sin(turned), cos(turned))) / dt
+        prev_h = h
 
         was_following = following
         if not following:
-            if ahead <= front or right <= front:
+            if ahead <= front or s8 <= front or s15 <= front or min(s9, s14) <= front:
                 following = True
             else:
-                left_cmd, right_cmd = r - 1, r + 1
+                left_cmd, right_cmd = min(cruise, cruise - r), min(cruise, cruise + r)
         elif ahead <= front:
             left_cmd, right_cmd = -2, 2
-        elif right <= side:
-            left_cmd, right_cmd = cruise - 2, cruise
-        elif left <= side:
+        elif s8 <= side:
+            left_cmd, right_cmd = cruise - 1, cruise
+        elif s15 <= side:
             left_cmd, right_cmd = cruise, cruise - 1
-        elif s8 < inf and s9 < inf:
-            left_cmd, right_cmd = cruise - steer, cruise + steer
-        elif s8 < inf or s9 < inf:
+        elif s8 <= front and s9 <= front and s8 < s9:
+            left_cmd, right_cmd = cruise - 0.5, cruise
+        elif s8 <= front and s9 <= front:
+            left_cmd, right_cmd = cruise, cruise - 0.5
+        elif s8 <= front:
             left_cmd = right_cmd = cruise
+        elif s9 <= front:
+            left_cmd, right_cmd = cruise, cruise / 4
         else:
-            left_cmd, right_cmd = cruise, cruise / 3
+            left_cmd, right_cmd = cruise, cruise / 2
 
         if (left_cmd, right_cmd) != sent:
             sent = (left_cmd, right_cmd)
@@ -191,6 +199,8 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         if was_following and (s8 < inf or s9 < inf):
             following_ticks += 1
         closest = min(closest, ahead, right, left)
+        turn_squares += turn * turn  # smoothness: rms(turn)
+        turn_ticks += 1
 
         step(cp_space, dt)
         if touching[0]:
@@ -221,7 +231,7 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     # body touching a wall is driven through its velocity_func, inside the step)
 
     dt = 0.05
-    front, side, hold, cruise = 0.5, 0.3, 0.45, 4.0
+    front, side, cruise = 0.5, 0.3, 2.0
     radius, axle, limit = model.wheel_radius_m, model.axle_length_m, model.max_wheel_speed_rad_s
     rng = random.Random(f"{p.seed}/pioneer")
     sonars = {s.name: s for s in model.sonars}
@@ -254,6 +264,7 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
     following = False
     left_cmd = right_cmd = 0.0
     near_misses, was_near, overshoot_ticks, following_ticks, closest = 0, False, 0, 0, math.inf
+    turn_squares, turn_ticks, prev_h = 0.0, 0, None
     contact_time = 0.0
     tick = 0
     while tick * dt < MINUTES[0] * 60:
@@ -272,29 +283,35 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
                     nearest = hit.alpha * reach
             d.append(nearest)
         s2, s5, s8, s9, s14, s15 = d
-        r = rng.randint(0, 100)
-        ahead, right, left = min(s5, s2), min(s8, s9), min(s14, s15)
-        both = s8 < math.inf and s9 < math.inf
-        steer = 4 * (s9 - s8) + 3 * (hold - right) if both else 0
+        r = rng.randint(-2, 2)
+        ahead, right, left = min(s5, s2), min(s8, s9), min(s15, s14)
+        h = math.remainder(a, 2 * math.pi)
+        turned = h - (h if prev_h is None else prev_h)
+        turn = math.degrees(math.atan2(math.sin(turned), math.cos(turned))) / dt
+        prev_h = h
 
         was_following = following
         if not following:
-            if ahead <= front or right <= front:
+            if ahead <= front or s8 <= front or s15 <= front or min(s9, s14) <= front:
                 following = True
             else:
-                left_cmd, right_cmd = r - 1, r + 1
+                left_cmd, right_cmd = min(cruise, cruise - r), min(cruise, cruise + r)
         elif ahead <= front:
             left_cmd, right_cmd = -2, 2
-        elif right <= side:
-            left_cmd, right_cmd = cruise - 2, cruise
-        elif left <= side:
+        elif s8 <= side:
+            left_cmd, right_cmd = cruise - 1, cruise
+        elif s15 <= side:
             left_cmd, right_cmd = cruise, cruise - 1
-        elif both:
-            left_cmd, right_cmd = cruise - steer, cruise + steer
-        elif s8 < math.inf or s9 < math.inf:
+        elif s8 <= front and s9 <= front and s8 < s9:
+            left_cmd, right_cmd = cruise - 0.5, cruise
+        elif s8 <= front and s9 <= front:
+            left_cmd, right_cmd = cruise, cruise - 0.5
+        elif s8 <= front:
             left_cmd = right_cmd = cruise
+        elif s9 <= front:
+            left_cmd, right_cmd = cruise, cruise / 4
         else:
-            left_cmd, right_cmd = cruise, cruise / 3
+            left_cmd, right_cmd = cruise, cruise / 2
 
         wl = max(-limit, min(limit, left_cmd))
         wr = max(-limit, min(limit, right_cmd))
@@ -312,6 +329,8 @@ def plain_run() -> tuple[float, list[tuple[float, float, float]]]:
         if was_following and (s8 < math.inf or s9 < math.inf):
             following_ticks += 1
         closest = min(closest, ahead, right, left)
+        turn_squares += turn * turn  # smoothness: rms(turn)
+        turn_ticks += 1
 
         space.step(dt)
         if touching[0]:

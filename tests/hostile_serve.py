@@ -155,7 +155,9 @@ CASES: list[Case] = [
     Case("an index of 5,000 digits", one(req("sim.getObject", "/PioneerP3DX{" + "9" * 5_000 + "}")), Err(E_PATH)),
     Case("unicode digits in an index", one(req("sim.getObject", "/PioneerP3DX[\u0663]")), Err(E_PATH)),
     Case("control characters in a path", one(req("sim.getObject", "/Pioneer\x00P3DX\n")), Err(E_PATH)),
-    Case("a relative path with no proxy", one(req("sim.getObject", "./" + "*" * 40)), Err(E_PATH)),
+    Case("a relative path with no proxy: from the top", one(req("sim.getObject", "./" + "*" * 40 + "Z")), Err(E_PATH)),
+    Case("a thousand star segments", one(req("sim.getObject", "/" + "*/" * 1000 + "Z")), Err(E_PATH)),
+    Case("star segments from the model", one(req("sim.getObject", ":/" + "*?/" * 500 + "Z")), Err(E_PATH)),
     Case("a format string as a path", one(req("sim.getObject", "/P{i.__class__.__mro__[1]}")), Err(E_PATH)),
     # --- size, depth and count (issue: memory to gigabytes, minutes of work) -------------------
     Case("a 50 MB text", one(req("sim.getObject", "x" * (50 * MIB))), Err(E_TEXT)),
@@ -177,6 +179,18 @@ CASES: list[Case] = [
     Case("a shared-value cycle", one(_request_with_raw_arg(b"\xd8\x1c\x81\xd8\x1d\x00")), Err(E_TAGS)),
     Case("a decimal fraction of exponent 2**63", one(_request_with_raw_arg(
         b"\xc4\x82\x1b" + (2**63 - 1).to_bytes(8, "big") + b"\x01")), Err(E_TAGS)),
+    # --- what a client makes the server keep or decode (issue: 1.2 GB of signals, a 31 s unpack)
+    Case("unpackFloatTable of 40 MB", one(req("sim.unpackFloatTable", b"\0" * (40 * MIB))),
+         Err("an unpack returns at most 1048576 values; this one would return 10485760")),
+    Case("unpackDoubleTable of 9 MB, counted", one(req("sim.unpackDoubleTable", b"\0" * (9 * MIB), 0, 2**62)),
+         Err("an unpack returns at most 1048576 values; this one would return 1179648")),
+    Case("unpack with a start past the end", one(req("sim.unpackFloatTable", b"\0" * 8, 2**62, 5)), RET),
+    Case("a 17 MB string signal", one(req("sim.setStringSignal", "big", b"\0" * (17 * MIB))),
+         Err("a signal holds at most 16 MiB; 'big' was given 17825792 bytes")),
+    Case("an int32 signal of 2**40", one(req("sim.setInt32Signal", "n", 2**40)), Err("an int32 signal holds")),
+    Case("a float signal of a text", one(req("sim.setFloatSignal", "f", "x")), Err(E_ARGS)),
+    Case("an int32 signal of NaN", one(req("sim.setInt32Signal", "n", float("nan"))), Err(E_ARGS)),
+    Case("a float handle of 1e300", one(req("sim.getObjectAlias", 1e300)), Err(E_ARGS)),
     Case("a 70 MB message, over the socket's limit", one(req("sim.getObject", b"\0" * (70 * MIB))), DROPPED),
     # --- frames (issue: a 2-frame request was never answered) ----------------------------------
     Case("two frames", lambda: [[req("sim.getSimulationTime"), req("sim.getSimulationTime")]], Err(E_FRAMES)),

@@ -17,7 +17,8 @@ from __future__ import annotations
 import math
 import sys
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_WORLD, STOPPED
 from labsim.backends.coppeliasim.replies import check
@@ -32,6 +33,8 @@ except ImportError as _missing:  # pragma: no cover - depends on the installatio
         "missing); install it with: pip install 'labsim[coppeliasim]' "
         "(coppeliasim-zmqremoteapi-client==2.0.4, pyzmq, cbor2)"
     ) from None
+
+T = TypeVar("T")
 
 
 class Connection:
@@ -128,6 +131,14 @@ class Connection:
         self.busy = False
         try:
             return check(func, out, self.names.get(args[0], "") if args and type(args[0]) is int else "")
+        except BackendError as e:
+            raise BackendError(f"CoppeliaSim at {self.where}: {e}") from None
+
+    def checked(self, check_reply: Callable[[], T]) -> T:
+        """``check_reply()`` (one of ``replies``' checks of a script function's reply), its
+        error naming the server, as every other reply's does."""
+        try:
+            return check_reply()
         except BackendError as e:
             raise BackendError(f"CoppeliaSim at {self.where}: {e}") from None
 

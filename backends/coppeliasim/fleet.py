@@ -201,8 +201,8 @@ class Fleet:
     def sense(self, first: bool) -> list[list[object]]:
         """Every robot's channels; ``first``: the first sense() since open (no contact time yet)."""
         if self._script >= 0:  # the fleet script: every robot's readings in one call
-            replies = check_sense(self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan),
-                                  [r.name for r in self.rovers], self._plan)
+            reply = self._conn.call("sim.callScriptFunction", fs.SENSE, self._script, self._plan)
+            replies = self._conn.checked(lambda: check_sense(reply, [r.name for r in self.rovers], self._plan))
             out = [self._sense(r, _Readings(*reply), first) for r, reply in zip(self.rovers, replies)]
         else:
             out = [self._sense(r, self._read(r), first) for r in self.rovers]
@@ -210,13 +210,18 @@ class Fleet:
             if r.bumpers or r.ground:  # one request each, beside the script (it knows neither)
                 self._switches_and_ground(r, values)
             if r.lidar:
-                self._lidar(r, values)
+                self._lidar(r, values, first)
         return out
 
-    def _lidar(self, r: _Rover, values: list[object]) -> None:
+    def _lidar(self, r: _Rover, values: list[object], first: bool) -> None:
         """A lidar's beams: one sim.getStringSignal of every beam's range, packed doubles; no
-        signal (the first tick of a scene whose scanner has not run) reads nothing in range."""
+        signal on the first tick (a scanner that has not run yet) reads nothing in range, and
+        none after it is an error: the scene has no scanner, and a run would drive blind."""
         data = self._conn.call("sim.getStringSignal", r.lidar_signal)
+        if data is None and not first:
+            raise BackendError(f"robot '{r.name}': CoppeliaSim at {self._conn.where} publishes no signal "
+                               f"'{r.lidar_signal}' after a step, so the scene has no laser scanner for the "
+                               f"behaviour's lidar (labsim scene builds none; docs/coppeliasim.md, \"A lidar's scan\")")
         if data is None:
             for _, slot in r.lidar:
                 values[slot] = math.inf

@@ -160,8 +160,8 @@ class MechanismDriver:
         forces = [h for h, _ in p.forces]
         bodies = [h for h, _ in p.bodies] + ([p.tracked] if p.tracked >= 0 and p.slots.keys() & {"x", "y"} else [])
         plan = [list(dict.fromkeys(joints)), forces, list(dict.fromkeys(bodies))]
-        reply: Any = check_parts(self._conn.call("sim.callScriptFunction", fs.PARTS, self._script, plan),
-                                 p.name, plan)
+        raw = self._conn.call("sim.callScriptFunction", fs.PARTS, self._script, plan)
+        reply: Any = self._conn.checked(lambda: check_parts(raw, p.name, plan))
         got: dict[tuple[str, int], object] = {}
         for h, (position, velocity) in zip(plan[0], reply[0]):
             got["sim.getJointPosition", h], got["sim.getJointVelocity", h] = position, velocity

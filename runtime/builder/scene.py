@@ -42,7 +42,6 @@ from labsim.backends.coppeliasim.connection import Connection
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.models import Camera, GroundSensor
 from labsim.backends.scene.world import Block, Wall, World
-from labsim.foundation.files import SCRATCH_PREFIX
 from labsim.runtime.builder.mechanism import build_mechanism
 
 # Each model's file under CoppeliaSim's resources folder, and what the log calls it
@@ -68,15 +67,17 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
                            f"has model "
                            f"'{other.model.name}'; load its model into your scene by hand "
                            "(docs/coppeliasim.md names its objects) and run with --backend coppeliasim")
+    unbuilt = _unbuilt_sensors(robots)
+    if unbuilt:  # before anything is built: never a scene that silently lacks a sensor
+        raise BackendError(f"labsim scene: {unbuilt}")
     conn.open(dt_s)
     try:
         conn.require_sim()
         conn.stop_running()
         sim = conn.sim
-        if hasattr(sim, "setSimulationTimeStep"):  # sim.setSimulationTimeStep(float dt): CoppeliaSim 4.7
-            conn.call("sim.setSimulationTimeStep", dt_s)
-        else:  # sim.setFloatParam(sim.floatparam_simulation_time_step, dt): 4.6 (deprecated later)
-            conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
+        # the time step as CoppeliaSim 4.6 to 4.10 set it: sim.setFloatParam(sim.floatparam_simulation_time_step,
+        # dt) (coppeliaSimLib registers no sim.setSimulationTimeStep in any version)
+        conn.call("sim.setFloatParam", sim.floatparam_simulation_time_step, dt_s)
         mech = world.mechanism
         if mech is None or mech.floor_z_m is not None:
             _floor(conn, world)
@@ -103,6 +104,26 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             log(f"labsim scene: saved {save}")
     finally:
         conn.close()
+
+
+def _unbuilt_sensors(robots: Sequence[RobotRequest]) -> str:
+    """Why a robot's sensors cannot all be built, naming the first sensor that cannot, or ""."""
+    for req in robots:
+        model = req.model
+        assert model is not None
+        if model.lidars:
+            beams = model.lidars[0].beams
+            return (f"robot '{req.name}' has a lidar (lidar1..lidar{beams}), and labsim scene builds no laser "
+                    f"scanner: the scene would read nothing in range on every beam. Add a scanner to your "
+                    f"CoppeliaSim scene by hand that publishes every beam's range as the string signal "
+                    f"'labsimLidarRanges' (docs/coppeliasim.md, \"A lidar's scan\"), or run the behaviour on the "
+                    f"embedded backend")
+        bumpers = [ch for ch in req.channels if ch in {b.name for b in model.bumpers}]
+        if bumpers and model.name == "pioneer_p3dx":
+            return (f"robot '{req.name}' reads {bumpers[0]}, and CoppeliaSim's Pioneer P3DX has no bumpers: "
+                    f"labsim scene builds none. Add proximity sensors of 2 cm aliased bumper_front_left .. "
+                    f"bumper_back_right under the robot by hand (docs/coppeliasim.md), or read its sonars")
+    return ""
 
 
 def _counted(robots: Sequence[RobotRequest]) -> str:
@@ -150,11 +171,9 @@ def _floor(conn: Connection, world: World) -> None:
 
 
 def _ground(conn: Connection, world: World) -> None:
-    """The painted floor: labsim's drawing of it as the texture of a plane just above the floor."""
-    import tempfile
-    from pathlib import Path
-
-    import cv2
+    """The painted floor: labsim's drawing of it as the texture of a plane just above the floor,
+    sent as data: a CoppeliaSim on another machine cannot read a file on this one."""
+    import numpy as np
 
     from labsim.backends.pymunk.camera import draw_ground
 
@@ -163,15 +182,17 @@ def _ground(conn: Connection, world: World) -> None:
     ppm = float(world.ground.px_per_m)
     height_px, width_px = picture.shape[:2]
     w, h = width_px / ppm, height_px / ppm
-    # a scratch folder labsim serve may read the picture from (foundation/files.served_problem)
-    with tempfile.TemporaryDirectory(prefix=SCRATCH_PREFIX) as folder:
-        png = str(Path(folder) / f"{world.name}-ground.png")
-        cv2.imwrite(png, cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
-        # sim.createTexture(string fileName, int options, list planeSizes): CoppeliaSim 4.6;
-        # it makes a plane of that size with the picture on it, and returns the plane's handle
-        # (then the texture's id and resolution). CoppeliaSim reads the file at once.
-        ret = conn.call("sim.createTexture", png, 0, [w, h])
-    plane = int(ret[0] if isinstance(ret, (list, tuple)) else ret)
+    # sim.createTexture(string fileName, int options, list planeSizes, list scalingUV, list xy_g,
+    # int fixedResolution, list resolution): CoppeliaSim 4.6 to 4.10; an empty fileName makes a
+    # plane of that size with a blank texture of that resolution, and returns the plane's
+    # handle, the texture's id and its resolution (coppeliaSimLib simCreateTexture_internal)
+    ret = conn.call("sim.createTexture", "", 0, [w, h], [w, h], [0.0, 0.0, 0.0], 0, [width_px, height_px])
+    if not isinstance(ret, (list, tuple)) or len(ret) < 2:
+        raise BackendError(f"labsim scene: sim.createTexture answered {ret!r}, not a plane and a texture id")
+    plane, texture = int(ret[0]), int(ret[1])
+    # sim.writeTexture(int textureId, int options, buffer data): RGB rows from the picture's top,
+    # the order CoppeliaSim's own loader gives a texture read from a file (imgLoaderSaver.cpp)
+    conn.call("sim.writeTexture", texture, 0, np.ascontiguousarray(picture, dtype=np.uint8).tobytes())
     _static(conn, plane, "labsimGround", respondable=False)
     _place(conn, plane, xmin + w / 2, ymax - h / 2, 0.001, 0.0)
 

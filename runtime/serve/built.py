@@ -19,6 +19,7 @@ from labsim.backends.scene.world import Block, Wall
 from labsim.runtime.serve.scene_tree import ROBOT_Z_M
 
 _ROUND = 9  # coordinates to the nanometre: a world file's 0.6 comes back as 0.6
+MAX_SIZE_M = 10_000.0  # a built shape's largest size: a room of 10 km is no lab's
 
 
 @dataclass(eq=False)

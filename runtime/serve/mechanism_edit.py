@@ -234,6 +234,12 @@ class MechanismEditor:
         return {h: s.alias for h, s in self.editor.shapes.items()
                 if s.kind in ("cuboid", "cylinder") and s.alias not in NOT_BODIES}
 
+    def handles(self) -> dict[str, int]:
+        """Name -> the handle each body, joint and force sensor was built with."""
+        out = {name: h for h, name in self.bodies().items()}
+        out.update({part.alias: h for h, part in self.parts.items() if part.alias})
+        return out
+
     def mechanism(self, floor_z: float | None) -> Mechanism | None:
         """The mechanism built so far, or None when no body was; ``floor_z`` the floor plane's height."""
         names = self.bodies()

@@ -18,14 +18,15 @@ What the stand-in makes of each built object (docs/coppeliasim.md, "labsim scene
   P3DX or an e-puck at the origin, with its own script (``sim.getScript``,
   ``sim.removeScript`` take it away; a simulation started with a script left is logged,
   since on CoppeliaSim it would drive the wheels);
-* ``sim.setSimulationTimeStep(dt)`` (or the older ``sim.setFloatParam(sim.floatparam_simulation_time_step,
-  dt)``) sets the time step.
+* ``sim.setFloatParam(sim.floatparam_simulation_time_step, dt)`` sets the time step, as in
+  CoppeliaSim 4.6 to 4.10 (none of them has a ``sim.setSimulationTimeStep``).
 
 Coordinates are rounded to the nanometre and angles to the nanoradian when the world is
 rebuilt, so a wall written as ``[7.5, -7.5]`` comes back as exactly that, and a run
 reproduces the embedded backend's trace.
 
-* ``sim.createTexture`` of a PNG makes a textured plane; the ground its cameras see is that
+* ``sim.createTexture`` of a PNG, or of a blank texture ``sim.writeTexture`` fills
+  (``texture_edit``), makes a textured plane; the ground its cameras see is that
   picture, placed and scaled as the plane is (``labsim.backends.scene.ground.Texture``), the
   floor's colour its corner pixel's;
 * a vision sensor (``sim.createVisionSensor``) parented to a robot (``sim.setObjectParent``)
@@ -41,6 +42,7 @@ A world's mechanism (joints, force sensors, masses) is ``mechanism_edit``'s, the
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
@@ -51,14 +53,22 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.object_paths import fill
 from labsim.backends.scene.world import Pose, World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.foundation.files import read_served
-from labsim.runtime.serve.built import LOADED_MODELS, Sensor, Shape, primitive, read_shapes, robot_model
+from labsim.runtime.serve.built import (
+    LOADED_MODELS,
+    MAX_SIZE_M,
+    Sensor,
+    Shape,
+    primitive,
+    read_shapes,
+    robot_model,
+)
 from labsim.runtime.serve.mechanism_edit import (
     MECHANISM_CALLS,
     MECHANISM_CONSTANTS,
     MechanismEditor,
     floats,
 )
+from labsim.runtime.serve.scene_tree import glob_match
 from labsim.runtime.serve.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
 from labsim.runtime.serve.sim_api import (
     E_ARGS,
@@ -68,10 +78,12 @@ from labsim.runtime.serve.sim_api import (
     Handler,
     SimError,
     Wait,
+    as_handle,
     shown,
     value_and_frame,
 )
 from labsim.runtime.serve.simulation import Client, Simulation
+from labsim.runtime.serve.texture_edit import TextureEdits
 
 FIRST_HANDLE = 1_000_000  # built shapes and scripts; the scene tree's own handles count from 1
 RESOURCES = "/labsim-serve"  # what sim.getStringParam(sim.stringparam_resourcesdir) answers
@@ -86,10 +98,10 @@ EDIT_CONSTANTS: dict[str, int] = {
 }
 EDITS = tuple(f"sim.{n}" for n in (
     "createPrimitiveShape", "createMeshShape", "setObjectAlias", "setObjectInt32Param", "setFloatParam",
-    "setSimulationTimeStep",
     "loadModel", "getScript", "removeScript", "getStringParam", "setObjectPosition",
     "setObjectOrientation", "getObjectPosition", "getObjectOrientation", "saveScene",
-    "createVisionSensor", "createTexture", "setObjectParent", "setObjectMatrix",
+    "createVisionSensor", "createTexture", "writeTexture", "setObjectParent", "setObjectMatrix", "getObjectAlias",
+    "getObject",
 ))
 
 
@@ -105,7 +117,7 @@ class Host(Protocol):
     def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None: ...
 
 
-class SceneEditor:
+class SceneEditor(TextureEdits):
     """Edits of an empty scene, and the handlers that take them (``handlers()``)."""
 
     def __init__(self, server: Host, base: World = EMPTY, base_robots: Sequence[RobotRequest] = ()) -> None:
@@ -189,6 +201,10 @@ class SceneEditor:
 
     # --- rebuilding the simulation -------------------------------------------------------------
 
+    def built_handles(self) -> dict[str, int]:
+        """Name -> handle of what a mechanism was built from: the simulation answers to those."""
+        return self.mechanism_edit.handles()
+
     def world(self) -> World:
         """The world the built shapes make (walls, blocks, the floor's bounds), over the loaded
         scene's (``base``: sim.loadScene, else nothing)."""
@@ -245,9 +261,7 @@ class SceneEditor:
         """The built shape ``args[0]`` names, or None for an object of the simulation."""
         if not args:
             raise SimError(E_FEW)
-        h = args[0]
-        if not isinstance(h, int) or isinstance(h, bool):
-            raise SimError(E_ARGS)
+        h = as_handle(args[0])
         if h >= FIRST_HANDLE and h not in self.shapes and h not in self.sensors:
             raise SimError(E_HANDLE)
         return self.shapes.get(h)
@@ -260,6 +274,11 @@ class SceneEditor:
         if kind is None:
             raise SimError("labsim serve: only planes and cuboids are built by the stand-in")
         sizes = floats(args[1], 3)
+        flat = 2 if kind == "plane" else 3  # a plane's third size is its (nil) thickness
+        if not all(math.isfinite(v) and 0 < v <= MAX_SIZE_M for v in sizes[:flat]) or \
+                not (math.isfinite(sizes[2]) and 0 <= sizes[2] <= MAX_SIZE_M):
+            raise SimError(f"labsim serve: a {kind}'s sizes are finite numbers of metres, greater than 0 and at "
+                           f"most {MAX_SIZE_M:g}, not {', '.join(f'{v:g}' for v in sizes)}")
         return self._new(primitive(kind, sizes, args, "Plane" if kind == "plane" else "Cuboid"))
 
     def _createMeshShape(self, client: Client, args: Args) -> list[object]:
@@ -309,9 +328,6 @@ class SceneEditor:
         self.server.dt_s = float(args[1])
         self.dirty = True
         return []
-
-    def _setSimulationTimeStep(self, client: Client, args: Args) -> list[object]:
-        return self._setFloatParam(client, [1, *args[:1]])
 
     def _getStringParam(self, client: Client, args: Args) -> list[object]:
         if not args or args[0] != EDIT_CONSTANTS["stringparam_resourcesdir"]:
@@ -378,14 +394,24 @@ class SceneEditor:
         self.dirty = True
         return []
 
-    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+    def _simulated(self, args: Args) -> Shape | None:
+        """The built shape ``args[0]`` names, unless the simulation moves it (a mechanism's body,
+        which answers to its built handle): then None, and the simulation answers for it."""
         shape = self._shape(args)
+        if shape is not None:
+            self._settle()
+            if as_handle(args[0]) in self.server.simulation.tree.objects:
+                return None
+        return shape
+
+    def _getObjectPosition(self, client: Client, args: Args) -> list[object]:
+        shape = self._simulated(args)
         if shape is None:
             return self._simulation("sim.getObjectPosition", client, args)
         return [[shape.x, shape.y, shape.z]]
 
     def _getObjectOrientation(self, client: Client, args: Args) -> list[object]:
-        shape = self._shape(args)
+        shape = self._simulated(args)
         if shape is None:
             return self._simulation("sim.getObjectOrientation", client, args)
         return [[0.0, 0.0, shape.yaw]]
@@ -395,6 +421,36 @@ class SceneEditor:
         ret = self.server.sim_handlers()[name](client, args)
         assert isinstance(ret, list)
         return ret
+
+    def _getObjectAlias(self, client: Client, args: Args) -> list[object]:
+        # a built wall, block or floor is no object of the simulation's tree: its alias is here
+        shape = self._shape(args)
+        h = as_handle(args[0])
+        self._settle()
+        if shape is None or h in self.server.simulation.tree.objects:
+            return self._simulation("sim.getObjectAlias", client, args)
+        options = as_handle(args[1]) if len(args) > 1 and args[1] is not None else -1
+        tree = self.server.simulation.tree.objects
+        same = [k for k, s in self.shapes.items() if s.alias == shape.alias and k not in tree]
+        n = same.index(h)
+        return [shape.alias if options == -1 else f"{shape.alias}[{n}]" if options == 0 else f"/{shape.alias}[{n}]"]
+
+    def _getObject(self, client: Client, args: Args) -> list[object]:
+        # the simulation's objects by CoppeliaSim's paths, then the built walls, blocks and floors
+        # at the top level: "/wall", "/wall[3]", "./labsimFloor"
+        try:
+            return self._simulation("sim.getObject", client, args)
+        except SimError:
+            path = args[0] if args and isinstance(args[0], str) else ""
+            name = path.removeprefix("/").removeprefix("./").removeprefix(":/")
+            alias, _, rest = name.partition("[")
+            n = 0 if not rest else int(rest[:-1]) if rest.endswith("]") and rest[:-1].isdigit() and len(rest) <= 10 \
+                else -1
+            tree = self.server.simulation.tree.objects
+            same = [k for k, s in self.shapes.items() if k not in tree and alias and glob_match(alias, s.alias)]
+            if "/" not in name and 0 <= n < len(same):
+                return [same[n]]
+            raise
 
     def _saveScene(self, client: Client, args: Args) -> list[object]:
         raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")
@@ -438,24 +494,3 @@ class SceneEditor:
         sensor.matrix = floats(args[1], 12)
         self.dirty = True
         return []
-
-    def _createTexture(self, client: Client, args: Args) -> list[object]:
-        # sim.createTexture(string fileName, int options, list planeSizes, ...): CoppeliaSim 4.6;
-        # returns the textured plane's handle, the texture's id and its resolution
-        import cv2
-        import numpy as np
-
-        if len(args) < 3 or not isinstance(args[0], str):
-            raise SimError(E_FEW if len(args) < 3 else E_ARGS)
-        try:  # the one way in, kept to the folders a client may read (docs/security.md, "The server")
-            png = read_served(args[0], self.server.folder, "texture")
-        except LabsimError as e:
-            raise SimError(f"labsim serve: cannot read the texture '{shown(args[0])}': {e.diagnostics[0].message}") \
-                from None
-        picture = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
-        if picture is None:
-            raise SimError(f"labsim serve: the texture '{shown(args[0])}' is not an image")
-        sizes = floats(args[2], 2)
-        height, width = picture.shape[:2]
-        [h] = self._new(Shape("texture", (sizes[0], sizes[1], 0.0), alias="Plane", png=png, px=(width, height)))
-        return [h, h, [width, height]]

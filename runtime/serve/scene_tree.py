@@ -7,24 +7,28 @@ wire: it is names, handles and parents.
 
 What the tree holds, for each Pioneer P3DX robot ``i`` (``/PioneerP3DX[i]`` in the order
 given): ``leftMotor``, ``rightMotor``, 16 ``ultrasonicSensor`` children and, when its model has
-cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it, also
-answering to 4.8's ``visionSensor``); for a world with a
+cameras, a vision sensor (``Vision_sensor`` for the channel ``camera``, as 4.6 and 4.7 name it,
+and by that name only: a script that asks for 4.8's ``visionSensor`` is told the real name); for a world with a
 mechanism (the crane), its joints (all but fixed ones), force sensors and moving bodies at
 the top level, by their names. Handles are 1, 2, 3, ... in the order objects are added.
 
-The path language is CoppeliaSim's (manual: "Accessing scene objects programmatically"):
-``/A/B`` from the top, ``[n]`` the n-th same-alias object of the first level below that has
-one, ``{n}`` the n-th match anywhere below, level by level, ``*`` and ``?`` wildcards, ``.``,
-``..``, ``:``, ``./x`` and ``:/x`` relative to a proxy object, and the ``index`` option. The
+The path language is CoppeliaSim's (manual: "Accessing scene objects programmatically"),
+searched as coppeliaSimLib's ``CSceneObjectContainer::getObjectFromPath`` searches: ``/A/B``
+from the top (``A`` the first match at the first level that has one, depth first),
+``[n]`` the n-th match of a level, ``{n}`` the n-th match of everything the path before it
+reaches, ``*`` and ``?`` wildcards (each match tried in turn), ``.``, ``..``, ``:``, ``::``,
+``./x`` and ``:/x`` relative to the ``proxy`` option's object or, without one (a remote
+client has no emitting object), ``./x`` and ``:/x`` from the top, and the ``index`` option. The
 names before CoppeliaSim 4.3 (``Pioneer_p3dx_ultrasonicSensor5``, ``#0`` for the second robot)
 are kept apart (``old_name``): CoppeliaSim 4.6 documents paths for ``sim.getObject`` and old
 names only for the deprecated ``sim.getObjectHandle``.
 """
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass, field
 
-from labsim.backends.coppeliasim import CAMERA_ALIASES, camera_alias
+from labsim.backends.coppeliasim import camera_alias
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import PIONEER_P3DX, Kind, RobotModel
@@ -51,7 +55,6 @@ class SceneObject:
     name: str = ""  # channel, joint, force sensor or body name
     mount: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # x, y, z, yaw in the parent frame
     resolution: tuple[int, int] = (0, 0)  # vision sensors: (resX, resY)
-    also: tuple[str, ...] = ()  # other aliases it answers to in paths (one name set: docs/coppeliasim.md)
 
 
 class SceneTree:
@@ -64,9 +67,10 @@ class SceneTree:
 
     # --- building ----------------------------------------------------------------------------
 
-    def add(self, obj: SceneObject) -> SceneObject:
-        """Give ``obj`` the next handle and put it last among its parent's children."""
-        obj.handle = len(self.objects) + 1
+    def add(self, obj: SceneObject, handle: int | None = None) -> SceneObject:
+        """Give ``obj`` the next handle (or ``handle``: the one it was built with) and put it
+        last among its parent's children."""
+        obj.handle = handle if handle is not None and handle not in self.objects else len(self.objects) + 1
         self.objects[obj.handle] = obj
         (obj.parent.children if obj.parent is not None else self.top).append(obj)
         return obj
@@ -122,8 +126,7 @@ class SceneTree:
             alias = camera_alias(model.name, c.name)
             add(SceneObject(0, alias, "camera", base, robot=i, name=c.name,
                             mount=(c.x_m, 0.0, c.height_m - ROBOT_Z_M, 0.0),
-                            resolution=(c.width_px, c.height_px),
-                            also=tuple(a for a in CAMERA_ALIASES if a != alias and alias in CAMERA_ALIASES)))
+                            resolution=(c.width_px, c.height_px)))
         self._add_contacts_and_ground(i, model, base, "groundSensor")
         # The names of V-REP and CoppeliaSim before 4.3 (sim.getObjectHandle), with #n for
         # the second robot on: old scripts still use them.
@@ -135,12 +138,14 @@ class SceneTree:
             self._old_names[f"Pioneer_p3dx_ultrasonicSensor{k + 1}{suffix}"] = s
         return base
 
-    def add_mechanism(self, mechanism: Mechanism) -> list[str]:
+    def add_mechanism(self, mechanism: Mechanism, handles: dict[str, int] | None = None) -> list[str]:
         """A mechanism's joints (all but fixed ones), force sensors and moving bodies, at the
-        top level by their names; returns those names, which are its channels, in order."""
+        top level by their names; returns those names, which are its channels, in order.
+        ``handles``: the handles the parts were built with (``serve --empty``), so that each
+        object answers to one handle."""
         channels = list(mechanism.channels().items())
         for name, kind in channels:
-            self.add(SceneObject(0, name, _KINDS[kind], None, name=name))
+            self.add(SceneObject(0, name, _KINDS[kind], None, name=name), (handles or {}).get(name))
         return [name for name, _ in channels]
 
     # --- reading -----------------------------------------------------------------------------
@@ -181,70 +186,151 @@ class SceneTree:
     # --- the path language -------------------------------------------------------------------
 
     def find(self, path: str, index: int, proxy: SceneObject | None) -> SceneObject | None:
-        """sim.getObject's rules (see the module docstring); None when nothing matches."""
-        if path.startswith("/"):
-            return self._walk(None, path[1:], index)
-        if path in (".", "..", ":") or path.startswith(("./", ":/")):
-            if proxy is None:
-                return None  # relative paths need a proxy object: a remote client has no script
-            if path == ".":
-                return proxy
-            if path == "..":
-                return proxy.parent
-            model = proxy
-            while model.parent is not None:
-                model = model.parent
-            if path == ":":
-                return model
-            return self._walk(proxy if path.startswith("./") else model, path[2:], index)
-        return None  # not a path: an old name is sim.getObjectHandle's (old_name)
+        """sim.getObject's rules, as CoppeliaSim's ``getObjectFromPath`` (coppeliaSimLib,
+        ``sceneObjectContainer.cpp``) applies them; None when nothing matches.
+
+        ``proxy`` is the emitting object (the ``proxy`` option). A remote client has none: its
+        calls run in the ZMQ add-on, which is no scene object, so ``./x`` and ``:/x`` search
+        from the scene's top exactly as ``/x`` does, and ``.``, ``:``, ``..`` find nothing.
+        ``{n}`` splits the path: the part before it is resolved with index n, the rest from
+        the object found."""
+        emitting = proxy
+        rest = path
+        while rest:
+            Deadline.check()
+            opening, closing = rest.find("{"), rest.find("}")
+            if opening >= 0 and closing > opening + 1 and (closing != len(rest) - 1 or index == -1):
+                digits = rest[opening + 1:closing]
+                if digits.isdigit() and digits.isascii() and len(digits) <= MAX_INDEX_DIGITS:
+                    head, rest = rest[:opening], rest[closing + 1:]
+                    rest = "." + rest if rest else ""
+                    found = self._simple(emitting, head, int(digits))
+                    if found is None or not rest:
+                        return found
+                    emitting = found
+                    continue
+            return self._simple(emitting, rest, index)
+        return None
+
+    def _model_base(self, obj: SceneObject | None, including: bool = True) -> SceneObject | None:
+        """The first object up from ``obj`` that is a model's base (a robot), itself included or not."""
+        o = obj if including or obj is None else obj.parent
+        while o is not None and o.kind != "robot":
+            o = o.parent
+        return o
+
+    def _simple(self, emitting: SceneObject | None, path: str, index: int) -> SceneObject | None:
+        """A path without ``{n}``: ``/a/b``, ``./a``, ``:/a``, ``.``, ``:``, ``../a``, ``::/a``."""
+        if not path or path[0] not in "/.:":
+            return None  # not a path: an old name is sim.getObjectHandle's (old_name)
+        base: SceneObject | None = None
+        if path[0] == "/":
+            path = path[1:]
+            if path[:1] in ("/", ".", ":"):
+                return None
+        else:
+            base = emitting
+            if path in (".", ":"):
+                return self._model_base(base) if path == ":" else base
+            if path.startswith("./"):
+                path = path[2:]
+            if path.startswith(":/"):
+                path = path[2:]
+                base = self._model_base(base)
+            while path.startswith(("::", "..")):
+                if base is None:
+                    return None
+                model = path.startswith("::")
+                path = path[2:]
+                if model:
+                    base = self._model_base(base)
+                    if base is None:
+                        return None
+                base = base.parent
+                if model:
+                    base = self._model_base(base)
+                if not path:
+                    return base
+                if path[0] != "/":
+                    return None
+                path = path[1:]
+        return self._in_tree(base, path, [index])
 
     def old_name(self, name: str) -> SceneObject | None:
         """The object a name from before CoppeliaSim 4.3 meant (``Pioneer_p3dx_leftMotor#0``)."""
         return self._old_names.get(name)
 
-    def _walk(self, base: SceneObject | None, rest: str, index: int) -> SceneObject | None:
-        """Follow the segments of ``rest`` down from ``base`` (None: the top)."""
-        if not rest:
-            return base
-        segments = rest.split("/")
-        for n, seg in enumerate(segments):
-            parsed = _segment(seg)
-            if parsed is None:
-                return None
-            pattern, sib, anywhere = parsed
-            level = base.children if base is not None else self.top
-            last = n == len(segments) - 1
-            if anywhere is not None or (last and index >= 0 and sib is None):
-                # {n} or the index option: the n-th match anywhere below, level by level
-                found = _nth_below(level, pattern, anywhere if anywhere is not None else index)
+    def _in_tree(self, base: SceneObject | None, path: str, index: list[int]) -> SceneObject | None:
+        """CoppeliaSim's ``_getObjectInTree``: the first segment matched among ``base``'s children
+        (None: the top), each match tried with the rest of the path; objects that do not match
+        (and, without ``[n]``, those that do) searched below with the whole path, depth first.
+        ``alias[n]`` takes the n-th match of the level; ``index`` (a one-item list, shared down
+        the search) skips that many matches of the last segment."""
+        Deadline.check()
+        level = base.children if base is not None else self.top
+        segment, _, rest = path.partition("/")
+        pattern, nth, numbered = segment, 0, False
+        if "[" in segment:
+            numbered = True
+            opening = segment.find("[")
+            digits = segment[opening + 1:-1] if segment.endswith("]") else ""
+            if digits.isdigit() and digits.isascii() and len(digits) <= MAX_INDEX_DIGITS:
+                pattern, nth = segment[:opening], int(digits)
             else:
-                # alias[n]: the n-th match among the first level below that has any
-                found = _nth_at_first_level(level, pattern, sib or 0)
-            if found is None:
-                return None
-            base = found
-        return base
-
-
-def _segment(seg: str) -> tuple[str, int | None, int | None] | None:
-    """``alias``, ``alias[n]`` or ``alias{n}`` -> (alias pattern, n of [n], n of {n}); None
-    when ill formatted. Read by hand, in one pass."""
-    sib = anywhere = None
-    if seg.endswith(("]", "}")):
-        opening = "[" if seg[-1] == "]" else "{"
-        start = seg.rfind(opening)
-        digits = seg[start + 1:-1]
-        if start < 0 or not digits.isdigit() or not digits.isascii() or len(digits) > MAX_INDEX_DIGITS:
+                return None  # CoppeliaSim's bad index matches no alias either
+        if not pattern or any(c in "[]{}" for c in pattern):
             return None
-        if opening == "[":
-            sib = int(digits)
-        else:
-            anywhere = int(digits)
-        seg = seg[:start]
-    if not seg or any(c in "[]{}" for c in seg):
+        below: list[SceneObject] = []
+        for obj in level:
+            deeper = True
+            if glob_match(pattern, obj.alias):
+                deeper = not numbered
+                if nth == 0:
+                    if not rest:
+                        if index[0] > 0:
+                            index[0] -= 1
+                        else:
+                            return obj
+                    else:
+                        found = self._in_tree(obj, rest, index)
+                        if found is not None:
+                            return found
+                if numbered:
+                    nth -= 1
+            if deeper:
+                below.append(obj)
+        for obj in below:
+            found = self._in_tree(obj, path, index)
+            if found is not None:
+                return found
         return None
-    return seg, sib, anywhere
+
+    def hint(self, path: str) -> str:
+        """What a path that found nothing missed: the scene's object it most likely meant (the
+        stand-in answers only the names of the scene it stands for, so that a script that
+        passes here runs on CoppeliaSim with that scene), else the robots the scene has."""
+        near = self.similar(path)
+        if near is not None:
+            return f"this scene's object is '{self.path(near, short=True)}'"
+        robots = [self.path(o) for o in self.top if o.kind == "robot"]
+        return (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: " + ", ".join(robots)
+                if robots else "this scene has no robots")
+
+    def similar(self, path: str) -> SceneObject | None:
+        """The object a path that found nothing most likely meant: one whose alias is the path's
+        last alias written another way (``visionSensor`` for ``Vision_sensor``), or close to it."""
+        last = path.rstrip("/").rsplit("/", 1)[-1].split("[", 1)[0].split("{", 1)[0]
+        if not last or any(c in "*?" for c in last):
+            return None
+        objects = list(self.objects.values())
+        if any(o.alias == last for o in objects):
+            return None  # the name is the scene's: the path around it is what missed
+        key = last.lower().replace("_", "")
+        same = [o for o in objects if o.alias.lower().replace("_", "") == key]
+        if same:
+            return same[0]
+        close = difflib.get_close_matches(last, sorted({o.alias for o in objects}), n=1, cutoff=0.75)
+        return next((o for o in objects if close and o.alias == close[0]), None)
 
 
 def glob_match(pattern: str, text: str) -> bool:
@@ -269,25 +355,3 @@ def glob_match(pattern: str, text: str) -> bool:
         else:
             return False
     return all(c == "*" for c in pattern[p:])
-
-
-def _matches(level: list[SceneObject], pattern: str) -> list[SceneObject]:
-    Deadline.check()
-    return [o for o in level if glob_match(pattern, o.alias) or any(glob_match(pattern, a) for a in o.also)]
-
-
-def _nth_below(level: list[SceneObject], pattern: str, k: int) -> SceneObject | None:
-    found: list[SceneObject] = []
-    while level and len(found) <= k:
-        found += _matches(level, pattern)
-        level = [c for o in level for c in o.children]
-    return found[k] if k < len(found) else None
-
-
-def _nth_at_first_level(level: list[SceneObject], pattern: str, k: int) -> SceneObject | None:
-    while level:
-        found = _matches(level, pattern)
-        if found:
-            return found[k] if k < len(found) else None
-        level = [c for o in level for c in o.children]
-    return None

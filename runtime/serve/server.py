@@ -48,7 +48,16 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
 from labsim.runtime.serve.scene_edit import SceneEditor
 from labsim.runtime.serve.script_host import ScriptHost
-from labsim.runtime.serve.sim_api import E_ARGS, FUNCTIONS, UNSUPPORTED, WAIT, Handler, SimApi, SimError, shown
+from labsim.runtime.serve.sim_api import (
+    E_ARGS,
+    FUNCTIONS,
+    UNSUPPORTED,
+    WAIT,
+    Handler,
+    SimApi,
+    SimError,
+    shown,
+)
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
 from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
 from labsim.runtime.serve.sim_signals import SIGNAL_CALLS, SignalCalls
@@ -73,6 +82,29 @@ POLL_MS = 100  # how often an idle server looks at its stop flag
 MAX_UUID_CHARS = 256  # the client sends a 36-character uuid4
 MAX_CLIENTS = 1000  # clients remembered at once; past it the longest silent is forgotten
 FLEET_HANDLE = 1_500_000  # the served fleet script's dummy and script: past the tree's, before dummies'
+
+
+# Calls whose arguments keep a whole float a float: the value comes back as it was given.
+FLOAT_VALUES = frozenset({"sim.setFloatSignal", "sim.setFloatParam", "sim.callScriptFunction"})
+
+
+def lua_numbers(func: str, args: list[Any]) -> list[Any]:
+    """A request's arguments as CoppeliaSim's Lua functions take them: a number is a number,
+    so a whole float (numpy's 4.0, a handle kept in ``np.zeros(16)``) is accepted wherever an
+    integer is (``luaToInt``: ``lua_tointeger``, else the number cast). Whole floats at the top
+    level, and in a top-level map (``sim.getObject``'s options), become ints."""
+    if func in FLOAT_VALUES:
+        return args
+    out: list[Any] = []
+    for a in args:
+        if isinstance(a, float) and a.is_integer() and abs(a) < 2 ** 53:
+            a = int(a)
+        elif isinstance(a, dict):
+            a = {k: int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
+                 for k, v in a.items()}
+        out.append(a)
+    return out
+
 
 
 class Server:
@@ -154,7 +186,8 @@ class Server:
 
     def rebuild(self, world: World, robots: Sequence[RobotRequest]) -> None:
         """A new simulation of ``world`` and ``robots`` (stopped), keeping the connected clients."""
-        simulation = Simulation(world, robots, self.dt_s, self.log)
+        handles = self.editor.built_handles() if self.editor is not None else None
+        simulation = Simulation(world, robots, self.dt_s, self.log, handles)
         simulation.clients = self._clients
         self.world, self.simulation = world, simulation
         self._sim_funcs = self._with_script(SimApi(simulation).handlers())
@@ -393,7 +426,7 @@ class Server:
                                f"(docs/coppeliasim.md lists what is)"}
             return {"err": f"No such function: {shown(func)}"}
         try:
-            ret = handler(client, args)
+            ret = handler(client, lua_numbers(func, args))
         except SimError as e:
             return {"err": f"{e} (in function '{func}')"}
         if ret is WAIT:

@@ -64,8 +64,7 @@ FUNCTIONS = tuple(f"sim.{n}" for n in (
 
 # Functions a CoppeliaSim script commonly calls that this stand-in does not offer: listed in
 # zmqRemoteApi.info so that calling one gives a clear error rather than an AttributeError.
-UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "setSimulationTimeStep",
-               "loadModel")
+UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatParam", "loadModel")
 
 _MECHANISM = ("joint", "force", "body")
 
@@ -97,6 +96,15 @@ def shown(value: object) -> str:
     return f"a {type(value).__name__}"
 
 
+def as_handle(value: object) -> int:
+    """A handle from any number, as CoppeliaSim casts one (4.7 is 4); not a number: the type error."""
+    if isinstance(value, float) and math.isfinite(value) and abs(value) < 2 ** 31:
+        return int(value)
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise SimError(E_ARGS)
+    return value
+
+
 def _num(args: Args, i: int, default: float | None = None) -> float:
     if len(args) <= i or args[i] is None:
         if default is None:
@@ -111,10 +119,7 @@ def _num(args: Args, i: int, default: float | None = None) -> float:
 def _int(args: Args, i: int, default: int) -> int:
     if len(args) <= i or args[i] is None:
         return default
-    v = args[i]
-    if not isinstance(v, int) or isinstance(v, bool):
-        raise SimError(E_ARGS)
-    return v
+    return as_handle(args[i])
 
 
 def _vec(args: Args, i: int, n: int) -> list[float]:
@@ -144,10 +149,7 @@ class SimApi:
     def _obj(self, args: Args, i: int = 0, kinds: tuple[str, ...] = (), what: str = "") -> SceneObject:
         if len(args) <= i:
             raise SimError(E_FEW)
-        h = args[i]
-        if not isinstance(h, int) or isinstance(h, bool):
-            raise SimError(E_ARGS)
-        obj = self.tree.objects.get(h)
+        obj = self.tree.objects.get(as_handle(args[i]))
         if obj is None:
             raise SimError(E_HANDLE)
         if kinds and obj.kind not in kinds:
@@ -201,12 +203,7 @@ class SimApi:
             # programmatically"); a pre-4.3 name is for the deprecated sim.getObjectHandle
             raise SimError(f"{E_PATH} (labsim serve: '{path}' is an object name from before CoppeliaSim 4.3; "
                            f"sim.getObject takes a path: '{self.tree.path(old, short=True)}')")
-        robots = [self.tree.path(r.obj) for r in self.sim.robots]
-        hint = (f"this scene has {len(robots)} robot{'s' if len(robots) != 1 else ''}: "
-                + ", ".join(robots) if robots else "this scene has no robots")
-        if path.startswith(("./", ":/")) and proxy is None:
-            hint = "a relative path needs the proxy option, e.g. {'proxy': robotHandle}"
-        raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {hint})")
+        raise SimError(f"{E_PATH} (labsim serve: no object '{shown(path)}'; {self.tree.hint(path)})")
 
     def _sim_getObjectHandle(self, client: Client, args: Args) -> list[object]:
         """Deprecated since CoppeliaSim 4.3, kept in 4.6: a path, or a name from before 4.3."""

@@ -26,7 +26,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_PARENT, HANDLE_WORLD,
 from labsim.backends.coppeliasim.fleet_script import ALIAS as FLEET_ALIAS
 from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import glob_match
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait
+from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle
 from labsim.runtime.serve.simulation import Client, Simulation
 
 DUMMY_BASE = 2_000_000  # a dummy's handle when no scene editor hands one out
@@ -48,7 +48,7 @@ OBJECT_CALLS = tuple(f"sim.{n}" for n in (
     "createDummy", "getObject", "getObjectAlias", "setObjectAlias", "getObjectParent", "setObjectParent",
     "getObjectPosition", "getObjectOrientation", "getObjectPose", "getObjectQuaternion", "getObjectMatrix",
     "setObjectPosition", "setObjectOrientation", "setObjectPose", "setObjectQuaternion", "setObjectMatrix",
-    "buildMatrix", "getObjectsInTree", "removeObject", "removeObjects", "setShapeColor",
+    "buildMatrix", "getObjectsInTree", "getObjectChild", "removeObject", "removeObjects", "setShapeColor",
 ))
 
 
@@ -91,10 +91,7 @@ def _number_list(value: object, n: int) -> list[float]:
 def _handle(args: Args, i: int = 0) -> int:
     if len(args) <= i:
         raise SimError(E_FEW)
-    h = args[i]
-    if not isinstance(h, int) or isinstance(h, bool):
-        raise SimError(E_ARGS)
-    return h
+    return as_handle(args[i])
 
 
 class ObjectCalls:
@@ -265,8 +262,8 @@ class ObjectCalls:
         if d is not None:
             return d.matrix
         editor = self.server.editor
-        if editor is not None and h in editor.shapes:
-            s = editor.shapes[h]
+        if editor is not None and h in editor.shapes and h not in self.server.simulation.tree.objects:
+            s = editor.shapes[h]  # a wall, block or floor: where it was built (a body moves: below)
             return mx.from_euler((s.x, s.y, s.z), (0.0, 0.0, s.yaw))
         handler = self.server.base_handlers()["sim.getObjectPose"]
         ret = handler(client or _NOBODY, [h, HANDLE_WORLD])
@@ -369,22 +366,37 @@ class ObjectCalls:
 
     # --- the tree ----------------------------------------------------------------------------
 
+    def _kids(self) -> dict[int, list[tuple[int, int]]]:
+        """Each object's children in order, as (handle, type); -1: the scene's top level."""
+        tree = self.server.simulation.tree
+        editor = self.server.editor
+        kids: dict[int, list[tuple[int, int]]] = {}
+        for o in tree.objects.values():
+            kids.setdefault(o.parent.handle if o.parent is not None else -1, []).append(
+                (o.handle, _KIND_TYPE.get(o.kind, 0)))
+        if editor is not None:
+            kids.setdefault(-1, []).extend((h, 0) for h in editor.shapes if h not in tree.objects)
+        for h, d in self.dummies.items():
+            kids.setdefault(d.parent, []).append((h, TYPES["dummy"]))
+        return kids
+
+    def _getObjectChild(self, client: Client, args: Args) -> list[object]:
+        # sim.getObjectChild(int objectHandle, int index): CoppeliaSim 4.6 to 4.10 (sim-1); the
+        # index-th child, -1 past the last
+        base, index = _handle(args), _handle(args, 1)
+        kids = self._kids()
+        if base not in {h for pairs in kids.values() for h, _ in pairs}:
+            raise SimError(E_HANDLE)
+        children = kids.get(base, [])
+        return [children[index][0] if 0 <= index < len(children) else -1]
+
     def _getObjectsInTree(self, client: Client, args: Args) -> list[object]:
         # sim.getObjectsInTree(int treeBaseHandle, int objectType = sim.handle_all, int options = 0):
         # options bit 0 leaves the base out, bit 1 takes only its first children
         base = _handle(args)
         kind = args[1] if len(args) > 1 and isinstance(args[1], int) else HANDLE_ALL
         options = args[2] if len(args) > 2 and isinstance(args[2], int) else 0
-        tree = self.server.simulation.tree
-        editor = self.server.editor
-        kids: dict[int, list[tuple[int, int]]] = {}  # parent (-1: the scene) -> (handle, type) in order
-        for o in tree.objects.values():
-            kids.setdefault(o.parent.handle if o.parent is not None else -1, []).append(
-                (o.handle, _KIND_TYPE.get(o.kind, 0)))
-        if editor is not None:
-            kids.setdefault(-1, []).extend((h, 0) for h in editor.shapes)
-        for h, d in self.dummies.items():
-            kids.setdefault(d.parent, []).append((h, TYPES["dummy"]))
+        kids = self._kids()
         types = {h: t for pairs in kids.values() for h, t in pairs}
         if base != HANDLE_SCENE and base not in types:
             raise SimError(E_HANDLE)

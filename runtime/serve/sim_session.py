@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, shown
+from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, shown
 from labsim.runtime.serve.sim_objects import call_base
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.wire_limits import Deadline
@@ -66,7 +66,8 @@ SESSION_CALLS = tuple(f"sim.{n}" for n in (
     "loadScene", "closeScene", "saveScene", "getStringParam", "getInt32Param", "setInt32Param", "addLog",
     "getSystemTime", "wait", "getScript", "callScriptFunction", "handleProximitySensor", "readVisionSensor",
     "handleVisionSensor", "getVisionSensorDepth", "getVisionSensorCharImage", "setJointPosition",
-    "setJointTargetForce", "getJointForce", "getObjectFloatParam",
+    "setJointTargetForce", "setJointForce", "getJointForce", "getObjectFloatParam", "checkProximitySensor",
+    "getVisionSensorImage",
 ))
 
 
@@ -278,6 +279,32 @@ class SessionCalls:
             return [0, 0.0, [0.0, 0.0, 0.0], -1, [0.0, 0.0, 0.0]]
         return self._inner("sim.readProximitySensor", client, args[:1])
 
+    def _checkProximitySensor(self, client: Client, args: Args) -> list[object]:
+        # int result, float distance, list detectedPoint = sim.checkProximitySensor(int sensorHandle,
+        # int entityHandle): CoppeliaSim 4.6 to 4.10; the stand-in knows what a sonar sees, not which
+        # object it is, so it answers for sim.handle_all only
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        if as_handle(args[1]) != HANDLE_ALL:
+            raise SimError("labsim serve: sim.checkProximitySensor answers for sim.handle_all only (the stand-in "
+                           "does not tell which object a sensor detects)")
+        ret = self._inner("sim.readProximitySensor", client, args[:1])
+        return ret[:3]
+
+    def _getVisionSensorImage(self, client: Client, args: Args) -> list[object]:
+        # sim.getVisionSensorImage(int sensorHandle, int posX = 0, int posY = 0, int sizeX = 0,
+        # int sizeY = 0, int returnType = 0): CoppeliaSim 4.6 to 4.10 (sim-1); returnType 0: a
+        # table of floats in [0, 1], 1: a buffer of bytes; rows bottom first, as getVisionSensorImg
+        h = as_handle(args[0]) if args else None
+        if h is None:
+            raise SimError(E_FEW)
+        nums = [as_handle(a) if a is not None else 0 for a in args[1:6]] + [0] * 5
+        grey = 1 if h & SESSION_CONSTANTS["handleflag_greyscale"] else 0
+        img, _res = self._inner("sim.getVisionSensorImg", client,
+                                [h & 0x003FFFFF, grey, 0, nums[0:2], nums[2:4]])
+        assert isinstance(img, (bytes, bytearray))
+        return [bytes(img)] if nums[4] == 1 else [[b / 255.0 for b in img]]
+
     def _is_ground_sensor(self, args: Args) -> bool:
         if not args or not isinstance(args[0], int) or isinstance(args[0], bool):
             return False
@@ -397,6 +424,11 @@ class SessionCalls:
             raise SimError(E_FEW if len(args) < 2 else E_ARGS)
         self.forces[obj.handle] = abs(float(args[1]))
         return []
+
+    def _setJointForce(self, client: Client, args: Args) -> list[object]:
+        # sim.setJointForce(int objectHandle, float forceOrTorque): CoppeliaSim 4.6 to 4.10 (sim-1),
+        # setJointTargetForce's older name (coppeliaSimLib registers it as setJointMaxForce)
+        return self._setJointTargetForce(client, args)
 
     def _getJointForce(self, client: Client, args: Args) -> list[object]:
         if self._joint(args) is None:

@@ -9,8 +9,11 @@ each beam that detects something; a client reads it with ``sim.getStringSignal``
 ``sim.unpackFloatTable``. The stand-in publishes that for every robot with a lidar
 (``labsim.backends.coppeliasim.lidar_signals``: the first robot's under the stock name) and,
 beside it, every beam's range in doubles, which the coppeliasim backend reads: float32 points
-would not give a behaviour the embedded backend's ranges. Signals a client sets are kept as
-CoppeliaSim keeps them, until they are cleared; the lidars' are read only (set one: an error).
+would not give a behaviour the embedded backend's ranges. Signals a client sets (string,
+int32 and float, each kind its own names, as in CoppeliaSim 4.6 to 4.10) are kept as CoppeliaSim
+keeps them, until they are cleared, within bounds (``MAX_SIGNALS`` of them, ``MAX_SIGNALS_BYTES``
+in all); the lidars' are read only (set one: an error). What a client unpacks is bounded too
+(``MAX_UNPACKED`` values).
 """
 from __future__ import annotations
 
@@ -21,14 +24,19 @@ from collections.abc import Callable
 from typing import Any
 
 from labsim.backends.coppeliasim import lidar_signals
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError
+from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, as_handle, shown
 from labsim.runtime.serve.simulation import Client, Simulation
 
 SIGNAL_CALLS = tuple(f"sim.{n}" for n in (
     "getStringSignal", "setStringSignal", "clearStringSignal",
+    "getInt32Signal", "setInt32Signal", "clearInt32Signal", "getFloatSignal", "setFloatSignal", "clearFloatSignal",
     "packFloatTable", "unpackFloatTable", "packDoubleTable", "unpackDoubleTable",
 ))
 MAX_SIGNAL_BYTES = 16 << 20  # a client's own signal, and a table to pack: bounded, as every request
+MAX_SIGNALS = 10_000  # signals clients set, of all kinds together
+MAX_SIGNALS_BYTES = 64 << 20  # their names and values, together
+MAX_UNPACKED = 1 << 20  # values one unpack returns (8 MiB of doubles; a million floats in a reply)
+INT32 = (-(1 << 31), (1 << 31) - 1)
 
 
 class SignalCalls:
@@ -36,7 +44,8 @@ class SignalCalls:
 
     def __init__(self, simulation: Callable[[], Simulation]) -> None:
         self._simulation = simulation
-        self._own: dict[str, bytes] = {}  # signals clients set
+        self._own: dict[tuple[str, str], bytes | int | float] = {}  # (kind, name) -> value: signals clients set
+        self._bytes = 0  # their names' and values' bytes
 
     def handlers(self) -> dict[str, Handler]:
         return {name: getattr(self, "_" + name.removeprefix("sim.")) for name in SIGNAL_CALLS}
@@ -55,26 +64,84 @@ class SignalCalls:
                     out[name] = functools.partial(pack, sim, k)
         return out
 
+    def _keep(self, kind: str, name: str, value: bytes | int | float) -> None:
+        """Keep a client's signal, within the bounds on their count and bytes."""
+        key = (kind, name)
+        size = len(name.encode()) + (len(value) if isinstance(value, bytes) else 8)
+        old = self._own.get(key)
+        was = 0 if old is None else len(name.encode()) + (len(old) if isinstance(old, bytes) else 8)
+        if old is None and len(self._own) >= MAX_SIGNALS:
+            raise SimError(f"labsim serve: {MAX_SIGNALS} signals are set, the most it keeps; clear some "
+                           f"(sim.clear{kind}Signal) before setting '{shown(name)}'")
+        if self._bytes - was + size > MAX_SIGNALS_BYTES:
+            raise SimError(f"labsim serve: the signals set would hold more than {MAX_SIGNALS_BYTES >> 20} MiB; "
+                           f"clear some (sim.clear{kind}Signal) before setting '{shown(name)}'")
+        self._own[key] = value
+        self._bytes += size - was
+
+    def _clear(self, kind: str, args: Args) -> list[object]:
+        name = _name(args)
+        old = self._own.pop((kind, name), None)
+        if old is not None:
+            self._bytes -= len(name.encode()) + (len(old) if isinstance(old, bytes) else 8)
+        return []
+
     def _getStringSignal(self, client: Client, args: Args) -> list[object]:
         name = _name(args)
         lidar = self._lidars().get(name)
-        return [lidar() if lidar is not None else self._own.get(name)]
+        return [lidar() if lidar is not None else self._own.get(("String", name))]
 
     def _setStringSignal(self, client: Client, args: Args) -> list[object]:
         name = _name(args)
         if len(args) < 2:
             raise SimError(E_FEW)
         data = args[1].encode() if isinstance(args[1], str) else args[1]
-        if not isinstance(data, (bytes, bytearray)) or len(data) > MAX_SIGNAL_BYTES:
+        if not isinstance(data, (bytes, bytearray)):
             raise SimError(E_ARGS)
+        if len(data) > MAX_SIGNAL_BYTES:
+            raise SimError(f"labsim serve: a signal holds at most {MAX_SIGNAL_BYTES >> 20} MiB; "
+                           f"'{shown(name)}' was given {len(data)} bytes")
         if name in self._lidars():
             raise SimError(f"labsim serve: signal '{name[:60]}' is a lidar's, published by the stand-in")
-        self._own[name] = bytes(data)
+        self._keep("String", name, bytes(data))
         return []
 
     def _clearStringSignal(self, client: Client, args: Args) -> list[object]:
-        self._own.pop(_name(args), None)
+        return self._clear("String", args)
+
+    def _getInt32Signal(self, client: Client, args: Args) -> list[object]:
+        # int value = sim.getInt32Signal(string signalName): CoppeliaSim 4.6 to 4.10; nil when not set
+        return [self._own.get(("Int32", _name(args)))]
+
+    def _setInt32Signal(self, client: Client, args: Args) -> list[object]:
+        name = _name(args)
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        value = as_handle(args[1])  # any number, cast to an integer as CoppeliaSim casts it
+        if not INT32[0] <= value <= INT32[1]:
+            raise SimError(f"labsim serve: an int32 signal holds -2147483648 to 2147483647, not {value}")
+        self._keep("Int32", name, value)
         return []
+
+    def _clearInt32Signal(self, client: Client, args: Args) -> list[object]:
+        return self._clear("Int32", args)
+
+    def _getFloatSignal(self, client: Client, args: Args) -> list[object]:
+        # float value = sim.getFloatSignal(string signalName): CoppeliaSim 4.6 to 4.10; nil when not set
+        return [self._own.get(("Float", _name(args)))]
+
+    def _setFloatSignal(self, client: Client, args: Args) -> list[object]:
+        name = _name(args)
+        if len(args) < 2:
+            raise SimError(E_FEW)
+        value = args[1]
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            raise SimError(E_ARGS)
+        self._keep("Float", name, float(value))
+        return []
+
+    def _clearFloatSignal(self, client: Client, args: Args) -> list[object]:
+        return self._clear("Float", args)
 
     def _packFloatTable(self, client: Client, args: Args) -> list[object]:
         return [_pack("f", args)]
@@ -148,7 +215,10 @@ def _unpack(kind: str, args: Args) -> list[float]:
     size = struct.calcsize(kind)
     offset = min(args[3], len(data)) if len(args) > 3 and isinstance(args[3], int) and args[3] > 0 else 0
     n = (len(data) - offset) // size
-    values = list(struct.unpack(f"<{n}{kind}", data[offset:offset + n * size]))
-    start = args[1] if len(args) > 1 and isinstance(args[1], int) and args[1] > 0 else 0
-    count = args[2] if len(args) > 2 and isinstance(args[2], int) and args[2] > 0 else len(values) - start
-    return values[start:start + count]
+    start = min(args[1], n) if len(args) > 1 and isinstance(args[1], int) and args[1] > 0 else 0
+    count = min(args[2], n - start) if len(args) > 2 and isinstance(args[2], int) and args[2] > 0 else n - start
+    if count > MAX_UNPACKED:
+        raise SimError(f"labsim serve: an unpack returns at most {MAX_UNPACKED} values; this one would return "
+                       f"{count} (pass startIndex and count to take the table in parts)")
+    first = offset + start * size  # only the values asked for are decoded
+    return list(struct.unpack(f"<{count}{kind}", data[first:first + count * size]))

@@ -98,7 +98,7 @@ class Simulation:
     """The scene and its simulation; ``dt_s`` is the time step, ``log`` takes progress lines."""
 
     def __init__(self, world: World, robots: int | Sequence[RobotRequest], dt_s: float,
-                 log: Callable[[str], None]) -> None:
+                 log: Callable[[str], None], handles: dict[str, int] | None = None) -> None:
         self.world = world
         self.dt_s = dt_s
         self.log = log
@@ -113,7 +113,7 @@ class Simulation:
         self.mech_targets: dict[str, tuple[str, float]] = {}  # joint -> (mode, value) asked
         self.mech_pending: dict[str, tuple[str, float]] = {}  # not yet given to the backend
         self.mech_scene: dict[str, tuple[str, float]] = {}  # set while stopped: the scene's, kept into a run
-        self._add_mechanism(world)
+        self._add_mechanism(world, handles)
 
         self.clients: dict[str, Client] = {}
         self.state = STOPPED
@@ -133,12 +133,13 @@ class Simulation:
         robot.last = (pose.x_m, pose.y_m, wrap(pose.heading_rad))
         return robot
 
-    def _add_mechanism(self, world: World) -> None:
-        """Joints, force sensors and moving bodies of the world's mechanism, if it has one."""
+    def _add_mechanism(self, world: World, handles: dict[str, int] | None) -> None:
+        """Joints, force sensors and moving bodies of the world's mechanism, if it has one
+        (``handles``: those its parts were built with, by name)."""
         m = world.mechanism
         if m is None:
             return
-        channels = self.tree.add_mechanism(m)
+        channels = self.tree.add_mechanism(m, handles)
         self.mech = len(self.robots)
         self.mech_row = {ch: n for n, ch in enumerate(channels)}
 

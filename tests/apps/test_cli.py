@@ -25,7 +25,7 @@ def test_run_prints_a_summary(capsys) -> None:
     code, out, err = cli(capsys, "run", str(LAB), "--set", "minutes=0.5")
     assert code == 0
     assert "done: 600 ticks, 30.00 s simulated in" in out
-    assert "params: minutes=0.5* front=0.5 side=0.3 hold=0.45 cruise=4   (* set on the command line)" in out
+    assert "params: minutes=0.5* front=0.5 side=0.3 cruise=2   (* set on the command line)" in out
     assert "robot pioneer: 0 collisions" in out
     assert "rules (ticks fired):" in out and "never fired:" in out
 
@@ -33,7 +33,7 @@ def test_run_prints_a_summary(capsys) -> None:
 def test_run_writes_a_trace_and_plot_draws_it(capsys, tmp_path: Path) -> None:
     trace, png = tmp_path / "run.csv", tmp_path / "run.png"
     assert cli(capsys, "run", str(LAB), "--set", "minutes=0.2", "--trace", str(trace), "-q")[0] == 0
-    assert len(trace.read_text().splitlines()) == 2 + 240 + 1  # header, columns, rows, the "# end" footer
+    assert len(trace.read_text().splitlines()) == 2 + 241 + 1  # header, columns, rows and the stopping tick, footer
     code, out, _ = cli(capsys, "plot", str(trace), "-o", str(png))
     assert code == 0 and png.stat().st_size > 10_000
 
@@ -79,7 +79,7 @@ def test_golden_pass_fail_and_missing(capsys, tmp_path: Path) -> None:
     assert cli(capsys, "test", str(lab), "--update-goldens")[0] == 0
     code, out, _ = cli(capsys, "test", str(tmp_path))
     assert code == 0 and "1 passed, 0 failed" in out
-    lab.write_text(lab.read_text().replace("cruise: 4 ", "cruise: 4.5"))
+    lab.write_text(lab.read_text().replace("cruise: 2 ", "cruise: 1.5"))
     code, out, _ = cli(capsys, "test", str(lab))
     assert code == 1
     assert "first difference at tick" in out and "column '" in out

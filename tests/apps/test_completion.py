@@ -30,7 +30,7 @@ def test_commands_and_options(tmp_path: Path) -> None:
 
 
 def test_lab_names_and_behaviour_files(tmp_path: Path) -> None:
-    assert complete("labsim run wa", tmp_path) == ["wall_follow"]
+    assert complete("labsim run wa", tmp_path) == ["wall_follow", "wall_follow_handout"]
     (tmp_path / "mine.yaml").write_text("labsim: 1\n")
     (tmp_path / "notes.txt").write_text("")
     assert complete("labsim check m", tmp_path, cwd=tmp_path) == ["mine.yaml"]
@@ -39,7 +39,7 @@ def test_lab_names_and_behaviour_files(tmp_path: Path) -> None:
 
 def test_parameter_names_of_the_file_on_the_line(tmp_path: Path) -> None:
     assert set(complete("labsim run wall_follow --set ", tmp_path)) == {
-        "minutes=", "front=", "side=", "hold=", "cruise="}
+        "minutes=", "front=", "side=", "cruise="}
     lab = BEHAVIOURS / "wall_follow.yaml"
     assert complete(f"labsim view {lab} --set fr", tmp_path) == ["front="]
 

@@ -68,7 +68,7 @@ def test_a_finished_run_has_a_footer_saying_so(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-m", "labsim", "run", "wall_follow", "--set", "minutes=0.05",
                            "--trace", str(trace), "-q"], capture_output=True, text=True, timeout=PATIENCE_S)
     assert done.returncode == 0, done.stderr
-    assert _footer(trace) == {"interrupted": False, "ticks": 60}
+    assert _footer(trace) == {"interrupted": False, "ticks": 61}  # 60 and the stopping tick (format 1.2)
     assert read_trace(trace).cut_short() == ""
 
 

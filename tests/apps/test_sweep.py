@@ -49,7 +49,7 @@ def test_run_json_has_every_figure_of_the_summary(capsys) -> None:
     assert len(s["behaviour"]["sha256"]) == 64 and s["world"] == "walls_lab4" and s["trace"] is None
     robot = s["robots"]["pioneer"]
     assert set(robot) >= {"contacts", "contact_time_s", "clamped_ticks", "wheel_limit_rad_s", "metrics"}
-    assert set(robot["metrics"]) == {"near_misses", "overshoot", "following", "closest"}
+    assert set(robot["metrics"]) == {"near_misses", "overshoot", "following", "smoothness", "closest"}
     assert s["metrics"]["near_misses"] == "count"
     assert sum(r["ticks"] for r in s["rules"]) + s["idle_ticks"] == 600
     assert "follow:3" in s["never_fired"] or all(r["ticks"] for r in s["rules"])
@@ -108,7 +108,7 @@ def test_sweep_mistakes_exit_2_before_anything_runs(capsys, tmp_path: Path, args
 def test_an_unknown_parameter_lists_the_files_parameters(capsys) -> None:
     code, _, err = cli(capsys, "sweep", LAB, "--set", "speed=1,2")
     assert code == 2
-    assert "--set speed=1 (in " in err and "parameters of" in err and "minutes, front, side, hold, cruise" in err
+    assert "--set speed=1 (in " in err and "parameters of" in err and "minutes, front, side, cruise" in err
 
 
 # -- the local executor -----------------------------------------------------------------------

@@ -82,7 +82,7 @@ def test_a_signalled_sweep_writes_its_rows_closes_its_traces_and_leaves_no_worke
         rows = [(r["minutes"], r["status"], r["message"], r["ticks"]) for r in csv.DictReader(f)]
     assert [r[:3] for r in rows] == [("0.05", "ok", "")] * 2 + [("10000", "interrupted", f"stopped by {name}")] * 2
     footers = _footers(tmp_path)
-    assert footers["minutes=0.05"] == [{"interrupted": False, "ticks": 60}] * 2
+    assert footers["minutes=0.05"] == [{"interrupted": False, "ticks": 61}] * 2  # and the stopping tick
     assert [f["interrupted"] for f in footers["minutes=10000"]] == [True, True]
     # a worker the signal reached first may end before it sends its count: its row leaves ticks
     # blank, its trace's footer has them

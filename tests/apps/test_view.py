@@ -145,7 +145,7 @@ def test_slider_messages_reach_the_run() -> None:
     assert frame["labels"]["speed"] == "Arm Speed: 0.10"
     assert frame["sliders"]["arm"] == 5
     mode, value = frame["mechanism"]["targets"]["Arm_Actuator"]
-    assert mode == "velocity" and math.isclose(value, 0.5)  # the slider's value, within the motor's max_speed
+    assert mode == "velocity" and math.isclose(value, 5.0)  # the slider's value: the script's setJointTargetVelocity
     s.close()
 
 
@@ -489,7 +489,7 @@ def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> 
 
 def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> None:
     trace = tmp_path / "wall.csv"
-    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    assert main(["run", str(WALL), "--set", "minutes=0.4", "--trace", str(trace), "-q"]) == 0
     rows = read_trace(trace)
     state = rows.columns.index("state")
     turned = next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
@@ -502,10 +502,10 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
     assert s.tick == turned + 1
     s.handle({"type": "step"})
     assert s.tick == turned + 2 and s.frame()["hit"] is None
-    s.handle({"type": "break", "add": "time:4"})
+    s.handle({"type": "break", "add": "time:20"})
     s.handle({"type": "play"})
     s.catch_up(budget_s=1e9)
-    assert s.frame()["hit"]["tick"] == 80 and s.frame()["breakpoints"] == ["state:follow", "time:4"]
+    assert s.frame()["hit"]["tick"] == 400 and s.frame()["breakpoints"] == ["state:follow", "time:20"]
     with pytest.raises(ChangeRefused, match="did you mean 'sonar5'"):
         s.handle({"type": "break", "add": "sonr5 < 0.3"})
     with pytest.raises(ChangeRefused, match="no rule 'nope'"):
@@ -513,7 +513,7 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
     with pytest.raises(BadMessage):
         s.handle({"type": "break", "remove": 7})
     s.handle({"type": "break", "remove": 0})
-    assert s.frame()["breakpoints"] == ["time:4"]
+    assert s.frame()["breakpoints"] == ["time:20"]
     s.close()
 
 
@@ -591,14 +591,14 @@ def test_a_frame_shows_the_tick_the_trace_has_a_row_for(tmp_path: Path) -> None:
     assert s.frame()["tick"] == 0 and s.frame()["ran"] == 0
     sonar5 = next(k for k, c in enumerate(s.scene()["columns"]) if c["name"] == "sonar5")
     frames = []
-    for n in (1, 46, 1, 30):  # the wall lab goes from wander to follow on tick 47
+    for n in (1, 367, 1, 30):  # the wall lab goes from wander to follow on tick 368
         s.advance(n)
         frames.append(s.frame())
     s.close()
     rows = read_trace(trace)
     col = {c: rows.columns.index(c) for c in ("tick", "time", "x", "y", "state", "rule", "sonar5")}
     by_tick = {int(r[col["tick"]]): r for r in rows.rows}
-    assert [f["tick"] for f in frames] == [0, 46, 47, 77] and [f["ran"] for f in frames] == [1, 47, 48, 78]
+    assert [f["tick"] for f in frames] == [0, 367, 368, 398] and [f["ran"] for f in frames] == [1, 368, 369, 399]
     assert {f["robots"][0]["state"] for f in frames} == {"wander", "follow"}
     for f in frames:
         row, robot = by_tick[f["tick"]], f["robots"][0]

@@ -20,7 +20,7 @@ def test_two_runs_in_process_and_one_in_a_subprocess_are_identical(tmp_path: Pat
     assert main(["run", str(LAB), *SHORT, "--trace", str(b)]) == 0
     subprocess.run([sys.executable, "-m", "labsim", "run", str(LAB), *SHORT, "--trace", str(c)], check=True)
     assert a.read_bytes() == b.read_bytes() == c.read_bytes()
-    assert len(a.read_bytes().splitlines()) == 2 + 2400 + 1  # header, columns, rows, footer
+    assert len(a.read_bytes().splitlines()) == 2 + 2401 + 1  # header, columns, rows (the stopping tick too), footer
 
 
 def test_another_seed_gives_another_run(tmp_path: Path) -> None:

@@ -136,6 +136,7 @@ def test_a_hostile_reply_to_the_crane_or_the_fleet_script(request, tmp_path: Pat
         proxy.close()
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err and "CoppeliaSim never sends" in err, err
+    assert f"CoppeliaSim at 127.0.0.1:{proxy.port}: " in err  # the fleet script's replies too
     for part in named:
         assert part in err, (part, err)
     rows = _rows(trace)

@@ -11,7 +11,7 @@ import labsim
 from labsim.runtime.cli.main import main
 from labsim.runtime.labs import LABS_DIR, behaviour_path, labs
 
-LAB_NAMES = ["crane", "line_follow", "road_follow", "wall_follow"]
+LAB_NAMES = ["crane", "line_follow", "road_follow", "wall_follow", "wall_follow_handout"]
 
 
 def test_labs_lists_every_lab_with_its_title(capsys: pytest.CaptureFixture[str]) -> None:

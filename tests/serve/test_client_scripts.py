@@ -5,6 +5,7 @@ Between them they make every call docs/coppeliasim.md's compatibility table list
 student scripts (``CALLS`` below is checked against what they contain)."""
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 from pathlib import Path
@@ -16,7 +17,9 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
 from helpers import PATIENCE_S
 
-from labsim.backends.scene.world import World, builtin_worlds
+from labsim.backends.protocol import RobotRequest
+from labsim.backends.scene.models import PIONEER_P3DX, Camera
+from labsim.backends.scene.world import Pose, World, builtin_worlds
 from labsim.backends.scene.world_file import load_world
 from labsim.foundation.diagnostics import Report
 from labsim.runtime.serve.server import Server
@@ -30,6 +33,8 @@ CALLS = (
     "getObjectFloatParam", "jointfloatparam_velocity", "getVisionSensorCharImage", "readVisionSensor",
     "handleVisionSensor", "getVisionSensorDepth", "getObjectsInTree", "setShapeColor", "setObjectParent",
     "removeObject", "getSystemTime", "wait", "callScriptFunction", "getScript", "saveScene", "closeScene",
+    "getObjectChild", "checkProximitySensor", "getVisionSensorImage", "setJointForce", "setInt32Signal",
+    "getInt32Signal", "clearInt32Signal", "setFloatSignal", "getFloatSignal",
 )
 
 
@@ -85,6 +90,18 @@ def test_a_script_loading_a_ttt_scene_stops_there_with_the_clear_error() -> None
 
 def test_a_camera_script_loads_the_road_lab_by_name_and_reads_its_camera_every_way() -> None:
     out = lines(run("road_camera.py", Server(LAB, 1, port=0)))
-    assert out[:4] == ["scene road_loop", "same camera True", "before a step -1", "packet 15 mean intensity 0.44"]
+    assert out[:4] == ["scene road_loop", "4.8 name refused True", "before a step -1", "packet 15 mean intensity 0.44"]
     assert out[4] == "nearest floor 3.69 m; farthest 10.0 m"  # the floor through the camera's optics; the far plane
     assert out[5] == "robot at -11.37 -62.78"
+
+
+def test_a_tutorial_script_with_relative_paths_float_handles_and_older_calls() -> None:
+    """./x with no proxy, numpy float handles, getObjectChild, checkProximitySensor, signals."""
+    camera = dataclasses.replace(PIONEER_P3DX, cameras=(Camera("camera", 32, 24, 60.0, 0.3, 30.0),))
+    robots = [RobotRequest("pioneer", camera, Pose(-6.0, -6.2, -1.5708), ())]  # 1.3 m from the south wall
+    result = run("pioneer_tutorial.py", Server(LAB, robots, port=0))
+    assert result.returncode == 0, result.stderr
+    out = lines(result)
+    assert out[0] == "children 23 sonars 16"  # two motors, 16 sonars, the camera, four bumpers
+    assert out[1:] == ["image 2304 values in [0, 1] True", "turning steps True state True", "cleared None",
+                       "done at 0.0"]

@@ -61,7 +61,7 @@ def test_wall_lab_gives_the_embedded_backends_trace(served: int, tmp_path: Path,
     out = capsys.readouterr().out
     header = json.loads(remote.read_text().split("\n", 1)[0].removeprefix("# labsim-trace "))
     assert header["backend"] == "coppeliasim"
-    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 1200
+    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 1201  # + the stopping tick
     # the same summary (collisions, metrics, rules), and the round trips on top
     def body(text: str) -> list[str]:
         return [line for line in text.split("\n")[2:] if "trace:" not in line and "round trips" not in line]

@@ -35,7 +35,7 @@ def test_the_wall_lab_through_the_fleet_script_in_at_most_4_round_trips(empty: i
     assert main(["run", str(lab), "--set", "minutes=1", "--trace", str(remote),
                  "--backend", "coppeliasim", "--port", str(empty)]) == 0
     trips = _trips(capsys.readouterr().out)
-    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1200
+    assert trace_rows(remote) == trace_rows(ref) and len(trace_rows(ref)) == 1 + 1201  # + the stopping tick
     # sense (1), the wheels that changed (0 or 1), the step (2); per object it is over 10
     assert 3.0 <= trips <= 4.0
 

@@ -18,7 +18,7 @@ pytest.importorskip("cbor2")
 zmq = pytest.importorskip("zmq")
 pytest.importorskip("coppeliasim_zmqremoteapi_client")
 
-from helpers import PATIENCE_S, examples, serve_and_run  # noqa: E402
+from helpers import PATIENCE_S, examples, serve, serve_and_run, stop  # noqa: E402
 
 from labsim.backends.protocol import RobotRequest  # noqa: E402
 from labsim.backends.pymunk.backend import PymunkBackend  # noqa: E402
@@ -92,3 +92,33 @@ def test_a_script_reads_the_scan_as_from_coppeliasims_hokuyo() -> None:
         x, y, z = points[k:k + 3]
         assert math.hypot(x, y) == pytest.approx(d, rel=1e-6) and z == 0.0
         assert math.atan2(y, x) == pytest.approx(a, abs=1e-6)
+
+
+def test_labsim_scene_refuses_a_lidar_it_cannot_build_and_a_run_without_a_scanner_stops(tmp_path: Path,
+                                                                                         capsys) -> None:
+    """Never a silent scene: labsim scene names the lidar before building anything, and a run
+    on a scene with no scanner stops at its first step rather than driving blind."""
+    from labsim.runtime.cli.main import main
+
+    lab = tmp_path / "lidar.yaml"
+    lab.write_text(examples("worlds.md")["lidar_avoid"].replace("stop: time >= 60", "stop: time >= 3"))
+    proc, port = serve("-q", "--empty")
+    try:
+        assert main(["scene", str(lab), "--port", str(port), "-q"]) == 2
+        err = capsys.readouterr().err
+        assert "labsim scene: robot 'pioneer' has a lidar (lidar1..lidar180), and labsim scene builds no laser " \
+               "scanner" in err and "'labsimLidarRanges'" in err
+        # the world and the Pioneer built without it (as by hand): the run names what is missing
+        walls = tmp_path / "walls.yaml"
+        walls.write_text("labsim: 1.2\nworld: walls_lab4\nseed: 5\nstop: time >= 1\nrobots:\n"
+                         "  pioneer: {model: pioneer_p3dx, at: random}\nrules:\n  - always move(0)\n")
+        assert main(["scene", str(walls), "--port", str(port), "-q"]) == 0
+        trace = tmp_path / "t.csv"
+        assert main(["run", str(lab), "-q", "--backend", "coppeliasim", "--port", str(port),
+                     "--trace", str(trace)]) == 2
+        err = capsys.readouterr().err
+        assert f"robot 'pioneer': CoppeliaSim at 127.0.0.1:{port} publishes no signal 'labsimLidarRanges' after " \
+               "a step, so the scene has no laser scanner for the behaviour's lidar" in err
+        assert "Traceback" not in err
+    finally:
+        stop(proc)

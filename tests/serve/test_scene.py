@@ -29,7 +29,7 @@ def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     out = capsys.readouterr().out
     assert "6 walls and 1 blocks" in out and "1 Pioneer P3DX, their scripts removed" in out
     ref, remote = embedded_and_served(lab, empty, tmp_path, "--set", "minutes=1")
-    assert remote == ref and len(ref) == 1 + 1200
+    assert remote == ref and len(ref) == 1 + 1201  # the header, 1,200 ticks and the stopping one (format 1.2)
 
 
 def test_the_stand_in_rebuilds_the_world_it_was_given() -> None:
@@ -112,3 +112,18 @@ def test_an_epucks_ground_sensors_are_the_vision_sensors_built_as_them() -> None
     with pytest.raises(BackendError, match="keeps its model's camera"):
         robot_model(EPUCK, [down("Vision_sensor", 0.03, 0.0)])
     assert robot_model(PIONEER_P3DX, []) == PIONEER_P3DX
+
+
+def test_a_sensor_labsim_scene_cannot_build_is_refused_before_anything_is_built() -> None:
+    from labsim.backends.coppeliasim.connection import Connection
+    from labsim.backends.protocol import BackendError, RobotRequest
+    from labsim.backends.scene.models import PIONEER_P3DX
+    from labsim.backends.scene.world import Pose
+    from labsim.runtime.builder.scene import build
+
+    world = load_world(builtin_worlds()["walls_lab4"], Report())
+    robot = RobotRequest("pioneer", PIONEER_P3DX, Pose(0.0, 0.0, 0.0), ("sonar5", "bump_front_left"))
+    with pytest.raises(BackendError) as refused:  # no server at port 1: nothing is sent
+        build(Connection("127.0.0.1", 1, 1.0), world, [robot], 0.05)
+    assert str(refused.value).startswith("labsim scene: robot 'pioneer' reads bump_front_left, and CoppeliaSim's "
+                                         "Pioneer P3DX has no bumpers: labsim scene builds none.")

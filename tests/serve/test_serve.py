@@ -117,7 +117,10 @@ def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     assert "object does not exist" in err and "before CoppeliaSim 4.3" in err and "/PioneerP3DX[1]/leftMotor" in err
     assert wire("sim.getObject", "Pioneer_p3dx_leftMotor#0", {"noError": True}) == -1
     assert wire("sim.getObject", "/PioneerP3DX[7]", {"noError": True}) == -1
-    assert "proxy" in wire.raw("sim.getObject", "./leftMotor")["err"]  # relative needs a proxy
+    # a remote client has no emitting object: ./x and :/x search from the top, as /x does
+    assert wire("sim.getObject", "./leftMotor") == wire("sim.getObject", "/leftMotor") == \
+        wire("sim.getObject", ":/leftMotor") == wire("sim.getObject", "/PioneerP3DX[0]/leftMotor")
+    assert wire("sim.getObject", ".", {"noError": True}) == wire("sim.getObject", "..", {"noError": True}) == -1
     assert wire("sim.getObjectAlias", sonar5) == "ultrasonicSensor"
     assert wire("sim.getObjectAlias", sonar5, 0) == "ultrasonicSensor[4]"
     assert wire("sim.getObjectAlias", sonar5, 2) == "/PioneerP3DX[0]/ultrasonicSensor[4]"
@@ -432,3 +435,131 @@ def test_more_robots_than_a_world_has_room_for_is_a_clear_error() -> None:
                            "--port", "0"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "world 'walls_lab4' has no free place for robot" in proc.stderr and "ask for fewer" in proc.stderr
+
+
+# --- what the stand-in keeps for a client, and what it decodes, is bounded --------------------
+
+def test_signals_are_bounded_by_count_and_bytes(wire: Wire, monkeypatch: pytest.MonkeyPatch) -> None:
+    from labsim.runtime.serve import sim_signals
+
+    for k in range(sim_signals.MAX_SIGNALS):
+        wire("sim.setInt32Signal", f"s{k}", k)
+    err = wire.raw("sim.setFloatSignal", "one more", 1.5)["err"]
+    assert err == ("labsim serve: 10000 signals are set, the most it keeps; clear some (sim.clearFloatSignal) "
+                   "before setting 'one more' (in function 'sim.setFloatSignal')")
+    wire("sim.setInt32Signal", "s7", -7)  # replacing one is no new signal
+    assert wire("sim.getInt32Signal", "s7") == -7
+    wire("sim.clearInt32Signal", "s0")
+    wire("sim.setFloatSignal", "one more", 1.5)
+    assert wire("sim.getFloatSignal", "one more") == 1.5 and wire("sim.getInt32Signal", "one more") is None
+    for k in range(1, sim_signals.MAX_SIGNALS):
+        wire("sim.clearInt32Signal", f"s{k}")
+    monkeypatch.setattr(sim_signals, "MAX_SIGNALS_BYTES", 1000)
+    wire("sim.setStringSignal", "a", b"x" * 900)
+    err = wire.raw("sim.setStringSignal", "b", b"x" * 200)["err"]
+    assert "the signals set would hold more than 0 MiB; clear some (sim.clearStringSignal) before setting 'b'" in err
+    wire("sim.setStringSignal", "a", b"x" * 10)  # a smaller value in its place frees the rest
+    wire("sim.setStringSignal", "b", b"x" * 200)
+    assert wire("sim.getStringSignal", "b") == b"x" * 200
+
+
+def test_int32_and_float_signals_take_numbers_as_coppeliasim_does(wire: Wire) -> None:
+    wire("sim.setInt32Signal", "state", 4.0)  # a numpy float, as a script's array holds it
+    assert wire("sim.getInt32Signal", "state") == 4 and isinstance(wire("sim.getInt32Signal", "state"), int)
+    wire("sim.setInt32Signal", "state", 4.7)  # cast as CoppeliaSim casts a number to an int
+    assert wire("sim.getInt32Signal", "state") == 4
+    wire("sim.setFloatSignal", "speed", 2.0)
+    assert wire("sim.getFloatSignal", "speed") == 2.0 and isinstance(wire("sim.getFloatSignal", "speed"), float)
+    assert wire("sim.getStringSignal", "state") is None  # each kind its own names
+    wire("sim.clearFloatSignal", "speed")
+    assert wire("sim.getFloatSignal", "speed") is None
+
+
+def test_unpacking_decodes_only_what_is_asked(wire: Wire) -> None:
+    data = wire("sim.packDoubleTable", [float(k) for k in range(10)])
+    assert wire("sim.unpackDoubleTable", data, 2, 3) == [2.0, 3.0, 4.0]
+    assert wire("sim.unpackDoubleTable", data, 8, 100) == [8.0, 9.0]
+    assert wire("sim.unpackDoubleTable", data, 0, 0, 16) == [2.0 + k for k in range(8)]
+    big = b"\0" * (8 * (1 << 20) + 8)
+    assert "an unpack returns at most 1048576 values; this one would return 1048577" in \
+        wire.raw("sim.unpackDoubleTable", big)["err"]
+    assert len(wire("sim.unpackDoubleTable", big, 1)) == 1 << 20  # taken in parts, it is answered
+
+
+def test_numbers_are_handles_wherever_coppeliasim_takes_them(wire: Wire) -> None:
+    motor = wire("sim.getObject", "/PioneerP3DX[0]/leftMotor")
+    handles = np.zeros(2)
+    handles[0] = motor
+    assert wire("sim.getObjectAlias", handles[0]) == "leftMotor"  # 4.0 from an array
+    assert wire("sim.getObjectAlias", float(motor) + 0.7) == "leftMotor"  # cast, as CoppeliaSim casts it
+    wire("sim.setJointTargetVelocity", handles[0], 2.0)
+    assert wire("sim.getJointTargetVelocity", motor) == 2.0
+    robot = wire("sim.getObject", "/PioneerP3DX[1]")
+    assert wire("sim.getObject", "./leftMotor", {"proxy": float(robot)}) == \
+        wire("sim.getObject", "/PioneerP3DX[1]/leftMotor")
+    assert wire("sim.getObjectChild", float(robot), 0.0) == wire("sim.getObject", "/PioneerP3DX[1]/leftMotor")
+    assert wire("sim.getObjectChild", robot, 1000) == -1
+    assert wire.raw("sim.getObjectAlias", "4")["err"].startswith("one of the function's argument type is not correct")
+    assert wire.raw("sim.getObjectAlias", True)["err"].startswith("one of the function's argument type")
+
+
+def test_check_proximity_sensor_and_the_older_image_call() -> None:
+    camera = dataclasses.replace(PIONEER_P3DX, cameras=(Camera("camera", 8, 6, 60.0, 0.3, 30.0),))
+    srv = Server(LAB, [RobotRequest("p", camera, Pose(-6.0, -6.9, -1.5708), ())], port=0)
+    wire = Wire(srv)
+    sonar5 = wire("sim.getObject", "/PioneerP3DX/ultrasonicSensor[4]")
+    camera_h = wire("sim.getObject", "/PioneerP3DX/Vision_sensor")
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    wire("sim.step")
+    result, distance, point = wire("sim.checkProximitySensor", sonar5, -2)  # sim.handle_all
+    assert (result, distance, point) == wire("sim.readProximitySensor", sonar5)[:3] and result == 1
+    assert 0.3 < distance < 0.45
+    assert "answers for sim.handle_all only" in wire.raw("sim.checkProximitySensor", sonar5, 5)["err"]
+    img, _ = wire("sim.getVisionSensorImg", camera_h)
+    floats = wire("sim.getVisionSensorImage", camera_h)
+    assert floats == [b / 255.0 for b in img] and len(floats) == 8 * 6 * 3
+    assert wire("sim.getVisionSensorImage", camera_h, 0, 0, 0, 0, 1) == img
+    wire("sim.setJointForce", wire("sim.getObject", "/PioneerP3DX/leftMotor"), 20.0)
+    assert "Vision_sensor" in wire.raw("sim.getObject", "/PioneerP3DX/visionSensor")["err"]
+    assert wire.raw("sim.setSimulationTimeStep", 0.01)["err"] == "No such function: sim.setSimulationTimeStep"
+
+
+def test_a_built_shape_answers_to_one_handle() -> None:
+    from labsim.runtime.serve.scene_edit import EMPTY
+
+    wire = Wire(Server(EMPTY, 0, port=0, empty=True))
+    box = wire("sim.createPrimitiveShape", 3, [0.5, 0.5, 0.5], 0)
+    wire("sim.setObjectAlias", box, "box")  # a mechanism's body
+    assert wire("sim.getObject", "/box") == box and wire("sim.getObjectAlias", box) == "box"
+    wall = wire("sim.createPrimitiveShape", 3, [1.0, 0.1, 0.5], 8)
+    wire("sim.setObjectAlias", wall, "wall")
+    assert wire("sim.getObject", "/wall") == wall and wire("sim.getObjectAlias", float(wall), 2) == "/wall[0]"
+    assert wire("sim.getObjectsInTree", -12) == [box, wall]
+    for sizes in ([float("nan"), 1, 1], [-1, 1, 1], [1, float("inf"), 1], [0, 1, 1], [1e5, 1, 1]):
+        err = wire.raw("sim.createPrimitiveShape", 3, sizes, 0)["err"]
+        assert err.startswith("labsim serve: a cuboid's sizes are finite numbers of metres, greater than 0 and at "
+                              "most 10000, not "), err
+    assert wire("sim.createPrimitiveShape", 1, [2.0, 2.0, 0.0], 0) > wall  # a plane is flat
+
+
+def test_a_texture_is_sent_as_data_and_written_where_it_is_asked() -> None:
+    from labsim.runtime.serve.scene_edit import EMPTY
+
+    server = Server(EMPTY, 0, port=0, empty=True)
+    wire = Wire(server)
+    plane, texture, res = wire("sim.createTexture", "", 0, [2.0, 1.0], [2.0, 1.0], [0.0, 0.0, 0.0], 0, [4, 2])
+    assert texture == plane and res == [4, 2]
+    assert wire("sim.writeTexture", texture, 0, bytes(range(24))) == 1
+    assert wire("sim.writeTexture", float(texture), 0, b"\xff" * 3, 3, 1, 1, 1) == 1  # one pixel, bottom right
+    import cv2
+
+    shape = server.editor.shapes[plane]
+    rgb = cv2.cvtColor(cv2.imdecode(np.frombuffer(shape.png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    assert rgb[0].tolist() == [[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11]]  # the first row written first
+    assert rgb[1].tolist() == [[12, 13, 14], [15, 16, 17], [18, 19, 20], [255, 255, 255]]
+    assert "needs 24 bytes of RGB, was given 3" in wire.raw("sim.writeTexture", texture, 0, b"abc")["err"]
+    assert wire.raw("sim.writeTexture", 5, 0, b"abc")["err"].startswith("texture does not exist.")
+    assert "1 to 4096 pixels a side, not 100000 x 2" in wire.raw(
+        "sim.createTexture", "", 0, [1.0, 1.0], None, None, 0, [100_000, 2])["err"]
+    assert "plane sizes are finite" in wire.raw("sim.createTexture", "", 0, [float("nan"), 1.0])["err"]

@@ -185,9 +185,10 @@ def test_show_code_prints_each_rule_signal_and_metric_under_its_file_line(capsys
         comment = f"# {path}:{rule.line}: rule {rule.id}: {rule.text}"
         (i,) = [i for i, line in enumerate(lines) if line.strip() == comment][:1]
         assert re.match(r" *(if|elif|else)\b", lines[i + 1]), lines[i + 1]  # the rule's own test follows
-    assert f"# {path}:37: rule wander:1: if ahead <= front or right <= front then goto follow" in out
-    assert f"# {path}:28: ahead: min(sonar5, sonar2)" in out
-    assert f"# {path}:48: near_misses: count(min(ahead, right, left) < 0.25)" in out
+    assert (f"# {path}:38: rule wander:1: if ahead <= front or sonar8 <= front or sonar15 <= front or "
+            "min(sonar9, sonar14) <= back then goto follow") in out
+    assert f"# {path}:27: ahead: min(sonar5, sonar2)" in out
+    assert f"# {path}:51: near_misses: count(min(ahead, right, left) < 0.25)" in out
     assert f"# {path}:14: stop: time >= minutes * 60" in out
     compile(out, "listing", "exec")  # it is Python
     # the listing is the compiled source with its markers explained, line for line
@@ -199,9 +200,9 @@ def test_each_generated_line_knows_the_file_line_it_comes_from() -> None:
     source = p.code.source.splitlines()
     assert len(p.code.marks) == len(source)
     marks = dict(zip((line.strip() for line in source), p.code.marks))
-    assert marks["elif (v11 <= 0.3):"] == 41 and marks["cmd[0] = 2.0"] == 41  # rule follow:2 and its action
-    assert marks["s[10] = v10 = (_nan if v4 != v4 or v3 != v3 else (v3 if v3 < v4 else v4))"] == 28  # ahead
-    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[3][0] = v"] == 55  # the stop condition, a metric
+    assert marks["elif (v5 <= 0.3):"] == 42 and marks["cmd[0] = 1.0"] == 42  # rule follow:2 and its action
+    assert marks["s[11] = v11 = (_nan if v4 != v4 or v3 != v3 else (v3 if v3 < v4 else v4))"] == 27  # ahead
+    assert marks["return (v0 >= 1500.0)"] == 14 and marks["m[0][0] += 1"] == 51  # the stop condition, a metric
     assert marks["def decide():"] == marks["v2 = s[2]"] == marks["rule = -1"] == 0  # plumbing
     assert {p.code.marks[i] for i, line in enumerate(source) if line.startswith("#")} == {0}  # the header
 

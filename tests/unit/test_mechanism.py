@@ -92,12 +92,30 @@ def test_crab_moves_at_the_commanded_velocity_along_the_arm(crane: Mechanism) ->
 
 
 def test_crab_velocity_is_clamped_to_its_max_speed(crane: Mechanism) -> None:
-    s = lifted(crane)
+    slow = dataclasses.replace(crane, joints=tuple(
+        dataclasses.replace(j, motor=dataclasses.replace(j.motor, max_speed=1.0))
+        if j.name == CRAB and j.motor is not None else j for j in crane.joints))
+    s = lifted(slow)
     s.set_target_position(CRAB, 1.0)
     run(s, 10.0)
     s.set_target_velocity(CRAB, 5.0)
     speeds = run(s, 4.0, lambda s: s.joint_velocity(CRAB))
     assert max(speeds) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_crane_s_motors_take_every_slider_step(crane: Mechanism) -> None:
+    """The lab's sliders go to 10 and its script sets the joints' target velocities to their
+    values: each step is a speed of its own, reached at max_accel (behaviours/crane.yaml)."""
+    for name in (CRAB, HOIST, SLEW):
+        motor = next(j.motor for j in crane.joints if j.name == name)
+        assert motor is not None and motor.max_speed == 10 and motor.max_accel == 0.5
+    finals = []
+    for target in (0.4, 0.5, 0.6, 9.9, 10.0):  # slider steps of 0.1, below and above the old 0.5 cap
+        s = lifted(crane)
+        s.set_target_velocity(SLEW, target)
+        run(s, 25.0)
+        finals.append(s.joint_velocity(SLEW))
+    assert finals == pytest.approx([0.4, 0.5, 0.6, 9.9, 10.0], abs=1e-9)
 
 
 def test_hoist_rope_length_changes_at_the_commanded_velocity(crane: Mechanism) -> None:
@@ -119,9 +137,11 @@ def test_slew_angle_integrates_the_commanded_velocity(crane: Mechanism) -> None:
     run(s, 2.0)
     assert s.slew_angle - a0 == pytest.approx(0.6, abs=1e-9)
     assert s.joint_position(SLEW) == s.slew_angle and s.joint_velocity(SLEW) == pytest.approx(0.3)
-    s.set_target_velocity(SLEW, 10.0)
+    s.set_target_velocity(SLEW, 12.0)
     run(s, 3.0)
-    assert s.joint_velocity(SLEW) == pytest.approx(0.5)  # its max speed
+    assert s.joint_velocity(SLEW) == pytest.approx(0.3 + 0.5 * 3.0)  # ramping at its max accel
+    run(s, 30.0)
+    assert s.joint_velocity(SLEW) == pytest.approx(10.0)  # its max speed
     # The plane does not move in 2D; world_position turns it about the tower's axis (x = -2).
     x, z, _ = s.body_pose("Crab")
     assert (x, z) == pytest.approx((1, 7.825), abs=1e-3)

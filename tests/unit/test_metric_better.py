@@ -67,7 +67,7 @@ def test_the_shipped_labs_declare_what_their_defaults_get_wrong() -> None:
                                                                               program.metric_better)})
     assert better == {
         "wall_follow.near_misses": "lower", "wall_follow.overshoot": "lower", "wall_follow.following": "higher",
-        "wall_follow.closest": "higher",
+        "wall_follow.smoothness": "lower", "wall_follow.closest": "higher",
         "road_follow.lateral_rms": "lower", "road_follow.lateral_max": "lower", "road_follow.off_road": "lower",
         "road_follow.laps": "higher", "road_follow.mean_speed": "higher",
         "crane.max_swing": "lower", "crane.final_swing": "higher", "crane.highest_load": "lower",

@@ -12,8 +12,12 @@ sim = client.require('sim')
 sim.loadScene('road_follow')
 print('scene', sim.getStringParam(sim.stringparam_scene_name))
 robot = sim.getObject('/PioneerP3DX[0]')
-camera = sim.getObject('/PioneerP3DX[0]/visionSensor')  # CoppeliaSim 4.8's name for it
-print('same camera', camera == sim.getObject('/PioneerP3DX[0]/Vision_sensor'))
+camera = sim.getObject('/PioneerP3DX[0]/Vision_sensor')  # as CoppeliaSim 4.6 and 4.7 name a new one
+try:
+    sim.getObject('/PioneerP3DX[0]/visionSensor')  # CoppeliaSim 4.8's name: not this scene's
+    print('4.8 name found')
+except Exception as e:
+    print('4.8 name refused', "'/PioneerP3DX[0]/Vision_sensor'" in str(e))
 print('before a step', sim.readVisionSensor(camera))
 left = sim.getObject('/PioneerP3DX[0]/leftMotor')
 right = sim.getObject('/PioneerP3DX[0]/rightMotor')
