@@ -117,7 +117,7 @@ def test_run_writes_its_trace_as_mcap(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]  # the CSV it went through is gone
     found = _messages(tmp_path / "run.mcap")
-    assert len(found["/pioneer/pose"]) == 120  # 6 s at 0.05 s a tick
+    assert len(found["/pioneer/pose"]) == 121  # 6 s at 0.05 s a tick, and the tick it stopped on (format 1.2)
     csv_run = _labsim("run", "wall_follow", "--set", "minutes=0.1", "-q", "--trace", "run.csv", cwd=tmp_path)
     assert csv_run.returncode == 0
     rows = read_trace(tmp_path / "run.csv").rows
