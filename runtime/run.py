@@ -22,7 +22,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.world import Pose, World
 from labsim.backends.scene.world_names import builtin_name
@@ -34,6 +33,7 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
+from labsim.foundation.version import version
 from labsim.runtime.budgets import RunWatch, out_of_memory_message, trace_full_message
 from labsim.runtime.hands import Hand, Hands, HandsOn, event_text
 from labsim.runtime.interrupts import CallbackInterrupts
@@ -230,7 +230,7 @@ class Run:
     def header(self) -> dict:
         p = self.program
         return {
-            "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
+            "format": FORMAT, "labsim": version(), "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
             "world_file": _world_file(p.world), **_world_identity(p.world),
             "dt": self.dt, "seed": p.seed, "params": dict(p.params),
@@ -487,5 +487,5 @@ def _world_identity(world: World) -> dict[str, str]:
         digest = ""
     out = {"world_sha256": digest}
     if world.source and builtin_name(world.source):
-        out["world_version"] = f"built-in, labsim {__version__}"
+        out["world_version"] = f"built-in, labsim {version()}"
     return out
