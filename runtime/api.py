@@ -4,7 +4,8 @@ A thin layer over the runtime, at the same place in the pipeline as the command 
 ``run`` compiles a behaviour file, runs it and returns the summary ``labsim run --json``
 writes; ``read_trace`` reads a trace into a pandas DataFrame (pandas is the optional extra
 ``labsim[pandas]``) with the trace's header in ``DataFrame.attrs``; ``compile_behaviour``
-compiles once for many runs (``Behaviour.bind(load_backend()).run()``). The package root
+(the runtime's own, ``labsim.runtime.run``) compiles once for many runs
+(``Behaviour.bind(load_backend()).run()``). The package root
 imports these lazily, so ``import labsim`` (and ``labsim check``'s start) stays cheap.
 """
 from __future__ import annotations
@@ -15,31 +16,13 @@ from typing import TYPE_CHECKING, Any
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
-from labsim.runtime.labs import behaviour_path
-from labsim.runtime.run import Behaviour
-from labsim.runtime.run import compile_behaviour as _compile
+from labsim.runtime.run import Behaviour, Setting, compile_behaviour
 from labsim.runtime.summary_json import summary_dict
 from labsim.runtime.trace import TraceFormatError
 from labsim.runtime.trace import read_trace as _read_trace
 
 if TYPE_CHECKING:
     import pandas
-
-Setting = float | int | bool | str
-
-
-def _text(value: Setting) -> str:
-    return ("true" if value else "false") if isinstance(value, bool) else str(value)
-
-
-def compile_behaviour(behaviour: str | Path, *, params: dict[str, Setting] | None = None,
-                      seed: int | None = None, budget: dict[str, int] | None = None) -> Behaviour:
-    """Compile a behaviour file, or a shipped lab by name ('wall_follow'), once for many runs:
-    ``labsim.run(compiled)``, or ``compiled.bind(labsim.load_backend()).run()`` to tick it
-    yourself. ``params``, ``seed`` and ``budget`` as for ``run``; raises ``LabsimError`` for a broken file."""
-    overrides = {k: _text(v) for k, v in (params or {}).items()}
-    return _compile(behaviour_path(str(behaviour)), overrides, seed=seed, budgets=_budgets(budget))
 
 
 class RunStopped(LabsimError):
@@ -102,14 +85,6 @@ def run(behaviour: str | Path | Behaviour, *, params: dict[str, Setting] | None 
     if result.interrupted:
         raise KeyboardInterrupt
     return summary
-
-
-def _budgets(budget: dict[str, int] | None) -> Budgets:
-    """The run's budgets: the defaults, with ``budget``'s settings (each checked as --budget is)."""
-    out, problems = DEFAULT_BUDGETS.parse([f"{k}={v}" for k, v in (budget or {}).items()])
-    if problems:
-        raise LabsimError([Diagnostic(where.replace("--budget ", "budget "), message) for where, message in problems])
-    return out
 
 
 def read_trace(path: str | Path) -> pandas.DataFrame:

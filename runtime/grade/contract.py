@@ -102,7 +102,7 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
     source = normalised(data.decode("utf-8", "replace"))
     base = Submission(student, str(path), key, source)
     try:
-        program = compile_behaviour(path, budgets=assignment.budgets).program
+        program = compile_behaviour(path, budget=assignment.budgets).program
     except LabsimError as e:
         status = classify(e.diagnostics)
         return _refused(base, status, _first(e.diagnostics), e.diagnostics)
