@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import atexit
 import os
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -34,6 +35,35 @@ if "LABSIM_CACHE_DIR" not in os.environ:
 
 
 BROWSER = Path(__file__).resolve().parent / "browser"
+MODULE_MARKS = re.compile(r"^pytestmark\s*=\s*(.*)$", re.M)
+
+
+def _left_out(markexpr: str) -> set[str]:
+    """The marks a ``-m`` expression leaves out whatever else a test carries: the X of each
+    ``not X`` it is a conjunction of (``not slow``, ``not long and not browser``); nothing for
+    an expression with ``or`` or parentheses, which this does not read."""
+    if not markexpr or "(" in markexpr or re.search(r"\bor\b", markexpr):
+        return set()
+    conjuncts = [c.strip() for c in re.split(r"\band\b", markexpr)]
+    return {c.split()[1] for c in conjuncts if re.fullmatch(r"not\s+\w+", c)}
+
+
+def pytest_ignore_collect(collection_path: Path, config: pytest.Config) -> bool | None:
+    """Leave unimported a test module whose every test ``-m`` leaves out: the browser tier, and
+    a module marked whole (``pytestmark = pytest.mark.slow``). Importing it only to deselect
+    its tests cost every worker its imports (a stand-in server's, Dask's, pandas'): a second of
+    CPU each in ``-m "not slow"``."""
+    left_out = _left_out(config.getoption("markexpr", ""))
+    if not left_out:
+        return None
+    path = collection_path.resolve()
+    if path == BROWSER or path.is_relative_to(BROWSER):
+        return bool(left_out & {"browser", "slow"}) or None
+    if path.suffix != ".py" or not path.name.startswith("test_"):
+        return None
+    found = MODULE_MARKS.search(path.read_text(encoding="utf-8"))
+    marks = set(re.findall(r"pytest\.mark\.(\w+)", found.group(1))) if found else set()
+    return bool(marks & left_out) or None
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest's own hook deselects by marker

@@ -220,6 +220,7 @@ def local_cluster(processes: bool = True) -> Iterator[Any]:
         yield c
 
 
-# a module's cluster fixture's params: in threads (quick), and in processes (-m long)
-CLUSTERS = [pytest.param(False, id="threads"),
+# a module's cluster fixture's params: in threads (seconds: the plain command, not -m "not slow"),
+# and in processes (-m long)
+CLUSTERS = [pytest.param(False, id="threads", marks=pytest.mark.slow),
             pytest.param(True, id="processes", marks=(pytest.mark.slow, pytest.mark.long))]
