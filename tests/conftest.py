@@ -7,10 +7,14 @@ tests are handed out first (see ``pytest_collection_modifyitems``)."""
 from __future__ import annotations
 
 import atexit
+import contextlib
+import hashlib
 import os
+import pickle
 import re
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -94,26 +98,57 @@ def write(tmp_path: Path):
 
 
 @pytest.fixture(scope="session")
-def lab_run() -> LabRun:
+def lab_run(tmp_path_factory: pytest.TempPathFactory) -> LabRun:
     """lab_run(path, **overrides) -> the RunResult of that behaviour run to its end on pymunk.
 
     The labs' long runs (ten simulated minutes of five camera robots, 25 minutes of the wall
-    lab) cost seconds each: a run is made once per session and every test that asks for the
-    same file and settings reads the same summary. Summaries are read, never changed.
+    lab) cost seconds each: a run is made once per session for the same file and settings
+    (the seed is the file's), and every test that asks reads the same summary. The xdist
+    workers of a session share it through a folder of the session's: the first to ask runs it
+    while holding the key's lock, the others wait for it and read it. Summaries are read,
+    never changed.
     """
-    done: dict[tuple[str, tuple[tuple[str, str], ...]], RunResult] = {}
+    done: dict[str, RunResult] = {}
+    session = tmp_path_factory.getbasetemp()
+    shared = (session.parent if os.environ.get("PYTEST_XDIST_WORKER") else session) / "lab-runs"
+    shared.mkdir(exist_ok=True)
 
     def run(path: Path, **overrides: str) -> RunResult:
-        key = (str(path), tuple(sorted(overrides.items())))
+        text = Path(path).read_bytes() + repr((str(path), sorted(overrides.items()))).encode()
+        key = hashlib.sha256(text).hexdigest()[:32]
         if key not in done:
-            r = compile_behaviour(path, overrides).bind(load_backend("pymunk"), warn=lambda m: None)
-            try:
-                done[key] = r.run()
-            finally:
-                r.close()
+            with _locked(shared / f"{key}.lock"):
+                stored = shared / f"{key}.pickle"
+                if stored.exists():
+                    done[key] = pickle.loads(stored.read_bytes())
+                else:
+                    r = compile_behaviour(path, overrides).bind(load_backend("pymunk"), warn=lambda m: None)
+                    try:
+                        done[key] = r.run()
+                    finally:
+                        r.close()
+                    partial = stored.with_suffix(".partial")
+                    partial.write_bytes(pickle.dumps(done[key]))
+                    partial.replace(stored)
         return done[key]
 
     return run
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` between the processes of a session (none where fcntl is missing)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: each worker runs its own
+        yield
+        return
+    with open(path, "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(held, fcntl.LOCK_UN)
 
 
 @pytest.fixture
