@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from helpers import ROOT
+from helpers import ROOT, parsed
 
 tomllib = pytest.importorskip("tomllib" if sys.version_info >= (3, 11) else "tomli")
 
@@ -78,10 +78,8 @@ def string_imports(node: ast.AST) -> Iterator[str]:
             yield node.args[0].value
 
 
-@functools.cache
 def tree(path: Path) -> ast.Module:
-    """A file's syntax tree, parsed once for every test here."""
-    return ast.parse(path.read_text(encoding="utf-8"))
+    return parsed(path)[1]
 
 
 def imports(files: list[Path]) -> dict[str, set[str]]:
