@@ -1,7 +1,7 @@
 """The wall-following lab keeps its promises: 25 minutes, the thresholds differ, and at the
 1.0 m threshold no collision. At 0.5 m the Pioneer's sonar cones (CoppeliaSim's, with their
-45-degree limit on how obliquely a wall is seen) let it meet walls: docs/decisions.md,
-"Sonar cones"."""
+45-degree limit on how obliquely a wall is seen) let it meet walls: docs/decisions.md
+§24."""
 from __future__ import annotations
 
 import pytest
