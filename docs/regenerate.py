@@ -41,15 +41,15 @@ BLOCK = re.compile(r"(?P<open><!-- output: (?P<name>[\w-]+) -->\n```[a-z]*\n)(?P
 VOLATILE = [re.compile(r"in \d+(?:\.\d+)? s \([\d,.]+x real time\)")]
 
 
-def labsim(*args: str, cwd: Path = ROOT, ok: tuple[int, ...] = (0,)) -> str:
-    """What ``labsim ARGS`` prints on stdout, run as a user runs it (its exit code one of ``ok``)."""
+def labsim(*args: str, cwd: Path = ROOT, ok: tuple[int, ...] = (0,), stream: str = "stdout") -> str:
+    """What ``labsim ARGS`` prints on ``stream``, run as a user runs it (its exit code one of ``ok``)."""
     env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1"}
     done = subprocess.run([sys.executable, "-m", "labsim", *args, "--no-progress"] if args[0] in ("run", "sweep")
                           else [sys.executable, "-m", "labsim", *args],
                           cwd=cwd, capture_output=True, text=True, env=env, timeout=3600)
     if done.returncode not in ok:
         raise RuntimeError(f"labsim {' '.join(args)} exited {done.returncode}:\n{done.stderr}")
-    return done.stdout
+    return done.stderr if stream == "stderr" else done.stdout
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,8 @@ RECIPES: dict[str, Recipe] = {
                            lambda: labsim("run", "behaviours/wall_follow.yaml")),
     "wall-sweep": Recipe("labsim " + " ".join(SWEEP), lambda: labsim(*SWEEP)),
     "golden-failure": Recipe("", _golden_failure),
+    "grid-too-large": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0",
+                                                "--seeds", "1-60000", ok=(2,), stream="stderr")),
 }
 # the recipes whose commands take minutes of CPU (the test marks their check long)
 LONG = {"wall-sweep"}
