@@ -143,26 +143,28 @@ def irsim_rows(repeat: int, minutes: float) -> list[Row]:
         lab.write_text(bench_irsim.BEHAVIOUR, encoding="utf-8")
         world = bench_irsim.irsim_world(lab, Path(scratch))
 
-        def per_step(run: Callable[..., tuple[float, int]], *args: object) -> Callable[[], float]:
+        steps: dict[str, int] = {}
+
+        def per_step(name: str, run: Callable[..., tuple[float, int]], *args: object) -> Callable[[], float]:
             def once() -> float:
-                elapsed, steps = run(*args)
-                return elapsed / steps
+                elapsed, steps[name] = run(*args)
+                return elapsed / steps[name]
             return once
 
-        times = alternate({"labsim": per_step(bench_irsim.labsim_steps, lab, 30000),
-                           "labsim, 16 single rays": per_step(bench_irsim.labsim_steps, lab, 30000, False, True),
-                           "IR-SIM": per_step(bench_irsim.irsim_steps, irsim, world, 2000)}, repeat)
+        times = alternate({"labsim": per_step("labsim", bench_irsim.labsim_steps, lab, 30000),
+                           "labsim, 16 single rays": per_step("labsim, 16 single rays", bench_irsim.labsim_steps, lab,
+                                                              30000, False, True),
+                           "IR-SIM": per_step("IR-SIM", bench_irsim.irsim_steps, irsim, world, 2000)}, repeat)
+    for name in times.wall:  # a whole call's wall time a step (its set-up included), as bench_irsim.py gives it
+        times.wall[name] = [w / steps[name] for w in times.wall[name]]
     version = getattr(irsim, "__version__", "?")
-    # IR-SIM's time a step over labsim's: how many times faster labsim is (the whole calls differ in steps: no wall)
-    faster = {name: statistics.median(pair_ratios(times["IR-SIM"], times[name]))
-              for name in ("labsim", "labsim, 16 single rays")}
-    nan = float("nan")
-    return [Row(f"one robot, 16 beams, walls_lab4, IR-SIM {version} headless, time a step, as the lab is "
-                "(5-ray sonar cones: 80 rays)", "IR-SIM", "labsim", GOALS["IR-SIM", "labsim"], faster["labsim"], nan,
-                medians(times)),
-            Row(f"the same with equal rays (one a sonar, as IR-SIM's 16 beams), IR-SIM {version}", "IR-SIM",
-                "labsim, 16 single rays", GOALS["IR-SIM", "labsim, 16 single rays"],
-                faster["labsim, 16 single rays"], nan, medians(times))]
+    # IR-SIM's time a step over labsim's: how many times faster labsim is
+    rows = []
+    for name, what in (("labsim", "as the lab is (5-ray sonar cones: 80 rays)"),
+                       ("labsim, 16 single rays", "with equal rays (one a sonar, as IR-SIM's 16 beams)")):
+        rows.append(Row(f"one robot, 16 beams, walls_lab4, IR-SIM {version} headless, time a step, {what}", "IR-SIM",
+                        name, GOALS["IR-SIM", name], *ratios(times, "IR-SIM", name), medians(times)))
+    return rows
 
 
 # each compared pair's goal (none: the pair is a reference); the README's table is held to these
@@ -184,14 +186,18 @@ def load() -> str:
     return f"{one:.2f} {five:.2f}"
 
 
+def seconds(value: float) -> str:
+    return f"{value * 1e6:.1f} µs" if value < 0.01 else f"{value:.3g} s"
+
+
 def markdown(rows: list[Row], header: str, skipped: list[str]) -> str:
     lines = [header, "",
-             "| what | sides: top / bottom | CPU ratio | wall ratio | goal | on this machine: CPU / wall s a side |",
+             "| what | sides: top / bottom | CPU ratio | wall ratio | goal | on this machine: CPU / wall time a side |",
              "|---|---|---|---|---|---|"]
     for row in rows:
         goal = "reference" if row.goal is None else f"{row.goal}: {'met' if row.goal.met(row.cpu) else '**not met**'}"
         wall = "" if row.wall != row.wall else f"{row.wall:.3f}"
-        sides = "; ".join(f"{name} {cpu:.4g} / {wall_s:.4g}" for name, (cpu, wall_s) in row.seconds.items()
+        sides = "; ".join(f"{name} {seconds(cpu)} / {seconds(wall_s)}" for name, (cpu, wall_s) in row.seconds.items()
                           if name in (row.top, row.bottom))
         lines.append(f"| {row.what} | {row.top} / {row.bottom} | {row.cpu:.3f} | {wall} | {goal} | {sides} |")
     lines += [f"| {what} | | | | | not measured: {why} |" for what, why in

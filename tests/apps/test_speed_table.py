@@ -45,11 +45,11 @@ def test_a_goal_not_met_is_marked() -> None:
     rows = [run_all.Row("wall lab", "labsim", "labsim's internals, by hand", run_all.Goal(1.05), 1.066, 1.1,
                         {"labsim": (1.52, 1.60), "labsim's internals, by hand": (1.43, 1.50)}),
             run_all.Row("vs IR-SIM", "IR-SIM", "labsim", run_all.Goal(26, most=False), 28.3, float("nan"),
-                        {"IR-SIM": (0.001, 0.001), "labsim": (0.0001, 0.0001)})]
+                        {"IR-SIM": (0.001, 0.002), "labsim": (3.5e-05, 7e-05)})]
     table = run_all.markdown(rows, "header", ["against X: not installed"])
-    assert ("| 1.066 | 1.100 | <= 1.05: **not met** | labsim 1.52 / 1.6; labsim's internals, by hand 1.43 / 1.5 |"
-            in table)
-    assert "| 28.300 |  | >= 26: met |" in table
+    assert ("| 1.066 | 1.100 | <= 1.05: **not met** | labsim 1.52 s / 1.6 s; "
+            "labsim's internals, by hand 1.43 s / 1.5 s |") in table
+    assert "| 28.300 |  | >= 26: met | IR-SIM 1000.0 µs / 2000.0 µs; labsim 35.0 µs / 70.0 µs |" in table
     assert "| against X | | | | | not measured: not installed |" in table
 
 
