@@ -98,6 +98,23 @@ def blocks(paths: list[Path] = DOCS) -> list[Block]:
             for m in BLOCK.finditer(p.read_text(encoding="utf-8"))]
 
 
+def shown(path: Path) -> str:
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
+def unmatched(paths: list[Path] = DOCS) -> list[str]:
+    """Markers that open no well-formed block (no fence after them, no end marker): a block that
+    would otherwise be skipped without a word."""
+    out = []
+    for path in paths:
+        text = path.read_text(encoding="utf-8")
+        opened, whole = len(re.findall(r"(?m)^<!-- output: ", text)), len(BLOCK.findall(text))
+        if opened != whole or len(re.findall(r"(?m)^<!-- end output -->", text)) != whole:
+            out.append(f"{shown(path)}: {opened} output markers, {whole} well-formed blocks "
+                       "(<!-- output: NAME -->, a fenced block, <!-- end output -->)")
+    return out
+
+
 def masked(text: str) -> str:
     """The text as compared: volatile figures masked, trailing blanks and blank end lines dropped."""
     for pattern in VOLATILE:
@@ -118,7 +135,7 @@ def differences(quoted: str, produced: str) -> list[str]:
 def regenerate(names: set[str] | None = None, check: bool = False) -> list[str]:
     """Run each recipe once for all its blocks; write the blocks (or, with ``check``, list the
     differences). Returns the problems found: an unknown recipe, a block that differs."""
-    problems: list[str] = []
+    problems = unmatched()
     produced: dict[str, str] = {}
     for block in blocks():
         if block.name not in RECIPES:
@@ -138,7 +155,7 @@ def regenerate(names: set[str] | None = None, check: bool = False) -> list[str]:
             if new != text:
                 path.write_text(new, encoding="utf-8")
                 print(f"wrote {path.relative_to(ROOT)}")
-        problems = [p for p in problems if "no recipe" in p]
+        problems = [p for p in problems if "no recipe" in p or "markers" in p]
     return problems
 
 

@@ -20,6 +20,7 @@ _spec.loader.exec_module(regenerate)
 
 
 def test_every_quoted_output_names_a_recipe_and_every_recipe_is_quoted() -> None:
+    assert regenerate.unmatched() == []
     found = regenerate.blocks()
     assert [f"{b.path.name}: {b.name}" for b in found if b.name not in regenerate.RECIPES] == []
     assert set(regenerate.RECIPES) <= {b.name for b in found}
@@ -32,6 +33,14 @@ def test_a_changed_number_is_a_difference_and_the_wall_time_is_not() -> None:
         "line 2: '  near_misses  936' | '  near_misses  937'"]
     assert regenerate.differences(quoted, quoted.replace("  936", "   936")) == []  # alignment only
     assert regenerate.differences(quoted, quoted + "  one more\n") == ["2 lines quoted, 3 printed"]
+
+
+def test_a_marker_without_its_block_is_found(tmp_path) -> None:
+    doc = tmp_path / "x.md"
+    doc.write_text("<!-- output: wall-sweep -->\n```\nold\n```\n<!-- end output -->\n<!-- output: wall-summary -->\n")
+    assert len(regenerate.blocks([doc])) == 1
+    assert regenerate.unmatched([doc]) == [f"{doc}: 2 output markers, 1 well-formed blocks "
+                                           "(<!-- output: NAME -->, a fenced block, <!-- end output -->)"]
 
 
 @pytest.mark.slow  # each runs its lab: the sweep runs 40 of them (-m long)
