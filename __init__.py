@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
-
 # The Python API (docs/api.md), imported on first use: `import labsim` stays cheap
 __all__ = ["Behaviour", "LabsimError", "OverBudget", "RunStopped", "RunTimeout", "compile_behaviour", "load_backend",
            "read_trace", "run"]
@@ -30,6 +28,11 @@ if TYPE_CHECKING:
 
 
 def __getattr__(name: str) -> Any:
+    # the version as pip installed it (pyproject.toml); no module of labsim's reads it here
+    if name == "__version__":
+        from labsim.foundation.version import version
+
+        return version()
     if name in __all__:
         from labsim.runtime import api
 

@@ -6,7 +6,7 @@ and learning; install it with the optional extra (``pip install -e '.[bench]'``)
 - the wall lab's room, ``walls_lab4`` (its walls as line strings, its box as a polygon);
 - one differential-drive robot starting at (-4, -4) heading 45 degrees, 0.05 s steps;
 - 16 range readings of 1 m each step (labsim: the Pioneer's 16 sonars, each a cone of 30
-  degrees cast as 5 rays since docs/decisions.md "Sonar cones", 80 rays; IR-SIM: a 16-beam 2D
+  degrees cast as 5 rays since docs/decisions.md §24, 80 rays; IR-SIM: a 16-beam 2D
   lidar all round, 16 rays), all of which the controller reads; "labsim, 16 single rays" gives
   each sonar one ray along its axis, the same count of rays as IR-SIM;
 - the same wander/avoid controller: turn left on the spot while anything is within 0.5 m in

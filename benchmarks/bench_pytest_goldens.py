@@ -13,7 +13,7 @@ behaviours are this checkout's, and pytest starts in its root (its pyproject's o
 ``--against DIR`` measures another checkout of labsim in the same rounds (a commit exported
 with ``git archive COMMIT | tar -x -C DIR``; imported as ``labsim`` through a link to it), its
 ``pytest behaviours/`` and collection beside this one's: a comparison on a shared machine is
-fair only side by side (docs/decisions.md §63).
+fair only side by side (benchmarks/RESULTS.md, old §63).
 """
 from __future__ import annotations
 

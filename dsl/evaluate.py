@@ -7,7 +7,7 @@ division goes through the zero check, every number is a float. The operators are
 here from the documentation; a built-in function is its implementation in ``labsim.dsl.builtins``,
 whose exceptions become the documented results. A fault gives its documented result and is
 recorded with the span of the expression that faulted and the words of the warning the runtime
-prints. tests/test_differential.py checks constant folding
+prints. tests/unit/test_differential.py checks constant folding
 (``labsim.dsl.fold``) and the generated code (``labsim.dsl.codegen``) against it. It sees one
 tick: the built-ins that remember earlier ticks (``prev``, ``pid``, ...) are not for it.
 """

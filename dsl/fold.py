@@ -4,7 +4,7 @@
 (``time >= minutes * 60`` becomes ``(v0 >= 1500.0)``), computed here once with the operations
 the generated code would run each tick. An expression folds only when it reads no slot, calls
 no random, stateful or fault-prone built-in, and raises nothing: ``1 / 0`` is left to run
-time, where its guard gives the documented result and warns at its site. tests/test_differential.py
+time, where its guard gives the documented result and warns at its site. tests/unit/test_differential.py
 checks folding against the generated code and the reference evaluator (``labsim.dsl.evaluate``).
 """
 from __future__ import annotations

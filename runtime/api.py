@@ -4,14 +4,15 @@ A thin layer over the runtime, at the same place in the pipeline as the command 
 ``run`` compiles a behaviour file, runs it and returns the summary ``labsim run --json``
 writes; ``read_trace`` reads a trace into a pandas DataFrame (pandas is the optional extra
 ``labsim[pandas]``) with the trace's header in ``DataFrame.attrs``; ``compile_behaviour``
-compiles once for many runs (``Behaviour.bind(load_backend()).run()``). The package root
-imports these lazily, so ``import labsim`` (and ``labsim check``'s start) stays cheap.
+(the runtime's own, ``labsim.runtime.run``) compiles once for many runs
+(``Behaviour.bind(load_backend()).run()``). The package root imports these lazily, so
+``import labsim`` (and ``labsim check``'s start) stays cheap.
 
 The summary ``run`` returns is a dict, a ``RunSummary``: in Jupyter it shows as a table with
 the run's map (``_repr_html_``), drawn from its trace file, or else from the same run made again
 on the embedded simulator when the summary is first shown (the same file and seed give the
-same run, so a summary never shown costs nothing), thinned to at most ``DRAWN_TICKS`` ticks. The pictures are drawn by
-the pictures' renderer named in ``PICTURES`` ("module:name", as the backends' registry names
+same run, so a summary never shown costs nothing), thinned to at most ``DRAWN_TICKS`` ticks.
+The pictures are drawn by the pictures' renderer named in ``PICTURES`` ("module:name", as the backends' registry names
 its backends), imported when a summary is first shown: the tick loop imports no application.
 """
 from __future__ import annotations
@@ -31,32 +32,14 @@ import numpy as np
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
-from labsim.runtime.labs import behaviour_path
 from labsim.runtime.recording import Recording
-from labsim.runtime.run import Behaviour
-from labsim.runtime.run import compile_behaviour as _compile
+from labsim.runtime.run import Behaviour, Setting, compile_behaviour
 from labsim.runtime.summary_json import summary_dict
 from labsim.runtime.trace import Trace, TraceFormatError
 from labsim.runtime.trace import read_trace as _read_trace
 
 if TYPE_CHECKING:
     import pandas
-
-Setting = float | int | bool | str
-
-
-def _text(value: Setting) -> str:
-    return ("true" if value else "false") if isinstance(value, bool) else str(value)
-
-
-def compile_behaviour(behaviour: str | Path, *, params: dict[str, Setting] | None = None,
-                      seed: int | None = None, budget: dict[str, int] | None = None) -> Behaviour:
-    """Compile a behaviour file, or a shipped lab by name ('wall_follow'), once for many runs:
-    ``labsim.run(compiled)``, or ``compiled.bind(labsim.load_backend()).run()`` to tick it
-    yourself. ``params``, ``seed`` and ``budget`` as for ``run``; raises ``LabsimError`` for a broken file."""
-    overrides = {k: _text(v) for k, v in (params or {}).items()}
-    return _compile(behaviour_path(str(behaviour)), overrides, seed=seed, budgets=_budgets(budget))
 
 
 class RunStopped(LabsimError):
@@ -280,14 +263,6 @@ def _thinned(trace: Trace) -> Trace:
     return Trace(trace.path, trace.header, trace.columns, [trace.rows[i] for i in index], trace.footer,
                  [trace.lines[i] for i in index] if trace.lines else [],
                  numbers={k: v[index] for k, v in trace.numbers.items()})
-
-
-def _budgets(budget: dict[str, int] | None) -> Budgets:
-    """The run's budgets: the defaults, with ``budget``'s settings (each checked as --budget is)."""
-    out, problems = DEFAULT_BUDGETS.parse([f"{k}={v}" for k, v in (budget or {}).items()])
-    if problems:
-        raise LabsimError([Diagnostic(where.replace("--budget ", "budget "), message) for where, message in problems])
-    return out
 
 
 def read_trace(path: str | Path) -> pandas.DataFrame:

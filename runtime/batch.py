@@ -30,7 +30,7 @@ import sys
 import threading
 import time as clock
 from collections import deque
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, cast
@@ -458,9 +458,3 @@ class DaskBatch:
                 client.cancel(list(futures))
         return got
 
-
-def dask_outcomes(scheduler: object, function: Callable[[Any], Any], items: list[Any],
-                  connect_timeout_s: float = 10.0) -> Iterator[Outcome]:
-    """``DaskBatch(scheduler).outcomes(function, items)``: run function(item) for every item on
-    the Dask cluster at ``scheduler``; outcomes as they finish."""
-    return DaskBatch(scheduler, connect_timeout_s).outcomes(function, items)

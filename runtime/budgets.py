@@ -27,7 +27,7 @@ class RunWatch:
     def __init__(self, budgets: Budgets, dt_s: float, horizon_s: float | None, start: float,
                  warn: Callable[[str], None] | None) -> None:
         self.budgets = budgets
-        self.dt = dt_s
+        self.dt_s = dt_s
         self.start = start
         self.warn = warn
         # the ticks the run will take: to its stop time when the stop condition says one, else the budget
@@ -42,7 +42,7 @@ class RunWatch:
         run's trace writer, if it has one."""
         b = self.budgets
         if ticks >= b.ticks:
-            return (f"the run reached its budget of {b.ticks:,} ticks ({b.ticks * self.dt:g} s simulated) "
+            return (f"the run reached its budget of {b.ticks:,} ticks ({b.ticks * self.dt_s:g} s simulated) "
                     f"before its stop condition held; raise it with --budget ticks=N")
         if trace is not None and trace_bytes(trace) > b.trace_mb * 1_000_000:
             return trace_full_message(trace, b.trace_mb, ticks)

@@ -17,12 +17,13 @@ from pathlib import Path
 
 import yaml
 
-import labsim
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
 from labsim.foundation.files import os_words, read_input, read_text, write_new
 from labsim.foundation.kinds import golden_path
 
-LABS_DIR = Path(labsim.__file__).resolve().parent / "behaviours"
+# runtime/labs.py -> the package root, beside this module's folder (not `labsim.__file__`: the
+# package root lazily imports the API, which imports this module)
+LABS_DIR = Path(__file__).resolve().parents[1] / "behaviours"
 SCHEMA_FILE = "behaviour.schema.json"
 
 

@@ -184,7 +184,7 @@ class LogPrinter(Observer):
         if not events:
             return
         run = self.run
-        now = run.tick_index * run.dt
+        now = run.tick_index * run.dt_s
         second = int(now)
         for e in events:
             if isinstance(e, int):  # a metric's event, not a log
@@ -246,7 +246,7 @@ class TraceRows(Observer):
         labels = [inert(text) for text in p.label_text(s).values()] if p.labels else []
         cell = self.events(p, prog.events) if prog.events or self.inputs is not None else ""
         t = run.tick_index
-        time_s = round(t * run.dt, 9)
+        time_s = round(t * run.dt_s, 9)
         try:
             line = self.cells(t, time_s, self.names[r.name], values, s, self.states[s[STATE]], self.rule_ids[rule],
                               [csv_cell(text) for text in labels] if labels else labels, cmd,
@@ -287,7 +287,7 @@ def _fast_rows(rows: TraceRows) -> Callable[[RobotRun, int, list], None]:
         return general(r, rule, values)
     s, cmd, t = prog.slots, prog.command, run.tick_index
     try:
-        line = LINE % (t, round(t * run.dt, 9), names[r.name], {', '.join(f"values[{i}]" for i in rows.pose_at)},
+        line = LINE % (t, round(t * run.dt_s, 9), names[r.name], {', '.join(f"values[{i}]" for i in rows.pose_at)},
                        states[s[STATE]], rule_ids[rule], {''.join(n + ', ' for n in numbers)}cmd[0], cmd[1], "")
     except (TypeError, ValueError):
         return general(r, rule, values)

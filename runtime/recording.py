@@ -55,7 +55,7 @@ class Recording(Observer):
         states = list(p.state_names) or [""]
         rules = [r.id for r in p.rules] + [""]  # [-1]: no rule held, or the stop row
         numbers = np.array(self.numbers, dtype=float).reshape(-1, WIDTH)
-        time_s = np.round(numbers[:, 0] * self.run.dt, 9)
+        time_s = np.round(numbers[:, 0] * self.run.dt_s, 9)
         robots, texts = numbers[:, 1].astype(int).tolist(), numbers[:, 6:8].astype(int).tolist()
         events = self.events
         rows = [["", "", names[k], "", "", "", "", states[state], rules[rule], ""]

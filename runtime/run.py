@@ -14,15 +14,13 @@ declared noise sits between the backend and its program (``labsim.runtime.noise`
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import random
 import time as clock
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from labsim import __version__
 from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.world import Pose, World
 from labsim.backends.scene.world_names import builtin_name
@@ -31,12 +29,13 @@ from labsim.dsl.noise import Noise
 from labsim.dsl.program import Program
 from labsim.dsl.support import Faults, FaultSite, metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import read_input
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
+from labsim.foundation.version import version
 from labsim.runtime.budgets import RunWatch, out_of_memory_message, trace_full_message
 from labsim.runtime.hands import Hand, Hands, HandsOn, event_text
 from labsim.runtime.interrupts import CallbackInterrupts
+from labsim.runtime.labs import behaviour_path
 from labsim.runtime.noise import NoisyIO, noisy, robot_noise
 from labsim.runtime.observers import (
     CAP_NOTE,
@@ -66,22 +65,31 @@ from labsim.runtime.state import RobotRun
 from labsim.runtime.tick import make_tick
 from labsim.runtime.trace import FORMAT, TraceFull, TraceWriteError, TraceWriter
 
+Setting = float | int | bool | str  # a parameter's value from Python (--set gives text)
 Replay = dict[int, list[tuple[str, float]]]  # tick -> slider settings (trace.slider_events)
 # The summary names at most this many lines of the file whose logs were not all printed, then
 # counts the rest together: a file of 500 logs has a summary of a screen, not of 500 lines.
 UNPRINTED_SHOWN = 20
 
 
-def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None,
-                      seed: int | None = None, strict: bool = False,
-                      budgets: Budgets = DEFAULT_BUDGETS, text: str | None = None) -> Behaviour:
-    """Compile a behaviour file; raises LabsimError listing every problem in it.
+def compile_behaviour(behaviour: str | Path, params: Mapping[str, Setting] | None = None, seed: int | None = None, *,
+                      budget: Budgets | Mapping[str, int] | None = None, strict: bool = False,
+                      text: str | None = None) -> Behaviour:
+    """Compile a behaviour file, or a shipped lab by name ('wall_follow'), once for many runs;
+    raises LabsimError listing every problem in it. The one way in to the compiler for the
+    command line, the applications and the Python API (``labsim.compile_behaviour``).
 
-    ``overrides`` set parameters, as ``--set`` does; ``seed`` replaces the file's ``seed:``;
-    ``budgets`` bound what its runs may cost (docs/security.md); ``text`` is compiled in
-    place of the file's own (a live view's edit).
+    ``params`` set parameters as ``--set`` does (numbers, booleans or their text); ``seed``
+    replaces the file's ``seed:``; ``budget`` bounds what its runs may cost (``Budgets``, or
+    ``{"ticks": 20000, "memory_mb": 500}`` checked as ``--budget`` is; docs/security.md);
+    ``strict`` makes warnings errors; ``text`` is compiled in place of the file's (a live view's edit).
     """
-    return Behaviour(compile_file(path, overrides, seed, strict, budgets, text), budgets)
+    budgets, problems = (budget, []) if isinstance(budget, Budgets) else DEFAULT_BUDGETS.parse(
+        [f"{k}={v}" for k, v in (budget or {}).items()])
+    if problems:
+        raise LabsimError([Diagnostic(where.replace("--budget ", "budget "), message) for where, message in problems])
+    overrides = {k: ("true" if v else "false") if isinstance(v, bool) else str(v) for k, v in (params or {}).items()}
+    return Behaviour(compile_file(behaviour_path(str(behaviour)), overrides, seed, strict, budgets, text), budgets)
 
 
 @dataclass
@@ -116,7 +124,7 @@ class Run:
         self.program = program
         self.budgets = budgets
         self.backend = backend
-        self.dt = program.dt_s
+        self.dt_s = program.dt_s
         self.tick_index = 0
         self.finished = False
         self.stopped_by: str | None = None  # the first robot whose stop condition held
@@ -143,7 +151,7 @@ class Run:
         traced = (*(TRACE_POSE if trace_path is not None else ()), *(c for o in observers for c in o.reads))
         self.channels = program.channels + tuple(dict.fromkeys(c for c in traced if c not in program.channels))
         requests = [RobotRequest(r.name, r.model, r.start, self.channels, r.paths) for r in self.robots]
-        backend.open(program.world, requests, self.dt, program.seed)
+        backend.open(program.world, requests, self.dt_s, program.seed)
         self.sense, self._act, self.step = backend.sense, backend.act, backend.step
         self.noise = self._noise()
         self.hands_on = HandsOn(program.world, [r.name for r in self.robots], backend)
@@ -230,10 +238,10 @@ class Run:
     def header(self) -> dict:
         p = self.program
         return {
-            "format": FORMAT, "labsim": __version__, "backend": getattr(self.backend, "name", "?"),
+            "format": FORMAT, "labsim": version(), "backend": getattr(self.backend, "name", "?"),
             "behaviour": p.path, "name": p.name, "sha256": p.sha256, "world": p.world.name,
             "world_file": _world_file(p.world), **_world_identity(p.world),
-            "dt": self.dt, "seed": p.seed, "params": dict(p.params),
+            "dt": self.dt_s, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
         } | self._better_header()
@@ -251,7 +259,7 @@ class Run:
                     out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
             return out
         for time_s, settings in p.timeline:
-            tick = max(0, math.ceil(time_s / self.dt - 1e-9))
+            tick = max(0, math.ceil(time_s / self.dt_s - 1e-9))
             for name, value in settings:
                 out.setdefault(tick, []).append((p.slot_of[name], value, f"{name}={value:g}"))
         return out
@@ -327,7 +335,7 @@ class Run:
         """
         start = clock.perf_counter()
         ended = False
-        watch = RunWatch(self.budgets, self.dt, self.program.stop_horizon_s, start, self._warned)
+        watch = RunWatch(self.budgets, self.dt_s, self.program.stop_horizon_s, start, self._warned)
         limit = self.budgets.ticks if max_ticks is None else min(max_ticks, self.budgets.ticks)
         tick = self.tick
         try:
@@ -344,7 +352,7 @@ class Run:
                     if self.over_budget:
                         break
                     if progress is not None:
-                        progress(self.tick_index, self.tick_index * self.dt)
+                        progress(self.tick_index, self.tick_index * self.dt_s)
                 ended = not self.over_budget  # a run a budget stopped is cut short: its footer says so
         except KeyboardInterrupt:
             self.interrupted = True
@@ -399,7 +407,7 @@ class Run:
             world=p.world.name, dt_s=p.dt_s, seed=p.seed, params=dict(p.params), overridden=tuple(p.overridden),
             metric_aggregates=dict(zip(p.metric_names, p.metric_aggregates)),
             metric_better=dict(zip(p.metric_names, p.metric_better)),
-            ticks=self.tick_index, sim_time_s=self.tick_index * self.dt, wall_time_s=self.wall_time_s,
+            ticks=self.tick_index, sim_time_s=self.tick_index * self.dt_s, wall_time_s=self.wall_time_s,
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,
             over_budget=self.over_budget, robots=robots, fleet=fleet,
             rules=tuple(RuleResult(rule.id, rule.text, n) for rule, n in zip(p.rules, self._fired())),
@@ -415,7 +423,7 @@ class Run:
         return RobotResult(
             name=r.name, mechanism=r.model is None, contacts=contacts.count, contact_time_s=contacts.time_s,
             clamped_ticks=r.clamped_ticks, wheel_limit_rad_s=None if r.model is None else r.limit,
-            metrics={name: metric_result(agg, acc, self.dt) for name, agg, acc in
+            metrics={name: metric_result(agg, acc, self.dt_s) for name, agg, acc in
                      zip(p.metric_names, p.metric_aggregates, r.program.metric_values)},
             labels=p.label_text(r.program.slots) if p.labels else {},
             noise=noisy.noise.header() if noisy is not None else {},
@@ -479,13 +487,9 @@ def _world_file(world: World) -> str:
 
 
 def _world_identity(world: World) -> dict[str, str]:
-    """The world's SHA-256 (of its file's text), and for a built-in the labsim version that
-    shipped it: a golden says when the world changed under it."""
-    try:  # read again the one way in: the file it was loaded from moments before
-        digest = hashlib.sha256(read_input(world.source, "world")).hexdigest() if world.source else ""
-    except LabsimError:
-        digest = ""
-    out = {"world_sha256": digest}
+    """The world's SHA-256 (of its file's text, as the compiler read it), and for a built-in the
+    labsim version that shipped it: a golden says when the world changed under it."""
+    out = {"world_sha256": world.sha256}
     if world.source and builtin_name(world.source):
-        out["world_version"] = f"built-in, labsim {__version__}"
+        out["world_version"] = f"built-in, labsim {version()}"
     return out

@@ -42,7 +42,7 @@ class RunState(Protocol):
     program: Program
     robots: list[RobotRun]
     channels: tuple[str, ...]  # what each robot's readings hold: the program's, then the trace's
-    dt: float  # s
+    dt_s: float
     tick_index: int
     finished: bool
     stopped_by: str | None

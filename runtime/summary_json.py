@@ -14,8 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from labsim import __version__
 from labsim.foundation.files import check_output, write_output
+from labsim.foundation.version import version
 from labsim.runtime.result import RunResult
 
 SCHEMA = "labsim-summary"
@@ -57,7 +57,7 @@ def summary_dict(result: RunResult) -> dict[str, Any]:
     return {
         "schema": SCHEMA,
         "version": SCHEMA_VERSION,
-        "labsim": __version__,
+        "labsim": version(),
         "behaviour": {"name": result.name, "path": result.path, "sha256": result.sha256},
         "backend": result.backend,
         "world": result.world,

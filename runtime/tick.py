@@ -16,8 +16,9 @@ A tick is, for every robot at once:
 The tick is a closure over locals, as the hot path: an attribute lookup per robot per tick
 costs as much as a rule. A fleet senses and evaluates every robot's signals before any robot
 acts, so that the stop condition can end the run before anyone acts; a single robot does
-both in one generated function, and when no observer acts after it (no trace, no watcher, no
-logs, no joints), its common case runs inline.
+both in one generated function, and a robot with wheels runs its common tick (a rule acted,
+no events) inline: ``act``'s steps written out in its order, the ``after_act`` observers
+included, so that an observer costs its own call and not also one of ``act``.
 """
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ def make_tick(run: RunState, hooks: Hooks) -> Callable[[], bool]:
             t = run.tick_index
             for r in robots:
                 values = readings[r.index]
-                r.program.fold(t * run.dt, t, values if len(values) == n else values[:n])
+                r.program.fold(t * run.dt_s, t, values if len(values) == n else values[:n])
                 for h in at_stop:
                     h(r, values)
                 r.program.events.clear()
@@ -85,7 +86,7 @@ def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[l
     r1 = run.robots[0]
     s1, cmd1, events1, both = r1.program.slots, r1.program.command, r1.program.events, r1.program.both
     sense, step, send, fired = run.sense, run.step, run.send, run.fired
-    n, dt = len(run.program.channels), run.dt
+    n, dt = len(run.program.channels), run.dt_s
 
     def tick_one() -> bool:
         if run.finished:
@@ -122,7 +123,7 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
     robots = [(r.program.slots, r.program.signals, r.program.decide, r.program.command, r.program.events, r)
               for r in run.robots]
     sense, step = run.sense, run.step
-    n, dt = len(run.program.channels), run.dt
+    n, dt = len(run.program.channels), run.dt_s
 
     def tick() -> bool:
         if run.finished:

@@ -9,7 +9,9 @@ library. Nothing here is collected as a test.
 """
 from __future__ import annotations
 
+import ast
 import contextlib
+import functools
 import math
 import re
 import select
@@ -220,6 +222,16 @@ def local_cluster(processes: bool = True) -> Iterator[Any]:
         yield c
 
 
-# a module's cluster fixture's params: in threads (quick), and in processes (-m long)
-CLUSTERS = [pytest.param(False, id="threads"),
+# a module's cluster fixture's params: in threads (seconds: the plain command, not -m "not slow"),
+# and in processes (-m long)
+CLUSTERS = [pytest.param(False, id="threads", marks=pytest.mark.slow),
             pytest.param(True, id="processes", marks=(pytest.mark.slow, pytest.mark.long))]
+
+
+@functools.cache
+def parsed(path: Path) -> tuple[str, ast.Module]:
+    """A source file's text and syntax tree, read and parsed once a process for every test that
+    walks the package (the code's shape, its imports): parsing it is most of their time. Trees
+    are read, never changed."""
+    text = path.read_text(encoding="utf-8")
+    return text, ast.parse(text)

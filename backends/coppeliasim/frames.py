@@ -18,13 +18,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from labsim.backends.scene.world import wrap as wrap  # the one angle wrap; the stand-in imports it from here
+
 Pose3 = tuple[float, float, float, float]  # x, y, z (m), yaw (rad): the scene is flat
-
-
-def wrap(a: float) -> float:
-    """The same angle in (-pi, pi]."""
-    r = math.remainder(a, 2.0 * math.pi)
-    return math.pi if r == -math.pi else r
 
 
 # --- the stand-in: labsim -> CoppeliaSim --------------------------------------------------------

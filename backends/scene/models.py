@@ -30,7 +30,7 @@ class Kind(Enum):
 
 
 # How many rays stand for a sonar's cone, spread evenly from one edge to the other; the
-# reasons for 5 are in docs/decisions.md, "Sonar cones".
+# reasons for 5 are in docs/decisions.md §24.
 CONE_RAYS = 5
 
 
@@ -141,11 +141,11 @@ class Camera:
     row 0 is the BOTTOM row of the picture (the near edge of the floor), column 0 the left.
     It is the array ``sim.getVisionSensorImg`` hands a script, so a behaviour and a script
     written for CoppeliaSim read the same numbers; whatever shows an image to a person turns
-    it upright with ``upright`` (docs/decisions.md, "Camera images in CoppeliaSim's row
-    order"). The camera sits ``x_m`` ahead of the robot's origin, ``height_m`` above the
-    floor, looking forward and down by ``pitch_deg``, and turned about its viewing axis by
-    ``roll_deg``: positive turns the picture's top edge towards the robot's right, as seen
-    from behind the camera (at -90 the rows run across the way ahead, row 0 on the right).
+    it upright with ``upright`` (docs/decisions.md §9). The camera sits ``x_m`` ahead of the
+    robot's origin, ``height_m`` above the floor, looking forward and down by ``pitch_deg``, and
+    turned about its viewing axis by ``roll_deg``: positive turns the picture's top edge
+    towards the robot's right, as seen from behind the camera (at -90 the rows run across the
+    way ahead, row 0 on the right).
     """
 
     name: str  # channel name, e.g. "camera"

@@ -34,6 +34,12 @@ class Pose:
     heading_rad: float
 
 
+def wrap(angle: float) -> float:
+    """The same angle in (-pi, pi]: how every backend reports a heading."""
+    a = math.remainder(angle, 2.0 * math.pi)
+    return math.pi if a == -math.pi else a
+
+
 @dataclass(frozen=True)
 class Wall:
     """A straight wall: the segment a-b, thickness_m wide (centred on the segment), height_m
@@ -65,6 +71,9 @@ class World:
     blocks: tuple[Block, ...] = ()
     spawns: tuple[Pose, ...] = ()
     source: str = field(default="", compare=False)  # the file it came from
+    # the SHA-256 of that file's text, taken as it was read: what a trace's header names, so
+    # that a run does not read the file a second time (which another writer may have changed)
+    sha256: str = field(default="", compare=False)
     # What a camera sees: floor colour, roads, lines, patches.
     ground: Ground | None = None
     # An articulated model (bodies, joints, force sensors) seen from the side, with gravity.

@@ -46,6 +46,7 @@ and ``laps`` refer to (labsim.backends.scene.ground).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from pathlib import Path
 
@@ -215,7 +216,7 @@ class _WorldReader(Reader):
         ground = self.ground(f["ground"]) if "ground" in f else None
         mechanism = read_mechanism(f["mechanism"], self.doc, self.report) if "mechanism" in f else None
         return World(name, description, bounds, walls, blocks, tuple(spawns), self.doc.path,
-                     ground=ground, mechanism=mechanism)
+                     sha256=hashlib.sha256(self.doc.text.encode()).hexdigest(), ground=ground, mechanism=mechanism)
 
     def height(self, node: Node, what: str) -> float | None:
         """How high a wall or block stands, for cameras: a length from MIN_SIZE_M to MAX_SIZE_M."""

@@ -4,7 +4,10 @@
 the tick loop (run, check, test) and the small ones (labs, new, worlds, schema) are here whole;
 the applications' commands (plot, view, sweep, serve, scene) check what only the command line
 knows and hand over to their application, which each imports only when it runs, so that no
-command pays for another's imports (matplotlib, OpenCV's drawing, aiohttp, Dask, ZMQ).
+command pays for another's imports (matplotlib, OpenCV's drawing, aiohttp, Dask, ZMQ). The
+compiler too is imported by the commands that compile (``labsim.runtime.run.compile_behaviour``):
+lark, the checker and the code generator are a quarter of a second of start-up that ``plot``
+of a trace, ``labs`` and ``worlds`` need not pay.
 A user's mistake is a ``LabsimError``, which ``main`` reports with exit code 2.
 """
 from __future__ import annotations
@@ -29,18 +32,7 @@ from labsim.runtime.labs import copy_lab, labs
 from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
-    from labsim.runtime.run import Behaviour
     from labsim.runtime.serve.server import Server
-
-
-def compile_behaviour(path: str | Path, overrides: dict[str, str] | None = None, seed: int | None = None,
-                      strict: bool = False, budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
-    """``runtime.run.compile_behaviour``, imported on the first call: the language's compiler
-    (lark, the checker, the code generator) is a quarter of a second of start-up that the
-    commands which never compile (``plot`` of a trace, ``labs``, ``worlds``) need not pay."""
-    from labsim.runtime.run import compile_behaviour as compile_
-
-    return compile_(path, overrides, seed=seed, strict=strict, budgets=budgets)
 
 
 # -- what several commands share -----------------------------------------------------------------
@@ -97,13 +89,13 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from labsim.runtime.cli.report import ProgressBar, format_summary
+    from labsim.runtime.run import compile_behaviour
     from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 
     overrides = parse_overrides(args.set)
     if args.seed is not None and args.seed < 0:
         raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
-    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict,
-                                  budgets=budgets(args))
+    behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict, budget=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         print_diagnostics(list(behaviour.program.warnings))
     # every input of the run: the behaviour, its world file and the trace it replays
@@ -199,10 +191,12 @@ def _check_writable(path: str, inputs: list[Path]) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     """Compile each file and report its problems; with --show-code, print its Python instead of 'ok';
     with --json, every diagnostic as JSON on stdout (``diagnostics_json``)."""
+    from labsim.runtime.run import compile_behaviour
+
     problems: list[Diagnostic] = []
     for f in args.files:
         try:
-            behaviour = compile_behaviour(f, strict=args.strict, budgets=budgets(args))
+            behaviour = compile_behaviour(f, strict=args.strict, budget=budgets(args))
             problems += behaviour.program.warnings
             warned = len(behaviour.program.warnings)
             if not args.json:
@@ -242,6 +236,7 @@ def cmd_test(args: argparse.Namespace) -> int:
 def _test_one(f: Path, args: argparse.Namespace, options: dict[str, object]) -> bool:
     """Record, or compare with, one behaviour's golden; False when it fails."""
     from labsim.runtime.golden import check_golden, record_golden
+    from labsim.runtime.run import compile_behaviour
 
     if args.update_goldens:
         compile_behaviour(f)  # a broken file is reported as broken before anything is written
@@ -412,6 +407,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
     world = None
     dt = args.dt
     if args.behaviour is not None:
+        from labsim.runtime.run import compile_behaviour
+
         program = compile_behaviour(args.behaviour).program
         world = program.world
         dt = dt if dt is not None else program.dt_s

@@ -30,7 +30,7 @@ from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
 from labsim.foundation.threads import limit_blas_threads
 from labsim.runtime.cli import commands
-from labsim.runtime.cli.commands import behaviour_files, compile_behaviour, parse_overrides, print_diagnostics
+from labsim.runtime.cli.commands import behaviour_files, parse_overrides, print_diagnostics
 from labsim.runtime.cli.parser import build_parser
 from labsim.runtime.labs import LABS_DIR, behaviour_path
 
@@ -140,6 +140,8 @@ def _name_labs(args: argparse.Namespace) -> None:
 
 def _strict(args: argparse.Namespace) -> None:
     """--strict: every behaviour the command will run compiles without warnings, or LabsimError."""
+    from labsim.runtime.run import compile_behaviour
+
     if args.command == "test":
         files = behaviour_files(args.paths)
     elif args.command == "view":

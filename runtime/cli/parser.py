@@ -16,12 +16,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import NoReturn
 
-from labsim import __version__
 from labsim.backends import DEFAULT, REGISTRY
 from labsim.backends.coppeliasim import DEFAULT_PORT
 from labsim.foundation import options
 from labsim.foundation.exits import EXIT_USAGE
 from labsim.foundation.limits import Budgets
+from labsim.foundation.version import version
 
 BEHAVIOUR_HELP = "the behaviour file (.yaml), or a lab's name (labsim labs)"
 
@@ -69,7 +69,7 @@ class _Version(argparse.Action):
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
                  option_string: str | None = None) -> None:
         kernel = "C" if importlib.util.find_spec("labsim.backends.pymunk._fan") is not None else "numpy"
-        print(f"labsim {__version__} (lidar fan: {kernel})")
+        print(f"labsim {version()} (lidar fan: {kernel})")
         parser.exit()
 
 

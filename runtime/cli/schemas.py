@@ -15,7 +15,6 @@ import json
 from labsim.backends.scene.schema import Schema, world_schema
 from labsim.dsl.schema import behaviour_schema
 
-KINDS = ("behaviour", "world", "assignment")
 MODELINE = "# yaml-language-server: $schema="
 
 

@@ -23,12 +23,12 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from labsim import __version__
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.files import os_words, policy_problem, read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind
+from labsim.foundation.version import version
 from labsim.runtime.grade.assignment import Assignment
 from labsim.runtime.grade.copies import structures
 from labsim.runtime.grade.measure import graded_file, graders, prepare_read, the_assignments, unmeasurable
@@ -177,7 +177,7 @@ def _text(data: bytes) -> str | None:
 
 
 def key_of(data: bytes, assignment: Assignment) -> str:
-    digest = hashlib.sha256(data + b"\0" + __version__.encode() + b"\0" + assignment.sha256.encode())
+    digest = hashlib.sha256(data + b"\0" + version().encode() + b"\0" + assignment.sha256.encode())
     return digest.hexdigest()
 
 

@@ -66,11 +66,6 @@ def _group(robot: str) -> str:
     return re.sub(r"\[\d+\]$", "", robot)
 
 
-def robot_camera(trace: Trace, robot: str) -> Camera:
-    """The camera of ``robot`` as the trace's behaviour file declares it."""
-    return _camera_and_models(trace, robot)[0]
-
-
 def _camera_and_models(trace: Trace, robot: str) -> tuple[Camera, dict[str, RobotModel]]:
     names = _names(trace)
     if robot not in names:

@@ -14,7 +14,6 @@ import cv2
 import numpy as np
 
 from labsim.backends.scene.ground import Ground
-from labsim.backends.scene.mechanism import Mechanism
 
 PxMap = Callable[[np.ndarray], np.ndarray]  # an (n, 2) array of metres to pixel coordinates
 
@@ -163,27 +162,6 @@ def draw_ground(img: np.ndarray, ground: Ground, px: PxMap, mpp: float) -> None:
         across = np.array([-d[1], d[0]]) / n * max(line.width_m / mpp, 1.0) / 2
         band = np.round(np.array([a + across, b + across, b - across, a - across]) * ONE).astype(np.int32)
         cv2.fillPoly(img, [band], bgr(line.rgb), AA, SHIFT)
-
-
-def draw_mechanism(img: np.ndarray, mechanism: Mechanism, px: PxMap, P: Painter) -> None:
-    """A mechanism seen from the side, as it stood at the start: fixed bodies filled, moving
-    ones outlined, the floor, and each rope from its anchor to the body hanging on it."""
-    floor = mechanism.floor_z_m
-    if floor is not None:
-        xs = [c[0] for b in mechanism.bodies for c in b.corners()]
-        ends = px(np.array([[min(xs) - 1.0, floor], [max(xs) + 1.0, floor]]))
-        cv2.line(img, tuple(np.round(ends[0]).astype(int)), tuple(np.round(ends[1]).astype(int)),
-                 BLOCK_EDGE, max(2, P.lw), AA)
-    for j in mechanism.joints:
-        if j.rope:
-            child = mechanism.body(j.child)
-            a = px(np.array([j.anchor, (child.center[0], child.center[1] + child.size[1] / 2)], float))
-            cv2.line(img, tuple(np.round(a[0]).astype(int)), tuple(np.round(a[1]).astype(int)), MUTED, 1, AA)
-    for b in mechanism.bodies:
-        poly = np.round(px(np.array(b.corners(), float)) * ONE).astype(np.int32)
-        if b.static:
-            cv2.fillPoly(img, [poly], BLOCK_FILL, AA, SHIFT)
-        cv2.polylines(img, [poly], True, BLOCK_EDGE, P.lw, AA, SHIFT)
 
 
 def draw_wall(img: np.ndarray, ab: np.ndarray, thick_px: float) -> None:

@@ -27,8 +27,6 @@ from labsim.runtime.trace import Trace, TraceFormatError
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-SUFFIXES = (".png", ".svg", ".pdf")
-
 # columns every trace of a kind has, with their units (docs/language.md, docs/trace-format.md)
 _UNITS = {"x": "m", "y": "m", "heading": "rad", "time": "s", "forward_speed": "m/s", "road_offset": "m",
           "wheel_left": "rad/s", "wheel_right": "rad/s", "on_road": "0/1", "collided": "0/1"}

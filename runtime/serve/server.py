@@ -234,10 +234,6 @@ class Server:
         info.update({name: {"const": value} for name, value in {**SESSION_CONSTANTS, **OBJECT_CONSTANTS}.items()})
         return [info]
 
-    @property
-    def simulation_time_s(self) -> float:
-        return self.simulation.time_s
-
     @staticmethod
     def functions() -> list[str]:
         return list(FUNCTIONS)

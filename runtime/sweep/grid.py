@@ -193,7 +193,7 @@ def inspect_files(files: list[str], settings: list[Setting],
             continue
         overrides = {s.name: s.values[0] for s in settings}
         try:
-            program = compile_behaviour(f, overrides, budgets=budgets).program
+            program = compile_behaviour(f, overrides, budget=budgets).program
         except LabsimError as e:
             bad = [d for d in e.diagnostics if d.path.startswith("--set ")]
             if bad and not [d for d in e.diagnostics if d.severity == "error" and d not in bad]:
@@ -268,7 +268,7 @@ def trace_name(index: int, file: str, combo: tuple[tuple[str, str], ...], seed: 
 def compile_seeded(path: str, overrides: dict[str, str], seed: int,
                    budgets: Budgets = DEFAULT_BUDGETS) -> Behaviour:
     """Compile a file with its seed replaced, as ``labsim run --seed`` does."""
-    return compile_behaviour(path, overrides, seed=seed, budgets=budgets)
+    return compile_behaviour(path, overrides, seed=seed, budget=budgets)
 
 
 class RunTimeout(Exception):

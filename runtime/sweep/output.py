@@ -16,11 +16,11 @@ import time as clock
 from pathlib import Path
 from typing import Any, TextIO
 
-from labsim import __version__
 from labsim.dsl.builtins import Better
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert, spreadsheet_cell
 from labsim.foundation.progress import StatusLine, bar
+from labsim.foundation.version import version
 from labsim.runtime.summary_json import number, summary_dict
 from labsim.runtime.sweep.grid import STATUSES, Columns, Row, flat
 from labsim.runtime.sweep.stats import Stat, Test
@@ -175,7 +175,7 @@ def sweep_json(rows: list[Row], comp: dict[str, Any], meta: dict[str, Any]) -> d
                           "better": better.value if better is not None else None})
     tests = [{"file": t.file, "metric": t.metric, "a": t.a, "b": t.b, "difference": number(t.difference),
               "test": "welch-t", "p": number(t.p), "verdict": t.verdict} for t in comp["tests"]]
-    return {"schema": SWEEP_SCHEMA, "version": SWEEP_VERSION, "labsim": __version__, **meta,
+    return {"schema": SWEEP_SCHEMA, "version": SWEEP_VERSION, "labsim": version(), **meta,
             "rows": out_rows, "comparison": table, "tests": tests}
 
 

@@ -85,7 +85,7 @@ class LiveSession(Session):
         """
         wanted = self.overrides if overrides is None else overrides
         try:
-            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, text=self.text, budgets=self.budgets)
+            behaviour = compile_behaviour(self.path, wanted, seed=self.seed, text=self.text, budget=self.budgets)
             if self.trace_path:  # the world may have changed with the file: never write over it
                 check_output(self.trace_path, [self.path, behaviour.program.world.source], "--trace")
             breaks = [parse_break(behaviour.program, b) for b in self.breaks]

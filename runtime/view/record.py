@@ -147,7 +147,7 @@ class TickRecorder(Watcher):
 
     def _check(self, robot: RobotRun, rule: int, values: list) -> None:
         assert self._run is not None
-        t, dt = self._run.tick_index, self._run.dt
+        t, dt = self._run.tick_index, self._run.dt_s
         for b in self.breaks:
             if b.hit(robot, rule, values, t, dt):
                 # the state and rule of this tick (a goto takes effect on the next one)

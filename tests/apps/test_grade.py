@@ -178,6 +178,7 @@ def test_a_bad_assignment_exits_2_with_every_mistake(tmp_path: Path, capsys) -> 
     assert "a.yaml:7:12: error: criterion 'closest' takes one of at_least, at_most or score" in err
 
 
+@pytest.mark.slow  # seconds: in the plain command, not in -m "not slow"
 def test_dask_in_threads_gives_the_same_gradebook(tmp_path: Path, monkeypatch) -> None:
     """The quick check of the Dask path; the whole class on worker processes is in ``-m long``."""
     monkeypatch.chdir(tmp_path)

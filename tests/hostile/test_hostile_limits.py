@@ -237,7 +237,7 @@ def test_a_run_its_budget_stops_is_not_recorded_as_a_golden(tmp_path: Path, monk
     if ticks != Budgets().ticks:
         compile_behaviour = golden.compile_behaviour
         monkeypatch.setattr(golden, "compile_behaviour",
-                            lambda path: compile_behaviour(path, budgets=Budgets(ticks=ticks)))
+                            lambda path: compile_behaviour(path, budget=Budgets(ticks=ticks)))
     path = tmp_path / "b.yaml"
     path.write_text(behaviour("x > 100000"), encoding="utf-8")
     with pytest.raises(LabsimError, match=rf"budget of {ticks:,} ticks.*no golden recorded"):

@@ -12,7 +12,7 @@ and fails on any that is not on ``ALLOWED``, each with the reason it is safe:
   ``read_text`` is called by name);
 * ``np.load``, ``np.fromfile``, ``np.loadtxt``, ``np.genfromtxt`` and ``cv2.imread``.
 
-Like tests/test_user_text_sinks.py it flags a call by its shape, so ``Path.open()`` (which
+Like tests/hostile/test_user_text_sinks.py it flags a call by its shape, so ``Path.open()`` (which
 cannot be told from a backend's ``open()`` by shape) is not caught: a reviewer's eye is.
 """
 from __future__ import annotations

@@ -12,7 +12,7 @@ import functools
 from collections.abc import Iterator
 from pathlib import Path
 
-from helpers import ROOT
+from helpers import ROOT, parsed
 
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 60
@@ -32,14 +32,6 @@ def package_files() -> list[Path]:
     for folder in PACKAGE_FOLDERS:
         files += sorted((ROOT / folder).rglob("*.py"))
     return files
-
-
-@functools.cache
-def parsed(path: Path) -> tuple[str, ast.Module]:
-    """A module's text and tree, read and parsed once for every test here (each walks the whole
-    package; parsing it was most of their time). Trees are read, never changed."""
-    text = path.read_text(encoding="utf-8")
-    return text, ast.parse(text)
 
 
 def functions(tree: ast.Module) -> Iterator[tuple[str, ast.FunctionDef | ast.AsyncFunctionDef]]:

@@ -15,7 +15,7 @@ infinities, nan, the largest and the smallest numbers.
 
 Speed: a hypothesis example draws the names' values and a seed, and a batch of expressions
 comes from the seed (hypothesis draws would cost a hundred times more); a failure names the
-first expression that disagrees, with the values. Derandomized, as tests/test_fuzz.py.
+first expression that disagrees, with the values. Derandomized, as tests/hostile/test_fuzz.py.
 """
 from __future__ import annotations
 

@@ -11,22 +11,27 @@ import pytest
 from labsim.runtime.sweep import student_t
 from labsim.runtime.sweep.stats import welch_p
 
-st = pytest.importorskip("scipy.stats")
+
+@pytest.fixture(scope="module")
+def st():
+    """scipy.stats, imported by the first test that asks (in one worker), not at collection in every one:
+    its import is a second of CPU."""
+    return pytest.importorskip("scipy.stats")
 
 
 @pytest.mark.parametrize("df", [*range(1, 40), 57, 99, 100, 250, 999, 1000, 0.5, 1.5, 2.7, 13.33, 57.9])
-def test_the_quantile_is_scipys(df: float) -> None:
+def test_the_quantile_is_scipys(df: float, st) -> None:
     assert student_t.quantile(0.975, df) == pytest.approx(float(st.t.ppf(0.975, df)), rel=1e-12, abs=0)
 
 
-def test_the_upper_tail_is_scipys() -> None:
+def test_the_upper_tail_is_scipys(st) -> None:
     for df in (1, 2, 3, 5.5, 9.7, 19, 40.2, 100, 999):
         for t in (0.0, 0.01, 0.5, 1.0, 1.96, 2.5, 4.0, 8.0, 20.0, 100.0, -1.0, -3.0, math.inf):
             assert student_t.sf(t, df) == pytest.approx(float(st.t.sf(t, df)), rel=1e-11, abs=1e-300), (t, df)
     assert math.isnan(student_t.sf(math.nan, 3))
 
 
-def test_welchs_p_is_scipys() -> None:
+def test_welchs_p_is_scipys(st) -> None:
     rng = random.Random(7)
     for _ in range(200):
         xs = [rng.gauss(0, rng.uniform(0.1, 3)) for _ in range(rng.randint(2, 30))]
