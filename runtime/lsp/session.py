@@ -18,7 +18,7 @@ from pygls.exceptions import JsonRpcException
 from pygls.lsp.server import LanguageServer
 from pygls.protocol import LanguageServerProtocol
 
-from labsim import __version__
+from labsim.foundation.version import version
 from labsim.runtime.lsp import language
 from labsim.runtime.lsp.outline import Outline
 
@@ -58,7 +58,7 @@ def default_checkers() -> Checkers:
 
 class LabsimServer(LanguageServer):
     def __init__(self, checkers: Checkers) -> None:
-        super().__init__("labsim", __version__, protocol_cls=Protocol)
+        super().__init__("labsim", version(), protocol_cls=Protocol)
         self.checkers = checkers
         self.pending: dict[str, asyncio.Task[None]] = {}
         self.outlines: dict[str, Outline] = {}  # the last outline of each document that composed
