@@ -1,5 +1,6 @@
-/* A lidar's fan of beams against faces and circles, in C: the optional kernel of
- * labsim.backends.pymunk.lidar_fan (docs/decisions.md §60).
+/* Every ray sensor's cast, in C: the optional kernel of labsim.backends.pymunk.lidar_fan (a
+ * lidar's fan of beams against faces and circles, docs/decisions.md §60) and of
+ * labsim.backends.pymunk.ray_cast (a robot's sonars, cones and IR rays, in one call).
  *
  * LidarFan.cast calls cast() once a tick with the faces and circles near the lidar (world
  * metres, as lidar_fan's _Near holds them) and the beams' table; it returns every beam's range
@@ -7,13 +8,24 @@
  * The point test, the choice of faces and the beams in a wall's band stay in Python. A face is
  * tried only by the beams within its angular extent and a circle only by those within its own,
  * found by bisection in the beams sorted by direction, so a tick costs about one test per beam
- * that meets something rather than one per beam and face. Built by setuptools when a C
- * compiler is there (pyproject.toml, ext-modules, optional); without it the numpy fan runs.
- * Python's C API only, no other library.
+ * that meets something rather than one per beam and face.
+ *
+ * RaySet.cast calls rays() once a tick for a robot: every sonar and IR ray of it, each cone's
+ * rays under one test of the cone's circle, each group's under one of its own, cast through
+ * chipmunk's own cpSpaceSegmentQueryFirst and cpSpacePointQueryNearest (pymunk's build of them:
+ * bind() is given their addresses once), so the readings are chipmunk's bit for bit, robots
+ * and blocks included wherever chipmunk has them. The arithmetic of the rays' ends is the
+ * Python fallback's, written in the same order; the build turns off contraction into fused
+ * multiply-adds (pyproject.toml), which would round otherwise.
+ *
+ * Built by setuptools when a C compiler is there (pyproject.toml, ext-modules, optional);
+ * without it the numpy fan and the Python rays run. Python's C API only, no other library.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
+#include <stddef.h>
+#include <stdint.h>
 
 #define PI 3.14159265358979323846
 #define TAU (2.0 * PI)
@@ -204,16 +216,154 @@ static PyObject *cast(PyObject *self, PyObject *args) {
     return out;
 }
 
+
+/* Chipmunk's types as pymunk's build has them (bind() checks the sizes and offsets). */
+typedef struct { double x, y; } Vect;
+typedef struct { uintptr_t group; unsigned int categories, mask; } Filter;
+typedef struct { void *shape; Vect point, normal; double alpha; } SegmentInfo;
+typedef struct { void *shape; Vect point; double distance; Vect gradient; } PointInfo;
+typedef void *(*SegmentQueryFirst)(void *, Vect, Vect, double, Filter, SegmentInfo *);
+typedef void *(*PointQueryNearest)(void *, Vect, double, Filter, PointInfo *);
+static SegmentQueryFirst segment_query_first = NULL;
+static PointQueryNearest point_query_nearest = NULL;
+
+static PyObject *bind(PyObject *self, PyObject *args) {
+    unsigned long long segment, point;
+    Py_ssize_t filter_size, bitmask_size, mask_at, info_size, normal_at, alpha_at, point_size;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "KKnnnnnnn", &segment, &point, &filter_size, &bitmask_size, &mask_at, &info_size,
+                          &normal_at, &alpha_at, &point_size))
+        return NULL;
+    if (filter_size != (Py_ssize_t)sizeof(Filter) || bitmask_size != (Py_ssize_t)sizeof(unsigned int)
+        || mask_at != (Py_ssize_t)offsetof(Filter, mask) || info_size != (Py_ssize_t)sizeof(SegmentInfo)
+        || normal_at != (Py_ssize_t)offsetof(SegmentInfo, normal) || alpha_at != (Py_ssize_t)offsetof(SegmentInfo, alpha)
+        || point_size != (Py_ssize_t)sizeof(PointInfo))
+        return PyErr_Format(PyExc_ValueError, "chipmunk's structs in this pymunk differ from the kernel's");
+    segment_query_first = (SegmentQueryFirst)(uintptr_t)segment;
+    point_query_nearest = (PointQueryNearest)(uintptr_t)point;
+    Py_RETURN_NONE;
+}
+
+/* The table ray_cast.RaySet builds, as doubles: the number of values and of groups, then each
+ * group: its circle (x, y, radius in the robot frame; radius < 0: no test) and its number of
+ * members, then each member: its value's slot, its kind (0 a ray, 1 a cone), its mount x, y, its
+ * range, its cone's circle x, y, radius, whether it has an incidence limit and the limit's
+ * threshold, its number of rays, and each ray's end (dx, dy from the mount, robot frame). */
+#define GROUP_HEAD 4
+#define MEMBER_HEAD 11
+
+static PyObject *rays(PyObject *self, PyObject *args) {
+    unsigned long long space_at, group;
+    unsigned int categories, mask;
+    double x, y, c, s;
+    Py_buffer table;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "KKIIy*dddd", &space_at, &group, &categories, &mask, &table, &x, &y, &c, &s))
+        return NULL;
+    PyObject *out = NULL;
+    double *values = NULL;
+    const double *d = (const double *)table.buf;
+    Py_ssize_t size = table.len / (Py_ssize_t)sizeof(double), at = 2;
+    if (segment_query_first == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "bind() was not called");
+        goto done;
+    }
+    if (size < 2) goto bad;
+    Py_ssize_t count = (Py_ssize_t)d[0], groups = (Py_ssize_t)d[1];
+    if (count < 0 || groups < 0) goto bad;
+    values = PyMem_Malloc(count ? (size_t)count * sizeof(double) : 1);
+    if (values == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < count; i++) values[i] = HUGE_VAL;
+    void *space = (void *)(uintptr_t)space_at;
+    Filter filter = {(uintptr_t)group, categories, mask};
+    SegmentInfo info;
+    PointInfo nearest;
+    for (Py_ssize_t g = 0; g < groups; g++) {
+        if (at + GROUP_HEAD > size) goto bad;
+        const double *h = d + at;
+        Py_ssize_t members = (Py_ssize_t)h[3];
+        int open = 1;
+        at += GROUP_HEAD;
+        if (h[2] >= 0.0) {
+            Vect p = {x + c * h[0] - s * h[1], y + s * h[0] + c * h[1]};
+            open = point_query_nearest(space, p, h[2], filter, &nearest) != NULL;
+        }
+        for (Py_ssize_t m = 0; m < members; m++) {
+            if (at + MEMBER_HEAD > size) goto bad;
+            const double *r = d + at;
+            Py_ssize_t slot = (Py_ssize_t)r[0], n = (Py_ssize_t)r[10];
+            const double *ends = r + MEMBER_HEAD;
+            at += MEMBER_HEAD + 2 * n;
+            if (slot < 0 || slot >= count || n < 1 || at > size) goto bad;
+            if (!open) continue;
+            double mx = r[2], my = r[3], range = r[4];
+            Vect o = {x + c * mx - s * my, y + s * mx + c * my};
+            if (r[1] == 0.0) { /* a lone ray */
+                double ex = ends[0], ey = ends[1];
+                Vect e = {o.x + c * ex - s * ey, o.y + s * ex + c * ey};
+                if (segment_query_first(space, o, e, 0.0, filter, &info) != NULL) values[slot] = info.alpha * range;
+                continue;
+            }
+            double v = HUGE_VAL; /* a cone: its nearest hit met within the limit, under its circle's test */
+            Vect p = {x + c * r[5] - s * r[6], y + s * r[5] + c * r[6]};
+            if (point_query_nearest(space, p, r[7], filter, &nearest) != NULL) {
+                int limited = r[8] != 0.0;
+                double threshold = r[9];
+                for (Py_ssize_t k = 0; k < n; k++) {
+                    double ex = ends[2 * k], ey = ends[2 * k + 1];
+                    double wx = c * ex - s * ey;
+                    double wy = s * ex + c * ey;
+                    Vect e = {o.x + wx, o.y + wy};
+                    if (segment_query_first(space, o, e, 0.0, filter, &info) != NULL && info.alpha * range < v
+                        && (!limited || info.normal.x * wx + info.normal.y * wy <= threshold))
+                        v = info.alpha * range;
+                }
+            }
+            values[slot] = v;
+        }
+    }
+    out = PyList_New(count);
+    for (Py_ssize_t i = 0; out != NULL && i < count; i++) {
+        PyObject *value;
+        if (values[i] == HUGE_VAL) {
+            value = miss;
+            Py_INCREF(value);
+        } else if ((value = PyFloat_FromDouble(values[i])) == NULL) {
+            Py_CLEAR(out);
+            break;
+        }
+        PyList_SET_ITEM(out, i, value);
+    }
+    goto done;
+bad:
+    PyErr_SetString(PyExc_ValueError, "a malformed table of rays");
+done:
+    PyMem_Free(values);
+    PyBuffer_Release(&table);
+    return out;
+}
+
 static PyMethodDef methods[] = {
     {"cast", cast, METH_VARARGS,
      "cast(ox, oy, c, s, faces, circles, table, inv_range) -> every beam's range in metres (inf beyond "
      "range_m): faces a list of (p1x, p1y, p2x, p2y), circles of (x, y, r squared), world metres; table "
      "the beams' cos, sin, sorted directions and their beams, 4 x B doubles (LidarFan builds it)."},
+    {"bind", bind, METH_VARARGS,
+     "bind(segment_query_first, point_query_nearest, sizeof filter, sizeof bitmask, offsetof mask, sizeof "
+     "segment info, offsetof normal, offsetof alpha, sizeof point info): chipmunk's two queries for rays(), "
+     "by address, once the sizes of its structs are those the kernel was built with."},
+    {"rays", rays, METH_VARARGS,
+     "rays(space, group, categories, mask, table, x, y, c, s) -> every value's reading in metres (inf: "
+     "nothing): a robot's rays for its body at (x, y) heading (c, s) = (cos, sin), through chipmunk; "
+     "table as ray_cast.RaySet builds it."},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "_fan", "A lidar's fan of beams against faces and circles, in C.", -1, methods,
+    PyModuleDef_HEAD_INIT, "_fan", "Every ray sensor's cast, in C: a lidar's fan and a robot's sonar and IR rays.", -1, methods,
     NULL, NULL, NULL, NULL,
 };
 

@@ -24,6 +24,7 @@ from typing import cast
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
+from labsim.backends.pymunk.ray_cast import RaySet
 from labsim.backends.pymunk.simulator import wrap
 from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.scene.models import Camera
@@ -230,8 +231,9 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
-    for group in ray_groups(specs):
-        lines += _group_lines(r, group, specs)
+    if _SONAR in kinds:  # every ray of the robot, in one call (ray_cast.RaySet)
+        lines.append(f"    sv{r} = rays{r}(x{r}, y{r}, c, s)")
+    sonars = [k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)]
     beams = [k for k, spec in enumerate(specs) if isinstance(spec, LidarBeam)]
     if beams:
         lines.append(f"    scan{r} = fan{r}(x{r}, y{r}, a{r})")
@@ -242,8 +244,8 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             scene = ", scene" if env["poses"] is not None else ""
             lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k}, {r}{scene})")
             values.append(f"v{r}_{k}")
-        elif isinstance(spec, SonarRay):  # cast above, by its group
-            values.append(f"v{r}_{k}")
+        elif isinstance(spec, SonarRay):  # cast above, in the order of the specs
+            values.append(f"sv{r}[{sonars.index(k)}]")
         elif isinstance(spec, LidarBeam):  # cast above, in the order of the specs
             if beams == list(range(beams[0], beams[0] + len(beams))):  # one run: spliced at its first
                 if k == beams[0]:
@@ -273,10 +275,14 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
 
 
 def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
-    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and its lidar fan as
-    ``fan{r}`` (its beams in the order of the specs) if it reads any."""
+    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, its sonars' and IR
+    sensors' caster as ``rays{r}`` and its lidar fan as ``fan{r}`` (each in the order of the
+    specs) if it reads any."""
     env[f"body{r}"] = chipmunk.c_body(plan.body)
     env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
+    rays = [spec for spec in plan.specs if isinstance(spec, SonarRay)]
+    if rays:
+        env[f"rays{r}"] = RaySet(space, plan.ray_filter, rays).cast
     beams = [spec for spec in plan.specs if isinstance(spec, LidarBeam)]
     if beams:
         from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
@@ -324,44 +330,6 @@ def _direction(ray: SonarRay) -> float:
     return math.atan2(ray.end_dy_m, ray.end_dx_m)
 
 
-def _ray_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
-    mx, my, ex, ey, rng = ray.mount_x_m, ray.mount_y_m, ray.end_dx_m, ray.end_dy_m, ray.range_m
-    lines = [f"{indent}ox = x{r} + c * {mx!r} - s * {my!r}", f"{indent}oy = y{r} + s * {mx!r} + c * {my!r}"]
-    if ray.fan:
-        return lines + _fan_lines(r, k, ray, indent)
-    return lines + [
-        f"{indent}hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
-        f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
-        f"{indent}v{r}_{k} = info.alpha * {rng!r} if hit else inf",
-    ]
-
-
-def _fan_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
-    """A cone's rays, each keeping its hit when nearer than the nearest so far (and, with an
-    incidence limit, met squarely enough); ``cone_hit`` is the same casts, written as a loop.
-
-    The rays go under one test of the cone's own circle, as a group's go under the group's:
-    a wall beside the robot is near its group's circle but seldom near every cone of it.
-    """
-    rng = ray.range_m
-    cx, cy, radius = enclosing_circle([ray])
-    lines = [f"{indent}v = inf",
-             f"{indent}if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
-             f"{radius!r}, filter{r}, nearest):"]
-    indent += "    "
-    for ex, ey in ray.fan:
-        check = "" if ray.incidence_cos is None else \
-            f" and info.normal.x * wx + info.normal.y * wy <= {-ray.incidence_cos * rng!r}"
-        lines += [
-            f"{indent}wx = c * {ex!r} - s * {ey!r}",
-            f"{indent}wy = s * {ex!r} + c * {ey!r}",
-            f"{indent}if query(space, (ox, oy), (ox + wx, oy + wy), 0.0, filter{r}, info) "
-            f"and info.alpha * {rng!r} < v{check}:",
-            f"{indent}    v = info.alpha * {rng!r}",
-        ]
-    return lines + [f"{indent[:-4]}v{r}_{k} = v"]
-
-
 def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:
     """What one sonar of ``plan``'s robot detects now: its distance and the index of the ray
     that found it (in ``ray.ends()``), or None. The same chipmunk calls, in the same order and
@@ -391,17 +359,3 @@ def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float
                      or info.normal.x * wx + info.normal.y * wy <= -ray.incidence_cos * rng):
             best = (info.alpha * rng, i)
     return best
-
-
-def _group_lines(r: int, group: list[int], specs: tuple[Spec, ...]) -> list[str]:
-    """The lines that cast robot r's rays of one group (a lone ray is cast without a test)."""
-    rays = [cast(SonarRay, specs[k]) for k in group]
-    if len(group) == 1:
-        return _ray_lines(r, group[0], rays[0], "    ")
-    cx, cy, radius = enclosing_circle(rays)
-    lines = [f"    if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
-             f"{radius!r}, filter{r}, nearest):"]
-    for k, ray in zip(group, rays):
-        lines += _ray_lines(r, k, ray, "        ")
-    lines += ["    else:", f"        {' = '.join(f'v{r}_{k}' for k in group)} = inf"]
-    return lines

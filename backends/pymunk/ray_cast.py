@@ -1,0 +1,153 @@
+"""A robot's sonars and IR sensors cast in one call a tick: the pymunk backend's ray caster.
+
+``labsim.backends.pymunk.fleet_sense`` gives each robot that reads rays (``SonarRay``: a lone
+ray, or a sonar's cone of rays with its incidence limit) one ``RaySet``, and the generated
+``sense()`` calls its ``cast`` once a tick with the body's pose. Every ray is chipmunk's own
+segment query (``cpSpaceSegmentQueryFirst``), so the readings are chipmunk's bit for bit and
+every body chipmunk holds is seen where it is now: walls, blocks, other robots. A lidar's
+beams, many more, go through ``labsim.backends.pymunk.lidar_fan`` instead.
+
+The rays go under two conservative tests, as ``fleet_sense.ray_groups`` arranges them: the
+rays whose directions lie within a quarter turn of each other share a circle that holds them
+all, and one point query asks whether any shape comes into it (mostly none does, and the group
+reads ``inf`` without a cast); a cone's rays go under one more test, of the cone's own circle.
+
+Where the install built the C kernel (``backends/pymunk/_fan.c``, ``rays``) one call of it does
+a robot's whole set, calling chipmunk from C; elsewhere the same calls, in the same order and
+with the same arithmetic, are made from Python through pymunk's cffi layer
+(``labsim.backends.pymunk.chipmunk``), and read the same bit for bit (``KERNEL`` says which:
+"c" or "python"; ``tests/contract/test_ray_cast.py`` compares them).
+"""
+from __future__ import annotations
+
+import math
+from array import array
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import partial
+from typing import TYPE_CHECKING
+
+import pymunk
+
+from labsim.backends.pymunk import chipmunk
+from labsim.backends.pymunk.chipmunk import ffi, lib
+
+if TYPE_CHECKING:
+    from labsim.backends.pymunk.fleet_sense import SonarRay
+
+Rays = Callable[[float, float, float, float], list[float]]  # cast(x, y, cos, sin) -> each ray's reading
+
+
+def _bind() -> Rays | None:
+    """The kernel's ``rays`` once it holds chipmunk's two queries, or None: not built, or built
+    for structs of another size than this pymunk's."""
+    try:
+        from labsim.backends.pymunk import _fan
+    except ImportError:  # no C compiler at install time: the Python rays
+        return None
+    address = [int(ffi.cast("uintptr_t", ffi.addressof(lib, name)))
+               for name in ("cpSpaceSegmentQueryFirst", "cpSpacePointQueryNearest")]
+    try:
+        _fan.bind(*address, ffi.sizeof("cpShapeFilter"), ffi.sizeof("cpBitmask"), ffi.offsetof("cpShapeFilter", "mask"),
+                  ffi.sizeof("cpSegmentQueryInfo"), ffi.offsetof("cpSegmentQueryInfo", "normal"),
+                  ffi.offsetof("cpSegmentQueryInfo", "alpha"), ffi.sizeof("cpPointQueryInfo"))
+    except (AttributeError, ValueError):  # an older build of the kernel, or another chipmunk
+        return None
+    return _fan.rays  # type: ignore[no-any-return]
+
+
+_kernel = _bind()
+KERNEL = "c" if _kernel is not None else "python"
+
+
+class RaySet:
+    """One robot's rays: ``cast(x, y, c, s)`` gives each of them its reading for the body at
+    (x, y) heading a, c = cos(a) and s = sin(a): metres, or ``inf`` where nothing is within range.
+
+    ``rays`` are the robot's sonars and IR sensors (``fleet_sense.SonarRay``) in the order
+    ``cast`` returns them; ``ray_filter`` keeps the rays off the robot's own shape.
+    ``compiled=False`` takes the Python rays even where the kernel was built (the tests
+    compare the two).
+    """
+
+    def __init__(self, space: pymunk.Space, ray_filter: pymunk.ShapeFilter, rays: Sequence[SonarRay],
+                 *, compiled: bool = True) -> None:
+        from labsim.backends.pymunk import fleet_sense  # its groups and circles (it imports this module)
+
+        groups, enclosing_circle = fleet_sense.ray_groups(tuple(rays)), fleet_sense.enclosing_circle
+        self._count = len(rays)
+        table: list[float] = [float(len(rays)), float(len(groups))]
+        # the Python rays' plan: per group its circle (or None) and its members
+        plan: list[tuple[tuple[float, float, float] | None, list[_Member]]] = []
+        for group in groups:
+            members = [rays[k] for k in group]
+            circle = enclosing_circle(members) if len(group) > 1 else None
+            table += [*(circle or (0.0, 0.0, -1.0)), float(len(group))]
+            plan_members = []
+            for k, ray in zip(group, members):
+                cone = enclosing_circle([ray]) if ray.fan else (0.0, 0.0, -1.0)
+                # the limit as a hit must meet it: normal . ray <= -cos(limit) * range
+                limited = bool(ray.fan) and ray.incidence_cos is not None
+                threshold = -ray.incidence_cos * ray.range_m if ray.incidence_cos is not None and limited else 0.0
+                ends = ray.fan or ((ray.end_dx_m, ray.end_dy_m),)
+                table += [float(k), 1.0 if ray.fan else 0.0, ray.mount_x_m, ray.mount_y_m, ray.range_m,
+                          *cone, 1.0 if limited else 0.0, threshold, float(len(ends))]
+                table += [v for end in ends for v in end]
+                plan_members.append(_Member(k, ray.mount_x_m, ray.mount_y_m, ray.range_m,
+                                            cone if ray.fan else None, threshold if limited else None, ends))
+            plan.append((circle, plan_members))
+        self._plan = plan
+        self._space = chipmunk.c_space(space)
+        self._filter = chipmunk.shape_filter(ray_filter)
+        self._info = chipmunk.query_info()
+        self._nearest = chipmunk.point_info()
+        self.cast: Rays = self._cast_python
+        if _kernel is not None and compiled:  # the space outlives the robot's sense(), which holds this
+            self.cast = partial(_kernel, int(ffi.cast("uintptr_t", self._space)), ray_filter.group,
+                                ray_filter.categories, ray_filter.mask, array("d", table).tobytes())
+
+    def _cast_python(self, x: float, y: float, c: float, s: float) -> list[float]:
+        """The kernel's calls of chipmunk, made from Python: the same in the same order."""
+        query, near = chipmunk.segment_query_first, chipmunk.point_query_nearest
+        space, flt, info, nearest, inf = self._space, self._filter, self._info, self._nearest, math.inf
+        values = [inf] * self._count
+        for circle, members in self._plan:
+            if circle is not None:
+                cx, cy, radius = circle
+                if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
+                    continue
+            for m in members:
+                mx, my, rng = m.mount_x_m, m.mount_y_m, m.range_m
+                ox = x + c * mx - s * my
+                oy = y + s * mx + c * my
+                if m.cone is None:
+                    ex, ey = m.ends[0]
+                    if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
+                        values[m.slot] = info.alpha * rng
+                    continue
+                cx, cy, radius = m.cone
+                if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
+                    continue
+                v, threshold = inf, m.threshold
+                for ex, ey in m.ends:
+                    wx = c * ex - s * ey
+                    wy = s * ex + c * ey
+                    if query(space, (ox, oy), (ox + wx, oy + wy), 0.0, flt, info) and info.alpha * rng < v \
+                            and (threshold is None or info.normal.x * wx + info.normal.y * wy <= threshold):
+                        v = info.alpha * rng
+                values[m.slot] = v
+        return values
+
+
+@dataclass(frozen=True)
+class _Member:
+    """A ray or a cone of a group, for the Python rays: its value's slot, mount, range, its
+    cone's circle (None: a lone ray), its incidence threshold (None: no limit), its rays' ends."""
+
+    slot: int
+    mount_x_m: float
+    mount_y_m: float
+    range_m: float
+    cone: tuple[float, float, float] | None
+    threshold: float | None
+    ends: tuple[tuple[float, float], ...]
