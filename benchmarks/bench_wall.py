@@ -41,7 +41,7 @@ from compare import alternate_poses, labsim_scene, labsim_side, machine, report,
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
 from labsim.backends.pymunk.fleet import sonar_spec
-from labsim.backends.pymunk.fleet_sense import enclosing_circle, ray_groups
+from labsim.backends.pymunk.ray_cast import enclosing_circle, ray_groups
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 

@@ -24,36 +24,12 @@ from typing import cast
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
-from labsim.backends.pymunk.ray_cast import RaySet
+from labsim.backends.pymunk.ray_cast import RaySet, SonarRay
 from labsim.backends.pymunk.simulator import wrap
 from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.scene.models import Camera
 
 SenseFn = Callable[[], list[list[object]]]
-
-
-@dataclass(frozen=True)
-class SonarRay:
-    """A sonar in the robot frame: its mount, and its axis's end's offset from the mount.
-
-    The end is the whole range along the sonar's axis, so a hit's alpha times the range is
-    the distance. A cone (``labsim.backends.scene.models.Sonar.cone_deg``) has its rays' ends
-    in ``fan``, from its right edge to its left, and reads the nearest hit among them; with
-    ``incidence_cos`` a hit counts only where the ray meets the surface within that angle of
-    its normal (normal . ray <= -incidence_cos * range). A lone ray has neither.
-    """
-
-    mount_x_m: float
-    mount_y_m: float
-    end_dx_m: float
-    end_dy_m: float
-    range_m: float
-    fan: tuple[tuple[float, float], ...] = ()
-    incidence_cos: float | None = None
-
-    def ends(self) -> tuple[tuple[float, float], ...]:
-        """Every ray's end, as offsets from the mount: the fan's, or the axis's alone."""
-        return self.fan or ((self.end_dx_m, self.end_dy_m),)
 
 
 @dataclass(frozen=True)
@@ -104,16 +80,6 @@ class SensePlan:
     ray_filter: pymunk.ShapeFilter
     specs: tuple[Spec, ...]
 
-
-# Rays whose directions lie within this angle of a group's first ray join its group.
-GROUP_SPREAD_RAD = math.pi / 2
-# ... up to this many rays. Four neighbouring sonars of the Pioneer's ring fit a circle of
-# 0.86 m as single rays, 0.99 m as cones; a larger group's circle is seldom empty (measured
-# in docs/decisions.md §24, for single rays).
-GROUP_SIZE = 4
-# Added to a group's circle, in metres: far beyond the rounding of the poses and ray ends
-# (about 1e-15 of the coordinates), so a shape the circle misses cannot touch a ray.
-CIRCLE_MARGIN_M = 1e-6
 
 _SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
 _CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
@@ -288,46 +254,6 @@ def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str
         from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
         env[f"fan{r}"] = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams],
                                   beams[0].x_m, beams[0].range_m).cast
-
-
-def ray_groups(specs: tuple[Spec, ...]) -> list[list[int]]:
-    """The indices of the sonar specs, in groups that share one test of their circle.
-
-    The rays are taken in the order of their directions (from -180 to 180 degrees in the robot
-    frame); a ray joins the group before it while that group has fewer than ``GROUP_SIZE``
-    rays and the ray's direction is within ``GROUP_SPREAD_RAD`` of the group's first ray's,
-    and starts a new group otherwise. The Pioneer's ring of 16 sonars makes four groups of
-    four, one per quarter of the ring.
-    """
-    rays = sorted((k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)),
-                  key=lambda k: _direction(cast(SonarRay, specs[k])))
-    groups: list[list[int]] = []
-    for k in rays:
-        direction = _direction(cast(SonarRay, specs[k]))
-        first = _direction(cast(SonarRay, specs[groups[-1][0]])) if groups else math.nan
-        if groups and len(groups[-1]) < GROUP_SIZE and direction - first <= GROUP_SPREAD_RAD:
-            groups[-1].append(k)
-        else:
-            groups.append([k])
-    return groups
-
-
-def enclosing_circle(rays: list[SonarRay]) -> tuple[float, float, float]:
-    """A circle in the robot frame that holds every point of these rays (every ray of a
-    cone): centre x, y and radius.
-
-    Its centre is the middle of the box around the rays' ends; a ray is a segment, so a circle
-    that holds both of its ends holds all of it. The radius includes ``CIRCLE_MARGIN_M``.
-    """
-    ends = [(ray.mount_x_m, ray.mount_y_m) for ray in rays]
-    ends += [(ray.mount_x_m + dx, ray.mount_y_m + dy) for ray in rays for dx, dy in ray.ends()]
-    xs, ys = [x for x, _ in ends], [y for _, y in ends]
-    cx, cy = (min(xs) + max(xs)) / 2.0, (min(ys) + max(ys)) / 2.0
-    return cx, cy, max(math.hypot(x - cx, y - cy) for x, y in ends) + CIRCLE_MARGIN_M
-
-
-def _direction(ray: SonarRay) -> float:
-    return math.atan2(ray.end_dy_m, ray.end_dx_m)
 
 
 def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:

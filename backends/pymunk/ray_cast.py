@@ -25,15 +25,12 @@ from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING
+from typing import cast
 
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.chipmunk import ffi, lib
-
-if TYPE_CHECKING:
-    from labsim.backends.pymunk.fleet_sense import SonarRay
 
 Rays = Callable[[float, float, float, float], list[float]]  # cast(x, y, cos, sin) -> each ray's reading
 
@@ -56,6 +53,81 @@ def _bind() -> Rays | None:
     return _fan.rays  # type: ignore[no-any-return]
 
 
+@dataclass(frozen=True)
+class SonarRay:
+    """A sonar in the robot frame: its mount, and its axis's end's offset from the mount.
+
+    The end is the whole range along the sonar's axis, so a hit's alpha times the range is
+    the distance. A cone (``labsim.backends.scene.models.Sonar.cone_deg``) has its rays' ends
+    in ``fan``, from its right edge to its left, and reads the nearest hit among them; with
+    ``incidence_cos`` a hit counts only where the ray meets the surface within that angle of
+    its normal (normal . ray <= -incidence_cos * range). A lone ray has neither.
+    """
+
+    mount_x_m: float
+    mount_y_m: float
+    end_dx_m: float
+    end_dy_m: float
+    range_m: float
+    fan: tuple[tuple[float, float], ...] = ()
+    incidence_cos: float | None = None
+
+    def ends(self) -> tuple[tuple[float, float], ...]:
+        """Every ray's end, as offsets from the mount: the fan's, or the axis's alone."""
+        return self.fan or ((self.end_dx_m, self.end_dy_m),)
+
+
+# Rays whose directions lie within this angle of a group's first ray join its group.
+GROUP_SPREAD_RAD = math.pi / 2
+# ... up to this many rays. Four neighbouring sonars of the Pioneer's ring fit a circle of
+# 0.86 m as single rays, 0.99 m as cones; a larger group's circle is seldom empty (measured
+# in docs/decisions.md §24, for single rays).
+GROUP_SIZE = 4
+# Added to a group's circle, in metres: far beyond the rounding of the poses and ray ends
+# (about 1e-15 of the coordinates), so a shape the circle misses cannot touch a ray.
+CIRCLE_MARGIN_M = 1e-6
+
+
+def ray_groups(specs: Sequence[object]) -> list[list[int]]:
+    """The indices of the sonar specs, in groups that share one test of their circle.
+
+    The rays are taken in the order of their directions (from -180 to 180 degrees in the robot
+    frame); a ray joins the group before it while that group has fewer than ``GROUP_SIZE``
+    rays and the ray's direction is within ``GROUP_SPREAD_RAD`` of the group's first ray's,
+    and starts a new group otherwise. The Pioneer's ring of 16 sonars makes four groups of
+    four, one per quarter of the ring.
+    """
+    rays = sorted((k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)),
+                  key=lambda k: _direction(cast(SonarRay, specs[k])))
+    groups: list[list[int]] = []
+    for k in rays:
+        direction = _direction(cast(SonarRay, specs[k]))
+        first = _direction(cast(SonarRay, specs[groups[-1][0]])) if groups else math.nan
+        if groups and len(groups[-1]) < GROUP_SIZE and direction - first <= GROUP_SPREAD_RAD:
+            groups[-1].append(k)
+        else:
+            groups.append([k])
+    return groups
+
+
+def enclosing_circle(rays: list[SonarRay]) -> tuple[float, float, float]:
+    """A circle in the robot frame that holds every point of these rays (every ray of a
+    cone): centre x, y and radius.
+
+    Its centre is the middle of the box around the rays' ends; a ray is a segment, so a circle
+    that holds both of its ends holds all of it. The radius includes ``CIRCLE_MARGIN_M``.
+    """
+    ends = [(ray.mount_x_m, ray.mount_y_m) for ray in rays]
+    ends += [(ray.mount_x_m + dx, ray.mount_y_m + dy) for ray in rays for dx, dy in ray.ends()]
+    xs, ys = [x for x, _ in ends], [y for _, y in ends]
+    cx, cy = (min(xs) + max(xs)) / 2.0, (min(ys) + max(ys)) / 2.0
+    return cx, cy, max(math.hypot(x - cx, y - cy) for x, y in ends) + CIRCLE_MARGIN_M
+
+
+def _direction(ray: SonarRay) -> float:
+    return math.atan2(ray.end_dy_m, ray.end_dx_m)
+
+
 _kernel = _bind()
 KERNEL = "c" if _kernel is not None else "python"
 
@@ -72,9 +144,7 @@ class RaySet:
 
     def __init__(self, space: pymunk.Space, ray_filter: pymunk.ShapeFilter, rays: Sequence[SonarRay],
                  *, compiled: bool = True) -> None:
-        from labsim.backends.pymunk import fleet_sense  # its groups and circles (it imports this module)
-
-        groups, enclosing_circle = fleet_sense.ray_groups(tuple(rays)), fleet_sense.enclosing_circle
+        groups = ray_groups(rays)
         self._count = len(rays)
         table: list[float] = [float(len(rays)), float(len(groups))]
         # the Python rays' plan: per group its circle (or None) and its members
