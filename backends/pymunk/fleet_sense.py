@@ -6,13 +6,9 @@ and ``compile_sense`` turns that into one function. It runs every tick, so its c
 ray casts and camera frames themselves must stay near zero, so it reads bodies and casts rays
 through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
 
-A robot's rays are cast in groups (``ray_groups``): the rays whose directions lie within a
-quarter turn of each other share one circle that holds them all, and one point query asks
-whether any shape comes into it. Mostly none does (a robot near a wall has it on one side),
-and then every ray of the group reads ``inf`` without being cast. A sonar's cone (a fan of
-rays, ``SonarRay.fan``) is one member of its group, and its rays go under a second test of
-the cone's own circle. The tests are conservative, so the readings are those of casting every
-ray, bit for bit.
+A robot's sonars and IR sensors (``SonarRay``: a lone ray, or a sonar's cone of rays) are cast
+together, one call a tick, by its ``labsim.backends.pymunk.ray_cast.RaySet`` (the C kernel
+where the install built it), and its lidar's beams by its ``lidar_fan.LidarFan``.
 """
 from __future__ import annotations
 
@@ -111,9 +107,8 @@ def compile_sense(
 ) -> SenseFn:
     """Generate ``sense()`` as straight-line code for these robots and channels.
 
-    Unrolled code with the sonar geometry as literals skips the per-sonar loop and tuple
-    unpacking, which makes it measurably cheaper than a hand-written loop over the same rays.
-    For one robot asking for sonar1 and collided it reads (numbers rounded)::
+    Unrolled code skips the per-channel loop and dispatch. For one robot asking for sonar1,
+    sonar2 and collided it reads::
 
         def sense():
             p = position(body0)
@@ -122,30 +117,20 @@ def compile_sense(
             a0 = angle(body0)
             c = cos(a0)
             s = sin(a0)
-            ox = x0 + c * 0.1067 - s * 0.1382
-            oy = y0 + s * 0.1067 + c * 0.1382
-            hit = query(space, (ox, oy), (ox + c * 0.0 - s * 1.0, oy + s * 0.0 + c * 1.0), 0.0, filter0, info)
-            v0_0 = info.alpha * 1.0 if hit else inf
-            return [[v0_0, touching[0] > 0]]
+            sv0 = rays0(x0, y0, c, s)
+            return [[sv0[0], sv0[1], touching[0] > 0]]
 
-    With two sonars or more in a group, their casts go under one test of the group's circle::
-
-            if near(space, (x0 + c * 0.05 - s * 0.64, y0 + s * 0.05 + c * 0.64), 0.51, filter0, nearest):
-                ... (each ray as above)
-            else:
-                v0_0 = v0_1 = inf
-
-    ``body0`` is the robot's ``cpBody *``, ``query`` chipmunk's ``cpSpaceSegmentQueryFirst``
-    writing into one reused ``info`` struct, ``near`` its ``cpSpacePointQueryNearest`` (the
-    nearest shape less than the radius away, or NULL), and ``filter0`` the robot's shape
-    filter as a C struct, so a group's test skips the same shapes as its rays: the same calls
-    pymunk's wrappers make, without their allocations (measured in
-    ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
-    the literals change no reading. Cameras call ``render(x, y, angle, camera, robot)`` (the
-    robot's index, not seen by its camera; ``_scene_lines``); road channels call ``tracker.offset`` once per robot;
-    ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
-    robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
-    call of ``reflectance(x, y)`` at its point.
+    ``body0`` is the robot's ``cpBody *``, ``rays0`` its rays' caster (``RaySet.cast``: every
+    sonar and IR ray of the robot in one call, in the order of the specs), ``near`` chipmunk's
+    ``cpSpacePointQueryNearest`` (the nearest shape less than the radius away, or NULL) and
+    ``filter0`` the robot's shape filter as a C struct: the same calls pymunk's wrappers make,
+    without their allocations (measured in ``labsim.backends.pymunk.chipmunk``). repr() of a
+    float reads back as the same float, so the literals change no reading. Cameras call
+    ``render(x, y, angle, camera, robot)`` (the robot's index, not seen by its camera;
+    ``_scene_lines``); road channels call ``tracker.offset`` once per robot; ``laps`` reads the
+    list the fleet's ``step()`` keeps. Nothing is computed for a channel no robot reads. A bumper
+    is one ``near`` test of the disc around its point, a ground sensor one call of
+    ``reflectance(x, y)`` at its point.
     """
     env = _names(space, touching, render, tracker, laps)
     env["reflectance"] = reflectance
@@ -176,8 +161,7 @@ def _names(space: pymunk.Space, touching: list[int], render: Callable[..., objec
            tracker: RoadTracker | None, laps: list[int] | None) -> dict[str, object]:
     """The names the generated ``sense()`` calls and reads; each robot's body and filter join them."""
     return {
-        "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
-        "info": chipmunk.query_info(), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
+        "space": chipmunk.c_space(space), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
         "position": chipmunk.body_position, "angle": chipmunk.body_angle,
         "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
         "touching": touching, "abs": abs, "render": render, "laps": laps,
@@ -259,8 +243,9 @@ def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str
 def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:
     """What one sonar of ``plan``'s robot detects now: its distance and the index of the ray
     that found it (in ``ray.ends()``), or None. The same chipmunk calls, in the same order and
-    with the same arithmetic, as the generated ``sense()`` makes, so the distance is its
-    reading bit for bit: ``labsim serve`` asks it where in the cone the detected point lies.
+    with the same arithmetic, as the robot's ``RaySet`` makes (in C or in Python), so the
+    distance is its reading bit for bit: ``labsim serve`` asks it where in the cone the detected
+    point lies.
     """
     cp_space, body, info = chipmunk.c_space(space), chipmunk.c_body(plan.body), chipmunk.query_info()
     f = chipmunk.shape_filter(plan.ray_filter)

@@ -33,6 +33,8 @@ from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.chipmunk import ffi, lib
 
 Rays = Callable[[float, float, float, float], list[float]]  # cast(x, y, cos, sin) -> each ray's reading
+_Member = tuple[int, float, float, float, "tuple[float, float, float] | None", "float | None",
+                tuple[tuple[float, float], ...]]
 
 
 def _bind() -> Rays | None:
@@ -147,7 +149,9 @@ class RaySet:
         groups = ray_groups(rays)
         self._count = len(rays)
         table: list[float] = [float(len(rays)), float(len(groups))]
-        # the Python rays' plan: per group its circle (or None) and its members
+        # the Python rays' plan: per group its circle (None: no test) and its members, each its
+        # value's slot, mount x, y, range, cone's circle (None: a lone ray), incidence threshold
+        # (None: no limit) and rays' ends
         plan: list[tuple[tuple[float, float, float] | None, list[_Member]]] = []
         for group in groups:
             members = [rays[k] for k in group]
@@ -163,8 +167,8 @@ class RaySet:
                 table += [float(k), 1.0 if ray.fan else 0.0, ray.mount_x_m, ray.mount_y_m, ray.range_m,
                           *cone, 1.0 if limited else 0.0, threshold, float(len(ends))]
                 table += [v for end in ends for v in end]
-                plan_members.append(_Member(k, ray.mount_x_m, ray.mount_y_m, ray.range_m,
-                                            cone if ray.fan else None, threshold if limited else None, ends))
+                plan_members.append((k, ray.mount_x_m, ray.mount_y_m, ray.range_m,
+                                     cone if ray.fan else None, threshold if limited else None, ends))
             plan.append((circle, plan_members))
         self._plan = plan
         self._space = chipmunk.c_space(space)
@@ -177,7 +181,8 @@ class RaySet:
                                 ray_filter.categories, ray_filter.mask, array("d", table).tobytes())
 
     def _cast_python(self, x: float, y: float, c: float, s: float) -> list[float]:
-        """The kernel's calls of chipmunk, made from Python: the same in the same order."""
+        """The kernel's calls of chipmunk, made from Python: the same in the same order, with
+        the same arithmetic (each expression as the kernel writes it)."""
         query, near = chipmunk.segment_query_first, chipmunk.point_query_nearest
         space, flt, info, nearest, inf = self._space, self._filter, self._info, self._nearest, math.inf
         values = [inf] * self._count
@@ -186,38 +191,32 @@ class RaySet:
                 cx, cy, radius = circle
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
                     continue
-            for m in members:
-                mx, my, rng = m.mount_x_m, m.mount_y_m, m.range_m
-                ox = x + c * mx - s * my
-                oy = y + s * mx + c * my
-                if m.cone is None:
-                    ex, ey = m.ends[0]
+            for slot, mx, my, rng, cone, threshold, ends in members:
+                if cone is None:  # a lone ray
+                    ox = x + c * mx - s * my
+                    oy = y + s * mx + c * my
+                    ex, ey = ends[0]
                     if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
-                        values[m.slot] = info.alpha * rng
+                        values[slot] = info.alpha * rng
                     continue
-                cx, cy, radius = m.cone
+                cx, cy, radius = cone
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
                     continue
-                v, threshold = inf, m.threshold
-                for ex, ey in m.ends:
+                ox = x + c * mx - s * my
+                oy = y + s * mx + c * my
+                o = (ox, oy)
+                v = inf
+                for ex, ey in ends:
                     wx = c * ex - s * ey
                     wy = s * ex + c * ey
-                    if query(space, (ox, oy), (ox + wx, oy + wy), 0.0, flt, info) and info.alpha * rng < v \
-                            and (threshold is None or info.normal.x * wx + info.normal.y * wy <= threshold):
-                        v = info.alpha * rng
-                values[m.slot] = v
+                    if query(space, o, (ox + wx, oy + wy), 0.0, flt, info):
+                        d = info.alpha * rng
+                        if d < v:
+                            if threshold is None:
+                                v = d
+                            else:
+                                n = info.normal
+                                if n.x * wx + n.y * wy <= threshold:
+                                    v = d
+                values[slot] = v
         return values
-
-
-@dataclass(frozen=True)
-class _Member:
-    """A ray or a cone of a group, for the Python rays: its value's slot, mount, range, its
-    cone's circle (None: a lone ray), its incidence threshold (None: no limit), its rays' ends."""
-
-    slot: int
-    mount_x_m: float
-    mount_y_m: float
-    range_m: float
-    cone: tuple[float, float, float] | None
-    threshold: float | None
-    ends: tuple[tuple[float, float], ...]
