@@ -130,6 +130,10 @@ def _direction(ray: SonarRay) -> float:
     return math.atan2(ray.end_dy_m, ray.end_dx_m)
 
 
+# where a segment query's alpha and normal lie in its result, counted in doubles
+ALPHA = ffi.offsetof("cpSegmentQueryInfo", "alpha") // ffi.sizeof("double")
+NORMAL = ffi.offsetof("cpSegmentQueryInfo", "normal") // ffi.sizeof("double")
+
 _kernel = _bind()
 KERNEL = "c" if _kernel is not None else "python"
 
@@ -174,6 +178,8 @@ class RaySet:
         self._space = chipmunk.c_space(space)
         self._filter = chipmunk.shape_filter(ray_filter)
         self._info = chipmunk.query_info()
+        # the result's alpha and normal read as doubles: cheaper than through its struct's fields
+        self._raw = ffi.cast("double *", self._info)
         self._nearest = chipmunk.point_info()
         self.cast: Rays = self._cast_python
         if _kernel is not None and compiled:  # the space outlives the robot's sense(), which holds this
@@ -185,6 +191,7 @@ class RaySet:
         the same arithmetic (each expression as the kernel writes it)."""
         query, near = chipmunk.segment_query_first, chipmunk.point_query_nearest
         space, flt, info, nearest, inf = self._space, self._filter, self._info, self._nearest, math.inf
+        raw = self._raw  # raw[ALPHA] is info.alpha, raw[NORMAL], raw[NORMAL + 1] info.normal
         values = [inf] * self._count
         for circle, members in self._plan:
             if circle is not None:
@@ -197,7 +204,7 @@ class RaySet:
                     oy = y + s * mx + c * my
                     ex, ey = ends[0]
                     if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
-                        values[slot] = info.alpha * rng
+                        values[slot] = raw[ALPHA] * rng
                     continue
                 cx, cy, radius = cone
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
@@ -210,13 +217,8 @@ class RaySet:
                     wx = c * ex - s * ey
                     wy = s * ex + c * ey
                     if query(space, o, (ox + wx, oy + wy), 0.0, flt, info):
-                        d = info.alpha * rng
-                        if d < v:
-                            if threshold is None:
-                                v = d
-                            else:
-                                n = info.normal
-                                if n.x * wx + n.y * wy <= threshold:
-                                    v = d
+                        d = raw[ALPHA] * rng
+                        if d < v and (threshold is None or raw[NORMAL] * wx + raw[NORMAL + 1] * wy <= threshold):
+                            v = d
                 values[slot] = v
         return values
