@@ -257,8 +257,10 @@ static PyObject *rays(PyObject *self, PyObject *args) {
     unsigned int categories, mask;
     double x, y, c, s;
     Py_buffer table;
+    PyObject *owner; /* what keeps the space alive: held by the caller's partial, unused here */
     (void)self;
-    if (!PyArg_ParseTuple(args, "KKIIy*dddd", &space_at, &group, &categories, &mask, &table, &x, &y, &c, &s))
+    if (!PyArg_ParseTuple(args, "KOKIIy*dddd", &space_at, &owner, &group, &categories, &mask, &table, &x, &y, &c,
+                          &s))
         return NULL;
     PyObject *out = NULL;
     double *values = NULL;
@@ -356,9 +358,9 @@ static PyMethodDef methods[] = {
      "segment info, offsetof normal, offsetof alpha, sizeof point info): chipmunk's two queries for rays(), "
      "by address, once the sizes of its structs are those the kernel was built with."},
     {"rays", rays, METH_VARARGS,
-     "rays(space, group, categories, mask, table, x, y, c, s) -> every value's reading in metres (inf: "
+     "rays(space, owner, group, categories, mask, table, x, y, c, s) -> every value's reading in metres (inf: "
      "nothing): a robot's rays for its body at (x, y) heading (c, s) = (cos, sin), through chipmunk; "
-     "table as ray_cast.RaySet builds it."},
+     "space the cpSpace's address, owner what keeps it alive, table as ray_cast.RaySet builds it."},
     {NULL, NULL, 0, NULL},
 };
 

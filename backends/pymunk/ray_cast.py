@@ -25,7 +25,7 @@ from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import cast
+from typing import Any, cast
 
 import pymunk
 
@@ -151,7 +151,6 @@ class RaySet:
     def __init__(self, space: pymunk.Space, ray_filter: pymunk.ShapeFilter, rays: Sequence[SonarRay],
                  *, compiled: bool = True) -> None:
         groups = ray_groups(rays)
-        self._count = len(rays)
         table: list[float] = [float(len(rays)), float(len(groups))]
         # the Python rays' plan: per group its circle (None: no test) and its members, each its
         # value's slot, mount x, y, range, cone's circle (None: a lone ray), incidence threshold
@@ -174,26 +173,27 @@ class RaySet:
                 plan_members.append((k, ray.mount_x_m, ray.mount_y_m, ray.range_m,
                                      cone if ray.fan else None, threshold if limited else None, ends))
             plan.append((circle, plan_members))
-        self._plan = plan
-        self._space = chipmunk.c_space(space)
-        self._filter = chipmunk.shape_filter(ray_filter)
-        self._info = chipmunk.query_info()
-        # the result's alpha and normal read as doubles: cheaper than through its struct's fields
-        self._raw = ffi.cast("double *", self._info)
-        self._nearest = chipmunk.point_info()
-        self.cast: Rays = self._cast_python
-        if _kernel is not None and compiled:  # the space outlives the robot's sense(), which holds this
-            self.cast = partial(_kernel, int(ffi.cast("uintptr_t", self._space)), ray_filter.group,
+        c_space = chipmunk.c_space(space)
+        self.cast: Rays = _python_rays(plan, len(rays), space, chipmunk.shape_filter(ray_filter),
+                                       chipmunk.query_info(), chipmunk.point_info())
+        if _kernel is not None and compiled:  # the partial holds the space: it lives while the cast does
+            self.cast = partial(_kernel, int(ffi.cast("uintptr_t", c_space)), space, ray_filter.group,
                                 ray_filter.categories, ray_filter.mask, array("d", table).tobytes())
 
-    def _cast_python(self, x: float, y: float, c: float, s: float) -> list[float]:
-        """The kernel's calls of chipmunk, made from Python: the same in the same order, with
-        the same arithmetic (each expression as the kernel writes it)."""
-        query, near = chipmunk.segment_query_first, chipmunk.point_query_nearest
-        space, flt, info, nearest, inf = self._space, self._filter, self._info, self._nearest, math.inf
-        raw = self._raw  # raw[ALPHA] is info.alpha, raw[NORMAL], raw[NORMAL + 1] info.normal
-        values = [inf] * self._count
-        for circle, members in self._plan:
+
+def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Member]]], count: int,
+                 owner: pymunk.Space, flt: Any, info: Any, nearest: Any) -> Rays:
+    """The kernel's calls of chipmunk, made from Python: the same in the same order, with the
+    same arithmetic (each expression as the kernel writes it). A closure: its names are the
+    cheapest a function can read, and it runs a few times a tick."""
+    query, near, inf = chipmunk.segment_query_first, chipmunk.point_query_nearest, math.inf
+    space = chipmunk.c_space(owner)
+    raw = ffi.cast("double *", info)  # a hit's alpha and normal read as doubles: cheaper than its fields
+    alpha, normal_x, normal_y = ALPHA, NORMAL, NORMAL + 1
+
+    def cast(x: float, y: float, c: float, s: float) -> list[float]:
+        values = [inf] * count
+        for circle, members in plan:
             if circle is not None:
                 cx, cy, radius = circle
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
@@ -204,7 +204,7 @@ class RaySet:
                     oy = y + s * mx + c * my
                     ex, ey = ends[0]
                     if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
-                        values[slot] = raw[ALPHA] * rng
+                        values[slot] = raw[alpha] * rng
                     continue
                 cx, cy, radius = cone
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
@@ -217,8 +217,11 @@ class RaySet:
                     wx = c * ex - s * ey
                     wy = s * ex + c * ey
                     if query(space, o, (ox + wx, oy + wy), 0.0, flt, info):
-                        d = raw[ALPHA] * rng
-                        if d < v and (threshold is None or raw[NORMAL] * wx + raw[NORMAL + 1] * wy <= threshold):
+                        d = raw[alpha] * rng
+                        if d < v and (threshold is None or raw[normal_x] * wx + raw[normal_y] * wy <= threshold):
                             v = d
                 values[slot] = v
         return values
+
+    cast.__dict__["space"] = owner  # the space's shapes live while the cast does
+    return cast

@@ -10,6 +10,7 @@ has a C compiler) they fail.
 """
 from __future__ import annotations
 
+import gc
 import math
 import os
 import random
@@ -167,3 +168,15 @@ def test_a_robot_inside_a_wall_reads_zero_and_a_removed_block_is_seen_gone(compi
 def test_no_rays_read_nothing(compiled: bool) -> None:
     space = pymunk.Space()
     assert RaySet(space, pymunk.ShapeFilter(group=1), [], compiled=compiled).cast(0.0, 0.0, 1.0, 0.0) == []
+
+
+def test_a_cast_keeps_its_space_alive(compiled: bool) -> None:
+    """sense() holds only the cast: the space and its shapes must live as long as it does."""
+    def cast_only() -> object:
+        space = pymunk.Space()
+        space.add(pymunk.Segment(space.static_body, (1.0, -1.0), (1.0, 1.0), 0.05))
+        return RaySet(space, pymunk.ShapeFilter(group=1), [SonarRay(0.0, 0.0, 2.0, 0.0, 2.0)], compiled=compiled).cast
+
+    cast = cast_only()
+    gc.collect()
+    assert cast(0.0, 0.0, 1.0, 0.0) == [0.95]  # type: ignore[operator]
