@@ -37,22 +37,23 @@ _Member = tuple[int, float, float, float, "tuple[float, float, float] | None", "
                 tuple[tuple[float, float], ...]]
 
 
-def _bind() -> Rays | None:
+def _bind() -> Callable[..., list[float]] | None:
     """The kernel's ``rays`` once it holds chipmunk's two queries, or None: not built, or built
     for structs of another size than this pymunk's."""
     try:
         from labsim.backends.pymunk import _fan
     except ImportError:  # no C compiler at install time: the Python rays
         return None
-    address = [int(ffi.cast("uintptr_t", ffi.addressof(lib, name)))
-               for name in ("cpSpaceSegmentQueryFirst", "cpSpacePointQueryNearest")]
+    segment, point = (int(ffi.cast("uintptr_t", ffi.addressof(lib, name)))
+                      for name in ("cpSpaceSegmentQueryFirst", "cpSpacePointQueryNearest"))
     try:
-        _fan.bind(*address, ffi.sizeof("cpShapeFilter"), ffi.sizeof("cpBitmask"), ffi.offsetof("cpShapeFilter", "mask"),
-                  ffi.sizeof("cpSegmentQueryInfo"), ffi.offsetof("cpSegmentQueryInfo", "normal"),
-                  ffi.offsetof("cpSegmentQueryInfo", "alpha"), ffi.sizeof("cpPointQueryInfo"))
+        _fan.bind(segment, point, ffi.sizeof("cpShapeFilter"), ffi.sizeof("cpBitmask"),
+                  ffi.offsetof("cpShapeFilter", "mask"), ffi.sizeof("cpSegmentQueryInfo"),
+                  ffi.offsetof("cpSegmentQueryInfo", "normal"), ffi.offsetof("cpSegmentQueryInfo", "alpha"),
+                  ffi.sizeof("cpPointQueryInfo"))
     except (AttributeError, ValueError):  # an older build of the kernel, or another chipmunk
         return None
-    return _fan.rays  # type: ignore[no-any-return]
+    return _fan.rays
 
 
 @dataclass(frozen=True)
