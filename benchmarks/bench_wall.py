@@ -1,6 +1,6 @@
 """Interpreter overhead on the wall-following lab: labsim against two hand-written pymunk loops.
 
-All three sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
+All sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
 for the lab's 30,000 ticks: the same six sonar cones per tick (5 rays across each 30-degree
 cone, the nearest hit met within 45 degrees of the surface's normal), the same random
 numbers, the same rules, wheel clamping and metrics. labsim runs ``behaviours/wall_follow.yaml``;

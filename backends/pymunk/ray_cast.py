@@ -184,21 +184,29 @@ class RaySet:
 
 def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Member]]], count: int,
                  owner: pymunk.Space, flt: Any, info: Any, nearest: Any) -> Rays:
-    """The kernel's calls of chipmunk, made from Python: the same in the same order, with the
-    same arithmetic (each expression as the kernel writes it). A closure: its names are the
-    cheapest a function can read, and it runs a few times a tick."""
+    """The kernel's rays, cast from Python: each by the same chipmunk call with the same
+    arithmetic (each expression as the kernel writes it), so each reads the same bit for bit.
+    A closure: its names are the cheapest a function can read, and it runs a few times a tick."""
     query, near, inf = chipmunk.segment_query_first, chipmunk.point_query_nearest, math.inf
     space = chipmunk.c_space(owner)
     raw = ffi.cast("double *", info)  # a hit's alpha and normal read as doubles: cheaper than its fields
     alpha, normal_x, normal_y = ALPHA, NORMAL, NORMAL + 1
 
+    # Which groups and cones had a ray hit something the tick before: their circle's test is
+    # skipped, as it would pass again but for the tick the robot leaves them (then their rays
+    # are cast and miss, which is what the test saves, and the next tick tests again). A
+    # skipped test changes no reading, only the work (the tests are exact: module docstring).
+    warm_group = [False] * len(plan)
+    warm = [False] * count
+
     def cast(x: float, y: float, c: float, s: float) -> list[float]:
         values = [inf] * count
-        for circle, members in plan:
-            if circle is not None:
+        for g, (circle, members) in enumerate(plan):
+            if circle is not None and not warm_group[g]:
                 cx, cy, radius = circle
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
                     continue
+            seen = False
             for slot, mx, my, rng, cone, threshold, ends in members:
                 if cone is None:  # a lone ray
                     ox = x + c * mx - s * my
@@ -206,22 +214,29 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
                     ex, ey = ends[0]
                     if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
                         values[slot] = raw[alpha] * rng
+                        seen = True
                     continue
-                cx, cy, radius = cone
-                if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
-                    continue
+                if not warm[slot]:
+                    cx, cy, radius = cone
+                    if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
+                        continue
                 ox = x + c * mx - s * my
                 oy = y + s * mx + c * my
                 o = (ox, oy)
                 v = inf
+                hit = False
                 for ex, ey in ends:
                     wx = c * ex - s * ey
                     wy = s * ex + c * ey
                     if query(space, o, (ox + wx, oy + wy), 0.0, flt, info):
+                        hit = True
                         d = raw[alpha] * rng
                         if d < v and (threshold is None or raw[normal_x] * wx + raw[normal_y] * wy <= threshold):
                             v = d
+                warm[slot] = hit
+                seen = seen or hit
                 values[slot] = v
+            warm_group[g] = seen
         return values
 
     cast.__dict__["space"] = owner  # the space's shapes live while the cast does
