@@ -45,14 +45,14 @@ def _bind() -> Callable[..., list[float]] | None:
         from labsim.backends.pymunk import _fan
     except ImportError:  # no C compiler at install time: the Python rays
         return None
-    segment, point = (int(ffi.cast("uintptr_t", ffi.addressof(lib, name)))
-                      for name in ("cpSpaceSegmentQueryFirst", "cpSpacePointQueryNearest"))
     try:
+        segment, point = (int(ffi.cast("uintptr_t", ffi.addressof(lib, name)))
+                          for name in ("cpSpaceSegmentQueryFirst", "cpSpacePointQueryNearest"))
         _fan.bind(segment, point, ffi.sizeof("cpShapeFilter"), ffi.sizeof("cpBitmask"),
                   ffi.offsetof("cpShapeFilter", "mask"), ffi.sizeof("cpSegmentQueryInfo"),
                   ffi.offsetof("cpSegmentQueryInfo", "normal"), ffi.offsetof("cpSegmentQueryInfo", "alpha"),
                   ffi.sizeof("cpPointQueryInfo"))
-    except (AttributeError, ValueError):  # an older build of the kernel, or another chipmunk
+    except (AttributeError, TypeError, ValueError, ffi.error):  # an older kernel, another chipmunk or cffi
         return None
     return _fan.rays
 

@@ -60,16 +60,14 @@ def build_parser(argv: Sequence[str] | None = None, *, every: bool = False) -> a
 
 def ray_caster() -> str:
     """Which caster the embedded simulator's ray sensors (sonars, IR, lidar) use: "C kernel"
-    where ``pip install`` found a compiler and built ``backends/pymunk/_fan.c``, else "Python"
-    (chipmunk's casts from Python, the lidar's fan with numpy); asked without importing numpy
-    or pymunk."""
+    where ``pip install`` found a compiler and built ``backends/pymunk/_fan.c`` (and it runs
+    with this pymunk), else "Python" (chipmunk's casts from Python, the lidar's fan with numpy);
+    asked without importing numpy."""
     if importlib.util.find_spec("labsim.backends.pymunk._fan") is None:
         return "Python"
-    try:
-        from labsim.backends.pymunk import _fan
-    except ImportError:  # built for another Python, or broken
-        return "Python"
-    return "C kernel" if hasattr(_fan, "rays") else "Python"  # a build older than the caster: the lidar's only
+    from labsim.backends.pymunk import ray_cast
+
+    return "C kernel" if ray_cast.KERNEL == "c" else "Python"
 
 
 class _Version(argparse.Action):
