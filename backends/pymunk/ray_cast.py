@@ -199,10 +199,11 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
     # skipped test changes no reading, only the work (the tests are exact: module docstring).
     warm_group = [False] * len(plan)
     warm = [False] * count
+    groups = [(g, circle, members) for g, (circle, members) in enumerate(plan)]
 
     def cast(x: float, y: float, c: float, s: float) -> list[float]:
         values = [inf] * count
-        for g, (circle, members) in enumerate(plan):
+        for g, circle, members in groups:
             if circle is not None and not warm_group[g]:
                 cx, cy, radius = circle
                 if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
@@ -235,7 +236,8 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
                         if d < v and (threshold is None or raw[normal_x] * wx + raw[normal_y] * wy <= threshold):
                             v = d
                 warm[slot] = hit
-                seen = seen or hit
+                if hit:
+                    seen = True
                 values[slot] = v
             warm_group[g] = seen
         return values
