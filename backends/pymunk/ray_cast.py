@@ -193,10 +193,9 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
     raw = ffi.cast("double *", info)  # a hit's alpha and normal read as doubles: cheaper than its fields
     alpha, normal_x, normal_y = ALPHA, NORMAL, NORMAL + 1
 
-    # Which groups and cones had a ray hit something the tick before: their circle's test is
-    # skipped, as it would pass again but for the tick the robot leaves them (then their rays
-    # are cast and miss, which is what the test saves, and the next tick tests again). A
-    # skipped test changes no reading, only the work (the tests are exact: module docstring).
+    # The groups and cones a ray of which hit something the tick before: their circle's test
+    # would pass again but on the tick the robot leaves them (then their rays miss, and the next
+    # tick tests again), so it is skipped. A skipped test changes no reading, only the work.
     warm_group = [False] * len(plan)
     warm = [False] * count
     groups = [(g, circle, members) for g, (circle, members) in enumerate(plan)]
