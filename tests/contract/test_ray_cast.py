@@ -14,12 +14,16 @@ import gc
 import math
 import os
 import random
+from pathlib import Path
 
 import pymunk
 import pytest
+from helpers import BEHAVIOURS
 
+from labsim.backends import load_backend
 from labsim.backends.pymunk import ray_cast
 from labsim.backends.pymunk.ray_cast import RaySet, SonarRay
+from labsim.runtime.run import compile_behaviour
 
 HOW = ("the C kernel backends/pymunk/_fan.c was not built: `pip install .` builds it where a C compiler is "
        "(an editable checkout: `pip install -e .`, or `python -c \"from setuptools import setup; setup()\" "
@@ -180,3 +184,19 @@ def test_a_cast_keeps_its_space_alive(compiled: bool) -> None:
     cast = cast_only()
     gc.collect()
     assert cast(0.0, 0.0, 1.0, 0.0) == [0.95]  # type: ignore[operator]
+
+
+def test_the_wall_lab_runs_the_same_with_either_caster(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two simulated minutes of the wall lab (its sonar cones, contacts and all): the trace is
+    byte for byte the same with the C kernel and with the Python rays."""
+    _kernel_built()
+    traces = []
+    for name, kernel in (("c", ray_cast._kernel), ("python", None)):
+        monkeypatch.setattr(ray_cast, "_kernel", kernel)
+        trace = tmp_path / f"{name}.csv"
+        run = compile_behaviour(BEHAVIOURS / "wall_follow.yaml", {"minutes": "2"}).bind(
+            load_backend("pymunk"), trace=str(trace), warn=lambda m: None)
+        run.run()
+        run.close()
+        traces.append(trace.read_bytes())
+    assert len(traces[0]) > 10_000 and traces[0] == traces[1]
