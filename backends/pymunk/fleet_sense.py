@@ -6,9 +6,9 @@ and ``compile_sense`` turns that into one function. It runs every tick, so its c
 ray casts and camera frames themselves must stay near zero, so it reads bodies and casts rays
 through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
 
-A robot's sonars and IR sensors (``SonarRay``: a lone ray, or a sonar's cone of rays) are cast
-together, one call a tick, by its ``labsim.backends.pymunk.ray_cast.RaySet`` (the C kernel
-where the install built it), and its lidar's beams by its ``lidar_fan.LidarFan``.
+A robot's sonars and IR sensors (``SonarRay``: a lone ray, or a sonar's cone of rays) and its
+lidar's beams are cast together, one call a tick, by its ``labsim.backends.pymunk.ray_cast.RaySet``
+(the C kernel where the install built it; the beams through the lidar's ``lidar_fan.LidarFan``).
 """
 from __future__ import annotations
 
@@ -31,7 +31,8 @@ SenseFn = Callable[[], list[list[object]]]
 @dataclass(frozen=True)
 class LidarBeam:
     """One beam of a lidar mounted ``x_m`` ahead of the robot's origin, at ``angle_rad`` in the
-    robot frame; a robot's beams are cast together, as one fan (``lidar_fan.LidarFan``)."""
+    robot frame; a robot's beams are cast together, as one fan (``lidar_fan.LidarFan``), in the
+    call that casts its other rays."""
 
     x_m: float
     range_m: float
@@ -140,7 +141,7 @@ def compile_sense(
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
-        rows.append(f"scan{r}" if values == [f"*scan{r}"] else f"[{', '.join(values)}]")  # a lidar alone: its new list
+        rows.append(f"sv{r}" if values == [f"*sv{r}"] else f"[{', '.join(values)}]")  # a lidar alone: its new list
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
@@ -177,16 +178,14 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
         lines += [f"    p = position(body{r})", f"    x{r} = p.x", f"    y{r} = p.y"]
     if kinds & {_SONAR, "heading", _CAMERA, "forward_speed", _POINT, _LIDAR}:
         lines.append(f"    a{r} = angle(body{r})")
-    if kinds & {_SONAR, _POINT}:
+    if kinds & {_SONAR, _POINT, _LIDAR}:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
-    if _SONAR in kinds:  # every ray of the robot, in one call (ray_cast.RaySet)
+    if kinds & {_SONAR, _LIDAR}:  # every ray of the robot, its lidar's beams last, in one call (ray_cast.RaySet)
         lines.append(f"    sv{r} = rays{r}(x{r}, y{r}, c, s)")
     sonars = [k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)]
     beams = [k for k, spec in enumerate(specs) if isinstance(spec, LidarBeam)]
-    if beams:
-        lines.append(f"    scan{r} = fan{r}(x{r}, y{r}, a{r})")
     values = []
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
@@ -196,12 +195,12 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             values.append(f"v{r}_{k}")
         elif isinstance(spec, SonarRay):  # cast above, in the order of the specs
             values.append(f"sv{r}[{sonars.index(k)}]")
-        elif isinstance(spec, LidarBeam):  # cast above, in the order of the specs
+        elif isinstance(spec, LidarBeam):  # cast above, after the sonars, in the order of the specs
             if beams == list(range(beams[0], beams[0] + len(beams))):  # one run: spliced at its first
                 if k == beams[0]:
-                    values.append(f"*scan{r}")
+                    values.append(f"*sv{r}[{len(sonars)}:]" if sonars else f"*sv{r}")
             else:
-                values.append(f"scan{r}[{beams.index(k)}]")
+                values.append(f"sv{r}[{len(sonars) + beams.index(k)}]")
         elif isinstance(spec, (BumperRead, GroundRead)):
             lines += [f"    px = x{r} + c * {spec.x_m!r} - s * {spec.y_m!r}",
                       f"    py = y{r} + s * {spec.x_m!r} + c * {spec.y_m!r}"]
@@ -225,19 +224,20 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
 
 
 def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
-    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, its sonars' and IR
-    sensors' caster as ``rays{r}`` and its lidar fan as ``fan{r}`` (each in the order of the
-    specs) if it reads any."""
+    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and the caster of its
+    sonars', IR sensors' and lidar's rays as ``rays{r}`` (the sonars and IR sensors, then the
+    beams, each in the order of the specs) if it reads any."""
     env[f"body{r}"] = chipmunk.c_body(plan.body)
     env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
     rays = [spec for spec in plan.specs if isinstance(spec, SonarRay)]
-    if rays:
-        env[f"rays{r}"] = RaySet(space, plan.ray_filter, rays).cast
     beams = [spec for spec in plan.specs if isinstance(spec, LidarBeam)]
+    lidar = None
     if beams:
         from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
-        env[f"fan{r}"] = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams],
-                                  beams[0].x_m, beams[0].range_m).cast
+        lidar = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams], beams[0].x_m,
+                         beams[0].range_m)
+    if rays or lidar is not None:
+        env[f"rays{r}"] = RaySet(space, plan.ray_filter, rays, lidar=lidar).cast
 
 
 def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:

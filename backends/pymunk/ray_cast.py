@@ -26,12 +26,15 @@ from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.chipmunk import ffi, lib
+
+if TYPE_CHECKING:  # numpy's module: imported only for a robot with a lidar
+    from labsim.backends.pymunk.lidar_fan import LidarFan
 
 Rays = Callable[[float, float, float, float], list[float]]  # cast(x, y, cos, sin) -> each ray's reading
 _Member = tuple[int, float, float, float, "tuple[float, float, float] | None", "float | None",
@@ -145,13 +148,14 @@ class RaySet:
     (x, y) heading a, c = cos(a) and s = sin(a): metres, or ``inf`` where nothing is within range.
 
     ``rays`` are the robot's sonars and IR sensors (``fleet_sense.SonarRay``) in the order
-    ``cast`` returns them; ``ray_filter`` keeps the rays off the robot's own shape.
-    ``compiled=False`` takes the Python rays even where the kernel was built (the tests
-    compare the two).
+    ``cast`` returns them; ``ray_filter`` keeps the rays off the robot's own shape. With its
+    ``lidar`` (``lidar_fan.LidarFan``) every beam's range follows them, in the lidar's order,
+    cast in the same call of the kernel. ``compiled=False`` takes the Python rays (and the
+    numpy fan) even where the kernel was built (the tests compare the two).
     """
 
     def __init__(self, space: pymunk.Space, ray_filter: pymunk.ShapeFilter, rays: Sequence[SonarRay],
-                 *, compiled: bool = True) -> None:
+                 *, lidar: LidarFan | None = None, compiled: bool = True) -> None:
         groups = ray_groups(rays)
         table: list[float] = [float(len(rays)), float(len(groups))]
         # the Python rays' plan: per group its circle (None: no test) and its members, each its
@@ -175,12 +179,17 @@ class RaySet:
                 plan_members.append((k, ray.mount_x_m, ray.mount_y_m, ray.range_m,
                                      cone if ray.fan else None, threshold if limited else None, ends))
             plan.append((circle, plan_members))
-        c_space = chipmunk.c_space(space)
-        self.cast: Rays = _python_rays(plan, len(rays), space, chipmunk.shape_filter(ray_filter),
-                                       chipmunk.query_info(), chipmunk.point_info())
-        if _kernel is not None and compiled:  # the partial holds the space: it lives while the cast does
-            self.cast = partial(_kernel, int(ffi.cast("uintptr_t", c_space)), space, ray_filter.group,
-                                ray_filter.categories, ray_filter.mask, array("d", table).tobytes())
+        python = _python_rays(plan, len(rays), space, chipmunk.shape_filter(ray_filter), chipmunk.query_info(),
+                              chipmunk.point_info())
+        # the kernel's first arguments: the space (its address, and what keeps it alive while the
+        # cast lives), the ray filter's fields, the table
+        head = (int(ffi.cast("uintptr_t", chipmunk.c_space(space))), space, ray_filter.group,
+                ray_filter.categories, ray_filter.mask, array("d", table).tobytes())
+        kernel = _kernel if compiled else None
+        if lidar is not None:
+            self.cast: Rays = lidar.joined(len(rays), kernel, head, python)
+        else:
+            self.cast = python if kernel is None else partial(kernel, *head)
 
 
 def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Member]]], count: int,
