@@ -10,19 +10,25 @@ has a C compiler) they fail.
 """
 from __future__ import annotations
 
+import dataclasses
 import gc
 import math
 import os
 import random
 from pathlib import Path
+from typing import cast
 
 import pymunk
 import pytest
 from helpers import BEHAVIOURS
 
 from labsim.backends import load_backend
+from labsim.backends.protocol import RobotRequest
 from labsim.backends.pymunk import ray_cast
+from labsim.backends.pymunk.lidar_fan import LidarFan
 from labsim.backends.pymunk.ray_cast import RaySet, SonarRay
+from labsim.backends.scene.models import PIONEER_P3DX, Lidar
+from labsim.backends.scene.world import Pose, Wall, World
 from labsim.runtime.run import compile_behaviour
 
 HOW = ("the C kernel backends/pymunk/_fan.c was not built: `pip install .` builds it where a C compiler is "
@@ -200,3 +206,111 @@ def test_the_wall_lab_runs_the_same_with_either_caster(tmp_path: Path, monkeypat
         run.close()
         traces.append(trace.read_bytes())
     assert len(traces[0]) > 10_000 and traces[0] == traces[1]
+
+
+def _mixed(seed: int, compiled: bool) -> tuple[list[list[float]], list[list[float]], list[list[float]],
+                                                list[list[float]]]:
+    """Ten poses of a random world for a robot with sonars, IR rays and a lidar (some poses
+    inside a shape, some in a wall's band): the joined caster's readings, the sonars' and IR
+    rays' alone, the lidar's alone, and chipmunk's casts of every beam."""
+    rng = random.Random(seed)
+    space, bodies = _world(rng)
+    me, rays, f = bodies[0], _rays(rng), pymunk.ShapeFilter(group=1)
+    beams = rng.choice([1, 7, 90, 360])
+    angles = [rng.uniform(-math.pi, math.pi) for _ in range(beams)]
+    mount, reach = rng.uniform(-0.1, 0.2), rng.uniform(1.0, 6.0)
+    lidar = LidarFan(space, me, f, angles, mount, reach, compiled=compiled)
+    joined = RaySet(space, f, rays, lidar=lidar, compiled=compiled)
+    alone = RaySet(space, f, rays, compiled=compiled)
+    fan = RaySet(space, f, [], lidar=LidarFan(space, me, f, angles, mount, reach, compiled=compiled),
+                 compiled=compiled)
+    got, sonars, scans, want = [], [], [], []
+    for _ in range(10):
+        me.position += (rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6))
+        me.angle += rng.uniform(-1, 1)
+        for other in bodies[1:]:
+            other.position += (rng.uniform(-0.3, 0.3), 0.0)
+            other.angle += 0.3
+        for body in bodies:
+            space.reindex_shapes_for_body(body)
+        (x, y), a = me.position, me.angle
+        c, s = math.cos(a), math.sin(a)
+        got.append(joined.cast(x, y, c, s))
+        sonars.append(alone.cast(x, y, c, s))
+        scans.append(fan.cast(x, y, c, s))
+        want.append(lidar.cast_through_chipmunk(x, y, a))
+    return got, sonars, scans, want
+
+
+def test_a_robots_lidar_is_cast_in_the_same_call_as_its_other_rays(compiled: bool) -> None:
+    """The joined caster's readings are the sonars' and IR rays' then the beams', each bit for
+    bit what the caster reads for them alone, and the beams what chipmunk reads (to 1e-12 m, as
+    tests/contract/test_lidar_fan.py has it for the fan)."""
+    inside = 0
+    for seed in range(60):
+        got, sonars, scans, want = _mixed(seed, compiled)
+        for row, sonar, scan, chipmunks in zip(got, sonars, scans, want):
+            assert row == sonar + scan, seed
+            assert scan == pytest.approx(chipmunks, abs=1e-12, rel=0), seed
+            inside += scan == [0.0] * len(scan)
+    assert inside > 0  # a lidar inside a shape was tried
+
+
+def test_the_kernel_casts_a_lidar_as_the_python_rays_and_numpy_do() -> None:
+    _kernel_built()
+    for seed in range(60, 90):
+        by_kernel, by_python = _mixed(seed, True), _mixed(seed, False)
+        assert by_kernel[1] == by_python[1], seed  # the sonars and IR rays: bit for bit
+        for kernel_row, python_row in zip(by_kernel[0], by_python[0]):
+            assert kernel_row == pytest.approx(python_row, abs=1e-12, rel=0), seed
+
+
+def _two_pioneers() -> tuple[list[list[list[object]]], tuple[str, ...]]:
+    """Twenty ticks of two Pioneers with their sonar cones and a 90-beam lidar each, driving
+    arcs in a room with a wall: sense()'s rows, and the channels each robot reads (the lidar's
+    beams not in one run: the first apart from the others)."""
+    model = dataclasses.replace(PIONEER_P3DX, lidars=(Lidar(90, 270, 4.0),))
+    channels = ("sonar3", "lidar1", "sonar5", *(f"lidar{k}" for k in range(2, 91)), "heading", "sonar8")
+    walls = tuple(Wall(a, b, 0.1) for a, b in [((-3, -3), (3, -3)), ((3, -3), (3, 3)), ((3, 3), (-3, 3)),
+                                                ((-3, 3), (-3, -3)), ((-1, 0), (1, 0))])
+    world = World("room", "a room with a wall", (-3.0, -3.0, 3.0, 3.0), walls)
+    backend = load_backend("pymunk")
+    backend.open(world, [RobotRequest(f"p[{i}]", model, Pose(-1.5 + 2 * i, 0.8, 0.3), channels)
+                         for i in range(2)], 0.05, 1)
+    rows = []
+    for _ in range(20):
+        backend.act(0, 2.0, 1.0)
+        backend.act(1, 1.0, 2.0)
+        rows.append(backend.sense())
+        backend.step()
+    backend.close()
+    return rows, channels
+
+
+def test_sense_casts_a_robots_sonars_and_lidar_in_one_call_a_tick(monkeypatch: pytest.MonkeyPatch) -> None:
+    """One call of the kernel per robot and tick, the lidar's beams in it; the rows are the
+    Python rays' and numpy fan's: the sonars and the rest bit for bit, the beams to 1e-12 m."""
+    _kernel_built()
+    calls = []
+    kernel = ray_cast._kernel
+    assert kernel is not None
+
+    def counted(*args: object) -> list[float]:
+        calls.append(len(args))
+        return kernel(*args)
+
+    monkeypatch.setattr(ray_cast, "_kernel", counted)
+    by_kernel, channels = _two_pioneers()
+    assert calls == [16] * 40  # every call with the lidar's arguments: one a robot and tick
+    monkeypatch.setattr(ray_cast, "_kernel", None)
+    by_python, _ = _two_pioneers()
+    beams = [k for k, name in enumerate(channels) if name.startswith("lidar")]
+    seen = 0
+    for kernel_rows, python_rows in zip(by_kernel, by_python):
+        for kernel_row, python_row in zip(kernel_rows, python_rows):
+            assert len(kernel_row) == len(channels)
+            assert [v for k, v in enumerate(kernel_row) if k not in beams] == \
+                [v for k, v in enumerate(python_row) if k not in beams]
+            assert [kernel_row[k] for k in beams] == pytest.approx([python_row[k] for k in beams], abs=1e-12, rel=0)
+            seen += sum(math.isfinite(cast(float, kernel_row[k])) for k in beams)
+    assert seen > 1000
