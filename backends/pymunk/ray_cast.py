@@ -196,10 +196,19 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
                  owner: pymunk.Space, flt: Any, info: Any, nearest: Any) -> Rays:
     """The kernel's rays, cast from Python: each by the same chipmunk call with the same
     arithmetic (each expression as the kernel writes it), so each reads the same bit for bit.
-    A closure: its names are the cheapest a function can read, and it runs a few times a tick."""
+    A closure: its names are the cheapest a function can read, and it runs a few times a tick.
+
+    The points go to chipmunk as three ``cpVect`` structs made once (a ray's start and end, a
+    circle's centre) whose doubles are written through a memoryview: cffi converts a tuple to
+    a struct for each call, which cost a third of a ray. A hit's alpha and normal are read
+    through a memoryview of the result, cheaper than its fields or a cdata pointer.
+    """
     query, near, inf = chipmunk.segment_query_first, chipmunk.point_query_nearest, math.inf
     space = chipmunk.c_space(owner)
-    raw = ffi.cast("double *", info)  # a hit's alpha and normal read as doubles: cheaper than its fields
+    points = ffi.new("cpVect[3]")
+    start, end, centre = points[0], points[1], points[2]  # each a struct sharing the array's memory
+    at = memoryview(ffi.buffer(points)).cast("d")  # start x, y, end x, y, centre x, y
+    raw = memoryview(ffi.buffer(info)).cast("d")  # the hit, as doubles
     alpha, normal_x, normal_y = ALPHA, NORMAL, NORMAL + 1
 
     # The groups and cones a ray of which hit something the tick before: their circle's test
@@ -214,7 +223,9 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
         for g, circle, members in groups:
             if circle is not None and not warm_group[g]:
                 cx, cy, radius = circle
-                if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
+                at[4] = x + c * cx - s * cy
+                at[5] = y + s * cx + c * cy
+                if not near(space, centre, radius, flt, nearest):
                     continue
             seen = False
             for slot, mx, my, rng, cone, threshold, ends in members:
@@ -222,23 +233,32 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
                     ox = x + c * mx - s * my
                     oy = y + s * mx + c * my
                     ex, ey = ends[0]
-                    if query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info):
+                    at[0] = ox
+                    at[1] = oy
+                    at[2] = ox + c * ex - s * ey
+                    at[3] = oy + s * ex + c * ey
+                    if query(space, start, end, 0.0, flt, info):
                         values[slot] = raw[alpha] * rng
                         seen = True
                     continue
                 if not warm[slot]:
                     cx, cy, radius = cone
-                    if not near(space, (x + c * cx - s * cy, y + s * cx + c * cy), radius, flt, nearest):
+                    at[4] = x + c * cx - s * cy
+                    at[5] = y + s * cx + c * cy
+                    if not near(space, centre, radius, flt, nearest):
                         continue
                 ox = x + c * mx - s * my
                 oy = y + s * mx + c * my
-                o = (ox, oy)
+                at[0] = ox
+                at[1] = oy
                 v = inf
                 hit = False
                 for ex, ey in ends:
                     wx = c * ex - s * ey
                     wy = s * ex + c * ey
-                    if query(space, o, (ox + wx, oy + wy), 0.0, flt, info):
+                    at[2] = ox + wx
+                    at[3] = oy + wy
+                    if query(space, start, end, 0.0, flt, info):
                         hit = True
                         d = raw[alpha] * rng
                         if d < v and (threshold is None or raw[normal_x] * wx + raw[normal_y] * wy <= threshold):
