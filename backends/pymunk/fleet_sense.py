@@ -141,10 +141,20 @@ def compile_sense(
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
-        rows.append(f"sv{r}" if values == [f"*sv{r}"] else f"[{', '.join(values)}]")  # a lidar alone: its new list
+        # a robot that reads only its rays, in the caster's order: the caster's new list is the row
+        rows.append(f"sv{r}" if values == _rays_alone(r, plan.specs) else f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
+
+
+def _rays_alone(r: int, specs: tuple[Spec, ...]) -> list[str]:
+    """The expressions of robot r's values when it reads its sonars and IR sensors, then its
+    lidar's beams, and nothing else, each in the caster's order (``_robot_lines``'s)."""
+    sonars = sum(isinstance(spec, SonarRay) for spec in specs)
+    beams = ([f"*sv{r}[{sonars}:]" if sonars else f"*sv{r}"]
+             if any(isinstance(spec, LidarBeam) for spec in specs) else [])
+    return [f"sv{r}[{k}]" for k in range(sonars)] + beams if sonars or beams else [""]
 
 
 def _scene_lines(robots: list[SensePlan], poses: Callable[[], object] | None, env: dict[str, object]) -> list[str]:
