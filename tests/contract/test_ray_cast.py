@@ -314,3 +314,22 @@ def test_sense_casts_a_robots_sonars_and_lidar_in_one_call_a_tick(monkeypatch: p
             assert [kernel_row[k] for k in beams] == pytest.approx([python_row[k] for k in beams], abs=1e-12, rel=0)
             seen += sum(math.isfinite(cast(float, kernel_row[k])) for k in beams)
     assert seen > 1000
+
+
+@pytest.mark.parametrize("lidar", [False, True], ids=["sonars", "sonars and lidar"])
+def test_a_robot_that_reads_only_its_rays_gets_the_casters_new_list_each_tick(lidar: bool) -> None:
+    """Its row is the caster's list itself: a new one each tick (the runtime may keep it), and
+    the same values as a robot at the same pose reading the same rays and one more channel."""
+    model = dataclasses.replace(PIONEER_P3DX, lidars=(Lidar(30, 180, 4.0),) if lidar else ())
+    rays = tuple(s.name for s in model.sonars) + tuple(f"lidar{k}" for k in range(1, 31) if lidar)
+    walls = (Wall((2.0, -2.0), (2.0, 2.0), 0.1), Wall((-2.0, 1.0), (2.0, 1.0), 0.1))
+    world = World("room", "two walls", (-3.0, -3.0, 3.0, 3.0), walls)
+    rows = []
+    for channels in (rays, (*rays, "x")):
+        backend = load_backend("pymunk")
+        backend.open(world, [RobotRequest("a", model, Pose(0.5, 0.0, 0.4), channels)], 0.05, 1)
+        rows += [backend.sense()[0], backend.sense()[0]]
+        backend.close()
+    assert rows[0] == rows[1] and rows[0] is not rows[1]
+    assert any(math.isfinite(v) for v in rows[0])
+    assert rows[2] == [*rows[0], 0.5]
