@@ -26,15 +26,12 @@ from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, Protocol, cast
 
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.chipmunk import ffi, lib
-
-if TYPE_CHECKING:  # numpy's module: imported only for a robot with a lidar
-    from labsim.backends.pymunk.lidar_fan import LidarFan
 
 Rays = Callable[[float, float, float, float], list[float]]  # cast(x, y, cos, sin) -> each ray's reading
 _Member = tuple[int, float, float, float, "tuple[float, float, float] | None", "float | None",
@@ -143,6 +140,14 @@ _kernel = _bind()
 KERNEL = "c" if _kernel is not None else "python"
 
 
+class Lidar(Protocol):
+    """A lidar's fan (``lidar_fan.LidarFan``, which imports this module and numpy): its beams
+    cast in the robot's one call a tick."""
+
+    def joined(self, count: int, kernel: Callable[..., list[float]] | None, head: tuple[object, ...],
+               python: Rays) -> Rays: ...
+
+
 class RaySet:
     """One robot's rays: ``cast(x, y, c, s)`` gives each of them its reading for the body at
     (x, y) heading a, c = cos(a) and s = sin(a): metres, or ``inf`` where nothing is within range.
@@ -155,7 +160,7 @@ class RaySet:
     """
 
     def __init__(self, space: pymunk.Space, ray_filter: pymunk.ShapeFilter, rays: Sequence[SonarRay],
-                 *, lidar: LidarFan | None = None, compiled: bool = True) -> None:
+                 *, lidar: Lidar | None = None, compiled: bool = True) -> None:
         groups = ray_groups(rays)
         table: list[float] = [float(len(rays)), float(len(groups))]
         # the Python rays' plan: per group its circle (None: no test) and its members, each its
