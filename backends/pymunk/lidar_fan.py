@@ -1,8 +1,9 @@
 """A lidar's whole fan of beams cast at once, in C or with numpy, outside chipmunk: the pymunk backend's lidar.
 
-``labsim.backends.pymunk.fleet_sense`` calls ``LidarFan.cast`` once a tick for each robot that
-reads lidar beams, where a sonar is one chipmunk ray cast (chipmunk's segment query costs
-about 0.6 us a ray even from C, so 360 beams could never run at 20,000 ticks a second). The
+A robot's ray caster (``labsim.backends.pymunk.ray_cast.RaySet``, one call a tick for all its
+rays) casts its lidar's beams through ``LidarFan.joined``, where a sonar is one chipmunk ray
+cast (chipmunk's segment query costs about 0.6 us a ray even from C, so 360 beams could never
+run at 20,000 ticks a second). The
 fan reads the same shapes chipmunk would: every shape of the space its ray filter lets through,
 taken apart once into straight faces and circles (a wall, a capsule, is its two long faces and
 two round ends; a polygon its edges, and its bevel circles when it has a radius). Each tick the
@@ -20,10 +21,11 @@ a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
 missed beam reads 0 or less there, so the nearest face is a maximum over faces, and a beam
 whose maximum is below 1 / range_m reads ``inf``.
 
-Where the install built ``_fan.c`` (a C compiler was there) one call of it does the faces, the
-circles and the list of ranges, each face and circle tried only by the beams within its
-angular extent; else numpy does them as above. ``KERNEL`` says which ("c" or "numpy"); both
-read the same to 1e-12 m (docs/decisions.md §60).
+Where the install built ``_fan.c`` (a C compiler was there) the robot's one call of it does the
+point test, the faces, the circles and the list of ranges after its other rays', each face and
+circle tried only by the beams within its angular extent; else numpy does them as above.
+``KERNEL`` says which ("c" or "numpy"); both read the same to 1e-12 m (docs/decisions.md §60,
+§65).
 """
 from __future__ import annotations
 
@@ -141,9 +143,9 @@ class LidarFan:
     ``angles_rad`` are the beams' directions in the robot frame, in the order ``cast`` returns
     them; ``mount_x_m`` the lidar's place ahead of the body's origin. Static shapes are taken
     apart once; other bodies' shapes (other robots) are put where their bodies are every tick.
-    A tick's work is one call of the C kernel (``KERNEL == "c"``), or with numpy plain Python
-    per face or circle (a handful of them) and numpy per beam; ``compiled=False`` takes the
-    numpy fan even where the kernel was built (the tests compare the two).
+    A tick's work is the robot's one call of the C kernel (``KERNEL == "c"``), or with numpy
+    plain Python per face or circle (a handful of them) and numpy per beam; ``compiled=False``
+    takes the numpy fan even where the kernel was built (the tests compare the two).
     """
 
     def __init__(self, space: pymunk.Space, body: pymunk.Body, ray_filter: pymunk.ShapeFilter,

@@ -1,11 +1,13 @@
-"""A robot's sonars and IR sensors cast in one call a tick: the pymunk backend's ray caster.
+"""A robot's whole ray set cast in one call a tick: the pymunk backend's one ray caster.
 
 ``labsim.backends.pymunk.fleet_sense`` gives each robot that reads rays (``SonarRay``: a lone
-ray, or a sonar's cone of rays with its incidence limit) one ``RaySet``, and the generated
-``sense()`` calls its ``cast`` once a tick with the body's pose. Every ray is chipmunk's own
-segment query (``cpSpaceSegmentQueryFirst``), so the readings are chipmunk's bit for bit and
-every body chipmunk holds is seen where it is now: walls, blocks, other robots. A lidar's
-beams, many more, go through ``labsim.backends.pymunk.lidar_fan`` instead.
+ray, or a sonar's cone of rays with its incidence limit; a lidar's beams) one ``RaySet``, and
+the generated ``sense()`` calls its ``cast`` once a tick with the body's pose. Every sonar
+and IR ray is chipmunk's own segment query (``cpSpaceSegmentQueryFirst``), so the readings
+are chipmunk's bit for bit and every body chipmunk holds is seen where it is now: walls,
+blocks, other robots. A lidar's beams, hundreds of them, are cast in the same call against
+the faces and circles ``labsim.backends.pymunk.lidar_fan`` keeps of the scene (chipmunk's
+reading to 1e-12 m; docs/decisions.md §60, §65): the kernel dispatches inside C.
 
 The rays go under two conservative tests, as ``fleet_sense.ray_groups`` arranges them: the
 rays whose directions lie within a quarter turn of each other share a circle that holds them
@@ -15,9 +17,10 @@ reads ``inf`` without a cast); a cone's rays go under one more test, of the cone
 Where the install built the C kernel (``backends/pymunk/_fan.c``, ``rays``) one call of it does
 a robot's whole set, calling chipmunk from C; elsewhere each ray is the same call with the same
 arithmetic, made from Python through pymunk's cffi layer (``labsim.backends.pymunk.chipmunk``),
-and reads the same bit for bit (``KERNEL`` says which: "c" or "python";
-``tests/contract/test_ray_cast.py`` compares them). The Python rays skip the test of a circle
-whose rays hit something the tick before: each call from Python costs a microsecond or so.
+and reads the same bit for bit, and the lidar's beams go through its numpy fan (``KERNEL`` says
+which: "c" or "python"; ``tests/contract/test_ray_cast.py`` compares them). The Python rays
+skip the test of a circle whose rays hit something the tick before: each call from Python
+costs half a microsecond or so.
 """
 from __future__ import annotations
 
