@@ -202,6 +202,9 @@ class LidarFan:
         inside a shape reads 0 on every beam (chipmunk's cast does); among moving round-ended
         segments every beam goes through chipmunk, as it does in a wall's band.
         """
+        f = self._ray_filter
+        if tuple(head[2:5]) != (f.group, f.categories, f.mask):  # the kernel's inside test uses the robot's
+            raise ValueError("a lidar is cast with its robot's ray filter")
         near, space, flt, info, touch = chipmunk.point_query_nearest, self._space, self._filter, self._info, TOUCH_M
         mount, zeros, always, moving = self._mount_x_m, [0.0] * self._beams, self._always_chipmunk, self._moving
         choose, with_moving, band_beams, rays = self._choose, self._with_moving, self._band_beams, self._rays

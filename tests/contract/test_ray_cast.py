@@ -256,6 +256,13 @@ def test_a_robots_lidar_is_cast_in_the_same_call_as_its_other_rays(compiled: boo
     assert inside > 0  # a lidar inside a shape was tried
 
 
+def test_a_lidar_with_another_filter_than_its_robots_rays_is_refused(compiled: bool) -> None:
+    space = pymunk.Space()
+    lidar = LidarFan(space, pymunk.Body(1, 1), pymunk.ShapeFilter(group=1), [0.0, 1.0], 0.0, 5.0, compiled=compiled)
+    with pytest.raises(ValueError, match=r"^a lidar is cast with its robot's ray filter$"):
+        RaySet(space, pymunk.ShapeFilter(group=2), [], lidar=lidar, compiled=compiled)
+
+
 def test_the_kernel_casts_a_lidar_as_the_python_rays_and_numpy_do() -> None:
     _kernel_built()
     for seed in range(60, 90):
