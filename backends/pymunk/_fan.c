@@ -44,7 +44,7 @@
 static PyObject *miss = NULL;
 
 /* The beams' table, B of each: cos, sin (robot frame), direction in [0, 2 pi) sorted, and the
- * beam (its place in cast's output) of each sorted direction. */
+ * beam (its place among the beams rays() returns) of each sorted direction. */
 typedef struct {
     Py_ssize_t beams;
     const double *cos_u, *sin_u, *by_angle, *order;
