@@ -20,7 +20,7 @@ and learning; install it with the optional extra (``pip install -e '.[bench]'``)
 Prints steps per CPU second of each side, alternated in random order, and the median of the
 per-round ratios labsim / IR-SIM (goal: >= 26x), with the load average; also labsim with every
 ray cast ("labsim, all rays"): labsim normally casts a group of rays only when some shape comes
-into a circle holding them all (``labsim.backends.pymunk.fleet_sense.ray_groups``, exact: the
+into a circle holding them all (``labsim.backends.pymunk.ray_cast.ray_groups``, exact: the
 same readings), and that skip is part of its lead, so the ratio is given with and without it.
 Each side also reports its wall time per step; the runs are in this process (no children).
 Without IR-SIM installed it says so and exits with 0.
@@ -75,20 +75,20 @@ metrics:
 def labsim_steps(path: Path, steps: int, every_ray: bool = False, single_rays: bool = False) -> tuple[float, int]:
     """``every_ray``: no group of rays skipped; ``single_rays``: each sonar one ray along its axis,
     as IR-SIM's beams, instead of the 5-ray cone of 30 degrees the Pioneer's sonars are."""
-    from labsim.backends.pymunk import fleet_sense
+    from labsim.backends.pymunk import ray_cast
     from labsim.backends.scene import models
 
-    grouped = fleet_sense.ray_groups
+    grouped = ray_cast.ray_groups
     pioneer = models.MODELS["pioneer_p3dx"]
     if every_ray:  # a group of one is cast without the circle's test
-        fleet_sense.ray_groups = lambda specs: [[k] for g in grouped(specs) for k in g]  # type: ignore[assignment]
+        ray_cast.ray_groups = lambda specs: [[k] for g in grouped(specs) for k in g]  # type: ignore[assignment]
     if single_rays:
         models.MODELS["pioneer_p3dx"] = dataclasses.replace(pioneer, sonars=tuple(
             dataclasses.replace(s, cone_deg=0.0, incidence_limit_deg=90.0) for s in pioneer.sonars))
     try:
         run = compile_behaviour(path, {"seconds": str(steps * DT)}).bind(load_backend("pymunk"), warn=lambda m: None)
     finally:
-        fleet_sense.ray_groups = grouped  # type: ignore[assignment]
+        ray_cast.ray_groups = grouped  # type: ignore[assignment]
         models.MODELS["pioneer_p3dx"] = pioneer
     start = time.process_time()
     summary = run.run()

@@ -1,16 +1,16 @@
 """Interpreter overhead on the wall-following lab: labsim against two hand-written pymunk loops.
 
-All three sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
+All sides drive the same pymunk scene (built by the pymunk backend from ``walls_lab4``)
 for the lab's 30,000 ticks: the same six sonar cones per tick (5 rays across each 30-degree
 cone, the nearest hit met within 45 degrees of the surface's normal), the same random
 numbers, the same rules, wheel clamping and metrics. labsim runs ``behaviours/wall_follow.yaml``;
 the two loops do by hand what it says:
 
 - "labsim's internals, by hand": the loop written the way labsim's backend works inside, with
-  chipmunk's C functions through pymunk's raw cffi layer, the sonars cast in groups under one
-  test of a circle (``ray_groups``) and each cone under one of its own, and the wheel drive as
-  a C velocity callback. It measures what labsim's interpreter costs over the same machinery
-  (goal: labsim <= 1.05 x it).
+  chipmunk's C functions through pymunk's raw cffi layer, the six cones cast in one call a tick
+  by the backend's ray caster (``labsim.backends.pymunk.ray_cast.RaySet``: the C kernel where
+  the install built it), and the wheel drive as a C velocity callback. It measures what
+  labsim's interpreter costs over the same machinery (goal: labsim <= 1.05 x it).
 - "plain pymunk loop": what a student writes on pymunk's public API: ``body.position`` and
   ``body.angle``, every ray of every cone a ``space.segment_query_first`` (the hit's
   ``normal`` for the incidence limit), the wheel speeds set as ``body.velocity`` and
@@ -23,9 +23,12 @@ the rays' ends in another order of operations), which shows all did the same lab
 
     python benchmarks/bench_wall.py [--repeat 5] [--minutes 25]
 
+Where the C kernel was built, a fourth side is labsim with the Python rays (what an install
+without a C compiler casts with; goal: at most 2.5 x labsim's time with the kernel).
+
 Prints the median CPU time of each side (the runs are in this process, no children) and its
 wall time, alternated in random order, the medians of the per-round ratios of labsim to each
-loop, and the load average.
+loop (and of the Python rays to the kernel), and the load average.
 """
 from __future__ import annotations
 
@@ -40,8 +43,9 @@ import pymunk
 from compare import alternate_poses, labsim_scene, labsim_side, machine, report, same_poses
 from pymunk._chipmunk_cffi import ffi, lib  # chipmunk itself, as labsim's backend calls it
 
+from labsim.backends.pymunk import ray_cast
 from labsim.backends.pymunk.fleet import sonar_spec
-from labsim.backends.pymunk.fleet_sense import enclosing_circle, ray_groups
+from labsim.backends.pymunk.ray_cast import RaySet
 
 LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 
@@ -49,10 +53,20 @@ LAB = Path(__file__).resolve().parent.parent / "behaviours" / "wall_follow.yaml"
 WALLS: dict[str, list[float]] = {}  # each side's wall times, in order
 MINUTES = [25.0]  # the lab's simulated minutes (its own 25 unless --minutes says less)
 LABSIM, INTERNALS, PLAIN = "labsim", "labsim's internals, by hand", "plain pymunk loop"
+PYTHON_RAYS = "labsim, Python rays"  # labsim without the C kernel's rays (an install without a compiler)
 
 
 def labsim_run() -> tuple[float, list[tuple[float, float, float]]]:
     return labsim_side(LAB, 1, WALLS.setdefault(LABSIM, []), {"minutes": repr(MINUTES[0])})
+
+
+def python_rays_run() -> tuple[float, list[tuple[float, float, float]]]:
+    kernel = ray_cast._kernel
+    ray_cast._kernel = None  # the sonars' RaySet is made when the run binds, inside labsim_side
+    try:
+        return labsim_side(LAB, 1, WALLS.setdefault(PYTHON_RAYS, []), {"minutes": repr(MINUTES[0])})
+    finally:
+        ray_cast._kernel = kernel
 
 
 def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
@@ -73,24 +87,12 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
     # Each sonar a cone: a fan of rays, the nearest hit met within its incidence limit counts
     # (fleet.sonar_spec gives the rays' ends and the limit as the backend casts them).
     specs = tuple(sonar_spec(sonars[n]) for n in ("sonar2", "sonar5", "sonar8", "sonar9", "sonar14", "sonar15"))
-    # The sonars in the backend's groups (8 9 5 right and ahead, 2 15 left, 14 alone), each group
-    # under one test of the circle that holds its cones, each cone under one of its own: when no
-    # shape comes into a circle, none of its rays can hit, and they read inf without being cast.
-    groups = []
-    for members in ray_groups(specs):
-        cx, cy, circle = enclosing_circle([specs[i] for i in members])
-        cones = []
-        for i in members:
-            sp = specs[i]
-            assert sp.incidence_cos is not None
-            kx, ky, kr = enclosing_circle([sp])
-            lim = -sp.incidence_cos * sp.range_m  # normal . ray at most this: met within the limit
-            cones.append((i, sp.mount_x_m, sp.mount_y_m, kx, ky, kr, sp.fan, sp.range_m, lim))
-        groups.append((cx, cy, circle, cones))
-    # Rays and velocities straight through chipmunk, as the pymunk backend does: one reused
-    # result struct for the ray casts and one for the groups' tests, and the wheel drive set
+    # The six cones in one call a tick, as the backend casts them (ray_cast.RaySet: the C kernel
+    # where it was built), each group of cones under one test of its circle, each cone under one
+    # of its own: when no shape comes into a circle, none of its rays can hit.
+    cast = RaySet(space, pymunk.ShapeFilter(group=1), specs).cast
+    # Velocities straight through chipmunk, as the pymunk backend does: the wheel drive set
     # after each step while the body is free, through a C velocity callback while it touches.
-    ray_filter = ffi.new("cpShapeFilter *", (1, pymunk.ShapeFilter.ALL_CATEGORIES(), pymunk.ShapeFilter.ALL_MASKS()))[0]
     drive = [0.0, 0.0]  # forward speed m/s, turn rate rad/s
     cp_body, cp_space = body._body, space._space
     get_angle, set_v, set_w = lib.cpBodyGetAngle, lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity
@@ -116,8 +118,6 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         touching[0] -= 1
 
     space.on_collision(None, None, begin=begin, separate=separate)
-    query, info = lib.cpSpaceSegmentQueryFirst, ffi.new("cpSegmentQueryInfo *")
-    crowded, nearest = lib.cpSpacePointQueryNearest, ffi.new("cpPointQueryInfo *")
     position, step = lib.cpBodyGetPosition, lib.cpSpaceStep
     inf = math.inf
 
@@ -135,20 +135,7 @@ def hand_run() -> tuple[float, list[tuple[float, float, float]]]:
         x, y = p.x, p.y
         a = get_angle(cp_body)
         c, s = cos(a), sin(a)
-        d = [inf] * 6
-        for cx, cy, circle, cones in groups:
-            if crowded(cp_space, (x + c * cx - s * cy, y + s * cx + c * cy), circle, ray_filter, nearest):
-                for i, mx, my, kx, ky, kr, fan, reach, lim in cones:
-                    if not crowded(cp_space, (x + c * kx - s * ky, y + s * kx + c * ky), kr, ray_filter, nearest):
-                        continue
-                    ox, oy = x + c * mx - s * my, y + s * mx + c * my
-                    v = inf
-                    for ex, ey in fan:
-                        wx, wy = c * ex - s * ey, s * ex + c * ey
-                        if query(cp_space, (ox, oy), (ox + wx, oy + wy), 0.0, ray_filter, info) \
-                                and info.alpha * reach < v and info.normal.x * wx + info.normal.y * wy <= lim:
-                            v = info.alpha * reach
-                    d[i] = v
+        d = cast(x, y, c, s)
         s2, s5, s8, s9, s14, s15 = d
         r = rng.randint(-2, 2)
         ahead, right, left = min(s5, s2), min(s8, s9), min(s15, s14)
@@ -355,13 +342,21 @@ def main() -> None:
     args = parser.parse_args()
     MINUTES[0] = args.minutes
     print(machine())
-    times, poses = alternate_poses({INTERNALS: hand_run, PLAIN: plain_run, LABSIM: labsim_run}, args.repeat)
+    sides = {INTERNALS: hand_run, PLAIN: plain_run, LABSIM: labsim_run}
+    if ray_cast.KERNEL == "c":
+        sides[PYTHON_RAYS] = python_rays_run
+    times, poses = alternate_poses(sides, args.repeat)
     report(f"wall lab, {round(args.minutes * 1200)} ticks", times, (LABSIM, INTERNALS), "<= 1.05")
     ratio = statistics.median(times[LABSIM][i] / times[PLAIN][i] for i in range(args.repeat))
     print(f"  {LABSIM} / {PLAIN}: median of per-round ratios {ratio:.3f}   (below 1: labsim is faster)")
+    if PYTHON_RAYS in times:
+        ratio = statistics.median(times[PYTHON_RAYS][i] / times[LABSIM][i] for i in range(args.repeat))
+        print(f"  {PYTHON_RAYS} / {LABSIM} (the C kernel): median of per-round ratios {ratio:.3f}   (goal <= 2.5)")
+    else:
+        print("  (the C kernel was not built: every labsim side casts with the Python rays)")
     for name, values in WALLS.items():
         print(f"  {name}: median {statistics.median(values):.4f} s wall")
-    for name in (INTERNALS, PLAIN):
+    for name in [n for n in (INTERNALS, PLAIN, PYTHON_RAYS) if n in poses]:
         gap = max(abs(a - b) for p, q in zip(poses[LABSIM], poses[name]) for a, b in zip(p, q))
         print(f"  {name}: final pose {'agrees' if same_poses(poses[LABSIM], poses[name]) else 'DIFFERS'} "
               f"with labsim's (largest difference {gap:.1e})")

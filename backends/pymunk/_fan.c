@@ -1,32 +1,50 @@
-/* A lidar's fan of beams against faces and circles, in C: the optional kernel of
- * labsim.backends.pymunk.lidar_fan (docs/decisions.md §60).
+/* Every ray sensor's cast, in C: the optional kernel of labsim.backends.pymunk.ray_cast, whose
+ * RaySet.cast calls rays() once a tick for a robot's whole ray set: its sonars (cones and lone
+ * rays), its IR rays and its lidar's fan, in one call.
  *
- * LidarFan.cast calls cast() once a tick with the faces and circles near the lidar (world
- * metres, as lidar_fan's _Near holds them) and the beams' table; it returns every beam's range
- * (inf beyond range_m), what the numpy fan's _faces, _circles and threshold give, to rounding.
- * The point test, the choice of faces and the beams in a wall's band stay in Python. A face is
- * tried only by the beams within its angular extent and a circle only by those within its own,
- * found by bisection in the beams sorted by direction, so a tick costs about one test per beam
- * that meets something rather than one per beam and face. Built by setuptools when a C
- * compiler is there (pyproject.toml, ext-modules, optional); without it the numpy fan runs.
- * Python's C API only, no other library.
+ * The sonar and IR rays: each cone's rays under one test of the cone's circle, each group's
+ * under one of its own, cast through chipmunk's own cpSpaceSegmentQueryFirst and
+ * cpSpacePointQueryNearest (pymunk's build of them: bind() is given their addresses once), so
+ * the readings are chipmunk's bit for bit, robots and blocks included wherever chipmunk has
+ * them. The arithmetic of the rays' ends is the Python fallback's, written in the same order;
+ * the build turns off contraction into fused multiply-adds (pyproject.toml), which would round
+ * otherwise.
+ *
+ * The lidar's beams, hundreds of them (chipmunk's segment query costs about 0.6 us a ray even
+ * from C), go against the faces and circles near the lidar (world metres, as lidar_fan's _Near
+ * holds them, with the moving bodies' where they are now) and the beams' table
+ * (docs/decisions.md §60): every beam's range (inf beyond range_m), what the numpy fan's
+ * _faces, _circles and threshold give, to rounding; a lidar inside a shape (chipmunk's point
+ * query says so) reads 0 on every beam. The choice of faces and the beams in a wall's band
+ * stay in Python. A face is tried only by the beams within its
+ * angular extent and a circle only by those within its own, found by bisection in the beams
+ * sorted by direction, so a tick costs about one test per beam that meets something rather
+ * than one per beam and face.
+ *
+ * Built by setuptools when a C compiler is there (pyproject.toml, ext-modules, optional);
+ * without it the numpy fan and the Python rays run. Python's C API only, no other library.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
+#include <stddef.h>
+#include <stdint.h>
 
 #define PI 3.14159265358979323846
 #define TAU (2.0 * PI)
 /* as lidar_fan.ANGLE_MARGIN_RAD: far beyond the rounding of the angles, so that no beam that
  * meets a face or circle is left out; the exact test sorts the others out */
 #define ANGLE_MARGIN_RAD 1e-9
+/* as lidar_fan.TOUCH_M: the smallest positive double, so that the point query finds a shape
+ * only where the lidar is inside it (distance <= 0), chipmunk's own test before it casts */
+#define TOUCH_M 5e-324
 
 /* Every beam that sees nothing reads this one inf: a float made per beam cost more than the
  * geometry (a room's lidar misses most of its beams). */
 static PyObject *miss = NULL;
 
 /* The beams' table, B of each: cos, sin (robot frame), direction in [0, 2 pi) sorted, and the
- * beam (its place in cast's output) of each sorted direction. */
+ * beam (its place among the beams rays() returns) of each sorted direction. */
 typedef struct {
     Py_ssize_t beams;
     const double *cos_u, *sin_u, *by_angle, *order;
@@ -163,57 +181,195 @@ static int circles(const Table *t, double ox, double oy, double c, double s, PyO
     return 0;
 }
 
-static PyObject *cast(PyObject *self, PyObject *args) {
-    double ox, oy, c, s, inv_range;
-    PyObject *face_list, *circle_list;
-    Py_buffer table;
+/* Chipmunk's types as pymunk's build has them (bind() checks the sizes and offsets). */
+typedef struct { double x, y; } Vect;
+typedef struct { uintptr_t group; unsigned int categories, mask; } Filter;
+typedef struct { void *shape; Vect point, normal; double alpha; } SegmentInfo;
+typedef struct { void *shape; Vect point; double distance; Vect gradient; } PointInfo;
+typedef void *(*SegmentQueryFirst)(void *, Vect, Vect, double, Filter, SegmentInfo *);
+typedef void *(*PointQueryNearest)(void *, Vect, double, Filter, PointInfo *);
+static SegmentQueryFirst segment_query_first = NULL;
+static PointQueryNearest point_query_nearest = NULL;
+
+static PyObject *bind(PyObject *self, PyObject *args) {
+    unsigned long long segment, point;
+    Py_ssize_t filter_size, bitmask_size, mask_at, info_size, normal_at, alpha_at, point_size;
     (void)self;
-    if (!PyArg_ParseTuple(args, "ddddO!O!y*d", &ox, &oy, &c, &s, &PyList_Type, &face_list, &PyList_Type,
-                          &circle_list, &table, &inv_range))
+    if (!PyArg_ParseTuple(args, "KKnnnnnnn", &segment, &point, &filter_size, &bitmask_size, &mask_at, &info_size,
+                          &normal_at, &alpha_at, &point_size))
         return NULL;
-    Py_ssize_t beams = table.len / (Py_ssize_t)(4 * sizeof(double));
-    if (table.len != beams * (Py_ssize_t)(4 * sizeof(double))) {
-        PyBuffer_Release(&table);
-        return PyErr_Format(PyExc_ValueError, "the beams' table holds 4 doubles a beam");
-    }
-    const double *d = (const double *)table.buf;
-    Table t = {beams, d, d + beams, d + 2 * beams, d + 3 * beams};
-    double *inv = PyMem_Calloc(beams ? (size_t)beams : 1, sizeof(double)); /* 1 / t, 0 where nothing is seen */
+    if (filter_size != (Py_ssize_t)sizeof(Filter) || bitmask_size != (Py_ssize_t)sizeof(unsigned int)
+        || mask_at != (Py_ssize_t)offsetof(Filter, mask) || info_size != (Py_ssize_t)sizeof(SegmentInfo)
+        || normal_at != (Py_ssize_t)offsetof(SegmentInfo, normal) || alpha_at != (Py_ssize_t)offsetof(SegmentInfo, alpha)
+        || point_size != (Py_ssize_t)sizeof(PointInfo))
+        return PyErr_Format(PyExc_ValueError, "chipmunk's structs in this pymunk differ from the kernel's");
+    segment_query_first = (SegmentQueryFirst)(uintptr_t)segment;
+    point_query_nearest = (PointQueryNearest)(uintptr_t)point;
+    Py_RETURN_NONE;
+}
+
+/* The table ray_cast.RaySet builds, as doubles: the number of values and of groups, then each
+ * group: its circle (x, y, radius in the robot frame; radius < 0: no test) and its number of
+ * members, then each member: its value's slot, its kind (0 a ray, 1 a cone), its mount x, y, its
+ * range, its cone's circle x, y, radius, whether it has an incidence limit and the limit's
+ * threshold, its number of rays, and each ray's end (dx, dy from the mount, robot frame). */
+#define GROUP_HEAD 4
+#define MEMBER_HEAD 11
+
+/* A double from a Python number into out; -1 with the error set when it is not one. */
+static int number(PyObject *item, double *out) {
+    *out = PyFloat_AsDouble(item);
+    return *out == -1.0 && PyErr_Occurred() ? -1 : 0;
+}
+
+/* Called once a tick per robot, so its arguments are read without a format string
+ * (METH_FASTCALL): ten, or sixteen with a lidar. */
+static PyObject *rays(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    double x, y, c, s, inv_range = 0.0, ox = 0.0, oy = 0.0;
+    PyObject *face_list = NULL, *circle_list = NULL; /* the lidar's, when the robot has one */
+    (void)self;
+    if (nargs != 10 && nargs != 16)
+        return PyErr_Format(PyExc_TypeError, "rays() takes 10 arguments, or 16 with a lidar (%zd given)", nargs);
+    /* args[1] is what keeps the space alive: held by the caller, unused here */
+    unsigned long long space_at = PyLong_AsUnsignedLongLongMask(args[0]);
+    unsigned long long group = PyLong_AsUnsignedLongLongMask(args[2]);
+    unsigned int categories = (unsigned int)PyLong_AsUnsignedLongMask(args[3]);
+    unsigned int mask = (unsigned int)PyLong_AsUnsignedLongMask(args[4]);
+    if (PyErr_Occurred()) return NULL;
+    if (!PyBytes_Check(args[5])) return PyErr_Format(PyExc_TypeError, "the table of rays is bytes");
+    if (number(args[6], &x) < 0 || number(args[7], &y) < 0 || number(args[8], &c) < 0 || number(args[9], &s) < 0)
+        return NULL;
     PyObject *out = NULL;
-    if (inv == NULL) {
+    double stack[64], *values = NULL, *inv = NULL;
+    const double *d = (const double *)PyBytes_AS_STRING(args[5]);
+    Py_ssize_t size = PyBytes_GET_SIZE(args[5]) / (Py_ssize_t)sizeof(double), at = 2, beams = 0;
+    Table t = {0, NULL, NULL, NULL, NULL};
+    if (nargs == 16) {
+        face_list = args[10];
+        circle_list = args[11];
+        if (!PyList_Check(face_list) || !PyList_Check(circle_list) || !PyBytes_Check(args[12]))
+            return PyErr_Format(PyExc_TypeError, "a lidar's faces and circles are lists, its beams' table bytes");
+        if (number(args[13], &inv_range) < 0 || number(args[14], &ox) < 0 || number(args[15], &oy) < 0) return NULL;
+        Py_ssize_t len = PyBytes_GET_SIZE(args[12]);
+        beams = len / (Py_ssize_t)(4 * sizeof(double));
+        if (len != beams * (Py_ssize_t)(4 * sizeof(double)))
+            return PyErr_Format(PyExc_ValueError, "the beams' table holds 4 doubles a beam");
+        const double *b = (const double *)PyBytes_AS_STRING(args[12]);
+        t = (Table){beams, b, b + beams, b + 2 * beams, b + 3 * beams};
+    }
+    if (size < 2) goto bad;
+    Py_ssize_t count = (Py_ssize_t)d[0], groups = (Py_ssize_t)d[1];
+    if (count < 0 || groups < 0) goto bad;
+    if ((groups > 0 || face_list != NULL) && segment_query_first == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "bind() was not called");
+        goto done;
+    }
+    values = count <= 64 ? stack : PyMem_Malloc((size_t)count * sizeof(double));
+    if (values == NULL) {
         PyErr_NoMemory();
-    } else if (faces(&t, ox, oy, c, s, face_list, inv) == 0 && circles(&t, ox, oy, c, s, circle_list, inv) == 0) {
-        out = PyList_New(beams);
-        for (Py_ssize_t b = 0; out != NULL && b < beams; b++) {
-            PyObject *range;
-            if (inv[b] >= inv_range) {
-                range = PyFloat_FromDouble(1.0 / inv[b]);
-            } else {
-                range = miss;
-                Py_INCREF(range);
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < count; i++) values[i] = HUGE_VAL;
+    void *space = (void *)(uintptr_t)space_at;
+    Filter filter = {(uintptr_t)group, categories, mask};
+    SegmentInfo info;
+    PointInfo nearest;
+    for (Py_ssize_t g = 0; g < groups; g++) {
+        if (at + GROUP_HEAD > size) goto bad;
+        const double *h = d + at;
+        Py_ssize_t members = (Py_ssize_t)h[3];
+        int open = 1;
+        at += GROUP_HEAD;
+        if (h[2] >= 0.0) {
+            Vect p = {x + c * h[0] - s * h[1], y + s * h[0] + c * h[1]};
+            open = point_query_nearest(space, p, h[2], filter, &nearest) != NULL;
+        }
+        for (Py_ssize_t m = 0; m < members; m++) {
+            if (at + MEMBER_HEAD > size) goto bad;
+            const double *r = d + at;
+            Py_ssize_t slot = (Py_ssize_t)r[0], n = (Py_ssize_t)r[10];
+            const double *ends = r + MEMBER_HEAD;
+            at += MEMBER_HEAD + 2 * n;
+            if (slot < 0 || slot >= count || n < 1 || at > size) goto bad;
+            if (!open) continue;
+            double mx = r[2], my = r[3], range = r[4];
+            Vect o = {x + c * mx - s * my, y + s * mx + c * my};
+            if (r[1] == 0.0) { /* a lone ray */
+                double ex = ends[0], ey = ends[1];
+                Vect e = {o.x + c * ex - s * ey, o.y + s * ex + c * ey};
+                if (segment_query_first(space, o, e, 0.0, filter, &info) != NULL) values[slot] = info.alpha * range;
+                continue;
             }
-            if (range == NULL) {
-                Py_CLEAR(out);
-                break;
+            double v = HUGE_VAL; /* a cone: its nearest hit met within the limit, under its circle's test */
+            Vect p = {x + c * r[5] - s * r[6], y + s * r[5] + c * r[6]};
+            if (point_query_nearest(space, p, r[7], filter, &nearest) != NULL) {
+                int limited = r[8] != 0.0;
+                double threshold = r[9];
+                for (Py_ssize_t k = 0; k < n; k++) {
+                    double ex = ends[2 * k], ey = ends[2 * k + 1];
+                    double wx = c * ex - s * ey;
+                    double wy = s * ex + c * ey;
+                    Vect e = {o.x + wx, o.y + wy};
+                    if (segment_query_first(space, o, e, 0.0, filter, &info) != NULL && info.alpha * range < v
+                        && (!limited || info.normal.x * wx + info.normal.y * wy <= threshold))
+                        v = info.alpha * range;
+                }
             }
-            PyList_SET_ITEM(out, b, range);
+            values[slot] = v;
         }
     }
+    int touching = 0; /* the lidar inside a shape: every beam reads 0, as chipmunk's casts do */
+    if (face_list != NULL) { /* the lidar's fan: 1 / t, 0 where nothing is seen */
+        inv = PyMem_Calloc(beams ? (size_t)beams : 1, sizeof(double));
+        if (inv == NULL) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        touching = point_query_nearest(space, (Vect){ox, oy}, TOUCH_M, filter, &nearest) != NULL;
+        if (!touching && (faces(&t, ox, oy, c, s, face_list, inv) < 0 || circles(&t, ox, oy, c, s, circle_list, inv) < 0))
+            goto done;
+    }
+    out = PyList_New(count + beams);
+    for (Py_ssize_t i = 0; out != NULL && i < count + beams; i++) {
+        PyObject *value;
+        double v = i < count ? values[i]
+                   : touching ? 0.0
+                   : inv[i - count] >= inv_range ? 1.0 / inv[i - count] : HUGE_VAL;
+        if (v == HUGE_VAL) {
+            value = miss;
+            Py_INCREF(value);
+        } else if ((value = PyFloat_FromDouble(v)) == NULL) {
+            Py_CLEAR(out);
+            break;
+        }
+        PyList_SET_ITEM(out, i, value);
+    }
+    goto done;
+bad:
+    PyErr_SetString(PyExc_ValueError, "a malformed table of rays");
+done:
+    if (values != stack) PyMem_Free(values);
     PyMem_Free(inv);
-    PyBuffer_Release(&table);
     return out;
 }
 
 static PyMethodDef methods[] = {
-    {"cast", cast, METH_VARARGS,
-     "cast(ox, oy, c, s, faces, circles, table, inv_range) -> every beam's range in metres (inf beyond "
-     "range_m): faces a list of (p1x, p1y, p2x, p2y), circles of (x, y, r squared), world metres; table "
-     "the beams' cos, sin, sorted directions and their beams, 4 x B doubles (LidarFan builds it)."},
+    {"bind", bind, METH_VARARGS,
+     "bind(segment_query_first, point_query_nearest, sizeof filter, sizeof bitmask, offsetof mask, sizeof "
+     "segment info, offsetof normal, offsetof alpha, sizeof point info): chipmunk's two queries for rays(), "
+     "by address, once the sizes of its structs are those the kernel was built with."},
+    {"rays", (PyCFunction)(void (*)(void))rays, METH_FASTCALL,
+     "rays(space, owner, group, categories, mask, table, x, y, c, s[, faces, circles, beams, inv_range, ox, oy]) "
+     "-> every ray's reading in metres (inf: nothing): a robot's sonar and IR rays for its body at (x, y) heading "
+     "(c, s) = (cos, sin), through chipmunk (space the cpSpace's address, owner what keeps it alive, table as "
+     "ray_cast.RaySet builds it), then its lidar's beams from (ox, oy): faces a list of (p1x, p1y, p2x, p2y), "
+     "circles of (x, y, r squared), world metres, beams the beams' cos, sin, sorted directions and their beams, "
+     "4 x B doubles (lidar_fan.LidarFan builds them)."},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "_fan", "A lidar's fan of beams against faces and circles, in C.", -1, methods,
+    PyModuleDef_HEAD_INIT, "_fan", "Every ray sensor's cast, in C: a lidar's fan and a robot's sonar and IR rays.", -1, methods,
     NULL, NULL, NULL, NULL,
 };
 

@@ -1,3 +1,6 @@
-# The C kernel's signature (backends/pymunk/_fan.c), for mypy: built only where a compiler was.
-def cast(ox: float, oy: float, c: float, s: float, faces: list, circles: list, table: bytes,
-         inv_range: float) -> list[float]: ...
+# The C kernel's functions (backends/pymunk/_fan.c), for mypy: built only where a compiler was.
+def bind(segment_query_first: int, point_query_nearest: int, filter_size: int, bitmask_size: int, mask_at: int,
+         info_size: int, normal_at: int, alpha_at: int, point_size: int) -> None: ...
+def rays(space: int, owner: object, group: int, categories: int, mask: int, table: bytes, x: float, y: float, c: float,
+         s: float, faces: list = ..., circles: list = ..., beams: bytes = ..., inv_range: float = ...,
+         ox: float = ..., oy: float = ...) -> list[float]: ...

@@ -138,6 +138,59 @@ class WheelDrives:
                     self._by_hand.append(robot)
         self._set(self._by_hand, self._c, self._vs, self._ws)
 
+    def stepper(self, space: Any, h: float, substeps: int, touching: list[int],
+                time_s: list[float]) -> Callable[[], None]:
+        """A tick's physics as one closure: ``substeps`` chipmunk steps of ``h`` seconds of the
+        ``cpSpace *`` ``space``, each followed by ``after_step`` (done inline while no body is
+        held) and by each touching robot's ``h`` added to its ``time_s``. It runs every tick:
+        the attribute loads and calls of ``after_step`` and ``_set`` cost as much as the wall
+        lab's physics step. The lists it reads are the ones ``hold`` and ``after_step`` change
+        in place."""
+        by_hand, c, vs, ws, n, release = self._by_hand, self._c, self._vs, self._ws, len(self._c), self.after_step
+        step, get_angle, set_v, set_w, cos, sin, any_ = space_step, body_angle, set_velocity, set_angular_velocity, \
+            math.cos, math.sin, any
+
+        def one() -> None:
+            step(space, h)  # a touching body's velocity update applies its wheel commands
+            if len(by_hand) < n:  # a body is held: after_step releases it once free
+                release(touching)
+            else:  # and a free body's are set now, as _set does
+                for robot in by_hand:
+                    body = c[robot]
+                    a = get_angle(body)
+                    v = vs[robot]
+                    set_v(body, (v * cos(a), v * sin(a)))
+                    set_w(body, ws[robot])
+            if any_(touching):
+                for r, t in enumerate(touching):
+                    if t:
+                        time_s[r] += h
+
+        if n == 1:  # one robot, the labs' common case: no loops
+            body0 = c[0]
+
+            def one() -> None:
+                step(space, h)
+                if by_hand:  # free: its wheel commands along its new heading, as _set does
+                    a = get_angle(body0)
+                    v = vs[0]
+                    set_v(body0, (v * cos(a), v * sin(a)))
+                    set_w(body0, ws[0])
+                else:  # held: after_step releases it once free
+                    release(touching)
+                if touching[0]:
+                    time_s[0] += h
+
+        if substeps == 1:
+            return one
+        ticks = range(substeps)
+
+        def several() -> None:
+            for _ in ticks:
+                one()
+
+        return several
+
     @staticmethod
     def _set(robots: list[int], c: list[Any], vs: Sequence[float], ws: Sequence[float],
              cos: Callable[[float], float] = math.cos, sin: Callable[[float], float] = math.sin,

@@ -133,6 +133,7 @@ class FleetSimulator:
         self._touching = touching
         self._count = count
         self._time_s = [0.0] * n  # simulated time spent touching something
+        self.step = self._stepper()
 
     def act(self, robot: int, left_rad_s: float, right_rad_s: float) -> None:
         v = self._half_r[robot] * (left_rad_s + right_rad_s)
@@ -153,24 +154,25 @@ class FleetSimulator:
         raise BackendError(f"pymunk backend: world '{self._world}' has no mechanism, so no joint "
                            f"'{joint}' to command")
 
-    def step(self) -> None:
-        space, touching, h, after_step = self._c_space, self._touching, self._substep_s, self._drives.after_step
-        for _ in self._substep_range:
-            # chipmunk's step itself: pymunk's Space.step adds the handling of shapes added or
-            # removed from callbacks, and the fleet's callbacks only count contacts.
-            chipmunk.space_step(space, h)  # a touching body's velocity update applies its wheel commands
-            after_step(touching)  # and a free body's are set now
-            if any(touching):
-                time_s = self._time_s
-                for r, t in enumerate(touching):
-                    if t:
-                        time_s[r] += h
-        if self._lap_robots:  # once per tick, after the physics: see the module docstring
-            tracker, laps, bodies = self._tracker, self._laps, self.bodies
-            assert tracker is not None  # laps are refused in a world without a road
-            for r in self._lap_robots:
+    def _stepper(self) -> Callable[[], None]:
+        """``step()``: the tick's physics (``chipmunk.WheelDrives.stepper``: chipmunk's step
+        itself, as pymunk's Space.step adds the handling of shapes added or removed from
+        callbacks and the fleet's callbacks only count contacts), then the laps. A closure over
+        what it reads, built once: it runs every tick."""
+        physics = self._drives.stepper(self._c_space, self._substep_s, len(self._substep_range), self._touching,
+                                       self._time_s)
+        if not self._lap_robots:
+            return physics
+        tracker, laps, bodies, lap_robots = self._tracker, self._laps, self.bodies, self._lap_robots
+        assert tracker is not None  # laps are refused in a world without a road
+
+        def step() -> None:
+            physics()
+            for r in lap_robots:  # once per tick, after the physics: see the module docstring
                 x, y = bodies[r].position
                 laps[r] = tracker.update(r, x, y)
+
+        return step
 
     def place(self, robot: int, x_m: float, y_m: float, heading_rad: float) -> str | None:
         """Put a robot at a pose, at rest (a hand moving it: a live view's drag); None when

@@ -6,13 +6,9 @@ and ``compile_sense`` turns that into one function. It runs every tick, so its c
 ray casts and camera frames themselves must stay near zero, so it reads bodies and casts rays
 through chipmunk's C functions directly (``labsim.backends.pymunk.chipmunk``).
 
-A robot's rays are cast in groups (``ray_groups``): the rays whose directions lie within a
-quarter turn of each other share one circle that holds them all, and one point query asks
-whether any shape comes into it. Mostly none does (a robot near a wall has it on one side),
-and then every ray of the group reads ``inf`` without being cast. A sonar's cone (a fan of
-rays, ``SonarRay.fan``) is one member of its group, and its rays go under a second test of
-the cone's own circle. The tests are conservative, so the readings are those of casting every
-ray, bit for bit.
+A robot's sonars and IR sensors (``SonarRay``: a lone ray, or a sonar's cone of rays) and its
+lidar's beams are cast together, one call a tick, by its ``labsim.backends.pymunk.ray_cast.RaySet``
+(the C kernel where the install built it; the beams through the lidar's ``lidar_fan.LidarFan``).
 """
 from __future__ import annotations
 
@@ -24,6 +20,7 @@ from typing import cast
 import pymunk
 
 from labsim.backends.pymunk import chipmunk
+from labsim.backends.pymunk.ray_cast import RaySet, SonarRay
 from labsim.backends.pymunk.simulator import wrap
 from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.scene.models import Camera
@@ -32,33 +29,10 @@ SenseFn = Callable[[], list[list[object]]]
 
 
 @dataclass(frozen=True)
-class SonarRay:
-    """A sonar in the robot frame: its mount, and its axis's end's offset from the mount.
-
-    The end is the whole range along the sonar's axis, so a hit's alpha times the range is
-    the distance. A cone (``labsim.backends.scene.models.Sonar.cone_deg``) has its rays' ends
-    in ``fan``, from its right edge to its left, and reads the nearest hit among them; with
-    ``incidence_cos`` a hit counts only where the ray meets the surface within that angle of
-    its normal (normal . ray <= -incidence_cos * range). A lone ray has neither.
-    """
-
-    mount_x_m: float
-    mount_y_m: float
-    end_dx_m: float
-    end_dy_m: float
-    range_m: float
-    fan: tuple[tuple[float, float], ...] = ()
-    incidence_cos: float | None = None
-
-    def ends(self) -> tuple[tuple[float, float], ...]:
-        """Every ray's end, as offsets from the mount: the fan's, or the axis's alone."""
-        return self.fan or ((self.end_dx_m, self.end_dy_m),)
-
-
-@dataclass(frozen=True)
 class LidarBeam:
     """One beam of a lidar mounted ``x_m`` ahead of the robot's origin, at ``angle_rad`` in the
-    robot frame; a robot's beams are cast together, as one fan (``lidar_fan.LidarFan``)."""
+    robot frame; a robot's beams are cast together, as one fan (``lidar_fan.LidarFan``), in the
+    call that casts its other rays."""
 
     x_m: float
     range_m: float
@@ -104,16 +78,6 @@ class SensePlan:
     specs: tuple[Spec, ...]
 
 
-# Rays whose directions lie within this angle of a group's first ray join its group.
-GROUP_SPREAD_RAD = math.pi / 2
-# ... up to this many rays. Four neighbouring sonars of the Pioneer's ring fit a circle of
-# 0.86 m as single rays, 0.99 m as cones; a larger group's circle is seldom empty (measured
-# in docs/decisions.md §24, for single rays).
-GROUP_SIZE = 4
-# Added to a group's circle, in metres: far beyond the rounding of the poses and ray ends
-# (about 1e-15 of the coordinates), so a shape the circle misses cannot touch a ray.
-CIRCLE_MARGIN_M = 1e-6
-
 _SONAR = "sonar"  # the kind of a SonarRay spec in the set of kinds below
 _CAMERA = "camera"  # the kind of a CameraRead spec (a camera's own name could be anything)
 _LIDAR = "lidar"  # the kind of a LidarBeam spec
@@ -144,9 +108,8 @@ def compile_sense(
 ) -> SenseFn:
     """Generate ``sense()`` as straight-line code for these robots and channels.
 
-    Unrolled code with the sonar geometry as literals skips the per-sonar loop and tuple
-    unpacking, which makes it measurably cheaper than a hand-written loop over the same rays.
-    For one robot asking for sonar1 and collided it reads (numbers rounded)::
+    Unrolled code skips the per-channel loop and dispatch. For one robot asking for sonar1,
+    sonar2 and collided it reads::
 
         def sense():
             p = position(body0)
@@ -155,30 +118,20 @@ def compile_sense(
             a0 = angle(body0)
             c = cos(a0)
             s = sin(a0)
-            ox = x0 + c * 0.1067 - s * 0.1382
-            oy = y0 + s * 0.1067 + c * 0.1382
-            hit = query(space, (ox, oy), (ox + c * 0.0 - s * 1.0, oy + s * 0.0 + c * 1.0), 0.0, filter0, info)
-            v0_0 = info.alpha * 1.0 if hit else inf
-            return [[v0_0, touching[0] > 0]]
+            sv0 = rays0(x0, y0, c, s)
+            return [[sv0[0], sv0[1], touching[0] > 0]]
 
-    With two sonars or more in a group, their casts go under one test of the group's circle::
-
-            if near(space, (x0 + c * 0.05 - s * 0.64, y0 + s * 0.05 + c * 0.64), 0.51, filter0, nearest):
-                ... (each ray as above)
-            else:
-                v0_0 = v0_1 = inf
-
-    ``body0`` is the robot's ``cpBody *``, ``query`` chipmunk's ``cpSpaceSegmentQueryFirst``
-    writing into one reused ``info`` struct, ``near`` its ``cpSpacePointQueryNearest`` (the
-    nearest shape less than the radius away, or NULL), and ``filter0`` the robot's shape
-    filter as a C struct, so a group's test skips the same shapes as its rays: the same calls
-    pymunk's wrappers make, without their allocations (measured in
-    ``labsim.backends.pymunk.chipmunk``). repr() of a float reads back as the same float, so
-    the literals change no reading. Cameras call ``render(x, y, angle, camera, robot)`` (the
-    robot's index, not seen by its camera; ``_scene_lines``); road channels call ``tracker.offset`` once per robot;
-    ``laps`` reads the list the fleet's ``step()`` keeps. Nothing is computed for a channel no
-    robot reads. A bumper is one ``near`` test of the disc around its point, a ground sensor one
-    call of ``reflectance(x, y)`` at its point.
+    ``body0`` is the robot's ``cpBody *``, ``rays0`` its rays' caster (``RaySet.cast``: every
+    sonar and IR ray of the robot in one call, in the order of the specs), ``near`` chipmunk's
+    ``cpSpacePointQueryNearest`` (the nearest shape less than the radius away, or NULL) and
+    ``filter0`` the robot's shape filter as a C struct: the same calls pymunk's wrappers make,
+    without their allocations (measured in ``labsim.backends.pymunk.chipmunk``). repr() of a
+    float reads back as the same float, so the literals change no reading. Cameras call
+    ``render(x, y, angle, camera, robot)`` (the robot's index, not seen by its camera;
+    ``_scene_lines``); road channels call ``tracker.offset`` once per robot; ``laps`` reads the
+    list the fleet's ``step()`` keeps. Nothing is computed for a channel no robot reads. A bumper
+    is one ``near`` test of the disc around its point, a ground sensor one call of
+    ``reflectance(x, y)`` at its point.
     """
     env = _names(space, touching, render, tracker, laps)
     env["reflectance"] = reflectance
@@ -188,10 +141,20 @@ def compile_sense(
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
-        rows.append(f"scan{r}" if values == [f"*scan{r}"] else f"[{', '.join(values)}]")  # a lidar alone: its new list
+        # a robot that reads only its rays, in the caster's order: the caster's new list is the row
+        rows.append(f"sv{r}" if values == _rays_alone(r, plan.specs) else f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
+
+
+def _rays_alone(r: int, specs: tuple[Spec, ...]) -> list[str]:
+    """The expressions of robot r's values when it reads its sonars and IR sensors, then its
+    lidar's beams, and nothing else, each in the caster's order (``_robot_lines``'s)."""
+    sonars = sum(isinstance(spec, SonarRay) for spec in specs)
+    beams = ([f"*sv{r}[{sonars}:]" if sonars else f"*sv{r}"]
+             if any(isinstance(spec, LidarBeam) for spec in specs) else [])
+    return [f"sv{r}[{k}]" for k in range(sonars)] + beams if sonars or beams else [""]
 
 
 def _scene_lines(robots: list[SensePlan], poses: Callable[[], object] | None, env: dict[str, object]) -> list[str]:
@@ -209,8 +172,7 @@ def _names(space: pymunk.Space, touching: list[int], render: Callable[..., objec
            tracker: RoadTracker | None, laps: list[int] | None) -> dict[str, object]:
     """The names the generated ``sense()`` calls and reads; each robot's body and filter join them."""
     return {
-        "query": chipmunk.segment_query_first, "space": chipmunk.c_space(space),
-        "info": chipmunk.query_info(), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
+        "space": chipmunk.c_space(space), "near": chipmunk.point_query_nearest, "nearest": chipmunk.point_info(),
         "position": chipmunk.body_position, "angle": chipmunk.body_angle,
         "velocity": chipmunk.body_velocity, "cos": math.cos, "sin": math.sin, "inf": math.inf, "wrap": wrap,
         "touching": touching, "abs": abs, "render": render, "laps": laps,
@@ -226,15 +188,14 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
         lines += [f"    p = position(body{r})", f"    x{r} = p.x", f"    y{r} = p.y"]
     if kinds & {_SONAR, "heading", _CAMERA, "forward_speed", _POINT, _LIDAR}:
         lines.append(f"    a{r} = angle(body{r})")
-    if kinds & {_SONAR, _POINT}:
+    if kinds & {_SONAR, _POINT, _LIDAR}:
         lines += [f"    c = cos(a{r})", f"    s = sin(a{r})"]
     if kinds & {"road_offset", "on_road"}:
         lines.append(f"    ro{r} = offset(x{r}, y{r})")  # once, for both channels
-    for group in ray_groups(specs):
-        lines += _group_lines(r, group, specs)
+    if kinds & {_SONAR, _LIDAR}:  # every ray of the robot, its lidar's beams last, in one call (ray_cast.RaySet)
+        lines.append(f"    sv{r} = rays{r}(x{r}, y{r}, c, s)")
+    sonars = [k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)]
     beams = [k for k, spec in enumerate(specs) if isinstance(spec, LidarBeam)]
-    if beams:
-        lines.append(f"    scan{r} = fan{r}(x{r}, y{r}, a{r})")
     values = []
     for k, spec in enumerate(specs):
         if isinstance(spec, CameraRead):
@@ -242,14 +203,14 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
             scene = ", scene" if env["poses"] is not None else ""
             lines.append(f"    v{r}_{k} = render(x{r}, y{r}, a{r}, cam{r}_{k}, {r}{scene})")
             values.append(f"v{r}_{k}")
-        elif isinstance(spec, SonarRay):  # cast above, by its group
-            values.append(f"v{r}_{k}")
-        elif isinstance(spec, LidarBeam):  # cast above, in the order of the specs
+        elif isinstance(spec, SonarRay):  # cast above, in the order of the specs
+            values.append(f"sv{r}[{sonars.index(k)}]")
+        elif isinstance(spec, LidarBeam):  # cast above, after the sonars, in the order of the specs
             if beams == list(range(beams[0], beams[0] + len(beams))):  # one run: spliced at its first
                 if k == beams[0]:
-                    values.append(f"*scan{r}")
+                    values.append(f"*sv{r}[{len(sonars)}:]" if sonars else f"*sv{r}")
             else:
-                values.append(f"scan{r}[{beams.index(k)}]")
+                values.append(f"sv{r}[{len(sonars) + beams.index(k)}]")
         elif isinstance(spec, (BumperRead, GroundRead)):
             lines += [f"    px = x{r} + c * {spec.x_m!r} - s * {spec.y_m!r}",
                       f"    py = y{r} + s * {spec.x_m!r} + c * {spec.y_m!r}"]
@@ -273,100 +234,28 @@ def _robot_lines(r: int, specs: tuple[Spec, ...], env: dict[str, object], lines:
 
 
 def _add_robot_names(space: pymunk.Space, r: int, plan: SensePlan, env: dict[str, object]) -> None:
-    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and its lidar fan as
-    ``fan{r}`` (its beams in the order of the specs) if it reads any."""
+    """Robot r's body and ray filter as ``body{r}`` and ``filter{r}``, and the caster of its
+    sonars', IR sensors' and lidar's rays as ``rays{r}`` (the sonars and IR sensors, then the
+    beams, each in the order of the specs) if it reads any."""
     env[f"body{r}"] = chipmunk.c_body(plan.body)
     env[f"filter{r}"] = chipmunk.shape_filter(plan.ray_filter)
+    rays = [spec for spec in plan.specs if isinstance(spec, SonarRay)]
     beams = [spec for spec in plan.specs if isinstance(spec, LidarBeam)]
+    lidar = None
     if beams:
         from labsim.backends.pymunk.lidar_fan import LidarFan  # numpy: only for a lidar
-        env[f"fan{r}"] = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams],
-                                  beams[0].x_m, beams[0].range_m).cast
-
-
-def ray_groups(specs: tuple[Spec, ...]) -> list[list[int]]:
-    """The indices of the sonar specs, in groups that share one test of their circle.
-
-    The rays are taken in the order of their directions (from -180 to 180 degrees in the robot
-    frame); a ray joins the group before it while that group has fewer than ``GROUP_SIZE``
-    rays and the ray's direction is within ``GROUP_SPREAD_RAD`` of the group's first ray's,
-    and starts a new group otherwise. The Pioneer's ring of 16 sonars makes four groups of
-    four, one per quarter of the ring.
-    """
-    rays = sorted((k for k, spec in enumerate(specs) if isinstance(spec, SonarRay)),
-                  key=lambda k: _direction(cast(SonarRay, specs[k])))
-    groups: list[list[int]] = []
-    for k in rays:
-        direction = _direction(cast(SonarRay, specs[k]))
-        first = _direction(cast(SonarRay, specs[groups[-1][0]])) if groups else math.nan
-        if groups and len(groups[-1]) < GROUP_SIZE and direction - first <= GROUP_SPREAD_RAD:
-            groups[-1].append(k)
-        else:
-            groups.append([k])
-    return groups
-
-
-def enclosing_circle(rays: list[SonarRay]) -> tuple[float, float, float]:
-    """A circle in the robot frame that holds every point of these rays (every ray of a
-    cone): centre x, y and radius.
-
-    Its centre is the middle of the box around the rays' ends; a ray is a segment, so a circle
-    that holds both of its ends holds all of it. The radius includes ``CIRCLE_MARGIN_M``.
-    """
-    ends = [(ray.mount_x_m, ray.mount_y_m) for ray in rays]
-    ends += [(ray.mount_x_m + dx, ray.mount_y_m + dy) for ray in rays for dx, dy in ray.ends()]
-    xs, ys = [x for x, _ in ends], [y for _, y in ends]
-    cx, cy = (min(xs) + max(xs)) / 2.0, (min(ys) + max(ys)) / 2.0
-    return cx, cy, max(math.hypot(x - cx, y - cy) for x, y in ends) + CIRCLE_MARGIN_M
-
-
-def _direction(ray: SonarRay) -> float:
-    return math.atan2(ray.end_dy_m, ray.end_dx_m)
-
-
-def _ray_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
-    mx, my, ex, ey, rng = ray.mount_x_m, ray.mount_y_m, ray.end_dx_m, ray.end_dy_m, ray.range_m
-    lines = [f"{indent}ox = x{r} + c * {mx!r} - s * {my!r}", f"{indent}oy = y{r} + s * {mx!r} + c * {my!r}"]
-    if ray.fan:
-        return lines + _fan_lines(r, k, ray, indent)
-    return lines + [
-        f"{indent}hit = query(space, (ox, oy), (ox + c * {ex!r} - s * {ey!r}, "
-        f"oy + s * {ex!r} + c * {ey!r}), 0.0, filter{r}, info)",
-        f"{indent}v{r}_{k} = info.alpha * {rng!r} if hit else inf",
-    ]
-
-
-def _fan_lines(r: int, k: int, ray: SonarRay, indent: str) -> list[str]:
-    """A cone's rays, each keeping its hit when nearer than the nearest so far (and, with an
-    incidence limit, met squarely enough); ``cone_hit`` is the same casts, written as a loop.
-
-    The rays go under one test of the cone's own circle, as a group's go under the group's:
-    a wall beside the robot is near its group's circle but seldom near every cone of it.
-    """
-    rng = ray.range_m
-    cx, cy, radius = enclosing_circle([ray])
-    lines = [f"{indent}v = inf",
-             f"{indent}if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
-             f"{radius!r}, filter{r}, nearest):"]
-    indent += "    "
-    for ex, ey in ray.fan:
-        check = "" if ray.incidence_cos is None else \
-            f" and info.normal.x * wx + info.normal.y * wy <= {-ray.incidence_cos * rng!r}"
-        lines += [
-            f"{indent}wx = c * {ex!r} - s * {ey!r}",
-            f"{indent}wy = s * {ex!r} + c * {ey!r}",
-            f"{indent}if query(space, (ox, oy), (ox + wx, oy + wy), 0.0, filter{r}, info) "
-            f"and info.alpha * {rng!r} < v{check}:",
-            f"{indent}    v = info.alpha * {rng!r}",
-        ]
-    return lines + [f"{indent[:-4]}v{r}_{k} = v"]
+        lidar = LidarFan(space, plan.body, plan.ray_filter, [b.angle_rad for b in beams], beams[0].x_m,
+                         beams[0].range_m)
+    if rays or lidar is not None:
+        env[f"rays{r}"] = RaySet(space, plan.ray_filter, rays, lidar=lidar).cast
 
 
 def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float, int] | None:
     """What one sonar of ``plan``'s robot detects now: its distance and the index of the ray
     that found it (in ``ray.ends()``), or None. The same chipmunk calls, in the same order and
-    with the same arithmetic, as the generated ``sense()`` makes, so the distance is its
-    reading bit for bit: ``labsim serve`` asks it where in the cone the detected point lies.
+    with the same arithmetic, as the robot's ``RaySet`` makes (in C or in Python), so the
+    distance is its reading bit for bit: ``labsim serve`` asks it where in the cone the detected
+    point lies.
     """
     cp_space, body, info = chipmunk.c_space(space), chipmunk.c_body(plan.body), chipmunk.query_info()
     f = chipmunk.shape_filter(plan.ray_filter)
@@ -391,17 +280,3 @@ def cone_hit(space: pymunk.Space, plan: SensePlan, ray: SonarRay) -> tuple[float
                      or info.normal.x * wx + info.normal.y * wy <= -ray.incidence_cos * rng):
             best = (info.alpha * rng, i)
     return best
-
-
-def _group_lines(r: int, group: list[int], specs: tuple[Spec, ...]) -> list[str]:
-    """The lines that cast robot r's rays of one group (a lone ray is cast without a test)."""
-    rays = [cast(SonarRay, specs[k]) for k in group]
-    if len(group) == 1:
-        return _ray_lines(r, group[0], rays[0], "    ")
-    cx, cy, radius = enclosing_circle(rays)
-    lines = [f"    if near(space, (x{r} + c * {cx!r} - s * {cy!r}, y{r} + s * {cx!r} + c * {cy!r}), "
-             f"{radius!r}, filter{r}, nearest):"]
-    for k, ray in zip(group, rays):
-        lines += _ray_lines(r, k, ray, "        ")
-    lines += ["    else:", f"        {' = '.join(f'v{r}_{k}' for k in group)} = inf"]
-    return lines

@@ -1,8 +1,9 @@
 """A lidar's whole fan of beams cast at once, in C or with numpy, outside chipmunk: the pymunk backend's lidar.
 
-``labsim.backends.pymunk.fleet_sense`` calls ``LidarFan.cast`` once a tick for each robot that
-reads lidar beams, where a sonar is one chipmunk ray cast (chipmunk's segment query costs
-about 0.6 us a ray even from C, so 360 beams could never run at 20,000 ticks a second). The
+A robot's ray caster (``labsim.backends.pymunk.ray_cast.RaySet``, one call a tick for all its
+rays) casts its lidar's beams through ``LidarFan.joined``, where a sonar is one chipmunk ray
+cast (chipmunk's segment query costs about 0.6 us a ray even from C, so 360 beams could never
+run at 20,000 ticks a second). The
 fan reads the same shapes chipmunk would: every shape of the space its ray filter lets through,
 taken apart once into straight faces and circles (a wall, a capsule, is its two long faces and
 two round ends; a polygon its edges, and its bevel circles when it has a radius). Each tick the
@@ -20,10 +21,11 @@ a beam u crosses the face p1 -> p2 (seen counter-clockwise from the lidar) where
 missed beam reads 0 or less there, so the nearest face is a maximum over faces, and a beam
 whose maximum is below 1 / range_m reads ``inf``.
 
-Where the install built ``_fan.c`` (a C compiler was there) one call of it does the faces, the
-circles and the list of ranges, each face and circle tried only by the beams within its
-angular extent; else numpy does them as above. ``KERNEL`` says which ("c" or "numpy"); both
-read the same to 1e-12 m (docs/decisions.md §60).
+Where the install built ``_fan.c`` (a C compiler was there) the robot's one call of it does the
+point test, the faces, the circles and the list of ranges after its other rays', each face and
+circle tried only by the beams within its angular extent; else numpy does them as above.
+``KERNEL`` says which ("c" or "numpy"); both read the same to 1e-12 m (docs/decisions.md §25,
+§36).
 """
 from __future__ import annotations
 
@@ -36,7 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from labsim.backends.pymunk import chipmunk
+from labsim.backends.pymunk import chipmunk, ray_cast
+from labsim.backends.pymunk.ray_cast import Rays
 
 # How far the lidar may move before the faces near it are chosen again, in metres: the faces
 # kept are those within range_m + SLACK_M of where they were chosen, so a smaller slack keeps
@@ -52,16 +55,9 @@ ANGLE_MARGIN_RAD = 1e-9
 TAU = 2.0 * math.pi
 maximum = np.maximum  # its reduce, without ndarray.max's Python layer
 
-# The C kernel (_fan.c) when the install built it, else None and the numpy fan: KERNEL says
-# which casts (docs/decisions.md §60).
-Kernel = Callable[[float, float, float, float, list, list, bytes, float], list]
-try:
-    from labsim.backends.pymunk import _fan
-except ImportError:  # no C compiler at install time: the numpy fan, a few times slower
-    _kernel: Kernel | None = None
-else:
-    _kernel = _fan.cast
-KERNEL = "c" if _kernel is not None else "numpy"
+# Whether the C kernel casts (``ray_cast.KERNEL``): the fan's beams in the same call of it as
+# the robot's other rays, else numpy (docs/decisions.md §25, §36).
+KERNEL = "c" if ray_cast.KERNEL == "c" else "numpy"
 
 
 @dataclass(frozen=True)
@@ -147,9 +143,9 @@ class LidarFan:
     ``angles_rad`` are the beams' directions in the robot frame, in the order ``cast`` returns
     them; ``mount_x_m`` the lidar's place ahead of the body's origin. Static shapes are taken
     apart once; other bodies' shapes (other robots) are put where their bodies are every tick.
-    A tick's work is one call of the C kernel (``KERNEL == "c"``), or with numpy plain Python
-    per face or circle (a handful of them) and numpy per beam; ``compiled=False`` takes the
-    numpy fan even where the kernel was built (the tests compare the two).
+    A tick's work is the robot's one call of the C kernel (``KERNEL == "c"``), or with numpy
+    plain Python per face or circle (a handful of them) and numpy per beam; ``compiled=False``
+    takes the numpy fan even where the kernel was built (the tests compare the two).
     """
 
     def __init__(self, space: pymunk.Space, body: pymunk.Body, ray_filter: pymunk.ShapeFilter,
@@ -161,6 +157,7 @@ class LidarFan:
         # a moving round-ended segment (no robot is one) would need its band checked as it moves
         self._always_chipmunk = any(isinstance(s, pymunk.Segment) and s.radius > 0.0 for s in moving)
         self._moving = [_Moving.of(s) for s in moving]
+        self._owner, self._ray_filter = space, ray_filter
         self._space = chipmunk.c_space(space)
         self._filter = chipmunk.shape_filter(ray_filter)
         self._info = chipmunk.point_info()
@@ -174,7 +171,8 @@ class LidarFan:
         order = sorted(range(len(angles_rad)), key=lambda k: angles_rad[k] % TAU)
         self._by_angle = [angles_rad[k] % TAU for k in order]
         self._order = order
-        self._kernel = _kernel if compiled else None
+        self._compiled = compiled
+        self._cast: Rays | None = None  # cast's own caster, made on its first call
         # the kernel's table of the beams: cos, sin, the sorted directions and their beams
         self._table = array("d", self._cos + self._sin + self._by_angle + [float(k) for k in order]).tobytes()
         self._beams = len(angles_rad)
@@ -186,28 +184,69 @@ class LidarFan:
         self._zero = np.zeros(len(angles_rad))  # 1 / t where no face is seen (read, never written)
 
     def cast(self, x_m: float, y_m: float, angle_rad: float) -> list[float]:
-        """Every beam's range in metres (inf beyond range_m) for the body at this pose."""
-        c, s = math.cos(angle_rad), math.sin(angle_rad)
-        ox, oy = x_m + c * self._mount_x_m, y_m + s * self._mount_x_m  # as a sonar's mount
-        if chipmunk.point_query_nearest(self._space, (ox, oy), TOUCH_M, self._filter, self._info):
-            return [0.0] * self._beams  # inside a shape: chipmunk's cast reads 0 for every ray
-        if self._always_chipmunk:
-            return self._rays(ox, oy, c, s)
-        near = self._near
-        if near is None or math.hypot(ox - near.x_m, oy - near.y_m) > SLACK_M:
-            near = self._near = self._choose(ox, oy)
-        inside = [band for band in near.bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]] \
-            if near.bands else near.bands
-        faces, circles = near.faces, near.circles
-        if self._moving:
-            faces, circles = self._with_moving(ox, oy, faces, circles)
-        if self._kernel is not None:
-            ranges = self._kernel(ox, oy, c, s, faces, circles, self._table, self._inv_range)
-        else:
-            ranges = self._numpy_ranges(ox, oy, c, s, faces, circles)
-        if inside:  # in a wall's band: chipmunk's own reading where that wall can be seen
-            self._band_beams(ox, oy, c, s, inside, ranges)
-        return ranges
+        """Every beam's range in metres (inf beyond range_m) for the body at this pose: this
+        lidar alone, through the caster a robot's rays go through (``ray_cast.RaySet``)."""
+        if self._cast is None:
+            self._cast = ray_cast.RaySet(self._owner, self._ray_filter, [], lidar=self, compiled=self._compiled).cast
+        return self._cast(x_m, y_m, math.cos(angle_rad), math.sin(angle_rad))
+
+    def joined(self, count: int, kernel: Callable[..., list[float]] | None, head: tuple[object, ...],
+               python: Rays) -> Rays:
+        """``RaySet.cast`` of a robot with this lidar: ``cast(x, y, c, s)`` gives its ``count``
+        sonar and IR readings, then every beam's range.
+
+        ``kernel``, where the C kernel casts, is ``_fan.rays``, and ``head`` its first six
+        arguments (the space, its owner, the ray filter's three fields, the robot's table of
+        rays); given the faces and circles near the lidar it casts the beams too: one call a
+        tick. Without it the Python rays (``python``) and the numpy fan cast the same. A lidar
+        inside a shape reads 0 on every beam (chipmunk's cast does); among moving round-ended
+        segments every beam goes through chipmunk, as it does in a wall's band.
+        """
+        f = self._ray_filter
+        if tuple(head[2:5]) != (f.group, f.categories, f.mask):  # the kernel's inside test uses the robot's
+            raise ValueError("a lidar is cast with its robot's ray filter")
+        near, space, flt, info, touch = chipmunk.point_query_nearest, self._space, self._filter, self._info, TOUCH_M
+        mount, zeros, always, moving = self._mount_x_m, [0.0] * self._beams, self._always_chipmunk, self._moving
+        choose, with_moving, band_beams, rays = self._choose, self._with_moving, self._band_beams, self._rays
+        numpy_ranges, table, inv_range, hypot, fan = self._numpy_ranges, self._table, self._inv_range, math.hypot, self
+        at, owner, group, categories, mask, rows = head if kernel is not None else (0, None, 0, 0, 0, b"")
+
+        def alone(x: float, y: float, c: float, s: float) -> list[float]:
+            """The other rays alone, in their one call."""
+            if kernel is not None:
+                return kernel(at, owner, group, categories, mask, rows, x, y, c, s)
+            return python(x, y, c, s)
+
+        def cast(x: float, y: float, c: float, s: float) -> list[float]:
+            ox = x + c * mount  # as a sonar's mount
+            oy = y + s * mount
+            if kernel is None or always:  # the kernel makes this test itself
+                if near(space, (ox, oy), touch, flt, info):
+                    return alone(x, y, c, s) + zeros  # inside a shape: chipmunk's cast reads 0 for every ray
+                if always:
+                    return alone(x, y, c, s) + rays(ox, oy, c, s)
+            scene = fan._near
+            if scene is None or hypot(ox - scene.x_m, oy - scene.y_m) > SLACK_M:
+                scene = fan._near = choose(ox, oy)
+            bands = scene.bands
+            faces, circles = scene.faces, scene.circles
+            if moving:
+                faces, circles = with_moving(ox, oy, faces, circles)
+            if kernel is not None:
+                out = kernel(at, owner, group, categories, mask, rows, x, y, c, s, faces, circles, table, inv_range,
+                             ox, oy)
+                if bands and out[count] == 0.0:  # inside a shape (no beam the fan casts reads 0)
+                    return out
+            else:
+                out = python(x, y, c, s) + numpy_ranges(ox, oy, c, s, faces, circles)
+            if bands:  # in a wall's band: chipmunk's own reading where that wall can be seen
+                inside = [band for band in bands if abs(band[0] * ox + band[1] * oy - band[2]) <= band[3]]
+                if inside:
+                    band_beams(ox, oy, c, s, inside, out, count)
+            return out
+
+        cast.__dict__["lidar"] = self  # what the benchmarks and tests reach the fan by
+        return cast
 
     def _numpy_ranges(self, ox: float, oy: float, c: float, s: float, faces: list[Face],
                       circles: list[Circle]) -> list[float]:
@@ -247,9 +286,10 @@ class LidarFan:
             out.append(info.alpha * rng if hit else math.inf)
         return out
 
-    def _band_beams(self, ox: float, oy: float, c: float, s: float, bands: list[Band], ranges: list[float]) -> None:
+    def _band_beams(self, ox: float, oy: float, c: float, s: float, bands: list[Band], ranges: list[float],
+                    at: int = 0) -> None:
         """Each beam that can meet a wall whose band the lidar is in, cast through chipmunk into
-        ``ranges`` (see ``_rays`` for why chipmunk reads otherwise there). Every point chipmunk's
+        ``ranges`` from ``at`` on (see ``_rays`` for why chipmunk reads otherwise there). Every point chipmunk's
         query of the wall can report lies in the wall's capsule, whose directions from the lidar
         (outside it: the point test said so) are those between its two round ends' extents; the
         other beams cannot meet the wall, and the fan reads them as chipmunk does. A robot
@@ -265,7 +305,7 @@ class LidarFan:
                     k = self._order[j]
                     ex, ey = self._ends[k]
                     hit = query(space, (ox, oy), (ox + c * ex - s * ey, oy + s * ex + c * ey), 0.0, flt, info)
-                    ranges[k] = info.alpha * rng if hit else math.inf
+                    ranges[at + k] = info.alpha * rng if hit else math.inf
 
     @staticmethod
     def _extent(ox: float, oy: float, c: float, s: float, x: float, y: float, r: float) -> tuple[float, float]:

@@ -87,6 +87,30 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 
 # -- the commands on the tick loop ---------------------------------------------------------------
 
+def _note_without_kernel() -> None:
+    """Once an install (this labsim, from this folder), on its first run: a note that the ray
+    sensors cast without the C kernel, when the install built none. Remembered by an empty file
+    in the cache folder; where there is none, nothing is said rather than the note every run."""
+    from labsim.runtime.cli.parser import ray_caster
+
+    if ray_caster() == "C kernel":
+        return
+    import hashlib
+
+    import labsim
+    from labsim.foundation.cache import cache_dir, write_atomically
+
+    folder = cache_dir()
+    if folder is None:
+        return
+    where = hashlib.sha256(f"{labsim.__version__} {Path(labsim.__file__).resolve().parent}".encode()).hexdigest()
+    marker = folder / f"noted-no-ray-kernel-{where[:16]}"
+    if marker.exists() or not write_atomically(marker, b""):
+        return
+    print("note: the ray sensors cast without labsim's C kernel (no C compiler at install): the same "
+          "readings, slower; `labsim --version` says which caster runs", file=sys.stderr)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from labsim.runtime.cli.report import ProgressBar, format_summary
     from labsim.runtime.run import compile_behaviour
@@ -113,6 +137,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         if recorded.cut_short():
             print_warning(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
     backend = load_backend(args.backend, **_backend_options(args))
+    if args.backend == "pymunk":
+        _note_without_kernel()
     run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, hands=hands)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None

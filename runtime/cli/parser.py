@@ -49,7 +49,7 @@ def build_parser(argv: Sequence[str] | None = None, *, every: bool = False) -> a
     when ``every``."""
     named = _command_named(sys.argv[1:] if argv is None else argv)
     p = _Parser(prog="labsim", description="Run robotics labs written as behaviour files.")
-    p.add_argument("--version", action=_Version, help="show labsim's version and its lidar's kernel, and exit")
+    p.add_argument("--version", action=_Version, help="show labsim's version and which ray caster runs, and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for command in COMMANDS:
         declared = sub.add_parser(command.name, help=command.help)
@@ -58,9 +58,20 @@ def build_parser(argv: Sequence[str] | None = None, *, every: bool = False) -> a
     return p
 
 
+def ray_caster() -> str:
+    """Which caster the embedded simulator's ray sensors (sonars, IR, lidar) use: "C kernel"
+    where ``pip install`` found a compiler and built ``backends/pymunk/_fan.c`` (and it runs
+    with this pymunk), else "Python" (chipmunk's casts from Python, the lidar's fan with numpy);
+    asked without importing numpy."""
+    if importlib.util.find_spec("labsim.backends.pymunk._fan") is None:
+        return "Python"
+    from labsim.backends.pymunk import ray_cast
+
+    return "C kernel" if ray_cast.KERNEL == "c" else "Python"
+
+
 class _Version(argparse.Action):
-    """``--version``: labsim's version, and whether the lidar casts with its C kernel (built
-    where ``pip install`` found a compiler) or with numpy; asked without importing numpy."""
+    """``--version``: labsim's version, and which ray caster runs (``ray_caster``)."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
                  default: str = argparse.SUPPRESS, help: str | None = None) -> None:
@@ -68,8 +79,7 @@ class _Version(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
                  option_string: str | None = None) -> None:
-        kernel = "C" if importlib.util.find_spec("labsim.backends.pymunk._fan") is not None else "numpy"
-        print(f"labsim {version()} (lidar fan: {kernel})")
+        print(f"labsim {version()} (ray caster: {ray_caster()})")
         parser.exit()
 
 
