@@ -73,6 +73,7 @@ class LiveSession(Session):
         self.ever_ran = False
         self.breaks = list(breaks or [])  # as written: compiled anew for every run
         self.read_only = read_only  # no editing the file in the page
+        self.can_save = True  # False without a session token (--no-token): anyone could write the file
         self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
         self._capped = False  # inside ticking(): the memory cap is set
 
@@ -229,7 +230,8 @@ class LiveSession(Session):
                 text = read_text(self.path)
             except LabsimError:
                 text = None
-        return {"source": text, "edited": self.text is not None, "read_only": self.read_only}
+        return {"source": text, "edited": self.text is not None, "read_only": self.read_only,
+                "can_save": self.can_save and not self.read_only}
 
     def _slider_values(self) -> list[float]:
         assert self.run is not None
@@ -269,7 +271,8 @@ class LiveSession(Session):
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old
-        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(), **changed,
+        return message("frame", **self.controls(), why=run.stop_reason() if run.finished else None,
+                       robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
@@ -416,6 +419,10 @@ class LiveSession(Session):
     def _save(self, text: str) -> None:
         """Write the text over the view's own file, atomically (never over its world or trace,
         never through a link)."""
+        if not self.can_save:
+            raise ChangeRefused([f"{self.path}: not saved: this view was started with --no-token, so any program "
+                                 "that reaches its port could write the file; start labsim view without "
+                                 "--no-token to save from the page"])
         if os.path.islink(self.path):
             raise ChangeRefused([f"{self.path}: not saved: it is a link; save it in an editor"])
         inputs = [self.run.program.world.source] if self.run is not None and self.run.program.world.source else []

@@ -70,6 +70,7 @@ class Session:
         self.pacer = Pacer(dt_s)
         self.playing = False
         self._rate: deque[tuple[float, int]] = deque(maxlen=64)  # (wall s, tick) samples
+        self.stop: Any = None  # the server's StopSignals: a signal caught ends a catch-up between blocks
 
     # -- what subclasses provide --------------------------------------------------------
     @property
@@ -133,6 +134,8 @@ class Session:
                 ran += n
                 if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
                     self.playing = False
+                    break
+                if self.stop is not None and self.stop.signum:  # Ctrl-C, SIGTERM: the server ends
                     break
                 if self.clock() - start >= budget_s:
                     if self.pacer.speed is not None:

@@ -357,7 +357,9 @@ def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
     bad = ROOT / "tests" / "fixtures" / "unknown_sensor_with_error.yaml"
     p, line = _start([str(bad), "--port", "0"])
     url = line.split(" at ")[1].split()[0]
-    assert urllib.request.urlopen(url).status == 200  # the page is served, and shows them
+    # the token in the URL becomes a cookie: the redirect to the page carries it
+    opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    assert opener.open(url).status == 200  # the page is served, and shows them
     s = LiveSession(bad, {}, warn=lambda m: None)
     assert not s.load() and not s.scene()["ok"]
     p.send_signal(signal.SIGINT)

@@ -78,7 +78,7 @@ class View:
         self.page = browser.new_page(viewport={"width": 1400, "height": 860}, bypass_csp=True)
         self.errors: list[str] = []
         self.page.on("pageerror", lambda e: self.errors.append(str(e)))
-        self.page.goto(self.url + query)
+        self.page.goto(self.url + ("&" + query[1:] if query.startswith("?") and "?" in self.url else query))
         if wait:  # a file that does not compile shows no frames
             self.wait("window.labsimView.frames > 0")
 

@@ -23,21 +23,72 @@ function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
 }
 
+// Reconnecting: after 1 s, then twice as long each time up to 30 s (a laptop asleep, a server
+// restarted); not at all once the server said it ends (close code 4000: Ctrl-C, SIGTERM).
+const RETRY_MS = [1000, 2000, 4000, 8000, 16000, 30000];
+const GOODBYE = 4000;
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
   state.ws = ws;
-  ws.onopen = () => { setStatus("connected", "ok"); send({ type: "select", robot: state.robot }); };
-  ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
+  ws.onopen = () => {
+    state.retries = 0; state.offline = null;
+    setStatus("connected", "ok"); send({ type: "select", robot: state.robot });
+  };
+  ws.onclose = (e) => {
+    if (state.ws !== ws) return;
+    if (e.code === GOODBYE) {
+      offline("labsim view has stopped: this page shows the run as it last was. Start labsim view again and " +
+              "open the address it prints.", "stopped");
+      return;
+    }
+    const wait = RETRY_MS[Math.min(state.retries || 0, RETRY_MS.length - 1)];
+    state.retries = (state.retries || 0) + 1;
+    offline(`The connection to labsim view was lost (is it still running?). Trying again in ${wait / 1000} s` +
+            " (attempt " + state.retries + "); if it was started again, open the new address it printed.",
+            "disconnected: retrying…");
+    setTimeout(connect, wait);
+  };
   ws.onmessage = (e) => {
     let msg;
     const t0 = performance.now();
     try { msg = JSON.parse(e.data); } catch (err) { return; }
     const t1 = performance.now();
     state.cost.parse += t1 - t0;
-    if (msg.type === "scene") onScene(msg);
-    else if (msg.type === "frame") { onFrame(msg); state.cost.frame += performance.now() - t1; }
-    else if (msg.type === "error") refused(msg);
+    const handle = HANDLERS[msg.type];
+    if (handle) { handle(msg); if (msg.type === "frame") state.cost.frame += performance.now() - t1; }
   };
+}
+
+// Gone: the page says so in a banner, and every control that would send something is off until
+// a scene comes again (a reconnect). What is drawn stays, as it last was.
+function offline(text, badge) {
+  state.offline = text;
+  setStatus(badge, "bad");
+  const b = $("ended");
+  b.hidden = false; b.className = "ended bad"; b.textContent = text;
+  document.body.classList.add("offline");
+  enableControls();
+}
+
+// What the page may still ask: nothing while offline; a finished run only Restart (and a
+// replay's scrubber and Rewind); read-only, no Apply or Save.
+function enableControls() {
+  const f = state.frame, scene = state.scene, off = !!state.offline;
+  const finished = !!(f && f.finished && !f.playing);
+  const live = scene && scene.mode === "live" && scene.ok;
+  for (const id of ["play", "step"]) $(id).disabled = off || finished || !scene || !scene.ok;
+  $("restart").disabled = off || !scene;
+  $("speed").disabled = off || finished;
+  for (const el of document.querySelectorAll("#sliders input, #params input, #params button, #break-form input, " +
+                                             "#break-form select, #break-form button, #breaks button, #timeline, " +
+                                             "#add-block, #recheck")) {
+    el.disabled = off || (finished && el.closest("#sliders") !== null);
+  }
+  $("apply").disabled = off || !live || !!scene.read_only;
+  $("save").disabled = off || !live || !scene.can_save;
+  $("save").title = scene && scene.mode === "live" && !scene.can_save && !scene.read_only
+    ? "started with --no-token: saving from the page is off" : "write it over the file";
+  $("scrubber").disabled = off;
 }
 
 function setStatus(text, kind) { const s = $("status"); s.textContent = text; s.className = "status " + (kind || ""); }
@@ -56,6 +107,7 @@ function notice(title, body, error) {
 function onScene(scene) {
   state.scene = scene;
   state.frame = null;
+  if (!state.offline) { $("ended").hidden = true; document.body.classList.remove("offline"); }
   $("diagnostics").hidden = scene.ok;
   $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
   editorScene(scene);
@@ -291,7 +343,8 @@ function render() {
   // every text below is written only when it changes (setText): a write of the same text still
   // replaces the element's text and costs the page a style and layout pass, 20 times a second
   setText($("play"), f.playing ? "Pause" : "Play");
-  if ($("play").disabled !== (f.finished && !f.playing)) $("play").disabled = f.finished && !f.playing;
+  const ended = f.finished && !f.playing;
+  if (state.ended !== ended) { state.ended = ended; enableControls(); endBanner(f); }
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
   // the tick whose pose, values, state and rule the page shows (a live run's last tick run)
   const at = f.ran === 0 ? "not started" : `tick ${f.tick}`;
@@ -333,6 +386,19 @@ function render() {
   }
 }
 
+const ENDED_WHY = { "stop condition": "its stop condition held", "max ticks": "it reached its last tick",
+                    "budget": "it went over its budget", "interrupted": "it was interrupted" };
+function endBanner(f) {  // a finished run says so in words, not only by a greyed button
+  if (state.offline) return;
+  const b = $("ended"), replay = state.scene.mode === "replay";
+  b.hidden = !state.ended;
+  if (!state.ended) return;
+  b.className = "ended";
+  b.textContent = replay ? `End of the trace (t = ${f.time.toFixed(2)} s). Rewind or the scrubber go back.`
+    : `The run has ended at t = ${f.time.toFixed(2)} s` + (f.why ? ` (${ENDED_WHY[f.why] || f.why})` : "") +
+      ". Restart runs it again.";
+}
+
 function setText(el, text) {  // a cell written only when it changes: each write costs a layout
   if (el.textContent !== text) el.textContent = text;
 }
@@ -345,7 +411,7 @@ function editorScene(scene) {
   $("edit-here").hidden = !live || ro;
   $("read-only").hidden = !(live && ro);
   $("source").readOnly = ro;
-  $("apply").disabled = ro; $("save").disabled = ro;
+  enableControls();
   $("editor-name").textContent = scene.path + (ro ? " (read-only: labsim view --read-only)" : "");
   if (typeof scene.source === "string" && (!state.editing || state.applied)) {
     $("source").value = scene.source;  // a fresh run: its text (the page's own edit, once applied)
@@ -517,5 +583,8 @@ document.addEventListener("keydown", (e) => {
   if (e.key === " ") { e.preventDefault(); $("play").click(); }
   else if (e.key === ".") send({ type: "step" });
 });
+
+// the server's messages (docs/view.md, "Messages"), one handler each
+const HANDLERS = { scene: onScene, frame: onFrame, error: refused };
 
 connect();
