@@ -117,7 +117,7 @@ class ViewServer:
                 rest = [(k, v) for k, v in request.query.items() if k != "token"]
                 found = web.HTTPFound(str(request.rel_url.with_query(rest)))
                 found.set_cookie(self.cookie, self.token, httponly=True, samesite="Strict", path="/")
-                return found
+                raise found
             response = await handler(request)
             return response
         if _same(request.cookies.get(self.cookie, ""), self.token):
