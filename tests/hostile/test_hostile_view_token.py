@@ -80,7 +80,8 @@ def test_without_the_token_every_request_is_403_and_nothing_is_written(tmp_path:
     logs = _serve(tmp_path, scenario)
     assert logs[0] == "labsim view: refused a request from 127.0.0.1 for '/': no session token"
     assert "labsim view: refused a request from 127.0.0.1 for '/': a wrong token" in logs
-    assert len(logs) == 13 and all(line.startswith("labsim view: refused a request from 127.0.0.1 for ") for line in logs)
+    assert len(logs) == 13
+    assert all(line.startswith("labsim view: refused a request from 127.0.0.1 for ") for line in logs)
     assert not (tmp_path / "live.csv").exists() or "owned" not in (tmp_path / "live.csv").read_text()
 
 
