@@ -38,6 +38,7 @@ from labsim.runtime.view.frames import (
     sensor_columns,
     world_doc,
 )
+from labsim.runtime.view.history import History
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
 from labsim.runtime.view.observe import ObservedBackend
 from labsim.runtime.view.record import TickRecorder
@@ -112,12 +113,13 @@ class LiveSession(Session):
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
         self.recorder = TickRecorder()
         self.recorder.breaks = breaks
-        self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
+        self.run = run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
         self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
                              for r, at in zip(self.run.robots, self.observed.index)], self.observed.last)
         self.pacer.dt_s = program.dt_s
+        self.history_kept = History(len(run.robots))
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
         kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
@@ -239,8 +241,13 @@ class LiveSession(Session):
         slots = self.run.robots[0].program.slots
         return [slots[p.slot_of[n]] for n in p.slider_names]
 
-    def frame(self) -> Json:
-        """One moment of the run: see docs/view.md, "frame"."""
+    def history(self) -> Json:
+        if self.run is None:
+            return super().history()
+        return self.history_kept.doc(self.shown_tick)
+
+    def frame(self, take: bool = True) -> Json:
+        """One moment of the run: see docs/view.md, "frame"; ``take`` False: see ``Session.frame``."""
         if self.run is None:
             return message("frame", **self.controls(), robots=[], mechanism=None, sliders={}, labels={})
         run, obs = self.run, self.observed
@@ -264,10 +271,16 @@ class LiveSession(Session):
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
-                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
+                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [],
                 "samples": [[round(t * dt, 9), *self._sample(rd, sl), *done]
-                            for t, rd, sl in rec.take_samples(r.index, per)],
+                            for t, rd, sl in rec.take_samples(r.index, per)] if take else [],
             })
+            if take:  # what this frame draws, for the pages that open later
+                doc = robots[-1]
+                pose = doc["pose"]
+                self.history_kept.add(r.index, doc["path"] + ([pose[:2]] if pose is not None else []),
+                                      doc["samples"] + ([[round(self.shown_tick * dt, 9), *values]]
+                                                        if self.ran else []))
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old

@@ -148,8 +148,12 @@ class ViewServer:
         page = Page(ws, request.remote or "?")
         self.pages.append(page)
         try:
+            # the run so far before the first frame (a new tab, a reload, a reconnect); the path
+            # points and samples since the last frame stay for the pages already open, if any
             await ws.send_str(_dumps(self.session.scene()))
-            await ws.send_str(self._frame_text(page, self._frame_json()))
+            await ws.send_str(_dumps(self.session.history()))
+            alone = all(p is page for p in self.pages)
+            await ws.send_str(self._frame_text(page, _dumps(self.session.frame(take=alone))))
             async for msg in ws:
                 if msg.type == WSMsgType.TEXT:
                     await self._message(page, msg.data)
@@ -181,8 +185,11 @@ class ViewServer:
                 if isinstance(robot, bool) or not isinstance(robot, int) or robot < 0:
                     raise BadMessage("'robot' must be a robot's index")
                 page.robot = robot
-            elif self.session.handle(msg):
-                await self.broadcast(_dumps(self.session.scene()))
+            else:
+                if self.session.handle(msg):
+                    await self.broadcast(_dumps(self.session.scene()))
+                if getattr(self.session, "jumped", False):  # a replay's seek: the rows up to there, as played
+                    await self.broadcast(_dumps(self.session.history()))
         except BadMessage as e:
             self._ignore(page, str(e))
             return

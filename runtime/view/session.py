@@ -17,7 +17,7 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
-from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
+from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message
 
 MAX_SPEED = 1000.0  # beyond this a number is not a speed anyone means; "max" is the way to ask
 CHECK_EVERY = 16  # ticks between looks at the clock while catching up
@@ -102,8 +102,14 @@ class Session:
     def scene(self) -> Json:
         raise NotImplementedError
 
-    def frame(self) -> Json:
+    def frame(self, take: bool = True) -> Json:
+        """The frame now; ``take`` False leaves the path points and chart samples since the last
+        frame for the next one (a page that joins while others watch)."""
         raise NotImplementedError
+
+    def history(self) -> Json:
+        """The ``history`` message: what the frames so far drew (docs/view.md)."""
+        return message("history", tick=self.shown_tick, robots=[])
 
     def images(self, robot: int) -> Json | None:
         """The robot's camera and derived images for the page, or None when it has none."""

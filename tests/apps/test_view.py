@@ -253,6 +253,7 @@ def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
             b = await http.ws_connect(url + "/ws")
             for ws in (a, b):
                 assert (await ws.receive_json())["type"] == "scene"
+                assert (await ws.receive_json())["type"] == "history"  # the run so far, before any frame
                 assert (await ws.receive_json())["type"] == "frame"
             await a.send_str("{not json")
             await a.send_bytes(b"\x00\x01")

@@ -75,6 +75,13 @@ LV.WorldView = class {
     });
   }
 
+  // the path so far (a history message): a null point, or one with a null in it, is a jump
+  setHistory(paths) {
+    this.paths = (this.scene.robots || []).map((_, i) => (paths[i] || [])
+      .map((q) => (q && typeof q[0] === "number" && typeof q[1] === "number" ? q : null)).slice(-PATH_POINTS));
+    this.frame = null;  // the next frame follows on from the history, whatever tick it shows
+  }
+
   bounds() {
     const w = this.scene && this.scene.world;
     if (!w) {  // no world: the robots' poses

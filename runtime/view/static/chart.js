@@ -43,6 +43,14 @@ LV.Chart = class {
     });
   }
 
+  // the run so far (a history message): each robot's rows [time, value, ...], replacing what was kept
+  setHistory(robots) {
+    this.history.forEach((h, i) => {
+      h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); h.now = null;
+      for (const s of robots[i] || []) this._push(h, s[0], s.slice(1));
+    });
+  }
+
   _push(h, t, values) {
     if (h.t.length && t <= h.t[h.t.length - 1]) return;
     h.t.push(t);

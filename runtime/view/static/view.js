@@ -288,6 +288,15 @@ function defaultChart(scene) {
                               && !skip.includes(c.name)).slice(-2).map((c) => c.name);
 }
 
+// -- the run so far: sent before the first frame (a new tab, a reload, a reconnect) and after a
+// replay's seek, as the frames up to there would have drawn it; it replaces what was drawn ----
+function onHistory(h) {
+  if (!state.scene || !state.scene.ok) return;
+  world.setHistory(h.robots.map((r) => r.path));
+  chart.setHistory(h.robots.map((r) => r.samples));
+  state.history = h;
+}
+
 // -- frames ---------------------------------------------------------------------------------
 // Every frame is acknowledged once the page has drawn it ({"type": "ack"}): the server sends the
 // next one only then, so a page that draws slowly gets fewer frames instead of a queue of them
@@ -351,7 +360,7 @@ function render() {
   setText($("clock"), `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`);
   setText($("rtf"), f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "");
   if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
-  if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
+  if (scene.mode === "replay" && !state.scrubbing) {  // it follows the run, unless held by the pointer
     $("scrubber").value = String(f.tick);
   }
   setText($("scrub-time"), scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "");
@@ -578,6 +587,8 @@ $("robot").addEventListener("change", () => selectRobot(Number($("robot").value)
 $("timeline").addEventListener("change", () => send({ type: "timeline", on: $("timeline").checked }));
 $("recheck").addEventListener("click", () => send({ type: "recheck" }));
 $("scrubber").addEventListener("input", () => send({ type: "seek", tick: Number($("scrubber").value) }));
+$("scrubber").addEventListener("pointerdown", () => { state.scrubbing = true; });
+$("scrubber").addEventListener("pointerup", () => { state.scrubbing = false; });
 document.addEventListener("keydown", (e) => {
   if (["INPUT", "SELECT", "TEXTAREA"].includes(e.target.tagName)) return;
   if (e.key === " ") { e.preventDefault(); $("play").click(); }
@@ -585,6 +596,6 @@ document.addEventListener("keydown", (e) => {
 });
 
 // the server's messages (docs/view.md, "Messages"), one handler each
-const HANDLERS = { scene: onScene, frame: onFrame, error: refused };
+const HANDLERS = { scene: onScene, history: onHistory, frame: onFrame, error: refused };
 
 connect();
