@@ -38,8 +38,8 @@ from labsim.runtime.view.frames import (
     sensor_columns,
     world_doc,
 )
-from labsim.runtime.view.history import History
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
+from labsim.runtime.view.history import History
 from labsim.runtime.view.observe import ObservedBackend
 from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name

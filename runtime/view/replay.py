@@ -19,8 +19,8 @@ from labsim.backends.scene.models import MODELS
 from labsim.backends.scene.world import World
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
-from labsim.runtime.view.record import PathThinner
 from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, downsample
+from labsim.runtime.view.record import PathThinner
 from labsim.runtime.view.session import BadMessage, Session
 
 _TEXT = {"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule", "events"}
