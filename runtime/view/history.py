@@ -77,7 +77,9 @@ class History:
     def add(self, robot: int, path: list, rows: list[Row]) -> None:
         p = self.paths[robot]
         for q in path:
-            p.append(q if q is not None and isinstance(q[0], float) else None)
+            q = q if q is not None and isinstance(q[0], float) and isinstance(q[1], float) else None
+            if not p or q != p[-1] or q is None:  # a pose shown by two frames is one point, as the page draws it
+                p.append(q)
         if len(p) > MAX_POINTS:
             self.paths[robot] = [q for k, q in enumerate(p) if q is None or k % 2 == 0 or k == len(p) - 1]
         r = self.rows[robot]

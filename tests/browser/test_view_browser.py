@@ -75,12 +75,23 @@ class View:
         assert " at http" in line, self.proc.stderr.read() if self.proc.stderr else line
         self.url = line.split(" at ")[1].split()[0]
         # the page forbids eval (its CSP); Playwright evaluates the tests' conditions as strings
+        self.browser = browser
+        self.pages: list[Any] = []
         self.page = browser.new_page(viewport={"width": 1400, "height": 860}, bypass_csp=True)
         self.errors: list[str] = []
         self.page.on("pageerror", lambda e: self.errors.append(str(e)))
         self.page.goto(self.url + ("&" + query[1:] if query.startswith("?") and "?" in self.url else query))
         if wait:  # a file that does not compile shows no frames
             self.wait("window.labsimView.frames > 0")
+
+    def another_page(self, width: int = 1400, height: int = 860) -> Any:
+        """A second tab (a browser context of its own: it opens with the printed URL, the token in it)."""
+        page = self.browser.new_page(viewport={"width": width, "height": height}, bypass_csp=True)
+        page.on("pageerror", lambda e: self.errors.append(str(e)))
+        page.goto(self.url)
+        page.wait_for_function("window.labsimView.frames > 0", timeout=8000)
+        self.pages.append(page)
+        return page
 
     def wait(self, condition: str, timeout_ms: int = 8000) -> None:
         self.page.wait_for_function(condition, timeout=timeout_ms)
@@ -106,6 +117,8 @@ class View:
         if self.proc.returncode is not None:  # closed already (a test that reads the trace after)
             return
         self.page.close()
+        for page in self.pages:
+            page.close()
         self.proc.send_signal(signal.SIGINT)
         _, err = self.proc.communicate(timeout=20)
         assert self.proc.returncode == 130, err
@@ -574,3 +587,71 @@ def test_blocks_moved_added_and_removed_replay_from_the_trace_row_for_row(view: 
     events = [e.split(" ")[:3] for cell in a.column("events") for e in cell.split(";") if e.startswith("block ")]
     assert events == [["block", "move", "0"], ["block", "add", "1"], ["block", "remove", "0"]]
     assert b.rows[:len(a.rows)] == a.rows
+
+
+def _wall_trace(tmp_path: Path) -> Path:
+    trace = tmp_path / "wall.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/wall_follow.yaml", "--set", "minutes=0.5",
+                    "--trace", str(trace), "-q"], check=True, cwd=ROOT)
+    return trace
+
+
+def _seek(v: Any, tick: int, robot: bool = True) -> None:
+    v.page.locator("#scrubber").fill(str(tick))
+    v.wait(f"window.labsimView.frame.tick === {tick}" + (f" && window.LV_world.drawnTick === {tick}" if robot else ""))
+    v.wait(f"window.LV_chart.history[0].t.length === {tick + 1}")
+
+
+def test_a_replay_seek_draws_only_recorded_rows_and_scrubbing_gives_the_same(view: Any, tmp_path: Path) -> None:
+    trace = _wall_trace(tmp_path)
+    rows = read_trace(trace)
+    x, y = rows.columns.index("x"), rows.columns.index("y")
+    v = view([str(trace)])
+    _seek(v, 500)  # forward, past 500 rows never played
+    path = v.js("window.LV_world.paths[0]")
+    recorded = [[float(r[x]), float(r[y])] for r in rows.rows[:501]]
+    assert path == recorded  # every row's point, nothing across the skipped time
+    times = v.js("window.LV_chart.history[0].t")
+    assert times == [round(k * 0.05, 9) for k in range(501)]
+    assert v.page.locator("#clock").text_content().startswith("t = 25.00 s")
+    assert v.page.locator("#rtf").text_content() == ""  # a seek is not speed: no 612x
+    first = v.shot("replay-seek-500", "#world")
+    _seek(v, 120)
+    assert v.js("window.LV_world.paths[0]") == recorded[:121]
+    _seek(v, 500)
+    assert v.js("window.LV_world.paths[0]") == path and v.js("window.LV_chart.history[0].t") == times
+    again = v.shot("replay-seek-500-again", "#world")
+    assert np.array_equal(first, again)  # the same picture, however the scrubber got there
+
+
+def test_a_crane_replay_seek_holds_the_sliders_at_their_recorded_values(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "crane.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/crane.yaml", "--trace", str(trace), "-q"],
+                   check=True, cwd=ROOT)
+    rows = read_trace(trace)
+    v = view([str(trace)], "?chart=arm,crab")
+    _seek(v, 1000, robot=False)
+    k = v.js("window.labsimView.scene.columns.findIndex((c) => c.name === 'arm')")
+    drawn = v.js(f"window.LV_chart.history[0].cols[{k}]")
+    arm = rows.columns.index("arm")
+    assert drawn == [float(r[arm]) for r in rows.rows[:1001]]  # a step where it moved, flat where it held
+    v.shot("replay-crane-seek", "#chart")
+
+
+def test_a_second_tab_receives_the_run_so_far(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    first = v.js("window.LV_world.paths[0]")
+    second = v.another_page()
+    second.wait_for_function("window.LV_world.drawnTick !== null")
+    path = second.evaluate("window.LV_world.paths[0]")
+    assert len(first) > 50
+    assert len(path) >= len(first) and path[-1] == first[-1] and path[0] == first[0]
+    assert second.evaluate("window.LV_chart.history[0].t.length") >= 0.9 * v.js("window.LV_chart.history[0].t.length")
+    second.reload()  # a reload too
+    second.wait_for_function("window.LV_world.drawnTick !== null && window.LV_world.paths[0].length > 50")
+    assert second.evaluate("window.LV_world.paths[0]") == path
