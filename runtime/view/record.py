@@ -142,21 +142,27 @@ class TickRecorder(Watcher):
             kept.append((t, list(values), list(robot.program.slots)))
             if len(kept) > MAX_SAMPLES_KEPT:
                 del kept[::2]
-        if self.breaks and self.hit is None:
+        if self.breaks:
             self._check(robot, rule, values)
 
     def _check(self, robot: RobotRun, rule: int, values: list) -> None:
+        """Every breakpoint, every tick, for every robot: a condition must see each tick to know
+        when it becomes true, and two that hold on one tick are both named."""
         assert self._run is not None
         t, dt = self._run.tick_index, self._run.dt
-        for b in self.breaks:
-            if b.hit(robot, rule, values, t, dt):
-                # the state and rule of this tick (a goto takes effect on the next one)
-                p = self._run.program
-                state = int(robot.program.slots[STATE])
-                self.hit = {"tick": t, "time": round(t * dt, 9), "robot": robot.name, "what": b.spec,
-                            "state": p.state_names[state] if p.state_names else "",
-                            "rule": p.rules[rule].id if rule >= 0 else None}
-                return
+        fired = [b.spec for b in self.breaks if b.hit(robot, rule, values, t, dt)]
+        if not fired:
+            return
+        # the state and rule of this tick (a goto takes effect on the next one)
+        p = self._run.program
+        state = int(robot.program.slots[STATE])
+        mine = {"robot": robot.name, "what": fired, "state": p.state_names[state] if p.state_names else "",
+                "rule": p.rules[rule].id if rule >= 0 else None}
+        if self.hit is None or self.hit["tick"] != t:
+            self.hit = {"tick": t, "time": round(t * dt, 9), **mine, "what": " and ".join(fired), "fired": [mine]}
+        else:  # another robot, the same tick
+            fired_all: list = self.hit["fired"]  # type: ignore[assignment]
+            fired_all.append(mine)
 
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()

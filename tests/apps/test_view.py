@@ -501,10 +501,12 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
     s.handle({"type": "play"})
     s.catch_up(budget_s=1e9)
     hit = s.frame()["hit"]
-    assert hit["tick"] == turned and hit["state"] == rows.rows[turned][state] and not s.playing
-    assert s.tick == turned + 1
+    entered = turned + 1  # the first tick run in the new state
+    assert hit["tick"] == entered and hit["state"] == rows.rows[entered][state] == "follow" and not s.playing
+    assert s.frame()["robots"][0]["state"] == "follow"  # and the page shows it
+    assert s.tick == entered + 1
     s.handle({"type": "step"})
-    assert s.tick == turned + 2 and s.frame()["hit"] is None
+    assert s.tick == entered + 2 and s.frame()["hit"] is None
     s.handle({"type": "break", "add": "time:4"})
     s.handle({"type": "play"})
     s.catch_up(budget_s=1e9)
@@ -517,6 +519,25 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
         s.handle({"type": "break", "remove": 7})
     s.handle({"type": "break", "remove": 0})
     assert s.frame()["breakpoints"] == ["time:4"]
+    s.close()
+
+
+def test_two_breakpoints_on_one_tick_are_both_named_and_neither_is_late(tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    rows = read_trace(trace)
+    state = rows.columns.index("state")
+    entered = 1 + next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
+    at = f"time:{entered * 0.05:.2f}"
+    # a condition listed first, true from the same tick: before, it hid the state breakpoint
+    s = live(WALL, breaks=[at, "state:follow", "state == follow"])
+    s.handle({"type": "speed", "value": "max"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    hit = s.frame()["hit"]
+    assert hit["tick"] == entered and hit["what"] == f"{at} and state:follow and state == follow"
+    assert hit["fired"] == [{"robot": "pioneer", "what": [at, "state:follow", "state == follow"], "state": "follow",
+                             "rule": hit["rule"]}]
     s.close()
 
 

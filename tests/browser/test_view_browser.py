@@ -655,3 +655,23 @@ def test_a_second_tab_receives_the_run_so_far(view: Any) -> None:
     second.reload()  # a reload too
     second.wait_for_function("window.LV_world.drawnTick !== null && window.LV_world.paths[0].length > 50")
     assert second.evaluate("window.LV_world.paths[0]") == path
+
+
+def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_entered(view: Any,
+                                                                                     tmp_path: Path) -> None:
+    trace = _wall_trace(tmp_path)
+    rows = read_trace(trace)
+    state = rows.columns.index("state")
+    entered = next(int(b[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
+    assert rows.rows[entered][state] == "follow"
+    at = f"time:{entered * 0.05:.2f}"
+    v = view(["behaviours/wall_follow.yaml", "--break", at, "--break", "state:follow"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.hit !== null && window.labsimView.frame.playing === false", timeout_ms=30000)
+    v.wait(f"document.querySelector('#break-hit').textContent.includes('Paused on tick {entered}')")
+    text = v.page.inner_text("#break-hit")
+    assert text.startswith(f"Paused on tick {entered} (t = {entered * 0.05:.2f} s): {at} and state:follow — "
+                           "state follow, rule "), text
+    assert v.page.inner_text("#state") == "follow"
+    v.shot("breakpoint-two-on-one-tick", "#breaks-panel")

@@ -536,12 +536,15 @@ function renderBreaks(f) {
   }
   const hit = f.hit, box = $("break-hit");
   if (box.hidden !== !hit) box.hidden = !hit;
-  if (hit) {
-    const rule = hit.rule ? state.scene.rules.find((q) => q.id === hit.rule) : null;
-    box.textContent = `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${hit.what}` +
-      (state.scene.robots.length > 1 ? ` (${hit.robot})` : "") +
-      ` — state ${hit.state || "–"}, rule ${hit.rule ? `${hit.rule}: ${rule ? rule.text : ""}` : "(none fired)"}` +
-      ". Step goes on one tick, Play runs on.";
+  if (hit) {  // every breakpoint that held on that tick, each with its robot's state and rule then
+    const many = state.scene.robots.length > 1;
+    const parts = (hit.fired || [{ what: [hit.what], robot: hit.robot, state: hit.state, rule: hit.rule }]).map((f) => {
+      const rule = f.rule ? state.scene.rules.find((q) => q.id === f.rule) : null;
+      return f.what.join(" and ") + (many ? ` (${f.robot})` : "") + ` — state ${f.state || "–"}, rule ` +
+        (f.rule ? `${f.rule}: ${rule ? rule.text : ""}` : "(none fired)");
+    });
+    setText(box, `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${parts.join("; ")}. ` +
+                 "Step goes on one tick, Play runs on.");
   }
 }
 
