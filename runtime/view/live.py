@@ -41,6 +41,7 @@ from labsim.runtime.view.frames import (
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
 from labsim.runtime.view.history import History
 from labsim.runtime.view.observe import ObservedBackend
+from labsim.runtime.view.peaks import Sampler
 from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
@@ -127,6 +128,10 @@ class LiveSession(Session):
         self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
         self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
+        numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
+            [True] * len(program.slider_names)
+        self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
+        self.recorder.read, self.recorder.keep = self._sampler.read, self._sampler.keep
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
@@ -272,8 +277,8 @@ class LiveSession(Session):
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "values": values,
                 "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [],
-                "samples": [[round(t * dt, 9), *self._sample(rd, sl), *done]
-                            for t, rd, sl in rec.take_samples(r.index, per)] if take else [],
+                "samples": [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)]
+                if take else [],
             })
             if take:  # what this frame draws, for the pages that open later
                 doc = robots[-1]
@@ -303,19 +308,6 @@ class LiveSession(Session):
         values += [number(slots[s]) for s in self._lets]
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
-
-    def _sample(self, read: list, slots: list) -> list[float | str | None]:
-        """``_values`` for a chart sample, built for speed (a frame has hundreds of them):
-        four decimals, enough to draw."""
-        out: list[float | str | None] = []
-        for value in [read[i] if k < 0 else _part(read[i], k) for _, i, k in self._sensors] + \
-                [slots[s] for s in self._sample_slots]:
-            if type(value) is float and value - value == 0.0:  # finite
-                out.append(round(value, 4))
-            else:
-                n = number(value)
-                out.append(round(n, 4) if isinstance(n, float) else n)
-        return out
 
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed

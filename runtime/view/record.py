@@ -6,13 +6,14 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner), keeps the tick's readings and slots for the chart, and asks the breakpoints
+corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), and asks the breakpoints
 (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path`` and
 ``take_samples`` hand what was kept to the next frame and start again.
 """
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from labsim.dsl.support import STATE
 from labsim.runtime.observers import Watcher
@@ -21,7 +22,7 @@ from labsim.runtime.view.breaks import Breakpoint
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
-MAX_SAMPLES_KEPT = 1024  # per robot between two frames: beyond, every other one goes
+MAX_SAMPLES_KEPT = 16384  # per robot between two frames: beyond, every other one goes
 
 
 class PathThinner:
@@ -118,9 +119,8 @@ class TickRecorder(Watcher):
         self.paths = [PathThinner() for _ in xy]
         self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
-        self.stride = 1  # ticks between two samples kept: about twice what a frame sends
-        self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
-        self._taken = [0] * len(xy)  # per robot, the tick of the last take
+        self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
+        self.keep: Any = lambda _slots: ()  # (``labsim.runtime.view.peaks.Sampler`` sets both)
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -135,13 +135,11 @@ class TickRecorder(Watcher):
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
         assert self._run is not None
-        t = self._run.tick_index
-        if t >= self._next[i]:  # copying a tick's readings and slots costs: only the ticks a frame may send
-            self._next[i] = t + self.stride
-            kept = self.samples[i]
-            kept.append((t, list(values), list(robot.program.slots)))
-            if len(kept) > MAX_SAMPLES_KEPT:
-                del kept[::2]
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
+        kept = self.samples[i]
+        kept.append((self._run.tick_index, self.read(values), self.keep(robot.program.slots)))
+        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is open): every other one goes
+            del kept[::2]
         if self.breaks:
             self._check(robot, rule, values)
 
@@ -167,15 +165,7 @@ class TickRecorder(Watcher):
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()
 
-    def take_samples(self, robot: int, at_most: int) -> list[tuple[int, list, list]]:
-        """Up to ``at_most`` of the ticks kept since the last take, evenly spread, the last
-        tick left out (the frame itself shows it)."""
+    def take_samples(self, robot: int) -> list[tuple[int, tuple, tuple]]:
+        """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
         kept, self.samples[robot] = self.samples[robot][:-1], []
-        if self._run is not None:  # the next frame's ticks are like this one's: keep about 2 x at_most
-            t = self._run.tick_index
-            self.stride = max(1, (t - self._taken[robot]) // (2 * at_most))
-            self._taken[robot] = t
-        if len(kept) <= at_most:
-            return kept
-        step = len(kept) / at_most
-        return [kept[min(len(kept) - 1, int((k + 1) * step) - 1)] for k in range(at_most)]
+        return kept

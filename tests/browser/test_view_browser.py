@@ -675,3 +675,40 @@ def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_en
                            "state follow, rule "), text
     assert v.page.inner_text("#state") == "follow"
     v.shot("breakpoint-two-on-one-tick", "#breaks-panel")
+
+
+def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "line.csv"
+    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer")
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    t, steer = v.js("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'steer');"
+                    " return [c.history[0].t, c.history[0].cols[k]]; })()")
+    # steer flips sign about 15 times a simulated second, hundreds of ticks a frame at this speed:
+    # evenly spread picks drew slow pulses. A group of ticks is drawn as two rows, at its first
+    # tick its least value and at its last its greatest: the band the signal fills
+    v.shot("chart-envelope", "#chart")
+    v.close()  # the trace, complete, to compare with
+    rows = read_trace(trace)
+    k, dt = rows.columns.index("steer"), 0.02
+    by_tick = [float(r[k]) for r in rows.rows]
+    pairs = [(a, b) for a, b in zip(zip(t, steer), list(zip(t, steer))[1:]) if b[0] - a[0] > 2.5 * dt]
+    assert len(pairs) >= 10
+    bands = 0
+    for (t0, low), (t1, high) in pairs[-40:]:
+        ticks = by_tick[round(t0 / dt): round(t1 / dt) + 1]
+        assert abs(low - min(ticks)) < 1e-3 and abs(high - max(ticks)) < 1e-3, (t0, t1, low, high)
+        bands += low < 0 < high
+    assert bands >= 5
+    v = view(["behaviours/line_follow.yaml"], "?chart=steer,ahead")
+    v.page.click("#step")
+    v.page.click("#step")
+    v.wait("window.LV_chart.plot.axes.every((a) => a._values && a._values.filter((x) => x !== '').length >= 3)")
+    v.shot("chart-two-ticks", "#chart")
+    # a column with no number (an image, a record) has nothing to tick
+    assert v.js("[...document.querySelectorAll('#table input[type=checkbox]')].filter((b) => !b.hidden)"
+                ".every((b) => window.labsimView.scene.columns.find((c) => c.name === b.dataset.column)"
+                ".numeric !== false)")

@@ -247,6 +247,9 @@ function buildTable(scene) {
     const tr = body.insertRow();
     const box = document.createElement("input");
     box.type = "checkbox"; box.dataset.column = c.name;
+    if (c.numeric === false) {  // an image or a record: nothing to chart, so nothing to tick
+      box.disabled = true; box.hidden = true; tr.title = "not a number: nothing to chart";
+    }
     box.addEventListener("change", () => {
       chart.toggle(k, box.checked);
       state.chartNames = chart.picked.map((q) => scene.columns[q].name);
@@ -265,7 +268,8 @@ function pickChart(scene) {
     const wanted = new URLSearchParams(location.search).get("chart");
     state.chartNames = wanted ? wanted.split(",") : defaultChart(scene);
   }
-  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
+  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n))
+    .filter((k) => k >= 0 && scene.columns[k].numeric !== false);
   for (const k of picks) state.rows[k].box.checked = true;
   chart.setPicked(picks);
 }
@@ -376,7 +380,12 @@ function render() {
     setText($("state"), r.state || "–");
     const rule = scene.rules.find((q) => q.id === r.rule);
     setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
-    r.values.forEach((v, k) => { if (state.rows[k]) setText(state.rows[k].v, fmt(v)); });
+    // before the first tick a signal or a metric has no value yet (not 0): a dash, as the chart has none
+    const none = f.ran === 0 && scene.mode === "live";
+    r.values.forEach((v, k) => {
+      const g = scene.columns[k] && scene.columns[k].group;
+      if (state.rows[k]) setText(state.rows[k].v, none && (g === "signal" || g === "metric") ? "–" : fmt(v));
+    });
   }
   renderBreaks(f);
   if ("edited" in f) setText($("editor-state"), f.edited ? "applied, not saved" : "");
