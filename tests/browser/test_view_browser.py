@@ -150,7 +150,13 @@ def test_crane_slider_moves_the_arm_and_the_crane(view: Any) -> None:
     v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.5")  # the slider, within max_speed
     assert v.frame()["time"] - dragged_at <= 1.0
     # the page draws a frame on the next animation frame: wait for it rather than read at once
-    v.wait("document.querySelector('#sliders .slider .text').textContent === 'Arm Speed: 0.10'")
+    # the script's one label, shown once; each slider its own name and value
+    v.wait("[...document.querySelectorAll('#slider-labels .slider-label')].map((d) => d.textContent).join('|')"
+           " === 'Arm Speed: 0.10'")
+    names = v.js("[...document.querySelectorAll('#sliders .slider')].map((d) => [d.querySelector('.text')"
+                 ".textContent, d.querySelector('.value').textContent])")
+    assert [n for n, _ in names] == ["arm", "crab", "hoist"] and names[0][1] == "5"
+    assert v.page.inner_text("#sliders-panel").count("Arm Speed") == 1
     v.page.select_option("#speed", "5")
     v.wait("window.labsimView.frame.time >= 6")
     after = v.shot("crane-after", "#world")
@@ -712,3 +718,27 @@ def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(vie
     assert v.js("[...document.querySelectorAll('#table input[type=checkbox]')].filter((b) => !b.hidden)"
                 ".every((b) => window.labsimView.scene.columns.find((c) => c.name === b.dataset.column)"
                 ".numeric !== false)")
+
+
+def test_slider_keys_while_playing_all_count_and_each_move_is_recorded_once(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "crane.csv"
+    v = view(["behaviours/crane.yaml", "--trace", str(trace)])
+    scene = v.js("window.labsimView.scene")
+    arm = next(s for s in scene["sliders"] if s["name"] == "arm")
+    step = (arm["max"] - arm["min"]) / 200
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 5")
+    start = v.js("Number(document.querySelector('input[data-name=\"arm\"]').value)")
+    v.page.focus('input[data-name="arm"]')
+    for _ in range(10):
+        v.page.keyboard.press("ArrowRight")
+        v.page.wait_for_timeout(60)
+    want = start + 10 * step
+    v.wait(f"Math.abs(window.labsimView.frame.sliders.arm - {want}) < 1e-9", timeout_ms=8000)
+    v.page.wait_for_timeout(1000)  # frames from before the keys no longer move it back
+    assert abs(v.js("Number(document.querySelector('input[data-name=\"arm\"]').value)") - want) < 1e-9
+    v.page.click("#play")  # pause
+    v.close()
+    rows = read_trace(trace)
+    events = [e for r in rows.rows for e in r[rows.columns.index("events")].split(";") if "arm" in e]
+    assert events and all(a != b for a, b in zip(events, events[1:])), events  # no move recorded twice

@@ -4,6 +4,7 @@
 "use strict";
 const $ = (id) => document.getElementById(id);
 const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
+                sentValue: {}, touched: {},
                 chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [],
                 // the page's own cost, ms, summed over the frames (benchmarks/bench_view_browser.py reads it)
                 cost: { parse: 0, frame: 0, draw: 0, chart: 0, draws: 0, charts: 0 }, chartAt: -Infinity };
@@ -177,27 +178,40 @@ function buildSliders(scene) {
     const input = document.createElement("input");
     Object.assign(input, { type: "range", min: s.min, max: s.max, step: (s.max - s.min) / 200, value: s.value });
     input.dataset.name = s.name;
-    input.dataset.label = s.label || s.name;  // a label several sliders share shows by each
     input.setAttribute("aria-label", s.name);
     input.addEventListener("pointerdown", () => { state.dragging = s.name; });
     input.addEventListener("pointerup", () => { state.dragging = null; });
-    input.addEventListener("input", () => {  // the value follows the thumb, not the next frame
+    input.addEventListener("input", () => {  // the value follows the thumb (or the keys), not the next frame
+      state.touched[s.name] = performance.now();
       div.querySelector(".value").textContent = fmt(Number(input.value));
       moveSlider(s.name, Number(input.value));
     });
+    // the last value, once let go: only when it was not sent already (one event in the trace, not two)
     input.addEventListener("change", () => { moveSlider(s.name, Number(input.value), true); state.dragging = null; });
     div.appendChild(input);
-    div.querySelector(".text").textContent = s.name;
+    div.querySelector(".text").textContent = s.name;  // its own name; its value beside it
     box.appendChild(div);
+  }
+  // the labels the sliders show, each once, as the script words it (the crane's three share one)
+  const labels = [...new Set(scene.sliders.map((s) => s.label).filter((l) => l))];
+  const list = $("slider-labels");
+  list.innerHTML = "";
+  for (const l of labels) {
+    const d = document.createElement("div");
+    d.className = "slider-label"; d.dataset.label = l;
+    list.appendChild(d);
   }
 }
 
 function moveSlider(name, value, force) {  // at most 20 messages a second while dragging
   const now = performance.now(), last = state.sent[name] || 0;
   clearTimeout(state.sent[name + ":t"]);
-  if (force || now - last > 50) { state.sent[name] = now; send({ type: "slider", name, value }); }
-  else state.sent[name + ":t"] = setTimeout(() => moveSlider(name, value, true), 50 - (now - last));
+  if (force && state.sentValue[name] === value) return;  // sent already: the trace records a move once
+  if (force || now - last > 50) {
+    state.sent[name] = now; state.sentValue[name] = value; send({ type: "slider", name, value });
+  } else state.sent[name + ":t"] = setTimeout(() => moveSlider(name, value, true), 50 - (now - last));
 }
+const TOUCHED_MS = 800;  // a slider moved here is the page's for this long: a frame from before it does not undo it
 
 function buildParams(scene) {
   const form = $("params");
@@ -370,11 +384,13 @@ function render() {
   setText($("scrub-time"), scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "");
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    setText(div.querySelector(".text"), f.labels[input.dataset.label] || n);
-    if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
+    // the thumb and its value are the student's until let go, and a moment after a key moved it
+    // (a frame built before the move came would put it back, and the next key step from there)
+    if (state.dragging === n || performance.now() - (state.touched[n] || -1e9) < TOUCHED_MS) continue;
     if (n in f.sliders) input.value = f.sliders[n];
     setText(div.querySelector(".value"), n in f.sliders ? fmt(f.sliders[n]) : "");
   }
+  for (const d of $("slider-labels").children) setText(d, f.labels[d.dataset.label] || "");
   const r = f.robots[state.robot];
   if (r) {
     setText($("state"), r.state || "–");
