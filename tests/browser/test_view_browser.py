@@ -742,3 +742,37 @@ def test_slider_keys_while_playing_all_count_and_each_move_is_recorded_once(view
     rows = read_trace(trace)
     events = [e for r in rows.rows for e in r[rows.columns.index("events")].split(";") if "arm" in e]
     assert events and all(a != b for a, b in zip(events, events[1:])), events  # no move recorded twice
+
+
+def test_the_page_says_when_the_run_ended_and_when_the_server_stopped(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=0.1"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("!document.querySelector('#ended').hidden", timeout_ms=30000)
+    assert v.page.inner_text("#ended") == "The run has ended at t = 5.95 s (its stop condition held). Restart runs it again."
+    assert v.js("['play', 'step', 'speed'].map((id) => document.getElementById(id).disabled)") == [True] * 3
+    assert not v.js("document.getElementById('restart').disabled")
+    v.shot("view-ended")
+    v.proc.send_signal(signal.SIGINT)  # a clean end: the server says goodbye
+    v.wait("document.querySelector('#ended').textContent.startsWith('labsim view has stopped')")
+    assert v.page.inner_text("#status") == "stopped"
+    # what would send something is off (Edit file still shows the file)
+    disabled = v.js("[...document.querySelectorAll('#play, #step, #restart, #speed, #apply, #save, #params input, "
+                    "#break-form button, #break-form input')].map((e) => [e.id || e.tagName, e.disabled])")
+    assert len(disabled) >= 8 and all(d for _, d in disabled), disabled
+    v.shot("view-stopped")
+    v.page.wait_for_timeout(2500)
+    assert v.js("window.labsimView.ws.readyState") == 3 and not v.js("window.labsimView.retries")  # no knocking
+    v.proc.communicate(timeout=20)
+
+
+def test_a_lost_server_is_retried_with_back_off(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.proc.kill()  # no goodbye: the connection is just gone
+    v.proc.communicate(timeout=20)
+    v.wait("document.querySelector('#ended').textContent.includes('Trying again in 1 s (attempt 1)')")
+    v.wait("document.querySelector('#ended').textContent.includes('Trying again in 2 s (attempt 2)')")
+    v.wait("document.querySelector('#ended').textContent.includes('Trying again in 4 s (attempt 3)')",
+           timeout_ms=10000)
+    assert v.js("document.getElementById('play').disabled")
+    v.proc.returncode = 130  # ended here on purpose: the fixture has nothing to stop
