@@ -749,7 +749,8 @@ def test_the_page_says_when_the_run_ended_and_when_the_server_stopped(view: Any)
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("!document.querySelector('#ended').hidden", timeout_ms=30000)
-    assert v.page.inner_text("#ended") == "The run has ended at t = 5.95 s (its stop condition held). Restart runs it again."
+    assert v.page.inner_text("#ended") == ("The run has ended at t = 5.95 s (its stop condition held). "
+                                           "Restart runs it again.")
     assert v.js("['play', 'step', 'speed'].map((id) => document.getElementById(id).disabled)") == [True] * 3
     assert not v.js("document.getElementById('restart').disabled")
     v.shot("view-ended")
