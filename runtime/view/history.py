@@ -19,6 +19,7 @@ from labsim.runtime.view.frames import Json, message
 
 MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
+MAX_HITS = 2000  # collision marks a history sends per robot (the latest)
 
 Row = list  # [time, value, ...]: a value is a float, "inf", "-inf" or None
 
@@ -73,6 +74,7 @@ class History:
     def __init__(self, robots: int):
         self.paths: list[list[list | None]] = [[] for _ in range(robots)]
         self.rows: list[list[Row]] = [[] for _ in range(robots)]
+        self.hits: list[list] = [[] for _ in range(robots)]  # where each collision began
 
     def add(self, robot: int, path: list, rows: list[Row]) -> None:
         p = self.paths[robot]
@@ -88,4 +90,5 @@ class History:
             self.rows[robot] = [e for k in range(0, len(r), 4) for e in envelope(r[k:k + 4])]
 
     def doc(self, tick: int) -> Json:
-        return message("history", tick=tick, robots=[{"path": p, "samples": r} for p, r in zip(self.paths, self.rows)])
+        return message("history", tick=tick, robots=[{"path": p, "samples": r, "hits": h[-MAX_HITS:]}
+                                                     for p, r, h in zip(self.paths, self.rows, self.hits)])

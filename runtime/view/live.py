@@ -117,7 +117,7 @@ class LiveSession(Session):
         self.run = run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
-        self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
+        self.recorder.start([(at["x"], at["y"], at["collided"]) if r.model is not None else None
                              for r, at in zip(self.run.robots, self.observed.index)], self.observed.last)
         self.pacer.dt_s = program.dt_s
         self.history_kept = History(len(run.robots))
@@ -136,6 +136,8 @@ class LiveSession(Session):
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
                          if r.model is not None else [] for r in self.run.robots]
+        self._ground = [[program.channels.index(g.name) for g in r.model.ground_sensors if g.name in program.channels]
+                        if r.model is not None else [] for r in self.run.robots]
 
     @property
     def tick(self) -> int:
@@ -275,13 +277,18 @@ class LiveSession(Session):
                 "state": p.state_names[self._state_of(r.index, slots)] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
+                "ground": [number(read[i]) if read is not None else None for i in self._ground[r.index]],
+                "collisions": rec.collisions[r.index],
+                "hits": [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else [],
                 "values": values,
                 "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [],
                 "samples": [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)]
                 if take else [],
             })
             if take:  # what this frame draws, for the pages that open later
+                rec.hits[r.index] = []
                 doc = robots[-1]
+                self.history_kept.hits[r.index] += doc["hits"]
                 pose = doc["pose"]
                 self.history_kept.add(r.index, doc["path"] + ([pose[:2]] if pose is not None else []),
                                       doc["samples"] + ([[round(self.shown_tick * dt, 9), *values]]

@@ -103,7 +103,7 @@ class TickRecorder(Watcher):
     one hook a tick for everything the view keeps, as each robot acts."""
 
     def __init__(self) -> None:
-        self.xy: list[tuple[int, int] | None] = []
+        self.xy: list[tuple[int, ...] | None] = []
         self.paths: list[PathThinner] = []
         self.samples: list[list[tuple[int, list, list]]] = []
         self.breaks: list[Breakpoint] = []
@@ -111,12 +111,15 @@ class TickRecorder(Watcher):
         self._run: RunState | None = None
         self.last: list = []
 
-    def start(self, xy: list[tuple[int, int] | None], last: list) -> None:
-        """``xy[i]``: where robot i's x and y sit in its readings (None: a mechanism, no path);
+    def start(self, xy: list[tuple[int, ...] | None], last: list) -> None:
+        """``xy[i]``: where robot i's x, y and collided sit in its readings (None: a mechanism, no path);
         ``last[i]`` gets robot i's readings each tick."""
         self.xy = xy
         self.last = last
         self.paths = [PathThinner() for _ in xy]
+        self.touching = [False] * len(xy)  # per robot, whether it collided on the last tick
+        self.collisions = [0] * len(xy)  # collisions begun so far
+        self.hits: list[list[tuple[float, float]]] = [[] for _ in xy]  # where, since the last frame
         self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
@@ -134,6 +137,12 @@ class TickRecorder(Watcher):
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
+            c = bool(values[xy[2]]) if len(xy) > 2 else False
+            if c is not self.touching[i]:  # a collision begins (or ends): its place, for the page's mark
+                self.touching[i] = c
+                if c:
+                    self.collisions[i] += 1
+                    self.hits[i].append((values[xy[0]], values[xy[1]]))
         assert self._run is not None
         # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
         kept = self.samples[i]

@@ -11,6 +11,7 @@ says so rather than draw them where they were not.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from pathlib import Path
 from typing import Any
@@ -113,7 +114,28 @@ class ReplaySession(Session):
                     chart.append([round(k * self.dt_s, 9), *(_num(row, self._i, c) for c in self.numeric)])
                 out.append((points, chart))
             self._series = out
+            # each robot's collisions: the tick each began and where (the page marks them, and counts)
+            self._onsets = []
+            for name, (points, _) in zip(self.robot_names, out):
+                onsets: list[tuple[int, list]] = []
+                was = False
+                for tick, rows in enumerate(self.rows):
+                    row = rows.get(name)
+                    now = row is not None and _num(row, self._i, "collided") == 1.0
+                    if now and not was and points[tick] is not None:
+                        onsets.append((tick, points[tick]))
+                    was = now
+                self._onsets.append(onsets)
         return self._series
+
+    _onsets: list[list[tuple[int, list]]] = []
+
+    def _hits(self, robot: int, after: int, upto: int) -> tuple[int, list]:
+        """Collisions begun by ``upto`` (a count) and the places of those after ``after``."""
+        self.series()
+        onsets = self._onsets[robot]
+        ticks = [t for t, _ in onsets]
+        return bisect.bisect_right(ticks, upto), [p for t, p in onsets if after < t <= upto]
 
     def history(self) -> Json:
         """The rows before the one shown, as playing to it would have drawn them (bounded)."""
@@ -125,7 +147,7 @@ class ReplaySession(Session):
             stride = max(1, math.ceil(upto / MAX_POINTS))
             path = points[:upto:stride]
             rows = downsample([r for r in chart[:upto] if r is not None], MAX_ROWS)
-            robots.append({"path": path, "samples": rows})
+            robots.append({"path": path, "samples": rows, "hits": self._hits(len(robots), -1, upto)[1]})
         return message("history", tick=self.position, robots=robots)
 
     def scene(self) -> Json:
@@ -148,6 +170,7 @@ class ReplaySession(Session):
         robots: list[Json | None] = []
         # the rows since the last frame: their path points and chart rows (a jump sent a history)
         since = self._sent + 1 if take and self._sent < self.position else self.position
+        last = since - 1 if take and self._sent < self.position else self.position  # the row the page saw last
         if take:
             self._sent = self.position
         series = self.series() if since < self.position else None
@@ -157,6 +180,8 @@ class ReplaySession(Session):
                 robots.append(None)
                 continue
             between: Json = {}
+            count, hits = self._hits(k, last, self.position)
+            between["collisions"], between["hits"] = count, hits
             if series is not None:
                 points, chart = series[k]
                 thin = PathThinner()
@@ -168,7 +193,7 @@ class ReplaySession(Session):
                 path = [[x, y] if x == x else None for x, y in thin.take()]
                 if thin._last is not None:
                     path.append(list(thin._last))
-                between = {"path": path,
+                between |= {"path": path,
                            "samples": downsample([r for r in chart[since:self.position] if r is not None],
                                                  FRAME_ROWS)}
             model = MODELS.get(str(self.models.get(n)))
@@ -180,6 +205,8 @@ class ReplaySession(Session):
                 "rule": (row[self._i["rule"]] or None) if "rule" in self._i else None,
                 "sonars": [_num(row, self._i, s) for s in sonars],
                 "values": [_num(row, self._i, c) for c in self.numeric],
+                "ground": [_num(row, self._i, g.name) for g in model.ground_sensors if g.name in self._i]
+                if model else [],
                 **between,
             })
         first = next(iter(rows.values()), None)

@@ -777,3 +777,34 @@ def test_a_lost_server_is_retried_with_back_off(view: Any) -> None:
            timeout_ms=10000)
     assert v.js("document.getElementById('play').disabled")
     v.proc.returncode = 130  # ended here on purpose: the fixture has nothing to stop
+
+
+def test_an_epuck_is_drawn_to_scale_with_its_ground_sensors(view: Any) -> None:
+    v = view(["behaviours/line_follow.yaml"])
+    v.page.click("#step")
+    v.wait("window.LV_world.drawnTick === 0 && window.LV_world.marks.length === 1")
+    scene = v.js("window.labsimView.scene")
+    reach = scene["robots"][0]["reach"]
+    assert reach == pytest.approx(0.035, abs=0.003)
+    v.js("window.LV_world.scale = 2000; window.LV_world.cx = window.labsimView.frame.robots[0].pose[0];"
+         " window.LV_world.cy = window.labsimView.frame.robots[0].pose[1]; window.LV_world.draw()")
+    marks = v.js("window.LV_world.marks[0]")
+    assert marks["reach"] == pytest.approx(reach * 2000, rel=0.01)  # 7 cm across, at this zoom 140 px
+    assert marks["nose"] == pytest.approx(1.5 * reach * 2000, rel=0.01)  # not 0.35 m, ten times the robot
+    assert marks["ground"] == 3 == len(v.frame()["robots"][0]["ground"])
+    img = v.shot("epuck-close", "#world")
+    # the ground sensors are squares the grey of their readings, ringed orange
+    orange = (np.abs(img.astype(int) - np.array([14, 127, 255])).sum(axis=2) < 60).sum()
+    assert orange > 30
+
+
+def test_collisions_are_marked_on_the_path_and_counted(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=2"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.finished === true", timeout_ms=60000)
+    count = v.frame()["robots"][0]["collisions"]
+    assert count > 0
+    v.wait(f"document.getElementById('hits').textContent === '{count}'")
+    v.wait(f"window.LV_world.marks[0].hits === {count}")
+    v.shot("collisions", "#world")

@@ -310,7 +310,7 @@ function defaultChart(scene) {
 // replay's seek, as the frames up to there would have drawn it; it replaces what was drawn ----
 function onHistory(h) {
   if (!state.scene || !state.scene.ok) return;
-  world.setHistory(h.robots.map((r) => r.path));
+  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits));
   chart.setHistory(h.robots.map((r) => r.samples));
   state.history = h;
 }
@@ -394,6 +394,7 @@ function render() {
   const r = f.robots[state.robot];
   if (r) {
     setText($("state"), r.state || "–");
+    setText($("hits"), r.collisions === undefined ? "–" : String(r.collisions));
     const rule = scene.rules.find((q) => q.id === r.rule);
     setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
     // before the first tick a signal or a metric has no value yet (not 0): a dash, as the chart has none
