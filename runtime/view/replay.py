@@ -65,6 +65,7 @@ class ReplaySession(Session):
         self._mechanism_layout()
         self._sent = -1  # the row the last frame showed: the next carries the rows after it
         self._series: list[tuple[list, list]] | None = None  # per robot: every tick's [x, y] and chart row
+        self._onsets: list[list[tuple[int, list]]] = []  # per robot: (tick, [x, y]) where each collision began
 
     @property
     def tick(self) -> int:
@@ -127,8 +128,6 @@ class ReplaySession(Session):
                     was = now
                 self._onsets.append(onsets)
         return self._series
-
-    _onsets: list[list[tuple[int, list]]] = []
 
     def _hits(self, robot: int, after: int, upto: int) -> tuple[int, list]:
         """Collisions begun by ``upto`` (a count) and the places of those after ``after``."""
