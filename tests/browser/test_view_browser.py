@@ -786,7 +786,7 @@ def test_an_epuck_is_drawn_to_scale_with_its_ground_sensors(view: Any) -> None:
     scene = v.js("window.labsimView.scene")
     reach = scene["robots"][0]["reach"]
     assert reach == pytest.approx(0.035, abs=0.003)
-    v.js("window.LV_world.scale = 2000; window.LV_world.cx = window.labsimView.frame.robots[0].pose[0];"
+    v.js("window.LV_world.moved = true; window.LV_world.scale = 2000; window.LV_world.cx = window.labsimView.frame.robots[0].pose[0];"
          " window.LV_world.cy = window.labsimView.frame.robots[0].pose[1]; window.LV_world.draw()")
     marks = v.js("window.LV_world.marks[0]")
     assert marks["reach"] == pytest.approx(reach * 2000, rel=0.01)  # 7 cm across, at this zoom 140 px
@@ -808,3 +808,39 @@ def test_collisions_are_marked_on_the_path_and_counted(view: Any) -> None:
     v.wait(f"document.getElementById('hits').textContent === '{count}'")
     v.wait(f"window.LV_world.marks[0].hits === {count}")
     v.shot("collisions", "#world")
+
+
+def _box(page: Any, selector: str) -> dict:
+    return page.locator(selector).bounding_box()
+
+
+def test_layout_at_390_px_stacks_the_panels_under_a_world_you_can_see(view: Any) -> None:
+    v = view(["behaviours/wall_follow.yaml"])
+    v.page.set_viewport_size({"width": 390, "height": 844})
+    v.page.wait_for_timeout(300)
+    world, aside = _box(v.page, "#world"), _box(v.page, "aside")
+    assert world["width"] >= 350 and world["height"] >= 220, world
+    assert aside["y"] >= world["y"] + world["height"] and aside["width"] >= 350, aside  # under it, full width
+    assert v.js("document.documentElement.scrollWidth") <= 400  # nothing sideways
+    robot = v.js("window.LV_world.drawn[0]")  # the world fitted to the new size: the robot in sight
+    assert 0 <= robot[0] <= world["width"] and 0 <= robot[1] <= world["height"], robot
+    chart = _box(v.page, ".chart-panel")
+    legend = _box(v.page, "#chart .u-legend")
+    assert legend["y"] + legend["height"] <= chart["y"] + chart["height"] + 1  # the legend inside its panel
+    v.shot("layout-390")
+
+
+def test_layout_at_1280x800_shows_sliders_chart_and_editor_together(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"], "?chart=swing,tension")
+    v.page.set_viewport_size({"width": 1280, "height": 800})
+    v.page.click("#edit")
+    for name in ("crab_x", "load_x", "rope"):  # tick signals far down the table
+        box = v.page.locator(f'#table input[data-column="{name}"]')
+        box.scroll_into_view_if_needed()
+        box.check()
+    v.page.wait_for_timeout(300)
+    for selector in ("#sliders-panel", "#chart", "#editor-panel", "#world"):
+        b = _box(v.page, selector)
+        assert b["y"] >= 0 and b["y"] + b["height"] <= 800 and b["height"] > 100, (selector, b)
+    assert _box(v.page, "#world")["height"] >= 140
+    v.shot("layout-1280x800")

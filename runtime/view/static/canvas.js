@@ -46,7 +46,9 @@ LV.WorldView = class {
     this.backdrop = document.createElement("canvas");
     this.backdropKey = null;
     this._pointer();
-    new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
+    // a new size (a window turned, a panel opened) fits the world again, unless the view was moved by hand
+    this.moved = false;
+    new ResizeObserver(() => { if (this.moved) { this._resize(); this.draw(); } else this.fit(); }).observe(canvas);
   }
 
   setScene(scene) {
@@ -106,7 +108,7 @@ LV.WorldView = class {
 
   fit() {
     const [x0, y0, x1, y1] = this.bounds();
-    this._measure();
+    this._resize();
     const w = this.w || 600, h = this.h || 400;
     this.scale = Math.min(w / ((x1 - x0) * 1.08), h / ((y1 - y0) * 1.08));
     this.cx = (x0 + x1) / 2; this.cy = (y0 + y1) / 2;
@@ -153,6 +155,7 @@ LV.WorldView = class {
         this.draw(); return;
       }
       this.cx = drag.cx - dx / this.scale; this.cy = drag.cy + dy / this.scale;
+      this.moved = true;
       this.draw();
     });
     c.addEventListener("pointerup", (e) => {
@@ -182,9 +185,10 @@ LV.WorldView = class {
       this.scale = Math.min(5000, Math.max(0.5, this.scale));
       const [nx, ny] = this.toWorld(e.offsetX, e.offsetY);
       this.cx += wx - nx; this.cy += wy - ny;
+      this.moved = true;
       this.draw();
     }, { passive: false });
-    c.addEventListener("dblclick", () => this.fit());
+    c.addEventListener("dblclick", () => { this.moved = false; this.fit(); });
   }
 
   _robotAt(px, py) {  // the robot drawn under a point of the canvas, or -1
