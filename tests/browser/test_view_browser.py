@@ -535,6 +535,12 @@ def test_the_editor_shows_errors_inline_keeps_the_run_and_restarts_on_a_fix(view
     v.wait("window.labsimView.frame && window.labsimView.frame.tick < 20 && window.labsimView.scene.stop_s === 60")
     assert v.js("document.querySelectorAll('#problems li').length") == 0
     v.shot("editor")
+    asked: list[str] = []
+    v.page.once("dialog", lambda d: (asked.append(d.message), d.dismiss()))
+    v.page.click("#save")  # asked first: Cancel writes nothing
+    v.page.wait_for_timeout(300)
+    assert asked == [f"Save over {lab}? The file on disk is replaced by this text."] and lab.read_text() == text
+    v.page.once("dialog", lambda d: d.accept())
     v.page.click("#save")
     v.wait("document.querySelector('#editor-state').textContent === ''")
     assert lab.read_text() == text.replace("minutes: 25", "minutes: 1")
@@ -786,8 +792,9 @@ def test_an_epuck_is_drawn_to_scale_with_its_ground_sensors(view: Any) -> None:
     scene = v.js("window.labsimView.scene")
     reach = scene["robots"][0]["reach"]
     assert reach == pytest.approx(0.035, abs=0.003)
-    v.js("window.LV_world.moved = true; window.LV_world.scale = 2000; window.LV_world.cx = window.labsimView.frame.robots[0].pose[0];"
-         " window.LV_world.cy = window.labsimView.frame.robots[0].pose[1]; window.LV_world.draw()")
+    v.js("window.LV_world.moved = true; window.LV_world.scale = 2000;"
+         " const p = window.labsimView.frame.robots[0].pose;"
+         " window.LV_world.cx = p[0]; window.LV_world.cy = p[1]; window.LV_world.draw()")
     marks = v.js("window.LV_world.marks[0]")
     assert marks["reach"] == pytest.approx(reach * 2000, rel=0.01)  # 7 cm across, at this zoom 140 px
     assert marks["nose"] == pytest.approx(1.5 * reach * 2000, rel=0.01)  # not 0.35 m, ten times the robot

@@ -528,6 +528,8 @@ $("apply").addEventListener("click", () => {
   send({ type: "apply", text: $("source").value });
 });
 $("save").addEventListener("click", () => {
+  // it replaces the student's file on disk: asked first, as an editor asks before overwriting
+  if (!window.confirm(`Save over ${state.scene.path}? The file on disk is replaced by this text.`)) return;
   notice("");
   send({ type: "save", text: $("source").value });
   state.saved = $("source").value;
