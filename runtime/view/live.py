@@ -271,28 +271,29 @@ class LiveSession(Session):
             done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
+            pose = self._pose(r.index, r.start) if r.model is not None else None
+            hits: list = [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else []
+            path: list = [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else []
+            samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
+                if take else []
             robots.append({
-                "pose": self._pose(r.index, r.start) if r.model is not None else None,
+                "pose": pose,
                 "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
                 "state": p.state_names[self._state_of(r.index, slots)] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "ground": [number(read[i]) if read is not None else None for i in self._ground[r.index]],
                 "collisions": rec.collisions[r.index],
-                "hits": [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else [],
+                "hits": hits,
                 "values": values,
-                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [],
-                "samples": [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)]
-                if take else [],
+                "path": path,
+                "samples": samples,
             })
             if take:  # what this frame draws, for the pages that open later
                 rec.hits[r.index] = []
-                doc = robots[-1]
-                self.history_kept.hits[r.index] += doc["hits"]
-                pose = doc["pose"]
-                self.history_kept.add(r.index, doc["path"] + ([pose[:2]] if pose is not None else []),
-                                      doc["samples"] + ([[round(self.shown_tick * dt, 9), *values]]
-                                                        if self.ran else []))
+                self.history_kept.hits[r.index] += hits
+                self.history_kept.add(r.index, path + ([pose[:2]] if pose is not None else []),
+                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []))
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old

@@ -105,7 +105,7 @@ class TickRecorder(Watcher):
     def __init__(self) -> None:
         self.xy: list[tuple[int, ...] | None] = []
         self.paths: list[PathThinner] = []
-        self.samples: list[list[tuple[int, list, list]]] = []
+        self.samples: list[list[tuple[int, tuple, tuple]]] = []
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None

@@ -141,7 +141,7 @@ class ReplaySession(Session):
         self.jumped = False
         self._sent = self.position
         upto = self.position
-        robots = []
+        robots: list[Json] = []
         for points, chart in self.series():
             stride = max(1, math.ceil(upto / MAX_POINTS))
             path = points[:upto:stride]

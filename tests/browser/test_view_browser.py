@@ -851,3 +851,20 @@ def test_layout_at_1280x800_shows_sliders_chart_and_editor_together(view: Any) -
         assert b["y"] >= 0 and b["y"] + b["height"] <= 800 and b["height"] > 100, (selector, b)
     assert _box(v.page, "#world")["height"] >= 140
     v.shot("layout-1280x800")
+
+
+def test_the_readme_and_docs_screenshots_are_taken_from_the_page_as_it_is(browser: Any) -> None:
+    """tests/browser/view_screenshots.py, into the artifacts: the README's and docs' pictures
+    of the view are made by a script the browser stage runs, never by hand."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("view_screenshots", Path(__file__).with_name("view_screenshots.py"))
+    assert spec is not None and spec.loader is not None
+    shots = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(shots)
+    written = shots.take(browser, ARTIFACTS / "screenshots")
+    assert [p.name for p in written] == ["view-crane.png", "view-road.png", "view-wall.png", "view-breakpoint.png",
+                                         "view-editor.png"]
+    for path in written:
+        img = cv2.imread(str(path))
+        assert img is not None and img.shape[:2] == (860, 1400) and img.std() > 10, path
