@@ -368,7 +368,7 @@ LV.WorldView = class {
       // the heading mark: half as far again as the robot reaches (an e-puck's 5 cm, a Pioneer's 32)
       const nose = local(Math.max(1.5 * (robot.reach || 0.2), 1.4 * tiny), 0);
       this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = Math.min(2, Math.max(1, robot.reach * this.scale / 4)); ctx.stroke();
-      this._ground(robot, r, local);
+      this._groundSensors(robot, r, local);
       // what was drawn, in CSS pixels (the browser tests read it)
       this.marks[i] = { reach: Math.max(...outline.map((q) => Math.hypot(q[0], q[1]))) * this.scale,
                         nose: Math.hypot(...[0, 1].map((k) => this.toPx(...nose)[k] - this.toPx(x, y)[k])),
@@ -417,7 +417,7 @@ LV.WorldView = class {
 
   // the ground sensors the behaviour reads, at their mounts: a square the grey of its reading
   // (0 black floor, 1 white), ringed in orange so that it shows on either
-  _ground(robot, r, local) {
+  _groundSensors(robot, r, local) {
     const ctx = this.ctx, side = Math.max(5, 0.008 * this.scale);
         (robot.ground || []).forEach((g, k) => {
       const v = r.ground ? r.ground[k] : null, [px, py] = this.toPx(...local(g.x, g.y));
