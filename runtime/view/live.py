@@ -363,38 +363,46 @@ class LiveSession(Session):
         return out if out["camera"] or out["derived"] else None
 
     # -- messages -------------------------------------------------------------------------
-    def handle_other(self, kind: str, msg: dict) -> bool:
-        if kind == "slider":
-            self._slider(msg)
-            return False
-        if kind == "params":
-            return self._params(msg)
-        if kind == "timeline":
-            on = msg.get("on")
-            if not isinstance(on, bool):
-                raise BadMessage("'on' must be true or false")
-            self.timeline = on
-            return self.load()
-        if kind == "recheck":
-            self.load()
-            return True
-        if kind == "break":
-            self._break(msg)
-            return False
-        if kind == "place":
-            self._need_run()
-            assert self.run is not None
-            robot, x, y = place_message(self.run, msg)
-            self.recorder.paths[robot].jump(x, y)
-            return False
-        if kind == "block":
-            self._need_run()
-            assert self.run is not None
-            block_message(self.run, msg)
-            return False
-        if kind in ("apply", "save"):
-            return self._edit(kind, msg)
-        raise BadMessage(f"unknown message type '{kind}'")
+    def on_slider(self, msg: dict) -> bool:
+        self._slider(msg)
+        return False
+
+    def on_params(self, msg: dict) -> bool:
+        return self._params(msg)
+
+    def on_timeline(self, msg: dict) -> bool:
+        on = msg.get("on")
+        if not isinstance(on, bool):
+            raise BadMessage("'on' must be true or false")
+        self.timeline = on
+        return self.load()
+
+    def on_recheck(self, msg: dict) -> bool:
+        self.load()
+        return True
+
+    def on_break(self, msg: dict) -> bool:
+        self._break(msg)
+        return False
+
+    def on_place(self, msg: dict) -> bool:
+        self._need_run()
+        assert self.run is not None
+        robot, x, y = place_message(self.run, msg)
+        self.recorder.paths[robot].jump(x, y)
+        return False
+
+    def on_block(self, msg: dict) -> bool:
+        self._need_run()
+        assert self.run is not None
+        block_message(self.run, msg)
+        return False
+
+    def on_apply(self, msg: dict) -> bool:
+        return self._edit("apply", msg)
+
+    def on_save(self, msg: dict) -> bool:
+        return self._edit("save", msg)
 
     def _need_run(self) -> None:
         if self.run is None:

@@ -260,16 +260,14 @@ class ReplaySession(Session):
                 (px, pz), (cx, cz) = centre[j.parent], centre[j.child]
                 self._mech_fixed.append((j.parent, j.child, cx - px, cz - pz))
 
-    def handle_other(self, kind: str, msg: dict) -> bool:
-        if kind == "seek":
-            t = msg.get("tick")
-            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-                raise BadMessage("'tick' must be a number")
-            self.seek(int(t))
-            return False
-        if kind in ("slider", "params", "timeline", "recheck"):
-            raise BadMessage(f"a replayed trace takes no '{kind}' messages")
-        raise BadMessage(f"unknown message type '{kind}'")
+    mode = "replay"
+
+    def on_seek(self, msg: dict) -> bool:
+        t = msg.get("tick")
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise BadMessage("'tick' must be a number")
+        self.seek(int(t))
+        return False
 
 
 def _num(row: list[str], index: dict[str, int], column: str) -> float | str | None:

@@ -644,3 +644,28 @@ def test_a_frame_shows_the_tick_the_trace_has_a_row_for(tmp_path: Path) -> None:
                 continue
             value, recorded = sample[1 + sonar5], by_tick[tick][col["sonar5"]]
             assert value == recorded if isinstance(value, str) else abs(float(recorded) - value) < 1e-3
+
+
+def test_every_message_a_page_sends_is_in_one_table_and_in_the_docs(tmp_path: Path) -> None:
+    from labsim.runtime.view.session import MESSAGES
+
+    assert len(MESSAGES) == 17 and set(MESSAGES) >= {"play", "seek", "ack", "select", "break", "block"}
+    docs = (ROOT / "docs" / "view.md").read_text()
+    page_to_server = " ".join(docs[docs.index("Page to server"):].split())
+    for kind in MESSAGES:
+        assert f'"type": "{kind}"' in page_to_server or f"`{kind}`" in page_to_server, kind
+    s = live(WALL)
+    for kind, (method, _) in MESSAGES.items():  # a live run has every one but seek
+        assert method is None or hasattr(s, method) == (kind != "seek"), kind
+    with pytest.raises(BadMessage, match="a live session takes no 'seek' messages"):
+        s.handle({"type": "seek", "tick": 3})
+    with pytest.raises(BadMessage, match="unknown message type 'nope'"):
+        s.handle({"type": "nope"})
+    s.close()
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.05", "--trace", str(trace), "-q"]) == 0
+    replay = load_replay(trace)
+    with pytest.raises(BadMessage, match="a replay session takes no 'slider' messages"):
+        replay.handle({"type": "slider", "name": "x", "value": 1})
+    replay.handle({"type": "seek", "tick": 10})
+    assert replay.tick == 10
