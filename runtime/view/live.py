@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import replace
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
@@ -490,6 +491,9 @@ class LiveSession(Session):
                 raise BadMessage(f"parameter '{key}' needs a finite number")
             wanted[key] = str(value)
         ok = self.load(wanted)
+        if not ok:  # the page's Parameters panel, not the command line's --set, said it
+            self.refused = [replace(d, path="Parameters, " + d.path.removeprefix("--set ").replace("=", " = ", 1))
+                            if d.path.startswith("--set ") else d for d in self.refused]
         return True if ok else self._failed()
 
     def _failed(self) -> bool:

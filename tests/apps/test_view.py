@@ -180,7 +180,10 @@ def test_a_parameter_change_restarts_with_set_semantics() -> None:
     assert s.tick == 0 and s.scene()["params"]["front"] == 1.0 and s.overrides == {"front": "1.0"}
     with pytest.raises(ChangeRefused) as refused:
         s.handle({"type": "params", "values": {"frnt": "2"}})
-    assert "frnt" in "\n".join(refused.value.diagnostics)
+    assert refused.value.diagnostics[0].startswith("Parameters, frnt = 2: error: unknown parameter 'frnt'")
+    with pytest.raises(ChangeRefused) as refused:  # worded as the page's panel, not as --set
+        s.handle({"type": "params", "values": {"front": "abc"}})
+    assert refused.value.diagnostics == ["Parameters, front = abc: error: parameter 'front' is a number, not 'abc'"]
     assert s.run is not None and s.advance(2) == 2  # the old run goes on
     s.close()
 
