@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import replace
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
