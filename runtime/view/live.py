@@ -265,7 +265,10 @@ class LiveSession(Session):
         robots = []
         rec, dt = self.recorder, p.dt_s
         # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
-        per = max(1, SAMPLE_NUMBERS // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
+        # numbers, less what the path points take this time (a frame stays under 4 KB), half at least
+        paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
+        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3)
+        per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
@@ -274,7 +277,7 @@ class LiveSession(Session):
             rule = run.last_rule[r.index]
             pose = self._pose(r.index, r.start) if r.model is not None else None
             hits: list = [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else []
-            path: list = [[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else []
+            path: list = paths[r.index]
             samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
                 if take else []
             robots.append({
