@@ -188,8 +188,8 @@ class ViewServer:
             else:
                 if self.session.handle(msg):
                     await self.broadcast(_dumps(self.session.scene()))
-                if getattr(self.session, "jumped", False):  # a replay's seek: the rows up to there, as played
-                    await self.broadcast(_dumps(self.session.history()))
+                # a replay's seek: the rows up to there, as played, sent by the pacing loop before
+                # the next frame (a scrubber dragged sends dozens of seeks: one history for them all)
         except BadMessage as e:
             self._ignore(page, str(e))
             return
@@ -278,6 +278,9 @@ class ViewServer:
                 self.dirty = True
             now = loop.time()
             waiting = False
+            if getattr(session, "jumped", False) and self.pages:
+                await self.broadcast(_dumps(session.history()))
+                self.dirty = True
             if now - last_frame >= interval:
                 if (ran or self.dirty or session.playing) and self.pages and not await self.send_frame():
                     waiting = True  # due, but every page is busy with the last one: again soon

@@ -131,3 +131,43 @@ def test_a_live_history_holds_what_the_frames_drew() -> None:
     peek = s.frame(take=False)["robots"][0]
     assert peek["path"] == [] and peek["samples"] == [] and s.history() == h  # a page joining takes nothing
     s.close()
+
+
+def test_a_burst_of_seeks_gets_one_history_for_the_last(wall_trace: Path) -> None:
+    import asyncio
+
+    import aiohttp
+
+    from labsim.runtime.view.server import bind_socket, serve
+
+    async def scenario() -> tuple[int, int, int]:
+        s = load_replay(wall_trace)
+        sock = bind_socket("127.0.0.1", 0)
+        url = f"http://127.0.0.1:{sock.getsockname()[1]}"
+        task = asyncio.ensure_future(serve(s, sock, url, log=lambda m: None))
+        histories = 0
+        async with aiohttp.ClientSession() as http:
+            for _ in range(200):
+                try:
+                    ws = await http.ws_connect(url + "/ws")
+                    break
+                except aiohttp.ClientConnectorError:
+                    await asyncio.sleep(0.01)
+            for k in range(300):  # a scrubber dragged across the whole trace
+                await ws.send_str(json.dumps({"type": "seek", "tick": k}))
+            last = None
+            while True:
+                msg = await ws.receive_json(timeout=10)
+                if msg["type"] == "history" and msg["tick"] > 0:
+                    histories += 1
+                    last = msg
+                if msg["type"] == "frame" and msg["tick"] == 299 and last is not None and last["tick"] == 299:
+                    break
+            await ws.close()
+        task.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        return histories, len(last["robots"][0]["path"]), last["tick"]
+
+    histories, points, tick = asyncio.run(scenario())
+    assert tick == 299 and points == 299 and histories < 30, histories
