@@ -321,7 +321,7 @@ def _robot(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, mpp: floa
     if not np.isfinite(tr.xy[i]).all():
         return (0, 0, 0, 0)
     c = px(tr.xy[i : i + 1])[0]
-    r = max(tr.radius_m / mpp, 3 * P.s)
+    r = max(tr.radius_m / mpp, 5 * P.s)
     centre = tuple(np.round(c * ONE).astype(int))
     cv2.circle(img, centre, round(r * ONE), tr.colour, -1, AA, SHIFT)
     cv2.circle(img, centre, round(r * ONE), darker(tr.colour, 0.5), max(1, P.lw), AA, SHIFT)
