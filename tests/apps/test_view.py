@@ -672,3 +672,34 @@ def test_every_message_a_page_sends_is_in_one_table_and_in_the_docs(tmp_path: Pa
         replay.handle({"type": "slider", "name": "x", "value": 1})
     replay.handle({"type": "seek", "tick": 10})
     assert replay.tick == 10
+
+
+@pytest.mark.slow
+def test_the_printed_url_carries_a_token_and_no_token_warns(tmp_path: Path) -> None:
+    import re
+    import signal
+    import urllib.error
+    import urllib.request
+
+    p, line = _start([str(WALL), "--port", "0"])
+    url = line.split(" at ")[1].split()[0]
+    assert re.fullmatch(r"http://127\.0\.0\.1:\d+/\?token=[A-Za-z0-9_-]{32}", url), url
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(url.split("?")[0])
+    assert refused.value.code == 403
+    opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    assert opener.open(url).status == 200 and opener.open(url.split("?")[0] + "static/view.js").status == 200
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 143 and err.endswith("labsim view: stopped (SIGTERM)\n"), err
+
+    p, line = _start([str(WALL), "--port", "0", "--no-token"])
+    url = line.split(" at ")[1].split()[0]
+    assert "token" not in url and urllib.request.urlopen(url).status == 200
+    p.send_signal(signal.SIGHUP)
+    _, err = p.communicate(timeout=20)
+    port = url.rsplit(":", 1)[1].strip("/")
+    assert err.split() == (f"labsim view: warning: --no-token: any program or person that can reach port {port} can "
+                           "watch and steer the run without the URL; the page cannot save the file "
+                           "labsim view: stopped (SIGHUP)").split(), err
+    assert p.returncode == 129
