@@ -875,3 +875,19 @@ def test_the_readme_and_docs_screenshots_are_taken_from_the_page_as_it_is(browse
     for path in written:
         img = cv2.imread(str(path))
         assert img is not None and img.shape[:2] == (860, 1400) and img.std() > 10, path
+
+
+def test_the_scrubber_follows_after_a_click_and_arrow_right_goes_forward(view: Any, tmp_path: Path) -> None:
+    v = view([str(_wall_trace(tmp_path))])
+    v.page.locator("#scrubber").click()  # the middle of the bar: a seek there
+    v.wait("window.labsimView.frame.tick > 100")
+    clicked = v.frame()["tick"]
+    v.page.click("#play")
+    v.wait(f"window.labsimView.frame.tick >= {clicked + 20}", timeout_ms=20000)
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    now = v.frame()["tick"]
+    v.wait(f"document.getElementById('scrubber').value === '{now}'")  # it followed the replay
+    v.page.focus("#scrubber")
+    v.page.keyboard.press("ArrowRight")
+    v.wait(f"window.labsimView.frame.tick === {now + 1}")  # one row on, not back to where it was clicked
