@@ -8,10 +8,12 @@ raised there cannot unwind through C: cffi reports it through ``sys.unraisableho
 the interrupt would be lost. While a run goes, ``CallbackInterrupts`` keeps such an interrupt
 instead, and the tick loop raises it (``check``) between its blocks of ticks, where it unwinds
 as it should. It costs nothing per tick: the loop checks once a block, and only an interrupt
-reaches the hook.
+reaches the hook. ``StopSignals`` is the other way, for a loop that is not a run's own (the
+live view's server): the signal handlers only set a flag, which nothing can swallow.
 """
 from __future__ import annotations
 
+import signal
 import sys
 import threading
 from types import TracebackType
@@ -50,3 +52,41 @@ class CallbackInterrupts:
         if self.pending is not None:
             pending, self.pending = self.pending, None
             raise pending
+
+
+class StopSignals:
+    """``with StopSignals() as stop: ... if stop.signum: ...``: SIGINT, SIGTERM and SIGHUP only
+    set a flag that the caller's loop reads between its blocks of ticks.
+
+    A server that ticks a run from an event loop (``labsim view``) cannot use
+    ``CallbackInterrupts``: the exception a handler raises may unwind through the event loop,
+    a web request or the page's message instead of the tick loop, and one raised inside a
+    chipmunk callback is lost with nothing to raise it again. A handler that raises nothing
+    loses nothing, wherever it runs. A second signal, once the first is seen, raises
+    ``KeyboardInterrupt`` (someone insists). ``signum`` is the first signal caught, 0 before.
+    """
+
+    SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")  # SIGHUP: not on Windows
+
+    def __init__(self) -> None:
+        self.signum = 0
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> StopSignals:
+        if threading.current_thread() is threading.main_thread():  # signals reach the main thread only
+            for name in self.SIGNALS:
+                number = getattr(signal, name, None)
+                if number is not None:
+                    self._previous[number] = signal.signal(number, self._handle)
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+        self._previous = {}
+
+    def _handle(self, signum: int, _frame: object) -> None:
+        if self.signum:
+            raise KeyboardInterrupt
+        self.signum = signum

@@ -405,7 +405,8 @@ def cmd_view(args: argparse.Namespace) -> int:
     return view(args.file, overrides=parse_overrides(args.set), seed=args.seed, backend=args.backend,
                 backend_options=options, host=args.host, port=args.port, trace=args.trace,
                 open_browser=not args.no_browser, warn=print_warning, report=print_diagnostics,
-                budgets=budgets(args), breaks=args.breaks, read_only=args.read_only)
+                budgets=budgets(args), breaks=args.breaks, read_only=args.read_only,
+                token=not args.no_token)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

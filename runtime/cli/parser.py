@@ -206,6 +206,9 @@ def _view(p: argparse.ArgumentParser) -> None:
                    help="pause the live run when WHEN happens: a condition ('sonar5 < 0.3'), 'state', "
                         "'state:NAME', 'rule:ID' or 'time:SECONDS' (repeatable)")
     p.add_argument("--read-only", action="store_true", help="no editing or saving the file in the page")
+    p.add_argument("--no-token", action="store_true",
+                   help="serve the page without its session token (anyone who can reach the port can watch and "
+                        "steer the run; Save is then off)")
     p.add_argument("--sim-host", type=options.host, default=None,
                    help="CoppeliaSim's address, with --backend coppeliasim (default: 127.0.0.1)")
     p.add_argument("--sim-port", type=options.port, default=None,

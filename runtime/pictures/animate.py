@@ -55,6 +55,19 @@ MAX_FRAMES = 3000
 STEP_PX = 2.0  # an animation's path keeps a pose every this many pixels along it
 
 
+DEFAULT_RADIUS_M = 0.22  # a robot whose model the trace does not name: a Pioneer's size
+
+
+def model_radius(model: object) -> float:
+    """How far a robot model's outline reaches from the middle of its axle, metres."""
+    from labsim.backends.scene.models import MODELS
+
+    m = MODELS.get(str(model))
+    if m is None or not m.footprint:
+        return DEFAULT_RADIUS_M
+    return max(math.hypot(x, y) for x, y in m.footprint)
+
+
 @dataclass(frozen=True)
 class Track:
     """One robot's rows: times and poses, and the trace rows they came from."""
@@ -65,6 +78,7 @@ class Track:
     xy: np.ndarray  # (n, 2) metres
     heading: np.ndarray
     rows: np.ndarray  # indices into trace.rows
+    radius_m: float = DEFAULT_RADIUS_M  # its model's reach from the axle's middle (the trace's header names the model)
 
 
 # what an animation of robots reads of a trace (its tracks, captions, and the backdrop's legend
@@ -107,10 +121,13 @@ def _tracks(trace: Trace) -> list[Track]:
             raise TraceFormatError(f"{trace.path}: the trace has no '{needed}' column")
     t, x, y, heading = (_numbers(trace, c) for c in ("time", "x", "y", "heading"))
     robot = np.array(trace.column("robot"), dtype=object)
+    models = trace.header.get("robots")
+    models = models if isinstance(models, dict) else {}
     out = []
     for k, name in enumerate(dict.fromkeys(robot)):
         idx = np.flatnonzero(robot == name)
-        out.append(Track(str(name), robot_colour(k), t[idx], np.column_stack((x[idx], y[idx])), heading[idx], idx))
+        out.append(Track(str(name), robot_colour(k), t[idx], np.column_stack((x[idx], y[idx])), heading[idx], idx,
+                         model_radius(models.get(str(name)))))
     return out
 
 
@@ -297,22 +314,24 @@ def _points(tr: Track, px: object) -> TrailPoints:
 
 
 def _robot(img: np.ndarray, P: Painter, px: object, tr: Track, i: int, mpp: float) -> Box:
-    """The robot as a disc of its size (never under a few pixels) with a line for its heading;
+    """The robot as a disc of its model's size (never under a few pixels) with a line for its
+    heading, as long as the robot is wide (an e-puck's 7 cm, not a fixed third of a metre);
     returns the box it was drawn in."""
     assert callable(px)
     if not np.isfinite(tr.xy[i]).all():
         return (0, 0, 0, 0)
     c = px(tr.xy[i : i + 1])[0]
-    r = max(0.22 / mpp, 5 * P.s)
+    r = max(tr.radius_m / mpp, 5 * P.s)
     centre = tuple(np.round(c * ONE).astype(int))
     cv2.circle(img, centre, round(r * ONE), tr.colour, -1, AA, SHIFT)
     cv2.circle(img, centre, round(r * ONE), darker(tr.colour, 0.5), max(1, P.lw), AA, SHIFT)
     h = float(tr.heading[i])
+    nose = max(1.6 * r, r + 3 * P.s)  # past the outline, in proportion to it
     if math.isfinite(h):
-        tip = c + (r + 10 * P.s) * np.array([math.cos(h), -math.sin(h)])
+        tip = c + nose * np.array([math.cos(h), -math.sin(h)])
         cv2.line(img, centre, tuple(np.round(tip * ONE).astype(int)), darker(tr.colour, 0.5),
-                 max(2, round(2 * P.s)), AA, SHIFT)
-    reach = r + 10 * P.s + 2 * P.s + 3  # the heading line's tip, its width and its antialiased edge
+                 max(1, round(min(2 * P.s, r / 2))), AA, SHIFT)
+    reach = nose + 2 * P.s + 3  # the heading line's tip, its width and its antialiased edge
     if not (abs(c) < 1e6).all():
         return (0, 0, img.shape[1], img.shape[0])
     return (int(c[0] - reach), int(c[1] - reach), int(c[0] + reach) + 2, int(c[1] + reach) + 2)

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import asyncio
 import os
+import secrets
+import signal
 import sys
 from collections.abc import Callable
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.exits import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
+from labsim.foundation.exits import EXIT_HANGUP, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
 from labsim.foundation.kinds import file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.runtime.trace import TraceFormatError
@@ -27,13 +29,17 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
          backend_options: dict[str, object] | None = None, host: str = "127.0.0.1",
          port: int = DEFAULT_PORT, trace: str | None = None, open_browser: bool = True,
          warn: Callable[[str], None], report: Callable[[list[Diagnostic]], None],
-         budgets: Budgets = DEFAULT_BUDGETS, breaks: list[str] | None = None, read_only: bool = False) -> int:
+         budgets: Budgets = DEFAULT_BUDGETS, breaks: list[str] | None = None, read_only: bool = False,
+         token: bool = True) -> int:
     """Serve the page for a behaviour file or a trace until Ctrl-C; the exit code.
 
     A behaviour that does not compile is reported (``report``) and the page shows the same
     diagnostics until it is fixed (the page's Check again) or the server is stopped; the exit
-    code is then 2. Ctrl-C gives 130, the trace so far kept.
+    code is then 2. Ctrl-C gives 130 (SIGTERM 143, SIGHUP 129), the trace so far kept and
+    closed with its footer. ``token`` False (``--no-token``) serves without a session token,
+    with a warning, and the page cannot save the file.
     """
+    from labsim.runtime.interrupts import StopSignals
     from labsim.runtime.view.guard import exposure_warning
     from labsim.runtime.view.live import LiveSession
     from labsim.runtime.view.server import bind_socket, serve, url_of
@@ -56,29 +62,43 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
         why = "is in use" if e.errno in (48, 98, 10048) else f"cannot be used: {e.strerror or e}"
         raise LabsimError([Diagnostic(f"--port {port}", f"port {port} on {host} {why}",
                                       notes=("pick another with --port, or --port 0 for a free one",))]) from None
-    url = url_of(sock, host)
+    key = secrets.token_urlsafe(24) if token else None
+    url = url_of(sock, host) + (f"?token={key}" if key else "")
     exposed = exposure_warning(host, sock.getsockname()[0], sock.getsockname()[1])
     if exposed:
         warn(exposed)
+    if key is None:
+        warn(f"labsim view: warning: --no-token: any program or person that can reach port {sock.getsockname()[1]} "
+             "can watch and steer the run without the URL; the page cannot save the file")
+    if isinstance(session, LiveSession):
+        session.can_save = key is not None
 
     def ready(_server: object) -> None:
         what = "replaying" if not hasattr(session, "load") else "running"
         print(f"labsim view: {what} {path} at {url}  (Ctrl-C stops)", flush=True)
 
-    interrupted = False
+    interrupted = 0
     try:
-        asyncio.run(serve(session, sock, url, log=warn, open_browser=open_browser, ready=ready, host=host))
+        # Ctrl-C, SIGTERM and SIGHUP only set a flag the tick loop reads: raised inside one of
+        # chipmunk's callbacks, an exception would be lost and the view run on without end
+        with StopSignals() as stop:
+            asyncio.run(serve(session, sock, url, log=warn, open_browser=open_browser, ready=ready, host=host,
+                              token=key, stop=stop))
+        interrupted = stop.signum
     except KeyboardInterrupt:
-        interrupted = True
+        interrupted = signal.SIGINT
     finally:
-        session.close()
+        session.close()  # a --trace gets its footer
         sock.close()
     broken = broken and not getattr(session, "ever_ran", False)
     if broken:
         return EXIT_USAGE
     if interrupted:
-        sys.stderr.write("labsim view: stopped\n")
-        return EXIT_INTERRUPTED
+        code = {signal.SIGINT: EXIT_INTERRUPTED, signal.SIGTERM: EXIT_TERMINATED,
+                getattr(signal, "SIGHUP", -1): EXIT_HANGUP}.get(interrupted, EXIT_INTERRUPTED)
+        how = {EXIT_TERMINATED: " (SIGTERM)", EXIT_HANGUP: " (SIGHUP)"}.get(code, "")
+        sys.stderr.write(f"labsim view: stopped{how}\n")
+        return code
     return EXIT_OK
 
 

@@ -110,13 +110,16 @@ def sensor_columns(channels: tuple[str, ...], kinds: dict[str, Kind]) -> list[tu
 def robot_doc(name: str, model: RobotModel | None, channels: tuple[str, ...]) -> Json:
     """A robot's outline and the sonars the behaviour reads (their order is the frames')."""
     if model is None:
-        return {"name": name, "model": None, "footprint": [], "sonars": [], "cameras": []}
+        return {"name": name, "model": None, "footprint": [], "sonars": [], "cameras": [], "ground": [], "reach": 0.0}
     read = set(channels)
     return {
         "name": name, "model": model.name, "footprint": [list(p) for p in model.footprint],
         "sonars": [{"name": s.name, "x": s.x_m, "y": s.y_m, "angle": s.angle_rad, "range": s.range_m}
                    for s in model.rays() if s.name in read],
         "cameras": [c.name for c in model.cameras if c.name in read],
+        # the ground sensors the behaviour reads, at their mounts (their readings are the frames')
+        "ground": [{"name": g.name, "x": g.x_m, "y": g.y_m} for g in model.ground_sensors if g.name in read],
+        "reach": max((math.hypot(x, y) for x, y in model.footprint), default=0.2),  # for the heading mark
     }
 
 

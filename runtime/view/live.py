@@ -14,6 +14,7 @@ import math
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +40,9 @@ from labsim.runtime.view.frames import (
     world_doc,
 )
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
+from labsim.runtime.view.history import History
 from labsim.runtime.view.observe import ObservedBackend
+from labsim.runtime.view.peaks import Sampler
 from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
@@ -73,6 +76,7 @@ class LiveSession(Session):
         self.ever_ran = False
         self.breaks = list(breaks or [])  # as written: compiled anew for every run
         self.read_only = read_only  # no editing the file in the page
+        self.can_save = True  # False without a session token (--no-token): anyone could write the file
         self.text: str | None = None  # the page's edit the run was compiled from, not yet saved
         self._capped = False  # inside ticking(): the memory cap is set
 
@@ -111,12 +115,13 @@ class LiveSession(Session):
         self.observed = ObservedBackend(load_backend(self.backend_name, **self.backend_options), program.channels)
         self.recorder = TickRecorder()
         self.recorder.breaks = breaks
-        self.run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
+        self.run = run = behaviour.bind(self.observed, trace=self.trace_path, warn=self.warn,
                                   replay=None if self.timeline else {}, watch=True, observers=[self.recorder])
         # where each robot's x and y sit in its readings: known once the backend is open
-        self.recorder.start([(at["x"], at["y"]) if r.model is not None else None
+        self.recorder.start([(at["x"], at["y"], at["collided"]) if r.model is not None else None
                              for r, at in zip(self.run.robots, self.observed.index)], self.observed.last)
         self.pacer.dt_s = program.dt_s
+        self.history_kept = History(len(run.robots))
         self.pacer.anchor(self.clock(), 0)
         self.playing = False
         kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
@@ -124,10 +129,16 @@ class LiveSession(Session):
         self._lets = [program.slot_of[n] for n in program.single_signals]
         self._state_slot = program.slot_of["state"]
         self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
+        numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
+            [True] * len(program.slider_names)
+        self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
+        self.recorder.read, self.recorder.keep = self._sampler.read, self._sampler.keep
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
                          if r.model is not None else [] for r in self.run.robots]
+        self._ground = [[program.channels.index(g.name) for g in r.model.ground_sensors if g.name in program.channels]
+                        if r.model is not None else [] for r in self.run.robots]
 
     @property
     def tick(self) -> int:
@@ -229,7 +240,8 @@ class LiveSession(Session):
                 text = read_text(self.path)
             except LabsimError:
                 text = None
-        return {"source": text, "edited": self.text is not None, "read_only": self.read_only}
+        return {"source": text, "edited": self.text is not None, "read_only": self.read_only,
+                "can_save": self.can_save and not self.read_only}
 
     def _slider_values(self) -> list[float]:
         assert self.run is not None
@@ -237,8 +249,13 @@ class LiveSession(Session):
         slots = self.run.robots[0].program.slots
         return [slots[p.slot_of[n]] for n in p.slider_names]
 
-    def frame(self) -> Json:
-        """One moment of the run: see docs/view.md, "frame"."""
+    def history(self) -> Json:
+        if self.run is None:
+            return super().history()
+        return self.history_kept.doc(self.shown_tick)
+
+    def frame(self, take: bool = True) -> Json:
+        """One moment of the run: see docs/view.md, "frame"; ``take`` False: see ``Session.frame``."""
         if self.run is None:
             return message("frame", **self.controls(), robots=[], mechanism=None, sliders={}, labels={})
         run, obs = self.run, self.observed
@@ -248,28 +265,44 @@ class LiveSession(Session):
         robots = []
         rec, dt = self.recorder, p.dt_s
         # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
-        per = max(1, SAMPLE_NUMBERS // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
+        # numbers, less what the path points take this time (a frame stays under 4 KB), half at least
+        paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
+        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3)
+        per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
             done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
+            pose = self._pose(r.index, r.start) if r.model is not None else None
+            hits: list = [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else []
+            path: list = paths[r.index]
+            samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
+                if take else []
             robots.append({
-                "pose": self._pose(r.index, r.start) if r.model is not None else None,
+                "pose": pose,
                 "collided": bool(obs.reading(r.index, "collided")) if r.model is not None else False,
                 "state": p.state_names[self._state_of(r.index, slots)] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None,
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
+                "ground": [number(read[i]) if read is not None else None for i in self._ground[r.index]],
+                "collisions": rec.collisions[r.index],
+                "hits": hits,
                 "values": values,
-                "path": [[_short(x), _short(y)] for x, y in rec.take_path(r.index)],
-                "samples": [[round(t * dt, 9), *self._sample(rd, sl), *done]
-                            for t, rd, sl in rec.take_samples(r.index, per)],
+                "path": path,
+                "samples": samples,
             })
+            if take:  # what this frame draws, for the pages that open later
+                rec.hits[r.index] = []
+                self.history_kept.hits[r.index] += hits
+                self.history_kept.add(r.index, path + ([pose[:2]] if pose is not None else []),
+                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []))
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old
-        return message("frame", **self.controls(), robots=robots, mechanism=self._mechanism(), **changed,
+        return message("frame", **self.controls(), why=run.stop_reason() if run.finished else None,
+                       robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
@@ -287,19 +320,6 @@ class LiveSession(Session):
         values += [number(slots[s]) for s in self._lets]
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
-
-    def _sample(self, read: list, slots: list) -> list[float | str | None]:
-        """``_values`` for a chart sample, built for speed (a frame has hundreds of them):
-        four decimals, enough to draw."""
-        out: list[float | str | None] = []
-        for value in [read[i] if k < 0 else _part(read[i], k) for _, i, k in self._sensors] + \
-                [slots[s] for s in self._sample_slots]:
-            if type(value) is float and value - value == 0.0:  # finite
-                out.append(round(value, 4))
-            else:
-                n = number(value)
-                out.append(round(n, 4) if isinstance(n, float) else n)
-        return out
 
     def _pose(self, robot: int, start: Any) -> list[float | str | None]:
         obs = self.observed
@@ -347,38 +367,46 @@ class LiveSession(Session):
         return out if out["camera"] or out["derived"] else None
 
     # -- messages -------------------------------------------------------------------------
-    def handle_other(self, kind: str, msg: dict) -> bool:
-        if kind == "slider":
-            self._slider(msg)
-            return False
-        if kind == "params":
-            return self._params(msg)
-        if kind == "timeline":
-            on = msg.get("on")
-            if not isinstance(on, bool):
-                raise BadMessage("'on' must be true or false")
-            self.timeline = on
-            return self.load()
-        if kind == "recheck":
-            self.load()
-            return True
-        if kind == "break":
-            self._break(msg)
-            return False
-        if kind == "place":
-            self._need_run()
-            assert self.run is not None
-            robot, x, y = place_message(self.run, msg)
-            self.recorder.paths[robot].jump(x, y)
-            return False
-        if kind == "block":
-            self._need_run()
-            assert self.run is not None
-            block_message(self.run, msg)
-            return False
-        if kind in ("apply", "save"):
-            return self._edit(kind, msg)
-        raise BadMessage(f"unknown message type '{kind}'")
+    def on_slider(self, msg: dict) -> bool:
+        self._slider(msg)
+        return False
+
+    def on_params(self, msg: dict) -> bool:
+        return self._params(msg)
+
+    def on_timeline(self, msg: dict) -> bool:
+        on = msg.get("on")
+        if not isinstance(on, bool):
+            raise BadMessage("'on' must be true or false")
+        self.timeline = on
+        return self.load()
+
+    def on_recheck(self, msg: dict) -> bool:
+        self.load()
+        return True
+
+    def on_break(self, msg: dict) -> bool:
+        self._break(msg)
+        return False
+
+    def on_place(self, msg: dict) -> bool:
+        self._need_run()
+        assert self.run is not None
+        robot, x, y = place_message(self.run, msg)
+        self.recorder.paths[robot].jump(x, y)
+        return False
+
+    def on_block(self, msg: dict) -> bool:
+        self._need_run()
+        assert self.run is not None
+        block_message(self.run, msg)
+        return False
+
+    def on_apply(self, msg: dict) -> bool:
+        return self._edit("apply", msg)
+
+    def on_save(self, msg: dict) -> bool:
+        return self._edit("save", msg)
 
     def _need_run(self) -> None:
         if self.run is None:
@@ -416,6 +444,10 @@ class LiveSession(Session):
     def _save(self, text: str) -> None:
         """Write the text over the view's own file, atomically (never over its world or trace,
         never through a link)."""
+        if not self.can_save:
+            raise ChangeRefused([f"{self.path}: not saved: this view was started with --no-token, so any program "
+                                 "that reaches its port could write the file; start labsim view without "
+                                 "--no-token to save from the page"])
         if os.path.islink(self.path):
             raise ChangeRefused([f"{self.path}: not saved: it is a link; save it in an editor"])
         inputs = [self.run.program.world.source] if self.run is not None and self.run.program.world.source else []
@@ -462,6 +494,9 @@ class LiveSession(Session):
                 raise BadMessage(f"parameter '{key}' needs a finite number")
             wanted[key] = str(value)
         ok = self.load(wanted)
+        if not ok:  # the page's Parameters panel, not the command line's --set, said it
+            self.refused = [replace(d, path="Parameters, " + d.path.removeprefix("--set ").replace("=", " = ", 1))
+                            if d.path.startswith("--set ") else d for d in self.refused]
         return True if ok else self._failed()
 
     def _failed(self) -> bool:

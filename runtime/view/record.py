@@ -6,13 +6,14 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner), keeps the tick's readings and slots for the chart, and asks the breakpoints
+corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), and asks the breakpoints
 (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path`` and
 ``take_samples`` hand what was kept to the next frame and start again.
 """
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from labsim.dsl.support import STATE
 from labsim.runtime.observers import Watcher
@@ -21,7 +22,7 @@ from labsim.runtime.view.breaks import Breakpoint
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
-MAX_SAMPLES_KEPT = 1024  # per robot between two frames: beyond, every other one goes
+MAX_SAMPLES_KEPT = 16384  # per robot between two frames: beyond, every other one goes
 
 
 class PathThinner:
@@ -102,25 +103,27 @@ class TickRecorder(Watcher):
     one hook a tick for everything the view keeps, as each robot acts."""
 
     def __init__(self) -> None:
-        self.xy: list[tuple[int, int] | None] = []
+        self.xy: list[tuple[int, ...] | None] = []
         self.paths: list[PathThinner] = []
-        self.samples: list[list[tuple[int, list, list]]] = []
+        self.samples: list[list[tuple[int, tuple, tuple]]] = []
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
         self.last: list = []
 
-    def start(self, xy: list[tuple[int, int] | None], last: list) -> None:
-        """``xy[i]``: where robot i's x and y sit in its readings (None: a mechanism, no path);
+    def start(self, xy: list[tuple[int, ...] | None], last: list) -> None:
+        """``xy[i]``: where robot i's x, y and collided sit in its readings (None: a mechanism, no path);
         ``last[i]`` gets robot i's readings each tick."""
         self.xy = xy
         self.last = last
         self.paths = [PathThinner() for _ in xy]
+        self.touching = [False] * len(xy)  # per robot, whether it collided on the last tick
+        self.collisions = [0] * len(xy)  # collisions begun so far
+        self.hits: list[list[tuple[float, float]]] = [[] for _ in xy]  # where, since the last frame
         self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
-        self.stride = 1  # ticks between two samples kept: about twice what a frame sends
-        self._next = [0] * len(xy)  # per robot, the next tick to keep a sample of
-        self._taken = [0] * len(xy)  # per robot, the tick of the last take
+        self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
+        self.keep: Any = lambda _slots: ()  # (``labsim.runtime.view.peaks.Sampler`` sets both)
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -134,42 +137,44 @@ class TickRecorder(Watcher):
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
+            c = bool(values[xy[2]]) if len(xy) > 2 else False
+            if c is not self.touching[i]:  # a collision begins (or ends): its place, for the page's mark
+                self.touching[i] = c
+                if c:
+                    self.collisions[i] += 1
+                    self.hits[i].append((values[xy[0]], values[xy[1]]))
         assert self._run is not None
-        t = self._run.tick_index
-        if t >= self._next[i]:  # copying a tick's readings and slots costs: only the ticks a frame may send
-            self._next[i] = t + self.stride
-            kept = self.samples[i]
-            kept.append((t, list(values), list(robot.program.slots)))
-            if len(kept) > MAX_SAMPLES_KEPT:
-                del kept[::2]
-        if self.breaks and self.hit is None:
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
+        kept = self.samples[i]
+        kept.append((self._run.tick_index, self.read(values), self.keep(robot.program.slots)))
+        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is open): every other one goes
+            del kept[::2]
+        if self.breaks:
             self._check(robot, rule, values)
 
     def _check(self, robot: RobotRun, rule: int, values: list) -> None:
+        """Every breakpoint, every tick, for every robot: a condition must see each tick to know
+        when it becomes true, and two that hold on one tick are both named."""
         assert self._run is not None
         t, dt = self._run.tick_index, self._run.dt_s
-        for b in self.breaks:
-            if b.hit(robot, rule, values, t, dt):
-                # the state and rule of this tick (a goto takes effect on the next one)
-                p = self._run.program
-                state = int(robot.program.slots[STATE])
-                self.hit = {"tick": t, "time": round(t * dt, 9), "robot": robot.name, "what": b.spec,
-                            "state": p.state_names[state] if p.state_names else "",
-                            "rule": p.rules[rule].id if rule >= 0 else None}
-                return
+        fired = [b.spec for b in self.breaks if b.hit(robot, rule, values, t, dt)]
+        if not fired:
+            return
+        # the state and rule of this tick (a goto takes effect on the next one)
+        p = self._run.program
+        state = int(robot.program.slots[STATE])
+        mine = {"robot": robot.name, "what": fired, "state": p.state_names[state] if p.state_names else "",
+                "rule": p.rules[rule].id if rule >= 0 else None}
+        if self.hit is None or self.hit["tick"] != t:
+            self.hit = {"tick": t, "time": round(t * dt, 9), **mine, "what": " and ".join(fired), "fired": [mine]}
+        else:  # another robot, the same tick
+            fired_all: list = self.hit["fired"]  # type: ignore[assignment]
+            fired_all.append(mine)
 
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()
 
-    def take_samples(self, robot: int, at_most: int) -> list[tuple[int, list, list]]:
-        """Up to ``at_most`` of the ticks kept since the last take, evenly spread, the last
-        tick left out (the frame itself shows it)."""
+    def take_samples(self, robot: int) -> list[tuple[int, tuple, tuple]]:
+        """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
         kept, self.samples[robot] = self.samples[robot][:-1], []
-        if self._run is not None:  # the next frame's ticks are like this one's: keep about 2 x at_most
-            t = self._run.tick_index
-            self.stride = max(1, (t - self._taken[robot]) // (2 * at_most))
-            self._taken[robot] = t
-        if len(kept) <= at_most:
-            return kept
-        step = len(kept) / at_most
-        return [kept[min(len(kept) - 1, int((k + 1) * step) - 1)] for k in range(at_most)]
+        return kept

@@ -11,6 +11,7 @@ says so rather than draw them where they were not.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,8 @@ from labsim.backends.scene.models import MODELS
 from labsim.backends.scene.world import World
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
+from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, downsample
+from labsim.runtime.view.record import PathThinner
 from labsim.runtime.view.session import BadMessage, Session
 
 _TEXT = {"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule", "events"}
@@ -26,6 +29,7 @@ _TEXT = {"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rul
 # 35 MB scene. labsim's own traces have a few dozen columns (a thousand signals would be many).
 MAX_COLUMNS = 10_000
 MAX_ROBOTS = 1000  # the robots budget's default: no run of labsim's has more
+FRAME_ROWS = 24  # chart rows a frame carries at most per robot for the rows since the last (least/greatest pairs)
 
 
 class ReplaySession(Session):
@@ -59,6 +63,9 @@ class ReplaySession(Session):
         self.position = 0
         self.labels = [c for c in cols if c.startswith("label:")]
         self._mechanism_layout()
+        self._sent = -1  # the row the last frame showed: the next carries the rows after it
+        self._series: list[tuple[list, list]] | None = None  # per robot: every tick's [x, y] and chart row
+        self._onsets: list[list[tuple[int, list]]] = []  # per robot: (tick, [x, y]) where each collision began
 
     @property
     def tick(self) -> int:
@@ -74,13 +81,73 @@ class ReplaySession(Session):
         return ran
 
     def restart(self) -> None:
-        self.position = 0
+        self.seek(0)
         self.playing = False
-        self.pacer.anchor(self.clock(), 0)
 
     def seek(self, tick: int) -> None:
+        """Show that row next. The page is then sent the history up to it (``history``), as if
+        it had played there: nothing is drawn across the rows skipped, and the real-time factor
+        starts again (a jump is not speed)."""
         self.position = max(0, min(tick, len(self.rows) - 1))
         self.pacer.anchor(self.clock(), self.position)
+        self._rate.clear()
+        self._sent = self.position - 1
+        self.jumped = True
+
+    jumped = False  # a seek or a rewind since the last history sent: the server sends one
+
+    def series(self) -> list[tuple[list, list]]:
+        """Per robot, every tick's ``[x, y]`` (None where it has no row or no pose) and chart
+        row ``[time, value, ...]`` (None where it has no row); read once, when first needed."""
+        if self._series is None:
+            out = []
+            for n in self.robot_names:
+                points: list = []
+                chart: list = []
+                for k, rows in enumerate(self.rows):
+                    row = rows.get(n)
+                    if row is None:
+                        points.append(None)
+                        chart.append(None)
+                        continue
+                    x, y = _num(row, self._i, "x"), _num(row, self._i, "y")
+                    points.append([x, y] if isinstance(x, float) and isinstance(y, float) else None)
+                    chart.append([round(k * self.dt_s, 9), *(_num(row, self._i, c) for c in self.numeric)])
+                out.append((points, chart))
+            self._series = out
+            # each robot's collisions: the tick each began and where (the page marks them, and counts)
+            self._onsets = []
+            for name, (points, _) in zip(self.robot_names, out):
+                onsets: list[tuple[int, list]] = []
+                was = False
+                for tick, rows in enumerate(self.rows):
+                    row = rows.get(name)
+                    now = row is not None and _num(row, self._i, "collided") == 1.0
+                    if now and not was and points[tick] is not None:
+                        onsets.append((tick, points[tick]))
+                    was = now
+                self._onsets.append(onsets)
+        return self._series
+
+    def _hits(self, robot: int, after: int, upto: int) -> tuple[int, list]:
+        """Collisions begun by ``upto`` (a count) and the places of those after ``after``."""
+        self.series()
+        onsets = self._onsets[robot]
+        ticks = [t for t, _ in onsets]
+        return bisect.bisect_right(ticks, upto), [p for t, p in onsets if after < t <= upto]
+
+    def history(self) -> Json:
+        """The rows before the one shown, as playing to it would have drawn them (bounded)."""
+        self.jumped = False
+        self._sent = self.position
+        upto = self.position
+        robots: list[Json] = []
+        for points, chart in self.series():
+            stride = max(1, math.ceil(upto / MAX_POINTS))
+            path = points[:upto:stride]
+            rows = downsample([r for r in chart[:upto] if r is not None], MAX_ROWS)
+            robots.append({"path": path, "samples": rows, "hits": self._hits(len(robots), -1, upto)[1]})
+        return message("history", tick=self.position, robots=robots)
 
     def scene(self) -> Json:
         h = self.trace.header
@@ -97,14 +164,37 @@ class ReplaySession(Session):
             sliders=[], rules=[], states=[], stop_s=None, timeline=False, trace=self.trace.path,
             ticks=len(self.rows), end_s=round((len(self.rows) - 1) * self.dt_s, 9))
 
-    def frame(self) -> Json:
+    def frame(self, take: bool = True) -> Json:
         rows = self.rows[self.position] if self.rows else {}
         robots: list[Json | None] = []
-        for n in self.robot_names:
+        # the rows since the last frame: their path points and chart rows (a jump sent a history)
+        since = self._sent + 1 if take and self._sent < self.position else self.position
+        last = since - 1 if take and self._sent < self.position else self.position  # the row the page saw last
+        if take:
+            self._sent = self.position
+        series = self.series() if since < self.position else None
+        for k, n in enumerate(self.robot_names):
             row = rows.get(n)
             if row is None:
                 robots.append(None)
                 continue
+            between: Json = {}
+            count, hits = self._hits(k, last, self.position)
+            between["collisions"], between["hits"] = count, hits
+            if series is not None:
+                points, chart = series[k]
+                thin = PathThinner()
+                for q in points[since:self.position]:
+                    if q is None:
+                        thin.jump(math.nan, math.nan)
+                    else:
+                        thin.add(*q)
+                path = [[x, y] if x == x else None for x, y in thin.take()]
+                if thin._last is not None:
+                    path.append(list(thin._last))
+                between |= {"path": path,
+                           "samples": downsample([r for r in chart[since:self.position] if r is not None],
+                                                 FRAME_ROWS)}
             model = MODELS.get(str(self.models.get(n)))
             sonars = [s.name for s in model.rays() if s.name in self._i] if model else []
             robots.append({
@@ -114,6 +204,9 @@ class ReplaySession(Session):
                 "rule": (row[self._i["rule"]] or None) if "rule" in self._i else None,
                 "sonars": [_num(row, self._i, s) for s in sonars],
                 "values": [_num(row, self._i, c) for c in self.numeric],
+                "ground": [_num(row, self._i, g.name) for g in model.ground_sensors if g.name in self._i]
+                if model else [],
+                **between,
             })
         first = next(iter(rows.values()), None)
         mech = self._mechanism(first) if self.world is not None and self.world.mechanism is not None else None
@@ -167,16 +260,14 @@ class ReplaySession(Session):
                 (px, pz), (cx, cz) = centre[j.parent], centre[j.child]
                 self._mech_fixed.append((j.parent, j.child, cx - px, cz - pz))
 
-    def handle_other(self, kind: str, msg: dict) -> bool:
-        if kind == "seek":
-            t = msg.get("tick")
-            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
-                raise BadMessage("'tick' must be a number")
-            self.seek(int(t))
-            return False
-        if kind in ("slider", "params", "timeline", "recheck"):
-            raise BadMessage(f"a replayed trace takes no '{kind}' messages")
-        raise BadMessage(f"unknown message type '{kind}'")
+    mode = "replay"
+
+    def on_seek(self, msg: dict) -> bool:
+        t = msg.get("tick")
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise BadMessage("'tick' must be a number")
+        self.seek(int(t))
+        return False
 
 
 def _num(row: list[str], index: dict[str, int], column: str) -> float | str | None:

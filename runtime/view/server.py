@@ -11,7 +11,11 @@ and ignored, and never reaches the run. Every page sees the same run; each page 
 robot's camera it receives. A WebSocket must come from the page's own origin (or from a
 client that sends no Origin), so another web site open in the browser cannot steer the run,
 and every request must name this server as its ``Host`` (``labsim.runtime.view.guard``), so
-that a site cannot reach it under a name of its own either (DNS rebinding). Numbers in a
+that a site cannot reach it under a name of its own either (DNS rebinding). Every request
+must also carry the session token (``?token=`` in the URL ``labsim view`` prints, then a
+cookie the first answer sets, as Jupyter does): another user of the machine, or of the network
+with ``--host 0.0.0.0``, who can reach the port but never saw the URL gets ``403`` for the
+page, its files and its WebSocket alike. Numbers in a
 message follow labsim's rule for numbers (an integer too large for a float is refused while
 the message is read), and everything the server logs, across all connections, shares one
 limit.
@@ -19,6 +23,7 @@ limit.
 from __future__ import annotations
 
 import asyncio
+import hmac
 import json
 import socket
 import webbrowser
@@ -30,6 +35,7 @@ from typing import Any
 from aiohttp import WSMsgType, web
 
 from labsim.foundation.numbers import NumberError, to_float
+from labsim.runtime.interrupts import StopSignals
 from labsim.runtime.view.frames import FLAT_OUT_INTERVAL_S, FRAME_INTERVAL_S, Json, message, number
 from labsim.runtime.view.guard import REFUSED_HOST, LogBudget, host_allowed, http_logger
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session
@@ -39,6 +45,9 @@ from labsim.runtime.view.session import BadMessage, ChangeRefused, Session
 STATIC = Path(__file__).resolve().parent / "static"
 MAX_MESSAGE_BYTES = 64 * 1024
 ACK_WAIT_S = 0.004  # at a set speed, how long the loop sleeps before looking again for a page ready for a frame
+REFUSED_TOKEN = ("403 Forbidden: this page needs its session token. Open the address labsim view printed "
+                 "(it ends in ?token=...); the token is new each time labsim view starts.\n")
+GOODBYE = 4000  # the WebSocket close code of a server that ends on purpose: the page does not reconnect
 
 
 @dataclass(eq=False)
@@ -63,16 +72,20 @@ class ViewServer:
     """See the module docstring. ``log`` takes one line per notable event, within one budget;
     ``host`` is the ``--host`` the server listens on (the names it answers to)."""
 
-    def __init__(self, session: Session, log: Callable[[str], None], host: str = "127.0.0.1"):
+    def __init__(self, session: Session, log: Callable[[str], None], host: str = "127.0.0.1",
+                 token: str | None = None, port: int = 0):
         self.session = session
         self.log = LogBudget(log)
         self.host = host
+        self.token = token  # None: --no-token, every request is served
+        # a cookie is the host's, whatever its port: two views on one machine keep theirs apart
+        self.cookie = f"labsim_view_token_{port}"
         self.ignored = 0  # messages ignored, from every page
         self.pages: list[Page] = []
         self.dirty = True  # something changed since the last frame
         self.frames_sent = 0
         self._tasks: set[asyncio.Task[None]] = set()
-        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._check_host])
+        self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._check_host, self._check_token])
         self.app.router.add_get("/", self._index)
         self.app.router.add_get("/ws", self._socket)
         self.app.router.add_get("/favicon.ico", self._no_icon)
@@ -89,6 +102,30 @@ class ViewServer:
                                                  f"{(host or 'no host')[:80]!r}.\n")
         response: web.StreamResponse = await handler(request)
         return response
+
+    @web.middleware
+    async def _check_token(self, request: web.Request, handler: Any) -> web.StreamResponse:
+        """Every request carries the session token: in the query (the printed URL; the page's
+        address then drops it, and a cookie carries it from there on) or in the cookie."""
+        if self.token is None:
+            response: web.StreamResponse = await handler(request)
+            return response
+        given = request.query.get("token")
+        if given is not None and _same(given, self.token):
+            if request.path == "/" and request.method in ("GET", "HEAD"):
+                # the token into a cookie, and out of the address bar (and the browser's history)
+                rest = [(k, v) for k, v in request.query.items() if k != "token"]
+                found = web.HTTPFound(str(request.rel_url.with_query(rest)))
+                found.set_cookie(self.cookie, self.token, httponly=True, samesite="Strict", path="/")
+                raise found
+            response = await handler(request)
+            return response
+        if _same(request.cookies.get(self.cookie, ""), self.token):
+            response = await handler(request)
+            return response
+        why = "a wrong token" if given is not None else "no session token"
+        self.log(f"labsim view: refused a request from {request.remote or '?'} for {request.path[:80]!r}: {why}")
+        return web.Response(status=403, text=REFUSED_TOKEN)
 
     async def _index(self, request: web.Request) -> web.StreamResponse:
         return web.FileResponse(STATIC / "index.html", headers={
@@ -111,8 +148,12 @@ class ViewServer:
         page = Page(ws, request.remote or "?")
         self.pages.append(page)
         try:
+            # the run so far before the first frame (a new tab, a reload, a reconnect); the path
+            # points and samples since the last frame stay for the pages already open, if any
             await ws.send_str(_dumps(self.session.scene()))
-            await ws.send_str(self._frame_text(page, self._frame_json()))
+            await ws.send_str(_dumps(self.session.history()))
+            alone = all(p is page for p in self.pages)
+            await ws.send_str(self._frame_text(page, _dumps(self.session.frame(take=alone))))
             async for msg in ws:
                 if msg.type == WSMsgType.TEXT:
                     await self._message(page, msg.data)
@@ -144,8 +185,11 @@ class ViewServer:
                 if isinstance(robot, bool) or not isinstance(robot, int) or robot < 0:
                     raise BadMessage("'robot' must be a robot's index")
                 page.robot = robot
-            elif self.session.handle(msg):
-                await self.broadcast(_dumps(self.session.scene()))
+            else:
+                if self.session.handle(msg):
+                    await self.broadcast(_dumps(self.session.scene()))
+                # a replay's seek: the rows up to there, as played, sent by the pacing loop before
+                # the next frame (a scrubber dragged sends dozens of seeks: one history for them all)
         except BadMessage as e:
             self._ignore(page, str(e))
             return
@@ -207,7 +251,7 @@ class ViewServer:
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
 
-    async def pace(self) -> None:
+    async def pace(self, stop: StopSignals | None = None) -> None:
         """Tick and send frames until cancelled: at most one frame per 1/30 s (1/20 s at "as
         fast as it goes", see ``FLAT_OUT_INTERVAL_S``).
 
@@ -221,7 +265,7 @@ class ViewServer:
         session = self.session
         last_frame = -FRAME_INTERVAL_S
         ran = 0
-        while True:
+        while stop is None or not stop.signum:
             now = loop.time()
             flat_out = session.playing and session.pacer.speed is None
             interval = FLAT_OUT_INTERVAL_S if flat_out else FRAME_INTERVAL_S
@@ -234,6 +278,9 @@ class ViewServer:
                 self.dirty = True
             now = loop.time()
             waiting = False
+            if getattr(session, "jumped", False) and self.pages:
+                await self.broadcast(_dumps(session.history()))
+                self.dirty = True
             if now - last_frame >= interval:
                 if (ran or self.dirty or session.playing) and self.pages and not await self.send_frame():
                     waiting = True  # due, but every page is busy with the last one: again soon
@@ -270,9 +317,12 @@ def url_of(sock: socket.socket, host: str) -> str:
 
 async def serve(session: Session, sock: socket.socket, url: str, *, log: Callable[[str], None],
                 open_browser: bool = False, ready: Callable[[ViewServer], None] | None = None,
-                host: str = "127.0.0.1") -> None:
-    """Serve until cancelled (Ctrl-C); the caller closes the session. ``host`` is ``--host``."""
-    server = ViewServer(session, log, host)
+                host: str = "127.0.0.1", token: str | None = None, stop: StopSignals | None = None) -> None:
+    """Serve until cancelled, or until ``stop`` has caught a signal; the caller closes the
+    session. ``host`` is ``--host``; ``token`` the session token every request must carry
+    (None: none, ``--no-token``); ``url`` the address to open, the token in it."""
+    server = ViewServer(session, log, host, token=token, port=sock.getsockname()[1])
+    session.stop = stop
     runner = web.AppRunner(server.app, access_log=None, handle_signals=False, shutdown_timeout=0.5,
                            logger=http_logger(server.log))
     await runner.setup()
@@ -282,11 +332,17 @@ async def serve(session: Session, sock: socket.socket, url: str, *, log: Callabl
             ready(server)
         if open_browser:
             asyncio.get_running_loop().run_in_executor(None, webbrowser.open, url)
-        await server.pace()
+        await server.pace(stop)
     finally:
         for page in list(server.pages):
-            await page.ws.close()
+            # said plainly: the page shows that the server stopped and does not knock again
+            await page.ws.close(code=GOODBYE, message=b"labsim view stopped")
         await runner.cleanup()
+
+
+def _same(given: str, token: str) -> bool:
+    """The token compared in constant time (a wrong guess says nothing of how close it came)."""
+    return hmac.compare_digest(given.encode("utf-8", "replace"), token.encode("utf-8"))
 
 
 def _whole(text: str) -> int:

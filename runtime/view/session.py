@@ -17,7 +17,7 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
-from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json
+from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message
 
 MAX_SPEED = 1000.0  # beyond this a number is not a speed anyone means; "max" is the way to ask
 CHECK_EVERY = 16  # ticks between looks at the clock while catching up
@@ -70,6 +70,7 @@ class Session:
         self.pacer = Pacer(dt_s)
         self.playing = False
         self._rate: deque[tuple[float, int]] = deque(maxlen=64)  # (wall s, tick) samples
+        self.stop: Any = None  # the server's StopSignals: a signal caught ends a catch-up between blocks
 
     # -- what subclasses provide --------------------------------------------------------
     @property
@@ -101,8 +102,14 @@ class Session:
     def scene(self) -> Json:
         raise NotImplementedError
 
-    def frame(self) -> Json:
+    def frame(self, take: bool = True) -> Json:
+        """The frame now; ``take`` False leaves the path points and chart samples since the last
+        frame for the next one (a page that joins while others watch)."""
         raise NotImplementedError
+
+    def history(self) -> Json:
+        """The ``history`` message: what the frames so far drew (docs/view.md)."""
+        return message("history", tick=self.shown_tick, robots=[])
 
     def images(self, robot: int) -> Json | None:
         """The robot's camera and derived images for the page, or None when it has none."""
@@ -133,6 +140,8 @@ class Session:
                 ran += n
                 if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
                     self.playing = False
+                    break
+                if self.stop is not None and self.stop.signum:  # Ctrl-C, SIGTERM: the server ends
                     break
                 if self.clock() - start >= budget_s:
                     if self.pacer.speed is not None:
@@ -178,31 +187,68 @@ class Session:
 
     # -- the page's messages ----------------------------------------------------------------
     def handle(self, msg: Any) -> bool:
-        """Apply one decoded message; True when the scene changed (a restart) and every page
-        needs it again. Raises BadMessage for anything malformed or out of range."""
+        """Apply one decoded message through ``MESSAGES``; True when the scene changed (a
+        restart) and every page needs it again. Raises BadMessage for anything malformed, out of
+        range, or not for this kind of session."""
         if not isinstance(msg, dict):
             raise BadMessage("a message is a JSON object")
         kind = msg.get("type")
-        if kind == "play":
-            self.play()
-        elif kind == "pause":
-            self.playing = False
-        elif kind == "step":
-            self.playing = False
-            self.advance(1)
-        elif kind == "speed":
-            self.set_speed(_speed(msg.get("value")))
-        elif kind == "restart":
-            self.restart()
-            return True
-        elif kind == "select":
-            pass  # per page: the server keeps it
-        else:
-            return self.handle_other(str(kind)[:40], msg)
+        if not isinstance(kind, str) or kind not in MESSAGES:
+            raise BadMessage(f"unknown message type '{str(kind)[:40]}'")
+        method = MESSAGES[kind][0]
+        handler = getattr(self, method, None) if method else None
+        if handler is None:
+            if method is None:
+                return False  # the server's own (select, ack): nothing of the run's
+            raise BadMessage(f"a {self.mode} session takes no '{kind}' messages")
+        return bool(handler(msg))
+
+    mode = "live"  # what a page is watching: "live" or "replay" (the scene's mode)
+
+    def on_play(self, msg: dict) -> bool:
+        self.play()
         return False
 
-    def handle_other(self, kind: str, msg: dict) -> bool:
-        raise BadMessage(f"unknown message type '{kind}'")
+    def on_pause(self, msg: dict) -> bool:
+        self.playing = False
+        return False
+
+    def on_step(self, msg: dict) -> bool:
+        self.playing = False
+        self.advance(1)
+        return False
+
+    def on_speed(self, msg: dict) -> bool:
+        self.set_speed(_speed(msg.get("value")))
+        return False
+
+    def on_restart(self, msg: dict) -> bool:
+        self.restart()
+        return True
+
+
+# Every message a page sends, in one place: its type, the session's method that applies it (None:
+# the server's own, per page), and what it carries (docs/view.md, "Messages"). A session without
+# the method (a replay has no sliders; a live run no seek) refuses the message as malformed.
+MESSAGES: dict[str, tuple[str | None, str]] = {
+    "play": ("on_play", "{}"),
+    "pause": ("on_pause", "{}"),
+    "step": ("on_step", "{} (one tick, then paused)"),
+    "speed": ("on_speed", '{"value": a number in (0, 1000] or "max"}'),
+    "restart": ("on_restart", "{} (a replay: back to its first row)"),
+    "select": (None, '{"robot": an index} (whose images this page gets)'),
+    "ack": (None, "{} (this page drew the last frame)"),
+    "slider": ("on_slider", '{"name": a slider, "value": a finite number}'),
+    "params": ("on_params", '{"values": {name: a number or its text}}'),
+    "timeline": ("on_timeline", '{"on": true or false}'),
+    "recheck": ("on_recheck", "{}"),
+    "apply": ("on_apply", '{"text": the file, at most 60,000 characters}'),
+    "save": ("on_save", '{"text": the file, at most 60,000 characters}'),
+    "place": ("on_place", '{"robot": an index, "x": m, "y": m, "heading": rad}'),
+    "block": ("on_block", '{"op": "move" | "add" | "remove", "block": a number, "x": m, "y": m, ...}'),
+    "break": ("on_break", '{"add": a breakpoint as --break takes it} or {"remove": an index}'),
+    "seek": ("on_seek", '{"tick": a number} (a replay)'),
+}
 
 
 def _speed(value: object) -> float | None:

@@ -180,7 +180,10 @@ def test_a_parameter_change_restarts_with_set_semantics() -> None:
     assert s.tick == 0 and s.scene()["params"]["front"] == 1.0 and s.overrides == {"front": "1.0"}
     with pytest.raises(ChangeRefused) as refused:
         s.handle({"type": "params", "values": {"frnt": "2"}})
-    assert "frnt" in "\n".join(refused.value.diagnostics)
+    assert refused.value.diagnostics[0].startswith("Parameters, frnt = 2: error: unknown parameter 'frnt'")
+    with pytest.raises(ChangeRefused) as refused:  # worded as the page's panel, not as --set
+        s.handle({"type": "params", "values": {"front": "abc"}})
+    assert refused.value.diagnostics == ["Parameters, front = abc: error: parameter 'front' is a number, not 'abc'"]
     assert s.run is not None and s.advance(2) == 2  # the old run goes on
     s.close()
 
@@ -253,6 +256,7 @@ def test_server_two_pages_share_the_run_and_survive_garbage() -> None:
             b = await http.ws_connect(url + "/ws")
             for ws in (a, b):
                 assert (await ws.receive_json())["type"] == "scene"
+                assert (await ws.receive_json())["type"] == "history"  # the run so far, before any frame
                 assert (await ws.receive_json())["type"] == "frame"
             await a.send_str("{not json")
             await a.send_bytes(b"\x00\x01")
@@ -357,7 +361,9 @@ def test_a_behaviour_with_errors_shows_its_diagnostics_and_exits_2() -> None:
     bad = ROOT / "tests" / "fixtures" / "unknown_sensor_with_error.yaml"
     p, line = _start([str(bad), "--port", "0"])
     url = line.split(" at ")[1].split()[0]
-    assert urllib.request.urlopen(url).status == 200  # the page is served, and shows them
+    # the token in the URL becomes a cookie: the redirect to the page carries it
+    opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    assert opener.open(url).status == 200  # the page is served, and shows them
     s = LiveSession(bad, {}, warn=lambda m: None)
     assert not s.load() and not s.scene()["ok"]
     p.send_signal(signal.SIGINT)
@@ -498,10 +504,12 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
     s.handle({"type": "play"})
     s.catch_up(budget_s=1e9)
     hit = s.frame()["hit"]
-    assert hit["tick"] == turned and hit["state"] == rows.rows[turned][state] and not s.playing
-    assert s.tick == turned + 1
+    entered = turned + 1  # the first tick run in the new state
+    assert hit["tick"] == entered and hit["state"] == rows.rows[entered][state] == "follow" and not s.playing
+    assert s.frame()["robots"][0]["state"] == "follow"  # and the page shows it
+    assert s.tick == entered + 1
     s.handle({"type": "step"})
-    assert s.tick == turned + 2 and s.frame()["hit"] is None
+    assert s.tick == entered + 2 and s.frame()["hit"] is None
     s.handle({"type": "break", "add": "time:20"})
     s.handle({"type": "play"})
     s.catch_up(budget_s=1e9)
@@ -514,6 +522,25 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
         s.handle({"type": "break", "remove": 7})
     s.handle({"type": "break", "remove": 0})
     assert s.frame()["breakpoints"] == ["time:20"]
+    s.close()
+
+
+def test_two_breakpoints_on_one_tick_are_both_named_and_neither_is_late(tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    rows = read_trace(trace)
+    state = rows.columns.index("state")
+    entered = 1 + next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
+    at = f"time:{entered * 0.05:.2f}"
+    # a condition listed first, true from the same tick: before, it hid the state breakpoint
+    s = live(WALL, breaks=[at, "state:follow", "state == follow"])
+    s.handle({"type": "speed", "value": "max"})
+    s.handle({"type": "play"})
+    s.catch_up(budget_s=1e9)
+    hit = s.frame()["hit"]
+    assert hit["tick"] == entered and hit["what"] == f"{at} and state:follow and state == follow"
+    assert hit["fired"] == [{"robot": "pioneer", "what": [at, "state:follow", "state == follow"], "state": "follow",
+                             "rule": hit["rule"]}]
     s.close()
 
 
@@ -605,8 +632,74 @@ def test_a_frame_shows_the_tick_the_trace_has_a_row_for(tmp_path: Path) -> None:
         assert fmt(f["time"]) == row[col["time"]]
         assert [fmt(v) for v in robot["pose"][:2]] == [row[col["x"]], row[col["y"]]]
         assert robot["state"] == row[col["state"]] and (robot["rule"] or "") == row[col["rule"]]
-        for sample in robot["samples"]:
+        samples = robot["samples"]
+        # more ticks than rows: least/greatest pairs, at each group's first and last tick
+        pairs = len(samples) < f["ran"] - (frames[frames.index(f) - 1]["ran"] if frames.index(f) else 0) - 1
+        for k, sample in enumerate(samples):
             tick = round(sample[0] / 0.05)
             assert sample[0] == round(tick * 0.05, 9) and tick < f["tick"]
+            if pairs:  # the least (or greatest) of the group's ticks is one of them, recorded
+                first = tick if k % 2 == 0 else round(samples[k - 1][0] / 0.05)
+                last = tick if k % 2 else round(samples[k + 1][0] / 0.05)
+                group = [float(by_tick[t][col["sonar5"]]) for t in range(first, last + 1)]
+                want, got = (min(group) if k % 2 == 0 else max(group)), float(sample[1 + sonar5])
+                assert want == got or abs(want - got) < 1e-3
+                continue
             value, recorded = sample[1 + sonar5], by_tick[tick][col["sonar5"]]
             assert value == recorded if isinstance(value, str) else abs(float(recorded) - value) < 1e-3
+
+
+def test_every_message_a_page_sends_is_in_one_table_and_in_the_docs(tmp_path: Path) -> None:
+    from labsim.runtime.view.session import MESSAGES
+
+    assert len(MESSAGES) == 17 and set(MESSAGES) >= {"play", "seek", "ack", "select", "break", "block"}
+    docs = (ROOT / "docs" / "view.md").read_text()
+    page_to_server = " ".join(docs[docs.index("Page to server"):].split())
+    for kind in MESSAGES:
+        assert f'"type": "{kind}"' in page_to_server or f"`{kind}`" in page_to_server, kind
+    s = live(WALL)
+    for kind, (method, _) in MESSAGES.items():  # a live run has every one but seek
+        assert method is None or hasattr(s, method) == (kind != "seek"), kind
+    with pytest.raises(BadMessage, match="a live session takes no 'seek' messages"):
+        s.handle({"type": "seek", "tick": 3})
+    with pytest.raises(BadMessage, match="unknown message type 'nope'"):
+        s.handle({"type": "nope"})
+    s.close()
+    trace = tmp_path / "wall.csv"
+    assert main(["run", str(WALL), "--set", "minutes=0.05", "--trace", str(trace), "-q"]) == 0
+    replay = load_replay(trace)
+    with pytest.raises(BadMessage, match="a replay session takes no 'slider' messages"):
+        replay.handle({"type": "slider", "name": "x", "value": 1})
+    replay.handle({"type": "seek", "tick": 10})
+    assert replay.tick == 10
+
+
+@pytest.mark.slow
+def test_the_printed_url_carries_a_token_and_no_token_warns(tmp_path: Path) -> None:
+    import re
+    import signal
+    import urllib.error
+    import urllib.request
+
+    p, line = _start([str(WALL), "--port", "0"])
+    url = line.split(" at ")[1].split()[0]
+    assert re.fullmatch(r"http://127\.0\.0\.1:\d+/\?token=[A-Za-z0-9_-]{32}", url), url
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(url.split("?")[0])
+    assert refused.value.code == 403
+    opener = urllib.request.build_opener(urllib.request.HTTPCookieProcessor())
+    assert opener.open(url).status == 200 and opener.open(url.split("?")[0] + "static/view.js").status == 200
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=20)
+    assert p.returncode == 143 and err.endswith("labsim view: stopped (SIGTERM)\n"), err
+
+    p, line = _start([str(WALL), "--port", "0", "--no-token"])
+    url = line.split(" at ")[1].split()[0]
+    assert "token" not in url and urllib.request.urlopen(url).status == 200
+    p.send_signal(signal.SIGHUP)
+    _, err = p.communicate(timeout=20)
+    port = url.rsplit(":", 1)[1].strip("/")
+    assert err.split() == (f"labsim view: warning: --no-token: any program or person that can reach port {port} can "
+                           "watch and steer the run without the URL; the page cannot save the file "
+                           "labsim view: stopped (SIGHUP)").split(), err
+    assert p.returncode == 129

@@ -6,6 +6,7 @@ window.LV = window.LV || {};
 LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
 const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
+const HITS = 2000;  // collision marks kept per robot
 
 LV.centre = (corners) => [corners.reduce((a, p) => a + p[0], 0) / corners.length,
                           corners.reduce((a, p) => a + p[1], 0) / corners.length];
@@ -45,7 +46,9 @@ LV.WorldView = class {
     this.backdrop = document.createElement("canvas");
     this.backdropKey = null;
     this._pointer();
-    new ResizeObserver(() => { this._resize(); this.draw(); }).observe(canvas);
+    // a new size (a window turned, a panel opened) fits the world again, unless the view was moved by hand
+    this.moved = false;
+    new ResizeObserver(() => { if (this.moved) { this._resize(); this.draw(); } else this.fit(); }).observe(canvas);
   }
 
   setScene(scene) {
@@ -53,6 +56,7 @@ LV.WorldView = class {
     this.frame = null;
     this.backdropKey = null;
     this.paths = (scene.robots || []).map(() => []);
+    this.hits = (scene.robots || []).map(() => []);  // where each collision began: a red cross there
     this._resize();
     this.fit();
   }
@@ -64,7 +68,9 @@ LV.WorldView = class {
       if (!r || !r.pose || !this.paths[i]) return;
       const [x, y] = r.pose;
       if (typeof x !== "number" || typeof y !== "number") return;
-      if (back) this.paths[i] = [];
+      if (back) { this.paths[i] = []; this.hits[i] = []; }
+      for (const q of (back ? [] : r.hits || [])) if (typeof q[0] === "number") this.hits[i].push(q);
+      if (this.hits[i].length > HITS) this.hits[i].splice(0, this.hits[i].length - HITS);
       const p = this.paths[i];
       // the points where the path bent since the last frame (the server keeps them), then the pose;
       // a null point is a jump (the robot was put somewhere else): no line across it
@@ -73,6 +79,14 @@ LV.WorldView = class {
       if (!last || last[0] !== x || last[1] !== y) p.push([x, y]);
       if (p.length > PATH_POINTS) p.splice(0, p.length - PATH_POINTS);
     });
+  }
+
+  // the path so far (a history message): a null point, or one with a null in it, is a jump
+  setHistory(paths, hits) {
+    this.paths = (this.scene.robots || []).map((_, i) => (paths[i] || [])
+      .map((q) => (q && typeof q[0] === "number" && typeof q[1] === "number" ? q : null)).slice(-PATH_POINTS));
+    this.hits = (this.scene.robots || []).map((_, i) => ((hits && hits[i]) || []).slice(-HITS));
+    this.frame = null;  // the next frame follows on from the history, whatever tick it shows
   }
 
   bounds() {
@@ -94,7 +108,7 @@ LV.WorldView = class {
 
   fit() {
     const [x0, y0, x1, y1] = this.bounds();
-    this._measure();
+    this._resize();
     const w = this.w || 600, h = this.h || 400;
     this.scale = Math.min(w / ((x1 - x0) * 1.08), h / ((y1 - y0) * 1.08));
     this.cx = (x0 + x1) / 2; this.cy = (y0 + y1) / 2;
@@ -141,6 +155,7 @@ LV.WorldView = class {
         this.draw(); return;
       }
       this.cx = drag.cx - dx / this.scale; this.cy = drag.cy + dy / this.scale;
+      this.moved = true;
       this.draw();
     });
     c.addEventListener("pointerup", (e) => {
@@ -170,9 +185,10 @@ LV.WorldView = class {
       this.scale = Math.min(5000, Math.max(0.5, this.scale));
       const [nx, ny] = this.toWorld(e.offsetX, e.offsetY);
       this.cx += wx - nx; this.cy += wy - ny;
+      this.moved = true;
       this.draw();
     }, { passive: false });
-    c.addEventListener("dblclick", () => this.fit());
+    c.addEventListener("dblclick", () => { this.moved = false; this.fit(); });
   }
 
   _robotAt(px, py) {  // the robot drawn under a point of the canvas, or -1
@@ -317,6 +333,7 @@ LV.WorldView = class {
   _robots() {
     const ctx = this.ctx, scene = this.scene, frame = this.frame;
     this.drawn = [];
+    this.marks = [];
     this.drawnTick = frame ? frame.tick : null;
     scene.robots.forEach((robot, i) => {
       const path = this.paths[i] || [];
@@ -329,6 +346,13 @@ LV.WorldView = class {
         this._poly(path, false, s, Math.min(n, s + chunk + 1)); ctx.stroke();
       }
       ctx.globalAlpha = 1;
+      // where collisions began, a red cross each (as on the map labsim plot draws)
+      ctx.strokeStyle = "#d62728"; ctx.lineWidth = 1.5; ctx.beginPath();
+      for (const q of this.hits[i] || []) {
+        const [hx, hy] = this.toPx(q[0], q[1]);
+        ctx.moveTo(hx - 4, hy - 4); ctx.lineTo(hx + 4, hy + 4); ctx.moveTo(hx - 4, hy + 4); ctx.lineTo(hx + 4, hy - 4);
+      }
+      ctx.stroke();
       const r = frame && frame.robots[i];
       if (!r || !r.pose || typeof r.pose[0] !== "number") return;
       const [x, y, th] = r.pose, c = Math.cos(th), s = Math.sin(th);
@@ -341,8 +365,14 @@ LV.WorldView = class {
       ctx.fillStyle = colour; ctx.globalAlpha = 0.85; ctx.fill(); ctx.globalAlpha = 1;
       ctx.lineWidth = i === this.selected ? 3 : 1.5;
       ctx.strokeStyle = r.collided ? "#d62728" : (i === this.selected ? "#111" : "#333"); ctx.stroke();
-      const nose = local(Math.max(0.35, 1.4 * tiny), 0);
-      this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke();
+      // the heading mark: half as far again as the robot reaches (an e-puck's 5 cm, a Pioneer's 32)
+      const nose = local(Math.max(1.5 * (robot.reach || 0.2), 1.4 * tiny), 0);
+      this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = Math.min(2, Math.max(1, robot.reach * this.scale / 4)); ctx.stroke();
+      this._groundSensors(robot, r, local);
+      // what was drawn, in CSS pixels (the browser tests read it)
+      this.marks[i] = { reach: Math.max(...outline.map((q) => Math.hypot(q[0], q[1]))) * this.scale,
+                        nose: Math.hypot(...[0, 1].map((k) => this.toPx(...nose)[k] - this.toPx(x, y)[k])),
+                        ground: (robot.ground || []).length, hits: (this.hits[i] || []).length };
       this.drawn[i] = this.toPx(x, y);
     });
     this._labels();
@@ -352,7 +382,8 @@ LV.WorldView = class {
       this._poly((fp.length ? fp : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]])
         .map((p) => [g.x + p[0] * c - p[1] * s, g.y + p[0] * s + p[1] * c]), true);
       ctx.setLineDash([5, 4]); ctx.strokeStyle = "#111"; ctx.lineWidth = 2; ctx.stroke(); ctx.setLineDash([]);
-      this._poly([[g.x, g.y], [g.x + 0.35 * c, g.y + 0.35 * s]], false); ctx.stroke();
+      const nose = 1.5 * (scene.robots[g.i].reach || 0.2);
+      this._poly([[g.x, g.y], [g.x + nose * c, g.y + nose * s]], false); ctx.stroke();
     }
   }
 
@@ -381,6 +412,18 @@ LV.WorldView = class {
       ctx.strokeRect(b.x + 0.5, b.y + 0.5, b.w - 1, b.h - 1);
       ctx.fillStyle = "#111"; ctx.font = font(i); ctx.textBaseline = "middle";
       ctx.fillText(robots[i].name, b.x + 4, b.y + b.h / 2 + 0.5); ctx.textBaseline = "alphabetic";
+    });
+  }
+
+  // the ground sensors the behaviour reads, at their mounts: a square the grey of its reading
+  // (0 black floor, 1 white), ringed in orange so that it shows on either
+  _groundSensors(robot, r, local) {
+    const ctx = this.ctx, side = Math.max(5, 0.008 * this.scale);
+        (robot.ground || []).forEach((g, k) => {
+      const v = r.ground ? r.ground[k] : null, [px, py] = this.toPx(...local(g.x, g.y));
+      const grey = typeof v === "number" ? Math.round(255 * Math.max(0, Math.min(1, v))) : 200;
+      ctx.fillStyle = `rgb(${grey},${grey},${grey})`; ctx.fillRect(px - side / 2, py - side / 2, side, side);
+      ctx.strokeStyle = "#ff7f0e"; ctx.lineWidth = 1.5; ctx.strokeRect(px - side / 2, py - side / 2, side, side);
     });
   }
 

@@ -43,6 +43,14 @@ LV.Chart = class {
     });
   }
 
+  // the run so far (a history message): each robot's rows [time, value, ...], replacing what was kept
+  setHistory(robots) {
+    this.history.forEach((h, i) => {
+      h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); h.now = null;
+      for (const s of robots[i] || []) this._push(h, s[0], s.slice(1));
+    });
+  }
+
   _push(h, t, values) {
     if (h.t.length && t <= h.t[h.t.length - 1]) return;
     h.t.push(t);
@@ -66,11 +74,13 @@ LV.Chart = class {
     this.el.innerHTML = "";
     this._legend();
     if (!this.picked.length) { this.el.innerHTML = '<p class="muted">No signal picked.</p>'; return; }
-    const scales = { x: { time: false } }, axes = [{ label: "" }];
+    // every axis at least three labelled ticks: a flat signal gets a range around its value,
+    // and ticks may stand 28 px apart on a 180 px chart (uPlot's default of 50 gave one or two)
+    const scales = { x: { time: false, range: (u, lo, hi) => (lo === null ? [0, 1] : [lo, hi > lo ? hi : lo + 1]) } }, axes = [{ label: "", splits: LV.splits(6), values: (u, vs) => vs.map((v) => LV.fmtAxis(v)) }];
     const series = [{ label: "time (s)" }].concat(this.picked.map((k, i) => {
-      scales["s" + i] = { auto: true };
+      scales["s" + i] = { auto: true, range: LV.range };
       if (i < AXES) {
-        axes.push({ scale: "s" + i, side: i % 2 ? 1 : 3, stroke: this._colour(i), size: 56,
+        axes.push({ scale: "s" + i, side: i % 2 ? 1 : 3, stroke: this._colour(i), size: 56, splits: LV.splits(4),
                     grid: { show: i === 0 }, values: (u, vs) => vs.map((v) => LV.fmtAxis(v)) });
       }
       return {
@@ -130,6 +140,28 @@ LV.Chart = class {
     // away from the cursor, uPlot's legend says "--": show the last tick's values instead
     if (this.plot.cursor.left < 0 && data[0].length) this.plot.setLegend({ idx: data[0].length - 1 });
   }
+};
+
+// a scale's range: the data's, a little wider; a flat line (or none) gets room around it, so
+// that its axis still has ticks to label
+LV.range = (u, lo, hi) => {
+  if (lo === null || hi === null || !Number.isFinite(lo) || !Number.isFinite(hi)) return [0, 1];
+  if (hi - lo < 1e-12 * Math.max(1, Math.abs(lo))) { const d = Math.abs(lo) * 0.1 || 1; return [lo - d, hi + d]; }
+  const pad = (hi - lo) * 0.05;
+  return [lo - pad, hi + pad];
+};
+
+// an axis' ticks: round numbers (1, 2, 2.5 or 5 times a power of ten) at least `parts` of them
+// across its range, so that every axis has at least three labels however small its range
+LV.splits = (parts) => (u, axis, lo, hi) => {
+  if (!(hi > lo)) return [lo];
+  const raw = (hi - lo) / parts, p = Math.pow(10, Math.floor(Math.log10(raw)));
+  const step = [5, 2.5, 2, 1].map((m) => m * p).find((s) => s <= raw) || p;
+  const out = [];
+  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9 && out.length < 50; v += step) {
+    out.push(Math.abs(v) < step * 1e-9 ? 0 : Number(v.toPrecision(12)));
+  }
+  return out;
 };
 
 // an axis tick: short, whatever the scale (0.0012, 2,000, 1.5e+6)

@@ -4,6 +4,7 @@
 "use strict";
 const $ = (id) => document.getElementById(id);
 const state = { scene: null, frame: null, frames: 0, robot: 0, ws: null, dragging: null, sent: {}, rows: [],
+                sentValue: {}, touched: {},
                 chartNames: null, editing: false, applied: false, pendingEdit: false, badLines: [],
                 // the page's own cost, ms, summed over the frames (benchmarks/bench_view_browser.py reads it)
                 cost: { parse: 0, frame: 0, draw: 0, chart: 0, draws: 0, charts: 0 }, chartAt: -Infinity };
@@ -23,21 +24,72 @@ function send(msg) {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify(msg));
 }
 
+// Reconnecting: after 1 s, then twice as long each time up to 30 s (a laptop asleep, a server
+// restarted); not at all once the server said it ends (close code 4000: Ctrl-C, SIGTERM).
+const RETRY_MS = [1000, 2000, 4000, 8000, 16000, 30000];
+const GOODBYE = 4000;
 function connect() {
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
   state.ws = ws;
-  ws.onopen = () => { setStatus("connected", "ok"); send({ type: "select", robot: state.robot }); };
-  ws.onclose = () => { setStatus("disconnected: retrying…", "bad"); setTimeout(connect, 1000); };
+  ws.onopen = () => {
+    state.retries = 0; state.offline = null;
+    setStatus("connected", "ok"); send({ type: "select", robot: state.robot });
+  };
+  ws.onclose = (e) => {
+    if (state.ws !== ws) return;
+    if (e.code === GOODBYE) {
+      offline("labsim view has stopped: this page shows the run as it last was. Start labsim view again and " +
+              "open the address it prints.", "stopped");
+      return;
+    }
+    const wait = RETRY_MS[Math.min(state.retries || 0, RETRY_MS.length - 1)];
+    state.retries = (state.retries || 0) + 1;
+    offline(`The connection to labsim view was lost (is it still running?). Trying again in ${wait / 1000} s` +
+            " (attempt " + state.retries + "); if it was started again, open the new address it printed.",
+            "disconnected: retrying…");
+    setTimeout(connect, wait);
+  };
   ws.onmessage = (e) => {
     let msg;
     const t0 = performance.now();
     try { msg = JSON.parse(e.data); } catch (err) { return; }
     const t1 = performance.now();
     state.cost.parse += t1 - t0;
-    if (msg.type === "scene") onScene(msg);
-    else if (msg.type === "frame") { onFrame(msg); state.cost.frame += performance.now() - t1; }
-    else if (msg.type === "error") refused(msg);
+    const handle = HANDLERS[msg.type];
+    if (handle) { handle(msg); if (msg.type === "frame") state.cost.frame += performance.now() - t1; }
   };
+}
+
+// Gone: the page says so in a banner, and every control that would send something is off until
+// a scene comes again (a reconnect). What is drawn stays, as it last was.
+function offline(text, badge) {
+  state.offline = text;
+  setStatus(badge, "bad");
+  const b = $("ended");
+  b.hidden = false; b.className = "ended bad"; b.textContent = text;
+  document.body.classList.add("offline");
+  enableControls();
+}
+
+// What the page may still ask: nothing while offline; a finished run only Restart (and a
+// replay's scrubber and Rewind); read-only, no Apply or Save.
+function enableControls() {
+  const f = state.frame, scene = state.scene, off = !!state.offline;
+  const finished = !!(f && f.finished && !f.playing);
+  const live = scene && scene.mode === "live" && scene.ok;
+  for (const id of ["play", "step"]) $(id).disabled = off || finished || !scene || !scene.ok;
+  $("restart").disabled = off || !scene;
+  $("speed").disabled = off || finished;
+  for (const el of document.querySelectorAll("#sliders input, #params input, #params button, #break-form input, " +
+                                             "#break-form select, #break-form button, #breaks button, #timeline, " +
+                                             "#add-block, #recheck")) {
+    el.disabled = off || (finished && el.closest("#sliders") !== null);
+  }
+  $("apply").disabled = off || !live || !!scene.read_only;
+  $("save").disabled = off || !live || !scene.can_save;
+  $("save").title = scene && scene.mode === "live" && !scene.can_save && !scene.read_only
+    ? "started with --no-token: saving from the page is off" : "write it over the file";
+  $("scrubber").disabled = off;
 }
 
 function setStatus(text, kind) { const s = $("status"); s.textContent = text; s.className = "status " + (kind || ""); }
@@ -56,6 +108,7 @@ function notice(title, body, error) {
 function onScene(scene) {
   state.scene = scene;
   state.frame = null;
+  if (!state.offline) { $("ended").hidden = true; document.body.classList.remove("offline"); }
   $("diagnostics").hidden = scene.ok;
   $("diagnostics-text").textContent = (scene.diagnostics || []).join("\n");
   editorScene(scene);
@@ -125,27 +178,40 @@ function buildSliders(scene) {
     const input = document.createElement("input");
     Object.assign(input, { type: "range", min: s.min, max: s.max, step: (s.max - s.min) / 200, value: s.value });
     input.dataset.name = s.name;
-    input.dataset.label = s.label || s.name;  // a label several sliders share shows by each
     input.setAttribute("aria-label", s.name);
     input.addEventListener("pointerdown", () => { state.dragging = s.name; });
     input.addEventListener("pointerup", () => { state.dragging = null; });
-    input.addEventListener("input", () => {  // the value follows the thumb, not the next frame
+    input.addEventListener("input", () => {  // the value follows the thumb (or the keys), not the next frame
+      state.touched[s.name] = performance.now();
       div.querySelector(".value").textContent = fmt(Number(input.value));
       moveSlider(s.name, Number(input.value));
     });
+    // the last value, once let go: only when it was not sent already (one event in the trace, not two)
     input.addEventListener("change", () => { moveSlider(s.name, Number(input.value), true); state.dragging = null; });
     div.appendChild(input);
-    div.querySelector(".text").textContent = s.name;
+    div.querySelector(".text").textContent = s.name;  // its own name; its value beside it
     box.appendChild(div);
+  }
+  // the labels the sliders show, each once, as the script words it (the crane's three share one)
+  const labels = [...new Set(scene.sliders.map((s) => s.label).filter((l) => l))];
+  const list = $("slider-labels");
+  list.innerHTML = "";
+  for (const l of labels) {
+    const d = document.createElement("div");
+    d.className = "slider-label"; d.dataset.label = l;
+    list.appendChild(d);
   }
 }
 
 function moveSlider(name, value, force) {  // at most 20 messages a second while dragging
   const now = performance.now(), last = state.sent[name] || 0;
   clearTimeout(state.sent[name + ":t"]);
-  if (force || now - last > 50) { state.sent[name] = now; send({ type: "slider", name, value }); }
-  else state.sent[name + ":t"] = setTimeout(() => moveSlider(name, value, true), 50 - (now - last));
+  if (force && state.sentValue[name] === value) return;  // sent already: the trace records a move once
+  if (force || now - last > 50) {
+    state.sent[name] = now; state.sentValue[name] = value; send({ type: "slider", name, value });
+  } else state.sent[name + ":t"] = setTimeout(() => moveSlider(name, value, true), 50 - (now - last));
 }
+const TOUCHED_MS = 800;  // a slider moved here is the page's for this long: a frame from before it does not undo it
 
 function buildParams(scene) {
   const form = $("params");
@@ -195,6 +261,9 @@ function buildTable(scene) {
     const tr = body.insertRow();
     const box = document.createElement("input");
     box.type = "checkbox"; box.dataset.column = c.name;
+    if (c.numeric === false) {  // an image or a record: nothing to chart, so nothing to tick
+      box.disabled = true; box.hidden = true; tr.title = "not a number: nothing to chart";
+    }
     box.addEventListener("change", () => {
       chart.toggle(k, box.checked);
       state.chartNames = chart.picked.map((q) => scene.columns[q].name);
@@ -213,7 +282,8 @@ function pickChart(scene) {
     const wanted = new URLSearchParams(location.search).get("chart");
     state.chartNames = wanted ? wanted.split(",") : defaultChart(scene);
   }
-  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n)).filter((k) => k >= 0);
+  const picks = state.chartNames.map((n) => scene.columns.findIndex((c) => c.name === n))
+    .filter((k) => k >= 0 && scene.columns[k].numeric !== false);
   for (const k of picks) state.rows[k].box.checked = true;
   chart.setPicked(picks);
 }
@@ -234,6 +304,15 @@ function defaultChart(scene) {
   const skip = scene.mode === "replay" ? ["wheel_left", "wheel_right"] : [];
   return scene.columns.filter((c) => (c.group === "signal" || c.group === "trace") && c.numeric !== false
                               && !skip.includes(c.name)).slice(-2).map((c) => c.name);
+}
+
+// -- the run so far: sent before the first frame (a new tab, a reload, a reconnect) and after a
+// replay's seek, as the frames up to there would have drawn it; it replaces what was drawn ----
+function onHistory(h) {
+  if (!state.scene || !state.scene.ok) return;
+  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits));
+  chart.setHistory(h.robots.map((r) => r.samples));
+  state.history = h;
 }
 
 // -- frames ---------------------------------------------------------------------------------
@@ -291,30 +370,39 @@ function render() {
   // every text below is written only when it changes (setText): a write of the same text still
   // replaces the element's text and costs the page a style and layout pass, 20 times a second
   setText($("play"), f.playing ? "Pause" : "Play");
-  if ($("play").disabled !== (f.finished && !f.playing)) $("play").disabled = f.finished && !f.playing;
+  const ended = f.finished && !f.playing;
+  if (state.ended !== ended) { state.ended = ended; enableControls(); endBanner(f); }
   const end = scene.mode === "replay" ? ` / ${scene.end_s.toFixed(2)} s` : (scene.stop_s ? ` / ${scene.stop_s} s` : "");
   // the tick whose pose, values, state and rule the page shows (a live run's last tick run)
   const at = f.ran === 0 ? "not started" : `tick ${f.tick}`;
   setText($("clock"), `t = ${f.time.toFixed(2)} s${end}  (${at})${f.finished ? " — ended" : ""}`);
   setText($("rtf"), f.rtf ? `${f.rtf >= 10 ? f.rtf.toFixed(0) : f.rtf.toFixed(2)}× real time` : "");
   if (document.activeElement !== $("speed")) $("speed").value = String(f.speed);
-  if (scene.mode === "replay" && document.activeElement !== $("scrubber")) {
+  if (scene.mode === "replay" && !state.scrubbing) {  // it follows the run, unless held by the pointer
     $("scrubber").value = String(f.tick);
   }
   setText($("scrub-time"), scene.mode === "replay" ? `${f.time.toFixed(2)} s` : "");
   for (const input of $("sliders").querySelectorAll("input")) {
     const n = input.dataset.name, div = input.parentElement;
-    setText(div.querySelector(".text"), f.labels[input.dataset.label] || n);
-    if (state.dragging === n) continue;  // the thumb and its value are the student's until let go
+    // the thumb and its value are the student's until let go, and a moment after a key moved it
+    // (a frame built before the move came would put it back, and the next key step from there)
+    if (state.dragging === n || performance.now() - (state.touched[n] || -1e9) < TOUCHED_MS) continue;
     if (n in f.sliders) input.value = f.sliders[n];
     setText(div.querySelector(".value"), n in f.sliders ? fmt(f.sliders[n]) : "");
   }
+  for (const d of $("slider-labels").children) setText(d, f.labels[d.dataset.label] || "");
   const r = f.robots[state.robot];
   if (r) {
     setText($("state"), r.state || "–");
+    setText($("hits"), r.collisions === undefined ? "–" : String(r.collisions));
     const rule = scene.rules.find((q) => q.id === r.rule);
     setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
-    r.values.forEach((v, k) => { if (state.rows[k]) setText(state.rows[k].v, fmt(v)); });
+    // before the first tick a signal or a metric has no value yet (not 0): a dash, as the chart has none
+    const none = f.ran === 0 && scene.mode === "live";
+    r.values.forEach((v, k) => {
+      const g = scene.columns[k] && scene.columns[k].group;
+      if (state.rows[k]) setText(state.rows[k].v, none && (g === "signal" || g === "metric") ? "–" : fmt(v));
+    });
   }
   renderBreaks(f);
   if ("edited" in f) setText($("editor-state"), f.edited ? "applied, not saved" : "");
@@ -333,6 +421,19 @@ function render() {
   }
 }
 
+const ENDED_WHY = { "stop condition": "its stop condition held", "max ticks": "it reached its last tick",
+                    "budget": "it went over its budget", "interrupted": "it was interrupted" };
+function endBanner(f) {  // a finished run says so in words, not only by a greyed button
+  if (state.offline) return;
+  const b = $("ended"), replay = state.scene.mode === "replay";
+  b.hidden = !state.ended;
+  if (!state.ended) return;
+  b.className = "ended";
+  b.textContent = replay ? `End of the trace (t = ${f.time.toFixed(2)} s). Rewind or the scrubber go back.`
+    : `The run has ended at t = ${f.time.toFixed(2)} s` + (f.why ? ` (${ENDED_WHY[f.why] || f.why})` : "") +
+      ". Restart runs it again.";
+}
+
 function setText(el, text) {  // a cell written only when it changes: each write costs a layout
   if (el.textContent !== text) el.textContent = text;
 }
@@ -345,7 +446,7 @@ function editorScene(scene) {
   $("edit-here").hidden = !live || ro;
   $("read-only").hidden = !(live && ro);
   $("source").readOnly = ro;
-  $("apply").disabled = ro; $("save").disabled = ro;
+  enableControls();
   $("editor-name").textContent = scene.path + (ro ? " (read-only: labsim view --read-only)" : "");
   if (typeof scene.source === "string" && (!state.editing || state.applied)) {
     $("source").value = scene.source;  // a fresh run: its text (the page's own edit, once applied)
@@ -427,6 +528,8 @@ $("apply").addEventListener("click", () => {
   send({ type: "apply", text: $("source").value });
 });
 $("save").addEventListener("click", () => {
+  // it replaces the student's file on disk: asked first, as an editor asks before overwriting
+  if (!window.confirm(`Save over ${state.scene.path}? The file on disk is replaced by this text.`)) return;
   notice("");
   send({ type: "save", text: $("source").value });
   state.saved = $("source").value;
@@ -461,12 +564,15 @@ function renderBreaks(f) {
   }
   const hit = f.hit, box = $("break-hit");
   if (box.hidden !== !hit) box.hidden = !hit;
-  if (hit) {
-    const rule = hit.rule ? state.scene.rules.find((q) => q.id === hit.rule) : null;
-    box.textContent = `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${hit.what}` +
-      (state.scene.robots.length > 1 ? ` (${hit.robot})` : "") +
-      ` — state ${hit.state || "–"}, rule ${hit.rule ? `${hit.rule}: ${rule ? rule.text : ""}` : "(none fired)"}` +
-      ". Step goes on one tick, Play runs on.";
+  if (hit) {  // every breakpoint that held on that tick, each with its robot's state and rule then
+    const many = state.scene.robots.length > 1;
+    const parts = (hit.fired || [{ what: [hit.what], robot: hit.robot, state: hit.state, rule: hit.rule }]).map((f) => {
+      const rule = f.rule ? state.scene.rules.find((q) => q.id === f.rule) : null;
+      return f.what.join(" and ") + (many ? ` (${f.robot})` : "") + ` — state ${f.state || "–"}, rule ` +
+        (f.rule ? `${f.rule}: ${rule ? rule.text : ""}` : "(none fired)");
+    });
+    setText(box, `Paused on tick ${hit.tick} (t = ${hit.time.toFixed(2)} s): ${parts.join("; ")}. ` +
+                 "Step goes on one tick, Play runs on.");
   }
 }
 
@@ -512,10 +618,15 @@ $("robot").addEventListener("change", () => selectRobot(Number($("robot").value)
 $("timeline").addEventListener("change", () => send({ type: "timeline", on: $("timeline").checked }));
 $("recheck").addEventListener("click", () => send({ type: "recheck" }));
 $("scrubber").addEventListener("input", () => send({ type: "seek", tick: Number($("scrubber").value) }));
+$("scrubber").addEventListener("pointerdown", () => { state.scrubbing = true; });
+$("scrubber").addEventListener("pointerup", () => { state.scrubbing = false; });
 document.addEventListener("keydown", (e) => {
   if (["INPUT", "SELECT", "TEXTAREA"].includes(e.target.tagName)) return;
   if (e.key === " ") { e.preventDefault(); $("play").click(); }
   else if (e.key === ".") send({ type: "step" });
 });
+
+// the server's messages (docs/view.md, "Messages"), one handler each
+const HANDLERS = { scene: onScene, history: onHistory, frame: onFrame, error: refused };
 
 connect();

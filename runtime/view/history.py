@@ -1,0 +1,94 @@
+"""What a page that opens late is sent first: the run's history so far, bounded in size.
+
+A frame carries the path points and chart samples of the ticks since the last frame; a tab
+opened later, a reload or a reconnect would start from nothing (66 path points against the
+first tab's 278). ``History`` keeps, per robot, every path point and chart row the frames sent,
+and the server sends it whole as a ``history`` message before the first frame of a page
+(docs/view.md). It stays bounded: past ``MAX_POINTS`` every other path point goes (a jump's
+break stays), past ``MAX_ROWS`` each four chart rows become two, the first time with each
+column's least value and the last time with its greatest, so that a peak is never averaged
+away: the chart of a long run is an envelope of it. A replay builds the same document from
+its rows (``envelope``) for any tick it is asked to show.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from labsim.runtime.view.frames import Json, message
+
+MAX_POINTS = 4000  # path points kept per robot
+MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
+MAX_HITS = 2000  # collision marks a history sends per robot (the latest)
+
+Row = list  # [time, value, ...]: a value is a float, "inf", "-inf" or None
+
+
+def _num(v: object) -> float | None:
+    if type(v) is float:
+        return v if v == v else None
+    if v == "inf":
+        return math.inf
+    if v == "-inf":
+        return -math.inf
+    return None
+
+
+def _out(v: float | None) -> float | str | None:
+    if v is None:
+        return None
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return v
+
+
+def envelope(rows: Sequence[Row]) -> list[Row]:
+    """Four or fewer rows as two: the first time with each column's least value, the last time
+    with its greatest (a column with no number in them: None in both)."""
+    if len(rows) <= 2:
+        return list(rows)
+    width = len(rows[0])
+    low: Row = [rows[0][0]]
+    high: Row = [rows[-1][0]]
+    for k in range(1, width):
+        nums = [n for n in (_num(r[k]) for r in rows if k < len(r)) if n is not None]
+        low.append(_out(min(nums)) if nums else None)
+        high.append(_out(max(nums)) if nums else None)
+    return [low, high]
+
+
+def downsample(rows: list[Row], at_most: int) -> list[Row]:
+    """At most ``at_most`` rows: as they are when they fit, else least/greatest pairs of groups."""
+    if len(rows) <= at_most:
+        return rows
+    per = math.ceil(len(rows) / max(1, at_most // 2))
+    out: list[Row] = []
+    for k in range(0, len(rows), per):
+        out += envelope(rows[k:k + per])
+    return out
+
+
+class History:
+    """Each robot's path points and chart rows as the frames sent them; see the module."""
+
+    def __init__(self, robots: int):
+        self.paths: list[list[list | None]] = [[] for _ in range(robots)]
+        self.rows: list[list[Row]] = [[] for _ in range(robots)]
+        self.hits: list[list] = [[] for _ in range(robots)]  # where each collision began
+
+    def add(self, robot: int, path: list, rows: list[Row]) -> None:
+        p = self.paths[robot]
+        for q in path:
+            q = q if q is not None and isinstance(q[0], float) and isinstance(q[1], float) else None
+            if not p or q != p[-1] or q is None:  # a pose shown by two frames is one point, as the page draws it
+                p.append(q)
+        if len(p) > MAX_POINTS:
+            self.paths[robot] = [q for k, q in enumerate(p) if q is None or k % 2 == 0 or k == len(p) - 1]
+        r = self.rows[robot]
+        r += rows
+        if len(r) > MAX_ROWS:
+            self.rows[robot] = [e for k in range(0, len(r), 4) for e in envelope(r[k:k + 4])]
+
+    def doc(self, tick: int) -> Json:
+        return message("history", tick=tick, robots=[{"path": p, "samples": r, "hits": h[-MAX_HITS:]}
+                                                     for p, r, h in zip(self.paths, self.rows, self.hits)])

@@ -1,0 +1,115 @@
+"""The chart's samples of the ticks between two frames, with every peak kept.
+
+At "as fast as it goes" a thousand ticks run between two frames and a frame carries a few
+dozen chart rows. Picking evenly spread ticks aliases: the line lab's ``steer``, which flips
+sign every tick or two, was drawn as slow pulses. ``Sampler`` keeps every tick's chart values
+(two C-level ``itemgetter`` calls a tick: the sensor readings and the numeric slots) and hands a
+frame, per group of consecutive ticks, two rows: the group's first time with each column's
+least value and its last time with the greatest (the min/max envelope that PlotJuggler and
+uPlot draw per pixel column). The page draws a band where the signal flips and a line where it
+does not.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from operator import itemgetter
+
+import numpy as np
+
+Row = list  # [time, value, ...]
+
+
+def _getter(indices: Sequence[int]) -> Callable[[Sequence[object]], tuple]:
+    """A function of a list giving the items at ``indices`` as a tuple, in C."""
+    if not indices:
+        return lambda _values: ()
+    if len(indices) == 1:
+        k = indices[0]
+        return lambda values: (values[k],)
+    return itemgetter(*indices)
+
+
+class Sampler:
+    """What a tick keeps for the chart and how a frame's rows are made of it.
+
+    ``sensors`` are the table's sensor columns (column name, channel index, part: -1, or the
+    index in a joint's or body's tuple); ``slots`` the slot of every signal and slider column in
+    order, None for one that is not a number (an image, a record: nothing to chart).
+    """
+
+    def __init__(self, sensors: Sequence[tuple[str, int, int]], slots: Sequence[int | None]):
+        channels = list(dict.fromkeys(i for _, i, _ in sensors))
+        numeric_slots = [s for s in slots if s is not None]
+        self.read = _getter(channels)
+        self.keep = _getter(numeric_slots)
+        at = {c: k for k, c in enumerate(channels)}
+        self._parts = [(at[i], part) for _, i, part in sensors]
+        self._flat = all(part < 0 for _, _, part in sensors)
+        width = len(channels) if self._flat else len(sensors)
+        # where each chart column sits in a kept row (sensors, then numeric slots); -1: not a number
+        order, k = [], 0
+        for s in slots:
+            order.append(width + k if s is not None else -1)
+            k += s is not None
+        self._order = np.array(([at[i] for _, i, _ in sensors] if self._flat else list(range(len(sensors))))
+                               + order, dtype=np.intp)
+        self._nan = width + len(numeric_slots)  # the column of nans a missing number reads from
+
+    def _numbers(self, kept: Sequence[tuple[int, tuple, tuple]]) -> np.ndarray | None:
+        if self._flat:
+            rows = [r + s for _, r, s in kept]
+        else:
+            rows = [tuple(r[c] if p < 0 else (r[c][p] if isinstance(r[c], tuple) and p < len(r[c]) else None)
+                          for c, p in self._parts) + s for _, r, s in kept]
+        try:
+            m = np.array(rows, dtype=float)
+        except (TypeError, ValueError):  # a None or a record among them: each cell on its own
+            m = np.array([[_float(v) for v in row] for row in rows], dtype=float)
+        if m.ndim != 2:
+            m = m.reshape(len(rows), -1)
+        m = np.hstack([m, np.full((len(rows), 1), math.nan)])
+        return m[:, np.where(self._order >= 0, self._order, self._nan)]
+
+    def rows(self, kept: Sequence[tuple[int, tuple, tuple]], dt_s: float, at_most: int) -> list[Row]:
+        """At most ``at_most`` chart rows for the kept ticks: as they are when they fit, else
+        least/greatest pairs of consecutive groups; four decimals, ``"inf"`` and None as sent."""
+        if not kept:
+            return []
+        m = self._numbers(kept)
+        assert m is not None
+        ticks = np.array([t for t, _, _ in kept], dtype=float)
+        n = len(kept)
+        if n <= max(2, at_most):
+            times, values = ticks, m
+        else:
+            groups = max(1, at_most // 2)
+            edges = np.linspace(0, n, groups + 1).astype(np.intp)
+            starts, ends = edges[:-1], edges[1:] - 1
+            with np.errstate(invalid="ignore"):
+                low = np.fmin.reduceat(m, starts, axis=0)
+                high = np.fmax.reduceat(m, starts, axis=0)
+            values = np.empty((2 * groups, m.shape[1]))
+            values[0::2], values[1::2] = low, high
+            times = np.empty(2 * groups)
+            times[0::2], times[1::2] = ticks[starts], ticks[ends]
+        times = np.round(times * dt_s, 9)
+        values = np.round(values, 4)
+        out = np.hstack([times[:, None], values]).tolist()
+        if not np.isfinite(values).all():
+            out = [[row[0], *(_cell(v) for v in row[1:])] for row in out]
+        return out
+
+
+def _float(v: object) -> float:
+    if isinstance(v, (bool, int, float, np.integer, np.floating)):
+        return float(v)
+    return math.nan
+
+
+def _cell(v: float) -> float | str | None:
+    if v != v:
+        return None
+    if v in (math.inf, -math.inf):
+        return "inf" if v > 0 else "-inf"
+    return v
