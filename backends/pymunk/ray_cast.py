@@ -210,6 +210,8 @@ def _python_rays(plan: list[tuple[tuple[float, float, float] | None, list[_Membe
     circle's centre) whose doubles are written through a memoryview: cffi converts a tuple to
     a struct for each call, which cost a third of a ray. A hit's alpha and normal are read
     through a memoryview of the result, cheaper than its fields or a cdata pointer.
+    Over 60 lines: one closure on the hot path, as the kernel's loop is one function; the cone's
+    loop as a function of its own would add a call for each sonar each tick.
     """
     query, near, inf = chipmunk.segment_query_first, chipmunk.point_query_nearest, math.inf
     space = chipmunk.c_space(owner)

@@ -97,13 +97,13 @@ def _note_without_kernel() -> None:
         return
     import hashlib
 
-    import labsim
     from labsim.foundation.cache import cache_dir, write_atomically
+    from labsim.foundation.version import version
 
     folder = cache_dir()
     if folder is None:
         return
-    where = hashlib.sha256(f"{labsim.__version__} {Path(labsim.__file__).resolve().parent}".encode()).hexdigest()
+    where = hashlib.sha256(f"{version()} {Path(__file__).resolve().parents[2]}".encode()).hexdigest()
     marker = folder / f"noted-no-ray-kernel-{where[:16]}"
     if marker.exists() or not write_atomically(marker, b""):
         return

@@ -12,6 +12,7 @@ import asyncio
 import os
 import secrets
 import signal
+import socket
 import sys
 from collections.abc import Callable
 
@@ -40,9 +41,8 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
     with a warning, and the page cannot save the file.
     """
     from labsim.runtime.interrupts import StopSignals
-    from labsim.runtime.view.guard import exposure_warning
     from labsim.runtime.view.live import LiveSession
-    from labsim.runtime.view.server import bind_socket, serve, url_of
+    from labsim.runtime.view.server import serve
 
     if not 0 <= port < 65536:
         raise LabsimError([Diagnostic(f"--port {port}", "give a port from 1 to 65535, or 0 for a free one")])
@@ -55,21 +55,7 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
             raise LabsimError(refused)
         report(session.problems)
         broken = True
-    try:
-        sock = bind_socket(host, port)
-    except OSError as e:
-        session.close()
-        why = "is in use" if e.errno in (48, 98, 10048) else f"cannot be used: {e.strerror or e}"
-        raise LabsimError([Diagnostic(f"--port {port}", f"port {port} on {host} {why}",
-                                      notes=("pick another with --port, or --port 0 for a free one",))]) from None
-    key = secrets.token_urlsafe(24) if token else None
-    url = url_of(sock, host) + (f"?token={key}" if key else "")
-    exposed = exposure_warning(host, sock.getsockname()[0], sock.getsockname()[1])
-    if exposed:
-        warn(exposed)
-    if key is None:
-        warn(f"labsim view: warning: --no-token: any program or person that can reach port {sock.getsockname()[1]} "
-             "can watch and steer the run without the URL; the page cannot save the file")
+    sock, url, key = _listen(session, host, port, token, warn)
     if isinstance(session, LiveSession):
         session.can_save = key is not None
 
@@ -91,15 +77,41 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
         session.close()  # a --trace gets its footer
         sock.close()
     broken = broken and not getattr(session, "ever_ran", False)
-    if broken:
-        return EXIT_USAGE
-    if interrupted:
-        code = {signal.SIGINT: EXIT_INTERRUPTED, signal.SIGTERM: EXIT_TERMINATED,
-                getattr(signal, "SIGHUP", -1): EXIT_HANGUP}.get(interrupted, EXIT_INTERRUPTED)
-        how = {EXIT_TERMINATED: " (SIGTERM)", EXIT_HANGUP: " (SIGHUP)"}.get(code, "")
-        sys.stderr.write(f"labsim view: stopped{how}\n")
-        return code
-    return EXIT_OK
+    return EXIT_USAGE if broken else _stopped(interrupted) if interrupted else EXIT_OK
+
+
+def _listen(session: Session, host: str, port: int, token: bool,
+            warn: Callable[[str], None]) -> tuple[socket.socket, str, str | None]:
+    """The page's socket, its URL (with the session token unless ``--no-token``) and the token;
+    a port that cannot be used is the command line's mistake (the session closed)."""
+    from labsim.runtime.view.guard import exposure_warning
+    from labsim.runtime.view.server import bind_socket, url_of
+
+    try:
+        sock = bind_socket(host, port)
+    except OSError as e:
+        session.close()
+        why = "is in use" if e.errno in (48, 98, 10048) else f"cannot be used: {e.strerror or e}"
+        raise LabsimError([Diagnostic(f"--port {port}", f"port {port} on {host} {why}",
+                                      notes=("pick another with --port, or --port 0 for a free one",))]) from None
+    key = secrets.token_urlsafe(24) if token else None
+    url = url_of(sock, host) + (f"?token={key}" if key else "")
+    exposed = exposure_warning(host, sock.getsockname()[0], sock.getsockname()[1])
+    if exposed:
+        warn(exposed)
+    if key is None:
+        warn(f"labsim view: warning: --no-token: any program or person that can reach port {sock.getsockname()[1]} "
+             "can watch and steer the run without the URL; the page cannot save the file")
+    return sock, url, key
+
+
+def _stopped(interrupted: int) -> int:
+    """The exit code of a view a signal stopped (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP), said on stderr."""
+    code = {signal.SIGINT: EXIT_INTERRUPTED, signal.SIGTERM: EXIT_TERMINATED,
+            getattr(signal, "SIGHUP", -1): EXIT_HANGUP}.get(interrupted, EXIT_INTERRUPTED)
+    how = {EXIT_TERMINATED: " (SIGTERM)", EXIT_HANGUP: " (SIGHUP)"}.get(code, "")
+    sys.stderr.write(f"labsim view: stopped{how}\n")
+    return code
 
 
 def _session(path: str, overrides: dict[str, str], seed: int | None, backend: str,

@@ -10,8 +10,6 @@ the page; ``recheck`` tries again.
 """
 from __future__ import annotations
 
-import math
-import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, nullcontext
 from dataclasses import replace
@@ -22,13 +20,14 @@ from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.dsl.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import check_output, read_text, write_output
+from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
 from labsim.runtime.budgets import out_of_memory_message
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
 from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
+from labsim.runtime.view.edits import edited_text, save_over, wanted_params
 from labsim.runtime.view.frames import (
     Json,
     channel_kinds,
@@ -47,7 +46,6 @@ from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
 _NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
-MAX_EDIT_CHARS = 60_000  # an edited file the page sends (its messages are at most 64 KiB)
 SAMPLE_NUMBERS = 180  # chart numbers a frame carries at most, all robots together (a frame < 4 KB with the path)
 
 
@@ -424,9 +422,7 @@ class LiveSession(Session):
     def _edit(self, kind: str, msg: dict) -> bool:
         """Apply the page's text (compile it; restart with it when it compiles, else keep the run
         and say why, with lines and columns), or save it over the file the view was opened with."""
-        text = msg.get("text")
-        if not isinstance(text, str) or len(text) > MAX_EDIT_CHARS:
-            raise BadMessage(f"'text' must be the file's text, at most {MAX_EDIT_CHARS:,} characters")
+        text = edited_text(msg)
         if self.read_only:
             raise ChangeRefused([f"{self.path}: this view is read-only (labsim view --read-only)"])
         if kind == "save":
@@ -444,17 +440,8 @@ class LiveSession(Session):
     def _save(self, text: str) -> None:
         """Write the text over the view's own file, atomically (never over its world or trace,
         never through a link)."""
-        if not self.can_save:
-            raise ChangeRefused([f"{self.path}: not saved: this view was started with --no-token, so any program "
-                                 "that reaches its port could write the file; start labsim view without "
-                                 "--no-token to save from the page"])
-        if os.path.islink(self.path):
-            raise ChangeRefused([f"{self.path}: not saved: it is a link; save it in an editor"])
         inputs = [self.run.program.world.source] if self.run is not None and self.run.program.world.source else []
-        try:
-            write_output(self.path, text, [*inputs, *([self.trace_path] if self.trace_path else [])])
-        except LabsimError as e:
-            raise ChangeRefused([d.format() for d in e.diagnostics]) from None
+        save_over(str(self.path), text, [*inputs, *([self.trace_path] if self.trace_path else [])], self.can_save)
         if self.text == text:
             self.text = None  # the file holds what runs
 
@@ -482,17 +469,7 @@ class LiveSession(Session):
         self.recorder.breaks.append(b)
 
     def _params(self, msg: dict) -> bool:
-        values = msg.get("values")
-        if not isinstance(values, dict) or len(values) > 200:
-            raise BadMessage("'values' must be an object of parameter names and values")
-        wanted = dict(self.overrides)
-        for key, value in values.items():
-            key = name(key, "a parameter name")
-            if isinstance(value, bool) or not isinstance(value, (str, int, float)) or len(str(value)) > 100:
-                raise BadMessage(f"parameter '{key}' needs a number")
-            if isinstance(value, float) and not math.isfinite(value):
-                raise BadMessage(f"parameter '{key}' needs a finite number")
-            wanted[key] = str(value)
+        wanted = wanted_params(msg, self.overrides)
         ok = self.load(wanted)
         if not ok:  # the page's Parameters panel, not the command line's --set, said it
             self.refused = [replace(d, path="Parameters, " + d.path.removeprefix("--set ").replace("=", " = ", 1))

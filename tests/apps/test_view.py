@@ -527,7 +527,7 @@ def test_breakpoints_pause_on_their_tick_and_step_goes_on(tmp_path: Path) -> Non
 
 def test_two_breakpoints_on_one_tick_are_both_named_and_neither_is_late(tmp_path: Path) -> None:
     trace = tmp_path / "wall.csv"
-    assert main(["run", str(WALL), "--set", "minutes=0.2", "--trace", str(trace), "-q"]) == 0
+    assert main(["run", str(WALL), "--set", "minutes=0.4", "--trace", str(trace), "-q"]) == 0
     rows = read_trace(trace)
     state = rows.columns.index("state")
     entered = 1 + next(int(a[0]) for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state])
