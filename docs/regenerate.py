@@ -63,13 +63,13 @@ class Recipe:
 
 
 def _golden_failure() -> str:
-    """The wall lab copied as lab.yaml with its golden, ``hold`` changed by 1 cm, checked."""
+    """The wall lab copied as lab.yaml with its golden, ``side`` changed by 1 cm, checked."""
     with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
         folder = Path(scratch)
         shutil.copy(ROOT / "behaviours" / "wall_follow.golden.csv", folder / "lab.golden.csv")
         text = (ROOT / "behaviours" / "wall_follow.yaml").read_text(encoding="utf-8")
-        assert "hold: 0.45" in text, "the wall lab no longer sets hold: 0.45; change this recipe"
-        (folder / "lab.yaml").write_text(text.replace("hold: 0.45", "hold: 0.46"), encoding="utf-8")
+        assert "side: 0.3 " in text, "the wall lab no longer sets side: 0.3; change this recipe"
+        (folder / "lab.yaml").write_text(text.replace("side: 0.3 ", "side: 0.31", 1), encoding="utf-8")
         return labsim("test", "lab.yaml", cwd=folder, ok=(1,))
 
 
