@@ -21,6 +21,7 @@ from typing import Any
 from labsim.backends.scene.mechanism import JointSpec
 from labsim.backends.scene.models import Kind
 from labsim.dsl import ast
+from labsim.dsl.ast import LetMemo, children, walk
 from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, STATEFUL
 from labsim.dsl.check import Checked
 from labsim.dsl.ranges import Ranges
@@ -54,34 +55,6 @@ def lint(c: Checked, report: Report) -> None:
     Linter(c, report).run()
 
 
-def children(e: ast.Expr) -> tuple[ast.Expr, ...]:
-    """The sub-expressions of an expression node, in source order."""
-    if isinstance(e, (ast.Neg, ast.Not)):
-        return (e.operand,)
-    if isinstance(e, ast.Binary):
-        return (e.left, e.right)
-    if isinstance(e, ast.Compare):
-        return e.operands
-    if isinstance(e, ast.BoolOp):
-        return e.values
-    if isinstance(e, ast.IfExp):
-        return (e.test, e.body, e.orelse)
-    if isinstance(e, ast.Call):
-        return e.args
-    if isinstance(e, ast.Attribute):
-        return (e.value,)
-    return ()
-
-
-def walk(e: ast.Expr) -> Iterator[ast.Expr]:
-    """Every node of an expression, e first; without recursion, so a long flat sum costs no stack."""
-    todo = [e]
-    while todo:
-        node = todo.pop()
-        yield node
-        todo.extend(reversed(children(node)))
-
-
 class Linter:
     """One behaviour's warnings: each method below is one kind of silent mistake."""
 
@@ -97,6 +70,11 @@ class Linter:
         self.let_exprs = {name: p.node for name, p in c.lets}
         self.sliders = {sl.name: (sl.lo, sl.hi) for sl in c.sliders}
         self.ranges = Ranges(c, self.known, self.warn)
+        # what a signal is, worked out once per signal (a signal read in both branches of an 'if',
+        # or by itself through prev(), would otherwise be followed again at every read)
+        self.continuous_lets = LetMemo(self.let_exprs, self.continuous, "")
+        self.sonar_lets: LetMemo[tuple[float, tuple[str, ...]] | None] = LetMemo(self.let_exprs, self.sonar_range,
+                                                                                  None)
 
     def warn(self, place: Place, message: str, *notes: str) -> None:
         self.report.add(self.c.file.doc.diagnostic(place, message, "warning", tuple(notes)))
@@ -243,7 +221,7 @@ class Linter:
                       f"be exactly equal, and then this would {never}", "compare with '<=' or '>=' instead, "
                       "e.g. 'time >= 5' rather than 'time == 5'")
 
-    def continuous(self, e: ast.Expr, depth: int = 0) -> str:
+    def continuous(self, e: ast.Expr) -> str:
         """What makes e a continuous number ('time', a reading, a signal of them), or ''."""
         if isinstance(e, ast.Name):
             if e.id in CONTINUOUS_VARIABLES:
@@ -251,8 +229,8 @@ class Linter:
             kind = self.c.channel_kinds.get(e.id)
             if kind in _CONTINUOUS_KINDS and e.id not in _DISCRETE_CHANNELS:
                 return f"'{e.id}', a sensor reading"
-            if e.id in self.let_exprs and depth < 100:
-                inner = self.continuous(self.let_exprs[e.id], depth + 1)
+            if e.id in self.let_exprs:
+                inner = self.continuous_lets(e.id)
                 return f"'{e.id}', which reads {inner.split(',')[0]}" if inner else ""
             return ""
         if isinstance(e, ast.Call) and e.func in _DISCRETE:
@@ -261,7 +239,7 @@ class Linter:
         if isinstance(e, ast.Compare | ast.BoolOp | ast.Not):
             return ""  # a boolean
         for sub in parts:
-            found = self.continuous(sub, depth)
+            found = self.continuous(sub)
             if found:
                 return found
         return ""
@@ -285,17 +263,17 @@ class Linter:
                       "beyond its range a sonar reads inf (nothing detected); to ask whether it sees anything "
                       "at all, use detected(...)")
 
-    def sonar_range(self, e: ast.Expr, depth: int = 0) -> tuple[float, tuple[str, ...]] | None:
+    def sonar_range(self, e: ast.Expr) -> tuple[float, tuple[str, ...]] | None:
         """(the farthest distance e can read, the sonar) when e is a sonar or the nearest of sonars."""
         if isinstance(e, ast.Name):
             if e.id in self.c.distance_channels:
                 ranges = [s.range_m for m in self.c.models.values() for s in m.rays() if s.name == e.id]
                 return (max(ranges), (e.id,)) if ranges else None
-            if e.id in self.let_exprs and depth < 100:
-                return self.sonar_range(self.let_exprs[e.id], depth + 1)
+            if e.id in self.let_exprs:
+                return self.sonar_lets(e.id)
             return None
         if isinstance(e, ast.Call) and e.func in ("min", "max") and e.args:
-            seen = [self.sonar_range(a, depth) for a in e.args]
+            seen = [self.sonar_range(a) for a in e.args]
             found = [s for s in seen if s is not None]
             if len(found) == len(seen):
                 return max(r for r, _ in found), tuple(sorted({n for _, names in found for n in names}))

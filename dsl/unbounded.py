@@ -17,8 +17,9 @@ import math
 from collections.abc import Iterator
 
 from labsim.dsl import ast
+from labsim.dsl.ast import LetMemo, children, walk
 from labsim.dsl.check import Checked
-from labsim.dsl.lint import Linter, children, walk
+from labsim.dsl.lint import Linter
 from labsim.foundation.diagnostics import Report
 
 # Functions whose result is finite whatever they are given (pid, rate and total leave inf out).
@@ -56,6 +57,10 @@ class _Reach:
         self.linter = linter
         self.distance = linter.c.distance_channels
         self.lets = linter.let_exprs
+        # each signal followed once: the sensors it reads, and (for each set of guarded sensors)
+        # the sensor whose inf it can be; a signal read twice is not followed twice
+        self.read_lets = LetMemo(self.lets, self.read, frozenset())
+        self.sensor_lets: dict[tuple[str, frozenset[str]], str | None] = {}
 
     def pid_calls(self, e: ast.Expr, guarded: frozenset[str]) -> Iterator[tuple[ast.Call, frozenset[str]]]:
         """Each pid() call in e, with the sensors a test on the way to it reads (those are guarded)."""
@@ -74,15 +79,15 @@ class _Reach:
         for sub in children(e):
             yield from self.pid_calls(sub, guarded)
 
-    def read(self, e: ast.Expr, depth: int = 0) -> frozenset[str]:
+    def read(self, e: ast.Expr) -> frozenset[str]:
         """The distance sensors e reads, directly or through signals."""
         out: set[str] = set()
         for node in walk(e):
             if isinstance(node, ast.Name):
                 if node.id in self.distance:
                     out.add(node.id)
-                elif node.id in self.lets and depth < _DEPTH:
-                    out |= self.read(self.lets[node.id], depth + 1)
+                elif node.id in self.lets:
+                    out |= self.read_lets(node.id)
         return frozenset(out)
 
     def sensor(self, e: ast.Expr, guarded: frozenset[str], depth: int = 0) -> str | None:
@@ -90,11 +95,17 @@ class _Reach:
         if isinstance(e, ast.Name):
             if e.id in self.distance:
                 return None if e.id in guarded else e.id
-            if e.id in self.lets and depth < _DEPTH:
-                return self.sensor(self.lets[e.id], guarded, depth + 1)
-            return None
+            if e.id not in self.lets:
+                return None
+            key = (e.id, guarded)
+            if key not in self.sensor_lets:
+                if depth >= _DEPTH:
+                    return None
+                self.sensor_lets[key] = None  # while it is followed: prev(s, 0) inside s adds nothing
+                self.sensor_lets[key] = self.sensor(self.lets[e.id], guarded, depth + 1)
+            return self.sensor_lets[key]
         if isinstance(e, ast.IfExp):
-            inside = guarded | self.read(e.test, depth)
+            inside = guarded | self.read(e.test)
             return self.sensor(e.body, inside, depth) or self.sensor(e.orelse, inside, depth)
         if isinstance(e, ast.Binary) and e.op == "/":
             return self.sensor(e.left, guarded, depth)  # x / inf is 0

@@ -19,10 +19,10 @@ from yaml.nodes import ScalarNode
 
 from labsim.backends.scene.models import Kind
 from labsim.dsl import ast
+from labsim.dsl.ast import walk
 from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, Type
 from labsim.dsl.evaluate import Unsupported, evaluate
 from labsim.dsl.infer import ExprChecker
-from labsim.dsl.lint import walk
 from labsim.dsl.parse import ParseError, parse_expr
 from labsim.dsl.program import Program
 from labsim.dsl.read import Parsed
