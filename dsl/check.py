@@ -151,6 +151,8 @@ class _Checker(ExprChecker):
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
+        own = {name for pairs in robot_params.values() for name, _ in pairs}
+        self.constants = {**CONSTANTS, "dt": bf.dt_s, **{k: v for k, v in params.items() if k not in own}}
         noise = self.noise(params, robot_params, overrides)
         sliders = self.sliders()
         self.user_functions = check_definitions(self, bf.functions)

@@ -8,12 +8,14 @@ gives None, and its uses say nothing more.
 """
 from __future__ import annotations
 
+import contextlib
 import difflib
 
 from yaml.nodes import Node
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
+from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.functions import Expansion, body_name, body_note, check_call
 from labsim.dsl.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -50,6 +52,9 @@ class ExprChecker:
         self.self_prev: set[int] = set()  # id(call) of each prev(signal, initial) inside that signal
         self.self_prev_types: list[tuple[ast.Call, Type | None]] = []  # the current signal's, with their types
         self.clashed: set[str] = set()  # names two declarations share: reported once, where declared
+        # values known before the run, which the code generator folds: parameters every robot
+        # shares (--set included), the constants, dt; an index made of them is checked here
+        self.constants: dict[str, object] = {}
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -231,6 +236,8 @@ class ExprChecker:
 
     def size(self, e: ast.Expr) -> int:
         """How many members a group-typed expression has."""
+        if isinstance(e, ast.Name) and self.scopes and e.id in self.scopes[-1][1]:
+            return self.scopes[-1][1][e.id][1]  # a function's parameter: its argument's
         if isinstance(e, ast.Name) and e.id in self.group_sizes:
             return self.group_sizes[e.id]
         return self.sizes[id(e)]
@@ -276,11 +283,38 @@ class ExprChecker:
             self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
             return None
         n = self.size(e.value)
-        if isinstance(e.index, ast.Number) and not (e.index.value.is_integer() and 0 <= e.index.value < n):
+        k = self.known(e.index)
+        if k is None or isinstance(k, bool) or not isinstance(k, int | float):
+            return t.member  # known only while running: a place outside the group is a runtime fault
+        source = text.value[e.index.span[0]:e.index.span[1]]
+        shown = f"not {k:g}" if _literal(e.index) else f"'{source}' is {k:g}"
+        if not float(k).is_integer():
+            self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
+                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
+            return None
+        if not 0 <= k < n:
+            notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if k < 0 else ""),)
             self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
-                       f"{n - 1}; not {e.index.value:g}", notes=("places count from 0: the first member is [0]",))
+                       f"{n - 1}; {shown}", notes=notes)
             return None
         return t.member
+
+    def known(self, e: ast.Expr) -> object | None:
+        """The value of e known before the run, as the code generator folds it; None if it is not.
+
+        Inside a function's body, a parameter whose argument folds is that constant (and one that
+        does not is known only while running), as ``labsim.dsl.unroll`` writes the body."""
+        constants = self.constants
+        for d, _, call, _ in self.scopes:
+            inner = {k: v for k, v in constants.items() if k not in d.params}
+            for name, arg in zip(d.params, call.args if call is not None else ()):
+                with contextlib.suppress(NotConstant):  # known only while running
+                    inner[name] = fold(arg, constants)
+            constants = inner
+        try:
+            return fold(e, constants)
+        except NotConstant:
+            return None
 
     def compare(self, e: ast.Compare, text: Text) -> Type | None:
         inferred = [self.infer(o, text) for o in e.operands]
@@ -439,6 +473,11 @@ class ExprChecker:
                        f"argument, but this is {b.a}")
             return None
         return a
+
+
+def _literal(e: ast.Expr) -> bool:
+    """A number written as one, or its negative (``-1`` is ``Neg(1)``)."""
+    return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))
 
 
 def _text_note(t: Type) -> tuple[str, ...]:

@@ -458,6 +458,11 @@ class _ToAst(Transformer):
     def group(self, meta: Meta, c: list[Any]) -> ast.Group:
         if c[0] is None:
             raise ParseError(meta.start_pos, meta.end_pos, "a group needs at least one member, as in [sonar4, sonar5]")
+        if len(c[0]) > MAX_RANGE:
+            raise ParseError(meta.start_pos, meta.end_pos,
+                             f"a group holds at most {MAX_RANGE:,} members, and this one has {len(c[0]):,}",
+                             notes=("a robot has at most a few dozen sensors of a kind, and a lidar 360 beams: "
+                                    "name them by a range, as in lidar1..lidar360",))
         return ast.Group(tuple(c[0]), span=_span(meta))
 
     def index(self, meta: Meta, c: list[Any]) -> ast.Index:
@@ -486,4 +491,6 @@ class _ToAst(Transformer):
 
 
 _NUMBERED = re.compile(r"([A-Za-z_][A-Za-z0-9_]*?)(\d+)")
-MAX_RANGE = 1000  # members of one range of names; a robot has at most a few dozen sensors of a kind
+# members of one group (a range of names or a list): a robot has at most a few dozen sensors of a
+# kind; a reduction of a larger group would be one Python expression too deep to compile
+MAX_RANGE = 1000
