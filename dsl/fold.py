@@ -31,33 +31,58 @@ class NotConstant(Exception):
 
 def fold(e: ast.Expr, constants: Mapping[str, object]) -> object:
     """The value of ``e``, whose names other than ``constants`` are read at run time; NotConstant if it has one."""
-    if isinstance(e, (ast.Number, ast.Bool)):
-        return e.value
-    if isinstance(e, ast.Name):
-        if e.id in constants:
-            return constants[e.id]
-        raise NotConstant
     try:
-        if isinstance(e, ast.Neg):
-            operand: Any = fold(e.operand, constants)
-            return -operand
-        if isinstance(e, ast.Not):
-            return not fold(e.operand, constants)
-        if isinstance(e, ast.Binary):
-            return _BINARY[e.op](fold(e.left, constants), fold(e.right, constants))
-        if isinstance(e, ast.Compare):
-            values = [fold(o, constants) for o in e.operands]
-            return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
-        if isinstance(e, ast.BoolOp):
-            values = [fold(v, constants) for v in e.values]
-            return all(values) if e.op == "and" else any(values)
-        if isinstance(e, ast.IfExp):
-            return fold(e.body, constants) if fold(e.test, constants) else fold(e.orelse, constants)
-        if isinstance(e, ast.Call) and e.func in FOLDABLE:
-            return FUNCTIONS[e.func].resolve()(*(fold(a, constants) for a in e.args))
+        return _Folder(constants).visit(e)
     except (ArithmeticError, ValueError, TypeError):
         raise NotConstant from None  # left to run time, where it warns at its site
-    raise NotConstant
+
+
+class _Folder(ast.Visitor[Any]):
+    """A constant expression's value; NotConstant at the first node that reads something at run time."""
+
+    def __init__(self, constants: Mapping[str, object]) -> None:
+        self.constants = constants
+
+    def visit_Number(self, e: ast.Number) -> object:
+        return e.value
+
+    visit_Bool = visit_Number
+
+    def visit_Name(self, e: ast.Name) -> object:
+        if e.id in self.constants:
+            return self.constants[e.id]
+        raise NotConstant
+
+    def visit_Neg(self, e: ast.Neg) -> object:
+        return -self.visit(e.operand)
+
+    def visit_Not(self, e: ast.Not) -> object:
+        return not self.visit(e.operand)
+
+    def visit_Binary(self, e: ast.Binary) -> object:
+        return _BINARY[e.op](self.visit(e.left), self.visit(e.right))
+
+    def visit_Compare(self, e: ast.Compare) -> object:
+        values = [self.visit(o) for o in e.operands]
+        return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
+
+    def visit_BoolOp(self, e: ast.BoolOp) -> object:
+        values = [self.visit(v) for v in e.values]
+        return all(values) if e.op == "and" else any(values)
+
+    def visit_IfExp(self, e: ast.IfExp) -> object:
+        return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
+
+    def visit_Call(self, e: ast.Call) -> object:
+        if e.func not in FOLDABLE:
+            raise NotConstant
+        return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
+
+    # a record's field, text, a group and its members are computed at run time
+    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> object:
+        raise NotConstant
 
 
 # folded values are numbers and booleans, which the checker has typed: Any, not object

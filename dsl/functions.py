@@ -38,6 +38,7 @@ class ExprChecker(Protocol):
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     expansions: dict[int, Expansion]
     expanded: int
+    sizes: dict[int, int]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
 
@@ -187,6 +188,8 @@ def check_call(c: ExprChecker, e: ast.Call, text: Text, d: FunctionDecl) -> Type
     c.scopes.append((d, scope, e, text))
     try:
         t = c.infer(body, d.body.text)
+        if t in (Type.NUMBERS, Type.BOOLS):  # a call that is a group has its body's members
+            c.sizes[id(e)] = c.size(body)
     finally:
         c.scopes.pop()
     if t is not None:
