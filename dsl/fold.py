@@ -29,10 +29,13 @@ class NotConstant(Exception):
     """The expression reads something at run time, or faults: it is computed at run time."""
 
 
-def fold(e: ast.Expr, constants: Mapping[str, object]) -> object:
-    """The value of ``e``, whose names other than ``constants`` are read at run time; NotConstant if it has one."""
+def fold(e: ast.Expr, constants: Mapping[str, object], functions: frozenset[str] | None = None) -> object:
+    """The value of ``e``, whose names other than ``constants`` are read at run time; NotConstant if it has one.
+
+    ``functions`` are the built-ins computed here (FOLDABLE by default; the linter, which
+    only reads the value, takes more of them)."""
     try:
-        return _Folder(constants).visit(e)
+        return _Folder(constants, FOLDABLE if functions is None else functions).visit(e)
     except (ArithmeticError, ValueError, TypeError):
         raise NotConstant from None  # left to run time, where it warns at its site
 
@@ -40,8 +43,9 @@ def fold(e: ast.Expr, constants: Mapping[str, object]) -> object:
 class _Folder(ast.Visitor[Any]):
     """A constant expression's value; NotConstant at the first node that reads something at run time."""
 
-    def __init__(self, constants: Mapping[str, object]) -> None:
+    def __init__(self, constants: Mapping[str, object], functions: frozenset[str]) -> None:
         self.constants = constants
+        self.functions = functions
 
     def visit_Number(self, e: ast.Number) -> object:
         return e.value
@@ -74,7 +78,7 @@ class _Folder(ast.Visitor[Any]):
         return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
 
     def visit_Call(self, e: ast.Call) -> object:
-        if e.func not in FOLDABLE:
+        if e.func not in self.functions:
             raise NotConstant
         return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
 

@@ -23,8 +23,9 @@ from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
 
 
-class ExprChecker:
-    """The names in scope, their types, and the checks of expressions against them."""
+class ExprChecker(ast.Visitor["Type | None"]):
+    """The names in scope, their types, and the checks of expressions against them: ``infer``
+    visits each node with the method for its kind (``visit_Binary``, ...)."""
 
     def __init__(self, doc: Document, report: Report) -> None:
         self.doc = doc
@@ -101,57 +102,72 @@ class ExprChecker:
         return t
 
     def _infer(self, e: ast.Expr, text: Text) -> Type | None:
-        if isinstance(e, ast.Number):
-            return Type.NUMBER
-        if isinstance(e, ast.Bool):
-            return Type.BOOL
-        if isinstance(e, ast.Name):
-            return self.name(e, text)
-        if isinstance(e, ast.Text):
-            return Type.TEXT
-        if isinstance(e, ast.Group):
-            return self.group(e, text)
-        if isinstance(e, ast.Index):
-            return self.index(e, text)
-        if isinstance(e, ast.Neg):
-            return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
-        if isinstance(e, ast.Not):
-            return self.operands(e, text, "not", [e.operand], Type.BOOL, Type.BOOL)
-        if isinstance(e, ast.Binary):
-            return self.operands(e, text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
-        if isinstance(e, ast.BoolOp):
-            return self.operands(e, text, e.op, list(e.values), Type.BOOL, Type.BOOL)
-        if isinstance(e, ast.Compare):
-            return self.compare(e, text)
-        if isinstance(e, ast.IfExp):
-            self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
-            a, b = self.infer(e.body, text), self.infer(e.orelse, text)
-            if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
-                self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
-                           "choose between members or reductions of them")
-                return None
-            if a is not None and b is not None and a is not b:
-                self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
-                           f"not {a.a} and {b.a}")
-                return None
-            return a if a is not None else b
-        if isinstance(e, ast.Call):
-            return self.call(e, text)
-        if isinstance(e, ast.Attribute):
-            t = self.infer(e.value, text)
-            if t is None:
-                return None
-            fields = FIELDS.get(t)
-            if fields is None:
-                self.error(text.at(e.attr_span), f"{t.a} has no field '.{e.attr}'")
-                return None
-            if e.attr not in fields:
-                names = ", ".join("." + f for f in fields)
-                self.error(text.at(e.attr_span), f"{t.a} has the fields {names}; not '.{e.attr}'"
-                           f"{did_you_mean(e.attr, fields)}")
-                return None
-            return fields[e.attr][1]
-        raise AssertionError(f"unknown node {e!r}")
+        return self.visit(e, text)  # type: ignore[no-any-return]
+
+    # -- each kind of node ---------------------------------------------------------------------
+    def visit_Number(self, e: ast.Number, text: Text) -> Type | None:
+        return Type.NUMBER
+
+    def visit_Bool(self, e: ast.Bool, text: Text) -> Type | None:
+        return Type.BOOL
+
+    def visit_Name(self, e: ast.Name, text: Text) -> Type | None:
+        return self.name(e, text)
+
+    def visit_Text(self, e: ast.Text, text: Text) -> Type | None:
+        return Type.TEXT
+
+    def visit_Group(self, e: ast.Group, text: Text) -> Type | None:
+        return self.group(e, text)
+
+    def visit_Index(self, e: ast.Index, text: Text) -> Type | None:
+        return self.index(e, text)
+
+    def visit_Neg(self, e: ast.Neg, text: Text) -> Type | None:
+        return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
+
+    def visit_Not(self, e: ast.Not, text: Text) -> Type | None:
+        return self.operands(e, text, "not", [e.operand], Type.BOOL, Type.BOOL)
+
+    def visit_Binary(self, e: ast.Binary, text: Text) -> Type | None:
+        return self.operands(e, text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
+
+    def visit_BoolOp(self, e: ast.BoolOp, text: Text) -> Type | None:
+        return self.operands(e, text, e.op, list(e.values), Type.BOOL, Type.BOOL)
+
+    def visit_Compare(self, e: ast.Compare, text: Text) -> Type | None:
+        return self.compare(e, text)
+
+    def visit_IfExp(self, e: ast.IfExp, text: Text) -> Type | None:
+        self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
+        a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+        if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
+            self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
+                       "choose between members or reductions of them")
+            return None
+        if a is not None and b is not None and a is not b:
+            self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
+                       f"not {a.a} and {b.a}")
+            return None
+        return a if a is not None else b
+
+    def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
+        return self.call(e, text)
+
+    def visit_Attribute(self, e: ast.Attribute, text: Text) -> Type | None:
+        t = self.infer(e.value, text)
+        if t is None:
+            return None
+        fields = FIELDS.get(t)
+        if fields is None:
+            self.error(text.at(e.attr_span), f"{t.a} has no field '.{e.attr}'")
+            return None
+        if e.attr not in fields:
+            names = ", ".join("." + f for f in fields)
+            self.error(text.at(e.attr_span), f"{t.a} has the fields {names}; not '.{e.attr}'"
+                       f"{did_you_mean(e.attr, fields)}")
+            return None
+        return fields[e.attr][1]
 
     def name(self, e: ast.Name, text: Text) -> Type | None:
         if self.scopes:

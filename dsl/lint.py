@@ -14,16 +14,16 @@ from __future__ import annotations
 
 import itertools
 import math
-import operator
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from typing import Any
 
 from labsim.backends.scene.mechanism import JointSpec
 from labsim.backends.scene.models import Kind
 from labsim.dsl import ast
-from labsim.dsl.ast import LetMemo, children, walk
-from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, STATEFUL
+from labsim.dsl.ast import LetMemo, walk
+from labsim.dsl.builtins import CONSTANTS, STATEFUL
 from labsim.dsl.check import Checked
+from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.ranges import Ranges
 from labsim.foundation.diagnostics import Report
 from labsim.foundation.source import Place, Text
@@ -33,12 +33,6 @@ CONTINUOUS_VARIABLES = frozenset({"time", "state_time"})
 _CONTINUOUS_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.JOINT, Kind.FORCE, Kind.BODY, Kind.REFLECTANCE)
 # Functions whose result is a whole number or a sign, whatever their arguments.
 _DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint"})
-_BINARY: dict[str, Callable[[Any, Any], Any]] = {
-    "+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv,
-    "%": operator.mod, "**": operator.pow}
-_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
-    "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge, "==": operator.eq,
-    "!=": operator.ne}
 _FOLDABLE = frozenset({"abs", "min", "max", "clamp", "sqrt", "hypot", "sin", "cos", "tan", "exp",
                        "floor", "ceil", "round", "sign", "deg", "rad"})
 # Wheel actions whose every argument is a wheel speed, rad/s (drive(v, w) is turned into them).
@@ -72,6 +66,8 @@ class Linter:
         self.ranges = Ranges(c, self.known, self.warn)
         # what a signal is, worked out once per signal (a signal read in both branches of an 'if',
         # or by itself through prev(), would otherwise be followed again at every read)
+        self.continuity = _Continuous(self)
+        self.sonars = _SonarRange(self)
         self.continuous_lets = LetMemo(self.let_exprs, self.continuous, "")
         self.sonar_lets: LetMemo[tuple[float, tuple[str, ...]] | None] = LetMemo(self.let_exprs, self.sonar_range,
                                                                                   None)
@@ -109,35 +105,10 @@ class Linter:
     # -- values known before the run ---------------------------------------------------------
     def value(self, e: ast.Expr, env: dict[str, Any] | None = None) -> Any:
         """The value of an expression made of parameters, constants and ``env``; else _Unknown."""
-        env = env or {}
-        if isinstance(e, ast.Number | ast.Bool):
-            return e.value
-        if isinstance(e, ast.Name):
-            if e.id in env:
-                return env[e.id]
-            if e.id in self.constants:
-                return self.constants[e.id]
-            raise _Unknown
         try:
-            if isinstance(e, ast.Neg):
-                return -self.value(e.operand, env)
-            if isinstance(e, ast.Not):
-                return not self.value(e.operand, env)
-            if isinstance(e, ast.Binary):
-                return _BINARY[e.op](self.value(e.left, env), self.value(e.right, env))
-            if isinstance(e, ast.Compare):
-                values = [self.value(o, env) for o in e.operands]
-                return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
-            if isinstance(e, ast.BoolOp):
-                values = [self.value(v, env) for v in e.values]
-                return all(values) if e.op == "and" else any(values)
-            if isinstance(e, ast.IfExp):
-                return self.value(e.body if self.value(e.test, env) else e.orelse, env)
-            if isinstance(e, ast.Call) and e.func in _FOLDABLE:
-                return FUNCTIONS[e.func].resolve()(*(self.value(a, env) for a in e.args))
-        except (ArithmeticError, ValueError, TypeError):
+            return fold(e, {**self.constants, **env} if env else self.constants, _FOLDABLE)
+        except NotConstant:
             raise _Unknown from None
-        raise _Unknown
 
     def known(self, e: ast.Expr) -> Any:
         """The expression's value, or None when it is not known before the run."""
@@ -223,26 +194,7 @@ class Linter:
 
     def continuous(self, e: ast.Expr) -> str:
         """What makes e a continuous number ('time', a reading, a signal of them), or ''."""
-        if isinstance(e, ast.Name):
-            if e.id in CONTINUOUS_VARIABLES:
-                return f"'{e.id}'"
-            kind = self.c.channel_kinds.get(e.id)
-            if kind in _CONTINUOUS_KINDS and e.id not in _DISCRETE_CHANNELS:
-                return f"'{e.id}', a sensor reading"
-            if e.id in self.let_exprs:
-                inner = self.continuous_lets(e.id)
-                return f"'{e.id}', which reads {inner.split(',')[0]}" if inner else ""
-            return ""
-        if isinstance(e, ast.Call) and e.func in _DISCRETE:
-            return ""
-        parts = (e.body, e.orelse) if isinstance(e, ast.IfExp) else children(e)
-        if isinstance(e, ast.Compare | ast.BoolOp | ast.Not):
-            return ""  # a boolean
-        for sub in parts:
-            found = self.continuous(sub)
-            if found:
-                return found
-        return ""
+        return self.continuity.visit(e)
 
     def threshold(self, reading: ast.Expr, limit: ast.Expr, text: Text) -> None:
         """A sonar compared with a distance it cannot see."""
@@ -265,19 +217,7 @@ class Linter:
 
     def sonar_range(self, e: ast.Expr) -> tuple[float, tuple[str, ...]] | None:
         """(the farthest distance e can read, the sonar) when e is a sonar or the nearest of sonars."""
-        if isinstance(e, ast.Name):
-            if e.id in self.c.distance_channels:
-                ranges = [s.range_m for m in self.c.models.values() for s in m.rays() if s.name == e.id]
-                return (max(ranges), (e.id,)) if ranges else None
-            if e.id in self.let_exprs:
-                return self.sonar_lets(e.id)
-            return None
-        if isinstance(e, ast.Call) and e.func in ("min", "max") and e.args:
-            seen = [self.sonar_range(a) for a in e.args]
-            found = [s for s in seen if s is not None]
-            if len(found) == len(seen):
-                return max(r for r, _ in found), tuple(sorted({n for _, names in found for n in names}))
-        return None
+        return self.sonars.visit(e)
 
     def stateful(self) -> None:
         """pid(), prev() and the like where they are not evaluated every tick."""
@@ -308,23 +248,7 @@ class Linter:
 
     def stateful_in(self, e: ast.Expr, text: Text, where: str | None) -> None:
         """Warn at each stateful call of e; ``where`` says why e runs only on some ticks (None: every tick)."""
-        if isinstance(e, ast.Call) and e.func in STATEFUL and where is not None and id(e) not in self.c.self_prev:
-            self.warn(text.at(e.func_span), f"{e.func}() {where}: its memory misses the other ticks",
-                      "compute it in a 'let' signal, which runs every tick, and use the signal here")
-        if isinstance(e, ast.BoolOp):
-            self.stateful_in(e.values[0], text, where)
-            for v in e.values[1:]:
-                self.stateful_in(v, text, where or f"is after '{e.op}', evaluated only on the ticks what "
-                                                   f"comes before it {'holds' if e.op == 'and' else 'does not hold'}")
-            return
-        if isinstance(e, ast.IfExp):
-            self.stateful_in(e.test, text, where)
-            for branch in (e.body, e.orelse):
-                self.stateful_in(branch, text, where or "is in a branch of 'if ... else', evaluated only on "
-                                                         "the ticks that branch is taken")
-            return
-        for sub in children(e):
-            self.stateful_in(sub, text, where)
+        _Stateful(self).visit(e, text, where)
 
     # -- the world ---------------------------------------------------------------------------
     def start_poses(self) -> None:
@@ -433,6 +357,113 @@ class Linter:
                 self.warn(node, f"signal '{name}' is computed but never used", "only the trace records it; "
                           "a signal that just names a reading (like 'rope: Hoist_Actuator.position') is not "
                           "warned about")
+
+
+class _Continuous(ast.Visitor[str]):
+    """What makes an expression a continuous number ('time', a reading, a signal of them), or ''."""
+
+    def __init__(self, linter: Linter) -> None:
+        self.linter = linter
+
+    def visit_Name(self, e: ast.Name) -> str:
+        c = self.linter.c
+        if e.id in CONTINUOUS_VARIABLES:
+            return f"'{e.id}'"
+        kind = c.channel_kinds.get(e.id)
+        if kind in _CONTINUOUS_KINDS and e.id not in _DISCRETE_CHANNELS:
+            return f"'{e.id}', a sensor reading"
+        if e.id in self.linter.let_exprs:
+            inner = self.linter.continuous_lets(e.id)
+            return f"'{e.id}', which reads {inner.split(',')[0]}" if inner else ""
+        return ""
+
+    def visit_Call(self, e: ast.Call) -> str:
+        return "" if e.func in _DISCRETE else self.first(ast.children(e))
+
+    def visit_IfExp(self, e: ast.IfExp) -> str:
+        return self.first((e.body, e.orelse))  # the test only chooses
+
+    def first(self, parts: tuple[ast.Expr, ...]) -> str:
+        for sub in parts:
+            found = self.visit(sub)
+            if found:
+                return found
+        return ""
+
+    # booleans and text are not numbers; a number of numbers is continuous when one of them is
+    def visit_Compare(self, e: ast.Expr) -> str:
+        return ""
+
+    visit_BoolOp = visit_Not = visit_Text = visit_Number = visit_Bool = visit_Compare
+    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> str:
+        return self.first(ast.children(e))
+
+
+class _SonarRange(ast.Visitor["tuple[float, tuple[str, ...]] | None"]):
+    """(the farthest distance an expression can read, the sonars) when it is a sonar, a signal
+    that is one, or the nearest (or farthest) of sonars; None for anything else."""
+
+    def __init__(self, linter: Linter) -> None:
+        self.linter = linter
+
+    def visit_Name(self, e: ast.Name) -> tuple[float, tuple[str, ...]] | None:
+        c = self.linter.c
+        if e.id in c.distance_channels:
+            ranges = [s.range_m for m in c.models.values() for s in m.rays() if s.name == e.id]
+            return (max(ranges), (e.id,)) if ranges else None
+        if e.id in self.linter.let_exprs:
+            return self.linter.sonar_lets(e.id)
+        return None
+
+    def visit_Call(self, e: ast.Call) -> tuple[float, tuple[str, ...]] | None:
+        if e.func not in ("min", "max") or not e.args:
+            return None
+        args = e.args[0].members if len(e.args) == 1 and isinstance(e.args[0], ast.Group) else e.args
+        seen = [self.visit(a) for a in args]
+        found = [s for s in seen if s is not None]
+        if len(found) == len(seen):
+            return max(r for r, _ in found), tuple(sorted({n for _, names in found for n in names}))
+        return None
+
+    generic = frozenset(set(ast.node_classes()) - {ast.Name, ast.Call})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> None:
+        return None
+
+
+class _Stateful(ast.Visitor[None]):
+    """pid(), prev() and the like where they are not evaluated every tick: ``where`` says why an
+    expression runs only on some ticks (None: every tick)."""
+
+    def __init__(self, linter: Linter) -> None:
+        self.linter = linter
+
+    def visit_Call(self, e: ast.Call, text: Text, where: str | None) -> None:
+        if e.func in STATEFUL and where is not None and id(e) not in self.linter.c.self_prev:
+            self.linter.warn(text.at(e.func_span), f"{e.func}() {where}: its memory misses the other ticks",
+                             "compute it in a 'let' signal, which runs every tick, and use the signal here")
+        self.generic_visit(e, text, where)
+
+    def visit_BoolOp(self, e: ast.BoolOp, text: Text, where: str | None) -> None:
+        self.visit(e.values[0], text, where)
+        for v in e.values[1:]:
+            self.visit(v, text, where or f"is after '{e.op}', evaluated only on the ticks what comes before it "
+                                         f"{'holds' if e.op == 'and' else 'does not hold'}")
+
+    def visit_IfExp(self, e: ast.IfExp, text: Text, where: str | None) -> None:
+        self.visit(e.test, text, where)
+        for branch in (e.body, e.orelse):
+            self.visit(branch, text, where or "is in a branch of 'if ... else', evaluated only on the ticks that "
+                                              "branch is taken")
+
+    # the others run their parts whenever they run (a group's members, each of them)
+    generic = frozenset(set(ast.node_classes()) - {ast.Call, ast.BoolOp, ast.IfExp})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> None:
+        for child in ast.children(e):
+            self.visit(child, *args)
 
 
 def _with(env: dict[str, float]) -> str:

@@ -113,7 +113,7 @@ def mod(a: Range, b: Range) -> Range:
     return Range(min(0.0, k), max(0.0, k), nan or a.nan, _facts(a))
 
 
-class Ranges:
+class Ranges(ast.Visitor[Range]):
     """The ranges of one checked behaviour's expressions, and the warnings they give.
 
     ``known`` is the linter's value of an expression known before the run (None otherwise);
@@ -185,24 +185,37 @@ class Ranges:
         if isinstance(value, int | float) and not isinstance(value, bool):
             v = float(value)
             return Range(v, v, v != v)
-        if isinstance(e, ast.Name):
-            return self.name(e.id)
-        if isinstance(e, ast.Neg):
-            return neg(self.of(e.operand))
-        if isinstance(e, ast.Binary):
-            a, b = self.of(e.left), self.of(e.right)
-            ops: dict[str, Callable[[Range, Range], Range]] = {
-                "+": add, "-": lambda x, y: add(x, neg(y)), "*": mul, "/": div, "%": mod}
-            r = ops[e.op](a, b) if e.op in ops else TOP
-            if e.op in ("+", "-") and (a.point or b.point):  # an angle moved by a constant is still one
-                r = replace(r, angle=a.angle or b.angle)
-            return r
-        if isinstance(e, ast.IfExp):
-            return _hull((self.of(e.body), self.of(e.orelse)))
-        if isinstance(e, ast.Call):
-            return self.call(e)
-        if isinstance(e, ast.Attribute):
-            return self.attribute(e)
+        return self.visit(e)
+
+    def visit_Name(self, e: ast.Name) -> Range:
+        return self.name(e.id)
+
+    def visit_Neg(self, e: ast.Neg) -> Range:
+        return neg(self.of(e.operand))
+
+    def visit_Binary(self, e: ast.Binary) -> Range:
+        a, b = self.of(e.left), self.of(e.right)
+        ops: dict[str, Callable[[Range, Range], Range]] = {
+            "+": add, "-": lambda x, y: add(x, neg(y)), "*": mul, "/": div, "%": mod}
+        r = ops[e.op](a, b) if e.op in ops else TOP
+        if e.op in ("+", "-") and (a.point or b.point):  # an angle moved by a constant is still one
+            r = replace(r, angle=a.angle or b.angle)
+        return r
+
+    def visit_IfExp(self, e: ast.IfExp) -> Range:
+        return _hull((self.of(e.body), self.of(e.orelse)))
+
+    def visit_Call(self, e: ast.Call) -> Range:
+        return self.call(e)
+
+    def visit_Attribute(self, e: ast.Attribute) -> Range:
+        return self.attribute(e)
+
+    # numbers known before the run are found above; booleans, text and groups have no range, nor
+    # has a member of a group (its members' ranges are not followed)
+    generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: object) -> Range:
         return TOP
 
     def name(self, name: str) -> Range:

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 from labsim.dsl import ast
-from labsim.dsl.ast import LetMemo, children, walk
+from labsim.dsl.ast import LetMemo, walk
 from labsim.dsl.check import Checked
 from labsim.dsl.lint import Linter
 from labsim.foundation.diagnostics import Report
@@ -61,23 +62,13 @@ class _Reach:
         # the sensor whose inf it can be; a signal read twice is not followed twice
         self.read_lets = LetMemo(self.lets, self.read, frozenset())
         self.sensor_lets: dict[tuple[str, frozenset[str]], str | None] = {}
+        self.sensors = _Sensor(self)
 
     def pid_calls(self, e: ast.Expr, guarded: frozenset[str]) -> Iterator[tuple[ast.Call, frozenset[str]]]:
         """Each pid() call in e, with the sensors a test on the way to it reads (those are guarded)."""
-        if isinstance(e, ast.Call) and e.func == "pid":
-            yield e, guarded
-        if isinstance(e, ast.IfExp):
-            yield from self.pid_calls(e.test, guarded)
-            inside = guarded | self.read(e.test)
-            yield from self.pid_calls(e.body, inside)
-            yield from self.pid_calls(e.orelse, inside)
-            return
-        if isinstance(e, ast.BoolOp):  # a later part runs only when the earlier ones let it
-            for i, part in enumerate(e.values):
-                yield from self.pid_calls(part, guarded.union(*(self.read(v) for v in e.values[:i])))
-            return
-        for sub in children(e):
-            yield from self.pid_calls(sub, guarded)
+        found: list[tuple[ast.Call, frozenset[str]]] = []
+        _PidCalls(self, found).visit(e, guarded)
+        return iter(found)
 
     def read(self, e: ast.Expr) -> frozenset[str]:
         """The distance sensors e reads, directly or through signals."""
@@ -92,40 +83,29 @@ class _Reach:
 
     def sensor(self, e: ast.Expr, guarded: frozenset[str], depth: int = 0) -> str | None:
         """A distance sensor whose inf can be e's value, none of ``guarded``; None if there is none."""
-        if isinstance(e, ast.Name):
-            if e.id in self.distance:
-                return None if e.id in guarded else e.id
-            if e.id not in self.lets:
+        return self.sensors.visit(e, guarded, depth)  # type: ignore[no-any-return]
+
+    def name(self, e: ast.Name, guarded: frozenset[str], depth: int) -> str | None:
+        if e.id in self.distance:
+            return None if e.id in guarded else e.id
+        if e.id not in self.lets:
+            return None
+        key = (e.id, guarded)
+        if key not in self.sensor_lets:
+            if depth >= _DEPTH:
                 return None
-            key = (e.id, guarded)
-            if key not in self.sensor_lets:
-                if depth >= _DEPTH:
-                    return None
-                self.sensor_lets[key] = None  # while it is followed: prev(s, 0) inside s adds nothing
-                self.sensor_lets[key] = self.sensor(self.lets[e.id], guarded, depth + 1)
-            return self.sensor_lets[key]
-        if isinstance(e, ast.IfExp):
-            inside = guarded | self.read(e.test)
-            return self.sensor(e.body, inside, depth) or self.sensor(e.orelse, inside, depth)
-        if isinstance(e, ast.Binary) and e.op == "/":
-            return self.sensor(e.left, guarded, depth)  # x / inf is 0
-        if isinstance(e, ast.Call):
-            return self.call(e, guarded, depth)
-        if isinstance(e, ast.Compare | ast.BoolOp | ast.Not | ast.Attribute):
-            return None  # booleans and records: not an error's number
-        for sub in children(e):
-            found = self.sensor(sub, guarded, depth)
-            if found:
-                return found
-        return None
+            self.sensor_lets[key] = None  # while it is followed: prev(s, 0) inside s adds nothing
+            self.sensor_lets[key] = self.sensor(self.lets[e.id], guarded, depth + 1)
+        return self.sensor_lets[key]
 
     def call(self, e: ast.Call, guarded: frozenset[str], depth: int) -> str | None:
         if e.func in _FINITE or len(e.args) == 0:
             return None
-        found = [self.sensor(a, guarded, depth) for a in e.args]
-        if e.func == "min" and not all(f or self.infinite(a) for f, a in zip(found, e.args)):
+        args = e.args[0].members if len(e.args) == 1 and isinstance(e.args[0], ast.Group) else e.args
+        found = [self.sensor(a, guarded, depth) for a in args]
+        if e.func == "min" and not all(f or self.infinite(a) for f, a in zip(found, args)):
             return None  # an argument that is never inf bounds it
-        if e.func == "clamp" and len(e.args) == 3:  # clamp(inf, lo, hi) is hi
+        if e.func == "clamp" and len(args) == 3:  # clamp(inf, lo, hi) is hi
             hi_unbounded = found[2] is not None or self.infinite(e.args[2])
             return found[0] if hi_unbounded and found[0] else found[1] or found[2]
         return next((f for f in found if f), None)
@@ -135,3 +115,67 @@ class _Reach:
         value = self.linter.known(e)
         return isinstance(value, int | float) and not isinstance(value, bool) and not math.isfinite(value)
 
+
+
+class _PidCalls(ast.Visitor[None]):
+    """Each pid() call of an expression, with the sensors a test on the way to it reads."""
+
+    def __init__(self, reach: _Reach, found: list[tuple[ast.Call, frozenset[str]]]) -> None:
+        self.reach = reach
+        self.found = found
+
+    def visit_Call(self, e: ast.Call, guarded: frozenset[str]) -> None:
+        if e.func == "pid":
+            self.found.append((e, guarded))
+        self.generic_visit(e, guarded)
+
+    def visit_IfExp(self, e: ast.IfExp, guarded: frozenset[str]) -> None:
+        self.visit(e.test, guarded)
+        inside = guarded | self.reach.read(e.test)
+        self.visit(e.body, inside)
+        self.visit(e.orelse, inside)
+
+    def visit_BoolOp(self, e: ast.BoolOp, guarded: frozenset[str]) -> None:
+        for i, part in enumerate(e.values):  # a later part runs only when the earlier ones let it
+            self.visit(part, guarded.union(*(self.reach.read(v) for v in e.values[:i])))
+
+    generic = frozenset(set(ast.node_classes()) - {ast.Call, ast.IfExp, ast.BoolOp})
+
+
+class _Sensor(ast.Visitor["str | None"]):
+    """A distance sensor whose inf can be an expression's value, none of the guarded ones."""
+
+    def __init__(self, reach: _Reach) -> None:
+        self.reach = reach
+
+    def visit_Name(self, e: ast.Name, guarded: frozenset[str], depth: int) -> str | None:
+        return self.reach.name(e, guarded, depth)
+
+    def visit_IfExp(self, e: ast.IfExp, guarded: frozenset[str], depth: int) -> str | None:
+        inside = guarded | self.reach.read(e.test)
+        return self.visit(e.body, inside, depth) or self.visit(e.orelse, inside, depth)
+
+    def visit_Binary(self, e: ast.Binary, guarded: frozenset[str], depth: int) -> str | None:
+        if e.op == "/":
+            return self.visit(e.left, guarded, depth)  # x / inf is 0
+        return self.generic_visit(e, guarded, depth)
+
+    def visit_Call(self, e: ast.Call, guarded: frozenset[str], depth: int) -> str | None:
+        return self.reach.call(e, guarded, depth)
+
+    def visit_Compare(self, e: ast.Expr, guarded: frozenset[str], depth: int) -> str | None:
+        return None  # booleans, records and text: not an error's number
+
+    def visit_Index(self, e: ast.Index, guarded: frozenset[str], depth: int) -> str | None:
+        return self.visit(e.value, guarded, depth)  # any member may be the one picked
+
+    visit_BoolOp = visit_Not = visit_Attribute = visit_Text = visit_Bool = visit_Number = visit_Compare
+    # a number made of others (a group of them) can be inf when one of them is
+    generic = frozenset({ast.Neg, ast.Group})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> str | None:
+        for sub in ast.children(e):
+            found = self.visit(sub, *args)
+            if found:
+                return found
+        return None
