@@ -247,7 +247,7 @@ class Visitor(Generic[T]):
             else:
                 raise TypeError(f"{type(self).__name__} does not handle {cls.__name__}")
             type(self)._methods[cls] = method
-        return getattr(self, method)(e, *args)  # type: ignore[no-any-return]
+        return getattr(self, method)(e, *args)
 
     def generic_visit(self, e: Expr, *args: Any) -> T:
         for child in children(e):

@@ -42,9 +42,10 @@ from labsim.dsl.builtins import (
     Type,
 )
 from labsim.dsl.functions import Expansion, check_bodies, check_definitions
-from labsim.dsl.infer import ExprChecker, arity_message, log_example
+from labsim.dsl.infer import ExprChecker
 from labsim.dsl.noise import Noise, resolve_noise
 from labsim.dsl.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
+from labsim.dsl.wording import arity_message, log_example
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
 from labsim.foundation.source import Place, Text

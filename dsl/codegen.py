@@ -27,6 +27,7 @@ import re
 from collections.abc import Mapping
 from contextlib import nullcontext
 from dataclasses import dataclass
+from typing import Any
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate, Type
@@ -38,7 +39,17 @@ from labsim.dsl.program import Code, LabelPart
 from labsim.dsl.read import Parsed, RuleDecl
 from labsim.dsl.stop import stop_horizon
 from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
-from labsim.dsl.unroll import LOCAL, ON_SEQUENCE, PLAIN, VALUES, Unroller, extreme, reduce, reduce_sequence
+from labsim.dsl.unroll import (
+    LOCAL,
+    ON_SEQUENCE,
+    PLAIN,
+    VALUES,
+    MemberWriter,
+    Unroller,
+    extreme,
+    reduce,
+    reduce_sequence,
+)
 from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
@@ -89,6 +100,8 @@ class _Generator(Unroller):
         self.slot_of = slots.slot_of
         self.state_names = tuple(checked.states)
         self.constants = _constants(checked, slots.slot_of)
+        self.emitter = _Emit(self)
+        self.member_writer = MemberWriter(self)
         self.sites: list[tuple[str, FaultSite]] = []
         self.functions: set[str] = set()  # built-ins called directly
         # ("min" | "max", a sequence's Python) -> the slot of a signal that is that reduction
@@ -457,47 +470,7 @@ class _Generator(Unroller):
             return self.emit(w, e, text, where)
 
     def emit(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
-        x = lambda sub: self.expr(w, sub, text, where)  # noqa: E731
-        if isinstance(e, ast.Name):
-            if self.env and e.id in self.env[-1]:
-                code = self.env[-1][e.id]
-                assert isinstance(code, str)  # a group argument is read through members()
-                return code
-            slot = self.slot_of[e.id]
-            w.read(slot)
-            # the runtime counts ticks in ints; the language's numbers are floats, so that
-            # tick * tick * ... overflows to inf rather than to an int no float can hold
-            return f"(v{slot} + 0.0)" if slot == TICK else f"v{slot}"
-        if isinstance(e, ast.Neg):
-            return f"(-{x(e.operand)})"
-        if isinstance(e, ast.Not):
-            return f"(not {x(e.operand)})"
-        if isinstance(e, ast.Binary):
-            a, b = x(e.left), x(e.right)
-            if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.nonzero(e.right)):
-                return f"({a} {e.op} {b})"
-            return f"{self.site(e.op, text, e.span, where)}({a}, {b})"
-        if isinstance(e, ast.Compare):
-            parts = [x(e.operands[0])]
-            for op, operand in zip(e.ops, e.operands[1:]):
-                parts += [op, x(operand)]
-            return "(" + " ".join(parts) + ")"
-        if isinstance(e, ast.BoolOp):
-            return "(" + f" {e.op} ".join(x(v) for v in e.values) + ")"
-        if isinstance(e, ast.IfExp):
-            return f"({x(e.body)} if {x(e.test)} else {x(e.orelse)})"
-        if isinstance(e, ast.Attribute):
-            index = FIELDS[self.c.node_types[id(e.value)]][e.attr][0]
-            return f"{x(e.value)}[{index}]"
-        if isinstance(e, ast.Call):
-            return self.call(w, e, text, where)
-        if isinstance(e, ast.Text):
-            if e.value not in self.texts[len(self.state_names):]:
-                self.texts.append(e.value)
-            return f"_texts[{len(self.state_names) + self.texts[len(self.state_names):].index(e.value)}]"
-        if isinstance(e, ast.Index):
-            return self.index(w, e, text, where)
-        raise AssertionError(f"cannot compile {e!r}")
+        return self.emitter.visit(e, w, text, where)
 
     def nonzero(self, e: ast.Expr) -> bool:
         """Whether an expression is a constant number other than zero (a divisor needing no guard)."""
@@ -635,3 +608,72 @@ def _or_parts(e: ast.Expr) -> list[ast.Expr]:
     if isinstance(e, ast.BoolOp) and e.op == "or":
         return [part for value in e.values for part in _or_parts(value)]
     return [e]
+
+
+class _Emit(ast.Visitor[str]):
+    """Python for one expression that is one value, written into ``w``; ``where`` names it for
+    its fault sites. Numbers fold before they get here (``Generator.expr``), groups are written
+    member by member (``Unroller.members``)."""
+
+    def __init__(self, g: _Generator) -> None:
+        self.g = g
+
+    def visit_Name(self, e: ast.Name, w: Writer, text: Text, where: str) -> str:
+        g = self.g
+        if g.env and e.id in g.env[-1]:
+            code = g.env[-1][e.id]
+            assert isinstance(code, str)  # a group argument is read through members()
+            return code
+        slot = g.slot_of[e.id]
+        w.read(slot)
+        # the runtime counts ticks in ints; the language's numbers are floats, so that
+        # tick * tick * ... overflows to inf rather than to an int no float can hold
+        return f"(v{slot} + 0.0)" if slot == TICK else f"v{slot}"
+
+    def visit_Neg(self, e: ast.Neg, w: Writer, text: Text, where: str) -> str:
+        return f"(-{self.g.expr(w, e.operand, text, where)})"
+
+    def visit_Not(self, e: ast.Not, w: Writer, text: Text, where: str) -> str:
+        return f"(not {self.g.expr(w, e.operand, text, where)})"
+
+    def visit_Binary(self, e: ast.Binary, w: Writer, text: Text, where: str) -> str:
+        g = self.g
+        a, b = g.expr(w, e.left, text, where), g.expr(w, e.right, text, where)
+        if e.op in ("+", "-", "*") or (e.op in ("/", "%") and g.nonzero(e.right)):
+            return f"({a} {e.op} {b})"
+        return f"{g.site(e.op, text, e.span, where)}({a}, {b})"
+
+    def visit_Compare(self, e: ast.Compare, w: Writer, text: Text, where: str) -> str:
+        parts = [self.g.expr(w, e.operands[0], text, where)]
+        for op, operand in zip(e.ops, e.operands[1:]):
+            parts += [op, self.g.expr(w, operand, text, where)]
+        return "(" + " ".join(parts) + ")"
+
+    def visit_BoolOp(self, e: ast.BoolOp, w: Writer, text: Text, where: str) -> str:
+        return "(" + f" {e.op} ".join(self.g.expr(w, v, text, where) for v in e.values) + ")"
+
+    def visit_IfExp(self, e: ast.IfExp, w: Writer, text: Text, where: str) -> str:
+        x = lambda sub: self.g.expr(w, sub, text, where)  # noqa: E731
+        return f"({x(e.body)} if {x(e.test)} else {x(e.orelse)})"
+
+    def visit_Attribute(self, e: ast.Attribute, w: Writer, text: Text, where: str) -> str:
+        index = FIELDS[self.g.c.node_types[id(e.value)]][e.attr][0]
+        return f"{self.g.expr(w, e.value, text, where)}[{index}]"
+
+    def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> str:
+        return self.g.call(w, e, text, where)
+
+    def visit_Text(self, e: ast.Text, w: Writer, text: Text, where: str) -> str:
+        g = self.g
+        if e.value not in g.texts[len(g.state_names):]:
+            g.texts.append(e.value)
+        return f"_texts[{len(g.state_names) + g.texts[len(g.state_names):].index(e.value)}]"
+
+    def visit_Index(self, e: ast.Index, w: Writer, text: Text, where: str) -> str:
+        return self.g.index(w, e, text, where)
+
+    # numbers and booleans are folded before they get here; a group is written by members()
+    generic = frozenset({ast.Number, ast.Bool, ast.Group})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> str:
+        raise AssertionError(f"cannot compile {e!r}")

@@ -95,7 +95,8 @@ def log_text(text: tuple[str | tuple[ast.Expr, str], ...], names: Mapping[str, o
              rng: random.Random | None = None, **options: Any) -> tuple[str, tuple[Fault, ...]]:
     """A log's text (``ast.Action.text``): its literal parts, and each field's value formatted with
     its spec as docs/language.md, "Logging", says (``show``); with the faults of the fields."""
-    out, faults = [], []
+    out: list[str] = []
+    faults: list[Fault] = []
     for part in text:
         if isinstance(part, str):
             out.append(part)

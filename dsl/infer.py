@@ -9,7 +9,6 @@ gives None, and its uses say nothing more.
 from __future__ import annotations
 
 import contextlib
-import difflib
 
 from yaml.nodes import Node
 
@@ -18,6 +17,7 @@ from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS
 from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.functions import Expansion, body_name, body_note, check_call
 from labsim.dsl.read import FunctionDecl, Parsed
+from labsim.dsl.wording import arity_message, function_notes, range_text, text_note
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -102,7 +102,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         return t
 
     def _infer(self, e: ast.Expr, text: Text) -> Type | None:
-        return self.visit(e, text)  # type: ignore[no-any-return]
+        return self.visit(e, text)
 
     # -- each kind of node ---------------------------------------------------------------------
     def visit_Number(self, e: ast.Number, text: Text) -> Type | None:
@@ -232,7 +232,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
             elif t is not want:
                 if not self.explained(arg):
                     self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
-                               notes=_text_note(t))
+                               notes=text_note(t))
                 ok = False
         return self.grouped(e, text, op, sizes, result) if ok else None
 
@@ -267,7 +267,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 names = [m.id for m in missing if isinstance(m, ast.Name)]
                 which = names[0] if len(names) == 1 else f"{names[0]} .. {names[-1]}"
                 near = [n for n in self.types if n.rstrip("0123456789") == names[0].rstrip("0123456789")]
-                notes = (f"names of this kind: {_range_text(near)}",) if near else ()
+                notes = (f"names of this kind: {range_text(near)}",) if near else ()
                 self.error(text.at(e.span), f"{text.value[e.span[0]:e.span[1]]} names {which}, which "
                            f"{'does' if len(names) == 1 else 'do'} not exist", notes=notes)
                 return None
@@ -299,17 +299,17 @@ class ExprChecker(ast.Visitor["Type | None"]):
             self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
             return None
         n = self.size(e.value)
-        k = self.known(e.index)
-        if k is None or isinstance(k, bool) or not isinstance(k, int | float):
+        place = self.known(e.index)
+        if place is None or isinstance(place, bool) or not isinstance(place, int | float):
             return t.member  # known only while running: a place outside the group is a runtime fault
         source = text.value[e.index.span[0]:e.index.span[1]]
-        shown = f"not {k:g}" if _literal(e.index) else f"'{source}' is {k:g}"
-        if not float(k).is_integer():
+        shown = f"not {place:g}" if _literal(e.index) else f"'{source}' is {place:g}"
+        if not float(place).is_integer():
             self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
                        notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
             return None
-        if not 0 <= k < n:
-            notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if k < 0 else ""),)
+        if not 0 <= place < n:
+            notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
             self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
                        f"{n - 1}; {shown}", notes=notes)
             return None
@@ -346,7 +346,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                            f"'state == {name}'")
             else:
                 self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
-                           notes=_text_note(Type.TEXT))
+                           notes=text_note(Type.TEXT))
             return None
         if Type.STATE in types:
             if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
@@ -494,60 +494,3 @@ class ExprChecker(ast.Visitor["Type | None"]):
 def _literal(e: ast.Expr) -> bool:
     """A number written as one, or its negative (``-1`` is ``Neg(1)``)."""
     return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))
-
-
-def _text_note(t: Type) -> tuple[str, ...]:
-    if t is Type.TEXT:
-        return ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
-    return ()
-
-
-def _range_text(names: list[str]) -> str:
-    """'sonar1 .. sonar16' for numbered names, else the names listed."""
-    numbered = sorted(names, key=lambda n: int(n[len(n.rstrip("0123456789")):] or 0))
-    return f"{numbered[0]} .. {numbered[-1]}" if len(numbered) > 2 else ", ".join(numbered)
-
-
-def arity_message(name: str, params: tuple[str, ...], given: int, variadic: bool = False,
-                  optional: int = 0) -> str:
-    """'f() takes 2 arguments (x, y), given 3', and its variants: 'pid() takes 4 or 5 arguments
-    (error, kp, ki, kd[, limit]), given 2'. Parameters named only by their type are not listed."""
-    n = len(params)
-    named = bool(params) and not all(p in ("number", "boolean") for p in params)
-    required = ", ".join(params[:n - optional])
-    listed = required + (f"[, {', '.join(params[n - optional:])}]" if optional else "") + (", ..." if variadic else "")
-    shown = f" ({listed})" if named else ""
-    if variadic:
-        return f"{name}() takes at least {n} arguments{shown}, given {given}"
-    if optional:
-        counts = f"{n - optional} or {n}" if optional == 1 else f"{n - optional} to {n}"
-        return f"{name}() takes {counts} arguments{shown}, given {given}"
-    if n == 0:
-        return f"{name}() takes no arguments, given {given}"
-    return f"{name}() takes {n} {'argument' if n == 1 else 'arguments'}{shown}, given {given}"
-
-
-
-
-def log_example(action: ast.Action, text: Text) -> str:
-    """The log() an action that prints meant: its text, and its values as fields after it.
-
-    print("wall!", x) -> log("wall! {x:.2f}"); with no text of its own, log("hit at {time:.1f} s")."""
-    source = text.value
-    def field(e: ast.Expr, spec: str) -> str:
-        return "{" + source[e.span[0]:e.span[1]] + (f":{spec}" if spec else "") + "}"
-    if action.text is None and not action.args:
-        return 'log("hit at {time:.1f} s")'
-    words = "".join(p.replace("{", "{{").replace("}", "}}") if isinstance(p, str) else field(*p)
-                    for p in action.text or ())
-    fields = " ".join(field(arg, ".2f") for arg in action.args)
-    return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
-
-
-def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:
-    """What an unknown function's message lists: the nearest functions, and where they are all."""
-    names = sorted([*FUNCTIONS, DETECTED])
-    close = difflib.get_close_matches(name, names, n=3, cutoff=0.4) if nearest else []
-    return ((f"the nearest: {', '.join(close)}; " if close else "")
-            + "functions: " + ", ".join(names),
-            "each is described in docs/language.md, under 'Functions'")

@@ -60,7 +60,7 @@ class _Reach:
         self.lets = linter.let_exprs
         # each signal followed once: the sensors it reads, and (for each set of guarded sensors)
         # the sensor whose inf it can be; a signal read twice is not followed twice
-        self.read_lets = LetMemo(self.lets, self.read, frozenset())
+        self.read_lets: LetMemo[frozenset[str]] = LetMemo(self.lets, self.read, frozenset())
         self.sensor_lets: dict[tuple[str, frozenset[str]], str | None] = {}
         self.sensors = _Sensor(self)
 
@@ -83,7 +83,7 @@ class _Reach:
 
     def sensor(self, e: ast.Expr, guarded: frozenset[str], depth: int = 0) -> str | None:
         """A distance sensor whose inf can be e's value, none of ``guarded``; None if there is none."""
-        return self.sensors.visit(e, guarded, depth)  # type: ignore[no-any-return]
+        return self.sensors.visit(e, guarded, depth)
 
     def name(self, e: ast.Name, guarded: frozenset[str], depth: int) -> str | None:
         if e.id in self.distance:

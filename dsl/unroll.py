@@ -31,6 +31,7 @@ class Unroller:
     constants: dict[str, object]
     env: list[dict[str, str | list[str]]]  # inside a user function's body: its arguments' Python
     let_of: dict
+    member_writer: MemberWriter
 
     def expr(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
         raise NotImplementedError
@@ -47,46 +48,7 @@ class Unroller:
     def members(self, w: Writer, e: ast.Expr, text: Text, where: str) -> list[str]:
         """Python for each member of a group-typed expression; an operator applies to each member,
         and a value it pairs with every member is written into each (the checker made it pure)."""
-        x = lambda sub: self.spread(w, sub, self.c.sizes.get(id(e), 0), text, where)  # noqa: E731
-        if isinstance(e, ast.Group):
-            return [self.expr(w, m, text, where) for m in e.members]
-        if isinstance(e, ast.Name):
-            if self.env and e.id in self.env[-1]:
-                return list(self.env[-1][e.id])
-            slots = self.layout.members[e.id]
-            if slots is None:  # a group of names: read them where it is used
-                parsed = self.let_of[e.id]
-                return self.members(w, parsed.node, parsed.text, where)
-            for k in slots:
-                w.read(k)
-            return [f"v{k}" for k in slots]
-        if isinstance(e, ast.Neg):
-            return [f"(-{m})" for m in x(e.operand)]
-        if isinstance(e, ast.Not):
-            return [f"(not {m})" for m in x(e.operand)]
-        if isinstance(e, ast.Binary):
-            out = []
-            for a, b in zip(x(e.left), x(e.right)):
-                if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.nonzero(e.right)):
-                    out.append(f"({a} {e.op} {b})")
-                else:
-                    out.append(f"{self.site(e.op, text, e.span, where)}({a}, {b})")
-            return out
-        if isinstance(e, ast.Compare):
-            out = []
-            for row in zip(*(x(o) for o in e.operands)):
-                parts = [row[0]]
-                for op, operand in zip(e.ops, row[1:]):
-                    parts += [op, operand]
-                out.append("(" + " ".join(parts) + ")")
-            return out
-        if isinstance(e, ast.BoolOp):
-            return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(x(v) for v in e.values))]
-        if isinstance(e, ast.Call) and id(e) in self.c.expansions:
-            body = self.inline(w, e, text, where)
-            assert isinstance(body, list)
-            return body
-        raise AssertionError(f"cannot compile the group {e!r}")
+        return self.member_writer.visit(e, w, text, where)
 
     def sequence(self, w: Writer, e: ast.Expr) -> tuple[str, int] | None:
         """Python for a group that is a run of more than three of the tick's channel values, in
@@ -170,6 +132,72 @@ class Unroller:
         finally:
             self.env.pop()
             self.constants = outer
+
+
+class MemberWriter(ast.Visitor[list[str]]):
+    """Python for each member of a group-typed expression, written into ``w``."""
+
+    def __init__(self, g: Unroller) -> None:
+        self.g = g
+
+    def spread(self, e: ast.Expr, sub: ast.Expr, w: Writer, text: Text, where: str) -> list[str]:
+        return self.g.spread(w, sub, self.g.c.sizes.get(id(e), 0), text, where)
+
+    def visit_Group(self, e: ast.Group, w: Writer, text: Text, where: str) -> list[str]:
+        return [self.g.expr(w, m, text, where) for m in e.members]
+
+    def visit_Name(self, e: ast.Name, w: Writer, text: Text, where: str) -> list[str]:
+        g = self.g
+        if g.env and e.id in g.env[-1]:
+            return list(g.env[-1][e.id])
+        slots = g.layout.members[e.id]
+        if slots is None:  # a group of names: read them where it is used
+            parsed = g.let_of[e.id]
+            return self.visit(parsed.node, w, parsed.text, where)
+        for k in slots:
+            w.read(k)
+        return [f"v{k}" for k in slots]
+
+    def visit_Neg(self, e: ast.Neg, w: Writer, text: Text, where: str) -> list[str]:
+        return [f"(-{m})" for m in self.spread(e, e.operand, w, text, where)]
+
+    def visit_Not(self, e: ast.Not, w: Writer, text: Text, where: str) -> list[str]:
+        return [f"(not {m})" for m in self.spread(e, e.operand, w, text, where)]
+
+    def visit_Binary(self, e: ast.Binary, w: Writer, text: Text, where: str) -> list[str]:
+        out = []
+        for a, b in zip(self.spread(e, e.left, w, text, where), self.spread(e, e.right, w, text, where)):
+            if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.g.nonzero(e.right)):
+                out.append(f"({a} {e.op} {b})")
+            else:
+                out.append(f"{self.g.site(e.op, text, e.span, where)}({a}, {b})")
+        return out
+
+    def visit_Compare(self, e: ast.Compare, w: Writer, text: Text, where: str) -> list[str]:
+        out = []
+        for row in zip(*(self.spread(e, o, w, text, where) for o in e.operands)):
+            parts = [row[0]]
+            for op, operand in zip(e.ops, row[1:]):
+                parts += [op, operand]
+            out.append("(" + " ".join(parts) + ")")
+        return out
+
+    def visit_BoolOp(self, e: ast.BoolOp, w: Writer, text: Text, where: str) -> list[str]:
+        return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(self.spread(e, v, w, text, where)
+                                                                  for v in e.values))]
+
+    def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
+        if id(e) not in self.g.c.expansions:
+            raise AssertionError(f"cannot compile the group {e!r}")
+        body = self.g.inline(w, e, text, where)
+        assert isinstance(body, list)
+        return body
+
+    # one value each, never a group (the checker's types)
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
+        raise AssertionError(f"cannot compile the group {e!r}")
 
 
 # What a writer records as read when code uses the tick's channel values as one sequence

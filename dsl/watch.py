@@ -7,7 +7,9 @@ its signals, parameters, sliders, states, ``time``, ``tick``, ``dt`` and ``state
 diagnostics are the file's kind, with the line and column in the condition's own text
 (``--break:1:8: unknown name 'sonr5' (did you mean 'sonar5'?)``). A ``Watch`` is evaluated
 once a tick with the reference evaluator (``labsim.dsl.evaluate``), which sees one tick:
-functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked.
+functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked,
+wherever they are (inside a group too). The same compiled condition stops ``labsim run --break``
+(``labsim.runtime.breakpoint``), which prints the values it read (``Watch.values``).
 """
 from __future__ import annotations
 
@@ -44,20 +46,31 @@ class Watch:
     channels: tuple[tuple[str, int], ...]  # name -> index into a robot's readings
     slots: tuple[tuple[str, int], ...]  # signals and sliders: name -> slot
     constants: Mapping[str, object]  # parameters, states (their indices), dt
+    reads: tuple[str, ...] = ()  # the names it reads, in the order written (constants left out)
 
-    def holds(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> bool:
-        """Whether the condition holds on a tick, from the robot's readings and slots."""
+    def names(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> dict[str, object]:
+        """Every name's value on a tick, from the robot's readings and slots."""
         names: dict[str, object] = dict(self.constants)
         names["time"], names["tick"], names["state"] = tick * dt_s, float(tick), slots[STATE]
         for name, i in self.channels:
             names[name] = readings[i]
         for name, i in self.slots:
             names[name] = slots[i]
+        return names
+
+    def holds(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> bool:
+        """Whether the condition holds on a tick, from the robot's readings and slots."""
         try:
-            value, _ = evaluate(self.node, names)
+            value, _ = evaluate(self.node, self.names(tick, dt_s, readings, slots), constants=self.constants)
         except Unsupported:  # what the checks let through and one tick cannot answer: never holds
             return False
         return bool(value)
+
+    def values(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]
+               ) -> list[tuple[str, object]]:
+        """The values of the names it reads on a tick, in the order written."""
+        names = self.names(tick, dt_s, readings, slots)
+        return [(n, names[n]) for n in self.reads if n in names]
 
 
 def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
@@ -102,13 +115,32 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                               "tick at a time", notes=("make it a signal in the file (let:) "
                                                                        "and watch the signal",)))
     report.raise_if_errors()
+    reads = _Reads()
+    reads.visit(e)
     return Watch(  # every name it may read (a name inside a group is read too)
         text=text, node=e,
         channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
         slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
                     if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
-                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s})
+                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
+        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)))
+
+
+class _Reads(ast.Visitor[None]):
+    """The names a condition reads, in the order written; the breakpoint prints their values."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+
+    def visit_Name(self, e: ast.Name) -> None:
+        self.names.append(e.id)
+
+    def visit_Call(self, e: ast.Call) -> None:
+        self.generic_visit(e)  # detected(sonar5) reads sonar5, as its argument
+
+    # every other node reads what its parts read
+    generic = frozenset(set(ast.node_classes()) - {ast.Name, ast.Call})
 
 
 def _calls(e: ast.Expr) -> list[ast.Call]:

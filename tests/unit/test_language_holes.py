@@ -119,3 +119,18 @@ def test_a_group_of_100000_members_is_refused_not_a_recursion_error(tmp_path: Pa
     assert proc.returncode == 2
     assert "a group holds at most 1,000 members, and this one has 100,000" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+# -- warnings that see groups ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("error", ["max(sonar8, sonar9)", "max(sonar8..sonar9)", "max([sonar8, sonar9])"])
+def test_a_sonar_s_inf_into_pid_is_warned_written_out_or_as_a_group(write, error: str) -> None:
+    program = compile_file(write(HEAD + f"rules:\n  - always arc(pid({error} - 0.5, 1, 0, 0), 1)\n"))
+    assert [w.message for w in program.warnings] == [
+        "pid()'s error reads sonar8, which is inf when nothing is within its range (1 m, the model's range_m): on "
+        "those ticks pid() gives its last output again and its state does not change"]
+
+
+def test_a_group_bounded_by_a_number_keeps_the_inf_out(write) -> None:
+    program = compile_file(write(HEAD + "rules:\n  - always arc(pid(min([sonar8, 0.5]) - 0.5, 1, 0, 0), 1)\n"))
+    assert program.warnings == ()
