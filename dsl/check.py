@@ -140,6 +140,8 @@ class _Checker(ExprChecker):
             self.declare(name, _KIND_TYPES[kind], _KIND_WORDS.get(kind, "sensor"))
         self.distance = {name for name, kind in channels.items() if kind is Kind.DISTANCE}
         self.poisoned = set(self.bf.failed_names)
+        if self.robots_failed(world, mechanism):  # reported: what a robot would read is not unknown too
+            self.poisoned |= {name for m in MODELS.values() for name in m.channels()} - set(channels)
         for name, t in VARIABLES.items():
             self.declare(name, t, "built-in variable" if name not in SHADOWABLE else _SHADOWABLE_KIND)
         for name in CONSTANTS:
@@ -176,6 +178,13 @@ class _Checker(ExprChecker):
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called))
+
+    def robots_failed(self, world: World | None, mechanism: Mechanism | None) -> bool:
+        """Whether a robot was reported as wrong (an unknown model, no model, a mistyped or missing
+        'robots:'): the names its model would have given are then not reported as unknown."""
+        bf = self.bf
+        return (bf.robots_failed or any(r.model not in MODELS for r in bf.robots)
+                or (not bf.has_robots and mechanism is None and world is not None))
 
     def presence(self, world: World | None, mechanism: Mechanism | None) -> None:
         """robots: and rules: are needed unless the world is a mechanism and bind: drives it."""

@@ -30,6 +30,7 @@ from labsim.dsl import ast
 from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, REDUCTIONS, Type, argmax, argmin
 from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.memory import PRIMED
+from labsim.dsl.support import make_pid, show_field
 
 INF = math.inf
 NAN = math.nan
@@ -94,7 +95,7 @@ def evaluate(e: ast.Expr, names: Mapping[str, object], rng: random.Random | None
 def log_text(text: tuple[str | tuple[ast.Expr, str], ...], names: Mapping[str, object],
              rng: random.Random | None = None, **options: Any) -> tuple[str, tuple[Fault, ...]]:
     """A log's text (``ast.Action.text``): its literal parts, and each field's value formatted with
-    its spec as docs/language.md, "Logging", says (``show``); with the faults of the fields."""
+    its spec as the runtime shows it (``labsim.dsl.support.show_field``); with the faults of the fields."""
     out: list[str] = []
     faults: list[Fault] = []
     for part in text:
@@ -103,22 +104,8 @@ def log_text(text: tuple[str | tuple[ast.Expr, str], ...], names: Mapping[str, o
             continue
         value, met = evaluate(part[0], names, rng, **options)
         faults += met
-        out.append(show(value, part[1]))
+        out.append(show_field(value, part[1]))
     return "".join(out), tuple(faults)
-
-
-def show(value: object, spec: str) -> str:
-    """A field's value with its format spec: a whole number for ``d`` (a fraction with six
-    significant digits), and a spec that does not apply to the value (``{flag:.2f}`` of a
-    boolean) is left out."""
-    if spec.endswith("d") and isinstance(value, float) and not isinstance(value, bool):
-        if value.is_integer():
-            return format(int(value), spec)
-        return format(value, "g")
-    try:
-        return format(value, spec)
-    except (ValueError, TypeError):
-        return format(value, "g") if isinstance(value, float) else str(value)
 
 
 # every field name has one index in every record type that has it (x is 0, found 2, ...)
@@ -355,7 +342,6 @@ class _Walker(ast.Visitor[Any]):
             def report(what: str) -> None:
                 memory.report[-1](what)
             if e.func == "pid":
-                from labsim.dsl.support import make_pid
                 step = make_pid(report)
             else:
                 factory: Callable[..., Callable[..., object]] = FUNCTIONS[e.func].resolve()  # type: ignore[assignment]

@@ -14,7 +14,6 @@ circle at the definition and at the call that closes it.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -60,27 +59,13 @@ class Expansion:
 def copy(e: ast.Expr) -> ast.Expr:
     """A fresh copy of an expression tree: new nodes, so each call site's types are its own."""
     changes: dict[str, Any] = {}
-    for f in dataclasses.fields(e):
-        v = getattr(e, f.name)
-        if isinstance(v, ast.Expr):
-            changes[f.name] = copy(v)
-        elif isinstance(v, tuple) and v and all(isinstance(x, ast.Expr) for x in v):
-            changes[f.name] = tuple(copy(x) for x in v)
+    for name in ast.child_fields(type(e)):
+        v = getattr(e, name)
+        changes[name] = tuple(copy(x) for x in v) if isinstance(v, tuple) else copy(v)
     return dataclasses.replace(e, **changes)
 
 
-def nodes(e: ast.Expr) -> Iterator[ast.Expr]:
-    """Every node of an expression, e first, without recursion."""
-    todo = [e]
-    while todo:
-        node = todo.pop()
-        yield node
-        for f in dataclasses.fields(node):
-            v = getattr(node, f.name)
-            if isinstance(v, ast.Expr):
-                todo.append(v)
-            elif isinstance(v, tuple):
-                todo.extend(x for x in reversed(v) if isinstance(x, ast.Expr))
+nodes = ast.walk  # every node of an expression, e first, without recursion
 
 
 def check_definitions(c: ExprChecker, decls: list[FunctionDecl]) -> dict[str, FunctionDecl]:

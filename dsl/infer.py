@@ -202,8 +202,17 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         hint = did_you_mean(e.id, self.types)
         notes: tuple[str, ...] = ()
-        if e.id.startswith("sonar") and e.id[5:].isdigit():
-            notes = ("the robot's sonars are sonar1 .. sonar16, numbered as in CoppeliaSim",)
+        stem = e.id.rstrip("0123456789")
+        numbered = stem not in ("", e.id)
+        kin = [n for n in self.types if n != stem and n.rstrip("0123456789") == stem] if numbered else []
+        if numbered and stem == "sonar" and not kin:  # a model with other distance sensors (an e-puck's prox1 .. prox8)
+            others = sorted(self.distance)
+            notes = (f"this robot has no sonars; its distance sensors are {range_text(others)}" if others else
+                     "this robot has no sonars",)
+        elif numbered and stem == "sonar":
+            notes = (f"the robot's sonars are {range_text(kin)}, numbered as in CoppeliaSim",)
+        elif kin:
+            notes = (f"names of this kind: {range_text(kin)}",)
         elif e.id == "camera":
             notes = ("this robot has no camera: add one to it, e.g. "
                      "camera: {resolution: [128, 128], fov_deg: 60, height_m: 0.3, pitch_deg: 45}",)

@@ -26,7 +26,7 @@ from labsim.backends.scene.world import World
 from labsim.dsl.builtins import Aggregate, Better, Type
 from labsim.dsl.noise import Noise
 from labsim.dsl.placement import Start
-from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace
+from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace, show_field
 from labsim.foundation.diagnostics import Diagnostic
 
 Setting = tuple[str, float]  # a slider and the value it takes
@@ -173,7 +173,7 @@ class Program:
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
-        return "".join(p if isinstance(p, str) else _format(values[p[0]], p[1]) for p in self.logs[site][1])
+        return "".join(p if isinstance(p, str) else show_field(values[p[0]], p[1]) for p in self.logs[site][1])
 
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
               group: RobotGroup | None = None, index: int = 0, keep_images: bool = False) -> RobotProgram:
@@ -250,21 +250,11 @@ class Program:
             for part in parts:
                 if isinstance(part, tuple):
                     slot, spec = part
-                    text.append(_format(slots[slot], spec))
+                    text.append(show_field(slots[slot], spec))
                 else:
                     text.append(part)
             out[slider] = "".join(text)
         return out
-
-
-def _format(value: object, spec: str) -> str:
-    """A label's or a log's field: ``format`` with the field's spec, or plain when it does not apply."""
-    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
-        value = int(value)  # slots hold floats; {arm:d} shows 5, not 5.0
-    try:
-        return format(value, spec)
-    except (ValueError, TypeError):
-        return str(value)
 
 
 def show_in_tracebacks(code: Code) -> None:

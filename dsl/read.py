@@ -166,6 +166,7 @@ class BehaviourFile:
     binds: list[BindDecl] = field(default_factory=list)
     timeline: list[Event] = field(default_factory=list)
     has_robots: bool = False
+    robots_failed: bool = False  # a robot was reported as wrong and left out: its names' uses stay quiet
     has_rules: bool = False
     failed_names: set[str] = field(default_factory=set)  # lets, metrics and cameras that were reported as wrong
 
@@ -204,6 +205,7 @@ def read(doc: Document, report: Report) -> BehaviourFile:
     r.header(keys, bf)
     r.sections(keys, bf)
     bf.failed_names |= r.failed_names
+    bf.robots_failed = r.robots_failed
     return bf
 
 
@@ -220,6 +222,7 @@ class _Reader(Reader):
     def __init__(self, doc: Document, report: Report) -> None:
         super().__init__(doc, report)
         self.failed_names: set[str] = set()  # declared, but reported as wrong: uses stay quiet
+        self.robots_failed = False
 
     def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
         if not isinstance(node, ScalarNode):
@@ -351,10 +354,12 @@ class _Reader(Reader):
         for key, value in entries:
             name = self.identifier(key, "robot")
             if name is None:
+                self.robots_failed = True
                 continue
             fields = self.known_keys(value, ROBOT_KEYS, "robot", f"robot '{name}'")
             if "model" not in fields:
                 self.error(key, f"robot '{name}' needs a 'model:' (e.g. model: pioneer_p3dx)")
+                self.robots_failed = True
                 continue
             model = self.string(fields["model"], "model") or ""
             count = 1
@@ -375,7 +380,9 @@ class _Reader(Reader):
             own = self.robot_params(fields["params"], name, count) if "params" in fields else ()
             noise = (read_noise(self, fields["noise"], name, "camera" in fields, names=version >= 1.2)
                      if "noise" in fields else None)
-            if at is not None:
+            if at is None:
+                self.robots_failed = True
+            else:
                 out.append(RobotDecl(name, model, count, at, key, fields["model"], camera, fields.get("at"), paths,
                                      own, noise, lidar))
         return out

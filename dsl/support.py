@@ -158,6 +158,19 @@ def make_pid(report: Callable[[str], None]) -> Callable[..., float]:
     return pid
 
 
+def show_field(value: object, spec: str) -> str:
+    """A label's or a log's field: ``format`` with the field's spec, or plain when it does not apply.
+
+    Slots hold floats: ``{arm:d}`` of 5.0 shows 5, and of a fraction (``{time:d}`` at 0.15 s) the
+    number as ``{x:g}`` shows it, 0.15, not the float's every digit (0.15000000000000002)."""
+    if spec.endswith("d") and isinstance(value, float) and value.is_integer():
+        value = int(value)
+    try:
+        return format(value, spec)
+    except (ValueError, TypeError):
+        return format(value, "g") if isinstance(value, float) else str(value)
+
+
 def site_kind(name: str, version: float) -> str:
     """The guard kind of a call site of the stateful function ``name`` in a file of format ``version``:
     ``rising@1.2`` where the function's first tick means something else from 1.2 on."""

@@ -134,3 +134,42 @@ def test_a_sonar_s_inf_into_pid_is_warned_written_out_or_as_a_group(write, error
 def test_a_group_bounded_by_a_number_keeps_the_inf_out(write) -> None:
     program = compile_file(write(HEAD + "rules:\n  - always arc(pid(min([sonar8, 0.5]) - 0.5, 1, 0, 0), 1)\n"))
     assert program.warnings == ()
+
+
+# -- the small defects -----------------------------------------------------------------------------
+
+def test_a_whole_number_field_of_a_fraction_shows_the_number_not_its_float_digits(write) -> None:
+    path = write(HEAD.replace("time >= 1", "time >= 0.2") + 'rules:\n  - when tick == 3 then log("at {time:d} s, '
+                 'tick {tick:d}, {dt * 3:d}")\n  - always move(1)\n')
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "-q"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.replace("\r", "").strip() == "[0.15 s] p: at 0.15 s, tick 3, 0.15"
+
+
+def test_an_e_puck_reading_a_sonar_is_told_its_distance_sensors(write) -> None:
+    path = write(HEAD.replace("pioneer_p3dx", "epuck") + "rules:\n  - if sonar5 < 0.5 then move(1)\n")
+    assert diagnostics(path) == [(7, 8, "unknown name 'sonar5'", (
+        "this robot has no sonars; its distance sensors are prox1 .. prox8",))]
+    path = write(HEAD + "rules:\n  - if sonar17 < 0.5 then move(1)\n")
+    assert diagnostics(path) == [(7, 8, "unknown name 'sonar17' (did you mean 'sonar7'?)", (
+        "the robot's sonars are sonar1 .. sonar16, numbered as in CoppeliaSim",))]
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(("change", "errors"), [
+    (("model: pioneer_p3dx", "model: pioneer_p3xd"),
+     [(17, 20, "unknown robot model 'pioneer_p3xd' (did you mean 'pioneer_p3dx'?)")]),
+    (("model: pioneer_p3dx", "modl: pioneer_p3dx"),
+     [(17, 3, "robot 'pioneer' needs a 'model:' (e.g. model: pioneer_p3dx)"),
+      (17, 13, "unknown robot key 'modl' (did you mean 'model'?)")]),
+    (("robots:", "robot:"), [(0, 0, "missing required key 'robots:'"),
+                             (16, 1, "unknown key 'robot' (did you mean 'robots'?)")]),
+])
+def test_a_mistyped_robot_is_one_error_not_one_per_sensor_read(tmp_path: Path, change: tuple[str, str],
+                                                             errors: list[tuple[int, int, str]]) -> None:
+    path = tmp_path / "wall.yaml"
+    path.write_text((ROOT / "behaviours" / "wall_follow.yaml").read_text().replace(*change))
+    assert [(line, col, message) for line, col, message, _ in diagnostics(path)] == errors
