@@ -9,7 +9,7 @@ docs/decisions.md, section 3).
 
 No user text reaches ``compile``: names become slot indices, numbers ``repr`` literals,
 operators come from the grammar's fixed set; constants are folded (``labsim.dsl.fold``). The
-code is written through ``labsim.dsl.writer``, which keeps the indentation, the slots each
+code is written through ``labsim.foundation.code_writer``, which keeps the indentation, the slots each
 piece reads and each line's source mark. Where a rule, signal or metric begins, the source has
 a marker comment (``#@7``); the ``listing`` is the same text with each marker replaced by the
 file's line and text (``# behaviours/wall_follow.yaml:23: if ahead <= front then ...``), so it
@@ -50,7 +50,7 @@ from labsim.dsl.unroll import (
     reduce,
     reduce_sequence,
 )
-from labsim.dsl.writer import Body, Note, Notes, Writer, one_line, render, wrap
+from labsim.foundation.code_writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
 

@@ -17,7 +17,7 @@ from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS
 from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.functions import Expansion, body_name, body_note, check_call
 from labsim.dsl.read import FunctionDecl, Parsed
-from labsim.dsl.wording import arity_message, function_notes, range_text, text_note
+from labsim.dsl.wording import arity_message, function_notes, range_text, text_note, unknown_name_notes
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -201,23 +201,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                               "Time and memory)",))
             return None
         hint = did_you_mean(e.id, self.types)
-        notes: tuple[str, ...] = ()
-        stem = e.id.rstrip("0123456789")
-        numbered = stem not in ("", e.id)
-        kin = [n for n in self.types if n != stem and n.rstrip("0123456789") == stem] if numbered else []
-        if numbered and stem == "sonar" and not kin:  # a model with other distance sensors (an e-puck's prox1 .. prox8)
-            others = sorted(self.distance)
-            notes = (f"this robot has no sonars; its distance sensors are {range_text(others)}" if others else
-                     "this robot has no sonars",)
-        elif numbered and stem == "sonar":
-            notes = (f"the robot's sonars are {range_text(kin)}, numbered as in CoppeliaSim",)
-        elif kin:
-            notes = (f"names of this kind: {range_text(kin)}",)
-        elif e.id == "camera":
-            notes = ("this robot has no camera: add one to it, e.g. "
-                     "camera: {resolution: [128, 128], fov_deg: 60, height_m: 0.3, pitch_deg: 45}",)
-        elif e.id in ("road_offset", "on_road", "laps"):
-            notes = ("this world has no road",)
+        notes = unknown_name_notes(e.id, self.types, self.distance)
         self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
         return None
 

@@ -19,7 +19,7 @@ from labsim.dsl.check import Checked
 from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.layout import Layout
 from labsim.dsl.support import FIRST_CHANNEL
-from labsim.dsl.writer import Writer
+from labsim.foundation.code_writer import Writer
 from labsim.foundation.source import Text
 
 

@@ -7,6 +7,7 @@ say them.
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterable
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import DETECTED, FUNCTIONS, Type
@@ -68,3 +69,26 @@ def range_text(names: list[str]) -> str:
     """'sonar1 .. sonar16' for numbered names, else the names listed."""
     numbered = sorted(names, key=lambda n: int(n[len(n.rstrip("0123456789")):] or 0))
     return f"{numbered[0]} .. {numbered[-1]}" if len(numbered) > 2 else ", ".join(numbered)
+
+
+def unknown_name_notes(name: str, types: Iterable[str], distance: Iterable[str]) -> tuple[str, ...]:
+    """What an unknown name's message adds: the names of its kind the robot has (its sonars, or
+    the distance sensors of a model without sonars), a camera or a road that is not there."""
+    notes: tuple[str, ...] = ()
+    stem = name.rstrip("0123456789")
+    numbered = stem not in ("", name)
+    kin = [n for n in types if n != stem and n.rstrip("0123456789") == stem] if numbered else []
+    if numbered and stem == "sonar" and not kin:  # a model with other distance sensors (an e-puck's prox1 .. prox8)
+        others = sorted(distance)
+        notes = (f"this robot has no sonars; its distance sensors are {range_text(others)}" if others else
+                 "this robot has no sonars",)
+    elif numbered and stem == "sonar":
+        notes = (f"the robot's sonars are {range_text(kin)}, numbered as in CoppeliaSim",)
+    elif kin:
+        notes = (f"names of this kind: {range_text(kin)}",)
+    elif name == "camera":
+        notes = ("this robot has no camera: add one to it, e.g. "
+                 "camera: {resolution: [128, 128], fov_deg: 60, height_m: 0.3, pitch_deg: 45}",)
+    elif name in ("road_offset", "on_road", "laps"):
+        notes = ("this world has no road",)
+    return notes

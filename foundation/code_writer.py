@@ -1,6 +1,7 @@
-"""The code writer: how ``labsim.dsl.codegen`` lays out the Python it generates.
+"""The code writer: how labsim lays out the Python it generates.
 
-The generator writes lines through a ``Writer`` (``line``, ``indent``), as Jinja2's
+The language's code generator (``labsim.dsl.codegen``) and the trace's row writers
+(``labsim.runtime.observers``) write lines through a ``Writer`` (``line``, ``indent``), as Jinja2's
 CodeGenerator does, and never assembles indentation by hand or parses its own output back: a
 piece of code comes out as a ``Body``, its lines and the slots its expressions read, as data.
 A piece written once (a signal's expression registers its guards as it is generated) can go
