@@ -2,8 +2,8 @@
 
 One stage per module: ``labsim.foundation.source.load`` (YAML with positions) ->
 ``labsim.dsl.read`` (the file's sections, rule strings parsed by ``labsim.dsl.parse`` into
-``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint`` and ``labsim.dsl.unbounded``
-(warnings, on a file without errors) -> ``labsim.dsl.codegen``
+``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint``
+and ``labsim.dsl.unbounded`` (warnings, on a file without errors) -> ``labsim.dsl.codegen``
 (Python source, compiled once) -> ``labsim.dsl.program.Program``, which the runtime binds to
 each robot; the generated code calls ``labsim.dsl.support`` as it runs. Every stage adds its
 problems to one ``Report``, so a file's errors are all raised together, as a LabsimError.

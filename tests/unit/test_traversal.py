@@ -22,19 +22,19 @@ from labsim.dsl.parse import parse_expr
 for _module in pkgutil.walk_packages(labsim.dsl.__path__, "labsim.dsl."):
     importlib.import_module(_module.name)
 
-ANALYSES = {  # the list of analyses, by the visitor that is each of them
-    "labsim.dsl.infer.ExprChecker": "inference", "labsim.dsl.check._Checker": "checking",
-    "labsim.dsl.ranges.Ranges": "ranges", "labsim.dsl.lint._Continuous": "the linter's == on continuous values",
-    "labsim.dsl.lint._SonarRange": "the linter's sonar thresholds", "labsim.dsl.lint._Stateful": "the linter's memory",
-    "labsim.dsl.unbounded._PidCalls": "the unbounded-sonar check", "labsim.dsl.unbounded._Sensor": "the same",
-    "labsim.dsl.fold._Folder": "folding", "labsim.dsl.unroll.MemberWriter": "unrolling",
-    "labsim.dsl.codegen._Emit": "code generation", "labsim.dsl.evaluate._Walker": "the reference evaluator",
-    "labsim.dsl.watch._Reads": "the breakpoint compiler",
+ANALYSES = {  # the list of analyses, by the visitor that is each of them (module.class)
+    "infer.ExprChecker": "inference", "check._Checker": "checking", "ranges.Ranges": "ranges",
+    "lint._Continuous": "the linter's == on continuous values", "lint._SonarRange": "the linter's sonar thresholds",
+    "lint._Stateful": "the linter's memory", "unbounded._PidCalls": "the unbounded-sonar check",
+    "unbounded._Sensor": "the unbounded-sonar check", "fold._Folder": "folding", "unroll.MemberWriter": "unrolling",
+    "codegen._Emit": "code generation", "evaluate._Walker": "the reference evaluator",
+    "watch._Reads": "the breakpoint compiler",
 }
 
 
 def visitors() -> dict[str, type[ast.Visitor]]:
-    return {f"{v.__module__}.{v.__qualname__}": v for v in ast.Visitor.registry if v.__module__.startswith("labsim.")}
+    return {f"{v.__module__.rsplit('.', 1)[1]}.{v.__qualname__}": v for v in ast.Visitor.registry
+            if v.__module__.startswith("labsim.")}
 
 
 def test_every_analysis_is_a_visitor_of_the_one_traversal() -> None:
