@@ -33,7 +33,8 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document
 
 MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
-_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL}
+_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL, Kind.CONTACT: Type.BOOL,
+               Kind.REFLECTANCE: Type.NUMBER}
 _VARIABLES = {"time": Type.NUMBER, "tick": Type.NUMBER, "dt": Type.NUMBER, "state": Type.STATE}
 
 
@@ -47,6 +48,7 @@ class Watch:
     slots: tuple[tuple[str, int], ...]  # signals and sliders: name -> slot
     constants: Mapping[str, object]  # parameters, states (their indices), dt
     reads: tuple[str, ...] = ()  # the names it reads, in the order written (constants left out)
+    states: tuple[str, ...] = ()  # the program's states, by index: a state's value is shown by its name
 
     def names(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> dict[str, object]:
         """Every name's value on a tick, from the robot's readings and slots."""
@@ -70,7 +72,13 @@ class Watch:
                ) -> list[tuple[str, object]]:
         """The values of the names it reads on a tick, in the order written."""
         names = self.names(tick, dt_s, readings, slots)
-        return [(n, names[n]) for n in self.reads if n in names]
+        out: list[tuple[str, object]] = []
+        for n in self.reads:
+            if n == "state" and self.states:
+                out.append((n, self.states[int(names[n])]))  # type: ignore[call-overload]
+            elif n in names and n not in self.states:  # a state's name is a constant: not shown
+                out.append((n, names[n]))
+        return out
 
 
 def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
@@ -107,6 +115,14 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         checker.declare(name, t, "built-in variable")
     for name in CONSTANTS:
         checker.declare(name, Type.NUMBER, "constant")
+    unread = {name for m in program.models.values() for name in m.channels()} - set(program.channels)
+    for node in ast.walk(e):
+        if isinstance(node, ast.Name) and node.id in unread and node.id not in checker.types:
+            report.add(parsed_text.diagnostic(node.span[0], node.span[1], f"'{node.id}' is a sensor this behaviour "
+                                              "does not read: a breakpoint sees what the behaviour reads",
+                                              notes=(f"read it in a signal of the file (e.g. 'let: seen: {node.id}') "
+                                                     "and watch the signal",)))
+            checker.poisoned.add(node.id)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
     for call in _calls(e):
         if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
@@ -124,7 +140,7 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                     if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
                    **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
-        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)))
+        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)), states=tuple(program.state_names))
 
 
 class _Reads(ast.Visitor[None]):

@@ -55,6 +55,8 @@ def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None
     ("sonr5 < 1", "--break:1:1: unknown name 'sonr5' (did you mean 'sonar5'?)"),
     ("[sonar5, sonar2][2] < 1", "--break:1:18: this group has 2 members, at places 0 to 1; not 2"),
     ("min(sonar5, sonar2)", "--break:1:1: a breakpoint's condition must be a boolean, but this is a number"),
+    ("collided", "--break:1:1: 'collided' is a sensor this behaviour does not read: a breakpoint sees what the "
+                 "behaviour reads"),
 ])
 def test_a_breakpoint_is_checked_as_the_file_is(when: str, message: str) -> None:
     program = compile_file(WALL)
@@ -83,3 +85,10 @@ def test_break_and_json_are_refused_together() -> None:
     assert proc.returncode == 2
     assert proc.stderr.strip() == ("--break: error: a run stopped at a breakpoint has no summary to write as JSON: "
                                    "leave out --json or --break")
+
+
+def test_the_state_a_breakpoint_reads_is_shown_by_its_name() -> None:
+    proc = run("--break", "ahead < front and state == wander")
+    assert proc.stdout.splitlines() == [
+        "--break: 'ahead < front and state == wander' held at tick 46 (2.30 s) for robot pioneer",
+        "  state: wander", "  rule: wander:1", "  ahead = 0.498439", "  front = 0.5", "  state = wander"]
