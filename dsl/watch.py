@@ -116,13 +116,13 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     for name in CONSTANTS:
         checker.declare(name, Type.NUMBER, "constant")
     unread = {name for m in program.models.values() for name in m.channels()} - set(program.channels)
-    for node in ast.walk(e):
-        if isinstance(node, ast.Name) and node.id in unread and node.id not in checker.types:
-            report.add(parsed_text.diagnostic(node.span[0], node.span[1], f"'{node.id}' is a sensor this behaviour "
+    for read in ast.walk(e):
+        if isinstance(read, ast.Name) and read.id in unread and read.id not in checker.types:
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a sensor this behaviour "
                                               "does not read: a breakpoint sees what the behaviour reads",
-                                              notes=(f"read it in a signal of the file (e.g. 'let: seen: {node.id}') "
+                                              notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
                                                      "and watch the signal",)))
-            checker.poisoned.add(node.id)
+            checker.poisoned.add(read.id)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
     for call in _calls(e):
         if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
