@@ -68,15 +68,21 @@ ALLOWED: dict[tuple[str, str], str] = {
         "f is a field of one of labsim's own AST or declaration dataclasses (dataclasses.fields), never user text",
     ("dsl/builtins.py", "getattr(importlib.import_module(module), name)"):
         "the builtin table's own module:name entries",
-    ("dsl/program.py", "format(value, spec)"):
+    ("dsl/support.py", "format(value, spec)"):
         "a label's or log's format spec, which dsl/parse.py admits only as _FORMAT_SPEC (width and "
         "precision at most two digits) or the printf form's _PRINTF",
     ("dsl/parse.py", "getattr(e, f.name)"):
         "dataclass fields of the language's own AST nodes",
-    ("dsl/functions.py", "getattr(e, f.name)"):
-        "dataclass fields of the language's own AST nodes (a function body's copy)",
-    ("dsl/functions.py", "getattr(node, f.name)"):
-        "dataclass fields of the language's own AST nodes (walking a function body)",
+    ("dsl/functions.py", "getattr(e, name)"):
+        "dataclass fields of the language's own AST nodes (a function body's copy, ast.child_fields)",
+    ("dsl/ast.py", "getattr(e, name)"):
+        "the fields of the language's own AST node classes that hold sub-expressions (child_fields)",
+    ("dsl/ast.py", "getattr(self, method)"):
+        "a visitor's method for one of the language's own node classes: 'visit_' and the class's name",
+    ("dsl/ast.py", "hasattr(cls, f'visit_{n.__name__}')"):
+        "the name of one of the language's own node classes",
+    ("dsl/ast.py", "hasattr(self, name)"):
+        "'visit_' and the name of one of the language's own node classes",
     ("dsl/program.py", "exec(code.compiled, scope)"):
         "code compiled by dsl/codegen.py from a checked program; user text enters it only as "
         "repr() literals and checked identifiers",
