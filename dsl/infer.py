@@ -22,6 +22,11 @@ from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
 
+# Operations a file's groups are written out to, at most (a member of each group-typed node, and
+# each node of a value paired with every member, once per member): a few hundred thousand lines
+# of Python take the compiler seconds and gigabytes.
+MAX_WRITTEN_OUT = 200_000
+
 
 class ExprChecker(ast.Visitor["Type | None"]):
     """The names in scope, their types, and the checks of expressions against them: ``infer``
@@ -56,6 +61,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # values known before the run, which the code generator folds: parameters every robot
         # shares (--set included), the constants, dt; an index made of them is checked here
         self.constants: dict[str, object] = {}
+        self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
+        self.written_out_reported = False
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -99,7 +106,26 @@ class ExprChecker(ast.Visitor["Type | None"]):
         t = self._infer(e, text)
         if t is not None:
             self.node_types[id(e)] = t
+            if t in (Type.NUMBERS, Type.BOOLS) and not self.written_out(e, text):
+                return None
         return t
+
+    def written_out(self, e: ast.Expr, text: Text) -> bool:
+        """Count what a group-typed node is written out to (a member each, and its operands that are
+        one value once per member); False, after saying so, past MAX_WRITTEN_OUT in the file."""
+        n = self.size(e) if not isinstance(e, ast.Name) or e.id in self.group_sizes or self.scopes else 0
+        paired = ast.children(e) if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp) else ()
+        self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
+                                             if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
+        if self.members_written <= MAX_WRITTEN_OUT:
+            return True
+        if not self.written_out_reported:
+            self.written_out_reported = True
+            self.error(text.at(e.span), f"the groups of this file are written out to more than {MAX_WRITTEN_OUT:,} "
+                       "operations, one per member of each (a call of a function, once per call)",
+                       notes=("reduce a group once, in a 'let' signal, and use the signal; a function called "
+                              "many times on a large group is written out for each call",))
+        return False
 
     def _infer(self, e: ast.Expr, text: Text) -> Type | None:
         return self.visit(e, text)

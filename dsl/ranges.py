@@ -22,6 +22,7 @@ from typing import Any
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.world import World
 from labsim.dsl import ast
+from labsim.dsl.builtins import Type
 from labsim.dsl.check import Checked
 from labsim.foundation.source import Place, Text
 
@@ -308,6 +309,8 @@ class Ranges(ast.Visitor[Range]):
     def call(self, e: ast.Call) -> Range:
         """A call's range from its arguments' (TOP for what keeps state or draws at random)."""
         f = e.func
+        if len(e.args) == 1 and self.c.node_types.get(id(e.args[0])) in (Type.NUMBERS, Type.BOOLS):
+            return TOP  # a reduction of a group (mean(front) is no image's mean): not followed
         if f in ("mean", "area", "width", "height"):
             return self.image_number(f, e.args[0])
         args = [self.of(a) for a in e.args]
