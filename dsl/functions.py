@@ -13,12 +13,14 @@ circle at the definition and at the call that closes it.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FUNCTIONS, KEYWORDS, STATEFUL, TRACE_COLUMNS, Type
+from labsim.dsl.fold import NotConstant, fold
 from labsim.dsl.read import FunctionDecl
 from labsim.foundation.source import Place, Text
 
@@ -196,6 +198,24 @@ def body_name(c: ExprChecker, e: ast.Name, text: Text) -> Type | bool | None:
                 notes=(f"pass it as an argument: add a parameter to '{d.name}' and give {e.id} in the call",))
         return None
     return False
+
+
+def known_value(e: ast.Expr, constants: dict[str, object],
+                scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]) -> object | None:
+    """The value of e known before the run, as the code generator folds it; None if it is not.
+
+    Inside a function's body, a parameter whose argument folds is that constant (and one that
+    does not is known only while running), as ``labsim.dsl.unroll`` writes the body."""
+    for d, _, call, _ in scopes:
+        inner = {k: v for k, v in constants.items() if k not in d.params}
+        for name, arg in zip(d.params, call.args if call is not None else ()):
+            with contextlib.suppress(NotConstant):  # known only while running
+                inner[name] = fold(arg, constants)
+        constants = inner
+    try:
+        return fold(e, constants)
+    except NotConstant:
+        return None
 
 
 def body_note(c: ExprChecker) -> tuple[str, ...]:

@@ -8,14 +8,11 @@ gives None, and its uses say nothing more.
 """
 from __future__ import annotations
 
-import contextlib
-
 from yaml.nodes import Node
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.functions import Expansion, body_name, body_note, check_call
+from labsim.dsl.functions import Expansion, body_name, body_note, check_call, known_value
 from labsim.dsl.read import FunctionDecl, Parsed
 from labsim.dsl.wording import arity_message, function_notes, range_text, text_note, unknown_name_notes
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -335,21 +332,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         return t.member
 
     def known(self, e: ast.Expr) -> object | None:
-        """The value of e known before the run, as the code generator folds it; None if it is not.
-
-        Inside a function's body, a parameter whose argument folds is that constant (and one that
-        does not is known only while running), as ``labsim.dsl.unroll`` writes the body."""
-        constants = self.constants
-        for d, _, call, _ in self.scopes:
-            inner = {k: v for k, v in constants.items() if k not in d.params}
-            for name, arg in zip(d.params, call.args if call is not None else ()):
-                with contextlib.suppress(NotConstant):  # known only while running
-                    inner[name] = fold(arg, constants)
-            constants = inner
-        try:
-            return fold(e, constants)
-        except NotConstant:
-            return None
+        """The value of e known before the run, as the code generator folds it; None if it is not."""
+        return known_value(e, self.constants, self.scopes)
 
     def compare(self, e: ast.Compare, text: Text) -> Type | None:
         inferred = [self.infer(o, text) for o in e.operands]
