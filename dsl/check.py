@@ -154,8 +154,7 @@ class _Checker(ExprChecker):
             self.declare(name, Type.STATE, "state")
         params = self.params(overrides)
         robot_params = self.robot_params(params)
-        own = {name for pairs in robot_params.values() for name, _ in pairs}
-        self.constants = {**CONSTANTS, "dt": bf.dt_s, **{k: v for k, v in params.items() if k not in own}}
+        self.known_values(params, robot_params)
         noise = self.noise(params, robot_params, overrides)
         sliders = self.sliders()
         self.user_functions = check_definitions(self, bf.functions)
@@ -178,6 +177,18 @@ class _Checker(ExprChecker):
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called))
+
+    def known_values(self, params: dict[str, float | bool],
+                     robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:
+        """The values the code generator folds (parameters every robot shares, constants, dt), and
+        each robot's with its own parameters: a group's place made of them is checked (infer.index)."""
+        own = {name for pairs in robot_params.values() for name, _ in pairs}
+        self.constants = {**CONSTANTS, "dt": self.bf.dt_s, **{k: v for k, v in params.items() if k not in own}}
+        counts = {r.name: r.count for r in self.bf.robots}
+        self.robot_constants = [] if not own else [
+            (name if count == 1 else f"{name}[{k}]", {**self.constants, **params, **{
+                p: values[min(k, len(values) - 1)] for p, values in robot_params.get(name, ())}})
+            for name, count in counts.items() for k in range(count)]
 
     def robots_failed(self, world: World | None, mechanism: Mechanism | None) -> bool:
         """Whether a robot was reported as wrong (an unknown model, no model, a mistyped or missing

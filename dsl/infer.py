@@ -12,9 +12,10 @@ from yaml.nodes import Node
 
 from labsim.dsl import ast
 from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
+from labsim.dsl.fold import fold
 from labsim.dsl.functions import Expansion, body_name, body_note, check_call, known_value
 from labsim.dsl.read import FunctionDecl, Parsed
-from labsim.dsl.wording import arity_message, function_notes, range_text, text_note, unknown_name_notes
+from labsim.dsl.wording import arity_message, function_notes, literal, range_text, text_note, unknown_name_notes
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -58,6 +59,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # values known before the run, which the code generator folds: parameters every robot
         # shares (--set included), the constants, dt; an index made of them is checked here
         self.constants: dict[str, object] = {}
+        self.robot_constants: list[tuple[str, dict[str, object]]] = []  # with a robot's own parameters
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
 
@@ -315,11 +317,17 @@ class ExprChecker(ast.Visitor["Type | None"]):
             self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
             return None
         n = self.size(e.value)
-        place = self.known(e.index)
+        place, robot = self.known(e.index), ""
+        for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
+            value = known_value(e.index, constants, self.scopes)
+            if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
+                place, robot = value, who  # the first robot whose place is outside the group
+                break
         if place is None or isinstance(place, bool) or not isinstance(place, int | float):
             return t.member  # known only while running: a place outside the group is a runtime fault
         source = text.value[e.index.span[0]:e.index.span[1]]
-        shown = f"not {place:g}" if _literal(e.index) else f"'{source}' is {place:g}"
+        shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
+            f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
             self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
                        notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
@@ -459,9 +467,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def whole_bounds(self, e: ast.Call, text: Text) -> bool:
         """randint's bounds, where written as numbers, are within +-WHOLE_LIMIT: exact as floats."""
         for arg in e.args:
-            value = -arg.operand.value if isinstance(arg, ast.Neg) and isinstance(arg.operand, ast.Number) else (
-                arg.value if isinstance(arg, ast.Number) else None)
-            if value is not None and not abs(value) <= WHOLE_LIMIT:
+            if literal(arg) and not abs(fold(arg, {})) <= WHOLE_LIMIT:  # type: ignore[arg-type]
                 self.error(text.at(arg.span), f"randint() takes bounds between -{WHOLE_LIMIT} and {WHOLE_LIMIT} "
                            "(2**53: whole numbers a float holds exactly)")
                 return False
@@ -492,8 +498,3 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        f"argument, but this is {b.a}")
             return None
         return a
-
-
-def _literal(e: ast.Expr) -> bool:
-    """A number written as one, or its negative (``-1`` is ``Neg(1)``)."""
-    return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))

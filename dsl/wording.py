@@ -92,3 +92,8 @@ def unknown_name_notes(name: str, types: Iterable[str], distance: Iterable[str])
     elif name in ("road_offset", "on_road", "laps"):
         notes = ("this world has no road",)
     return notes
+
+
+def literal(e: ast.Expr) -> bool:
+    """A number written as one, or its negative (``-1`` is ``Neg(1)``): shown as written."""
+    return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))

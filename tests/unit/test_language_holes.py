@@ -192,3 +192,13 @@ def test_a_function_called_many_times_on_a_large_group_is_refused_by_a_stated_li
 def test_the_mean_of_a_group_is_not_an_image_s(write) -> None:
     program = compile_file(write(HEAD + "let:\n  m: mean(sonar1..sonar8)\nrules:\n  - if m < 0 then stop()\n"))
     assert program.warnings == ()  # not "'m < 0' never holds: ... mean() of an image is from 0 to 255"
+
+
+def test_a_place_from_a_robot_s_own_parameter_is_checked_for_each_robot(write) -> None:
+    fleet = HEAD.replace("p: {model: pioneer_p3dx, at: [0, 0, 0]}", "p: {model: pioneer_p3dx, at: random, count: 3, "
+                         "params: {k: [0, 5, K]}}")
+    body = "params:\n  k: 1\nlet:\n  front: sonar1..sonar8\n  near: front[k]\nrules:\n  - if near < 0.5 then stop()\n"
+    assert diagnostics(write(fleet.replace("K", "9") + body)) == [
+        (10, 15, "this group has 8 members, at places 0 to 7; 'k' is 9 for robot p[2]",
+         ("places count from 0: the first member is [0]",))]
+    assert compile_file(write(fleet.replace("K", "7") + body)).warnings == ()
