@@ -1,12 +1,12 @@
 """A condition to watch a compiled run by: a live view's breakpoint (``labsim view --break``).
 
 Outside the file, after it compiled: ``compile_watch`` parses one expression of the language
-(``labsim.dsl.parse``) and checks it as the stop condition is checked (``ExprChecker.expect``,
+(``labsim.dsl.syntax.parse``) and checks it as the stop condition is checked (``ExprChecker.expect``,
 a boolean), against the names the compiled ``Program`` has: the sensors its behaviour reads,
 its signals, parameters, sliders, states, ``time``, ``tick``, ``dt`` and ``state``. Its
 diagnostics are the file's kind, with the line and column in the condition's own text
 (``--break:1:8: unknown name 'sonr5' (did you mean 'sonar5'?)``). A ``Watch`` is evaluated
-once a tick with the reference evaluator (``labsim.dsl.evaluate``), which sees one tick:
+once a tick with the reference evaluator (``labsim.dsl.analysis.evaluate``), which sees one tick:
 functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked,
 wherever they are (inside a group too). The same compiled condition stops ``labsim run --break``
 (``labsim.runtime.breakpoint``), which prints the values it read (``Watch.values``).
@@ -20,15 +20,15 @@ import yaml
 from yaml.nodes import ScalarNode
 
 from labsim.backends.scene.models import Kind
-from labsim.dsl import ast
-from labsim.dsl.ast import walk
-from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, Type
-from labsim.dsl.evaluate import Unsupported, evaluate
-from labsim.dsl.infer import ExprChecker
-from labsim.dsl.parse import ParseError, parse_expr
-from labsim.dsl.program import Program
-from labsim.dsl.read import Parsed
-from labsim.dsl.support import STATE
+from labsim.dsl.analysis.evaluate import Unsupported, evaluate
+from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import CONSTANTS, FUNCTIONS, Type
+from labsim.dsl.library.support import STATE
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.ast import walk
+from labsim.dsl.syntax.parse import ParseError, parse_expr
+from labsim.dsl.syntax.read import Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document
 

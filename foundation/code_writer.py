@@ -1,6 +1,6 @@
 """The code writer: how labsim lays out the Python it generates.
 
-The language's code generator (``labsim.dsl.codegen``) and the trace's row writers
+The language's code generator (``labsim.dsl.emit.codegen``) and the trace's row writers
 (``labsim.runtime.observers``) write lines through a ``Writer`` (``line``, ``indent``), as Jinja2's
 CodeGenerator does, and never assembles indentation by hand or parses its own output back: a
 piece of code comes out as a ``Body``, its lines and the slots its expressions read, as data.

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from labsim.dsl.support import STATE
+from labsim.dsl.library.support import STATE
 from labsim.dsl.watch import Watch
 from labsim.foundation.inert import inert
 from labsim.runtime.observers import Observer

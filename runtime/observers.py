@@ -26,8 +26,8 @@ from typing import Any
 
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.models import Kind, is_lidar_beam
-from labsim.dsl.builtins import Type
-from labsim.dsl.support import STATE
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import STATE
 from labsim.foundation.code_writer import Writer, render
 from labsim.foundation.inert import inert
 from labsim.runtime.hands import Hand, Hands, event_text

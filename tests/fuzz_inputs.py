@@ -7,7 +7,7 @@ Two kinds of input, both hypothesis strategies:
   brackets), or one of its numbers replaced by one at the edges (``HOSTILE_NUMBERS``).
   Mostly these are broken files; the point is that each break is a diagnostic.
 - ``generated()``: a behaviour file whose ``let:``, ``stop:``, ``rules:`` and ``metrics:``
-  strings follow the productions of the language's grammar (``dsl/grammar.lark``), with names
+  strings follow the productions of the language's grammar (``dsl/syntax/grammar.lark``), with names
   drawn from the language's built-ins and numbers from the edges of a float, so that many of
   them check and run.
 - ``generated_12()``: a file of format 1.2, with the constructs that version added: groups
@@ -36,7 +36,7 @@ from hypothesis import strategies as st
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.dsl.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
+from labsim.dsl.library.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary_json import summary_dict

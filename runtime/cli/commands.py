@@ -29,7 +29,7 @@ from labsim.runtime.labs import copy_lab, labs
 from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
-    from labsim.dsl.program import Program
+    from labsim.dsl.emit.program import Program
     from labsim.runtime.breakpoint import BreakObserver
     from labsim.runtime.run import Behaviour
     from labsim.runtime.serve.server import Server

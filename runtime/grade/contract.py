@@ -20,7 +20,7 @@ from pathlib import Path
 
 from labsim import __version__
 from labsim.backends.scene.world_names import builtin_name
-from labsim.dsl.program import Program
+from labsim.dsl.emit.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
 from labsim.foundation.files import read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind

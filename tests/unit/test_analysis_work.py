@@ -2,7 +2,7 @@
 
 A signal that read itself in both branches of an ``if``, compared with ``==``, made the linter
 follow it 2**100 times (``labsim check`` hung). The checker, the linter and the other analyses
-now work each signal out once (``labsim.dsl.ast.LetMemo``). These tests grow families of files
+now work each signal out once (``labsim.dsl.syntax.ast.LetMemo``). These tests grow families of files
 (self-reading signals, nested ifs, long chains of signals) and count the work done: the calls
 of the language's own functions while a file is checked and compiled, not the time it takes.
 """

@@ -1,8 +1,8 @@
 """Constant folding, the generated code and the reference evaluator agree on every expression.
 
-Three ways to compute an expression: ``labsim.dsl.fold`` (at compile time, on the constants),
-the Python ``labsim.dsl.codegen`` writes (at run time), and the tree-walking evaluator
-``labsim.dsl.evaluate``, which follows docs/language.md without the generator's shortcuts.
+Three ways to compute an expression: ``labsim.dsl.analysis.fold`` (at compile time, on the constants),
+the Python ``labsim.dsl.emit.codegen`` writes (at run time), and the tree-walking evaluator
+``labsim.dsl.analysis.evaluate``, which follows docs/language.md without the generator's shortcuts.
 Each generated expression over numbers and booleans (operators, comparisons and their chains,
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
 ``detected``; groups of three, as signals and lists, operators member by member, reductions,
@@ -31,14 +31,14 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FUNCTIONS, Type
+from labsim.dsl.analysis.evaluate import Members, evaluate
+from labsim.dsl.analysis.fold import NotConstant, fold
 from labsim.dsl.compile import compile_file
-from labsim.dsl.evaluate import Members, evaluate
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.parse import parse_expr
-from labsim.dsl.program import Program
-from labsim.dsl.support import Faults
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import CONSTANTS, DETECTED, FUNCTIONS, Type
+from labsim.dsl.library.support import Faults
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import parse_expr
 
 INF, NAN = math.inf, math.nan
 EXAMPLES = 50

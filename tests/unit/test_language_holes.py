@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from labsim.dsl.compile import compile_file
-from labsim.dsl.support import Faults
+from labsim.dsl.library.support import Faults
 from labsim.foundation.diagnostics import LabsimError
 
 HEAD = "labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"

@@ -1,6 +1,6 @@
 """One traversal of the expression tree: every analysis says what it does with every kind of node.
 
-``labsim.dsl.ast`` derives each node's children from its dataclass fields and gives the
+``labsim.dsl.syntax.ast`` derives each node's children from its dataclass fields and gives the
 ``Visitor`` base every analysis is written on. These tests fail when a node class is added
 and an analysis (checking, inference, ranges, the linter, the unbounded-sonar check, folding,
 unrolling, code generation, the reference evaluator, the breakpoint compiler) does not handle
@@ -15,8 +15,8 @@ import pkgutil
 import pytest
 
 import labsim.dsl
-from labsim.dsl import ast
-from labsim.dsl.parse import parse_expr
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import parse_expr
 
 # every module of the language, imported so that each of its analyses is registered
 for _module in pkgutil.walk_packages(labsim.dsl.__path__, "labsim.dsl."):

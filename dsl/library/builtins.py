@@ -1,7 +1,7 @@
 """The built-in functions, actions and names of the language, with their types.
 
 The checker reads signatures from here; the generated code calls the implementations (bound
-by ``labsim.dsl.support``). A function that can fail on some inputs (``sqrt(-1)``, ``log(0)``)
+by ``labsim.dsl.library.support``). A function that can fail on some inputs (``sqrt(-1)``, ``log(0)``)
 raises, and the guarded call turns that into the documented result (docs/language.md,
 "Runtime faults") and a warning.
 """
@@ -190,51 +190,51 @@ FUNCTIONS: dict[str, Function] = {f.name: f for f in (
              uses_rng=True, names=("a", "b")),
     Function("gauss", (N, N), N, random.Random.gauss, "gauss(mean, sd): a normally distributed number",
              uses_rng=True, names=("mean", "sd")),
-    # images (labsim.dsl.images; OpenCV is imported only when a behaviour uses them)
-    Function("gray", (I,), I, "labsim.dsl.images:gray", "RGB to gray"),
-    Function("threshold", (I, N), I, "labsim.dsl.images:threshold",
+    # images (labsim.dsl.library.images; OpenCV is imported only when a behaviour uses them)
+    Function("gray", (I,), I, "labsim.dsl.library.images:gray", "RGB to gray"),
+    Function("threshold", (I, N), I, "labsim.dsl.library.images:threshold",
              "threshold(img, level): 255 where the gray pixel is > level, else 0 (OpenCV THRESH_BINARY)",
              names=("img", "level")),
-    Function("invert", (I,), I, "labsim.dsl.images:invert", "255 - each pixel"),
-    Function("crop", (I, N, N, N, N), I, "labsim.dsl.images:crop",
+    Function("invert", (I,), I, "labsim.dsl.library.images:invert", "255 - each pixel"),
+    Function("crop", (I, N, N, N, N), I, "labsim.dsl.library.images:crop",
              "crop(img, x, y, w, h): the rectangle with top-left pixel (x, y)",
              names=("img", "x", "y", "w", "h")),
-    Function("mean", (I,), N, "labsim.dsl.images:mean", "mean pixel value, 0..255"),
-    Function("area", (I,), N, "labsim.dsl.images:area", "number of set (non-zero) pixels"),
-    Function("width", (I,), N, "labsim.dsl.images:width", "image width in pixels"),
-    Function("height", (I,), N, "labsim.dsl.images:height", "image height in pixels"),
-    Function("centroid", (I,), Type.CENTROID, "labsim.dsl.images:centroid",
+    Function("mean", (I,), N, "labsim.dsl.library.images:mean", "mean pixel value, 0..255"),
+    Function("area", (I,), N, "labsim.dsl.library.images:area", "number of set (non-zero) pixels"),
+    Function("width", (I,), N, "labsim.dsl.library.images:width", "image width in pixels"),
+    Function("height", (I,), N, "labsim.dsl.library.images:height", "image height in pixels"),
+    Function("centroid", (I,), Type.CENTROID, "labsim.dsl.library.images:centroid",
              "centroid(img): .x, .y of the set pixels (from the left and the top), .found"),
     # controllers
-    Function("pid", (N, N, N, N, N), N, "labsim.dsl.support:make_pid",
+    Function("pid", (N, N, N, N, N), N, "labsim.dsl.library.support:make_pid",
              "pid(error, kp, ki, kd[, limit]): a PID controller with its own state per robot and call site; "
              "a tick with an inf or nan error repeats the last finite output and leaves the state alone",
              optional=1, stateful=True, names=("error", "kp", "ki", "kd", "limit")),
-    # time and memory (labsim.dsl.memory): each call site keeps its own state per robot
-    Function("prev", (N, N), N, "labsim.dsl.memory:prev",
+    # time and memory (labsim.dsl.library.memory): each call site keeps its own state per robot
+    Function("prev", (N, N), N, "labsim.dsl.library.memory:prev",
              "prev(x, initial): x on the previous tick (initial on the first); x may be a boolean", stateful=True,
              names=("x", "initial")),
-    Function("rising", (B,), B, "labsim.dsl.memory:rising",
+    Function("rising", (B,), B, "labsim.dsl.library.memory:rising",
              "rising(c): true on a tick where c holds and did not on the previous tick "
              "(format 1.2: never on the first tick)", stateful=True),
-    Function("falling", (B,), B, "labsim.dsl.memory:falling",
+    Function("falling", (B,), B, "labsim.dsl.library.memory:falling",
              "falling(c): true on a tick where c does not hold and did on the previous tick", stateful=True),
-    Function("hold", (B, B), B, "labsim.dsl.memory:hold",
+    Function("hold", (B, B), B, "labsim.dsl.library.memory:hold",
              "hold(set, reset): a latch, true from a tick where set holds until one where reset holds",
              stateful=True, names=("set", "reset")),
-    Function("rate", (N,), N, "labsim.dsl.memory:rate",
+    Function("rate", (N,), N, "labsim.dsl.library.memory:rate",
              "rate(x): x's change per second since the previous tick (0 on the first, and for an inf or nan x)",
              stateful=True),
-    Function("held", (B,), N, "labsim.dsl.memory:held",
+    Function("held", (B,), N, "labsim.dsl.library.memory:held",
              "held(c): seconds c has held without a break (0 while it does not)", stateful=True),
-    Function("remember", (N, B, N), N, "labsim.dsl.memory:remember",
+    Function("remember", (N, B, N), N, "labsim.dsl.library.memory:remember",
              "remember(x, when[, initial]): x at the last tick when 'when' held (initial, or nan, before)",
              optional=1, stateful=True, names=("x", "when", "initial")),
     # accumulators (version 1.2)
-    Function("counter", (B, B), N, "labsim.dsl.memory:counter",
+    Function("counter", (B, B), N, "labsim.dsl.library.memory:counter",
              "counter(c[, reset]): how many times c became true (the ticks rising(c) holds); 0 while reset holds",
              optional=1, stateful=True, names=("c", "reset")),
-    Function("total", (N, B), N, "labsim.dsl.memory:total",
+    Function("total", (N, B), N, "labsim.dsl.library.memory:total",
              "total(x[, reset]): the sum of x over the ticks (inf and nan left out); 0 while reset holds",
              optional=1, stateful=True, names=("x", "reset")),
 )}

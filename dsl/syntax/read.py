@@ -2,7 +2,7 @@
 
 This stage knows the top-level keys and their shapes (``robots`` is a mapping of robot
 groups, ``rules`` a list or a mapping of states, ...), converts plain values, and parses every
-rule and expression string with ``labsim.dsl.parse``. It reports every problem it finds into a
+rule and expression string with ``labsim.dsl.syntax.parse``. It reports every problem it finds into a
 ``Report`` and keeps going, so that one run of ``labsim check`` shows them all. Names and
 types are the checker's business, not this module's.
 
@@ -22,11 +22,11 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene import object_paths
 from labsim.backends.scene.models import Camera, Lidar
 from labsim.backends.scene.world_names import builtin_copy
-from labsim.dsl import ast
-from labsim.dsl.builtins import Better
-from labsim.dsl.lidar import MAX_BEAMS, beam_names, read_lidar
-from labsim.dsl.noise import NoiseDecl, read_noise
-from labsim.dsl.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
+from labsim.dsl.library.builtins import Better
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.lidar import MAX_BEAMS, beam_names, read_lidar
+from labsim.dsl.syntax.noise import NoiseDecl, read_noise
+from labsim.dsl.syntax.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.kinds import kind_of_keys
 from labsim.foundation.limits import MAX_COORD_M, MAX_DT_S, MIN_DT_S
@@ -73,8 +73,8 @@ class RobotDecl:
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     # parameters this group sets for itself: name, one value per member (or one for all), node
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
-    noise: NoiseDecl | None = None  # labsim.dsl.noise, resolved by the checker; None: none declared
-    lidar: Lidar | None = None  # labsim.dsl.lidar; the checker puts it on the group's model
+    noise: NoiseDecl | None = None  # labsim.dsl.syntax.noise, resolved by the checker; None: none declared
+    lidar: Lidar | None = None  # labsim.dsl.syntax.lidar; the checker puts it on the group's model
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """The words of the checker's messages that more than one check says.
 
 How many arguments a function takes, the log() an action that prints meant, the functions an
-unknown one may have meant, the names of a kind: ``labsim.dsl.infer`` and ``labsim.dsl.check``
+unknown one may have meant, the names of a kind: ``labsim.dsl.analysis.infer`` and ``labsim.dsl.analysis.check``
 say them.
 """
 from __future__ import annotations
@@ -9,8 +9,8 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import DETECTED, FUNCTIONS, Type
+from labsim.dsl.library.builtins import DETECTED, FUNCTIONS, Type
+from labsim.dsl.syntax import ast
 from labsim.foundation.source import Text
 
 

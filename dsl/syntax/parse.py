@@ -1,6 +1,6 @@
 """Rule and expression strings to AST: the lark grammar in ``grammar.lark``, LALR.
 
-``parse_rule`` and ``parse_expr`` return ``labsim.dsl.ast`` nodes whose spans are offsets into
+``parse_rule`` and ``parse_expr`` return ``labsim.dsl.syntax.ast`` nodes whose spans are offsets into
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
 expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
 around ``parse_expr``. No lark type escapes this module.
@@ -19,8 +19,8 @@ from lark import __version__ as lark_version
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 from lark.tree import Meta
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import PRINTS
+from labsim.dsl.library.builtins import PRINTS
+from labsim.dsl.syntax import ast
 from labsim.foundation.cache import cache_dir
 from labsim.foundation.numbers import NumberError, to_float
 

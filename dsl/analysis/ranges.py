@@ -1,6 +1,6 @@
 """Range analysis: the interval an expression's value stays in, for the linter's warnings.
 
-``labsim.dsl.lint`` hands this module each comparison and each call of a checked behaviour;
+``labsim.dsl.analysis.lint`` hands this module each comparison and each call of a checked behaviour;
 nothing here runs a behaviour. A ``Range`` is a closed interval (with its infinities) that
 holds every value an expression can take, built from what the file, its world and its models
 say: ``heading`` is in [-pi, pi], a pose within walls that enclose the world's bounds, a sonar
@@ -21,9 +21,9 @@ from typing import Any
 
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.world import World
-from labsim.dsl import ast
-from labsim.dsl.builtins import Type
-from labsim.dsl.check import Checked
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.syntax import ast
 from labsim.foundation.source import Place, Text
 
 INF = math.inf

@@ -5,11 +5,11 @@ CompiledRunner. It follows docs/language.md ("Expressions", "Numbers", "Groups",
 your own", "Runtime faults") and none of the code generator's shortcuts: nothing is folded but a
 group's place, ``min`` and ``max`` are calls, every division goes through the zero check, every
 number is a float. The operators are written out here from the documentation; a built-in
-function is its implementation in ``labsim.dsl.builtins``, whose exceptions become the
+function is its implementation in ``labsim.dsl.library.builtins``, whose exceptions become the
 documented results. A fault gives its documented result and is recorded with the span of the
 expression that faulted and the words of the warning the runtime prints.
-tests/unit/test_differential.py checks constant folding (``labsim.dsl.fold``) and the generated
-code (``labsim.dsl.codegen``) against it; a breakpoint (``labsim.dsl.watch``) is evaluated by it.
+tests/unit/test_differential.py checks constant folding (``labsim.dsl.analysis.fold``) and the generated
+code (``labsim.dsl.emit.codegen``) against it; a breakpoint (``labsim.dsl.watch``) is evaluated by it.
 
 The whole language: a group is a tuple of its members' values, an operator applies member by
 member, a reduction takes the members as ``and``/``or`` do, lazily where the language is lazy
@@ -26,11 +26,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, REDUCTIONS, Type, argmax, argmin
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.memory import PRIMED
-from labsim.dsl.support import make_pid, show_field
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.library.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, REDUCTIONS, Type, argmax, argmin
+from labsim.dsl.library.memory import PRIMED
+from labsim.dsl.library.support import make_pid, show_field
+from labsim.dsl.syntax import ast
 
 INF = math.inf
 NAN = math.nan
@@ -53,7 +53,7 @@ class Unsupported(Exception):
 @dataclass
 class Memory:
     """The state of the built-ins with memory between ticks: one closure per call site, as the
-    generated code keeps (``labsim.dsl.memory``); ``version`` is the file's format (``rising`` and
+    generated code keeps (``labsim.dsl.library.memory``); ``version`` is the file's format (``rising`` and
     ``counter`` prime from 1.2 on)."""
 
     dt_s: float
@@ -95,7 +95,7 @@ def evaluate(e: ast.Expr, names: Mapping[str, object], rng: random.Random | None
 def log_text(text: tuple[str | tuple[ast.Expr, str], ...], names: Mapping[str, object],
              rng: random.Random | None = None, **options: Any) -> tuple[str, tuple[Fault, ...]]:
     """A log's text (``ast.Action.text``): its literal parts, and each field's value formatted with
-    its spec as the runtime shows it (``labsim.dsl.support.show_field``); with the faults of the fields."""
+    its spec as the runtime shows it (``labsim.dsl.library.support.show_field``); with the faults of the fields."""
     out: list[str] = []
     faults: list[Fault] = []
     for part in text:
@@ -357,7 +357,7 @@ class _Walker(ast.Visitor[Any]):
     def image_call(self, e: ast.Call, impl: Callable[..., object], args: list) -> Any:
         """An image function: ``crop`` outside the image gives the empty image, ``centroid`` of
         one with no set pixel the image centre with ``.found`` false; each warns."""
-        from labsim.dsl.images import EMPTY, EmptyCentroid  # numpy, only for behaviours with images
+        from labsim.dsl.library.images import EMPTY, EmptyCentroid  # numpy, only for behaviours with images
 
         try:
             result = impl(*args)

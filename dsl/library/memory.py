@@ -1,6 +1,6 @@
 """Time and memory: the stateful functions generated code calls, one closure per call site.
 
-``labsim.dsl.support.guard`` makes one of these for each call site of ``prev``, ``rising``,
+``labsim.dsl.library.support.guard`` makes one of these for each call site of ``prev``, ``rising``,
 ``falling``, ``hold``, ``rate``, ``held``, ``remember``, ``counter`` and ``total`` in a robot's
 generated code (as it does for ``pid``), so every call site keeps its own memory per robot.
 Each factory takes the tick length in seconds and the site's fault report, and returns the

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import math
 
-from labsim.dsl.check import Checked
-from labsim.dsl.placement import Start
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.placement import Start
 from labsim.foundation.diagnostics import Report
 
 

@@ -6,10 +6,10 @@ functions, rule states — and every expression gets a type (number, boolean, st
 action arguments, ``goto`` targets, unreachable rules and metric aggregates are checked too.
 Every problem goes to the report with a did-you-mean where one helps; the result, ``Checked``,
 is what the compiler needs and nothing more. This module declares the names and checks the
-file's parts; ``labsim.dsl.infer`` types each expression against the names declared.
+file's parts; ``labsim.dsl.analysis.infer`` types each expression against the names declared.
 
 Over 500 lines: the checks of one file's parts share the names it declares; expression
-typing is its own module (``labsim.dsl.infer``), and so are the warnings (``labsim.dsl.lint``).
+typing is its own module (``labsim.dsl.analysis.infer``), and so are the warnings (``labsim.dsl.analysis.lint``).
 """
 from __future__ import annotations
 
@@ -24,8 +24,10 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
-from labsim.dsl import ast
-from labsim.dsl.builtins import (
+from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
+from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.analysis.wording import arity_message, log_example
+from labsim.dsl.library.builtins import (
     ACTIONS,
     AGGREGATES,
     CONSTANTS,
@@ -41,11 +43,9 @@ from labsim.dsl.builtins import (
     Better,
     Type,
 )
-from labsim.dsl.functions import Expansion, check_bodies, check_definitions
-from labsim.dsl.infer import ExprChecker
-from labsim.dsl.noise import Noise, resolve_noise
-from labsim.dsl.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
-from labsim.dsl.wording import arity_message, log_example
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.noise import Noise, resolve_noise
+from labsim.dsl.syntax.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
 from labsim.foundation.source import Place, Text
@@ -412,7 +412,7 @@ class _Checker(ExprChecker):
     def noise(self, params: dict[str, float | bool],
               robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]],
               overrides: dict[str, str]) -> dict[str, tuple[Noise | None, ...]]:
-        """Each group's noise, per member, the parameters it names resolved (``labsim.dsl.noise``)."""
+        """Each group's noise, per member, the parameters it names resolved (``labsim.dsl.syntax.noise``)."""
         out = {}
         for r in self.bf.robots:
             if r.noise is not None:

@@ -1,14 +1,14 @@
 """Checked behaviour to Python source: the code generator, after the checker.
 
-``generate`` lays out a robot's slots (``labsim.dsl.layout``) and writes one factory,
+``generate`` lays out a robot's slots (``labsim.dsl.emit.layout``) and writes one factory,
 ``make(...)``, which returns ``signals``, ``decide``, ``both`` and ``fold`` for one robot; it
-compiles that source once, and ``labsim.dsl.program`` runs the code object for each robot. A
+compiles that source once, and ``labsim.dsl.emit.program`` runs the code object for each robot. A
 run evaluates the rules tens of thousands of times, and one generated function per tick phase
 costs almost nothing over a hand-written loop (a tree of closures cost 1.45x; see
 docs/decisions.md, section 3).
 
 No user text reaches ``compile``: names become slot indices, numbers ``repr`` literals,
-operators come from the grammar's fixed set; constants are folded (``labsim.dsl.fold``). The
+operators come from the grammar's fixed set; constants are folded (``labsim.dsl.analysis.fold``). The
 code is written through ``labsim.foundation.code_writer``, which keeps the indentation, the slots each
 piece reads and each line's source mark. Where a rule, signal or metric begins, the source has
 a marker comment (``#@7``); the ``listing`` is the same text with each marker replaced by the
@@ -18,7 +18,7 @@ tracebacks through generated functions show it.
 
 Over 500 lines: one generator writes the whole module top to bottom, and its parts share the
 slots each piece reads; what version 1.2 added (groups, user functions) is apart, in
-``labsim.dsl.unroll``.
+``labsim.dsl.emit.unroll``.
 """
 from __future__ import annotations
 
@@ -29,17 +29,13 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FIELDS, FUNCTIONS, JOINT_ACTIONS, STATE_CLOCK, Aggregate, Type
-from labsim.dsl.check import Checked
-from labsim.dsl.fold import TOTAL, NotConstant, fold
-from labsim.dsl.image_memory import lifetimes
-from labsim.dsl.layout import Layout, layout
-from labsim.dsl.program import Code, LabelPart
-from labsim.dsl.read import Parsed, RuleDecl
-from labsim.dsl.stop import stop_horizon
-from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
-from labsim.dsl.unroll import (
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.fold import TOTAL, NotConstant, fold
+from labsim.dsl.analysis.image_memory import lifetimes
+from labsim.dsl.analysis.stop import stop_horizon
+from labsim.dsl.emit.layout import Layout, layout
+from labsim.dsl.emit.program import Code, LabelPart
+from labsim.dsl.emit.unroll import (
     LOCAL,
     ON_SEQUENCE,
     PLAIN,
@@ -50,6 +46,19 @@ from labsim.dsl.unroll import (
     reduce,
     reduce_sequence,
 )
+from labsim.dsl.library.builtins import (
+    CONSTANTS,
+    DETECTED,
+    FIELDS,
+    FUNCTIONS,
+    JOINT_ACTIONS,
+    STATE_CLOCK,
+    Aggregate,
+    Type,
+)
+from labsim.dsl.library.support import FIRST_CHANNEL, STATE, TICK, TIME, FaultSite, site_kind
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import Parsed, RuleDecl
 from labsim.foundation.code_writer import Body, Note, Notes, Writer, one_line, render, wrap
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Text
@@ -239,7 +248,7 @@ class _Generator(Unroller):
         return w.body(), note, stop
 
     def drop_images(self, w: Writer, j: int) -> None:
-        """Free the image signals signal j read for the last time (``labsim.dsl.image_memory``):
+        """Free the image signals signal j read for the last time (``labsim.dsl.analysis.image_memory``):
         a chain of image signals then holds one or two images, not all. ``_drop`` is false for a
         live view, which shows every image signal after the tick."""
         dropped = [self.slot_of[name] for name in self.image_drops.get(j, ())]

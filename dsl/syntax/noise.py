@@ -1,9 +1,9 @@
 """Noise a robot group declares: the ``noise:`` key of a robot, read into plain data.
 
-Part of reading a behaviour file (``labsim.dsl.read`` calls ``read_noise`` for each robot
+Part of reading a behaviour file (``labsim.dsl.syntax.read`` calls ``read_noise`` for each robot
 that has the key); the models are applied at run time by ``labsim.runtime.noise``, between
 the backend and the compiled program, so they are the same on every backend. This module
-holds the key tables (``labsim.dsl.schema`` builds the JSON Schema from them), each model's
+holds the key tables (``labsim.dsl.syntax.schema`` builds the JSON Schema from them), each model's
 limits and units, the reader that checks them with positions, and ``resolve_noise``, with
 which the checker replaces a parameter named in place of a number (format 1.2) by its value
 after ``--set``, for each member of the group.

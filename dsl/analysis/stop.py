@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from labsim.dsl import ast
-from labsim.dsl.check import Checked
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.lint import Linter
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.analysis.lint import Linter
+from labsim.dsl.syntax import ast
 from labsim.foundation.diagnostics import Report
 
 CLOCKS = ("time", "tick")  # names that start at 0 and only grow
@@ -71,7 +71,7 @@ def stop_horizon(c: Checked, constants: Mapping[str, object]) -> float | None:
 
     ``time >= minutes * 60`` or ``... or tick >= 30000`` give a horizon for the progress bar;
     any other condition gives None (the bar then shows elapsed sim time only). ``constants``
-    are the names the code generator folds (``labsim.dsl.fold``).
+    are the names the code generator folds (``labsim.dsl.analysis.fold``).
     """
     stop = c.file.stop
     if stop is None:

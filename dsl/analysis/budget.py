@@ -4,15 +4,15 @@ Checked when the file compiles, before any robot is placed (placing 10,000 robot
 is itself quadratic) and before anything is simulated, each at its place in the file: the
 robots at the group that goes past the budget, the pixels at the camera, the segments at
 ``world:``, the image memory at the signal where a tick's estimate first goes past it
-(``labsim.dsl.image_memory``). The other budgets (ticks, trace size) are the tick loop's
+(``labsim.dsl.analysis.image_memory``). The other budgets (ticks, trace size) are the tick loop's
 (``labsim.runtime.run``). The budgets are the caller's, never the file's: see
 ``labsim.foundation.limits.Budgets``.
 """
 from __future__ import annotations
 
 from labsim.backends.scene.world import World
-from labsim.dsl.check import Checked
-from labsim.dsl.image_memory import lifetimes, peak_bytes
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.image_memory import lifetimes, peak_bytes
 from labsim.foundation.diagnostics import Report
 from labsim.foundation.limits import Budgets
 

@@ -1,10 +1,10 @@
 """Where each of a robot's values lives: the slot layout, between the checker and the code generator.
 
-A robot's values for a tick are one list, its ``Slots`` (``labsim.dsl.support``): time, tick
+A robot's values for a tick are one list, its ``Slots`` (``labsim.dsl.library.support``): time, tick
 and state, then the channels the behaviour reads, its signals, its sliders and its sliders'
 label fields, then the per-tick variables and per-robot constants it reads. ``layout`` numbers
-them for a checked behaviour; ``labsim.dsl.codegen`` writes code that reads slot N as the
-local ``vN``, and ``labsim.dsl.program`` fills the slots a robot starts with.
+them for a checked behaviour; ``labsim.dsl.emit.codegen`` writes code that reads slot N as the
+local ``vN``, and ``labsim.dsl.emit.program`` fills the slots a robot starts with.
 """
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import JOINT_ACTIONS, STATE_CLOCK
-from labsim.dsl.check import Checked
-from labsim.dsl.program import LabelPart, SharedLabel
-from labsim.dsl.read import Parsed
-from labsim.dsl.support import FIRST_CHANNEL, STATE, TICK, TIME
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.emit.program import LabelPart, SharedLabel
+from labsim.dsl.library.builtins import JOINT_ACTIONS, STATE_CLOCK
+from labsim.dsl.library.support import FIRST_CHANNEL, STATE, TICK, TIME
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import Parsed
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ about (docs/language.md, "Warnings"): states no ``goto`` reaches and rules after
 always holds; ``==``/``!=`` on time or a continuous reading; a start pose in a wall; a
 stateful function (``pid``, ``prev``, ...) where it is not evaluated every tick; a binding or
 command beyond a motor's limit; a threshold beyond a sonar's range; comparisons a value's
-range decides and trig functions given degrees (``labsim.dsl.ranges``); and ``let`` signals,
+range decides and trig functions given degrees (``labsim.dsl.analysis.ranges``); and ``let`` signals,
 parameters and sliders that nothing reads. Every check reads the checked file only: nothing here runs a behaviour.
 """
 from __future__ import annotations
@@ -19,12 +19,12 @@ from typing import Any
 
 from labsim.backends.scene.mechanism import JointSpec
 from labsim.backends.scene.models import Kind
-from labsim.dsl import ast
-from labsim.dsl.ast import LetMemo, walk
-from labsim.dsl.builtins import CONSTANTS, STATEFUL
-from labsim.dsl.check import Checked
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.ranges import Ranges
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.analysis.ranges import Ranges
+from labsim.dsl.library.builtins import CONSTANTS, STATEFUL
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.ast import LetMemo, walk
 from labsim.foundation.diagnostics import Report
 from labsim.foundation.source import Place, Text
 

@@ -3,11 +3,11 @@
 Between the checker and the code generator: ``lifetimes`` says, for each image signal, whether
 something besides other signals reads it (a rule, the stop condition, a metric, a binding, a
 label: then it is *kept* for the whole tick) or, if not, after which signal it is read for the
-last time; ``labsim.dsl.codegen`` frees it there (and a kept one as the next tick starts), so
+last time; ``labsim.dsl.emit.codegen`` frees it there (and a kept one as the next tick starts), so
 a chain of image signals holds one or two images at a time, not all of them. ``peak_bytes``
 follows the same lifetimes through a tick, one robot after another as a fleet runs, with each
 image's size from its camera's resolution (RGB, 3 bytes a pixel; ``gray`` and ``threshold``
-make one byte a pixel, ``crop`` keeps its whole source alive), and ``labsim.dsl.budget`` holds
+make one byte a pixel, ``crop`` keeps its whole source alive), and ``labsim.dsl.analysis.budget`` holds
 the result against the run's ``memory_mb``. An estimate from above: every image a signal's expression makes on the way
 counts as alive until the signal is done.
 """
@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from typing import TypeGuard
 
 from labsim.backends.scene.models import RobotModel
-from labsim.dsl import ast
-from labsim.dsl.builtins import Type
-from labsim.dsl.check import Checked
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.syntax import ast
 
 ONE_CHANNEL = frozenset({"gray", "threshold"})  # image functions whose result is one byte a pixel
 SAME_SHAPE = frozenset({"invert", "crop"})  # same shape as the argument (a crop is a view into it)
@@ -163,4 +163,4 @@ def _nodes(root: object) -> Iterator[object]:
 
 def _walkable(item: object) -> bool:
     """The parts of a behaviour that hold expressions: AST nodes and the declarations around them."""
-    return type(item).__module__ in ("labsim.dsl.ast", "labsim.dsl.read", "labsim.dsl.check")
+    return type(item).__module__ in ("labsim.dsl.syntax.ast", "labsim.dsl.syntax.read", "labsim.dsl.analysis.check")

@@ -14,7 +14,7 @@ import random
 from dataclasses import dataclass
 
 from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose
-from labsim.dsl.check import Checked
+from labsim.dsl.analysis.check import Checked
 from labsim.foundation.diagnostics import Diagnostic
 
 

@@ -1,10 +1,10 @@
 """A robot group's ``lidar:`` key, read into a ``Lidar`` of the robot's model.
 
-Part of reading a behaviour file: ``labsim.dsl.read`` calls ``read_lidar`` for each robot
+Part of reading a behaviour file: ``labsim.dsl.syntax.read`` calls ``read_lidar`` for each robot
 group that has the key, and the checker puts the lidar on the group's model (as it does a
 ``camera:``), so its beams become channels ``lidar1`` .. ``lidarN`` that rules read alone or as
 a group (``lidar1..lidar360``). The key table and limits live here, and the JSON Schema is
-built from them (``labsim.dsl.schema``). Every problem is reported at its key or value.
+built from them (``labsim.dsl.syntax.schema``). Every problem is reported at its key or value.
 """
 from __future__ import annotations
 

@@ -1,24 +1,31 @@
 """Expression types: the half of the checker that resolves names and types expressions.
 
-``labsim.dsl.check`` declares what is in scope (sensors, parameters, ``let`` signals, states,
+``labsim.dsl.analysis.check`` declares what is in scope (sensors, parameters, ``let`` signals, states,
 sliders, built-ins) and asks ``ExprChecker.infer`` and ``ExprChecker.expect`` for the type of
 each expression of the file. Each unknown name, each operand of the wrong type and each wrong
 call is reported here, with a did-you-mean where one helps; an expression that has no type
 gives None, and its uses say nothing more.
 
 Over 500 lines: one method per kind of node and one per check of an expression, all reading the
-names in scope; the words of the messages several checks share are in ``labsim.dsl.wording``.
+names in scope; the words of the messages several checks share are in ``labsim.dsl.analysis.wording``.
 """
 from __future__ import annotations
 
 from yaml.nodes import Node
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
-from labsim.dsl.fold import fold
-from labsim.dsl.functions import Expansion, body_name, body_note, check_call, known_value
-from labsim.dsl.read import FunctionDecl, Parsed
-from labsim.dsl.wording import arity_message, function_notes, literal, range_text, text_note, unknown_name_notes
+from labsim.dsl.analysis.fold import fold
+from labsim.dsl.analysis.functions import Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.wording import (
+    arity_message,
+    function_notes,
+    literal,
+    range_text,
+    text_note,
+    unknown_name_notes,
+)
+from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -47,7 +54,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.metric_names: set[str] = set()  # the file's metrics: not names an expression can read
         self.sizes: dict[int, int] = {}  # id(AST node) of a group -> its members
         self.group_sizes: dict[str, int] = {}  # a signal that is a group -> its members
-        # user functions (labsim.dsl.functions): the callable ones, the bodies being typed (the
+        # user functions (labsim.dsl.analysis.functions): the callable ones, the bodies being typed (the
         # definition, its parameters' types and sizes, the call and its text), each call's typed copy
         self.user_functions: dict[str, FunctionDecl] = {}
         self.scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]] = []

@@ -1,9 +1,9 @@
 """What generated code calls while a behaviour runs: the last stage of the language, at run time.
 
-``labsim.dsl.codegen`` writes Python that reads and writes a robot's ``Slots`` (laid out as
+``labsim.dsl.emit.codegen`` writes Python that reads and writes a robot's ``Slots`` (laid out as
 ``TIME``, ``TICK``, ``STATE``, then from ``FIRST_CHANNEL`` the channels, signals and sliders),
 calls the built-ins through the names ``namespace`` binds, and sends every operation that can
-fault through a ``guard`` bound to its ``FaultSite``. ``labsim.dsl.program`` binds all of it to
+fault through a ``guard`` bound to its ``FaultSite``. ``labsim.dsl.emit.program`` binds all of it to
 one robot; the runtime reads the metric accumulators back with ``metric_result``.
 
 Runtime faults have defined results (IEEE 754 where it has one): ``x / 0`` is ±inf (0/0 and
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import RobotModel
-from labsim.dsl.builtins import FUNCTIONS, SEQUENCE_FUNCTIONS, Aggregate, Type, argmax, argmin
-from labsim.dsl.memory import PRIMED
+from labsim.dsl.library.builtins import FUNCTIONS, SEQUENCE_FUNCTIONS, Aggregate, Type, argmax, argmin
+from labsim.dsl.library.memory import PRIMED
 from labsim.foundation.diagnostics import Diagnostic
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
@@ -182,7 +182,7 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     """A fault-checked (or stateful) operation for one site of generated code.
 
     A stateful function's kind may carry the format version whose meaning it has
-    (``rising@1.2``: labsim.dsl.memory.PRIMED).
+    (``rising@1.2``: labsim.dsl.library.memory.PRIMED).
     """
 
     def report(what: str) -> None:
@@ -197,9 +197,9 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     name, _, since = kind.partition("@")
     if name in FUNCTIONS and FUNCTIONS[name].stateful:
         factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]
-        return factory(dt_s, report, primed=True) if since else factory(dt_s, report)  # labsim.dsl.memory
+        return factory(dt_s, report, primed=True) if since else factory(dt_s, report)  # labsim.dsl.library.memory
     if kind == "centroid":
-        from labsim.dsl.images import EmptyCentroid, centroid
+        from labsim.dsl.library.images import EmptyCentroid, centroid
 
         def centroid_of(img: np.ndarray) -> tuple[float, float, bool]:
             try:
@@ -271,7 +271,7 @@ def _guarded_call(kind: str, report: Callable[[str], None], rng: random.Random) 
         impl = impl.__get__(rng) if kind != "randint" else (lambda a, b, _f=impl: _f(rng, a, b))
     fallback: object = math.nan
     if f.returns is Type.IMAGE:
-        from labsim.dsl.images import EMPTY
+        from labsim.dsl.library.images import EMPTY
         fallback = EMPTY
 
     def call(*args: float) -> object:

@@ -1,13 +1,13 @@
 """The abstract syntax of rule and expression strings.
 
-``labsim.dsl.parse`` builds these frozen dataclasses from lark's tree; nothing of lark leaks
+``labsim.dsl.syntax.parse`` builds these frozen dataclasses from lark's tree; nothing of lark leaks
 past it. Every node carries ``span``, the (start, end) character offsets of its text inside
 the string it came from; spans are excluded from equality and repr so tests can compare trees
 by structure. ``labsim.foundation.source.Text`` maps a span back to the file's line and column.
 
 The one traversal of the tree is here too: ``children`` and ``walk`` are derived from each node's
 dataclass fields (as CPython's ``ast.iter_child_nodes`` is), and ``Visitor`` is the base of every
-analysis that dispatches on the kind of node (``labsim.dsl.check``, ``.infer``, ``.ranges``,
+analysis that dispatches on the kind of node (``labsim.dsl.analysis.check``, ``.infer``, ``.ranges``,
 ``.lint``, ``.unbounded``, ``.fold``, ``.unroll``, ``.evaluate``, ``.watch``): each declares what
 it does for every node class, so a new construct cannot be forgotten by one of them
 (tests/unit/test_traversal.py).

@@ -1,14 +1,14 @@
 """The compiled behaviour the runtime reads: what the language hands over, sealed.
 
 ``labsim.dsl.compile`` builds a ``Program`` from a checked behaviour file and the Python that
-``labsim.dsl.codegen`` generated for it. A Program is read-only plain data: settings, names,
+``labsim.dsl.emit.codegen`` generated for it. A Program is read-only plain data: settings, names,
 the slot layout, the timeline as (time_s, settings) pairs, the stop condition's horizon,
 diagnostics prepared for the runtime to raise, and the generated ``Code``. Nothing of the YAML
 file or of the front end (nodes, ``Checked``) is reachable from it, and nothing changes it
 after compilation: a different seed is a different compilation.
 
 ``Program.robot`` binds the generated code to one robot's slots, random generator, model and
-fault sink (``labsim.dsl.support``) and returns that robot's ``RobotProgram``, the mutable
+fault sink (``labsim.dsl.library.support``) and returns that robot's ``RobotProgram``, the mutable
 per-robot half; each robot has its own state and its callables take no user data.
 """
 from __future__ import annotations
@@ -23,10 +23,19 @@ from typing import Any, cast
 
 from labsim.backends.scene.models import Kind, RobotModel
 from labsim.backends.scene.world import World
-from labsim.dsl.builtins import Aggregate, Better, Type
-from labsim.dsl.noise import Noise
-from labsim.dsl.placement import Start
-from labsim.dsl.support import STATE, Faults, FaultSite, Slots, guard, initial_accumulator, namespace, show_field
+from labsim.dsl.analysis.placement import Start
+from labsim.dsl.library.builtins import Aggregate, Better, Type
+from labsim.dsl.library.support import (
+    STATE,
+    Faults,
+    FaultSite,
+    Slots,
+    guard,
+    initial_accumulator,
+    namespace,
+    show_field,
+)
+from labsim.dsl.syntax.noise import Noise
 from labsim.foundation.diagnostics import Diagnostic
 
 Setting = tuple[str, float]  # a slider and the value it takes
@@ -139,7 +148,7 @@ class Program:
     robots: tuple[RobotGroup, ...]
     models: Mapping[str, RobotModel]  # robot group -> model
     mechanism_agent: bool  # no robots: one agent reads and drives the world's mechanism
-    starts: tuple[Start, ...]  # every robot and its start pose, in the file's order (dsl/placement.py)
+    starts: tuple[Start, ...]  # every robot and its start pose, in the file's order (dsl/analysis/placement.py)
     # what it reads and computes
     channels: tuple[str, ...]  # sensor channels, in the order values are passed to signals()
     channel_kinds: Mapping[str, Kind]
@@ -168,7 +177,7 @@ class Program:
     fold_stop: bool = False  # format 1.1: the stopping tick is traced and folded into metrics
     texts: tuple[str, ...] = ()  # what generated code shows as text: the state names, then text values
     when_rules: tuple[int, ...] = ()  # the 'when' rules, by index in ``rules``: RobotProgram.when_fired counts them
-    image_bytes_all: int = 0  # every image signal of every robot held at once (labsim.dsl.image_memory)
+    image_bytes_all: int = 0  # every image signal of every robot held at once (labsim.dsl.analysis.image_memory)
     shared_labels: tuple[SharedLabel, ...] = ()  # labels several sliders write (format 1.2)
 
     def log_text(self, site: int, values: tuple) -> str:
@@ -216,7 +225,7 @@ class Program:
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
         # Only generated text reaches exec: user names became slot indices, numbers are
-        # repr(float), operators come from a fixed table (see labsim.dsl.codegen). The functions
+        # repr(float), operators come from a fixed table (see labsim.dsl.emit.codegen). The functions
         # are made by a factory so that everything they use is a closure cell, not a global.
         scope: dict[str, object] = {"__builtins__": {}}
         exec(code.compiled, scope)

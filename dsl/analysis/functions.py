@@ -4,7 +4,7 @@ A function is a named expression with parameters (``steer(offset, gain): clamp(g
 -2, 2)``), defined once and used in any expression (docs/language.md, "Functions of your own").
 It is pure: its body reads only its parameters, the file's ``params``, constants and ``dt``, and
 calls no built-in with memory (``pid``, ``prev``, ...) and nothing random, so a call means the
-same wherever it is written. The checker (``labsim.dsl.infer``) types each call: it gives the
+same wherever it is written. The checker (``labsim.dsl.analysis.infer``) types each call: it gives the
 body a fresh copy per call site, types the copy with the arguments' types (a parameter can be
 a number, a boolean or a group), and keeps it in ``Expansion`` for the code generator, which
 writes the body in place of the call (no Python call at run time: docs/decisions.md). A
@@ -18,10 +18,19 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import ACTIONS, AGGREGATES, DETECTED, FUNCTIONS, KEYWORDS, STATEFUL, TRACE_COLUMNS, Type
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.read import FunctionDecl
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.library.builtins import (
+    ACTIONS,
+    AGGREGATES,
+    DETECTED,
+    FUNCTIONS,
+    KEYWORDS,
+    STATEFUL,
+    TRACE_COLUMNS,
+    Type,
+)
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import FunctionDecl
 from labsim.foundation.source import Place, Text
 
 RANDOM = frozenset(f.name for f in FUNCTIONS.values() if f.uses_rng)
@@ -31,7 +40,7 @@ READABLE_KINDS = frozenset({"parameter", "constant"})
 
 
 class ExprChecker(Protocol):
-    """What this module uses of the checker (``labsim.dsl.infer.ExprChecker``)."""
+    """What this module uses of the checker (``labsim.dsl.analysis.infer.ExprChecker``)."""
 
     types: dict[str, Type]
     kinds: dict[str, str]
@@ -205,7 +214,7 @@ def known_value(e: ast.Expr, constants: dict[str, object],
     """The value of e known before the run, as the code generator folds it; None if it is not.
 
     Inside a function's body, a parameter whose argument folds is that constant (and one that
-    does not is known only while running), as ``labsim.dsl.unroll`` writes the body."""
+    does not is known only while running), as ``labsim.dsl.emit.unroll`` writes the body."""
     for d, _, call, _ in scopes:
         inner = {k: v for k, v in constants.items() if k not in d.params}
         for name, arg in zip(d.params, call.args if call is not None else ()):

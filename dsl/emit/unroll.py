@@ -1,6 +1,6 @@
 """Groups and user functions written out: the code generator's straight-line code for version 1.2.
 
-``labsim.dsl.codegen``'s generator takes these methods from ``Unroller``. A group-typed
+``labsim.dsl.emit.codegen``'s generator takes these methods from ``Unroller``. A group-typed
 expression (``sonar1..sonar8``, ``front < 0.5``) becomes one Python expression per member, an
 operator applying to each member; a reduction (``min(front)``, ``any(...)``) joins them into
 one expression with no loop and no list (``reduce``); ``front[2]`` is the member itself. A
@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import re
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import Type
-from labsim.dsl.check import Checked
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.layout import Layout
-from labsim.dsl.support import FIRST_CHANNEL
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.emit.layout import Layout
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import FIRST_CHANNEL
+from labsim.dsl.syntax import ast
 from labsim.foundation.code_writer import Writer
 from labsim.foundation.source import Text
 
@@ -203,7 +203,7 @@ class MemberWriter(ast.Visitor[list[str]]):
 # What a writer records as read when code uses the tick's channel values as one sequence
 # (``values``): no slot has this number.
 VALUES = -1
-# The reductions with a form on such a sequence (labsim.dsl.builtins.SEQUENCE_FUNCTIONS); mean
+# The reductions with a form on such a sequence (labsim.dsl.library.builtins.SEQUENCE_FUNCTIONS); mean
 # is the sum's, divided.
 ON_SEQUENCE = frozenset({"min", "max", "argmin", "argmax", "sum", "mean"})
 
@@ -255,7 +255,7 @@ def reduce(func: str, members: list[str]) -> str:
 def extreme(func: str, parts: list[str]) -> str:
     """``min``/``max`` of two or three plain values as an expression, without a call.
 
-    Exactly what ``labsim.dsl.builtins._min`` and ``_max`` compute, nan and the order of equal
+    Exactly what ``labsim.dsl.library.builtins._min`` and ``_max`` compute, nan and the order of equal
     values included: nan if any value is nan, else the running extreme from the first value,
     replaced only by a strictly smaller (larger) one. The wall lab's rules take the minimum of
     sonar pairs 150,000 times in a run; the call was 5% of its tick.

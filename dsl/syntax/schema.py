@@ -1,4 +1,4 @@
-"""The JSON Schema of a behaviour file, built from the key tables of ``labsim.dsl.read``.
+"""The JSON Schema of a behaviour file, built from the key tables of ``labsim.dsl.syntax.read``.
 
 The language's half of the schemas (the world file's is ``labsim.backends.scene.schema``, whose
 builders this uses): every mapping here is made from the reader's own tuple of keys
@@ -10,10 +10,10 @@ worlds, functions) exist, is the checker's business (``labsim check``).
 from __future__ import annotations
 
 from labsim.backends.scene.schema import IDENTIFIER, Schema, document, mapping, named, number, numbers, text
-from labsim.dsl.builtins import Better
-from labsim.dsl.lidar import LIDAR_KEYS, LIDAR_LIMITS
-from labsim.dsl.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
-from labsim.dsl.read import (
+from labsim.dsl.library.builtins import Better
+from labsim.dsl.syntax.lidar import LIDAR_KEYS, LIDAR_LIMITS
+from labsim.dsl.syntax.noise import CAMERA_NOISE_KEYS, LIMITS, NOISE_KEYS, SONAR_NOISE_KEYS, WHEEL_NOISE_KEYS
+from labsim.dsl.syntax.read import (
     CAMERA_KEYS,
     MAX_CAMERA_PX,
     METRIC_KEYS,

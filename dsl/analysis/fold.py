@@ -1,19 +1,19 @@
 """Constant folding: the value of an expression that reads nothing at run time.
 
-``labsim.dsl.codegen`` folds parameters, constants and the arithmetic on them into literals
+``labsim.dsl.emit.codegen`` folds parameters, constants and the arithmetic on them into literals
 (``time >= minutes * 60`` becomes ``(v0 >= 1500.0)``), computed here once with the operations
 the generated code would run each tick. An expression folds only when it reads no slot, calls
 no random, stateful or fault-prone built-in, and raises nothing: ``1 / 0`` is left to run
 time, where its guard gives the documented result and warns at its site. tests/test_differential.py
-checks folding against the generated code and the reference evaluator (``labsim.dsl.evaluate``).
+checks folding against the generated code and the reference evaluator (``labsim.dsl.analysis.evaluate``).
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import FUNCTIONS
+from labsim.dsl.library.builtins import FUNCTIONS
+from labsim.dsl.syntax import ast
 
 # Functions that return a value for every argument (inf and nan included): generated code calls
 # them directly. The others may raise (sqrt(-1), log(-1), exp(1000), randint(3, 2), crop outside

@@ -1,6 +1,6 @@
 """A sonar's inf on its way into a pid(): a warning, after the linter.
 
-``labsim.dsl.compile`` runs ``check_unbounded`` beside ``labsim.dsl.lint`` on a behaviour
+``labsim.dsl.compile`` runs ``check_unbounded`` beside ``labsim.dsl.analysis.lint`` on a behaviour
 without errors. A distance sensor reads ``inf`` when nothing is within its range, and a
 ``pid(error, ...)`` given an inf error repeats its last output and holds its state
 (docs/language.md, "PID"): the robot steers blind while the sonar sees nothing. The warning is
@@ -17,10 +17,10 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
-from labsim.dsl import ast
-from labsim.dsl.ast import LetMemo, walk
-from labsim.dsl.check import Checked
-from labsim.dsl.lint import Linter
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.lint import Linter
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.ast import LetMemo, walk
 from labsim.foundation.diagnostics import Report
 
 # Functions whose result is finite whatever they are given (pid, rate and total leave inf out).
