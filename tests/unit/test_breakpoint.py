@@ -13,7 +13,9 @@ from pathlib import Path
 
 import pytest
 
+from labsim.dsl.analysis.evaluate import Members, log_text
 from labsim.dsl.compile import compile_file
+from labsim.dsl.syntax.parse import parse_expr, parse_rule
 from labsim.dsl.watch import compile_watch
 from labsim.foundation.diagnostics import LabsimError
 
@@ -92,3 +94,26 @@ def test_the_state_a_breakpoint_reads_is_shown_by_its_name() -> None:
     assert proc.stdout.splitlines() == [
         "--break: 'ahead < front and state == wander' held at tick 46 (2.30 s) for robot pioneer",
         "  state: wander", "  rule: wander:1", "  ahead = 0.498439", "  front = 0.5", "  state = wander"]
+
+
+def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> None:
+    """A log's fields (a group's member, a reduction, a function over a group, text chosen by a
+    condition, a whole-number field of a fraction) by the reference evaluator and by the run, from
+    the readings of that tick in the trace."""
+    text = ("log(\"{front[1]:.2f} {argmin(front)} {near(front, 0.6):d} {'near' if min(front) < 0.5 else 'far'} "
+            "{time:d}\")")
+    path = write("labsim: 1.2\nworld: walls_lab4\nseed: 4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "at: random}\nfunctions:\n  near(g, d): count(g < d)\nlet:\n  front: [sonar4, sonar5, sonar6]\n"
+                 f"rules:\n  - when tick == 3 then {text}\n  - always move(1)\n")
+    trace = path.with_suffix(".csv")
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "-q", "--trace", str(trace)],
+                          capture_output=True, text=True, timeout=120)
+    [printed] = [line.split(": ", 1)[1] for line in proc.stderr.replace("\r", "").splitlines() if line.strip()]
+    rows = [line.split(",") for line in trace.read_text().splitlines() if not line.startswith("#")]
+    head, row = rows[0], rows[4]  # tick 3
+    front = Members(float(row[head.index(n)]) for n in ("sonar4", "sonar5", "sonar6"))
+    action = parse_rule(f"always {text}").actions[0]
+    assert action.text is not None
+    shown, faults = log_text(action.text, {"tick": 3.0, "time": 3 * 0.05, "dt": 0.05, "front": front},
+                             functions={"near": (("g", "d"), parse_expr("count(g < d)"))})
+    assert (shown, faults) == (printed, ())
