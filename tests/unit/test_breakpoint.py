@@ -102,8 +102,9 @@ def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> N
     the readings of that tick in the trace."""
     text = ("log(\"{front[1]:.2f} {argmin(front)} {near(front, 0.6):d} {'near' if min(front) < 0.5 else 'far'} "
             "{time:d}\")")
-    path = write("labsim: 1.2\nworld: walls_lab4\nseed: 4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
-                 "at: random}\nfunctions:\n  near(g, d): count(g < d)\nlet:\n  front: [sonar4, sonar5, sonar6]\n"
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "at: [6.8, 0.3, 10]}\nfunctions:\n  near(g, d): count(g < d)\n"
+                 "let:\n  front: [sonar4, sonar5, sonar6]\n"
                  f"rules:\n  - when tick == 3 then {text}\n  - always move(1)\n")
     trace = path.with_suffix(".csv")
     proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "-q", "--trace", str(trace)],
@@ -117,3 +118,4 @@ def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> N
     shown, faults = log_text(action.text, {"tick": 3.0, "time": 3 * 0.05, "dt": 0.05, "front": front},
                              functions={"near": (("g", "d"), parse_expr("count(g < d)"))})
     assert (shown, faults) == (printed, ())
+    assert printed == "0.42 1.0 3 near 0.15"  # facing the east wall, 0.4 m off
