@@ -119,3 +119,15 @@ def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> N
                              functions={"near": (("g", "d"), parse_expr("count(g < d)"))})
     assert (shown, faults) == (printed, ())
     assert printed == "0.42 1.0 3 near 0.15"  # facing the east wall, 0.4 m off
+
+
+def test_the_evaluator_keeps_the_memory_of_built_ins_between_ticks() -> None:
+    """prev, rising (primed from 1.2 on) and counter, one closure per call site, as generated code keeps them."""
+    from labsim.dsl.analysis.evaluate import Memory, evaluate
+    memory = Memory(dt_s=0.05, version=1.2)
+    e = parse_expr("[prev(x, -1), rising(x > 1), counter(x > 1)]")
+    seen = [evaluate(e, {"x": x}, memory=memory)[0] for x in (2.0, 0.0, 3.0, 4.0, 0.5, 5.0)]
+    assert seen == [(-1.0, False, 0.0), (2.0, False, 0.0), (0.0, True, 1.0), (3.0, False, 1.0),
+                    (4.0, False, 1.0), (0.5, True, 2.0)]
+    with pytest.raises(Exception, match="remembers earlier ticks"):
+        evaluate(e, {"x": 1.0})  # no memory: one tick cannot answer
