@@ -1,11 +1,11 @@
 """A behaviour file in, a sealed ``Program`` out: the language's pipeline, end to end.
 
 One stage per module: ``labsim.foundation.source.load`` (YAML with positions) ->
-``labsim.dsl.read`` (the file's sections, rule strings parsed by ``labsim.dsl.parse`` into
-``labsim.dsl.ast``) -> ``labsim.dsl.check`` (names, arity, types) -> ``labsim.dsl.lint`` and ``labsim.dsl.unbounded``
-(warnings, on a file without errors) -> ``labsim.dsl.codegen``
-(Python source, compiled once) -> ``labsim.dsl.program.Program``, which the runtime binds to
-each robot; the generated code calls ``labsim.dsl.support`` as it runs. Every stage adds its
+``labsim.dsl.syntax.read`` (the file's sections, rule strings parsed by ``labsim.dsl.syntax.parse`` into
+``labsim.dsl.syntax.ast``) -> ``labsim.dsl.analysis.check`` (names, arity, types) -> ``labsim.dsl.analysis.lint``
+and ``labsim.dsl.analysis.unbounded`` (warnings, on a file without errors) -> ``labsim.dsl.emit.codegen``
+(Python source, compiled once) -> ``labsim.dsl.emit.program.Program``, which the runtime binds to
+each robot; the generated code calls ``labsim.dsl.library.support`` as it runs. Every stage adds its
 problems to one ``Report``, so a file's errors are all raised together, as a LabsimError.
 Only placing the robots depends on the seed: ``prepare`` does the rest once, and
 ``Prepared.program(seed)`` gives each seed's Program (a grader runs a file on several seeds).
@@ -19,17 +19,17 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 
-from labsim.dsl.budget import check_budgets
-from labsim.dsl.check import Checked, check
-from labsim.dsl.codegen import Generated, generate
-from labsim.dsl.crowd import check_crowd
-from labsim.dsl.image_memory import lifetimes, peak_bytes
-from labsim.dsl.lint import lint
-from labsim.dsl.placement import Start, place
-from labsim.dsl.program import Program, RobotGroup, RuleLabel, TimelineEvent
-from labsim.dsl.read import RobotDecl, read
-from labsim.dsl.stop import check_stop
-from labsim.dsl.unbounded import check_unbounded
+from labsim.dsl.analysis.budget import check_budgets
+from labsim.dsl.analysis.check import Checked, check
+from labsim.dsl.analysis.crowd import check_crowd
+from labsim.dsl.analysis.image_memory import lifetimes, peak_bytes
+from labsim.dsl.analysis.lint import lint
+from labsim.dsl.analysis.placement import Start, place
+from labsim.dsl.analysis.stop import check_stop
+from labsim.dsl.analysis.unbounded import check_unbounded
+from labsim.dsl.emit.codegen import Generated, generate
+from labsim.dsl.emit.program import Program, RobotGroup, RuleLabel, TimelineEvent
+from labsim.dsl.syntax.read import RobotDecl, read
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
@@ -44,7 +44,7 @@ def compile_file(path: str | Path, overrides: dict[str, str] | None = None, seed
     there): a live view's edit, not yet saved.
     ``overrides`` set parameters (``--set front=1.0``); ``seed`` replaces the file's ``seed:``.
     The linter's warnings go on the Program; ``strict`` raises them as errors instead.
-    ``budgets`` bound its robots, cameras and world (``labsim.dsl.budget``).
+    ``budgets`` bound its robots, cameras and world (``labsim.dsl.analysis.budget``).
     """
     _check_seed(seed)
     return prepare(path, overrides, strict, budgets, text).program(seed)

@@ -1,13 +1,15 @@
 """A condition to watch a compiled run by: a live view's breakpoint (``labsim view --break``).
 
 Outside the file, after it compiled: ``compile_watch`` parses one expression of the language
-(``labsim.dsl.parse``) and checks it as the stop condition is checked (``ExprChecker.expect``,
+(``labsim.dsl.syntax.parse``) and checks it as the stop condition is checked (``ExprChecker.expect``,
 a boolean), against the names the compiled ``Program`` has: the sensors its behaviour reads,
 its signals, parameters, sliders, states, ``time``, ``tick``, ``dt`` and ``state``. Its
 diagnostics are the file's kind, with the line and column in the condition's own text
 (``--break:1:8: unknown name 'sonr5' (did you mean 'sonar5'?)``). A ``Watch`` is evaluated
-once a tick with the reference evaluator (``labsim.dsl.evaluate``), which sees one tick:
-functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked.
+once a tick with the reference evaluator (``labsim.dsl.analysis.evaluate``), which sees one tick:
+functions that remember earlier ticks (``prev``, ``rising``, ...) are refused when checked,
+wherever they are (inside a group too). The same compiled condition stops ``labsim run --break``
+(``labsim.runtime.breakpoint``), which prints the values it read (``Watch.values``).
 """
 from __future__ import annotations
 
@@ -18,20 +20,21 @@ import yaml
 from yaml.nodes import ScalarNode
 
 from labsim.backends.scene.models import Kind
-from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, FUNCTIONS, Type
-from labsim.dsl.evaluate import Unsupported, evaluate
-from labsim.dsl.infer import ExprChecker
-from labsim.dsl.lint import walk
-from labsim.dsl.parse import ParseError, parse_expr
-from labsim.dsl.program import Program
-from labsim.dsl.read import Parsed
-from labsim.dsl.support import STATE
+from labsim.dsl.analysis.evaluate import Unsupported, evaluate
+from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import CONSTANTS, FUNCTIONS, Type
+from labsim.dsl.library.support import STATE
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.ast import walk
+from labsim.dsl.syntax.parse import ParseError, parse_expr
+from labsim.dsl.syntax.read import Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document
 
 MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
-_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL}
+_KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL, Kind.CONTACT: Type.BOOL,
+               Kind.REFLECTANCE: Type.NUMBER}
 _VARIABLES = {"time": Type.NUMBER, "tick": Type.NUMBER, "dt": Type.NUMBER, "state": Type.STATE}
 
 
@@ -44,20 +47,38 @@ class Watch:
     channels: tuple[tuple[str, int], ...]  # name -> index into a robot's readings
     slots: tuple[tuple[str, int], ...]  # signals and sliders: name -> slot
     constants: Mapping[str, object]  # parameters, states (their indices), dt
+    reads: tuple[str, ...] = ()  # the names it reads, in the order written (constants left out)
+    states: tuple[str, ...] = ()  # the program's states, by index: a state's value is shown by its name
 
-    def holds(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> bool:
-        """Whether the condition holds on a tick, from the robot's readings and slots."""
+    def names(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> dict[str, object]:
+        """Every name's value on a tick, from the robot's readings and slots."""
         names: dict[str, object] = dict(self.constants)
         names["time"], names["tick"], names["state"] = tick * dt_s, float(tick), slots[STATE]
         for name, i in self.channels:
             names[name] = readings[i]
         for name, i in self.slots:
             names[name] = slots[i]
+        return names
+
+    def holds(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]) -> bool:
+        """Whether the condition holds on a tick, from the robot's readings and slots."""
         try:
-            value, _ = evaluate(self.node, names)
+            value, _ = evaluate(self.node, self.names(tick, dt_s, readings, slots), constants=self.constants)
         except Unsupported:  # what the checks let through and one tick cannot answer: never holds
             return False
         return bool(value)
+
+    def values(self, tick: int, dt_s: float, readings: Sequence[object], slots: Sequence[object]
+               ) -> list[tuple[str, object]]:
+        """The values of the names it reads on a tick, in the order written."""
+        names = self.names(tick, dt_s, readings, slots)
+        out: list[tuple[str, object]] = []
+        for n in self.reads:
+            if n == "state" and self.states:
+                out.append((n, self.states[int(names[n])]))  # type: ignore[call-overload]
+            elif n in names and n not in self.states:  # a state's name is a constant: not shown
+                out.append((n, names[n]))
+        return out
 
 
 def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
@@ -94,6 +115,14 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         checker.declare(name, t, "built-in variable")
     for name in CONSTANTS:
         checker.declare(name, Type.NUMBER, "constant")
+    unread = {name for m in program.models.values() for name in m.channels()} - set(program.channels)
+    for read in ast.walk(e):
+        if isinstance(read, ast.Name) and read.id in unread and read.id not in checker.types:
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a sensor this behaviour "
+                                              "does not read: a breakpoint sees what the behaviour reads",
+                                              notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
+                                                     "and watch the signal",)))
+            checker.poisoned.add(read.id)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
     for call in _calls(e):
         if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
@@ -102,13 +131,32 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                               "tick at a time", notes=("make it a signal in the file (let:) "
                                                                        "and watch the signal",)))
     report.raise_if_errors()
+    reads = _Reads()
+    reads.visit(e)
     return Watch(  # every name it may read (a name inside a group is read too)
         text=text, node=e,
         channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
         slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
                     if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
-                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s})
+                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
+        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)), states=tuple(program.state_names))
+
+
+class _Reads(ast.Visitor[None]):
+    """The names a condition reads, in the order written; the breakpoint prints their values."""
+
+    def __init__(self) -> None:
+        self.names: list[str] = []
+
+    def visit_Name(self, e: ast.Name) -> None:
+        self.names.append(e.id)
+
+    def visit_Call(self, e: ast.Call) -> None:
+        self.generic_visit(e)  # detected(sonar5) reads sonar5, as its argument
+
+    # every other node reads what its parts read
+    generic = frozenset(set(ast.node_classes()) - {ast.Name, ast.Call})
 
 
 def _calls(e: ast.Expr) -> list[ast.Call]:

@@ -1,7 +1,7 @@
 """Where labsim keeps what it can rebuild: the user's cache folder, or nothing.
 
 Two things are worth keeping between processes: the expression grammar's parse tables
-(``labsim.dsl.parse``, 60-70 ms to build) and a world's ground drawn as a texture
+(``labsim.dsl.syntax.parse``, 60-70 ms to build) and a world's ground drawn as a texture
 (``labsim.backends.pymunk.camera``, a quarter of a second for the road loop). Both go to
 one folder of the user's own: ``$LABSIM_CACHE_DIR`` if set, else the platform's cache
 folder (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS,

@@ -17,7 +17,7 @@ import difflib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from labsim.foundation.inert import inert
+from labsim.foundation.inert import Inert, inert
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class Diagnostic:
             out.append(gutter + text)
             out.append(" " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" + "~" * (width - 1))
         out.extend(f"      = {inert(note)}" for note in self.notes)
-        return "\n".join(out)
+        return Inert("\n".join(out))  # its lines are labsim's; the file's text in them is inert
 
 
 # At most this many columns of a source line are echoed, around the caret: a minified file's

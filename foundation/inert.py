@@ -32,6 +32,14 @@ def _escape(code: int) -> str:
 _ESCAPES = {code: _escape(code) for code in range(0x2070) if _UNSAFE.match(chr(code))}
 
 
+class Inert(str):
+    """Text already made inert, piece by piece, whose own line breaks are meant: a formatted
+    diagnostic (``Diagnostic.format``). ``inert`` gives it back as it is, so a runtime warning
+    printed through a sink that makes everything inert shows its lines, not ``\\x0a``."""
+
+    __slots__ = ()
+
+
 def inert(text: str) -> str:
     """``text`` with every control character (but tab) and bidi override shown as an escape.
 
@@ -39,7 +47,7 @@ def inert(text: str) -> str:
     line prints as before; a backslash is left alone, so ``\\x1b`` typed by a student and an
     escaped ESC look the same, which is harmless on a terminal.
     """
-    if _UNSAFE.search(text) is None:
+    if isinstance(text, Inert) or _UNSAFE.search(text) is None:
         return text
     return text.translate(_ESCAPES)
 

@@ -28,7 +28,7 @@ TRACE_SUFFIX = ".csv"
 GOLDEN_SUFFIX = ".golden.csv"
 WORLD_VERSION_KEY = "labsim-world"
 ASSIGNMENT_VERSION_KEY = "labsim-assignment"  # a grader's assignment file (docs/grading.md)
-# keys only one kind of file has (the readers' key tables: dsl/read.py TOP_KEYS and
+# keys only one kind of file has (the readers' key tables: dsl/syntax/read.py TOP_KEYS and
 # backends/scene/world_file.py KEYS; tests/unit/test_kinds.py holds them to it)
 BEHAVIOUR_ONLY_KEYS = frozenset({"labsim", "rules", "stop", "bind"})
 WORLD_ONLY_KEYS = frozenset({"labsim-world", "bounds", "wall_thickness", "wall_height", "walls", "blocks", "spawns",

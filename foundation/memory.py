@@ -1,7 +1,7 @@
 """The operating system's cap on a run's memory: the backstop under the checker's estimate.
 
 The checker refuses a behaviour whose images would need more than the run's ``memory_mb``
-budget (``labsim.dsl.budget``); what the estimate cannot see (a world's geometry, a backend's
+budget (``labsim.dsl.analysis.budget``); what the estimate cannot see (a world's geometry, a backend's
 own buffers, an estimate that is wrong) meets this cap instead. ``memory_cap`` lowers the
 process's address space limit (``RLIMIT_AS``) for the span of a run, to what the process has
 mapped already plus the budget plus ``HEADROOM_MB``, and puts the old limit back afterwards,

@@ -6,7 +6,7 @@ numpy's import that then sits idle; under ``labsim sweep -j 2`` each of two work
 two cores. So the command line (runtime/cli/main.py, before numpy is imported) sets the BLAS
 and OpenMP variables to one thread where the user has not set them, its processes (a sweep's
 workers) inherit them, and the modules that import OpenCV for a run (backends/pymunk/camera.py,
-dsl/images.py) set its thread count. ``LABSIM_THREADS=N`` gives N threads to each instead, and
+dsl/library/images.py) set its thread count. ``LABSIM_THREADS=N`` gives N threads to each instead, and
 ``LABSIM_THREADS=0`` leaves every library its own default (docs/sweep.md, "Threads").
 """
 from __future__ import annotations

@@ -4,7 +4,7 @@ Read on first use and kept: ``importlib.metadata`` and the look-up cost about 25
 ``labsim check`` that prints no version should not pay. It lives in the foundation, not in the
 package root, so that the modules that write it (the trace header, the summary JSON, a sweep's
 and a grade's output, ``labsim --version``) do not import ``labsim`` itself, whose lazy API
-imports them back (docs/decisions.md, "Dependencies as imported").
+imports them back (docs/decisions.md §31).
 """
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ stops the run at the row that reaches it (``labsim.runtime.trace.TraceFull``), a
 runs out of memory under its cap (``labsim.foundation.memory``) stops too. A run past a budget
 stops there, its trace closed and kept, and the summary's ``over_budget`` says why; the
 command line prints the summary and exits 2. The budgets of a behaviour's size (robots,
-cameras, world, image memory) are checked when it compiles (``labsim.dsl.budget``). Defaults
+cameras, world, image memory) are checked when it compiles (``labsim.dsl.analysis.budget``). Defaults
 and flags: docs/security.md, "Budgets".
 """
 from __future__ import annotations

@@ -99,7 +99,7 @@ def shipped_behaviour(named: str, sha256: str) -> Path | None:
 
 
 def _sha256(path: Path) -> str:
-    """A behaviour file's hash as the compiler takes it (``labsim.dsl.read``): of its text."""
+    """A behaviour file's hash as the compiler takes it (``labsim.dsl.syntax.read``): of its text."""
     try:
         return hashlib.sha256(read_text(path, "behaviour").encode()).hexdigest()
     except LabsimError:

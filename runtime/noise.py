@@ -1,7 +1,7 @@
 """Seeded noise between the backend and the compiled program: the same on every backend.
 
 ``labsim.runtime.run`` puts a ``NoisyIO`` in front of the backend's ``sense``, ``act`` and
-``step`` when a robot of the behaviour declares ``noise:`` (``labsim.dsl.noise``); a run
+``step`` when a robot of the behaviour declares ``noise:`` (``labsim.dsl.syntax.noise``); a run
 without noise never builds one and pays nothing. What the behaviour reads (and the trace
 records) is the noisy reading; what the backend receives is the noisy wheel command.
 
@@ -12,7 +12,7 @@ The models, per robot, each tick:
   the sonar's range, 0 when below 0; a sonar that saw nothing stays ``inf``;
 - camera: Gaussian noise of ``std`` levels on every colour channel of every pixel, rounded
   and clipped to 0..255;
-- lidar (its own ``noise:`` key, ``labsim.dsl.lidar``): Gaussian noise of that many metres
+- lidar (its own ``noise:`` key, ``labsim.dsl.syntax.lidar``): Gaussian noise of that many metres
   on each beam that sees something, ``inf`` beyond the range, 0 below 0, drawn after the
   sonars' draws, one per beam read, every tick;
 - wheels: each wheel turns at its command times ``1 - u`` (``u`` uniform in 0..``slip``),
@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from labsim.backends.scene.models import Kind, RobotModel
-from labsim.dsl.noise import Noise
-from labsim.dsl.program import Program
+from labsim.dsl.emit.program import Program
+from labsim.dsl.syntax.noise import Noise
 
 if TYPE_CHECKING:  # numpy only for camera noise, imported then: a run without it starts faster
     import numpy as np

@@ -26,8 +26,9 @@ from typing import Any
 
 from labsim.backends.protocol import BackendError
 from labsim.backends.scene.models import Kind, is_lidar_beam
-from labsim.dsl.builtins import Type
-from labsim.dsl.support import STATE
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import STATE
+from labsim.foundation.code_writer import Writer, render
 from labsim.foundation.inert import inert
 from labsim.runtime.hands import Hand, Hands, event_text
 from labsim.runtime.state import RobotRun, RunState
@@ -281,23 +282,32 @@ def _fast_rows(rows: TraceRows) -> Callable[[RobotRun, int, list], None]:
     """``rows.after_act`` for a program without labels or slider inputs: a tick with no events
     is one format and one write in one call; anything else goes the general way."""
     numbers = [f"values[{i}]" for i in rows.channels] + [f"s[{i}]" for i in rows.lets + rows.sliders]
-    source = f"""def after_act(r, rule, values):
-    prog = r.program
-    if prog.events:
-        return general(r, rule, values)
-    s, cmd, t = prog.slots, prog.command, run.tick_index
-    try:
-        line = LINE % (t, round(t * run.dt_s, 9), names[r.name], {', '.join(f"values[{i}]" for i in rows.pose_at)},
-                       states[s[STATE]], rule_ids[rule], {''.join(n + ', ' for n in numbers)}cmd[0], cmd[1], "")
-    except (TypeError, ValueError):
-        return general(r, rule, values)
-    if "e+" in line:
-        return general(r, rule, values)
-    pending.append(line)
-    if len(pending) >= BATCH:
-        drain()
-    rows.recorded = t + 1
-"""
+    w = Writer()
+    w.line("def after_act(r, rule, values):")
+    with w.indent():
+        w.line("prog = r.program")
+        w.line("if prog.events:")
+        with w.indent():
+            w.line("return general(r, rule, values)")
+        w.line("s, cmd, t = prog.slots, prog.command, run.tick_index")
+        w.line("try:")
+        with w.indent():
+            w.line(f"line = LINE % (t, round(t * run.dt_s, 9), names[r.name], "
+                   f"{', '.join(f'values[{i}]' for i in rows.pose_at)},")
+            w.line(f"               states[s[STATE]], rule_ids[rule], {''.join(n + ', ' for n in numbers)}"
+                   "cmd[0], cmd[1], \"\")")
+        w.line("except (TypeError, ValueError):")
+        with w.indent():
+            w.line("return general(r, rule, values)")
+        w.line('if "e+" in line:')
+        with w.indent():
+            w.line("return general(r, rule, values)")
+        w.line("pending.append(line)")
+        w.line("if len(pending) >= BATCH:")
+        with w.indent():
+            w.line("drain()")
+        w.line("rows.recorded = t + 1")
+    source = render(w.body())[0]
     line = "%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%s,%s," + "%.6g," * len(numbers) + "%.6g,%.6g,%s\n"
     space: dict[str, Any] = {"LINE": line, "general": rows.after_act, "run": rows.run, "names": rows.names,
                              "states": rows.states, "rule_ids": rows.rule_ids, "STATE": STATE, "BATCH": BATCH,
@@ -315,8 +325,11 @@ def _row_cells(pose: list[int], channels: list[int], slots: list[int], labels: i
     line = ("%d,%.6g,%s,%.6g,%.6g,%.6g,%.6g,%s,%s," + "%.6g," * len(numbers) + "%s," * labels + "%.6g,%.6g,%s\n")
     cells = ["t", "time_s", "name", *(f"values[{i}]" for i in pose), "state", "rule", *numbers,
              *(f"labels[{i}]" for i in range(labels)), "cmd[0]", "cmd[1]", "cell"]
-    source = (f"def cells(t, time_s, name, values, s, state, rule, labels, cmd, cell):\n"
-              f"    return LINE % ({', '.join(cells)})\n")
+    w = Writer()
+    w.line("def cells(t, time_s, name, values, s, state, rule, labels, cmd, cell):")
+    with w.indent():
+        w.line(f"return LINE % ({', '.join(cells)})")
+    source = render(w.body())[0]
     space: dict = {"LINE": line}
     exec(compile(source, "<labsim trace row>", "exec"), space)  # indices only, no file text
     return space["cells"]

@@ -14,7 +14,7 @@ import operator
 
 import numpy as np
 
-from labsim.dsl.support import STATE
+from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import TRACE_POSE, Observer, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.trace import Trace

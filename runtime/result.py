@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from labsim.dsl.builtins import Aggregate, Better
+from labsim.dsl.library.builtins import Aggregate, Better
 
 # Why a run ended (RunResult.stop_reason), as the JSON summary spells it
 STOP_CONDITION, INTERRUPTED, BUDGET, MAX_TICKS = "stop condition", "interrupted", "budget", "max ticks"

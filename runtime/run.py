@@ -25,9 +25,9 @@ from labsim.backends.protocol import Backend, RobotRequest
 from labsim.backends.scene.world import Pose, World
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.compile import compile_file
-from labsim.dsl.noise import Noise
-from labsim.dsl.program import Program
-from labsim.dsl.support import Faults, FaultSite, metric_result
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.support import Faults, FaultSite, metric_result
+from labsim.dsl.syntax.noise import Noise
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory

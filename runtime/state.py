@@ -13,8 +13,8 @@ from typing import Protocol
 
 from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose
-from labsim.dsl.noise import Noise
-from labsim.dsl.program import Program, RobotProgram
+from labsim.dsl.emit.program import Program, RobotProgram
+from labsim.dsl.syntax.noise import Noise
 
 
 @dataclass

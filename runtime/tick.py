@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from labsim.dsl.support import STATE
+from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Hooks
 from labsim.runtime.state import RobotRun, RunState
 

@@ -7,9 +7,12 @@ Two kinds of input, both hypothesis strategies:
   brackets), or one of its numbers replaced by one at the edges (``HOSTILE_NUMBERS``).
   Mostly these are broken files; the point is that each break is a diagnostic.
 - ``generated()``: a behaviour file whose ``let:``, ``stop:``, ``rules:`` and ``metrics:``
-  strings follow the productions of the language's grammar (``dsl/grammar.lark``), with names
+  strings follow the productions of the language's grammar (``dsl/syntax/grammar.lark``), with names
   drawn from the language's built-ins and numbers from the edges of a float, so that many of
   them check and run.
+- ``generated_12()``: a file of format 1.2, with the constructs that version added: groups
+  (ranges, lists, a list of 40) with parameters and run-time values as places, functions over
+  groups, signals that read themselves, ``when`` rules whose logs have format fields.
 
 A third kind, ``sweep_options()``, is what a user types after ``labsim sweep``: ``--set``
 values, lists and START:STOP:STEP ranges, and ``--seeds``, from ordinary to hostile (huge,
@@ -33,7 +36,7 @@ from hypothesis import strategies as st
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.dsl.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
+from labsim.dsl.library.builtins import ACTIONS, FUNCTIONS, JOINT_ACTIONS, Type
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.run import compile_behaviour
 from labsim.runtime.summary_json import summary_dict
@@ -215,6 +218,64 @@ def generated(draw: st.DrawFn) -> str:
              *(f"  s{i if i else ''}: {_quoted(t)}" for i, t in enumerate(lets)),
              "rules:", "  wander:", *(f"    - {_quoted(r)}" for r in rules), "  follow:", "    - always stop()",
              "metrics:", f"  m: {_quoted(metric)}"]
+    return "\n".join(lines) + "\n"
+
+
+# -- the constructs of language 1.2 -----------------------------------------------------------
+
+GROUPS_12 = ("front", "side", "[sonar4, sonar5]", "sonar1..sonar8", "sonar8..sonar1", "[w, sonar5, k]", "sonar2..4",
+             "[w, k, 0.5, sonar8]", "[" + ", ".join(["sonar1"] * 40) + "]", "front[k]", "(front - [1, 2, 3])")
+PLACES_12 = ("k", "0", "7", "k - 1", "-1", "8", "pi", "dt", "k / 2", "tick % 9", "round(time)", "w", "1e309",
+             "argmin(front)", "count(front < 1)", "inf - inf")
+FUNCTIONS_12 = ("  near(g, d): count(g < d)", "  pick(g, i): g[i]", "  steer(x, gain): clamp(gain * x, -2, 2)",
+                "  both(g, h): min(g - h)", "  later(g, i): pick(g, i + 1)", "  wide(g): g * 2")
+FIELDS_12 = ("{time:d}", "{s:.2f}", "{argmin(front)}", "{'left' if s > 0 else 'right'}", "{state}", "{w:d}",
+             "{front[k]:.1f}", "{near(front, 1):d}", "{k:.30f}", "{pick(front, k)}", "{w == k}", "{big:.1%}")
+
+
+@st.composite
+def generated_12(draw: st.DrawFn) -> str:
+    """A behaviour file of format 1.2: groups with parameters as places, functions over groups,
+    list groups, signals that read themselves, 'when' rules that log with format fields."""
+    leaf = st.sampled_from(("sonar5", "k", "w", "time", "0.5", "2", "x", "heading", "big", "sonar8"))
+    simple = st.recursive(leaf, lambda e: st.one_of(
+        st.builds("{} {} {}".format, e, st.sampled_from(("+", "-", "*", "/", "%", "**")), e),
+        st.builds("min({}, {})".format, e, e), st.builds("({})".format, e), st.builds("-{}".format, e)), max_leaves=4)
+    expr = st.one_of(*[simple] * 9, _strings("expr"))  # now and then the edges of a float too
+    condition = st.one_of(*[st.builds("{} < {}".format, simple, simple)] * 9, _strings("condition"))
+    group = st.one_of(st.sampled_from(GROUPS_12),
+                      st.builds("{} {} {}".format, st.sampled_from(GROUPS_12), st.sampled_from("+-*/"),
+                                st.one_of(expr, st.sampled_from(GROUPS_12))),
+                      st.builds("wide({})".format, st.sampled_from(GROUPS_12)))
+    place = st.one_of(st.sampled_from(PLACES_12), expr)
+    number = st.one_of(
+        st.builds("{}({})".format, st.sampled_from(("min", "max", "sum", "mean", "argmin", "argmax")), group),
+        st.builds("{}[{}]".format, st.sampled_from(("front", "side", "[sonar4, sonar5]", "(front - 1)")), place),
+        st.builds("count({} < {})".format, group, expr), st.builds("near({}, {})".format, group, expr),
+        st.builds("pick({}, {})".format, group, place), st.builds("later({}, {})".format, group, place),
+        st.builds("both({}, {})".format, group, group), st.builds("steer({}, {})".format, expr, expr), expr)
+    cond = st.one_of(st.builds("{} {} {}".format, number, st.sampled_from(("<", "==", "!=", ">=")), number),
+                     st.builds("{}({} < {})".format, st.sampled_from(("any", "all")), group, expr),
+                     st.sampled_from(("w == k", "w != 3", "rising(s > 1)", "front < 0.5")), condition)
+    text = st.lists(st.one_of(st.sampled_from(FIELDS_12), st.sampled_from(("at ", " s", "{{", "\\x1b", "é"))),
+                    min_size=1, max_size=4).map("".join)
+    k = draw(st.sampled_from(("2", "2", "2", "1", "0", "1", "2", "1", "0", "1", "8", "0.5", "-1", "1e309")))
+    lets = draw(st.lists(number, min_size=1, max_size=3))
+    self_reading = draw(st.sampled_from((
+        "prev(w, 0) + 1 if sonar5 < 0.5 else prev(w, 0)", "prev(w, 0) + sonar5 if prev(w, 0) < k else prev(w, k) - 1",
+        "(prev(w, 0) + 1 if prev(w, 0) < k else 0) if detected(sonar8) else prev(w, 0)",
+        "prev(w, 1) * 0.5 + sonar5" if draw(st.integers(0, 19)) else "w + 1")))
+    functions = FUNCTIONS_12
+    rules = [f"when {draw(cond)} then log(\"{draw(text)}\")" for _ in range(draw(st.integers(1, 2)))]
+    rules += [f"if {draw(cond)} then arc({draw(number)}, {draw(expr)})", "else move(2)"]
+    lines = ["labsim: 1.2", "name: generated", "world: walls_lab4", "seed: 3", "dt: 0.05", "stop: time >= 0.2",
+             "robots:", f"  r: {{model: pioneer_p3dx, at: random, count: {draw(st.sampled_from(('1', '2')))}}}",
+             "params:", f"  k: {k}", "  big: 2", "functions:", *sorted(functions),
+             "let:", f"  front: {draw(st.sampled_from(('sonar1..sonar8', '[sonar4, sonar5, sonar6]')))}",
+             "  side: [sonar8, sonar9]", f"  w: {_quoted(self_reading)}",
+             *(f"  s{i if i else ''}: {_quoted(t)}" for i, t in enumerate(lets)),
+             "rules:", "  wander:", *(f"    - {_quoted(r)}" for r in rules), "  follow:", "    - always stop()",
+             "metrics:", f"  m: {_quoted(draw(cond.map('count({})'.format)))}"]
     return "\n".join(lines) + "\n"
 
 

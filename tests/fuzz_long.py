@@ -3,8 +3,9 @@
     LABSIM_FUZZ=long python tests/fuzz_long.py [--inputs 100000] [--jobs 2] [--seed 0]
 
 Splits the inputs over ``--jobs`` processes, each running the strategies of
-tests/fuzz_inputs.py (half mutated shipped files, half generated from the grammar) under its
-own hypothesis seed (a fifth of them a sweep's ``--set``/``--seeds`` options instead),
+tests/fuzz_inputs.py (mutated shipped files, files generated from the grammar, and files of
+format 1.2 with its constructs, two sevenths each: over 20,000 of these in the default 100,000)
+under its own hypothesis seed (a seventh of them a sweep's ``--set``/``--seeds`` options instead),
 generation only (no shrinking: a failure is recorded and the run goes on).
 Prints the count, the rate in inputs per second, and each distinct failure (exception type and
 where it was raised) with the first input that raised it, written under ``--out``. Exits 1 if
@@ -23,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from fuzz_inputs import check_sweep_options, generated, mutated, run_input, sweep_options
+from fuzz_inputs import check_sweep_options, generated, generated_12, mutated, run_input, sweep_options
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
@@ -86,6 +87,8 @@ def _job(args: tuple[int, int, str]) -> tuple[int, dict[str, tuple[str, int, str
     inputs = st.one_of(mutated().map(lambda m: (m[1], m[2])), mutated().map(lambda m: (m[1], m[2])),
                        generated().map(lambda text: (text.encode(), False)),
                        generated().map(lambda text: (text.encode(), False)),
+                       generated_12().map(lambda text: (text.encode(), False)),
+                       generated_12().map(lambda text: (text.encode(), False)),
                        sweep_options().map(lambda o: (o, None)))
 
     @seed(job)

@@ -14,7 +14,7 @@ What the image shows, and what it does not:
 
 * RGB, ``height_px`` x ``width_px``, column 0 the left, and row 0 the BOTTOM of the picture (the
   near edge of the floor): CoppeliaSim's row order, the array ``sim.getVisionSensorImg`` hands a
-  script (docs/decisions.md, "Camera images in CoppeliaSim's row order"). Whatever shows a
+  script (docs/decisions.md §9). Whatever shows a
   frame to a person flips it upright (``upright``).
 * Only the ground: walls, blocks and robots are drawn over it by ``scene_view``.
 * Above the floor's horizon (and beyond ``FAR_M`` of floor) the image shows ``SKY_RGB``, a

@@ -1,6 +1,6 @@
 """Object path templates: a behaviour's ``paths:`` entries and the models' default paths.
 
-Where it sits: the reader (dsl/read.py) checks each ``paths:`` entry with ``problem`` so that
+Where it sits: the reader (dsl/syntax/read.py) checks each ``paths:`` entry with ``problem`` so that
 ``labsim check`` reports a bad one at its position; the CoppeliaSim backend fills them with
 ``fill`` when it looks the robots up. Both sides share this one definition.
 

@@ -2,7 +2,7 @@
 
 This sits beside the file readers of the scene layer: ``world_schema()`` describes a world file
 (``world_file.py``, ``mechanism_file.py``), and the builders here (``mapping``, ``number``, ...)
-are what ``labsim.dsl.schema`` describes a behaviour file with. ``mapping(keys, ...)`` takes a
+are what ``labsim.dsl.syntax.schema`` describes a behaviour file with. ``mapping(keys, ...)`` takes a
 reader's tuple of known keys and refuses to build unless every one of them has a description
 and no other does, so a key added to a reader without one here fails at once (and in
 tests/unit/test_schema.py), and the schema cannot drift from what the readers accept. Editors

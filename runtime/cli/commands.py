@@ -32,6 +32,8 @@ from labsim.runtime.labs import copy_lab, labs
 from labsim.runtime.trace import TraceFormatError, read_trace, slider_events
 
 if TYPE_CHECKING:  # the stand-in server is imported only when `labsim serve` runs
+    from labsim.dsl.emit.program import Program
+    from labsim.runtime.breakpoint import BreakObserver
     from labsim.runtime.serve.server import Server
 
 
@@ -136,10 +138,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise LabsimError([e.diagnostic(args.replay)]) from None
         if recorded.cut_short():
             print_warning(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
+    stopper = _break_observer(behaviour.program, args)
     backend = load_backend(args.backend, **_backend_options(args))
     if args.backend == "pymunk":
         _note_without_kernel()
-    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, hands=hands)
+    run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, hands=hands,
+                         observers=[stopper] if stopper is not None else [])
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = ProgressBar(behaviour.program.stop_horizon_s) if show else None
     try:
@@ -156,7 +160,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             emit_json(summary_dict(summary), args.json)
         except LabsimError as e:  # a full disk: the text summary below still shows the run
             unwritten = unwritten or e
-    if not args.quiet and args.json != "-":
+    if stopper is not None:
+        from labsim.runtime.breakpoint import break_report
+        print(break_report(args.break_when, stopper.hit, summary.ticks, summary.dt_s))
+    if not args.quiet and args.json != "-" and (stopper is None or stopper.hit is None):
         print(format_summary(summary))
         trips = _round_trips(backend, summary.ticks)
         if trips:
@@ -196,6 +203,19 @@ def _export_run(csv_trace: str, out: str) -> LabsimError | None:
         return e
     Path(csv_trace).unlink(missing_ok=True)
     return None
+
+
+def _break_observer(program: Program, args: argparse.Namespace) -> BreakObserver | None:
+    """``--break COND``: the condition compiled as a view's breakpoint is (labsim.dsl.watch)."""
+    if args.break_when is None:
+        return None
+    from labsim.dsl.watch import compile_watch
+    from labsim.runtime.breakpoint import BreakObserver
+
+    if args.json is not None:
+        raise LabsimError([Diagnostic("--break", "a run stopped at a breakpoint has no summary to write as JSON: "
+                                                 "leave out --json or --break")])
+    return BreakObserver(compile_watch(program, args.break_when))
 
 
 def _round_trips(backend: object, ticks: int) -> str:

@@ -106,6 +106,10 @@ def _run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", nargs="?", const="-", default=None, metavar="PATH|-",
                    help="write the summary as JSON to PATH; with - or no PATH to standard output, instead of "
                         "the text summary (docs/summary-json.md)")
+    p.add_argument("--break", dest="break_when", metavar="COND",
+                   help="stop at the first tick the condition COND holds (as a view's breakpoint, e.g. "
+                        "'min(sonar5, sonar2) < 0.5') and print that tick, its state and rule and the values "
+                        "COND reads, instead of the summary")
     _strict(p)
     _allow_path(p)
     _budget(p)

@@ -10,7 +10,7 @@ import sys
 import time as clock
 from typing import TextIO
 
-from labsim.dsl.builtins import Aggregate
+from labsim.dsl.library.builtins import Aggregate
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.result import RobotResult, RunResult

@@ -1,6 +1,6 @@
 """The JSON Schemas as files: what ``labsim schema`` prints and the shipped labs point editors at.
 
-The schemas are built by ``labsim.dsl.schema`` (behaviour files) and
+The schemas are built by ``labsim.dsl.syntax.schema`` (behaviour files) and
 ``labsim.backends.scene.schema`` (world files) and ``labsim.runtime.grade.assignment``
 (a grader's assignment files) from the readers' key tables; this module writes
 them as text, the same text as the copies shipped beside the labs (``behaviours/*.schema.json``,
@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 
 from labsim.backends.scene.schema import Schema, world_schema
-from labsim.dsl.schema import behaviour_schema
+from labsim.dsl.syntax.schema import behaviour_schema
 
 MODELINE = "# yaml-language-server: $schema="
 

@@ -20,10 +20,10 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 from labsim.backends.scene.ground import ROAD_CHANNELS
 from labsim.backends.scene.models import MODELS, Kind
 from labsim.backends.scene.schema import DRAFT, IDENTIFIER, Schema, mapping
-from labsim.dsl import ast as dsl_ast
-from labsim.dsl.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, Better
-from labsim.dsl.parse import ParseError, parse_expr
-from labsim.dsl.read import MetricDecl, Parsed
+from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, Better
+from labsim.dsl.syntax import ast as dsl_ast
+from labsim.dsl.syntax.parse import ParseError, parse_expr
+from labsim.dsl.syntax.read import MetricDecl, Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets

@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from labsim.backends.scene.world_names import builtin_name
-from labsim.dsl.program import Program
+from labsim.dsl.emit.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.files import os_words, policy_problem, read_input
 from labsim.foundation.kinds import YAML_SUFFIXES, file_kind

@@ -14,8 +14,8 @@ from __future__ import annotations
 import hashlib
 from dataclasses import is_dataclass
 
-from labsim.dsl import ast
-from labsim.dsl.read import BehaviourFile, RobotDecl
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import BehaviourFile, RobotDecl
 from labsim.runtime.grade.assignment import MEASURED_SUFFIX
 
 

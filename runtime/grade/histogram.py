@@ -3,8 +3,8 @@
 Drawn by ``labsim.runtime.grade.pages`` for the overview page, as matplotlib drew them before
 (the same bins as ``numpy.histogram``, which matplotlib's ``hist`` uses, the same size, colours,
 title and axes), but as text: importing matplotlib and drawing its figures cost about 1.4 s of
-CPU a grading, a third of the pages' cost for a class of 40 (docs/decisions.md, "Cheaper
-feedback pictures"). The names in a chart are escaped; the SVG holds no script or link.
+CPU a grading, a third of the pages' cost for a class of 40 (docs/decisions.md
+§23). The names in a chart are escaped; the SVG holds no script or link.
 """
 from __future__ import annotations
 

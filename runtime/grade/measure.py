@@ -14,11 +14,11 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from labsim.dsl.budget import check_budgets
-from labsim.dsl.check import check
+from labsim.dsl.analysis.budget import check_budgets
+from labsim.dsl.analysis.check import check
 from labsim.dsl.compile import Prepared, code_filename
-from labsim.dsl.parse import parse_expr
-from labsim.dsl.read import BehaviourFile, MetricDecl, Parsed, read
+from labsim.dsl.syntax.parse import parse_expr
+from labsim.dsl.syntax.read import BehaviourFile, MetricDecl, Parsed, read
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.source import load, loads

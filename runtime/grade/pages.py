@@ -19,7 +19,7 @@ import shlex
 from collections.abc import Iterable
 from pathlib import Path
 
-from labsim.dsl import ast as dsl_ast
+from labsim.dsl.syntax import ast as dsl_ast
 from labsim.foundation.diagnostics import Diagnostic
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert

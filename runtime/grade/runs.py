@@ -24,7 +24,7 @@ from pathlib import Path
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
-from labsim.dsl.read import MetricDecl
+from labsim.dsl.syntax.read import MetricDecl
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets

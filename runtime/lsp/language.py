@@ -18,10 +18,10 @@ from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.schema import world_schema
 from labsim.backends.scene.world_file import _declares_world, _WorldReader
 from labsim.backends.scene.world_names import builtin_worlds
-from labsim.dsl.builtins import ACTIONS, AGGREGATES, CONSTANTS, FUNCTIONS, KEYWORDS, REDUCTIONS, VARIABLES
 from labsim.dsl.compile import compile_file
-from labsim.dsl.lidar import LIDAR_LIMITS
-from labsim.dsl.schema import behaviour_schema
+from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, CONSTANTS, FUNCTIONS, KEYWORDS, REDUCTIONS, VARIABLES
+from labsim.dsl.syntax.lidar import LIDAR_LIMITS
+from labsim.dsl.syntax.schema import behaviour_schema
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS
 from labsim.foundation.source import loads

@@ -16,7 +16,7 @@ import time as clock
 from pathlib import Path
 from typing import Any, TextIO
 
-from labsim.dsl.builtins import Better
+from labsim.dsl.library.builtins import Better
 from labsim.foundation.files import write_output
 from labsim.foundation.inert import inert, spreadsheet_cell
 from labsim.foundation.progress import StatusLine, bar

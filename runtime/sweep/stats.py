@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from labsim.dsl.builtins import Better
+from labsim.dsl.library.builtins import Better
 from labsim.runtime.sweep import student_t
 from labsim.runtime.sweep.grid import Row
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from labsim.dsl.program import Program
-from labsim.dsl.support import STATE
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.support import STATE
 from labsim.dsl.watch import Watch, compile_watch
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, did_you_mean
 from labsim.runtime.state import RobotRun

@@ -27,7 +27,7 @@ FRAME_INTERVAL_S = 1 / 30  # at most 30 frames a second, whatever the speed
 # the last, so fewer frames lose nothing drawn, and each costs the server about 1.3 ms and a
 # headless Chromium about 10 ms of CPU (mostly its compositor's, out of the page's reach); 10
 # would halve the browser's share but carry twice the path a frame, over the 4 KB a frame the
-# view keeps to (docs/decisions.md, "The view with a real browser")
+# view keeps to (docs/decisions.md §11)
 FLAT_OUT_INTERVAL_S = 1 / 20
 
 Json = dict[str, Any]

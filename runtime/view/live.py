@@ -18,7 +18,7 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.dsl.builtins import Type
+from labsim.dsl.library.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from labsim.dsl.support import STATE
+from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Watcher
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint

@@ -14,7 +14,7 @@ import pytest
 from helpers import BEHAVIOURS
 
 from labsim.backends.scene.world import World, builtin_worlds
-from labsim.dsl import images
+from labsim.dsl.library import images
 from labsim.runtime.cli.main import main
 from labsim.runtime.pictures.camera_strip import shots
 from labsim.runtime.pictures.paint import PAPER, WALL, Painter, robot_colour

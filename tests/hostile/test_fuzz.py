@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzz_inputs import check_sweep_options, generated, mutated, run_input, seeds, sweep_options
+from fuzz_inputs import check_sweep_options, generated, generated_12, mutated, run_input, seeds, sweep_options
 from hypothesis import HealthCheck, given, settings
 
 LONG = os.environ.get("LABSIM_FUZZ") == "long"
@@ -48,6 +48,22 @@ def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_pa
 
     @SHORT
     @given(generated())
+    def fuzz(text: str) -> None:
+        outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_files_of_language_12_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    """Groups with parameters as places, functions over groups, list groups, signals that read
+    themselves, 'when' rules logging with format fields (tests/fuzz_inputs.py, generated_12)."""
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated_12())
     def fuzz(text: str) -> None:
         outcomes.append(run_input(tmp_path, text.encode()))
 

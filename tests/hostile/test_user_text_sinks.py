@@ -72,26 +72,32 @@ ALLOWED: dict[tuple[str, str], str] = {
         "code generated from the models' channel tables, no user text",
     ("backends/pymunk/fleet_sense.py", "compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec')"):
         "see the exec above",
-    ("dsl/image_memory.py", "getattr(item, f.name)"):
+    ("dsl/analysis/image_memory.py", "getattr(item, f.name)"):
         "f is a field of one of labsim's own AST or declaration dataclasses (dataclasses.fields), never user text",
-    ("dsl/builtins.py", "getattr(importlib.import_module(module), name)"):
+    ("dsl/library/builtins.py", "getattr(importlib.import_module(module), name)"):
         "the builtin table's own module:name entries",
-    ("dsl/program.py", "format(value, spec)"):
-        "a label's or log's format spec, which dsl/parse.py admits only as _FORMAT_SPEC (width and "
+    ("dsl/library/support.py", "format(value, spec)"):
+        "a label's or log's format spec, which dsl/syntax/parse.py admits only as _FORMAT_SPEC (width and "
         "precision at most two digits) or the printf form's _PRINTF",
-    ("dsl/parse.py", "getattr(e, f.name)"):
+    ("dsl/syntax/parse.py", "getattr(e, f.name)"):
         "dataclass fields of the language's own AST nodes",
-    ("dsl/functions.py", "getattr(e, f.name)"):
-        "dataclass fields of the language's own AST nodes (a function body's copy)",
-    ("dsl/functions.py", "getattr(node, f.name)"):
-        "dataclass fields of the language's own AST nodes (walking a function body)",
-    ("dsl/program.py", "exec(code.compiled, scope)"):
-        "code compiled by dsl/codegen.py from a checked program; user text enters it only as "
+    ("dsl/analysis/functions.py", "getattr(e, name)"):
+        "dataclass fields of the language's own AST nodes (a function body's copy, ast.child_fields)",
+    ("dsl/syntax/ast.py", "getattr(e, name)"):
+        "the fields of the language's own AST node classes that hold sub-expressions (child_fields)",
+    ("dsl/syntax/ast.py", "getattr(self, method)"):
+        "a visitor's method for one of the language's own node classes: 'visit_' and the class's name",
+    ("dsl/syntax/ast.py", "hasattr(cls, f'visit_{n.__name__}')"):
+        "the name of one of the language's own node classes",
+    ("dsl/syntax/ast.py", "hasattr(self, name)"):
+        "'visit_' and the name of one of the language's own node classes",
+    ("dsl/emit/program.py", "exec(code.compiled, scope)"):
+        "code compiled by dsl/emit/codegen.py from a checked program; user text enters it only as "
         "repr() literals and checked identifiers",
-    ("dsl/codegen.py", "compile(source, filename, 'exec')"):
-        "the generated module (see dsl/program.py below)",
+    ("dsl/emit/codegen.py", "compile(source, filename, 'exec')"):
+        "the generated module (see dsl/emit/program.py below)",
     ("foundation/diagnostics.py", "d.format()"): DIAGNOSTIC,
-    ("dsl/support.py", "head.format()"): DIAGNOSTIC,
+    ("dsl/library/support.py", "head.format()"): DIAGNOSTIC,
     ("runtime/cli/pytest_plugin.py", "d.format()"): DIAGNOSTIC,
     ("runtime/run.py", "d.format()"): DIAGNOSTIC,
     ("runtime/view/edits.py", "d.format()"): DIAGNOSTIC,

@@ -18,8 +18,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from labsim.dsl.compile import compile_file
-from labsim.dsl.program import Program
-from labsim.dsl.support import PID_NOT_FINITE, Faults, FaultSite, Slots, guard
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.support import PID_NOT_FINITE, Faults, FaultSite, Slots, guard
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 
 INF, NAN = math.inf, math.nan

@@ -2,7 +2,7 @@
 
 The reason is written where a reader meets the length: a line of the module's docstring that
 starts with ``Over 500 lines:``, a line of the function's docstring that starts with
-``Over 60 lines:`` (dsl/check.py's docstring shows the form). Lines are
+``Over 60 lines:`` (dsl/analysis/check.py's docstring shows the form). Lines are
 the file's lines, and a function's run from its ``def`` to its last line, docstring included.
 """
 from __future__ import annotations
@@ -75,7 +75,7 @@ def long_functions() -> list[tuple[str, str, int]]:
 
 def test_the_walk_sees_the_package() -> None:
     names = {path.relative_to(ROOT).as_posix() for path in package_files()}
-    assert {"__init__.py", "runtime/run.py", "runtime/cli/main.py", "dsl/codegen.py",
+    assert {"__init__.py", "runtime/run.py", "runtime/cli/main.py", "dsl/emit/codegen.py",
             "backends/pymunk/fleet_sense.py", "foundation/exits.py"} <= names
     assert not any(name.startswith(("tests/", "benchmarks/", ".ci/")) for name in names)
 

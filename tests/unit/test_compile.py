@@ -14,11 +14,11 @@ import pytest
 import yaml
 from helpers import BEHAVIOURS, FIXTURES
 
-import labsim.dsl.program
-from labsim.dsl.check import Checked
+import labsim.dsl.emit.program
+from labsim.dsl.analysis.check import Checked
 from labsim.dsl.compile import compile_file
-from labsim.dsl.read import BehaviourFile, Parsed
-from labsim.dsl.support import FIRST_CHANNEL, Faults
+from labsim.dsl.library.support import FIRST_CHANNEL, Faults
+from labsim.dsl.syntax.read import BehaviourFile, Parsed
 from labsim.foundation.source import Document, Text
 from labsim.runtime.cli.main import main
 
@@ -220,7 +220,7 @@ def test_a_traceback_through_generated_code_shows_the_generated_line(write, monk
         return fail
 
     p = program(write, "  probe: sqrt(sonar1) + 1\n")
-    monkeypatch.setattr(labsim.dsl.program, "guard", broken_guard)
+    monkeypatch.setattr(labsim.dsl.emit.program, "guard", broken_guard)
     robot = p.robot("p", random.Random(0), Faults())
     with pytest.raises(RuntimeError):
         try:

@@ -1,11 +1,13 @@
 """Constant folding, the generated code and the reference evaluator agree on every expression.
 
-Three ways to compute an expression: ``labsim.dsl.fold`` (at compile time, on the constants),
-the Python ``labsim.dsl.codegen`` writes (at run time), and the tree-walking evaluator
-``labsim.dsl.evaluate``, which follows docs/language.md without the generator's shortcuts.
+Three ways to compute an expression: ``labsim.dsl.analysis.fold`` (at compile time, on the constants),
+the Python ``labsim.dsl.emit.codegen`` writes (at run time), and the tree-walking evaluator
+``labsim.dsl.analysis.evaluate``, which follows docs/language.md without the generator's shortcuts.
 Each generated expression over numbers and booleans (operators, comparisons and their chains,
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
-``detected``) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
+``detected``; groups of three, as signals and lists, operators member by member, reductions,
+members picked at places that fold or are read while running, and functions of the file's own
+over groups) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
 read from sensors, so that they do not fold, or (every other expression) written out as
 constants, so that what can fold does. The file runs one tick; each signal's value must equal
 the evaluator's (nan equal to nan, zeros of the same sign, booleans apart from numbers), and
@@ -29,14 +31,14 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from labsim.dsl import ast
-from labsim.dsl.builtins import CONSTANTS, DETECTED, FUNCTIONS, Type
+from labsim.dsl.analysis.evaluate import Members, evaluate
+from labsim.dsl.analysis.fold import NotConstant, fold
 from labsim.dsl.compile import compile_file
-from labsim.dsl.evaluate import evaluate
-from labsim.dsl.fold import NotConstant, fold
-from labsim.dsl.parse import parse_expr
-from labsim.dsl.program import Program
-from labsim.dsl.support import Faults
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import CONSTANTS, DETECTED, FUNCTIONS, Type
+from labsim.dsl.library.support import Faults
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import parse_expr
 
 INF, NAN = math.inf, math.nan
 EXAMPLES = 50
@@ -52,6 +54,12 @@ TIME_S, TICK, DT_S = 12.5, 250, 0.05
 FUNCTIONS_OF_NUMBERS = {f.name: len(f.params) for f in FUNCTIONS.values()
                         if f.returns is Type.NUMBER and all(p is Type.NUMBER for p in f.params) and not f.stateful}
 COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
+PURE_FUNCTIONS = ("abs", "sqrt", "floor", "sign", "exp", "log")
+GROUP = 3  # members of every generated group, so that any two pair
+GROUPS = ("ga", "gb")  # signals that are groups: a list of signals, a range of sensors
+# functions of the file's own, over groups and numbers: their parameters stand for the arguments
+OWN_FUNCTIONS = {"scaled": (("g", "k"), "g * k - k"), "nearest": (("g", "d"), "min(g - d)"),
+                 "within": (("g", "d"), "count(g < d) + g[1] / d")}
 # no shrinking: a batch comes from a seed, and the failure names the expression and its values
 SHORT = settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
                  phases=(Phase.explicit, Phase.generate),
@@ -64,8 +72,18 @@ class Expressions:
     def __init__(self, rng: random.Random) -> None:
         self.rng = rng
 
-    def number(self, depth: int) -> ast.Expr:
+    def number(self, depth: int, pure: bool = False) -> ast.Expr:
         r, pick = self.rng.random(), self.rng.choice
+        if pure:  # where a group's operator pairs it with every member: nothing random
+            if depth <= 0 or r < 0.4:
+                literal = pick(LITERALS)
+                return ast.Number(float(literal)) if literal[0].isdigit() else ast.Name(literal)
+            if r < 0.8:
+                op = pick(("+", "-", "*", "/", "%", "**"))
+                return ast.Binary(op, self.number(depth - 1, True), self.number(depth - 1, True))
+            return ast.Call(pick(PURE_FUNCTIONS), (self.number(depth - 1, True),))
+        if r < 0.4 and depth > 0 and self.rng.random() < 0.35:
+            return self.of_group(depth)
         if depth == 0 or r < 0.3:
             if self.rng.random() < 0.35:
                 literal = pick(LITERALS)
@@ -79,6 +97,55 @@ class Expressions:
         if r < 0.9:
             return self.call(depth)
         return ast.IfExp(self.number(depth - 1), self.condition(depth - 1), self.number(depth - 1))
+
+    def group(self, depth: int) -> ast.Expr:
+        """A group of GROUP numbers: a signal, a list, or an operator applied member by member."""
+        r, pick = self.rng.random(), self.rng.choice
+        if depth <= 0 or r < 0.35:
+            if self.rng.random() < 0.5:
+                return ast.Name(pick(GROUPS))
+            return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(pick(NAMES))
+                                   for _ in range(GROUP)))
+        if r < 0.45:
+            return ast.Neg(self.group(depth - 1))
+        if r < 0.9:
+            op = pick(("+", "-", "*", "/", "%", "**"))
+            sides = [self.group(depth - 1), self.group(depth - 1) if self.rng.random() < 0.4 else
+                     self.number(depth - 1, True)]
+            self.rng.shuffle(sides)
+            return ast.Binary(op, *sides)
+        return ast.Call("scaled", (self.group(depth - 1), self.number(depth - 1, True)))
+
+    def bools(self, depth: int) -> ast.Expr:
+        """A group of GROUP booleans: a comparison member by member, and and/or/not of them."""
+        r = self.rng.random()
+        if depth <= 1 or r < 0.6:
+            sides = [self.group(depth - 1), self.number(depth - 1, True) if self.rng.random() < 0.6 else
+                     self.group(depth - 1)]
+            self.rng.shuffle(sides)
+            return ast.Compare(tuple(sides), (self.rng.choice(COMPARISONS),))
+        if r < 0.75:
+            return ast.Not(self.bools(depth - 1))
+        return ast.BoolOp(self.rng.choice(("and", "or")), (self.bools(depth - 1), self.bools(depth - 1)))
+
+    def of_group(self, depth: int) -> ast.Expr:
+        """A number from a group: a reduction, a member, a function of the file's own."""
+        r, pick = self.rng.random(), self.rng.choice
+        if r < 0.45:
+            return ast.Call(pick(("min", "max", "sum", "mean", "argmin", "argmax")), (self.group(depth - 1),))
+        if r < 0.6:
+            return ast.Call("count", (self.bools(depth - 1),))
+        if r < 0.8:
+            # a place that folds is one of the group's (the checker refuses others); one read
+            # while running may be anywhere, a fraction, inf or nan
+            sensor = ast.Name(pick(SENSORS))
+            place = pick((ast.Number(float(self.rng.randrange(GROUP))), sensor,
+                          ast.Binary("*", sensor, ast.Number(3.0)), ast.Binary("%", ast.Name("tick"), ast.Number(4.0)),
+                          ast.Binary("-", ast.Name("time"), ast.Number(11.5))))
+            return ast.Index(self.group(depth - 1), place)
+        if r < 0.9:
+            return ast.Call("nearest", (self.group(depth - 1), self.number(depth - 1, True)))
+        return ast.Call("within", (self.group(depth - 1), self.number(depth - 1, True)))
 
     def call(self, depth: int) -> ast.Call:
         name = self.rng.choice(sorted(FUNCTIONS_OF_NUMBERS))
@@ -95,6 +162,8 @@ class Expressions:
             if self.rng.random() < 0.4:
                 return ast.Bool(self.rng.random() < 0.5)
             return ast.Call(DETECTED, (ast.Name(pick(SENSORS)),))
+        if r < 0.22 and self.rng.random() < 0.5:
+            return ast.Call(pick(("any", "all")), (self.bools(depth - 1),))
         if r < 0.5:
             links = 1 if self.rng.random() < 0.7 else 2  # a chain: a < b <= c
             return ast.Compare(tuple(self.number(depth - 1) for _ in range(links + 1)),
@@ -134,6 +203,20 @@ def written(e: ast.Expr, constants: Mapping[str, float] | None = None) -> tuple[
             out.append("true" if e.value else "false")
         elif isinstance(e, ast.Name):
             out.append(constant_text(constants[e.id]) if constants and e.id in constants else e.id)
+        elif isinstance(e, ast.Group):
+            out.append("[")
+            members = []
+            for k, m in enumerate(e.members):
+                out.append(", " if k else "")
+                members.append(write(m))
+            out.append("]")
+            return replace(e, members=tuple(members))
+        elif isinstance(e, ast.Index):
+            value = write(e.value, 9)
+            out.append("[")
+            index = write(e.index)
+            out.append("]")
+            return replace(e, value=value, index=index)
         elif isinstance(e, ast.Call):
             out.append(e.func + "(")
             args = []
@@ -222,8 +305,10 @@ def same(a: object, b: object) -> bool:
 
 
 def behaviour(path: Path, lets: list[tuple[str, str]]) -> Program:
-    text = ("labsim: 1\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
-            "let:\n" + "".join(f"  {name}: '{expr}'\n" for name, expr in lets) + "rules:\n  - always stop()\n")
+    functions = "".join(f"  {name}({', '.join(params)}): '{body}'\n" for name, (params, body) in OWN_FUNCTIONS.items())
+    text = ("labsim: 1.2\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
+            "functions:\n" + functions + "let:\n" + "".join(f"  {name}: '{expr}'\n" for name, expr in lets)
+            + "rules:\n  - always stop()\n")
     path.write_text(text)
     return compile_file(path)
 
@@ -233,11 +318,15 @@ def run_tick(p: Program, sensors: dict[str, float]) -> tuple[dict[str, object], 
     faults = Faults()
     robot = p.robot("r", random.Random(1), faults, p.models["r"])
     robot.signals(TIME_S, TICK, [sensors[ch] for ch in p.channels])
-    values = {name: robot.slots[p.slot_of[name]] for name in p.let_names}
+    values = {name: robot.slots[p.slot_of[name]] for name in p.let_names if name in p.single_signals}
     warnings: dict[str, set[tuple[str, str]]] = {name: set() for name in p.let_names}
     for site, what in faults.counts:
         d = site.diagnostic
-        warnings[site.where.removeprefix("signal ").strip("'")].add((d.source_line[d.col - 1:d.end_col - 1], what))
+        signal = site.where.removeprefix("signal ").split("'")[1]
+        if ", in " in site.where:  # in a function's body: the body's text
+            warnings[signal].add((site.where.split(", in ")[1], d.source_line[d.col - 1:d.end_col - 1], what))
+        else:
+            warnings[signal].add(("", d.source_line[d.col - 1:d.end_col - 1], what))
     return values, warnings
 
 
@@ -247,22 +336,26 @@ def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, .
     folding where it folds. Returns (expressions checked, expressions folded)."""
     gen = Expressions(random.Random(seed))
     p_values = dict(zip(NAMES, values))
-    names: dict[str, object] = {**p_values, **dict(zip(SENSORS, sensors)), "time": TIME_S, "tick": TICK, "dt": DT_S}
+    names: dict[str, object] = {**p_values, **dict(zip(SENSORS, sensors)), "time": TIME_S, "tick": TICK, "dt": DT_S,
+                                "ga": Members(values[:3]), "gb": Members(values[3:6])}
+    functions = {name: (params, parse_expr(body)) for name, (params, body) in OWN_FUNCTIONS.items()}
     exprs = [written(gen.any(), p_values if k % 2 else None) for k in range(BATCH)]
     for text, node in exprs[:6:2]:  # the texts say what the trees are, with the parser's spans
         parsed = parse_expr(text)
         assert parsed == node and spans(parsed) == spans(node), text
-    lets = [(n, f"sonar{i + 1}") for i, n in enumerate(NAMES)] + [(f"e{k}", text) for k, (text, _) in enumerate(exprs)]
+    lets = [(n, f"sonar{i + 1}") for i, n in enumerate(NAMES)] + [("ga", "[p0, p1, p2]"), ("gb", "sonar4..sonar6")]
+    lets += [(f"e{k}", text) for k, (text, _) in enumerate(exprs)]
     got, warned = run_tick(behaviour(folder / "b.yaml", lets),
                            {f"sonar{i + 1}": v for i, v in enumerate(values)} | dict(zip(SENSORS, sensors)))
     rng = random.Random(1)  # as the robot's, drawn in the same order
     constants = {**CONSTANTS, "dt": DT_S, **p_values}
     folded = 0
     for k, (text, node) in enumerate(exprs):
-        value, faults = evaluate(node, names, rng)
+        value, faults = evaluate(node, names, rng, functions=functions)
         where = f"e{k}: {text}\nwith {p_values}, sensors {dict(zip(SENSORS, sensors))}\n"
         assert same(got[f"e{k}"], value), f"{where}generated {got[f'e{k}']!r}, evaluator {value!r}"
-        at = {(text[f.span[0]:f.span[1]], f.what) for f in faults}
+        at = {(", in ".join(f"{n}()" for n in f.within),
+               (OWN_FUNCTIONS[f.within[-1]][1] if f.within else text)[f.span[0]:f.span[1]], f.what) for f in faults}
         assert warned[f"e{k}"] == at, f"{where}generated warns {warned[f'e{k}']}, evaluator {at}"
         try:
             constant = fold(node, constants)

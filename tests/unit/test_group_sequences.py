@@ -1,4 +1,4 @@
-"""Groups read as a run of the tick's channel values (dsl/unroll.py ``sequence``).
+"""Groups read as a run of the tick's channel values (dsl/emit/unroll.py ``sequence``).
 
 A group that is consecutive channels in order (a lidar's ``lidar1..lidar360``, ``sonar3..sonar6``)
 is reduced by one call on the list the backend gave, or a slice of it, instead of one local
@@ -16,8 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from labsim.dsl import codegen
-from labsim.dsl.builtins import (
+from labsim.dsl.compile import compile_file
+from labsim.dsl.emit import codegen
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import (
     _max,
     _min,
     argmax,
@@ -30,9 +32,7 @@ from labsim.dsl.builtins import (
     min_of,
     sum_of,
 )
-from labsim.dsl.compile import compile_file
-from labsim.dsl.program import Program
-from labsim.dsl.support import Faults
+from labsim.dsl.library.support import Faults
 
 POOL = [0.0, -0.0, 1.0, -1.0, math.inf, -math.inf, math.nan, 0.5, 2.5, 1e308, -1e308]
 LIDAR = ("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n"

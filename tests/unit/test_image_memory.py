@@ -1,4 +1,4 @@
-"""A tick's image memory (dsl/image_memory.py, dsl/budget.py) and the operating system's cap
+"""A tick's image memory (dsl/analysis/image_memory.py, dsl/analysis/budget.py) and the operating system's cap
 (foundation/memory.py): which image signals are kept, where each is freed, the estimate, and a
 cap that is put back after the run."""
 from __future__ import annotations

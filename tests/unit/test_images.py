@@ -6,8 +6,8 @@ import pytest
 from fake_backend import FakeBackend
 
 from labsim.backends.scene.models import PIONEER_P3DX
-from labsim.dsl import images
-from labsim.dsl.support import make_pid
+from labsim.dsl.library import images
+from labsim.dsl.library.support import make_pid
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.report import format_summary
 from labsim.runtime.run import compile_behaviour

@@ -10,7 +10,7 @@ from helpers import BEHAVIOURS
 
 from labsim.backends.scene import world_file
 from labsim.backends.scene.world_names import BUILTIN_DIR, builtin_copy, builtin_name, builtin_worlds, find_world
-from labsim.dsl import read
+from labsim.dsl.syntax import read
 from labsim.foundation.files import ALLOW_ENV
 from labsim.foundation.kinds import (
     BEHAVIOUR_ONLY_KEYS,

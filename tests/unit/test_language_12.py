@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 from helpers import Run, load_backend, run_example, trace_rows
 
-from labsim.dsl import ast
 from labsim.dsl.compile import compile_file
-from labsim.dsl.parse import ParseError, parse_expr, parse_rule
-from labsim.dsl.program import Program
-from labsim.dsl.support import Faults
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.support import Faults
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import ParseError, parse_expr, parse_rule
 from labsim.foundation.diagnostics import LabsimError
 
 HEAD = ("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n")

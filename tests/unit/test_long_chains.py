@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 import labsim
-import labsim.dsl.codegen
+import labsim.dsl.emit.codegen
 from labsim.dsl.compile import compile_file
-from labsim.dsl.support import STATE
+from labsim.dsl.library.support import STATE
 
 HEAD = "labsim: 1\nworld: walls_lab4\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
 
@@ -85,7 +85,7 @@ def test_split_chains_pick_the_rule_the_plain_chain_picks(tmp_path: Path, monkey
     states.write_text(many_states(50, 7))
     plain = trace(rules, tmp_path), trace(states, tmp_path)
     assert plain[1] == expected_states(50, 7, 60)
-    monkeypatch.setattr(labsim.dsl.codegen, "CHAIN", 3)
+    monkeypatch.setattr(labsim.dsl.emit.codegen, "CHAIN", 3)
     split = compile_file(states).code.source
     assert f"if v{STATE} < 27:" in split and f"    if v{STATE} < 9:" in split  # ranges of 27, then of 9
     assert (trace(rules, tmp_path), trace(states, tmp_path)) == plain

@@ -8,8 +8,8 @@ import pytest
 from helpers import BEHAVIOURS, examples, run_example
 
 from labsim.backends import load_backend
-from labsim.dsl import memory
 from labsim.dsl.compile import compile_file
+from labsim.dsl.library import memory
 from labsim.runtime.run import Run
 
 

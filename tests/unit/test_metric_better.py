@@ -9,8 +9,8 @@ from pathlib import Path
 from helpers import BEHAVIOURS
 
 from labsim.backends import load_backend
-from labsim.dsl.builtins import Aggregate, Better, Type
 from labsim.dsl.compile import compile_file
+from labsim.dsl.library.builtins import Aggregate, Better, Type
 from labsim.runtime.run import Run
 from labsim.runtime.summary_json import summary_dict
 from labsim.runtime.trace import read_trace

@@ -1,4 +1,4 @@
-"""Seeded noise (labsim.dsl.noise, labsim.runtime.noise): the models' statistics, determinism under
+"""Seeded noise (labsim.dsl.syntax.noise, labsim.runtime.noise): the models' statistics, determinism under
 the seed, a separate stream from the behaviour's own random draws, and no change without it."""
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import pytest
 from helpers import BENCHMARKS, DOCS, FIXTURES
 
 from labsim.backends import load_backend
-from labsim.dsl.noise import Noise
+from labsim.dsl.syntax.noise import Noise
 from labsim.runtime.cli.report import format_summary
 from labsim.runtime.noise import Draws, NoisyIO, RobotNoise
 from labsim.runtime.run import compile_behaviour

@@ -11,7 +11,7 @@ from helpers import FIXTURES
 
 from labsim.backends import load_backend
 from labsim.dsl.compile import compile_file
-from labsim.dsl.noise import Noise
+from labsim.dsl.syntax.noise import Noise
 from labsim.foundation.diagnostics import LabsimError
 from labsim.runtime.cli.main import main
 from labsim.runtime.cli.report import format_summary
@@ -168,7 +168,7 @@ def test_a_file_without_parameters_in_its_noise_has_the_noise_it_had(write) -> N
 
 def test_the_schema_takes_a_number_or_a_parameter_name() -> None:
     jsonschema = pytest.importorskip("jsonschema")
-    from labsim.dsl.schema import behaviour_schema
+    from labsim.dsl.syntax.schema import behaviour_schema
 
     validator = jsonschema.Draft7Validator(behaviour_schema())
     base = {"labsim": 1.2, "world": "walls_lab4", "stop": "time >= 1", "rules": ["always move(1)"]}

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from labsim.dsl import ast
-from labsim.dsl.parse import ParseError, parse_expr, parse_rule
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import ParseError, parse_expr, parse_rule
 
 N, V = ast.Number, ast.Name
 

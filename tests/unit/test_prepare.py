@@ -10,7 +10,7 @@ from helpers import BEHAVIOURS, FIXTURES
 
 import labsim.dsl.compile as compiling
 from labsim.dsl.compile import compile_file, prepare
-from labsim.dsl.program import Program
+from labsim.dsl.emit.program import Program
 from labsim.foundation.diagnostics import LabsimError
 
 SEEDS = (0, 1, 7, 2**53)

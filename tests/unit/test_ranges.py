@@ -1,4 +1,4 @@
-"""Range analysis (dsl/ranges.py): interval arithmetic that never claims what nan or inf breaks,
+"""Range analysis (dsl/analysis/ranges.py): interval arithmetic that never claims what nan or inf breaks,
 and the range warnings' silence where a comparison can go either way."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from labsim.dsl.analysis.ranges import TOP, Range, _holds, add, div, mod, mul, neg
 from labsim.dsl.compile import compile_file
-from labsim.dsl.ranges import TOP, Range, _holds, add, div, mod, mul, neg
 
 INF = math.inf
 SONAR = Range(0.0, INF)

@@ -1,4 +1,4 @@
-"""The reductions of a group (dsl/builtins.py): the C fast path against the plain loop.
+"""The reductions of a group (dsl/library/builtins.py): the C fast path against the plain loop.
 
 ``min``, ``max``, ``argmin`` and ``argmax`` of a long group (a lidar's 360 beams) take C's
 min and index once a sum shows no member is nan; the answers must be those of the loop the
@@ -12,7 +12,7 @@ import struct
 
 import pytest
 
-from labsim.dsl.builtins import _max, _min, argmax, argmin
+from labsim.dsl.library.builtins import _max, _min, argmax, argmin
 
 
 def _loop_min(*values: float) -> float:

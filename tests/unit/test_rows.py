@@ -14,8 +14,8 @@ from labsim.backends.scene.ground import Ground, Patch
 from labsim.backends.scene.models import Camera, upright
 from labsim.backends.scene.world import builtin_worlds
 from labsim.backends.scene.world_file import load_world
-from labsim.dsl import images
 from labsim.dsl.compile import compile_file
+from labsim.dsl.library import images
 from labsim.foundation.diagnostics import Report
 from labsim.runtime.pictures.camera_strip import shots
 from labsim.runtime.trace import read_trace, trace_world

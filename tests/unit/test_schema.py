@@ -1,4 +1,4 @@
-"""The JSON Schemas (dsl/schema.py, backends/scene/schema.py): in step with the readers, valid for
+"""The JSON Schemas (dsl/syntax/schema.py, backends/scene/schema.py): in step with the readers, valid for
 every shipped and fixture file, and failing files whose mistake the schema covers."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from helpers import BEHAVIOURS, FIXTURES, ROOT
 
 from labsim.backends.scene import mechanism_file, world_file
 from labsim.backends.scene.schema import SchemaDrift, mapping
-from labsim.dsl import lidar, noise, read
+from labsim.dsl.syntax import lidar, noise, read
 from labsim.runtime.cli import main as cli
 from labsim.runtime.cli.schemas import MODELINE, file_name, schema, schema_text
 

@@ -22,10 +22,10 @@ from labsim.backends.pymunk.ray_cast import enclosing_circle, ray_groups
 from labsim.backends.scene.ground import Ground, Road, RoadTracker
 from labsim.backends.scene.models import CONE_RAYS, PIONEER_P3DX
 from labsim.backends.scene.world import Block, Pose, Wall, World
-from labsim.dsl import parse
-from labsim.dsl.builtins import _max, _min
-from labsim.dsl.images import centroid
-from labsim.dsl.unroll import extreme as _extreme
+from labsim.dsl.emit.unroll import extreme as _extreme
+from labsim.dsl.library.builtins import _max, _min
+from labsim.dsl.library.images import centroid
+from labsim.dsl.syntax import parse
 from labsim.foundation import cache
 from labsim.runtime.run import compile_behaviour
 

@@ -1,0 +1,1 @@
+"""The language's analyses: checking, types, folding, ranges, warnings and the reference evaluator."""

@@ -1,0 +1,107 @@
+"""Constant folding: the value of an expression that reads nothing at run time.
+
+``labsim.dsl.emit.codegen`` folds parameters, constants and the arithmetic on them into literals
+(``time >= minutes * 60`` becomes ``(v0 >= 1500.0)``), computed here once with the operations
+the generated code would run each tick. An expression folds only when it reads no slot, calls
+no random, stateful or fault-prone built-in, and raises nothing: ``1 / 0`` is left to run
+time, where its guard gives the documented result and warns at its site. tests/unit/test_differential.py
+checks folding against the generated code and the reference evaluator (``labsim.dsl.analysis.evaluate``).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from labsim.dsl.library.builtins import FUNCTIONS
+from labsim.dsl.syntax import ast
+
+# Functions that return a value for every argument (inf and nan included): generated code calls
+# them directly. The others may raise (sqrt(-1), log(-1), exp(1000), randint(3, 2), crop outside
+# the image) and go through a guard that turns the exception into a defined result and a
+# warning; centroid and pid have guards of their own.
+TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "atan2",
+                   "sign", "deg", "rad", "random", "uniform", "gauss",
+                   "gray", "threshold", "invert", "area", "width", "height"})
+FOLDABLE = frozenset(f for f in TOTAL if callable(FUNCTIONS[f].impl) and not FUNCTIONS[f].uses_rng)
+
+
+class NotConstant(Exception):
+    """The expression reads something at run time, or faults: it is computed at run time."""
+
+
+def fold(e: ast.Expr, constants: Mapping[str, object], functions: frozenset[str] | None = None) -> object:
+    """The value of ``e``, whose names other than ``constants`` are read at run time; NotConstant if it has one.
+
+    ``functions`` are the built-ins computed here (FOLDABLE by default; the linter, which
+    only reads the value, takes more of them)."""
+    try:
+        return _Folder(constants, FOLDABLE if functions is None else functions).visit(e)
+    except (ArithmeticError, ValueError, TypeError):
+        raise NotConstant from None  # left to run time, where it warns at its site
+
+
+class _Folder(ast.Visitor[Any]):
+    """A constant expression's value; NotConstant at the first node that reads something at run time."""
+
+    def __init__(self, constants: Mapping[str, object], functions: frozenset[str]) -> None:
+        self.constants = constants
+        self.functions = functions
+
+    def visit_Number(self, e: ast.Number) -> object:
+        return e.value
+
+    visit_Bool = visit_Number
+
+    def visit_Name(self, e: ast.Name) -> object:
+        if e.id in self.constants:
+            return self.constants[e.id]
+        raise NotConstant
+
+    def visit_Neg(self, e: ast.Neg) -> object:
+        return -self.visit(e.operand)
+
+    def visit_Not(self, e: ast.Not) -> object:
+        return not self.visit(e.operand)
+
+    def visit_Binary(self, e: ast.Binary) -> object:
+        return _BINARY[e.op](self.visit(e.left), self.visit(e.right))
+
+    def visit_Compare(self, e: ast.Compare) -> object:
+        values = [self.visit(o) for o in e.operands]
+        return all(_COMPARE[op](a, b) for op, a, b in zip(e.ops, values, values[1:]))
+
+    def visit_BoolOp(self, e: ast.BoolOp) -> object:
+        values = [self.visit(v) for v in e.values]
+        return all(values) if e.op == "and" else any(values)
+
+    def visit_IfExp(self, e: ast.IfExp) -> object:
+        return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
+
+    def visit_Call(self, e: ast.Call) -> object:
+        if e.func not in self.functions:
+            raise NotConstant
+        return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
+
+    # a record's field, text, a group and its members are computed at run time
+    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: Any) -> object:
+        raise NotConstant
+
+
+# folded values are numbers and booleans, which the checker has typed: Any, not object
+_BINARY: dict[str, Callable[[Any, Any], Any]] = {
+    "+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,
+    "/": lambda a, b: a / b, "%": lambda a, b: a % b,
+    "**": lambda a, b: _real(a ** b),
+}
+_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
+    "<": lambda a, b: a < b, "<=": lambda a, b: a <= b, ">": lambda a, b: a > b,
+    ">=": lambda a, b: a >= b, "==": lambda a, b: a == b, "!=": lambda a, b: a != b,
+}
+
+
+def _real(value: object) -> object:
+    if isinstance(value, complex):
+        raise ValueError("complex result")
+    return value

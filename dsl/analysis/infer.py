@@ -1,0 +1,510 @@
+"""Expression types: the half of the checker that resolves names and types expressions.
+
+``labsim.dsl.analysis.check`` declares what is in scope (sensors, parameters, ``let`` signals, states,
+sliders, built-ins) and asks ``ExprChecker.infer`` and ``ExprChecker.expect`` for the type of
+each expression of the file. Each unknown name, each operand of the wrong type and each wrong
+call is reported here, with a did-you-mean where one helps; an expression that has no type
+gives None, and its uses say nothing more.
+
+Over 500 lines: one method per kind of node and one per check of an expression, all reading the
+names in scope; the words of the messages several checks share are in ``labsim.dsl.analysis.wording``.
+"""
+from __future__ import annotations
+
+from yaml.nodes import Node
+
+from labsim.dsl.analysis.fold import fold
+from labsim.dsl.analysis.functions import Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.wording import (
+    arity_message,
+    function_notes,
+    literal,
+    range_text,
+    text_note,
+    unknown_name_notes,
+)
+from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.source import Document, Place, Text
+
+# Operations a file's groups are written out to, at most (a member of each group-typed node, and
+# each node of a value paired with every member, once per member): a few hundred thousand lines
+# of Python take the compiler seconds and gigabytes.
+MAX_WRITTEN_OUT = 200_000
+
+
+class ExprChecker(ast.Visitor["Type | None"]):
+    """The names in scope, their types, and the checks of expressions against them: ``infer``
+    visits each node with the method for its kind (``visit_Binary``, ...)."""
+
+    def __init__(self, doc: Document, report: Report) -> None:
+        self.doc = doc
+        self.report = report
+        self.types: dict[str, Type] = {}  # every name in scope
+        self.kinds: dict[str, str] = {}  # name -> what it is, for messages
+        self.used: set[str] = set()
+        self.later: dict[str, Node] = {}  # lets not yet defined while checking one, for messages
+        self.node_types: dict[int, Type] = {}  # id(AST node) -> its type
+        self.distance: set[str] = set()  # distance sensors, for detected()
+        self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
+        self.world_failed = False  # names the world would have given are not reported unknown
+        self.metric_names: set[str] = set()  # the file's metrics: not names an expression can read
+        self.sizes: dict[int, int] = {}  # id(AST node) of a group -> its members
+        self.group_sizes: dict[str, int] = {}  # a signal that is a group -> its members
+        # user functions (labsim.dsl.analysis.functions): the callable ones, the bodies being typed (the
+        # definition, its parameters' types and sizes, the call and its text), each call's typed copy
+        self.user_functions: dict[str, FunctionDecl] = {}
+        self.scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]] = []
+        self.expansions: dict[int, Expansion] = {}
+        self.expanded = 0  # nodes the calls expanded to so far
+        self.body_errors: set[tuple[int, int, str]] = set()  # a body's problems, reported once
+        self.called: set[str] = set()
+        self.current_let = ""  # the signal being typed: prev() of it reads its previous tick
+        self.self_prev: set[int] = set()  # id(call) of each prev(signal, initial) inside that signal
+        self.self_prev_types: list[tuple[ast.Call, Type | None]] = []  # the current signal's, with their types
+        self.clashed: set[str] = set()  # names two declarations share: reported once, where declared
+        # values known before the run, which the code generator folds: parameters every robot
+        # shares (--set included), the constants, dt; an index made of them is checked here
+        self.constants: dict[str, object] = {}
+        self.robot_constants: list[tuple[str, dict[str, object]]] = []  # with a robot's own parameters
+        self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
+        self.written_out_reported = False
+
+    def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
+        """Report a problem at a place of the file: a YAML node, characters of an expression's
+        text (``text.at(span)``), or None for the file as a whole. Inside a function's body, a
+        problem is reported once, with the call it was found through."""
+        d = self.doc.diagnostic(place, message, notes=notes + body_note(self))
+        if self.scopes:
+            key = (d.line, d.col, d.message)
+            if key in self.body_errors:
+                return
+            self.body_errors.add(key)
+        self.report.add(d)
+
+    def declare(self, name: str, t: Type, kind: str) -> None:
+        self.types[name] = t
+        self.kinds[name] = kind
+
+    def expect(self, parsed: Parsed, e: ast.Expr, want: Type, what: str) -> bool:
+        t = self.infer(e, parsed.text)
+        if t is None:
+            return False
+        if t is not want:
+            if self.explained(e):
+                return False
+            hint: tuple[str, ...] = ()
+            if want is Type.BOOL and t is Type.NUMBER:
+                hint = ("compare it with something, e.g. 'sonar5 <= 0.5'",)
+            elif t is Type.BOOLS:
+                hint = ("a group holds one value per member: take any(...), all(...) or count(...) of it",)
+            elif t is Type.NUMBERS:
+                hint = ("a group holds one value per member: take min(...), max(...), mean(...), sum(...), "
+                        "argmin(...) or argmax(...) of it, or one member, as in front[0]",)
+            elif t is Type.TEXT:
+                hint = ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
+            self.error(parsed.text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint)
+            return False
+        return True
+
+    def infer(self, e: ast.Expr, text: Text) -> Type | None:
+        """The type of an expression, or None after reporting why it has none."""
+        t = self._infer(e, text)
+        if t is not None:
+            self.node_types[id(e)] = t
+            if t in (Type.NUMBERS, Type.BOOLS) and not self.written_out(e, text):
+                return None
+        return t
+
+    def written_out(self, e: ast.Expr, text: Text) -> bool:
+        """Count what a group-typed node is written out to (a member each, and its operands that are
+        one value once per member); False, after saying so, past MAX_WRITTEN_OUT in the file."""
+        n = self.size(e) if not isinstance(e, ast.Name) or e.id in self.group_sizes or self.scopes else 0
+        paired = ast.children(e) if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp) else ()
+        self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
+                                             if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
+        if self.members_written <= MAX_WRITTEN_OUT:
+            return True
+        if not self.written_out_reported:
+            self.written_out_reported = True
+            self.error(text.at(e.span), f"the groups of this file are written out to more than {MAX_WRITTEN_OUT:,} "
+                       "operations, one per member of each (a call of a function, once per call)",
+                       notes=("reduce a group once, in a 'let' signal, and use the signal; a function called "
+                              "many times on a large group is written out for each call",))
+        return False
+
+    def _infer(self, e: ast.Expr, text: Text) -> Type | None:
+        return self.visit(e, text)
+
+    # -- each kind of node ---------------------------------------------------------------------
+    def visit_Number(self, e: ast.Number, text: Text) -> Type | None:
+        return Type.NUMBER
+
+    def visit_Bool(self, e: ast.Bool, text: Text) -> Type | None:
+        return Type.BOOL
+
+    def visit_Name(self, e: ast.Name, text: Text) -> Type | None:
+        return self.name(e, text)
+
+    def visit_Text(self, e: ast.Text, text: Text) -> Type | None:
+        return Type.TEXT
+
+    def visit_Group(self, e: ast.Group, text: Text) -> Type | None:
+        return self.group(e, text)
+
+    def visit_Index(self, e: ast.Index, text: Text) -> Type | None:
+        return self.index(e, text)
+
+    def visit_Neg(self, e: ast.Neg, text: Text) -> Type | None:
+        return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
+
+    def visit_Not(self, e: ast.Not, text: Text) -> Type | None:
+        return self.operands(e, text, "not", [e.operand], Type.BOOL, Type.BOOL)
+
+    def visit_Binary(self, e: ast.Binary, text: Text) -> Type | None:
+        return self.operands(e, text, e.op, [e.left, e.right], Type.NUMBER, Type.NUMBER)
+
+    def visit_BoolOp(self, e: ast.BoolOp, text: Text) -> Type | None:
+        return self.operands(e, text, e.op, list(e.values), Type.BOOL, Type.BOOL)
+
+    def visit_Compare(self, e: ast.Compare, text: Text) -> Type | None:
+        return self.compare(e, text)
+
+    def visit_IfExp(self, e: ast.IfExp, text: Text) -> Type | None:
+        self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
+        a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+        if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
+            self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
+                       "choose between members or reductions of them")
+            return None
+        if a is not None and b is not None and a is not b:
+            self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
+                       f"not {a.a} and {b.a}")
+            return None
+        return a if a is not None else b
+
+    def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
+        return self.call(e, text)
+
+    def visit_Attribute(self, e: ast.Attribute, text: Text) -> Type | None:
+        t = self.infer(e.value, text)
+        if t is None:
+            return None
+        fields = FIELDS.get(t)
+        if fields is None:
+            self.error(text.at(e.attr_span), f"{t.a} has no field '.{e.attr}'")
+            return None
+        if e.attr not in fields:
+            names = ", ".join("." + f for f in fields)
+            self.error(text.at(e.attr_span), f"{t.a} has the fields {names}; not '.{e.attr}'"
+                       f"{did_you_mean(e.attr, fields)}")
+            return None
+        return fields[e.attr][1]
+
+    def name(self, e: ast.Name, text: Text) -> Type | None:
+        if self.scopes:
+            inside = body_name(self, e, text)
+            if not isinstance(inside, bool):
+                return inside
+        if e.id == self.current_let and e.id not in self.types:
+            self.error(text.at(e.span), f"signal '{e.id}' reads itself: it is being computed; its value on the "
+                       f"previous tick is prev({e.id}, initial)", notes=(
+                           f"e.g. '{e.id}: prev({e.id}, 0) + 1' counts ticks; for counting and summing, "
+                           "counter(...) and total(...) do it for you",))
+            return None
+        if e.id in self.types:
+            self.used.add(e.id)
+            return self.types[e.id]
+        if e.id in self.poisoned or self.world_failed:
+            return None  # its definition (or the world) is already reported: say nothing more
+        if e.id in self.later:
+            line = self.later[e.id].start_mark.line + 1
+            self.error(text.at(e.span), f"signal '{e.id}' is used before it is defined (on line {line}); "
+                       "'let' signals are evaluated in order")
+            return None
+        if e.id in FUNCTIONS or e.id in ACTIONS:
+            self.error(text.at(e.span), f"'{e.id}' is a function: call it as {e.id}(...)")
+            return None
+        if e.id in self.metric_names:
+            self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "
+                       "summary, and expressions cannot read them",
+                       notes=("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a "
+                              "duration, 'counter(...)' for a count, 'total(...)' for a sum; docs/language.md, "
+                              "Time and memory)",))
+            return None
+        hint = did_you_mean(e.id, self.types)
+        notes = unknown_name_notes(e.id, self.types, self.distance)
+        self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
+        return None
+
+    def explained(self, e: ast.Expr) -> bool:
+        """Whether an operand of the wrong type is a name two declarations share, whose clash
+        is reported already: one message at the declaration, not one at every use."""
+        return isinstance(e, ast.Name) and e.id in self.clashed
+
+    def operands(self, e: ast.Expr, text: Text, op: str, args: list[ast.Expr], want: Type,
+                 result: Type) -> Type | None:
+        """An operator's operands: each ``want``, or a group of them (the operator then applies to
+        each member: ``front - 0.5``); the result is ``result``, or a group of it."""
+        ok = True
+        sizes: list[tuple[int, ast.Expr]] = []
+        for arg in args:
+            t = self.infer(arg, text)
+            if t is None:
+                ok = False
+            elif t is want.grouped and t is not want:
+                sizes.append((self.size(arg), arg))
+            elif t is not want:
+                if not self.explained(arg):
+                    self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
+                               notes=text_note(t))
+                ok = False
+        return self.grouped(e, text, op, sizes, result) if ok else None
+
+    def grouped(self, e: ast.Expr, text: Text, op: str, sizes: list[tuple[int, ast.Expr]],
+                result: Type) -> Type | None:
+        """``result``, or a group of it when operands are groups, all of one size."""
+        if not sizes:
+            return result
+        n, first = sizes[0]
+        for m, arg in sizes[1:]:
+            if m != n:
+                self.error(text.at(arg.span), f"'{op}' pairs the members of two groups, which need one size: "
+                           f"this has {m} members and the first {n}")
+                return None
+        self.sizes[id(e)] = n
+        return result.grouped
+
+    def size(self, e: ast.Expr) -> int:
+        """How many members a group-typed expression has."""
+        if isinstance(e, ast.Name) and self.scopes and e.id in self.scopes[-1][1]:
+            return self.scopes[-1][1][e.id][1]  # a function's parameter: its argument's
+        if isinstance(e, ast.Name) and e.id in self.group_sizes:
+            return self.group_sizes[e.id]
+        return self.sizes[id(e)]
+
+    def group(self, e: ast.Group, text: Text) -> Type | None:
+        """[a, b, c]: members all numbers or all booleans; a range's missing names in one message."""
+        if e.ranged:
+            missing = [m for m in e.members if isinstance(m, ast.Name) and m.id not in self.types
+                       and m.id not in self.poisoned]  # a failed lidar's beams are reported already
+            if missing and not self.world_failed:
+                names = [m.id for m in missing if isinstance(m, ast.Name)]
+                which = names[0] if len(names) == 1 else f"{names[0]} .. {names[-1]}"
+                near = [n for n in self.types if n.rstrip("0123456789") == names[0].rstrip("0123456789")]
+                notes = (f"names of this kind: {range_text(near)}",) if near else ()
+                self.error(text.at(e.span), f"{text.value[e.span[0]:e.span[1]]} names {which}, which "
+                           f"{'does' if len(names) == 1 else 'do'} not exist", notes=notes)
+                return None
+        types = [self.infer(m, text) for m in e.members]
+        if None in types:
+            return None
+        first = types[0]
+        for m, t in zip(e.members, types):
+            if t not in (Type.NUMBER, Type.BOOL) or t is not first:
+                assert t is not None and first is not None
+                also = f", and the first is {first.a}" if t in (Type.NUMBER, Type.BOOL) else ""
+                self.error(text.at(m.span), f"a group's members are all numbers or all booleans; this one is "
+                           f"{t.a}{also}")
+                return None
+        self.sizes[id(e)] = len(e.members)
+        assert first is not None
+        return first.grouped
+
+    def index(self, e: ast.Index, text: Text) -> Type | None:
+        """front[2]: a member, counted from 0; a number written there must be one of them."""
+        t = self.infer(e.value, text)
+        k = self.infer(e.index, text)
+        if t is None or k is None:
+            return None
+        if t not in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.value.span), f"only a group has members to pick with [...]; this is {t.a}")
+            return None
+        if k is not Type.NUMBER:
+            self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
+            return None
+        n = self.size(e.value)
+        place, robot = self.known(e.index), ""
+        for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
+            value = known_value(e.index, constants, self.scopes)
+            if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
+                place, robot = value, who  # the first robot whose place is outside the group
+                break
+        if place is None or isinstance(place, bool) or not isinstance(place, int | float):
+            return t.member  # known only while running: a place outside the group is a runtime fault
+        source = text.value[e.index.span[0]:e.index.span[1]]
+        shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
+            f" for robot {robot}" if robot else "")
+        if not float(place).is_integer():
+            self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
+                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
+            return None
+        if not 0 <= place < n:
+            notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
+            self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
+                       f"{n - 1}; {shown}", notes=notes)
+            return None
+        return t.member
+
+    def known(self, e: ast.Expr) -> object | None:
+        """The value of e known before the run, as the code generator folds it; None if it is not."""
+        return known_value(e, self.constants, self.scopes)
+
+    def compare(self, e: ast.Compare, text: Text) -> Type | None:
+        inferred = [self.infer(o, text) for o in e.operands]
+        types = [t for t in inferred if t is not None]
+        if len(types) != len(inferred):
+            return None
+        if Type.TEXT in types:
+            other = types[1] if types[0] is Type.TEXT else types[0]
+            at = e.operands[types.index(Type.TEXT)]
+            if other is Type.STATE:
+                name = at.value if isinstance(at, ast.Text) else "follow"
+                self.error(text.at(at.span), f"a state is compared with a state's name, without quotes: write "
+                           f"'state == {name}'")
+            else:
+                self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
+                           notes=text_note(Type.TEXT))
+            return None
+        if Type.STATE in types:
+            if len(e.operands) != 2 or e.ops[0] not in ("==", "!=") or types[0] is not types[1]:
+                if any(self.explained(o) for o in e.operands):
+                    return None
+                self.error(text.at(e.span), "a state can only be compared with ==/!= to another state, "
+                           "as in 'state == follow'")
+                return None
+            return Type.BOOL
+        sizes: list[tuple[int, ast.Expr]] = []
+        for (a, b, op, ta, tb) in zip(e.operands, e.operands[1:], e.ops, types, types[1:]):
+            if op in ("==", "!=") and ta.member is tb.member is Type.BOOL:
+                sizes += [(self.size(x), x) for x, t in ((a, ta), (b, tb)) if t is Type.BOOLS]
+                continue
+            for node, t in ((a, ta), (b, tb)):
+                if t.member is not Type.NUMBER:
+                    if not self.explained(node):
+                        self.error(text.at(node.span), f"'{op}' compares numbers, but this is {t.a}")
+                    return None
+                if t is Type.NUMBERS:
+                    sizes.append((self.size(node), node))
+        return self.grouped(e, text, e.ops[0], sizes, Type.BOOL)
+
+    def call(self, e: ast.Call, text: Text) -> Type | None:
+        if e.func == DETECTED:
+            if len(e.args) != 1 or not isinstance(e.args[0], ast.Name):
+                self.error(text.at(e.span), "detected() takes one distance sensor's name, as in detected(sonar5)")
+                return None
+            sensor = e.args[0]
+            t = self.name(sensor, text)
+            if t is not None and sensor.id not in self.distance:
+                self.error(text.at(sensor.span), f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
+                           f"and '{sensor.id}' is not one")
+                return None
+            return Type.BOOL if t is not None else None
+        if e.func in self.user_functions:
+            self.called.add(e.func)
+            return check_call(self, e, text, self.user_functions[e.func])
+        if e.func in self.poisoned:  # a function whose definition is reported: its calls stay quiet
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
+        if e.func == "prev" and len(e.args) == 2:
+            return self.prev(e, text)
+        if e.func in REDUCTIONS and len(e.args) == 1:
+            reduced = self.reduction(e, text)
+            if not isinstance(reduced, bool):
+                return reduced
+        f = FUNCTIONS.get(e.func)
+        if f is None:
+            notes: tuple[str, ...] = ()
+            if e.func in AGGREGATES:
+                message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
+                notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
+                          "of booleans, as in count(front < 0.5), counts the members that hold",)
+                         if e.func == "count" else ())
+            elif e.func in ACTIONS:
+                message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+            elif e.func in MEANT:
+                message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
+                notes = function_notes(e.func, nearest=False)
+            else:
+                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
+                notes = function_notes(e.func)
+            self.error(text.at(e.func_span), message, notes)
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
+        n = len(e.args)
+        fixed = len(f.params) - f.optional
+        if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
+            self.error(text.at(e.span),
+                       arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
+            return None
+        ok = True
+        for i, arg in enumerate(e.args):
+            want = f.params[min(i, len(f.params) - 1)]
+            ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
+        if f.name == "randint":
+            ok = self.whole_bounds(e, text) and ok
+        return f.returns if ok else None
+
+    def reduction(self, e: ast.Call, text: Text) -> Type | bool | None:
+        """min(front), any(front < 0.5), ...: a group's reduction; False when the argument is not a
+        group and the name is also a function of other things (min of numbers, mean of an image)."""
+        r = REDUCTIONS[e.func]
+        t = self.infer(e.args[0], text)
+        if t is None:
+            return None
+        if t is r.takes:
+            return r.returns
+        if t in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.args[0].span), f"{e.func}() takes {r.takes.a}, but this is {t.a}",
+                       notes=(("to count the members that hold a condition, write count(front < 0.5)",)
+                              if e.func in ("sum", "mean") else ()))
+            return None
+        if e.func in AGGREGATES or (e.func in FUNCTIONS and (e.func != "mean" or t is Type.IMAGE)):
+            return False  # min(x) is refused as min() of too few numbers; mean(img) is the image's
+        example = "front < 0.5" if r.takes is Type.BOOLS else "sonar1..sonar8"
+        notes: tuple[str, ...] = ()
+        if e.func == "sum":
+            notes = ("for a running sum over the ticks, use total(x)",)
+        self.error(text.at(e.args[0].span), f"{e.func}() takes a group, as in {e.func}({example}); "
+                   f"this is {t.a}", notes=notes)
+        return None
+
+    def whole_bounds(self, e: ast.Call, text: Text) -> bool:
+        """randint's bounds, where written as numbers, are within +-WHOLE_LIMIT: exact as floats."""
+        for arg in e.args:
+            if literal(arg) and not abs(fold(arg, {})) <= WHOLE_LIMIT:  # type: ignore[arg-type]
+                self.error(text.at(arg.span), f"randint() takes bounds between -{WHOLE_LIMIT} and {WHOLE_LIMIT} "
+                           "(2**53: whole numbers a float holds exactly)")
+                return False
+        return True
+
+    def prev(self, e: ast.Call, text: Text) -> Type | None:
+        """prev(x, initial) takes a number or a boolean, and an initial value of the same type.
+
+        Inside signal x's own definition, prev(x, initial) is x on the previous tick: its type
+        is the initial value's, and the signal must come out of that type (checked by lets())."""
+        x = e.args[0]
+        if isinstance(x, ast.Name) and x.id == self.current_let and not self.scopes and x.id not in self.types:
+            b = self.infer(e.args[1], text)
+            if b is not None and b not in (Type.NUMBER, Type.BOOL):
+                self.error(text.at(e.args[1].span), f"prev() keeps a number or a boolean, not {b.a}")
+                return None
+            self.self_prev.add(id(e))
+            self.self_prev_types.append((e, b))
+            return b
+        a, b = (self.infer(arg, text) for arg in e.args)
+        if a is None or b is None:
+            return None
+        if a not in (Type.NUMBER, Type.BOOL):
+            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}")
+            return None
+        if b is not a:
+            self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.a} like its first "
+                       f"argument, but this is {b.a}")
+            return None
+        return a

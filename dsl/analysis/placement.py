@@ -1,0 +1,66 @@
+"""Where each robot starts: the one rule for robot placement, applied when a behaviour compiles.
+
+Robots are named and placed in the file's order: a group of ``count`` robots is ``name[0]``,
+``name[1]``, ...; ``at: spawn`` takes the world's spawn poses in order, ``at: random`` a free
+pose drawn from the behaviour's seed (``random.Random(f"{seed}/placement")``), and a fixed
+``[x, y, heading_deg]`` is that pose. The compiler places them once: the ``Program`` carries
+the start poses the runtime opens the world with, and a robot that finds no place is an error
+at its line, before anything is simulated.
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+
+from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M, Pose
+from labsim.dsl.analysis.check import Checked
+from labsim.foundation.diagnostics import Diagnostic
+
+
+@dataclass(frozen=True)
+class Start:
+    """One robot of the behaviour and where it starts."""
+
+    name: str  # "pioneer", or "rover[2]" for the third robot of a group
+    group: int  # its entry of ``robots:`` (Program.robots)
+    index: int  # its place in that group
+    pose: Pose
+
+
+def robot_name(group: str, count: int, k: int) -> str:
+    """A robot's name: the group's for a group of one, ``group[k]`` otherwise."""
+    return group if count == 1 else f"{group}[{k}]"
+
+
+def place(c: Checked, seed: int) -> tuple[tuple[Start, ...], Diagnostic | None]:
+    """Every robot's start, and the error for the first robot that finds no place (then the
+    starts stop there)."""
+    world = c.world
+    assert world is not None  # the checker reports a missing world as an error
+    rng = random.Random(f"{seed}/placement")
+    spawns = list(world.spawns)
+    starts: list[Start] = []
+    for g, decl in enumerate(c.file.robots):
+        for k in range(decl.count):
+            name = robot_name(decl.name, decl.count, k)
+            pose: Pose | None
+            if decl.at == "spawn":
+                if not spawns:
+                    return tuple(starts), c.file.doc.diagnostic(
+                        decl.key, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
+                                  f"robot '{name}'", notes=("use 'at: random', or fewer robots",))
+                pose = spawns.pop(0)
+            elif decl.at == "random":
+                pose = world.free_pose(rng, [s.pose for s in starts], PLACEMENT_CLEARANCE_M)
+            else:
+                assert not isinstance(decl.at, str)
+                pose = Pose(decl.at[0], decl.at[1], math.radians(decl.at[2]))
+            if pose is None:
+                return tuple(starts), c.file.doc.diagnostic(
+                    decl.key, f"no free place left in world '{world.name}' for robot '{name}' "
+                    f"({len(starts)} robots fit, each {PLACEMENT_CLEARANCE_M:g} m from walls and "
+                    f"{2 * PLACEMENT_CLEARANCE_M:g} m from the others)",
+                    notes=("use fewer robots, or give their poses as [x, y, heading_deg]",))
+            starts.append(Start(name, g, k, pose))
+    return tuple(starts), None

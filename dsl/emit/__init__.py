@@ -1,0 +1,1 @@
+"""The language's code generation: the slot layout, the generated Python, the compiled Program."""

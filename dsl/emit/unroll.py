@@ -1,0 +1,270 @@
+"""Groups and user functions written out: the code generator's straight-line code for version 1.2.
+
+``labsim.dsl.emit.codegen``'s generator takes these methods from ``Unroller``. A group-typed
+expression (``sonar1..sonar8``, ``front < 0.5``) becomes one Python expression per member, an
+operator applying to each member; a reduction (``min(front)``, ``any(...)``) joins them into
+one expression with no loop and no list (``reduce``); ``front[2]`` is the member itself. A
+call of a user function becomes its body, written with the arguments' Python in place of its
+parameters (a parameter whose argument is a constant is folded into the body). So neither
+costs a Python call or an allocation per tick beyond what the same expression written out by
+hand would (docs/decisions.md §17).
+"""
+from __future__ import annotations
+
+import re
+
+from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.emit.layout import Layout
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import FIRST_CHANNEL
+from labsim.dsl.syntax import ast
+from labsim.foundation.code_writer import Writer
+from labsim.foundation.source import Text
+
+
+class Unroller:
+    """The generator's methods for groups and user functions; the generator provides the rest."""
+
+    c: Checked
+    layout: Layout
+    constants: dict[str, object]
+    env: list[dict[str, str | list[str]]]  # inside a user function's body: its arguments' Python
+    let_of: dict
+    member_writer: MemberWriter
+
+    def expr(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
+        raise NotImplementedError
+
+    def emit(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
+        raise NotImplementedError
+
+    def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
+        raise NotImplementedError
+
+    def nonzero(self, e: ast.Expr) -> bool:
+        raise NotImplementedError
+
+    def members(self, w: Writer, e: ast.Expr, text: Text, where: str) -> list[str]:
+        """Python for each member of a group-typed expression; an operator applies to each member,
+        and a value it pairs with every member is written into each (the checker made it pure)."""
+        return self.member_writer.visit(e, w, text, where)
+
+    def sequence(self, w: Writer, e: ast.Expr) -> tuple[str, int] | None:
+        """Python for a group that is a run of more than three of the tick's channel values, in
+        order, as that sequence (``values``, or a slice of it), and its size; None for any other
+        group (up to three members, ``extreme`` writes min and max without a call).
+
+        A lidar's scan ``lidar1..lidar360`` is then reduced in one call on the list the backend
+        gave, with no local per member: the writer records ``VALUES``, which the generator
+        turns into ``values`` being there (it is signals()'s argument; decide() reads it from
+        the slots)."""
+        if isinstance(e, ast.Name) and not (self.env and e.id in self.env[-1]) and e.id in self.layout.members:
+            if self.layout.members[e.id] is not None:
+                return None  # a group with slots of its own
+            e = self.let_of[e.id].node
+        if not isinstance(e, ast.Group) or not all(isinstance(m, ast.Name) for m in e.members):
+            return None
+        names = [m.id for m in e.members]  # type: ignore[attr-defined]  # all Names, just tested
+        if self.env and any(name in self.env[-1] for name in names):
+            return None
+        slots = [self.layout.slot_of.get(name, -1) for name in names]
+        first, end = slots[0], slots[0] + len(slots)
+        if (len(slots) <= 3 or first < FIRST_CHANNEL or end > FIRST_CHANNEL + len(self.c.channels)
+                or slots != list(range(first, end))):
+            return None
+        w.read(VALUES)
+        if end - first == len(self.c.channels):
+            return "values", len(slots)
+        return f"values[{first - FIRST_CHANNEL}:{end - FIRST_CHANNEL}]", len(slots)
+
+    def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
+        """An operand of an operator on groups: its members, or its value once per member."""
+        if self.c.node_types.get(id(e)) in (Type.NUMBERS, Type.BOOLS):
+            return self.members(w, e, text, where)
+        return [self.expr(w, e, text, where)] * n
+
+    def index(self, w: Writer, e: ast.Index, text: Text, where: str) -> str:
+        """front[2]: the member itself; front[k] for a k known only at run time, through a guard.
+
+        front[2] reads only that member's locals: a member of a scan picked alone must not load
+        the other 359 beams."""
+        scratch = Writer()
+        members = self.members(scratch, e.value, text, where)
+        try:
+            k = fold(e.index, self.constants)
+        except NotConstant:
+            w.insert(scratch.body())
+            kind = "[]?" if self.c.node_types.get(id(e)) is Type.BOOL else "[]"
+            k_code = self.expr(w, e.index, text, where)
+            return f"{self.site(kind, text, e.span, where)}(({', '.join(members)},), {k_code})"
+        assert isinstance(k, (int, float)) and float(k).is_integer()  # the checker refused other numbers
+        member = members[int(k)]
+        for slot in LOCAL.findall(member):
+            w.read(int(slot))
+        if SEQUENCE_READ.search(member):  # [min(scan), lidar5][0]: the scan as one sequence
+            w.read(VALUES)
+        return member
+
+    def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
+        """A user function's body in place of its call: a parameter whose argument folds is a
+        constant of the body, any other is the argument's Python (a group's, member by member)."""
+        expansion = self.c.expansions[id(e)]
+        d = expansion.decl
+        constants = {k: v for k, v in self.constants.items() if k not in d.params}
+        env: dict[str, str | list[str]] = {}
+        for name, arg in zip(d.params, e.args):
+            if self.c.node_types.get(id(arg)) in (Type.NUMBERS, Type.BOOLS):
+                env[name] = self.members(w, arg, text, where)
+                continue
+            try:
+                constants[name] = fold(arg, self.constants)
+            except NotConstant:
+                env[name] = self.emit(w, arg, text, where)
+        outer = self.constants
+        self.constants = constants
+        self.env.append(env)
+        try:
+            inside = f"{where}, in {d.name}()"
+            if self.c.node_types.get(id(expansion.body)) in (Type.NUMBERS, Type.BOOLS):
+                return self.members(w, expansion.body, d.body.text, inside)
+            return self.expr(w, expansion.body, d.body.text, inside)
+        finally:
+            self.env.pop()
+            self.constants = outer
+
+
+class MemberWriter(ast.Visitor[list[str]]):
+    """Python for each member of a group-typed expression, written into ``w``."""
+
+    def __init__(self, g: Unroller) -> None:
+        self.g = g
+
+    def spread(self, e: ast.Expr, sub: ast.Expr, w: Writer, text: Text, where: str) -> list[str]:
+        return self.g.spread(w, sub, self.g.c.sizes.get(id(e), 0), text, where)
+
+    def visit_Group(self, e: ast.Group, w: Writer, text: Text, where: str) -> list[str]:
+        return [self.g.expr(w, m, text, where) for m in e.members]
+
+    def visit_Name(self, e: ast.Name, w: Writer, text: Text, where: str) -> list[str]:
+        g = self.g
+        if g.env and e.id in g.env[-1]:
+            return list(g.env[-1][e.id])
+        slots = g.layout.members[e.id]
+        if slots is None:  # a group of names: read them where it is used
+            parsed = g.let_of[e.id]
+            return self.visit(parsed.node, w, parsed.text, where)
+        for k in slots:
+            w.read(k)
+        return [f"v{k}" for k in slots]
+
+    def visit_Neg(self, e: ast.Neg, w: Writer, text: Text, where: str) -> list[str]:
+        return [f"(-{m})" for m in self.spread(e, e.operand, w, text, where)]
+
+    def visit_Not(self, e: ast.Not, w: Writer, text: Text, where: str) -> list[str]:
+        return [f"(not {m})" for m in self.spread(e, e.operand, w, text, where)]
+
+    def visit_Binary(self, e: ast.Binary, w: Writer, text: Text, where: str) -> list[str]:
+        out = []
+        for a, b in zip(self.spread(e, e.left, w, text, where), self.spread(e, e.right, w, text, where)):
+            if e.op in ("+", "-", "*") or (e.op in ("/", "%") and self.g.nonzero(e.right)):
+                out.append(f"({a} {e.op} {b})")
+            else:
+                out.append(f"{self.g.site(e.op, text, e.span, where)}({a}, {b})")
+        return out
+
+    def visit_Compare(self, e: ast.Compare, w: Writer, text: Text, where: str) -> list[str]:
+        out = []
+        for row in zip(*(self.spread(e, o, w, text, where) for o in e.operands)):
+            parts = [row[0]]
+            for op, operand in zip(e.ops, row[1:]):
+                parts += [op, operand]
+            out.append("(" + " ".join(parts) + ")")
+        return out
+
+    def visit_BoolOp(self, e: ast.BoolOp, w: Writer, text: Text, where: str) -> list[str]:
+        return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(self.spread(e, v, w, text, where)
+                                                                  for v in e.values))]
+
+    def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
+        if id(e) not in self.g.c.expansions:
+            raise AssertionError(f"cannot compile the group {e!r}")
+        body = self.g.inline(w, e, text, where)
+        assert isinstance(body, list)
+        return body
+
+    # one value each, never a group (the checker's types)
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index})
+
+    def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
+        raise AssertionError(f"cannot compile the group {e!r}")
+
+
+# What a writer records as read when code uses the tick's channel values as one sequence
+# (``values``): no slot has this number.
+VALUES = -1
+# The reductions with a form on such a sequence (labsim.dsl.library.builtins.SEQUENCE_FUNCTIONS); mean
+# is the sum's, divided.
+ON_SEQUENCE = frozenset({"min", "max", "argmin", "argmax", "sum", "mean"})
+
+
+def reduce_sequence(func: str, sequence: str, n: int, extremes: dict[tuple[str, str], int]) -> tuple[str, str]:
+    """A reduction of a group held as a sequence: the Python and the function it calls.
+
+    ``extremes`` holds the signals already computed as the minimum or maximum of a sequence:
+    argmin of the same values is then where that minimum is (``argmin_at``), without a second
+    pass of C's min over a lidar's 360 beams (the scan's nearest point and its direction are
+    the usual pair)."""
+    if func == "mean":
+        return f"(_sum_of({sequence}) / {float(n)!r})", "sum_of"
+    slot = extremes.get((func[3:], sequence)) if func in ("argmin", "argmax") else None
+    if slot is not None:
+        return f"_{func}_at({sequence}, v{slot})", f"{func}_at"
+    return f"_{func}_of({sequence})", f"{func}_of"
+
+
+# A slot's local in generated Python, and the channel values as one sequence: what an
+# expression reads.
+LOCAL = re.compile(r"\bv(\d+)\b")
+SEQUENCE_READ = re.compile(r"\bvalues\b")
+# A slot's local or a plain literal: safe to name more than once in an expression.
+PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
+
+
+def reduce(func: str, members: list[str]) -> str:
+    """A reduction of a group as one expression: min(front), any(front < 0.5), ..."""
+    n = len(members)
+    if func in ("min", "max"):
+        if n == 1:
+            return members[0]
+        if n <= 3 and all(PLAIN.match(m) for m in members):
+            return extreme(func, members)
+        return f"_{func}({', '.join(members)})"
+    if func in ("sum", "mean"):
+        total = "(" + " + ".join(members) + ")"
+        return total if func == "sum" else f"({total} / {float(n)!r})"
+    if func in ("argmin", "argmax"):
+        return f"_{func}({', '.join(members)})"
+    if func == "count":
+        return "(0.0 + " + " + ".join(members) + ")"
+    return "(" + f" {'or' if func == 'any' else 'and'} ".join(members) + ")"
+
+
+
+
+def extreme(func: str, parts: list[str]) -> str:
+    """``min``/``max`` of two or three plain values as an expression, without a call.
+
+    Exactly what ``labsim.dsl.library.builtins._min`` and ``_max`` compute, nan and the order of equal
+    values included: nan if any value is nan, else the running extreme from the first value,
+    replaced only by a strictly smaller (larger) one. The wall lab's rules take the minimum of
+    sonar pairs 150,000 times in a run; the call was 5% of its tick.
+    """
+    op = "<" if func == "min" else ">"
+    nan = " or ".join(f"{p} != {p}" for p in parts)
+    a, b = parts[0], parts[1]
+    m = f"({b} if {b} {op} {a} else {a})"
+    if len(parts) == 3:
+        c = parts[2]
+        m = f"({c} if {c} {op} {m} else {m})"
+    return f"(_nan if {nan} else {m})"

@@ -1,0 +1,133 @@
+"""Breakpoints: the condition a view pauses on, and ``labsim run --break COND``, which stops there.
+
+One compiler (``labsim.dsl.watch``) for both, evaluated by the reference evaluator, which knows
+groups: ``min([sonar5, sonar2]) < 0.5`` pauses, as ``min(sonar5, sonar2) < 0.5`` does, on the
+same tick of the wall lab.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from labsim.dsl.analysis.evaluate import Members, log_text
+from labsim.dsl.compile import compile_file
+from labsim.dsl.syntax.parse import parse_expr, parse_rule
+from labsim.dsl.watch import compile_watch
+from labsim.foundation.diagnostics import LabsimError
+
+ROOT = Path(__file__).resolve().parents[2]
+WALL = ROOT / "behaviours" / "wall_follow.yaml"
+
+
+def run(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "labsim", "run", str(WALL), "--set", "minutes=0.1", *args],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_a_group_in_a_breakpoint_stops_on_the_tick_its_members_written_out_do() -> None:
+    outputs = [run("--break", when) for when in ("min([sonar5, sonar2]) < 0.5", "min(sonar5, sonar2) < 0.5",
+                                                  "min([sonar5, sonar5] - [0, 0]) < 0.5 or [sonar2][0] < 0.5")]
+    for proc in outputs:
+        assert proc.returncode == 0, proc.stderr
+    heads = [proc.stdout.splitlines()[0] for proc in outputs]
+    assert heads[0] == "--break: 'min([sonar5, sonar2]) < 0.5' held at tick 46 (2.30 s) for robot pioneer"
+    assert heads[1] == "--break: 'min(sonar5, sonar2) < 0.5' held at tick 46 (2.30 s) for robot pioneer"
+    assert heads[2].endswith("held at tick 46 (2.30 s) for robot pioneer")
+    assert outputs[0].stdout.splitlines()[1:] == ["  state: wander", "  rule: wander:1", "  sonar5 = 0.498439",
+                                                  "  sonar2 = 0.630276"]
+    assert "collisions" not in outputs[0].stdout  # the summary of a run cut short is not printed
+
+
+def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None:
+    proc = run("--break", "sonar5 < 0 or state == follow and time > 100")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held: the run went 120 "
+                        "ticks (6.00 s) to its end")
+    assert lines[1].startswith("Wall following with sonars")
+
+
+@pytest.mark.parametrize(("when", "message"), [
+    ("max([prev(sonar5, 0), 0]) > 0.5", "--break:1:6: prev() remembers earlier ticks; a breakpoint sees one tick "
+                                        "at a time"),
+    ("sonr5 < 1", "--break:1:1: unknown name 'sonr5' (did you mean 'sonar5'?)"),
+    ("[sonar5, sonar2][2] < 1", "--break:1:18: this group has 2 members, at places 0 to 1; not 2"),
+    ("min(sonar5, sonar2)", "--break:1:1: a breakpoint's condition must be a boolean, but this is a number"),
+    ("collided", "--break:1:1: 'collided' is a sensor this behaviour does not read: a breakpoint sees what the "
+                 "behaviour reads"),
+])
+def test_a_breakpoint_is_checked_as_the_file_is(when: str, message: str) -> None:
+    program = compile_file(WALL)
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, when)
+    [d] = e.value.diagnostics
+    assert f"{d.path}:{d.line}:{d.col}: {d.message}" == message
+
+
+def test_the_view_s_breakpoint_with_a_group_holds_on_its_members() -> None:
+    program = compile_file(WALL)
+    watch = compile_watch(program, "min([sonar5, sonar2]) < 0.5 and count(sonar8..sonar9 < 1) >= 1")
+    readings = [math.inf] * len(program.channels)
+    slots = [0.0] * program.slot_count
+    at = {name: i for i, name in enumerate(program.channels)}
+    readings[at["sonar5"]], readings[at["sonar2"]] = 0.7, 0.4
+    assert not watch.holds(3, 0.05, readings, slots)  # neither sonar8 nor sonar9 is under 1
+    readings[at["sonar9"]] = 0.9
+    assert watch.holds(3, 0.05, readings, slots)
+    assert watch.values(3, 0.05, readings, slots)[:2] == [("sonar5", 0.7), ("sonar2", 0.4)]
+    assert watch.reads == ("sonar5", "sonar2", "sonar8", "sonar9")
+
+
+def test_break_and_json_are_refused_together() -> None:
+    proc = run("--break", "sonar5 < 1", "--json")
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("--break: error: a run stopped at a breakpoint has no summary to write as JSON: "
+                                   "leave out --json or --break")
+
+
+def test_the_state_a_breakpoint_reads_is_shown_by_its_name() -> None:
+    proc = run("--break", "ahead < front and state == wander")
+    assert proc.stdout.splitlines() == [
+        "--break: 'ahead < front and state == wander' held at tick 46 (2.30 s) for robot pioneer",
+        "  state: wander", "  rule: wander:1", "  ahead = 0.498439", "  front = 0.5", "  state = wander"]
+
+
+def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> None:
+    """A log's fields (a group's member, a reduction, a function over a group, text chosen by a
+    condition, a whole-number field of a fraction) by the reference evaluator and by the run, from
+    the readings of that tick in the trace."""
+    text = ("log(\"{front[1]:.2f} {argmin(front)} {near(front, 0.6):d} {'near' if min(front) < 0.5 else 'far'} "
+            "{time:d}\")")
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "at: [6.8, 0.3, 10]}\nfunctions:\n  near(g, d): count(g < d)\n"
+                 "let:\n  front: [sonar4, sonar5, sonar6]\n"
+                 f"rules:\n  - when tick == 3 then {text}\n  - always move(1)\n")
+    trace = path.with_suffix(".csv")
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "-q", "--trace", str(trace)],
+                          capture_output=True, text=True, timeout=120)
+    [printed] = [line.split(": ", 1)[1] for line in proc.stderr.replace("\r", "").splitlines() if line.strip()]
+    rows = [line.split(",") for line in trace.read_text().splitlines() if not line.startswith("#")]
+    head, row = rows[0], rows[4]  # tick 3
+    front = Members(float(row[head.index(n)]) for n in ("sonar4", "sonar5", "sonar6"))
+    action = parse_rule(f"always {text}").actions[0]
+    assert action.text is not None
+    shown, faults = log_text(action.text, {"tick": 3.0, "time": 3 * 0.05, "dt": 0.05, "front": front},
+                             functions={"near": (("g", "d"), parse_expr("count(g < d)"))})
+    assert (shown, faults) == (printed, ())
+    assert printed == "0.42 1.0 3 near 0.15"  # facing the east wall, 0.4 m off
+
+
+def test_the_evaluator_keeps_the_memory_of_built_ins_between_ticks() -> None:
+    """prev, rising (primed from 1.2 on) and counter, one closure per call site, as generated code keeps them."""
+    from labsim.dsl.analysis.evaluate import Memory, evaluate
+    memory = Memory(dt_s=0.05, version=1.2)
+    e = parse_expr("[prev(x, -1), rising(x > 1), counter(x > 1)]")
+    seen = [evaluate(e, {"x": x}, memory=memory)[0] for x in (2.0, 0.0, 3.0, 4.0, 0.5, 5.0)]
+    assert seen == [(-1.0, False, 0.0), (2.0, False, 0.0), (0.0, True, 1.0), (3.0, False, 1.0),
+                    (4.0, False, 1.0), (0.5, True, 2.0)]
+    with pytest.raises(Exception, match="remembers earlier ticks"):
+        evaluate(e, {"x": 1.0})  # no memory: one tick cannot answer
