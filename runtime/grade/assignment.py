@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, is_dataclass
 from pathlib import Path
 
-from yaml.nodes import MappingNode, Node, ScalarNode
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.ground import ROAD_CHANNELS
 from labsim.backends.scene.models import MODELS, Kind
@@ -149,7 +149,10 @@ def read_assignment(path: str | Path) -> Assignment:
 
 
 class _AssignmentReader(Reader):
+    _aggregates: dict[str, str]  # a measured metric's aggregate (count, duration, ...), by name
+
     def read(self) -> Assignment | None:
+        self._aggregates = {}
         root = self.doc.root
         if root is None:
             self.error(None, "the file is empty: an assignment file is a YAML mapping that starts with "
@@ -303,6 +306,7 @@ class _AssignmentReader(Reader):
                                   "time, tick, dt and the grader's params",))
             if not bad:
                 out.append(MetricDecl(name, Parsed(tree, text), key, better))
+                self._aggregates[name] = tree.func
         return tuple(out)
 
     def _names(self, node: Node, what: str) -> tuple[str, ...]:
@@ -314,7 +318,10 @@ class _AssignmentReader(Reader):
         return tuple(out)
 
     def _seeds(self, node: Node) -> tuple[int, ...]:
-        items = self.items(node, "seeds") or []
+        if not isinstance(node, SequenceNode):  # one message for one mistake (seeds: 1-3)
+            self.error(node, f"seeds is a list of 1 to {MAX_SEEDS} seeds, e.g. [1, 2, 3]")
+            return (1,)
+        items = list(node.value)
         if not items or len(items) > MAX_SEEDS:
             self.error(node, f"seeds is a list of 1 to {MAX_SEEDS} seeds, e.g. [1, 2, 3]")
             return (1,)
@@ -420,6 +427,12 @@ class _AssignmentReader(Reader):
                                                        required=required, student=student)
         limit = self.number(fields[given[0]], given[0])
         if limit is None:
+            return None
+        aggregate = self._aggregates.get(name, "") if not student else ""
+        if aggregate in ("count", "duration") and limit < 0:  # a count, a duration is never below 0
+            what = "a count" if aggregate == "count" else "a duration"
+            self.error(fields[given[0]], f"'{name}' is {what}, never below 0: {given[0]}: {limit:g} "
+                                         + ("passes every run" if given[0] == "at_least" else "fails every run"))
             return None
         return Criterion(name, weight or 1.0, **{given[0]: limit}, required=required, student=student)
 

@@ -39,6 +39,7 @@ from labsim.runtime.grade.contract import (
     check_submission,
     find_submissions,
 )
+from labsim.runtime.grade.contract import TIMEOUT as TIMEOUT_STATUS
 from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, write_gradebook
 from labsim.runtime.grade.measure import measure_fault_metric
 from labsim.runtime.grade.runs import CRASHED, OVER_BUDGET, RAN, TIMED_OUT, Job, Pictures, SeedRun, make_job, run_job
@@ -178,9 +179,17 @@ def _check_all(found: list[Found], assignment: Assignment, jobs: int) -> list[Su
     one refused when it was found (a link out, a FIFO, a folder without one behaviour) is its row."""
     items = [(f.student, f.path, assignment) for f in found if f.path is not None and f.status == GRADED]
     checked: dict[str, Submission] = {}
-    for o in LocalBatch(jobs).outcomes(_check, items):
+    # a file that takes longer to compile than a run may take (a hostile one of 20,000 rules) is
+    # stopped there, as its run would be: one file never stalls the class
+    limit = len(assignment.seeds) * assignment.timeout_s + 5.0  # a student's, as for their runs (_run_jobs)
+    for o in LocalBatch(jobs, limit, name="labsim-grade-check").outcomes(_check, items):
         student, path, _ = items[o.index]
         checked[student] = (o.value if o.kind == DONE else
+                            Submission(student, str(path), "", "", TIMEOUT_STATUS,
+                                       f"compiling it took longer than the student's time limit of {limit:g} s "
+                                       f"({len(assignment.seeds)} seed{'s' * (len(assignment.seeds) != 1)} of "
+                                       f"{assignment.timeout_s:g} s, and 5 s), and it was stopped")
+                            if o.kind == TIMEOUT else
                             Submission(student, str(path), "", "", CRASH, f"checking it failed: {o.message}"))
     return [checked[f.student] if f.student in checked else
             Submission(f.student, str(f.path or f.student), "", "", f.status if f.status != GRADED else MISMATCH,

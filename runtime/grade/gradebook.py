@@ -94,7 +94,9 @@ def messages(g: Grade) -> list[str]:
     out: list[str] = []
     for r in g.runs:
         out += [f"fault: {f}" for f in r.faults]
-        out += [f"warning: {w.splitlines()[0] if w else w}" for w in r.warnings]  # the caret is on the page
+        for w in r.warnings:  # the first line: the caret is on the page; "warning:" once
+            first = w.splitlines()[0] if w else w
+            out.append(first if "warning: " in first else f"warning: {first}")
     return list(dict.fromkeys(out))[:10]
 
 

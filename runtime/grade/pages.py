@@ -84,7 +84,8 @@ def metric_words(assignment: Assignment, metric: str) -> tuple[str, str, str]:
         return "", "", ""
     call = decl.value.node
     names = {n.id for n in _names(call)}
-    unit = ("s" if call.func == "duration" else "" if call.func == "count" else
+    unit = ("s" if call.func == "duration" or (call.func != "count" and names == {"time"}) else
+            "" if call.func == "count" else
             "m" if names and all(_METRES.match(n) for n in names) else
             "m/s" if names == {"forward_speed"} else "")
     return _WORDS.get(call.func, call.func), assignment.definition(metric), unit

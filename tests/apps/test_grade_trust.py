@@ -328,3 +328,49 @@ def test_a_changed_rule_is_no_copy(tmp_path: Path) -> None:
     assert _structure(tmp_path, "a.yaml", LAB)[0] != _structure(
         tmp_path, "b.yaml", LAB.replace("arc(spd - turnamt,", "arc(spd * turnamt,"))[0]
 
+
+
+# -- 17, 18 ----------------------------------------------------------------------------------------
+
+@pytest.mark.slow
+def test_a_file_too_slow_to_compile_is_stopped_at_the_students_time_limit(tmp_path: Path) -> None:
+    (tmp_path / "a.yaml").write_text(ASSIGNMENT.replace("seeds: [1]", "seeds: [1]\ntimeout_s: 0.2"))
+    s = tmp_path / "s"
+    s.mkdir()
+    rules = "".join(f"  - if sonar1 < {i} then arc({i % 3}, 1)\n" for i in range(20000))
+    (s / "huge.yaml").write_text(LAB.split("rules:")[0] + "rules:\n" + rules)
+    out = tmp_path / "g"
+    assert _main(["grade", str(tmp_path / "a.yaml"), str(s), "--out", str(out), "-j", "1", "--no-pages"]) == 1
+    row = _rows(out)["huge"]
+    assert (row["Status"], row["Reason"]) == ("timeout", "compiling it took longer than the student's time limit "
+                                                         "of 5.2 s (1 seed of 0.2 s, and 5 s), and it was stopped")
+
+
+@pytest.mark.parametrize("change, where, message", [
+    ("seeds: [1]", (8, 8), "seeds is a list of 1 to 100 seeds, e.g. [1, 2, 3]"),
+    ("hits: {at_most: 5}", (10, 19), "'hits' is a count, never below 0: at_most: -1 fails every run"),
+    ("ran_for: {at_least: 6, required: true}", (11, 23),
+     "'ran_for' is a duration, never below 0: at_least: -0.15 passes every run")])
+def test_one_mistake_one_message_and_thresholds_a_count_can_never_meet(tmp_path: Path, change: str,
+                                                                       where: tuple[int, int], message: str) -> None:
+    text = ASSIGNMENT.replace("seeds: [1]", "seeds: 1-3") if change.startswith("seeds") else \
+        ASSIGNMENT.replace("hits: {at_most: 5}", "hits: {at_most: -1}") if change.startswith("hits") else \
+        ASSIGNMENT.replace("ran_for: final(time)", "ran_for: duration(x > 0)").replace(
+            "ran_for: {at_least: 6, required: true}", "ran_for: {at_least: -0.15, required: true}")
+    (tmp_path / "a.yaml").write_text(text)
+    with pytest.raises(LabsimError) as e:
+        read_assignment(tmp_path / "a.yaml")
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [(*where, message)]
+
+
+def test_a_warning_says_warning_once_and_final_time_is_in_seconds(tmp_path: Path) -> None:
+    from labsim.runtime.grade.gradebook import messages
+    from labsim.runtime.grade.pages import metric_words
+    from labsim.runtime.grade.runs import SeedRun
+
+    grade = Grade("s", "s.yaml", "graded", runs=(SeedRun(1, "ran", warnings=("s.yaml:3:1: warning: unused\n  x",
+                                                                             "a plain one")),))
+    assert messages(grade) == ["s.yaml:3:1: warning: unused", "warning: a plain one"]
+    (tmp_path / "a.yaml").write_text(ASSIGNMENT)
+    assert metric_words(read_assignment(tmp_path / "a.yaml"), "ran_for") == (
+        "the value of the expression at the end of the run", "final(time)", "s")
