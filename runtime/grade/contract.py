@@ -102,11 +102,11 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
             if refused:
                 entries.append((arg, p.name, Found(_stem(p), p, HOSTILE, refused)))
             elif p.is_dir():
-                found = _one_folder(p, arg)
-                if found is None:
+                folder = _one_folder(p, arg)
+                if folder is None:
                     skipped.append((str(p), "it holds world files only, no behaviour file"))
                 else:
-                    entries.append((arg, p.name, found))
+                    entries.append((arg, p.name, folder))
             elif not _yaml(p):
                 skipped.append((str(p), "not a .yaml or .yml file"))
             else:

@@ -345,8 +345,8 @@ def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
         print(f"likely copies ({why}): {inert(', '.join(students))}")
     for group in graded.collisions:
         print(f"names that collide, each its own row: {inert(', '.join(group))}")
-    for path, why in graded.skipped:
-        print(f"passed over: {inert(path)}: {why}")
+    for passed, why in graded.skipped:
+        print(f"passed over: {inert(passed)}: {why}")
     for warning in graded.warnings:
         print(f"labsim grade: warning: {warning}", file=sys.stderr)
     for path in written[:3]:

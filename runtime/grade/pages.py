@@ -157,8 +157,9 @@ def feedback_page(g: Grade, assignment: Assignment, pictures: tuple[str, str | N
             f"<p><span class=\"status\">{e(g.status)}</span> <strong>{e(score)}</strong></p>"]
     if g.gate:
         why = next((r.why for r in g.criteria if r.name == g.gate), "")
-        body.append(f"<p class=\"fail\">The required criterion {e(g.gate)} failed, so the score is "
-                    f"{assignment.gate_score:g} whatever the others earned. Why: {e(why)}</p>")
+        body.append(f"<p class=\"fail\">The required criterion {e(g.gate)} failed, so the score is the "
+                    f"assignment's {assignment.gate_score:g} for a failed gate (or what the other criteria earned, "
+                    f"if that is less). Why: {e(why)}</p>")
     elif g.reason:
         body.append(f"<p>{e(g.reason)}</p>")
     errors = [d for d in g.diagnostics if d.severity == "error"]
