@@ -23,6 +23,7 @@ from urllib.parse import urlsplit
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
+from labsim.foundation.files import read_text
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, DaskBatch, LocalBatch, Outcome, default_jobs, warm_up
@@ -219,10 +220,16 @@ def _reference(assignment: Assignment) -> Grade | None:
         name = measure_fault_metric(fault)
         decl = next((m for m in assignment.measure if m.name == name), None)
         mark = getattr(decl.key, "start_mark", None) if decl is not None else None
+        line = mark.line + 1 if mark else 0
+        try:
+            shown = read_text(assignment.path, "assignment").splitlines()[line - 1] if line else ""
+        except (LabsimError, IndexError):
+            shown = ""
         raise LabsimError([Diagnostic(assignment.path, f"the measured metric '{name}' faults on the reference "
                                                        f"behaviour's run (seed {seed}: {fault}); fix its formula "
                                                        "before grading",
-                                      mark.line + 1 if mark else 0, mark.column + 1 if mark else 0)])
+                                      line, mark.column + 1 if mark else 0, mark.column + 1 + len(name) if mark else 0,
+                                      source_line=shown)])
     return grade_of(submission, list(runs), assignment)
 
 
