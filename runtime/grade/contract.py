@@ -102,11 +102,7 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
             if refused:
                 entries.append((arg, p.name, Found(_stem(p), p, HOSTILE, refused)))
             elif p.is_dir():
-                folder = _one_folder(p, arg)
-                if folder is None:
-                    skipped.append((str(p), "it holds world files only, no behaviour file"))
-                else:
-                    entries.append((arg, p.name, folder))
+                entries.append((arg, p.name, _one_folder(p, arg)))
             elif not _yaml(p):
                 skipped.append((str(p), "not a .yaml or .yml file"))
             else:
@@ -183,17 +179,15 @@ def _not_readable(p: Path, root: Path) -> str:
     return ""
 
 
-def _one_folder(folder: Path, root: Path) -> Found | None:
-    """A student's folder: its one behaviour file, or why not; None for a folder of world
-    files only (the teacher's worlds, not a student)."""
+def _one_folder(folder: Path, root: Path) -> Found:
+    """A student's folder: its one behaviour file, or why not (a folder of world files only is
+    a student who sent no behaviour: a row, never passed over)."""
     listed = sorted(p for p in folder.iterdir() if _yaml(p))
     for p in listed:
         refused = _not_readable(p, root)
         if refused:
             return Found(folder.name, p, HOSTILE, refused)
     found = [p for p in listed if p.is_file() and _kind(p) == "behaviour"]
-    if not found and listed and all(p.is_file() and _kind(p) == "world" for p in listed):
-        return None
     if len(found) != 1:
         return Found(folder.name, None, MISMATCH, f"the folder {folder} holds {len(found)} behaviour files; a "
                                                   "student's folder holds one")

@@ -61,7 +61,7 @@ def test_loose_files_beside_student_folders_are_all_students_and_the_rest_is_lis
     shutil.copyfile(V1, c / "amy.YAML")
     (c / "stray.yaml").write_text("labsim-world: 1\n" + V1.read_text())
     (c / "asg.yaml").write_text("labsim-assignment: 1\n" + V1.read_text())
-    shutil.copyfile(WORLD, c / "worlds" / "mine.yaml")  # the teacher's worlds: no student
+    shutil.copyfile(WORLD, c / "worlds" / "mine.yaml")  # a folder is a student's: a row, whatever it holds
     shutil.copyfile(WORLD, c / "arena.yaml")
     (c / "notes.txt").write_text("hi")
     (c / "alink").symlink_to("alice")  # a link inside: a name of its own
@@ -70,10 +70,12 @@ def test_loose_files_beside_student_folders_are_all_students_and_the_rest_is_lis
         "alice": ("graded", f"{c}/alice/lab.yaml"), "bob": ("graded", f"{c}/bob/lab.yaml"),
         "x.yaml": ("graded", f"{c}/x.yaml/lab.yaml"), "template": ("graded", f"{c}/template.yaml"),
         "amy": ("graded", f"{c}/amy.YAML"), "stray": ("graded", f"{c}/stray.yaml"),
-        "asg": ("graded", f"{c}/asg.yaml"), "alink": ("graded", f"{c}/alink/lab.yaml")}
+        "asg": ("graded", f"{c}/asg.yaml"), "alink": ("graded", f"{c}/alink/lab.yaml"),
+        "worlds": ("contract mismatch", "None")}
+    assert next(f.reason for f in found if f.student == "worlds") == (f"the folder {c}/worlds holds 0 behaviour "
+                                                                       "files; a student's folder holds one")
     assert collisions == []
-    assert skipped == [(f"{c}/arena.yaml", "a world file"), (f"{c}/notes.txt", "not a .yaml or .yml file"),
-                       (f"{c}/worlds", "it holds world files only, no behaviour file")]
+    assert skipped == [(f"{c}/arena.yaml", "a world file"), (f"{c}/notes.txt", "not a .yaml or .yml file")]
 
 
 @pytest.mark.slow
