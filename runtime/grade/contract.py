@@ -112,7 +112,7 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
                 else:
                     skipped.append((str(p), f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} file"))
     found, collisions = _named(_unique(entries, skipped))
-    return found, collisions, sorted(skipped)
+    return found, collisions, sorted(set(skipped))
 
 
 def _stem(p: Path) -> str:
@@ -148,14 +148,12 @@ def _unique(entries: list[tuple[Path, str, Found]], skipped: list[tuple[str, str
     seen: dict[str, Path] = {}
     out = []
     for entry in entries:
-        path = entry[2].path
         where = entry[0] / entry[1]
-        if entry[2].status == GRADED and path is not None:
-            real = os.path.join(os.path.realpath(entry[0]), entry[1])
-            if real in seen:
-                skipped.append((str(where), f"the same file as {seen[real]}, graded once"))
-                continue
-            seen[real] = where
+        real = os.path.join(os.path.realpath(entry[0]), entry[1])
+        if real in seen:
+            skipped.append((str(where), f"the same file as {seen[real]}: one row"))
+            continue
+        seen[real] = where
         out.append(entry)
     return out
 

@@ -105,7 +105,11 @@ def test_the_same_file_twice_is_one_student(tmp_path: Path) -> None:
     shutil.copyfile(V1, g1 / "ann.yaml")
     found, _, skipped = find_submissions([str(g1), str(g1), str(g1 / "ann.yaml")])
     assert [f.student for f in found] == ["ann"]
-    assert skipped == [(f"{g1}/ann.yaml", f"the same file as {g1}/ann.yaml, graded once")] * 2
+    assert skipped == [(f"{g1}/ann.yaml", f"the same file as {g1}/ann.yaml: one row")]
+    (g1 / "leak.yaml").symlink_to("/etc/passwd")  # a refused file given twice is one row too
+    found, _, skipped = find_submissions([str(g1), str(g1 / "leak.yaml")])
+    assert [(f.student, f.status) for f in found] == [("ann", "graded"), ("leak", "hostile file")]
+    assert skipped == [(f"{g1}/leak.yaml", f"the same file as {g1}/leak.yaml: one row")]
 
 
 def test_a_file_named_one_by_one_that_links_out_is_hostile(tmp_path: Path) -> None:
