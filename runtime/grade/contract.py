@@ -99,7 +99,10 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
                 continue
         for p in sorted(arg.iterdir()):
             refused = _not_readable(p, arg)
-            if refused:
+            if p.name.startswith(".") or p.name == "__MACOSX":  # a system's, not a student's (a zip from macOS)
+                skipped.append((str(p), "a hidden file or folder" if p.name.startswith(".") else
+                                "macOS archive metadata"))
+            elif refused:
                 entries.append((arg, p.name, Found(_stem(p), p, HOSTILE, refused)))
             elif p.is_dir():
                 entries.append((arg, p.name, _one_folder(p, arg)))
@@ -180,7 +183,7 @@ def _not_readable(p: Path, root: Path) -> str:
 def _one_folder(folder: Path, root: Path) -> Found:
     """A student's folder: its one behaviour file, or why not (a folder of world files only is
     a student who sent no behaviour: a row, never passed over)."""
-    listed = sorted(p for p in folder.iterdir() if _yaml(p))
+    listed = sorted(p for p in folder.iterdir() if _yaml(p) and not p.name.startswith("."))
     for p in listed:
         refused = _not_readable(p, root)
         if refused:

@@ -65,6 +65,10 @@ def test_loose_files_beside_student_folders_are_all_students_and_the_rest_is_lis
     shutil.copyfile(WORLD, c / "arena.yaml")
     (c / "notes.txt").write_text("hi")
     (c / "alink").symlink_to("alice")  # a link inside: a name of its own
+    (c / "__MACOSX").mkdir()  # what a zip made on macOS holds beside the class
+    (c / "__MACOSX" / "._template.yaml").write_bytes(b"\0\5\26\7")
+    (c / "._template.yaml").write_bytes(b"\0\5\26\7")
+    (c / "alice" / "._lab.yaml").write_bytes(b"\0\5\26\7")
     found, collisions, skipped = find_submissions([str(c)])
     assert {f.student: (f.status, str(f.path)) for f in found} == {
         "alice": ("graded", f"{c}/alice/lab.yaml"), "bob": ("graded", f"{c}/bob/lab.yaml"),
@@ -75,7 +79,8 @@ def test_loose_files_beside_student_folders_are_all_students_and_the_rest_is_lis
     assert next(f.reason for f in found if f.student == "worlds") == (f"the folder {c}/worlds holds 0 behaviour "
                                                                        "files; a student's folder holds one")
     assert collisions == []
-    assert skipped == [(f"{c}/arena.yaml", "a world file"), (f"{c}/notes.txt", "not a .yaml or .yml file")]
+    assert skipped == [(f"{c}/._template.yaml", "a hidden file or folder"), (f"{c}/__MACOSX", "macOS archive metadata"),
+                       (f"{c}/arena.yaml", "a world file"), (f"{c}/notes.txt", "not a .yaml or .yml file")]
 
 
 @pytest.mark.slow
