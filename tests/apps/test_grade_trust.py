@@ -385,3 +385,12 @@ def test_a_warning_says_warning_once_and_final_time_is_in_seconds(tmp_path: Path
     (tmp_path / "a.yaml").write_text(ASSIGNMENT)
     assert metric_words(read_assignment(tmp_path / "a.yaml"), "ran_for") == (
         "the value of the expression at the end of the run", "final(time)", "s")
+
+
+def test_a_budget_refused_at_compile_names_the_assignments_budgets(tmp_path: Path) -> None:
+    (tmp_path / "a.yaml").write_text(ASSIGNMENT.replace("robots: 1", "robots: any\nbudgets: {robots: 5}"))
+    (tmp_path / "many.yaml").write_text(V1.read_text().replace("at: random}", "at: random, count: 20}"))
+    got = check_submission("many", tmp_path / "many.yaml", read_assignment(tmp_path / "a.yaml"))
+    assert got.status == "budget stop"
+    assert got.diagnostics[0].notes == ("if the file is right, raise the budget where it runs: the assignment's "
+                                        "budgets: {robots: 20}",)
