@@ -91,12 +91,11 @@ def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...
     entries: list[tuple[Path, str, Found]] = []  # (submissions folder, path relative to it, what was found)
     skipped: list[tuple[str, str]] = []
     for arg in map(Path, paths):
-        if os.path.islink(arg) or not arg.is_dir():  # named one by one: the folder it lies in is its folder
+        if not arg.is_dir():  # a file named one by one: the folder it lies in is its folder
             refused = _not_readable(arg, arg.parent)
-            if refused or not arg.is_dir():
-                entries.append((arg.parent, arg.name, Found(_stem(arg), arg, HOSTILE if refused else GRADED,
-                                                            refused)))
-                continue
+            entries.append((arg.parent, arg.name, Found(_stem(arg), arg, HOSTILE if refused else GRADED, refused)))
+            continue
+        # a folder named by the teacher is theirs, even through a link (submissions -> /mnt/lms/...)
         for p in sorted(arg.iterdir()):
             refused = _not_readable(p, arg)
             if p.name.startswith(".") or p.name == "__MACOSX":  # a system's, not a student's (a zip from macOS)

@@ -127,6 +127,15 @@ def test_a_file_named_one_by_one_that_links_out_is_hostile(tmp_path: Path) -> No
                                  "submission is read only inside its submissions folder")]
 
 
+def test_a_folder_named_through_a_link_is_the_teachers(tmp_path: Path) -> None:
+    (tmp_path / "export" / "ann").mkdir(parents=True)
+    shutil.copyfile(V1, tmp_path / "export" / "ann" / "lab.yaml")
+    (tmp_path / "here").mkdir()
+    (tmp_path / "here" / "class").symlink_to(tmp_path / "export")
+    found, _, _ = find_submissions([str(tmp_path / "here" / "class")])
+    assert [(f.student, f.status) for f in found] == [("ann", "graded")]
+
+
 def test_ids_that_differ_in_case_are_their_relative_paths_and_pages_differ_by_a_hash(tmp_path: Path) -> None:
     c3 = tmp_path / "c3"
     c3.mkdir()
