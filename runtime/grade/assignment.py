@@ -11,21 +11,25 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, is_dataclass
 from pathlib import Path
 
-from yaml.nodes import MappingNode, Node, ScalarNode
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.backends.scene.ground import ROAD_CHANNELS
 from labsim.backends.scene.models import MODELS, Kind
 from labsim.backends.scene.schema import DRAFT, IDENTIFIER, Schema, mapping
+from labsim.backends.scene.world_file import load_world
+from labsim.backends.scene.world_names import WorldRef, builtin_worlds, find_world
 from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, Better
 from labsim.dsl.syntax import ast as dsl_ast
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import MetricDecl, Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
-from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY
+from labsim.foundation.files import read_input
+from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY, YAML_SUFFIXES, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Reader, TextSpan, load, scalar_value
@@ -110,6 +114,10 @@ class Assignment:
     reference: str | None = None  # a behaviour whose metrics are shown beside each student's
     measure: tuple[MetricDecl, ...] = ()  # the metrics the grader measures on every run (its own names)
     gate_score: float = 0.0  # the score (at most) of a student who fails a required criterion
+    # the assignment's world file (a built-in's own file, or the teacher's) and the SHA-256 of its
+    # bytes: a student's world must be this world, not another one of the same name
+    world_file: str | None = None
+    world_sha256: str = ""
     weights: float = field(init=False)
 
     @property
@@ -141,7 +149,10 @@ def read_assignment(path: str | Path) -> Assignment:
 
 
 class _AssignmentReader(Reader):
+    _aggregates: dict[str, str]  # a measured metric's aggregate (count, duration, ...), by name
+
     def read(self) -> Assignment | None:
+        self._aggregates = {}
         root = self.doc.root
         if root is None:
             self.error(None, "the file is empty: an assignment file is a YAML mapping that starts with "
@@ -157,7 +168,7 @@ class _AssignmentReader(Reader):
             version = self.number(keys[ASSIGNMENT_VERSION_KEY], "the format version", integer=True)
             if version is not None and version != 1:
                 self.error(keys[ASSIGNMENT_VERSION_KEY], "this labsim reads assignment format 1")
-        world = self._world(keys.get("world"))
+        world, world_file = self._world(keys.get("world"))
         robots = self._robots(keys.get("robots"))
         params = self._params(keys["params"]) if "params" in keys else {}
         measure = self._measure(keys["measure"], set(params)) if "measure" in keys else ()
@@ -179,13 +190,34 @@ class _AssignmentReader(Reader):
             return None
         return Assignment(self.doc.path, hashlib.sha256(self.doc.text.encode()).hexdigest(),
                           title or Path(self.doc.path).stem, world, robots, params, metrics, seeds,
-                          timeout or DEFAULT_TIMEOUT_S, budgets, criteria, reference, measure, gate_score)
+                          timeout or DEFAULT_TIMEOUT_S, budgets, criteria, reference, measure, gate_score,
+                          world_file, _sha256_of(world_file))
 
-    def _world(self, node: Node | None) -> str | None:
+    def _world(self, node: Node | None) -> tuple[str | None, str | None]:
+        """The world's name and its file: a built-in world, a world file's path (relative to the
+        assignment), or the name of a world file beside the assignment (its ``name:``)."""
         if node is None:
-            return None
+            return None, None
         name = self.name(node, "world")
-        return None if name in (None, ANY) else name
+        if name in (None, ANY):
+            return None, None
+        folder = Path(self.doc.path).parent
+        beside = _world_named(name, folder)
+        ref = WorldRef(beside) if beside is not None else find_world(name, folder)
+        if ref.path is None and ref.refused:
+            self.error(node, f"world file '{name}' lies outside the assignment's folder: the grader reads a "
+                             "built-in world or a world file beside the assignment (docs/grading.md)")
+            return None, None
+        if ref.path is None:
+            self.error(node, ref.problem, ref.notes)
+            return None, None
+        report = Report()
+        world = load_world(ref.path, report)
+        if world is None:
+            first = report.errors[0].message if report.errors else "it does not read"
+            self.error(node, f"world '{name}' is no world labsim can load: {first}")
+            return None, None
+        return name, str(ref.path)
 
     def _robots(self, node: Node | None) -> int | None:
         if node is None or (isinstance(node, ScalarNode) and node.value == ANY):
@@ -274,6 +306,7 @@ class _AssignmentReader(Reader):
                                   "time, tick, dt and the grader's params",))
             if not bad:
                 out.append(MetricDecl(name, Parsed(tree, text), key, better))
+                self._aggregates[name] = tree.func
         return tuple(out)
 
     def _names(self, node: Node, what: str) -> tuple[str, ...]:
@@ -285,7 +318,10 @@ class _AssignmentReader(Reader):
         return tuple(out)
 
     def _seeds(self, node: Node) -> tuple[int, ...]:
-        items = self.items(node, "seeds") or []
+        if not isinstance(node, SequenceNode):  # one message for one mistake (seeds: 1-3)
+            self.error(node, f"seeds is a list of 1 to {MAX_SEEDS} seeds, e.g. [1, 2, 3]")
+            return (1,)
+        items = list(node.value)
         if not items or len(items) > MAX_SEEDS:
             self.error(node, f"seeds is a list of 1 to {MAX_SEEDS} seeds, e.g. [1, 2, 3]")
             return (1,)
@@ -313,7 +349,16 @@ class _AssignmentReader(Reader):
 
     def _reference(self, node: Node) -> str | None:
         name = self.name(node, "reference")
-        return None if name is None else str(Path(self.doc.path).parent / name)
+        if name is None:
+            return None
+        path = Path(self.doc.path).parent / name
+        if not path.is_file():
+            self.error(node, f"no reference behaviour '{name}' (looked for {path})"
+                             + did_you_mean(name, [p.name for p in path.parent.glob("*.y*ml")
+                                                   if p.name != Path(self.doc.path).name and p.is_file()
+                                                   and file_kind(p) == "behaviour"] if path.parent.is_dir() else []))
+            return None
+        return str(path)
 
     def _criteria(self, node: Node, measured: set[str] | None) -> tuple[Criterion, ...]:
         out = []
@@ -383,6 +428,12 @@ class _AssignmentReader(Reader):
         limit = self.number(fields[given[0]], given[0])
         if limit is None:
             return None
+        aggregate = self._aggregates.get(name, "") if not student else ""
+        if aggregate in ("count", "duration") and limit < 0:  # a count, a duration is never below 0
+            what = "a count" if aggregate == "count" else "a duration"
+            self.error(fields[given[0]], f"'{name}' is {what}, never below 0: {given[0]}: {limit:g} "
+                                         + ("passes every run" if given[0] == "at_least" else "fails every run"))
+            return None
         return Criterion(name, weight or 1.0, **{given[0]: limit}, required=required, student=student)
 
     def flag(self, node: Node, what: str) -> bool:
@@ -391,6 +442,27 @@ class _AssignmentReader(Reader):
             self.error(node, f"{what} is true or false")
             return False
         return value
+
+
+def _world_named(name: str, folder: Path) -> Path | None:
+    """A world file beside the assignment whose ``name:`` is ``name`` (a world named so, not a path)."""
+    if name in builtin_worlds() or name.endswith(YAML_SUFFIXES) or "/" in name:
+        return None
+    for p in sorted(folder.glob("*.y*ml")):
+        if p.suffix in YAML_SUFFIXES and p.is_file() and not p.is_symlink() and file_kind(p) == "world":
+            world = load_world(p, Report())
+            if world is not None and world.name == name:
+                return p
+    return None
+
+
+def _sha256_of(path: str | None) -> str:
+    if path is None:
+        return ""
+    try:
+        return hashlib.sha256(read_input(path, "world")).hexdigest()
+    except LabsimError:
+        return ""
 
 
 def measurable_names() -> set[str]:
@@ -427,6 +499,15 @@ def _unreadable(e: dsl_ast.Expr, readable: set[str]) -> list[tuple[str, tuple[in
                         walk(item)
     walk(e)
     return out
+
+
+_BUDGET_HINT = re.compile(r"--budget (\w+)=([\w.,]+)")
+
+
+def budget_words(text: str) -> str:
+    """A budget's message as a grader's: ``labsim grade`` has no ``--budget``; the assignment's
+    ``budgets:`` raise one."""
+    return _BUDGET_HINT.sub(lambda m: f"the assignment's budgets: {{{m.group(1)}: {m.group(2).rstrip('.,')}}}", text)
 
 
 def bad_assignment(path: str, message: str) -> LabsimError:

@@ -26,10 +26,10 @@ from pathlib import Path
 from labsim.backends.scene.world_names import builtin_name
 from labsim.dsl.emit.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
-from labsim.foundation.files import os_words, policy_problem, read_input
-from labsim.foundation.kinds import YAML_SUFFIXES, file_kind
+from labsim.foundation.files import os_words, policy_problem, read_head, read_input
+from labsim.foundation.kinds import BEHAVIOUR_ONLY_KEYS, HEAD_BYTES, YAML_SUFFIXES, file_kind, top_level_keys
 from labsim.foundation.version import version
-from labsim.runtime.grade.assignment import Assignment
+from labsim.runtime.grade.assignment import Assignment, budget_words
 from labsim.runtime.grade.copies import structures
 from labsim.runtime.grade.measure import graded_file, graders, prepare_read, the_assignments, unmeasurable
 
@@ -71,42 +71,93 @@ class Found:
     reason: str = ""
 
 
-def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...]]]:
-    """Every submission the arguments hold, and the groups of students whose names collided.
+def find_submissions(paths: list[str]) -> tuple[list[Found], list[tuple[str, ...]], list[tuple[str, str]]]:
+    """Every submission the arguments hold, the groups of students whose names collided, and
+    every file or folder passed over, with why (a world file, an assignment file, not YAML, the
+    same file given twice): nothing is dropped without a word.
 
-    An argument is a behaviour file; a folder of behaviour files (one student each; world and
-    assignment files beside them are skipped); or a folder of folders, one per student, each
-    holding one behaviour file. A student's id is their file's stem (their folder's name), or
-    where two of those would be one name (``alice.yaml`` and ``alice.yml``, ``Bob`` and ``bob``,
-    the same name in two folders) their path relative to the submissions folder, suffix and all,
-    led by the folder's name when that is still not enough. A file found in a folder is that
-    folder's: a link out of it, and anything but a regular file (a FIFO, a device), is a ``hostile
-    file`` row and nothing is read through it (docs/security.md)."""
+    An argument is a behaviour file, or a folder: each behaviour file in it is a student, and
+    each folder in it is a student's folder holding one behaviour file (and any world file it
+    reads); a folder may hold both. A student's id is their file's stem (their folder's name),
+    or where two of those would be one name (``alice.yaml`` and ``alice.yml``, ``Bob`` and
+    ``bob``, the same name in two folders) their path relative to the submissions folder, suffix
+    and all, led by the folder's name when that is still not enough. A file found in a folder is
+    that folder's, and a file named on the command line is the folder's it lies in: a link out
+    of it, and anything but a regular file (a FIFO, a device), is a ``hostile file`` row and
+    nothing is read through it (docs/security.md). The same file reached twice is one student."""
     missing = [Diagnostic(str(arg), "no such file or folder") for arg in map(Path, paths) if not os.path.lexists(arg)]
     if missing:  # a mistake on the command line, not a student's
         raise LabsimError(missing)
     entries: list[tuple[Path, str, Found]] = []  # (submissions folder, path relative to it, what was found)
+    skipped: list[tuple[str, str]] = []
     for arg in map(Path, paths):
-        if not arg.is_dir():  # named by the teacher: read as named (the one way in still refuses a FIFO)
-            entries.append((arg.parent, arg.name, Found(arg.stem, arg)))
+        if not arg.is_dir():  # a file named one by one: the folder it lies in is its folder
+            refused = _not_readable(arg, arg.parent)
+            entries.append((arg.parent, arg.name, Found(_stem(arg), arg, HOSTILE if refused else GRADED, refused)))
             continue
-        listed = sorted(arg.iterdir())
-        files = [p for p in listed if p.suffix in YAML_SUFFIXES and not _is_folder(p, arg)]
-        folders = [p for p in listed if _is_folder(p, arg) or (p.is_dir() and _not_readable(p, arg))]
-        if folders and not files:
-            entries += [(arg, f.name, _one_folder(f, arg)) for f in folders]
-            continue
-        for p in files:
+        # a folder named by the teacher is theirs, even through a link (submissions -> /mnt/lms/...)
+        for p in sorted(arg.iterdir()):
             refused = _not_readable(p, arg)
-            if refused:
-                entries.append((arg, p.name, Found(p.stem, p, HOSTILE, refused)))
-            elif file_kind(p) not in ("world", "assignment"):
-                entries.append((arg, p.name, Found(p.stem, p)))
-    return _named(entries)
+            if p.name.startswith(".") or p.name == "__MACOSX":  # a system's, not a student's (a zip from macOS)
+                skipped.append((str(p), "a hidden file or folder" if p.name.startswith(".") else
+                                "macOS archive metadata"))
+            elif refused:
+                entries.append((arg, p.name, Found(_stem(p), p, HOSTILE, refused)))
+            elif p.is_dir():
+                entries.append((arg, p.name, _one_folder(p, arg)))
+            elif not _yaml(p):
+                skipped.append((str(p), "not a .yaml or .yml file"))
+            else:
+                kind = _kind(p)
+                if kind == "behaviour":
+                    entries.append((arg, p.name, Found(_stem(p), p)))
+                else:
+                    skipped.append((str(p), f"{'an' if kind[0] in 'aeiou' else 'a'} {kind} file"))
+    found, collisions = _named(_unique(entries, skipped))
+    return found, collisions, sorted(set(skipped))
 
 
-def _is_folder(p: Path, root: Path) -> bool:
-    return p.is_dir() and not _not_readable(p, root)
+def _stem(p: Path) -> str:
+    return p.name[:-len(p.suffix)] if _yaml(p) else p.name
+
+
+def _yaml(p: Path) -> bool:
+    """Whether a name is a YAML file's, whatever the case of its suffix (``alice.YAML``)."""
+    return p.suffix.lower() in YAML_SUFFIXES
+
+
+def _kind(p: Path) -> str:
+    """What a YAML file in a submissions folder is: a world or an assignment file only when it
+    has none of a behaviour's keys (a behaviour with a stray ``labsim-world: 1`` is a student's,
+    whose compile error says so), 'behaviour' for every other file, even one that is no labsim
+    file at all (its row says why)."""
+    kind = file_kind(p)
+    if kind in ("world", "assignment"):
+        try:
+            keys = top_level_keys(read_head(p, HEAD_BYTES).decode("utf-8", "replace"))
+        except LabsimError:
+            return "behaviour"
+        if not keys & (BEHAVIOUR_ONLY_KEYS | {"states", "robots", "let", "metrics", "params"}):
+            return kind
+    return "behaviour"
+
+
+def _unique(entries: list[tuple[Path, str, Found]], skipped: list[tuple[str, str]]) -> list[tuple[Path, str, Found]]:
+    """The entries with each file (each student's folder) once, by its folder's path with links
+    followed and its name: a folder or a file given twice is one student, and the second is
+    listed as passed over. A link inside a folder to another file of it is a name of its own
+    (a row of its own, and a likely copy)."""
+    seen: dict[str, Path] = {}
+    out = []
+    for entry in entries:
+        where = entry[0] / entry[1]
+        real = os.path.join(os.path.realpath(entry[0]), entry[1])
+        if real in seen:
+            skipped.append((str(where), f"the same file as {seen[real]}: one row"))
+            continue
+        seen[real] = where
+        out.append(entry)
+    return out
 
 
 def _not_readable(p: Path, root: Path) -> str:
@@ -124,20 +175,19 @@ def _not_readable(p: Path, root: Path) -> str:
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
         kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
                 else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "not a regular file")
-        return f"{p}: is {kind}, not a behaviour file"
+        return f"{p}: is {kind}, not a regular file"
     return ""
 
 
 def _one_folder(folder: Path, root: Path) -> Found:
-    refused = _not_readable(folder, root)
-    if refused:
-        return Found(folder.name, folder, HOSTILE, refused)
-    listed = sorted(p for p in folder.iterdir() if p.suffix in YAML_SUFFIXES)
+    """A student's folder: its one behaviour file, or why not (a folder of world files only is
+    a student who sent no behaviour: a row, never passed over)."""
+    listed = sorted(p for p in folder.iterdir() if _yaml(p) and not p.name.startswith("."))
     for p in listed:
         refused = _not_readable(p, root)
         if refused:
             return Found(folder.name, p, HOSTILE, refused)
-    found = [p for p in listed if p.is_file() and file_kind(p) == "behaviour"]
+    found = [p for p in listed if p.is_file() and _kind(p) == "behaviour"]
     if len(found) != 1:
         return Found(folder.name, None, MISMATCH, f"the folder {folder} holds {len(found)} behaviour files; a "
                                                   "student's folder holds one")
@@ -145,25 +195,27 @@ def _one_folder(folder: Path, root: Path) -> Found:
 
 
 def _named(entries: list[tuple[Path, str, Found]]) -> tuple[list[Found], list[tuple[str, ...]]]:
-    """Each submission's id, unique whatever the disk's case rules (see ``find_submissions``)."""
-    def groups(names: list[str]) -> dict[str, list[int]]:
+    """Each submission's id, unique and a real path (see ``find_submissions``): ids that differ
+    only in case are two ids (their pages' names differ by a hash: gradebook.page_names)."""
+    def groups(names: list[str], fold: bool) -> dict[str, list[int]]:
         out: dict[str, list[int]] = {}
         for i, name in enumerate(names):
-            out.setdefault(name.casefold(), []).append(i)
+            out.setdefault(name.casefold() if fold else name, []).append(i)
         return out
 
     names = [f.student for _, _, f in entries]
-    collided = [g for g in groups(names).values() if len(g) > 1]
+    collided = [g for g in groups(names, True).values() if len(g) > 1]
     for group in collided:
         for i in group:
             names[i] = entries[i][1]  # the path relative to its submissions folder, suffix and all
-    for group in groups(names).values():
+    for group in groups(names, False).values():
         if len(group) > 1:
             for i in group:
                 names[i] = f"{entries[i][0].name or entries[i][0]}/{entries[i][1]}"
-    for group in groups(names).values():
-        for n, i in enumerate(group[1:], start=2):  # the same folder given twice: numbered
-            names[i] = f"{names[i]} ({n})"
+    for group in groups(names, False).values():
+        if len(group) > 1:  # two folders of one name (x/g1, y/g1): the paths as given
+            for i in group:
+                names[i] = str(entries[i][0] / entries[i][1])
     found = [replace(f, student=name) for (_, _, f), name in zip(entries, names)]
     return found, [tuple(names[i] for i in g) for g in collided]
 
@@ -210,11 +262,11 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
         return _refused(base, status, _first(own), own)
     warnings = tuple(w for w in program.warnings if w.path == program.path)  # not the grader's metrics'
     program = replace(program, warnings=warnings)
-    problems = contract_problems(program, assignment)
     world_file = None if builtin_name(program.world.source) else program.world.source
     if world_file is not None and not _inside(Path(world_file), path.parent):
         return _refused(base, HOSTILE, f"its world file {world_file} resolves outside the student's folder; "
                                        "nothing outside it is read", program.warnings)
+    problems = contract_problems(program, assignment)
     if problems:
         return _refused(base, MISMATCH, "; ".join(problems), program.warnings)
     if world_file is not None:  # a changed world file is a changed submission: it is graded anew
@@ -226,7 +278,10 @@ def check_submission(student: str, path: Path, assignment: Assignment) -> Submis
 
 
 def _refused(base: Submission, status: str, reason: str, diagnostics: Iterable[Diagnostic]) -> Submission:
-    return replace(base, status=status, reason=reason, diagnostics=tuple(diagnostics))
+    # a budget's hint names the assignment's budgets: labsim grade has no --budget
+    shown = tuple(replace(d, message=budget_words(d.message), notes=tuple(map(budget_words, d.notes)))
+                  for d in diagnostics)
+    return replace(base, status=status, reason=reason, diagnostics=shown)
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -249,10 +304,25 @@ def contract_problems(program: Program, assignment: Assignment) -> list[str]:
         for name, _ in group.params:
             if name in assignment.params:
                 out.append(f"robot '{group.name}' sets its own value of the grader's param '{name}'")
+    for group in program.robots:  # noise on the readings would change what the grader measures
+        if group.noise is not None or any(n is not None for n in group.member_noise):
+            out.append(f"robot '{group.name}' sets its own noise: the grader measures every run without noise "
+                       "(remove noise: to be graded)")
     for name in assignment.metrics:
         if name not in metrics:
             out.append(f"missing metric '{name}'{did_you_mean(name, metrics)}")
-    if assignment.world is not None and assignment.world not in (world.name, Path(world.source).stem):
+    if assignment.world is not None and assignment.world_sha256:
+        # the world's content, not its name: a world file of its own named as the assignment's
+        # world is another world
+        try:
+            theirs = hashlib.sha256(read_input(world.source, "world")).hexdigest()
+        except LabsimError:
+            theirs = ""
+        if theirs != assignment.world_sha256:
+            shown = builtin_name(world.source) or Path(world.source).name
+            named = f" (named '{world.name}')" if world.name != shown else ""
+            out.append(f"another world: it uses '{shown}'{named}, not the assignment's world '{assignment.world}'")
+    elif assignment.world is not None and assignment.world not in (world.name, Path(world.source).stem):
         out.append(f"it uses the world '{world.name}', not '{assignment.world}'")
     if assignment.robots is not None and robots != assignment.robots:
         out.append(f"it runs {robots} robot{'s' * (robots != 1)}, not {assignment.robots}")
@@ -278,4 +348,4 @@ def _first(diagnostics: list[Diagnostic]) -> str:
     d = errors[0]
     where = f"{Path(d.path).name}:{d.line}:{d.col}: " if d.line else ""
     more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    return " ".join(f"{where}{d.message}{more}".split())  # one line: a gradebook cell
+    return budget_words(" ".join(f"{where}{d.message}{more}".split()))  # one line: a gradebook cell

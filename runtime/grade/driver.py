@@ -23,6 +23,7 @@ from urllib.parse import urlsplit
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_FAILED, EXIT_OK
+from labsim.foundation.files import read_text
 from labsim.foundation.inert import inert
 from labsim.foundation.progress import StatusLine, bar
 from labsim.runtime.batch import DONE, STOPPED, TIMEOUT, DaskBatch, LocalBatch, Outcome, default_jobs, warm_up
@@ -39,7 +40,9 @@ from labsim.runtime.grade.contract import (
     check_submission,
     find_submissions,
 )
+from labsim.runtime.grade.contract import TIMEOUT as TIMEOUT_STATUS
 from labsim.runtime.grade.gradebook import cacheable, load_cached, save_cached, write_gradebook
+from labsim.runtime.grade.measure import measure_fault_metric
 from labsim.runtime.grade.runs import CRASHED, OVER_BUDGET, RAN, TIMED_OUT, Job, Pictures, SeedRun, make_job, run_job
 from labsim.runtime.grade.score import Grade, Graded, grade_of, likely_copies
 
@@ -89,7 +92,7 @@ def grade_class(options: Options) -> Graded:
     if options.scheduler is None:
         warm_up(PRELOAD)  # the workers' imports overlap the reference's runs and the checks
     reference = _reference(assignment)
-    found, collisions = find_submissions(options.submissions)
+    found, collisions, skipped = find_submissions(options.submissions)
     if not found:
         raise LabsimError([Diagnostic(" ".join(options.submissions), "no submissions (behaviour files) here")])
     submissions = _check_all(found, assignment, options.jobs or default_jobs())
@@ -132,8 +135,44 @@ def grade_class(options: Options) -> Graded:
         grades.append(grade_of(s, mine, assignment))
     pictures = {g.student: (g.runs[0].map_png, g.runs[0].animation_gif) for g in grades
                 if g.runs and g.runs[0].map_png}
+    warnings = assignment_warnings(assignment, reference, grades)
     return Graded(assignment, grades, likely_copies(grades), reference, sum(map(len, done)), reused, ended_by,
-                  pictures, collisions)
+                  pictures, collisions, skipped, warnings)
+
+
+def assignment_warnings(assignment: Assignment, reference: Grade | None, grades: list[Grade]) -> list[str]:
+    """The assignment's own problems the grading met, for the teacher: its reference does not
+    pass it (a criterion it fails is one no honest student passes either), or a measured metric
+    faulted on a student's run (the formula's fault, which no student is charged with)."""
+    out = []
+    if reference is not None:
+        failed = [r.name for r in reference.criteria if not r.passed]
+        if not reference.scored or failed:
+            why = (f"it fails {', '.join(failed)}" if failed else reference.reason) + \
+                  (f" ({reference.reason})" if failed and reference.gate else "")
+            out.append(f"the reference behaviour {reference.path} does not pass the assignment: "
+                       f"{reference.status}, {inert(why)}; check the assignment's criteria before sending grades")
+    faults: dict[str, tuple[int, str]] = {}
+    for g in grades:
+        seen = set()
+        for f in (f for r in g.runs for f in r.measure_faults):
+            name = measure_fault_metric(f)
+            if name not in seen:
+                seen.add(name)
+                count, first = faults.get(name, (0, f"{g.student}: {f}"))
+                faults[name] = (count + 1, first)
+    for name, (count, first) in faults.items():
+        out.append(f"{_measure_place(assignment, name)}: the measured metric '{name}' faulted on the runs of "
+                   f"{count} student{'s' * (count != 1)} (first {inert(first)}); that is the assignment's formula, "
+                   "not a student's fault: no_faults does not count it")
+    return out
+
+
+def _measure_place(assignment: Assignment, name: str) -> str:
+    """``assignment.yaml:line:col`` of a measured metric's name."""
+    decl = next((m for m in assignment.measure if m.name == name), None)
+    mark = getattr(decl.key, "start_mark", None) if decl is not None else None
+    return f"{assignment.path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else assignment.path
 
 
 def _check_all(found: list[Found], assignment: Assignment, jobs: int) -> list[Submission]:
@@ -141,9 +180,17 @@ def _check_all(found: list[Found], assignment: Assignment, jobs: int) -> list[Su
     one refused when it was found (a link out, a FIFO, a folder without one behaviour) is its row."""
     items = [(f.student, f.path, assignment) for f in found if f.path is not None and f.status == GRADED]
     checked: dict[str, Submission] = {}
-    for o in LocalBatch(jobs).outcomes(_check, items):
+    # a file that takes longer to compile than a run may take (a hostile one of 20,000 rules) is
+    # stopped there, as its run would be: one file never stalls the class
+    limit = len(assignment.seeds) * assignment.timeout_s + 5.0  # a student's, as for their runs (_run_jobs)
+    for o in LocalBatch(jobs, limit, name="labsim-grade-check").outcomes(_check, items):
         student, path, _ = items[o.index]
         checked[student] = (o.value if o.kind == DONE else
+                            Submission(student, str(path), "", "", TIMEOUT_STATUS,
+                                       f"compiling it took longer than the student's time limit of {limit:g} s "
+                                       f"({len(assignment.seeds)} seed{'s' * (len(assignment.seeds) != 1)} of "
+                                       f"{assignment.timeout_s:g} s, and 5 s), and it was stopped")
+                            if o.kind == TIMEOUT else
                             Submission(student, str(path), "", "", CRASH, f"checking it failed: {o.message}"))
     return [checked[f.student] if f.student in checked else
             Submission(f.student, str(f.path or f.student), "", "", f.status if f.status != GRADED else MISMATCH,
@@ -167,6 +214,22 @@ def _reference(assignment: Assignment) -> Grade | None:
                             measure=assignment.measure, moved=assignment.moves))
     if any(r.status == seed_runs.STOPPED for r in runs):  # Ctrl-C (or SIGTERM) before any student ran
         raise KeyboardInterrupt
+    faulted = [(r.seed, f) for r in runs for f in r.measure_faults]
+    if faulted:  # the formula faults on the teacher's own behaviour: it would on every student's
+        seed, fault = faulted[0]
+        name = measure_fault_metric(fault)
+        decl = next((m for m in assignment.measure if m.name == name), None)
+        mark = getattr(decl.key, "start_mark", None) if decl is not None else None
+        line = mark.line + 1 if mark else 0
+        try:
+            shown = read_text(assignment.path, "assignment").splitlines()[line - 1] if line else ""
+        except (LabsimError, IndexError):
+            shown = ""
+        raise LabsimError([Diagnostic(assignment.path, f"the measured metric '{name}' faults on the reference "
+                                                       f"behaviour's run (seed {seed}: {fault}); fix its formula "
+                                                       "before grading",
+                                      line, mark.column + 1 if mark else 0, mark.column + 1 + len(name) if mark else 0,
+                                      source_line=shown)])
     return grade_of(submission, list(runs), assignment)
 
 
@@ -262,6 +325,10 @@ def feedback_prefix(url: str) -> str:
         raise LabsimError([Diagnostic("--feedback-url", f"give the http(s) address the --out folder will have "
                                                          f"online, e.g. https://example.edu/lab4/grades/, not "
                                                          f"{inert(url[:80])!r}")])
+    if "?" in url or "#" in url:  # feedback/NAME.html would land in the query or the fragment
+        raise LabsimError([Diagnostic("--feedback-url", f"give the folder's address without a query or a fragment "
+                                                         f"('?' or '#'): each page's link is the address followed by "
+                                                         f"feedback/NAME.html, not {inert(url[:80])!r}")])
     return url if url.endswith("/") else url + "/"
 
 
@@ -269,11 +336,13 @@ def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
     """Write the gradebook and the pages of a graded class; print the counts; the exit code."""
     inputs = [graded.assignment.path, *(g.path for g in graded.grades)]
     written = write_gradebook(options.out, graded.grades, graded.assignment, graded.copies, graded.reference, inputs,
-                              options.feedback_url, graded.collisions)
-    if pages:
-        from labsim.runtime.grade.pages import write_pages
+                              options.feedback_url, graded.collisions, graded.skipped, graded.warnings, pages)
+    from labsim.runtime.grade.pages import remove_stale_pages, write_pages
 
+    if pages:
         written += write_pages(options.out, graded, inputs)
+    else:  # no page of a last grading stays up beside this gradebook, which links none
+        remove_stale_pages(options.out, set(), overview=False)
     counts: dict[str, int] = {}
     for g in graded.grades:
         counts[g.status] = counts.get(g.status, 0) + 1
@@ -283,6 +352,10 @@ def write_class(graded: Graded, options: Options, pages: bool = True) -> int:
         print(f"likely copies ({why}): {inert(', '.join(students))}")
     for group in graded.collisions:
         print(f"names that collide, each its own row: {inert(', '.join(group))}")
+    for passed, why in graded.skipped:
+        print(f"passed over: {inert(passed)}: {why}")
+    for warning in graded.warnings:
+        print(f"labsim grade: warning: {warning}", file=sys.stderr)
     for path in written[:3]:
         print(f"wrote {path}")
     if pages:

@@ -29,7 +29,9 @@ from labsim.runtime.grade.runs import RAN, SeedRun
 from labsim.runtime.grade.score import Grade
 
 FORMAT = "labsim-gradebook/1"
-CACHE_FORMAT = "labsim-grade-cache/3"  # 2: a run keeps its pictures, no longer its trace; 3: measured metrics
+# 2: a run keeps its pictures, no longer its trace; 3: measured metrics; 4: their faults apart, the
+# stopping tick folded whatever the file's format version
+CACHE_FORMAT = "labsim-grade-cache/4"
 
 
 def _number(value: float | None, digits: int = 6) -> float | None:
@@ -39,19 +41,21 @@ def _number(value: float | None, digits: int = 6) -> float | None:
     return round(value, digits)
 
 
-def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "") -> list[list[object]]:
+def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "",
+             pages: bool = True) -> list[list[object]]:
     """The gradebook: a header, then one row per student; ``feedback_url`` leads each page's
-    link (where the teacher puts the ``feedback`` folder online), else the link is relative."""
+    link (where the teacher puts the ``feedback`` folder online), else the link is relative;
+    without ``pages`` (--no-pages) the Feedback column is empty: it links no page never written."""
     header: list[object] = ["Student", "Score", "Status", "Reason", "Feedback"]
     header += [f"pass {c.name}" for c in assignment.criteria]
     header += [f"mean {m}" for m in assignment.measured]
     header += [f"mean {m}" + (" (student's)" if m in assignment.measured else "") for m in assignment.metrics]
     header += ["Messages"]
     rows: list[list[object]] = [header]
-    pages = page_names([g.student for g in grades])
+    names = page_names([g.student for g in grades])
     for g in grades:
         passed = {r.name: ("pass" if r.passed else "fail") for r in g.criteria}
-        link = f"{feedback_url}feedback/{pages[g.student]}"
+        link = f"{feedback_url}feedback/{names[g.student]}" if pages else ""
         row: list[object] = [g.student, _number(g.score, 2), g.status, g.reason, link]
         row += [passed.get(c.name, "") for c in assignment.criteria]
         row += [_number(g.measured.get(m)) for m in assignment.measured]
@@ -61,17 +65,19 @@ def csv_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = ""
     return rows
 
 
-def canvas_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "") -> list[list[object]]:
+def canvas_rows(grades: list[Grade], assignment: Assignment, feedback_url: str = "",
+                pages: bool = True) -> list[list[object]]:
     """Canvas's grade import: Student, ID, SIS User ID, SIS Login ID, Section, then the
     assignment's column; the student's name goes in SIS Login ID, which Canvas matches on. With
     ``feedback_url``, a ``Notes`` column (Canvas's own notes column, which its import fills when
     the gradebook shows it) holds each page's absolute link."""
     header: list[object] = ["Student", "ID", "SIS User ID", "SIS Login ID", "Section", assignment.title]
-    pages = page_names([g.student for g in grades])
-    rows: list[list[object]] = [header + (["Notes"] if feedback_url else [])]
+    names = page_names([g.student for g in grades])
+    notes = bool(feedback_url) and pages
+    rows: list[list[object]] = [header + (["Notes"] if notes else [])]
     for g in grades:
         row: list[object] = [g.student, "", "", g.student, "", _number(g.score, 2)]
-        rows.append(row + ([f"{feedback_url}feedback/{pages[g.student]}"] if feedback_url else []))
+        rows.append(row + ([f"{feedback_url}feedback/{names[g.student]}"] if notes else []))
     return rows
 
 
@@ -88,7 +94,9 @@ def messages(g: Grade) -> list[str]:
     out: list[str] = []
     for r in g.runs:
         out += [f"fault: {f}" for f in r.faults]
-        out += [f"warning: {w.splitlines()[0] if w else w}" for w in r.warnings]  # the caret is on the page
+        for w in r.warnings:  # the first line: the caret is on the page; "warning:" once
+            first = w.splitlines()[0] if w else w
+            out.append(first if "warning: " in first else f"warning: {first}")
     return list(dict.fromkeys(out))[:10]
 
 
@@ -125,6 +133,7 @@ def grade_dict(g: Grade) -> dict[str, Any]:
                       "metrics": {k: _number(v) for k, v in r.metrics.items()},
                       "measured": {k: _number(v) for k, v in r.measured.items()},
                       "distance_m": _number(r.distance_m), "faults": list(r.faults),
+                      "measure_faults": list(r.measure_faults),
                       "collisions": r.collisions, "ticks": r.ticks, "never_fired": list(r.never_fired)}
                      for r in g.runs],
             "diagnostics": [diagnostic_dict(d) for d in g.diagnostics],
@@ -132,7 +141,8 @@ def grade_dict(g: Grade) -> dict[str, Any]:
 
 
 def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tuple[str, tuple[str, ...]]],
-                   reference: Grade | None, collisions: list[tuple[str, ...]] | None = None) -> str:
+                   reference: Grade | None, collisions: list[tuple[str, ...]] | None = None,
+                   skipped: list[tuple[str, str]] | None = None, warnings: list[str] | None = None) -> str:
     counts: dict[str, int] = {}
     for g in grades:
         counts[g.status] = counts.get(g.status, 0) + 1
@@ -144,6 +154,8 @@ def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tup
             "counts": counts, "students": [grade_dict(g) for g in grades],
             "likely_copies": [{"why": why, "students": list(students)} for why, students in copies],
             "name_collisions": [list(group) for group in collisions or []],
+            "passed_over": [{"path": path, "why": why} for path, why in skipped or []],
+            "assignment_warnings": list(warnings or []),
             "reference": grade_dict(reference) if reference is not None else None}
     return json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
@@ -151,12 +163,14 @@ def gradebook_json(grades: list[Grade], assignment: Assignment, copies: list[tup
 def write_gradebook(out: Path, grades: list[Grade], assignment: Assignment,
                     copies: list[tuple[str, tuple[str, ...]]], reference: Grade | None,
                     inputs: list[str], feedback_url: str = "",
-                    collisions: list[tuple[str, ...]] | None = None) -> list[Path]:
+                    collisions: list[tuple[str, ...]] | None = None, skipped: list[tuple[str, str]] | None = None,
+                    warnings: list[str] | None = None, pages: bool = True) -> list[Path]:
     written = [out / "gradebook.csv", out / "gradebook.json", out / "canvas.csv"]
-    write_output(written[0], csv_text(csv_rows(grades, assignment, feedback_url)), inputs, "--out")
-    write_output(written[1], gradebook_json(grades, assignment, copies, reference, collisions or []), inputs,
+    write_output(written[0], csv_text(csv_rows(grades, assignment, feedback_url, pages)), inputs, "--out")
+    write_output(written[1], gradebook_json(grades, assignment, copies, reference, collisions or [], skipped, warnings),
+                 inputs,
                  "--out")
-    write_output(written[2], csv_text(canvas_rows(grades, assignment, feedback_url)), inputs, "--out")
+    write_output(written[2], csv_text(canvas_rows(grades, assignment, feedback_url, pages)), inputs, "--out")
     return written
 
 
@@ -179,7 +193,7 @@ def _run_of(d: dict[str, Any]) -> SeedRun:
     d["diagnostics"] = tuple(Diagnostic(**{**x, "notes": tuple(x["notes"])}) for x in d["diagnostics"])
     d["map_png"] = base64.b64decode(d["map_png"])
     d["animation_gif"] = base64.b64decode(d["animation_gif"])
-    for name in ("faults", "warnings", "logs", "never_fired"):
+    for name in ("faults", "warnings", "logs", "never_fired", "measure_faults"):
         d[name] = tuple(d[name])
     return SeedRun(**d)
 

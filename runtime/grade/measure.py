@@ -11,6 +11,7 @@ contract check (contract.py) and the runs (runs.py) both compile through it.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -95,3 +96,22 @@ def unmeasurable(e: LabsimError, assignment_path: str) -> str:
     d = next(d for d in e.diagnostics if d.severity == "error")
     return (f"the assignment's measured metrics cannot be measured on this file: {Path(d.path).name}:{d.line}:"
             f"{d.col}: {d.message}")
+
+
+_MEASURE_FAULT = re.compile(r"^metric '([A-Za-z_][A-Za-z0-9_]*)" + re.escape(MEASURED_SUFFIX) + "'")
+
+
+def is_measure_fault(fault: str) -> bool:
+    """Whether a run's fault is in one of the grader's measured metrics (the assignment's formula)."""
+    return _MEASURE_FAULT.match(fault) is not None
+
+
+def measure_fault_words(fault: str) -> str:
+    """A measured metric's fault, naming the metric as the assignment does."""
+    return _MEASURE_FAULT.sub(lambda m: f"measured metric '{m.group(1)}'", fault, count=1)
+
+
+def measure_fault_metric(fault: str) -> str:
+    """The measured metric a fault (``measure_fault_words``) is in."""
+    m = re.match(r"^measured metric '([A-Za-z_][A-Za-z0-9_]*)'", fault)
+    return m.group(1) if m else ""

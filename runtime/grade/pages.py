@@ -44,9 +44,13 @@ def e(text: object) -> str:
     return html.escape("\n".join(inert(line) for line in str(text).split("\n")), quote=True)
 
 
+# how every page the grader writes begins: what tells its pages from anyone else's files in --out
+PAGE_HEAD = ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+             f"<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">")
+
+
 def _page(title: str, body: list[str]) -> str:
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">"
+    return (PAGE_HEAD +
             f"<title>{e(title)}</title><style>{STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
 
 
@@ -80,7 +84,8 @@ def metric_words(assignment: Assignment, metric: str) -> tuple[str, str, str]:
         return "", "", ""
     call = decl.value.node
     names = {n.id for n in _names(call)}
-    unit = ("s" if call.func == "duration" else "" if call.func == "count" else
+    unit = ("s" if call.func == "duration" or (call.func != "count" and names == {"time"}) else
+            "" if call.func == "count" else
             "m" if names and all(_METRES.match(n) for n in names) else
             "m/s" if names == {"forward_speed"} else "")
     return _WORDS.get(call.func, call.func), assignment.definition(metric), unit
@@ -108,7 +113,9 @@ def _needed(c: Criterion) -> str:
 def run_command(g: Grade, assignment: Assignment, seed: int) -> str:
     """The ``labsim run`` command that makes a seed's run again, with the grader's params."""
     sets = " ".join(f"--set {shlex.quote(f'{k}={v}')}" for k, v in sorted(assignment.params.items()))
-    return " ".join(p for p in ("labsim run", shlex.quote(Path(g.path).name), sets, f"--seed {seed}") if p)
+    name = Path(g.path).name
+    name = f"./{name}" if name.startswith("-") else name  # never read as an option
+    return " ".join(p for p in ("labsim run", shlex.quote(name), sets, f"--seed {seed}") if p)
 
 
 def _with_unit(value: float | None, unit: str) -> str:
@@ -150,8 +157,9 @@ def feedback_page(g: Grade, assignment: Assignment, pictures: tuple[str, str | N
             f"<p><span class=\"status\">{e(g.status)}</span> <strong>{e(score)}</strong></p>"]
     if g.gate:
         why = next((r.why for r in g.criteria if r.name == g.gate), "")
-        body.append(f"<p class=\"fail\">The required criterion {e(g.gate)} failed, so the score is "
-                    f"{assignment.gate_score:g} whatever the others earned. Why: {e(why)}</p>")
+        body.append(f"<p class=\"fail\">The required criterion {e(g.gate)} failed, so the score is the "
+                    f"assignment's {assignment.gate_score:g} for a failed gate (or what the other criteria earned, "
+                    f"if that is less). Why: {e(why)}</p>")
     elif g.reason:
         body.append(f"<p>{e(g.reason)}</p>")
     errors = [d for d in g.diagnostics if d.severity == "error"]
@@ -237,6 +245,7 @@ def overview_page(graded: Graded, charts: list[str]) -> str:
                e(f"{sum(r.passed for g in scored for r in g.criteria if r.name == c.name)} of {len(scored)}")]
               for c in a.criteria]
     body = [f"<h1>{e(a.title)}: the class</h1>",
+            *(f"<p class=\"fail\"><strong>The assignment: {e(w)}</strong></p>" for w in graded.warnings),
             f"<p>{len(graded.grades)} submissions, {len(a.seeds)} seed{'s' * (len(a.seeds) > 1)} each "
             f"({e(', '.join(map(str, a.seeds)))}); the grader's params: "
             f"{e(', '.join(f'{k} = {v}' for k, v in a.params.items()) or 'none')}</p>",
@@ -254,6 +263,9 @@ def overview_page(graded: Graded, charts: list[str]) -> str:
         body += ["<h2>Names that collide</h2>", "<p class=\"muted\">these submissions would have had one name; "
                  "each has its own row and page under the name shown</p>",
                  _table(["students"], [[e(", ".join(group))] for group in graded.collisions])]
+    if graded.skipped:
+        body += ["<h2>Passed over</h2>", "<p class=\"muted\">found in the submissions folders, but no student's "
+                 "submission</p>", _table(["file", "why"], [[e(p), e(why)] for p, why in graded.skipped])]
     if graded.copies:
         body += ["<h2>Likely copies</h2>", "<p class=\"muted\">for you to look at; not a verdict</p>",
                  _table(["what matched", "students"], [[e(why), e(", ".join(s))] for why, s in graded.copies])]
@@ -288,6 +300,39 @@ def charts(graded: Graded, folder: Path, inputs: list[str]) -> list[Path]:
     return out
 
 
+def _ours(path: Path) -> bool:
+    """Whether a file in --out is a page the grader wrote (a regular file, not a link, that
+    begins as its pages do): only those are ever removed."""
+    try:
+        if path.is_symlink() or not path.is_file():
+            return False
+        with open(path, "rb") as f:
+            return f.read(len(PAGE_HEAD.encode())).decode("utf-8", "replace") == PAGE_HEAD
+    except OSError:
+        return False
+
+
+def remove_stale_pages(out: Path, keep: set[str], overview: bool) -> None:
+    """Remove the pages a last grading wrote in ``out`` that this one does not (a student gone,
+    a page renamed; with ``overview`` False, --no-pages, every page and the overview): each
+    feedback page the grader wrote, its map and animation beside it, and the overview with its
+    charts. Nothing else is touched, so a teacher's own files in --out stay."""
+    feedback = out / "feedback"
+    for page in sorted(feedback.glob("*.html")) if feedback.is_dir() else []:
+        if page.name in keep or not _ours(page):
+            continue
+        for picture in (page.with_suffix(".png"), page.with_suffix(".gif")):
+            if picture.is_file() and not picture.is_symlink():
+                picture.unlink()
+        page.unlink()
+    if not overview and _ours(out / "index.html"):
+        (out / "index.html").unlink()
+        charts = out / "charts"
+        for chart in sorted(charts.glob("[0-9][0-9].svg")) if charts.is_dir() else []:
+            if chart.is_file() and not chart.is_symlink() and chart.read_bytes().startswith(b"<svg "):
+                chart.unlink()
+
+
 def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
     """The overview (``index.html``), its charts, and a feedback page per student, with the map
     and the animation of their first seed beside it when its worker drew them."""
@@ -295,6 +340,7 @@ def write_pages(out: Path, graded: Graded, inputs: list[str]) -> list[Path]:
     feedback.mkdir(parents=True, exist_ok=True)
     written = []
     pages = page_names([g.student for g in graded.grades])
+    remove_stale_pages(out, set(pages.values()), overview=True)
     for g in graded.grades:
         name = pages[g.student]
         png, gif = name.removesuffix(".html") + ".png", name.removesuffix(".html") + ".gif"

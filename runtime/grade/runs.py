@@ -29,7 +29,14 @@ from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import allowing, read_input
 from labsim.foundation.limits import Budgets
 from labsim.runtime.batch import stop_asked
-from labsim.runtime.grade.measure import SPEED_METRIC, prepare_graded, split_metrics
+from labsim.runtime.grade.assignment import budget_words
+from labsim.runtime.grade.measure import (
+    SPEED_METRIC,
+    is_measure_fault,
+    measure_fault_words,
+    prepare_graded,
+    split_metrics,
+)
 from labsim.runtime.recording import Recording
 from labsim.runtime.result import STOP_CONDITION, RunResult
 from labsim.runtime.run import Behaviour, Run
@@ -81,6 +88,9 @@ class SeedRun:
     animation_gif: bytes = b""
     measured: Mapping[str, float] = field(default_factory=dict)  # the assignment's measured metrics
     distance_m: float | None = None  # the least distance a robot drove (when the assignment asks)
+    # the faults of the assignment's measured metrics (a division by zero in its formula): the
+    # assignment's, never the student's, so no_faults does not read them
+    measure_faults: tuple[str, ...] = ()
 
 
 class _Deadline(Exception):
@@ -101,7 +111,7 @@ def run_job(job: Job) -> tuple[SeedRun, ...]:
             out = _runs(job, local, started)
 
         def named(text: str) -> str:  # the scratch folder's names, as the teacher gave them
-            return text.replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent))
+            return budget_words(text.replace(local, job.shown_as).replace(d, str(Path(job.shown_as).parent)))
 
     return tuple(replace(r, message=named(r.message), warnings=tuple(map(named, r.warnings)),
                          faults=tuple(map(named, r.faults)), logs=tuple(map(named, r.logs))) for r in out)
@@ -117,7 +127,9 @@ def _runs(job: Job, local: str, started: float) -> list[SeedRun]:
         if i:
             started = clock.perf_counter()  # each run has the whole time limit; the first counts the compile
         try:
-            program = prepared.program(seed)
+            # the stopping tick folded into the metrics whatever the file's format version (a
+            # format-1 file's run leaves it out): the grader's metrics mean the same for everyone
+            program = replace(prepared.program(seed), fold_stop=True)
         except LabsimError as e:
             out.append(_not_compiled(seed, e, local, job.shown_as, started))
             continue
@@ -187,12 +199,14 @@ def seed_run(seed: int, result: RunResult, wall_s: float) -> SeedRun:
     status = OVER_BUDGET if result.over_budget else STOPPED if result.interrupted else RAN
     values = {k: float(v) for k, v in result.metric_values().items()}  # a count is a float too, as the cache keeps it
     metrics, measured = split_metrics(values)
+    faults = tuple(f for f in result.faults if not is_measure_fault(f))
+    measure_faults = tuple(measure_fault_words(f) for f in result.faults if is_measure_fault(f))
     speeds = [float(r.metrics[SPEED_METRIC]) for r in result.robots.values() if SPEED_METRIC in r.metrics]
     distance = min((s * result.sim_time_s if s == s else 0.0 for s in speeds), default=None)
     return SeedRun(seed, status, result.over_budget, metrics, result.stop_reason == STOP_CONDITION,
-                   result.faults, sum(r.contacts for r in result.robots.values()), result.warnings, result.logs,
+                   faults, sum(r.contacts for r in result.robots.values()), result.warnings, result.logs,
                    tuple(f"{r.id}: {r.text}" for r in result.rules if r.ticks == 0), result.ticks,
-                   result.sim_time_s, wall_s, measured=measured, distance_m=distance)
+                   result.sim_time_s, wall_s, measured=measured, distance_m=distance, measure_faults=measure_faults)
 
 
 def _renamed(d: Diagnostic, local: str, shown: str) -> Diagnostic:

@@ -81,6 +81,11 @@ class Graded:
     pictures: dict[str, tuple[bytes, bytes]] = field(default_factory=dict)
     # the groups of students whose names alone would have been one (alice.yaml and alice.yml)
     collisions: list[tuple[str, ...]] = field(default_factory=list)
+    # what was passed over in the submissions folders, with why (a world file, the same file twice)
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+    # the assignment's own problems met while grading (its reference fails it, a measured
+    # metric's fault): said on stderr, in the JSON and atop the overview
+    warnings: list[str] = field(default_factory=list)
 
 
 def grade_of(submission: Submission, runs: list[SeedRun], assignment: Assignment) -> Grade:

@@ -37,7 +37,7 @@ EXPECTED = {
     "renamed_param": ("contract mismatch", "missing param 'minutes' (did you mean 'run_minutes'?)"),
     "renamed_metric": ("contract mismatch", "missing metric 'closest'; missing metric 'following' (did you mean "
                                             "'follow_time'?)"),
-    "wrong_world": ("contract mismatch", "it uses the world 'road_loop', not 'walls_lab4'"),
+    "wrong_world": ("contract mismatch", "another world: it uses 'road_loop', not the assignment's world 'walls_lab4'"),
     "two_robots": ("contract mismatch", "it runs 2 robots, not 1"),
     "nan_wheels": ("graded", ""),
     "copy_comments": ("graded", ""),

@@ -34,17 +34,17 @@ def test_links_out_fifos_and_links_to_folders_out_are_hostile_rows(tmp_path: Pat
     (cls / "s23.yaml").symlink_to("../reference.yaml")
     (cls / "inside.yaml").symlink_to("honest.yaml")  # a link inside the folder is the folder's
     os.mkfifo(cls / "pipe.yaml")
-    found, collisions = find_submissions([str(cls)])
+    found, collisions, skipped = find_submissions([str(cls)])
     rows = {f.student: (f.status, f.reason) for f in found}
     assert rows == {
         "honest": ("graded", ""), "inside": ("graded", ""),
-        "pipe": ("hostile file", f"{cls}/pipe.yaml: is a FIFO (named pipe), not a behaviour file"),
+        "pipe": ("hostile file", f"{cls}/pipe.yaml: is a FIFO (named pipe), not a regular file"),
         "s22": ("hostile file", f"{cls}/s22.yaml: is a symbolic link to a file outside the behaviour's folder; "
                                 "a submission is read only inside its submissions folder"),
         "s23": ("hostile file", f"{cls}/s23.yaml: is a symbolic link to a file outside the behaviour's folder; "
                                 "a submission is read only inside its submissions folder"),
     }
-    assert collisions == []
+    assert collisions == [] and skipped == []
 
 
 def test_a_student_folder_that_is_a_link_out_or_holds_one_is_hostile(tmp_path: Path) -> None:
