@@ -147,8 +147,8 @@ class TickRecorder(Watcher):
         # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
         kept = self.samples[i]
         kept.append((self._run.tick_index, self.read(values), self.keep(robot.program.slots)))
-        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is open): every other one goes
-            del kept[::2]
+        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is ready): every other one goes,
+            del kept[1:-1:2]  # the first and the last kept, so the chart still spans every tick since
         if self.breaks:
             self._check(robot, rule, values)
 

@@ -24,7 +24,7 @@ WALL = ROOT / "behaviours" / "wall_follow.yaml"
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "labsim", "run", str(WALL), "--set", "minutes=0.1", *args],
+    return subprocess.run([sys.executable, "-m", "labsim", "run", str(WALL), "--set", "minutes=0.4", *args],
                           capture_output=True, text=True, timeout=300)
 
 
@@ -34,11 +34,11 @@ def test_a_group_in_a_breakpoint_stops_on_the_tick_its_members_written_out_do() 
     for proc in outputs:
         assert proc.returncode == 0, proc.stderr
     heads = [proc.stdout.splitlines()[0] for proc in outputs]
-    assert heads[0] == "--break: 'min([sonar5, sonar2]) < 0.5' held at tick 46 (2.30 s) for robot pioneer"
-    assert heads[1] == "--break: 'min(sonar5, sonar2) < 0.5' held at tick 46 (2.30 s) for robot pioneer"
-    assert heads[2].endswith("held at tick 46 (2.30 s) for robot pioneer")
-    assert outputs[0].stdout.splitlines()[1:] == ["  state: wander", "  rule: wander:1", "  sonar5 = 0.498439",
-                                                  "  sonar2 = 0.630276"]
+    assert heads[0] == "--break: 'min([sonar5, sonar2]) < 0.5' held at tick 367 (18.35 s) for robot pioneer"
+    assert heads[1] == "--break: 'min(sonar5, sonar2) < 0.5' held at tick 367 (18.35 s) for robot pioneer"
+    assert heads[2].endswith("held at tick 367 (18.35 s) for robot pioneer")
+    assert outputs[0].stdout.splitlines()[1:] == ["  state: wander", "  rule: wander:1", "  sonar5 = 0.498539",
+                                                  "  sonar2 = 0.62237"]
     assert "collisions" not in outputs[0].stdout  # the summary of a run cut short is not printed
 
 
@@ -92,8 +92,8 @@ def test_break_and_json_are_refused_together() -> None:
 def test_the_state_a_breakpoint_reads_is_shown_by_its_name() -> None:
     proc = run("--break", "ahead < front and state == wander")
     assert proc.stdout.splitlines() == [
-        "--break: 'ahead < front and state == wander' held at tick 46 (2.30 s) for robot pioneer",
-        "  state: wander", "  rule: wander:1", "  ahead = 0.498439", "  front = 0.5", "  state = wander"]
+        "--break: 'ahead < front and state == wander' held at tick 367 (18.35 s) for robot pioneer",
+        "  state: wander", "  rule: wander:1", "  ahead = 0.498539", "  front = 0.5", "  state = wander"]
 
 
 def test_the_evaluator_writes_a_when_rule_s_log_as_the_run_prints_it(write) -> None:
