@@ -21,7 +21,17 @@ from helpers import ROOT
 from labsim.runtime.trace import read_trace
 
 aiohttp = pytest.importorskip("aiohttp")
-WALL = ROOT / "behaviours" / "wall_follow.yaml"
+# a robot driven into a wall: the wheel drive's velocity callback runs on every step of a contact
+# (a free body's velocity is set after the step), so the run must meet a wall, and soon
+PUSHER = """labsim: 1.2
+name: Into the wall
+world: walls_lab4
+stop: time >= 60
+robots:
+  pioneer: {model: pioneer_p3dx, at: [6.5, -4, 0]}
+rules:
+  - always move(4)
+"""
 
 # labsim view, with the wheel drive's C callback sending the signal to its own process on its
 # CALL-th call, and entering a Python function there: the handler runs on that entry, inside
@@ -73,7 +83,9 @@ async def _play(url: str) -> None:
 
 def _trial(tmp_path: Path, call: int, name: str = "SIGTERM") -> tuple[int, str, Path]:
     trace = tmp_path / f"live-{name}-{call}.csv"
-    code = DRIVER.format(call=call, signal=name, wall=str(WALL), trace=str(trace))
+    pusher = tmp_path / "pusher.yaml"
+    pusher.write_text(PUSHER, encoding="utf-8")
+    code = DRIVER.format(call=call, signal=name, wall=str(pusher), trace=str(trace))
     p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          cwd=ROOT)
     assert p.stdout is not None
