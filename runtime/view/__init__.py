@@ -49,8 +49,8 @@ def view(path: str, *, overrides: dict[str, str], seed: int | None = None, backe
     session = _session(path, overrides, seed, backend, backend_options, trace, warn, breaks or [], read_only, budgets)
     broken = False
     if isinstance(session, LiveSession) and not session.load():
-        refused = [d for d in session.problems if d.path.startswith(("--trace ", "--break"))]
-        if refused:  # an output over an input, a bad breakpoint: the command line's mistake, no page, exit 2
+        refused = [d for d in session.problems if d.path.startswith(("--trace ", "--break", "--set ", "--seed"))]
+        if refused:  # an output over an input, a bad breakpoint or --set: the command line's mistake, no page, exit 2
             session.close()
             raise LabsimError(refused)
         report(session.problems)

@@ -544,6 +544,14 @@ def test_two_breakpoints_on_one_tick_are_both_named_and_neither_is_late(tmp_path
     s.close()
 
 
+def test_a_bad_set_on_the_command_line_is_exit_2_before_any_page(capsys) -> None:  # type: ignore[no-untyped-def]
+    assert main(["view", str(ROOT / "behaviours" / "crane.yaml"), "--set", "minutes=0.5", "--no-browser",
+                 "--port", "0"]) == 2
+    out, err = capsys.readouterr()
+    assert " at http" not in out  # no page was served
+    assert "--set minutes=0.5: error: unknown parameter 'minutes'" in err
+
+
 def test_a_bad_break_on_the_command_line_is_exit_2_with_its_column(capsys) -> None:  # type: ignore[no-untyped-def]
     assert main(["view", str(WALL), "--break", "sonar5 < 0.3 and sonr9 > 1", "--no-browser", "--port", "0"]) == 2
     err = capsys.readouterr().err
