@@ -303,11 +303,8 @@ class GroundView:
         self._cameras[camera] = plan
         return plan
 
-    def homography(self, x_m: float, y_m: float, heading_rad: float, camera: Camera) -> np.ndarray:
-        """The 3x3 map from image pixels (column, row, 1) to texture pixels (column, row, 1)."""
-        return self._homography(self._cameras.get(camera) or self._plan(camera), x_m, y_m, heading_rad)
-
     def _homography(self, plan: tuple, x_m: float, y_m: float, heading_rad: float) -> np.ndarray:
+        """The 3x3 map from image pixels (column, row, 1) to texture pixels (column, row, 1)."""
         b, _, mount_x, height, _, _, _ = plan
         ch, sh = math.cos(heading_rad), math.sin(heading_rad)
         cx, cy = x_m + mount_x * ch, y_m + mount_x * sh  # the camera's centre over the floor

@@ -50,10 +50,10 @@ from labsim.backends.pymunk.fleet_sense import (
     compile_sense,
     cone_hit,
 )
-from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
+from labsim.backends.pymunk.simulator import COLLISION_SLOP_M
 from labsim.backends.scene.ground import ROAD_CHANNELS, Ground, RoadTracker
 from labsim.backends.scene.models import RobotModel, Sonar
-from labsim.backends.scene.world import Block, World, first_road, world_channels
+from labsim.backends.scene.world import Block, World, first_road, world_channels, wrap
 
 # Shared by robots, walls and blocks; pymunk multiplies the two shapes' values. Robots slide
 # along walls rather than sticking to them, yet a glancing contact still turns them a little.

@@ -21,9 +21,9 @@ import pymunk
 
 from labsim.backends.pymunk import chipmunk
 from labsim.backends.pymunk.ray_cast import RaySet, SonarRay
-from labsim.backends.pymunk.simulator import wrap
 from labsim.backends.scene.ground import RoadTracker
 from labsim.backends.scene.models import Camera
+from labsim.backends.scene.world import wrap
 
 SenseFn = Callable[[], list[list[object]]]
 

@@ -81,10 +81,10 @@ from labsim.backends.pymunk.joints import (
     build_joint,
     control,
 )
-from labsim.backends.pymunk.simulator import COLLISION_SLOP_M, wrap
+from labsim.backends.pymunk.simulator import COLLISION_SLOP_M
 from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, Mechanism, MotorSpec
 from labsim.backends.scene.models import Kind
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import World, wrap
 
 __all__ = ["DEFAULT_SUBSTEPS", "MechanismError", "MechanismScene", "MechanismSimulator"]
 
@@ -289,9 +289,6 @@ class MechanismScene:
             return self._joints[name]
         except KeyError:
             raise MechanismError(f"no joint '{name}'{_did_you_mean(name, list(self._joints))}") from None
-
-    def joint_names(self) -> list[str]:
-        return list(self._joints)
 
     def joint_position(self, name: str) -> float:
         """m (prismatic: along the axis, or a rope's length) or rad (revolute, slew)."""

@@ -9,7 +9,6 @@ wrap both report poses with, and the contact slop both spaces use.
 """
 from __future__ import annotations
 
-import math
 from typing import Protocol
 
 from labsim.backends.protocol import ContactStats
@@ -17,15 +16,6 @@ from labsim.backends.protocol import ContactStats
 # Allowed overlap between shapes, metres. pymunk's default (0.1) assumes pixels; in metres it
 # would let a robot sink 10 cm into a wall, or a load into the floor.
 COLLISION_SLOP_M = 0.0005
-
-_TWO_PI = 2.0 * math.pi
-
-
-def wrap(angle: float) -> float:
-    """The same angle in (-pi, pi]."""
-    a = math.remainder(angle, _TWO_PI)
-    return math.pi if a == -math.pi else a
-
 
 class Simulator(Protocol):
     """An open scene: the protocol's calls after ``open`` (see ``labsim.backends.protocol``).

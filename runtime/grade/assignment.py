@@ -27,7 +27,7 @@ from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIO
 from labsim.dsl.syntax import ast as dsl_ast
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import MetricDecl, Parsed
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
+from labsim.foundation.diagnostics import LabsimError, Report, did_you_mean
 from labsim.foundation.files import read_input
 from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY, YAML_SUFFIXES, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -508,11 +508,6 @@ def budget_words(text: str) -> str:
     """A budget's message as a grader's: ``labsim grade`` has no ``--budget``; the assignment's
     ``budgets:`` raise one."""
     return _BUDGET_HINT.sub(lambda m: f"the assignment's budgets: {{{m.group(1)}: {m.group(2).rstrip('.,')}}}", text)
-
-
-def bad_assignment(path: str, message: str) -> LabsimError:
-    """A problem with the assignment as a whole (its reference does not compile, ...)."""
-    return LabsimError([Diagnostic(path, message)])
 
 
 def assignment_schema() -> Schema:
