@@ -7,7 +7,11 @@ and the server sends it whole as a ``history`` message before the first frame of
 (docs/view.md). It stays bounded: past ``MAX_POINTS`` every other path point goes (a jump's
 break stays), past ``MAX_ROWS`` each four chart rows become two, the first time with each
 column's least value and the last time with its greatest, so that a peak is never averaged
-away: the chart of a long run is an envelope of it. A replay builds the same document from
+away: the chart of a long run is an envelope of it. The run's events (slider moves, the
+timeline's, changes by hand, states entered, collisions, breakpoints: the page's Events list)
+are kept too, the latest ``MAX_EVENTS``; a frame carries at most ``FRAME_EVENTS`` of its own
+(the latest) and how many it left out, so that it stays small, and a page that opens later
+gets them all. A replay builds the same document from
 its rows (``envelope``) for any tick it is asked to show.
 """
 from __future__ import annotations
@@ -20,6 +24,8 @@ from labsim.runtime.view.frames import Json, message
 MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
 MAX_HITS = 2000  # collision marks a history sends per robot (the latest)
+MAX_EVENTS = 1000  # events a history sends (the latest), [tick, time, robot, text] each
+FRAME_EVENTS = 4  # events a frame carries (the latest of those since the last frame)
 
 Row = list  # [time, value, ...]: a value is a float, "inf", "-inf" or None
 
@@ -75,6 +81,17 @@ class History:
         self.paths: list[list[list | None]] = [[] for _ in range(robots)]
         self.rows: list[list[Row]] = [[] for _ in range(robots)]
         self.hits: list[list] = [[] for _ in range(robots)]  # where each collision began
+        self.events: list[list] = []
+        self.events_before = 0  # events older than those kept
+
+    def frame_events(self, events: list[list]) -> Json:
+        """A frame's ``events`` (the latest ``FRAME_EVENTS``) and ``events_more`` (how many of the
+        events since the last frame it leaves out); all of them kept for the history."""
+        self.events += events
+        if len(self.events) > MAX_EVENTS:
+            self.events_before += len(self.events) - MAX_EVENTS
+            del self.events[: len(self.events) - MAX_EVENTS]
+        return {"events": events[-FRAME_EVENTS:], "events_more": max(0, len(events) - FRAME_EVENTS)}
 
     def add(self, robot: int, path: list, rows: list[Row]) -> None:
         p = self.paths[robot]
@@ -91,4 +108,5 @@ class History:
 
     def doc(self, tick: int) -> Json:
         return message("history", tick=tick, robots=[{"path": p, "samples": r, "hits": h[-MAX_HITS:]}
-                                                     for p, r, h in zip(self.paths, self.rows, self.hits)])
+                                                     for p, r, h in zip(self.paths, self.rows, self.hits)],
+                       events=self.events, events_before=self.events_before)

@@ -262,10 +262,11 @@ class LiveSession(Session):
         metrics = run.result().robots if p.metric_names else {}
         robots = []
         rec, dt = self.recorder, p.dt_s
-        # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
-        # numbers, less what the path points take this time (a frame stays under 4 KB), half at least
+        # chart samples: about SAMPLE_NUMBERS numbers a frame less the path's and events' (under 4 KB), half at least
         paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
-        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3)
+        events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
+        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3
+                   - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number is ~8 bytes
         per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
@@ -302,6 +303,7 @@ class LiveSession(Session):
         return message("frame", **self.controls(), why=run.stop_reason() if run.finished else None,
                        robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
+                       **events,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
 

@@ -674,6 +674,51 @@ def test_a_second_tab_receives_the_run_so_far(view: Any) -> None:
     assert second.evaluate("window.LV_world.paths[0]") == path
 
 
+def _events(page: Any) -> list[str]:
+    return page.evaluate("[...document.querySelectorAll('#events li:not(.more)')].map((li) => li.textContent)")
+
+
+def test_a_second_tab_and_a_reload_receive_the_run_s_events(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace), "--break", "time:300"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.hit !== null && window.labsimView.frame.playing === false", timeout_ms=60000)
+    second = v.another_page()
+    second.wait_for_function("document.querySelectorAll('#events li').length > 0")
+    events = _events(second)
+    # what the first tab listed from its frames, the second has too, in the same order
+    first = [e for e in _events(v.page) if e in events]
+    assert first == [e for e in events if e in first] and len(first) > 0
+    v.close()  # the trace, complete, to compare with
+    rows = read_trace(trace)
+    state, tick = rows.columns.index("state"), rows.columns.index("tick")
+    entered = [f"t = {int(b[tick]) * 0.05:.2f} s  state {a[state]} → {b[state]}"
+               for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state]]
+    assert entered and [e for e in events if " state " in e] == entered
+    collided = rows.columns.index("collided")
+    begun = sum(1 for a, b in zip(rows.rows, rows.rows[1:]) if b[collided] == "1" and a[collided] != "1")
+    assert sum(" collision at (" in e for e in events) == begun
+    assert events[-1] == "t = 300.00 s  breakpoint: time:300"
+
+
+def test_a_reload_keeps_a_slider_move_in_the_events(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 5")
+    v.page.focus('input[data-name="arm"]')
+    v.page.keyboard.press("ArrowRight")
+    v.wait("[...document.querySelectorAll('#events li')].some((li) => li.textContent.includes(' arm='))")
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    before = _events(v.page)
+    v.page.reload()
+    v.wait("window.labsimView.frames > 0 && document.querySelectorAll('#events li').length > 0")
+    after = _events(v.page)
+    assert [e for e in after if " arm=" in e] == [e for e in before if " arm=" in e]
+    assert len([e for e in after if " arm=" in e]) == 1
+
+
 def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_entered(view: Any,
                                                                                      tmp_path: Path) -> None:
     trace = _wall_trace(tmp_path)
