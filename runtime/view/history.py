@@ -25,6 +25,7 @@ MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
 MAX_HITS = 2000  # collision marks a history sends per robot (the latest)
 MAX_EVENTS = 1000  # events a history sends (the latest), [tick, time, robot, text] each
+FRAME_MARKS = 20  # count metrics' marks a frame carries per robot (the latest)
 FRAME_EVENTS = 4  # events a frame carries (the latest of those since the last frame)
 
 Row = list  # [time, value, ...]: a value is a float, "inf", "-inf" or None
@@ -81,8 +82,23 @@ class History:
         self.paths: list[list[list | None]] = [[] for _ in range(robots)]
         self.rows: list[list[Row]] = [[] for _ in range(robots)]
         self.hits: list[list] = [[] for _ in range(robots)]  # where each collision began
+        self.marks: list[list] = [[] for _ in range(robots)]  # where a count metric rose: [k, x, y]
         self.events: list[list] = []
         self.events_before = 0  # events older than those kept
+
+    def marked(self, robot: int, marks: list[list[list]], take: bool) -> list:
+        """A frame's ``marks`` of ``robot`` (the latest ``FRAME_MARKS`` of those since the last
+        frame; a history has all, the latest ``MAX_HITS``), taken from the recorder's ``marks``."""
+        if not take:
+            return []
+        mine = [[k, round(x, 3), round(y, 3)] for k, x, y in marks[robot]
+                if isinstance(x, float) and isinstance(y, float) and math.isfinite(x) and math.isfinite(y)]
+        marks[robot] = []
+        kept = self.marks[robot]
+        kept += mine
+        if len(kept) > MAX_HITS:
+            del kept[: len(kept) - MAX_HITS]
+        return mine[-FRAME_MARKS:]
 
     def frame_events(self, events: list[list]) -> Json:
         """A frame's ``events`` (the latest ``FRAME_EVENTS``) and ``events_more`` (how many of the
@@ -107,6 +123,7 @@ class History:
             self.rows[robot] = [e for k in range(0, len(r), 4) for e in envelope(r[k:k + 4])]
 
     def doc(self, tick: int) -> Json:
-        return message("history", tick=tick, robots=[{"path": p, "samples": r, "hits": h[-MAX_HITS:]}
-                                                     for p, r, h in zip(self.paths, self.rows, self.hits)],
+        return message("history", tick=tick, robots=[{"path": p, "samples": r, "hits": h[-MAX_HITS:], "marks": m}
+                                                     for p, r, h, m in zip(self.paths, self.rows, self.hits,
+                                                                           self.marks)],
                        events=self.events, events_before=self.events_before)

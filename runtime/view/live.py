@@ -222,7 +222,7 @@ class LiveSession(Session):
             seed=p.seed, backend=self.observed.name if self.observed else "?", world=world_doc(p.world),
             robots=[robot_doc(r.name, r.model, p.channels) for r in self.run.robots],
             columns=columns, params={k: number(v) for k, v in p.params.items()},
-            overrides=self.overrides,
+            overrides=self.overrides, counts=self.recorder.count_names,
             sliders=[{"name": n, "min": lo, "max": hi, "value": start[n], "label": p.label_of(n)}
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
@@ -287,7 +287,7 @@ class LiveSession(Session):
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "ground": [number(read[i]) if read is not None else None for i in self._ground[r.index]],
                 "collisions": rec.collisions[r.index],
-                "hits": hits,
+                "hits": hits, "marks": self.history_kept.marked(r.index, rec.marks, take),
                 "values": values,
                 "path": path,
                 "samples": samples,

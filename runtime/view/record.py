@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from labsim.dsl.library.builtins import Aggregate
 from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
@@ -126,6 +127,9 @@ class TickRecorder(Watcher):
         self.touching = [False] * len(xy)  # per robot, whether it collided on the last tick
         self.collisions = [0] * len(xy)  # collisions begun so far
         self.hits: list[list[tuple[float, float]]] = [[] for _ in xy]  # where, since the last frame
+        # where a count metric rose (a near miss, as the map of ``labsim plot`` marks it): [k, x, y],
+        # k the metric's place among the count metrics (``count_names``), since the last frame
+        self.marks: list[list[list]] = [[] for _ in xy]
         self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
@@ -135,6 +139,9 @@ class TickRecorder(Watcher):
         super().bind(run)
         self._run = run
         self._inputs = getattr(run, "inputs", None)
+        counts = [i for i, a in enumerate(run.program.metric_aggregates) if a is Aggregate.COUNT]
+        self.count_names = [run.program.metric_names[i] for i in counts]
+        self._count_of = {i: k for k, i in enumerate(counts)}
 
     def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
         i = robot.index
@@ -143,7 +150,7 @@ class TickRecorder(Watcher):
         state, was = robot.program.slots[STATE], self.states[i]
         self.states[i] = state  # a goto changes it after the tick: the frame shows this one
         if state != was or robot.program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
-            self._note(robot, state, was)
+            self._note(robot, state, was, values)
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
@@ -183,11 +190,17 @@ class TickRecorder(Watcher):
             fired_all: list = self.hit["fired"]  # type: ignore[assignment]
             fired_all.append(mine)
 
-    def _note(self, robot: RobotRun, state: float, was: float | None) -> None:
-        """The tick's events of ``robot``: a state entered (not the first), its count metrics and
-        logs, and (robot 0 only: they are the run's) the slider moves and changes by hand."""
+    def _note(self, robot: RobotRun, state: float, was: float | None, values: list) -> None:
+        """The tick's events of ``robot``: a state entered (not the first), its count metrics (and
+        where each rose) and logs, and (robot 0 only: they are the run's) the slider moves and
+        changes by hand."""
         assert self._run is not None
         p = self._run.program
+        xy, marks = self.xy[robot.index], self.marks[robot.index]
+        if xy is not None:
+            for e in robot.program.events:
+                if type(e) is int and e in self._count_of and len(marks) < MAX_PATH_POINTS:
+                    marks.append([self._count_of[e], values[xy[0]], values[xy[1]]])
         if was is not None and state != was and p.state_names:
             self.event(robot.name, f"state {p.state_names[int(was)]} → {p.state_names[int(state)]}")
         applied = self._inputs.applied if robot.index == 0 and self._inputs is not None else []

@@ -869,6 +869,29 @@ def test_collisions_are_marked_on_the_path_and_counted(view: Any) -> None:
     v.shot("collisions", "#world")
 
 
+def test_near_misses_are_marked_on_the_path_and_counted_as_on_the_map(view: Any, tmp_path: Path) -> None:
+    # the map of labsim plot marks each rise of a count metric (the wall lab's near_misses:
+    # count(min(ahead, right, left) < 0.25)) with a triangle, and counts them; so does the page
+    trace = tmp_path / "wall.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace), "--set", "side=0.15", "--set", "minutes=2"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.finished === true && window.labsimView.frame.playing === false", timeout_ms=60000)
+    v.page.wait_for_timeout(300)  # the last frame drawn
+    shown = v.page.inner_text("#counts [data-name='near_misses'] strong")
+    drawn = v.js("window.LV_world.marks[0].counted")
+    second = v.another_page()
+    second.wait_for_function("window.LV_world.drawnTick !== null && window.LV_world.marks[0]")
+    drawn_later = second.evaluate("window.LV_world.marks[0].counted")
+    v.shot("near-misses", "#world")
+    v.close()
+    rows = read_trace(trace)
+    k = rows.columns.index("events")
+    rose = sum(e == "near_misses" for r in rows.rows for e in r[k].split(";"))
+    assert rose > 0
+    assert shown == str(rose) and drawn == rose and drawn_later == rose
+
+
 def _box(page: Any, selector: str) -> dict:
     return page.locator(selector).bounding_box()
 

@@ -131,6 +131,7 @@ function onScene(scene) {
   state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
   listEvents([], 0, true);  // a new run: its own events
+  buildCounts(scene);
   $("events-panel").hidden = replay;  // a replay's events are its trace's events column, in the table
   pickChart(scene);
   world.onPlace = scene.mode === "live" ? placeRobot : null;
@@ -313,9 +314,27 @@ function defaultChart(scene) {
 function onHistory(h) {
   if (!state.scene || !state.scene.ok) return;
   listEvents(h.events, h.events_before, true);
-  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits));
+  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits), h.robots.map((r) => r.marks));
   chart.setHistory(h.robots.map((r) => r.samples));
   state.history = h;
+}
+
+// -- the count metrics (a near miss, as the behaviour defines it: count(min(ahead, ...) < 0.25)):
+// each a triangle in its colour where it rose, on the path, and its count, as the map shows them
+function buildCounts(scene) {
+  const box = $("counts");
+  box.textContent = "";
+  (scene.counts || []).forEach((name, k) => {
+    const column = scene.columns.findIndex((c) => c.name === name && c.group === "metric");
+    if (column < 0) return;
+    const d = document.createElement("div"), mark = document.createElement("span");
+    d.dataset.column = String(column); d.dataset.name = name;
+    mark.className = "count-mark"; mark.style.color = LV.EVENT_RGB[k % LV.EVENT_RGB.length]; mark.textContent = "▲";
+    const label = document.createElement("span");
+    label.className = "muted"; label.textContent = ` ${name} `;
+    d.append(mark, label, document.createElement("strong"));
+    box.appendChild(d);
+  });
 }
 
 // -- the run's events, as its trace's events column and more: slider moves, the timeline's,
@@ -426,6 +445,7 @@ function render() {
   if (r) {
     setText($("state"), r.state || "–");
     setText($("hits"), r.collisions === undefined ? "–" : String(r.collisions));
+    for (const d of $("counts").children) setText(d.lastChild, fmt(r.values[Number(d.dataset.column)]));
     const rule = scene.rules.find((q) => q.id === r.rule);
     setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
     // before the first tick a signal or a metric has no value yet (not 0): a dash, as the chart has none
