@@ -262,11 +262,10 @@ class LiveSession(Session):
         metrics = run.result().robots if p.metric_names else {}
         robots = []
         rec, dt = self.recorder, p.dt_s
-        # chart samples: about SAMPLE_NUMBERS numbers a frame less the path's and events' (under 4 KB), half at least
         paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
         events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
-        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3
-                   - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number is ~8 bytes
+        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3  # chart: < 4 KB
+                   - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number ~8 bytes
         per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
@@ -290,13 +289,14 @@ class LiveSession(Session):
                 "hits": hits, "marks": self.history_kept.marked(r.index, rec.marks, take),
                 "values": values,
                 "path": path,
-                "samples": samples,
+                "samples": samples, "bands": self._sampler.bands if samples and self._sampler.paired else None,
             })
             if take:  # what this frame draws, for the pages that open later
                 rec.hits[r.index] = []
                 self.history_kept.hits[r.index] += hits
                 self.history_kept.add(r.index, path + ([pose[:2]] if pose is not None else []),
-                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []))
+                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []),
+                                      self._sampler.bands if samples and self._sampler.paired else None)
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old

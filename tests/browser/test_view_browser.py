@@ -741,7 +741,7 @@ def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_en
 
 def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(view: Any, tmp_path: Path) -> None:
     trace = tmp_path / "line.csv"
-    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer")
+    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer,laps")
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
@@ -750,9 +750,22 @@ def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(vie
     t, steer = v.js("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'steer');"
                     " return [c.history[0].t, c.history[0].cols[k]]; })()")
     # steer flips sign about 15 times a simulated second, hundreds of ticks a frame at this speed:
-    # evenly spread picks drew slow pulses. A group of ticks is drawn as two rows, at its first
-    # tick its least value and at its last its greatest: the band the signal fills
-    v.shot("chart-envelope", "#chart")
+    # evenly spread picks drew slow pulses. A group of ticks is sent as two rows, at its first
+    # tick its least value and at its last its greatest, and drawn as the band the signal fills
+    # (per pixel column its least and greatest), not as a sawtooth between the two rows
+    v.page.wait_for_timeout(300)  # the chart drawn after the pause
+    img = v.shot("chart-envelope", "#chart canvas")
+    steer_px = np.all(np.abs(img.astype(int) - (0xbd, 0x67, 0x94)) < 40, axis=2).sum(axis=0)  # #9467bd, BGR
+    laps_px = np.all(np.abs(img.astype(int) - (0x4b, 0x56, 0x8c)) < 40, axis=2).sum(axis=0)  # #8c564b
+    drawn = steer_px > 0
+    assert drawn.sum() > 0.5 * img.shape[1]
+    # the band: nearly every column the line crosses is filled over most of the swing
+    assert (steer_px[drawn] > 0.5 * steer_px.max()).mean() > 0.8, np.percentile(steer_px[drawn], [10, 50, 90])
+    assert steer_px.max() > 0.3 * img.shape[0]
+    # and laps, a count that steps up once a lap, stays a line: a few pixels a column
+    assert np.percentile(laps_px[laps_px > 0], 90) <= 6, np.percentile(laps_px[laps_px > 0], [50, 90])
+    band = v.js("window.LV_chart.drawn[1].band.filter((b) => b !== null)")
+    assert sum(b > 20 for b in band) > 0.8 * len(band)
     v.close()  # the trace, complete, to compare with
     rows = read_trace(trace)
     k, dt = rows.columns.index("steer"), 0.02

@@ -315,7 +315,7 @@ function onHistory(h) {
   if (!state.scene || !state.scene.ok) return;
   listEvents(h.events, h.events_before, true);
   world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits), h.robots.map((r) => r.marks));
-  chart.setHistory(h.robots.map((r) => r.samples));
+  chart.setHistory(h.robots.map((r) => r.samples), h.robots.map((r) => r.spans), h.robots.map((r) => r.bands));
   state.history = h;
 }
 
