@@ -27,7 +27,7 @@ MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
 MAX_HITS = 2000  # collision marks a history sends per robot (the latest)
 MAX_EVENTS = 1000  # events a history sends (the latest), [tick, time, robot, text] each
-FRAME_MARKS = 20  # count metrics' marks a frame carries per robot (the latest)
+FRAME_MARKS = 6  # count metrics' marks a frame carries per robot (the latest)
 FRAME_EVENTS = 4  # events a frame carries (the latest of those since the last frame)
 
 Row = list  # [time, value, ...]: a value is a float, "inf", "-inf" or None
