@@ -222,7 +222,7 @@ class LiveSession(Session):
             seed=p.seed, backend=self.observed.name if self.observed else "?", world=world_doc(p.world),
             robots=[robot_doc(r.name, r.model, p.channels) for r in self.run.robots],
             columns=columns, params={k: number(v) for k, v in p.params.items()},
-            overrides=self.overrides,
+            overrides=self.overrides, counts=self.recorder.count_names,
             sliders=[{"name": n, "min": lo, "max": hi, "value": start[n], "label": p.label_of(n)}
                      for n, (lo, hi) in p.slider_ranges.items()],
             rules=[{"id": r.id, "text": r.text, "state": r.state} for r in p.rules],
@@ -262,10 +262,10 @@ class LiveSession(Session):
         metrics = run.result().robots if p.metric_names else {}
         robots = []
         rec, dt = self.recorder, p.dt_s
-        # the chart's samples of the ticks between frames: about SAMPLE_NUMBERS numbers a frame
-        # numbers, less what the path points take this time (a frame stays under 4 KB), half at least
         paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
-        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3)
+        events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
+        left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3  # chart: < 4 KB
+                   - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number ~8 bytes
         per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
         for r in run.robots:
             slots = r.program.slots
@@ -286,22 +286,24 @@ class LiveSession(Session):
                 "sonars": [number(read[i]) if read is not None else None for i in self._sonars[r.index]],
                 "ground": [number(read[i]) if read is not None else None for i in self._ground[r.index]],
                 "collisions": rec.collisions[r.index],
-                "hits": hits,
+                "hits": hits, "marks": self.history_kept.marked(r.index, rec.marks, take),
                 "values": values,
                 "path": path,
-                "samples": samples,
+                "samples": samples, "bands": self._sampler.bands if samples and self._sampler.paired else None,
             })
             if take:  # what this frame draws, for the pages that open later
                 rec.hits[r.index] = []
                 self.history_kept.hits[r.index] += hits
                 self.history_kept.add(r.index, path + ([pose[:2]] if pose is not None else []),
-                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []))
+                                      samples + ([[round(self.shown_tick * dt, 9), *values]] if self.ran else []),
+                                      self._sampler.bands if samples and self._sampler.paired else None)
         first = run.robots[0].program.slots if run.robots else []
         blocks = blocks_doc(run)
         changed = {"blocks": blocks} if blocks is not None else {}  # moved by hand: the scene's are old
         return message("frame", **self.controls(), why=run.stop_reason() if run.finished else None,
                        robots=robots, mechanism=self._mechanism(), **changed,
                        breakpoints=self.breaks, hit=rec.hit, edited=self.text is not None,
+                       **events,
                        sliders=dict(zip(p.slider_names, self._slider_values())),
                        labels=p.label_text(first) if p.labels else {})
 

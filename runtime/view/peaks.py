@@ -6,8 +6,11 @@ sign every tick or two, was drawn as slow pulses. ``Sampler`` keeps every tick's
 (two C-level ``itemgetter`` calls a tick: the sensor readings and the numeric slots) and hands a
 frame, per group of consecutive ticks, two rows: the group's first time with each column's
 least value and its last time with the greatest (the min/max envelope that PlotJuggler and
-uPlot draw per pixel column). The page draws a band where the signal flips and a line where it
-does not.
+uPlot draw per pixel column); a column that only fell over the group has its greatest first.
+The frame says, per pair and column, whether the column went both ways within the group
+(``bands``): the page's chart draws such a pair as the band it spans (per pixel column the least
+and greatest value of every row that covers it) and any other as the line between its two rows,
+so that a signal that flips is a band and a step or a slow signal is a line.
 """
 from __future__ import annotations
 
@@ -55,6 +58,8 @@ class Sampler:
         self._order = np.array(([at[i] for _, i, _ in sensors] if self._flat else list(range(len(sensors))))
                                + order, dtype=np.intp)
         self._nan = width + len(numeric_slots)  # the column of nans a missing number reads from
+        self.paired = False  # whether the last ``rows`` were least/greatest pairs of groups of ticks
+        self.bands: list[str] = []  # then per pair, per column "1": it went up and down within the group
 
     def _numbers(self, kept: Sequence[tuple[int, tuple, tuple]]) -> np.ndarray | None:
         if self._flat:
@@ -75,12 +80,15 @@ class Sampler:
         """At most ``at_most`` chart rows for the kept ticks: as they are when they fit, else
         least/greatest pairs of consecutive groups; four decimals, ``"inf"`` and None as sent."""
         if not kept:
+            self.paired = False
             return []
         m = self._numbers(kept)
         assert m is not None
         ticks = np.array([t for t, _, _ in kept], dtype=float)
         n = len(kept)
-        if n <= max(2, at_most):
+        self.paired = n > max(2, at_most)
+        self.bands = []
+        if not self.paired:
             times, values = ticks, m
         else:
             groups = max(1, at_most // 2)
@@ -89,8 +97,13 @@ class Sampler:
             with np.errstate(invalid="ignore"):
                 low = np.fmin.reduceat(m, starts, axis=0)
                 high = np.fmax.reduceat(m, starts, axis=0)
+            rising, falling = _monotone(m, starts, ends)
             values = np.empty((2 * groups, m.shape[1]))
-            values[0::2], values[1::2] = low, high
+            # a column that only fell over the group: its greatest first, so that the line falls
+            down = falling & ~rising
+            values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
+            # a column that went both ways within the group is a band over it; one way, a line
+            self.bands = ["".join("0" if ok else "1" for ok in row) for row in (rising | falling)]
             times = np.empty(2 * groups)
             times[0::2], times[1::2] = ticks[starts], ticks[ends]
         times = np.round(times * dt_s, 9)
@@ -99,6 +112,17 @@ class Sampler:
         if not np.isfinite(values).all():
             out = [[row[0], *(_cell(v) for v in row[1:])] for row in out]
         return out
+
+
+def _monotone(m: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per group of rows (``starts``..``ends``) and column, whether it never fell, and never rose."""
+    d = np.zeros_like(m)
+    with np.errstate(invalid="ignore"):
+        d[:-1] = m[1:] - m[:-1]
+    d[ends] = 0  # a group's last row to the next group's first is no step of either
+    fell = np.add.reduceat((d < 0).astype(np.int32), starts, axis=0)
+    rose = np.add.reduceat((d > 0).astype(np.int32), starts, axis=0)
+    return fell == 0, rose == 0
 
 
 def _float(v: object) -> float:

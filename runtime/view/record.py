@@ -6,23 +6,28 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), and asks the breakpoints
-(``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path`` and
-``take_samples`` hand what was kept to the next frame and start again.
+corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), notes the tick's events
+(a slider move, the timeline's, a change by hand, a count metric or a log, a state entered, a
+collision begun, a breakpoint that held: what the page's Events list shows), and asks the
+breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
+``take_samples`` and ``take_events`` hand what was kept to the next frame and start again.
 """
 from __future__ import annotations
 
 import math
 from typing import Any
 
+from labsim.dsl.library.builtins import Aggregate
 from labsim.dsl.library.support import STATE
-from labsim.runtime.observers import Watcher
+from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
 MAX_SAMPLES_KEPT = 16384  # per robot between two frames: beyond, every other one goes
+MAX_EVENTS_KEPT = 1000  # events between two frames (no page connected): the oldest go
+EVENT_CHARS = 100  # an event's text as the page lists it (a log may be longer: the trace has it whole)
 
 
 class PathThinner:
@@ -110,6 +115,8 @@ class TickRecorder(Watcher):
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
         self.last: list = []
+        self.events: list[list] = []  # [tick, time, robot, text] since the last frame
+        self._inputs: Any = None  # the run's slider moves and changes by hand (``Inputs``), if any
 
     def start(self, xy: list[tuple[int, ...] | None], last: list) -> None:
         """``xy[i]``: where robot i's x, y and collided sit in its readings (None: a mechanism, no path);
@@ -120,6 +127,9 @@ class TickRecorder(Watcher):
         self.touching = [False] * len(xy)  # per robot, whether it collided on the last tick
         self.collisions = [0] * len(xy)  # collisions begun so far
         self.hits: list[list[tuple[float, float]]] = [[] for _ in xy]  # where, since the last frame
+        # where a count metric rose (a near miss, as the map of ``labsim plot`` marks it): [k, x, y],
+        # k the metric's place among the count metrics (``count_names``), since the last frame
+        self.marks: list[list[list]] = [[] for _ in xy]
         self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
@@ -128,12 +138,19 @@ class TickRecorder(Watcher):
     def bind(self, run: RunState) -> None:
         super().bind(run)
         self._run = run
+        self._inputs = getattr(run, "inputs", None)
+        counts = [i for i, a in enumerate(run.program.metric_aggregates) if a is Aggregate.COUNT]
+        self.count_names = [run.program.metric_names[i] for i in counts]
+        self._count_of = {i: k for k, i in enumerate(counts)}
 
     def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
         i = robot.index
         self.last_rule[i] = rule
         self.last[i] = values
-        self.states[i] = robot.program.slots[STATE]  # a goto changes it after the tick: the frame shows this one
+        state, was = robot.program.slots[STATE], self.states[i]
+        self.states[i] = state  # a goto changes it after the tick: the frame shows this one
+        if state != was or robot.program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
+            self._note(robot, state, was, values)
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
@@ -143,6 +160,7 @@ class TickRecorder(Watcher):
                 if c:
                     self.collisions[i] += 1
                     self.hits[i].append((values[xy[0]], values[xy[1]]))
+                    self.event(robot.name, f"collision at ({values[xy[0]]:.2f}, {values[xy[1]]:.2f})")
         assert self._run is not None
         # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
         kept = self.samples[i]
@@ -163,6 +181,7 @@ class TickRecorder(Watcher):
         # the state and rule of this tick (a goto takes effect on the next one)
         p = self._run.program
         state = int(robot.program.slots[STATE])
+        self.event(robot.name, "breakpoint: " + " and ".join(fired))
         mine = {"robot": robot.name, "what": fired, "state": p.state_names[state] if p.state_names else "",
                 "rule": p.rules[rule].id if rule >= 0 else None}
         if self.hit is None or self.hit["tick"] != t:
@@ -170,6 +189,37 @@ class TickRecorder(Watcher):
         else:  # another robot, the same tick
             fired_all: list = self.hit["fired"]  # type: ignore[assignment]
             fired_all.append(mine)
+
+    def _note(self, robot: RobotRun, state: float, was: float | None, values: list) -> None:
+        """The tick's events of ``robot``: a state entered (not the first), its count metrics (and
+        where each rose) and logs, and (robot 0 only: they are the run's) the slider moves and
+        changes by hand."""
+        assert self._run is not None
+        p = self._run.program
+        xy, marks = self.xy[robot.index], self.marks[robot.index]
+        if xy is not None:
+            for e in robot.program.events:
+                if type(e) is int and e in self._count_of and len(marks) < MAX_PATH_POINTS:
+                    marks.append([self._count_of[e], values[xy[0]], values[xy[1]]])
+        if was is not None and state != was and p.state_names:
+            self.event(robot.name, f"state {p.state_names[int(was)]} → {p.state_names[int(state)]}")
+        applied = self._inputs.applied if robot.index == 0 and self._inputs is not None else []
+        if robot.program.events or applied:
+            for text in events_cell(p, robot.program.events, applied).split(";"):
+                self.event(robot.name, text)
+
+    def event(self, robot: str, text: str) -> None:
+        """One event on the tick running now, for the page's Events list."""
+        assert self._run is not None
+        t = self._run.tick_index
+        text = text if len(text) <= EVENT_CHARS else text[:EVENT_CHARS - 3] + "..."
+        self.events.append([t, round(t * self._run.dt_s, 9), robot, text])
+        if len(self.events) > MAX_EVENTS_KEPT:
+            del self.events[: len(self.events) - MAX_EVENTS_KEPT]
+
+    def take_events(self) -> list[list]:
+        out, self.events = self.events, []
+        return out
 
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()

@@ -5,6 +5,7 @@ it; a live run's history holds what its frames drew, bounded, with every peak ke
 """
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import subprocess
@@ -171,3 +172,38 @@ def test_a_burst_of_seeks_gets_one_history_for_the_last(wall_trace: Path) -> Non
 
     histories, points, tick = asyncio.run(scenario())
     assert tick == 299 and points == 299 and histories < 30, histories
+
+
+def test_a_frame_s_pairs_say_which_columns_went_both_ways() -> None:
+    from labsim.runtime.view.peaks import Sampler
+    s = Sampler([], [0, 1, 2])
+    kept = [(t, (), ((-1.0) ** t, float(t), -float(t))) for t in range(100)]  # flips, rises, falls
+    rows = s.rows(kept, 0.1, 8)
+    assert s.paired and s.bands == ["100"] * 4 and len(rows) == 8
+    assert rows[0] == [0.0, -1.0, 0.0, 0.0] and rows[1] == [2.4, 1.0, 24.0, -24.0]  # the fall: greatest first
+    s.rows(kept[:5], 0.1, 8)
+    assert not s.paired and s.bands == []
+
+
+def test_the_history_keeps_bands_spans_events_and_marks_as_it_thins() -> None:
+    h = History(1)
+    for k in range(MAX_ROWS):  # pairs of four ticks: a flip in column 0, a rise in column 1
+        t0, t1 = 0.4 * k, 0.4 * k + 0.3
+        h.add(0, [], [[t0, -1.0, t0], [t1, 1.0, t1]], ["10"])
+    doc = h.doc(1)["robots"][0]
+    rows, spans, bands = doc["samples"], doc["spans"], doc["bands"]
+    assert len(rows) <= MAX_ROWS and len(rows) == len(spans) == len(bands)
+    assert all(b == "10" for b in bands)
+    assert all(r[1] in (-1.0, 1.0) for r in rows) and all(a[2] < b[2] for a, b in itertools.pairwise(rows))
+    assert spans[0] == rows[1][0] and spans[1] == rows[0][0]
+    h.add(0, [], [[1e4, 0.0, 0.0]], None)  # a tick's own row: no band, no span
+    doc = h.doc(1)["robots"][0]
+    assert doc["bands"][-1] is None and doc["spans"][-1] is None
+    frame = h.frame_events([[k, k * 0.05, "pioneer", f"state a → b {k}"] for k in range(10)])
+    assert frame["events"] == [[k, k * 0.05, "pioneer", f"state a → b {k}"] for k in range(6, 10)]
+    assert frame["events_more"] == 6 and len(h.doc(1)["events"]) == 10
+    h.frame_events([[0, 0.0, "pioneer", "x"]] * 2000)
+    assert len(h.doc(1)["events"]) == 1000 and h.doc(1)["events_before"] == 1010
+    marks = [[[0, 1.0, 2.0], [0, math.nan, 2.0]]]
+    assert h.marked(0, marks, True) == [[0, 1.0, 2.0]] and marks == [[]]
+    assert h.doc(1)["robots"][0]["marks"] == [[0, 1.0, 2.0]]

@@ -674,6 +674,51 @@ def test_a_second_tab_receives_the_run_so_far(view: Any) -> None:
     assert second.evaluate("window.LV_world.paths[0]") == path
 
 
+def _events(page: Any) -> list[str]:
+    return page.evaluate("[...document.querySelectorAll('#events li:not(.more)')].map((li) => li.textContent)")
+
+
+def test_a_second_tab_and_a_reload_receive_the_run_s_events(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "wall.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace), "--break", "time:300"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.hit !== null && window.labsimView.frame.playing === false", timeout_ms=60000)
+    second = v.another_page()
+    second.wait_for_function("document.querySelectorAll('#events li').length > 0")
+    events = _events(second)
+    # what the first tab listed from its frames, the second has too, in the same order
+    first = [e for e in _events(v.page) if e in events]
+    assert first == [e for e in events if e in first] and len(first) > 0
+    v.close()  # the trace, complete, to compare with
+    rows = read_trace(trace)
+    state, tick = rows.columns.index("state"), rows.columns.index("tick")
+    entered = [f"t = {int(b[tick]) * 0.05:.2f} s  state {a[state]} → {b[state]}"
+               for a, b in zip(rows.rows, rows.rows[1:]) if a[state] != b[state]]
+    assert entered and [e for e in events if " state " in e] == entered
+    collided = rows.columns.index("collided")
+    begun = sum(1 for a, b in zip(rows.rows, rows.rows[1:]) if b[collided] == "1" and a[collided] != "1")
+    assert sum(" collision at (" in e for e in events) == begun
+    assert events[-1] == "t = 300.00 s  breakpoint: time:300"
+
+
+def test_a_reload_keeps_a_slider_move_in_the_events(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.tick >= 5")
+    v.page.focus('input[data-name="arm"]')
+    v.page.keyboard.press("ArrowRight")
+    v.wait("[...document.querySelectorAll('#events li')].some((li) => li.textContent.includes(' arm='))")
+    v.page.click("#play")  # pause
+    v.wait("window.labsimView.frame.playing === false")
+    before = _events(v.page)
+    v.page.reload()
+    v.wait("window.labsimView.frames > 0 && document.querySelectorAll('#events li').length > 0")
+    after = _events(v.page)
+    assert [e for e in after if " arm=" in e] == [e for e in before if " arm=" in e]
+    assert len([e for e in after if " arm=" in e]) == 1
+
+
 def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_entered(view: Any,
                                                                                      tmp_path: Path) -> None:
     trace = _wall_trace(tmp_path)
@@ -696,7 +741,7 @@ def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_en
 
 def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(view: Any, tmp_path: Path) -> None:
     trace = tmp_path / "line.csv"
-    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer")
+    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer,laps")
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
@@ -705,9 +750,22 @@ def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(vie
     t, steer = v.js("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'steer');"
                     " return [c.history[0].t, c.history[0].cols[k]]; })()")
     # steer flips sign about 15 times a simulated second, hundreds of ticks a frame at this speed:
-    # evenly spread picks drew slow pulses. A group of ticks is drawn as two rows, at its first
-    # tick its least value and at its last its greatest: the band the signal fills
-    v.shot("chart-envelope", "#chart")
+    # evenly spread picks drew slow pulses. A group of ticks is sent as two rows, at its first
+    # tick its least value and at its last its greatest, and drawn as the band the signal fills
+    # (per pixel column its least and greatest), not as a sawtooth between the two rows
+    v.page.wait_for_timeout(300)  # the chart drawn after the pause
+    img = v.shot("chart-envelope", "#chart canvas")
+    steer_px = np.all(np.abs(img.astype(int) - (0xbd, 0x67, 0x94)) < 40, axis=2).sum(axis=0)  # #9467bd, BGR
+    laps_px = np.all(np.abs(img.astype(int) - (0x4b, 0x56, 0x8c)) < 40, axis=2).sum(axis=0)  # #8c564b
+    drawn = steer_px > 0
+    assert drawn.sum() > 0.5 * img.shape[1]
+    # the band: nearly every column the line crosses is filled over most of the swing
+    assert (steer_px[drawn] > 0.5 * steer_px.max()).mean() > 0.8, np.percentile(steer_px[drawn], [10, 50, 90])
+    assert steer_px.max() > 0.3 * img.shape[0]
+    # and laps, a count that steps up once a lap, stays a line: a few pixels a column
+    assert np.percentile(laps_px[laps_px > 0], 90) <= 6, np.percentile(laps_px[laps_px > 0], [50, 90])
+    band = v.js("window.LV_chart.drawn[1].band.filter((b) => b !== null)")
+    assert sum(b > 20 for b in band) > 0.8 * len(band)
     v.close()  # the trace, complete, to compare with
     rows = read_trace(trace)
     k, dt = rows.columns.index("steer"), 0.02
@@ -822,6 +880,29 @@ def test_collisions_are_marked_on_the_path_and_counted(view: Any) -> None:
     v.wait(f"document.getElementById('hits').textContent === '{count}'")
     v.wait(f"window.LV_world.marks[0].hits === {count}")
     v.shot("collisions", "#world")
+
+
+def test_near_misses_are_marked_on_the_path_and_counted_as_on_the_map(view: Any, tmp_path: Path) -> None:
+    # the map of labsim plot marks each rise of a count metric (the wall lab's near_misses:
+    # count(min(ahead, right, left) < 0.25)) with a triangle, and counts them; so does the page
+    trace = tmp_path / "wall.csv"
+    v = view(["behaviours/wall_follow.yaml", "--trace", str(trace), "--set", "side=0.15", "--set", "minutes=2"])
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait("window.labsimView.frame.finished === true && window.labsimView.frame.playing === false", timeout_ms=60000)
+    v.page.wait_for_timeout(300)  # the last frame drawn
+    shown = v.page.inner_text("#counts [data-name='near_misses'] strong")
+    drawn = v.js("window.LV_world.marks[0].counted")
+    second = v.another_page()
+    second.wait_for_function("window.LV_world.drawnTick !== null && window.LV_world.marks[0]")
+    drawn_later = second.evaluate("window.LV_world.marks[0].counted")
+    v.shot("near-misses", "#world")
+    v.close()
+    rows = read_trace(trace)
+    k = rows.columns.index("events")
+    rose = sum(e == "near_misses" for r in rows.rows for e in r[k].split(";"))
+    assert rose > 0
+    assert shown == str(rose) and drawn == rose and drawn_later == rose
 
 
 def _box(page: Any, selector: str) -> dict:

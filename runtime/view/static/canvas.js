@@ -6,7 +6,9 @@ window.LV = window.LV || {};
 LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
 const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
-const HITS = 2000;  // collision marks kept per robot
+const HITS = 2000;  // collision marks kept per robot (and count metrics' marks)
+// a count metric's colour, by its place among the count metrics: the map's (runtime/pictures/paint.py)
+LV.EVENT_RGB = ["#ffc107", "#009688", "#9c27b0", "#e91e63", "#3f51b5", "#8bc34a", "#795548", "#00bcd4"];
 
 LV.centre = (corners) => [corners.reduce((a, p) => a + p[0], 0) / corners.length,
                           corners.reduce((a, p) => a + p[1], 0) / corners.length];
@@ -57,6 +59,7 @@ LV.WorldView = class {
     this.backdropKey = null;
     this.paths = (scene.robots || []).map(() => []);
     this.hits = (scene.robots || []).map(() => []);  // where each collision began: a red cross there
+    this.counted = (scene.robots || []).map(() => []);  // where a count metric rose (a near miss): [k, x, y]
     this._resize();
     this.fit();
   }
@@ -68,7 +71,9 @@ LV.WorldView = class {
       if (!r || !r.pose || !this.paths[i]) return;
       const [x, y] = r.pose;
       if (typeof x !== "number" || typeof y !== "number") return;
-      if (back) { this.paths[i] = []; this.hits[i] = []; }
+      if (back) { this.paths[i] = []; this.hits[i] = []; this.counted[i] = []; }
+      for (const q of (back ? [] : r.marks || [])) if (typeof q[1] === "number") this.counted[i].push(q);
+      if (this.counted[i].length > HITS) this.counted[i].splice(0, this.counted[i].length - HITS);
       for (const q of (back ? [] : r.hits || [])) if (typeof q[0] === "number") this.hits[i].push(q);
       if (this.hits[i].length > HITS) this.hits[i].splice(0, this.hits[i].length - HITS);
       const p = this.paths[i];
@@ -82,10 +87,11 @@ LV.WorldView = class {
   }
 
   // the path so far (a history message): a null point, or one with a null in it, is a jump
-  setHistory(paths, hits) {
+  setHistory(paths, hits, marks) {
     this.paths = (this.scene.robots || []).map((_, i) => (paths[i] || [])
       .map((q) => (q && typeof q[0] === "number" && typeof q[1] === "number" ? q : null)).slice(-PATH_POINTS));
     this.hits = (this.scene.robots || []).map((_, i) => ((hits && hits[i]) || []).slice(-HITS));
+    this.counted = (this.scene.robots || []).map((_, i) => ((marks && marks[i]) || []).slice(-HITS));
     this.frame = null;  // the next frame follows on from the history, whatever tick it shows
   }
 
@@ -353,6 +359,13 @@ LV.WorldView = class {
         ctx.moveTo(hx - 4, hy - 4); ctx.lineTo(hx + 4, hy + 4); ctx.moveTo(hx - 4, hy + 4); ctx.lineTo(hx + 4, hy - 4);
       }
       ctx.stroke();
+      // where a count metric rose (a near miss), a triangle in its colour, as on the map
+      for (const q of this.counted[i] || []) {
+        const [mx, my] = this.toPx(q[1], q[2]);
+        ctx.beginPath(); ctx.moveTo(mx, my - 5); ctx.lineTo(mx + 4.5, my + 3.5); ctx.lineTo(mx - 4.5, my + 3.5); ctx.closePath();
+        ctx.fillStyle = LV.EVENT_RGB[q[0] % LV.EVENT_RGB.length]; ctx.fill();
+        ctx.strokeStyle = "#333"; ctx.lineWidth = 0.75; ctx.stroke();
+      }
       const r = frame && frame.robots[i];
       if (!r || !r.pose || typeof r.pose[0] !== "number") return;
       const [x, y, th] = r.pose, c = Math.cos(th), s = Math.sin(th);
@@ -372,7 +385,8 @@ LV.WorldView = class {
       // what was drawn, in CSS pixels (the browser tests read it)
       this.marks[i] = { reach: Math.max(...outline.map((q) => Math.hypot(q[0], q[1]))) * this.scale,
                         nose: Math.hypot(...[0, 1].map((k) => this.toPx(...nose)[k] - this.toPx(x, y)[k])),
-                        ground: (robot.ground || []).length, hits: (this.hits[i] || []).length };
+                        ground: (robot.ground || []).length, hits: (this.hits[i] || []).length,
+                        counted: (this.counted[i] || []).length };
       this.drawn[i] = this.toPx(x, y);
     });
     this._labels();

@@ -16,6 +16,7 @@ LV.Chart = class {
     this.picked = [];  // column indices
     this.columns = [];
     this.robot = 0;
+    this.drawn = {};  // per series, what its envelope drew (canvas pixels per column; the browser tests read it)
     this.reset([], 0);
     new ResizeObserver(() => this._size()).observe(el);
   }
@@ -24,7 +25,9 @@ LV.Chart = class {
   reset(columns, robots) {
     this.columns = columns;
     this.picked = [];
-    this.history = Array.from({ length: robots }, () => ({ t: [], cols: columns.map(() => []) }));
+    // per row, the time at the other end of the group of ticks it stands for (its own: one tick)
+    // and per column "1" where the row is a band over that group (the column went up and down in it)
+    this.history = Array.from({ length: robots }, () => ({ t: [], span: [], band: [], cols: columns.map(() => []) }));
     this._rebuild();
   }
 
@@ -33,27 +36,36 @@ LV.Chart = class {
       const h = this.history[i];
       if (!r || !h) return;
       const t = frame.time;
-      if (h.t.length && t < h.t[h.t.length - 1]) { h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); }
-      for (const s of r.samples || []) this._push(h, s[0], s.slice(1));
+      if (h.t.length && t < h.t[h.t.length - 1]) { h.t.length = 0; h.span.length = 0; h.band.length = 0; h.cols.forEach((c) => { c.length = 0; }); }
+      const rows = r.samples || [], bands = r.bands || [], pairs = 2 * bands.length;
+      // a pair (a group's least and greatest values, at its first and last tick) spans the group
+      rows.forEach((s, k) => this._push(h, s[0], s.slice(1), k < pairs ? rows[k ^ 1][0] : s[0],
+                                        k < pairs ? bands[k >> 1] : ""));
       if (frame.ran !== 0) {  // before the first tick there are no values yet
-        this._push(h, t, r.values);
+        this._push(h, t, r.values, t, "");
         h.now = r.values;  // as sent: "inf" stays "inf" in the legends (the lines have a gap there)
       }
-      if (h.t.length > HISTORY) { const cut = HISTORY / 2; h.t.splice(0, cut); h.cols.forEach((c) => c.splice(0, cut)); }
+      if (h.t.length > HISTORY) {
+        const cut = HISTORY / 2; h.t.splice(0, cut); h.span.splice(0, cut); h.band.splice(0, cut); h.cols.forEach((c) => c.splice(0, cut));
+      }
     });
   }
 
   // the run so far (a history message): each robot's rows [time, value, ...], replacing what was kept
-  setHistory(robots) {
+  setHistory(robots, spans, bands) {
     this.history.forEach((h, i) => {
-      h.t.length = 0; h.cols.forEach((c) => { c.length = 0; }); h.now = null;
-      for (const s of robots[i] || []) this._push(h, s[0], s.slice(1));
+      h.t.length = 0; h.span.length = 0; h.band.length = 0; h.cols.forEach((c) => { c.length = 0; }); h.now = null;
+      const sp = (spans && spans[i]) || [], bd = (bands && bands[i]) || [];
+      (robots[i] || []).forEach((s, k) => this._push(h, s[0], s.slice(1), typeof sp[k] === "number" ? sp[k] : s[0],
+                                                      typeof bd[k] === "string" ? bd[k] : ""));
     });
   }
 
-  _push(h, t, values) {
+  _push(h, t, values, span, band) {
     if (h.t.length && t <= h.t[h.t.length - 1]) return;
     h.t.push(t);
+    h.span.push(span);
+    h.band.push(band);
     h.cols.forEach((c, k) => c.push(typeof values[k] === "number" ? values[k] : null));
   }
 
@@ -85,12 +97,54 @@ LV.Chart = class {
       }
       return {
         label: this.columns[k].name + (this.columns[k].group === "metric" ? " (metric)" : ""), scale: "s" + i,
-        stroke: this._colour(i), width: 1.5, spanGaps: false, points: { show: false },
+        stroke: this._colour(i), width: 1.5, spanGaps: false, points: { show: false }, paths: this._envelope(k),
         value: (u, v, _s, idx) => this._value(k, v, idx),
       };
     }));
     this.plot = new uPlot({ width: this._w(), height: 180, series, legend: { live: true }, scales, axes },
                           this._data(), this.el);
+  }
+
+  // A series (column k) drawn as PlotJuggler and uPlot users expect at any speed: per pixel column,
+  // the least and greatest value of every row that covers it (a row covers the columns from its
+  // time to its span's other end when the pair it is in is a band for this column: the column went
+  // up and down within that group of ticks; else only its own), a vertical stroke
+  // between them, joined to the next column from the last value. A signal that flips sign within
+  // a column fills a band; a slow one, one value a column, is its line. A null is a gap.
+  _envelope(k) {
+    return (u, si, i0, i1) => {
+      const xs = u.data[0], ys = u.data[si], h = this.history[this.robot], span = h ? h.span : [], band = h ? h.band : [];
+      const sy = u.series[si].scale, left = Math.floor(u.bbox.left), w = Math.ceil(u.bbox.width) + 2;
+      const lo = new Float64Array(w).fill(NaN), hi = new Float64Array(w), first = new Float64Array(w);
+      const last = new Float64Array(w), gapBefore = new Uint8Array(w);
+      let gap = false;
+      for (let i = i0; i <= i1; i++) {
+        const y = ys[i];
+        if (typeof y !== "number" || !Number.isFinite(y)) { gap = true; continue; }
+        // a row covers its group's columns where the column went up and down in it, else its own
+        const py = u.valToPos(y, sy, true), other = band[i] && band[i][k] === "1" ? span[i] : xs[i];
+        const a = Math.max(0, Math.round(u.valToPos(Math.min(xs[i], other), "x", true)) - left);
+        const b = Math.min(w - 1, Math.round(u.valToPos(Math.max(xs[i], other), "x", true)) - left);
+        for (let c = a; c <= b; c++) {
+          if (Number.isNaN(lo[c])) { lo[c] = hi[c] = first[c] = py; gapBefore[c] = gap ? 1 : 0; }
+          else { if (py < lo[c]) lo[c] = py; if (py > hi[c]) hi[c] = py; }
+          last[c] = py;
+        }
+        gap = false;
+      }
+      const path = new Path2D();
+      let open = false;
+      for (let c = 0; c < w; c++) {
+        if (Number.isNaN(lo[c])) continue;
+        const x = left + c;
+        if (!open || gapBefore[c]) path.moveTo(x, first[c]); else path.lineTo(x, first[c]);
+        open = true;
+        if (hi[c] - lo[c] >= 0.5) { path.moveTo(x, lo[c]); path.lineTo(x, hi[c]); path.moveTo(x, last[c]); }
+        else path.lineTo(x, last[c]);
+      }
+      this.drawn[si] = { columns: w, band: Array.from(lo, (v, c) => (Number.isNaN(v) ? null : hi[c] - v)) };
+      return { stroke: path, fill: null, clip: null };
+    };
   }
 
   _value(k, v, idx) {  // a legend's value, as the table prints it; the last tick's even when not a number

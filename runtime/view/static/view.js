@@ -130,6 +130,9 @@ function onScene(scene) {
   $("breaks-panel").hidden = scene.mode !== "live";
   state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
+  listEvents([], 0, true);  // a new run: its own events
+  buildCounts(scene);
+  $("events-panel").hidden = replay;  // a replay's events are its trace's events column, in the table
   pickChart(scene);
   world.onPlace = scene.mode === "live" ? placeRobot : null;
   const blocks = scene.mode === "live" && scene.world && !scene.world.mechanism;
@@ -310,9 +313,55 @@ function defaultChart(scene) {
 // replay's seek, as the frames up to there would have drawn it; it replaces what was drawn ----
 function onHistory(h) {
   if (!state.scene || !state.scene.ok) return;
-  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits));
-  chart.setHistory(h.robots.map((r) => r.samples));
+  listEvents(h.events, h.events_before, true);
+  world.setHistory(h.robots.map((r) => r.path), h.robots.map((r) => r.hits), h.robots.map((r) => r.marks));
+  chart.setHistory(h.robots.map((r) => r.samples), h.robots.map((r) => r.spans), h.robots.map((r) => r.bands));
   state.history = h;
+}
+
+// -- the count metrics (a near miss, as the behaviour defines it: count(min(ahead, ...) < 0.25)):
+// each a triangle in its colour where it rose, on the path, and its count, as the map shows them
+function buildCounts(scene) {
+  const box = $("counts");
+  box.textContent = "";
+  (scene.counts || []).forEach((name, k) => {
+    const column = scene.columns.findIndex((c) => c.name === name && c.group === "metric");
+    if (column < 0) return;
+    const d = document.createElement("div"), mark = document.createElement("span");
+    d.dataset.column = String(column); d.dataset.name = name;
+    mark.className = "count-mark"; mark.style.color = LV.EVENT_RGB[k % LV.EVENT_RGB.length]; mark.textContent = "▲";
+    const label = document.createElement("span");
+    label.className = "muted"; label.textContent = ` ${name} `;
+    d.append(mark, label, document.createElement("strong"));
+    box.appendChild(d);
+  });
+}
+
+// -- the run's events, as its trace's events column and more: slider moves, the timeline's,
+// changes by hand, count metrics and logs, states entered, collisions begun, breakpoints that
+// held; the latest EVENTS listed, newest last. A frame carries its latest few and says how many
+// it left out; a history (a new tab, a reload, a reconnect) carries the run's so far ----------
+const EVENTS = 300;
+function listEvents(events, skipped, reset) {
+  const ol = $("events");
+  if (reset) { ol.textContent = ""; state.events = 0; }
+  const several = state.scene && (state.scene.robots || []).length > 1;
+  if (skipped) {
+    const li = document.createElement("li");
+    li.className = "more";
+    li.textContent = reset ? `… ${skipped} earlier (in the trace)` : `… ${skipped} more (in the trace)`;
+    ol.appendChild(li);
+  }
+  for (const e of events || []) {
+    const li = document.createElement("li");
+    li.textContent = `t = ${Number(e[1]).toFixed(2)} s  ${several ? e[2] + ": " : ""}${e[3]}`;  // text, never HTML
+    li.dataset.tick = String(e[0]);
+    ol.appendChild(li);
+  }
+  state.events += (events || []).length + (skipped || 0);
+  while (ol.children.length > EVENTS) ol.removeChild(ol.firstChild);
+  ol.scrollTop = ol.scrollHeight;
+  setText($("events-count"), state.events ? String(state.events) : "");
 }
 
 // -- frames ---------------------------------------------------------------------------------
@@ -327,6 +376,7 @@ function onFrame(frame) {
   world.setFrame(frame);
   if (world.onBlock) blockTools();
   chart.add(frame);
+  if (frame.events && frame.events.length) listEvents(frame.events, frame.events_more, false);
   if (frame.hit && (!state.lastHit || state.lastHit !== frame.hit.tick)) chartHit(frame.hit);
   state.lastHit = frame.hit ? frame.hit.tick : null;
   scheduleDraw();
@@ -395,6 +445,7 @@ function render() {
   if (r) {
     setText($("state"), r.state || "–");
     setText($("hits"), r.collisions === undefined ? "–" : String(r.collisions));
+    for (const d of $("counts").children) setText(d.lastChild, fmt(r.values[Number(d.dataset.column)]));
     const rule = scene.rules.find((q) => q.id === r.rule);
     setText($("rule"), r.rule ? `${r.rule}: ${rule ? rule.text : ""}` : "(none fired)");
     // before the first tick a signal or a metric has no value yet (not 0): a dash, as the chart has none
