@@ -20,8 +20,8 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from labsim.dsl.syntax import ast as dsl_ast
-from labsim.foundation.diagnostics import Diagnostic
-from labsim.foundation.files import write_output
+from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.files import read_head, write_output
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import YAML_SUFFIXES
 from labsim.runtime.grade.assignment import MOVED, Assignment, Criterion
@@ -306,9 +306,16 @@ def _ours(path: Path) -> bool:
     try:
         if path.is_symlink() or not path.is_file():
             return False
-        with open(path, "rb") as f:
-            return f.read(len(PAGE_HEAD.encode())).decode("utf-8", "replace") == PAGE_HEAD
-    except OSError:
+        return read_head(path, len(PAGE_HEAD.encode()), "page").decode("utf-8", "replace") == PAGE_HEAD
+    except (OSError, LabsimError):
+        return False
+
+
+def _starts(path: Path, head: bytes) -> bool:
+    """Whether a regular file (never a link) begins with ``head``."""
+    try:
+        return read_head(path, len(head), "chart") == head
+    except (OSError, LabsimError):
         return False
 
 
@@ -329,7 +336,7 @@ def remove_stale_pages(out: Path, keep: set[str], overview: bool) -> None:
         (out / "index.html").unlink()
         charts = out / "charts"
         for chart in sorted(charts.glob("[0-9][0-9].svg")) if charts.is_dir() else []:
-            if chart.is_file() and not chart.is_symlink() and chart.read_bytes().startswith(b"<svg "):
+            if chart.is_file() and not chart.is_symlink() and _starts(chart, b"<svg "):
                 chart.unlink()
 
 

@@ -46,8 +46,8 @@ def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None
     proc = run("--break", "sonar5 < 0 or state == follow and time > 100")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held: the run went 120 "
-                        "ticks (6.00 s) to its end")
+    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held: the run went 480 "
+                        "ticks (24.00 s) to its end")
     assert lines[1].startswith("Wall following with sonars")
 
 
