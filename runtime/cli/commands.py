@@ -16,7 +16,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world import World
@@ -89,28 +89,17 @@ def _backend_options(args: argparse.Namespace) -> dict[str, object]:
 
 # -- the commands on the tick loop ---------------------------------------------------------------
 
-def _note_without_kernel() -> None:
-    """Once an install (this labsim, from this folder), on its first run: a note that the ray
-    sensors cast without the C kernel, when the install built none. Remembered by an empty file
-    in the cache folder; where there is none, nothing is said rather than the note every run."""
-    from labsim.runtime.cli.parser import ray_caster
-
-    if ray_caster() == "C kernel":
-        return
-    import hashlib
-
-    from labsim.foundation.cache import cache_dir, write_atomically
-    from labsim.foundation.version import version
-
-    folder = cache_dir()
-    if folder is None:
-        return
-    where = hashlib.sha256(f"{version()} {Path(__file__).resolve().parents[2]}".encode()).hexdigest()
-    marker = folder / f"noted-no-ray-kernel-{where[:16]}"
-    if marker.exists() or not write_atomically(marker, b""):
-        return
-    print("note: the ray sensors cast without labsim's C kernel (no C compiler at install): the same "
-          "readings, slower; `labsim --version` says which caster runs", file=sys.stderr)
+def _replayed(path: str | None) -> tuple[Any, Any]:
+    """``--replay TRACE``: the slider moves and the hands' moves the trace recorded (or none)."""
+    if not path:
+        return None, None
+    try:
+        recorded = read_trace(path)
+    except TraceFormatError as e:
+        raise LabsimError([e.diagnostic(path)]) from None
+    if recorded.cut_short():
+        print_warning(f"{path}: warning: {recorded.cut_short()}; replaying the moves it has")
+    return slider_events(recorded), hand_events(recorded)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -129,19 +118,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     mcap_out = _mcap_trace(args, inputs)  # --trace run.mcap: the CSV trace first, beside it, then exported
     if args.json not in (None, "-"):
         check_json_output(args.json, inputs)
-    replay, hands = None, None
-    if args.replay:
-        try:
-            recorded = read_trace(args.replay)
-            replay, hands = slider_events(recorded), hand_events(recorded)
-        except TraceFormatError as e:
-            raise LabsimError([e.diagnostic(args.replay)]) from None
-        if recorded.cut_short():
-            print_warning(f"{args.replay}: warning: {recorded.cut_short()}; replaying the moves it has")
+    replay, hands = _replayed(args.replay)
     stopper = _break_observer(behaviour.program, args)
     backend = load_backend(args.backend, **_backend_options(args))
     if args.backend == "pymunk":
-        _note_without_kernel()
+        from labsim.runtime.cli.parser import note_without_kernel
+        note_without_kernel()
     run = behaviour.bind(backend, trace=args.trace, warn=print_warning, replay=replay, hands=hands,
                          observers=[stopper] if stopper is not None else [])
     show = args.progress if args.progress is not None else sys.stderr.isatty()
@@ -379,7 +361,7 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_lsp(args: argparse.Namespace) -> int:
     """The language server over stdio until the editor says exit (runtime/lsp/server.py); the
     assignment files' reader and schema are the grader's, handed in from here."""
-    from labsim.runtime.grade.assignment import assignment_schema
+    from labsim.runtime.grade.assignment_schema import assignment_schema
     from labsim.runtime.lsp.server import default_checkers, serve
 
     checkers = default_checkers()

@@ -14,6 +14,7 @@ import importlib.util
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import NoReturn
 
 from labsim.backends import DEFAULT, REGISTRY
@@ -81,6 +82,28 @@ class _Version(argparse.Action):
                  option_string: str | None = None) -> None:
         print(f"labsim {version()} (ray caster: {ray_caster()})")
         parser.exit()
+
+
+def note_without_kernel() -> None:
+    """Once an install (this labsim, from this folder), on its first run: a note that the ray
+    sensors cast without the C kernel, when the install built none. Remembered by an empty file
+    in the cache folder; where there is none, nothing is said rather than the note every run."""
+    if ray_caster() == "C kernel":
+        return
+    import hashlib
+
+    from labsim.foundation.cache import cache_dir, write_atomically
+    from labsim.foundation.version import version
+
+    folder = cache_dir()
+    if folder is None:
+        return
+    where = hashlib.sha256(f"{version()} {Path(__file__).resolve().parents[2]}".encode()).hexdigest()
+    marker = folder / f"noted-no-ray-kernel-{where[:16]}"
+    if marker.exists() or not write_atomically(marker, b""):
+        return
+    print("note: the ray sensors cast without labsim's C kernel (no C compiler at install): the same "
+          "readings, slower; `labsim --version` says which caster runs", file=sys.stderr)
 
 
 def _command_named(argv: Sequence[str]) -> str | None:

@@ -20,7 +20,7 @@ MODELINE = "# yaml-language-server: $schema="
 
 def schema(kind: str) -> Schema:
     if kind == "assignment":  # the grader's (runtime/grade), read only when asked for
-        from labsim.runtime.grade.assignment import assignment_schema
+        from labsim.runtime.grade.assignment_schema import assignment_schema
 
         return assignment_schema()
     return behaviour_schema() if kind == "behaviour" else world_schema()

@@ -13,17 +13,14 @@ import hashlib
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field, is_dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from labsim.backends.scene.ground import ROAD_CHANNELS
-from labsim.backends.scene.models import MODELS, Kind
-from labsim.backends.scene.schema import DRAFT, IDENTIFIER, Schema, mapping
 from labsim.backends.scene.world_file import load_world
 from labsim.backends.scene.world_names import WorldRef, builtin_worlds, find_world
-from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, Better
+from labsim.dsl.library.builtins import AGGREGATES, Better
 from labsim.dsl.syntax import ast as dsl_ast
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import MetricDecl, Parsed
@@ -33,6 +30,7 @@ from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY, YAML_SUFFIXES, file_
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Reader, TextSpan, load, scalar_value
+from labsim.runtime.grade.readable import measurable_names, unreadable
 
 KEYS = (ASSIGNMENT_VERSION_KEY, "title", "world", "robots", "params", "measure", "metrics", "seeds", "timeout_s",
         "budgets", "criteria", "gate_score", "reference")
@@ -50,7 +48,6 @@ DEFAULT_TIMEOUT_S = 60.0
 MAX_TIMEOUT_S = 3600.0  # an hour a run: a longer one is a mistake in the assignment, not a lab
 MAX_PARAM = float(WHOLE_LIMIT)  # a grader's param value, either sign: 2**53, as for seeds
 # what a measured metric may read besides the sensors: what no student's file can write
-MEASURE_VARIABLES = ("time", "tick", "dt")
 MEASURED_SUFFIX = " (measured)"  # a measured metric's name in a student's program: no file can write it
 
 
@@ -298,7 +295,7 @@ class _AssignmentReader(Reader):
                 self.error(TextSpan(text, *tree.span), f"measured metric '{name}' must be an aggregate over the run: "
                                                         + ", ".join(f"{a}(...)" for a in AGGREGATES))
                 continue
-            bad = _unreadable(tree, readable)
+            bad = unreadable(tree, readable)
             for what, span in bad:
                 self.error(TextSpan(text, *span), f"measured metric '{name}' reads {what}; a measured metric reads "
                                                   "only what the student's file cannot write",
@@ -386,21 +383,7 @@ class _AssignmentReader(Reader):
                 self.error(fields["from"], "from: student is the one source a criterion names: a metric the "
                                            "student's file defines")
         if name in BUILTINS:
-            allowed = {"weight", "required", *(("at_least",) if name == MOVED else ())}
-            for extra in set(fields) - allowed:
-                self.error(fields[extra], f"the built-in criterion '{name}' takes "
-                                          f"{'at_least (metres), ' if name == MOVED else ''}a weight and required "
-                                          f"only, not '{extra}'")
-            if name != MOVED:
-                return Criterion(name, weight or 1.0, required=required)
-            if "at_least" not in fields:
-                self.error(key, "moved takes at_least: METRES, the distance each robot must drive")
-                return None
-            metres = self.number(fields["at_least"], "at_least")
-            if metres is not None and metres < 0:
-                self.error(fields["at_least"], "moved: at_least is a distance, 0 or more metres")
-                return None
-            return None if metres is None else Criterion(name, weight or 1.0, at_least=metres, required=required)
+            return self._builtin(key, name, fields, weight or 1.0, required)
         if measured is not None and not student and name not in measured:
             self.error(key, f"criterion '{name}' names no measured metric{did_you_mean(name, measured)}",
                        notes=("define it under measure:, or write from: student for a metric the student's file "
@@ -436,6 +419,25 @@ class _AssignmentReader(Reader):
             return None
         return Criterion(name, weight or 1.0, **{given[0]: limit}, required=required, student=student)
 
+    def _builtin(self, key: ScalarNode, name: str, fields: dict[str, Node], weight: float,
+                 required: bool) -> Criterion | None:
+        """A built-in criterion (``no_faults``, ``moved: {at_least: METRES}``, ...)."""
+        allowed = {"weight", "required", *(("at_least",) if name == MOVED else ())}
+        for extra in set(fields) - allowed:
+            self.error(fields[extra], f"the built-in criterion '{name}' takes "
+                                      f"{'at_least (metres), ' if name == MOVED else ''}a weight and required "
+                                      f"only, not '{extra}'")
+        if name != MOVED:
+            return Criterion(name, weight, required=required)
+        if "at_least" not in fields:
+            self.error(key, "moved takes at_least: METRES, the distance each robot must drive")
+            return None
+        metres = self.number(fields["at_least"], "at_least")
+        if metres is not None and metres < 0:
+            self.error(fields["at_least"], "moved: at_least is a distance, 0 or more metres")
+            return None
+        return None if metres is None else Criterion(name, weight, at_least=metres, required=required)
+
     def flag(self, node: Node, what: str) -> bool:
         value = scalar_value(node) if isinstance(node, ScalarNode) else None
         if not isinstance(value, bool):
@@ -465,42 +467,6 @@ def _sha256_of(path: str | None) -> str:
         return ""
 
 
-def measurable_names() -> set[str]:
-    """The names a measured metric may read: every robot model's sensors and pose, ``collided``
-    and ``forward_speed``, the world's channels, ``MEASURE_VARIABLES`` and the constants."""
-    names: set[str] = set(MEASURE_VARIABLES) | set(CONSTANTS) | set(ROAD_CHANNELS)
-    for model in MODELS.values():
-        names |= {n for n, kind in model.channels().items() if kind is not Kind.IMAGE}
-    return names
-
-
-def _unreadable(e: dsl_ast.Expr, readable: set[str]) -> list[tuple[str, tuple[int, int]]]:
-    """What an expression reads that a measured metric may not: (words, span) each."""
-    out: list[tuple[str, tuple[int, int]]] = []
-
-    def walk(node: object) -> None:
-        if isinstance(node, dsl_ast.Name):
-            if node.id not in readable:
-                out.append((f"'{node.id}', which is not a sensor, the pose or a param of the grader's", node.span))
-        elif isinstance(node, dsl_ast.Call):
-            if node.func not in FUNCTIONS and node.func not in AGGREGATES and node.func != DETECTED:
-                out.append((f"'{node.func}(...)', which is not a built-in function", node.func_span))
-            if node.func == DETECTED:  # detected(sonar5) names a sensor
-                for arg in node.args:
-                    walk(arg)
-                return
-        elif isinstance(node, dsl_ast.Attribute):
-            out.append((f"'.{node.attr}' of a robot the student names", node.span))
-            return
-        if is_dataclass(node):
-            for value in vars(node).values():  # the node's fields (an ast node has no other attribute)
-                for item in value if isinstance(value, tuple) else (value,):
-                    if isinstance(item, dsl_ast.Expr):
-                        walk(item)
-    walk(e)
-    return out
-
-
 _BUDGET_HINT = re.compile(r"--budget (\w+)=([\w.,]+)")
 
 
@@ -508,55 +474,3 @@ def budget_words(text: str) -> str:
     """A budget's message as a grader's: ``labsim grade`` has no ``--budget``; the assignment's
     ``budgets:`` raise one."""
     return _BUDGET_HINT.sub(lambda m: f"the assignment's budgets: {{{m.group(1)}: {m.group(2).rstrip('.,')}}}", text)
-
-
-def assignment_schema() -> Schema:
-    """The JSON Schema of assignment files, from the reader's key tables (``labsim schema assignment``)."""
-    number: Schema = {"type": "number"}
-    criterion = mapping(CRITERION_KEYS, {
-        "at_least": {**number, "description": "passes (full weight) when the metric's mean over the seeds is at "
-                                              "least this"},
-        "at_most": {**number, "description": "passes (full weight) when the mean is at most this"},
-        "score": {"type": "array", "items": number, "minItems": 2, "maxItems": 2,
-                  "description": "[worst, best]: 0 at worst, the full weight at best, linear between"},
-        "weight": {**number, "exclusiveMinimum": 0, "description": "its share of the score (default 1)"},
-        "required": {"type": "boolean", "description": "a gate: failing it gives the assignment's gate_score"},
-        "from": {"const": STUDENT, "description": "a metric the student's file defines, not a measured one"}})
-    out = mapping(KEYS, {
-        ASSIGNMENT_VERSION_KEY: {"const": 1, "description": "the assignment format version"},
-        "title": {"type": "string", "description": "the assignment's name in the gradebook and on the pages"},
-        "world": {"type": "string", "description": "the world every submission uses, or 'any'"},
-        "robots": {"oneOf": [{"type": "integer", "minimum": 0}, {"const": ANY}],
-                   "description": "how many robots a submission runs, or 'any'"},
-        "params": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
-                   "additionalProperties": {"type": ["number", "boolean"]},
-                   "description": "params every submission declares, with the values the grader sets"},
-        "measure": {"type": "object", "propertyNames": {"pattern": IDENTIFIER},
-                    "additionalProperties": {"oneOf": [
-                        {"type": "string"},
-                        {"type": "object", "additionalProperties": False, "required": ["value"],
-                         "properties": {"value": {"type": "string"}, "better": {"enum": ["higher", "lower"]}}}]},
-                    "description": "metrics the grader measures on every run, in the behaviour language's metric "
-                                   "syntax, e.g. hits: count(collided); they read only sensors, the pose, time and "
-                                   "the grader's params"},
-        "gate_score": {"type": "number", "minimum": 0, "maximum": 100,
-                       "description": "the score of a student who fails a required criterion (default 0)"},
-        "metrics": {"type": "array", "items": {"type": "string", "pattern": IDENTIFIER},
-                    "description": "metrics every submission defines (the criteria's are added)"},
-        "seeds": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": WHOLE_LIMIT}, "minItems": 1,
-                  "maxItems": MAX_SEEDS, "uniqueItems": True, "description": "one run per seed (default [1])"},
-        "timeout_s": {**number, "exclusiveMinimum": 0, "maximum": MAX_TIMEOUT_S,
-                      "description": f"wall time each run may take (default {DEFAULT_TIMEOUT_S:g} s)"},
-        "budgets": {"type": "object", "additionalProperties": False,
-                    "properties": {n: {"type": "integer", "minimum": 0} for n in Budgets.names()},
-                    "description": "each run's budgets (docs/security.md)"},
-        "criteria": {"type": "object", "minProperties": 1, "additionalProperties": criterion,
-                     "description": "a metric's name or a built-in (" + ", ".join(BUILTINS) + ") to how it "
-                                    "scores"},
-        "reference": {"type": "string", "description": "a behaviour whose metrics are shown beside each "
-                                                       "student's (relative to this file)"},
-    }, "A labsim assignment file (docs/grading.md).", required=(ASSIGNMENT_VERSION_KEY, "world", "robots",
-                                                               "criteria"))
-    return {"$schema": DRAFT, **out}
-
-
