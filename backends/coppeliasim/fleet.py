@@ -196,6 +196,15 @@ class Fleet:
             call("sim.setObjectPosition", r.handle, [pose.x_m, pose.y_m, z], world_h)
             call("sim.setObjectOrientation", r.handle, [alpha, beta, pose.heading_rad], world_h)
 
+    def rest(self) -> None:
+        """Every wheel's target velocity 0, as the embedded backend starts: a target a client
+        left in the scene would otherwise move the robot in the priming step. Object by object
+        even with the fleet script: a child script runs only once the simulation has started."""
+        for r in self.rovers:
+            for m in r.motors:
+                self._conn.call("sim.setJointTargetVelocity", m, 0.0)
+            r.sent = [0.0, 0.0]
+
     # --- a tick ------------------------------------------------------------------------------
 
     def sense(self, first: bool) -> list[list[object]]:

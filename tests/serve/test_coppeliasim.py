@@ -282,3 +282,24 @@ def test_scene_paths_from_the_behaviour_file(served: int, tmp_path: Path, capsys
     capsys.readouterr()
     assert main(["run", str(bad), "-q", "--backend", "coppeliasim", "--port", str(served)]) == 2
     assert "/MyPioneer" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("how", [(), ("--per-object",)], ids=["fleet-script", "per-object"])
+def test_wheel_targets_a_client_left_in_the_scene_do_not_move_the_robot(how: tuple[str, ...], tmp_path: Path,
+                                                                         capsys) -> None:
+    """CoppeliaSim keeps the targets a client set while stopped: the backend sets them to 0
+    before its first step, so the run is the embedded one from tick 0."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    proc, port = serve("-q", *how)
+    try:
+        sim = RemoteAPIClient(port=port).require("sim")
+        sim.setJointTargetVelocity(sim.getObject("/PioneerP3DX/leftMotor"), 10)
+        sim.setJointTargetVelocity(sim.getObject("/PioneerP3DX/rightMotor"), -10)
+        ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+        assert main(["run", str(LAB), "-q", "--set", "minutes=0.05", "--trace", str(ref)]) == 0
+        assert main(["run", str(LAB), "-q", "--set", "minutes=0.05", "--trace", str(remote),
+                     "--backend", "coppeliasim", "--port", str(port)]) == 0
+    finally:
+        stop(proc)
+    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 61
