@@ -127,3 +127,21 @@ def test_a_sensor_labsim_scene_cannot_build_is_refused_before_anything_is_built(
         build(Connection("127.0.0.1", 1, 1.0), world, [robot], 0.05)
     assert str(refused.value).startswith("labsim scene: robot 'pioneer' reads bump_front_left, and CoppeliaSim's "
                                          "Pioneer P3DX has no bumpers: labsim scene builds none.")
+
+
+@pytest.mark.parametrize("lab, paths", [
+    ("wall_follow.yaml", ["/wall", "/wall[1]", "/block", "/labsimFloor", "./wall[5]", ":/block"]),
+    ("road_follow.yaml", ["/labsimGround"]),
+], ids=["walls", "ground"])
+def test_no_error_finds_the_built_shapes_as_the_plain_call_does(lab: str, paths: list[str], empty: int,
+                                                                capsys) -> None:
+    """In CoppeliaSim {noError: true} only silences the error: what exists keeps its handle."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    assert main(["scene", str(BEHAVIOURS / lab), "--port", str(empty)]) == 0
+    sim = RemoteAPIClient(port=empty).require("sim")
+    for path in paths:
+        h = sim.getObject(path)
+        assert h >= 0 and sim.getObject(path, {"noError": True}) == h, path
+    assert sim.getObject("/wall[999]", {"noError": True}) == -1
+    assert sim.getObject("/nothing", {"noError": True}) == -1
