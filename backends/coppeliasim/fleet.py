@@ -238,12 +238,21 @@ class Fleet:
         if not isinstance(data, (bytes, bytearray)) or len(data) % 8:
             raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' is not packed doubles "
                                f"(got {str(data)[:80]})")
-        ranges = struct.unpack(f"<{len(data) // 8}d", data)
+        # checked as every other reply is: a scanner publishes one range per beam, each in
+        # 0..range (inf: nothing met); anything else would be read as a distance and driven on
+        model = r.req.model
+        assert model is not None and model.lidars
+        lidar = model.lidars[0]
+        where = f"robot '{r.name}': signal '{r.lidar_signal}' of CoppeliaSim at {self._conn.where}"
+        if len(data) // 8 != lidar.beams:
+            raise BackendError(f"{where} has {len(data) // 8} ranges; the robot's lidar has {lidar.beams} beams")
+        ranges = struct.unpack(f"<{lidar.beams}d", data)
         for k, slot in r.lidar:
-            if k >= len(ranges):
-                raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' has {len(ranges)} beams, "
-                                   f"and the behaviour reads lidar{k + 1}")
-            values[slot] = ranges[k]
+            v = ranges[k]
+            if not (v == math.inf or 0.0 <= v <= lidar.range_m * (1 + 1e-9)):
+                raise BackendError(f"{where}: beam {k + 1} reads {v!r}, not a range in 0..{lidar.range_m:g} m "
+                                   f"or inf")
+            values[slot] = v
 
     def _switches_and_ground(self, r: _Rover, values: list[object]) -> None:
         """Bumpers (a proximity sensor that detects is pressed) and ground sensors (the average
