@@ -145,3 +145,13 @@ def test_no_error_finds_the_built_shapes_as_the_plain_call_does(lab: str, paths:
         assert h >= 0 and sim.getObject(path, {"noError": True}) == h, path
     assert sim.getObject("/wall[999]", {"noError": True}) == -1
     assert sim.getObject("/nothing", {"noError": True}) == -1
+
+
+def test_an_epuck_built_by_labsim_scene_answers_its_names_from_before_4_3(empty: int) -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    assert main(["scene", str(BEHAVIOURS / "line_follow.yaml"), "--port", str(empty), "-q"]) == 0
+    sim = RemoteAPIClient(port=empty).require("sim")
+    assert sim.getObjectHandle("ePuck") == sim.getObject("/ePuck")
+    for name in ("ePuck_leftJoint", "ePuck_proxSensor1", "ePuck_camera"):
+        assert sim.getObjectHandle(name) == sim.getObject(f"/ePuck/{name}"), name

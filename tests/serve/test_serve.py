@@ -28,7 +28,7 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 from helpers import PATH_ERROR, PATIENCE_S, serve  # noqa: E402
 
 from labsim.backends.protocol import RobotRequest  # noqa: E402
-from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
+from labsim.backends.scene.models import EPUCK, PIONEER_P3DX, Camera  # noqa: E402
 from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
 from labsim.foundation.diagnostics import Report  # noqa: E402
@@ -94,6 +94,22 @@ def test_errors_carry_coppeliasim_texts(wire: Wire) -> None:
     assert old == {"success": False,
                    "error": "The client ZeroMQ remote API version does not match CoppeliaSim's version"}
     assert "err" in cbor2.loads(wire.server.handle(b"\xff\x00 not cbor"))
+
+
+def test_an_epucks_names_from_before_4_3_are_answered_as_the_pioneers_are() -> None:
+    """The stock e-puck's old names (V-REP scripts' simxGetObjectHandle('ePuck_leftJoint')),
+    #0 for the second e-puck; sim.getObject wants the path, as for the Pioneer."""
+    robots = [RobotRequest(f"e{k}", EPUCK, Pose(0.5 * k, 0.0, 0.0), ()) for k in range(2)]
+    wire = Wire(Server(LAB, robots, port=0))
+    for k, suffix in enumerate(("", "#0")):
+        base = wire("sim.getObject", f"/ePuck[{k}]")
+        assert wire("sim.getObjectHandle", f"ePuck{suffix}") == base
+        for name in ("ePuck_leftJoint", "ePuck_rightJoint", "ePuck_proxSensor1", "ePuck_proxSensor8",
+                     "ePuck_camera"):
+            assert wire("sim.getObjectHandle", f"{name}{suffix}") == wire("sim.getObject", f"/ePuck[{k}]/{name}")
+    err = wire.raw("sim.getObject", "ePuck_leftJoint")["err"]
+    assert "before CoppeliaSim 4.3" in err and "'/ePuck[0]/ePuck_leftJoint'" in err
+    assert "object does not exist" in wire.raw("sim.getObjectHandle", "ePuck#1")["err"]
 
 
 def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
