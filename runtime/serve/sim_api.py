@@ -50,6 +50,7 @@ E_PATH = "object does not exist, or alias/path is ill formatted."
 E_HANDLE = "object does not exist."
 E_ARGS = "one of the function's argument type is not correct."
 E_FEW = "function requires more arguments."
+E_POS_SIZE = "wrong position/size parameters."  # CoppeliaSim's SIM_ERROR_WRONG_POS_SIZE_PARAMS
 
 FUNCTIONS = tuple(f"sim.{n}" for n in (
     "getObject", "getObjectHandle", "getObjectAlias", "getObjectParent",
@@ -103,6 +104,26 @@ def as_handle(value: object) -> int:
     if not isinstance(value, int) or isinstance(value, bool):
         raise SimError(E_ARGS)
     return value
+
+
+def crop(pos: object, size: object, w: int, h: int) -> tuple[int, int, int, int]:
+    """(x0, y0, sx, sy) of the part of a w x h vision sensor image a pos and size read, as
+    getVisionSensorImg, getVisionSensorDepth and the older image calls all take them (a size
+    of 0 reads to the edge): not two numbers, the type error; outside the image (inf and nan
+    included), CoppeliaSim's "wrong position/size parameters"."""
+    pos = pos if pos else [0, 0]
+    size = size if size else [0, 0]
+    if not (isinstance(pos, (list, tuple)) and isinstance(size, (list, tuple)) and len(pos) >= 2 and len(size) >= 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (*pos[:2], *size[:2]))):
+        raise SimError(E_ARGS)
+    nums = (*pos[:2], *size[:2])
+    if not all(math.isfinite(v) and abs(v) < 2 ** 31 for v in nums):
+        raise SimError(E_POS_SIZE)
+    x0, y0, sx, sy = (int(v) for v in nums)
+    sx, sy = sx or w - x0, sy or h - y0
+    if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
+        raise SimError(E_POS_SIZE)
+    return x0, y0, sx, sy
 
 
 def _num(args: Args, i: int, default: float | None = None) -> float:
@@ -307,15 +328,7 @@ class SimApi:
         seen = self.sim.sensed(obj)
         # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
         img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
-        pos = args[3] if len(args) > 3 and args[3] else [0, 0]
-        size = args[4] if len(args) > 4 and args[4] else [0, 0]
-        try:
-            x0, y0 = int(pos[0]), int(pos[1])
-            sx, sy = int(size[0]) or w - x0, int(size[1]) or h - y0
-        except (TypeError, ValueError, IndexError):
-            raise SimError(E_ARGS) from None
-        if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
-            raise SimError(E_ARGS)
+        x0, y0, sx, sy = crop(args[3] if len(args) > 3 else None, args[4] if len(args) > 4 else None, w, h)
         img = img[y0:y0 + sy, x0:x0 + sx]
         if options & 1:  # greyscale, one byte a pixel
             img = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)[..., None]

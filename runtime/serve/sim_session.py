@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, shown
+from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, crop, shown
 from labsim.runtime.serve.sim_objects import call_base
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.wire_limits import Deadline
@@ -298,7 +298,7 @@ class SessionCalls:
         h = as_handle(args[0]) if args else None
         if h is None:
             raise SimError(E_FEW)
-        nums = [as_handle(a) if a is not None else 0 for a in args[1:6]] + [0] * 5
+        nums = [_coord(a) for a in args[1:6]] + [0] * 5
         grey = 1 if h & SESSION_CONSTANTS["handleflag_greyscale"] else 0
         img, _res = self._inner("sim.getVisionSensorImg", client,
                                 [h & 0x003FFFFF, grey, 0, nums[0:2], nums[2:4]])
@@ -371,12 +371,7 @@ class SessionCalls:
         if options & 1:
             depth = NEAR_M + depth * (FAR_M - NEAR_M)
         w, h = obj.resolution
-        pos = args[2] if len(args) > 2 and args[2] else [0, 0]
-        size = args[3] if len(args) > 3 and args[3] else [0, 0]
-        x0, y0 = int(pos[0]), int(pos[1])
-        sx, sy = int(size[0]) or w - x0, int(size[1]) or h - y0
-        if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
-            raise SimError("wrong position/size parameters.")
+        x0, y0, sx, sy = crop(args[2] if len(args) > 2 else None, args[3] if len(args) > 3 else None, w, h)
         part = depth[y0:y0 + sy, x0:x0 + sx].astype("<f4")
         return [part.tobytes(), [w, h]]
 
@@ -386,7 +381,7 @@ class SessionCalls:
         h = args[0] if args else None
         if not isinstance(h, int) or isinstance(h, bool):
             raise SimError(E_FEW if not args else E_ARGS)
-        nums = [a if isinstance(a, int) else 0 for a in args[1:5]] + [0] * 4
+        nums = [_coord(a) for a in args[1:5]] + [0] * 4
         grey = 1 if h & SESSION_CONSTANTS["handleflag_greyscale"] else 0
         img, res = self._inner("sim.getVisionSensorImg", client,
                                [h & 0x003FFFFF, grey, 0, nums[0:2], nums[2:4]])
@@ -446,3 +441,13 @@ class SessionCalls:
 
 
 _NOBODY = Client("labsim", "-", 600.0, 0.0)  # the caller of an internal read, which no handler looks at
+
+
+def _coord(value: object) -> float:
+    """A position or size of the older image calls: nil is 0, any number as given (``crop``
+    checks it against the image), anything else the type error."""
+    if value is None:
+        return 0
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise SimError(E_ARGS)
+    return value

@@ -233,6 +233,17 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     assert len(grey_alpha) == 32 * 24 * 2 and grey_alpha[1::2] == b"\xff" * (32 * 24)
     part, res = wire("sim.getVisionSensorImg", v, 0, 0.0, [4, 2], [8, 6])
     assert len(part) == 8 * 6 * 3 and res == [32, 24]
+    # a part outside the image is CoppeliaSim's "wrong position/size parameters", from every
+    # image call alike (inf and nan included); a part that is not numbers, the type error
+    inf, nan = float("inf"), float("nan")
+    for pos, size in (([0, 0], [inf, 4]), ([inf, 0], [1, 1]), ([nan, 0], [1, 1]), ([0, 0], [-1, 4]),
+                      ([0, 0], [33, 1]), ([31, 0], [2, 1]), ([0, 0], [1e300, 1])):
+        for call in (("sim.getVisionSensorImg", v, 0, 0.0, pos, size), ("sim.getVisionSensorDepth", v, 0, pos, size),
+                     ("sim.getVisionSensorImage", v, *pos, *size), ("sim.getVisionSensorCharImage", v, *pos, *size)):
+            assert wire.raw(*call)["err"].startswith("wrong position/size parameters."), call
+    for call in (("sim.getVisionSensorImg", v, 0, 0.0, [0, 0], ["a", 1]),
+                 ("sim.getVisionSensorDepth", v, 0, [0], [1, 1]), ("sim.getVisionSensorImage", v, 0, 0, "a", 1)):
+        assert wire.raw(*call)["err"].startswith("one of the function's argument type is not correct."), call
 
 
 def test_serve_camera_sees_the_robot_ahead_as_the_backend_does() -> None:
