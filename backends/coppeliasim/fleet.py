@@ -125,6 +125,7 @@ class Fleet:
         round trips for the whole fleet, else one request per value."""
         self._script = fs.find_script(self._conn)
         if self._script < 0:
+            self._conn.watch_state = True  # object by object: only the state tells a stop from outside
             return
         self._plan = [[r.handle, r.collide_with,
                        (fs.POSITION * r.read_position) | (fs.ORIENTATION * r.read_orientation)

@@ -70,6 +70,8 @@ class MechanismDriver:
         for p in self.parts:
             self._find(p)
         self._script = fs.find_script(self._conn)
+        if self._script < 0:
+            self._conn.watch_state = True  # part by part: only the state tells a stop from outside
 
     def _find(self, p: _Parts) -> None:
         mech = self._mechanism

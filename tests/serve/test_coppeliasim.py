@@ -246,7 +246,8 @@ def test_close_after_an_interrupted_call_still_stops_the_simulation(server: Serv
 
 
 def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
-    """6 sonars + collided + sim.step (2) + changed wheels: what the wall lab costs a tick."""
+    """6 sonars + collided + sim.step (2) + the simulation's state (a stop from outside) + changed
+    wheels: what the wall lab costs a tick, object by object."""
     chans = tuple(f"sonar{k}" for k in (2, 5, 8, 9, 14, 15))
     backend = load_backend("coppeliasim", port=server.port)
     backend.open(WALLS, [RobotRequest("p", PIONEER_P3DX, Pose(-4.0, -4.0, 0.8), chans)], 0.05, 1)
@@ -254,12 +255,12 @@ def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
     backend.sense()
     backend.act(0, 1.0, 2.0)
     backend.step()
-    assert backend.round_trips - before == 6 + 1 + 2 + 2
+    assert backend.round_trips - before == 6 + 1 + 2 + 1 + 2
     before = backend.round_trips
     backend.sense()
     backend.act(0, 1.0, 2.0)  # unchanged: nothing sent
     backend.step()
-    assert backend.round_trips - before == 6 + 1 + 2
+    assert backend.round_trips - before == 6 + 1 + 2 + 1
     backend.close()
 
 
@@ -303,3 +304,33 @@ def test_wheel_targets_a_client_left_in_the_scene_do_not_move_the_robot(how: tup
     finally:
         stop(proc)
     assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 61
+
+
+@pytest.mark.parametrize("fleet_script, seen", [
+    (True, "after 3 steps (t = 0.15 s); the run cannot go on (seen at sim.callScriptFunction)"),  # the next sense
+    (False, "after 4 steps (t = 0.20 s); the run cannot go on (seen at sim.step)"),  # the next step
+], ids=["fleet-script", "per-object"])
+def test_a_simulation_stopped_from_outside_mid_run_is_said_so(fleet_script: bool, seen: str) -> None:
+    """Another client stops the simulation between two ticks: the next tick stops the run with
+    that reason, on both paths (object by object the steps of a stopped simulation would do
+    nothing, and every read would still answer: a run frozen in place, silently)."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    with Server(WALLS, 1, port=0, fleet_script=fleet_script) as server:
+        backend = load_backend("coppeliasim", port=server.port)
+        backend.open(WALLS, ONE, 0.05, 1)
+        for _ in range(3):
+            backend.sense()
+            backend.act(0, 1.0, 1.0)
+            backend.step()
+        other = RemoteAPIClient(port=server.port)
+        other.require("sim").stopSimulation()
+        with pytest.raises(BackendError) as e:
+            backend.sense()
+            backend.step()
+            backend.sense()
+        backend.close()
+        other.socket.close(0)
+        other.context.term()
+    assert str(e.value) == (f"CoppeliaSim at 127.0.0.1:{server.port}: the simulation was stopped from outside "
+                            f"(another client, or the simulator's stop button), {seen}")
