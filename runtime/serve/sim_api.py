@@ -30,6 +30,7 @@ import numpy as np
 from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_PARENT, HANDLE_WORLD, PAUSED, RUNNING, STOPPED
 from labsim.backends.coppeliasim.frames import Pose3, plane_rotation, quaternion_yaw, seen_from, wrap, yaw_quaternion
 from labsim.backends.scene.world import Pose
+from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import SceneObject
 from labsim.runtime.serve.simulation import Client, Robot, Simulation
 
@@ -50,6 +51,9 @@ E_PATH = "object does not exist, or alias/path is ill formatted."
 E_HANDLE = "object does not exist."
 E_ARGS = "one of the function's argument type is not correct."
 E_FEW = "function requires more arguments."
+# A sonar's axes in its yaw-only mount frame: x to the beam's left, y up, z along the beam
+# (columns (0, 1, 0), (0, 0, 1), (1, 0, 0)), the frame readProximitySensor's point is in.
+SENSOR_AXES = [0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
 E_POS_SIZE = "wrong position/size parameters."  # CoppeliaSim's SIM_ERROR_WRONG_POS_SIZE_PARAMS
 
 FUNCTIONS = tuple(f"sim.{n}" for n in (
@@ -421,6 +425,31 @@ class SimApi:
             raise SimError(E_HANDLE)
         return seen_from(pose, world_pose(ref))
 
+    def _sensor_frame(self, obj: SceneObject, rel: int) -> mx.Matrix | None:
+        """obj's matrix in the frame ``rel`` names when a sonar is either of them, else None.
+
+        A proximity sensor detects along its z axis, and readProximitySensor's point is in
+        that frame (z along the beam, x to its left, y up: ``Simulation.detected_point``), as
+        on CoppeliaSim's Pioneer: so its orientation is that frame, and ``M * point`` of its
+        matrix lands where the sonar met something. Everything else stays yaw-only."""
+        if rel == HANDLE_PARENT:
+            ref = obj.parent
+        elif rel == HANDLE_WORLD:
+            ref = None
+        else:
+            ref = self.tree.objects.get(rel)
+            if ref is None:
+                raise SimError(E_HANDLE)
+        if obj.kind != "sonar" and (ref is None or ref.kind != "sonar"):
+            return None
+        m = self._world_frame(obj)
+        return m if ref is None else mx.seen_from(m, self._world_frame(ref))
+
+    def _world_frame(self, obj: SceneObject) -> mx.Matrix:
+        x, y, z, a = self.sim.world_pose(obj)
+        m = mx.from_euler((x, y, z), (0.0, 0.0, a))
+        return mx.times(m, SENSOR_AXES) if obj.kind == "sonar" else m
+
     def _mechanism_part(self, obj: SceneObject, args: Args) -> bool:
         """Whether obj is part of the mechanism (asked for in the world frame: the only one)."""
         if obj.kind not in _MECHANISM:
@@ -431,6 +460,9 @@ class SimApi:
 
     def _sim_getObjectPosition(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [[m[3], m[7], m[11]]]
         x, y, z, _ = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[x, y, z]]
 
@@ -439,6 +471,9 @@ class SimApi:
         if self._mechanism_part(obj, args):
             *_, slew, theta = self.sim.mechanism_frame(obj)
             return [plane_rotation(slew, theta)[0]]
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [mx.euler(m)]
         *_, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[0.0, 0.0, a]]
 
@@ -447,6 +482,9 @@ class SimApi:
         if self._mechanism_part(obj, args):
             x, y, z, slew, theta = self.sim.mechanism_frame(obj)
             return [[x, y, z, *plane_rotation(slew, theta)[1]]]
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [mx.pose(m)]
         x, y, z, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[x, y, z, *yaw_quaternion(a)]]
 

@@ -112,6 +112,39 @@ def test_an_epucks_names_from_before_4_3_are_answered_as_the_pioneers_are() -> N
     assert "object does not exist" in wire.raw("sim.getObjectHandle", "ePuck#1")["err"]
 
 
+def test_a_sonars_matrix_maps_its_detected_point_to_where_it_met_the_wall(wire: Wire) -> None:
+    """readProximitySensor's point is in the sensor's frame (z along the beam, x to its left,
+    y up, as the stock Pioneer's sensors): the sensor's orientation is that frame, so a mapping
+    script's M * point lands on the wall, at the sonar's height."""
+    robot = wire("sim.getObject", "/PioneerP3DX[0]")
+    wire("sim.setObjectPosition", robot, [6.8, 0.0, 0.0975], -1)
+    wire("sim.setObjectOrientation", robot, [0.0, 0.0, 0.0], -1)
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    wire("sim.step")
+    hits = 0
+    for k in range(16):
+        s = wire("sim.getObject", f"/PioneerP3DX[0]/ultrasonicSensor[{k}]")
+        res, d, pt, _, _ = wire("sim.readProximitySensor", s)
+        m = np.array(wire("sim.getObjectMatrix", s, -1)).reshape(3, 4)
+        assert np.allclose(m[:, :3].T @ m[:, :3], np.eye(3)) and m[2, 1] == pytest.approx(1.0)  # y up
+        if res != 1:
+            continue
+        hits += 1
+        world = m[:, :3] @ np.array(pt) + m[:, 3]
+        assert np.linalg.norm(world - m[:, 3]) == pytest.approx(d)
+        assert world[2] == pytest.approx(m[2, 3], abs=1e-12)  # at the sonar's height, not above the robot
+        if k in (3, 4):  # the two front sonars face the wall at x = 7.45
+            assert world[0] == pytest.approx(7.45, abs=1e-6)
+        # the pose calls agree with the matrix; the robot seen from the sensor is behind it (-z)
+        pose = wire("sim.getObjectPose", s, -1)
+        assert np.allclose(np.array(wire("sim.buildMatrix", pose[:3], wire("sim.getObjectOrientation", s, -1)))
+                           .reshape(3, 4), m)
+        assert wire("sim.getObjectPosition", robot, s)[2] < 0
+    assert hits >= 2
+    wire("sim.stopSimulation")
+
+
 def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     h = {p: wire("sim.getObject", p) for p in (
         "/PioneerP3DX[0]", "/PioneerP3DX[1]", "/PioneerP3DX[1]/leftMotor", "/PioneerP3DX[0]/ultrasonicSensor[4]")}
