@@ -85,6 +85,10 @@ def test_a_pioneer_loaded_with_its_script_is_logged_and_other_models_refused() -
             sim.loadModel(models + "KheperaIV.ttm")
         robot = sim.loadModel(models + "pioneer p3dx.ttm")
         assert sim.getObject("/PioneerP3DX") == robot
+        # what the stock model has: two motors and 16 sonars; labsim's bumpers are not in it
+        aliases = [sim.getObjectAlias(h) for h in sim.getObjectsInTree(robot, sim.handle_all, 1)]
+        assert sorted(set(aliases)) == ["leftMotor", "rightMotor", "ultrasonicSensor"] and len(aliases) == 18
+        assert sim.getObject("/PioneerP3DX/bumper_front_left", {"noError": True}) == -1
         assert sim.getScript(sim.scripttype_childscript, robot) >= 0  # the stock model's script
         sim.startSimulation()
         sim.stopSimulation()
