@@ -326,12 +326,15 @@ class SimApi:
         return [0, [v, v, v, v, 0.0] * 3] if isinstance(v, float) else [-1, []]
 
     def _sim_getVisionSensorImg(self, client: Client, args: Args) -> list[object]:
-        obj = self._obj(args, 0, ("camera",), "vision sensor")
+        obj = self._obj(args, 0, ("camera", "ground"), "vision sensor")
         options = _int(args, 1, 0)
         w, h = obj.resolution
         seen = self.sim.sensed(obj)
-        # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
-        img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
+        if obj.kind == "ground":  # a ground sensor is a 1 x 1 vision sensor: its one grey pixel
+            level = 0 if not isinstance(seen, float) else min(255, max(0, round(seen * 255)))
+            img = np.full((1, 1, 3), level, np.uint8)
+        else:  # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
+            img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
         x0, y0, sx, sy = crop(args[3] if len(args) > 3 else None, args[4] if len(args) > 4 else None, w, h)
         img = img[y0:y0 + sy, x0:x0 + sx]
         if options & 1:  # greyscale, one byte a pixel
@@ -343,7 +346,7 @@ class SimApi:
         return [np.ascontiguousarray(img).tobytes(), [w, h]]
 
     def _sim_getVisionSensorResolution(self, client: Client, args: Args) -> list[object]:
-        obj = self._obj(args, 0, ("camera",), "vision sensor")
+        obj = self._obj(args, 0, ("camera", "ground"), "vision sensor")
         return [list(obj.resolution)]
 
     def _sim_readForceSensor(self, client: Client, args: Args) -> list[object]:

@@ -217,7 +217,8 @@ class SessionCalls:
     def _wait(self, client: Client, args: Args) -> list[object]:
         # float deltaTimeLeft = sim.wait(float dt, bool simulationTime = true): the steps it waits
         # for are taken at once (the script would only wait for them); the answer is the
-        # overshoot, <= 0. Real time is slept, up to 2 s a call (the server serves others).
+        # overshoot, <= 0. Real time is slept, up to 2 s a call (the server serves others): a
+        # longer real-time wait answers the time it did not wait, > 0, for the script to wait again.
         if not args or not isinstance(args[0], (int, float)) or isinstance(args[0], bool) \
                 or not math.isfinite(args[0]):
             raise SimError(E_FEW if not args else E_ARGS)
@@ -225,7 +226,7 @@ class SessionCalls:
         sim = self.server.simulation
         if len(args) > 1 and args[1] is False:
             time.sleep(min(dt, 2.0))
-            return [min(0.0, 2.0 - dt) if dt > 2.0 else 0.0]
+            return [dt - 2.0 if dt > 2.0 else 0.0]
         if sim.state != RUNNING:
             return [0.0]
         if dt > MAX_WAIT_S:  # one request must end within its budget; a script loops for longer waits
@@ -358,6 +359,8 @@ class SessionCalls:
         return [0, self._packet(args)]
 
     def _handleVisionSensor(self, client: Client, args: Args) -> list[object]:
+        if self._is_ground_sensor(args):  # handled by every step already: its reading as it is
+            return self._inner("sim.readVisionSensor", client, args)
         obj, _ = self._camera(args)
         self.handled.add(obj.handle)
         return [0, self._packet(args)]
@@ -365,6 +368,9 @@ class SessionCalls:
     def _getVisionSensorDepth(self, client: Client, args: Args) -> list[object]:
         # bytes depth, [resX, resY] = sim.getVisionSensorDepth(handle, options = 0, pos, size): 4.6;
         # packed floats (sim.unpackFloatTable), option bit 0: metres
+        if self._is_ground_sensor(args):
+            raise SimError("labsim serve: a ground sensor's depth is not served (the stand-in keeps its intensity "
+                           "only: sim.readVisionSensor, sim.getVisionSensorImg)")
         obj, _ = self._camera(args)
         depth = self._depth(args)
         options = args[1] if len(args) > 1 and isinstance(args[1], int) else 0

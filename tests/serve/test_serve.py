@@ -176,6 +176,20 @@ def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     assert wire("sim.getObjectParent", sonar5) == h["/PioneerP3DX[0]"]
 
 
+def test_wait_takes_its_steps_at_once_within_its_limits(wire: Wire) -> None:
+    """sim.wait's limits as docs/coppeliasim.md gives them: 60 s of simulation time a call,
+    the overshoot returned; real time at most 2 s a call, the time not waited returned."""
+    assert wire("sim.wait", 0.5) == 0.0  # stopped: nothing to wait for
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    assert wire("sim.wait", 0.12) == pytest.approx(0.12 - 0.15)
+    assert wire("sim.getSimulationTime") == pytest.approx(0.15)
+    assert "sim.wait takes at most 60 s of simulation time a call" in wire.raw("sim.wait", 61.0)["err"]
+    assert wire("sim.wait", 2.25, False) == pytest.approx(0.25)  # 2 s slept, 0.25 s left to wait
+    assert wire("sim.getSimulationTime") == pytest.approx(0.15)
+    wire("sim.stopSimulation")
+
+
 def test_step_waits_then_advances_one_step(wire: Wire) -> None:
     assert wire("sim.getSimulationTimeStep") == 0.05 == wire("sim.getFloatParam", 1)
     assert wire("sim.setStepping", True) == 0 and wire("sim.setStepping", True) == 1
