@@ -334,3 +334,28 @@ def test_a_simulation_stopped_from_outside_mid_run_is_said_so(fleet_script: bool
         other.context.term()
     assert str(e.value) == (f"CoppeliaSim at 127.0.0.1:{server.port}: the simulation was stopped from outside "
                             f"(another client, or the simulator's stop button), {seen}")
+
+
+def test_joint_targets_a_client_left_in_the_crane_do_not_move_it(tmp_path: Path) -> None:
+    """A mechanism's joints the behaviour does not bind keep the scene's targets in CoppeliaSim:
+    the backend sets every motorised joint to 0 before the first step, as the embedded one starts."""
+    import re
+
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    text = (BEHAVIOURS / "crane.yaml").read_text().replace("stop: time >= 60", "stop: time >= 2") \
+        .replace("world: crane", f"world: {builtin_worlds()['crane']}")
+    lab = tmp_path / "crane.yaml"
+    lab.write_text(re.sub(r"  (Arm|Crab)_Actuator\.velocity: [^\n]*\n", "", text))  # only the hoist bound
+    proc, port = serve("-q", "--for", str(lab))
+    try:
+        sim = RemoteAPIClient(port=port).require("sim")
+        for joint in ("/Arm_Actuator", "/Crab_Actuator"):
+            sim.setJointTargetVelocity(sim.getObject(joint), 0.4)
+        ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+        assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+        assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim",
+                     "--port", str(port)]) == 0
+    finally:
+        stop(proc)
+    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 41
