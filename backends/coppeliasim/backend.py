@@ -15,9 +15,10 @@ the client, the call wrapper, round-trip counting and the explanations of failur
 * ``open`` checks every channel (before connecting), connects, stops a simulation someone
   left running, checks the simulation time step against the behaviour's ``dt`` (a mismatch
   is an error saying both and how to fix it), finds the objects, moves each robot to the
-  start pose the behaviour asks for, and starts the simulation in stepping mode, with one
-  step (robots at rest) when a part needs its sensors read once (CoppeliaSim handles sensors
-  at the end of a step).
+  start pose the behaviour asks for, sets every joint it drives to a target velocity of 0 (a
+  scene keeps the targets a client left in it, and a robot would move in the first step), and
+  starts the simulation in stepping mode, with one step (robots at rest) when a part needs its
+  sensors read once (CoppeliaSim handles sensors at the end of a step).
 * ``sense``, ``act``, ``command``, ``pose`` and ``contacts`` go to the part that drives the
   robot; ``step`` is one ``sim.step`` (two round trips). It is never retried: a retry could
   step twice.
@@ -49,6 +50,10 @@ class _Driver(Protocol):
 
     def place(self) -> None:
         """Put the robots at their start poses (the simulation is stopped)."""
+
+    def rest(self) -> None:
+        """Set every joint it drives to its first command (0), before the first step: the
+        scene keeps the targets it was left with (a client may have set them while stopped)."""
 
     def sense(self, first: bool) -> list[list[object]]: ...
 
@@ -160,6 +165,8 @@ class CoppeliaSimBackend:
         if self.place_robots:
             for driver, _ in drivers:
                 driver.place()
+        for driver, _ in drivers:
+            driver.rest()
         conn.start_stepping()
         if any(driver.primes for driver, _ in drivers):
             # One step with the wheels still, so that the sensors have been handled once:

@@ -55,6 +55,10 @@ class Connection:
         # the server's constants (read from it by require_sim; CoppeliaSim's values until then)
         self.world_h, self.handle_all, self.stopped = HANDLE_WORLD, HANDLE_ALL, STOPPED
         self.names: dict[int, str] = {}  # handle -> what it is, for errors about its replies
+        # ask the simulation's state after each step: set by a part that reads object by object,
+        # where nothing else would notice that someone else stopped the simulation (the steps
+        # of a stopped simulation do nothing, and every read still answers)
+        self.watch_state = False
 
     @property
     def where(self) -> str:
@@ -127,7 +131,8 @@ class Connection:
         try:
             out = client.call(func, list(args))
         except Exception as e:  # zmq.Again, zmq.ZMQError, KeyError, or the server's error
-            raise self._failure(e, func) from None
+            failure = self._failure(e, func)
+            raise (self._stopped_from_outside(func) or failure) from None
         self.busy = False
         try:
             return check(func, out, self.names.get(args[0], "") if args and type(args[0]) is int else "")
@@ -195,6 +200,9 @@ class Connection:
         "executed", then the step's end comes back: two round trips)."""
         self.call("sim.step")
         self.steps += 1
+        if self.watch_state and self.running and self.call("sim.getSimulationState") == self.stopped:
+            self.running = False
+            raise BackendError(self._outside("sim.step"))
 
     def wait_stopped(self) -> None:
         """CoppeliaSim stops asynchronously: wait for it, at most ``timeout_s``."""
@@ -261,6 +269,26 @@ class Connection:
                 f"CoppeliaSim 4.5 or earlier; use CoppeliaSim 4.6 or newer with "
                 f"coppeliasim-zmqremoteapi-client 2.x")
         return BackendError(self._explain(func, str(e)))  # the server's {"err": ...}
+
+    def _stopped_from_outside(self, func: str) -> BackendError | None:
+        """When a call the server refused fails because someone else (another client, the
+        simulator's stop button) stopped the simulation we run: that error, else None. The
+        refusal itself (a script not initialized, a step of a stopped simulation) would not
+        say why."""
+        if not self.running or self.dead or self.busy or func == "sim.getSimulationState":
+            return None
+        try:
+            state = self.call("sim.getSimulationState")
+        except BackendError:
+            return None
+        if state != self.stopped:
+            return None
+        self.running = False  # nothing of ours to stop any more
+        return BackendError(self._outside(func))
+
+    def _outside(self, func: str) -> str:
+        return (f"CoppeliaSim at {self.where}: the simulation was stopped from outside (another client, or "
+                f"the simulator's stop button){self._progress()}; the run cannot go on (seen at {func})")
 
     def _explain(self, func: str, err: str) -> str:
         if "No such function: zmqRemoteApi.require" in err or \

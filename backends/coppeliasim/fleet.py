@@ -125,6 +125,7 @@ class Fleet:
         round trips for the whole fleet, else one request per value."""
         self._script = fs.find_script(self._conn)
         if self._script < 0:
+            self._conn.watch_state = True  # object by object: only the state tells a stop from outside
             return
         self._plan = [[r.handle, r.collide_with,
                        (fs.POSITION * r.read_position) | (fs.ORIENTATION * r.read_orientation)
@@ -196,6 +197,15 @@ class Fleet:
             call("sim.setObjectPosition", r.handle, [pose.x_m, pose.y_m, z], world_h)
             call("sim.setObjectOrientation", r.handle, [alpha, beta, pose.heading_rad], world_h)
 
+    def rest(self) -> None:
+        """Every wheel's target velocity 0, as the embedded backend starts: a target a client
+        left in the scene would otherwise move the robot in the priming step. Object by object
+        even with the fleet script: a child script runs only once the simulation has started."""
+        for r in self.rovers:
+            for m in r.motors:
+                self._conn.call("sim.setJointTargetVelocity", m, 0.0)
+            r.sent = [0.0, 0.0]
+
     # --- a tick ------------------------------------------------------------------------------
 
     def sense(self, first: bool) -> list[list[object]]:
@@ -229,12 +239,21 @@ class Fleet:
         if not isinstance(data, (bytes, bytearray)) or len(data) % 8:
             raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' is not packed doubles "
                                f"(got {str(data)[:80]})")
-        ranges = struct.unpack(f"<{len(data) // 8}d", data)
+        # checked as every other reply is: a scanner publishes one range per beam, each in
+        # 0..range (inf: nothing met); anything else would be read as a distance and driven on
+        model = r.req.model
+        assert model is not None and model.lidars
+        lidar = model.lidars[0]
+        where = f"robot '{r.name}': signal '{r.lidar_signal}' of CoppeliaSim at {self._conn.where}"
+        if len(data) // 8 != lidar.beams:
+            raise BackendError(f"{where} has {len(data) // 8} ranges; the robot's lidar has {lidar.beams} beams")
+        ranges = struct.unpack(f"<{lidar.beams}d", data)
         for k, slot in r.lidar:
-            if k >= len(ranges):
-                raise BackendError(f"robot '{r.name}': signal '{r.lidar_signal}' has {len(ranges)} beams, "
-                                   f"and the behaviour reads lidar{k + 1}")
-            values[slot] = ranges[k]
+            v = ranges[k]
+            if not (v == math.inf or 0.0 <= v <= lidar.range_m * (1 + 1e-9)):
+                raise BackendError(f"{where}: beam {k + 1} reads {v!r}, not a range in 0..{lidar.range_m:g} m "
+                                   f"or inf")
+            values[slot] = v
 
     def _switches_and_ground(self, r: _Rover, values: list[object]) -> None:
         """Bumpers (a proximity sensor that detects is pressed) and ground sensors (the average

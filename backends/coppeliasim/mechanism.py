@@ -70,6 +70,8 @@ class MechanismDriver:
         for p in self.parts:
             self._find(p)
         self._script = fs.find_script(self._conn)
+        if self._script < 0:
+            self._conn.watch_state = True  # part by part: only the state tells a stop from outside
 
     def _find(self, p: _Parts) -> None:
         mech = self._mechanism
@@ -102,6 +104,12 @@ class MechanismDriver:
 
     def place(self) -> None:
         """A mechanism stays as the scene has it: the world file gives its start."""
+
+    def rest(self) -> None:
+        """Every motorised joint's target velocity 0 (its controller is in velocity mode, as the
+        embedded backend starts): a target a client left in the scene would move it otherwise."""
+        for h in {h for p in self.parts for h in p.joint_handles.values()}:
+            self._conn.call("sim.setJointTargetVelocity", h, 0.0)
 
     # --- a tick ------------------------------------------------------------------------------
 

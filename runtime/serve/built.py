@@ -135,8 +135,9 @@ def _deg(v: float) -> float:
 
 
 # What sim.loadModel loads, by the file's name under models/robots/mobile/ (CoppeliaSim 4.6's
-# resources): labsim's model of it.
-LOADED_MODELS: dict[str, RobotModel] = {"pioneer p3dx.ttm": PIONEER_P3DX, "e-puck.ttm": EPUCK}
+# resources): labsim's model of it, with only what the stock model has (the Pioneer's bumpers
+# are labsim's, added by hand in a real scene: docs/coppeliasim.md).
+LOADED_MODELS: dict[str, RobotModel] = {"pioneer p3dx.ttm": replace(PIONEER_P3DX, bumpers=()), "e-puck.ttm": EPUCK}
 
 
 def robot_model(loaded: RobotModel, sensors: list[Sensor]) -> RobotModel:

@@ -437,20 +437,33 @@ class SceneEditor(TextureEdits):
 
     def _getObject(self, client: Client, args: Args) -> list[object]:
         # the simulation's objects by CoppeliaSim's paths, then the built walls, blocks and floors
-        # at the top level: "/wall", "/wall[3]", "./labsimFloor"
+        # at the top level: "/wall", "/wall[3]", "./labsimFloor". With {noError: true} the
+        # simulation answers -1 where it would raise: the built shapes are looked up all the same
+        # (in CoppeliaSim noError only silences the error).
         try:
-            return self._simulation("sim.getObject", client, args)
+            ret = self._simulation("sim.getObject", client, args)
         except SimError:
-            path = args[0] if args and isinstance(args[0], str) else ""
-            name = path.removeprefix("/").removeprefix("./").removeprefix(":/")
-            alias, _, rest = name.partition("[")
-            n = 0 if not rest else int(rest[:-1]) if rest.endswith("]") and rest[:-1].isdigit() and len(rest) <= 10 \
-                else -1
-            tree = self.server.simulation.tree.objects
-            same = [k for k, s in self.shapes.items() if k not in tree and alias and glob_match(alias, s.alias)]
-            if "/" not in name and 0 <= n < len(same):
-                return [same[n]]
-            raise
+            found = self._built(args)
+            if found is None:
+                raise
+            return [found]
+        if ret == [-1]:
+            found = self._built(args)
+            return [-1 if found is None else found]
+        return ret
+
+    def _built(self, args: Args) -> int | None:
+        """The built wall, block or floor a top-level path names; None when there is none."""
+        path = args[0] if args and isinstance(args[0], str) else ""
+        name = path.removeprefix("/").removeprefix("./").removeprefix(":/")
+        alias, _, rest = name.partition("[")
+        n = 0 if not rest else int(rest[:-1]) if rest.endswith("]") and rest[:-1].isdigit() and len(rest) <= 10 \
+            else -1
+        tree = self.server.simulation.tree.objects
+        same = [k for k, s in self.shapes.items() if k not in tree and alias and glob_match(alias, s.alias)]
+        if "/" not in name and 0 <= n < len(same):
+            return same[n]
+        return None
 
     def _saveScene(self, client: Client, args: Args) -> list[object]:
         raise SimError("labsim serve: the stand-in writes no .ttt files; --save needs CoppeliaSim")

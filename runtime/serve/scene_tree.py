@@ -100,6 +100,13 @@ class SceneTree:
                             mount=(c.x_m, 0.0, c.height_m - model.wheel_radius_m, 0.0),
                             resolution=(c.width_px, c.height_px)))
         self._add_contacts_and_ground(i, model, base, "ePuck_groundSensor")
+        # The stock model's names before CoppeliaSim 4.3 are its aliases (V-REP scripts call
+        # simxGetObjectHandle('ePuck_leftJoint')), with #n for the second e-puck on.
+        n = sum(1 for o in self.top if o.kind == "robot" and o.alias == "ePuck") - 1
+        suffix = "" if n == 0 else f"#{n - 1}"
+        for o in (base, *base.children):
+            if o.kind in ("robot", "motor", "sonar", "camera") and o.alias.startswith("ePuck"):
+                self._old_names[f"{o.alias}{suffix}"] = o
         return base
 
     def _add_contacts_and_ground(self, i: int, model: RobotModel, base: SceneObject, ground: str) -> None:

@@ -30,6 +30,7 @@ import numpy as np
 from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_PARENT, HANDLE_WORLD, PAUSED, RUNNING, STOPPED
 from labsim.backends.coppeliasim.frames import Pose3, plane_rotation, quaternion_yaw, seen_from, wrap, yaw_quaternion
 from labsim.backends.scene.world import Pose
+from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import SceneObject
 from labsim.runtime.serve.simulation import Client, Robot, Simulation
 
@@ -50,6 +51,10 @@ E_PATH = "object does not exist, or alias/path is ill formatted."
 E_HANDLE = "object does not exist."
 E_ARGS = "one of the function's argument type is not correct."
 E_FEW = "function requires more arguments."
+# A sonar's axes in its yaw-only mount frame: x to the beam's left, y up, z along the beam
+# (columns (0, 1, 0), (0, 0, 1), (1, 0, 0)), the frame readProximitySensor's point is in.
+SENSOR_AXES = [0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
+E_POS_SIZE = "wrong position/size parameters."  # CoppeliaSim's SIM_ERROR_WRONG_POS_SIZE_PARAMS
 
 FUNCTIONS = tuple(f"sim.{n}" for n in (
     "getObject", "getObjectHandle", "getObjectAlias", "getObjectParent",
@@ -103,6 +108,26 @@ def as_handle(value: object) -> int:
     if not isinstance(value, int) or isinstance(value, bool):
         raise SimError(E_ARGS)
     return value
+
+
+def crop(pos: object, size: object, w: int, h: int) -> tuple[int, int, int, int]:
+    """(x0, y0, sx, sy) of the part of a w x h vision sensor image a pos and size read, as
+    getVisionSensorImg, getVisionSensorDepth and the older image calls all take them (a size
+    of 0 reads to the edge): not two numbers, the type error; outside the image (inf and nan
+    included), CoppeliaSim's "wrong position/size parameters"."""
+    pos = pos if pos else [0, 0]
+    size = size if size else [0, 0]
+    if not (isinstance(pos, (list, tuple)) and isinstance(size, (list, tuple)) and len(pos) >= 2 and len(size) >= 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (*pos[:2], *size[:2]))):
+        raise SimError(E_ARGS)
+    nums = (*pos[:2], *size[:2])
+    if not all(math.isfinite(v) and abs(v) < 2 ** 31 for v in nums):
+        raise SimError(E_POS_SIZE)
+    x0, y0, sx, sy = (int(v) for v in nums)
+    sx, sy = sx or w - x0, sy or h - y0
+    if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
+        raise SimError(E_POS_SIZE)
+    return x0, y0, sx, sy
 
 
 def _num(args: Args, i: int, default: float | None = None) -> float:
@@ -301,21 +326,16 @@ class SimApi:
         return [0, [v, v, v, v, 0.0] * 3] if isinstance(v, float) else [-1, []]
 
     def _sim_getVisionSensorImg(self, client: Client, args: Args) -> list[object]:
-        obj = self._obj(args, 0, ("camera",), "vision sensor")
+        obj = self._obj(args, 0, ("camera", "ground"), "vision sensor")
         options = _int(args, 1, 0)
         w, h = obj.resolution
         seen = self.sim.sensed(obj)
-        # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
-        img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
-        pos = args[3] if len(args) > 3 and args[3] else [0, 0]
-        size = args[4] if len(args) > 4 and args[4] else [0, 0]
-        try:
-            x0, y0 = int(pos[0]), int(pos[1])
-            sx, sy = int(size[0]) or w - x0, int(size[1]) or h - y0
-        except (TypeError, ValueError, IndexError):
-            raise SimError(E_ARGS) from None
-        if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
-            raise SimError(E_ARGS)
+        if obj.kind == "ground":  # a ground sensor is a 1 x 1 vision sensor: its one grey pixel
+            level = 0 if not isinstance(seen, float) else min(255, max(0, round(seen * 255)))
+            img = np.full((1, 1, 3), level, np.uint8)
+        else:  # CoppeliaSim's buffer: RGB, rows from the bottom up, which is labsim's own row order
+            img = np.zeros((h, w, 3), np.uint8) if seen is None else np.asarray(seen, dtype=np.uint8)
+        x0, y0, sx, sy = crop(args[3] if len(args) > 3 else None, args[4] if len(args) > 4 else None, w, h)
         img = img[y0:y0 + sy, x0:x0 + sx]
         if options & 1:  # greyscale, one byte a pixel
             img = (img.astype(np.uint16).sum(axis=2) // 3).astype(np.uint8)[..., None]
@@ -326,7 +346,7 @@ class SimApi:
         return [np.ascontiguousarray(img).tobytes(), [w, h]]
 
     def _sim_getVisionSensorResolution(self, client: Client, args: Args) -> list[object]:
-        obj = self._obj(args, 0, ("camera",), "vision sensor")
+        obj = self._obj(args, 0, ("camera", "ground"), "vision sensor")
         return [list(obj.resolution)]
 
     def _sim_readForceSensor(self, client: Client, args: Args) -> list[object]:
@@ -408,6 +428,31 @@ class SimApi:
             raise SimError(E_HANDLE)
         return seen_from(pose, world_pose(ref))
 
+    def _sensor_frame(self, obj: SceneObject, rel: int) -> mx.Matrix | None:
+        """obj's matrix in the frame ``rel`` names when a sonar is either of them, else None.
+
+        A proximity sensor detects along its z axis, and readProximitySensor's point is in
+        that frame (z along the beam, x to its left, y up: ``Simulation.detected_point``), as
+        on CoppeliaSim's Pioneer: so its orientation is that frame, and ``M * point`` of its
+        matrix lands where the sonar met something. Everything else stays yaw-only."""
+        if rel == HANDLE_PARENT:
+            ref = obj.parent
+        elif rel == HANDLE_WORLD:
+            ref = None
+        else:
+            ref = self.tree.objects.get(rel)
+            if ref is None:
+                raise SimError(E_HANDLE)
+        if obj.kind != "sonar" and (ref is None or ref.kind != "sonar"):
+            return None
+        m = self._world_frame(obj)
+        return m if ref is None else mx.seen_from(m, self._world_frame(ref))
+
+    def _world_frame(self, obj: SceneObject) -> mx.Matrix:
+        x, y, z, a = self.sim.world_pose(obj)
+        m = mx.from_euler((x, y, z), (0.0, 0.0, a))
+        return mx.times(m, SENSOR_AXES) if obj.kind == "sonar" else m
+
     def _mechanism_part(self, obj: SceneObject, args: Args) -> bool:
         """Whether obj is part of the mechanism (asked for in the world frame: the only one)."""
         if obj.kind not in _MECHANISM:
@@ -418,6 +463,9 @@ class SimApi:
 
     def _sim_getObjectPosition(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [[m[3], m[7], m[11]]]
         x, y, z, _ = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[x, y, z]]
 
@@ -426,6 +474,9 @@ class SimApi:
         if self._mechanism_part(obj, args):
             *_, slew, theta = self.sim.mechanism_frame(obj)
             return [plane_rotation(slew, theta)[0]]
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [mx.euler(m)]
         *_, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[0.0, 0.0, a]]
 
@@ -434,6 +485,9 @@ class SimApi:
         if self._mechanism_part(obj, args):
             x, y, z, slew, theta = self.sim.mechanism_frame(obj)
             return [[x, y, z, *plane_rotation(slew, theta)[1]]]
+        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        if m is not None:
+            return [mx.pose(m)]
         x, y, z, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
         return [[x, y, z, *yaw_quaternion(a)]]
 

@@ -18,6 +18,7 @@ changes nothing a camera sees. A dummy parented to an object keeps its world pos
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -82,8 +83,10 @@ class Dummy:
 
 
 def _number_list(value: object, n: int) -> list[float]:
+    # finite numbers only: an angle of inf has no sine, a position of inf no place (the type
+    # error, as every other handler answers a non-finite coordinate)
     if not isinstance(value, (list, tuple)) or len(value) < n or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value[:n]):
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value[:n]):
         raise SimError(E_ARGS)
     return [float(v) for v in value[:n]]
 

@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, shown
+from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, crop, shown
 from labsim.runtime.serve.sim_objects import call_base
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.wire_limits import Deadline
@@ -217,7 +217,8 @@ class SessionCalls:
     def _wait(self, client: Client, args: Args) -> list[object]:
         # float deltaTimeLeft = sim.wait(float dt, bool simulationTime = true): the steps it waits
         # for are taken at once (the script would only wait for them); the answer is the
-        # overshoot, <= 0. Real time is slept, up to 2 s a call (the server serves others).
+        # overshoot, <= 0. Real time is slept, up to 2 s a call (the server serves others): a
+        # longer real-time wait answers the time it did not wait, > 0, for the script to wait again.
         if not args or not isinstance(args[0], (int, float)) or isinstance(args[0], bool) \
                 or not math.isfinite(args[0]):
             raise SimError(E_FEW if not args else E_ARGS)
@@ -225,7 +226,7 @@ class SessionCalls:
         sim = self.server.simulation
         if len(args) > 1 and args[1] is False:
             time.sleep(min(dt, 2.0))
-            return [min(0.0, 2.0 - dt) if dt > 2.0 else 0.0]
+            return [dt - 2.0 if dt > 2.0 else 0.0]
         if sim.state != RUNNING:
             return [0.0]
         if dt > MAX_WAIT_S:  # one request must end within its budget; a script loops for longer waits
@@ -298,7 +299,7 @@ class SessionCalls:
         h = as_handle(args[0]) if args else None
         if h is None:
             raise SimError(E_FEW)
-        nums = [as_handle(a) if a is not None else 0 for a in args[1:6]] + [0] * 5
+        nums = [_coord(a) for a in args[1:6]] + [0] * 5
         grey = 1 if h & SESSION_CONSTANTS["handleflag_greyscale"] else 0
         img, _res = self._inner("sim.getVisionSensorImg", client,
                                 [h & 0x003FFFFF, grey, 0, nums[0:2], nums[2:4]])
@@ -358,6 +359,8 @@ class SessionCalls:
         return [0, self._packet(args)]
 
     def _handleVisionSensor(self, client: Client, args: Args) -> list[object]:
+        if self._is_ground_sensor(args):  # handled by every step already: its reading as it is
+            return self._inner("sim.readVisionSensor", client, args)
         obj, _ = self._camera(args)
         self.handled.add(obj.handle)
         return [0, self._packet(args)]
@@ -365,18 +368,16 @@ class SessionCalls:
     def _getVisionSensorDepth(self, client: Client, args: Args) -> list[object]:
         # bytes depth, [resX, resY] = sim.getVisionSensorDepth(handle, options = 0, pos, size): 4.6;
         # packed floats (sim.unpackFloatTable), option bit 0: metres
+        if self._is_ground_sensor(args):
+            raise SimError("labsim serve: a ground sensor's depth is not served (the stand-in keeps its intensity "
+                           "only: sim.readVisionSensor, sim.getVisionSensorImg)")
         obj, _ = self._camera(args)
         depth = self._depth(args)
         options = args[1] if len(args) > 1 and isinstance(args[1], int) else 0
         if options & 1:
             depth = NEAR_M + depth * (FAR_M - NEAR_M)
         w, h = obj.resolution
-        pos = args[2] if len(args) > 2 and args[2] else [0, 0]
-        size = args[3] if len(args) > 3 and args[3] else [0, 0]
-        x0, y0 = int(pos[0]), int(pos[1])
-        sx, sy = int(size[0]) or w - x0, int(size[1]) or h - y0
-        if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
-            raise SimError("wrong position/size parameters.")
+        x0, y0, sx, sy = crop(args[2] if len(args) > 2 else None, args[3] if len(args) > 3 else None, w, h)
         part = depth[y0:y0 + sy, x0:x0 + sx].astype("<f4")
         return [part.tobytes(), [w, h]]
 
@@ -386,7 +387,7 @@ class SessionCalls:
         h = args[0] if args else None
         if not isinstance(h, int) or isinstance(h, bool):
             raise SimError(E_FEW if not args else E_ARGS)
-        nums = [a if isinstance(a, int) else 0 for a in args[1:5]] + [0] * 4
+        nums = [_coord(a) for a in args[1:5]] + [0] * 4
         grey = 1 if h & SESSION_CONSTANTS["handleflag_greyscale"] else 0
         img, res = self._inner("sim.getVisionSensorImg", client,
                                [h & 0x003FFFFF, grey, 0, nums[0:2], nums[2:4]])
@@ -446,3 +447,13 @@ class SessionCalls:
 
 
 _NOBODY = Client("labsim", "-", 600.0, 0.0)  # the caller of an internal read, which no handler looks at
+
+
+def _coord(value: object) -> float:
+    """A position or size of the older image calls: nil is 0, any number as given (``crop``
+    checks it against the image), anything else the type error."""
+    if value is None:
+        return 0
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise SimError(E_ARGS)
+    return value

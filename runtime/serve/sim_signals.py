@@ -107,6 +107,10 @@ class SignalCalls:
         return []
 
     def _clearStringSignal(self, client: Client, args: Args) -> list[object]:
+        # a lidar's signal is the stand-in's to publish: cleared no more than set
+        name = _name(args)
+        if name in self._lidars():
+            raise SimError(f"labsim serve: signal '{name[:60]}' is a lidar's, published by the stand-in")
         return self._clear("String", args)
 
     def _getInt32Signal(self, client: Client, args: Args) -> list[object]:

@@ -246,7 +246,8 @@ def test_close_after_an_interrupted_call_still_stops_the_simulation(server: Serv
 
 
 def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
-    """6 sonars + collided + sim.step (2) + changed wheels: what the wall lab costs a tick."""
+    """6 sonars + collided + sim.step (2) + the simulation's state (a stop from outside) + changed
+    wheels: what the wall lab costs a tick, object by object."""
     chans = tuple(f"sonar{k}" for k in (2, 5, 8, 9, 14, 15))
     backend = load_backend("coppeliasim", port=server.port)
     backend.open(WALLS, [RobotRequest("p", PIONEER_P3DX, Pose(-4.0, -4.0, 0.8), chans)], 0.05, 1)
@@ -254,12 +255,12 @@ def test_round_trips_per_tick_for_sonars_only(server: Server) -> None:
     backend.sense()
     backend.act(0, 1.0, 2.0)
     backend.step()
-    assert backend.round_trips - before == 6 + 1 + 2 + 2
+    assert backend.round_trips - before == 6 + 1 + 2 + 1 + 2
     before = backend.round_trips
     backend.sense()
     backend.act(0, 1.0, 2.0)  # unchanged: nothing sent
     backend.step()
-    assert backend.round_trips - before == 6 + 1 + 2
+    assert backend.round_trips - before == 6 + 1 + 2 + 1
     backend.close()
 
 
@@ -282,3 +283,79 @@ def test_scene_paths_from_the_behaviour_file(served: int, tmp_path: Path, capsys
     capsys.readouterr()
     assert main(["run", str(bad), "-q", "--backend", "coppeliasim", "--port", str(served)]) == 2
     assert "/MyPioneer" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("how", [(), ("--per-object",)], ids=["fleet-script", "per-object"])
+def test_wheel_targets_a_client_left_in_the_scene_do_not_move_the_robot(how: tuple[str, ...], tmp_path: Path,
+                                                                         capsys) -> None:
+    """CoppeliaSim keeps the targets a client set while stopped: the backend sets them to 0
+    before its first step, so the run is the embedded one from tick 0."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    proc, port = serve("-q", *how)
+    try:
+        sim = RemoteAPIClient(port=port).require("sim")
+        sim.setJointTargetVelocity(sim.getObject("/PioneerP3DX/leftMotor"), 10)
+        sim.setJointTargetVelocity(sim.getObject("/PioneerP3DX/rightMotor"), -10)
+        ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+        assert main(["run", str(LAB), "-q", "--set", "minutes=0.05", "--trace", str(ref)]) == 0
+        assert main(["run", str(LAB), "-q", "--set", "minutes=0.05", "--trace", str(remote),
+                     "--backend", "coppeliasim", "--port", str(port)]) == 0
+    finally:
+        stop(proc)
+    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 61
+
+
+@pytest.mark.parametrize("fleet_script, seen", [
+    (True, "after 3 steps (t = 0.15 s); the run cannot go on (seen at sim.callScriptFunction)"),  # the next sense
+    (False, "after 4 steps (t = 0.20 s); the run cannot go on (seen at sim.step)"),  # the next step
+], ids=["fleet-script", "per-object"])
+def test_a_simulation_stopped_from_outside_mid_run_is_said_so(fleet_script: bool, seen: str) -> None:
+    """Another client stops the simulation between two ticks: the next tick stops the run with
+    that reason, on both paths (object by object the steps of a stopped simulation would do
+    nothing, and every read would still answer: a run frozen in place, silently)."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    with Server(WALLS, 1, port=0, fleet_script=fleet_script) as server:
+        backend = load_backend("coppeliasim", port=server.port)
+        backend.open(WALLS, ONE, 0.05, 1)
+        for _ in range(3):
+            backend.sense()
+            backend.act(0, 1.0, 1.0)
+            backend.step()
+        other = RemoteAPIClient(port=server.port)
+        other.require("sim").stopSimulation()
+        with pytest.raises(BackendError) as e:
+            backend.sense()
+            backend.step()
+            backend.sense()
+        backend.close()
+        other.socket.close(0)
+        other.context.term()
+    assert str(e.value) == (f"CoppeliaSim at 127.0.0.1:{server.port}: the simulation was stopped from outside "
+                            f"(another client, or the simulator's stop button), {seen}")
+
+
+def test_joint_targets_a_client_left_in_the_crane_do_not_move_it(tmp_path: Path) -> None:
+    """A mechanism's joints the behaviour does not bind keep the scene's targets in CoppeliaSim:
+    the backend sets every motorised joint to 0 before the first step, as the embedded one starts."""
+    import re
+
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    text = (BEHAVIOURS / "crane.yaml").read_text().replace("stop: time >= 60", "stop: time >= 2") \
+        .replace("world: crane", f"world: {builtin_worlds()['crane']}")
+    lab = tmp_path / "crane.yaml"
+    lab.write_text(re.sub(r"  (Arm|Crab)_Actuator\.velocity: [^\n]*\n", "", text))  # only the hoist bound
+    proc, port = serve("-q", "--for", str(lab))
+    try:
+        sim = RemoteAPIClient(port=port).require("sim")
+        for joint in ("/Arm_Actuator", "/Crab_Actuator"):
+            sim.setJointTargetVelocity(sim.getObject(joint), 0.4)
+        ref, remote = tmp_path / "ref.csv", tmp_path / "remote.csv"
+        assert main(["run", str(lab), "-q", "--trace", str(ref)]) == 0
+        assert main(["run", str(lab), "-q", "--trace", str(remote), "--backend", "coppeliasim",
+                     "--port", str(port)]) == 0
+    finally:
+        stop(proc)
+    assert inner_rows(remote) == inner_rows(ref) and len(inner_rows(ref)) == 1 + 41

@@ -122,3 +122,56 @@ def test_labsim_scene_refuses_a_lidar_it_cannot_build_and_a_run_without_a_scanne
         assert "Traceback" not in err
     finally:
         stop(proc)
+
+
+@pytest.mark.parametrize("ranges, says", [
+    ([math.nan] * 180, ": beam 1 reads nan, not a range in 0..4 m or inf"),
+    ([-5.0] * 180, ": beam 1 reads -5.0, not a range in 0..4 m or inf"),
+    ([1.0] * 90 + [4.5] + [1.0] * 89, ": beam 91 reads 4.5, not a range in 0..4 m or inf"),
+    ([1.0] * 100_000, " has 100000 ranges; the robot's lidar has 180 beams"),
+    ([1.0] * 179, " has 179 ranges; the robot's lidar has 180 beams"),
+], ids=["nan", "negative", "beyond-range", "too-many", "too-few"])
+def test_a_lidar_signal_a_client_set_is_checked_as_every_reply(ranges: list[float], says: str, tmp_path: Path,
+                                                               capsys) -> None:
+    """No scanner in the scene, and a client publishing 'labsimLidarRanges' itself: what is no
+    range of the robot's lidar stops the run, naming the signal, rather than being driven on."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    from labsim.runtime.cli.main import main
+
+    lab = tmp_path / "lidar.yaml"
+    lab.write_text(examples("worlds.md")["lidar_avoid"].replace("stop: time >= 60", "stop: time >= 1"))
+    walls = tmp_path / "walls.yaml"
+    walls.write_text("labsim: 1.2\nworld: walls_lab4\nseed: 5\nstop: time >= 1\nrobots:\n"
+                     "  pioneer: {model: pioneer_p3dx, at: random}\nrules:\n  - always move(0)\n")
+    proc, port = serve("-q", "--empty")
+    try:
+        assert main(["scene", str(walls), "--port", str(port), "-q"]) == 0
+        sim = RemoteAPIClient(port=port).require("sim")
+        sim.setStringSignal("labsimLidarRanges", sim.packDoubleTable(ranges))
+        assert main(["run", str(lab), "-q", "--backend", "coppeliasim", "--port", str(port),
+                     "--trace", str(tmp_path / "t.csv")]) == 2
+    finally:
+        stop(proc)
+    err = capsys.readouterr().err
+    assert f"robot 'pioneer': signal 'labsimLidarRanges' of CoppeliaSim at 127.0.0.1:{port}{says}" in err, err
+    assert "Traceback" not in err
+
+
+def test_a_lidar_signal_of_the_stand_in_is_neither_set_nor_cleared_by_a_client() -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    with Server(WALLS, [RobotRequest("p", MODEL, POSE, ())], port=0) as server:
+        client = RemoteAPIClient("127.0.0.1", server.port)
+        client.socket.setsockopt(zmq.RCVTIMEO, int(PATIENCE_S * 1000))
+        client.socket.setsockopt(zmq.LINGER, 0)
+        try:
+            sim = client.require("sim")
+            for call in (lambda: sim.setStringSignal("labsimLidarRanges", b"\0" * 8),
+                         lambda: sim.clearStringSignal("labsimLidarRanges")):
+                with pytest.raises(Exception, match="signal 'labsimLidarRanges' is a lidar's, published by the "
+                                                    "stand-in"):
+                    call()
+        finally:
+            client.socket.close(0)
+            client.context.term()

@@ -100,3 +100,34 @@ def test_labsim_scene_refuses_a_model_it_has_no_file_for(tmp_path: Path, capsys:
     other = RobotRequest("k", dataclasses.replace(EPUCK, name="khepera"), Pose(0.0, 0.0, 0.0), ())
     with pytest.raises(BackendError, match="builds Pioneer P3DX and e-puck robots only, and robot 'k'"):
         build(Connection("127.0.0.1", 1, 1.0), World("w", "", (0, 0, 1, 1)), [other], 0.05)
+
+
+def test_an_epucks_ground_sensor_answers_as_the_1x1_vision_sensor_it_is() -> None:
+    """CoppeliaSim's ground sensors are vision sensors of one pixel: the image calls answer
+    that pixel (its grey level the intensity readVisionSensor gives), as they do a camera's."""
+    import math
+
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+    from helpers import serve, stop
+
+    proc, port = serve("-q", "--for", str(BEHAVIOURS / "line_follow.yaml"))
+    try:
+        sim = RemoteAPIClient(port=port).require("sim")
+        g = sim.getObject("/ePuck/ePuck_groundSensor1")
+        assert sim.getVisionSensorResolution(g) == [1, 1]
+        sim.setStepping(True)
+        sim.startSimulation()
+        sim.step()
+        result, packet = sim.readVisionSensor(g)
+        level = round(packet[10] * 255)
+        assert result == 0 and 0 < level <= 255
+        assert sim.getVisionSensorImg(g) == (bytes([level] * 3), [1, 1])
+        assert sim.getVisionSensorImg(g, 1) == (bytes([level]), [1, 1])
+        assert sim.getVisionSensorCharImage(g) == (bytes([level] * 3), 1, 1)
+        assert all(math.isclose(v, level / 255) for v in sim.getVisionSensorImage(g))
+        assert sim.handleVisionSensor(g) == (result, packet)
+        with pytest.raises(Exception, match="a ground sensor's depth is not served"):
+            sim.getVisionSensorDepth(g)
+        sim.stopSimulation()
+    finally:
+        stop(proc)

@@ -85,6 +85,10 @@ def test_a_pioneer_loaded_with_its_script_is_logged_and_other_models_refused() -
             sim.loadModel(models + "KheperaIV.ttm")
         robot = sim.loadModel(models + "pioneer p3dx.ttm")
         assert sim.getObject("/PioneerP3DX") == robot
+        # what the stock model has: two motors and 16 sonars; labsim's bumpers are not in it
+        aliases = [sim.getObjectAlias(h) for h in sim.getObjectsInTree(robot, sim.handle_all, 1)]
+        assert sorted(set(aliases)) == ["leftMotor", "rightMotor", "ultrasonicSensor"] and len(aliases) == 18
+        assert sim.getObject("/PioneerP3DX/bumper_front_left", {"noError": True}) == -1
         assert sim.getScript(sim.scripttype_childscript, robot) >= 0  # the stock model's script
         sim.startSimulation()
         sim.stopSimulation()
@@ -127,3 +131,31 @@ def test_a_sensor_labsim_scene_cannot_build_is_refused_before_anything_is_built(
         build(Connection("127.0.0.1", 1, 1.0), world, [robot], 0.05)
     assert str(refused.value).startswith("labsim scene: robot 'pioneer' reads bump_front_left, and CoppeliaSim's "
                                          "Pioneer P3DX has no bumpers: labsim scene builds none.")
+
+
+@pytest.mark.parametrize("lab, paths", [
+    ("wall_follow.yaml", ["/wall", "/wall[1]", "/block", "/labsimFloor", "./wall[5]", ":/block"]),
+    ("road_follow.yaml", ["/labsimGround"]),
+], ids=["walls", "ground"])
+def test_no_error_finds_the_built_shapes_as_the_plain_call_does(lab: str, paths: list[str], empty: int,
+                                                                capsys) -> None:
+    """In CoppeliaSim {noError: true} only silences the error: what exists keeps its handle."""
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    assert main(["scene", str(BEHAVIOURS / lab), "--port", str(empty)]) == 0
+    sim = RemoteAPIClient(port=empty).require("sim")
+    for path in paths:
+        h = sim.getObject(path)
+        assert h >= 0 and sim.getObject(path, {"noError": True}) == h, path
+    assert sim.getObject("/wall[999]", {"noError": True}) == -1
+    assert sim.getObject("/nothing", {"noError": True}) == -1
+
+
+def test_an_epuck_built_by_labsim_scene_answers_its_names_from_before_4_3(empty: int) -> None:
+    from coppeliasim_zmqremoteapi_client import RemoteAPIClient
+
+    assert main(["scene", str(BEHAVIOURS / "line_follow.yaml"), "--port", str(empty), "-q"]) == 0
+    sim = RemoteAPIClient(port=empty).require("sim")
+    assert sim.getObjectHandle("ePuck") == sim.getObject("/ePuck")
+    for name in ("ePuck_leftJoint", "ePuck_proxSensor1", "ePuck_camera"):
+        assert sim.getObjectHandle(name) == sim.getObject(f"/ePuck/{name}"), name

@@ -28,7 +28,7 @@ pytest.importorskip("coppeliasim_zmqremoteapi_client")
 from helpers import PATH_ERROR, PATIENCE_S, serve  # noqa: E402
 
 from labsim.backends.protocol import RobotRequest  # noqa: E402
-from labsim.backends.scene.models import PIONEER_P3DX, Camera  # noqa: E402
+from labsim.backends.scene.models import EPUCK, PIONEER_P3DX, Camera  # noqa: E402
 from labsim.backends.scene.world import Pose, builtin_worlds  # noqa: E402
 from labsim.backends.scene.world_file import load_world  # noqa: E402
 from labsim.foundation.diagnostics import Report  # noqa: E402
@@ -96,6 +96,55 @@ def test_errors_carry_coppeliasim_texts(wire: Wire) -> None:
     assert "err" in cbor2.loads(wire.server.handle(b"\xff\x00 not cbor"))
 
 
+def test_an_epucks_names_from_before_4_3_are_answered_as_the_pioneers_are() -> None:
+    """The stock e-puck's old names (V-REP scripts' simxGetObjectHandle('ePuck_leftJoint')),
+    #0 for the second e-puck; sim.getObject wants the path, as for the Pioneer."""
+    robots = [RobotRequest(f"e{k}", EPUCK, Pose(0.5 * k, 0.0, 0.0), ()) for k in range(2)]
+    wire = Wire(Server(LAB, robots, port=0))
+    for k, suffix in enumerate(("", "#0")):
+        base = wire("sim.getObject", f"/ePuck[{k}]")
+        assert wire("sim.getObjectHandle", f"ePuck{suffix}") == base
+        for name in ("ePuck_leftJoint", "ePuck_rightJoint", "ePuck_proxSensor1", "ePuck_proxSensor8",
+                     "ePuck_camera"):
+            assert wire("sim.getObjectHandle", f"{name}{suffix}") == wire("sim.getObject", f"/ePuck[{k}]/{name}")
+    err = wire.raw("sim.getObject", "ePuck_leftJoint")["err"]
+    assert "before CoppeliaSim 4.3" in err and "'/ePuck[0]/ePuck_leftJoint'" in err
+    assert "object does not exist" in wire.raw("sim.getObjectHandle", "ePuck#1")["err"]
+
+
+def test_a_sonars_matrix_maps_its_detected_point_to_where_it_met_the_wall(wire: Wire) -> None:
+    """readProximitySensor's point is in the sensor's frame (z along the beam, x to its left,
+    y up, as the stock Pioneer's sensors): the sensor's orientation is that frame, so a mapping
+    script's M * point lands on the wall, at the sonar's height."""
+    robot = wire("sim.getObject", "/PioneerP3DX[0]")
+    wire("sim.setObjectPosition", robot, [6.8, 0.0, 0.0975], -1)
+    wire("sim.setObjectOrientation", robot, [0.0, 0.0, 0.0], -1)
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    wire("sim.step")
+    hits = 0
+    for k in range(16):
+        s = wire("sim.getObject", f"/PioneerP3DX[0]/ultrasonicSensor[{k}]")
+        res, d, pt, _, _ = wire("sim.readProximitySensor", s)
+        m = np.array(wire("sim.getObjectMatrix", s, -1)).reshape(3, 4)
+        assert np.allclose(m[:, :3].T @ m[:, :3], np.eye(3)) and m[2, 1] == pytest.approx(1.0)  # y up
+        if res != 1:
+            continue
+        hits += 1
+        world = m[:, :3] @ np.array(pt) + m[:, 3]
+        assert np.linalg.norm(world - m[:, 3]) == pytest.approx(d)
+        assert world[2] == pytest.approx(m[2, 3], abs=1e-12)  # at the sonar's height, not above the robot
+        if k in (3, 4):  # the two front sonars face the wall at x = 7.45
+            assert world[0] == pytest.approx(7.45, abs=1e-6)
+        # the pose calls agree with the matrix; the robot seen from the sensor is behind it (-z)
+        pose = wire("sim.getObjectPose", s, -1)
+        assert np.allclose(np.array(wire("sim.buildMatrix", pose[:3], wire("sim.getObjectOrientation", s, -1)))
+                           .reshape(3, 4), m)
+        assert wire("sim.getObjectPosition", robot, s)[2] < 0
+    assert hits >= 2
+    wire("sim.stopSimulation")
+
+
 def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     h = {p: wire("sim.getObject", p) for p in (
         "/PioneerP3DX[0]", "/PioneerP3DX[1]", "/PioneerP3DX[1]/leftMotor", "/PioneerP3DX[0]/ultrasonicSensor[4]")}
@@ -125,6 +174,20 @@ def test_object_paths_follow_getobject_rules(wire: Wire) -> None:
     assert wire("sim.getObjectAlias", sonar5, 0) == "ultrasonicSensor[4]"
     assert wire("sim.getObjectAlias", sonar5, 2) == "/PioneerP3DX[0]/ultrasonicSensor[4]"
     assert wire("sim.getObjectParent", sonar5) == h["/PioneerP3DX[0]"]
+
+
+def test_wait_takes_its_steps_at_once_within_its_limits(wire: Wire) -> None:
+    """sim.wait's limits as docs/coppeliasim.md gives them: 60 s of simulation time a call,
+    the overshoot returned; real time at most 2 s a call, the time not waited returned."""
+    assert wire("sim.wait", 0.5) == 0.0  # stopped: nothing to wait for
+    wire("sim.setStepping", True)
+    wire("sim.startSimulation")
+    assert wire("sim.wait", 0.12) == pytest.approx(0.12 - 0.15)
+    assert wire("sim.getSimulationTime") == pytest.approx(0.15)
+    assert "sim.wait takes at most 60 s of simulation time a call" in wire.raw("sim.wait", 61.0)["err"]
+    assert wire("sim.wait", 2.25, False) == pytest.approx(0.25)  # 2 s slept, 0.25 s left to wait
+    assert wire("sim.getSimulationTime") == pytest.approx(0.15)
+    wire("sim.stopSimulation")
 
 
 def test_step_waits_then_advances_one_step(wire: Wire) -> None:
@@ -217,6 +280,17 @@ def test_camera_images_are_rgb_bottom_row_first() -> None:
     assert len(grey_alpha) == 32 * 24 * 2 and grey_alpha[1::2] == b"\xff" * (32 * 24)
     part, res = wire("sim.getVisionSensorImg", v, 0, 0.0, [4, 2], [8, 6])
     assert len(part) == 8 * 6 * 3 and res == [32, 24]
+    # a part outside the image is CoppeliaSim's "wrong position/size parameters", from every
+    # image call alike (inf and nan included); a part that is not numbers, the type error
+    inf, nan = float("inf"), float("nan")
+    for pos, size in (([0, 0], [inf, 4]), ([inf, 0], [1, 1]), ([nan, 0], [1, 1]), ([0, 0], [-1, 4]),
+                      ([0, 0], [33, 1]), ([31, 0], [2, 1]), ([0, 0], [1e300, 1])):
+        for call in (("sim.getVisionSensorImg", v, 0, 0.0, pos, size), ("sim.getVisionSensorDepth", v, 0, pos, size),
+                     ("sim.getVisionSensorImage", v, *pos, *size), ("sim.getVisionSensorCharImage", v, *pos, *size)):
+            assert wire.raw(*call)["err"].startswith("wrong position/size parameters."), call
+    for call in (("sim.getVisionSensorImg", v, 0, 0.0, [0, 0], ["a", 1]),
+                 ("sim.getVisionSensorDepth", v, 0, [0], [1, 1]), ("sim.getVisionSensorImage", v, 0, 0, "a", 1)):
+        assert wire.raw(*call)["err"].startswith("one of the function's argument type is not correct."), call
 
 
 def test_serve_camera_sees_the_robot_ahead_as_the_backend_does() -> None:
