@@ -28,7 +28,7 @@ from typing import Any
 
 from labsim.backends.scene.mechanism import BodySpec, ForceSensorSpec, JointSpec, Mechanism, MotorSpec
 from labsim.runtime.serve.built import primitive, rounded
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, Wait
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, Args, Handler, SimError, Wait
 from labsim.runtime.serve.simulation import Client
 
 # simConst.h names the stand-in adds to zmqRemoteApi.info (a client reads the values from there)

@@ -70,18 +70,8 @@ from labsim.runtime.serve.mechanism_edit import (
 )
 from labsim.runtime.serve.scene_tree import glob_match
 from labsim.runtime.serve.script_host import SCRIPT_CALLS, SCRIPT_CONSTANTS, ScriptHost
-from labsim.runtime.serve.sim_api import (
-    E_ARGS,
-    E_FEW,
-    E_HANDLE,
-    Args,
-    Handler,
-    SimError,
-    Wait,
-    as_handle,
-    shown,
-    value_and_frame,
-)
+from labsim.runtime.serve.sim_api import value_and_frame
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, shown
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.texture_edit import TextureEdits
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from labsim.backends.coppeliasim import HANDLE_WORLD
 from labsim.backends.coppeliasim import fleet_script as fs
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, Wait
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, Args, Handler, SimError, Wait
 from labsim.runtime.serve.simulation import Client
 
 # simConst.h names the stand-in adds to zmqRemoteApi.info (its values; a client reads them

@@ -48,16 +48,8 @@ from labsim.backends.scene.models import RobotModel
 from labsim.backends.scene.world import Pose, World
 from labsim.runtime.serve.scene_edit import SceneEditor
 from labsim.runtime.serve.script_host import ScriptHost
-from labsim.runtime.serve.sim_api import (
-    E_ARGS,
-    FUNCTIONS,
-    UNSUPPORTED,
-    WAIT,
-    Handler,
-    SimApi,
-    SimError,
-    shown,
-)
+from labsim.runtime.serve.sim_api import FUNCTIONS, UNSUPPORTED, SimApi
+from labsim.runtime.serve.sim_args import E_ARGS, WAIT, Handler, SimError, shown
 from labsim.runtime.serve.sim_objects import OBJECT_CALLS, OBJECT_CONSTANTS, ObjectCalls
 from labsim.runtime.serve.sim_session import SESSION_CALLS, SESSION_CONSTANTS, SessionCalls
 from labsim.runtime.serve.sim_signals import SIGNAL_CALLS, SignalCalls

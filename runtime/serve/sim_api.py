@@ -22,8 +22,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 
@@ -32,9 +31,24 @@ from labsim.backends.coppeliasim.frames import Pose3, plane_rotation, quaternion
 from labsim.backends.scene.world import Pose
 from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import SceneObject
+from labsim.runtime.serve.sim_args import (
+    E_ARGS,
+    E_FEW,
+    E_HANDLE,
+    E_PATH,
+    WAIT,
+    Args,
+    Handler,
+    SimError,
+    Wait,
+    as_handle,
+    crop,
+    integer,
+    num,
+    shown,
+    vec,
+)
 from labsim.runtime.serve.simulation import Client, Robot, Simulation
-
-Args = list[Any]  # a request's arguments, as CBOR decoded them: anything a client sent
 
 # Values from CoppeliaSim's simConst.h (see the reference notes); a client reads them from
 # zmqRemoteApi.info, so scripts use the names (sim.handle_world), never the numbers.
@@ -47,15 +61,9 @@ CONSTANTS: dict[str, object] = {
     "simulation_advancing_abouttostop": 0x15, "simulation_advancing_lastbeforestop": 0x16,
     "floatparam_rand": 0, "floatparam_simulation_time_step": 1,
 }
-E_PATH = "object does not exist, or alias/path is ill formatted."
-E_HANDLE = "object does not exist."
-E_ARGS = "one of the function's argument type is not correct."
-E_FEW = "function requires more arguments."
 # A sonar's axes in its yaw-only mount frame: x to the beam's left, y up, z along the beam
 # (columns (0, 1, 0), (0, 0, 1), (1, 0, 0)), the frame readProximitySensor's point is in.
 SENSOR_AXES = [0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
-E_POS_SIZE = "wrong position/size parameters."  # CoppeliaSim's SIM_ERROR_WRONG_POS_SIZE_PARAMS
-
 FUNCTIONS = tuple(f"sim.{n}" for n in (
     "getObject", "getObjectHandle", "getObjectAlias", "getObjectParent",
     "setJointTargetVelocity", "getJointTargetVelocity", "setJointTargetPosition",
@@ -73,88 +81,6 @@ UNSUPPORTED = ("getBoolParam", "setBoolParam", "executeScriptString", "setFloatP
 
 _MECHANISM = ("joint", "force", "body")
 
-
-class SimError(Exception):
-    """An error a CoppeliaSim function would raise; becomes {"err": "<text> (in function ...)"}."""
-
-
-class Wait:
-    """What sim.step returns: reply ``_*wait*_`` and step on ``_*executed*_``."""
-
-
-WAIT = Wait()
-Handler = Callable[[Client, Args], list[object] | Wait]
-
-
-# --- arguments ------------------------------------------------------------------------------------
-
-SHOWN_CHARS = 100  # how much of a client's value an error quotes back
-
-
-def shown(value: object) -> str:
-    """A client's value as an error quotes it: a text up to SHOWN_CHARS, else its type. A
-    reply must not grow with what a request sent (a million-item list, a 64 KiB path)."""
-    if isinstance(value, str):
-        return value if len(value) <= SHOWN_CHARS else value[:SHOWN_CHARS] + f"... ({len(value)} characters)"
-    if value is None or isinstance(value, (bool, int, float)):
-        return str(value)
-    return f"a {type(value).__name__}"
-
-
-def as_handle(value: object) -> int:
-    """A handle from any number, as CoppeliaSim casts one (4.7 is 4); not a number: the type error."""
-    if isinstance(value, float) and math.isfinite(value) and abs(value) < 2 ** 31:
-        return int(value)
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise SimError(E_ARGS)
-    return value
-
-
-def crop(pos: object, size: object, w: int, h: int) -> tuple[int, int, int, int]:
-    """(x0, y0, sx, sy) of the part of a w x h vision sensor image a pos and size read, as
-    getVisionSensorImg, getVisionSensorDepth and the older image calls all take them (a size
-    of 0 reads to the edge): not two numbers, the type error; outside the image (inf and nan
-    included), CoppeliaSim's "wrong position/size parameters"."""
-    pos = pos if pos else [0, 0]
-    size = size if size else [0, 0]
-    if not (isinstance(pos, (list, tuple)) and isinstance(size, (list, tuple)) and len(pos) >= 2 and len(size) >= 2
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (*pos[:2], *size[:2]))):
-        raise SimError(E_ARGS)
-    nums = (*pos[:2], *size[:2])
-    if not all(math.isfinite(v) and abs(v) < 2 ** 31 for v in nums):
-        raise SimError(E_POS_SIZE)
-    x0, y0, sx, sy = (int(v) for v in nums)
-    sx, sy = sx or w - x0, sy or h - y0
-    if not (0 <= x0 < w and 0 <= y0 < h and 0 < sx <= w - x0 and 0 < sy <= h - y0):
-        raise SimError(E_POS_SIZE)
-    return x0, y0, sx, sy
-
-
-def _num(args: Args, i: int, default: float | None = None) -> float:
-    if len(args) <= i or args[i] is None:
-        if default is None:
-            raise SimError(E_FEW)
-        return default
-    v = args[i]
-    if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-        raise SimError(E_ARGS)
-    return float(v)
-
-
-def _int(args: Args, i: int, default: int) -> int:
-    if len(args) <= i or args[i] is None:
-        return default
-    return as_handle(args[i])
-
-
-def _vec(args: Args, i: int, n: int) -> list[float]:
-    if len(args) <= i:
-        raise SimError(E_FEW)
-    v = args[i]
-    if not isinstance(v, (list, tuple)) or len(v) < n or not all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v[:n]):
-        raise SimError(E_ARGS)
-    return [float(x) for x in v[:n]]
 
 
 class SimApi:
@@ -237,7 +163,7 @@ class SimApi:
 
     def _sim_getObjectAlias(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)
-        return [self.tree.alias(obj, _int(args, 1, -1))]
+        return [self.tree.alias(obj, integer(args, 1, -1))]
 
     def _sim_getObjectParent(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)
@@ -263,7 +189,7 @@ class SimApi:
 
     def _sim_setJointTargetVelocity(self, client: Client, args: Args) -> list[object]:
         obj = self._joint(args)
-        v = _num(args, 1)
+        v = num(args, 1)
         if obj.kind == "motor":
             r = self._robot(obj)
             r.target[obj.index] = v
@@ -282,7 +208,7 @@ class SimApi:
 
     def _sim_setJointTargetPosition(self, client: Client, args: Args) -> list[object]:
         obj = self._joint(args)
-        p = _num(args, 1)
+        p = num(args, 1)
         if obj.kind == "motor":
             # CoppeliaSim keeps it and ignores it: the wheels' motors are in velocity mode
             self._robot(obj).target_pos[obj.index] = p
@@ -327,7 +253,7 @@ class SimApi:
 
     def _sim_getVisionSensorImg(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args, 0, ("camera", "ground"), "vision sensor")
-        options = _int(args, 1, 0)
+        options = integer(args, 1, 0)
         w, h = obj.resolution
         seen = self.sim.sensed(obj)
         if obj.kind == "ground":  # a ground sensor is a 1 x 1 vision sensor: its one grey pixel
@@ -379,7 +305,7 @@ class SimApi:
         return [self.sim.dt_s]
 
     def _sim_getFloatParam(self, client: Client, args: Args) -> list[object]:
-        param = _int(args, 0, -1)
+        param = integer(args, 0, -1)
         if param == CONSTANTS["floatparam_simulation_time_step"]:
             return [self.sim.dt_s]
         raise SimError("labsim serve: only sim.floatparam_simulation_time_step can be read")
@@ -457,16 +383,16 @@ class SimApi:
         """Whether obj is part of the mechanism (asked for in the world frame: the only one)."""
         if obj.kind not in _MECHANISM:
             return False
-        if _int(args, 1, HANDLE_WORLD) not in (HANDLE_WORLD, HANDLE_PARENT):
+        if integer(args, 1, HANDLE_WORLD) not in (HANDLE_WORLD, HANDLE_PARENT):
             raise SimError("labsim serve: a mechanism's parts are given relative to the world only")
         return True
 
     def _sim_getObjectPosition(self, client: Client, args: Args) -> list[object]:
         obj = self._obj(args)
-        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        m = self._sensor_frame(obj, integer(args, 1, HANDLE_WORLD))
         if m is not None:
             return [[m[3], m[7], m[11]]]
-        x, y, z, _ = self._relative(obj, _int(args, 1, HANDLE_WORLD))
+        x, y, z, _ = self._relative(obj, integer(args, 1, HANDLE_WORLD))
         return [[x, y, z]]
 
     def _sim_getObjectOrientation(self, client: Client, args: Args) -> list[object]:
@@ -474,10 +400,10 @@ class SimApi:
         if self._mechanism_part(obj, args):
             *_, slew, theta = self.sim.mechanism_frame(obj)
             return [plane_rotation(slew, theta)[0]]
-        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        m = self._sensor_frame(obj, integer(args, 1, HANDLE_WORLD))
         if m is not None:
             return [mx.euler(m)]
-        *_, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
+        *_, a = self._relative(obj, integer(args, 1, HANDLE_WORLD))
         return [[0.0, 0.0, a]]
 
     def _sim_getObjectPose(self, client: Client, args: Args) -> list[object]:
@@ -485,10 +411,10 @@ class SimApi:
         if self._mechanism_part(obj, args):
             x, y, z, slew, theta = self.sim.mechanism_frame(obj)
             return [[x, y, z, *plane_rotation(slew, theta)[1]]]
-        m = self._sensor_frame(obj, _int(args, 1, HANDLE_WORLD))
+        m = self._sensor_frame(obj, integer(args, 1, HANDLE_WORLD))
         if m is not None:
             return [mx.pose(m)]
-        x, y, z, a = self._relative(obj, _int(args, 1, HANDLE_WORLD))
+        x, y, z, a = self._relative(obj, integer(args, 1, HANDLE_WORLD))
         return [[x, y, z, *yaw_quaternion(a)]]
 
     def _sim_getObjectVelocity(self, client: Client, args: Args) -> list[object]:
@@ -516,13 +442,13 @@ class SimApi:
 
     def _sim_setObjectPosition(self, client: Client, args: Args) -> list[object]:
         r, value = self._placeable(args)
-        x, y, _z = _vec([value], 0, 3)
+        x, y, _z = vec([value], 0, 3)
         r.pose = Pose(x, y, r.pose.heading_rad)
         return []
 
     def _sim_setObjectOrientation(self, client: Client, args: Args) -> list[object]:
         r, value = self._placeable(args)
-        alpha, beta, gamma = _vec([value], 0, 3)
+        alpha, beta, gamma = vec([value], 0, 3)
         if abs(alpha) > 1e-6 or abs(beta) > 1e-6:
             raise SimError("labsim serve: the scene is flat; robots turn about z only (alpha = beta = 0)")
         r.pose = Pose(r.pose.x_m, r.pose.y_m, gamma)
@@ -530,7 +456,7 @@ class SimApi:
 
     def _sim_setObjectPose(self, client: Client, args: Args) -> list[object]:
         r, value = self._placeable(args)
-        x, y, _z, qx, qy, qz, qw = _vec([value], 0, 7)
+        x, y, _z, qx, qy, qz, qw = vec([value], 0, 7)
         if abs(qx) > 1e-6 or abs(qy) > 1e-6:
             raise SimError("labsim serve: the scene is flat; robots turn about z only")
         r.pose = Pose(x, y, quaternion_yaw(qz, qw))

@@ -27,7 +27,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, HANDLE_PARENT, HANDLE_WORLD,
 from labsim.backends.coppeliasim.fleet_script import ALIAS as FLEET_ALIAS
 from labsim.runtime.serve import matrices as mx
 from labsim.runtime.serve.scene_tree import glob_match
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle
 from labsim.runtime.serve.simulation import Client, Simulation
 
 DUMMY_BASE = 2_000_000  # a dummy's handle when no scene editor hands one out

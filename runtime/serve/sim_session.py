@@ -33,7 +33,7 @@ from labsim.backends.coppeliasim import HANDLE_ALL, RUNNING, STOPPED
 from labsim.backends.protocol import BackendError, RobotRequest
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import LabsimError
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, crop, shown
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, E_HANDLE, Args, Handler, SimError, Wait, as_handle, crop, shown
 from labsim.runtime.serve.sim_objects import call_base
 from labsim.runtime.serve.simulation import Client, Simulation
 from labsim.runtime.serve.wire_limits import Deadline

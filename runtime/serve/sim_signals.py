@@ -24,7 +24,7 @@ from collections.abc import Callable
 from typing import Any
 
 from labsim.backends.coppeliasim import lidar_signals
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, Handler, SimError, as_handle, shown
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, Args, Handler, SimError, as_handle, shown
 from labsim.runtime.serve.simulation import Client, Simulation
 
 SIGNAL_CALLS = tuple(f"sim.{n}" for n in (

@@ -16,7 +16,7 @@ from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.files import read_served
 from labsim.runtime.serve.built import MAX_SIZE_M, Shape
 from labsim.runtime.serve.mechanism_edit import floats
-from labsim.runtime.serve.sim_api import E_ARGS, E_FEW, Args, SimError, as_handle, shown
+from labsim.runtime.serve.sim_args import E_ARGS, E_FEW, Args, SimError, as_handle, shown
 from labsim.runtime.serve.simulation import Client
 
 MAX_TEXTURE_PX = 4096  # a texture's side: labsim's largest painted floor (road_loop) is 2570 pixels
