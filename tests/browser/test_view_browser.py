@@ -147,7 +147,7 @@ def test_crane_slider_moves_the_arm_and_the_crane(view: Any) -> None:
     dragged_at = v.frame()["time"]
     v.page.locator('input[data-name="arm"]').fill("5")
     v.wait("window.labsimView.frame.labels.speed === 'Arm Speed: 0.10'")
-    v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 0.5")  # the slider, within max_speed
+    v.wait("(window.labsimView.frame.mechanism.targets.Arm_Actuator || [])[1] === 5")  # the slider, as its velocity
     assert v.frame()["time"] - dragged_at <= 1.0
     # the page draws a frame on the next animation frame: wait for it rather than read at once
     # the script's one label, shown once; each slider its own name and value
@@ -870,8 +870,24 @@ def test_an_epuck_is_drawn_to_scale_with_its_ground_sensors(view: Any) -> None:
     assert orange > 30
 
 
-def test_collisions_are_marked_on_the_path_and_counted(view: Any) -> None:
-    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=2"])
+# a robot that drives into the wall and backs off, every four seconds: a collision each time (the
+# handout's wall lab touches no wall)
+BUMPER = """labsim: 1.2
+name: Bumps
+world: walls_lab4
+stop: time >= 30
+robots:
+  pioneer: {model: pioneer_p3dx, at: [6.9, -4, 0]}
+rules:
+  - if time % 4 < 2 then move(4)
+  - else move(-4)
+"""
+
+
+def test_collisions_are_marked_on_the_path_and_counted(view: Any, tmp_path: Path) -> None:
+    bumps = tmp_path / "bumps.yaml"
+    bumps.write_text(BUMPER, encoding="utf-8")
+    v = view([str(bumps)])
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("window.labsimView.frame.finished === true", timeout_ms=60000)
