@@ -1,0 +1,53 @@
+"""Defects a student found in the language core: each a wrong value, a misplaced caret or a
+misleading message, now at its place with the exact words."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from labsim.dsl.compile import compile_file
+from labsim.foundation.diagnostics import LabsimError
+
+HEAD = "labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+
+
+def diagnostics(path: Path) -> list[tuple[int, int, str, tuple[str, ...]]]:
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    return [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+
+
+# -- a function with memory or a random one paired with every member -------------------------------
+
+@pytest.mark.parametrize(("expr", "col", "func", "what", "signal", "use"), [
+    ("max(g * 0 + total(1))", 18, "total", "keeps memory from tick to tick", "total(1)", "g * 0 + p"),
+    ("any(g < prev(sonar1, 0))", 14, "prev", "keeps memory from tick to tick", "prev(sonar1, 0)", "g < p"),
+    ("any(g < random())", 14, "random", "draws a random number", "random()", "g < p"),
+    ("count(g < uniform(0, 1))", 16, "uniform", "draws a random number", "uniform(0, 1)", "g < p"),
+    ("max(g * counter(tick > 3))", 14, "counter", "keeps memory from tick to tick", "counter(tick > 3)", "g * p"),
+    ("max(g + randint(1, 6))", 14, "randint", "draws a random number", "randint(1, 6)", "g + p"),
+    ("any(g < 1 and rising(tick > 3))", 20, "rising", "keeps memory from tick to tick", "rising(tick > 3)",
+     "g < 1 and p"),
+    ("max(-g * (2 + total(1)))", 20, "total", "keeps memory from tick to tick", "total(1)", "-g * (2 + p)"),
+])
+def test_a_value_with_memory_or_random_paired_with_every_member_is_an_error(
+        write, expr: str, col: int, func: str, what: str, signal: str, use: str) -> None:
+    path = write(HEAD + f"let:\n  g: [tick, tick, tick, tick]\n  t: {expr}\nrules:\n  - if t > 0 then move(1)\n"
+                 "  - else stop()\n")
+    assert diagnostics(path) == [(8, col, f"{func}() {what}, but here it is paired with every member of a group, "
+                                  "so it would run once per member",
+                                  (f"give it a signal of its own: 'p: {signal}', then '{use}'",))]
+
+
+def test_the_same_call_paired_twice_is_reported_once(write) -> None:
+    path = write(HEAD + "let:\n  g: [tick, tick]\n  t: max(g * max(g + total(1)))\nrules:\n"
+                 "  - if t > 0 then move(1)\n  - else stop()\n")
+    assert [(line, col) for line, col, _, _ in diagnostics(path)] == [(8, 22)]
+
+
+def test_the_signal_of_its_own_runs_once_a_tick(write) -> None:
+    path = write(HEAD + "let:\n  g: [tick, tick, tick, tick]\n  p: total(1)\n  t4: max(g * 0 + p)\n"
+                 "  q: random()\n  b: any(g < q)\nrules:\n  - if t4 > 0 and b then move(1)\n  - else stop()\n")
+    program = compile_file(path)
+    assert "t4" in program.let_names
