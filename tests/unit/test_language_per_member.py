@@ -2,11 +2,13 @@
 misleading message, now at its place with the exact words."""
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import pytest
 
 from labsim.dsl.compile import compile_file
+from labsim.dsl.library.support import Faults
 from labsim.foundation.diagnostics import LabsimError
 
 HEAD = "labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
@@ -51,3 +53,24 @@ def test_the_signal_of_its_own_runs_once_a_tick(write) -> None:
                  "  q: random()\n  b: any(g < q)\nrules:\n  - if t4 > 0 and b then move(1)\n  - else stop()\n")
     program = compile_file(path)
     assert "t4" in program.let_names
+
+
+# -- a missing member's place, counted once per place in the file -----------------------------------
+
+def test_a_place_with_no_member_is_one_warning_and_one_count_however_many_values_it_takes(write) -> None:
+    path = write(HEAD + "let:\n  g: sonar1..sonar8\n  h: tick / 3\n  j: tick % 10\n  w: g[h]\n  v: g[j]\n"
+                 "rules:\n  - if w < v then stop()\n  - else move(1)\n")
+    program = compile_file(path)
+    printed: list[str] = []
+    faults = Faults(printed.append)
+    robot = program.robot("p", random.Random(0), faults)
+    for tick in range(60):
+        robot.signals(tick * 0.05, tick, [1.0] * len(program.channels))
+    assert [p.splitlines()[0] for p in printed] == [
+        f"{path}:10:6: warning: no member at place 0.333333 of a group of 8 (places count from 0) in signal 'w', "
+        "robot p, tick 1",
+        f"{path}:11:6: warning: no member at place 8 of a group of 8 (places count from 0) in signal 'v', "
+        "robot p, tick 8"]
+    assert sorted((site.where, what, n, faults.first[(site, what)]) for (site, what), n in faults.counts.items()) == [
+        ("signal 'v'", "no member at the place asked of a group of 8 (places count from 0)", 12, (8, "p")),
+        ("signal 'w'", "no member at the place asked of a group of 8 (places count from 0)", 52, (1, "p"))]
