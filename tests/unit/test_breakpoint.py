@@ -46,9 +46,23 @@ def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None
     proc = run("--break", "sonar5 < 0 or state == follow and time > 100")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held: the run went 120 "
-                        "ticks (6.00 s) to its end")
+    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held on ticks 0 to 480 "
+                        "(0.00 s to 24.00 s), where the run ended")
     assert lines[1].startswith("Wall following with sonars")
+    assert "done: 480 ticks, 24.00 s simulated" in lines[2] and "stopped at tick 480 (24.00 s)" in lines[2]
+
+
+@pytest.mark.parametrize("when", ["time >= 24", "tick == 480"])
+def test_a_breakpoint_sees_the_stopping_tick_the_trace_has_a_row_for(when: str, tmp_path: Path) -> None:
+    trace = tmp_path / "t.csv"
+    proc = run("--break", when, "--trace", str(trace))
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[:3] == [f"--break: '{when}' held at tick 480 (24.00 s) for robot pioneer",
+                                            "  state: follow",
+                                            "  rule: none (the run's stop condition held on this tick: no rule "
+                                            "acts on it)"]
+    rows = [line for line in trace.read_text().splitlines() if line and not line.startswith("#")]
+    assert rows[-1].startswith("480,24,")
 
 
 @pytest.mark.parametrize(("when", "message"), [
