@@ -91,4 +91,6 @@ def _shown(value: object) -> str:
         return "true" if value else "false"
     if isinstance(value, float):
         return f"{value:.6g}"
+    if isinstance(value, tuple):  # a group's members
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
     return inert(str(value))
