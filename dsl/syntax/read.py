@@ -294,9 +294,10 @@ class _Reader(Reader):
 
     def expr(self, node: Node, what: str) -> Parsed | None:
         if isinstance(node, SequenceNode) and node.flow_style and node.start_mark.line == node.end_mark.line:
-            # a group written as YAML reads it, [sonar4, sonar5]: its text is the group's expression
+            # a group written as YAML reads it, [sonar4, sonar5]: its text is the group's expression,
+            # the file's characters as they are (no quote to skip: a nested [sonar5] keeps its place)
             node = ScalarNode("tag:yaml.org,2002:str", self.doc.text[node.start_mark.index:node.end_mark.index],
-                              node.start_mark, node.end_mark, style="'")
+                              node.start_mark, node.end_mark)
         elif isinstance(node, SequenceNode):
             self.error(node, f"{what} is a group: write it on one line, as in [sonar4, sonar5], or as a range, "
                              "as in sonar1..sonar8")

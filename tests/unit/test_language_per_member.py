@@ -74,3 +74,20 @@ def test_a_place_with_no_member_is_one_warning_and_one_count_however_many_values
     assert sorted((site.where, what, n, faults.first[(site, what)]) for (site, what), n in faults.counts.items()) == [
         ("signal 'v'", "no member at the place asked of a group of 8 (places count from 0)", 12, (8, "p")),
         ("signal 'w'", "no member at the place asked of a group of 8 (places count from 0)", 52, (1, "p"))]
+
+
+# -- a group written as YAML's list: each member at its own column ----------------------------------
+
+@pytest.mark.parametrize(("group", "col", "end"), [
+    ("[sonar4, [sonar5]]", 15, 23),
+    ("[[sonar1, sonar2], sonar3]", 7, 23),
+    ("[sonar4, 'a']", 15, 18),
+])
+def test_a_member_of_a_group_written_as_a_yaml_list_is_reported_at_its_column(write, group: str, col: int,
+                                                                              end: int) -> None:
+    path = write(HEAD + f"let:\n  g: {group}\nrules:\n  - if min(g) < 1 then stop()\n")
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    [d] = e.value.diagnostics
+    assert (d.line, d.col, d.end_col) == (7, col, end)
+    assert d.message.startswith("a group's members are all numbers or all booleans; this one is ")
