@@ -70,6 +70,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]] = []
         self.expansions: dict[int, Expansion] = {}
         self.expanded = 0  # nodes the calls expanded to so far
+        self.expanded_reported = False  # past MAX_EXPANDED: said once
         self.body_errors: set[tuple[int, int, str]] = set()  # a body's problems, reported once
         self.called: set[str] = set()
         self.current_let = ""  # the signal being typed: prev() of it reads its previous tick

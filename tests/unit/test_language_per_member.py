@@ -91,3 +91,15 @@ def test_a_member_of_a_group_written_as_a_yaml_list_is_reported_at_its_column(wr
     [d] = e.value.diagnostics
     assert (d.line, d.col, d.end_col) == (7, col, end)
     assert d.message.startswith("a group's members are all numbers or all booleans; this one is ")
+
+
+# -- the smaller ones ----------------------------------------------------------------------------------
+
+def test_functions_expanding_too_far_are_one_error_at_the_call_in_the_file_s_expression(write) -> None:
+    chain = "".join(f"  f{i}(x): f{i - 1}(x) + f{i - 1}(x)\n" for i in range(1, 26))
+    path = write(HEAD + "functions:\n  f0(x): x + 1\n" + chain + "let:\n  yy: f25(sonar1)\n"
+                 "rules:\n  - if yy < 1 then stop()\n")
+    assert diagnostics(path) == [(34, 7, "the calls of this file's functions expand to more than 20,000 operations "
+                                  "(a function's body, once per call)",
+                                  ("a function that calls another several times, which calls another several times, "
+                                   "grows fast: compute shared parts once, in 'let' signals",))]
