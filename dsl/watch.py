@@ -110,7 +110,8 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     try:
         e = parse_expr(text)
     except ParseError as p:
-        report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=p.notes))
+        notes = p.notes or (f"a breakpoint is one condition of the language, as in {where} 'sonar5 < 0.5'",)
+        report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=notes))
         raise LabsimError(report.diagnostics) from None
     checker = ExprChecker(doc, report)
     for name, kind in program.channel_kinds.items():

@@ -379,8 +379,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
         shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
+            fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
             self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
-                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
+                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
+                       if fraction else (f"this group's places are 0 to {n - 1}",))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)

@@ -585,10 +585,13 @@ class _Reader(Reader):
             if bad:
                 self.error(text.at(bad[0][1]), f"'{bad[0][0]}' is not a valid parameter name: use letters, digits "
                            "and '_', starting with a letter")
+                self.failed_names.add(m.group(1))  # reported here: its calls stay quiet
                 continue
-            twice = [p for k, p in enumerate(params) if p in params[:k]]
+            twice = [k for k, p in enumerate(params) if p in params[:k]]
             if twice:
-                self.error(key, f"function '{m.group(1)}' names its parameter '{twice[0]}' twice")
+                self.error(text.at(spans[twice[0]]), f"function '{m.group(1)}' names its parameter "
+                           f"'{params[twice[0]]}' twice")
+                self.failed_names.add(m.group(1))
                 continue
             body = self.expr(value, f"the body of '{m.group(1)}'")
             if body is not None:

@@ -73,6 +73,7 @@ def test_a_breakpoint_sees_the_stopping_tick_the_trace_has_a_row_for(when: str, 
     ("min(sonar5, sonar2)", "--break:1:1: a breakpoint's condition must be a boolean, but this is a number"),
     ("collided", "--break:1:1: 'collided' is a sensor this behaviour does not read: a breakpoint sees what the "
                  "behaviour reads"),
+    ("bogus:1", "--break:1:6: unexpected ':' in an expression"),
 ])
 def test_a_breakpoint_is_checked_as_the_file_is(when: str, message: str) -> None:
     program = compile_file(WALL)
@@ -217,3 +218,10 @@ def test_a_breakpoint_reads_a_mechanism_s_fields() -> None:
     assert proc.stdout.splitlines()[:4] == ["--break: 'Load.x > 2' held at tick 210 (10.50 s) for robot crane",
                                             "  state: (the file has no states)",
                                             "  rule: none (no rule held on this tick)", "  Load.x = 2.03663"]
+
+
+def test_a_breakpoint_that_does_not_parse_says_it_is_one_condition() -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(WALL), "bogus:1")
+    [d] = e.value.diagnostics
+    assert d.notes == ("a breakpoint is one condition of the language, as in --break 'sonar5 < 0.5'",)

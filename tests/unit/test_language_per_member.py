@@ -103,3 +103,26 @@ def test_functions_expanding_too_far_are_one_error_at_the_call_in_the_file_s_exp
                                   "(a function's body, once per call)",
                                   ("a function that calls another several times, which calls another several times, "
                                    "grows fast: compute shared parts once, in 'let' signals",))]
+
+
+def test_a_place_that_is_infinite_is_not_told_to_round(write) -> None:
+    path = write(HEAD + "let:\n  front: sonar1..sonar8\n  xx: front[inf]\n  yy: front[-inf]\n"
+                 "rules:\n  - if xx < yy then stop()\n")
+    assert diagnostics(path) == [
+        (8, 13, "a member is picked by its place, a whole number from 0; 'inf' is inf",
+         ("this group's places are 0 to 7",)),
+        (9, 13, "a member is picked by its place, a whole number from 0; '-inf' is -inf",
+         ("this group's places are 0 to 7",))]
+
+
+def test_a_function_whose_definition_failed_leaves_its_calls_quiet(write) -> None:
+    path = write(HEAD + "functions:\n  f(a, a): a\n  g(a, 1b): a\nlet:\n  yy: f(1, 2) + f(2, 3) + g(1, 2)\n"
+                 "rules:\n  - if yy < 1 then stop()\n")
+    assert [(line, col, message) for line, col, message, _ in diagnostics(path)] == [
+        (7, 8, "function 'f' names its parameter 'a' twice"),
+        (8, 8, "'1b' is not a valid parameter name: use letters, digits and '_', starting with a letter")]
+
+
+def test_a_colon_in_an_expression_is_not_said_to_be_a_rule_s(write) -> None:
+    path = write(HEAD + "let:\n  q: \"sonar1: 2\"\nrules:\n  - if q < 1 then stop()\n")
+    assert diagnostics(path) == [(7, 13, "unexpected ':' in an expression", ())]
