@@ -136,7 +136,23 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     functions = {f.name: _function(program, f) for f in program.functions}
     checker.user_functions = {name: d for name, d in functions.items() if d is not None}
     unread = {name for m in program.models.values() for name in m.channels()} - set(program.channels)
+    said: set[int] = set()  # the members of a range, said in one message at the range
+    for ranged in ast.walk(e):
+        if isinstance(ranged, ast.Group) and ranged.ranged:
+            names = [m.id for m in ranged.members if isinstance(m, ast.Name) and m.id in unread]
+            if not names:
+                continue
+            said |= {id(m) for m in ranged.members}
+            checker.poisoned |= set(names)
+            report.add(parsed_text.diagnostic(ranged.span[0], ranged.span[1], f"{text[ranged.span[0]:ranged.span[1]]} "
+                                              f"names {', '.join(names)}, which this behaviour does not read: a "
+                                              "breakpoint sees what the behaviour reads",
+                                              notes=(f"read them in a signal of the file (e.g. 'let: seen: "
+                                                     f"{text[ranged.span[0]:ranged.span[1]]}') and watch the "
+                                                     "signal",)))
     for read in ast.walk(e):
+        if id(read) in said:
+            continue
         if isinstance(read, ast.Name) and read.id in unread and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a sensor this behaviour "
                                               "does not read: a breakpoint sees what the behaviour reads",

@@ -74,6 +74,8 @@ def test_a_breakpoint_sees_the_stopping_tick_the_trace_has_a_row_for(when: str, 
     ("collided", "--break:1:1: 'collided' is a sensor this behaviour does not read: a breakpoint sees what the "
                  "behaviour reads"),
     ("bogus:1", "--break:1:6: unexpected ':' in an expression"),
+    ("any(sonar1..sonar8 < 0.5)", "--break:1:5: sonar1..sonar8 names sonar1, sonar3, sonar4, sonar6, sonar7, which "
+                                  "this behaviour does not read: a breakpoint sees what the behaviour reads"),
 ])
 def test_a_breakpoint_is_checked_as_the_file_is(when: str, message: str) -> None:
     program = compile_file(WALL)
