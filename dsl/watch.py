@@ -118,8 +118,12 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         if kind in _KIND_TYPES:
             checker.declare(name, _KIND_TYPES[kind], "sensor")
     single = set(program.single_signals)
+    # an image is freed after the tick that computed it, and a breakpoint shows numbers: not read
+    images = {n for n, k in program.channel_kinds.items() if k is Kind.IMAGE and n in program.channels}
     for name, t in program.signal_types.items():
-        if name in single:
+        if t is Type.IMAGE:
+            images.add(name)
+        elif name in single:
             checker.declare(name, t, "signal")
     for name in program.params:
         checker.declare(name, Type.NUMBER, "parameter")
@@ -152,6 +156,13 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                                      "signal",)))
     for read in ast.walk(e):
         if id(read) in said:
+            continue
+        if isinstance(read, ast.Name) and read.id in images and read.id not in checker.types:
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is an image: a breakpoint "
+                                              "reads numbers and booleans",
+                                              notes=(f"make a number of it a signal of the file (e.g. 'let: seen: "
+                                                     f"mean({read.id})') and watch the signal",)))
+            checker.poisoned.add(read.id)
             continue
         if isinstance(read, ast.Name) and read.id in unread and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a sensor this behaviour "

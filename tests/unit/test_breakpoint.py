@@ -227,3 +227,14 @@ def test_a_breakpoint_that_does_not_parse_says_it_is_one_condition() -> None:
         compile_watch(compile_file(WALL), "bogus:1")
     [d] = e.value.diagnostics
     assert d.notes == ("a breakpoint is one condition of the language, as in --break 'sonar5 < 0.5'",)
+
+
+@pytest.mark.parametrize(("when", "col", "name"), [("mean(lane) > 0.5", 6, "lane"),
+                                                   ("mean(gray(camera)) > 0.5", 11, "camera")])
+def test_an_image_in_a_breakpoint_is_said_to_be_one(when: str, col: int, name: str) -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(ROOT / "behaviours" / "road_follow.yaml"), when)
+    [d] = e.value.diagnostics
+    assert (d.line, d.col, d.message, d.notes) == (
+        1, col, f"'{name}' is an image: a breakpoint reads numbers and booleans",
+        (f"make a number of it a signal of the file (e.g. 'let: seen: mean({name})') and watch the signal",))
