@@ -311,10 +311,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
             name = next(c for c in ("p", "p1", "p2", "p3", "_p") if c not in self.types and c not in self.later)
             whole = text.value[e.span[0]:e.span[1]]
             at = n.span[0] - e.span[0], n.span[1] - e.span[0]
+            use = f"{whole[:at[0]]}{name}{whole[at[1]:]}"
+            if len(call) > 60:
+                call = f"{n.func}(...)"
             self.error(text.at(n.func_span), f"{n.func}() {what}, but here it is paired with every member of a "
                        "group, so it would run once per member",
-                       notes=(f"give it a signal of its own: '{name}: {call}', then '{whole[:at[0]]}{name}"
-                              f"{whole[at[1]:]}'",))
+                       notes=(f"give it a signal of its own: '{name}: {call}', then "
+                              + (f"'{use}'" if len(use) <= 80 else f"'{name}' in its place"),))
             return False
         return True
 

@@ -126,3 +126,11 @@ def test_a_function_whose_definition_failed_leaves_its_calls_quiet(write) -> Non
 def test_a_colon_in_an_expression_is_not_said_to_be_a_rule_s(write) -> None:
     path = write(HEAD + "let:\n  q: \"sonar1: 2\"\nrules:\n  - if q < 1 then stop()\n")
     assert diagnostics(path) == [(7, 13, "unexpected ':' in an expression", ())]
+
+
+def test_the_hint_for_a_long_expression_stays_short(write) -> None:
+    members = ", ".join(["tick"] * 40)
+    path = write(HEAD + f"let:\n  t: max([{members}] + total(1))\nrules:\n  - if t > 0 then move(1)\n"
+                 "  - else stop()\n")
+    [(_, _, _, notes)] = diagnostics(path)
+    assert notes == ("give it a signal of its own: 'p: total(1)', then 'p' in its place",)
