@@ -48,6 +48,7 @@ class ExprChecker(Protocol):
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     expansions: dict[int, Expansion]
     expanded: int
+    expanded_reported: bool
     sizes: dict[int, int]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
