@@ -31,7 +31,7 @@ from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
-from labsim.foundation.source import Document
+from labsim.foundation.source import Document, Text
 
 MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
 _KIND_TYPES = {Kind.DISTANCE: Type.NUMBER, Kind.NUMBER: Type.NUMBER, Kind.BOOL: Type.BOOL, Kind.CONTACT: Type.BOOL,
@@ -114,6 +114,40 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=notes))
         raise LabsimError(report.diagnostics) from None
     checker = ExprChecker(doc, report)
+    images, groups, unseen = _declare(program, checker)
+    _unseen(e, parsed_text, program, checker, images, unseen)
+    checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
+    for call in _calls(e):
+        if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
+            report.add(parsed_text.diagnostic(call.span[0], call.span[1],
+                                              f"{call.func}() remembers earlier ticks; a breakpoint sees one "
+                                              "tick at a time", notes=("make it a signal in the file (let:) "
+                                                                       "and watch the signal",)))
+    report.raise_if_errors()
+    reads = _Reads()
+    reads.visit(e)
+    wanted = set(reads.names)
+    kept: list[tuple[str, tuple[int, ...] | None, ast.Expr]] = []
+    for name, members, written in reversed(groups):  # a group it reads, and the groups that one names
+        if name in wanted:
+            kept.insert(0, (name, members, written))
+            wanted |= {n.id for n in walk(written) if isinstance(n, ast.Name)} if members is None else set()
+    return Watch(  # every name it may read (a name inside a group is read too)
+        text=text, node=e,
+        channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
+        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
+                    if n in program.slot_of),
+        constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
+                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
+        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)), states=tuple(program.state_names),
+        groups=tuple(kept),
+        functions={name: (d.params, d.body.node) for name, d in checker.user_functions.items()})
+
+
+def _declare(program: Program, checker: ExprChecker) -> tuple[set[str], list[tuple[str, tuple[int, ...] | None,
+                                                                                 ast.Expr]], dict[str, str]]:
+    """Declare to the checker every name of the program a breakpoint reads; return the images it
+    does not read, the group signals it does and those it cannot (see ``_groups``)."""
     for name, kind in program.channel_kinds.items():
         if kind in _KIND_TYPES:
             checker.declare(name, _KIND_TYPES[kind], "sensor")
@@ -139,6 +173,14 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     groups, unseen = _groups(program, checker)
     functions = {f.name: _function(program, f) for f in program.functions}
     checker.user_functions = {name: d for name, d in functions.items() if d is not None}
+    return images, groups, unseen
+
+
+def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprChecker, images: set[str],
+            unseen: dict[str, str]) -> None:
+    """Say why a name the program has is not one a breakpoint reads: a sensor the behaviour does
+    not read (a range of them in one message), an image, a group signal naming what it cannot see."""
+    report, text = checker.report, parsed_text.value
     unread = {name for m in program.models.values() for name in m.channels()} - set(program.channels)
     said: set[int] = set()  # the members of a range, said in one message at the range
     for ranged in ast.walk(e):
@@ -176,32 +218,6 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                               "breakpoint does not see", notes=("watch its other members one by "
                                                                                 "one",)))
             checker.poisoned.add(read.id)
-    checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
-    for call in _calls(e):
-        if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
-            report.add(parsed_text.diagnostic(call.span[0], call.span[1],
-                                              f"{call.func}() remembers earlier ticks; a breakpoint sees one "
-                                              "tick at a time", notes=("make it a signal in the file (let:) "
-                                                                       "and watch the signal",)))
-    report.raise_if_errors()
-    reads = _Reads()
-    reads.visit(e)
-    wanted = set(reads.names)
-    kept: list[tuple[str, tuple[int, ...] | None, ast.Expr]] = []
-    for name, members, written in reversed(groups):  # a group it reads, and the groups that one names
-        if name in wanted:
-            kept.insert(0, (name, members, written))
-            wanted |= {n.id for n in walk(written) if isinstance(n, ast.Name)} if members is None else set()
-    return Watch(  # every name it may read (a name inside a group is read too)
-        text=text, node=e,
-        channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
-        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
-                    if n in program.slot_of),
-        constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
-                   **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
-        reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)), states=tuple(program.state_names),
-        groups=tuple(kept),
-        functions={name: (d.params, d.body.node) for name, d in checker.user_functions.items()})
 
 
 def _groups(program: Program, checker: ExprChecker) -> tuple[list[tuple[str, tuple[int, ...] | None, ast.Expr]],
