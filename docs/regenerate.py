@@ -73,12 +73,25 @@ def _golden_failure() -> str:
         return labsim("test", "lab.yaml", cwd=folder, ok=(1,))
 
 
+def _rule_code(rule: str) -> str:
+    """The lines ``labsim check --show-code`` prints for one rule of the wall lab: its comment and
+    the test under it (the first time it is written: ``decide`` comes before ``both``)."""
+    lines = labsim("check", "behaviours/wall_follow.yaml", "--show-code").splitlines()
+    at = next((i for i, line in enumerate(lines) if f": rule {rule}: " in line), None)
+    assert at is not None, f"--show-code no longer has rule {rule}; change this recipe"
+    return "\n".join(lines[at:at + 2]) + "\n"
+
+
+BREAK = ("run", "behaviours/wall_follow.yaml", "--break", "min([sonar5, sonar2]) < 0.5")
 SWEEP = ("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0", "--seeds", "1-20")
 RECIPES: dict[str, Recipe] = {
     "wall-summary": Recipe("labsim run behaviours/wall_follow.yaml",
                            lambda: labsim("run", "behaviours/wall_follow.yaml")),
     "wall-sweep": Recipe("labsim " + " ".join(SWEEP), lambda: labsim(*SWEEP)),
     "golden-failure": Recipe("", _golden_failure),
+    "wall-break": Recipe("labsim run behaviours/wall_follow.yaml --break 'min([sonar5, sonar2]) < 0.5'",
+                         lambda: labsim(*BREAK)),
+    "wall-rule-code": Recipe("", lambda: _rule_code("wander:1")),
     "grid-too-large": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0",
                                                 "--seeds", "1-60000", ok=(2,), stream="stderr")),
 }

@@ -28,8 +28,8 @@ from labsim.dsl.analysis.placement import Start, place
 from labsim.dsl.analysis.stop import check_stop
 from labsim.dsl.analysis.unbounded import check_unbounded
 from labsim.dsl.emit.codegen import Generated, generate
-from labsim.dsl.emit.program import Program, RobotGroup, RuleLabel, TimelineEvent
-from labsim.dsl.syntax.read import RobotDecl, read
+from labsim.dsl.emit.program import FunctionText, GroupSignal, Program, RobotGroup, RuleLabel, TimelineEvent
+from labsim.dsl.syntax.read import FunctionDecl, RobotDecl, read
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
@@ -143,7 +143,15 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
         stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts,
         when_rules=generated.when_rules, image_bytes_all=peak_bytes(c, lifetimes(c)).all_bytes,
-        shared_labels=layout.shared_labels)
+        shared_labels=layout.shared_labels,
+        group_signals=tuple(GroupSignal(name, c.group_sizes[name], layout.members[name], parsed.text.value)
+                            for name, parsed in c.lets if name in layout.members),
+        functions=tuple(_function_text(d) for d in c.functions.values()))
+
+
+def _function_text(d: FunctionDecl) -> FunctionText:
+    line, col = d.body.text.doc.position(d.body.text.index(0))
+    return FunctionText(d.name, d.params, d.body.text.value, line, col, d.body.text.doc.source_line(line))
 
 
 def _group(c: Checked, d: RobotDecl) -> RobotGroup:

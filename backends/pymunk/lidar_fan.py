@@ -25,7 +25,7 @@ Where the install built ``_fan.c`` (a C compiler was there) the robot's one call
 point test, the faces, the circles and the list of ranges after its other rays', each face and
 circle tried only by the beams within its angular extent; else numpy does them as above.
 ``KERNEL`` says which ("c" or "numpy"); both read the same to 1e-12 m (docs/decisions.md §25,
-§38).
+§39).
 """
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ TAU = 2.0 * math.pi
 maximum = np.maximum  # its reduce, without ndarray.max's Python layer
 
 # Whether the C kernel casts (``ray_cast.KERNEL``): the fan's beams in the same call of it as
-# the robot's other rays, else numpy (docs/decisions.md §25, §38).
+# the robot's other rays, else numpy (docs/decisions.md §25, §39).
 KERNEL = "c" if ray_cast.KERNEL == "c" else "numpy"
 
 

@@ -7,7 +7,7 @@ and IR ray is chipmunk's own segment query (``cpSpaceSegmentQueryFirst``), so th
 are chipmunk's bit for bit and every body chipmunk holds is seen where it is now: walls,
 blocks, other robots. A lidar's beams, hundreds of them, are cast in the same call against
 the faces and circles ``labsim.backends.pymunk.lidar_fan`` keeps of the scene (chipmunk's
-reading to 1e-12 m; docs/decisions.md §25, §38): the kernel dispatches inside C.
+reading to 1e-12 m; docs/decisions.md §25, §39): the kernel dispatches inside C.
 
 The rays go under two conservative tests, as ``fleet_sense.ray_groups`` arranges them: the
 rays whose directions lie within a quarter turn of each other share a circle that holds them

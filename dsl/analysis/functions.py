@@ -48,6 +48,7 @@ class ExprChecker(Protocol):
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     expansions: dict[int, Expansion]
     expanded: int
+    expanded_reported: bool
     sizes: dict[int, int]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
@@ -176,9 +177,7 @@ def check_call(c: ExprChecker, e: ast.Call, text: Text, d: FunctionDecl) -> Type
         return None
     c.expanded += sum(1 for _ in nodes(d.body.node))
     if c.expanded > MAX_EXPANDED:
-        c.error(text.at(e.span), f"the calls of this file's functions expand to more than {MAX_EXPANDED:,} "
-                "operations", notes=("a function that calls another several times, which calls another several "
-                                     "times, grows fast: compute shared parts once, in 'let' signals",))
+        _expanded_too_far(c, e, text)
         return None
     body = copy(d.body.node)
     c.scopes.append((d, scope, e, text))
@@ -188,9 +187,24 @@ def check_call(c: ExprChecker, e: ast.Call, text: Text, d: FunctionDecl) -> Type
             c.sizes[id(e)] = c.size(body)
     finally:
         c.scopes.pop()
+    if c.expanded > MAX_EXPANDED:  # crossed inside the body: said at this call, in the file's expression
+        _expanded_too_far(c, e, text)
+        return None
     if t is not None:
         c.expansions[id(e)] = Expansion(d, body)
     return t
+
+
+def _expanded_too_far(c: ExprChecker, e: ast.Call, text: Text) -> None:
+    """The limit of expansion, said once in the file: at the first call outside any body that goes
+    past it (the calls inside the bodies it went through are that call's)."""
+    if c.scopes or c.expanded_reported:
+        return
+    c.expanded_reported = True
+    c.error(text.at(e.span), f"the calls of this file's functions expand to more than {MAX_EXPANDED:,} "
+            "operations (a function's body, once per call)", notes=(
+                "a function that calls another several times, which calls another several times, grows fast: "
+                "compute shared parts once, in 'let' signals",))
 
 
 def body_name(c: ExprChecker, e: ast.Name, text: Text) -> Type | bool | None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
-from labsim.dsl.analysis.functions import Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -23,7 +23,17 @@ from labsim.dsl.analysis.wording import (
     text_note,
     unknown_name_notes,
 )
-from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, DETECTED, FIELDS, FUNCTIONS, MEANT, REDUCTIONS, Type
+from labsim.dsl.library.builtins import (
+    ACTIONS,
+    AGGREGATES,
+    DETECTED,
+    FIELDS,
+    FUNCTIONS,
+    MEANT,
+    REDUCTIONS,
+    STATEFUL,
+    Type,
+)
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl, Parsed
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -60,6 +70,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]] = []
         self.expansions: dict[int, Expansion] = {}
         self.expanded = 0  # nodes the calls expanded to so far
+        self.expanded_reported = False  # past MAX_EXPANDED: said once
         self.body_errors: set[tuple[int, int, str]] = set()  # a body's problems, reported once
         self.called: set[str] = set()
         self.current_let = ""  # the signal being typed: prev() of it reads its previous tick
@@ -72,6 +83,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.robot_constants: list[tuple[str, dict[str, object]]] = []  # with a robot's own parameters
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
+        self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -262,13 +274,19 @@ class ExprChecker(ast.Visitor["Type | None"]):
                     self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
                                notes=text_note(t))
                 ok = False
-        return self.grouped(e, text, op, sizes, result) if ok else None
+        return self.grouped(e, text, op, sizes, result, args) if ok else None
 
     def grouped(self, e: ast.Expr, text: Text, op: str, sizes: list[tuple[int, ast.Expr]],
-                result: Type) -> Type | None:
-        """``result``, or a group of it when operands are groups, all of one size."""
+                result: Type, operands: list[ast.Expr]) -> Type | None:
+        """``result``, or a group of it when operands are groups, all of one size; a value paired
+        with every member is written into each, so it may not call a function with memory or a
+        random one (it would run once per member)."""
         if not sizes:
             return result
+        grouped_ids = {id(arg) for _, arg in sizes}
+        for other in operands:
+            if id(other) not in grouped_ids and not self.once_per_member(e, other, text):
+                return None
         n, first = sizes[0]
         for m, arg in sizes[1:]:
             if m != n:
@@ -277,6 +295,31 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return None
         self.sizes[id(e)] = n
         return result.grouped
+
+    def once_per_member(self, e: ast.Expr, value: ast.Expr, text: Text) -> bool:
+        """False, after saying so, when ``value`` (paired with every member of a group by ``e``)
+        calls a function with memory or a random one: each member would call it again, advancing
+        its memory or drawing anew once per member."""
+        for n in ast.walk(value):
+            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)):
+                continue
+            if id(n) in self.per_member_reported:
+                return False  # said at the operator it is paired by first
+            self.per_member_reported.add(id(n))
+            what = "keeps memory from tick to tick" if n.func in STATEFUL else "draws a random number"
+            call = text.value[n.span[0]:n.span[1]]
+            name = next(c for c in ("p", "p1", "p2", "p3", "_p") if c not in self.types and c not in self.later)
+            whole = text.value[e.span[0]:e.span[1]]
+            at = n.span[0] - e.span[0], n.span[1] - e.span[0]
+            use = f"{whole[:at[0]]}{name}{whole[at[1]:]}"
+            if len(call) > 60:
+                call = f"{n.func}(...)"
+            self.error(text.at(n.func_span), f"{n.func}() {what}, but here it is paired with every member of a "
+                       "group, so it would run once per member",
+                       notes=(f"give it a signal of its own: '{name}: {call}', then "
+                              + (f"'{use}'" if len(use) <= 80 else f"'{name}' in its place"),))
+            return False
+        return True
 
     def size(self, e: ast.Expr) -> int:
         """How many members a group-typed expression has."""
@@ -339,8 +382,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
         shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
+            fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
             self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
-                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",))
+                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
+                       if fraction else (f"this group's places are 0 to {n - 1}",))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
@@ -389,7 +434,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                     return None
                 if t is Type.NUMBERS:
                     sizes.append((self.size(node), node))
-        return self.grouped(e, text, e.ops[0], sizes, Type.BOOL)
+        return self.grouped(e, text, e.ops[0], sizes, Type.BOOL, list(e.operands))
 
     def call(self, e: ast.Call, text: Text) -> Type | None:
         if e.func == DETECTED:

@@ -56,6 +56,28 @@ class SharedLabel:
 
 
 @dataclass(frozen=True)
+class GroupSignal:
+    """A ``let`` signal that is a group: where its members are, for a breakpoint to read them."""
+
+    name: str
+    size: int
+    slots: tuple[int, ...] | None  # None: the group names values that have slots, or constants
+    expr: str  # the expression as written (only the names it is written with are read when slots is None)
+
+
+@dataclass(frozen=True)
+class FunctionText:
+    """A function of the file's own as written, for a breakpoint to call it: ``nearer(a, b): min(a, b)``."""
+
+    name: str
+    params: tuple[str, ...]
+    body: str
+    line: int  # where the body starts in the file, for a problem found in it
+    col: int
+    source_line: str = ""  # the file's line it starts on, shown under a problem
+
+
+@dataclass(frozen=True)
 class RuleLabel:
     """A rule as the summary and the trace name it: ``wander:2``."""
 
@@ -179,6 +201,11 @@ class Program:
     when_rules: tuple[int, ...] = ()  # the 'when' rules, by index in ``rules``: RobotProgram.when_fired counts them
     image_bytes_all: int = 0  # every image signal of every robot held at once (labsim.dsl.analysis.image_memory)
     shared_labels: tuple[SharedLabel, ...] = ()  # labels several sliders write (format 1.2)
+    # what a breakpoint (labsim.dsl.watch) reads beyond the slots of single values, as text it parses:
+    # each group signal, its members' slots (None: its uses read the names it is written with) and
+    # its expression; each function of the file's own
+    group_signals: tuple[GroupSignal, ...] = ()
+    functions: tuple[FunctionText, ...] = ()
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""

@@ -56,10 +56,13 @@ class Faults:
         self.first: dict[tuple[FaultSite, str], tuple[int, str]] = {}
         self.by_robot: dict[str, int] = {}  # robot -> its faults, every site together
 
-    def report(self, site: FaultSite, what: str, tick: int, robot: str) -> None:
+    def report(self, site: FaultSite, what: str, tick: int, robot: str, counted: str | None = None) -> None:
+        """A fault at a site: ``what`` is its warning; ``counted``, when given, the words its site's
+        faults of this kind are counted under (one warning and one summary line however many values
+        ``what`` names: a missing member's place differs tick by tick)."""
         if self.clock is not None:
             tick = self.clock()
-        key = (site, what)
+        key = (site, what if counted is None else counted)
         self.by_robot[robot] = self.by_robot.get(robot, 0) + 1
         n = self.counts.get(key, 0)
         self.counts[key] = n + 1
@@ -185,8 +188,8 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     (``rising@1.2``: labsim.dsl.library.memory.PRIMED).
     """
 
-    def report(what: str) -> None:
-        faults.report(site, what, int(slots[TICK]), robot)
+    def report(what: str, counted: str | None = None) -> None:
+        faults.report(site, what, int(slots[TICK]), robot, counted)
 
     if kind in _ARITHMETIC:
         return _ARITHMETIC[kind](report)
@@ -252,13 +255,16 @@ _ARITHMETIC: dict[str, Callable[[Callable[[str], None]], Callable[[float, float]
     "/": _divide, "%": _modulo, "**": _power}
 
 
-def _pick(report: Callable[[str], None], missing: object) -> Callable[[tuple, float], object]:
+def _pick(report: Callable[[str, str], None], missing: object) -> Callable[[tuple, float], object]:
     """``front[k]`` with k known only at run time: the member at place k, or ``missing`` (nan, or
-    false for booleans) and a warning when there is none."""
+    false for booleans) and a warning when there is none: the first place missed is named, the
+    others counted with it."""
     def pick(members: tuple, k: float) -> object:
         if 0 <= k < len(members) and k == int(k):
             return members[int(k)]
-        report(f"no member at place {k:g} of a group of {len(members)} (places count from 0)")
+        n = len(members)
+        report(f"no member at place {k:g} of a group of {n} (places count from 0)",
+               f"no member at the place asked of a group of {n} (places count from 0)")
         return missing
     return pick
 

@@ -224,7 +224,7 @@ def _found(token: Token) -> str:
 def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     pos = e.pos_in_stream if e.pos_in_stream is not None else len(text)
     if isinstance(e, UnexpectedCharacters):
-        return (_assignment(text, pos) if start == "rule" else None) or _bad_character(text, pos)
+        return (_assignment(text, pos) if start == "rule" else None) or _bad_character(text, pos, start)
     expected: set[str]  # terminal names
     if isinstance(e, UnexpectedEOF):
         expected = {str(t) for t in e.expected}
@@ -289,8 +289,9 @@ def _habit(text: str, pos: int, end: int, token: Token, expected: set[str], word
     if not (words and ("then" in words or words[0] in ("else", "always"))):
         return None
     if token.type == "ELSE":
-        return ParseError(pos, end, "'else' starts a rule of its own: write it on the next line, "
-                          "as '- else move(1)'")
+        rule = " ".join(text[pos:].split())  # the student's own else-rule, as the next line would read it
+        rule = rule if len(rule) <= 60 else rule[:57] + "..."
+        return ParseError(pos, end, f"'else' starts a rule of its own: write it on the next line, as '- {rule}'")
     if token.type == "LPAR" and len(words) >= 2 and words[-2] == "goto":
         return ParseError(pos, end, f"'goto' takes a state's name without parentheses: goto {words[-1]}")
     if expected == {"LPAR"}:
@@ -338,7 +339,9 @@ def _rule_start(word: str, at: int) -> ParseError:
                        "'when rising(collided) then log(\"hit\")', which logs and goes on to the next rule",))
 
 
-def _bad_character(text: str, pos: int) -> ParseError:
+def _bad_character(text: str, pos: int, start: str = "rule") -> ParseError:
+    if start != "rule" and text[pos] == ":":  # a signal, a condition: no rule to read
+        return ParseError(pos, pos + 1, "unexpected ':' in an expression")
     for prefix in sorted(_CHARACTER_HINTS, key=len, reverse=True):
         if text.startswith(prefix, pos):
             message, length = _CHARACTER_HINTS[prefix]

@@ -294,9 +294,10 @@ class _Reader(Reader):
 
     def expr(self, node: Node, what: str) -> Parsed | None:
         if isinstance(node, SequenceNode) and node.flow_style and node.start_mark.line == node.end_mark.line:
-            # a group written as YAML reads it, [sonar4, sonar5]: its text is the group's expression
+            # a group written as YAML reads it, [sonar4, sonar5]: its text is the group's expression,
+            # the file's characters as they are (no quote to skip: a nested [sonar5] keeps its place)
             node = ScalarNode("tag:yaml.org,2002:str", self.doc.text[node.start_mark.index:node.end_mark.index],
-                              node.start_mark, node.end_mark, style="'")
+                              node.start_mark, node.end_mark)
         elif isinstance(node, SequenceNode):
             self.error(node, f"{what} is a group: write it on one line, as in [sonar4, sonar5], or as a range, "
                              "as in sonar1..sonar8")
@@ -584,10 +585,13 @@ class _Reader(Reader):
             if bad:
                 self.error(text.at(bad[0][1]), f"'{bad[0][0]}' is not a valid parameter name: use letters, digits "
                            "and '_', starting with a letter")
+                self.failed_names.add(m.group(1))  # reported here: its calls stay quiet
                 continue
-            twice = [p for k, p in enumerate(params) if p in params[:k]]
+            twice = [k for k, p in enumerate(params) if p in params[:k]]
             if twice:
-                self.error(key, f"function '{m.group(1)}' names its parameter '{twice[0]}' twice")
+                self.error(text.at(spans[twice[0]]), f"function '{m.group(1)}' names its parameter "
+                           f"'{params[twice[0]]}' twice")
+                self.failed_names.add(m.group(1))
                 continue
             body = self.expr(value, f"the body of '{m.group(1)}'")
             if body is not None:

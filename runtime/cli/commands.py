@@ -144,7 +144,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             unwritten = unwritten or e
     if stopper is not None:
         from labsim.runtime.breakpoint import break_report
-        print(break_report(args.break_when, stopper.hit, summary.ticks, summary.dt_s))
+        print(break_report(args.break_when, stopper.hit, stopper.last, summary.dt_s))
     if not args.quiet and args.json != "-" and (stopper is None or stopper.hit is None):
         print(format_summary(summary))
         trips = _round_trips(backend, summary.ticks)

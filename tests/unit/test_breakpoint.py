@@ -46,9 +46,23 @@ def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None
     proc = run("--break", "sonar5 < 0 or state == follow and time > 100")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held: the run went 480 "
-                        "ticks (24.00 s) to its end")
+    assert lines[0] == ("--break: 'sonar5 < 0 or state == follow and time > 100' never held on ticks 0 to 480 "
+                        "(0.00 s to 24.00 s), where the run ended")
     assert lines[1].startswith("Wall following with sonars")
+    assert "done: 480 ticks, 24.00 s simulated" in lines[2] and "stopped at tick 480 (24.00 s)" in lines[2]
+
+
+@pytest.mark.parametrize("when", ["time >= 24", "tick == 480"])
+def test_a_breakpoint_sees_the_stopping_tick_the_trace_has_a_row_for(when: str, tmp_path: Path) -> None:
+    trace = tmp_path / "t.csv"
+    proc = run("--break", when, "--trace", str(trace))
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[:3] == [f"--break: '{when}' held at tick 480 (24.00 s) for robot pioneer",
+                                            "  state: follow",
+                                            "  rule: none (the run's stop condition held on this tick: no rule "
+                                            "acts on it)"]
+    rows = [line for line in trace.read_text().splitlines() if line and not line.startswith("#")]
+    assert rows[-1].startswith("480,24,")
 
 
 @pytest.mark.parametrize(("when", "message"), [
@@ -59,6 +73,9 @@ def test_a_breakpoint_that_never_holds_says_so_and_the_summary_follows() -> None
     ("min(sonar5, sonar2)", "--break:1:1: a breakpoint's condition must be a boolean, but this is a number"),
     ("collided", "--break:1:1: 'collided' is a sensor this behaviour does not read: a breakpoint sees what the "
                  "behaviour reads"),
+    ("bogus:1", "--break:1:6: unexpected ':' in an expression"),
+    ("any(sonar1..sonar8 < 0.5)", "--break:1:5: sonar1..sonar8 names sonar1, sonar3, sonar4, sonar6, sonar7, which "
+                                  "this behaviour does not read: a breakpoint sees what the behaviour reads"),
 ])
 def test_a_breakpoint_is_checked_as_the_file_is(when: str, message: str) -> None:
     program = compile_file(WALL)
@@ -131,3 +148,93 @@ def test_the_evaluator_keeps_the_memory_of_built_ins_between_ticks() -> None:
                     (4.0, False, 1.0), (0.5, True, 2.0)]
     with pytest.raises(Exception, match="remembers earlier ticks"):
         evaluate(e, {"x": 1.0})  # no memory: one tick cannot answer
+
+
+GROUPS = """labsim: 1.2
+world: walls_lab4
+stop: time >= 3
+robots: {pioneer: {model: pioneer_p3dx, at: [0, 0, 0]}}
+functions:
+  nearer(a, b): min(a, b)
+let:
+  front: sonar1..sonar8
+  pair: [sonar4 - 0.1, sonar5 - 0.1]
+  n: nearer(sonar4, sonar5)
+metrics:
+  near_misses: count(n < 0.3)
+rules:
+  - if min(front) < 0.5 or pair[0] < 0.2 then arc(1, -1)
+  - else move(2)
+"""
+
+
+def test_a_breakpoint_reads_group_signals_and_the_file_s_functions(write) -> None:
+    path = write(GROUPS)
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "--break",
+                           "time > 1 and min(front) > 0 and pair[1] > 0 and nearer(sonar4, sonar5) > 0"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[:8] == [
+        "--break: 'time > 1 and min(front) > 0 and pair[1] > 0 and nearer(sonar4, sonar5) > 0' held at tick 21 "
+        "(1.05 s) for robot pioneer",
+        "  state: main", "  rule: main:2", "  time   = 1.05", "  front  = [inf, inf, inf, inf, inf, inf, inf, inf]",
+        "  pair   = [inf, inf]", "  sonar4 = inf", "  sonar5 = inf"]
+
+
+@pytest.mark.parametrize(("when", "message", "notes"), [
+    ("near_misses > 0", "--break:1:1: 'near_misses' is a metric: metrics are summed up over the run for the summary, "
+                        "and expressions cannot read them",
+     ("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a duration, 'counter(...)' for a "
+      "count, 'total(...)' for a sum; docs/language.md, Time and memory)",)),
+    ("nearer(front, 1) < 0.5", "{path}:6:21: argument 1 of min() must be a number, but this is a group of numbers",
+     ("a group holds one value per member: take min(...), max(...), mean(...), sum(...), argmin(...) or argmax(...) "
+      "of it, or one member, as in front[0]", "in the call of nearer() at --break:1:1")),
+    ("pair[2] < 0.5", "--break:1:6: this group has 2 members, at places 0 to 1; not 2",
+     ("places count from 0: the first member is [0]",)),
+])
+def test_a_breakpoint_s_mistake_with_a_group_function_or_metric_says_what_it_is(
+        write, when: str, message: str, notes: tuple[str, ...]) -> None:
+    path = write(GROUPS)
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(path), when)
+    [d] = e.value.diagnostics
+    assert (f"{d.path}:{d.line}:{d.col}: {d.message}", d.notes) == (message.replace("{path}", str(path)), notes)
+
+
+def test_a_group_a_breakpoint_cannot_read_says_which_name_it_cannot_see(write) -> None:
+    path = write(GROUPS.replace("  n: nearer", "  back: sonar9..sonar16\n  who: [index, 1]\n  n: nearer")
+                 .replace("else move(2)", "if min(back) < who[0] then move(1)\n  - else move(2)"))
+    program = compile_file(path)
+    assert compile_watch(program, "min(back) < 0.5").reads == ("back",)
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, "who[1] < 0.5")
+    [d] = e.value.diagnostics
+    assert (d.line, d.col, d.message) == (1, 1, "'who' is a group signal a breakpoint cannot read: it names 'index', "
+                                                "which a breakpoint does not see")
+
+
+def test_a_breakpoint_reads_a_mechanism_s_fields() -> None:
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(ROOT / "behaviours" / "crane.yaml"),
+                           "--break", "Load.x > 2"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[:4] == ["--break: 'Load.x > 2' held at tick 210 (10.50 s) for robot crane",
+                                            "  state: (the file has no states)",
+                                            "  rule: none (no rule held on this tick)", "  Load.x = 2.03663"]
+
+
+def test_a_breakpoint_that_does_not_parse_says_it_is_one_condition() -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(WALL), "bogus:1")
+    [d] = e.value.diagnostics
+    assert d.notes == ("a breakpoint is one condition of the language, as in --break 'sonar5 < 0.5'",)
+
+
+@pytest.mark.parametrize(("when", "col", "name"), [("mean(lane) > 0.5", 6, "lane"),
+                                                   ("mean(gray(camera)) > 0.5", 11, "camera")])
+def test_an_image_in_a_breakpoint_is_said_to_be_one(when: str, col: int, name: str) -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(ROOT / "behaviours" / "road_follow.yaml"), when)
+    [d] = e.value.diagnostics
+    assert (d.line, d.col, d.message, d.notes) == (
+        1, col, f"'{name}' is an image: a breakpoint reads numbers and booleans",
+        (f"make a number of it a signal of the file (e.g. 'let: seen: mean({name})') and watch the signal",))

@@ -106,7 +106,7 @@ def test_a_group_of_1000_members_checks_and_a_larger_one_is_refused_by_its_limit
     assert "g" in program.let_names
     path = write(HEAD + f"let:\n  g: [{members}, sonar3]\n" + "rules:\n  - if min(g) < 1 then stop()\n")
     [(line, col, message, notes)] = diagnostics(path)
-    assert (line, col, message) == (7, 7, "a group holds at most 1,000 members, and this one has 1,001")
+    assert (line, col, message) == (7, 6, "a group holds at most 1,000 members, and this one has 1,001")
 
 
 @pytest.mark.slow

@@ -69,6 +69,8 @@ def test_spans_are_offsets_into_the_string() -> None:
     # habits from other languages: what to write instead
     ("if a then arc(1, 2) else move(1)", 20, 24,
      "'else' starts a rule of its own: write it on the next line, as '- else move(1)'"),
+    ("if a then arc(1, 2) else   goto  back", 20, 24,
+     "'else' starts a rule of its own: write it on the next line, as '- else goto back'"),
     ("if a then goto follow()", 21, 22, "'goto' takes a state's name without parentheses: goto follow"),
     ('if a then print "near"', 10, 22, 'to print text, write log("near")'),
     ("if a then move 2", 15, 16,
