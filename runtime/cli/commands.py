@@ -95,11 +95,12 @@ def _replayed(path: str | None) -> tuple[Any, Any]:
         return None, None
     try:
         recorded = read_trace(path)
+        moves = slider_events(recorded), hand_events(recorded)
     except TraceFormatError as e:
         raise LabsimError([e.diagnostic(path)]) from None
     if recorded.cut_short():
         print_warning(f"{path}: warning: {recorded.cut_short()}; replaying the moves it has")
-    return slider_events(recorded), hand_events(recorded)
+    return moves
 
 
 def cmd_run(args: argparse.Namespace) -> int:
