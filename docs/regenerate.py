@@ -73,12 +73,27 @@ def _golden_failure() -> str:
         return labsim("test", "lab.yaml", cwd=folder, ok=(1,))
 
 
+def _trace_sample() -> str:
+    """The head and the end of the trace a short run of the wall lab writes: its header (the first
+    keys), its column line, its first row, its last row and its footer."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        trace = Path(scratch) / "run.csv"
+        labsim("run", "behaviours/wall_follow.yaml", "--set", "minutes=0.05", "--trace", str(trace), "--quiet")
+        lines = trace.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(', "labsim"', 1)[0] + ", ...}"
+    assert lines[-1].startswith("# end "), "a finished run's trace ends with its footer"
+    return "\n".join([header, lines[1], lines[2], "...", lines[-2], lines[-1]]) + "\n"
+
+
 SWEEP = ("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0", "--seeds", "1-20")
 RECIPES: dict[str, Recipe] = {
     "wall-summary": Recipe("labsim run behaviours/wall_follow.yaml",
                            lambda: labsim("run", "behaviours/wall_follow.yaml")),
     "wall-sweep": Recipe("labsim " + " ".join(SWEEP), lambda: labsim(*SWEEP)),
     "golden-failure": Recipe("", _golden_failure),
+    "trace-sample": Recipe("", _trace_sample),
+    "sweep-unknown-param": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "fron=0.5",
+                                                     ok=(2,), stream="stderr")),
     "grid-too-large": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0",
                                                 "--seeds", "1-60000", ok=(2,), stream="stderr")),
 }

@@ -318,8 +318,10 @@ def _refuse_links_out(folder: Path, found: list[Path]) -> None:
 
 
 def cmd_labs(args: argparse.Namespace) -> int:
-    for lab in labs().values():
-        print(f"{lab.name:<14} {lab.title}")
+    found = labs()
+    width = max((len(name) for name in found), default=0)  # the longest name sets the column
+    for lab in found.values():
+        print(f"{lab.name:<{width}}  {lab.title}")
     print("\nrun one with: labsim run NAME;  copy one to edit: labsim new NAME [FOLDER]")
     return EXIT_OK
 
@@ -339,9 +341,11 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     from labsim.backends.scene.world_file import load_world
     from labsim.foundation.diagnostics import Report
 
-    for name, path in builtin_worlds().items():
+    found = builtin_worlds()
+    width = max((len(name) for name in found), default=0)
+    for name, path in found.items():
         world = load_world(path, Report())
-        print(f"{name:<16} {world.description if world else '(damaged world file)'}")
+        print(f"{name:<{width}}  {world.description if world else '(damaged world file)'}")
     return EXIT_OK
 
 
