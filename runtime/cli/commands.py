@@ -113,6 +113,11 @@ def _note_without_kernel() -> None:
           "readings, slower; `labsim --version` says which caster runs", file=sys.stderr)
 
 
+# what a seed is, for a --seed refused: the same seed gives the same run
+SEED_NOTE = ("a seed picks the run's random draws (the same seed, the same run): --seed 0, --seed 1, ...; "
+             "without --seed, the file's seed: is used")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from labsim.runtime.cli.report import ProgressBar, format_summary
     from labsim.runtime.run import compile_behaviour
@@ -120,7 +125,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     overrides = parse_overrides(args.set)
     if args.seed is not None and args.seed < 0:
-        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+        raise LabsimError([Diagnostic("--seed", f"the seed is 0 or a positive whole number, not {args.seed}",
+                                      notes=(SEED_NOTE,))])
     behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict, budget=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         print_diagnostics(list(behaviour.program.warnings))

@@ -25,7 +25,7 @@ from pathlib import Path
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_HANGUP, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
-from labsim.foundation.files import ALLOW_ENV, allow, os_words
+from labsim.foundation.files import ALLOW_ENV, allow, missing_notes, os_words
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
 from labsim.foundation.threads import limit_blas_threads
@@ -128,6 +128,9 @@ def _name_labs(args: argparse.Namespace) -> None:
     """Behaviour arguments that name a lab (``wall_follow``) become that lab's file."""
     if getattr(args, "file", None) is not None:
         args.file = str(behaviour_path(args.file))
+        if args.command == "view" and not os.path.lexists(args.file):  # a behaviour, a trace or a golden
+            kind = "trace" if args.file.lower().endswith(".csv") else "behaviour"
+            raise LabsimError([Diagnostic(args.file, "no such file", notes=missing_notes(args.file, kind))])
     if getattr(args, "files", None):
         args.files = [str(behaviour_path(f)) for f in args.files]
     if getattr(args, "behaviour", None):
