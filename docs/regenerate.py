@@ -145,6 +145,15 @@ def _sweep_no_direction() -> str:
     return f"$ cat drive.yaml\n{DRIVE}$ labsim sweep drive.yaml --set speed=1,2\n{swept}"
 
 
+def _plot_long() -> str:
+    """``labsim plot`` of a 100-minute run of the wall lab, longer than a picture keeps whole."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        folder = Path(scratch)
+        labsim("run", str(ROOT / "behaviours" / "wall_follow.yaml"), "--set", "minutes=100", "--trace", "long.csv",
+               "--quiet", cwd=folder)
+        return labsim("plot", "long.csv", "-o", "long.png", cwd=folder, stream="stderr")
+
+
 SWEEP = ("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0", "--seeds", "1-20")
 RECIPES: dict[str, Recipe] = {
     "wall-summary": Recipe("labsim run behaviours/wall_follow.yaml",
@@ -152,6 +161,7 @@ RECIPES: dict[str, Recipe] = {
     "wall-sweep": Recipe("labsim " + " ".join(SWEEP), lambda: labsim(*SWEEP)),
     "golden-failure": Recipe("", _golden_failure),
     "trace-sample": Recipe("", _trace_sample),
+    "plot-long": Recipe("", _plot_long),
     "sweep-no-direction": Recipe("", _sweep_no_direction),
     "plot-without-behaviour": Recipe("", _plot_without_behaviour),
     "world-outside": Recipe("", lambda: _world_outside("/etc/passwd", "../teacher/w.yaml", "w.yaml")),
