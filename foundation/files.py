@@ -67,13 +67,14 @@ def _error(path: str | Path, message: str, notes: tuple[str, ...] = ()) -> Labsi
 # The labs labsim ships (runtime/labs.py names them): a behaviour not found is often one of
 # them given by a wrong name, and a lab's name works wherever a behaviour file does.
 SHIPPED_LABS = Path(__file__).resolve().parents[1] / "behaviours"
-_SUFFIXES = {"behaviour": (".yaml", ".yml"), "world": (".yaml", ".yml"), "trace": (".csv",), "golden": (".csv",)}
+# the kinds a command line names (a world or a golden is named by a behaviour's folder), and their names' ends
+_SUFFIXES = {"behaviour": (".yaml", ".yml"), "trace": (".csv",)}
 _LISTED = 200  # the most names of a folder a hint reads: a folder of thousands is not listed whole
 
 
 def _names(folder: Path, suffixes: tuple[str, ...]) -> list[str]:
     """The names of up to ``_LISTED`` files in ``folder`` ending in one of ``suffixes`` (none when it
-    cannot be read), sorted; a trace's or a golden's ``.csv`` names not each other."""
+    cannot be read), sorted."""
     try:
         with os.scandir(folder) as entries:
             names = [e.name for _, e in zip(range(_LISTED * 10), entries)
@@ -87,7 +88,7 @@ def missing_notes(path: str | Path, kind: str) -> tuple[str, ...]:
     """What to try when ``path`` does not exist: the files beside it with a close name, and for a
     behaviour the labs (``labsim labs``)."""
     p = Path(path)
-    suffixes = _SUFFIXES.get(kind, (p.suffix,) if p.suffix else ())
+    suffixes = _SUFFIXES.get(kind, ())
     notes = []
     if suffixes:
         close = difflib.get_close_matches(p.name, _names(p.parent, suffixes), n=1, cutoff=0.6)
@@ -110,8 +111,6 @@ def _folder_notes(path: str | Path, kind: str) -> tuple[str, ...]:
     if suffixes is None:
         return ()
     names = _names(Path(path), suffixes)
-    if kind == "trace":  # a golden is a trace too
-        names = [n for n in names if n.endswith(".csv")]
     shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
     inside = f"; in it: {shown}" if names else f"; it holds no {' or '.join(suffixes)} file"
     notes = [f"give one {kind} file, not a folder{inside}"]

@@ -23,7 +23,7 @@ from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.files import check_output, missing_notes, policy_problem
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -310,7 +310,7 @@ def behaviour_files(paths: list[str]) -> list[Path]:
         elif p.exists():
             files.append(p)
         else:
-            raise LabsimError([Diagnostic(str(p), "no such file or folder")])
+            raise LabsimError([Diagnostic(str(p), "no such file or folder", notes=missing_notes(p, "behaviour"))])
     return files
 
 

@@ -67,6 +67,7 @@ TRACE_HINT = "      = a trace is what labsim run FILE --trace PATH writes\n"
 
 @pytest.mark.parametrize("args, printed", [
     (["run", "nosuch.yaml"], "nosuch.yaml: error: no such behaviour file\n" + LABS_HINT),
+    (["test", "nosuch.yaml"], "nosuch.yaml: error: no such file or folder\n" + LABS_HINT),
     (["check", "mine/wal_follow.yaml"], "mine/wal_follow.yaml: error: no such behaviour file\n"
                                         "      = labsim labs lists the labs labsim ships; a lab is given by its name: "
                                         "wall_follow\n"),
