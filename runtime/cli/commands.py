@@ -124,7 +124,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 
     overrides = parse_overrides(args.set)
-    if args.seed is not None and args.seed < 0:
+    if args.seed is not None and args.seed < 0:  # main refuses it first; here for a caller of cmd_run itself
         raise LabsimError([Diagnostic("--seed", f"the seed is 0 or a positive whole number, not {args.seed}",
                                       notes=(SEED_NOTE,))])
     behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict, budget=budgets(args))

@@ -50,6 +50,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _allow_paths(getattr(args, "allow_path", []))
         _name_labs(args)
+        if getattr(args, "seed", None) is not None and args.seed < 0:  # run and view: said once, before either starts
+            raise LabsimError([Diagnostic("--seed", f"the seed is 0 or a positive whole number, not {args.seed}",
+                                          notes=(commands.SEED_NOTE,))])
         if getattr(args, "strict", False) and args.command in ("test", "view", "sweep"):
             _strict(args)
         code = _command(args.command)(args)

@@ -82,6 +82,10 @@ TRACE_HINT = "      = a trace is what labsim run FILE --trace PATH writes\n"
     (["run", str(LAB), "--seed", "-1"], "--seed: error: the seed is 0 or a positive whole number, not -1\n"
                                         "      = a seed picks the run's random draws (the same seed, the same run): "
                                         "--seed 0, --seed 1, ...; without --seed, the file's seed: is used\n"),
+    (["view", str(LAB), "--seed", "-2", "--no-browser"],
+     "--seed: error: the seed is 0 or a positive whole number, not -2\n"
+     "      = a seed picks the run's random draws (the same seed, the same run): "
+     "--seed 0, --seed 1, ...; without --seed, the file's seed: is used\n"),
     (["plot", "nosuch.csv", "-o", "x.png"], "nosuch.csv: error: no such trace file\n" + TRACE_HINT),
     (["plot", "mine/run2.csv", "-o", "x.png"], "mine/run2.csv: error: no such trace file\n"
                                                "      = did you mean mine/run1.csv?\n" + TRACE_HINT),
