@@ -83,6 +83,89 @@ def _rule_code(rule: str) -> str:
 
 
 BREAK = ("run", "behaviours/wall_follow.yaml", "--break", "min([sonar5, sonar2]) < 0.5")
+
+
+def _trace_sample() -> str:
+    """The head and the end of the trace a short run of the wall lab writes: its header (the first
+    keys), its column line, its first row, its last row and its footer."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        trace = Path(scratch) / "run.csv"
+        labsim("run", "behaviours/wall_follow.yaml", "--set", "minutes=0.05", "--trace", str(trace), "--quiet")
+        lines = trace.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(', "labsim"', 1)[0] + ", ...}"
+    assert lines[-1].startswith("# end "), "a finished run's trace ends with its footer"
+    return "\n".join([header, lines[1], lines[2], "...", lines[-2], lines[-1]]) + "\n"
+
+
+def _world_outside(*worlds: str) -> str:
+    """``labsim check b.yaml`` on the wall lab copied as b.yaml, its ``world:`` each of ``worlds`` in
+    turn, in a folder beside ``teacher/w.yaml`` and ``other/sub``, with ``w.yaml`` a link to the
+    teacher's world and ``d`` a link to ``../other/sub`` (docs/security.md)."""
+    text = (ROOT / "behaviours" / "wall_follow.yaml").read_text(encoding="utf-8")
+    assert "\nworld: walls_lab4\n" in text, "the wall lab no longer names walls_lab4; change this recipe"
+    out = []
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        top = Path(scratch)
+        for folder in ("student", "teacher", "other/sub"):
+            (top / folder).mkdir(parents=True)
+        shutil.copy(ROOT / "backends" / "scene" / "worlds" / "walls_lab4.yaml", top / "teacher" / "w.yaml")
+        shutil.copy(top / "teacher" / "w.yaml", top / "other" / "w.yaml")
+        (top / "student" / "w.yaml").symlink_to(top / "teacher" / "w.yaml")
+        (top / "student" / "d").symlink_to(Path("..") / "other" / "sub")
+        for world in worlds:
+            (top / "student" / "b.yaml").write_text(text.replace("\nworld: walls_lab4\n", f"\nworld: {world}\n", 1),
+                                                   encoding="utf-8")
+            out.append(labsim("check", "b.yaml", cwd=top / "student", ok=(2,), stream="stderr"))
+    return "".join(line + "\n" for o in out for line in o.splitlines() if ": error: " in line)
+
+
+def _plot_without_behaviour() -> str:
+    """``labsim plot`` of a crane trace whose behaviour file is gone: the crane lab copied to
+    old/crane.yaml (a comment added, so that it is not the shipped lab by its content), run, removed."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        folder = Path(scratch)
+        (folder / "old").mkdir()
+        text = (ROOT / "behaviours" / "crane.yaml").read_text(encoding="utf-8")
+        (folder / "old" / "crane.yaml").write_text(text + "# mine\n", encoding="utf-8")
+        labsim("run", "old/crane.yaml", "--trace", "c.csv", "--quiet", cwd=folder)
+        shutil.rmtree(folder / "old")
+        return labsim("plot", "c.csv", "-o", "c.png", cwd=folder, stream="stderr")
+
+
+DRIVE = """labsim: 1.2
+name: Drive slowly or fast
+world: walls_lab4
+dt: 0.05
+seed: 1
+stop: time >= 2
+robots:
+  pioneer: {model: pioneer_p3dx, at: [0, 0, 0]}
+params:
+  speed: 1
+rules:
+  - always move(speed)
+metrics:
+  moving: duration(forward_speed > 0.15)
+"""
+
+
+def _sweep_no_direction() -> str:
+    """``DRIVE`` shown, then swept over two speeds: a duration that declares no direction."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        (Path(scratch) / "drive.yaml").write_text(DRIVE, encoding="utf-8")
+        swept = labsim("sweep", "drive.yaml", "--set", "speed=1,2", cwd=Path(scratch))
+    return f"$ cat drive.yaml\n{DRIVE}$ labsim sweep drive.yaml --set speed=1,2\n{swept}"
+
+
+def _plot_long() -> str:
+    """``labsim plot`` of a 100-minute run of the wall lab, longer than a picture keeps whole."""
+    with tempfile.TemporaryDirectory(prefix="labsim-docs-") as scratch:
+        folder = Path(scratch)
+        labsim("run", str(ROOT / "behaviours" / "wall_follow.yaml"), "--set", "minutes=100", "--trace", "long.csv",
+               "--quiet", cwd=folder)
+        return labsim("plot", "long.csv", "-o", "long.png", cwd=folder, stream="stderr")
+
+
 SWEEP = ("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0", "--seeds", "1-20")
 RECIPES: dict[str, Recipe] = {
     "wall-summary": Recipe("labsim run behaviours/wall_follow.yaml",
@@ -92,6 +175,14 @@ RECIPES: dict[str, Recipe] = {
     "wall-break": Recipe("labsim run behaviours/wall_follow.yaml --break 'min([sonar5, sonar2]) < 0.5'",
                          lambda: labsim(*BREAK)),
     "wall-rule-code": Recipe("", lambda: _rule_code("wander:1")),
+    "trace-sample": Recipe("", _trace_sample),
+    "plot-long": Recipe("", _plot_long),
+    "sweep-no-direction": Recipe("", _sweep_no_direction),
+    "plot-without-behaviour": Recipe("", _plot_without_behaviour),
+    "world-outside": Recipe("", lambda: _world_outside("/etc/passwd", "../teacher/w.yaml", "w.yaml")),
+    "world-through-link": Recipe("", lambda: _world_outside("d/../w.yaml")),
+    "sweep-unknown-param": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "fron=0.5",
+                                                     ok=(2,), stream="stderr")),
     "grid-too-large": Recipe("", lambda: labsim("sweep", "behaviours/wall_follow.yaml", "--set", "front=0.5,1.0",
                                                 "--seeds", "1-60000", ok=(2,), stream="stderr")),
 }

@@ -240,9 +240,9 @@ class Trace:
 class TraceFormatError(Exception):
     """The file is not a labsim trace (or a damaged one): ``path[:line]: message``."""
 
-    def __init__(self, message: str, path: str = "", line: int = 0):
+    def __init__(self, message: str, path: str = "", line: int = 0, notes: tuple[str, ...] = ()):
         super().__init__(message)
-        self.path, self.line = path, line
+        self.path, self.line, self.notes = path, line, notes  # notes: what to try (a missing file's)
 
     def diagnostic(self, path: str) -> Diagnostic:
         """As a diagnostic: the trace's name and line, then what is wrong."""
@@ -251,7 +251,7 @@ class TraceFormatError(Exception):
             if prefix and text.startswith(prefix):
                 text = text[len(prefix):]
                 break
-        return Diagnostic(path, text, self.line, 1 if self.line else 0)
+        return Diagnostic(path, text, self.line, 1 if self.line else 0, notes=self.notes)
 
 
 # the columns every labsim trace has, and how each is read
@@ -267,7 +267,7 @@ def read_trace(path: str | Path) -> Trace:
     try:
         text = read_input(path, "trace").decode("utf-8")
     except LabsimError as e:
-        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path)) from None
+        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path), notes=e.diagnostics[0].notes) from None
     except UnicodeDecodeError as e:
         raise TraceFormatError(f"{path}: not UTF-8 text (byte {e.start}): not a labsim trace", str(path)) from None
     first, _, rest = text.partition("\n")

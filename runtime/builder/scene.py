@@ -87,7 +87,8 @@ def build(conn: Connection, world: World, robots: Sequence[RobotRequest], dt_s: 
             _wall(conn, wall)
         for block in world.blocks:
             _block(conn, block)
-        log(f"labsim scene: the floor, {len(world.walls)} walls and {len(world.blocks)} blocks")
+        walls, blocks = len(world.walls), len(world.blocks)
+        log(f"labsim scene: the floor, {walls} wall{'s' * (walls != 1)} and {blocks} block{'s' * (blocks != 1)}")
         if mech is not None:
             log(build_mechanism(conn, mech))
         for req in robots:

@@ -23,7 +23,7 @@ from labsim.backends.scene.world import World
 from labsim.backends.scene.world_names import builtin_worlds, find_world
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, diagnostics_json, format_diagnostics
 from labsim.foundation.exits import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE
-from labsim.foundation.files import check_output, policy_problem
+from labsim.foundation.files import check_output, missing_notes, policy_problem
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import GOLDEN_SUFFIX, file_kind
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -103,14 +103,20 @@ def _replayed(path: str | None) -> tuple[Any, Any]:
     return moves
 
 
+# what a seed is, for a --seed refused: the same seed gives the same run
+SEED_NOTE = ("a seed picks the run's random draws (the same seed, the same run): --seed 0, --seed 1, ...; "
+             "without --seed, the file's seed: is used")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from labsim.runtime.cli.report import ProgressBar, format_summary
     from labsim.runtime.run import compile_behaviour
     from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
 
     overrides = parse_overrides(args.set)
-    if args.seed is not None and args.seed < 0:
-        raise LabsimError([Diagnostic("--seed", "the seed is 0 or a positive whole number")])
+    if args.seed is not None and args.seed < 0:  # main refuses it first; here for a caller of cmd_run itself
+        raise LabsimError([Diagnostic("--seed", f"the seed is 0 or a positive whole number, not {args.seed}",
+                                      notes=(SEED_NOTE,))])
     behaviour = compile_behaviour(args.file, overrides, seed=args.seed, strict=args.strict, budget=budgets(args))
     if behaviour.program.warnings:  # before the run, which may take a while
         print_diagnostics(list(behaviour.program.warnings))
@@ -287,7 +293,7 @@ def behaviour_files(paths: list[str]) -> list[Path]:
         elif p.exists():
             files.append(p)
         else:
-            raise LabsimError([Diagnostic(str(p), "no such file or folder")])
+            raise LabsimError([Diagnostic(str(p), "no such file or folder", notes=missing_notes(p, "behaviour"))])
     return files
 
 
@@ -301,8 +307,10 @@ def _refuse_links_out(folder: Path, found: list[Path]) -> None:
 
 
 def cmd_labs(args: argparse.Namespace) -> int:
-    for lab in labs().values():
-        print(f"{lab.name:<14} {lab.title}")
+    found = labs()
+    width = max((len(name) for name in found), default=0)  # the longest name sets the column
+    for lab in found.values():
+        print(f"{lab.name:<{width}}  {lab.title}")
     print("\nrun one with: labsim run NAME;  copy one to edit: labsim new NAME [FOLDER]")
     return EXIT_OK
 
@@ -322,9 +330,11 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     from labsim.backends.scene.world_file import load_world
     from labsim.foundation.diagnostics import Report
 
-    for name, path in builtin_worlds().items():
+    found = builtin_worlds()
+    width = max((len(name) for name in found), default=0)
+    for name, path in found.items():
         world = load_world(path, Report())
-        print(f"{name:<16} {world.description if world else '(damaged world file)'}")
+        print(f"{name:<{width}}  {world.description if world else '(damaged world file)'}")
     return EXIT_OK
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 from labsim.backends.protocol import BackendError
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.exits import EXIT_HANGUP, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, EXIT_USAGE
-from labsim.foundation.files import ALLOW_ENV, allow, os_words
+from labsim.foundation.files import ALLOW_ENV, allow, missing_notes, os_words
 from labsim.foundation.inert import inert
 from labsim.foundation.kinds import file_kind
 from labsim.foundation.threads import limit_blas_threads
@@ -50,6 +50,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _allow_paths(getattr(args, "allow_path", []))
         _name_labs(args)
+        if getattr(args, "seed", None) is not None and args.seed < 0:  # run and view: said once, before either starts
+            raise LabsimError([Diagnostic("--seed", f"the seed is 0 or a positive whole number, not {args.seed}",
+                                          notes=(commands.SEED_NOTE,))])
         if getattr(args, "strict", False) and args.command in ("test", "view", "sweep"):
             _strict(args)
         code = _command(args.command)(args)
@@ -128,6 +131,9 @@ def _name_labs(args: argparse.Namespace) -> None:
     """Behaviour arguments that name a lab (``wall_follow``) become that lab's file."""
     if getattr(args, "file", None) is not None:
         args.file = str(behaviour_path(args.file))
+        if args.command == "view" and not os.path.lexists(args.file):  # a behaviour, a trace or a golden
+            kind = "trace" if args.file.lower().endswith(".csv") else "behaviour"
+            raise LabsimError([Diagnostic(args.file, "no such file", notes=missing_notes(args.file, kind))])
     if getattr(args, "files", None):
         args.files = [str(behaviour_path(f)) for f in args.files]
     if getattr(args, "behaviour", None):

@@ -63,6 +63,9 @@ def add_plot_arguments(plot: argparse.ArgumentParser) -> None:
                            "trace's header says: the crane's slew panel, --camera and a chart's units read it")
 
 
+MIN_WIDTH_PX = 400  # plot.MIN_WIDTH_PX, without importing the drawing (cv2) to check an option
+
+
 def _fail(where: str, message: str) -> LabsimError:
     return LabsimError([Diagnostic(where, message)])
 
@@ -109,9 +112,13 @@ def run_plot(args: argparse.Namespace) -> int:
     if out.is_dir() or not out.parent.is_dir():
         where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
         raise _fail(str(out), f"cannot write here: {where}")
-    for name, value, low in (("--width", args.width, 400), ("--fps", args.fps, 0.1), ("--speed", args.speed, 1e-6)):
+    notes = {"--width": f"{MIN_WIDTH_PX} px is the narrowest picture labsim draws (narrower, the labels and the "
+                        "legend would cover the map); leave --width out for the default"}
+    for name, value, low in (("--width", args.width, MIN_WIDTH_PX), ("--fps", args.fps, 0.1),
+                             ("--speed", args.speed, 1e-6)):
         if value is not None and value < low:
-            raise _fail("labsim plot", f"{name} must be at least {low:g} (got {value:g})")
+            raise LabsimError([Diagnostic("labsim plot", f"{name} must be at least {low:g} (got {value:g})",
+                                          notes=(notes[name],) if name in notes else ())])
     try:
         wanted: Wanted | None = None
         if kind == "movie":  # an animation reads a few columns: only those are split into cells

@@ -3,7 +3,7 @@
 What ``labsim grade`` draws of each student's first seed, in the worker that ran it, from the
 run recorded in memory (``labsim.runtime.recording``) and the world the run used, so that no
 trace is written or read: the map as ``labsim plot`` draws it, and the run played back as
-``labsim plot --animate`` plays it, ``GIF_SECONDS`` long at ``GIF_FPS`` frames a second and
+``labsim plot -o run.gif`` plays it, ``GIF_SECONDS`` long at ``GIF_FPS`` frames a second and
 ``GIF_WIDTH_PX`` wide. The command line hands this function to the grader (applications do not
 import each other).
 """

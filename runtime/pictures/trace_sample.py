@@ -145,7 +145,7 @@ def read_for_picture(path: str, max_kept: int = MAX_KEPT, wanted: Wanted | None 
         with _no_gc():
             return _read(path, max_kept, wanted)
     except LabsimError as e:
-        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path)) from None
+        raise TraceFormatError(f"{path}: {e.diagnostics[0].message}", str(path), notes=e.diagnostics[0].notes) from None
 
 
 @contextlib.contextmanager

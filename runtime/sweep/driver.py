@@ -122,7 +122,7 @@ def check_options(o: SweepOptions) -> tuple[list[Setting], tuple[int, ...] | Non
             raise _fail(f"--plot {o.plot}", "give a .png, .svg or .pdf file")
         if importlib.util.find_spec("matplotlib") is None:
             raise _fail("--plot", "needs matplotlib, which is not installed",
-                        "install it with: pip install 'labsim[plot]'")
+                        "it is one of labsim's dependencies: reinstall labsim (pip install labsim)")
     if o.traces is not None:
         if not Path(o.traces).is_dir():
             raise _fail(f"--traces {o.traces}", "no such folder; create it first")
@@ -270,7 +270,7 @@ def add_sweep_arguments(sweep: argparse.ArgumentParser) -> None:
     sweep.add_argument("--scheduler", metavar="ADDRESS", help="the Dask scheduler, e.g. tcp://HOST:8786")
     sweep.add_argument("-o", "--output", metavar="CSV", help="write one row per run to this CSV file")
     sweep.add_argument("--json", metavar="PATH|-", help="write the rows, their summaries and the comparison as JSON")
-    sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings (needs labsim[plot])")
+    sweep.add_argument("--plot", metavar="PNG", help="draw each metric across the settings: a .png, .svg or .pdf file")
     sweep.add_argument("--timeout-per-run", type=options.run_timeout_s, metavar="S", dest="timeout",
                        default=DEFAULT_TIMEOUT_S, help="stop a run after S seconds of real time; its row says "
                                                        "timeout (default: %(default)g, up to 86400)")

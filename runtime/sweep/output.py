@@ -100,7 +100,7 @@ def format_comparison(comp: dict[str, Any], aggregates: dict[str, str], several_
     for g in failed:
         where = inert(f"{g.file} ") if several_files else ""
         lines.append(f"{where}{inert(g.label) or '(as in the file)'}: {g.failed} of {g.runs} runs failed (not counted)")
-    if comp["tests"]:
+    if any(not math.isnan(x.p) for x in comp["tests"]):  # a test was made, not only "too few runs"
         lines.append("test: Welch's t-test of the two means, two-sided; a difference is larger than the seeds' "
                      "noise when p < 0.05")
     return "\n".join(lines).rstrip()

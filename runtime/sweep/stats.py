@@ -110,14 +110,16 @@ class Group:
 
 def groups(rows: list[Row]) -> list[Group]:
     """Rows grouped by file and settings, in the grid's order; a group is named by the settings
-    that vary (a ``--set minutes=2`` with one value is the same in every group)."""
+    that vary (a ``--set minutes=2`` with one value is the same in every group), or, when none
+    varies, by those set (a single group is still not the file's own settings)."""
     seen: dict[str, set[str]] = {}
     for row in rows:
         for k, v in row.task.settings:
             seen.setdefault(k, set()).add(v)
     out: dict[tuple[str, str], Group] = {}
     for row in sorted(rows, key=lambda r: r.task.index):
-        label = " ".join(f"{k}={v}" for k, v in row.task.settings if len(seen[k]) > 1)
+        varying = any(len(seen[k]) > 1 for k, _ in row.task.settings)
+        label = " ".join(f"{k}={v}" for k, v in row.task.settings if len(seen[k]) > 1 or not varying)
         g = out.setdefault((row.task.file, label), Group(row.task.file, label, {}))
         g.runs += 1
         if row.failed or row.result is None:

@@ -60,6 +60,56 @@ def test_bad_input_exits_2_with_a_clear_message(capsys, args: list[str], message
     assert message in err
 
 
+LABS_HINT = ("      = labsim labs lists the labs labsim ships; a lab's name works wherever a file does "
+             "(labsim run wall_follow)\n")
+TRACE_HINT = "      = a trace is what labsim run FILE --trace PATH writes\n"
+
+
+@pytest.mark.parametrize("args, printed", [
+    (["run", "nosuch.yaml"], "nosuch.yaml: error: no such behaviour file\n" + LABS_HINT),
+    (["test", "nosuch.yaml"], "nosuch.yaml: error: no such file or folder\n" + LABS_HINT),
+    (["check", "mine/wal_follow.yaml"], "mine/wal_follow.yaml: error: no such behaviour file\n"
+                                        "      = labsim labs lists the labs labsim ships; a lab is given by its name: "
+                                        "wall_follow\n"),
+    (["run", "mine/lab2.yml"], "mine/lab2.yml: error: no such behaviour file\n      = did you mean mine/lab1.yaml?\n"
+                               + LABS_HINT),
+    (["run", "mine"], "mine: error: is a folder, not a behaviour file\n"
+                      "      = give one behaviour file, not a folder; in it: lab1.yaml\n"
+                      "      = labsim test FOLDER checks every behaviour of a folder against its golden trace\n"),
+    (["run", "empty"], "empty: error: is a folder, not a behaviour file\n"
+                       "      = give one behaviour file, not a folder; it holds no .yaml or .yml file\n"
+                       "      = labsim test FOLDER checks every behaviour of a folder against its golden trace\n"),
+    (["run", str(LAB), "--seed", "-1"], "--seed: error: the seed is 0 or a positive whole number, not -1\n"
+                                        "      = a seed picks the run's random draws (the same seed, the same run): "
+                                        "--seed 0, --seed 1, ...; without --seed, the file's seed: is used\n"),
+    (["view", str(LAB), "--seed", "-2", "--no-browser"],
+     "--seed: error: the seed is 0 or a positive whole number, not -2\n"
+     "      = a seed picks the run's random draws (the same seed, the same run): "
+     "--seed 0, --seed 1, ...; without --seed, the file's seed: is used\n"),
+    (["plot", "nosuch.csv", "-o", "x.png"], "nosuch.csv: error: no such trace file\n" + TRACE_HINT),
+    (["plot", "mine/run2.csv", "-o", "x.png"], "mine/run2.csv: error: no such trace file\n"
+                                               "      = did you mean mine/run1.csv?\n" + TRACE_HINT),
+    (["plot", "mine", "-o", "x.png"], "mine: error: is a folder, not a trace file\n"
+                                      "      = give one trace file, not a folder; in it: run1.csv\n"),
+    (["plot", "mine/run1.csv", "-o", "x.png", "--width", "300"],
+     "labsim plot: error: --width must be at least 400 (got 300)\n"
+     "      = 400 px is the narrowest picture labsim draws (narrower, the labels and the legend would cover "
+     "the map); leave --width out for the default\n"),
+    (["view", "nosuch.yaml", "--no-browser"], "nosuch.yaml: error: no such file\n" + LABS_HINT),
+    (["view", "mine/run2.csv", "--no-browser"], "mine/run2.csv: error: no such file\n"
+                                                "      = did you mean mine/run1.csv?\n" + TRACE_HINT),
+])
+def test_a_missing_file_a_folder_and_a_bad_number_say_what_to_give(capsys, monkeypatch, tmp_path: Path,
+                                                                  args: list[str], printed: str) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "empty").mkdir()
+    shutil.copy(LAB, tmp_path / "mine" / "lab1.yaml")
+    (tmp_path / "mine" / "run1.csv").write_text("tick\n")
+    code, out, err = cli(capsys, *args)
+    assert (code, out, err) == (2, "", printed)
+
+
 def test_check_reports_every_error_of_every_file(capsys) -> None:
     files = sorted(str(p) for p in FIXTURES.glob("*_with_error.yaml"))
     code, out, err = cli(capsys, "check", str(FIXTURES / "minimal.yaml"), *files)

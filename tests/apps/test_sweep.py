@@ -130,6 +130,19 @@ def test_a_row_equals_the_runs_json_whatever_j(capsys, tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+def test_a_setting_the_sweep_gives_names_its_rows_and_only_none_is_as_in_the_file(capsys) -> None:
+    code, out, _ = cli(capsys, "sweep", LAB, "--set", "minutes=0.1", "--seeds", "1-2", "-j", "1", "--no-progress")
+    assert code == 0 and "(as in the file)" not in out
+    assert ("near_misses  (count; lower is better)\n  setting      n  mean  sd  95% CI  min  max\n"
+            "  minutes=0.1  2 ") in out
+    code, out, _ = cli(capsys, "sweep", LAB, "--set", "minutes=0.1", "--set", "front=0.5,1", "--seeds", "1",
+                       "-j", "1", "--no-progress")
+    assert code == 0 and "\n  front=0.5  1 " in out and "minutes=0.1  1" not in out  # the varying one names them
+    code, out, _ = cli(capsys, "sweep", str(Path(LAB).with_name("wall_follow_handout.yaml")), "--seeds", "1",
+                       "-j", "1", "--no-progress")
+    assert code == 0 and "\n  (as in the file)  1 " in out
+
+
 def test_the_table_compares_two_settings(capsys, tmp_path: Path) -> None:
     out_csv = tmp_path / "r.csv"
     code, out, _ = cli(capsys, "sweep", LAB, "--set", "front=0.5,1.0", *SHORT, "--seeds", "1-3", "-j", "2",

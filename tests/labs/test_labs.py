@@ -21,6 +21,8 @@ def test_labs_lists_every_lab_with_its_title(capsys: pytest.CaptureFixture[str])
         assert name in out
     assert "Wall following" in out and "labsim run NAME" in out
     assert list(labs()) == LAB_NAMES
+    titles = [line.index(labs()[line.split()[0]].title) for line in out.splitlines()[:len(LAB_NAMES)]]
+    assert set(titles) == {len("wall_follow_handout") + 2}  # one column of titles, the longest name's
 
 
 def test_a_lab_runs_and_checks_by_name(capsys: pytest.CaptureFixture[str]) -> None:

@@ -27,7 +27,7 @@ def test_the_wall_lab_built_by_labsim_scene_gives_the_embedded_trace(empty: int,
     lab = BEHAVIOURS / "wall_follow.yaml"
     assert main(["scene", str(lab), "--port", str(empty)]) == 0
     out = capsys.readouterr().out
-    assert "6 walls and 1 blocks" in out and "1 Pioneer P3DX, their scripts removed" in out
+    assert "the floor, 6 walls and 1 block\n" in out and "1 Pioneer P3DX, their scripts removed" in out
     ref, remote = embedded_and_served(lab, empty, tmp_path, "--set", "minutes=1")
     assert remote == ref and len(ref) == 1 + 1201  # the header, 1,200 ticks and the stopping one (format 1.2)
 

@@ -76,6 +76,9 @@ def test_the_pytest_grader_in_docs_api_grades_a_folder(tmp_path: Path) -> None:
                           timeout=300)
     assert "1 failed, 1 passed" in proc.stdout, proc.stdout + proc.stderr
     assert "bo.yaml" in proc.stdout and "Traceback" not in proc.stdout
+    assert "During handling" not in proc.stdout  # failed once, not chained to the LabsimError
+    failure = proc.stdout.split("test_no_contact[bo] _", 1)[1].split("\n=", 1)[0].strip("_ \n")
+    assert failure == "submissions/bo.yaml: error: missing required key 'rules:'", proc.stdout
 
 
 def test_a_run_over_its_budget_or_timeout_raises_labsims_own_error() -> None:
