@@ -38,7 +38,14 @@ def encoding(ls: LabsimServer) -> str:
     return str(ls.workspace.position_encoding or "utf-16")
 
 
+class NotOpen(Exception):
+    """A request about a document the editor has not opened: answered with nothing, as no file
+    is read behind the editor's back."""
+
+
 def document(ls: LabsimServer, uri: str) -> tuple[str, Lines]:
+    if uri not in ls.workspace.text_documents:
+        raise NotOpen(uri)
     text = ls.workspace.get_text_document(uri).source
     return text, Lines(text, encoding(ls))
 

@@ -112,6 +112,8 @@ def _guarded(answer: Callable[[], T]) -> T | None:
     """A request's answer, or nothing when answering it failed: the server stays up."""
     try:
         return answer()
+    except features.NotOpen:  # asked about a file the editor has not opened: nothing to say
+        return None
     except Exception:  # a bug in a feature must not end the student's session
         log.exception("labsim lsp: a request failed")
         return None

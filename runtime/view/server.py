@@ -83,7 +83,6 @@ class ViewServer:
         self.ignored = 0  # messages ignored, from every page
         self.pages: list[Page] = []
         self.dirty = True  # something changed since the last frame
-        self.frames_sent = 0
         self._tasks: set[asyncio.Task[None]] = set()
         self.app = web.Application(client_max_size=MAX_MESSAGE_BYTES, middlewares=[self._check_host, self._check_token])
         self.app.router.add_get("/", self._index)
@@ -228,7 +227,6 @@ class ViewServer:
         for page in ready:  # a page still receiving or drawing the last frame skips this one
             page.waiting = True
             self._spawn(self._send(page, self._frame_text(page, frame, cache)))
-        self.frames_sent += 1
         self.dirty = False
         return True
 

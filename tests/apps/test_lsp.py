@@ -254,6 +254,20 @@ def test_bad_requests_and_a_huge_document_do_not_end_the_server(tmp_path: Path, 
     assert client.close() == 0
 
 
+def test_a_request_about_a_file_never_opened_reads_nothing(tmp_path: Path, client: Client) -> None:
+    client.initialize(tmp_path)
+    on_disk = tmp_path / "closed.yaml"
+    on_disk.write_text("labsim: 1\nlet:\n  a: sonar4\n", encoding="utf-8")
+    for uri in (on_disk.as_uri(), (tmp_path / "missing.yaml").as_uri()):
+        answer = client.request("textDocument/hover", {"textDocument": {"uri": uri},
+                                                       "position": {"line": 2, "character": 6}})
+        assert answer.get("error") is None and answer["result"] is None
+    assert client.request("shutdown", None).get("error") is None
+    client.notify("exit", None)
+    assert client.proc.wait(timeout=30) == 0
+    assert client.proc.stderr is not None and b"Traceback" not in client.proc.stderr.read()
+
+
 def test_a_yaml_file_that_is_no_labsim_file_gets_no_diagnostics(tmp_path: Path, client: Client) -> None:
     client.initialize(tmp_path)
     assert client.wait_diagnostics(client.open(tmp_path / "ci.yml", "on: push\njobs: {build: {}}\n")) == []
