@@ -23,7 +23,6 @@ so the scene's readers, the language and the runtime all use it.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import errno
 import os
 import stat
@@ -33,6 +32,7 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
+from labsim.foundation.hints import folder_notes, missing_notes
 
 KIB, MIB = 1 << 10, 1 << 20
 # Each kind of file, the most labsim reads of it. Hand-written files stay far below 1 MiB (the
@@ -64,61 +64,6 @@ def _error(path: str | Path, message: str, notes: tuple[str, ...] = ()) -> Labsi
     return LabsimError([Diagnostic(str(path), message, notes=notes)])
 
 
-# The labs labsim ships (runtime/labs.py names them): a behaviour not found is often one of
-# them given by a wrong name, and a lab's name works wherever a behaviour file does.
-SHIPPED_LABS = Path(__file__).resolve().parents[1] / "behaviours"
-# the kinds a command line names (a world or a golden is named by a behaviour's folder), and their names' ends
-_SUFFIXES = {"behaviour": (".yaml", ".yml"), "trace": (".csv",)}
-_LISTED = 200  # the most names of a folder a hint reads: a folder of thousands is not listed whole
-
-
-def _names(folder: Path, suffixes: tuple[str, ...]) -> list[str]:
-    """The names of up to ``_LISTED`` files in ``folder`` ending in one of ``suffixes`` (none when it
-    cannot be read), sorted."""
-    try:
-        with os.scandir(folder) as entries:
-            names = [e.name for _, e in zip(range(_LISTED * 10), entries)
-                     if e.name.endswith(suffixes) and not e.name.startswith(".")]
-    except OSError:
-        return []
-    return sorted(names)[:_LISTED]
-
-
-def missing_notes(path: str | Path, kind: str) -> tuple[str, ...]:
-    """What to try when ``path`` does not exist: the files beside it with a close name, and for a
-    behaviour the labs (``labsim labs``)."""
-    p = Path(path)
-    suffixes = _SUFFIXES.get(kind, ())
-    notes = []
-    if suffixes:
-        close = difflib.get_close_matches(p.name, _names(p.parent, suffixes), n=1, cutoff=0.6)
-        if close:
-            notes.append(f"did you mean {p.parent / close[0]}?")
-    if kind == "behaviour":
-        labs = [Path(n).stem for n in _names(SHIPPED_LABS, (".yaml",))]
-        lab = difflib.get_close_matches(p.stem, labs, n=1, cutoff=0.6)
-        notes.append(f"labsim labs lists the labs labsim ships; a lab is given by its name: {lab[0]}" if lab else
-                     "labsim labs lists the labs labsim ships; a lab's name works wherever a file does "
-                     "(labsim run wall_follow)")
-    elif kind == "trace":
-        notes.append("a trace is what labsim run FILE --trace PATH writes")
-    return tuple(notes)
-
-
-def _folder_notes(path: str | Path, kind: str) -> tuple[str, ...]:
-    """What to give instead of a folder: the files of the kind asked for in it."""
-    suffixes = _SUFFIXES.get(kind)
-    if suffixes is None:
-        return ()
-    names = _names(Path(path), suffixes)
-    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
-    inside = f"; in it: {shown}" if names else f"; it holds no {' or '.join(suffixes)} file"
-    notes = [f"give one {kind} file, not a folder{inside}"]
-    if kind == "behaviour":
-        notes.append("labsim test FOLDER checks every behaviour of a folder against its golden trace")
-    return tuple(notes)
-
-
 @contextlib.contextmanager
 def _opened(path: str | Path, kind: str) -> Iterator[tuple[int, os.stat_result]]:
     """A regular file's descriptor and status, or LabsimError saying in words why not.
@@ -131,14 +76,14 @@ def _opened(path: str | Path, kind: str) -> Iterator[tuple[int, os.stat_result]]
     except FileNotFoundError:
         raise _error(path, f"no such {kind} file", missing_notes(path, kind)) from None
     except IsADirectoryError:
-        raise _error(path, f"is a folder, not a {kind} file", _folder_notes(path, kind)) from None
+        raise _error(path, f"is a folder, not a {kind} file", folder_notes(path, kind)) from None
     except OSError as e:
         raise _error(path, f"cannot read the {kind} file: {os_words(e)}") from None
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
             what = _not_regular(info.st_mode)
-            raise _error(path, f"is {what}, not a {kind} file", _folder_notes(path, kind) if what == "a folder" else ())
+            raise _error(path, f"is {what}, not a {kind} file", folder_notes(path, kind) if what == "a folder" else ())
         yield fd, info
     except OSError as e:
         raise _error(path, f"cannot read the {kind} file: {os_words(e)}") from None

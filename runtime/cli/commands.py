@@ -109,6 +109,7 @@ SEED_NOTE = ("a seed picks the run's random draws (the same seed, the same run):
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from labsim.runtime.cli.mcap_run import export_run, mcap_trace
     from labsim.runtime.cli.report import ProgressBar, format_summary
     from labsim.runtime.run import compile_behaviour
     from labsim.runtime.summary_json import check_json_output, emit_json, summary_dict
@@ -122,7 +123,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print_diagnostics(list(behaviour.program.warnings))
     # every input of the run: the behaviour, its world file and the trace it replays
     inputs = [Path(args.file), Path(behaviour.program.world.source), *([Path(args.replay)] if args.replay else [])]
-    mcap_out = _mcap_trace(args, inputs)  # --trace run.mcap: the CSV trace first, beside it, then exported
+    mcap_out = mcap_trace(args, inputs)  # --trace run.mcap: the CSV trace first, beside it, then exported
     if args.json not in (None, "-"):
         check_json_output(args.json, inputs)
     replay, hands = _replayed(args.replay)
@@ -143,7 +144,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         run.close()
     unwritten: LabsimError | None = run.trace_error
     if mcap_out is not None and unwritten is None:
-        unwritten = _export_run(args.trace, mcap_out)
+        unwritten = export_run(args.trace, mcap_out)
     if args.json is not None:
         try:
             emit_json(summary_dict(summary), args.json)
@@ -165,33 +166,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     if summary.over_budget:
         return EXIT_USAGE
     return EXIT_INTERRUPTED if summary.interrupted else EXIT_OK
-
-
-def _mcap_trace(args: argparse.Namespace, inputs: list[Path]) -> str | None:
-    """``--trace``'s target checked; for ``run.mcap``, ``args.trace`` becomes the CSV trace the run
-    writes first (``.run.mcap.csv`` beside it, removed once exported) and the MCAP name is returned."""
-    if not args.trace:
-        return None
-    _check_writable(args.trace, inputs)
-    if Path(args.trace).suffix.lower() != ".mcap":
-        return None
-    out = args.trace
-    args.trace = str(Path(out).with_name(f".{Path(out).name}.csv"))
-    _check_writable(args.trace, inputs)
-    return str(out)
-
-
-def _export_run(csv_trace: str, out: str) -> LabsimError | None:
-    """The run's CSV trace written as MCAP at ``out`` (the CSV removed); the error, if any, for
-    after the summary. A run that made no rows leaves its CSV, which says so."""
-    from labsim.runtime.export.mcap_file import export_trace
-
-    try:
-        export_trace(csv_trace, out)
-    except LabsimError as e:
-        return e
-    Path(csv_trace).unlink(missing_ok=True)
-    return None
 
 
 def _break_observer(program: Program, args: argparse.Namespace) -> BreakObserver | None:
@@ -216,11 +190,6 @@ def _round_trips(backend: object, ticks: int) -> str:
     where = getattr(backend, "where", "")
     return (f"  {during / ticks:.2f} round trips per tick"
             f" ({total} requests in all{' to ' + where if where else ''})")
-
-
-def _check_writable(path: str, inputs: list[Path]) -> None:
-    """The one way out (foundation/files.py): a regular file, none of the run's inputs."""
-    check_output(path, inputs, "--trace")
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -406,7 +375,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     from labsim.runtime.view import view
 
     if args.trace:
-        _check_writable(args.trace, [Path(args.file)])
+        check_output(args.trace, [Path(args.file)], "--trace")
     # --host and --port are the page's; CoppeliaSim's address has options of its own here
     options: dict[str, object] = {k: v for k, v in (("host", args.sim_host), ("port", args.sim_port),
                                                     ("timeout_s", args.sim_timeout)) if v is not None}

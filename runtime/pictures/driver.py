@@ -101,6 +101,17 @@ def _check_suffix(out: Path, signals: bool) -> str:
     return "map"
 
 
+def _check_numbers(args: argparse.Namespace) -> None:
+    """--width, --fps and --speed within what labsim draws."""
+    notes = {"--width": f"{MIN_WIDTH_PX} px is the narrowest picture labsim draws (narrower, the labels and the "
+                        "legend would cover the map); leave --width out for the default"}
+    for name, value, low in (("--width", args.width, MIN_WIDTH_PX), ("--fps", args.fps, 0.1),
+                             ("--speed", args.speed, 1e-6)):
+        if value is not None and value < low:
+            raise LabsimError([Diagnostic("labsim plot", f"{name} must be at least {low:g} (got {value:g})",
+                                          notes=(notes[name],) if name in notes else ())])
+
+
 def run_plot(args: argparse.Namespace) -> int:
     """Check the options, draw, write; exit code 0, or a LabsimError (exit 2) for a mistake."""
     out = Path(args.output)
@@ -112,13 +123,7 @@ def run_plot(args: argparse.Namespace) -> int:
     if out.is_dir() or not out.parent.is_dir():
         where = "it is a directory" if out.is_dir() else f"no directory {out.parent}"
         raise _fail(str(out), f"cannot write here: {where}")
-    notes = {"--width": f"{MIN_WIDTH_PX} px is the narrowest picture labsim draws (narrower, the labels and the "
-                        "legend would cover the map); leave --width out for the default"}
-    for name, value, low in (("--width", args.width, MIN_WIDTH_PX), ("--fps", args.fps, 0.1),
-                             ("--speed", args.speed, 1e-6)):
-        if value is not None and value < low:
-            raise LabsimError([Diagnostic("labsim plot", f"{name} must be at least {low:g} (got {value:g})",
-                                          notes=(notes[name],) if name in notes else ())])
+    _check_numbers(args)
     try:
         wanted: Wanted | None = None
         if kind == "movie":  # an animation reads a few columns: only those are split into cells
