@@ -925,8 +925,8 @@ def _box(page: Any, selector: str) -> dict:
     return page.locator(selector).bounding_box()
 
 
-def _apart(a: dict, b: dict) -> bool:
-    """Two boxes that do not overlap (touching edges allowed)."""
+def _disjoint(a: dict, b: dict) -> bool:
+    """Two page boxes that do not overlap (touching edges allowed)."""
     return (a["x"] + a["width"] <= b["x"] + 0.5 or b["x"] + b["width"] <= a["x"] + 0.5
             or a["y"] + a["height"] <= b["y"] + 0.5 or b["y"] + b["height"] <= a["y"] + 0.5)
 
@@ -947,7 +947,7 @@ def test_layout_on_a_phone_stacks_the_panels_under_a_world_nothing_covers(view: 
     assert not v.page.locator("#block-tools").is_hidden()
     for selector in ("#add-block", "#remove-block", "#grid-scale", ".canvas-help"):
         box = _box(v.page, selector)
-        assert box["height"] > 0 and _apart(box, world), (selector, box, world)
+        assert box["height"] > 0 and _disjoint(box, world), (selector, box, world)
     assert v.page.inner_text("#grid-scale").startswith("grid ")
     robot = v.js("window.LV_world.drawn[0]")  # the world fitted to the new size: the robot in sight
     assert 0 <= robot[0] <= world["width"] and 0 <= robot[1] <= world["height"], robot
