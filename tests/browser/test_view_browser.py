@@ -925,20 +925,61 @@ def _box(page: Any, selector: str) -> dict:
     return page.locator(selector).bounding_box()
 
 
-def test_layout_at_390_px_stacks_the_panels_under_a_world_you_can_see(view: Any) -> None:
-    v = view(["behaviours/wall_follow.yaml"])
-    v.page.set_viewport_size({"width": 390, "height": 844})
+def _disjoint(a: dict, b: dict) -> bool:
+    """Two page boxes that do not overlap (touching edges allowed)."""
+    return (a["x"] + a["width"] <= b["x"] + 0.5 or b["x"] + b["width"] <= a["x"] + 0.5
+            or a["y"] + a["height"] <= b["y"] + 0.5 or b["y"] + b["height"] <= a["y"] + 0.5)
+
+
+@pytest.mark.parametrize(("lab", "width", "height"), [("wall_follow", 390, 844), ("road_follow", 390, 844),
+                                                       ("wall_follow", 360, 740), ("road_follow", 360, 740)])
+def test_layout_on_a_phone_stacks_the_panels_under_a_world_nothing_covers(view: Any, lab: str, width: int,
+                                                                         height: int) -> None:
+    v = view([f"behaviours/{lab}.yaml"])
+    v.page.set_viewport_size({"width": width, "height": height})
     v.page.wait_for_timeout(300)
     world, aside = _box(v.page, "#world"), _box(v.page, "aside")
-    assert world["width"] >= 350 and world["height"] >= 220, world
-    assert aside["y"] >= world["y"] + world["height"] and aside["width"] >= 350, aside  # under it, full width
-    assert v.js("document.documentElement.scrollWidth") <= 400  # nothing sideways
+    # a world about as tall as the screen is wide, not a strip
+    assert world["width"] >= width - 40 and world["height"] >= 300 and world["height"] >= 0.9 * world["width"], world
+    assert aside["y"] >= world["y"] + world["height"] and aside["width"] >= width - 40, aside  # under it, full width
+    assert v.js("document.documentElement.scrollWidth") <= width + 10  # nothing sideways
+    # nothing over the world: the block tools, the grid's scale and the help stand beside it
+    assert not v.page.locator("#block-tools").is_hidden()
+    for selector in ("#add-block", "#remove-block", "#grid-scale", ".canvas-help"):
+        box = _box(v.page, selector)
+        assert box["height"] > 0 and _disjoint(box, world), (selector, box, world)
+    assert v.page.inner_text("#grid-scale").startswith("grid ")
     robot = v.js("window.LV_world.drawn[0]")  # the world fitted to the new size: the robot in sight
     assert 0 <= robot[0] <= world["width"] and 0 <= robot[1] <= world["height"], robot
+    # every robot drawn at its model's size: radius = model radius x scale, to the pixel; too
+    # small to see at a phone's zoom, so a locator ring around it larger than its body
+    scale = v.js("window.LV_world.scale")
+    reaches = [r["reach"] for r in v.js("window.labsimView.scene")["robots"]]
+    marks = v.js("window.LV_world.marks")
+    assert len(marks) == len(reaches) >= 1
+    for mark, reach in zip(marks, reaches):
+        assert abs(mark["reach"] - reach * scale) < 1, (mark, reach, scale)
+        assert mark["locator"] > 2 * mark["reach"], mark
+    # the robots' name labels inside the world, each clear of the tools row above it
+    labels = [b for b in v.js("window.LV_world.labels") if b]
+    assert len(labels) == (len(reaches) if len(reaches) > 1 else 0)
+    for b in labels:
+        assert b["x"] >= 0 and b["y"] >= 0, b
+        assert b["x"] + b["w"] <= world["width"] + 1 and b["y"] + b["h"] <= world["height"] + 1, b
     chart = _box(v.page, ".chart-panel")
     legend = _box(v.page, "#chart .u-legend")
     assert legend["y"] + legend["height"] <= chart["y"] + chart["height"] + 1  # the legend inside its panel
-    v.shot("layout-390")
+    img = v.shot(f"layout-{width}-{lab}", "#world")
+    # in the picture: the first robot's colour (#1f77b4) on its locator ring, and nowhere between
+    # the ring and the robot's true size (a body drawn bigger than the robot would fill that gap)
+    x, y = robot
+    ys, xs = np.mgrid[0:img.shape[0], 0:img.shape[1]]
+    d = np.hypot(xs + 0.5 - x, ys + 0.5 - y)
+    blue = np.abs(img.astype(int) - np.array([180, 119, 31])).sum(axis=2) < 90  # BGR, some blending allowed
+    ring = marks[0]["locator"]
+    assert blue[np.abs(d - ring) < 1.5].sum() >= 10
+    assert blue[(d > marks[0]["reach"] + 2) & (d < ring - 2.5)].sum() == 0
+    v.shot(f"layout-{width}-{lab}-page")
 
 
 def test_layout_at_1280x800_shows_sliders_chart_and_editor_together(view: Any) -> None:

@@ -6,6 +6,7 @@ window.LV = window.LV || {};
 LV.PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"];
 LV.robotColour = (i) => LV.PALETTE[i % LV.PALETTE.length];
 const PATH_POINTS = 3000;  // a robot's fading path: the last points where it bent
+const LOCATOR = 10;  // the radius, CSS pixels, of the ring that finds a robot drawn smaller than it can be seen
 const HITS = 2000;  // collision marks kept per robot (and count metrics' marks)
 // a count metric's colour, by its place among the count metrics: the map's (runtime/pictures/paint.py)
 LV.EVENT_RGB = ["#ffc107", "#009688", "#9c27b0", "#e91e63", "#3f51b5", "#8bc34a", "#795548", "#00bcd4"];
@@ -277,8 +278,9 @@ LV.WorldView = class {
     for (let x = Math.ceil(x0 / step) * step; x <= x1; x += step) { const [px] = this.toPx(x, 0); ctx.moveTo(px, 0); ctx.lineTo(px, h); }
     for (let y = Math.ceil(y0 / step) * step; y <= y1; y += step) { const [, py] = this.toPx(0, y); ctx.moveTo(0, py); ctx.lineTo(w, py); }
     ctx.stroke();
-    ctx.fillStyle = "#999"; ctx.font = "11px system-ui";
-    ctx.fillText(`grid ${step} m`, w - 70, 14);
+    // the scale is said in the page, beside the world, not drawn in it where a block or a wall would hide it
+    const label = document.getElementById("grid-scale"), text = `grid ${step} m`;
+    if (label && label.textContent !== text) label.textContent = text;
   }
 
   _poly(points, close, from = 0, to = points.length) {  // points[from..to): a path's piece without a copy
@@ -371,19 +373,34 @@ LV.WorldView = class {
       const [x, y, th] = r.pose, c = Math.cos(th), s = Math.sin(th);
       const local = (px, py) => [x + px * c - py * s, y + px * s + py * c];
       this._sonars(robot, r, local, th);
-      let outline = robot.footprint.length ? robot.footprint : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]];
-      const tiny = 9 / this.scale;  // too small to see at this zoom: a marker of fixed size instead
-      if (0.4 < tiny) outline = [[1.4 * tiny, 0], [-tiny, tiny], [-0.5 * tiny, 0], [-tiny, -tiny]];
+      // the robot at its model's size at every zoom: a body drawn bigger than the robot puts a
+      // Pioneer inside the wall it is following
+      const outline = robot.footprint.length ? robot.footprint : [[0.2, 0], [-0.15, 0.15], [-0.15, -0.15]];
+      const body = Math.max(...outline.map((q) => Math.hypot(q[0], q[1]))) * this.scale;
+      // too small to find at this zoom: a locator around it, a dashed ring and a tick the way it
+      // heads, hollow and of fixed size, so that it cannot be taken for the robot's body
+      const locator = body < LOCATOR / 2 ? LOCATOR : 0;
+      if (locator) {
+        const [px, py] = this.toPx(x, y);
+        ctx.beginPath(); ctx.arc(px, py, locator, 0, 2 * Math.PI);
+        ctx.strokeStyle = "rgba(255,255,255,0.75)"; ctx.lineWidth = 3; ctx.stroke();  // seen on a black road too
+        ctx.setLineDash([3, 3]); ctx.strokeStyle = r.collided ? "#d62728" : colour;
+        ctx.lineWidth = i === this.selected ? 2 : 1.25; ctx.stroke();
+        ctx.setLineDash([]); ctx.beginPath();
+        ctx.moveTo(px + locator * c, py - locator * s); ctx.lineTo(px + (locator + 6) * c, py - (locator + 6) * s);
+        ctx.lineWidth = 2; ctx.stroke();
+      }
       this._poly(outline.map((p) => local(p[0], p[1])), true);
       ctx.fillStyle = colour; ctx.globalAlpha = 0.85; ctx.fill(); ctx.globalAlpha = 1;
-      ctx.lineWidth = i === this.selected ? 3 : 1.5;
+      // its edge no wider than a small body, so that the stroke does not make it look bigger
+      ctx.lineWidth = Math.min(i === this.selected ? 3 : 1.5, Math.max(0.5, body / 4));
       ctx.strokeStyle = r.collided ? "#d62728" : (i === this.selected ? "#111" : "#333"); ctx.stroke();
       // the heading mark: half as far again as the robot reaches (an e-puck's 5 cm, a Pioneer's 32)
-      const nose = local(Math.max(1.5 * (robot.reach || 0.2), 1.4 * tiny), 0);
+      const nose = local(1.5 * (robot.reach || 0.2), 0);
       this._poly([[x, y], nose], false); ctx.strokeStyle = "#111"; ctx.lineWidth = Math.min(2, Math.max(1, robot.reach * this.scale / 4)); ctx.stroke();
       this._groundSensors(robot, r, local);
       // what was drawn, in CSS pixels (the browser tests read it)
-      this.marks[i] = { reach: Math.max(...outline.map((q) => Math.hypot(q[0], q[1]))) * this.scale,
+      this.marks[i] = { reach: body, locator,
                         nose: Math.hypot(...[0, 1].map((k) => this.toPx(...nose)[k] - this.toPx(x, y)[k])),
                         ground: (robot.ground || []).length, hits: (this.hits[i] || []).length,
                         counted: (this.counted[i] || []).length };
