@@ -15,6 +15,7 @@ import random
 
 import pymunk
 import pytest
+from random_worlds import FOOTPRINT, random_world
 
 from labsim.backends.pymunk import lidar_fan
 from labsim.backends.pymunk.lidar_fan import LidarFan
@@ -39,37 +40,13 @@ def compiled(request: pytest.FixtureRequest) -> bool:
         _kernel_built()
     return bool(request.param)
 
-FOOTPRINT = [(-0.2, -0.15), (0.25, -0.15), (0.3, 0.0), (0.25, 0.15), (-0.2, 0.15)]
-
-
-def _world(rng: random.Random) -> tuple[pymunk.Space, list[pymunk.Body]]:
-    space = pymunk.Space()
-    for _ in range(rng.randint(1, 12)):
-        a = (rng.uniform(-5, 5), rng.uniform(-5, 5))
-        b = (a[0] + rng.uniform(-4, 4), a[1] + rng.uniform(-4, 4))
-        space.add(pymunk.Segment(space.static_body, a, b, rng.choice([0.0, 0.05, rng.uniform(0, 0.3)])))
-    for _ in range(rng.randint(0, 4)):
-        x, y, w, h = rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(0.1, 2), rng.uniform(0.1, 2)
-        corners = [(x - w, y - h), (x + w, y - h), (x + w, y + h), (x - w, y + h)]
-        space.add(pymunk.Poly(space.static_body, corners, radius=rng.choice([0.0, 0.0, 0.1])))
-    for _ in range(rng.randint(0, 2)):
-        space.add(pymunk.Circle(space.static_body, rng.uniform(0.05, 1), (rng.uniform(-5, 5), rng.uniform(-5, 5))))
-    bodies = []
-    for group in range(1, rng.randint(2, 5)):
-        body = pymunk.Body(1, 1)
-        body.position, body.angle = (rng.uniform(-5, 5), rng.uniform(-5, 5)), rng.uniform(-4, 4)
-        shape = pymunk.Poly(body, FOOTPRINT)
-        shape.filter = pymunk.ShapeFilter(group=group)
-        space.add(body, shape)
-        bodies.append(body)
-    return space, bodies
 
 
 def _differences(seed: int, compiled: bool, against_numpy: bool = False) -> list[float]:
     """|fan - chipmunk| of every beam over five poses of one random world; inf for a beam one
     reads as a hit and the other as a miss. With ``against_numpy``, |fan - numpy's fan|."""
     rng = random.Random(seed)
-    space, bodies = _world(rng)
+    space, bodies = random_world(rng, 5, 4, 2)
     me = bodies[0]
     beams = rng.choice([1, 7, 90, 360])
     angles = [rng.uniform(-math.pi, math.pi) for _ in range(beams)]

@@ -21,6 +21,7 @@ from typing import cast
 import pymunk
 import pytest
 from helpers import BEHAVIOURS
+from random_worlds import random_world
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import RobotRequest
@@ -34,7 +35,6 @@ from labsim.runtime.run import compile_behaviour
 HOW = ("the C kernel backends/pymunk/_fan.c was not built: `pip install .` builds it where a C compiler is "
        "(an editable checkout: `pip install -e .`, or `python -c \"from setuptools import setup; setup()\" "
        "build_ext --inplace` in the repository)")
-FOOTPRINT = [(-0.2, -0.15), (0.25, -0.15), (0.3, 0.0), (0.25, 0.15), (-0.2, 0.15)]
 
 
 def _kernel_built() -> None:
@@ -51,29 +51,6 @@ def compiled(request: pytest.FixtureRequest) -> bool:
     if request.param:
         _kernel_built()
     return bool(request.param)
-
-
-def _world(rng: random.Random) -> tuple[pymunk.Space, list[pymunk.Body]]:
-    space = pymunk.Space()
-    for _ in range(rng.randint(1, 12)):
-        a = (rng.uniform(-3, 3), rng.uniform(-3, 3))
-        b = (a[0] + rng.uniform(-3, 3), a[1] + rng.uniform(-3, 3))
-        space.add(pymunk.Segment(space.static_body, a, b, rng.choice([0.0, 0.05, rng.uniform(0, 0.3)])))
-    for _ in range(rng.randint(0, 4)):
-        x, y, w, h = rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(0.1, 1), rng.uniform(0.1, 1)
-        corners = [(x - w, y - h), (x + w, y - h), (x + w, y + h), (x - w, y + h)]
-        space.add(pymunk.Poly(space.static_body, corners, radius=rng.choice([0.0, 0.0, 0.1])))
-    for _ in range(rng.randint(0, 2)):
-        space.add(pymunk.Circle(space.static_body, rng.uniform(0.05, 1), (rng.uniform(-3, 3), rng.uniform(-3, 3))))
-    bodies = []
-    for group in range(1, rng.randint(2, 5)):
-        body = pymunk.Body(1, 1)
-        body.position, body.angle = (rng.uniform(-3, 3), rng.uniform(-3, 3)), rng.uniform(-4, 4)
-        shape = pymunk.Poly(body, FOOTPRINT)
-        shape.filter = pymunk.ShapeFilter(group=group)
-        space.add(body, shape)
-        bodies.append(body)
-    return space, bodies
 
 
 def _rays(rng: random.Random) -> list[SonarRay]:
@@ -120,7 +97,7 @@ def _oracle(space: pymunk.Space, body: pymunk.Body, rays: list[SonarRay]) -> lis
 def _readings(seed: int, compiled: bool) -> tuple[list[list[float]], list[list[float]], list[list[float]]]:
     """Ten poses of one random world: the caster's readings, the Python rays', chipmunk's."""
     rng = random.Random(seed)
-    space, bodies = _world(rng)
+    space, bodies = random_world(rng, 3, 3, 1)
     me, rays = bodies[0], _rays(rng)
     caster = RaySet(space, pymunk.ShapeFilter(group=1), rays, compiled=compiled)
     python = RaySet(space, pymunk.ShapeFilter(group=1), rays, compiled=False)
@@ -214,7 +191,7 @@ def _mixed(seed: int, compiled: bool) -> tuple[list[list[float]], list[list[floa
     inside a shape, some in a wall's band): the joined caster's readings, the sonars' and IR
     rays' alone, the lidar's alone, and chipmunk's casts of every beam."""
     rng = random.Random(seed)
-    space, bodies = _world(rng)
+    space, bodies = random_world(rng, 3, 3, 1)
     me, rays, f = bodies[0], _rays(rng), pymunk.ShapeFilter(group=1)
     beams = rng.choice([1, 7, 90, 360])
     angles = [rng.uniform(-math.pi, math.pi) for _ in range(beams)]
