@@ -271,7 +271,7 @@ class _Walker(ast.Visitor[Any]):
         k = self.visit(e.index)
         if 0 <= k < n and k == int(k):
             return values[int(k)]
-        self.fault(e, f"no member at place {k:g} of a group of {n} (places count from 0)")
+        self.fault(e, f"no member at the place asked of a group of {n} (places count from 0)")  # as the run counts it
         return False if values and isinstance(values[0], bool) else NAN
 
     def visit_Call(self, e: ast.Call) -> Any:

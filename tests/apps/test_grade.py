@@ -205,7 +205,7 @@ def test_dask_gives_the_same_gradebook(graded_class, tmp_path: Path, monkeypatch
                           cache=False)
         options.out.mkdir()
         graded = grade_class(options)
-        write_class(graded, options, pages=False)
+        write_class(graded, options, pages=True)  # the gradebook links each student's page
     for name in ("gradebook.csv", "gradebook.json"):
         assert (tmp_path / "dask" / name).read_text() == (folder / "out" / name).read_text()
 
