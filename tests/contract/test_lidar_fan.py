@@ -10,34 +10,21 @@ where the install has a C compiler) they fail.
 from __future__ import annotations
 
 import math
-import os
 import random
 
 import pymunk
 import pytest
-from random_worlds import FOOTPRINT, random_world
+from random_worlds import FOOTPRINT, kernel_built, random_world
 
 from labsim.backends.pymunk import lidar_fan
 from labsim.backends.pymunk.lidar_fan import LidarFan
-
-HOW = ("the C kernel backends/pymunk/_fan.c was not built: `pip install .` builds it where a C compiler is "
-       "(an editable checkout: `pip install -e .`, or `python -c \"from setuptools import setup; setup()\" "
-       "build_ext --inplace` in the repository)")
-
-
-def _kernel_built() -> None:
-    """Skip a test of the kernel where it was not built; under CI, fail it."""
-    if lidar_fan.KERNEL != "c":
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail(HOW)
-        pytest.skip(HOW)
 
 
 @pytest.fixture(params=[True, False], ids=["C kernel", "numpy"])
 def compiled(request: pytest.FixtureRequest) -> bool:
     """Which fan a test casts with: the C kernel (where built) and numpy's."""
     if request.param:
-        _kernel_built()
+        kernel_built(lidar_fan.KERNEL)
     return bool(request.param)
 
 
@@ -78,7 +65,7 @@ def test_the_fan_reads_what_chipmunk_casts_read_on_random_worlds(compiled: bool)
 
 
 def test_the_kernel_reads_what_the_numpy_fan_reads_on_random_worlds() -> None:
-    _kernel_built()
+    kernel_built(lidar_fan.KERNEL)
     differences = [d for seed in range(60) for d in _differences(seed, True, against_numpy=True)]
     assert len(differences) > 30_000
     assert max(differences) <= 1e-12, sorted(differences)[-5:]

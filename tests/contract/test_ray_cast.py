@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import gc
 import math
-import os
 import random
 from pathlib import Path
 from typing import cast
@@ -21,7 +20,7 @@ from typing import cast
 import pymunk
 import pytest
 from helpers import BEHAVIOURS
-from random_worlds import random_world
+from random_worlds import kernel_built, random_world
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import RobotRequest
@@ -32,24 +31,12 @@ from labsim.backends.scene.models import PIONEER_P3DX, Lidar
 from labsim.backends.scene.world import Pose, Wall, World
 from labsim.runtime.run import compile_behaviour
 
-HOW = ("the C kernel backends/pymunk/_fan.c was not built: `pip install .` builds it where a C compiler is "
-       "(an editable checkout: `pip install -e .`, or `python -c \"from setuptools import setup; setup()\" "
-       "build_ext --inplace` in the repository)")
-
-
-def _kernel_built() -> None:
-    """Skip a test of the kernel where it was not built; under CI, fail it."""
-    if ray_cast.KERNEL != "c":
-        if os.environ.get("CI", "").lower() == "true":
-            pytest.fail(HOW)
-        pytest.skip(HOW)
-
 
 @pytest.fixture(params=[True, False], ids=["C kernel", "Python rays"])
 def compiled(request: pytest.FixtureRequest) -> bool:
     """Which caster a test casts with: the C kernel (where built) and the Python rays."""
     if request.param:
-        _kernel_built()
+        kernel_built(ray_cast.KERNEL)
     return bool(request.param)
 
 
@@ -129,7 +116,7 @@ def test_the_caster_reads_what_chipmunks_casts_read_bit_for_bit(compiled: bool) 
 
 
 def test_the_kernel_reads_what_the_python_rays_read() -> None:
-    _kernel_built()
+    kernel_built(ray_cast.KERNEL)
     for seed in range(150, 250):
         got, by_python, _ = _readings(seed, True)
         assert got == by_python, seed
@@ -172,7 +159,7 @@ def test_a_cast_keeps_its_space_alive(compiled: bool) -> None:
 def test_the_wall_lab_runs_the_same_with_either_caster(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two simulated minutes of the wall lab (its sonar cones, contacts and all): the trace is
     byte for byte the same with the C kernel and with the Python rays."""
-    _kernel_built()
+    kernel_built(ray_cast.KERNEL)
     traces = []
     for name, kernel in (("c", ray_cast._kernel), ("python", None)):
         monkeypatch.setattr(ray_cast, "_kernel", kernel)
@@ -241,7 +228,7 @@ def test_a_lidar_with_another_filter_than_its_robots_rays_is_refused(compiled: b
 
 
 def test_the_kernel_casts_a_lidar_as_the_python_rays_and_numpy_do() -> None:
-    _kernel_built()
+    kernel_built(ray_cast.KERNEL)
     for seed in range(60, 90):
         by_kernel, by_python = _mixed(seed, True), _mixed(seed, False)
         assert by_kernel[1] == by_python[1], seed  # the sonars and IR rays: bit for bit
@@ -274,7 +261,7 @@ def _two_pioneers() -> tuple[list[list[list[object]]], tuple[str, ...]]:
 def test_sense_casts_a_robots_sonars_and_lidar_in_one_call_a_tick(monkeypatch: pytest.MonkeyPatch) -> None:
     """One call of the kernel per robot and tick, the lidar's beams in it; the rows are the
     Python rays' and numpy fan's: the sonars and the rest bit for bit, the beams to 1e-12 m."""
-    _kernel_built()
+    kernel_built(ray_cast.KERNEL)
     calls = []
     kernel = ray_cast._kernel
     assert kernel is not None
