@@ -414,16 +414,27 @@ def write_error(path: str | Path, e: OSError) -> LabsimError:
     return _error(path, f"cannot write {Path(path).name}: {os_words(e)}")
 
 
-def write_output(path: str | Path, data: bytes | str, inputs: Iterable[str | Path] = (), option: str = "") -> None:
-    """Write a whole file the one way out: checked, written beside it, renamed into place."""
-    check_output(path, inputs, option)
+@contextlib.contextmanager
+def written(path: str | Path) -> Iterator[BinaryIO]:
+    """The file a block writes, beside ``path``, renamed into place when the block ends; removed
+    when it raises (an OSError as ``write_error``'s words), so no half file is ever left."""
     out = Output(path)
     try:
-        out.file.write(data.encode("utf-8") if isinstance(data, str) else data)
+        yield out.file
     except OSError as e:
         out.discard()
         raise write_error(path, e) from None
+    except BaseException:
+        out.discard()
+        raise
     out.commit()
+
+
+def write_output(path: str | Path, data: bytes | str, inputs: Iterable[str | Path] = (), option: str = "") -> None:
+    """Write a whole file the one way out: checked, written beside it, renamed into place."""
+    check_output(path, inputs, option)
+    with written(path) as f:
+        f.write(data.encode("utf-8") if isinstance(data, str) else data)
 
 
 def write_new(path: str | Path, data: bytes) -> None:
@@ -449,13 +460,5 @@ def write_new(path: str | Path, data: bytes) -> None:
 
 def save_figure(fig: Any, path: Path, **options: Any) -> None:
     """A matplotlib figure the one way out: drawn into the file beside the target, then renamed."""
-    out = Output(path)
-    try:
-        fig.savefig(out.file, format=path.suffix.lstrip(".").lower() or "png", **options)
-    except OSError as e:
-        out.discard()
-        raise write_error(path, e) from None
-    except BaseException:
-        out.discard()
-        raise
-    out.commit()
+    with written(path) as f:
+        fig.savefig(f, format=path.suffix.lstrip(".").lower() or "png", **options)

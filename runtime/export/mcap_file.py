@@ -33,7 +33,7 @@ from mcap.writer import CompressionType, Writer
 
 from labsim.backends.scene.world import World
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
-from labsim.foundation.files import Output, check_output, write_error
+from labsim.foundation.files import check_output, written
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 
 PROFILE = ""  # no ROS profile: plain JSON channels
@@ -99,16 +99,8 @@ def export_trace(trace_path: str | Path, out: str | Path) -> Exported:
         if column not in trace.columns:
             raise LabsimError([Diagnostic(str(trace_path), f"the trace has no '{column}' column")])
     world, note = trace_world(trace)
-    target = Output(out)
-    try:
-        exported = write_mcap(trace, world, target.file)
-    except OSError as e:
-        target.discard()
-        raise write_error(out, e) from None
-    except BaseException:
-        target.discard()
-        raise
-    target.commit()
+    with written(out) as f:
+        exported = write_mcap(trace, world, f)
     return Exported(exported.robots, exported.ticks, exported.messages, note, trace.cut_short())
 
 
