@@ -128,6 +128,7 @@ function onScene(scene) {
   buildParams(scene);
   buildTable(scene);
   $("breaks-panel").hidden = scene.mode !== "live";
+  breakHint(scene);
   state.breaksShown = null;
   chart.reset(scene.columns, scene.robots.length);
   listEvents([], 0, true);  // a new run: its own events
@@ -588,6 +589,12 @@ $("save").addEventListener("click", () => {
 
 // -- breakpoints: the list (each with its remove button) and the one the run paused on ----------
 const BREAK_HINT = { when: "sonar5 < 0.3", state: "any, or a state's name", rule: "a rule's id", time: "12.5" };
+function breakHint(scene) {  // a condition on a value this run has: its first numeric sensor, else signal
+  const c = scene.columns.find((q) => q.group === "sensor" && q.numeric !== false)
+    || scene.columns.find((q) => q.group === "signal" && q.numeric !== false);
+  BREAK_HINT.when = c ? `${c.name} < 0.3` : "time > 10";
+  $("break-text").placeholder = BREAK_HINT[$("break-kind").value];
+}
 $("break-kind").addEventListener("change", () => { $("break-text").placeholder = BREAK_HINT[$("break-kind").value]; });
 $("break-form").addEventListener("submit", (e) => {
   e.preventDefault();
