@@ -34,7 +34,15 @@ from labsim.foundation.numbers import TOO_LARGE, WHOLE_LIMIT, NumberError, to_fl
 from labsim.foundation.source import Document, Reader, Text, scalar_value, shape_of
 
 FORMAT_VERSION = 1
-VERSIONS = (1, 1.1, 1.2)  # docs/language.md; a file's version keeps its meaning
+VERSIONS = (1, 1.1, 1.2, 1.3)  # docs/language.md; a file's version keeps its meaning
+
+
+
+def later_format(what: str, version: float) -> str:
+    """The error for a construct a later format brings, e.g. ``"'label_name' is format 1.2: start the file
+    with 'labsim: 1.2'"``: a file's version keeps its meaning, so what it did not have is refused, not guessed."""
+    return f"{what} is format {version:g}: start the file with 'labsim: {version:g}'"
+
 
 TOP_KEYS = ("labsim", "name", "description", "world", "dt", "seed", "stop", "robots", "params",
             "functions", "let", "rules", "metrics", "sliders", "bind", "timeline")
@@ -148,7 +156,7 @@ class Event:
 class BehaviourFile:
     doc: Document
     sha256: str
-    version: float = FORMAT_VERSION  # 1, 1.1 or 1.2
+    version: float = FORMAT_VERSION  # 1, 1.1, 1.2 or 1.3
     name: str = ""
     description: str = ""
     world: str = ""
@@ -241,7 +249,7 @@ class _Reader(Reader):
         if "labsim" in keys:
             v = self.number(keys["labsim"], "labsim")
             if v is not None and v not in VERSIONS:
-                self.error(keys["labsim"], f"this labsim reads format versions 1, 1.1 and 1.2, not {v:g}")
+                self.error(keys["labsim"], f"this labsim reads format versions 1, 1.1, 1.2 and 1.3, not {v:g}")
             elif v is not None:
                 bf.version = v
         bf.name = (self.string(keys["name"], "name") or "") if "name" in keys else self.doc.path
@@ -635,7 +643,7 @@ class _Reader(Reader):
         if node is None:
             return None
         if version < 1.2:
-            self.error(node, "'label_name' is format 1.2: start the file with 'labsim: 1.2'")
+            self.error(node, later_format("'label_name'", 1.2))
         elif "label" not in fields:
             self.error(node, "'label_name' says where the slider's label goes: give the slider a 'label:'")
         elif not isinstance(node, ScalarNode) or not str(node.value).isidentifier() or not str(node.value).isascii():

@@ -125,8 +125,8 @@ def behaviour_schema() -> Schema:
     """The JSON Schema of a behaviour file."""
     rules = {"type": "array", "minItems": 1, "items": {"type": "string"}}
     return document("labsim behaviour file", mapping(TOP_KEYS, {
-        "labsim": {"enum": [1, 1.1, 1.2], "description": "the file format version: 'labsim: 1.2' for a new file; "
-                                                         "1 and 1.1 files keep their meaning"},
+        "labsim": {"enum": [1, 1.1, 1.2, 1.3], "description": "the file format version: 'labsim: 1.3' for a new file; "
+                                                              "1, 1.1 and 1.2 files keep their meaning"},
         "name": text("the lab's name, shown in summaries"),
         "description": text("what the behaviour does"),
         "world": text("a built-in world (labsim worlds) or the path of a world file"),
