@@ -173,7 +173,7 @@ class Run:
         for start in p.starts:
             group = p.robots[start.group]
             program = p.robot(start.name, random.Random(f"{p.seed}/{start.name}"), self.faults, group.model,
-                              group, start.index, keep_images)
+                              group, start.index, keep_images, start.pose)
             robots.append(RobotRun(len(robots), start.name, group.model, program,
                                    group.model.max_wheel_speed_rad_s, start=start.pose,
                                    sent_joints=[math.nan] * len(p.targets), paths=group.paths,

@@ -36,16 +36,26 @@ from labsim.dsl.library.builtins import (
     JOINT_ACTIONS,
     KEYWORDS,
     PRINTS,
+    READ_BACK,
     SHADOWABLE,
     TRACE_COLUMNS,
     VARIABLES,
+    WHEELS,
     Aggregate,
     Better,
     Type,
 )
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.noise import Noise, resolve_noise
-from labsim.dsl.syntax.read import BehaviourFile, BindDecl, FunctionDecl, Parsed, RuleDecl, SliderDecl
+from labsim.dsl.syntax.read import (
+    BehaviourFile,
+    BindDecl,
+    FunctionDecl,
+    Parsed,
+    RuleDecl,
+    SliderDecl,
+    later_format,
+)
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import TOO_LARGE, NumberError, to_float
 from labsim.foundation.source import Place, Text
@@ -146,6 +156,7 @@ class _Checker(ExprChecker):
             self.declare(name, t, "built-in variable" if name not in SHADOWABLE else _SHADOWABLE_KIND)
         for name in CONSTANTS:
             self.declare(name, Type.NUMBER, "constant")
+        self.read_back(models, world)
         for name, (_, key) in bf.states.items():
             if key is not None and self.reserved(name, key, "state"):
                 continue
@@ -189,6 +200,23 @@ class _Checker(ExprChecker):
             (name if count == 1 else f"{name}[{k}]", {**self.constants, **params, **{
                 p: values[min(k, len(values) - 1)] for p, values in robot_params.get(name, ())}})
             for name, count in counts.items() for k in range(count)]
+
+    def read_back(self, models: dict[str, RobotModel], world: World | None) -> None:
+        """Format 1.3: ``wheel_left``, ``wheel_right`` and the start pose, where every robot has wheels;
+        else each is unknown with the reason, said where it is read."""
+        version = self.bf.version
+        wheelless = [m.name for m in models.values() if m.wheel_radius_m <= 0 or m.max_wheel_speed_rad_s <= 0]
+        for name, t in READ_BACK.items():
+            what = "a robot's wheel command" if name in WHEELS else "a robot's start pose"
+            if version < 1.3:
+                self.unavailable[name] = later_format(f"'{name}'", 1.3)
+            elif wheelless:
+                self.unavailable[name] = f"'{name}' reads {what}, and robot model '{wheelless[0]}' has no wheels"
+            elif not models:
+                where = f"world '{world.name}' is a mechanism" if world is not None else "this file has no robots"
+                self.unavailable[name] = f"'{name}' reads {what}, and {where}: there is no robot with wheels"
+            else:
+                self.declare(name, t, _SHADOWABLE_KIND)
 
     def robots_failed(self, world: World | None, mechanism: Mechanism | None) -> bool:
         """Whether a robot was reported as wrong (an unknown model, no model, a mistyped or missing

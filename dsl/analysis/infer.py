@@ -84,6 +84,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
+        self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -246,6 +247,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        notes=("to use it here, compute it as a signal under 'let:' (e.g. 'held(...)' for a "
                               "duration, 'counter(...)' for a count, 'total(...)' for a sum; docs/language.md, "
                               "Time and memory)",))
+            return None
+        if e.id in self.unavailable:
+            self.error(text.at(e.span), self.unavailable[e.id])
             return None
         hint = did_you_mean(e.id, self.types)
         notes = unknown_name_notes(e.id, self.types, self.distance)

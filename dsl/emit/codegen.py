@@ -53,6 +53,7 @@ from labsim.dsl.library.builtins import (
     FUNCTIONS,
     JOINT_ACTIONS,
     STATE_CLOCK,
+    WHEELS,
     Aggregate,
     Type,
 )
@@ -146,7 +147,7 @@ class _Generator(Unroller):
         # both() have them as their argument ``values``, decide() reads them from the slots
         channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n)) | {VALUES}
         computed = {self.slot_of[name] for name, _ in c.lets}
-        computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
+        computed |= {self.slot_of[name] for name in (*STATE_CLOCK, *WHEELS) if name in self.slot_of}
         signals, stop_note, stop = self.signals()
         rules, metrics = self.decide()
         metric_reads = frozenset().union(*(m.reads for m in metrics))
@@ -206,7 +207,7 @@ class _Generator(Unroller):
     def params(self) -> list[str]:
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
-                "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
+                "_radius", "_half_axle", "_limit", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
@@ -223,6 +224,7 @@ class _Generator(Unroller):
             with w.indent():
                 w.line(" = ".join([*(f"s[{k}]" for k in self.image_kept), "None"]))
         self.state_clock(w)
+        self.wheels(w)
         for j, (name, parsed) in enumerate(c.lets):
             slot = self.slot_of[name]
             if name in c.group_sizes:
@@ -280,6 +282,16 @@ class _Generator(Unroller):
         if "entered" in self.slot_of:
             k = self.slot_of["entered"]
             w.line(f"s[{k}] = v{k} = v{TICK} == _st[1]")
+
+    def wheels(self, w: Writer) -> None:
+        """``wheel_left`` and ``wheel_right``, when read (format 1.3): last tick's commands as the wheels
+        were sent them (labsim.runtime.run.send): clamped to the model's limit, nan as 0; 0 on the first tick."""
+        for k, name in enumerate(WHEELS):
+            if name in self.slot_of:
+                slot = self.slot_of[name]
+                w.line(f"_c = cmd[{k}]")
+                w.line(f"s[{slot}] = v{slot} = _c if -_limit <= _c <= _limit else "
+                       "(_limit if _c > 0 else -_limit) if _c == _c else 0.0")
 
     def decide(self) -> tuple[Body, list[Body]]:
         """The bindings and the rules, which set ``rule``; each metric's folding of the tick."""

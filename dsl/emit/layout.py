@@ -14,7 +14,7 @@ from types import MappingProxyType
 
 from labsim.dsl.analysis.check import Checked
 from labsim.dsl.emit.program import LabelPart, SharedLabel
-from labsim.dsl.library.builtins import JOINT_ACTIONS, STATE_CLOCK
+from labsim.dsl.library.builtins import JOINT_ACTIONS, READ_BACK, STATE_CLOCK
 from labsim.dsl.library.support import FIRST_CHANNEL, STATE, TICK, TIME
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import Parsed
@@ -89,7 +89,7 @@ def layout(c: Checked) -> Layout:
                 members[name] = tuple(range(count, count + c.group_sizes[name]))
                 count += c.group_sizes[name]
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
-    for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
+    for name in (*STATE_CLOCK, "index", *READ_BACK, *sorted(per_robot)):
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1

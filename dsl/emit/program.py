@@ -22,7 +22,7 @@ from types import CodeType
 from typing import Any, cast
 
 from labsim.backends.scene.models import Kind, RobotModel
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import Pose, World, wrap
 from labsim.dsl.analysis.placement import Start
 from labsim.dsl.library.builtins import Aggregate, Better, Type
 from labsim.dsl.library.support import (
@@ -212,11 +212,13 @@ class Program:
         return "".join(p if isinstance(p, str) else show_field(values[p[0]], p[1]) for p in self.logs[site][1])
 
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
-              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False) -> RobotProgram:
+              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False,
+              start: Pose | None = None) -> RobotProgram:
         """Bind the generated functions to one robot's slots, generator, model and fault sink.
 
         ``index`` is the robot's place in its ``group``, whose own parameter values it takes;
-        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them).
+        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them);
+        ``start`` is where the robot starts, which ``start_x``, ``start_y`` and ``start_heading`` read.
         """
         code = self.code
         slots = Slots([0.0] * self.slot_count)
@@ -225,6 +227,9 @@ class Program:
             slots[slot] = self.params[param]  # every robot starts from the file's (or --set's) value
         if "index" in self.slot_of:
             slots[self.slot_of["index"]] = float(index)
+        for name, value in start_values(start).items():
+            if name in self.slot_of:
+                slots[self.slot_of[name]] = value
         for param, values in group.params if group is not None else ():
             if param in self.robot_slots:
                 slots[self.robot_slots[param]] = values[index]
@@ -291,6 +296,14 @@ class Program:
                     text.append(part)
             out[slider] = "".join(text)
         return out
+
+
+def start_values(start: Pose | None) -> dict[str, float]:
+    """``start_x``, ``start_y`` and ``start_heading`` of a start pose: metres, and radians as ``heading``
+    reads them, in (-pi, pi] (``at: [0, 0, 270]`` starts at -pi/2); 0 without one."""
+    if start is None:
+        return {"start_x": 0.0, "start_y": 0.0, "start_heading": 0.0}
+    return {"start_x": float(start.x_m), "start_y": float(start.y_m), "start_heading": wrap(start.heading_rad)}
 
 
 def show_in_tracebacks(code: Code) -> None:

@@ -352,7 +352,8 @@ SEQUENCE_FUNCTIONS: dict[str, Callable[..., float]] = {
 # signals, states or sliders, which then hide them (calls are told apart by their parentheses).
 SHADOWABLE = frozenset({"prev", "rising", "falling", "hold", "rate", "held", "remember",
                         "state_time", "entered", "index",
-                        "counter", "total", "sum", "argmin", "argmax", "any", "all"})
+                        "counter", "total", "sum", "argmin", "argmax", "any", "all",
+                        "start_x", "start_y", "start_heading", "len"})
 
 # Functions whose result depends on earlier ticks: each call site keeps state per robot.
 STATEFUL = frozenset(f.name for f in FUNCTIONS.values() if f.stateful)
@@ -426,6 +427,10 @@ VARIABLES: dict[str, Type] = {"time": N, "tick": N, "dt": N, "state": Type.STATE
                               "state_time": N, "entered": B, "index": N}
 # Variables computed per tick only by behaviours that read them (codegen gives them slots).
 STATE_CLOCK = ("state_time", "entered")
+# Format 1.3: a robot's own commands read back, and where it started (per-robot slots, only when read):
+# last tick's wheel commands as sent (rad/s, clamped to the model's limit), the start pose (m, m, rad)
+WHEELS = ("wheel_left", "wheel_right")
+READ_BACK: dict[str, Type] = {"wheel_left": N, "wheel_right": N, "start_x": N, "start_y": N, "start_heading": N}
 
 # Names the trace uses for its own columns: no signal may take them.
 TRACE_COLUMNS = frozenset({"tick", "time", "robot", "x", "y", "heading", "collided", "state", "rule",

@@ -123,6 +123,7 @@ def namespace(rng: random.Random, model: RobotModel | None, functions: tuple[str
     # drive(v, w) turns m/s and rad/s into wheel rad/s with the robot's own geometry
     ns["_radius"] = model.wheel_radius_m if model else 1.0
     ns["_half_axle"] = model.axle_length_m / 2 if model else 0.5
+    ns["_limit"] = model.max_wheel_speed_rad_s if model else INF  # wheel_left/wheel_right read back as sent
     return ns
 
 
