@@ -124,6 +124,7 @@ class _Checker(ExprChecker):
         super().__init__(bf.doc, report)
         self.bf = bf
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
+        self.grader_wheels = False  # a grader's measured metric may read the wheels (read_back)
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""
@@ -212,11 +213,15 @@ class _Checker(ExprChecker):
                 self.unavailable[name] = later_format(f"'{name}'", 1.3)
             elif wheelless:
                 self.unavailable[name] = f"'{name}' reads {what}, and robot model '{wheelless[0]}' has no wheels"
+            elif not models and world is not None and world.mechanism is not None:
+                self.unavailable[name] = (f"'{name}' reads {what}, and world '{world.name}' is a mechanism: there is "
+                                          "no robot with wheels")
             elif not models:
-                where = f"world '{world.name}' is a mechanism" if world is not None else "this file has no robots"
-                self.unavailable[name] = f"'{name}' reads {what}, and {where}: there is no robot with wheels"
+                self.poisoned.add(name)  # the robots are reported as wrong, or the world: nothing more to say
             else:
                 self.declare(name, t, _SHADOWABLE_KIND)
+        self.grader_wheels = bool(models) and not wheelless and version < 1.3  # measured metrics read them
+
 
     def robots_failed(self, world: World | None, mechanism: Mechanism | None) -> bool:
         """Whether a robot was reported as wrong (an unknown model, no model, a mistyped or missing
@@ -353,10 +358,10 @@ class _Checker(ExprChecker):
             return
         xmin, ymin, xmax, ymax = world.bounds
         for r in self.bf.robots:
-            if isinstance(r.at, tuple) and not (xmin <= r.at[0] <= xmax and ymin <= r.at[1] <= ymax):
-                self.error(r.at_node if r.at_node is not None else r.key,
-                           f"({r.at[0]:g}, {r.at[1]:g}) is outside world '{world.name}' "
-                           f"({xmin:g}..{xmax:g} x {ymin:g}..{ymax:g})")
+            for (x, y, _), node in r.fixed():
+                if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                    self.error(node, f"({x:g}, {y:g}) is outside world '{world.name}' "
+                               f"({xmin:g}..{xmax:g} x {ymin:g}..{ymax:g})")
         needed = 0
         for r in self.bf.robots:
             if r.at == "spawn":
@@ -616,6 +621,9 @@ class _Checker(ExprChecker):
                 continue
             what = "a condition" if agg.argument is Type.BOOL else "a number"
             argument = e.args[0]
+            if decl.grader and self.grader_wheels:  # a grader's metric reads the wheels in a file of any format
+                for wheel in WHEELS:
+                    self.declare(wheel, Type.NUMBER, _SHADOWABLE_KIND)
             if self.expect(Parsed(argument, parsed.text), argument, agg.argument,
                            f"{e.func}() needs {what}: its argument"):
                 better = decl.better if decl.better is not None else agg.better

@@ -32,7 +32,11 @@ def check_crowd(c: Checked, starts: tuple[Start, ...], report: Report) -> None:
             continue
         assert not isinstance(decl.at, str)
         where = decl.at_node if decl.at_node is not None else decl.key
-        x, y, _ = decl.at
+        if isinstance(decl.at[0], tuple):  # format 1.3: a pose per member
+            placed += [(x, y, reach, s.name) for ((x, y, _), _), s in zip(decl.fixed(), (s for s in starts
+                                                                                      if s.group == g))]
+            continue
+        x, y, _ = decl.fixed()[0][0]
         if decl.count > 1:
             report.add(c.file.doc.diagnostic(
                 where, f"the {decl.count} robots of '{decl.name}' would all start at ({x:g}, {y:g}), "
@@ -43,6 +47,8 @@ def check_crowd(c: Checked, starts: tuple[Start, ...], report: Report) -> None:
     for (x, y, reach, name), (ox, oy, other_reach, other) in _overlaps(placed):
         decl = next(d for d in c.file.robots if d.name == name.partition("[")[0])
         where = decl.at_node if decl.at_node is not None else decl.key
+        if not isinstance(decl.at, str) and isinstance(decl.at[0], tuple):  # the member's own pose
+            where = decl.fixed()[int(name.partition("[")[2].rstrip("]") or 0)][1]
         report.add(c.file.doc.diagnostic(
             where, f"robot '{name}' would start {math.hypot(x - ox, y - oy):.2f} m from robot '{other}', "
                    f"overlapping it (they reach {reach:.2f} m and {other_reach:.2f} m from their centres)",

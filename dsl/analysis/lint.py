@@ -259,13 +259,13 @@ class Linter:
             return
         for decl in self.c.file.robots:
             model = self.c.models.get(decl.name)
-            if isinstance(decl.at, str) or model is None:
+            if model is None:
                 continue
             reach = max((math.hypot(x, y) for x, y in model.footprint), default=0.0)
-            x, y, _ = decl.at
-            clearance = world.clearance(x, y)
-            if clearance < reach:
-                where = decl.at_node if decl.at_node is not None else decl.key
+            for (x, y, _), where in decl.fixed():
+                clearance = world.clearance(x, y)
+                if clearance >= reach:
+                    continue
                 what = ("is inside a wall" if clearance <= 0 else
                         f"overlaps a wall: the nearest is {clearance:.2f} m from its centre, and the robot "
                         f"reaches {reach:.2f} m")

@@ -54,8 +54,9 @@ def place(c: Checked, seed: int) -> tuple[tuple[Start, ...], Diagnostic | None]:
             elif decl.at == "random":
                 pose = world.free_pose(rng, [s.pose for s in starts], PLACEMENT_CLEARANCE_M)
             else:
-                assert not isinstance(decl.at, str)
-                pose = Pose(decl.at[0], decl.at[1], math.radians(decl.at[2]))
+                fixed = decl.start(k)
+                assert fixed is not None
+                pose = Pose(fixed[0], fixed[1], math.radians(fixed[2]))
             if pose is None:
                 return tuple(starts), c.file.doc.diagnostic(
                     decl.key, f"no free place left in world '{world.name}' for robot '{name}' "

@@ -89,7 +89,9 @@ def layout(c: Checked) -> Layout:
                 members[name] = tuple(range(count, count + c.group_sizes[name]))
                 count += c.group_sizes[name]
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
-    for name in (*STATE_CLOCK, "index", *READ_BACK, *sorted(per_robot)):
+    # a file's own name hides a read-back one (a parameter or a state is folded, a signal has its slot)
+    read_back = [name for name in READ_BACK if name not in c.params and name not in c.states]
+    for name in (*STATE_CLOCK, "index", *read_back, *sorted(per_robot)):
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1

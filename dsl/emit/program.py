@@ -98,7 +98,8 @@ class RobotGroup:
     name: str
     model: RobotModel
     count: int
-    at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
+    # "spawn", "random", (x_m, y_m, heading_deg), or (format 1.3) one such pose per member
+    at: str | tuple[float, float, float] | tuple[tuple[float, float, float], ...]
     paths: tuple[tuple[str, str], ...] = ()  # scene object names for a simulator (CoppeliaSim)
     params: tuple[tuple[str, tuple[float | bool, ...]], ...] = ()  # the group's own values, one per member
     noise: Noise | None = None  # what the runtime adds to its readings and commands (labsim.runtime.noise)

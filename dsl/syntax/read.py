@@ -68,12 +68,16 @@ class Parsed:
     text: Text
 
 
+Pose = tuple[float, float, float]  # x_m, y_m, heading_deg as a file writes it
+
+
 @dataclass(frozen=True)
 class RobotDecl:
     name: str
     model: str
     count: int
-    at: str | tuple[float, float, float]  # "spawn", "random" or (x_m, y_m, heading_deg)
+    # "spawn", "random", (x_m, y_m, heading_deg), or (format 1.3) a tuple of such poses, one per member
+    at: str | Pose | tuple[Pose, ...]
     key: Node  # for diagnostics
     model_node: Node | None
     camera: Camera | None = None
@@ -83,6 +87,24 @@ class RobotDecl:
     params: tuple[tuple[str, tuple[float | bool, ...], Node], ...] = ()
     noise: NoiseDecl | None = None  # labsim.dsl.syntax.noise, resolved by the checker; None: none declared
     lidar: Lidar | None = None  # labsim.dsl.syntax.lidar; the checker puts it on the group's model
+
+    def fixed(self) -> list[tuple[Pose, Node]]:
+        """The fixed start poses a group's ``at:`` gives, each with where it is written: one pose (for
+        every member), or one per member; none for 'spawn' and 'random'."""
+        at, node = self.at, self.at_node if self.at_node is not None else self.key
+        if isinstance(at, str):
+            return []
+        if isinstance(at[0], tuple):
+            assert isinstance(node, SequenceNode)
+            return [(pose, item) for pose, item in zip(at, node.value)]  # type: ignore[misc]
+        return [(at, node)]  # type: ignore[list-item]
+
+    def start(self, k: int) -> Pose | None:
+        """Member k's fixed start pose; None for 'spawn' and 'random'."""
+        if isinstance(self.at, str):
+            return None
+        pose = self.at[k] if isinstance(self.at[0], tuple) else self.at
+        return pose  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)
@@ -104,6 +126,7 @@ class MetricDecl:
     value: Parsed
     key: Node
     better: Better | None = None  # None: not declared (the checker takes the aggregate's default)
+    grader: bool = False  # a grader's measured metric (labsim grade): it reads the wheels in a file of any format
 
 
 @dataclass(frozen=True)
@@ -378,7 +401,7 @@ class _Reader(Reader):
                     self.error(fields["count"], f"count must be between 1 and 100, not {c:g}")
                 elif c is not None:
                     count = int(c)
-            at = self.placement(fields.get("at"))
+            at = self.placement(fields.get("at"), name, count, version)
             camera = self.camera(fields["camera"]) if "camera" in fields else None
             if "camera" in fields and camera is None:
                 self.failed_names.add("camera")
@@ -483,7 +506,35 @@ class _Reader(Reader):
             return None
         return (int(width), int(height))
 
-    def placement(self, node: Node | None) -> str | tuple[float, float, float] | None:
+    def placement(self, node: Node | None, robot: str = "", count: int = 1, version: float = FORMAT_VERSION
+                  ) -> str | Pose | tuple[Pose, ...] | None:
+        if isinstance(node, SequenceNode) and node.value and isinstance(node.value[0], SequenceNode):
+            return self.poses(node, robot, count, version)
+        return self.one_placement(node)
+
+    def poses(self, node: SequenceNode, robot: str, count: int, version: float) -> tuple[Pose, ...] | None:
+        """``at: [[x, y, heading_deg], ...]`` (format 1.3): one pose per member of the group."""
+        if version < 1.3:
+            self.error(node, later_format("a list of start poses, one per robot,", 1.3))
+            return None
+        many = "s" if count != 1 else ""
+        if len(node.value) != count:
+            self.error(node, f"robot '{robot}' has {count} member{many}, so 'at' needs {count} pose{many}, one each, "
+                             f"not {len(node.value)}",
+                       notes=(f"give one [x, y, heading_deg] per robot, or set 'count: {len(node.value)}'",))
+            return None
+        out: list[Pose] = []
+        for item in node.value:
+            if not isinstance(item, SequenceNode):
+                self.error(item, "each start pose of a list is [x, y] or [x, y, heading_deg]",
+                           notes=("e.g. at: [[-3, -3, 0], [0, -3, 90], [3, -3, 180]]",))
+                continue
+            pose = self.one_placement(item)
+            if isinstance(pose, tuple):
+                out.append(pose)
+        return tuple(out) if len(out) == count else None
+
+    def one_placement(self, node: Node | None) -> str | Pose | None:
         if node is None:
             return "spawn"
         if isinstance(node, ScalarNode):

@@ -300,9 +300,10 @@ class _AssignmentReader(Reader):
                 self.error(TextSpan(text, *span), f"measured metric '{name}' reads {what}; a measured metric reads "
                                                   "only what the student's file cannot write",
                            notes=("it may read the sensors, the pose (x, y, heading), collided, forward_speed, "
-                                  "time, tick, dt and the grader's params",))
+                                  "the wheel commands (wheel_left, wheel_right), time, tick, dt and the grader's "
+                                  "params",))
             if not bad:
-                out.append(MetricDecl(name, Parsed(tree, text), key, better))
+                out.append(MetricDecl(name, Parsed(tree, text), key, better, grader=True))
                 self._aggregates[name] = tree.func
         return tuple(out)
 

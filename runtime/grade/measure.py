@@ -2,8 +2,8 @@
 
 An assignment's ``measure:`` section (runtime/grade/assignment.py) defines metrics in the
 behaviour language's metric syntax, read and checked against what a student's file can write
-(a measured metric reads only sensors, the pose, ``collided``, ``forward_speed``, time and the
-grader's params). ``prepare_graded`` reads a student's file as ``labsim.dsl.compile.prepare``
+(a measured metric reads only sensors, the pose, ``collided``, ``forward_speed``, the wheel
+commands, time and the grader's params). ``prepare_graded`` reads a student's file as ``labsim.dsl.compile.prepare``
 does and adds the measured metrics to it under names no file can write (``MEASURED_SUFFIX``),
 so they are folded on every tick of the student's own run, from the same readings, at no
 cost of a second run; and a distance metric for the built-in ``moved`` criterion. The

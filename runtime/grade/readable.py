@@ -1,8 +1,8 @@
 """What an assignment's measured metric may read, and what it may not.
 
-The robots' sensors and pose, ``collided``, ``forward_speed``, the world's channels, time, and
-the grader's params; never what a student's file writes (its signals, states, functions or
-metrics).
+The robots' sensors and pose, ``collided``, ``forward_speed``, the wheel commands as sent
+(``wheel_left``, ``wheel_right``), the world's channels, time, and the grader's params; never
+what a student's file writes (its signals, states, functions or metrics).
 
 ``labsim.runtime.grade.assignment`` checks each ``measure:`` formula with ``unreadable``, which
 walks the formula with the language's own traversal (``labsim.dsl.syntax.ast.children``).
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from labsim.backends.scene.ground import ROAD_CHANNELS
 from labsim.backends.scene.models import MODELS, Kind
-from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS
+from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIONS, WHEELS
 from labsim.dsl.syntax import ast as dsl_ast
 
 MEASURE_VARIABLES = ("time", "tick", "dt")
@@ -19,8 +19,8 @@ MEASURE_VARIABLES = ("time", "tick", "dt")
 
 def measurable_names() -> set[str]:
     """The names a measured metric may read: every robot model's sensors and pose, ``collided``
-    and ``forward_speed``, the world's channels, ``MEASURE_VARIABLES`` and the constants."""
-    names: set[str] = set(MEASURE_VARIABLES) | set(CONSTANTS) | set(ROAD_CHANNELS)
+    and ``forward_speed``, the wheel commands, the world's channels, ``MEASURE_VARIABLES`` and the constants."""
+    names: set[str] = set(MEASURE_VARIABLES) | set(CONSTANTS) | set(ROAD_CHANNELS) | set(WHEELS)
     for model in MODELS.values():
         names |= {n for n, kind in model.channels().items() if kind is not Kind.IMAGE}
     return names
