@@ -46,6 +46,7 @@ from labsim.dsl.library.builtins import (
     Type,
 )
 from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.lists import ListValue, is_table, list_setting
 from labsim.dsl.syntax.noise import Noise, resolve_noise
 from labsim.dsl.syntax.read import (
     BehaviourFile,
@@ -109,6 +110,8 @@ class Checked:
     self_prev: frozenset[int] = frozenset()
     functions: dict[str, FunctionDecl] = field(default_factory=dict)
     called: frozenset[str] = frozenset()
+    lists: dict[str, ListValue] = field(default_factory=dict)  # list parameters (format 1.3), after --set
+    lengths: dict[int, int] = field(default_factory=dict)  # id(call) of len(...) -> its value
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -125,6 +128,7 @@ class _Checker(ExprChecker):
         self.bf = bf
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
         self.grader_wheels = False  # a grader's measured metric may read the wheels (read_back)
+        self.version = bf.version
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""
@@ -188,14 +192,16 @@ class _Checker(ExprChecker):
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
-                       frozenset(self.self_prev), self.user_functions, frozenset(self.called))
+                       frozenset(self.self_prev), self.user_functions, frozenset(self.called), dict(self.lists),
+                       self.lengths)
 
     def known_values(self, params: dict[str, float | bool],
                      robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:
         """The values the code generator folds (parameters every robot shares, constants, dt), and
         each robot's with its own parameters: a group's place made of them is checked (infer.index)."""
         own = {name for pairs in robot_params.values() for name, _ in pairs}
-        self.constants = {**CONSTANTS, "dt": self.bf.dt_s, **{k: v for k, v in params.items() if k not in own}}
+        self.constants = {**CONSTANTS, "dt": self.bf.dt_s, **{k: v for k, v in params.items() if k not in own},
+                          **self.lists}
         counts = {r.name: r.count for r in self.bf.robots}
         self.robot_constants = [] if not own else [
             (name if count == 1 else f"{name}[{k}]", {**self.constants, **params, **{
@@ -412,8 +418,18 @@ class _Checker(ExprChecker):
                 continue
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
+        self.list_params()
         for name, raw in overrides.items():
             where = f"--set {name}={raw}"
+            if name in self.lists:
+                listed, problem, notes = list_setting(raw, name, self.lists[name])
+                if listed is None:
+                    self.setting_error(where, problem, notes)
+                else:
+                    self.lists[name] = listed
+                    if not is_table(listed):
+                        self.group_sizes[name] = len(listed)
+                continue
             if name not in values:
                 known = ", ".join(values) or "none"
                 self.setting_error(where, f"unknown parameter '{name}'{did_you_mean(name, values)}",
@@ -422,6 +438,22 @@ class _Checker(ExprChecker):
             values[name] = self.override(name, raw, values[name], where)
         return values
 
+    def list_params(self) -> None:
+        """Format 1.3: each list parameter, a group of numbers (``gains: [0.5, 1, 2]``) or a list of rows."""
+        for name, (value, node) in self.bf.lists.items():
+            key = self.key_of(node)
+            if self.reserved(name, key, "parameter"):
+                continue
+            if self.taken(name):
+                self.clash(key, "parameter", name)
+                continue
+            self.lists[name] = value
+            if is_table(value):
+                self.declare(name, Type.LIST, "list parameter")
+            else:
+                self.declare(name, Type.NUMBERS, "list parameter")
+                self.group_sizes[name] = len(value)
+
     def robot_params(self, params: dict[str, float | bool]
                      ) -> dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]:
         """Each robot group's own values of parameters 'params:' declares, of the same type."""
@@ -429,7 +461,11 @@ class _Checker(ExprChecker):
         for r in self.bf.robots:
             own = []
             for name, values, key in r.params:
-                if name not in params:
+                if name in self.lists:
+                    self.error(key, f"robot '{r.name}' sets list parameter '{name}': a list is the same for every "
+                               "robot", notes=(f"give each robot its own row of '{name}' and pick it with "
+                                               f"{name}[index]",))
+                elif name not in params:
                     known = ", ".join(params) or "none"
                     self.error(key, f"robot '{r.name}' sets parameter '{name}', which 'params:' does not declare"
                                f"{did_you_mean(name, params)}", notes=(f"parameters: {known}",))

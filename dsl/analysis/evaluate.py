@@ -68,6 +68,12 @@ class Members(tuple):
     __slots__ = ()
 
 
+class Rows(tuple):
+    """A list parameter of rows (format 1.3), each row a ``Members``: ``waypoints[i]`` is a row."""
+
+    __slots__ = ()
+
+
 Function = tuple[tuple[str, ...], ast.Expr]  # a function of the file's own: its parameters and body
 
 
@@ -127,6 +133,7 @@ class _Walker(ast.Visitor[Any]):
         self.constants = constants
         self.faults: list[Fault] = []
         self.env: dict[str, _Argument] = {}  # inside a function's body: its parameters
+        self.missing_rows: set[int] = set()  # id(waypoints[i]) with no row i: its fault is recorded once
         self.within: tuple[str, ...] = ()
 
     def fault(self, e: ast.Expr, what: str) -> None:
@@ -146,7 +153,28 @@ class _Walker(ast.Visitor[Any]):
             return max((self.size(c) for c in ast.children(e)), default=0)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), self.size)
-        return 0
+        rows = self.rows(e)
+        return len(rows[0]) if rows is not None else 0
+
+    def rows(self, e: ast.Expr) -> Rows | None:
+        """The list of rows ``e`` picks a row of (``waypoints[i]``), or None if it is not such a pick."""
+        if not isinstance(e, ast.Index) or not isinstance(e.value, ast.Name) or e.value.id in self.env:
+            return None
+        value = self.names.get(e.value.id)
+        return value if isinstance(value, Rows) else None
+
+    def row_member(self, e: ast.Index, rows: Rows, i: int) -> Any:
+        """Value i of the row ``waypoints[k]``: nan, and one fault for the row, when there is no row k."""
+        try:
+            k = fold(e.index, {k: v for k, v in self.constants.items() if k not in self.env})
+        except NotConstant:
+            k = self.visit(e.index)
+        if 0 <= k < len(rows) and k == int(k):
+            return _number(rows[int(k)][i])
+        if id(e) not in self.missing_rows:
+            self.missing_rows.add(id(e))
+            self.fault(e, f"no row at the place asked of a list of {len(rows)} rows (places count from 0)")
+        return NAN
 
     def inside(self, where: _Argument, f: Callable[[ast.Expr], Any]) -> Any:
         """f of an expression in its scope: an argument in its caller's, a body in its call's."""
@@ -191,6 +219,10 @@ class _Walker(ast.Visitor[Any]):
             return self.either(e, lambda v: self.spread(v, i))
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), lambda b: self.member(b, i))
+        rows = self.rows(e)
+        if rows is not None:
+            assert isinstance(e, ast.Index)
+            return self.row_member(e, rows, i)
         raise Unsupported(f"no members in {e!r}")
 
     # -- the nodes ---------------------------------------------------------------------------------
@@ -260,6 +292,8 @@ class _Walker(ast.Visitor[Any]):
     def visit_Index(self, e: ast.Index) -> Any:
         """A place that folds picks its member alone; any other is read after the members, and a
         place outside the group is nan (false among booleans) and a fault."""
+        if self.rows(e) is not None:
+            return self.members(e)
         n = self.size(e.value)
         try:
             k = fold(e.index, {k: v for k, v in self.constants.items() if k not in self.env})
@@ -279,6 +313,10 @@ class _Walker(ast.Visitor[Any]):
             return self.inside(self.call_of(e), self.visit)
         if e.func in REDUCTIONS and len(e.args) == 1 and self.size(e.args[0]):
             return self.reduce(e.func, e.args[0])
+        if e.func == "len" and e.func not in FUNCTIONS:  # a list's rows, a group's members (format 1.3)
+            arg = e.args[0]
+            value = self.names.get(arg.id) if isinstance(arg, ast.Name) and arg.id not in self.env else None
+            return float(len(value)) if isinstance(value, Rows) else float(self.size(arg))
         if e.func == DETECTED:  # takes the sensor's name: it sees something when its reading is finite
             assert isinstance(e.args[0], ast.Name)
             return self.visit(e.args[0]) < INF

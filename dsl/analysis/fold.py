@@ -78,6 +78,10 @@ class _Folder(ast.Visitor[Any]):
         return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
 
     def visit_Call(self, e: ast.Call) -> object:
+        if e.func == "len" and len(e.args) == 1 and isinstance(e.args[0], ast.Name):
+            value = self.constants.get(e.args[0].id)
+            if isinstance(value, tuple):  # a list parameter (format 1.3): its rows or numbers
+                return float(len(value))
         if e.func not in self.functions:
             raise NotConstant
         return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))

@@ -35,7 +35,8 @@ from labsim.dsl.library.builtins import (
     Type,
 )
 from labsim.dsl.syntax import ast
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.lists import ListValue
+from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -85,6 +86,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
+        self.version = 1.0  # the file's format
+        self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
+        self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -276,7 +280,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
             elif t is not want:
                 if not self.explained(arg):
                     self.error(text.at(arg.span), f"'{op}' needs {want.a}, but this is {t.a}",
-                               notes=text_note(t))
+                               notes=text_note(t) + list_note(arg, t))
                 ok = False
         return self.grouped(e, text, op, sizes, result, args) if ok else None
 
@@ -331,6 +335,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return self.scopes[-1][1][e.id][1]  # a function's parameter: its argument's
         if isinstance(e, ast.Name) and e.id in self.group_sizes:
             return self.group_sizes[e.id]
+        if isinstance(e, ast.Name) and e.id in self.lists:
+            return len(self.lists[e.id])  # a list of rows: how many
         return self.sizes[id(e)]
 
     def group(self, e: ast.Group, text: Text) -> Type | None:
@@ -367,12 +373,15 @@ class ExprChecker(ast.Visitor["Type | None"]):
         k = self.infer(e.index, text)
         if t is None or k is None:
             return None
-        if t not in (Type.NUMBERS, Type.BOOLS):
-            self.error(text.at(e.value.span), f"only a group has members to pick with [...]; this is {t.a}")
+        if t not in (Type.NUMBERS, Type.BOOLS, Type.LIST):
+            self.error(text.at(e.value.span), f"only a group or a list has members to pick with [...]; this is {t.a}")
             return None
+        noun = "row" if t is Type.LIST else "member"
         if k is not Type.NUMBER:
-            self.error(text.at(e.index.span), f"a member is picked by its place, a number from 0; this is {k.a}")
+            self.error(text.at(e.index.span), f"a {noun} is picked by its place, a number from 0; this is {k.a}")
             return None
+        if t is Type.LIST:
+            return self.row(e, text)
         n = self.size(e.value)
         place, robot = self.known(e.index), ""
         for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
@@ -397,6 +406,28 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        f"{n - 1}; {shown}", notes=notes)
             return None
         return t.member
+
+    def row(self, e: ast.Index, text: Text) -> Type | None:
+        """waypoints[i] (format 1.3): a row of a list parameter, a group of numbers; a place known before the
+        run must be one of its rows, and one read while running is written into each of the row's values."""
+        assert isinstance(e.value, ast.Name)
+        rows = self.lists[e.value.id]
+        n, width = len(rows), len(rows[0])  # type: ignore[arg-type]
+        place = self.known(e.index)
+        if isinstance(place, int | float) and not isinstance(place, bool):
+            source = text.value[e.index.span[0]:e.index.span[1]]
+            shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}"
+            if not float(place).is_integer() or not 0 <= place < n:
+                whole = float(place).is_integer() or place != place or abs(place) == float("inf")
+                notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "
+                                                                   f"{e.value.id}[round(i)]"),)
+                self.error(text.at(e.index.span), f"list '{e.value.id}' has {n} row{'s' if n != 1 else ''}, "
+                           f"at places 0 to {n - 1}; {shown}", notes=notes)
+                return None
+        elif width > 1 and not self.once_per_member(e, e.index, text):
+            return None
+        self.sizes[id(e)] = width
+        return Type.NUMBERS
 
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
@@ -461,6 +492,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         if e.func == "prev" and len(e.args) == 2:
             return self.prev(e, text)
+        if e.func == "len":
+            return self.length(e, text)
         if e.func in REDUCTIONS and len(e.args) == 1:
             reduced = self.reduction(e, text)
             if not isinstance(reduced, bool):
@@ -498,6 +531,23 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if f.name == "randint":
             ok = self.whole_bounds(e, text) and ok
         return f.returns if ok else None
+
+    def length(self, e: ast.Call, text: Text) -> Type | None:
+        """len(waypoints), len(front) (format 1.3): how many rows a list has, members a group; known before the run."""
+        if self.version < 1.3:
+            self.error(text.at(e.func_span), later_format("len()", 1.3))
+            return None
+        if len(e.args) != 1:
+            self.error(text.at(e.span), f"len() takes 1 argument, a list or a group, given {len(e.args)}")
+            return None
+        t = self.infer(e.args[0], text)
+        if t is None:
+            return None
+        if t not in (Type.LIST, Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.args[0].span), f"len() takes a list or a group, but this is {t.a}")
+            return None
+        self.lengths[id(e)] = self.size(e.args[0])
+        return Type.NUMBER
 
     def reduction(self, e: ast.Call, text: Text) -> Type | bool | None:
         """min(front), any(front < 0.5), ...: a group's reduction; False when the argument is not a
@@ -557,3 +607,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        f"argument, but this is {b.a}")
             return None
         return a
+
+
+def list_note(e: ast.Expr, t: Type) -> tuple[str, ...]:
+    """The hint for a list of rows used as a value: pick a row, or a number of one."""
+    if t is not Type.LIST or not isinstance(e, ast.Name):
+        return ()
+    return (f"pick a row with {e.id}[i], a number of it with {e.id}[i][0], or count the rows with len({e.id})",)

@@ -502,6 +502,8 @@ class _Generator(Unroller):
         return isinstance(value, (int, float)) and value != 0
 
     def call(self, w: Writer, e: ast.Call, text: Text, where: str) -> str:
+        if id(e) in self.c.lengths:  # len(...) is known before the run
+            return _literal(float(self.c.lengths[id(e)]))
         if id(e) in self.c.expansions:
             body = self.inline(w, e, text, where)
             assert isinstance(body, str)
@@ -554,6 +556,7 @@ def _constants(c: Checked, slot_of: Mapping[str, int]) -> dict[str, object]:
             out[name] = value
     for name, number in CONSTANTS.items():
         out.setdefault(name, number)
+    out.update(c.lists)  # list parameters (format 1.3): a place that folds picks a literal
     out.setdefault("dt", c.file.dt_s)
     for k, name in enumerate(c.states):
         if name not in slot_of:

@@ -228,9 +228,9 @@ class Program:
             slots[slot] = self.params[param]  # every robot starts from the file's (or --set's) value
         if "index" in self.slot_of:
             slots[self.slot_of["index"]] = float(index)
-        for name, value in start_values(start).items():
-            if name in self.slot_of:
-                slots[self.slot_of[name]] = value
+        for variable, value in start_values(start).items():
+            if variable in self.slot_of:
+                slots[self.slot_of[variable]] = value
         for param, values in group.params if group is not None else ():
             if param in self.robot_slots:
                 slots[self.robot_slots[param]] = values[index]

@@ -150,6 +150,8 @@ class MemberWriter(ast.Visitor[list[str]]):
         g = self.g
         if g.env and e.id in g.env[-1]:
             return list(g.env[-1][e.id])
+        if e.id in g.c.lists:  # a list parameter of numbers (format 1.3): its values
+            return [number_literal(v) for v in g.c.lists[e.id]]  # type: ignore[arg-type]
         slots = g.layout.members[e.id]
         if slots is None:  # a group of names: read them where it is used
             parsed = g.let_of[e.id]
@@ -193,8 +195,25 @@ class MemberWriter(ast.Visitor[list[str]]):
         assert isinstance(body, list)
         return body
 
+    def visit_Index(self, e: ast.Index, w: Writer, text: Text, where: str) -> list[str]:
+        """waypoints[i], a row of a list parameter (format 1.3): its literals for a place that folds; for
+        a place read while running, each value picked from its column through one guard, which warns
+        once a tick when there is no row at the place."""
+        g = self.g
+        assert isinstance(e.value, ast.Name) and e.value.id in g.c.lists, e
+        rows = g.c.lists[e.value.id]
+        try:
+            k = fold(e.index, g.constants)
+        except NotConstant:
+            k_code = g.expr(w, e.index, text, where)
+            site = g.site("[row]", text, e.span, where)
+            columns = zip(*rows)  # type: ignore[misc]
+            return [f"{site}(({''.join(number_literal(v) + ', ' for v in column)}), {k_code})" for column in columns]
+        assert isinstance(k, int | float) and float(k).is_integer()  # the checker refused other places
+        return [number_literal(v) for v in rows[int(k)]]  # type: ignore[union-attr]
+
     # one value each, never a group (the checker's types)
-    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index})
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
         raise AssertionError(f"cannot compile the group {e!r}")
@@ -206,6 +225,11 @@ VALUES = -1
 # The reductions with a form on such a sequence (labsim.dsl.library.builtins.SEQUENCE_FUNCTIONS); mean
 # is the sum's, divided.
 ON_SEQUENCE = frozenset({"min", "max", "argmin", "argmax", "sum", "mean"})
+
+
+def number_literal(value: float) -> str:
+    """A list parameter's number in generated code: repr of the float (a list holds finite numbers only)."""
+    return repr(value) if value >= 0 else f"({value!r})"
 
 
 def reduce_sequence(func: str, sequence: str, n: int, extremes: dict[tuple[str, str], int]) -> tuple[str, str]:

@@ -30,6 +30,7 @@ class Type(Enum):
     NUMBERS = "group of numbers"  # [sonar4, sonar5], sonar1..sonar8 (version 1.2)
     BOOLS = "group of booleans"  # front < 0.5 with front a group of numbers
     TEXT = "text"  # "left": what a log's field may show
+    LIST = "list of rows"  # a list parameter of rows, [[0, -1], [3, -1]]: waypoints[i] is a row (version 1.3)
 
     def __str__(self) -> str:
         return self.value

@@ -196,6 +196,8 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
         return _ARITHMETIC[kind](report)
     if kind in ("[]", "[]?"):
         return _pick(report, math.nan if kind == "[]" else False)
+    if kind == "[row]":
+        return _pick_row(report, slots)
     if kind == "pid":
         return make_pid(report)
     name, _, since = kind.partition("@")
@@ -267,6 +269,25 @@ def _pick(report: Callable[[str, str], None], missing: object) -> Callable[[tupl
         report(f"no member at place {k:g} of a group of {n} (places count from 0)",
                f"no member at the place asked of a group of {n} (places count from 0)")
         return missing
+    return pick
+
+
+def _pick_row(report: Callable[[str, str], None], slots: Slots) -> Callable[[tuple, float], float]:
+    """``waypoints[k]`` with k known only at run time (format 1.3): one column's value at row k, or nan and
+    a warning when there is no row k; each of a row's columns is picked through the same guard, which
+    warns once a tick."""
+    warned = [-1]
+
+    def pick(column: tuple, k: float) -> float:
+        if 0 <= k < len(column) and k == int(k):
+            return column[int(k)]
+        tick = int(slots[TICK])
+        if warned[0] != tick:
+            warned[0] = tick
+            n = len(column)
+            report(f"no row at place {k:g} of a list of {n} rows (places count from 0)",
+                   f"no row at the place asked of a list of {n} rows (places count from 0)")
+        return math.nan
     return pick
 
 

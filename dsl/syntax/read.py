@@ -25,6 +25,7 @@ from labsim.backends.scene.world_names import builtin_copy
 from labsim.dsl.library.builtins import Better
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lidar import MAX_BEAMS, beam_names, read_lidar
+from labsim.dsl.syntax.lists import ListValue, list_value
 from labsim.dsl.syntax.noise import NoiseDecl, read_noise
 from labsim.dsl.syntax.parse import ParseError, parse_expr, parse_label, parse_printf, parse_rule
 from labsim.foundation.diagnostics import Report, did_you_mean
@@ -189,6 +190,7 @@ class BehaviourFile:
     stop: Parsed | None = None
     robots: list[RobotDecl] = field(default_factory=list)
     params: dict[str, tuple[float | bool, Node]] = field(default_factory=dict)
+    lists: dict[str, tuple[ListValue, Node]] = field(default_factory=dict)  # list parameters (format 1.3)
     functions: list[FunctionDecl] = field(default_factory=list)
     lets: list[tuple[str, Parsed, Node]] = field(default_factory=list)
     states: dict[str, tuple[list[RuleDecl], Node | None]] = field(default_factory=dict)
@@ -302,7 +304,7 @@ class _Reader(Reader):
             bf.robots = self.robots(keys["robots"], bf.version)
             bf.has_robots = True
         if "params" in keys:
-            bf.params = self.params(keys["params"])
+            bf.params = self.params(keys["params"], bf.version, bf.lists)
         if "functions" in keys:
             bf.functions = self.functions(keys["functions"])
         if "let" in keys:
@@ -557,10 +559,22 @@ class _Reader(Reader):
 
     # -- values and signals ---------------------------------------------------------------------
 
-    def params(self, node: Node) -> dict[str, tuple[float | bool, Node]]:
+    def params(self, node: Node, version: float = FORMAT_VERSION,
+               lists: dict[str, tuple[ListValue, Node]] | None = None) -> dict[str, tuple[float | bool, Node]]:
+        """The file's parameters: numbers and booleans, and (format 1.3, into ``lists``) lists."""
         out: dict[str, tuple[float | bool, Node]] = {}
         for key, value in self.mapping(node, "params"):
             name = self.identifier(key, "parameter")
+            if isinstance(value, SequenceNode) and version >= 1.3 and lists is not None:
+                listed = list_value(value, key.value, self.error)
+                if name is not None and listed is not None:
+                    lists[name] = (listed, value)
+                elif name is not None:
+                    self.failed_names.add(name)  # reported: its uses stay quiet
+                continue
+            if isinstance(value, SequenceNode):
+                self.error(value, later_format("a list parameter", 1.3))
+                continue
             scalar = self.scalar(value, f"parameter '{key.value}'")
             if name is None:
                 continue

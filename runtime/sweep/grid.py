@@ -101,6 +101,11 @@ def parse_setting(text: str) -> Setting:
     if not eq or not name or not spec:
         raise LabsimError([Diagnostic(where, "--set takes NAME=V1,V2,... or NAME=START:STOP:STEP, "
                                              "e.g. --set front=0.5,1.0")])
+    if spec.startswith("["):  # a list parameter (format 1.3): its commas are not a sweep's
+        raise LabsimError([Diagnostic(_short(where), f"a sweep takes numbers or true/false for '{name}', not a list: "
+                                             "a list parameter is not swept", notes=(
+            f"sweep a number that picks a row instead, as in --set route=0,1,2 with {name}[route] in the file; "
+            "or run each list with labsim run --set",))])
     if ":" not in spec:
         values = tuple(v.strip() for v in spec.split(","))
         if any(not v for v in values):
