@@ -88,6 +88,14 @@ def layout(c: Checked) -> Layout:
             else:
                 members[name] = tuple(range(count, count + c.group_sizes[name]))
                 count += c.group_sizes[name]
+    count = _per_robot(c, slot_of, count)
+    return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
+                  members=MappingProxyType(members), shared_labels=tuple(shared))
+
+
+def _per_robot(c: Checked, slot_of: dict[str, int], count: int) -> int:
+    """Slots for the per-tick variables and per-robot values a behaviour reads, from slot ``count`` on;
+    the next free slot."""
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
     # a file's own name hides a read-back one (a parameter or a state is folded, a signal has its slot)
     read_back = [name for name in READ_BACK if name not in c.params and name not in c.states]
@@ -95,8 +103,7 @@ def layout(c: Checked) -> Layout:
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
-    return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
-                  members=MappingProxyType(members), shared_labels=tuple(shared))
+    return count
 
 
 def _names_only(e: ast.Expr, members: dict[str, tuple[int, ...] | None]) -> bool:
