@@ -91,8 +91,9 @@ def evaluate(e: ast.Expr, names: Mapping[str, object], rng: random.Random | None
     by default, and the parameters every robot shares): a group's place made of them picks its
     member alone, and the other members are not evaluated.
     """
-    if constants is None:
-        constants = {**CONSTANTS, **({"dt": names["dt"]} if "dt" in names else {})}
+    if constants is None:  # a list of rows is a list parameter (format 1.3), which folds
+        constants = {**CONSTANTS, **({"dt": names["dt"]} if "dt" in names else {}),
+                     **{k: v for k, v in names.items() if isinstance(v, Rows)}}
     walker = _Walker(names, rng, functions or {}, memory, constants)
     value = walker.visit(e)
     return value, tuple(walker.faults)

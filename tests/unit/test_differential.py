@@ -31,7 +31,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from labsim.dsl.analysis.evaluate import Members, evaluate
+from labsim.dsl.analysis.evaluate import Members, Rows, evaluate
 from labsim.dsl.analysis.fold import NotConstant, fold
 from labsim.dsl.compile import compile_file
 from labsim.dsl.emit.program import Program
@@ -57,6 +57,10 @@ COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
 PURE_FUNCTIONS = ("abs", "sqrt", "floor", "sign", "exp", "log")
 GROUP = 3  # members of every generated group, so that any two pair
 GROUPS = ("ga", "gb")  # signals that are groups: a list of signals, a range of sensors
+# list parameters (format 1.3): rows of GROUP numbers, and GROUP numbers (a group)
+ROWS = ((1.0, -2.5, 0.5), (3.0, 7.0, -1.0), (0.1, 2.0, 4.0))
+LISTED = (0.5, -1.0, 2.0)
+READ_BACK = ("wheel_left", "wheel_right", "start_x", "start_heading")  # 0 on a first tick, and without a start
 # functions of the file's own, over groups and numbers: their parameters stand for the arguments
 OWN_FUNCTIONS = {"scaled": (("g", "k"), "g * k - k"), "nearest": (("g", "d"), "min(g - d)"),
                  "within": (("g", "d"), "count(g < d) + g[1] / d")}
@@ -88,6 +92,9 @@ class Expressions:
             if self.rng.random() < 0.35:
                 literal = pick(LITERALS)
                 return ast.Number(float(literal)) if literal[0].isdigit() else ast.Name(literal)
+            if self.rng.random() < 0.1:  # format 1.3: read-back, a list's length, a number of a row
+                return pick((ast.Name(pick(READ_BACK)), ast.Call("len", (ast.Name(pick(("wp", "gl"))),)),
+                             ast.Index(ast.Index(ast.Name("wp"), self.place()), self.place())))
             return ast.Name(pick(NAMES + NAMES + SENSORS))
         if r < 0.55:
             op = pick(("+", "-", "*", "/", "/", "%", "%", "**", "**"))
@@ -102,6 +109,8 @@ class Expressions:
         """A group of GROUP numbers: a signal, a list, or an operator applied member by member."""
         r, pick = self.rng.random(), self.rng.choice
         if depth <= 0 or r < 0.35:
+            if self.rng.random() < 0.15:  # a list parameter's row, or the list of numbers itself
+                return ast.Index(ast.Name("wp"), self.place()) if self.rng.random() < 0.7 else ast.Name("gl")
             if self.rng.random() < 0.5:
                 return ast.Name(pick(GROUPS))
             return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(pick(NAMES))
@@ -136,16 +145,20 @@ class Expressions:
         if r < 0.6:
             return ast.Call("count", (self.bools(depth - 1),))
         if r < 0.8:
-            # a place that folds is one of the group's (the checker refuses others); one read
-            # while running may be anywhere, a fraction, inf or nan
-            sensor = ast.Name(pick(SENSORS))
-            place = pick((ast.Number(float(self.rng.randrange(GROUP))), sensor,
-                          ast.Binary("*", sensor, ast.Number(3.0)), ast.Binary("%", ast.Name("tick"), ast.Number(4.0)),
-                          ast.Binary("-", ast.Name("time"), ast.Number(11.5))))
-            return ast.Index(self.group(depth - 1), place)
+            return ast.Index(self.group(depth - 1), self.place())
         if r < 0.9:
             return ast.Call("nearest", (self.group(depth - 1), self.number(depth - 1, True)))
         return ast.Call("within", (self.group(depth - 1), self.number(depth - 1, True)))
+
+    def place(self) -> ast.Expr:
+        """A place in a group (or a list of GROUP rows): one that folds is one of the group's (the checker
+        refuses others); one read while running may be anywhere, a fraction, inf or nan."""
+        pick = self.rng.choice
+        sensor = ast.Name(pick(SENSORS))
+        return pick((ast.Number(float(self.rng.randrange(GROUP))), sensor, ast.Binary("*", sensor, ast.Number(3.0)),
+                     ast.Binary("%", ast.Name("tick"), ast.Number(4.0)), ast.Binary("-", ast.Name("time"),
+                                                                                      ast.Number(11.5)),
+                     ast.Binary("-", ast.Call("len", (ast.Name("wp"),)), ast.Number(1.0))))
 
     def call(self, depth: int) -> ast.Call:
         name = self.rng.choice(sorted(FUNCTIONS_OF_NUMBERS))
@@ -306,7 +319,8 @@ def same(a: object, b: object) -> bool:
 
 def behaviour(path: Path, lets: list[tuple[str, str]]) -> Program:
     functions = "".join(f"  {name}({', '.join(params)}): '{body}'\n" for name, (params, body) in OWN_FUNCTIONS.items())
-    text = ("labsim: 1.2\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
+    text = ("labsim: 1.3\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
+            f"params:\n  wp: {[list(row) for row in ROWS]}\n  gl: {list(LISTED)}\n"
             "functions:\n" + functions + "let:\n" + "".join(f"  {name}: '{expr}'\n" for name, expr in lets)
             + "rules:\n  - always stop()\n")
     path.write_text(text)
@@ -337,7 +351,9 @@ def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, .
     gen = Expressions(random.Random(seed))
     p_values = dict(zip(NAMES, values))
     names: dict[str, object] = {**p_values, **dict(zip(SENSORS, sensors)), "time": TIME_S, "tick": TICK, "dt": DT_S,
-                                "ga": Members(values[:3]), "gb": Members(values[3:6])}
+                                "ga": Members(values[:3]), "gb": Members(values[3:6]),
+                                "wp": Rows(Members(row) for row in ROWS), "gl": Members(LISTED),
+                                **dict.fromkeys(READ_BACK, 0.0)}
     functions = {name: (params, parse_expr(body)) for name, (params, body) in OWN_FUNCTIONS.items()}
     exprs = [written(gen.any(), p_values if k % 2 else None) for k in range(BATCH)]
     for text, node in exprs[:6:2]:  # the texts say what the trees are, with the parser's spans
@@ -348,10 +364,11 @@ def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, .
     got, warned = run_tick(behaviour(folder / "b.yaml", lets),
                            {f"sonar{i + 1}": v for i, v in enumerate(values)} | dict(zip(SENSORS, sensors)))
     rng = random.Random(1)  # as the robot's, drawn in the same order
-    constants = {**CONSTANTS, "dt": DT_S, **p_values}
+    listed = {**CONSTANTS, "dt": DT_S, "wp": ROWS, "gl": LISTED}  # the lists, which the code generator folds
+    constants = {**listed, **p_values}
     folded = 0
     for k, (text, node) in enumerate(exprs):
-        value, faults = evaluate(node, names, rng, functions=functions)
+        value, faults = evaluate(node, names, rng, functions=functions, constants=listed)
         where = f"e{k}: {text}\nwith {p_values}, sensors {dict(zip(SENSORS, sensors))}\n"
         assert same(got[f"e{k}"], value), f"{where}generated {got[f'e{k}']!r}, evaluator {value!r}"
         at = {(", in ".join(f"{n}()" for n in f.within),
