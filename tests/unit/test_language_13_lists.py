@@ -1,0 +1,166 @@
+"""Format 1.3's list parameters: read with their shape checked where each value is, indexed (a row, a
+number of a row), counted with len(), set whole with --set; run tick by tick; refused before 1.3 and by a sweep."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from labsim.backends import load_backend
+from labsim.dsl.compile import compile_file
+from labsim.foundation.diagnostics import LabsimError
+from labsim.runtime.run import Run
+
+HEAD = "labsim: 1.3\nworld: walls_lab4\nstop: tick >= 5\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+LIST = "params:\n  waypoints: [[0, -1], [3, -1], [3, -4]]\n"
+RULES = "rules:\n  - always move(1)\n"
+
+
+def diagnostics(path: Path, overrides: dict[str, str] | None = None) -> list[tuple[object, ...]]:
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, overrides)
+    return [(d.path, d.line, d.col, d.message, d.notes) if d.path.startswith("--set") else
+            (d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+
+
+def signal_rows(path: Path, names: tuple[str, ...], overrides: dict[str, str] | None = None
+                ) -> tuple[list[tuple], list[str]]:
+    """Each tick's values of the signals ``names``, and the run's warnings."""
+    program = compile_file(path, overrides)
+    warned: list[str] = []
+    run = Run(program, load_backend("pymunk"), warn=warned.append)
+    rows: list[tuple] = []
+    while run.tick():
+        rows.append(tuple(run.robots[0].program.slots[program.slot_of[n]] for n in names))
+    return rows, warned
+
+
+# -- reading: the shape of a list, at the value it is about ---------------------------------------
+
+@pytest.mark.parametrize(("value", "col", "message", "notes"), [
+    ("[[0, -1], [3, -1, 2]]", 16, "row 1 of list 'w' has 3 values, and row 0 has 2: the rows of a list have one "
+                                  "length", ()),
+    ("[]", 6, "list 'w' is empty: a list parameter holds at least one value",
+     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[[0, -1], [3, x]]", 20, "list 'w' holds numbers, not 'x'", ()),
+    ("[1, true]", 10, "list 'w' holds numbers, not 'true'", ()),
+    ("[1, .inf]", 10, "list 'w' holds finite numbers, not '.inf'", ()),
+    ("[1, [2]]", 10, "list 'w' holds numbers or rows of numbers, not lists of lists",
+     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[[1], 2]", 12, "list 'w' is a list of rows, and this is not a row: write it as [a, b, ...]", ()),
+    ("[[0, 1], []]", 15, "row 1 of list 'w' is empty", ()),
+    ("[[[1]]]", 8, "list 'w' holds numbers or rows of numbers, not lists of lists",
+     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+])
+def test_a_list_of_the_wrong_shape_is_an_error_at_the_value(write, value: str, col: int, message: str,
+                                                            notes: tuple[str, ...]) -> None:
+    path = write(HEAD + f"params:\n  w: {value}\nlet:\n  a: len(w)\n" + RULES)
+    assert diagnostics(path) == [(7, col, message, notes)]  # and its use says nothing more
+
+
+def test_a_list_written_as_a_block_reads_as_one_on_a_line(write) -> None:
+    path = write(HEAD + "params:\n  w:\n    - [0, -1]\n    - [3, -1]\n    - [3]\nlet:\n  a: len(w)\n" + RULES)
+    assert diagnostics(path) == [(10, 7, "row 2 of list 'w' has 1 value, and row 0 has 2: the rows of a list "
+                                         "have one length", ())]
+
+
+def test_a_list_parameter_is_format_1_3(write) -> None:
+    path = write(HEAD.replace("1.3", "1.2") + LIST + RULES)
+    assert diagnostics(path) == [(7, 14, "a list parameter is format 1.3: start the file with 'labsim: 1.3'", ())]
+
+
+def test_len_is_format_1_3_and_a_files_own_len_stays(write) -> None:
+    path = write(HEAD.replace("1.3", "1.2") + "let:\n  g: [sonar1, sonar2]\n  a: len(g)\n" + RULES)
+    assert diagnostics(path) == [(8, 6, "len() is format 1.3: start the file with 'labsim: 1.3'", ())]
+    path = write(HEAD.replace("1.3", "1.2") + "functions:\n  len(a): a * 2\nlet:\n  a: len(3)\n" + RULES)
+    assert signal_rows(path, ("a",))[0][0] == (6.0,)
+
+
+# -- checking: the places known before the run, and the types -----------------------------------
+
+@pytest.mark.parametrize(("expr", "col", "message", "notes"), [
+    ("waypoints[3]", 16, "list 'waypoints' has 3 rows, at places 0 to 2; not 3", ("its rows are at places 0 to 2",)),
+    ("waypoints[-1][0]", 16, "list 'waypoints' has 3 rows, at places 0 to 2; not -1",
+     ("its rows are at places 0 to 2",)),
+    ("waypoints[0.5][0]", 16, "list 'waypoints' has 3 rows, at places 0 to 2; not 0.5",
+     ("its rows are at places 0 to 2; round a fraction, as in waypoints[round(i)]",)),
+    ("waypoints[len(waypoints)][1]", 16, "list 'waypoints' has 3 rows, at places 0 to 2; 'len(waypoints)' is 3",
+     ("its rows are at places 0 to 2",)),
+    ("waypoints[0][2]", 19, "this group has 2 members, at places 0 to 1; not 2",
+     ("places count from 0: the first member is [0]",)),
+    ("waypoints + 1", 6, "'+' needs a number, but this is a list of rows",
+     ("pick a row with waypoints[i], a number of it with waypoints[i][0], or count the rows with len(waypoints)",)),
+    ("len(3)", 10, "len() takes a list or a group, but this is a number", ()),
+    ("len(waypoints, 2)", 6, "len() takes 1 argument, a list or a group, given 2", ()),
+    ('waypoints["a"][0]', 16, "a row is picked by its place, a number from 0; this is text", ()),
+    ("x[0]", 6, "only a group or a list has members to pick with [...]; this is a number", ()),
+    ("waypoints[randint(0, 2)][0]", 16, "randint() draws a random number, but here it is paired with every member "
+     "of a group, so it would run once per member", ("give it a signal of its own: 'p: randint(0, 2)', then "
+                                                     "'waypoints[p]'",)),
+])
+def test_each_mistake_with_a_list_is_reported_at_its_place(write, expr: str, col: int, message: str,
+                                                          notes: tuple[str, ...]) -> None:
+    path = write(HEAD + LIST + f"let:\n  a: {expr}\n" + RULES)
+    assert diagnostics(path) == [(9, col, message, notes)]
+
+
+def test_a_robots_own_value_of_a_list_is_refused_with_the_way_to_do_it(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "count: 2, at: random, params: {waypoints: 1}}") + LIST + RULES)
+    assert diagnostics(path) == [(5, 59, "robot 'p' sets list parameter 'waypoints': a list is the same for every "
+                                         "robot", ("give each robot its own row of 'waypoints' and pick it with "
+                                                   "waypoints[index]",))]
+
+
+# -- running, tick by tick -----------------------------------------------------------------------
+
+def test_rows_numbers_and_len_tick_by_tick_and_a_missing_row_is_nan_and_one_warning_a_tick(write) -> None:
+    path = write(HEAD + LIST + "  gains: [0.5, 1, 2]\nlet:\n  i: tick % 4\n  here: waypoints[i]\n"
+                 "  gx: here[0]\n  gy: waypoints[i][1]\n  last: waypoints[len(waypoints) - 1][1]\n  g: gains[i]\n"
+                 "  doubled: sum(gains * 2)\n" + RULES)
+    rows, warned = signal_rows(path, ("gx", "gy", "last", "g", "doubled"))
+    nan = math.nan
+    expected = [(0.0, -1.0, -4.0, 0.5, 7.0), (3.0, -1.0, -4.0, 1.0, 7.0), (3.0, -4.0, -4.0, 2.0, 7.0),
+                (nan, nan, -4.0, nan, 7.0), (0.0, -1.0, -4.0, 0.5, 7.0)]
+    assert [tuple("nan" if v != v else v for v in r) for r in rows] == \
+        [tuple("nan" if v != v else v for v in r) for r in expected]
+    assert [w.split(": warning: ")[1].split(" in ")[0] for w in warned if "no " in w] == [
+        "no row at place 3 of a list of 3 rows (places count from 0)",  # here: one warning for its two values
+        "no row at place 3 of a list of 3 rows (places count from 0)",  # gy
+        "no member at place 3 of a group of 3 (places count from 0)"]  # g
+
+
+def test_a_list_is_set_whole_and_the_set_value_is_checked_as_the_files(write) -> None:
+    path = write(HEAD + LIST + "let:\n  n: len(waypoints)\n  gx: waypoints[1][0]\n" + RULES)
+    rows, _ = signal_rows(path, ("n", "gx"), {"waypoints": "[[1, 2], [5.5, 6], [7, 8], [9, 10]]"})
+    assert rows[0] == (4.0, 5.5)
+    how = ("set it whole, as in --set waypoints='[[0, -1], [3, -1], [3, -4]]'",)
+    assert diagnostics(path, {"waypoints": "3"}) == [
+        ("--set waypoints=3", 0, 0, "parameter 'waypoints' is a list: give a whole list, not '3'", how)]
+    assert diagnostics(path, {"waypoints": "[1, 2]"}) == [
+        ("--set waypoints=[1, 2]", 0, 0, "parameter 'waypoints' is a list of rows of numbers in the file, and so "
+                                         "must be its --set", how)]
+    assert diagnostics(path, {"waypoints": "[[1, 2], [3]]"}) == [
+        ("--set waypoints=[[1, 2], [3]]", 0, 0, "row 1 of list 'waypoints' has 1 value, and row 0 has 2: the rows "
+                                                "of a list have one length", ())]
+    assert diagnostics(path, {"waypoints": "[[1, 2]"})[0][3] == \
+        "parameter 'waypoints': '[[1, 2]' is not a list written as [a, b, ...]"
+    # the place checked before the run is checked against the list the run takes
+    assert diagnostics(path, {"waypoints": "[[1, 2]]"})[0][:3] == (10, 17, "list 'waypoints' has 1 row, at places "
+                                                                           "0 to 0; not 1")
+
+
+def test_a_sweep_refuses_a_list(tmp_path: Path) -> None:
+    from labsim.runtime.sweep.grid import parse_setting
+
+    with pytest.raises(LabsimError) as e:
+        parse_setting("waypoints=[[0, 1], [2, 3]]")
+    [d] = e.value.diagnostics
+    assert d.message == "a sweep takes numbers or true/false for 'waypoints', not a list: a list parameter is not swept"
+    assert d.notes == ("sweep a number that picks a row instead, as in --set route=0,1,2 with waypoints[route] in "
+                       "the file; or run each list with labsim run --set",)
+
+
+def test_a_file_using_no_list_generates_the_same_code_as_before(write) -> None:
+    path = write(HEAD + "params: {k: 2}\nlet:\n  a: k * sonar1\n" + RULES)
+    assert "_g0" not in compile_file(path).code.source
