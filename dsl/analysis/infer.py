@@ -424,8 +424,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 self.error(text.at(e.index.span), f"list '{e.value.id}' has {n} row{'s' if n != 1 else ''}, "
                            f"at places 0 to {n - 1}; {shown}", notes=notes)
                 return None
-        elif width > 1 and not self.once_per_member(e, e.index, text):
-            return None
+        elif width > 1:  # the place is written into each value: nothing with memory or random in it
+            risky = [n for n in ast.walk(e.index) if isinstance(n, ast.Call) and id(n) not in self.self_prev
+                     and (n.func in STATEFUL or n.func in RANDOM)]  # a signal's own last value is read, not kept
+            if risky and not self.once_per_member(e, risky[0], text):
+                return None
         self.sizes[id(e)] = width
         return Type.NUMBERS
 
