@@ -51,8 +51,12 @@ def _robot() -> Schema:
         "camera": text("the camera's vision sensor, e.g. ./visionSensor (default: ./visionSensor, "
                        "then ./Vision_sensor)"),
     }, "object paths in your own CoppeliaSim scene ({i}: the robot's index from 0; {k}: the sonar's)")
-    at = {"description": "where it starts: spawn (the world's spawn poses), random, or [x, y, heading_deg]",
-          "anyOf": [{"enum": ["spawn", "random"]}, numbers("[x, y] or [x, y, heading_deg]", (2, 3))]}
+    at = {"description": "where it starts: spawn (the world's spawn poses), random, [x, y, heading_deg], or "
+                         "(format 1.3) one such pose per robot of the group",
+          "anyOf": [{"enum": ["spawn", "random"]}, numbers("[x, y] or [x, y, heading_deg]", (2, 3)),
+                    {"type": "array", "minItems": 1, "maxItems": 100,
+                     "description": "a start pose per robot (format 1.3)",
+                     "items": numbers("[x, y] or [x, y, heading_deg]", (2, 3))}]}
     return mapping(ROBOT_KEYS, {
         "model": text("the robot model, e.g. pioneer_p3dx (labsim check knows the models)"),
         "count": number("how many robots of this group (default 1)", 1, 100, integer=True),
@@ -136,7 +140,12 @@ def behaviour_schema() -> Schema:
         "robots": named(_robot(), "the robots, by group name"),
         "params": {"type": "object", "description": "parameters, overridable with --set NAME=VALUE",
                    "propertyNames": {"pattern": r"^[A-Za-z_][A-Za-z0-9_]*$"},
-                   "additionalProperties": {"type": ["number", "boolean"]}},
+                   "additionalProperties": {"anyOf": [
+                       {"type": ["number", "boolean"]},
+                       {"type": "array", "minItems": 1, "description": "a list (format 1.3): numbers, or rows of "
+                                                                       "numbers of one length",
+                        "anyOf": [{"items": {"type": "number"}},
+                                  {"items": {"type": "array", "minItems": 1, "items": {"type": "number"}}}]}]}},
         "functions": {"type": "object", "description": "functions of your own (format 1.2): 'name(a, b): expression'",
                       "propertyNames": {"pattern": r"^\s*[A-Za-z_][A-Za-z0-9_]*\s*\([^()]*\)\s*$"},
                       "additionalProperties": expression("the function's value, from its parameters")},

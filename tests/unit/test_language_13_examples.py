@@ -38,3 +38,23 @@ def test_odometry_starts_each_robot_at_its_pose_and_stays_near_the_true_pose(tmp
     assert first == {"pioneer[0]": (-3.0, -3.0, -3.0, -3.0), "pioneer[1]": (2.0, -3.0, 2.0, -3.0)}
     metrics = summary.robots  # type: ignore[attr-defined]
     assert warned == [] and all(0 < metrics[r].metrics["worst_drift"] < 0.2 for r in metrics)
+
+
+def test_the_schema_takes_lists_and_poses_and_refuses_an_empty_list() -> None:
+    import json
+
+    import jsonschema
+    import yaml
+
+    from labsim.runtime.cli.schemas import schema_text
+
+    schema = json.loads(schema_text("behaviour"))
+    for name in ("patrol", "odometry"):
+        jsonschema.validate(yaml.safe_load(examples()[name]), schema)
+    for wrong in ({"w": []}, {"w": [[1], "a"]}, {"w": ["a"]}):
+        data = yaml.safe_load(examples()["patrol"]) | {"params": wrong}
+        try:
+            jsonschema.validate(data, schema)
+        except jsonschema.ValidationError:
+            continue
+        raise AssertionError(f"the schema takes {wrong}")
