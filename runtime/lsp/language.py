@@ -19,7 +19,16 @@ from labsim.backends.scene.schema import world_schema
 from labsim.backends.scene.world_file import _declares_world, _WorldReader
 from labsim.backends.scene.world_names import builtin_worlds
 from labsim.dsl.compile import compile_file
-from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, CONSTANTS, FUNCTIONS, KEYWORDS, REDUCTIONS, VARIABLES
+from labsim.dsl.library.builtins import (
+    ACTIONS,
+    AGGREGATES,
+    CONSTANTS,
+    FUNCTIONS,
+    KEYWORDS,
+    READ_BACK,
+    REDUCTIONS,
+    VARIABLES,
+)
 from labsim.dsl.syntax.lidar import LIDAR_LIMITS
 from labsim.dsl.syntax.schema import behaviour_schema
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
@@ -113,6 +122,17 @@ def builtins() -> dict[str, Builtin]:
                      "entered": "true on the first tick in a state", "index": "the robot's number in its group, from 0"}
     for name, t in VARIABLES.items():
         out[name] = Builtin(name, "variable", f"{name}: {t}", variable_docs.get(name, ""))
+    read_back = {"wheel_left": "the left wheel's command of the last tick, rad/s, as sent (clamped to the model's "
+                               "limit; 0 on the first tick; format 1.3)",
+                 "wheel_right": "the right wheel's command of the last tick, rad/s, as sent (clamped to the "
+                                "model's limit; 0 on the first tick; format 1.3)",
+                 "start_x": "where the robot started: x in metres (format 1.3)",
+                 "start_y": "where the robot started: y in metres (format 1.3)",
+                 "start_heading": "the robot's heading at the start, radians in (-pi, pi] (format 1.3)"}
+    for name, t in READ_BACK.items():
+        out[name] = Builtin(name, "variable", f"{name}: {t}", read_back[name])
+    out["len"] = Builtin("len", "function", "len(list) -> number",
+                         "how many rows a list parameter has, or members a group (format 1.3)")
     for name, value in CONSTANTS.items():
         out[name] = Builtin(name, "constant", f"{name} = {value:g}",
                             "infinity: what a distance sensor reads when it sees nothing" if math.isinf(value)

@@ -128,3 +128,12 @@ def test_a_measured_metric_may_not_read_a_students_signal_but_may_read_the_wheel
         read_assignment(assignment)
     [d] = e.value.diagnostics
     assert (d.line, d.col) == (5, 30) and "wheel_left" in d.notes[0]
+
+
+def test_the_language_server_knows_the_read_back_names_and_len() -> None:
+    from labsim.runtime.lsp.language import builtins
+
+    known = builtins()
+    assert known["wheel_left"].kind == "variable" and "clamped to the model's limit" in known["wheel_left"].doc
+    assert known["start_heading"].doc == "the robot's heading at the start, radians in (-pi, pi] (format 1.3)"
+    assert known["len"].kind == "function" and "rows a list parameter has" in known["len"].doc
