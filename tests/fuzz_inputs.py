@@ -13,6 +13,8 @@ Two kinds of input, both hypothesis strategies:
 - ``generated_12()``: a file of format 1.2, with the constructs that version added: groups
   (ranges, lists, a list of 40) with parameters and run-time values as places, functions over
   groups, signals that read themselves, ``when`` rules whose logs have format fields.
+- ``generated_13()``: a file of format 1.3 with list parameters (some of the wrong shape) indexed at
+  places from the edges, per-robot starts, read-back, and a ``--set`` of its list.
 
 A third kind, ``sweep_options()``, is what a user types after ``labsim sweep``: ``--set``
 values, lists and START:STOP:STEP ranges, and ``--seeds``, from ordinary to hostile (huge,
@@ -279,10 +281,53 @@ def generated_12(draw: st.DrawFn) -> str:
     return "\n".join(lines) + "\n"
 
 
+# -- lists, per-robot starts and read-back (language 1.3) ------------------------------------
+
+LISTS_13 = ("[[0, -1], [3, -1], [3, -4]]", "[[1, 2, 3]]", "[0.5, 1, 2]", "[7]", "[[0, -1], [3]]", "[]", "[[]]",
+            "[1, [2]]", "[[1e309, 0]]", "[[0, x]]", "[true, 1]", "[[[1]]]", "[" + ", ".join(["[1, 2]"] * 60) + "]")
+PLACES_13 = ("0", "1", "2", "k", "k - 1", "-1", "3", "0.5", "len(w)", "len(w) - 1", "tick % 4", "round(time * 9)",
+             "inf - inf", "1e309", "prev(s, 0)", "w[0][0]", "randint(0, 2)")
+STARTS_13 = ("[[-3, -3, 0], [0, -3, 90]]", "[[-3, -3], [0, -3, 90]]", "[[-3, -3, 0]]", "[[-3, -3, 0], [-3, -3, 0]]",
+             "[[-3, -3, 0], [30, 0]]", "[[-3, -3, 0], spawn]", "[[-3, -3, 0], [1, 2, 3, 4]]", "random")
+SETS_13 = ("", "", "", "[[1, 2], [3, 4]]", "3", "[1, 2]", "[[1, 2]", "[[1, 2], [3]]", "[]", "{a: 1}")
+
+
+@st.composite
+def generated_13(draw: st.DrawFn) -> tuple[str, dict[str, str]]:
+    """A behaviour file of format 1.3 with its lane's constructs, and a ``--set`` of its list: list
+    parameters of every shape (some wrong), rows and numbers of them at places from the edges, len(),
+    a start pose per robot (some wrong), and the wheels and start pose read back."""
+    # mostly lists of a good shape and places that are theirs, so that many files run; now and then any
+    odd = draw(st.integers(0, 9)) == 0
+    w = draw(st.sampled_from(LISTS_13)) if odd else draw(st.sampled_from(("[[0, -1], [3, -1], [3, -4]]",
+                                                                          "[[2, 2.5], [1e300, -1e-300]]")))
+    g = draw(st.sampled_from(LISTS_13)) if odd else "[0.5, 1, 2]"
+    place = st.one_of(*[st.sampled_from(("0", "1", "k", "tick % 4", "len(w) - 1", "s % 3"))] * 6,
+                      st.sampled_from(PLACES_13))
+    number = st.one_of(
+        st.builds("w[{}][{}]".format, place, place), st.builds("min(w[{}])".format, place),
+        st.builds("sum(w[{}] * 2)".format, place), st.builds("g[{}]".format, place), st.just("len(w) + len(g)"),
+        st.builds("hypot(w[{}][0] - x, w[{}][1] - y)".format, place, place),
+        st.sampled_from(("wheel_left", "wheel_right - wheel_left", "start_x", "start_heading + heading",
+                         "max(g)", "mean(g - start_y)")))
+    lets = draw(st.lists(number, min_size=1, max_size=4))
+    count = draw(st.sampled_from(("1", "2", "2", "3")) if odd else st.just("2"))
+    lines = ["labsim: 1.3", "name: generated", "world: walls_lab4", "seed: 3", "dt: 0.05", "stop: time >= 0.2",
+             "robots:", f"  r: {{model: pioneer_p3dx, count: {count}, at: "
+             f"{draw(st.sampled_from(STARTS_13)) if odd else 'random'}}}",
+             "params:", f"  w: {w}", f"  g: {g}", f"  k: {draw(st.sampled_from(('0', '1', '2', '5', '0.5')))}",
+             "let:", f"  s: {_quoted('prev(s, 0) + 1 if sonar5 < 1 else prev(s, 0)')}",
+             *(f"  s{i}: {_quoted(t)}" for i, t in enumerate(lets)),
+             "rules:", f"  - if {_quoted(draw(number))[1:-1]} > 1 then arc(wheel_left + 1, 2)", "  - else move(100)"]
+    setting = draw(st.sampled_from(SETS_13)) if odd or draw(st.integers(0, 4)) == 0 else ""
+    return "\n".join(lines) + "\n", ({"w": setting} if setting else {})
+
+
 # -- one input, as far as it goes ------------------------------------------------------------
 
-def run_input(folder: Path, data: bytes, world: bool = False) -> str:
-    """Compile and run one input in ``folder``; return how far it got ('error' or 'ran').
+def run_input(folder: Path, data: bytes, world: bool = False, overrides: dict[str, str] | None = None) -> str:
+    """Compile and run one input in ``folder`` (with ``overrides``, as --set gives them); return how far it
+    got ('error' or 'ran').
 
     Raises anything but ``ALLOWED``: that is a crash the fuzz tests report.
     """
@@ -296,7 +341,7 @@ def run_input(folder: Path, data: bytes, world: bool = False) -> str:
         pendulum = ROOT / "tests" / "fixtures" / "pendulum_world.yaml"
         (folder / "pendulum_world.yaml").write_bytes(pendulum.read_bytes())
     try:
-        compiled = compile_behaviour(path)
+        compiled = compile_behaviour(path, overrides)
         warnings: list[str] = []
         bound = compiled.bind(load_backend("pymunk"), trace=folder / "trace.csv", warn=warnings.append)
         try:

@@ -12,7 +12,16 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzz_inputs import check_sweep_options, generated, generated_12, mutated, run_input, seeds, sweep_options
+from fuzz_inputs import (
+    check_sweep_options,
+    generated,
+    generated_12,
+    generated_13,
+    mutated,
+    run_input,
+    seeds,
+    sweep_options,
+)
 from hypothesis import HealthCheck, given, settings
 
 LONG = os.environ.get("LABSIM_FUZZ") == "long"
@@ -66,6 +75,22 @@ def test_files_of_language_12_give_diagnostics_not_exceptions(tmp_path: Path) ->
     @given(generated_12())
     def fuzz(text: str) -> None:
         outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_files_with_lists_starts_and_read_back_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    """List parameters of every shape indexed at places from the edges, len(), per-robot starts, the wheels
+    and the start pose read back, and a --set of the list (tests/fuzz_inputs.py, generated_13)."""
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated_13())
+    def fuzz(case: tuple[str, dict[str, str]]) -> None:
+        outcomes.append(run_input(tmp_path, case[0].encode(), overrides=case[1]))
 
     fuzz()
     assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
