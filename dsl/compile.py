@@ -146,7 +146,8 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         shared_labels=layout.shared_labels,
         group_signals=tuple(GroupSignal(name, c.group_sizes[name], layout.members[name], parsed.text.value)
                             for name, parsed in c.lets if name in layout.members),
-        functions=tuple(_function_text(d) for d in c.functions.values()))
+        functions=tuple(_function_text(d) for d in c.functions.values()),
+        lists=MappingProxyType(dict(c.lists)))
 
 
 def _function_text(d: FunctionDecl) -> FunctionText:

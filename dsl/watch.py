@@ -21,10 +21,10 @@ import yaml
 from yaml.nodes import ScalarNode
 
 from labsim.backends.scene.models import Kind
-from labsim.dsl.analysis.evaluate import Function, Members, Unsupported, evaluate
+from labsim.dsl.analysis.evaluate import Function, Members, Rows, Unsupported, evaluate
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.emit.program import FunctionText, Program
-from labsim.dsl.library.builtins import CONSTANTS, FIELDS, FUNCTIONS, Type
+from labsim.dsl.library.builtins import CONSTANTS, FIELDS, FUNCTIONS, READ_BACK, Type
 from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
@@ -135,9 +135,11 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     return Watch(  # every name it may read (a name inside a group is read too)
         text=text, node=e,
         channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
-        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names)
+        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names, *READ_BACK)
                     if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
+                   **{n: Rows(Members(row) for row in v) if v and isinstance(v[0], tuple) else Members(v)
+                      for n, v in program.lists.items()},
                    **{n: float(i) for i, n in enumerate(program.state_names)}, "dt": program.dt_s},
         reads=tuple(dict.fromkeys(n for n in reads.names if n not in CONSTANTS)), states=tuple(program.state_names),
         groups=tuple(kept),
@@ -161,6 +163,15 @@ def _declare(program: Program, checker: ExprChecker) -> tuple[set[str], list[tup
             checker.declare(name, t, "signal")
     for name in program.params:
         checker.declare(name, Type.NUMBER, "parameter")
+    checker.version = 1.3  # len(): a breakpoint is no file of a format
+    checker.lists = dict(program.lists)
+    for name, value in program.lists.items():  # format 1.3: a list of rows, or of numbers (a group)
+        checker.declare(name, Type.LIST if value and isinstance(value[0], tuple) else Type.NUMBERS, "list parameter")
+        if not (value and isinstance(value[0], tuple)):
+            checker.group_sizes[name] = len(value)
+    for name in READ_BACK:  # read back where the file reads it: it has a slot
+        if name in program.slot_of:
+            checker.declare(name, Type.NUMBER, "built-in variable")
     for name in program.slider_names:
         checker.declare(name, Type.NUMBER, "slider")
     for name in program.state_names:

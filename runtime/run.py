@@ -244,7 +244,8 @@ class Run:
             "dt": self.dt_s, "seed": p.seed, "params": dict(p.params),
             "robots": {r.name: r.model.name if r.model else "mechanism" for r in self.robots},
             "metrics": dict(zip(p.metric_names, (a.value for a in p.metric_aggregates))),
-        } | self._better_header()
+        } | self._better_header() | ({"lists": {k: [list(v) if isinstance(v, tuple) else v for v in value]
+                                                for k, value in p.lists.items()}} if p.lists else {})
 
     def _schedule(self, replay: Replay | None) -> Schedule:
         """The timeline by tick: an event at time t applies at the first tick whose time >= t."""

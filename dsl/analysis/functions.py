@@ -36,7 +36,7 @@ from labsim.foundation.source import Place, Text
 RANDOM = frozenset(f.name for f in FUNCTIONS.values() if f.uses_rng)
 MAX_EXPANDED = 20_000  # nodes all calls of a file expand to: f calling g twice calling h twice ... grows fast
 # names a function's body may read besides its parameters: the file's and the language's constants
-READABLE_KINDS = frozenset({"parameter", "constant"})
+READABLE_KINDS = frozenset({"parameter", "list parameter", "constant"})
 
 
 class ExprChecker(Protocol):
@@ -169,7 +169,12 @@ def check_call(c: ExprChecker, e: ast.Call, text: Text, d: FunctionDecl) -> Type
                     f"may use '{name}' more than once", notes=(f"compute {impure.func}(...) in a 'let' signal and "
                                                                "pass the signal",))
             ok = False
-        if t is None:
+        if t is Type.LIST:  # format 1.3: a list of rows is a parameter of the file, read where it is named
+            c.error(text.at(arg.span), f"{d.name}() takes numbers, booleans or groups, not a list of rows: give it "
+                    "a row, as in " + (f"{d.name}({text.value[arg.span[0]:arg.span[1]]}[i])"
+                                       if isinstance(arg, ast.Name) else "waypoints[i]"))
+            ok = False
+        elif t is None:
             ok = False
         else:
             scope[name] = (t, c.size(arg) if t in (Type.NUMBERS, Type.BOOLS) else 0)

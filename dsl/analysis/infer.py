@@ -561,6 +561,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         if t is r.takes:
             return r.returns
+        if t is Type.LIST:
+            self.error(text.at(e.args[0].span), f"{e.func}() takes a group, and this is a list of rows: take it of a "
+                       "row, as in " + (f"{e.func}({e.args[0].id}[i])" if isinstance(e.args[0], ast.Name) else
+                                        f"{e.func}(waypoints[i])"), notes=list_note(e.args[0], t))
+            return None
         if t in (Type.NUMBERS, Type.BOOLS):
             self.error(text.at(e.args[0].span), f"{e.func}() takes {r.takes.a}, but this is {t.a}",
                        notes=(("to count the members that hold a condition, write count(front < 0.5)",)

@@ -207,6 +207,7 @@ class Program:
     # its expression; each function of the file's own
     group_signals: tuple[GroupSignal, ...] = ()
     functions: tuple[FunctionText, ...] = ()
+    lists: Mapping[str, tuple] = field(default_factory=dict)  # list parameters (format 1.3), after --set
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""

@@ -164,3 +164,47 @@ def test_a_sweep_refuses_a_list(tmp_path: Path) -> None:
 def test_a_file_using_no_list_generates_the_same_code_as_before(write) -> None:
     path = write(HEAD + "params: {k: 2}\nlet:\n  a: k * sonar1\n" + RULES)
     assert "_g0" not in compile_file(path).code.source
+
+
+def test_a_number_of_a_row_parses_as_two_places_with_their_spans() -> None:
+    from labsim.dsl.syntax import ast
+    from labsim.dsl.syntax.parse import parse_expr
+
+    e = parse_expr("waypoints[i + 1][0] - len(waypoints)")
+    assert e == ast.Binary("-", ast.Index(ast.Index(ast.Name("waypoints"), ast.Binary("+", ast.Name("i"),
+                                                                                         ast.Number(1.0))),
+                                          ast.Number(0.0)), ast.Call("len", (ast.Name("waypoints"),)))
+    assert isinstance(e, ast.Binary) and isinstance(e.left, ast.Index) and isinstance(e.left.value, ast.Index)
+    assert (e.left.span, e.left.value.span, e.left.value.index.span, e.left.index.span) == ((0, 19), (0, 16),
+                                                                                          (10, 15), (17, 18))
+    assert isinstance(e.right, ast.Call) and (e.right.span, e.right.func_span) == ((22, 36), (22, 25))
+
+
+def test_a_breakpoint_reads_a_list_and_the_wheels_the_file_reads(write) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    path = write(HEAD + LIST + "let:\n  wl: wheel_left\n  gx: waypoints[tick % 3][0]\nrules:\n  - always move(2)\n")
+    program = compile_file(path)
+    watch = compile_watch(program, "waypoints[1][0] + wheel_left > 4 and len(waypoints) == 3")
+    run = Run(program, load_backend("pymunk"), warn=lambda _: None)
+    held = []
+    while run.tick():
+        robot = run.robots[0].program
+        held.append(watch.holds(run.tick_index - 1, program.dt_s, [], robot.slots))
+    assert held[:3] == [False, True, True]  # 3 + 0 on the first tick, 3 + 2 after
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, "waypoints[5][0] > 1")
+    assert e.value.diagnostics[0].message == "list 'waypoints' has 3 rows, at places 0 to 2; not 5"
+
+
+def test_the_trace_header_records_the_lists_as_set(write, tmp_path: Path) -> None:
+    import json
+
+    path = write(HEAD + LIST + RULES)
+    program = compile_file(path, {"waypoints": "[[1, 2.5]]"})
+    Run(program, load_backend("pymunk"), trace_path=tmp_path / "t.csv", warn=lambda _: None).run()
+    header = json.loads((tmp_path / "t.csv").read_text().splitlines()[0].removeprefix("# labsim-trace "))
+    assert header["lists"] == {"waypoints": [[1.0, 2.5]]}
+    Run(compile_file(write(HEAD + RULES)), load_backend("pymunk"), trace_path=tmp_path / "u.csv",
+        warn=lambda _: None).run()
+    assert '"lists"' not in (tmp_path / "u.csv").read_text().splitlines()[0]
