@@ -166,6 +166,7 @@ class _Walker(ast.Visitor[Any]):
 
     def row_member(self, e: ast.Index, rows: Rows, i: int) -> Any:
         """Value i of the row ``waypoints[k]``: nan, and one fault for the row, when there is no row k."""
+        k: Any
         try:
             k = fold(e.index, {k: v for k, v in self.constants.items() if k not in self.env})
         except NotConstant:

@@ -207,7 +207,7 @@ class MemberWriter(ast.Visitor[list[str]]):
         except NotConstant:
             k_code = g.expr(w, e.index, text, where)
             site = g.site("[row]", text, e.span, where)
-            columns = zip(*rows)  # type: ignore[misc]
+            columns = zip(*rows)
             return [f"{site}(({''.join(number_literal(v) + ', ' for v in column)}), {k_code})" for column in columns]
         assert isinstance(k, int | float) and float(k).is_integer()  # the checker refused other places
         return [number_literal(v) for v in rows[int(k)]]  # type: ignore[union-attr]

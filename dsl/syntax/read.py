@@ -97,15 +97,15 @@ class RobotDecl:
             return []
         if isinstance(at[0], tuple):
             assert isinstance(node, SequenceNode)
-            return [(pose, item) for pose, item in zip(at, node.value)]  # type: ignore[misc]
-        return [(at, node)]  # type: ignore[list-item]
+            return [(pose, item) for pose, item in zip(at, node.value)]
+        return [(at, node)]
 
     def start(self, k: int) -> Pose | None:
         """Member k's fixed start pose; None for 'spawn' and 'random'."""
         if isinstance(self.at, str):
             return None
         pose = self.at[k] if isinstance(self.at[0], tuple) else self.at
-        return pose  # type: ignore[return-value]
+        return pose
 
 
 @dataclass(frozen=True)
