@@ -22,7 +22,7 @@ from typing import Any
 from labsim.backends.scene.models import Kind
 from labsim.backends.scene.world import World
 from labsim.dsl.analysis.check import Checked
-from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.builtins import READ_BACK, Type
 from labsim.dsl.syntax import ast
 from labsim.foundation.source import Place, Text
 
@@ -245,6 +245,8 @@ class Ranges(ast.Visitor[Range]):
             return Range(-math.pi, math.pi, facts=(_HEADING,), angle=True)
         if name in ("x", "y"):
             return self.pose(name)
+        if name in READ_BACK and self.c.file.version >= 1.3 and self.c.models:
+            return self.read_back(name)
         if name == "forward_speed" and self.c.models:
             models = self.c.models.values()
             v = max(m.max_wheel_speed_rad_s * m.wheel_radius_m for m in models)
@@ -253,6 +255,19 @@ class Ranges(ast.Visitor[Range]):
                 f"forward_speed is in m/s, at most {v:.4g} either way ({m.name}'s max_wheel_speed "
                 f"{m.max_wheel_speed_rad_s:g} rad/s times its wheel radius {m.wheel_radius_m:g} m)",))
         return TOP
+
+    def read_back(self, name: str) -> Range:
+        """Format 1.3: a wheel command as sent, within the wheels' limit; the start pose, as the pose."""
+        if name == "start_heading":
+            return Range(-math.pi, math.pi, facts=("start_heading is in radians, from -pi to pi (-180 to 180 "
+                                                   "degrees)",), angle=True)
+        if name in ("start_x", "start_y"):
+            r = self.pose(name[-1])
+            return replace(r, facts=tuple(f.replace(f"{name[-1]} is", f"{name} is", 1) for f in r.facts))
+        model = max(self.c.models.values(), key=lambda m: m.max_wheel_speed_rad_s)
+        v = model.max_wheel_speed_rad_s
+        return Range(-v, v, facts=(f"{name} is in rad/s, at most {v:g} either way ({model.name}'s max_wheel_speed: "
+                                   "a command is held to it)",))
 
     def sonar(self, name: str) -> Range:
         ranges = [s.range_m for m in self.c.models.values() for s in m.rays() if s.name == name]

@@ -137,3 +137,15 @@ def test_the_language_server_knows_the_read_back_names_and_len() -> None:
     assert known["wheel_left"].kind == "variable" and "clamped to the model's limit" in known["wheel_left"].doc
     assert known["start_heading"].doc == "the robot's heading at the start, radians in (-pi, pi] (format 1.3)"
     assert known["len"].kind == "function" and "rows a list parameter has" in known["len"].doc
+
+
+def test_a_comparison_the_read_back_ranges_decide_warns_with_the_unit(write) -> None:
+    path = write(HEAD + "rules:\n  - if wheel_left > 20 then move(1)\n  - if start_heading > 90 then move(1)\n"
+                 "  - if start_x > 8 then move(1)\n  - if wheel_right <= 12.3 then move(2)\n  - else stop()\n")
+    assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
+        (7, 8, "'wheel_left > 20' never holds: wheel_left is in rad/s, at most 12.3 either way (pioneer_p3dx's "
+               "max_wheel_speed: a command is held to it)"),
+        (8, 8, "'start_heading > 90' never holds: start_heading is in radians, from -pi to pi (-180 to 180 degrees); "
+               "did you mean start_heading > rad(90)?"),
+        (9, 8, "'start_x > 8' never holds: start_x is in metres, from -7.5 to 7.5 (the walls around world "
+               "'walls_lab4')")]
