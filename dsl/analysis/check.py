@@ -215,7 +215,9 @@ class _Checker(ExprChecker):
         wheelless = [m.name for m in models.values() if m.wheel_radius_m <= 0 or m.max_wheel_speed_rad_s <= 0]
         for name, t in READ_BACK.items():
             what = "a robot's wheel command" if name in WHEELS else "a robot's start pose"
+            self.unavailable_notes[name] = (f"read-back is of robots with wheels: {', '.join(MODELS)}",)
             if version < 1.3:
+                self.unavailable_notes[name] = ()
                 self.unavailable[name] = later_format(f"'{name}'", 1.3)
             elif wheelless:
                 self.unavailable[name] = f"'{name}' reads {what}, and robot model '{wheelless[0]}' has no wheels"

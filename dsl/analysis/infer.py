@@ -86,6 +86,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
+        self.unavailable_notes: dict[str, tuple[str, ...]] = {}  # and the hint
         self.version = 1.0  # the file's format
         self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
         self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
@@ -253,7 +254,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                               "Time and memory)",))
             return None
         if e.id in self.unavailable:
-            self.error(text.at(e.span), self.unavailable[e.id])
+            self.error(text.at(e.span), self.unavailable[e.id], notes=self.unavailable_notes.get(e.id, ()))
             return None
         hint = did_you_mean(e.id, self.types)
         notes = unknown_name_notes(e.id, self.types, self.distance)

@@ -52,7 +52,8 @@ def list_value(node: SequenceNode, name: str, error: Report) -> ListValue | None
             return None
         if len(item.value) != width:
             error(item, f"row {k} of list '{name}' has {len(item.value)} value{_s(len(item.value))}, and row 0 "
-                        f"has {width}: the rows of a list have one length", ())
+                        f"has {width}: the rows of a list have one length",
+                  (f"give every row {width} value{_s(width)}, as row 0 has",))
             return None
         row = [_number(v, name, error) for v in item.value]
         if None in row:
@@ -69,7 +70,8 @@ def _number(node: Node, name: str, error: Report) -> float | None:
     value = scalar_value(node) if isinstance(node, ScalarNode) else None
     if isinstance(value, bool) or not isinstance(value, int | float):
         shown = f"'{node.value}'" if isinstance(node, ScalarNode) and node.value else f"a {shape_of(node)}"
-        error(node, f"list '{name}' holds numbers, not {shown}", ())
+        error(node, f"list '{name}' holds numbers, not {shown}",
+              ("a list's values are numbers written out, as in [0.5, 1, 2]; computed values belong under 'let:'",))
         return None
     if not math.isfinite(value):
         error(node, f"list '{name}' holds finite numbers, not '{node.value}'", ())

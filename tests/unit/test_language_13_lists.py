@@ -15,6 +15,7 @@ from labsim.runtime.run import Run
 HEAD = "labsim: 1.3\nworld: walls_lab4\nstop: tick >= 5\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
 LIST = "params:\n  waypoints: [[0, -1], [3, -1], [3, -4]]\n"
 RULES = "rules:\n  - always move(1)\n"
+NUMBERS = ("a list's values are numbers written out, as in [0.5, 1, 2]; computed values belong under 'let:'",)
 
 
 def diagnostics(path: Path, overrides: dict[str, str] | None = None) -> list[tuple[object, ...]]:
@@ -40,11 +41,11 @@ def signal_rows(path: Path, names: tuple[str, ...], overrides: dict[str, str] | 
 
 @pytest.mark.parametrize(("value", "col", "message", "notes"), [
     ("[[0, -1], [3, -1, 2]]", 16, "row 1 of list 'w' has 3 values, and row 0 has 2: the rows of a list have one "
-                                  "length", ()),
+                                  "length", ("give every row 2 values, as row 0 has",)),
     ("[]", 6, "list 'w' is empty: a list parameter holds at least one value",
      ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
-    ("[[0, -1], [3, x]]", 20, "list 'w' holds numbers, not 'x'", ()),
-    ("[1, true]", 10, "list 'w' holds numbers, not 'true'", ()),
+    ("[[0, -1], [3, x]]", 20, "list 'w' holds numbers, not 'x'", NUMBERS),
+    ("[1, true]", 10, "list 'w' holds numbers, not 'true'", NUMBERS),
     ("[1, .inf]", 10, "list 'w' holds finite numbers, not '.inf'", ()),
     ("[1, [2]]", 10, "list 'w' holds numbers or rows of numbers, not lists of lists",
      ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
@@ -62,7 +63,7 @@ def test_a_list_of_the_wrong_shape_is_an_error_at_the_value(write, value: str, c
 def test_a_list_written_as_a_block_reads_as_one_on_a_line(write) -> None:
     path = write(HEAD + "params:\n  w:\n    - [0, -1]\n    - [3, -1]\n    - [3]\nlet:\n  a: len(w)\n" + RULES)
     assert diagnostics(path) == [(10, 7, "row 2 of list 'w' has 1 value, and row 0 has 2: the rows of a list "
-                                         "have one length", ())]
+                                         "have one length", ("give every row 2 values, as row 0 has",))]
 
 
 def test_a_list_parameter_is_format_1_3(write) -> None:
@@ -142,7 +143,8 @@ def test_a_list_is_set_whole_and_the_set_value_is_checked_as_the_files(write) ->
                                          "must be its --set", how)]
     assert diagnostics(path, {"waypoints": "[[1, 2], [3]]"}) == [
         ("--set waypoints=[[1, 2], [3]]", 0, 0, "row 1 of list 'waypoints' has 1 value, and row 0 has 2: the rows "
-                                                "of a list have one length", ())]
+                                                "of a list have one length",
+         ("give every row 2 values, as row 0 has",))]
     assert diagnostics(path, {"waypoints": "[[1, 2]"})[0][3] == \
         "parameter 'waypoints': '[[1, 2]' is not a list written as [a, b, ...]"
     # the place checked before the run is checked against the list the run takes

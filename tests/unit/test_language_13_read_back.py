@@ -85,6 +85,9 @@ def test_a_mechanism_has_no_wheels_to_read_back(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nbind:\n  Arm_Actuator.velocity: wheel_left\n")
     assert diagnostics(path) == [(5, 26, "'wheel_left' reads a robot's wheel command, and world 'crane' is a "
                                           "mechanism: there is no robot with wheels")]
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    assert e.value.diagnostics[0].notes == ("read-back is of robots with wheels: pioneer_p3dx, epuck",)
 
 
 def test_a_file_of_1_2_keeps_its_own_start_x(write) -> None:
