@@ -430,6 +430,12 @@ class _Reader(Reader):
             if name is None:
                 continue
             items = value.value if isinstance(value, SequenceNode) else [value]
+            nested = next((item for item in items if isinstance(item, SequenceNode)), None)
+            if nested is not None:  # a list for each robot: a list parameter's rows are the way (format 1.3)
+                self.error(nested, f"robot '{robot}' gives '{name}' a list: a robot's own value is a number or "
+                                   "true/false", notes=(f"for a list per robot, give the file a list parameter of rows "
+                                                        f"and pick each robot's with {name}[index] (format 1.3)",))
+                continue
             if isinstance(value, SequenceNode) and len(items) != count:
                 self.error(value, f"robot '{robot}' has {count} member{'s' if count != 1 else ''}, so "
                            f"'{name}' needs {count} value{'s' if count != 1 else ''} (or one for all), "

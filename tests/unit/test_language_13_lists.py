@@ -210,3 +210,20 @@ def test_the_trace_header_records_the_lists_as_set(write, tmp_path: Path) -> Non
     Run(compile_file(write(HEAD + RULES)), load_backend("pymunk"), trace_path=tmp_path / "u.csv",
         warn=lambda _: None).run()
     assert '"lists"' not in (tmp_path / "u.csv").read_text().splitlines()[0]
+
+
+def test_a_list_for_each_robot_is_refused_with_the_way_to_do_it(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "count: 2, at: random, params: {waypoints: [[1, 2], [3, 4]]}}")
+                 + LIST + RULES)
+    assert diagnostics(path) == [(5, 71, "robot 'p' gives 'waypoints' a list: a robot's own value is a number or "
+                                         "true/false", ("for a list per robot, give the file a list parameter of rows "
+                                                        "and pick each robot's with waypoints[index] (format 1.3)",))]
+
+
+def test_the_outline_of_an_editor_declares_a_list_with_its_text() -> None:
+    from labsim.runtime.lsp.outline import outline
+
+    out = outline(HEAD + LIST + RULES)
+    assert out is not None
+    [d] = out.definitions["waypoints"]
+    assert (d.kind, d.text) == ("param", "[[0, -1], [3, -1], [3, -4]]")
