@@ -197,7 +197,8 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
     if kind in ("[]", "[]?"):
         return _pick(report, math.nan if kind == "[]" else False)
     if kind == "[row]":
-        return _pick_row(report, slots)
+        clock = faults.clock
+        return _pick_row(report, clock if clock is not None else (lambda: int(slots[TICK])))
     if kind == "pid":
         return make_pid(report)
     name, _, since = kind.partition("@")
@@ -272,7 +273,7 @@ def _pick(report: Callable[[str, str], None], missing: object) -> Callable[[tupl
     return pick
 
 
-def _pick_row(report: Callable[[str, str], None], slots: Slots) -> Callable[[tuple, float], float]:
+def _pick_row(report: Callable[[str, str], None], tick_now: Callable[[], int]) -> Callable[[tuple, float], float]:
     """``waypoints[k]`` with k known only at run time (format 1.3): one column's value at row k, or nan and
     a warning when there is no row k; each of a row's columns is picked through the same guard, which
     warns once a tick."""
@@ -281,7 +282,7 @@ def _pick_row(report: Callable[[str, str], None], slots: Slots) -> Callable[[tup
     def pick(column: tuple, k: float) -> float:
         if 0 <= k < len(column) and k == int(k):
             return column[int(k)]
-        tick = int(slots[TICK])
+        tick = tick_now()  # the run's clock: a single robot's slots do not hold the tick
         if warned[0] != tick:
             warned[0] = tick
             n = len(column)

@@ -227,3 +227,16 @@ def test_the_outline_of_an_editor_declares_a_list_with_its_text() -> None:
     assert out is not None
     [d] = out.definitions["waypoints"]
     assert (d.kind, d.text) == ("param", "[[0, -1], [3, -1], [3, -4]]")
+
+
+@pytest.mark.parametrize("count", [1, 2])
+def test_a_missing_row_is_counted_once_a_tick_however_many_values_it_has(write, count: int) -> None:
+    at = "at: [0, 0, 0]}" if count == 1 else "count: 2, at: [[0, 0, 0], [2, 2, 0]]}"
+    path = write(HEAD.replace("tick >= 5", "tick >= 10").replace("at: [0, 0, 0]}", at) + LIST
+                 + "let:\n  s: sum(waypoints[tick + 1])\nrules:\n  - if waypoints[tick + 1][1] > 9 then move(1)\n"
+                 "  - else move(2)\n")
+    run = Run(compile_file(path), load_backend("pymunk"), warn=lambda _: None)
+    run.run()
+    counts = sorted((site.where, n) for (site, _), n in run.faults.counts.items())
+    # each robot: the rule on ticks 2 to 9, the signal on the stopping tick 10 too
+    assert counts == [("rule main:1", 8 * count), ("signal 's'", 9 * count)]
