@@ -230,7 +230,6 @@ class _Checker(ExprChecker):
                 self.declare(name, t, _SHADOWABLE_KIND)
         self.grader_wheels = bool(models) and not wheelless and version < 1.3  # measured metrics read them
 
-
     def robots_failed(self, world: World | None, mechanism: Mechanism | None) -> bool:
         """Whether a robot was reported as wrong (an unknown model, no model, a mistyped or missing
         'robots:'): the names its model would have given are then not reported as unknown."""
@@ -433,8 +432,9 @@ class _Checker(ExprChecker):
                         self.group_sizes[name] = len(listed)
                 continue
             if name not in values:
-                known = ", ".join(values) or "none"
-                self.setting_error(where, f"unknown parameter '{name}'{did_you_mean(name, values)}",
+                named = [*values, *self.lists]
+                known = ", ".join(named) or "none"
+                self.setting_error(where, f"unknown parameter '{name}'{did_you_mean(name, named)}",
                                    notes=(f"parameters of {self.bf.path}: {known}",))
                 continue
             values[name] = self.override(name, raw, values[name], where)
