@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 from yaml.nodes import Node, ScalarNode, SequenceNode
 
+from labsim.dsl.syntax.parse import MAX_RANGE
 from labsim.foundation.diagnostics import LabsimError
 from labsim.foundation.source import loads, scalar_value, shape_of
 
@@ -37,12 +38,19 @@ def list_value(node: SequenceNode, name: str, error: Report) -> ListValue | None
         error(node, f"list '{name}' is empty: a list parameter holds at least one value", (EXAMPLE,))
         return None
     if not isinstance(items[0], SequenceNode):
+        if len(items) > MAX_RANGE:  # a list of numbers is a group, written out member by member
+            error(node, f"list '{name}' holds {len(items):,} numbers, and a list of numbers (a group) at most "
+                        f"{MAX_RANGE:,}", ("a longer table is a list of rows, as in [[x, y], ...]",))
+            return None
         numbers = [_number(item, name, error) for item in items]
         if None in numbers:
             return None
         return _small(tuple(n for n in numbers if n is not None), node, name, error)
     rows: list[Row] = []
     width = len(items[0].value)
+    if width > MAX_RANGE:  # a row is a group
+        error(items[0], f"row 0 of list '{name}' has {width:,} values, and a row (a group) at most {MAX_RANGE:,}", ())
+        return None
     for k, item in enumerate(items):
         if not isinstance(item, SequenceNode):
             error(item, f"list '{name}' is a list of rows, and this is not a row: write it as [a, b, ...]", ())

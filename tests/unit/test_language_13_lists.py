@@ -240,3 +240,20 @@ def test_a_missing_row_is_counted_once_a_tick_however_many_values_it_has(write, 
     counts = sorted((site.where, n) for (site, _), n in run.faults.counts.items())
     # each robot: the rule on ticks 2 to 9, the signal on the stopping tick 10 too
     assert counts == [("rule main:1", 8 * count), ("signal 's'", 9 * count)]
+
+
+def test_a_list_of_numbers_and_a_row_hold_as_many_as_a_group_and_a_list_ten_thousand(write) -> None:
+    many = ", ".join(["1"] * 1001)
+    path = write(HEAD + f"params:\n  g: [{many}]\n" + RULES)
+    assert diagnostics(path) == [(7, 6, "list 'g' holds 1,001 numbers, and a list of numbers (a group) at most 1,000",
+                                  ("a longer table is a list of rows, as in [[x, y], ...]",))]
+    path = write(HEAD + f"params:\n  w: [[{many}]]\n" + RULES)
+    assert diagnostics(path) == [(7, 7, "row 0 of list 'w' has 1,001 values, and a row (a group) at most 1,000", ())]
+    rows = ", ".join(["[1, 2, 3, 4]"] * 2501)
+    path = write(HEAD + f"params:\n  w: [{rows}]\n" + RULES)
+    assert diagnostics(path) == [(7, 6, "list 'w' holds 10,004 numbers, more than the 10,000 a list may", ())]
+    thousand = ", ".join(["2"] * 1000)
+    path = write(HEAD + f"params:\n  g: [{thousand}]\n  w: [[{thousand}], [{thousand}]]\nlet:\n"
+                 "  s: sum(g) + min(w[tick % 2]) + count(w[tick % 3] > 1)\n" + RULES)
+    # 2,000 + 2 + 1,000 members over 1; on tick 2 there is no row 2: its members are nan, none over 1
+    assert signal_rows(path, ("s",))[0][:3] == [(3002.0,), (3002.0,), (2002.0,)]
