@@ -152,3 +152,17 @@ def test_a_comparison_the_read_back_ranges_decide_warns_with_the_unit(write) -> 
                "did you mean start_heading > rad(90)?"),
         (9, 8, "'start_x > 8' never holds: start_x is in metres, from -7.5 to 7.5 (the walls around world "
                "'walls_lab4')")]
+
+
+def test_each_robot_reads_its_own_models_limit_and_no_wheel_noise(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: tick >= 3\nrobots:\n"
+                 "  e: {model: epuck, at: [0, 0, 0], noise: {wheels: {std_rad_s: 2, slip: 0.5}}}\n"
+                 "  p: {model: pioneer_p3dx, at: [2, 2, 0]}\nlet:\n  wl: wheel_left\n  n: len([x, y, tick])\n"
+                 "rules:\n  - always arc(50, -1)\n")
+    program = compile_file(path)
+    run = Run(program, load_backend("pymunk"), warn=lambda _: None)
+    seen = []
+    while run.tick():
+        seen.append(tuple(r.program.slots[program.slot_of["wl"]] for r in run.robots))
+    assert seen == [(0.0, 0.0), (6.24, 12.3), (6.24, 12.3)]  # the e-puck's limit and the Pioneer's; no noise
+    assert run.robots[0].program.slots[program.slot_of["n"]] == 3.0  # len() of a group: its members
