@@ -106,8 +106,9 @@ def list_setting(raw: str, name: str, current: ListValue) -> tuple[ListValue | N
         return None, f"parameter '{name}' is a list: give a whole list, not '{raw[:40]}'", how
     try:
         doc = loads(text, f"--set {name}")
-    except LabsimError:
-        return None, f"parameter '{name}': '{raw[:40]}' is not a list written as [a, b, ...]", how
+    except LabsimError as e:  # YAML's own words: a number too large, nesting too deep, an anchor
+        said = e.diagnostics[0].message if e.diagnostics else "not a list written as [a, b, ...]"
+        return None, f"parameter '{name}': {said}", how
     if not isinstance(doc.root, SequenceNode):
         return None, f"parameter '{name}': '{raw[:40]}' is not a list written as [a, b, ...]", how
     problems: list[tuple[str, tuple[str, ...]]] = []

@@ -145,8 +145,11 @@ def test_a_list_is_set_whole_and_the_set_value_is_checked_as_the_files(write) ->
         ("--set waypoints=[[1, 2], [3]]", 0, 0, "row 1 of list 'waypoints' has 1 value, and row 0 has 2: the rows "
                                                 "of a list have one length",
          ("give every row 2 values, as row 0 has",))]
-    assert diagnostics(path, {"waypoints": "[[1, 2]"})[0][3] == \
-        "parameter 'waypoints': '[[1, 2]' is not a list written as [a, b, ...]"
+    assert diagnostics(path, {"waypoints": "[[1, 2]"})[0][3] == ("parameter 'waypoints': YAML syntax error: expected "
+                                                               "',' or ']', but got the end of the file (while "
+                                                               "parsing a flow sequence)")
+    assert diagnostics(path, {"waypoints": "[[1, 1e309]]"})[0][3] == (
+        "parameter 'waypoints': number too large: labsim's numbers are 64-bit floats, at most about 1.8e+308")
     # the place checked before the run is checked against the list the run takes
     assert diagnostics(path, {"waypoints": "[[1, 2]]"})[0][:3] == (10, 17, "list 'waypoints' has 1 row, at places "
                                                                            "0 to 0; not 1")
