@@ -7,6 +7,9 @@ sign every tick or two, was drawn as slow pulses. ``Sampler`` keeps every tick's
 frame, per group of consecutive ticks, two rows: the group's first time with each column's
 least value and its last time with the greatest (the min/max envelope that PlotJuggler and
 uPlot draw per pixel column); a column that only fell over the group has its greatest first.
+A tick costs two C-level ``extend`` calls onto flat lists (``Kept``) and a frame one
+``numpy.array`` of floats: a list of per-tick tuples cost a frame three times as much, a
+microsecond a tick at "as fast as it goes".
 The frame says, per pair and column, whether the column went both ways within the group
 (``bands``): the page's chart draws such a pair as the band it spans (per pixel column the least
 and greatest value of every row that covers it) and any other as the line between its two rows,
@@ -33,6 +36,40 @@ def _getter(indices: Sequence[int]) -> Callable[[Sequence[object]], tuple]:
     return itemgetter(*indices)
 
 
+class Kept:
+    """One robot's chart values of the ticks since the last frame, flat: for each tick in
+    ``ticks``, its sensor channels' values (``Sampler.read``) one after the other in ``reads``
+    and its numeric slots' (``Sampler.keep``) in ``keeps``."""
+
+    __slots__ = ("keeps", "reads", "ticks")
+
+    def __init__(self) -> None:
+        self.ticks: list[int] = []
+        self.reads: list = []
+        self.keeps: list = []
+
+    def widths(self) -> tuple[int, int]:
+        n = len(self.ticks)
+        return (len(self.reads) // n, len(self.keeps) // n) if n else (0, 0)
+
+    def thin(self) -> None:
+        """Every other tick goes, the first and the last kept, so that the chart still spans
+        every tick since the last frame (kept when no page takes them: none is ready)."""
+        n = len(self.ticks)
+        wr, wk = self.widths()
+        rows = [*range(0, n - 1, 2), n - 1]
+        self.ticks = [self.ticks[r] for r in rows]
+        self.reads = [v for r in rows for v in self.reads[r * wr:(r + 1) * wr]]
+        self.keeps = [v for r in rows for v in self.keeps[r * wk:(r + 1) * wk]]
+
+    def drop_last(self) -> Kept:
+        """These ticks but the last (the frame itself shows it), in place."""
+        if self.ticks:
+            wr, wk = self.widths()
+            del self.ticks[-1], self.reads[len(self.reads) - wr:], self.keeps[len(self.keeps) - wk:]
+        return self
+
+
 class Sampler:
     """What a tick keeps for the chart and how a frame's rows are made of it.
 
@@ -57,48 +94,57 @@ class Sampler:
             k += s is not None
         self._order = np.array(([at[i] for _, i, _ in sensors] if self._flat else list(range(len(sensors))))
                                + order, dtype=np.intp)
-        self._nan = width + len(numeric_slots)  # the column of nans a missing number reads from
+        nan = width + len(numeric_slots)  # the column of nans a missing number reads from
+        self._gaps = bool((self._order < 0).any())
+        self._columns = np.where(self._order >= 0, self._order, nan)
         self.paired = False  # whether the last ``rows`` were least/greatest pairs of groups of ticks
         self.bands: list[str] = []  # then per pair, per column "1": it went up and down within the group
 
-    def _numbers(self, kept: Sequence[tuple[int, tuple, tuple]]) -> np.ndarray | None:
-        if self._flat:
-            rows = [r + s for _, r, s in kept]
-        else:
-            rows = [tuple(r[c] if p < 0 else (r[c][p] if isinstance(r[c], tuple) and p < len(r[c]) else None)
-                          for c, p in self._parts) + s for _, r, s in kept]
-        try:
-            m = np.array(rows, dtype=float)
-        except (TypeError, ValueError):  # a None or a record among them: each cell on its own
-            m = np.array([[_float(v) for v in row] for row in rows], dtype=float)
-        if m.ndim != 2:
-            m = m.reshape(len(rows), -1)
-        m = np.hstack([m, np.full((len(rows), 1), math.nan)])
-        return m[:, np.where(self._order >= 0, self._order, self._nan)]
+    def _numbers(self, kept: Kept) -> np.ndarray:
+        """The kept ticks' chart values, one row a column and one column a tick (the reductions
+        below run along a row, several times faster than down a column)."""
+        n = len(kept.ticks)
+        wr, wk = kept.widths()
+        try:  # the common case: every value a number (an int, a bool, a float)
+            if not self._flat:
+                raise TypeError
+            m = np.concatenate((np.array(kept.reads, dtype=float).reshape(n, wr),
+                                np.array(kept.keeps, dtype=float).reshape(n, wk)), axis=1)
+        except (TypeError, ValueError):  # a None, a record or a joint's tuple among them: each cell on its own
+            reads = [kept.reads[k * wr:(k + 1) * wr] for k in range(n)]
+            keeps = [kept.keeps[k * wk:(k + 1) * wk] for k in range(n)]
+            if self._flat:
+                rows = [r + s for r, s in zip(reads, keeps)]
+            else:
+                rows = [[r[c] if p < 0 else (r[c][p] if isinstance(r[c], tuple) and p < len(r[c]) else None)
+                         for c, p in self._parts] + s for r, s in zip(reads, keeps)]
+            m = np.array([[_float(v) for v in row] for row in rows], dtype=float).reshape(n, -1)
+        if self._gaps:
+            m = np.concatenate((m, np.full((n, 1), math.nan)), axis=1)
+        return np.ascontiguousarray(m.T[self._columns])
 
-    def rows(self, kept: Sequence[tuple[int, tuple, tuple]], dt_s: float, at_most: int) -> list[Row]:
+    def rows(self, kept: Kept, dt_s: float, at_most: int) -> list[Row]:
         """At most ``at_most`` chart rows for the kept ticks: as they are when they fit, else
         least/greatest pairs of consecutive groups; four decimals, ``"inf"`` and None as sent."""
-        if not kept:
+        n = len(kept.ticks)
+        if not n:
             self.paired = False
             return []
-        m = self._numbers(kept)
-        assert m is not None
-        ticks = np.array([t for t, _, _ in kept], dtype=float)
-        n = len(kept)
+        m = self._numbers(kept)  # columns x ticks
+        ticks = np.array(kept.ticks, dtype=float)
         self.paired = n > max(2, at_most)
         self.bands = []
         if not self.paired:
-            times, values = ticks, m
+            times, values = ticks, m.T
         else:
             groups = max(1, at_most // 2)
             edges = np.linspace(0, n, groups + 1).astype(np.intp)
             starts, ends = edges[:-1], edges[1:] - 1
             with np.errstate(invalid="ignore"):
-                low = np.fmin.reduceat(m, starts, axis=0)
-                high = np.fmax.reduceat(m, starts, axis=0)
+                low = np.fmin.reduceat(m, starts, axis=1).T
+                high = np.fmax.reduceat(m, starts, axis=1).T
             rising, falling = _monotone(m, starts, ends)
-            values = np.empty((2 * groups, m.shape[1]))
+            values = np.empty((2 * groups, m.shape[0]))
             # a column that only fell over the group: its greatest first, so that the line falls
             down = falling & ~rising
             values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
@@ -115,14 +161,15 @@ class Sampler:
 
 
 def _monotone(m: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per group of rows (``starts``..``ends``) and column, whether it never fell, and never rose."""
+    """Per group of ticks (``starts``..``ends``) and column of ``m`` (columns x ticks), whether
+    it never fell, and never rose (groups x columns)."""
     d = np.zeros_like(m)
     with np.errstate(invalid="ignore"):
-        d[:-1] = m[1:] - m[:-1]
-    d[ends] = 0  # a group's last row to the next group's first is no step of either
-    fell = np.add.reduceat((d < 0).astype(np.int32), starts, axis=0)
-    rose = np.add.reduceat((d > 0).astype(np.int32), starts, axis=0)
-    return fell == 0, rose == 0
+        np.subtract(m[:, 1:], m[:, :-1], out=d[:, :-1])
+    d[:, ends] = 0  # a group's last tick to the next group's first is no step of either
+    fell = np.logical_or.reduceat(d < 0, starts, axis=1)
+    rose = np.logical_or.reduceat(d > 0, starts, axis=1)
+    return ~fell.T, ~rose.T
 
 
 def _float(v: object) -> float:

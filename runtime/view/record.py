@@ -6,7 +6,7 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), notes the tick's events
+corner), keeps the tick's chart values (``labsim.runtime.view.peaks.Kept``), notes the tick's events
 (a slider move, the timeline's, a change by hand, a count metric or a log, a state entered, a
 collision begun, a breakpoint that held: what the page's Events list shows), and asks the
 breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
@@ -22,6 +22,7 @@ from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
+from labsim.runtime.view.peaks import Kept
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
@@ -110,7 +111,7 @@ class TickRecorder(Watcher):
     def __init__(self) -> None:
         self.xy: list[tuple[int, ...] | None] = []
         self.paths: list[PathThinner] = []
-        self.samples: list[list[tuple[int, tuple, tuple]]] = []
+        self.samples: list[Kept] = []
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
@@ -130,7 +131,7 @@ class TickRecorder(Watcher):
         # where a count metric rose (a near miss, as the map of ``labsim plot`` marks it): [k, x, y],
         # k the metric's place among the count metrics (``count_names``), since the last frame
         self.marks: list[list[list]] = [[] for _ in xy]
-        self.samples = [[] for _ in xy]
+        self.samples = [Kept() for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
         self.keep: Any = lambda _slots: ()  # (``labsim.runtime.view.peaks.Sampler`` sets both)
@@ -144,31 +145,43 @@ class TickRecorder(Watcher):
         self._count_of = {i: k for k, i in enumerate(counts)}
 
     def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        """Every tick of every robot: what it keeps is a few C calls, and what happens seldom (a state
+        entered, an event, a collision begun or ended, a breakpoint) costs one test each until it does."""
         i = robot.index
         self.last_rule[i] = rule
         self.last[i] = values
-        state, was = robot.program.slots[STATE], self.states[i]
+        program = robot.program
+        slots = program.slots
+        state, was = slots[STATE], self.states[i]
         self.states[i] = state  # a goto changes it after the tick: the frame shows this one
-        if state != was or robot.program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
+        if state != was or program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
             self._note(robot, state, was, values)
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
-            c = bool(values[xy[2]]) if len(xy) > 2 else False
-            if c is not self.touching[i]:  # a collision begins (or ends): its place, for the page's mark
-                self.touching[i] = c
-                if c:
-                    self.collisions[i] += 1
-                    self.hits[i].append((values[xy[0]], values[xy[1]]))
-                    self.event(robot.name, f"collision at ({values[xy[0]]:.2f}, {values[xy[1]]:.2f})")
-        assert self._run is not None
-        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
+            if len(xy) > 2 and bool(values[xy[2]]) is not self.touching[i]:  # a collision begins (or ends)
+                self._touch(robot, values, xy)
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls and two extends, in C
         kept = self.samples[i]
-        kept.append((self._run.tick_index, self.read(values), self.keep(robot.program.slots)))
-        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is ready): every other one goes,
-            del kept[1:-1:2]  # the first and the last kept, so the chart still spans every tick since
+        ticks = kept.ticks
+        run = self._run
+        assert run is not None
+        ticks.append(run.tick_index)
+        kept.reads.extend(self.read(values))
+        kept.keeps.extend(self.keep(slots))
+        if len(ticks) > MAX_SAMPLES_KEPT:  # no page took them (none is ready): every other one goes
+            kept.thin()
         if self.breaks:
             self._check(robot, rule, values)
+
+    def _touch(self, robot: RobotRun, values: list, xy: tuple[int, ...]) -> None:
+        """A collision begins (its place, for the page's mark) or ends."""
+        i = robot.index
+        c = self.touching[i] = not self.touching[i]
+        if c:
+            self.collisions[i] += 1
+            self.hits[i].append((values[xy[0]], values[xy[1]]))
+            self.event(robot.name, f"collision at ({values[xy[0]]:.2f}, {values[xy[1]]:.2f})")
 
     def _check(self, robot: RobotRun, rule: int, values: list) -> None:
         """Every breakpoint, every tick, for every robot: a condition must see each tick to know
@@ -224,7 +237,7 @@ class TickRecorder(Watcher):
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()
 
-    def take_samples(self, robot: int) -> list[tuple[int, tuple, tuple]]:
+    def take_samples(self, robot: int) -> Kept:
         """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
-        kept, self.samples[robot] = self.samples[robot][:-1], []
+        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept()
         return kept
