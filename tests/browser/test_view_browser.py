@@ -397,6 +397,26 @@ def test_a_slider_value_follows_the_thumb_during_a_drag(view: Any) -> None:
     v.page.mouse.up()
 
 
+def test_the_grid_s_scale_and_the_slew_dial_s_captions_stand_apart(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    for width, height in ((1400, 860), (1280, 800), (1920, 1080)):
+        v.page.set_viewport_size({"width": width, "height": height})
+        v.page.click("#step")  # a frame drawn at this size
+        v.wait("window.LV_world.dialBox && document.getElementById('grid-scale').textContent.startsWith('grid ')")
+        v.page.wait_for_timeout(200)
+        dial = v.js("window.LV_world.dialBox")
+        label = v.js("(() => { const c = document.getElementById('world').getBoundingClientRect(),"
+                     " g = document.getElementById('grid-scale').getBoundingClientRect();"
+                     " return { left: g.left - c.left, top: g.top - c.top, right: g.right - c.left,"
+                     " bottom: g.bottom - c.top }; })()")
+        apart = (label["bottom"] <= dial["top"] or dial["bottom"] <= label["top"]
+                 or label["right"] <= dial["left"] or dial["right"] <= label["left"])
+        assert apart, (width, label, dial)
+    v.page.set_viewport_size({"width": 1400, "height": 860})
+    v.page.wait_for_timeout(200)
+    v.shot("crane-grid-scale-and-dial", "#world")
+
+
 def test_a_crane_trace_replays_the_mechanism_it_holds(view: Any, tmp_path: Path) -> None:
     trace = tmp_path / "crane.csv"
     subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/crane.yaml", "--trace", str(trace), "-q"],
