@@ -190,8 +190,9 @@ class ReplaySession(Session):
                     else:
                         thin.add(*q)
                 path = [[x, y] if x == x else None for x, y in thin.take()]
-                if thin._last is not None:
-                    path.append(list(thin._last))
+                pending = thin.pending()
+                if pending is not None:
+                    path.append(list(pending))
                 samples, bands = paired([r for r in chart[since:self.position] if r is not None], FRAME_ROWS)
                 between |= {"path": path, "samples": samples, "bands": bands}
             model = MODELS.get(str(self.models.get(n)))
