@@ -126,6 +126,10 @@ class TickRecorder(Watcher):
         self.last: list = []
         self.events: list[list] = []  # [tick, time, robot, text] since the last frame
         self._inputs: Any = None  # the run's slider moves and changes by hand (``Inputs``), if any
+        self.read: Any = None  # see ``chart``
+        self.keep: Any = None
+        self.width = 0
+        self._limit = 0
 
     def start(self, xy: list[tuple[int, ...] | None], last: list) -> None:
         """``xy[i]``: where robot i's x, y and collided sit in its readings (None: a mechanism, no path);
@@ -139,10 +143,15 @@ class TickRecorder(Watcher):
         # where a count metric rose (a near miss, as the map of ``labsim plot`` marks it): [k, x, y],
         # k the metric's place among the count metrics (``count_names``), since the last frame
         self.marks: list[list[list]] = [[] for _ in xy]
-        self.samples = [Kept() for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
-        self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
-        self.keep: Any = lambda _slots: ()  # (``labsim.runtime.view.peaks.Sampler`` sets both)
+        self.chart(lambda _values: (), lambda _slots: (), 0)
+
+    def chart(self, read: Any, keep: Any, width: int) -> None:
+        """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
+        together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes."""
+        self.read, self.keep, self.width = read, keep, width
+        self._limit = MAX_SAMPLES_KEPT * width
+        self.samples = [Kept(self._run.tick_index if self._run is not None else 0, width) for _ in self.xy]
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -171,13 +180,10 @@ class TickRecorder(Watcher):
                 self._touch(robot, values, xy)
         # every tick, so that a frame's envelope misses no peak: two itemgetter calls and two extends, in C
         kept = self.samples[i]
-        ticks = kept.ticks
-        run = self._run
-        assert run is not None
-        ticks.append(run.tick_index)
-        kept.reads.extend(self.read(values))
-        kept.keeps.extend(self.keep(slots))
-        if len(ticks) > MAX_SAMPLES_KEPT:  # no page took them (none is ready): every other one goes
+        v = kept.values
+        v.extend(self.read(values))
+        v.extend(self.keep(slots))
+        if len(v) > self._limit:  # no page took them (none is ready): every other one goes
             kept.thin()
         if self.breaks:
             self._check(robot, rule, values)
@@ -247,5 +253,6 @@ class TickRecorder(Watcher):
 
     def take_samples(self, robot: int) -> Kept:
         """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
-        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept()
+        assert self._run is not None
+        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept(self._run.tick_index, self.width)
         return kept

@@ -191,10 +191,9 @@ def test_a_frame_s_pairs_say_which_columns_went_both_ways() -> None:
     s = Sampler([], [0, 1, 2])
 
     def kept(n: int) -> Kept:
-        k = Kept()
+        k = Kept(0, s.width)
         for t in range(n):
-            k.ticks.append(t)
-            k.keeps.extend(((-1.0) ** t, float(t), -float(t)))  # flips, rises, falls
+            k.values.extend(((-1.0) ** t, float(t), -float(t)))  # flips, rises, falls
         return k
     rows = s.rows(kept(100), 0.1, 8)
     assert s.paired and s.bands == ["100"] * 4 and len(rows) == 8
