@@ -133,7 +133,8 @@ class Sampler:
             self.paired = False
             return []
         m = self._numbers(kept)  # columns x ticks
-        ticks = np.array(kept.tick_list(), dtype=float)
+        ticks = np.array(kept.tick_list(), dtype=float) if kept.ticks else \
+            np.arange(kept.first, kept.first + n, dtype=float)
         self.paired = n > max(2, at_most)
         self.bands = []
         if not self.paired:
