@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from itertools import pairwise
+
+import numpy as np
 
 from labsim.runtime.view.frames import Json, message
+from labsim.runtime.view.peaks import pairs
 
 MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
@@ -62,8 +64,9 @@ def _merge(rows: Sequence[Row], spans: Sequence[float], bits: Sequence[str]) -> 
     band = []
     for k in range(1, len(rows[0])):
         nums = [n for n in (_num(r[k]) for r in rows if k < len(r)) if n is not None]
-        up = all(a <= b for a, b in pairwise(nums))
-        down = all(a >= b for a, b in pairwise(nums))
+        ordered = sorted(nums)  # in C: a replay's seek pairs a whole trace's rows
+        up = nums == ordered
+        down = nums == ordered[::-1]
         lo, hi = (_out(min(nums)), _out(max(nums))) if nums else (None, None)
         low.append(hi if down and not up else lo)
         high.append(lo if down and not up else hi)
@@ -75,21 +78,15 @@ def _merge(rows: Sequence[Row], spans: Sequence[float], bits: Sequence[str]) -> 
 
 def paired(rows: Sequence[Row], at_most: int) -> tuple[list[Row], list[str] | None]:
     """At most ``at_most`` rows of a tick each (a trace's), and per least/greatest pair the columns
-    that went both ways in its group (None: the rows fit, each as it is): the rows a live frame
-    sends (``labsim.runtime.view.peaks.Sampler``), so that a replay draws the same envelope. A
-    last group of one or two rows stays as it is, after the pairs."""
+    that went both ways in its group (None: the rows fit, each as it is): made as a live frame's
+    (``labsim.runtime.view.peaks.pairs``), so that a replay draws the same envelope."""
     if len(rows) <= at_most:
         return list(rows), None
-    per = math.ceil(len(rows) / max(1, at_most // 2))
-    out: list[Row] = []
-    bands: list[str] = []
-    for k in range(0, len(rows), per):
-        group = rows[k:k + per]
-        pair, _, bits = _merge(group, [r[0] for r in group], [""] * len(group))
-        out += pair
-        if len(group) > 2:
-            bands.append(bits[0])
-    return out, bands
+    try:  # numbers, "inf" and "-inf" (numpy reads those two)
+        m = np.array(rows, dtype=float)
+    except (TypeError, ValueError):  # a None among them
+        m = np.array([[math.nan if v is None else float(v) for v in r] for r in rows], dtype=float)
+    return pairs(m[:, 0], np.ascontiguousarray(m[:, 1:].T), at_most)
 
 
 def series_doc(rows: Sequence[Row], at_most: int) -> Json:

@@ -135,32 +135,42 @@ class Sampler:
         m = self._numbers(kept)  # columns x ticks
         ticks = np.array(kept.tick_list(), dtype=float) if kept.ticks else \
             np.arange(kept.first, kept.first + n, dtype=float)
-        self.paired = n > max(2, at_most)
-        self.bands = []
-        if not self.paired:
-            times, values = ticks, m.T
-        else:
-            groups = max(1, at_most // 2)
-            edges = np.linspace(0, n, groups + 1).astype(np.intp)
-            starts, ends = edges[:-1], edges[1:] - 1
-            with np.errstate(invalid="ignore"):
-                low = np.fmin.reduceat(m, starts, axis=1).T
-                high = np.fmax.reduceat(m, starts, axis=1).T
-            rising, falling = _monotone(m, starts, ends)
-            values = np.empty((2 * groups, m.shape[0]))
-            # a column that only fell over the group: its greatest first, so that the line falls
-            down = falling & ~rising
-            values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
-            # a column that went both ways within the group is a band over it; one way, a line
-            self.bands = ["".join("0" if ok else "1" for ok in row) for row in (rising | falling)]
-            times = np.empty(2 * groups)
-            times[0::2], times[1::2] = ticks[starts], ticks[ends]
-        times = np.round(times * dt_s, 9)
-        values = np.round(values, 4)
-        out = np.hstack([times[:, None], values]).tolist()
-        if not np.isfinite(values).all():
-            out = [[row[0], *(_cell(v) for v in row[1:])] for row in out]
+        out, bands = pairs(np.round(ticks * dt_s, 9), m, at_most)
+        self.paired, self.bands = bands is not None, bands or []
         return out
+
+
+def pairs(times: np.ndarray, m: np.ndarray, at_most: int) -> tuple[list[Row], list[str] | None]:
+    """At most ``at_most`` rows ``[time, value, ...]`` of ``m`` (columns x rows, at ``times``): as
+    they are when they fit (bands None), else each of ``at_most // 2`` consecutive groups as its
+    least and greatest row, with per pair the columns that went both ways in it (``bands``);
+    four decimals, ``"inf"`` and None as sent."""
+    n = m.shape[1]
+    bands = None
+    if n <= max(2, at_most):
+        values = m.T
+    else:
+        groups = max(1, at_most // 2)
+        edges = np.linspace(0, n, groups + 1).astype(np.intp)
+        starts, ends = edges[:-1], edges[1:] - 1
+        with np.errstate(invalid="ignore"):
+            low = np.fmin.reduceat(m, starts, axis=1).T
+            high = np.fmax.reduceat(m, starts, axis=1).T
+        rising, falling = _monotone(m, starts, ends)
+        values = np.empty((2 * groups, m.shape[0]))
+        # a column that only fell over the group: its greatest first, so that the line falls
+        down = falling & ~rising
+        values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
+        # a column that went both ways within the group is a band over it; one way, a line
+        bands = ["".join("0" if ok else "1" for ok in row) for row in (rising | falling)]
+        picked = np.empty(2 * groups)
+        picked[0::2], picked[1::2] = times[starts], times[ends]
+        times = picked
+    values = np.round(values, 4)
+    out = np.hstack([times[:, None], values]).tolist()
+    if not np.isfinite(values).all():
+        out = [[row[0], *(_cell(v) for v in row[1:])] for row in out]
+    return out, bands
 
 
 def _monotone(m: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -115,8 +115,8 @@ def test_a_trace_s_rows_are_paired_as_a_live_frame_s() -> None:
     assert out[0] == [0.0, -1.0, 0.0, -0.0, 1.0] and out[1] == [1.9, 1.0, 19.0, -19.0, 1.0]  # the fall: greatest first
     assert out[8][0] == 8.0 and out[9][0] == 9.9
     assert paired(rows[:10], 10) == (rows[:10], None)
-    out, bands = paired(rows[:13], 8)  # groups of 4: the last, of one row, as it is
-    assert len(out) == 7 and len(bands or []) == 3 and out[-1] == rows[12]
+    out, bands = paired(rows[:13], 8)  # groups of 3, 3, 3 and 4
+    assert [r[0] for r in out] == [0.0, 0.2, 0.3, 0.5, 0.6, 0.8, 0.9, 1.2] and bands == ["1000"] * 4
     doc = series_doc(rows, 10)
     assert doc["samples"] == paired(rows, 10)[0] and doc["bands"] == ["1000"] * 10
     assert doc["spans"][0] == 1.9 and doc["spans"][1] == 0.0
