@@ -12,16 +12,18 @@ a band where a column went both ways (``bands``), a line where it did not. The r
 timeline's, changes by hand, states entered, collisions, breakpoints: the page's Events list)
 are kept too, the latest ``MAX_EVENTS``; a frame carries at most ``FRAME_EVENTS`` of its own
 (the latest) and how many it left out, so that it stays small, and a page that opens later
-gets them all. A replay builds the same document from
-its rows (``envelope``) for any tick it is asked to show.
+gets them all. A replay builds the same rows from a trace's (``paired``, ``series_doc``) for
+any tick it is asked to show, so that its chart is the same envelope.
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from itertools import pairwise
+
+import numpy as np
 
 from labsim.runtime.view.frames import Json, message
+from labsim.runtime.view.peaks import pairs
 
 MAX_POINTS = 4000  # path points kept per robot
 MAX_ROWS = 2000  # chart rows kept per robot (as least/greatest pairs once the run is long)
@@ -51,23 +53,8 @@ def _out(v: float | None) -> float | str | None:
     return v
 
 
-def envelope(rows: Sequence[Row]) -> list[Row]:
-    """Four or fewer rows as two: the first time with each column's least value, the last time
-    with its greatest (a column with no number in them: None in both)."""
-    if len(rows) <= 2:
-        return list(rows)
-    width = len(rows[0])
-    low: Row = [rows[0][0]]
-    high: Row = [rows[-1][0]]
-    for k in range(1, width):
-        nums = [n for n in (_num(r[k]) for r in rows if k < len(r)) if n is not None]
-        low.append(_out(min(nums)) if nums else None)
-        high.append(_out(max(nums)) if nums else None)
-    return [low, high]
-
-
 def _merge(rows: Sequence[Row], spans: Sequence[float], bits: Sequence[str]) -> tuple[list, list, list]:
-    """Four or fewer rows of the history (each with its span and band bits) as one pair: per
+    """Rows of the history (each with its span and band bits) as one pair: per
     column the least and greatest value, the greatest first where the column only fell, and a band
     where it went both ways (or any row was a band already)."""
     if len(rows) <= 2:
@@ -77,8 +64,9 @@ def _merge(rows: Sequence[Row], spans: Sequence[float], bits: Sequence[str]) -> 
     band = []
     for k in range(1, len(rows[0])):
         nums = [n for n in (_num(r[k]) for r in rows if k < len(r)) if n is not None]
-        up = all(a <= b for a, b in pairwise(nums))
-        down = all(a >= b for a, b in pairwise(nums))
+        ordered = sorted(nums)  # in C: a replay's seek pairs a whole trace's rows
+        up = nums == ordered
+        down = nums == ordered[::-1]
         lo, hi = (_out(min(nums)), _out(max(nums))) if nums else (None, None)
         low.append(hi if down and not up else lo)
         high.append(lo if down and not up else hi)
@@ -88,15 +76,24 @@ def _merge(rows: Sequence[Row], spans: Sequence[float], bits: Sequence[str]) -> 
     return [low, high], [max(ends), min(ends)], [bits_out, bits_out]
 
 
-def downsample(rows: list[Row], at_most: int) -> list[Row]:
-    """At most ``at_most`` rows: as they are when they fit, else least/greatest pairs of groups."""
+def paired(rows: Sequence[Row], at_most: int) -> tuple[list[Row], list[str] | None]:
+    """At most ``at_most`` rows of a tick each (a trace's), and per least/greatest pair the columns
+    that went both ways in its group (None: the rows fit, each as it is): made as a live frame's
+    (``labsim.runtime.view.peaks.pairs``), so that a replay draws the same envelope."""
     if len(rows) <= at_most:
-        return rows
-    per = math.ceil(len(rows) / max(1, at_most // 2))
-    out: list[Row] = []
-    for k in range(0, len(rows), per):
-        out += envelope(rows[k:k + per])
-    return out
+        return list(rows), None
+    try:  # numbers, "inf" and "-inf" (numpy reads those two)
+        m = np.array(rows, dtype=float)
+    except (TypeError, ValueError):  # a None among them
+        m = np.array([[math.nan if v is None else float(v) for v in r] for r in rows], dtype=float)
+    return pairs(m[:, 0], np.ascontiguousarray(m[:, 1:].T), at_most)
+
+
+def series_doc(rows: Sequence[Row], at_most: int) -> Json:
+    """A history's ``samples``, ``spans`` and ``bands`` of one robot from rows of a tick each."""
+    h = History(1)
+    h.add(0, [], *paired(rows, at_most))
+    return {k: v for k, v in h.doc(0)["robots"][0].items() if k in ("samples", "spans", "bands")}
 
 
 class History:

@@ -130,7 +130,7 @@ class LiveSession(Session):
         numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
             [True] * len(program.slider_names)
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
-        self.recorder.read, self.recorder.keep = self._sampler.read, self._sampler.keep
+        self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width)
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]

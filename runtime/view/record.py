@@ -6,7 +6,7 @@ chart gets a point every few simulated seconds. ``TickRecorder`` is an ``Observe
 (``labsim.runtime.observers``) the live session hands to the run when it binds it, so the tick
 loop is not edited: after every robot acts it adds the robot's position to a ``PathThinner``
 (which keeps only the points where the path bends, so a frame stays small without losing a
-corner), keeps the tick's chart values (``labsim.runtime.view.peaks``), notes the tick's events
+corner), keeps the tick's chart values (``labsim.runtime.view.peaks.Kept``), notes the tick's events
 (a slider move, the timeline's, a change by hand, a count metric or a log, a state entered, a
 collision begun, a breakpoint that held: what the page's Events list shows), and asks the
 breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
@@ -22,6 +22,7 @@ from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
+from labsim.runtime.view.peaks import Kept
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
@@ -34,65 +35,73 @@ class PathThinner:
     """A path as the points where it bends: a point is kept when the path, from the last kept
     point, leaves the straight line it set out on by more than ``tolerance_m`` (or turns
     back). Every point between two kept ones lies within about ``tolerance_m`` of the segment
-    between them, so a corner is never cut. One check per point: no look-back."""
+    between them, so a corner is never cut. One check per point: no look-back.
+
+    Its state is plain floats in slots, not tuples: ``add`` runs every tick of every robot, and
+    a tuple made and an item read each cost it a tenth of its time."""
+
+    __slots__ = ("_along", "_ax", "_ay", "_lx", "_ly", "_on", "_seen", "_ux", "_uy", "points", "tol")
 
     def __init__(self, tolerance_m: float = PATH_TOLERANCE_M):
         self.tol = tolerance_m
         self.points: list[tuple[float, float]] = []  # kept since the last take
-        self._anchor: tuple[float, float] | None = None  # the last kept point
-        self._direction: tuple[float, float] | None = None  # unit vector from the anchor
+        self._ax = self._ay = math.nan  # the last kept point (nan: none yet)
+        self._on = False  # whether a direction is set
+        self._ux = self._uy = 0.0  # the unit vector from the last kept point
         self._along = 0.0  # the furthest along the direction so far, m
-        self._last: tuple[float, float] | None = None  # the last point seen, not kept
+        self._seen = False  # whether a point was seen since the last kept one
+        self._lx = self._ly = 0.0  # that point
 
     def add(self, x: float, y: float) -> None:
-        d = self._direction
-        if d is not None:  # the common case, on every tick: still on the line (nan is not)
-            a, tol = self._anchor, self.tol
-            assert a is not None
-            dx, dy = x - a[0], y - a[1]
-            along, off = dx * d[0] + dy * d[1], dx * d[1] - dy * d[0]
-            if -tol <= off <= tol and along >= self._along - tol:
-                if along > self._along:
-                    self._along = along
-                self._last = (x, y)
-                return
+        if self._on:  # the common case, on every tick: still on the line (nan is not)
+            dx, dy, tol = x - self._ax, y - self._ay, self.tol
+            off = dx * self._uy - dy * self._ux
+            if -tol <= off <= tol:
+                along = dx * self._ux + dy * self._uy
+                if along >= self._along - tol:
+                    if along > self._along:
+                        self._along = along
+                    self._lx, self._ly = x, y
+                    return
         self._add(x, y)
 
     def _add(self, x: float, y: float) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             return
-        a = self._anchor
-        if a is None:
-            self._keep((x, y))
+        if self._ax != self._ax:  # no point kept yet
+            self._keep(x, y)
             return
-        dx, dy = x - a[0], y - a[1]
-        d = self._direction
-        if d is None:  # still within the tolerance of the anchor: no direction yet
+        dx, dy = x - self._ax, y - self._ay
+        if not self._on:  # still within the tolerance of the anchor: no direction yet
             dist = math.hypot(dx, dy)
             if dist >= self.tol:
-                self._direction, self._along = (dx / dist, dy / dist), dist
-            self._last = (x, y)
+                self._on, self._ux, self._uy, self._along = True, dx / dist, dy / dist, dist
+            self._seen, self._lx, self._ly = True, x, y
             return
-        along = dx * d[0] + dy * d[1]
-        if abs(dx * d[1] - dy * d[0]) > self.tol or along < self._along - self.tol:
-            assert self._last is not None  # a direction is set by a point, which is the last seen
-            self._keep(self._last)
+        along = dx * self._ux + dy * self._uy
+        if abs(dx * self._uy - dy * self._ux) > self.tol or along < self._along - self.tol:
+            self._keep(self._lx, self._ly)  # a direction is set by a point, which is the last seen
             self.add(x, y)  # again, from the point just kept
             return
         self._along = max(self._along, along)
-        self._last = (x, y)
+        self._seen, self._lx, self._ly = True, x, y
 
     def jump(self, x: float, y: float) -> None:
         """The robot was put somewhere else: the path starts again there (no line across)."""
-        self._anchor, self._direction, self._last = None, None, None
+        self._ax = self._ay = math.nan
+        self._on = self._seen = False
         self.points.append((math.nan, math.nan))
         self.add(x, y)
 
-    def _keep(self, p: tuple[float, float]) -> None:
-        self.points.append(p)
+    def _keep(self, x: float, y: float) -> None:
+        self.points.append((x, y))
         if len(self.points) > MAX_PATH_POINTS:
             del self.points[: len(self.points) - MAX_PATH_POINTS]
-        self._anchor, self._direction, self._along, self._last = p, None, 0.0, None
+        self._ax, self._ay, self._on, self._along, self._seen = x, y, False, 0.0, False
+
+    def pending(self) -> tuple[float, float] | None:
+        """The last point seen and not kept (a path drawn now ends there), if any."""
+        return (self._lx, self._ly) if self._seen else None
 
     def take(self) -> list[tuple[float, float]]:
         """The points kept since the last take (the frame's pose follows them on the page)."""
@@ -110,13 +119,17 @@ class TickRecorder(Watcher):
     def __init__(self) -> None:
         self.xy: list[tuple[int, ...] | None] = []
         self.paths: list[PathThinner] = []
-        self.samples: list[list[tuple[int, tuple, tuple]]] = []
+        self.samples: list[Kept] = []
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
         self._run: RunState | None = None
         self.last: list = []
         self.events: list[list] = []  # [tick, time, robot, text] since the last frame
         self._inputs: Any = None  # the run's slider moves and changes by hand (``Inputs``), if any
+        self.read: Any = None  # see ``chart``
+        self.keep: Any = None
+        self.width = 0
+        self._limit = 0
 
     def start(self, xy: list[tuple[int, ...] | None], last: list) -> None:
         """``xy[i]``: where robot i's x, y and collided sit in its readings (None: a mechanism, no path);
@@ -130,10 +143,15 @@ class TickRecorder(Watcher):
         # where a count metric rose (a near miss, as the map of ``labsim plot`` marks it): [k, x, y],
         # k the metric's place among the count metrics (``count_names``), since the last frame
         self.marks: list[list[list]] = [[] for _ in xy]
-        self.samples = [[] for _ in xy]
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
-        self.read: Any = lambda _values: ()  # the chart's readings and numeric slots of a tick, kept every tick
-        self.keep: Any = lambda _slots: ()  # (``labsim.runtime.view.peaks.Sampler`` sets both)
+        self.chart(lambda _values: (), lambda _slots: (), 0)
+
+    def chart(self, read: Any, keep: Any, width: int) -> None:
+        """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
+        together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes."""
+        self.read, self.keep, self.width = read, keep, width
+        self._limit = MAX_SAMPLES_KEPT * width
+        self.samples = [Kept(self._run.tick_index if self._run is not None else 0, width) for _ in self.xy]
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -144,31 +162,40 @@ class TickRecorder(Watcher):
         self._count_of = {i: k for k, i in enumerate(counts)}
 
     def after_act(self, robot: RobotRun, rule: int, values: list) -> None:
+        """Every tick of every robot: what it keeps is a few C calls, and what happens seldom (a state
+        entered, an event, a collision begun or ended, a breakpoint) costs one test each until it does."""
         i = robot.index
         self.last_rule[i] = rule
         self.last[i] = values
-        state, was = robot.program.slots[STATE], self.states[i]
+        program = robot.program
+        slots = program.slots
+        state, was = slots[STATE], self.states[i]
         self.states[i] = state  # a goto changes it after the tick: the frame shows this one
-        if state != was or robot.program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
+        if state != was or program.events or (i == 0 and self._inputs is not None and self._inputs.applied):
             self._note(robot, state, was, values)
         xy = self.xy[i]
         if xy is not None:
             self.paths[i].add(values[xy[0]], values[xy[1]])
-            c = bool(values[xy[2]]) if len(xy) > 2 else False
-            if c is not self.touching[i]:  # a collision begins (or ends): its place, for the page's mark
-                self.touching[i] = c
-                if c:
-                    self.collisions[i] += 1
-                    self.hits[i].append((values[xy[0]], values[xy[1]]))
-                    self.event(robot.name, f"collision at ({values[xy[0]]:.2f}, {values[xy[1]]:.2f})")
-        assert self._run is not None
-        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
+            if len(xy) > 2 and bool(values[xy[2]]) is not self.touching[i]:  # a collision begins (or ends)
+                self._touch(robot, values, xy)
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls and two extends, in C
         kept = self.samples[i]
-        kept.append((self._run.tick_index, self.read(values), self.keep(robot.program.slots)))
-        if len(kept) > MAX_SAMPLES_KEPT:  # no page took them (none is ready): every other one goes,
-            del kept[1:-1:2]  # the first and the last kept, so the chart still spans every tick since
+        v = kept.values
+        v.extend(self.read(values))
+        v.extend(self.keep(slots))
+        if len(v) > self._limit:  # no page took them (none is ready): every other one goes
+            kept.thin()
         if self.breaks:
             self._check(robot, rule, values)
+
+    def _touch(self, robot: RobotRun, values: list, xy: tuple[int, ...]) -> None:
+        """A collision begins (its place, for the page's mark) or ends."""
+        i = robot.index
+        c = self.touching[i] = not self.touching[i]
+        if c:
+            self.collisions[i] += 1
+            self.hits[i].append((values[xy[0]], values[xy[1]]))
+            self.event(robot.name, f"collision at ({values[xy[0]]:.2f}, {values[xy[1]]:.2f})")
 
     def _check(self, robot: RobotRun, rule: int, values: list) -> None:
         """Every breakpoint, every tick, for every robot: a condition must see each tick to know
@@ -224,7 +251,8 @@ class TickRecorder(Watcher):
     def take_path(self, robot: int) -> list[tuple[float, float]]:
         return self.paths[robot].take()
 
-    def take_samples(self, robot: int) -> list[tuple[int, tuple, tuple]]:
+    def take_samples(self, robot: int) -> Kept:
         """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
-        kept, self.samples[robot] = self.samples[robot][:-1], []
+        assert self._run is not None
+        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept(self._run.tick_index, self.width)
         return kept

@@ -20,7 +20,7 @@ from labsim.backends.scene.models import MODELS
 from labsim.backends.scene.world import World
 from labsim.runtime.trace import Trace, TraceFormatError, read_trace, trace_world
 from labsim.runtime.view.frames import Json, message, number, robot_doc, world_doc
-from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, downsample
+from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, paired, series_doc
 from labsim.runtime.view.record import PathThinner
 from labsim.runtime.view.session import BadMessage, Session
 
@@ -145,8 +145,8 @@ class ReplaySession(Session):
         for points, chart in self.series():
             stride = max(1, math.ceil(upto / MAX_POINTS))
             path = points[:upto:stride]
-            rows = downsample([r for r in chart[:upto] if r is not None], MAX_ROWS)
-            robots.append({"path": path, "samples": rows, "hits": self._hits(len(robots), -1, upto)[1]})
+            rows = series_doc([r for r in chart[:upto] if r is not None], MAX_ROWS)
+            robots.append({"path": path, **rows, "hits": self._hits(len(robots), -1, upto)[1]})
         return message("history", tick=self.position, robots=robots)
 
     def scene(self) -> Json:
@@ -190,11 +190,11 @@ class ReplaySession(Session):
                     else:
                         thin.add(*q)
                 path = [[x, y] if x == x else None for x, y in thin.take()]
-                if thin._last is not None:
-                    path.append(list(thin._last))
-                between |= {"path": path,
-                           "samples": downsample([r for r in chart[since:self.position] if r is not None],
-                                                 FRAME_ROWS)}
+                pending = thin.pending()
+                if pending is not None:
+                    path.append(list(pending))
+                samples, bands = paired([r for r in chart[since:self.position] if r is not None], FRAME_ROWS)
+                between |= {"path": path, "samples": samples, "bands": bands}
             model = MODELS.get(str(self.models.get(n)))
             sonars = [s.name for s in model.rays() if s.name in self._i] if model else []
             robots.append({

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from helpers import ROOT
 
-from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, History, downsample, envelope
+from labsim.runtime.view.history import MAX_POINTS, MAX_ROWS, History, paired, series_doc
 from labsim.runtime.view.live import LiveSession
 from labsim.runtime.view.replay import load_replay
 
@@ -105,9 +105,21 @@ def test_envelopes_keep_every_peak_and_stay_bounded() -> None:
     assert all(r[2] == "inf" and r[3] is None for r in rows)
     times = [r[0] for r in rows]
     assert times == sorted(times) and times[0] == 0.0 and math.isclose(times[-1], 19_999 * 0.05)
-    assert envelope([[0.0, 3.0], [1.0, None], [2.0, -2.0], [3.0, 5.0]]) == [[0.0, -2.0], [3.0, 5.0]]
-    assert downsample([[float(k), float(k % 7)] for k in range(100)], 10) == [
-        e for k in range(0, 100, 20) for e in envelope([[float(j), float(j % 7)] for j in range(k, k + 20)])]
+
+
+def test_a_trace_s_rows_are_paired_as_a_live_frame_s() -> None:
+    # a flip, a rise, a fall, a column with a gap: 100 rows as 5 pairs of 20
+    rows = [[round(k * 0.1, 9), (-1.0) ** k, float(k), -float(k), None if k % 3 else 1.0] for k in range(100)]
+    out, bands = paired(rows, 10)
+    assert len(out) == 10 and bands == ["1000"] * 5
+    assert out[0] == [0.0, -1.0, 0.0, -0.0, 1.0] and out[1] == [1.9, 1.0, 19.0, -19.0, 1.0]  # the fall: greatest first
+    assert out[8][0] == 8.0 and out[9][0] == 9.9
+    assert paired(rows[:10], 10) == (rows[:10], None)
+    out, bands = paired(rows[:13], 8)  # groups of 3, 3, 3 and 4
+    assert [r[0] for r in out] == [0.0, 0.2, 0.3, 0.5, 0.6, 0.8, 0.9, 1.2] and bands == ["1000"] * 4
+    doc = series_doc(rows, 10)
+    assert doc["samples"] == paired(rows, 10)[0] and doc["bands"] == ["1000"] * 10
+    assert doc["spans"][0] == 1.9 and doc["spans"][1] == 0.0
 
 
 def test_a_long_path_is_thinned_but_keeps_its_jumps() -> None:
@@ -175,13 +187,18 @@ def test_a_burst_of_seeks_gets_one_history_for_the_last(wall_trace: Path) -> Non
 
 
 def test_a_frame_s_pairs_say_which_columns_went_both_ways() -> None:
-    from labsim.runtime.view.peaks import Sampler
+    from labsim.runtime.view.peaks import Kept, Sampler
     s = Sampler([], [0, 1, 2])
-    kept = [(t, (), ((-1.0) ** t, float(t), -float(t))) for t in range(100)]  # flips, rises, falls
-    rows = s.rows(kept, 0.1, 8)
+
+    def kept(n: int) -> Kept:
+        k = Kept(0, s.width)
+        for t in range(n):
+            k.values.extend(((-1.0) ** t, float(t), -float(t)))  # flips, rises, falls
+        return k
+    rows = s.rows(kept(100), 0.1, 8)
     assert s.paired and s.bands == ["100"] * 4 and len(rows) == 8
     assert rows[0] == [0.0, -1.0, 0.0, 0.0] and rows[1] == [2.4, 1.0, 24.0, -24.0]  # the fall: greatest first
-    s.rows(kept[:5], 0.1, 8)
+    s.rows(kept(5), 0.1, 8)
     assert not s.paired and s.bands == []
 
 

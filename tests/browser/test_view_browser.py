@@ -288,8 +288,7 @@ def test_road_labels_stand_apart_at_the_start_and_values_show_two_decimals(view:
     assert all(0 <= b["x"] <= width - b["w"] and 0 <= b["y"] <= height - b["h"] for b in boxes)
     v.shot("road-labels", "#world")
     v.page.click("#step")  # no tick has read a sensor yet: one tick gives the table its numbers
-    v.wait("window.labsimView.frame.ran === 1")
-    assert "(tick 0)" in v.page.inner_text("#clock")
+    v.wait("window.labsimView.frame.ran === 1 && document.querySelector('#clock').textContent.includes('(tick 0)')")
     v.wait("[...document.querySelectorAll('#table td.value')].some((td) => /\\./.test(td.textContent))")
     cells = v.js("[...document.querySelectorAll('#table td.value')].map((td) => td.textContent)")
     assert any("." in c for c in cells)
@@ -396,6 +395,26 @@ def test_a_slider_value_follows_the_thumb_during_a_drag(view: Any) -> None:
     assert value > 3 and shown == v.page.evaluate("(x) => LV.fmt(x)", value)
     assert re.fullmatch(r"-?\d+(\.\d\d)?", shown)
     v.page.mouse.up()
+
+
+def test_the_grid_s_scale_and_the_slew_dial_s_captions_stand_apart(view: Any) -> None:
+    v = view(["behaviours/crane.yaml"])
+    for width, height in ((1400, 860), (1280, 800), (1920, 1080)):
+        v.page.set_viewport_size({"width": width, "height": height})
+        v.page.click("#step")  # a frame drawn at this size
+        v.wait("window.LV_world.dialBox && document.getElementById('grid-scale').textContent.startsWith('grid ')")
+        v.page.wait_for_timeout(200)
+        dial = v.js("window.LV_world.dialBox")
+        label = v.js("(() => { const c = document.getElementById('world').getBoundingClientRect(),"
+                     " g = document.getElementById('grid-scale').getBoundingClientRect();"
+                     " return { left: g.left - c.left, top: g.top - c.top, right: g.right - c.left,"
+                     " bottom: g.bottom - c.top }; })()")
+        apart = (label["bottom"] <= dial["top"] or dial["bottom"] <= label["top"]
+                 or label["right"] <= dial["left"] or dial["right"] <= label["left"])
+        assert apart, (width, label, dial)
+    v.page.set_viewport_size({"width": 1400, "height": 860})
+    v.page.wait_for_timeout(200)
+    v.shot("crane-grid-scale-and-dial", "#world")
 
 
 def test_a_crane_trace_replays_the_mechanism_it_holds(view: Any, tmp_path: Path) -> None:
@@ -739,6 +758,42 @@ def test_two_breakpoints_on_one_tick_are_both_named_and_state_shows_the_state_en
     v.shot("breakpoint-two-on-one-tick", "#breaks-panel")
 
 
+def _steer_is_a_band(v: Any, shot: str) -> None:
+    """The line lab's chart of steer and laps: steer, which flips sign about 15 times a simulated
+    second, a band; laps, a count that steps up once a lap, a line."""
+    v.page.wait_for_timeout(300)  # the chart drawn after the pause
+    img = v.shot(shot, "#chart canvas")
+    steer_px = np.all(np.abs(img.astype(int) - (0xbd, 0x67, 0x94)) < 40, axis=2).sum(axis=0)  # #9467bd, BGR
+    laps_px = np.all(np.abs(img.astype(int) - (0x4b, 0x56, 0x8c)) < 40, axis=2).sum(axis=0)  # #8c564b
+    drawn = steer_px > 0
+    assert drawn.sum() > 0.5 * img.shape[1]
+    # the band: nearly every column the line crosses is filled over most of the swing
+    assert (steer_px[drawn] > 0.5 * steer_px.max()).mean() > 0.8, np.percentile(steer_px[drawn], [10, 50, 90])
+    assert steer_px.max() > 0.3 * img.shape[0]
+    # and laps stays a line: a few pixels a column
+    assert np.percentile(laps_px[laps_px > 0], 90) <= 6, np.percentile(laps_px[laps_px > 0], [50, 90])
+    band = v.js("window.LV_chart.drawn[1].band.filter((b) => b !== null)")
+    assert sum(b > 20 for b in band) > 0.8 * len(band)
+
+
+def _pairs_are_the_trace_s_least_and_greatest(trace: Path, t: list[float], steer: list[float]) -> None:
+    """The chart's rows of steer (times ``t``) that stand for a group of ticks are its least and
+    greatest over those ticks, as the trace has them, and many are a band across zero."""
+    rows = read_trace(trace)
+    k, dt = rows.columns.index("steer"), 0.02
+    by_tick = [float(r[k]) for r in rows.rows]
+    pairs = [(a, b) for a, b in zip(zip(t, steer), list(zip(t, steer))[1:]) if b[0] - a[0] > 2.5 * dt]
+    assert len(pairs) >= 10
+    bands = 0
+    for (t0, a), (t1, b) in pairs[-40:]:  # the least first, or the greatest where it only fell
+        ticks = by_tick[round(t0 / dt): round(t1 / dt) + 1]
+        low, high = min(a, b), max(a, b)
+        assert abs(low - min(ticks)) < 1e-3 and abs(high - max(ticks)) < 1e-3, (t0, t1, a, b)
+        assert a == low or ticks == sorted(ticks, reverse=True), (t0, t1, a, b)
+        bands += low < 0 < high
+    assert bands >= 5
+
+
 def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(view: Any, tmp_path: Path) -> None:
     trace = tmp_path / "line.csv"
     v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer,laps")
@@ -753,31 +808,9 @@ def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(vie
     # evenly spread picks drew slow pulses. A group of ticks is sent as two rows, at its first
     # tick its least value and at its last its greatest, and drawn as the band the signal fills
     # (per pixel column its least and greatest), not as a sawtooth between the two rows
-    v.page.wait_for_timeout(300)  # the chart drawn after the pause
-    img = v.shot("chart-envelope", "#chart canvas")
-    steer_px = np.all(np.abs(img.astype(int) - (0xbd, 0x67, 0x94)) < 40, axis=2).sum(axis=0)  # #9467bd, BGR
-    laps_px = np.all(np.abs(img.astype(int) - (0x4b, 0x56, 0x8c)) < 40, axis=2).sum(axis=0)  # #8c564b
-    drawn = steer_px > 0
-    assert drawn.sum() > 0.5 * img.shape[1]
-    # the band: nearly every column the line crosses is filled over most of the swing
-    assert (steer_px[drawn] > 0.5 * steer_px.max()).mean() > 0.8, np.percentile(steer_px[drawn], [10, 50, 90])
-    assert steer_px.max() > 0.3 * img.shape[0]
-    # and laps, a count that steps up once a lap, stays a line: a few pixels a column
-    assert np.percentile(laps_px[laps_px > 0], 90) <= 6, np.percentile(laps_px[laps_px > 0], [50, 90])
-    band = v.js("window.LV_chart.drawn[1].band.filter((b) => b !== null)")
-    assert sum(b > 20 for b in band) > 0.8 * len(band)
+    _steer_is_a_band(v, "chart-envelope")
     v.close()  # the trace, complete, to compare with
-    rows = read_trace(trace)
-    k, dt = rows.columns.index("steer"), 0.02
-    by_tick = [float(r[k]) for r in rows.rows]
-    pairs = [(a, b) for a, b in zip(zip(t, steer), list(zip(t, steer))[1:]) if b[0] - a[0] > 2.5 * dt]
-    assert len(pairs) >= 10
-    bands = 0
-    for (t0, low), (t1, high) in pairs[-40:]:
-        ticks = by_tick[round(t0 / dt): round(t1 / dt) + 1]
-        assert abs(low - min(ticks)) < 1e-3 and abs(high - max(ticks)) < 1e-3, (t0, t1, low, high)
-        bands += low < 0 < high
-    assert bands >= 5
+    _pairs_are_the_trace_s_least_and_greatest(trace, t, steer)
     v = view(["behaviours/line_follow.yaml"], "?chart=steer,ahead")
     v.page.click("#step")
     v.page.click("#step")
@@ -787,6 +820,67 @@ def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(vie
     assert v.js("[...document.querySelectorAll('#table input[type=checkbox]')].filter((b) => !b.hidden)"
                 ".every((b) => window.labsimView.scene.columns.find((c) => c.name === b.dataset.column)"
                 ".numeric !== false)")
+
+
+# per pixel column of the chart's canvas, the least and greatest canvas row of the [time, value]
+# given, on the first picked signal's scale: what an envelope must cover there
+TRUE_SPAN = """(vals) => {
+  const u = LV_chart.plot, sy = u.series[1].scale, cols = {};
+  for (const [t, y] of vals) {
+    const c = Math.round(u.valToPos(t, "x", true)), py = Math.round(u.valToPos(y, sy, true));
+    const q = cols[c] || (cols[c] = [py, py]);
+    q[0] = Math.min(q[0], py); q[1] = Math.max(q[1], py);
+  }
+  return [window.devicePixelRatio, cols];
+}"""
+
+
+def _covers_every_peak(v: Any, steer: list[tuple[float, float]], shot: str) -> None:
+    """The chart's first signal (#9467bd), as the page shows it, covers in every pixel column
+    what the ticks there span, give or take a pixel (a sawtooth between least and greatest rows
+    crosses a column as a short slant, and misses the swing)."""
+    v.page.wait_for_timeout(300)  # drawn after the last frame
+    img = v.shot(shot, "#chart canvas")
+    purple = np.all(np.abs(img.astype(int) - (0xbd, 0x67, 0x94)) < 60, axis=2)
+    ratio, truth = v.page.evaluate(TRUE_SPAN, steer)
+    assert ratio == 1
+    missed, swings = [], 0
+    for c, (lo, hi) in ((int(c), q) for c, q in truth.items()):
+        rows = np.nonzero(purple[:, max(0, c - 1):c + 2].any(axis=1))[0]
+        swings += hi - lo > 20
+        if not len(rows) or rows.min() > lo + 2 or rows.max() < hi - 2:
+            missed.append((c, lo, hi, (int(rows.min()), int(rows.max())) if len(rows) else None))
+    assert len(missed) <= 0.01 * len(truth), missed[:10]
+    assert swings > 50  # and there are wide swings to cover
+
+
+def test_a_replay_draws_the_envelope_the_live_chart_draws(view: Any, tmp_path: Path) -> None:
+    trace = tmp_path / "line.csv"
+    subprocess.run([sys.executable, "-m", "labsim", "run", "behaviours/line_follow.yaml", "--trace", str(trace), "-q"],
+                   check=True, cwd=ROOT)
+    rows = read_trace(trace)
+    k = rows.columns.index("steer")
+    steer = [(round(j * 0.02, 9), float(r[k])) for j, r in enumerate(rows.rows)]
+    end = len(rows.rows) - 1
+    v = view([str(trace)], "?chart=steer,laps")
+    script = ("(() => { const c = LV_chart, k = c.columns.findIndex((q) => q.name === 'steer');"
+              " return [c.history[0].t, c.history[0].cols[k]]; })()")
+    # a seek: the history up to tick 4500, as pairs of groups of ticks (a live page's history too)
+    v.page.locator("#scrubber").fill("4500")
+    v.wait("window.labsimView.frame.tick === 4500 && window.LV_chart.history[0].t.length > 1000")
+    t, drawn = v.js(script)
+    assert len(t) <= 2001
+    _pairs_are_the_trace_s_least_and_greatest(trace, t, drawn)
+    _covers_every_peak(v, steer[:4501], "replay-chart-seek")
+    # played on at top speed: each frame carries pairs of the rows since the last, drawn as bands
+    v.page.select_option("#speed", "max")
+    v.page.click("#play")
+    v.wait(f"window.labsimView.frame.tick === {end} && window.labsimView.frame.playing === false", timeout_ms=60000)
+    t, drawn = v.js(script)
+    after = [(a, b) for a, b in zip(t, drawn) if a > 4500 * 0.02]
+    assert len(after) < 0.2 * (end - 4500)  # pairs of groups, not every row
+    _pairs_are_the_trace_s_least_and_greatest(trace, [a for a, _ in after], [b for _, b in after])
+    _covers_every_peak(v, steer, "replay-chart-played")
 
 
 def test_slider_keys_while_playing_all_count_and_each_move_is_recorded_once(view: Any, tmp_path: Path) -> None:

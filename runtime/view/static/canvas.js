@@ -549,7 +549,8 @@ LV.WorldView = class {
     let a = 0;
     if (f && f.joints && f.joints[m.slew]) a = f.joints[m.slew][0];
     else if (f && typeof f.slew === "number") a = f.slew;
-    const ctx = this.ctx, x = this.w - 60, y = 70, r = 40;
+    // below the grid's scale, which stands over the world's top right corner (the page's, not drawn)
+    const ctx = this.ctx, x = this.w - 60, y = 90, r = 40;
     ctx.fillStyle = "rgba(255,255,255,0.9)"; ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
     ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI); ctx.fill(); ctx.stroke();
     ctx.strokeStyle = "#e07b39"; ctx.lineWidth = 4;
@@ -557,5 +558,7 @@ LV.WorldView = class {
     ctx.fillStyle = "#333"; ctx.font = "11px system-ui"; ctx.textAlign = "center";
     ctx.fillText(`slew ${(a * 180 / Math.PI).toFixed(1)}°`, x, y + r + 14);
     ctx.fillText("from above", x, y - r - 6); ctx.textAlign = "start";
+    const half = ctx.measureText("from above").width / 2;  // where the dial and its captions are (the browser tests read it)
+    this.dialBox = { left: x - Math.max(r, half), top: y - r - 18, right: x + Math.max(r, half), bottom: y + r + 18 };
   }
 };
