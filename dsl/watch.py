@@ -114,6 +114,7 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=notes))
         raise LabsimError(report.diagnostics) from None
     checker = ExprChecker(doc, report)
+    checker.version = program.version
     images, groups, unseen = _declare(program, checker)
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")

@@ -113,6 +113,7 @@ class _Checker(ExprChecker):
     def __init__(self, bf: BehaviourFile, report: Report) -> None:
         super().__init__(bf.doc, report)
         self.bf = bf
+        self.version = bf.version
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:

@@ -58,7 +58,8 @@ class Memory:
 
     dt_s: float
     version: float = 1.2
-    sites: dict[int, Callable[..., object]] = field(default_factory=dict)
+    # id(call), or (id(call), member) for a call given a group (format 1.3): a memory per member
+    sites: dict[object, Callable[..., object]] = field(default_factory=dict)
     report: list[Callable[[str], None]] = field(default_factory=list)  # the evaluation's, while it runs
 
 
@@ -146,7 +147,19 @@ class _Walker(ast.Visitor[Any]):
             return max((self.size(c) for c in ast.children(e)), default=0)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), self.size)
+        if isinstance(e, ast.Call) and e.func != DETECTED and not (e.func in REDUCTIONS and len(e.args) == 1):
+            return max((self.size(a) for a in e.args), default=0)  # a built-in given a group: member by member
+        if isinstance(e, ast.Slice):
+            lower, upper = self.bounds(e)
+            return upper - lower
         return 0
+
+    def bounds(self, e: ast.Slice) -> tuple[int, int]:
+        """A slice's places, from lower up to upper (not included); the checker made them whole numbers
+        known before the run, within the group."""
+        lower = 0 if e.lower is None else int(self.visit(e.lower))
+        upper = self.size(e.value) if e.upper is None else int(self.visit(e.upper))
+        return lower, upper
 
     def inside(self, where: _Argument, f: Callable[[ast.Expr], Any]) -> Any:
         """f of an expression in its scope: an argument in its caller's, a body in its call's."""
@@ -191,6 +204,10 @@ class _Walker(ast.Visitor[Any]):
             return self.either(e, lambda v: self.spread(v, i))
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), lambda b: self.member(b, i))
+        if isinstance(e, ast.Call):  # a built-in given a group: this member's call, with a memory of its own
+            return self.built_in(e, lambda a: self.spread(a, i), (id(e), i))
+        if isinstance(e, ast.Slice):
+            return self.member(e.value, self.bounds(e)[0] + i)
         raise Unsupported(f"no members in {e!r}")
 
     # -- the nodes ---------------------------------------------------------------------------------
@@ -210,6 +227,9 @@ class _Walker(ast.Visitor[Any]):
         return Members(_number(v) for v in value) if isinstance(value, Members) else _number(value)
 
     def visit_Group(self, e: ast.Group) -> Any:
+        return self.members(e)
+
+    def visit_Slice(self, e: ast.Slice) -> Any:
         return self.members(e)
 
     def group_or(self, e: ast.Expr, one: Callable[[], Any]) -> Any:
@@ -282,12 +302,18 @@ class _Walker(ast.Visitor[Any]):
         if e.func == DETECTED:  # takes the sensor's name: it sees something when its reading is finite
             assert isinstance(e.args[0], ast.Name)
             return self.visit(e.args[0]) < INF
+        if self.size(e):
+            return self.members(e)
+        return self.built_in(e, self.visit, id(e))
+
+    def built_in(self, e: ast.Call, value: Callable[[ast.Expr], Any], site: object) -> Any:
+        """A built-in's call, its arguments' values given by ``value``; one with memory keeps it at ``site``."""
         f = FUNCTIONS.get(e.func)
         if f is None:
             raise Unsupported(f"{e.func}() is a function of the file's own, and its definition was not given")
         if f.stateful:
-            return self.remembered(e)
-        args = [self.visit(a) for a in e.args]
+            return self.remembered(e, value, site)
+        args = [value(a) for a in e.args]
         impl = f.resolve()
         if f.uses_rng:
             if self.rng is None:
@@ -331,13 +357,13 @@ class _Walker(ast.Visitor[Any]):
             return total if func == "sum" else total / float(n)
         return argmin(*values) if func == "argmin" else argmax(*values)
 
-    def remembered(self, e: ast.Call) -> Any:
+    def remembered(self, e: ast.Call, value: Callable[[ast.Expr], Any], site: object) -> Any:
         """A built-in with memory: this call site's state in the robot's ``Memory``."""
         memory = self.memory
         if memory is None:
             raise Unsupported(f"{e.func}() remembers earlier ticks; the evaluator sees one")
-        args = [self.visit(a) for a in e.args]
-        step = memory.sites.get(id(e))
+        args = [value(a) for a in e.args]
+        step = memory.sites.get(site)
         if step is None:
             def report(what: str) -> None:
                 memory.report[-1](what)
@@ -347,7 +373,7 @@ class _Walker(ast.Visitor[Any]):
                 factory: Callable[..., Callable[..., object]] = FUNCTIONS[e.func].resolve()  # type: ignore[assignment]
                 primed = e.func in PRIMED and memory.version >= 1.2
                 step = factory(memory.dt_s, report, primed=True) if primed else factory(memory.dt_s, report)
-            memory.sites[id(e)] = step
+            memory.sites[site] = step
         memory.report.append(lambda what: self.fault(e, what))
         try:
             return _number(step(*args))

@@ -35,7 +35,7 @@ from labsim.dsl.library.builtins import (
     Type,
 )
 from labsim.dsl.syntax import ast
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -84,6 +84,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
+        # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
+        # a breakpoint, which has no file of its own, reads the latest
+        self.version: float = VERSIONS[-1]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -102,7 +105,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.kinds[name] = kind
 
     def expect(self, parsed: Parsed, e: ast.Expr, want: Type, what: str) -> bool:
-        t = self.infer(e, parsed.text)
+        return self.matches(parsed.text, e, self.infer(e, parsed.text), want, what)
+
+    def matches(self, text: Text, e: ast.Expr, t: Type | None, want: Type, what: str,
+                later: tuple[str, ...] = ()) -> bool:
+        """Whether e, of type t (None: already reported), is what is wanted; if not, why, with a hint
+        (and ``later``, what a later format would make of it)."""
         if t is None:
             return False
         if t is not want:
@@ -118,7 +126,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                         "argmin(...) or argmax(...) of it, or one member, as in front[0]",)
             elif t is Type.TEXT:
                 hint = ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
-            self.error(parsed.text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint)
+            self.error(text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint + later)
             return False
         return True
 
@@ -169,6 +177,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
 
     def visit_Index(self, e: ast.Index, text: Text) -> Type | None:
         return self.index(e, text)
+
+    def visit_Slice(self, e: ast.Slice, text: Text) -> Type | None:
+        return self.slice(e, text)
 
     def visit_Neg(self, e: ast.Neg, text: Text) -> Type | None:
         return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
@@ -394,6 +405,54 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         return t.member
 
+    def slice(self, e: ast.Slice, text: Text) -> Type | None:
+        """front[0:4]: the members from place 0 up to place 4, not including it, as a group (format 1.3).
+        Its bounds are known before the run, since a group's size is."""
+        t = self.infer(e.value, text)
+        bounds = [b for b in (e.lower, e.upper) if b is not None]
+        kinds = [self.infer(b, text) for b in bounds]
+        if self.version < 1.3:
+            self.error(text.at(e.span), later_format("a slice [a:b]", 1.3))
+            return None
+        if t is None or None in kinds:
+            return None
+        if t not in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.value.span), f"only a group has members to slice with [a:b]; this is {t.a}",
+                       notes=("a slice takes a run of a group's members, as in front[0:4] of front: sonar1..sonar8",))
+            return None
+        n = self.size(e.value)
+        places: list[int] = []
+        for b, k in zip(bounds, kinds):
+            source = text.value[b.span[0]:b.span[1]]
+            if k is not Type.NUMBER:
+                self.error(text.at(b.span), f"a slice's bound is a place, a number from 0; this is {k.a}")
+                return None
+            place = self.known(b)
+            if not isinstance(place, int | float) or isinstance(place, bool):
+                self.error(text.at(b.span), f"a slice's bounds are known before the run: '{source}' is known only "
+                           "while running", notes=("a group's size is fixed when the file is compiled: write numbers or "
+                                                   "parameters every robot shares; to pick one member while running, "
+                                                   "use front[k]",))
+                return None
+            shown = f"not {place:g}" if literal(b) else f"'{source}' is {place:g}"
+            if not (float(place).is_integer() and 0 <= place <= n):
+                why = ("a whole number" if not float(place).is_integer() else
+                       "from 0 (a slice does not count from the end)" if place < 0 else f"at most {n}, the group's size")
+                self.error(text.at(b.span), f"this group has {n} member{'s' if n != 1 else ''}, and a slice's bound is "
+                           f"a place {why}; {shown}",
+                           notes=(f"a slice [a:b] takes the places from a up to b, not including b: [0:{n}] is the "
+                                  "whole group",))
+                return None
+            places.append(int(place))
+        lower = places[0] if e.lower is not None else 0
+        upper = places[-1] if e.upper is not None else n
+        if lower >= upper:
+            self.error(text.at(e.span), f"this slice is empty: [{lower}:{upper}] takes the places from {lower} up to "
+                       f"{upper}, not including {upper}", notes=("[0:4] takes places 0, 1, 2 and 3",))
+            return None
+        self.sizes[id(e)] = upper - lower
+        return t
+
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
         return known_value(e, self.constants, self.scopes)
@@ -488,12 +547,22 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
             return None
         ok = True
+        sizes: list[tuple[int, ast.Expr]] = []  # the arguments that are groups: the call applies member by member
         for i, arg in enumerate(e.args):
             want = f.params[min(i, len(f.params) - 1)]
-            ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
+            t = self.infer(arg, text)
+            later: tuple[str, ...] = ()
+            if t is not None and t is want.grouped and t is not want:
+                if self.version >= 1.3:
+                    sizes.append((self.size(arg), arg))
+                    continue
+                later = (later_format(f"{f.name}() of a group, member by member", 1.3),)
+            ok = self.matches(text, arg, t, want, f"argument {i + 1} of {f.name}()", later) and ok
         if f.name == "randint":
             ok = self.whole_bounds(e, text) and ok
-        return f.returns if ok else None
+        if not ok:
+            return None
+        return self.grouped(e, text, f"{f.name}()", sizes, f.returns, list(e.args))
 
     def reduction(self, e: ast.Call, text: Text) -> Type | bool | None:
         """min(front), any(front < 0.5), ...: a group's reduction; False when the argument is not a
@@ -545,8 +614,15 @@ class ExprChecker(ast.Visitor["Type | None"]):
         a, b = (self.infer(arg, text) for arg in e.args)
         if a is None or b is None:
             return None
+        if a in (Type.NUMBERS, Type.BOOLS) and self.version >= 1.3:  # member by member, a memory each
+            if b is not a.member:
+                self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.member.a} like each member "
+                           f"of its first argument, but this is {b.a}")
+                return None
+            return self.grouped(e, text, "prev()", [(self.size(x), x)], a.member, list(e.args))
         if a not in (Type.NUMBER, Type.BOOL):
-            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}")
+            later = (later_format("prev() of a group, member by member", 1.3),) if a in (Type.NUMBERS, Type.BOOLS) else ()
+            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}", notes=later)
             return None
         if b is not a:
             self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.a} like its first "

@@ -206,6 +206,7 @@ class Program:
     # its expression; each function of the file's own
     group_signals: tuple[GroupSignal, ...] = ()
     functions: tuple[FunctionText, ...] = ()
+    version: float = 1  # the file's format: a breakpoint is checked as the file is
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""

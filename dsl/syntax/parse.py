@@ -233,6 +233,8 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
         end = pos + 1
     else:
         assert isinstance(e, UnexpectedToken)
+        if e.token.type == "_COLON" and text[:pos].count("[") <= text[:pos].count("]"):
+            return _bad_character(text, pos, start)  # a ':' outside a slice's brackets: as before slices
         expected = set(e.expected)
         token_text = _found(e.token)
         if e.token.type == "$END":
@@ -470,6 +472,9 @@ class _ToAst(Transformer):
 
     def index(self, meta: Meta, c: list[Any]) -> ast.Index:
         return ast.Index(c[0], c[1], span=_span(meta))
+
+    def slice(self, meta: Meta, c: list[Any]) -> ast.Slice:
+        return ast.Slice(c[0], c[1], c[2], span=_span(meta))
 
     def name_range(self, meta: Meta, c: list[Any]) -> ast.Group:
         """``sonar1..sonar8`` (or ``sonar1..8``): the names from the first number to the last, in order."""
