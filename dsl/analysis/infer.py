@@ -430,14 +430,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
             place = self.known(b)
             if not isinstance(place, int | float) or isinstance(place, bool):
                 self.error(text.at(b.span), f"a slice's bounds are known before the run: '{source}' is known only "
-                           "while running", notes=("a group's size is fixed when the file is compiled: write numbers or "
-                                                   "parameters every robot shares; to pick one member while running, "
-                                                   "use front[k]",))
+                           "while running", notes=("a group's size is fixed when the file is compiled: write numbers "
+                                                   "or parameters every robot shares; to pick one member while "
+                                                   "running, use front[k]",))
                 return None
             shown = f"not {place:g}" if literal(b) else f"'{source}' is {place:g}"
             if not (float(place).is_integer() and 0 <= place <= n):
-                why = ("a whole number" if not float(place).is_integer() else
-                       "from 0 (a slice does not count from the end)" if place < 0 else f"at most {n}, the group's size")
+                why = ("a whole number" if not float(place).is_integer() else "from 0 (a slice does not count from "
+                       "the end)" if place < 0 else f"at most {n}, the group's size")
                 self.error(text.at(b.span), f"this group has {n} member{'s' if n != 1 else ''}, and a slice's bound is "
                            f"a place {why}; {shown}",
                            notes=(f"a slice [a:b] takes the places from a up to b, not including b: [0:{n}] is the "
@@ -556,7 +556,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 if self.version >= 1.3:
                     sizes.append((self.size(arg), arg))
                     continue
-                later = (later_format(f"{f.name}() of a group, member by member", 1.3),)
+                later = (later_format(f"applying {f.name}() to each member of a group", 1.3),)
             ok = self.matches(text, arg, t, want, f"argument {i + 1} of {f.name}()", later) and ok
         if f.name == "randint":
             ok = self.whole_bounds(e, text) and ok
@@ -621,7 +621,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return None
             return self.grouped(e, text, "prev()", [(self.size(x), x)], a.member, list(e.args))
         if a not in (Type.NUMBER, Type.BOOL):
-            later = (later_format("prev() of a group, member by member", 1.3),) if a in (Type.NUMBERS, Type.BOOLS) else ()
+            later = ((later_format("applying prev() to each member of a group", 1.3),)
+                     if a in (Type.NUMBERS, Type.BOOLS) else ())
             self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}", notes=later)
             return None
         if b is not a:
