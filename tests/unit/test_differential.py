@@ -6,8 +6,8 @@ the Python ``labsim.dsl.emit.codegen`` writes (at run time), and the tree-walkin
 Each generated expression over numbers and booleans (operators, comparisons and their chains,
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
 ``detected``; groups of three, as signals and lists, operators member by member, reductions,
-members picked at places that fold or are read while running, and functions of the file's own
-over groups) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
+members picked at places that fold or are read while running, slices, built-ins given groups
+member by member (format 1.3), and functions of the file's own over groups) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
 read from sensors, so that they do not fold, or (every other expression) written out as
 constants, so that what can fold does. The file runs one tick; each signal's value must equal
 the evaluator's (nan equal to nan, zeros of the same sign, booleans apart from numbers), and
@@ -59,7 +59,10 @@ GROUP = 3  # members of every generated group, so that any two pair
 GROUPS = ("ga", "gb")  # signals that are groups: a list of signals, a range of sensors
 # functions of the file's own, over groups and numbers: their parameters stand for the arguments
 OWN_FUNCTIONS = {"scaled": (("g", "k"), "g * k - k"), "nearest": (("g", "d"), "min(g - d)"),
-                 "within": (("g", "d"), "count(g < d) + g[1] / d")}
+                 "within": (("g", "d"), "count(g < d) + g[1] / d"), "limited": (("g", "k"), "clamp(g, -k, k)"),
+                 "head": (("g",), "sum(g[:2]) - g[1:][0]")}
+# the built-ins a group may be given, member by member (format 1.3): all of numbers but random(), which takes none
+MEMBER_WISE = tuple(sorted(name for name, n in FUNCTIONS_OF_NUMBERS.items() if n))
 # no shrinking: a batch comes from a seed, and the failure names the expression and its values
 SHORT = settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
                  phases=(Phase.explicit, Phase.generate),
@@ -98,23 +101,47 @@ class Expressions:
             return self.call(depth)
         return ast.IfExp(self.number(depth - 1), self.condition(depth - 1), self.number(depth - 1))
 
-    def group(self, depth: int) -> ast.Expr:
-        """A group of GROUP numbers: a signal, a list, or an operator applied member by member."""
+    def group(self, depth: int, pure: bool = False) -> ast.Expr:
+        """A group of GROUP numbers: a signal, a list, or an operator applied member by member; ``pure``:
+        nothing random (an argument of a function of the file's own)."""
         r, pick = self.rng.random(), self.rng.choice
-        if depth <= 0 or r < 0.35:
+        if depth <= 0 or r < 0.3:
             if self.rng.random() < 0.5:
                 return ast.Name(pick(GROUPS))
-            return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(pick(NAMES))
-                                   for _ in range(GROUP)))
-        if r < 0.45:
-            return ast.Neg(self.group(depth - 1))
-        if r < 0.9:
+            return self.listed(GROUP)
+        if r < 0.38:
+            return ast.Neg(self.group(depth - 1, pure))
+        if r < 0.68:
             op = pick(("+", "-", "*", "/", "%", "**"))
-            sides = [self.group(depth - 1), self.group(depth - 1) if self.rng.random() < 0.4 else
+            sides = [self.group(depth - 1, pure), self.group(depth - 1, pure) if self.rng.random() < 0.4 else
                      self.number(depth - 1, True)]
             self.rng.shuffle(sides)
             return ast.Binary(op, *sides)
-        return ast.Call("scaled", (self.group(depth - 1), self.number(depth - 1, True)))
+        if r < 0.83:
+            return self.member_wise(depth, pure)
+        if r < 0.92:  # a slice of GROUP members: of a longer list, or the whole of a group
+            if self.rng.random() < 0.5:
+                k = self.rng.randrange(3)
+                return ast.Slice(self.listed(GROUP + 2), ast.Number(float(k)), ast.Number(float(k + GROUP)))
+            return ast.Slice(self.group(depth - 1, pure), pick((None, ast.Number(0.0))), pick((None, ast.Number(3.0))))
+        return ast.Call(pick(("scaled", "limited")), (self.group(depth - 1, True), self.number(depth - 1, True)))
+
+    def listed(self, n: int) -> ast.Group:
+        return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(self.rng.choice(NAMES))
+                               for _ in range(n)))
+
+    def member_wise(self, depth: int, pure: bool) -> ast.Call:
+        """A built-in given a group: one argument a group at least, the others groups or values
+        (paired with every member, so nothing random)."""
+        name = self.rng.choice([f for f in MEMBER_WISE if not (pure and FUNCTIONS[f].uses_rng)])
+        n = FUNCTIONS_OF_NUMBERS[name] + (self.rng.randrange(2) if FUNCTIONS[name].variadic else 0)
+        grouped = self.rng.randrange(n)
+        args = [self.group(depth - 1, pure) if k == grouped or self.rng.random() < 0.3 else self.number(depth - 1, True)
+                for k in range(n)]
+        if name == "randint":  # a bound written as a number must be within 2**53: the checker says so
+            args = [a if not isinstance(a, ast.Number) or a.value <= 10 else ast.Binary("*", a, ast.Number(1.0))
+                    for a in args]
+        return ast.Call(name, tuple(args))
 
     def bools(self, depth: int) -> ast.Expr:
         """A group of GROUP booleans: a comparison member by member, and and/or/not of them."""
@@ -131,8 +158,15 @@ class Expressions:
     def of_group(self, depth: int) -> ast.Expr:
         """A number from a group: a reduction, a member, a function of the file's own."""
         r, pick = self.rng.random(), self.rng.choice
-        if r < 0.45:
+        if r < 0.35:
             return ast.Call(pick(("min", "max", "sum", "mean", "argmin", "argmax")), (self.group(depth - 1),))
+        if r < 0.45:  # a reduction of part of a group
+            lower = self.rng.randrange(GROUP)
+            upper = self.rng.randrange(lower + 1, GROUP + 1)
+            bounds = (None if lower == 0 and self.rng.random() < 0.5 else ast.Number(float(lower)),
+                      None if upper == GROUP and self.rng.random() < 0.5 else ast.Number(float(upper)))
+            return ast.Call(pick(("min", "max", "sum", "mean", "argmin", "argmax")),
+                            (ast.Slice(self.group(depth - 1), *bounds),))
         if r < 0.6:
             return ast.Call("count", (self.bools(depth - 1),))
         if r < 0.8:
@@ -143,9 +177,11 @@ class Expressions:
                           ast.Binary("*", sensor, ast.Number(3.0)), ast.Binary("%", ast.Name("tick"), ast.Number(4.0)),
                           ast.Binary("-", ast.Name("time"), ast.Number(11.5))))
             return ast.Index(self.group(depth - 1), place)
-        if r < 0.9:
-            return ast.Call("nearest", (self.group(depth - 1), self.number(depth - 1, True)))
-        return ast.Call("within", (self.group(depth - 1), self.number(depth - 1, True)))
+        if r < 0.87:
+            return ast.Call("nearest", (self.group(depth - 1, True), self.number(depth - 1, True)))
+        if r < 0.94:
+            return ast.Call("within", (self.group(depth - 1, True), self.number(depth - 1, True)))
+        return ast.Call("head", (self.group(depth - 1, True),))
 
     def call(self, depth: int) -> ast.Call:
         name = self.rng.choice(sorted(FUNCTIONS_OF_NUMBERS))
@@ -217,6 +253,14 @@ def written(e: ast.Expr, constants: Mapping[str, float] | None = None) -> tuple[
             index = write(e.index)
             out.append("]")
             return replace(e, value=value, index=index)
+        elif isinstance(e, ast.Slice):
+            value = write(e.value, 9)
+            out.append("[")
+            lower = None if e.lower is None else write(e.lower)
+            out.append(":")
+            upper = None if e.upper is None else write(e.upper)
+            out.append("]")
+            return replace(e, value=value, lower=lower, upper=upper)
         elif isinstance(e, ast.Call):
             out.append(e.func + "(")
             args = []
@@ -306,7 +350,7 @@ def same(a: object, b: object) -> bool:
 
 def behaviour(path: Path, lets: list[tuple[str, str]]) -> Program:
     functions = "".join(f"  {name}({', '.join(params)}): '{body}'\n" for name, (params, body) in OWN_FUNCTIONS.items())
-    text = ("labsim: 1.2\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
+    text = ("labsim: 1.3\nworld: walls_lab4\ndt: 0.05\nstop: time >= 1\nrobots:\n  r: {model: pioneer_p3dx}\n"
             "functions:\n" + functions + "let:\n" + "".join(f"  {name}: '{expr}'\n" for name, expr in lets)
             + "rules:\n  - always stop()\n")
     path.write_text(text)
