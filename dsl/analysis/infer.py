@@ -436,12 +436,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return None
             shown = f"not {place:g}" if literal(b) else f"'{source}' is {place:g}"
             if not (float(place).is_integer() and 0 <= place <= n):
-                why = ("a whole number" if not float(place).is_integer() else "from 0 (a slice does not count from "
-                       "the end)" if place < 0 else f"at most {n}, the group's size")
-                self.error(text.at(b.span), f"this group has {n} member{'s' if n != 1 else ''}, and a slice's bound is "
-                           f"a place {why}; {shown}",
-                           notes=(f"a slice [a:b] takes the places from a up to b, not including b: [0:{n}] is the "
-                                  "whole group",))
+                members = f"{n} member{'s' if n != 1 else ''}"
+                message = (f"a slice's bound is a whole number; {shown}" if not float(place).is_integer() else
+                           f"a slice's bound is a place from 0, and a slice does not count from the end; {shown}"
+                           if place < 0 else f"this group has {members}, so a slice's bound is at most {n}; {shown}")
+                self.error(text.at(b.span), message, notes=(
+                    f"a slice [a:b] takes the places from a up to b, not including b: this group's [0:{n}] is all "
+                    f"of its {members}",))
                 return None
             places.append(int(place))
         lower = places[0] if e.lower is not None else 0

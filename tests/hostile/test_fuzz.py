@@ -12,7 +12,16 @@ import os
 from pathlib import Path
 
 import pytest
-from fuzz_inputs import check_sweep_options, generated, generated_12, mutated, run_input, seeds, sweep_options
+from fuzz_inputs import (
+    check_sweep_options,
+    generated,
+    generated_12,
+    generated_member_wise,
+    mutated,
+    run_input,
+    seeds,
+    sweep_options,
+)
 from hypothesis import HealthCheck, given, settings
 
 LONG = os.environ.get("LABSIM_FUZZ") == "long"
@@ -69,6 +78,22 @@ def test_files_of_language_12_give_diagnostics_not_exceptions(tmp_path: Path) ->
 
     fuzz()
     assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_files_of_member_wise_calls_and_slices_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    """Built-ins given groups member by member, memory and random ones among them, and slices in
+    and out of range (format 1.3; tests/fuzz_inputs.py, generated_member_wise)."""
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated_member_wise())
+    def fuzz(text: str) -> None:
+        outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert "error" in outcomes and outcomes.count("ran") >= len(outcomes) // 40  # most are mistakes on purpose
 
 
 @pytest.mark.slow

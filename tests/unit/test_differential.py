@@ -7,8 +7,9 @@ Each generated expression over numbers and booleans (operators, comparisons and 
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
 ``detected``; groups of three, as signals and lists, operators member by member, reductions,
 members picked at places that fold or are read while running, slices, built-ins given groups
-member by member (format 1.3), and functions of the file's own over groups) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
-read from sensors, so that they do not fold, or (every other expression) written out as
+member by member (format 1.3), and functions of the file's own over groups) becomes a signal of
+a behaviour file, its names ``p0`` .. ``p7`` either signals read from sensors, so that they do
+not fold, or (every other expression) written out as
 constants, so that what can fold does. The file runs one tick; each signal's value must equal
 the evaluator's (nan equal to nan, zeros of the same sign, booleans apart from numbers), and
 so must its warnings, site by site; where folding gives a value, so must it, and the evaluator
