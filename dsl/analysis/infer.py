@@ -32,6 +32,7 @@ from labsim.dsl.library.builtins import (
     MEANT,
     REDUCTIONS,
     STATEFUL,
+    Function,
     Type,
 )
 from labsim.dsl.syntax import ast
@@ -541,6 +542,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             for arg in e.args:
                 self.infer(arg, text)
             return None
+        return self.built_in(e, text, f)
+
+    def built_in(self, e: ast.Call, text: Text, f: Function) -> Type | None:
+        """A call of a built-in function: its arguments' number and types; given groups where it takes
+        one value (format 1.3), it applies member by member and is a group."""
         n = len(e.args)
         fixed = len(f.params) - f.optional
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):

@@ -4,6 +4,9 @@
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
 expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
 around ``parse_expr``. No lark type escapes this module.
+
+Over 500 lines: the tree's transformer and the words for each of lark's errors both read the
+grammar's terminals and rules, and a rule added to the grammar changes both.
 """
 from __future__ import annotations
 
@@ -274,8 +277,24 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
         return ParseError(pos, end, f"expected 'else' in 'a if condition else b', found {token_text}")
     if expected == {"NAME"}:
         return ParseError(pos, end, f"expected a name, found {token_text}")
+    if text[:pos].count("[") > text[:pos].count("]") and "RSQB" in expected:
+        opened = text[:_unclosed(text, pos)].rstrip()  # what the bracket follows: a value for g[k], else a list
+        index = bool(opened) and (opened[-1].isalnum() or opened[-1] in "_)]")
+        comma = ", ','" if "COMMA" in expected and not index else ""
+        return ParseError(pos, end, f"expected an operator{comma} or ']', found {token_text}")  # in g[...]
     where = "the condition" if start == "rule" else "the expression"
     return ParseError(pos, end, f"unexpected {token_text}: expected an operator or the end of {where}")
+
+
+def _unclosed(text: str, pos: int) -> int:
+    """Where the last '[' before pos that is not closed before it is (-1 if none)."""
+    opened: list[int] = []
+    for k, ch in enumerate(text[:pos]):
+        if ch == "[":
+            opened.append(k)
+        elif ch == "]" and opened:
+            opened.pop()
+    return opened[-1] if opened else -1
 
 
 def _habit(text: str, pos: int, end: int, token: Token, expected: set[str], words: list[str]) -> ParseError | None:
