@@ -143,7 +143,7 @@ class _Walker(ast.Visitor[Any]):
                 return self.inside(self.env[e.id], self.size)
             value = self.names.get(e.id)
             return len(value) if isinstance(value, Members) else 0
-        if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp):
+        if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp):
             return max((self.size(c) for c in ast.children(e)), default=0)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), self.size)
@@ -202,6 +202,8 @@ class _Walker(ast.Visitor[Any]):
             return self.chain(e, lambda o: self.spread(o, i))
         if isinstance(e, ast.BoolOp):
             return self.either(e, lambda v: self.spread(v, i))
+        if isinstance(e, ast.IfExp):  # member i's condition chooses member i (format 1.3)
+            return self.spread(e.body, i) if self.spread(e.test, i) else self.spread(e.orelse, i)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), lambda b: self.member(b, i))
         if isinstance(e, ast.Call):  # a built-in given a group: this member's call, with a memory of its own
@@ -272,7 +274,7 @@ class _Walker(ast.Visitor[Any]):
         return not decides
 
     def visit_IfExp(self, e: ast.IfExp) -> Any:
-        return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
+        return self.group_or(e, lambda: self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse))
 
     def visit_Attribute(self, e: ast.Attribute) -> Any:
         return _number(self.visit(e.value)[_FIELD[e.attr]])

@@ -144,7 +144,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         """Count what a group-typed node is written out to (a member each, and its operands that are
         one value once per member); False, after saying so, past MAX_WRITTEN_OUT in the file."""
         n = self.size(e) if not isinstance(e, ast.Name) or e.id in self.group_sizes or self.scopes else 0
-        paired = ast.children(e) if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp) else ()
+        member_wise = isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp) or (
+            isinstance(e, ast.Call) and id(e) not in self.expansions)  # a built-in given a group (format 1.3)
+        paired = ast.children(e) if member_wise else ()
         self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
                                              if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
         if self.members_written <= MAX_WRITTEN_OUT:
@@ -198,17 +200,38 @@ class ExprChecker(ast.Visitor["Type | None"]):
         return self.compare(e, text)
 
     def visit_IfExp(self, e: ast.IfExp, text: Text) -> Type | None:
-        self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
-        a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+        c, a, b = self.infer(e.test, text), self.infer(e.body, text), self.infer(e.orelse, text)
+        grouped = {c, a, b} & {Type.NUMBERS, Type.BOOLS}
+        if grouped and self.version >= 1.3:
+            return self.choose_members(e, text, c, a, b)
+        later = (later_format("choosing member by member", 1.3),) if grouped else ()
+        if not self.matches(text, e.test, c, Type.BOOL, "the condition of 'a if condition else b'", later) and later:
+            return None  # one message about the groups
         if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
             self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
-                       "choose between members or reductions of them")
+                       "choose between members or reductions of them", notes=later)
             return None
         if a is not None and b is not None and a is not b:
             self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
                        f"not {a.a} and {b.a}")
             return None
         return a if a is not None else b
+
+    def choose_members(self, e: ast.IfExp, text: Text, c: Type | None, a: Type | None, b: Type | None) -> Type | None:
+        """``front if front < 1 else 1`` (format 1.3): a group of choices, one per member, each made by
+        that member's condition (or the one condition) between that member's values."""
+        if c is None or a is None or b is None:
+            return None
+        if c.member is not Type.BOOL:
+            self.error(text.at(e.test.span), f"the condition of 'a if condition else b' must be a boolean or a group "
+                       f"of them, but this is {c.a}")
+            return None
+        if a.member is not b.member or a.member not in (Type.NUMBER, Type.BOOL):
+            self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, member by "
+                       f"member, not {a.a} and {b.a}")
+            return None
+        sizes = [(self.size(x), x) for x, t in ((e.test, c), (e.body, a), (e.orelse, b)) if t is not t.member]
+        return self.grouped(e, text, "a if condition else b", sizes, a.member, [e.test, e.body, e.orelse])
 
     def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
         return self.call(e, text)

@@ -230,6 +230,11 @@ class MemberWriter(ast.Visitor[list[str]]):
         return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(self.spread(e, v, w, text, where)
                                                                   for v in e.values))]
 
+    def visit_IfExp(self, e: ast.IfExp, w: Writer, text: Text, where: str) -> list[str]:
+        rows = zip(self.spread(e, e.test, w, text, where), self.spread(e, e.body, w, text, where),
+                   self.spread(e, e.orelse, w, text, where))
+        return [f"({a} if {c} else {b})" for c, a, b in rows]
+
     def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
         if id(e) not in self.g.c.expansions:
             return self.g.member_call(w, e, text, where)
@@ -241,7 +246,7 @@ class MemberWriter(ast.Visitor[list[str]]):
         return self.g.slice(w, e, text, where)
 
     # one value each, never a group (the checker's types)
-    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index})
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.Attribute, ast.Index})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
         raise AssertionError(f"cannot compile the group {e!r}")

@@ -6,8 +6,8 @@ the Python ``labsim.dsl.emit.codegen`` writes (at run time), and the tree-walkin
 Each generated expression over numbers and booleans (operators, comparisons and their chains,
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
 ``detected``; groups of three, as signals and lists, operators member by member, reductions,
-members picked at places that fold or are read while running, slices, built-ins given groups
-member by member (format 1.3), and functions of the file's own over groups) becomes a signal of
+members picked at places that fold or are read while running, slices, built-ins and 'a if c else
+b' given groups member by member (format 1.3), and functions of the file's own over groups) becomes a signal of
 a behaviour file, its names ``p0`` .. ``p7`` either signals read from sensors, so that they do
 not fold, or (every other expression) written out as
 constants, so that what can fold does. The file runs one tick; each signal's value must equal
@@ -118,8 +118,16 @@ class Expressions:
                      self.number(depth - 1, True)]
             self.rng.shuffle(sides)
             return ast.Binary(op, *sides)
-        if r < 0.83:
+        if r < 0.78:
             return self.member_wise(depth, pure)
+        if r < 0.83:  # a choice member by member: by a group of conditions, or by one
+            # one condition is paired with every member: pure, as any value paired
+            test = (self.bools(depth - 1, pure) if self.rng.random() < 0.7 else
+                    ast.Compare((self.number(depth - 1, True), self.number(depth - 1, True)), ("<",)))
+            sides = [self.group(depth - 1, pure), self.group(depth - 1, pure) if self.rng.random() < 0.5 else
+                     self.number(depth - 1, True)]
+            self.rng.shuffle(sides)
+            return ast.IfExp(sides[0], test, sides[1])
         if r < 0.92:  # a slice of GROUP members: of a longer list, or the whole of a group
             if self.rng.random() < 0.5:
                 k = self.rng.randrange(3)
@@ -144,17 +152,17 @@ class Expressions:
                     for a in args]
         return ast.Call(name, tuple(args))
 
-    def bools(self, depth: int) -> ast.Expr:
+    def bools(self, depth: int, pure: bool = False) -> ast.Expr:
         """A group of GROUP booleans: a comparison member by member, and and/or/not of them."""
         r = self.rng.random()
         if depth <= 1 or r < 0.6:
-            sides = [self.group(depth - 1), self.number(depth - 1, True) if self.rng.random() < 0.6 else
-                     self.group(depth - 1)]
+            sides = [self.group(depth - 1, pure), self.number(depth - 1, True) if self.rng.random() < 0.6 else
+                     self.group(depth - 1, pure)]
             self.rng.shuffle(sides)
             return ast.Compare(tuple(sides), (self.rng.choice(COMPARISONS),))
         if r < 0.75:
-            return ast.Not(self.bools(depth - 1))
-        return ast.BoolOp(self.rng.choice(("and", "or")), (self.bools(depth - 1), self.bools(depth - 1)))
+            return ast.Not(self.bools(depth - 1, pure))
+        return ast.BoolOp(self.rng.choice(("and", "or")), (self.bools(depth - 1, pure), self.bools(depth - 1, pure)))
 
     def of_group(self, depth: int) -> ast.Expr:
         """A number from a group: a reduction, a member, a function of the file's own."""

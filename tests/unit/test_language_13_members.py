@@ -19,7 +19,8 @@ from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.foundation.diagnostics import LabsimError
 
 HEAD = ("labsim: {v}\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {{model: pioneer_p3dx, at: [0, 0, 0]}}\n"
-        "params: {{k: 2, half: 0.5}}\nfunctions:\n  near(d): d < 0.4\nlet:\n  front: sonar1..sonar8\n"
+        "params: {{k: 2, half: 0.5}}\nfunctions:\n  near(d): d < 0.4\n  nearer(a, b): a if a < b else b\n"
+        "let:\n  front: sonar1..sonar8\n"
         "  side: [sonar8, sonar9]\n")
 RULES = "rules:\n  - if count(front < 1) > 0 then move(1)\n  - else stop()\n"
 SPAN = "a slice [a:b] takes the places from a up to b, not including b: this group's [0:8] is all of its 8 members"
@@ -108,11 +109,20 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
      "prev()'s initial value must be a number like each member of its first argument, but this is a boolean", ()),
     ("abs(near(front))[0]", 10, "argument 1 of abs() must be a number, but this is a group of booleans",
      ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
+    ("(front if side < 1 else 0)[0]", 7, "'a if condition else b' pairs the members of two groups, which need one "
+     "size: this has 8 members and the first 2", ()),
+    ("(front if front else 0)[0]", 16, "the condition of 'a if condition else b' must be a boolean or a group of "
+     "them, but this is a group of numbers", ()),
+    ("(front if front < 1 else true)[0]", 7, "both sides of 'a if condition else b' must have one type, member by "
+     "member, not a group of numbers and a boolean", ()),
+    ("(front if front < 1 else prev(sonar1, 0))[0]", 31,
+     "prev() keeps memory from tick to tick, but here it is paired with every member of a group, so it would run "
+     "once per member", ("give it a signal of its own: 'p: prev(sonar1, 0)', then 'front if front < 1 else p'",)),
 ])
 def test_a_mistake_member_by_member_is_said_at_its_place(write, expr: str, col: int, message: str,
                                                          notes: tuple[str, ...]) -> None:
     path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
-    assert diagnostics(path) == [(12, col, message, notes)]
+    assert diagnostics(path) == [(13, col, message, notes)]
 
 
 @pytest.mark.parametrize(("rule", "col", "message", "notes"), [
@@ -129,16 +139,18 @@ def test_a_mistake_member_by_member_is_said_at_its_place(write, expr: str, col: 
 def test_a_group_where_one_value_is_needed_says_how_to_reduce_it(write, rule: str, col: int, message: str,
                                                                  notes: tuple[str, ...]) -> None:
     path = write(HEAD.format(v="1.3") + f"rules:\n  - {rule}\n")
-    assert diagnostics(path) == [(13, col, message, notes)]
+    assert diagnostics(path) == [(14, col, message, notes)]
 
 
 def test_what_is_right_checks(write) -> None:
     path = write(HEAD.format(v="1.3") + "  t: min(front[:k]) + max(front[k * 3:]) + front[:][7] + sum(prev(front, 0))\n"
                  "  u: near(front)\n  v: min(front, 1)\n  w: clamp(front, side[0], 1)\n  up: rising(front < 1)\n"
-                 "  last: prev(front < 1, false)\n  z: max(front[0:2], side)\n" + RULES)
+                 "  last: prev(front < 1, false)\n  z: max(front[0:2], side)\n  c: front if front < 1 else 1\n"
+                 "  d: nearer(front, side[1]) if k > 1 else -front\n" + RULES)
     program = compile_file(path)
     assert {g.name: g.size for g in program.group_signals} == {"front": 8, "side": 2, "u": 8, "v": 8, "w": 8,
-                                                                "up": 8, "last": 8, "z": 2}
+                                                                "up": 8, "last": 8, "z": 2, "c": 8,
+                                                                "d": 8}
 
 
 @pytest.mark.parametrize(("expr", "col", "message", "notes"), [
@@ -152,10 +164,15 @@ def test_what_is_right_checks(write) -> None:
     ("prev(front, 0)[0]", 11, "prev() keeps a number or a boolean, not a group of numbers",
      (later("applying prev() to each member of a group"),)),
     ("front[0:4][0]", 6, later("a slice [a:b]"), ()),
+    ("(front if front < 1 else 1)[0]", 16, "the condition of 'a if condition else b' must be a boolean, but this is "
+     "a group of booleans", ("a group holds one value per member: take any(...), all(...) or count(...) of it",
+                             later("choosing member by member"))),
+    ("(front if k > 1 else 1)[0]", 7, "'a if condition else b' chooses between two values, not groups: choose "
+     "between members or reductions of them", (later("choosing member by member"),)),
 ])
 def test_format_12_refuses_what_13_added(write, expr: str, col: int, message: str, notes: tuple[str, ...]) -> None:
     path = write(HEAD.format(v="1.2") + f"  t: {expr}\n" + RULES)
-    assert diagnostics(path) == [(12, col, message, notes)]
+    assert diagnostics(path) == [(13, col, message, notes)]
 
 
 # -- tick by tick: the generated code, and the reference evaluator beside it ------------------------
@@ -165,7 +182,7 @@ MEMORY_LETS = {  # name -> expression; every one member by member over g, a memo
     "last": "prev(g, -1)", "latch": "hold(g > 0.5, g < 0.2)", "since": "held(g > 0.5)", "kept": "remember(g, g > 0.5)",
     "ctl": "pid(g - 0.5, 1, 0.5, 0.25)", "noisy": "gauss(g, 1)", "lim": "clamp(g, 0.3, 0.7)", "low": "min(g, 0.4)",
     "pair": "max(g, [0.45, 0.45, 0.45])",
-    "mid": "g[1:]", "rounded": "round(g[1:] * 3) / 3",
+    "mid": "g[1:]", "rounded": "round(g[1:] * 3) / 3", "chosen": "g if g < 0.5 else [1, 2, 3]",
 }
 # the three sonars' readings, tick by tick: each member rises and falls at ticks of its own
 READINGS = [(0.9, 0.1, 0.3), (0.1, 0.9, 0.3), (0.9, 0.9, 0.6), (0.6, 0.1, 0.1), (0.1, 0.6, 0.9), (0.9, 0.9, 0.9)]
@@ -205,6 +222,7 @@ def test_each_member_keeps_its_own_memory_tick_by_tick(write) -> None:
     assert got["kept"][3] == (0.6, 0.9, 0.6)
     assert got["lim"][0] == (0.7, 0.3, 0.3) and got["low"][0] == (0.4, 0.1, 0.3)
     assert got["mid"][4] == (0.6, 0.9) and got["rounded"][0] == (0.0, 1 / 3)
+    assert got["chosen"][0] == (1.0, 0.1, 0.3) and got["chosen"][2] == (1.0, 2.0, 3.0)
     assert len(set(got["noisy"][0])) == 3  # a draw a member
 
 
