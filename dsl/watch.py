@@ -115,6 +115,8 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         raise LabsimError(report.diagnostics) from None
     checker = ExprChecker(doc, report)
     checker.version = program.version
+    own = {name for group in program.robots for name, _ in group.params}  # a robot's own: known while running
+    checker.constants = {**CONSTANTS, "dt": program.dt_s, **{k: v for k, v in program.params.items() if k not in own}}
     images, groups, unseen = _declare(program, checker)
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")

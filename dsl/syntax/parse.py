@@ -120,7 +120,8 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
         if end < 0:
             raise ParseError(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)")
         field_text = text[i + 1:end]
-        expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
+        at = _spec_colon(field_text)
+        expr_text, colon, spec = (field_text[:at], ":", field_text[at + 1:]) if at >= 0 else (field_text, "", "")
         if colon and not _FORMAT_SPEC.fullmatch(spec):
             start = i + 1 + len(expr_text) + 1
             raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
@@ -136,6 +137,17 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
     if literal:
         parts.append(literal)
     return tuple(parts)
+
+
+def _spec_colon(field: str) -> int:
+    """Where a field's format spec starts: its last ':' outside brackets (``{front[0:2]}`` has none,
+    as a Python f-string's field has not); -1 if none."""
+    depth, at = 0, -1
+    for k, ch in enumerate(field):
+        depth += (ch in "([") - (ch in ")]")
+        if ch == ":" and depth == 0:
+            at = k
+    return at
 
 
 _FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
