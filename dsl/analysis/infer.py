@@ -453,10 +453,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return None
             place = self.known(b)
             if not isinstance(place, int | float) or isinstance(place, bool):
-                self.error(text.at(b.span), f"a slice's bounds are known before the run: '{source}' is known only "
-                           "while running", notes=("a group's size is fixed when the file is compiled: write numbers "
-                                                   "or parameters every robot shares; to pick one member while "
-                                                   "running, use front[k]",))
+                own = self.robot_constants and all(known_value(b, constants, self.scopes) is not None
+                                                   for _, constants in self.robot_constants)
+                why = "reads a parameter each robot sets for itself" if own else "is known only while running"
+                self.error(text.at(b.span), f"a slice's bounds are known before the run, the same for every robot: "
+                           f"'{source}' {why}", notes=("a group's size is fixed when the file is compiled: write "
+                                                       "numbers or parameters every robot shares; to pick one member "
+                                                       "while running, use front[k]",))
                 return None
             shown = f"not {place:g}" if literal(b) else f"'{source}' is {place:g}"
             if not (float(place).is_integer() and 0 <= place <= n):

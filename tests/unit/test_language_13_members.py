@@ -93,7 +93,8 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
      ("[0:4] takes places 0, 1, 2 and 3",)),
     ("front[5:2][0]", 6, "this slice is empty: [5:2] takes the places from 5 up to 2, not including 2",
      ("[0:4] takes places 0, 1, 2 and 3",)),
-    ("front[sonar1:3][0]", 12, "a slice's bounds are known before the run: 'sonar1' is known only while running",
+    ("front[sonar1:3][0]", 12, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is "
+     "known only while running",
      ("a group's size is fixed when the file is compiled: write numbers or parameters every robot shares; to pick "
       "one member while running, use front[k]",)),
     ("front[true:3][0]", 12, "a slice's bound is a place, a number from 0; this is a boolean", ()),
@@ -251,3 +252,33 @@ def test_the_lidar_sectors_example_checks_without_warnings_and_runs(tmp_path: Pa
     metrics = summary.robots["pioneer"].metrics  # type: ignore[attr-defined]
     assert warned == []
     assert 0.3 < metrics["closest"] < 0.6 and metrics["came_near"] >= 2
+
+
+def test_a_robot_s_own_parameter_is_no_slice_bound(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: random, "
+                 "count: 2, params: {k: [2, 3]}}\nparams:\n  k: 2\nlet:\n  front: sonar1..sonar8\n"
+                 "  t: min(front[0:k + 1])\nrules:\n  - if t < 1 then stop()\n  - else move(1)\n")
+    assert diagnostics(path) == [(10, 18, "a slice's bounds are known before the run, the same for every robot: "
+                                  "'k + 1' reads a parameter each robot sets for itself",
+                                  ("a group's size is fixed when the file is compiled: write numbers or parameters "
+                                   "every robot shares; to pick one member while running, use front[k]",))]
+
+
+def test_a_log_field_may_slice_and_still_take_a_format(write) -> None:
+    path = write(HEAD.format(v="1.3") + "rules:\n  - when rising(sonar1 < 1) then log(\"near {min(front[0:2]):.2f} "
+                 "{front[1:][0]}\")\n  - else stop()\n")
+    [(_, parts)] = compile_file(path).logs
+    assert parts[0] == "near " and parts[1][1] == ".2f" and parts[3][1] == ""
+
+
+def test_a_breakpoint_slices_with_the_file_s_shared_parameters(write) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    path = write(HEAD.format(v="1.3") + RULES)
+    watch = compile_watch(compile_file(path), "min(front[k:k * 3]) < 1 and any(near(side[0:1]))")
+    assert watch.reads == ("front", "k", "side")
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(path), "min(front[0:sonar1]) < 1")
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        (1, 13, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is known only while "
+                "running")]
