@@ -19,7 +19,16 @@ from labsim.backends.scene.schema import world_schema
 from labsim.backends.scene.world_file import _declares_world, _WorldReader
 from labsim.backends.scene.world_names import builtin_worlds
 from labsim.dsl.compile import compile_file
-from labsim.dsl.library.builtins import ACTIONS, AGGREGATES, CONSTANTS, FUNCTIONS, KEYWORDS, REDUCTIONS, VARIABLES
+from labsim.dsl.library.builtins import (
+    ACTIONS,
+    AGGREGATES,
+    CONSTANTS,
+    FUNCTIONS,
+    KEYWORDS,
+    REDUCTIONS,
+    VARIABLES,
+    Type,
+)
 from labsim.dsl.syntax.lidar import LIDAR_LIMITS
 from labsim.dsl.syntax.schema import behaviour_schema
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
@@ -102,6 +111,8 @@ def builtins() -> dict[str, Builtin]:
         out[name] = Builtin(name, "function", _function_signature(name), REDUCTIONS[name].doc)
     for name, f in FUNCTIONS.items():
         doc = f.doc if name not in REDUCTIONS else f"{f.doc}; of a group: {REDUCTIONS[name].doc}"
+        if f.params and all(p in (Type.NUMBER, Type.BOOL) for p in f.params):
+            doc += "; given groups where it takes values, member by member (format 1.3)"
         out[name] = Builtin(name, "function", _function_signature(name), doc)
     out["detected"] = Builtin("detected", "function", "detected(sensor) -> boolean",
                               "true when the distance sensor named sees something (reads less than inf)")
