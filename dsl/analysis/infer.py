@@ -449,6 +449,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         for b, k in zip(bounds, kinds):
             source = text.value[b.span[0]:b.span[1]]
             if k is not Type.NUMBER:
+                assert k is not None  # None in kinds returned above
                 self.error(text.at(b.span), f"a slice's bound is a place, a number from 0; this is {k.a}")
                 return None
             place = self.known(b)
