@@ -326,10 +326,20 @@ class ExprChecker(ast.Visitor["Type | None"]):
         for m, arg in sizes[1:]:
             if m != n:
                 self.error(text.at(arg.span), f"'{op}' pairs the members of two groups, which need one size: "
-                           f"this has {m} members and the first {n}")
+                           f"this has {m} members and the first {n}", notes=self.slice_note(text, first, n, arg, m))
                 return None
         self.sizes[id(e)] = n
         return result.grouped
+
+    def slice_note(self, text: Text, first: ast.Expr, n: int, other: ast.Expr, m: int) -> tuple[str, ...]:
+        """Format 1.3: how to pair groups of two sizes, by a slice of the larger."""
+        larger = first if n > m else other
+        source = text.value[larger.span[0]:larger.span[1]]
+        if self.version < 1.3 or len(source) > 40:
+            return ()
+        if not isinstance(larger, ast.Name | ast.Group | ast.Call | ast.Index | ast.Slice):
+            source = f"({source})"
+        return (f"to pair the first {min(n, m)} members of each, slice the larger: {source}[0:{min(n, m)}]",)
 
     def once_per_member(self, e: ast.Expr, value: ast.Expr, text: Text) -> bool:
         """False, after saying so, when ``value`` (paired with every member of a group by ``e``)

@@ -80,9 +80,11 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
 
 @pytest.mark.parametrize(("expr", "col", "message", "notes"), [
     ("min(front, side)[0]", 17,
-     "'min()' pairs the members of two groups, which need one size: this has 2 members and the first 8", ()),
-    ("clamp(front, side, 1)[0]", 19,
-     "'clamp()' pairs the members of two groups, which need one size: this has 2 members and the first 8", ()),
+     "'min()' pairs the members of two groups, which need one size: this has 2 members and the first 8",
+     ("to pair the first 2 members of each, slice the larger: front[0:2]",)),
+    ("clamp(side, front - 1, 1)[0]", 18,
+     "'clamp()' pairs the members of two groups, which need one size: this has 8 members and the first 2",
+     ("to pair the first 2 members of each, slice the larger: (front - 1)[0:2]",)),
     ("front[0:9][0]", 14, "this group has 8 members, so a slice's bound is at most 8; not 9", (SPAN,)),
     ("front[-1:2][0]", 12, "a slice's bound is a place from 0, and a slice does not count from the end; not -1",
      (SPAN,)),
@@ -111,7 +113,8 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
     ("abs(near(front))[0]", 10, "argument 1 of abs() must be a number, but this is a group of booleans",
      ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
     ("(front if side < 1 else 0)[0]", 7, "'a if condition else b' pairs the members of two groups, which need one "
-     "size: this has 8 members and the first 2", ()),
+     "size: this has 8 members and the first 2",
+     ("to pair the first 2 members of each, slice the larger: front[0:2]",)),
     ("(front if front else 0)[0]", 16, "the condition of 'a if condition else b' must be a boolean or a group of "
      "them, but this is a group of numbers", ()),
     ("(front if front < 1 else true)[0]", 7, "both sides of 'a if condition else b' must have one type, member by "
