@@ -285,3 +285,11 @@ def test_a_breakpoint_slices_with_the_file_s_shared_parameters(write) -> None:
     assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
         (1, 13, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is known only while "
                 "running")]
+
+
+def test_the_lidar_sectors_example_in_format_12_is_refused_saying_it_is_13(tmp_path: Path) -> None:
+    path = tmp_path / "sectors.yaml"
+    path.write_text(examples()["lidar_sectors"].replace("labsim: 1.3", "labsim: 1.2"))
+    found = diagnostics(path)  # each slice, where it is; what uses the slices says nothing more
+    assert {(message, notes) for _, _, message, notes in found} == {(later("a slice [a:b]"), ())}
+    assert [(line, col) for line, col, _, _ in found][:2] == [(13, 18), (13, 35)] and len(found) == 11
