@@ -59,12 +59,12 @@ class Unroller:
         gave, with no local per member: the writer records ``VALUES``, which the generator
         turns into ``values`` being there (it is signals()'s argument; decide() reads it from
         the slots)."""
-        if isinstance(e, ast.Slice):  # lidar1..lidar360 sliced, scan[135:180]: a slice of that sequence
-            return self.sequence_slice(w, e)
         if isinstance(e, ast.Name) and not (self.env and e.id in self.env[-1]) and e.id in self.layout.members:
             if self.layout.members[e.id] is not None:
                 return None  # a group with slots of its own
             e = self.let_of[e.id].node
+        if isinstance(e, ast.Slice):  # lidar1..lidar360 sliced, scan[135:180]: a slice of that sequence
+            return self.sequence_slice(w, e)
         if not isinstance(e, ast.Group) or not all(isinstance(m, ast.Name) for m in e.members):
             return None
         names = [m.id for m in e.members]  # type: ignore[attr-defined]  # all Names, just tested

@@ -199,9 +199,13 @@ def _program(write) -> Program:
     return compile_file(path)
 
 
-def _members(program: Program, slots: list[float], name: str) -> tuple[object, ...]:
+def _members(program: Program, slots: list[float], name: str, readings: tuple[float, ...]) -> tuple[object, ...]:
+    """A group signal's members after a tick: from its slots, or (a group of names, or a slice of
+    one, which has none: its uses read the names) from the readings it names."""
     signal = next(g for g in program.group_signals if g.name == name)
-    assert signal.slots is not None
+    if signal.slots is None:
+        assert signal.expr == "g[1:]"
+        return readings[1:]
     return tuple(slots[k] for k in signal.slots)
 
 
@@ -212,7 +216,7 @@ def test_each_member_keeps_its_own_memory_tick_by_tick(write) -> None:
     for tick, readings in enumerate(READINGS):
         robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])
         for name in MEMORY_LETS:
-            got[name].append(_members(program, robot.slots, name))
+            got[name].append(_members(program, robot.slots, name, readings))
     assert got["up"] == [(False, False, False), (False, True, False), (True, False, True), (False, False, False),
                          (False, True, True), (True, False, False)]  # format 1.2 on: the first tick only primes
     assert got["down"] == [(False, False, False), (True, False, False), (False, False, False), (False, True, True),
@@ -241,7 +245,7 @@ def test_the_evaluator_gives_what_the_generated_code_gives_tick_by_tick(write) -
         names = {"g": Members(readings), "time": tick * 0.05, "tick": tick, "dt": 0.05}
         for name, node in nodes.items():  # in the file's order, as the robot draws its numbers
             value, faults = evaluate(node, names, rng, memory=memory)
-            assert value == _members(program, robot.slots, name), (tick, name)
+            assert value == _members(program, robot.slots, name, readings), (tick, name)
             assert faults == ()
 
 
@@ -293,3 +297,15 @@ def test_the_lidar_sectors_example_in_format_12_is_refused_saying_it_is_13(tmp_p
     found = diagnostics(path)  # each slice, where it is; what uses the slices says nothing more
     assert {(message, notes) for _, _, message, notes in found} == {(later("a slice [a:b]"), ())}
     assert [(line, col) for line, col, _, _ in found][:2] == [(13, 18), (13, 35)] and len(found) == 11
+
+
+def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0], "
+                 "lidar: {beams: 360}}\nlet:\n  scan: lidar1..lidar360\n  ahead: scan[135:225]\n"
+                 "  middle: ahead[40:50]\n  m: min(ahead)\n  a: argmin(ahead)\n  n: mean(middle)\nrules:\n  - if m + a + n < 1 then stop()\n"
+                 "  - else move(1)\n")
+    program = compile_file(path)
+    assert {g.name: g.slots for g in program.group_signals} == {"scan": None, "ahead": None, "middle": None}
+    source = program.code.source  # one call on the backend's list of beams, and no local per beam
+    assert "_min_of(values[135:225])" in source and "_argmin_at(values[135:225], " in source
+    assert "_sum_of(values[175:185]) / 10.0" in source and "v200" not in source
