@@ -302,7 +302,8 @@ def test_the_lidar_sectors_example_in_format_12_is_refused_saying_it_is_13(tmp_p
 def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
     path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0], "
                  "lidar: {beams: 360}}\nlet:\n  scan: lidar1..lidar360\n  ahead: scan[135:225]\n"
-                 "  middle: ahead[40:50]\n  m: min(ahead)\n  a: argmin(ahead)\n  n: mean(middle)\nrules:\n  - if m + a + n < 1 then stop()\n"
+                 "  middle: ahead[40:50]\n  m: min(ahead)\n  a: argmin(ahead)\n  n: mean(middle)\nrules:\n"
+                 "  - if m + a + n < 1 then stop()\n"
                  "  - else move(1)\n")
     program = compile_file(path)
     assert {g.name: g.slots for g in program.group_signals} == {"scan": None, "ahead": None, "middle": None}
