@@ -268,7 +268,8 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     if start == "rule" and (not words or pos == 0 or (first and first.group(1) not in RULE_WORDS)):
         word = first.group(1) if first else (text.split()[0] if text.split() else "")
         return _rule_start(word, text.find(word) if word else 0)
-    if text[:pos].count("(") > text[:pos].count(")"):
+    inner = _unclosed(text, pos)
+    if text[:pos].count("(") > text[:pos].count(")") and text[inner] == "(":
         if {"NAME", "NUMBER"} <= expected:
             return ParseError(pos, end, f"expected a value or an expression, found {token_text}")
         return ParseError(pos, end, f"expected ',' or ')', found {token_text}")
@@ -289,22 +290,27 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
         return ParseError(pos, end, f"expected 'else' in 'a if condition else b', found {token_text}")
     if expected == {"NAME"}:
         return ParseError(pos, end, f"expected a name, found {token_text}")
-    if text[:pos].count("[") > text[:pos].count("]") and "RSQB" in expected:
-        opened = text[:_unclosed(text, pos)].rstrip()  # what the bracket follows: a value for g[k], else a list
-        index = bool(opened) and (opened[-1].isalnum() or opened[-1] in "_)]")
-        comma = ", ','" if "COMMA" in expected and not index else ""
-        return ParseError(pos, end, f"expected an operator{comma} or ']', found {token_text}")  # in g[...]
+    if inner >= 0 and text[inner] == "[" and "RSQB" in expected:
+        return _in_brackets(text, inner, pos, end, expected, token_text)
     where = "the condition" if start == "rule" else "the expression"
     return ParseError(pos, end, f"unexpected {token_text}: expected an operator or the end of {where}")
 
 
+def _in_brackets(text: str, inner: int, pos: int, end: int, expected: set[str], token_text: str) -> ParseError:
+    """A mistake inside g[...] or a list [a, b], whose '[' is at inner."""
+    opened = text[:inner].rstrip()  # what the bracket follows: a value for g[k], else a list
+    index = bool(opened) and (opened[-1].isalnum() or opened[-1] in "_)]")
+    comma = ", ','" if "COMMA" in expected and not index else ""
+    return ParseError(pos, end, f"expected an operator{comma} or ']', found {token_text}")
+
+
 def _unclosed(text: str, pos: int) -> int:
-    """Where the last '[' before pos that is not closed before it is (-1 if none)."""
+    """Where the innermost bracket, '(' or '[', open at pos is (-1 if none)."""
     opened: list[int] = []
     for k, ch in enumerate(text[:pos]):
-        if ch == "[":
+        if ch in "([":
             opened.append(k)
-        elif ch == "]" and opened:
+        elif ch in ")]" and opened:
             opened.pop()
     return opened[-1] if opened else -1
 

@@ -310,3 +310,13 @@ def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
     source = program.code.source  # one call on the backend's list of beams, and no local per beam
     assert "_min_of(values[135:225])" in source and "_argmin_at(values[135:225], " in source
     assert "_sum_of(values[175:185]) / 10.0" in source and "v200" not in source
+
+
+@pytest.mark.parametrize(("expr", "col", "message"), [
+    ("front[1:2:3][0]", 15, "expected an operator or ']', found ':'"),
+    ("front[1 2][0]", 14, "expected an operator or ']', found '2'"),
+    ("min([front[0:1], 2 3])", 25, "expected an operator, ',' or ']', found '3'"),
+])
+def test_a_slice_s_syntax_error_is_at_its_line_and_column(write, expr: str, col: int, message: str) -> None:
+    path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
+    assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(13, col, message)]
