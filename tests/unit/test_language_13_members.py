@@ -112,6 +112,10 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
      "prev()'s initial value must be a number like each member of its first argument, but this is a boolean", ()),
     ("abs(near(front))[0]", 10, "argument 1 of abs() must be a number, but this is a group of booleans",
      ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
+    ("count(detected(front))", 21, "detected() takes a distance sensor's name (sonar1 .. sonar16), and 'front' is "
+     "not one", ("which members of a group see something: compare them, as in front < inf",)),
+    ("count(detected(sonar1..sonar3))", 12, "detected() takes one distance sensor's name, as in detected(sonar5)",
+     ("which members of a group see something: compare them, as in sonar1..sonar3 < inf",)),
     ("(front if side < 1 else 0)[0]", 7, "'a if condition else b' pairs the members of two groups, which need one "
      "size: this has 8 members and the first 2",
      ("to pair the first 2 members of each, slice the larger: front[0:2]",)),
