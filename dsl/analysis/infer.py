@@ -539,15 +539,15 @@ class ExprChecker(ast.Visitor["Type | None"]):
             arg = e.args[0] if len(e.args) == 1 else None
             source = text.value[arg.span[0]:arg.span[1]] if arg is not None else ""
             group = isinstance(arg, ast.Group | ast.Slice) or (isinstance(arg, ast.Name) and arg.id in self.group_sizes)
-            notes = (f"which members of a group see something: compare them, as in {source} < inf",) if group else ()
+            hint = (f"which members of a group see something: compare them, as in {source} < inf",) if group else ()
             if not isinstance(arg, ast.Name):
                 self.error(text.at(e.span), "detected() takes one distance sensor's name, as in detected(sonar5)",
-                           notes=notes)
+                           notes=hint)
                 return None
             t = self.name(arg, text)
             if t is not None and arg.id not in self.distance:
                 self.error(text.at(arg.span), f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
-                           f"and '{arg.id}' is not one", notes=notes)
+                           f"and '{arg.id}' is not one", notes=hint)
                 return None
             return Type.BOOL if t is not None else None
         if e.func in self.user_functions:
