@@ -141,7 +141,7 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         labels=layout.labels, timeline=_timeline(c),
         slot_of=layout.slot_of, slot_count=layout.slot_count, targets=layout.targets, code=generated.code,
         logs=generated.logs, stop_text=" ".join(c.file.stop.text.value.split()) if c.file.stop else "",
-        stop_parts=generated.stop_parts, fold_stop=bf.version != 1, texts=generated.texts,
+        stop_parts=generated.stop_parts, fold_stop=bf.version != 1, version=bf.version, texts=generated.texts,
         when_rules=generated.when_rules, image_bytes_all=peak_bytes(c, lifetimes(c)).all_bytes,
         shared_labels=layout.shared_labels,
         group_signals=tuple(GroupSignal(name, c.group_sizes[name], layout.members[name], parsed.text.value)

@@ -114,6 +114,9 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
         report.add(parsed_text.diagnostic(p.start, p.end, p.message, notes=notes))
         raise LabsimError(report.diagnostics) from None
     checker = ExprChecker(doc, report)
+    checker.version = program.version
+    own = {name for group in program.robots for name, _ in group.params}  # a robot's own: known while running
+    checker.constants = {**CONSTANTS, "dt": program.dt_s, **{k: v for k, v in program.params.items() if k not in own}}
     images, groups, unseen = _declare(program, checker)
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
@@ -163,7 +166,6 @@ def _declare(program: Program, checker: ExprChecker) -> tuple[set[str], list[tup
             checker.declare(name, t, "signal")
     for name in program.params:
         checker.declare(name, Type.NUMBER, "parameter")
-    checker.version = 1.3  # len(): a breakpoint is no file of a format
     checker.lists = dict(program.lists)
     for name, value in program.lists.items():  # format 1.3: a list of rows, or of numbers (a group)
         checker.declare(name, Type.LIST if value and isinstance(value[0], tuple) else Type.NUMBERS, "list parameter")

@@ -15,6 +15,9 @@ Two kinds of input, both hypothesis strategies:
   groups, signals that read themselves, ``when`` rules whose logs have format fields.
 - ``generated_13()``: a file of format 1.3 with list parameters (some of the wrong shape) indexed at
   places from the edges, per-robot starts, read-back, and a ``--set`` of its list.
+- ``generated_member_wise()``: a file of format 1.3 whose built-ins and functions are given groups
+  member by member (with memory and random ones, groups of two sizes) and whose groups are sliced,
+  bounds in and out of range.
 
 A third kind, ``sweep_options()``, is what a user types after ``labsim sweep``: ``--set``
 values, lists and START:STOP:STEP ranges, and ``--seeds``, from ordinary to hostile (huge,
@@ -321,6 +324,44 @@ def generated_13(draw: st.DrawFn) -> tuple[str, dict[str, str]]:
              "rules:", f"  - if {_quoted(draw(number))[1:-1]} > 1 then arc(wheel_left + 1, 2)", "  - else move(100)"]
     setting = draw(st.sampled_from(SETS_13)) if odd or draw(st.integers(0, 4)) == 0 else ""
     return "\n".join(lines) + "\n", ({"w": setting} if setting else {})
+# -- member by member, and slices (language 1.3) --------------------------------------------------
+
+SLICES_13 = ("front[0:4]", "front[:2]", "front[4:]", "front[:]", "front[k:k + 2]", "side[0:1]", "front[2:2]",
+             "front[3:1]", "front[0:9]", "front[-1:2]", "front[0.5:2]", "front[w:3]", "sonar5[0:1]",
+             "(front - 1)[1:3]", "lidar1..lidar8[2:6]", "front[0:4][1:3]", "[sonar1, k, 2][1:]")
+MEMBER_WISE_13 = ("clamp({g}, 0, 1)", "abs({g} - 0.5)", "min({g}, k)", "max({g}, {h})", "near({g})",
+                  "rising({g} < 0.5)", "counter({g} < 0.5)", "total({g} * dt)", "prev({g}, 0)",
+                  "hold({g} < 0.5, k > 1)",
+                  "pid({g} - 0.5, 1, 0, 0)", "gauss({g}, 0.1)", "uniform({g}, {h})", "held({g} < w)",
+                  "randint({g}, 3)", "clamp({g}, {h}, 1)", "sqrt({g})", "remember({g}, w > 0)", "sign({g}) * 2")
+REDUCED_13 = ("min({})", "max({})", "sum({})", "mean({})", "argmin({})", "count({} > 0)", "any({} > 1)", "{}[1]",
+              "{}[k]")
+
+
+@st.composite
+def generated_member_wise(draw: st.DrawFn) -> str:
+    """A file of format 1.3: built-ins and a function of its own given groups member by member, memory
+    and random ones among them, slices in and out of range, groups of two sizes paired; some of it
+    used where a number is needed."""
+    group = st.one_of(*[st.sampled_from(("front", "side", "front[0:3]", "sonar1..sonar3", "[sonar1, sonar2, k]"))] * 9,
+                      st.sampled_from(SLICES_13))
+    call = st.builds(lambda f, g, h: f.format(g=g, h=h), st.sampled_from(MEMBER_WISE_13), group, group)
+    grouped = st.one_of(call, call, group, st.builds("clamp({}, 0, 1)".format, call))
+    number = st.builds(lambda f, g: f.format(g), st.sampled_from(REDUCED_13), grouped)
+    k = draw(st.sampled_from(("2", "1", "0", "4", "0.5", "-1", "7")))
+    lets = draw(st.lists(st.one_of(grouped, number), min_size=1, max_size=3))
+    rule = draw(st.one_of(*[number.map("if {} > 0.5 then arc(1, 2)".format)] * 9,
+                          grouped.map("if {} then move(1)".format), grouped.map("always arc({}, 1)".format)))
+    lines = ["labsim: 1.3", "name: generated", "world: walls_lab4", "seed: 3", "dt: 0.05", "stop: time >= 0.2",
+             "robots:", f"  r: {{model: pioneer_p3dx, at: random, count: {draw(st.sampled_from(('1', '2')))}, "
+             f"lidar: {{beams: 8, range_m: 2}}}}",
+             "params:", f"  k: {k}", "functions:", "  near(d): d < 0.4",
+             "let:", f"  front: {draw(st.sampled_from(('sonar1..sonar8', *['[sonar4, sonar5, sonar6]'] * 3)))}",
+             "  side: [sonar8, sonar9, sonar10]", "  w: sonar5 - 0.5",
+             *(f"  s{i}: {_quoted(t)}" for i, t in enumerate(lets)),
+             "rules:", f"  - {_quoted(rule)}", "  - else move(2)",
+             "metrics:", f"  m: {_quoted(draw(number.map('maximum({})'.format)))}"]
+    return "\n".join(lines) + "\n"
 
 
 # -- one input, as far as it goes ------------------------------------------------------------

@@ -24,7 +24,15 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from fuzz_inputs import check_sweep_options, generated, generated_12, mutated, run_input, sweep_options
+from fuzz_inputs import (
+    check_sweep_options,
+    generated,
+    generated_12,
+    generated_member_wise,
+    mutated,
+    run_input,
+    sweep_options,
+)
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 
@@ -89,6 +97,7 @@ def _job(args: tuple[int, int, str]) -> tuple[int, dict[str, tuple[str, int, str
                        generated().map(lambda text: (text.encode(), False)),
                        generated_12().map(lambda text: (text.encode(), False)),
                        generated_12().map(lambda text: (text.encode(), False)),
+                       generated_member_wise().map(lambda text: (text.encode(), False)),
                        sweep_options().map(lambda o: (o, None)))
 
     @seed(job)

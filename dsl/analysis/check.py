@@ -126,9 +126,9 @@ class _Checker(ExprChecker):
     def __init__(self, bf: BehaviourFile, report: Report) -> None:
         super().__init__(bf.doc, report)
         self.bf = bf
+        self.version = bf.version
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
         self.grader_wheels = False  # a grader's measured metric may read the wheels (read_back)
-        self.version = bf.version
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""

@@ -58,7 +58,8 @@ class Memory:
 
     dt_s: float
     version: float = 1.2
-    sites: dict[int, Callable[..., object]] = field(default_factory=dict)
+    # id(call), or (id(call), member) for a call given a group (format 1.3): a memory per member
+    sites: dict[object, Callable[..., object]] = field(default_factory=dict)
     report: list[Callable[[str], None]] = field(default_factory=list)  # the evaluation's, while it runs
 
 
@@ -150,10 +151,16 @@ class _Walker(ast.Visitor[Any]):
                 return self.inside(self.env[e.id], self.size)
             value = self.names.get(e.id)
             return len(value) if isinstance(value, Members) else 0
-        if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp):
+        if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp):
             return max((self.size(c) for c in ast.children(e)), default=0)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), self.size)
+        reduced = e.func in REDUCTIONS and len(e.args) == 1 if isinstance(e, ast.Call) else False
+        if isinstance(e, ast.Call) and e.func not in (DETECTED, "len") and not reduced:
+            return max((self.size(a) for a in e.args), default=0)  # a built-in given a group: member by member
+        if isinstance(e, ast.Slice):
+            lower, upper = self.bounds(e)
+            return upper - lower
         rows = self.rows(e)
         return len(rows[0]) if rows is not None else 0
 
@@ -177,6 +184,13 @@ class _Walker(ast.Visitor[Any]):
             self.missing_rows.add(id(e))
             self.fault(e, f"no row at the place asked of a list of {len(rows)} rows (places count from 0)")
         return NAN
+
+    def bounds(self, e: ast.Slice) -> tuple[int, int]:
+        """A slice's places, from lower up to upper (not included); the checker made them whole numbers
+        known before the run, within the group."""
+        lower = 0 if e.lower is None else int(self.visit(e.lower))
+        upper = self.size(e.value) if e.upper is None else int(self.visit(e.upper))
+        return lower, upper
 
     def inside(self, where: _Argument, f: Callable[[ast.Expr], Any]) -> Any:
         """f of an expression in its scope: an argument in its caller's, a body in its call's."""
@@ -219,12 +233,18 @@ class _Walker(ast.Visitor[Any]):
             return self.chain(e, lambda o: self.spread(o, i))
         if isinstance(e, ast.BoolOp):
             return self.either(e, lambda v: self.spread(v, i))
+        if isinstance(e, ast.IfExp):  # member i's condition chooses member i (format 1.3)
+            return self.spread(e.body, i) if self.spread(e.test, i) else self.spread(e.orelse, i)
         if isinstance(e, ast.Call) and e.func in self.functions:
             return self.inside(self.call_of(e), lambda b: self.member(b, i))
         rows = self.rows(e)
         if rows is not None:
             assert isinstance(e, ast.Index)
             return self.row_member(e, rows, i)
+        if isinstance(e, ast.Call):  # a built-in given a group: this member's call, with a memory of its own
+            return self.built_in(e, lambda a: self.spread(a, i), (id(e), i))
+        if isinstance(e, ast.Slice):
+            return self.member(e.value, self.bounds(e)[0] + i)
         raise Unsupported(f"no members in {e!r}")
 
     # -- the nodes ---------------------------------------------------------------------------------
@@ -244,6 +264,9 @@ class _Walker(ast.Visitor[Any]):
         return Members(_number(v) for v in value) if isinstance(value, Members) else _number(value)
 
     def visit_Group(self, e: ast.Group) -> Any:
+        return self.members(e)
+
+    def visit_Slice(self, e: ast.Slice) -> Any:
         return self.members(e)
 
     def group_or(self, e: ast.Expr, one: Callable[[], Any]) -> Any:
@@ -286,7 +309,7 @@ class _Walker(ast.Visitor[Any]):
         return not decides
 
     def visit_IfExp(self, e: ast.IfExp) -> Any:
-        return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
+        return self.group_or(e, lambda: self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse))
 
     def visit_Attribute(self, e: ast.Attribute) -> Any:
         return _number(self.visit(e.value)[_FIELD[e.attr]])
@@ -322,12 +345,18 @@ class _Walker(ast.Visitor[Any]):
         if e.func == DETECTED:  # takes the sensor's name: it sees something when its reading is finite
             assert isinstance(e.args[0], ast.Name)
             return self.visit(e.args[0]) < INF
+        if self.size(e):
+            return self.members(e)
+        return self.built_in(e, self.visit, id(e))
+
+    def built_in(self, e: ast.Call, value: Callable[[ast.Expr], Any], site: object) -> Any:
+        """A built-in's call, its arguments' values given by ``value``; one with memory keeps it at ``site``."""
         f = FUNCTIONS.get(e.func)
         if f is None:
             raise Unsupported(f"{e.func}() is a function of the file's own, and its definition was not given")
         if f.stateful:
-            return self.remembered(e)
-        args = [self.visit(a) for a in e.args]
+            return self.remembered(e, value, site)
+        args = [value(a) for a in e.args]
         impl = f.resolve()
         if f.uses_rng:
             if self.rng is None:
@@ -371,13 +400,13 @@ class _Walker(ast.Visitor[Any]):
             return total if func == "sum" else total / float(n)
         return argmin(*values) if func == "argmin" else argmax(*values)
 
-    def remembered(self, e: ast.Call) -> Any:
+    def remembered(self, e: ast.Call, value: Callable[[ast.Expr], Any], site: object) -> Any:
         """A built-in with memory: this call site's state in the robot's ``Memory``."""
         memory = self.memory
         if memory is None:
             raise Unsupported(f"{e.func}() remembers earlier ticks; the evaluator sees one")
-        args = [self.visit(a) for a in e.args]
-        step = memory.sites.get(id(e))
+        args = [value(a) for a in e.args]
+        step = memory.sites.get(site)
         if step is None:
             def report(what: str) -> None:
                 memory.report[-1](what)
@@ -387,7 +416,7 @@ class _Walker(ast.Visitor[Any]):
                 factory: Callable[..., Callable[..., object]] = FUNCTIONS[e.func].resolve()  # type: ignore[assignment]
                 primed = e.func in PRIMED and memory.version >= 1.2
                 step = factory(memory.dt_s, report, primed=True) if primed else factory(memory.dt_s, report)
-            memory.sites[id(e)] = step
+            memory.sites[site] = step
         memory.report.append(lambda what: self.fault(e, what))
         try:
             return _number(step(*args))

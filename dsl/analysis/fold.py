@@ -87,7 +87,7 @@ class _Folder(ast.Visitor[Any]):
         return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
 
     # a record's field, text, a group and its members are computed at run time
-    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index})
+    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index, ast.Slice})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> object:
         raise NotConstant

@@ -73,7 +73,7 @@ def copy(e: ast.Expr) -> ast.Expr:
     changes: dict[str, Any] = {}
     for name in ast.child_fields(type(e)):
         v = getattr(e, name)
-        changes[name] = tuple(copy(x) for x in v) if isinstance(v, tuple) else copy(v)
+        changes[name] = tuple(copy(x) for x in v) if isinstance(v, tuple) else None if v is None else copy(v)
     return dataclasses.replace(e, **changes)
 
 

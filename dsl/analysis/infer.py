@@ -32,11 +32,12 @@ from labsim.dsl.library.builtins import (
     MEANT,
     REDUCTIONS,
     STATEFUL,
+    Function,
     Type,
 )
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
-from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
+from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -87,9 +88,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
         self.unavailable_notes: dict[str, tuple[str, ...]] = {}  # and the hint
-        self.version = 1.0  # the file's format
         self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
         self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
+        # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
+        # a breakpoint, which has no file of its own, reads the latest
+        self.version: float = VERSIONS[-1]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -108,7 +111,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.kinds[name] = kind
 
     def expect(self, parsed: Parsed, e: ast.Expr, want: Type, what: str) -> bool:
-        t = self.infer(e, parsed.text)
+        return self.matches(parsed.text, e, self.infer(e, parsed.text), want, what)
+
+    def matches(self, text: Text, e: ast.Expr, t: Type | None, want: Type, what: str,
+                later: tuple[str, ...] = ()) -> bool:
+        """Whether e, of type t (None: already reported), is what is wanted; if not, why, with a hint
+        (and ``later``, what a later format would make of it)."""
         if t is None:
             return False
         if t is not want:
@@ -124,7 +132,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                         "argmin(...) or argmax(...) of it, or one member, as in front[0]",)
             elif t is Type.TEXT:
                 hint = ('text is for a log\'s fields only, as in log("turning {\'left\' if s > 0 else \'right\'}")',)
-            self.error(parsed.text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint)
+            self.error(text.at(e.span), f"{what} must be {want.a}, but this is {t.a}", notes=hint + later)
             return False
         return True
 
@@ -141,7 +149,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         """Count what a group-typed node is written out to (a member each, and its operands that are
         one value once per member); False, after saying so, past MAX_WRITTEN_OUT in the file."""
         n = self.size(e) if not isinstance(e, ast.Name) or e.id in self.group_sizes or self.scopes else 0
-        paired = ast.children(e) if isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp) else ()
+        member_wise = isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp) or (
+            isinstance(e, ast.Call) and id(e) not in self.expansions)  # a built-in given a group (format 1.3)
+        paired = ast.children(e) if member_wise else ()
         self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
                                              if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
         if self.members_written <= MAX_WRITTEN_OUT:
@@ -176,6 +186,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def visit_Index(self, e: ast.Index, text: Text) -> Type | None:
         return self.index(e, text)
 
+    def visit_Slice(self, e: ast.Slice, text: Text) -> Type | None:
+        return self.slice(e, text)
+
     def visit_Neg(self, e: ast.Neg, text: Text) -> Type | None:
         return self.operands(e, text, "-", [e.operand], Type.NUMBER, Type.NUMBER)
 
@@ -192,17 +205,38 @@ class ExprChecker(ast.Visitor["Type | None"]):
         return self.compare(e, text)
 
     def visit_IfExp(self, e: ast.IfExp, text: Text) -> Type | None:
-        self.expect(Parsed(e.test, text), e.test, Type.BOOL, "the condition of 'a if condition else b'")
-        a, b = self.infer(e.body, text), self.infer(e.orelse, text)
+        c, a, b = self.infer(e.test, text), self.infer(e.body, text), self.infer(e.orelse, text)
+        grouped = {c, a, b} & {Type.NUMBERS, Type.BOOLS}
+        if grouped and self.version >= 1.3:
+            return self.choose_members(e, text, c, a, b)
+        later = (later_format("choosing member by member", 1.3),) if grouped else ()
+        if not self.matches(text, e.test, c, Type.BOOL, "the condition of 'a if condition else b'", later) and later:
+            return None  # one message about the groups
         if Type.NUMBERS in (a, b) or Type.BOOLS in (a, b):
             self.error(text.at(e.span), "'a if condition else b' chooses between two values, not groups: "
-                       "choose between members or reductions of them")
+                       "choose between members or reductions of them", notes=later)
             return None
         if a is not None and b is not None and a is not b:
             self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, "
                        f"not {a.a} and {b.a}")
             return None
         return a if a is not None else b
+
+    def choose_members(self, e: ast.IfExp, text: Text, c: Type | None, a: Type | None, b: Type | None) -> Type | None:
+        """``front if front < 1 else 1`` (format 1.3): a group of choices, one per member, each made by
+        that member's condition (or the one condition) between that member's values."""
+        if c is None or a is None or b is None:
+            return None
+        if c.member is not Type.BOOL:
+            self.error(text.at(e.test.span), f"the condition of 'a if condition else b' must be a boolean or a group "
+                       f"of them, but this is {c.a}")
+            return None
+        if a.member is not b.member or a.member not in (Type.NUMBER, Type.BOOL):
+            self.error(text.at(e.span), "both sides of 'a if condition else b' must have one type, member by "
+                       f"member, not {a.a} and {b.a}")
+            return None
+        sizes = [(self.size(x), x) for x, t in ((e.test, c), (e.body, a), (e.orelse, b)) if t is not t.member]
+        return self.grouped(e, text, "a if condition else b", sizes, a.member, [e.test, e.body, e.orelse])
 
     def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
         return self.call(e, text)
@@ -300,10 +334,20 @@ class ExprChecker(ast.Visitor["Type | None"]):
         for m, arg in sizes[1:]:
             if m != n:
                 self.error(text.at(arg.span), f"'{op}' pairs the members of two groups, which need one size: "
-                           f"this has {m} members and the first {n}")
+                           f"this has {m} members and the first {n}", notes=self.slice_note(text, first, n, arg, m))
                 return None
         self.sizes[id(e)] = n
         return result.grouped
+
+    def slice_note(self, text: Text, first: ast.Expr, n: int, other: ast.Expr, m: int) -> tuple[str, ...]:
+        """Format 1.3: how to pair groups of two sizes, by a slice of the larger."""
+        larger = first if n > m else other
+        source = text.value[larger.span[0]:larger.span[1]]
+        if self.version < 1.3 or len(source) > 40:
+            return ()
+        if not isinstance(larger, ast.Name | ast.Group | ast.Call | ast.Index | ast.Slice):
+            source = f"({source})"
+        return (f"to pair the first {min(n, m)} members of each, slice the larger: {source}[0:{min(n, m)}]",)
 
     def once_per_member(self, e: ast.Expr, value: ast.Expr, text: Text) -> bool:
         """False, after saying so, when ``value`` (paired with every member of a group by ``e``)
@@ -433,6 +477,59 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.sizes[id(e)] = width
         return Type.NUMBERS
 
+    def slice(self, e: ast.Slice, text: Text) -> Type | None:
+        """front[0:4]: the members from place 0 up to place 4, not including it, as a group (format 1.3).
+        Its bounds are known before the run, since a group's size is."""
+        t = self.infer(e.value, text)
+        bounds = [b for b in (e.lower, e.upper) if b is not None]
+        kinds = [self.infer(b, text) for b in bounds]
+        if self.version < 1.3:
+            self.error(text.at(e.span), later_format("a slice [a:b]", 1.3))
+            return None
+        if t is None or None in kinds:
+            return None
+        if t not in (Type.NUMBERS, Type.BOOLS):
+            self.error(text.at(e.value.span), f"only a group has members to slice with [a:b]; this is {t.a}",
+                       notes=("a slice takes a run of a group's members, as in front[0:4] of front: sonar1..sonar8",))
+            return None
+        n = self.size(e.value)
+        places: list[int] = []
+        for b, k in zip(bounds, kinds):
+            source = text.value[b.span[0]:b.span[1]]
+            if k is not Type.NUMBER:
+                assert k is not None  # None in kinds returned above
+                self.error(text.at(b.span), f"a slice's bound is a place, a number from 0; this is {k.a}")
+                return None
+            place = self.known(b)
+            if not isinstance(place, int | float) or isinstance(place, bool):
+                own = self.robot_constants and all(known_value(b, constants, self.scopes) is not None
+                                                   for _, constants in self.robot_constants)
+                why = "reads a parameter each robot sets for itself" if own else "is known only while running"
+                self.error(text.at(b.span), f"a slice's bounds are known before the run, the same for every robot: "
+                           f"'{source}' {why}", notes=("a group's size is fixed when the file is compiled: write "
+                                                       "numbers or parameters every robot shares; to pick one member "
+                                                       "while running, use front[k]",))
+                return None
+            shown = f"not {place:g}" if literal(b) else f"'{source}' is {place:g}"
+            if not (float(place).is_integer() and 0 <= place <= n):
+                members = f"{n} member{'s' if n != 1 else ''}"
+                message = (f"a slice's bound is a whole number; {shown}" if not float(place).is_integer() else
+                           f"a slice's bound is a place from 0, and a slice does not count from the end; {shown}"
+                           if place < 0 else f"this group has {members}, so a slice's bound is at most {n}; {shown}")
+                self.error(text.at(b.span), message, notes=(
+                    f"a slice [a:b] takes the places from a up to b, not including b: this group's [0:{n}] is all "
+                    f"of its {members}",))
+                return None
+            places.append(int(place))
+        lower = places[0] if e.lower is not None else 0
+        upper = places[-1] if e.upper is not None else n
+        if lower >= upper:
+            self.error(text.at(e.span), f"this slice is empty: [{lower}:{upper}] takes the places from {lower} up to "
+                       f"{upper}, not including {upper}", notes=("[0:4] takes places 0, 1, 2 and 3",))
+            return None
+        self.sizes[id(e)] = upper - lower
+        return t
+
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
         return known_value(e, self.constants, self.scopes)
@@ -477,14 +574,18 @@ class ExprChecker(ast.Visitor["Type | None"]):
 
     def call(self, e: ast.Call, text: Text) -> Type | None:
         if e.func == DETECTED:
-            if len(e.args) != 1 or not isinstance(e.args[0], ast.Name):
-                self.error(text.at(e.span), "detected() takes one distance sensor's name, as in detected(sonar5)")
+            arg = e.args[0] if len(e.args) == 1 else None
+            source = text.value[arg.span[0]:arg.span[1]] if arg is not None else ""
+            group = isinstance(arg, ast.Group | ast.Slice) or (isinstance(arg, ast.Name) and arg.id in self.group_sizes)
+            hint = (f"which members of a group see something: compare them, as in {source} < inf",) if group else ()
+            if not isinstance(arg, ast.Name):
+                self.error(text.at(e.span), "detected() takes one distance sensor's name, as in detected(sonar5)",
+                           notes=hint)
                 return None
-            sensor = e.args[0]
-            t = self.name(sensor, text)
-            if t is not None and sensor.id not in self.distance:
-                self.error(text.at(sensor.span), f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
-                           f"and '{sensor.id}' is not one")
+            t = self.name(arg, text)
+            if t is not None and arg.id not in self.distance:
+                self.error(text.at(arg.span), f"detected() takes a distance sensor's name (sonar1 .. sonar16), "
+                           f"and '{arg.id}' is not one", notes=hint)
                 return None
             return Type.BOOL if t is not None else None
         if e.func in self.user_functions:
@@ -522,6 +623,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             for arg in e.args:
                 self.infer(arg, text)
             return None
+        return self.built_in(e, text, f)
+
+    def built_in(self, e: ast.Call, text: Text, f: Function) -> Type | None:
+        """A call of a built-in function: its arguments' number and types; given groups where it takes
+        one value (format 1.3), it applies member by member and is a group."""
         n = len(e.args)
         fixed = len(f.params) - f.optional
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
@@ -529,12 +635,22 @@ class ExprChecker(ast.Visitor["Type | None"]):
                        arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
             return None
         ok = True
+        sizes: list[tuple[int, ast.Expr]] = []  # the arguments that are groups: the call applies member by member
         for i, arg in enumerate(e.args):
             want = f.params[min(i, len(f.params) - 1)]
-            ok = self.expect(Parsed(arg, text), arg, want, f"argument {i + 1} of {f.name}()") and ok
+            t = self.infer(arg, text)
+            later: tuple[str, ...] = ()
+            if t is not None and t is want.grouped and t is not want:
+                if self.version >= 1.3:
+                    sizes.append((self.size(arg), arg))
+                    continue
+                later = (later_format(f"applying {f.name}() to each member of a group", 1.3),)
+            ok = self.matches(text, arg, t, want, f"argument {i + 1} of {f.name}()", later) and ok
         if f.name == "randint":
             ok = self.whole_bounds(e, text) and ok
-        return f.returns if ok else None
+        if not ok:
+            return None
+        return self.grouped(e, text, f"{f.name}()", sizes, f.returns, list(e.args))
 
     def length(self, e: ast.Call, text: Text) -> Type | None:
         """len(waypoints), len(front) (format 1.3): how many rows a list has, members a group; known before the run."""
@@ -608,8 +724,16 @@ class ExprChecker(ast.Visitor["Type | None"]):
         a, b = (self.infer(arg, text) for arg in e.args)
         if a is None or b is None:
             return None
+        if a in (Type.NUMBERS, Type.BOOLS) and self.version >= 1.3:  # member by member, a memory each
+            if b is not a.member:
+                self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.member.a} like each member "
+                           f"of its first argument, but this is {b.a}")
+                return None
+            return self.grouped(e, text, "prev()", [(self.size(x), x)], a.member, list(e.args))
         if a not in (Type.NUMBER, Type.BOOL):
-            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}")
+            later = ((later_format("applying prev() to each member of a group", 1.3),)
+                     if a in (Type.NUMBERS, Type.BOOLS) else ())
+            self.error(text.at(e.args[0].span), f"prev() keeps a number or a boolean, not {a.a}", notes=later)
             return None
         if b is not a:
             self.error(text.at(e.args[1].span), f"prev()'s initial value must be {a.a} like its first "

@@ -214,7 +214,8 @@ class Ranges(ast.Visitor[Range]):
 
     # numbers known before the run are found above; booleans, text and groups have no range, nor
     # has a member of a group (its members' ranges are not followed)
-    generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index})
+    generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index,
+                         ast.Slice})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> Range:
         return TOP

@@ -169,6 +169,9 @@ class _Sensor(ast.Visitor["str | None"]):
     def visit_Index(self, e: ast.Index, guarded: frozenset[str], depth: int) -> str | None:
         return self.visit(e.value, guarded, depth)  # any member may be the one picked
 
+    def visit_Slice(self, e: ast.Slice, guarded: frozenset[str], depth: int) -> str | None:
+        return self.visit(e.value, guarded, depth)  # its bounds are places, known before the run
+
     visit_BoolOp = visit_Not = visit_Attribute = visit_Text = visit_Bool = visit_Number = visit_Compare
     # a number made of others (a group of them) can be inf when one of them is
     generic = frozenset({ast.Neg, ast.Group})

@@ -527,7 +527,11 @@ class _Generator(Unroller):
         if e.func == DETECTED:
             assert isinstance(e.args[0], ast.Name)
             return f"({self.emit(w, e.args[0], text, where)} < _inf)"
-        parts = [self.expr(w, a, text, where) for a in e.args]
+        return self.built_in(e, [self.expr(w, a, text, where) for a in e.args], text, where)
+
+    def built_in(self, e: ast.Call, parts: list[str], text: Text, where: str) -> str:
+        """A call of a built-in with its arguments' Python; called once per member when it applies member
+        by member, and then each member's call with memory has its own site, so its own memory."""
         if e.func in ("min", "max") and len(parts) <= 3 and all(PLAIN.match(p) for p in parts):
             return extreme(e.func, parts)
         args = ", ".join(parts)
@@ -697,7 +701,7 @@ class _Emit(ast.Visitor[str]):
         return self.g.index(w, e, text, where)
 
     # numbers and booleans are folded before they get here; a group is written by members()
-    generic = frozenset({ast.Number, ast.Bool, ast.Group})
+    generic = frozenset({ast.Number, ast.Bool, ast.Group, ast.Slice})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> str:
         raise AssertionError(f"cannot compile {e!r}")

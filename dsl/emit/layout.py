@@ -107,8 +107,11 @@ def _per_robot(c: Checked, slot_of: dict[str, int], count: int) -> int:
 
 
 def _names_only(e: ast.Expr, members: dict[str, tuple[int, ...] | None]) -> bool:
-    """Whether a group is written with names and numbers only (or names another such group)."""
+    """Whether a group is written with names and numbers only (or names another such group, or
+    slices one: ``ahead: scan[135:225]`` is read where it is used, as scan is)."""
     if isinstance(e, ast.Name):
         return e.id in members and members[e.id] is None
+    if isinstance(e, ast.Slice):
+        return _names_only(e.value, members)
     return isinstance(e, ast.Group) and all(isinstance(m, ast.Name | ast.Number) for m in e.members)
 

@@ -208,6 +208,7 @@ class Program:
     group_signals: tuple[GroupSignal, ...] = ()
     functions: tuple[FunctionText, ...] = ()
     lists: Mapping[str, tuple] = field(default_factory=dict)  # list parameters (format 1.3), after --set
+    version: float = 1  # the file's format: a breakpoint is checked as the file is
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""

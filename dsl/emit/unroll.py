@@ -63,6 +63,8 @@ class Unroller:
             if self.layout.members[e.id] is not None:
                 return None  # a group with slots of its own
             e = self.let_of[e.id].node
+        if isinstance(e, ast.Slice):  # lidar1..lidar360 sliced, scan[135:180]: a slice of that sequence
+            return self.sequence_slice(w, e)
         if not isinstance(e, ast.Group) or not all(isinstance(m, ast.Name) for m in e.members):
             return None
         names = [m.id for m in e.members]  # type: ignore[attr-defined]  # all Names, just tested
@@ -77,6 +79,25 @@ class Unroller:
         if end - first == len(self.c.channels):
             return "values", len(slots)
         return f"values[{first - FIRST_CHANNEL}:{end - FIRST_CHANNEL}]", len(slots)
+
+    def sequence_slice(self, w: Writer, e: ast.Slice) -> tuple[str, int] | None:
+        inner = self.sequence(Writer(), e.value)
+        if inner is None:
+            return None
+        code, n = inner
+        lower, upper = self.bounds(e, n)
+        if upper - lower <= 3:
+            return None
+        base = 0 if code == "values" else int(code[len("values["):code.index(":")])
+        w.read(VALUES)
+        return f"values[{base + lower}:{base + upper}]", upper - lower
+
+    def bounds(self, e: ast.Slice, n: int) -> tuple[int, int]:
+        """A slice's places in a group of n, from lower up to upper (the checker made them whole numbers
+        known before the run, within the group)."""
+        lower = 0 if e.lower is None else int(fold(e.lower, self.constants))  # type: ignore[call-overload]
+        upper = n if e.upper is None else int(fold(e.upper, self.constants))  # type: ignore[call-overload]
+        return lower, upper
 
     def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
         """An operand of an operator on groups: its members, or its value once per member."""
@@ -105,6 +126,29 @@ class Unroller:
         if SEQUENCE_READ.search(member):  # [min(scan), lidar5][0]: the scan as one sequence
             w.read(VALUES)
         return member
+
+    def built_in(self, e: ast.Call, parts: list[str], text: Text, where: str) -> str:
+        raise NotImplementedError
+
+    def member_call(self, w: Writer, e: ast.Call, text: Text, where: str) -> list[str]:
+        """A built-in given a group (format 1.3): the call once per member, with that member of each
+        group argument and the same value of each other one (the checker made those pure)."""
+        n = self.c.sizes[id(e)]
+        columns = [self.spread(w, a, n, text, where) for a in e.args]
+        return [self.built_in(e, list(parts), text, where) for parts in zip(*columns)]
+
+    def slice(self, w: Writer, e: ast.Slice, text: Text, where: str) -> list[str]:
+        """front[0:4]: those members alone; the others' locals are not loaded (as for front[2])."""
+        scratch = Writer()
+        members = self.members(scratch, e.value, text, where)
+        lower, upper = self.bounds(e, len(members))
+        picked = members[lower:upper]
+        for member in picked:
+            for slot in LOCAL.findall(member):
+                w.read(int(slot))
+            if SEQUENCE_READ.search(member):
+                w.read(VALUES)
+        return picked
 
     def inline(self, w: Writer, e: ast.Call, text: Text, where: str) -> str | list[str]:
         """A user function's body in place of its call: a parameter whose argument folds is a
@@ -188,9 +232,14 @@ class MemberWriter(ast.Visitor[list[str]]):
         return ["(" + f" {e.op} ".join(row) + ")" for row in zip(*(self.spread(e, v, w, text, where)
                                                                   for v in e.values))]
 
+    def visit_IfExp(self, e: ast.IfExp, w: Writer, text: Text, where: str) -> list[str]:
+        rows = zip(self.spread(e, e.test, w, text, where), self.spread(e, e.body, w, text, where),
+                   self.spread(e, e.orelse, w, text, where))
+        return [f"({a} if {c} else {b})" for c, a, b in rows]
+
     def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
         if id(e) not in self.g.c.expansions:
-            raise AssertionError(f"cannot compile the group {e!r}")
+            return self.g.member_call(w, e, text, where)
         body = self.g.inline(w, e, text, where)
         assert isinstance(body, list)
         return body
@@ -212,8 +261,11 @@ class MemberWriter(ast.Visitor[list[str]]):
         assert isinstance(k, int | float) and float(k).is_integer()  # the checker refused other places
         return [number_literal(v) for v in rows[int(k)]]  # type: ignore[union-attr]
 
+    def visit_Slice(self, e: ast.Slice, w: Writer, text: Text, where: str) -> list[str]:
+        return self.g.slice(w, e, text, where)
+
     # one value each, never a group (the checker's types)
-    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute})
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.Attribute})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
         raise AssertionError(f"cannot compile the group {e!r}")

@@ -131,6 +131,16 @@ class Index(Expr):
 
 
 @dataclass(frozen=True)
+class Slice(Expr):
+    """``front[0:4]``: the members from place ``lower`` up to, not including, place ``upper``, as a
+    group (version 1.3); a bound left out is the group's first place or its end."""
+
+    value: Expr
+    lower: Expr | None
+    upper: Expr | None
+
+
+@dataclass(frozen=True)
 class Action:
     """``arc(l, r)`` in a rule's action list."""
 
@@ -172,7 +182,8 @@ def node_classes() -> tuple[type[Expr], ...]:
 
 
 _CHILD_FIELDS: dict[type, tuple[str, ...]] = {}
-_EXPR_HINTS = ("Expr", "tuple[Expr, ...]")  # the annotations of the fields that hold sub-expressions
+# the annotations of the fields that hold sub-expressions (a slice's bound may be left out: None)
+_EXPR_HINTS = ("Expr", "tuple[Expr, ...]", "Expr | None")
 
 
 def child_fields(cls: type[Expr]) -> tuple[str, ...]:
@@ -194,7 +205,7 @@ def children(e: Expr) -> tuple[Expr, ...]:
         value = getattr(e, name)
         if isinstance(value, tuple):
             out.extend(value)
-        else:
+        elif value is not None:
             out.append(value)
     return tuple(out)
 

@@ -4,6 +4,9 @@
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
 expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
 around ``parse_expr``. No lark type escapes this module.
+
+Over 500 lines: the tree's transformer and the words for each of lark's errors both read the
+grammar's terminals and rules, and a rule added to the grammar changes both.
 """
 from __future__ import annotations
 
@@ -117,7 +120,8 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
         if end < 0:
             raise ParseError(i, i + 1, "unclosed '{' in a label (write '{{' for a brace)")
         field_text = text[i + 1:end]
-        expr_text, colon, spec = field_text.rpartition(":") if ":" in field_text else (field_text, "", "")
+        at = _spec_colon(field_text)
+        expr_text, colon, spec = (field_text[:at], ":", field_text[at + 1:]) if at >= 0 else (field_text, "", "")
         if colon and not _FORMAT_SPEC.fullmatch(spec):
             start = i + 1 + len(expr_text) + 1
             raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
@@ -133,6 +137,17 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
     if literal:
         parts.append(literal)
     return tuple(parts)
+
+
+def _spec_colon(field: str) -> int:
+    """Where a field's format spec starts: its last ':' outside brackets (``{front[0:2]}`` has none,
+    as a Python f-string's field has not); -1 if none."""
+    depth, at = 0, -1
+    for k, ch in enumerate(field):
+        depth += (ch in "([") - (ch in ")]")
+        if ch == ":" and depth == 0:
+            at = k
+    return at
 
 
 _FORMAT_SPEC = re.compile(r"[<>^=]?[+\- ]?0?\d{0,2}(\.\d{1,2})?[fegdF%]?")
@@ -233,6 +248,8 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
         end = pos + 1
     else:
         assert isinstance(e, UnexpectedToken)
+        if e.token.type == "_COLON" and text[:pos].count("[") <= text[:pos].count("]"):
+            return _bad_character(text, pos, start)  # a ':' outside a slice's brackets: as before slices
         expected = set(e.expected)
         token_text = _found(e.token)
         if e.token.type == "$END":
@@ -251,7 +268,8 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
     if start == "rule" and (not words or pos == 0 or (first and first.group(1) not in RULE_WORDS)):
         word = first.group(1) if first else (text.split()[0] if text.split() else "")
         return _rule_start(word, text.find(word) if word else 0)
-    if text[:pos].count("(") > text[:pos].count(")"):
+    inner = _unclosed(text, pos)
+    if text[:pos].count("(") > text[:pos].count(")") and text[inner] == "(":
         if {"NAME", "NUMBER"} <= expected:
             return ParseError(pos, end, f"expected a value or an expression, found {token_text}")
         return ParseError(pos, end, f"expected ',' or ')', found {token_text}")
@@ -272,8 +290,29 @@ def _translate(e: UnexpectedInput, text: str, start: str) -> ParseError:
         return ParseError(pos, end, f"expected 'else' in 'a if condition else b', found {token_text}")
     if expected == {"NAME"}:
         return ParseError(pos, end, f"expected a name, found {token_text}")
+    if inner >= 0 and text[inner] == "[" and "RSQB" in expected:
+        return _in_brackets(text, inner, pos, end, expected, token_text)
     where = "the condition" if start == "rule" else "the expression"
     return ParseError(pos, end, f"unexpected {token_text}: expected an operator or the end of {where}")
+
+
+def _in_brackets(text: str, inner: int, pos: int, end: int, expected: set[str], token_text: str) -> ParseError:
+    """A mistake inside g[...] or a list [a, b], whose '[' is at inner."""
+    opened = text[:inner].rstrip()  # what the bracket follows: a value for g[k], else a list
+    index = bool(opened) and (opened[-1].isalnum() or opened[-1] in "_)]")
+    comma = ", ','" if "COMMA" in expected and not index else ""
+    return ParseError(pos, end, f"expected an operator{comma} or ']', found {token_text}")
+
+
+def _unclosed(text: str, pos: int) -> int:
+    """Where the innermost bracket, '(' or '[', open at pos is (-1 if none)."""
+    opened: list[int] = []
+    for k, ch in enumerate(text[:pos]):
+        if ch in "([":
+            opened.append(k)
+        elif ch in ")]" and opened:
+            opened.pop()
+    return opened[-1] if opened else -1
 
 
 def _habit(text: str, pos: int, end: int, token: Token, expected: set[str], words: list[str]) -> ParseError | None:
@@ -470,6 +509,9 @@ class _ToAst(Transformer):
 
     def index(self, meta: Meta, c: list[Any]) -> ast.Index:
         return ast.Index(c[0], c[1], span=_span(meta))
+
+    def slice(self, meta: Meta, c: list[Any]) -> ast.Slice:
+        return ast.Slice(c[0], c[1], c[2], span=_span(meta))
 
     def name_range(self, meta: Meta, c: list[Any]) -> ast.Group:
         """``sonar1..sonar8`` (or ``sonar1..8``): the names from the first number to the last, in order."""

@@ -28,6 +28,7 @@ from labsim.dsl.library.builtins import (
     READ_BACK,
     REDUCTIONS,
     VARIABLES,
+    Type,
 )
 from labsim.dsl.syntax.lidar import LIDAR_LIMITS
 from labsim.dsl.syntax.schema import behaviour_schema
@@ -111,6 +112,8 @@ def builtins() -> dict[str, Builtin]:
         out[name] = Builtin(name, "function", _function_signature(name), REDUCTIONS[name].doc)
     for name, f in FUNCTIONS.items():
         doc = f.doc if name not in REDUCTIONS else f"{f.doc}; of a group: {REDUCTIONS[name].doc}"
+        if f.params and all(p in (Type.NUMBER, Type.BOOL) for p in f.params):
+            doc += "; given groups where it takes values, member by member (format 1.3)"
         out[name] = Builtin(name, "function", _function_signature(name), doc)
     out["detected"] = Builtin("detected", "function", "detected(sensor) -> boolean",
                               "true when the distance sensor named sees something (reads less than inf)")

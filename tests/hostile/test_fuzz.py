@@ -17,6 +17,7 @@ from fuzz_inputs import (
     generated,
     generated_12,
     generated_13,
+    generated_member_wise,
     mutated,
     run_input,
     seeds,
@@ -94,6 +95,18 @@ def test_files_with_lists_starts_and_read_back_give_diagnostics_not_exceptions(t
 
     fuzz()
     assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+def test_files_of_member_wise_calls_and_slices_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    """Built-ins given groups member by member, memory and random ones among them, and slices in
+    and out of range (format 1.3; tests/fuzz_inputs.py, generated_member_wise)."""
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated_member_wise())
+    def fuzz(text: str) -> None:
+        outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert "error" in outcomes and outcomes.count("ran") >= len(outcomes) // 40  # most are mistakes on purpose
 
 
 @pytest.mark.slow

@@ -188,7 +188,8 @@ def test_a_breakpoint_reads_group_signals_and_the_file_s_functions(write) -> Non
       "count, 'total(...)' for a sum; docs/language.md, Time and memory)",)),
     ("nearer(front, 1) < 0.5", "{path}:6:21: argument 1 of min() must be a number, but this is a group of numbers",
      ("a group holds one value per member: take min(...), max(...), mean(...), sum(...), argmin(...) or argmax(...) "
-      "of it, or one member, as in front[0]", "in the call of nearer() at --break:1:1")),
+      "of it, or one member, as in front[0]", "applying min() to each member of a group is format 1.3: start the "
+      "file with 'labsim: 1.3'", "in the call of nearer() at --break:1:1")),
     ("pair[2] < 0.5", "--break:1:6: this group has 2 members, at places 0 to 1; not 2",
      ("places count from 0: the first member is [0]",)),
 ])

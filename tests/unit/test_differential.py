@@ -6,9 +6,10 @@ the Python ``labsim.dsl.emit.codegen`` writes (at run time), and the tree-walkin
 Each generated expression over numbers and booleans (operators, comparisons and their chains,
 ``and``/``or``/``not``, conditionals, the built-in functions of numbers, random ones included,
 ``detected``; groups of three, as signals and lists, operators member by member, reductions,
-members picked at places that fold or are read while running, and functions of the file's own
-over groups) becomes a signal of a behaviour file, its names ``p0`` .. ``p7`` either signals
-read from sensors, so that they do not fold, or (every other expression) written out as
+members picked at places that fold or are read while running, slices, built-ins and 'a if c else
+b' given groups member by member (format 1.3), and functions of the file's own over groups) becomes a signal of
+a behaviour file, its names ``p0`` .. ``p7`` either signals read from sensors, so that they do
+not fold, or (every other expression) written out as
 constants, so that what can fold does. The file runs one tick; each signal's value must equal
 the evaluator's (nan equal to nan, zeros of the same sign, booleans apart from numbers), and
 so must its warnings, site by site; where folding gives a value, so must it, and the evaluator
@@ -63,7 +64,10 @@ LISTED = (0.5, -1.0, 2.0)
 READ_BACK = ("wheel_left", "wheel_right", "start_x", "start_heading")  # 0 on a first tick, and without a start
 # functions of the file's own, over groups and numbers: their parameters stand for the arguments
 OWN_FUNCTIONS = {"scaled": (("g", "k"), "g * k - k"), "nearest": (("g", "d"), "min(g - d)"),
-                 "within": (("g", "d"), "count(g < d) + g[1] / d")}
+                 "within": (("g", "d"), "count(g < d) + g[1] / d"), "limited": (("g", "k"), "clamp(g, -k, k)"),
+                 "head": (("g",), "sum(g[:2]) - g[1:][0]")}
+# the built-ins a group may be given, member by member (format 1.3): all of numbers but random(), which takes none
+MEMBER_WISE = tuple(sorted(name for name, n in FUNCTIONS_OF_NUMBERS.items() if n))
 # no shrinking: a batch comes from a seed, and the failure names the expression and its values
 SHORT = settings(max_examples=EXAMPLES, derandomize=True, database=None, deadline=None,
                  phases=(Phase.explicit, Phase.generate),
@@ -105,50 +109,91 @@ class Expressions:
             return self.call(depth)
         return ast.IfExp(self.number(depth - 1), self.condition(depth - 1), self.number(depth - 1))
 
-    def group(self, depth: int) -> ast.Expr:
-        """A group of GROUP numbers: a signal, a list, or an operator applied member by member."""
+    def group(self, depth: int, pure: bool = False) -> ast.Expr:
+        """A group of GROUP numbers: a signal, a list, or an operator applied member by member; ``pure``:
+        nothing random (an argument of a function of the file's own)."""
         r, pick = self.rng.random(), self.rng.choice
-        if depth <= 0 or r < 0.35:
+        if depth <= 0 or r < 0.3:
             if self.rng.random() < 0.15:  # a list parameter's row, or the list of numbers itself
                 return ast.Index(ast.Name("wp"), self.place()) if self.rng.random() < 0.7 else ast.Name("gl")
             if self.rng.random() < 0.5:
                 return ast.Name(pick(GROUPS))
-            return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(pick(NAMES))
-                                   for _ in range(GROUP)))
-        if r < 0.45:
-            return ast.Neg(self.group(depth - 1))
-        if r < 0.9:
+            return self.listed(GROUP)
+        if r < 0.38:
+            return ast.Neg(self.group(depth - 1, pure))
+        if r < 0.68:
             op = pick(("+", "-", "*", "/", "%", "**"))
-            sides = [self.group(depth - 1), self.group(depth - 1) if self.rng.random() < 0.4 else
+            sides = [self.group(depth - 1, pure), self.group(depth - 1, pure) if self.rng.random() < 0.4 else
                      self.number(depth - 1, True)]
             self.rng.shuffle(sides)
             return ast.Binary(op, *sides)
-        return ast.Call("scaled", (self.group(depth - 1), self.number(depth - 1, True)))
+        if r < 0.78:
+            return self.member_wise(depth, pure)
+        if r < 0.83:  # a choice member by member: by a group of conditions, or by one
+            # one condition is paired with every member: pure, as any value paired
+            test = (self.bools(depth - 1, pure) if self.rng.random() < 0.7 else
+                    ast.Compare((self.number(depth - 1, True), self.number(depth - 1, True)), ("<",)))
+            sides = [self.group(depth - 1, pure), self.group(depth - 1, pure) if self.rng.random() < 0.5 else
+                     self.number(depth - 1, True)]
+            self.rng.shuffle(sides)
+            return ast.IfExp(sides[0], test, sides[1])
+        if r < 0.92:  # a slice of GROUP members: of a longer list, or the whole of a group
+            if self.rng.random() < 0.5:
+                k = self.rng.randrange(3)
+                return ast.Slice(self.listed(GROUP + 2), ast.Number(float(k)), ast.Number(float(k + GROUP)))
+            return ast.Slice(self.group(depth - 1, pure), pick((None, ast.Number(0.0))), pick((None, ast.Number(3.0))))
+        return ast.Call(pick(("scaled", "limited")), (self.group(depth - 1, True), self.number(depth - 1, True)))
 
-    def bools(self, depth: int) -> ast.Expr:
+    def listed(self, n: int) -> ast.Group:
+        return ast.Group(tuple(self.number(0, True) if self.rng.random() < 0.3 else ast.Name(self.rng.choice(NAMES))
+                               for _ in range(n)))
+
+    def member_wise(self, depth: int, pure: bool) -> ast.Call:
+        """A built-in given a group: one argument a group at least, the others groups or values
+        (paired with every member, so nothing random)."""
+        name = self.rng.choice([f for f in MEMBER_WISE if not (pure and FUNCTIONS[f].uses_rng)])
+        n = FUNCTIONS_OF_NUMBERS[name] + (self.rng.randrange(2) if FUNCTIONS[name].variadic else 0)
+        grouped = self.rng.randrange(n)
+        args = [self.group(depth - 1, pure) if k == grouped or self.rng.random() < 0.3 else self.number(depth - 1, True)
+                for k in range(n)]
+        if name == "randint":  # a bound written as a number must be within 2**53: the checker says so
+            args = [a if not isinstance(a, ast.Number) or a.value <= 10 else ast.Binary("*", a, ast.Number(1.0))
+                    for a in args]
+        return ast.Call(name, tuple(args))
+
+    def bools(self, depth: int, pure: bool = False) -> ast.Expr:
         """A group of GROUP booleans: a comparison member by member, and and/or/not of them."""
         r = self.rng.random()
         if depth <= 1 or r < 0.6:
-            sides = [self.group(depth - 1), self.number(depth - 1, True) if self.rng.random() < 0.6 else
-                     self.group(depth - 1)]
+            sides = [self.group(depth - 1, pure), self.number(depth - 1, True) if self.rng.random() < 0.6 else
+                     self.group(depth - 1, pure)]
             self.rng.shuffle(sides)
             return ast.Compare(tuple(sides), (self.rng.choice(COMPARISONS),))
         if r < 0.75:
-            return ast.Not(self.bools(depth - 1))
-        return ast.BoolOp(self.rng.choice(("and", "or")), (self.bools(depth - 1), self.bools(depth - 1)))
+            return ast.Not(self.bools(depth - 1, pure))
+        return ast.BoolOp(self.rng.choice(("and", "or")), (self.bools(depth - 1, pure), self.bools(depth - 1, pure)))
 
     def of_group(self, depth: int) -> ast.Expr:
         """A number from a group: a reduction, a member, a function of the file's own."""
         r, pick = self.rng.random(), self.rng.choice
-        if r < 0.45:
+        if r < 0.35:
             return ast.Call(pick(("min", "max", "sum", "mean", "argmin", "argmax")), (self.group(depth - 1),))
+        if r < 0.45:  # a reduction of part of a group
+            lower = self.rng.randrange(GROUP)
+            upper = self.rng.randrange(lower + 1, GROUP + 1)
+            bounds = (None if lower == 0 and self.rng.random() < 0.5 else ast.Number(float(lower)),
+                      None if upper == GROUP and self.rng.random() < 0.5 else ast.Number(float(upper)))
+            return ast.Call(pick(("min", "max", "sum", "mean", "argmin", "argmax")),
+                            (ast.Slice(self.group(depth - 1), *bounds),))
         if r < 0.6:
             return ast.Call("count", (self.bools(depth - 1),))
         if r < 0.8:
             return ast.Index(self.group(depth - 1), self.place())
-        if r < 0.9:
-            return ast.Call("nearest", (self.group(depth - 1), self.number(depth - 1, True)))
-        return ast.Call("within", (self.group(depth - 1), self.number(depth - 1, True)))
+        if r < 0.87:
+            return ast.Call("nearest", (self.group(depth - 1, True), self.number(depth - 1, True)))
+        if r < 0.94:
+            return ast.Call("within", (self.group(depth - 1, True), self.number(depth - 1, True)))
+        return ast.Call("head", (self.group(depth - 1, True),))
 
     def place(self) -> ast.Expr:
         """A place in a group (or a list of GROUP rows): one that folds is one of the group's (the checker
@@ -230,6 +275,14 @@ def written(e: ast.Expr, constants: Mapping[str, float] | None = None) -> tuple[
             index = write(e.index)
             out.append("]")
             return replace(e, value=value, index=index)
+        elif isinstance(e, ast.Slice):
+            value = write(e.value, 9)
+            out.append("[")
+            lower = None if e.lower is None else write(e.lower)
+            out.append(":")
+            upper = None if e.upper is None else write(e.upper)
+            out.append("]")
+            return replace(e, value=value, lower=lower, upper=upper)
         elif isinstance(e, ast.Call):
             out.append(e.func + "(")
             args = []

@@ -47,7 +47,7 @@ def test_every_analysis_handles_every_node_class(name: str) -> None:
 
 
 def test_a_node_class_no_analysis_knows_is_reported_for_each(monkeypatch: pytest.MonkeyPatch) -> None:
-    new = type("Slice", (), {})  # a construct to come: no analysis has heard of it
+    new = type("Lambda", (), {})  # a construct to come: no analysis has heard of it
     monkeypatch.setattr(ast, "node_classes", lambda: (*[c for c in _classes()], new))
     for name, v in visitors().items():
         assert v.unhandled() == [new], name
@@ -69,9 +69,10 @@ def test_children_are_the_fields_that_hold_expressions() -> None:
 
 
 def test_walk_visits_every_node_in_evaluation_order() -> None:
-    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h)")
+    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h, m[1:n], p[:q])")
     names = [n.id for n in ast.walk(e) if isinstance(n, ast.Name)]
-    assert names == ["a", "b", "k", "d", "c", "e", "g", "h"]  # the test of an 'if' before its branches
+    # the test of an 'if' before its branches
+    assert names == ["a", "b", "k", "d", "c", "e", "g", "h", "m", "n", "p", "q"]
     kinds = {type(n) for n in ast.walk(e)}
     assert kinds == set(ast.node_classes())  # this expression has one node of every kind
 

@@ -1,0 +1,326 @@
+"""Language 1.3, member by member: a built-in given a group applies to each member (a memory per
+member for one with memory), slices ``g[a:b]``, and the same files refused in format 1.2
+(docs/language.md, "Member by member")."""
+from __future__ import annotations
+
+import math
+import random
+from pathlib import Path
+
+import pytest
+from helpers import examples, run_example
+
+from labsim.dsl.analysis.evaluate import Members, Memory, evaluate
+from labsim.dsl.compile import compile_file
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.support import Faults
+from labsim.dsl.syntax import ast
+from labsim.dsl.syntax.parse import ParseError, parse_expr
+from labsim.foundation.diagnostics import LabsimError
+
+HEAD = ("labsim: {v}\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {{model: pioneer_p3dx, at: [0, 0, 0]}}\n"
+        "params: {{k: 2, half: 0.5}}\nfunctions:\n  near(d): d < 0.4\n  nearer(a, b): a if a < b else b\n"
+        "let:\n  front: sonar1..sonar8\n"
+        "  side: [sonar8, sonar9]\n")
+RULES = "rules:\n  - if count(front < 1) > 0 then move(1)\n  - else stop()\n"
+SPAN = "a slice [a:b] takes the places from a up to b, not including b: this group's [0:8] is all of its 8 members"
+GROUP_HINT = ("a group holds one value per member: take min(...), max(...), mean(...), sum(...), argmin(...) or "
+              "argmax(...) of it, or one member, as in front[0]")
+
+
+def diagnostics(path: Path) -> list[tuple[int, int, str, tuple[str, ...]]]:
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    return [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+
+
+def later(what: str) -> str:
+    return f"{what} is format 1.3: start the file with 'labsim: 1.3'"
+
+
+# -- the parser: a slice's spans ---------------------------------------------------------------------
+
+def test_a_slice_parses_with_its_spans() -> None:
+    e = parse_expr("min(front[2:k + 1])")
+    assert isinstance(e, ast.Call)
+    s = e.args[0]
+    assert s == ast.Slice(ast.Name("front"), ast.Number(2.0), ast.Binary("+", ast.Name("k"), ast.Number(1.0)))
+    assert isinstance(s, ast.Slice) and s.lower is not None and s.upper is not None
+    assert (s.span, s.value.span, s.lower.span, s.upper.span) == ((4, 18), (4, 9), (10, 11), (12, 17))
+
+
+@pytest.mark.parametrize(("text", "lower", "upper"), [
+    ("g[:3]", None, ast.Number(3.0)), ("g[3:]", ast.Number(3.0), None), ("g[:]", None, None),
+    ("g[ 1 : 2 ]", ast.Number(1.0), ast.Number(2.0)),
+])
+def test_a_bound_may_be_left_out(text: str, lower: ast.Expr | None, upper: ast.Expr | None) -> None:
+    assert parse_expr(text) == ast.Slice(ast.Name("g"), lower, upper)
+
+
+def test_slices_and_places_chain() -> None:
+    e = parse_expr("(front - 1)[1:5][0:2][1]")
+    assert isinstance(e, ast.Index) and isinstance(e.value, ast.Slice) and isinstance(e.value.value, ast.Slice)
+    assert (e.span, e.value.span, e.value.value.span) == ((0, 24), (0, 21), (0, 16))
+
+
+@pytest.mark.parametrize(("text", "start", "message"), [
+    ("g[1:2:3]", 5, "expected an operator or ']', found ':'"),
+    ("sonar1: 2", 6, "unexpected ':' in an expression"),  # outside brackets, as before slices
+    ("g[1:2", 5, "expected an operator or ']', found the end of the text"),
+    ("g[1 2]", 4, "expected an operator or ']', found '2'"),
+    ("[g[0:1], 2 3]", 11, "expected an operator, ',' or ']', found '3'"),
+])
+def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: str) -> None:
+    with pytest.raises(ParseError) as e:
+        parse_expr(text)
+    assert (e.value.start, e.value.message) == (start, message)
+
+
+# -- the checker: what each mistake says, where ------------------------------------------------------
+
+@pytest.mark.parametrize(("expr", "col", "message", "notes"), [
+    ("min(front, side)[0]", 17,
+     "'min()' pairs the members of two groups, which need one size: this has 2 members and the first 8",
+     ("to pair the first 2 members of each, slice the larger: front[0:2]",)),
+    ("clamp(side, front - 1, 1)[0]", 18,
+     "'clamp()' pairs the members of two groups, which need one size: this has 8 members and the first 2",
+     ("to pair the first 2 members of each, slice the larger: (front - 1)[0:2]",)),
+    ("front[0:9][0]", 14, "this group has 8 members, so a slice's bound is at most 8; not 9", (SPAN,)),
+    ("front[-1:2][0]", 12, "a slice's bound is a place from 0, and a slice does not count from the end; not -1",
+     (SPAN,)),
+    ("front[0.5:2][0]", 12, "a slice's bound is a whole number; not 0.5", (SPAN,)),
+    ("front[k:half][0]", 14, "a slice's bound is a whole number; 'half' is 0.5", (SPAN,)),
+    ("front[k * 5:][0]", 12, "this group has 8 members, so a slice's bound is at most 8; 'k * 5' is 10", (SPAN,)),
+    ("front[3:3][0]", 6, "this slice is empty: [3:3] takes the places from 3 up to 3, not including 3",
+     ("[0:4] takes places 0, 1, 2 and 3",)),
+    ("front[5:2][0]", 6, "this slice is empty: [5:2] takes the places from 5 up to 2, not including 2",
+     ("[0:4] takes places 0, 1, 2 and 3",)),
+    ("front[sonar1:3][0]", 12, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is "
+     "known only while running",
+     ("a group's size is fixed when the file is compiled: write numbers or parameters every robot shares; to pick "
+      "one member while running, use front[k]",)),
+    ("front[true:3][0]", 12, "a slice's bound is a place, a number from 0; this is a boolean", ()),
+    ("sonar5[0:1][0]", 6, "only a group has members to slice with [a:b]; this is a number",
+     ("a slice takes a run of a group's members, as in front[0:4] of front: sonar1..sonar8",)),
+    ("clamp(front, 0, prev(sonar1, 0))[0]", 22,
+     "prev() keeps memory from tick to tick, but here it is paired with every member of a group, so it would run "
+     "once per member", ("give it a signal of its own: 'p: prev(sonar1, 0)', then 'clamp(front, 0, p)'",)),
+    ("max(front, uniform(0, 1))[0]", 17,
+     "uniform() draws a random number, but here it is paired with every member of a group, so it would run once "
+     "per member", ("give it a signal of its own: 'p: uniform(0, 1)', then 'max(front, p)'",)),
+    ("prev(front, true)[0]", 18,
+     "prev()'s initial value must be a number like each member of its first argument, but this is a boolean", ()),
+    ("abs(near(front))[0]", 10, "argument 1 of abs() must be a number, but this is a group of booleans",
+     ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
+    ("count(detected(front))", 21, "detected() takes a distance sensor's name (sonar1 .. sonar16), and 'front' is "
+     "not one", ("which members of a group see something: compare them, as in front < inf",)),
+    ("count(detected(sonar1..sonar3))", 12, "detected() takes one distance sensor's name, as in detected(sonar5)",
+     ("which members of a group see something: compare them, as in sonar1..sonar3 < inf",)),
+    ("(front if side < 1 else 0)[0]", 7, "'a if condition else b' pairs the members of two groups, which need one "
+     "size: this has 8 members and the first 2",
+     ("to pair the first 2 members of each, slice the larger: front[0:2]",)),
+    ("(front if front else 0)[0]", 16, "the condition of 'a if condition else b' must be a boolean or a group of "
+     "them, but this is a group of numbers", ()),
+    ("(front if front < 1 else true)[0]", 7, "both sides of 'a if condition else b' must have one type, member by "
+     "member, not a group of numbers and a boolean", ()),
+    ("(front if front < 1 else prev(sonar1, 0))[0]", 31,
+     "prev() keeps memory from tick to tick, but here it is paired with every member of a group, so it would run "
+     "once per member", ("give it a signal of its own: 'p: prev(sonar1, 0)', then 'front if front < 1 else p'",)),
+])
+def test_a_mistake_member_by_member_is_said_at_its_place(write, expr: str, col: int, message: str,
+                                                         notes: tuple[str, ...]) -> None:
+    path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
+    assert diagnostics(path) == [(13, col, message, notes)]
+
+
+@pytest.mark.parametrize(("rule", "col", "message", "notes"), [
+    ("if near(front) then stop()", 8, "a rule's condition must be a boolean, but this is a group of booleans",
+     ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
+    ("if clamp(front, 0, 1) > 0.5 then stop()", 8,
+     "a rule's condition must be a boolean, but this is a group of booleans",
+     ("a group holds one value per member: take any(...), all(...) or count(...) of it",)),
+    ("always arc(clamp(front, 0, 1), 1)", 16, "an argument of arc() must be a number, but this is a group of numbers",
+     (GROUP_HINT,)),
+    ("always arc(front[0:2], 1)", 16, "an argument of arc() must be a number, but this is a group of numbers",
+     (GROUP_HINT,)),
+])
+def test_a_group_where_one_value_is_needed_says_how_to_reduce_it(write, rule: str, col: int, message: str,
+                                                                 notes: tuple[str, ...]) -> None:
+    path = write(HEAD.format(v="1.3") + f"rules:\n  - {rule}\n")
+    assert diagnostics(path) == [(14, col, message, notes)]
+
+
+def test_what_is_right_checks(write) -> None:
+    path = write(HEAD.format(v="1.3") + "  t: min(front[:k]) + max(front[k * 3:]) + front[:][7] + sum(prev(front, 0))\n"
+                 "  u: near(front)\n  v: min(front, 1)\n  w: clamp(front, side[0], 1)\n  up: rising(front < 1)\n"
+                 "  last: prev(front < 1, false)\n  z: max(front[0:2], side)\n  c: front if front < 1 else 1\n"
+                 "  d: nearer(front, side[1]) if k > 1 else -front\n" + RULES)
+    program = compile_file(path)
+    assert {g.name: g.size for g in program.group_signals} == {"front": 8, "side": 2, "u": 8, "v": 8, "w": 8,
+                                                                "up": 8, "last": 8, "z": 2, "c": 8,
+                                                                "d": 8}
+
+
+@pytest.mark.parametrize(("expr", "col", "message", "notes"), [
+    ("clamp(front, 0, 1)[0]", 12, "argument 1 of clamp() must be a number, but this is a group of numbers",
+     (GROUP_HINT, later("applying clamp() to each member of a group"))),
+    ("min(front, 1)[0]", 10, "argument 1 of min() must be a number, but this is a group of numbers",
+     (GROUP_HINT, later("applying min() to each member of a group"))),
+    ("rising(front < 1)[0]", 13, "argument 1 of rising() must be a boolean, but this is a group of booleans",
+     ("a group holds one value per member: take any(...), all(...) or count(...) of it",
+      later("applying rising() to each member of a group"))),
+    ("prev(front, 0)[0]", 11, "prev() keeps a number or a boolean, not a group of numbers",
+     (later("applying prev() to each member of a group"),)),
+    ("front[0:4][0]", 6, later("a slice [a:b]"), ()),
+    ("(front if front < 1 else 1)[0]", 16, "the condition of 'a if condition else b' must be a boolean, but this is "
+     "a group of booleans", ("a group holds one value per member: take any(...), all(...) or count(...) of it",
+                             later("choosing member by member"))),
+    ("(front if k > 1 else 1)[0]", 7, "'a if condition else b' chooses between two values, not groups: choose "
+     "between members or reductions of them", (later("choosing member by member"),)),
+])
+def test_format_12_refuses_what_13_added(write, expr: str, col: int, message: str, notes: tuple[str, ...]) -> None:
+    path = write(HEAD.format(v="1.2") + f"  t: {expr}\n" + RULES)
+    assert diagnostics(path) == [(13, col, message, notes)]
+
+
+# -- tick by tick: the generated code, and the reference evaluator beside it ------------------------
+
+MEMORY_LETS = {  # name -> expression; every one member by member over g, a memory per member
+    "up": "rising(g > 0.5)", "down": "falling(g > 0.5)", "n": "counter(g > 0.5)", "sum_": "total(g)",
+    "last": "prev(g, -1)", "latch": "hold(g > 0.5, g < 0.2)", "since": "held(g > 0.5)", "kept": "remember(g, g > 0.5)",
+    "ctl": "pid(g - 0.5, 1, 0.5, 0.25)", "noisy": "gauss(g, 1)", "lim": "clamp(g, 0.3, 0.7)", "low": "min(g, 0.4)",
+    "pair": "max(g, [0.45, 0.45, 0.45])",
+    "mid": "g[1:]", "rounded": "round(g[1:] * 3) / 3", "chosen": "g if g < 0.5 else [1, 2, 3]",
+}
+# the three sonars' readings, tick by tick: each member rises and falls at ticks of its own
+READINGS = [(0.9, 0.1, 0.3), (0.1, 0.9, 0.3), (0.9, 0.9, 0.6), (0.6, 0.1, 0.1), (0.1, 0.6, 0.9), (0.9, 0.9, 0.9)]
+
+
+def _program(write) -> Program:
+    lets = "".join(f"  {name}: {expr}\n" for name, expr in MEMORY_LETS.items())
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+                 "let:\n  g: sonar1..sonar3\n" + lets + "rules:\n  - always stop()\n")
+    return compile_file(path)
+
+
+def _members(program: Program, slots: list[float], name: str, readings: tuple[float, ...]) -> tuple[object, ...]:
+    """A group signal's members after a tick: from its slots, or (a group of names, or a slice of
+    one, which has none: its uses read the names) from the readings it names."""
+    signal = next(g for g in program.group_signals if g.name == name)
+    if signal.slots is None:
+        assert signal.expr == "g[1:]"
+        return readings[1:]
+    return tuple(slots[k] for k in signal.slots)
+
+
+def test_each_member_keeps_its_own_memory_tick_by_tick(write) -> None:
+    program = _program(write)
+    robot = program.robot("p", random.Random(7), Faults())
+    got: dict[str, list[tuple[object, ...]]] = {name: [] for name in MEMORY_LETS}
+    for tick, readings in enumerate(READINGS):
+        robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])
+        for name in MEMORY_LETS:
+            got[name].append(_members(program, robot.slots, name, readings))
+    assert got["up"] == [(False, False, False), (False, True, False), (True, False, True), (False, False, False),
+                         (False, True, True), (True, False, False)]  # format 1.2 on: the first tick only primes
+    assert got["down"] == [(False, False, False), (True, False, False), (False, False, False), (False, True, True),
+                           (True, False, False), (False, False, False)]
+    assert got["n"] == [(0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0), (1.0, 2.0, 2.0),
+                        (2.0, 2.0, 2.0)]
+    assert got["last"][:3] == [(-1.0, -1.0, -1.0), (0.9, 0.1, 0.3), (0.1, 0.9, 0.3)]
+    assert got["latch"] == [(True, False, False), (False, True, False), (True, True, True), (True, False, False),
+                            (False, True, True), (True, True, True)]  # reset below 0.2
+    assert got["since"][2] == (0.0, 0.05, 0.0) and got["since"][3] == (0.05, 0.0, 0.0)
+    assert got["kept"][3] == (0.6, 0.9, 0.6)
+    assert got["lim"][0] == (0.7, 0.3, 0.3) and got["low"][0] == (0.4, 0.1, 0.3)
+    assert got["mid"][4] == (0.6, 0.9) and got["rounded"][0] == (0.0, 1 / 3)
+    assert got["chosen"][0] == (1.0, 0.1, 0.3) and got["chosen"][2] == (1.0, 2.0, 3.0)
+    assert len(set(got["noisy"][0])) == 3  # a draw a member
+
+
+def test_the_evaluator_gives_what_the_generated_code_gives_tick_by_tick(write) -> None:
+    program = _program(write)
+    robot = program.robot("p", random.Random(7), Faults())
+    memory = Memory(0.05, 1.3)
+    rng = random.Random(7)
+    nodes = {name: parse_expr(expr) for name, expr in MEMORY_LETS.items()}
+    for tick, readings in enumerate(READINGS):
+        robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])
+        names = {"g": Members(readings), "time": tick * 0.05, "tick": tick, "dt": 0.05}
+        for name, node in nodes.items():  # in the file's order, as the robot draws its numbers
+            value, faults = evaluate(node, names, rng, memory=memory)
+            assert value == _members(program, robot.slots, name, readings), (tick, name)
+            assert faults == ()
+
+
+# -- the worked example ------------------------------------------------------------------------------
+
+def test_the_lidar_sectors_example_checks_without_warnings_and_runs(tmp_path: Path) -> None:
+    path = tmp_path / "sectors.yaml"
+    path.write_text(examples()["lidar_sectors"])
+    assert compile_file(path).warnings == ()
+    _, summary, warned = run_example("lidar_sectors", tmp_path)
+    metrics = summary.robots["pioneer"].metrics  # type: ignore[attr-defined]
+    assert warned == []
+    assert 0.3 < metrics["closest"] < 0.6 and metrics["came_near"] >= 2
+
+
+def test_a_robot_s_own_parameter_is_no_slice_bound(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: random, "
+                 "count: 2, params: {k: [2, 3]}}\nparams:\n  k: 2\nlet:\n  front: sonar1..sonar8\n"
+                 "  t: min(front[0:k + 1])\nrules:\n  - if t < 1 then stop()\n  - else move(1)\n")
+    assert diagnostics(path) == [(10, 18, "a slice's bounds are known before the run, the same for every robot: "
+                                  "'k + 1' reads a parameter each robot sets for itself",
+                                  ("a group's size is fixed when the file is compiled: write numbers or parameters "
+                                   "every robot shares; to pick one member while running, use front[k]",))]
+
+
+def test_a_log_field_may_slice_and_still_take_a_format(write) -> None:
+    path = write(HEAD.format(v="1.3") + "rules:\n  - when rising(sonar1 < 1) then log(\"near {min(front[0:2]):.2f} "
+                 "{front[1:][0]}\")\n  - else stop()\n")
+    [(_, parts)] = compile_file(path).logs
+    assert parts[0] == "near " and parts[1][1] == ".2f" and parts[3][1] == ""
+
+
+def test_a_breakpoint_slices_with_the_file_s_shared_parameters(write) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    path = write(HEAD.format(v="1.3") + RULES)
+    watch = compile_watch(compile_file(path), "min(front[k:k * 3]) < 1 and any(near(side[0:1]))")
+    assert watch.reads == ("front", "k", "side")
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(path), "min(front[0:sonar1]) < 1")
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        (1, 13, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is known only while "
+                "running")]
+
+
+def test_the_lidar_sectors_example_in_format_12_is_refused_saying_it_is_13(tmp_path: Path) -> None:
+    path = tmp_path / "sectors.yaml"
+    path.write_text(examples()["lidar_sectors"].replace("labsim: 1.3", "labsim: 1.2"))
+    found = diagnostics(path)  # each slice, where it is; what uses the slices says nothing more
+    assert {(message, notes) for _, _, message, notes in found} == {(later("a slice [a:b]"), ())}
+    assert [(line, col) for line, col, _, _ in found][:2] == [(13, 18), (13, 35)] and len(found) == 11
+
+
+def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0], "
+                 "lidar: {beams: 360}}\nlet:\n  scan: lidar1..lidar360\n  ahead: scan[135:225]\n"
+                 "  middle: ahead[40:50]\n  m: min(ahead)\n  a: argmin(ahead)\n  n: mean(middle)\nrules:\n"
+                 "  - if m + a + n < 1 then stop()\n"
+                 "  - else move(1)\n")
+    program = compile_file(path)
+    assert {g.name: g.slots for g in program.group_signals} == {"scan": None, "ahead": None, "middle": None}
+    source = program.code.source  # one call on the backend's list of beams, and no local per beam
+    assert "_min_of(values[135:225])" in source and "_argmin_at(values[135:225], " in source
+    assert "_sum_of(values[175:185]) / 10.0" in source and "v200" not in source
+
+
+@pytest.mark.parametrize(("expr", "col", "message"), [
+    ("front[1:2:3][0]", 15, "expected an operator or ']', found ':'"),
+    ("front[1 2][0]", 14, "expected an operator or ']', found '2'"),
+    ("min([front[0:1], 2 3])", 25, "expected an operator, ',' or ']', found '3'"),
+])
+def test_a_slice_s_syntax_error_is_at_its_line_and_column(write, expr: str, col: int, message: str) -> None:
+    path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
+    assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(13, col, message)]
