@@ -29,6 +29,7 @@ from labsim.dsl.analysis.stop import check_stop
 from labsim.dsl.analysis.unbounded import check_unbounded
 from labsim.dsl.emit.codegen import Generated, generate
 from labsim.dsl.emit.program import FunctionText, GroupSignal, Program, RobotGroup, RuleLabel, TimelineEvent
+from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax.read import FunctionDecl, RobotDecl, read
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -146,7 +147,9 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         shared_labels=layout.shared_labels,
         group_signals=tuple(GroupSignal(name, c.group_sizes[name], layout.members[name], parsed.text.value)
                             for name, parsed in c.lets if name in layout.members),
-        functions=tuple(_function_text(d) for d in c.functions.values()))
+        functions=tuple(_function_text(d) for d in c.functions.values()),
+        peer_fields=c.peer_fields,
+        peer_slots=tuple(STATE if f == "state" else layout.slot_of[f] for f in c.peer_fields))
 
 
 def _function_text(d: FunctionDecl) -> FunctionText:

@@ -52,7 +52,7 @@ def make_tick(run: RunState, hooks: Hooks) -> Callable[[], bool]:
                 r.program.events.clear()
         return False
 
-    if len(run.robots) == 1:
+    if len(run.robots) == 1 and not run.program.peer_fields:
         return _single(run, before, act, stop, after, inline=run.robots[0].model is not None)
     return _fleet(run, before, act, stop)
 
@@ -124,6 +124,7 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
               for r in run.robots]
     sense, step = run.sense, run.step
     n, dt = len(run.program.channels), run.dt_s
+    peers, kept = run.peers, run.program.peer_slots
 
     def tick() -> bool:
         if run.finished:
@@ -142,8 +143,13 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
             run.stopped_by = held.name
             run.stop_part = held.program.stop_part[0]
             return stop(run.robots, readings)
+        # what the others read of each robot next tick (format 1.3): its values of this tick, before
+        # any robot acts or its goto takes effect, so that the order robots act in does not matter
+        now_kept = [tuple([r[0][i] for i in kept]) for r in robots] if kept else None
         for s, _, decide, cmd, events, r in robots:
             act(r, s, cmd, events, decide(), readings[r.index])
+        if now_kept is not None:
+            peers[:] = now_kept
         step()
         run.tick_index = t + 1
         return True

@@ -26,6 +26,7 @@ from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
 from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.analysis.peers import check_later
 from labsim.dsl.analysis.wording import arity_message, log_example
 from labsim.dsl.library.builtins import (
     ACTIONS,
@@ -99,6 +100,8 @@ class Checked:
     self_prev: frozenset[int] = frozenset()
     functions: dict[str, FunctionDecl] = field(default_factory=dict)
     called: frozenset[str] = frozenset()
+    # format 1.3: what the robots read of each other (x, y, heading, state, signals), in the order first read
+    peer_fields: tuple[str, ...] = ()
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -135,6 +138,9 @@ class _Checker(ExprChecker):
         elif mechanism is not None:
             channels = mechanism.channels()
         self.presence(world, mechanism)
+        self.version = bf.version
+        self.robot_counts = {r.name: r.count for r in bf.robots}
+        self.signal_names = tuple(name for name, _, _ in bf.lets)
         self.spawns(world)
         for name, kind in channels.items():
             self.declare(name, _KIND_TYPES[kind], _KIND_WORDS.get(kind, "sensor"))
@@ -160,6 +166,7 @@ class _Checker(ExprChecker):
         self.user_functions = check_definitions(self, bf.functions)
         check_bodies(self, self.user_functions)
         lets = self.lets()
+        check_later(self)
         labels = self.labels()
         self.metric_names = {m.name for m in bf.metrics}
         if bf.stop is not None:
@@ -176,7 +183,8 @@ class _Checker(ExprChecker):
                        {name: self.types[name] for name, _ in lets}, {ch: channels[ch] for ch in used_channels},
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
-                       frozenset(self.self_prev), self.user_functions, frozenset(self.called))
+                       frozenset(self.self_prev), self.user_functions, frozenset(self.called),
+                       tuple(self.peer_fields))
 
     def known_values(self, params: dict[str, float | bool],
                      robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:

@@ -15,6 +15,7 @@ from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.peers import peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -35,7 +36,7 @@ from labsim.dsl.library.builtins import (
     Type,
 )
 from labsim.dsl.syntax import ast
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
@@ -84,6 +85,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
+        # format 1.3: the robots another robot's name reads (group -> robots), the file's signals, and
+        # what is read of the others (labsim.dsl.analysis.peers)
+        self.version = 1.3
+        self.robot_counts: dict[str, int] = {}
+        self.signal_names: tuple[str, ...] = ()
+        self.peer_fields: dict[str, Type] = {}
+        self.peer_later: list[tuple[ast.Peer, Text]] = []
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -201,7 +209,17 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
         return self.call(e, text)
 
+    def visit_Peer(self, e: ast.Peer, text: Text) -> Type | None:
+        return peer_type(self, e, text)
+
     def visit_Attribute(self, e: ast.Attribute, text: Text) -> Type | None:
+        base = e.value.value if isinstance(e.value, ast.Index) else e.value
+        if (isinstance(base, ast.Name) and self.version >= 1.3 and self.robot_counts and base.id not in self.types
+                and base.id not in self.poisoned and not self.scopes and base.id not in self.later):
+            robots = list(self.robot_counts)
+            self.error(text.at(base.span), f"unknown robot '{base.id}'{did_you_mean(base.id, robots)}",
+                       notes=("robots of this file: " + ", ".join(robots),))
+            return None
         t = self.infer(e.value, text)
         if t is None:
             return None
@@ -239,6 +257,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         if e.id in FUNCTIONS or e.id in ACTIONS:
             self.error(text.at(e.span), f"'{e.id}' is a function: call it as {e.id}(...)")
+            return None
+        if e.id in self.robot_counts:
+            if self.version < 1.3:
+                self.error(text.at(e.span), later_format(f"reading another robot ({e.id}.x)", 1.3))
+            else:
+                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in "
+                           f"{e.id}{'[0]' if self.robot_counts[e.id] > 1 else ''}.x",
+                           notes=("another robot's x, y, heading, state and signals can be read",))
             return None
         if e.id in self.metric_names:
             self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "

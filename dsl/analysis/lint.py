@@ -395,7 +395,7 @@ class _Continuous(ast.Visitor[str]):
         return ""
 
     visit_BoolOp = visit_Not = visit_Text = visit_Number = visit_Bool = visit_Compare
-    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index})
+    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> str:
         return self.first(ast.children(e))

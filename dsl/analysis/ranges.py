@@ -213,8 +213,9 @@ class Ranges(ast.Visitor[Range]):
         return self.attribute(e)
 
     # numbers known before the run are found above; booleans, text and groups have no range, nor
-    # has a member of a group (its members' ranges are not followed)
-    generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index})
+    # has a member of a group (its members' ranges are not followed), nor another robot's value
+    generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index,
+                         ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> Range:
         return TOP

@@ -170,6 +170,7 @@ class _Sensor(ast.Visitor["str | None"]):
         return self.visit(e.value, guarded, depth)  # any member may be the one picked
 
     visit_BoolOp = visit_Not = visit_Attribute = visit_Text = visit_Bool = visit_Number = visit_Compare
+    visit_Peer = visit_Compare  # another robot's value: the pid warning follows this robot's sensors
     # a number made of others (a group of them) can be inf when one of them is
     generic = frozenset({ast.Neg, ast.Group})
 

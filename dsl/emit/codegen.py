@@ -121,6 +121,9 @@ class _Generator(Unroller):
         self.env: list[dict[str, str | list[str]]] = []  # inside a user function's body: its arguments' code
         self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
         self.let_of = {name: parsed for name, parsed in checked.lets}
+        self.peer_robots: dict[str, tuple[int, int]] = {}  # robot group -> its first robot's index, its count
+        for decl in checked.file.robots:
+            self.peer_robots[decl.name] = (sum(n for _, n in self.peer_robots.values()), decl.count)
         self.when_rules: list[int] = []  # the index of each 'when' rule: _wf[j] counts the ticks it logged
         life = lifetimes(checked)
         self.image_drops = life.drops  # signal index -> image signals freed after it
@@ -207,6 +210,7 @@ class _Generator(Unroller):
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
                 "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
+                *(["_P"] if self.c.peer_fields else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
@@ -680,6 +684,21 @@ class _Emit(ast.Visitor[str]):
 
     def visit_Index(self, e: ast.Index, w: Writer, text: Text, where: str) -> str:
         return self.g.index(w, e, text, where)
+
+    def visit_Peer(self, e: ast.Peer, w: Writer, text: Text, where: str) -> str:
+        """Another robot's value on the last tick: ``_P[robot][field]``, the run's list of every robot's
+        values kept after each tick (format 1.3); a place known only while running, through a guard."""
+        g = self.g
+        first, count = g.peer_robots[e.robot]
+        k = g.c.peer_fields.index(e.attr)
+        try:
+            place = fold(e.member, g.constants)
+        except NotConstant:
+            members = ", ".join(f"_P[{first + j}][{k}]" for j in range(count))
+            kind = "[]?" if g.c.node_types.get(id(e)) is Type.BOOL else "[]"
+            return f"{g.site(kind, text, e.span, where)}(({members},), {g.expr(w, e.member, text, where)})"
+        assert isinstance(place, int | float) and float(place).is_integer()  # the checker refused other places
+        return f"_P[{first + int(place)}][{k}]"
 
     # numbers and booleans are folded before they get here; a group is written by members()
     generic = frozenset({ast.Number, ast.Bool, ast.Group})

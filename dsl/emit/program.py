@@ -206,17 +206,34 @@ class Program:
     # its expression; each function of the file's own
     group_signals: tuple[GroupSignal, ...] = ()
     functions: tuple[FunctionText, ...] = ()
+    # format 1.3: what the robots read of each other (leader.x), and the slots each robot's values of
+    # them are kept from after every tick, for the others to read on the next (``peer_start``)
+    peer_fields: tuple[str, ...] = ()
+    peer_slots: tuple[int, ...] = ()
+
+    def peer_start(self) -> list[tuple]:
+        """What the robots read of each other on the first tick: each robot's start pose, its first
+        state, and 0 (false) for a signal, as no tick has computed one yet."""
+        out = []
+        for start in self.starts:
+            pose = {"x": start.pose.x_m, "y": start.pose.y_m, "heading": start.pose.heading_rad, "state": 0}
+            out.append(tuple(pose.get(f, False if self.signal_types.get(f) is Type.BOOL else 0.0)
+                             for f in self.peer_fields))
+        return out
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
         return "".join(p if isinstance(p, str) else show_field(values[p[0]], p[1]) for p in self.logs[site][1])
 
     def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
-              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False) -> RobotProgram:
+              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False,
+              peers: list[tuple] | None = None) -> RobotProgram:
         """Bind the generated functions to one robot's slots, generator, model and fault sink.
 
         ``index`` is the robot's place in its ``group``, whose own parameter values it takes;
-        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them).
+        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them);
+        ``peers`` is the run's list of what each robot reads of the others (``peer_start``), shared by
+        every robot of the run and replaced after each tick by the runtime.
         """
         code = self.code
         slots = Slots([0.0] * self.slot_count)
@@ -248,6 +265,8 @@ class Program:
                         _held=held, _texts=self.texts, _wf=when_fired)
         if code.drops:
             bindings["_drop"] = not keep_images
+        if self.peer_fields:
+            bindings["_P"] = peers if peers is not None else self.peer_start()
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)

@@ -194,7 +194,7 @@ class MemberWriter(ast.Visitor[list[str]]):
         return body
 
     # one value each, never a group (the checker's types)
-    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index})
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.IfExp, ast.Attribute, ast.Index, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
         raise AssertionError(f"cannot compile the group {e!r}")

@@ -52,14 +52,16 @@ def _parser() -> Lark:
                      start=["rule", "expr"], propagate_positions=True, maybe_placeholders=True)
 
 
-def parse_rule(text: str) -> ast.Rule:
-    result = _parse(text, "rule")
+def parse_rule(text: str, robots: frozenset[str] = frozenset()) -> ast.Rule:
+    """A rule; ``robots`` names the robots whose values ``NAME.attr`` reads (format 1.3)."""
+    result = _parse(text, "rule", robots)
     assert isinstance(result, ast.Rule)
     return result
 
 
-def parse_expr(text: str) -> ast.Expr:
-    result = _parse(text, "expr")
+def parse_expr(text: str, robots: frozenset[str] = frozenset()) -> ast.Expr:
+    """An expression; ``robots`` names the robots whose values ``NAME.attr`` reads (format 1.3)."""
+    result = _parse(text, "expr", robots)
     assert isinstance(result, ast.Expr)
     return result
 
@@ -94,7 +96,7 @@ def parse_printf(text: str, name: str) -> tuple[LabelPart, ...] | None:
     return tuple(parts)
 
 
-def parse_label(text: str) -> tuple[LabelPart, ...]:
+def parse_label(text: str, robots: frozenset[str] = frozenset()) -> tuple[LabelPart, ...]:
     """'Arm Speed: {0.02 * arm:.2f}': literal text and {expression:format} fields, in order.
 
     ``{{`` and ``}}`` stand for braces. The expressions' spans are offsets into the whole text.
@@ -122,7 +124,7 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
             start = i + 1 + len(expr_text) + 1
             raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
         try:
-            expr = parse_expr(expr_text)
+            expr = parse_expr(expr_text, robots)
         except ParseError as e:
             raise ParseError(i + 1 + e.start, i + 1 + e.end, e.message, e.notes) from None
         if literal:
@@ -152,7 +154,7 @@ def _shift(e: ast.Expr, offset: int) -> ast.Expr:
     return dataclasses.replace(e, **changes)
 
 
-def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
+def _parse(text: str, start: str, robots: frozenset[str] = frozenset()) -> ast.Rule | ast.Expr:
     if not text.strip():
         what = "rule" if start == "rule" else "expression"
         raise ParseError(0, max(1, len(text)), f"empty {what}")
@@ -163,7 +165,7 @@ def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
         raise _translate(e, text, start) from None
     _check_depth(tree)
     try:
-        return _ToAst().transform(tree)
+        return _ToAst(robots).transform(tree)
     except VisitError as e:  # a log text's own mistake, raised while building its action
         if isinstance(e.orig_exc, ParseError):
             raise e.orig_exc from None
@@ -360,7 +362,12 @@ def _tspan(token: Token) -> ast.Span:
 
 @v_args(meta=True)
 class _ToAst(Transformer):
-    """lark tree to frozen dataclasses; tokens become str and float here."""
+    """lark tree to frozen dataclasses; tokens become str and float here. ``robots`` are the names
+    of the file's robots (format 1.3): ``leader.x`` of one of them is a ``Peer``, not an attribute."""
+
+    def __init__(self, robots: frozenset[str] = frozenset()) -> None:
+        super().__init__()
+        self.robots = robots
 
     def if_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("if", c[0], c[1], span=_span(meta))
@@ -391,7 +398,7 @@ class _ToAst(Transformer):
         token = c[1]
         start = token.start_pos + 1  # inside the quotes
         try:
-            parts = parse_label(str(token)[1:-1])
+            parts = parse_label(str(token)[1:-1], self.robots)
         except ParseError as e:
             raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
                              e.notes) from None
@@ -452,8 +459,15 @@ class _ToAst(Transformer):
         args = c[1] if c[1] is not None else ()
         return ast.Call(str(c[0]), args, span=_span(meta), func_span=_tspan(c[0]))
 
-    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute:
-        return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))
+    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute | ast.Peer:
+        base, attr = c[0], str(c[1])
+        if isinstance(base, ast.Name) and base.id in self.robots:  # leader.x: another robot's value
+            return ast.Peer(base.id, ast.Number(0.0, span=base.span), attr, span=_span(meta), robot_span=base.span,
+                            attr_span=_tspan(c[1]))
+        if isinstance(base, ast.Index) and isinstance(base.value, ast.Name) and base.value.id in self.robots:
+            return ast.Peer(base.value.id, base.index, attr, True, span=_span(meta), robot_span=base.value.span,
+                            attr_span=_tspan(c[1]))
+        return ast.Attribute(base, attr, span=_span(meta), attr_span=_tspan(c[1]))
 
     def text(self, meta: Meta, c: list[Any]) -> ast.Text:
         return ast.Text(str(c[0])[1:-1], span=_span(meta))
