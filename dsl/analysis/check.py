@@ -26,7 +26,7 @@ from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
 from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.analysis.infer import ExprChecker
-from labsim.dsl.analysis.peers import check_later
+from labsim.dsl.analysis.peers import Received, check_later
 from labsim.dsl.analysis.wording import arity_message, log_example
 from labsim.dsl.library.builtins import (
     ACTIONS,
@@ -102,6 +102,8 @@ class Checked:
     called: frozenset[str] = frozenset()
     # format 1.3: what the robots read of each other (x, y, heading, state, signals), in the order first read
     peer_fields: tuple[str, ...] = ()
+    received: tuple[Received, ...] = ()  # each value read of another robot at a place known before the run
+    received_at: dict[int, str] = field(default_factory=dict)  # id(Peer node) -> its name in ``received``
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -184,7 +186,7 @@ class _Checker(ExprChecker):
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called),
-                       tuple(self.peer_fields))
+                       tuple(self.peer_fields), tuple(self.received.values()), self.received_at)
 
     def known_values(self, params: dict[str, float | bool],
                      robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:

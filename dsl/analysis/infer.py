@@ -15,7 +15,7 @@ from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
-from labsim.dsl.analysis.peers import peer_type
+from labsim.dsl.analysis.peers import Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -92,6 +92,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.signal_names: tuple[str, ...] = ()
         self.peer_fields: dict[str, Type] = {}
         self.peer_later: list[tuple[ast.Peer, Text]] = []
+        self.received: dict[str, Received] = {}  # each value read of another robot at a known place
+        self.received_at: dict[int, str] = {}  # id(Peer) -> its name in ``received``
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's

@@ -10,6 +10,7 @@ order first read: the code generator keeps each robot's values of them after eve
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 from labsim.dsl.analysis.functions import known_value
@@ -20,6 +21,18 @@ from labsim.foundation.diagnostics import did_you_mean
 from labsim.foundation.source import Place, Text
 
 POSE = ("x", "y", "heading")  # readable of every robot, besides its state and signals
+
+
+@dataclass(frozen=True)
+class Received:
+    """One value read of another robot at a place known before the run: ``pioneer[2].x`` is
+    robot ``pioneer``'s member 2's x. The reading robot keeps it in a slot of its own for the tick,
+    which the trace and the live view show under the name as written (``name``)."""
+
+    name: str
+    robot: str
+    place: int
+    attr: str
 
 
 class PeerChecker(Protocol):
@@ -37,6 +50,8 @@ class PeerChecker(Protocol):
     signal_names: tuple[str, ...]
     peer_fields: dict[str, Type]
     peer_later: list[tuple[ast.Peer, Text]]
+    received: dict[str, Received]
+    received_at: dict[int, str]
     node_types: dict[int, Type]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
@@ -62,8 +77,14 @@ def peer_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
     if not member_ok(c, e, text, count):
         return None
     t = field_type(c, e, text)
-    if t is not None:
-        c.peer_fields.setdefault(e.attr, t)
+    if t is None:
+        return None
+    c.peer_fields.setdefault(e.attr, t)
+    place = known_value(e.member, c.constants, c.scopes) if e.indexed else 0
+    if isinstance(place, int | float) and not isinstance(place, bool):
+        name = f"{e.robot}[{int(place)}].{e.attr}" if e.indexed else f"{e.robot}.{e.attr}"
+        c.received.setdefault(name, Received(name, e.robot, int(place), e.attr))
+        c.received_at[id(e)] = name
     return t
 
 

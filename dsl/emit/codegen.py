@@ -150,6 +150,7 @@ class _Generator(Unroller):
         channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n)) | {VALUES}
         computed = {self.slot_of[name] for name, _ in c.lets}
         computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
+        computed |= {self.slot_of[r.name] for r in c.received}
         signals, stop_note, stop = self.signals()
         rules, metrics = self.decide()
         metric_reads = frozenset().union(*(m.reads for m in metrics))
@@ -227,6 +228,10 @@ class _Generator(Unroller):
             with w.indent():
                 w.line(" = ".join([*(f"s[{k}]" for k in self.image_kept), "None"]))
         self.state_clock(w)
+        for r in c.received:  # what this robot reads of the others, as they were on the last tick
+            first, _ = self.peer_robots[r.robot]
+            k = self.slot_of[r.name]
+            w.line(f"s[{k}] = v{k} = _P[{first + r.place}][{c.peer_fields.index(r.attr)}]")
         for j, (name, parsed) in enumerate(c.lets):
             slot = self.slot_of[name]
             if name in c.group_sizes:
@@ -689,16 +694,15 @@ class _Emit(ast.Visitor[str]):
         """Another robot's value on the last tick: ``_P[robot][field]``, the run's list of every robot's
         values kept after each tick (format 1.3); a place known only while running, through a guard."""
         g = self.g
+        if id(e) in g.c.received_at:  # at a known place: read into a slot of its own when signals() starts
+            slot = g.slot_of[g.c.received_at[id(e)]]
+            w.read(slot)
+            return f"v{slot}"
         first, count = g.peer_robots[e.robot]
         k = g.c.peer_fields.index(e.attr)
-        try:
-            place = fold(e.member, g.constants)
-        except NotConstant:
-            members = ", ".join(f"_P[{first + j}][{k}]" for j in range(count))
-            kind = "[]?" if g.c.node_types.get(id(e)) is Type.BOOL else "[]"
-            return f"{g.site(kind, text, e.span, where)}(({members},), {g.expr(w, e.member, text, where)})"
-        assert isinstance(place, int | float) and float(place).is_integer()  # the checker refused other places
-        return f"_P[{first + int(place)}][{k}]"
+        members = ", ".join(f"_P[{first + j}][{k}]" for j in range(count))
+        kind = "[]?" if g.c.node_types.get(id(e)) is Type.BOOL else "[]"
+        return f"{g.site(kind, text, e.span, where)}(({members},), {g.expr(w, e.member, text, where)})"
 
     # numbers and booleans are folded before they get here; a group is written by members()
     generic = frozenset({ast.Number, ast.Bool, ast.Group})

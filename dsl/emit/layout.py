@@ -93,6 +93,9 @@ def layout(c: Checked) -> Layout:
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
+    for received in c.received:  # another robot's value read at a known place (format 1.3): 'leader.x'
+        slot_of[received.name] = count
+        count += 1
     return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
                   members=MappingProxyType(members), shared_labels=tuple(shared))
 

@@ -210,6 +210,9 @@ class Program:
     # them are kept from after every tick, for the others to read on the next (``peer_start``)
     peer_fields: tuple[str, ...] = ()
     peer_slots: tuple[int, ...] = ()
+    # the values read of another robot at a place known before the run, as written ('leader.x'), and
+    # their types: each has a slot (``slot_of``) the trace and the live view read
+    received: tuple[tuple[str, Type], ...] = ()
 
     def peer_start(self) -> list[tuple]:
         """What the robots read of each other on the first tick: each robot's start pose, its first
