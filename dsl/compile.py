@@ -24,6 +24,7 @@ from labsim.dsl.analysis.check import Checked, check
 from labsim.dsl.analysis.crowd import check_crowd
 from labsim.dsl.analysis.image_memory import lifetimes, peak_bytes
 from labsim.dsl.analysis.lint import lint
+from labsim.dsl.analysis.messages import heard_slot
 from labsim.dsl.analysis.peers import POSE
 from labsim.dsl.analysis.placement import Start, place
 from labsim.dsl.analysis.stop import check_stop
@@ -153,7 +154,9 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         peer_fields=c.peer_fields,
         peer_slots=tuple(STATE if f == "state" else layout.slot_of[f] for f in c.peer_fields),
         received=tuple((r.name, Type.STATE if r.attr == "state" else Type.NUMBER if r.attr in POSE
-                        else c.let_types.get(r.attr, Type.NUMBER)) for r in c.received))
+                        else c.let_types.get(r.attr, Type.NUMBER)) for r in c.received)
+        + tuple((heard_slot(h), Type.NUMBER) for h in c.heard),
+        said=c.said)
 
 
 def _function_text(d: FunctionDecl) -> FunctionText:

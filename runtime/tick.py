@@ -26,6 +26,7 @@ from collections.abc import Callable
 
 from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Hooks
+from labsim.runtime.radio import make_delivery
 from labsim.runtime.state import RobotRun, RunState
 
 Hook = Callable[..., None]
@@ -52,7 +53,7 @@ def make_tick(run: RunState, hooks: Hooks) -> Callable[[], bool]:
                 r.program.events.clear()
         return False
 
-    if len(run.robots) == 1 and not run.program.peer_fields:
+    if len(run.robots) == 1 and not run.program.peer_fields and not run.program.said:
         return _single(run, before, act, stop, after, inline=run.robots[0].model is not None)
     return _fleet(run, before, act, stop)
 
@@ -125,6 +126,7 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
     sense, step = run.sense, run.step
     n, dt = len(run.program.channels), run.dt_s
     peers, kept = run.peers, run.program.peer_slots
+    deliver = make_delivery(run)
 
     def tick() -> bool:
         if run.finished:
@@ -150,6 +152,8 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
             act(r, s, cmd, events, decide(), readings[r.index])
         if now_kept is not None:
             peers[:] = now_kept
+        if deliver is not None:
+            deliver()
         step()
         run.tick_index = t + 1
         return True

@@ -26,6 +26,7 @@ from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
 from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
 from labsim.dsl.analysis.wording import arity_message, log_example
 from labsim.dsl.library.builtins import (
@@ -104,6 +105,8 @@ class Checked:
     peer_fields: tuple[str, ...] = ()
     received: tuple[Received, ...] = ()  # each value read of another robot at a place known before the run
     received_at: dict[int, str] = field(default_factory=dict)  # id(Peer node) -> its name in ``received``
+    said: tuple[str, ...] = ()  # the channels say() sends on (format 1.3), in the order first said
+    heard: tuple[str, ...] = ()  # the channels heard() reads, each said somewhere
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -175,6 +178,7 @@ class _Checker(ExprChecker):
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
         self.motors = mechanism.motor_modes() if mechanism is not None else {}
         states = self.rules()
+        check_channels(self)
         binds = self.binds()
         self.timeline(sliders)
         metrics = self.metrics()
@@ -186,7 +190,8 @@ class _Checker(ExprChecker):
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called),
-                       tuple(self.peer_fields), tuple(self.received.values()), self.received_at)
+                       tuple(self.peer_fields), tuple(self.received.values()), self.received_at,
+                       tuple(self.said), tuple(h for h in self.heard if h in self.said))
 
     def known_values(self, params: dict[str, float | bool],
                      robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:
@@ -502,7 +507,11 @@ class _Checker(ExprChecker):
         for action in actions:
             if action.name == "log" or action.text is not None:
                 self.log_action(action, text)
-        actions = [a for a in actions if a.name != "log" and a.text is None]
+        said_here: set[str] = set()
+        for action in actions:
+            if action.name == SAY and action.text is None:
+                check_say(self, action, text, said_here)
+        actions = [a for a in actions if a.name not in ("log", SAY) and a.text is None]
         drives = [a for a in actions if a.name not in JOINT_ACTIONS]
         for action in actions:
             if action.name in JOINT_ACTIONS:

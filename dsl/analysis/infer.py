@@ -15,6 +15,7 @@ from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.messages import HEARD, heard_type
 from labsim.dsl.analysis.peers import Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
@@ -94,6 +95,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.peer_later: list[tuple[ast.Peer, Text]] = []
         self.received: dict[str, Received] = {}  # each value read of another robot at a known place
         self.received_at: dict[int, str] = {}  # id(Peer) -> its name in ``received``
+        self.said: dict[str, None] = {}  # the channels say() sends on, in the order first said
+        self.heard: dict[str, list[tuple[ast.Name, Text]]] = {}  # the channels heard() reads, and where
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -479,6 +482,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if e.func in self.user_functions:
             self.called.add(e.func)
             return check_call(self, e, text, self.user_functions[e.func])
+        if e.func == HEARD and e.func not in self.types:
+            return heard_type(self, e, text)
         if e.func in self.poisoned:  # a function whose definition is reported: its calls stay quiet
             for arg in e.args:
                 self.infer(arg, text)

@@ -32,6 +32,7 @@ from typing import Any
 from labsim.dsl.analysis.check import Checked
 from labsim.dsl.analysis.fold import TOTAL, NotConstant, fold
 from labsim.dsl.analysis.image_memory import lifetimes
+from labsim.dsl.analysis.messages import HEARD, SAY, heard_slot
 from labsim.dsl.analysis.stop import stop_horizon
 from labsim.dsl.emit.layout import Layout, layout
 from labsim.dsl.emit.program import Code, LabelPart
@@ -151,6 +152,7 @@ class _Generator(Unroller):
         computed = {self.slot_of[name] for name, _ in c.lets}
         computed |= {self.slot_of[name] for name in STATE_CLOCK if name in self.slot_of}
         computed |= {self.slot_of[r.name] for r in c.received}
+        computed |= {self.slot_of[heard_slot(h)] for h in c.heard}
         signals, stop_note, stop = self.signals()
         rules, metrics = self.decide()
         metric_reads = frozenset().union(*(m.reads for m in metrics))
@@ -211,7 +213,7 @@ class _Generator(Unroller):
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
                 "_radius", "_half_axle", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
-                *(["_P"] if self.c.peer_fields else []),
+                *(["_P"] if self.c.peer_fields else []), *(["_out", "_reach", "_in"] if self.c.said else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
@@ -232,6 +234,9 @@ class _Generator(Unroller):
             first, _ = self.peer_robots[r.robot]
             k = self.slot_of[r.name]
             w.line(f"s[{k}] = v{k} = _P[{first + r.place}][{c.peer_fields.index(r.attr)}]")
+        for h in c.heard:  # what it heard after the last tick, nan when nothing yet (labsim.runtime.radio)
+            k = self.slot_of[heard_slot(h)]
+            w.line(f"s[{k}] = v{k} = _in[{c.said.index(h)}]")
         for j, (name, parsed) in enumerate(c.lets):
             slot = self.slot_of[name]
             if name in c.group_sizes:
@@ -436,6 +441,12 @@ class _Generator(Unroller):
                         parts.append(part)
                 self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
                 w.line(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
+            elif action.name == SAY:  # sent after the tick, to every robot in range (labsim.runtime.radio)
+                channel = action.args[0]
+                assert isinstance(channel, ast.Name)
+                k = self.c.said.index(channel.id)
+                w.line(f"_out[{k}] = {self.site(SAY, text, action.args[1].span, where)}({x(action.args[1])})")
+                w.line(f"_reach[{k}] = {x(action.args[2]) if len(action.args) == 3 else '_inf'}")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)
@@ -503,6 +514,11 @@ class _Generator(Unroller):
             body = self.inline(w, e, text, where)
             assert isinstance(body, str)
             return body
+        if e.func == HEARD and e.args and isinstance(e.args[0], ast.Name) and e.args[0].id in self.c.heard:
+            k = self.slot_of[heard_slot(e.args[0].id)]  # nan until something is heard
+            w.read(k)
+            default = self.expr(w, e.args[1], text, where) if len(e.args) == 2 else "0.0"
+            return f"(v{k} if v{k} == v{k} else {default})"
         if id(e) in self.c.self_prev:  # prev(n, initial) in n's own definition: n's slot, last tick's
             slot = self.slot_of[e.args[0].id]  # type: ignore[attr-defined]  # the checker made it a Name
             # the slot still holds the last tick's value while this tick's is computed; the

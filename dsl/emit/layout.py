@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.messages import heard_slot
 from labsim.dsl.emit.program import LabelPart, SharedLabel
 from labsim.dsl.library.builtins import JOINT_ACTIONS, STATE_CLOCK
 from labsim.dsl.library.support import FIRST_CHANNEL, STATE, TICK, TIME
@@ -95,6 +96,9 @@ def layout(c: Checked) -> Layout:
             count += 1
     for received in c.received:  # another robot's value read at a known place (format 1.3): 'leader.x'
         slot_of[received.name] = count
+        count += 1
+    for channel in c.heard:  # what a robot heard on a channel (format 1.3): 'heard(target)'
+        slot_of[heard_slot(channel)] = count
         count += 1
     return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
                   members=MappingProxyType(members), shared_labels=tuple(shared))

@@ -150,6 +150,11 @@ class RobotProgram:
     fold: Callable[[float, int, list], None] = lambda time_s, tick, values: None
     stop_part: list[int] = field(default_factory=lambda: [-1])  # the stop condition's 'or' part that held
     when_fired: list[int] = field(default_factory=list)  # per Program.when_rules: the ticks it logged
+    # format 1.3, per Program.said: what the robot said this tick (nan: nothing) and how far it carries,
+    # and what it heard last (nan: nothing yet); labsim.runtime.radio delivers after every tick
+    outbox: list[float] = field(default_factory=list)
+    reach: list[float] = field(default_factory=list)
+    inbox: list[float] = field(default_factory=list)
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,9 +215,11 @@ class Program:
     # them are kept from after every tick, for the others to read on the next (``peer_start``)
     peer_fields: tuple[str, ...] = ()
     peer_slots: tuple[int, ...] = ()
-    # the values read of another robot at a place known before the run, as written ('leader.x'), and
-    # their types: each has a slot (``slot_of``) the trace and the live view read
+    # the values read of another robot at a place known before the run, as written ('leader.x'), then
+    # what is heard on each channel ('heard(target)'), and their types: each has a slot (``slot_of``)
+    # the trace and the live view read
     received: tuple[tuple[str, Type], ...] = ()
+    said: tuple[str, ...] = ()  # the channels say() sends on (labsim.runtime.radio), as RobotProgram.outbox has them
 
     def peer_start(self) -> list[tuple]:
         """What the robots read of each other on the first tick: each robot's start pose, its first
@@ -270,6 +277,9 @@ class Program:
             bindings["_drop"] = not keep_images
         if self.peer_fields:
             bindings["_P"] = peers if peers is not None else self.peer_start()
+        outbox, reach, inbox = [math.nan] * len(self.said), [math.inf] * len(self.said), [math.nan] * len(self.said)
+        if self.said:
+            bindings.update(_out=outbox, _reach=reach, _in=inbox)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
@@ -281,7 +291,7 @@ class Program:
         make = cast(Callable[..., tuple[Any, Any, Any, Any]], scope["make"])
         signals, decide, both, fold = make(**bindings)
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
-                            joint_command, fold, stop_part, when_fired)
+                            joint_command, fold, stop_part, when_fired, outbox, reach, inbox)
 
     @property
     def single_signals(self) -> tuple[str, ...]:
