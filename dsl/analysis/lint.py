@@ -353,7 +353,7 @@ class Linter:
                 self.warn(sl.key, f"slider '{sl.name}' is never used", "no expression reads it, so moving it "
                           "changes nothing; bind it, as in 'bind: Joint.velocity: 0.1 * " + sl.name + "'")
         for name, parsed, node in f.lets:
-            if name not in used and not isinstance(parsed.node, ast.Name | ast.Attribute):
+            if name not in used and not isinstance(parsed.node, ast.Name | ast.Attribute | ast.Peer):
                 self.warn(node, f"signal '{name}' is computed but never used", "only the trace records it; "
                           "a signal that just names a reading (like 'rope: Hoist_Actuator.position') is not "
                           "warned about")
