@@ -122,6 +122,9 @@ class _Checker(ExprChecker):
         super().__init__(bf.doc, report)
         self.bf = bf
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
+        self.version = bf.version
+        self.robot_counts = {r.name: r.count for r in bf.robots}  # format 1.3: leader.x reads robot 'leader'
+        self.signal_names = tuple(name for name, _, _ in bf.lets)
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""
@@ -143,9 +146,6 @@ class _Checker(ExprChecker):
         elif mechanism is not None:
             channels = mechanism.channels()
         self.presence(world, mechanism)
-        self.version = bf.version
-        self.robot_counts = {r.name: r.count for r in bf.robots}
-        self.signal_names = tuple(name for name, _, _ in bf.lets)
         self.spawns(world)
         for name, kind in channels.items():
             self.declare(name, _KIND_TYPES[kind], _KIND_WORDS.get(kind, "sensor"))
@@ -171,14 +171,12 @@ class _Checker(ExprChecker):
         self.user_functions = check_definitions(self, bf.functions)
         check_bodies(self, self.user_functions)
         lets = self.lets()
-        check_later(self)
         labels = self.labels()
         self.metric_names = {m.name for m in bf.metrics}
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
         self.motors = mechanism.motor_modes() if mechanism is not None else {}
         states = self.rules()
-        check_channels(self)
         binds = self.binds()
         self.timeline(sliders)
         metrics = self.metrics()
@@ -461,6 +459,7 @@ class _Checker(ExprChecker):
             else:
                 self.poisoned.add(name)  # already reported: its uses stay quiet
         self.later = {}
+        check_later(self)  # another robot's signals read above their definitions
         return out
 
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
@@ -491,6 +490,7 @@ class _Checker(ExprChecker):
                 elif unconditional is None:
                     unconditional = decl
                 self.actions(decl, states)
+        check_channels(self)  # every channel heard is said by a rule
         return states
 
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:

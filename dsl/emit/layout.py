@@ -89,19 +89,24 @@ def layout(c: Checked) -> Layout:
             else:
                 members[name] = tuple(range(count, count + c.group_sizes[name]))
                 count += c.group_sizes[name]
+    count = _per_tick(c, slot_of, count)
+    return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
+                  members=MappingProxyType(members), shared_labels=tuple(shared))
+
+
+def _per_tick(c: Checked, slot_of: dict[str, int], count: int) -> int:
+    """Slots from ``count`` on for the per-tick variables and per-robot constants a behaviour reads,
+    then (format 1.3) each value read of another robot at a known place ('leader.x') and each
+    channel heard ('heard(target)'); the slot count after them."""
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
     for name in (*STATE_CLOCK, "index", *sorted(per_robot)):
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
-    for received in c.received:  # another robot's value read at a known place (format 1.3): 'leader.x'
-        slot_of[received.name] = count
+    for name in (*(r.name for r in c.received), *(heard_slot(channel) for channel in c.heard)):
+        slot_of[name] = count
         count += 1
-    for channel in c.heard:  # what a robot heard on a channel (format 1.3): 'heard(target)'
-        slot_of[heard_slot(channel)] = count
-        count += 1
-    return Layout(MappingProxyType(slot_of), count, labels, tuple(fields), tuple(targets),
-                  members=MappingProxyType(members), shared_labels=tuple(shared))
+    return count
 
 
 def _names_only(e: ast.Expr, members: dict[str, tuple[int, ...] | None]) -> bool:

@@ -4,6 +4,9 @@
 the string; ``ParseError`` carries the offsets of a problem and a message saying what was
 expected. ``parse_label`` reads a slider's label, text with ``{expression:format}`` fields,
 around ``parse_expr``. No lark type escapes this module.
+
+Over 500 lines: the grammar's one transformer, and the translation of lark's errors into the
+language's own messages (habits from other languages, YAML traps), read together.
 """
 from __future__ import annotations
 
@@ -53,14 +56,12 @@ def _parser() -> Lark:
 
 
 def parse_rule(text: str, robots: frozenset[str] = frozenset()) -> ast.Rule:
-    """A rule; ``robots`` names the robots whose values ``NAME.attr`` reads (format 1.3)."""
     result = _parse(text, "rule", robots)
     assert isinstance(result, ast.Rule)
     return result
 
 
 def parse_expr(text: str, robots: frozenset[str] = frozenset()) -> ast.Expr:
-    """An expression; ``robots`` names the robots whose values ``NAME.attr`` reads (format 1.3)."""
     result = _parse(text, "expr", robots)
     assert isinstance(result, ast.Expr)
     return result
@@ -362,8 +363,8 @@ def _tspan(token: Token) -> ast.Span:
 
 @v_args(meta=True)
 class _ToAst(Transformer):
-    """lark tree to frozen dataclasses; tokens become str and float here. ``robots`` are the names
-    of the file's robots (format 1.3): ``leader.x`` of one of them is a ``Peer``, not an attribute."""
+    """lark tree to frozen dataclasses; tokens become str and float here. ``leader.x`` of one of
+    ``robots``, the file's robots (format 1.3), is a ``Peer``."""
 
     def __init__(self, robots: frozenset[str] = frozenset()) -> None:
         super().__init__()
@@ -461,11 +462,10 @@ class _ToAst(Transformer):
 
     def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute | ast.Peer:
         base, attr = c[0], str(c[1])
-        if isinstance(base, ast.Name) and base.id in self.robots:  # leader.x: another robot's value
-            return ast.Peer(base.id, ast.Number(0.0, span=base.span), attr, span=_span(meta), robot_span=base.span,
-                            attr_span=_tspan(c[1]))
-        if isinstance(base, ast.Index) and isinstance(base.value, ast.Name) and base.value.id in self.robots:
-            return ast.Peer(base.value.id, base.index, attr, True, span=_span(meta), robot_span=base.value.span,
+        name = base.value if isinstance(base, ast.Index) else base
+        if isinstance(name, ast.Name) and name.id in self.robots:  # leader.x, pioneer[2].x: another robot's
+            member = base.index if isinstance(base, ast.Index) else ast.Number(0.0, span=name.span)
+            return ast.Peer(name.id, member, attr, name is not base, span=_span(meta), robot_span=name.span,
                             attr_span=_tspan(c[1]))
         return ast.Attribute(base, attr, span=_span(meta), attr_span=_tspan(c[1]))
 

@@ -69,9 +69,9 @@ def test_children_are_the_fields_that_hold_expressions() -> None:
 
 
 def test_walk_visits_every_node_in_evaluation_order() -> None:
-    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h)")
+    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h) + r[m].y", frozenset("r"))
     names = [n.id for n in ast.walk(e) if isinstance(n, ast.Name)]
-    assert names == ["a", "b", "k", "d", "c", "e", "g", "h"]  # the test of an 'if' before its branches
+    assert names == ["a", "b", "k", "d", "c", "e", "g", "h", "m"]  # the test of an 'if' before its branches
     kinds = {type(n) for n in ast.walk(e)}
     assert kinds == set(ast.node_classes())  # this expression has one node of every kind
 
