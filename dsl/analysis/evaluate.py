@@ -263,6 +263,7 @@ class _Walker(ast.Visitor[Any]):
         robots = self.names[e.robot]
         assert isinstance(robots, tuple)
         n = len(robots)
+        k: Any
         try:
             k = fold(e.member, {k: v for k, v in self.constants.items() if k not in self.env})
         except NotConstant:

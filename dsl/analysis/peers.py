@@ -13,6 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
+from yaml.nodes import Node
+
 from labsim.dsl.analysis.functions import known_value
 from labsim.dsl.library.builtins import Type
 from labsim.dsl.syntax import ast
@@ -42,7 +44,7 @@ class PeerChecker(Protocol):
     kinds: dict[str, str]
     used: set[str]
     poisoned: set[str]
-    later: dict[str, object]
+    later: dict[str, Node]
     current_let: str
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     constants: dict[str, object]
