@@ -36,6 +36,9 @@ from labsim.runtime.view.frames import (
     png_data_url,
     robot_doc,
     sensor_columns,
+    shown_values,
+    value_columns,
+    value_slots,
     world_doc,
 )
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
@@ -124,14 +127,9 @@ class LiveSession(Session):
         self.playing = False
         kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
         self._sensors = sensor_columns(program.channels, kinds)
-        # the signals, then what the behaviour reads of other robots (format 1.3): a state by its name
-        self._lets = [program.slot_of[n] for n in (*program.single_signals, *(n for n, _ in program.received))]
-        self._states_read = {len(program.single_signals) + k for k, (_, t) in enumerate(program.received)
-                             if t is Type.STATE}
+        self._lets, numeric, self._states_read = value_slots(program)
         self._state_slot = program.slot_of["state"]
         self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
-        numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
-            [t in _NUMERIC for _, t in program.received] + [True] * len(program.slider_names)
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
         self.recorder.read, self.recorder.keep = self._sampler.read, self._sampler.keep
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
@@ -215,9 +213,7 @@ class LiveSession(Session):
             return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems, **self._source())
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
-                   + [{"name": n, "group": "signal", "numeric": p.signal_types.get(n) in _NUMERIC}
-                      for n in p.single_signals]
-                   + [{"name": n, "group": "other robots", "numeric": t in _NUMERIC} for n, t in p.received]
+                   + value_columns(p)
                    + [{"name": n, "group": "slider"} for n in p.slider_names]
                    + [{"name": n, "group": "metric"} for n in p.metric_names])
         start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
@@ -321,8 +317,7 @@ class LiveSession(Session):
         p = self.run.program if self.run is not None else None
         assert p is not None
         values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
-        values += [p.state_names[int(slots[s])] if k in self._states_read else number(slots[s])
-                   for k, s in enumerate(self._lets)]
+        values += shown_values(slots, self._lets, self._states_read, p.state_names)
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
 
