@@ -18,7 +18,6 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.dsl.library.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert
@@ -48,7 +47,6 @@ from labsim.runtime.view.peaks import Sampler
 from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
-_NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
 SAMPLE_NUMBERS = 180  # chart numbers a frame carries at most, all robots together (a frame < 4 KB with the path)
 
 
