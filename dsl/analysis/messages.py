@@ -31,6 +31,7 @@ class MessageChecker(Protocol):
     """What this module uses of the checker (``labsim.dsl.analysis.infer.ExprChecker``)."""
 
     version: float
+    robot_counts: dict[str, int]
     used: set[str]
     constants: dict[str, object]
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
@@ -54,6 +55,12 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
                                                     optional=1))
         return
     channel, value = action.args[0], action.args[1]
+    if not c.robot_counts:
+        c.error(text.at(action.name_span), "say() sends to the other robots, and this file has none",
+                notes=("a mechanism's rules read its sensors and set its joints",))
+        if isinstance(channel, ast.Name):
+            c.said.setdefault(channel.id, None)  # its heard() says nothing more
+        return
     if not isinstance(channel, ast.Name):
         c.error(text.at(channel.span), "say() takes a channel's name first, as in say(target, x): a name of "
                 "your choice, which heard(target) reads")

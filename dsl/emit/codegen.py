@@ -435,8 +435,11 @@ class _Generator(Unroller):
                     if isinstance(part, tuple):
                         parts.append((len(values), part[1]))
                         value = x(part[0])
-                        values.append(f"_texts[{value}]" if self.c.node_types.get(id(part[0])) is Type.STATE
-                                      else value)
+                        if self.c.node_types.get(id(part[0])) is Type.STATE:
+                            # another robot's state at a place outside its group is nan (format 1.3)
+                            peer = any(isinstance(n, ast.Peer) for n in ast.walk(part[0]))
+                            value = f"(_texts[{value}] if {value} == {value} else _nan)" if peer else f"_texts[{value}]"
+                        values.append(value)
                     else:
                         parts.append(part)
                 self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))

@@ -112,6 +112,21 @@ def test_a_mistake_in_saying_is_an_error_at_its_place(write, rule: str, col: int
     assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(12, col, message)]
 
 
+def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
+    path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
+                 "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
+    assert diagnostics(path) == [(7, 12, "say() sends to the other robots, and this file has none",
+                                  ("a mechanism's rules read its sensors and set its joints",))]
+
+
+def test_a_log_shows_another_robots_state_and_nan_for_one_outside_the_group(write, tmp_path: Path) -> None:
+    path = write(HEAD + "rules:\n  - when tick == 3 then log(\"{pioneer[index + 1].state} {leader.state}\")\n"
+                 "  - always move(1)\n")
+    logs = [(r["robot"], r["events"]) for r in rows(path, tmp_path) if r["events"]]
+    assert logs == [("leader", "log: main main"), ("pioneer[0]", "log: main main"), ("pioneer[1]", "log: main main"),
+                    ("pioneer[2]", "log: nan main")]
+
+
 def test_a_signal_read_of_another_robot_above_its_definition_must_be_a_number(write) -> None:
     path = write(HEAD + "let:\n  m: leader.near + 1\n  near: sonar5 < 1\nrules:\n  - if m > 0 then stop()\n")
     assert diagnostics(path) == [(8, 13, "'near' is a boolean, and another robot's value of it is read above its "
