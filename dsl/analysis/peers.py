@@ -48,6 +48,7 @@ class PeerChecker(Protocol):
     current_let: str
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     constants: dict[str, object]
+    robot_constants: list[tuple[str, dict[str, object]]]
     robot_counts: dict[str, int]
     signal_names: tuple[str, ...]
     peer_fields: dict[str, Type]
@@ -108,12 +109,17 @@ def member_ok(c: PeerChecker, e: ast.Peer, text: Text, count: int) -> bool:
     if k is not Type.NUMBER:
         c.error(text.at(e.member.span), f"a robot of a group is named by its place, a number from 0; this is {k.a}")
         return False
-    place = known_value(e.member, c.constants, c.scopes)
+    place, who = known_value(e.member, c.constants, c.scopes), ""
+    for robot, constants in c.robot_constants if place is None else ():  # a robot's own parameters
+        value = known_value(e.member, constants, c.scopes)
+        if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < count):
+            place, who = value, f" for robot {robot}"  # the first robot whose place is outside the group
+            break
     if place is None or isinstance(place, bool) or not isinstance(place, int | float):
         return True  # known only while running: a place outside the group is a runtime fault
     if not (float(place).is_integer() and 0 <= place < count):
         c.error(text.at(e.member.span), f"group '{e.robot}' has {count} robots, {e.robot}[0] to "
-                f"{e.robot}[{count - 1}]; not {place:g}", notes=("places count from 0",))
+                f"{e.robot}[{count - 1}]; not {place:g}{who}", notes=("places count from 0",))
         return False
     return True
 

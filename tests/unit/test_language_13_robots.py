@@ -112,6 +112,13 @@ def test_a_mistake_in_saying_is_an_error_at_its_place(write, rule: str, col: int
     assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(12, col, message)]
 
 
+def test_a_place_made_of_a_robots_own_parameter_is_checked_for_each_robot(write) -> None:
+    path = write(HEAD.replace("count: 3, at: random}", "count: 3, at: random, params: {ahead: [1, 2, 3]}}")
+                 + "params:\n  ahead: 0\nlet:\n  a: pioneer[ahead].x\nrules:\n  - always move(a)\n")
+    assert diagnostics(path) == [(10, 14, "group 'pioneer' has 3 robots, pioneer[0] to pioneer[2]; not 3 for robot "
+                                          "pioneer[2]", ("places count from 0",))]
+
+
 def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
                  "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
