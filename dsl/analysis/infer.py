@@ -439,8 +439,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
             at = e.operands[types.index(Type.TEXT)]
             if other is Type.STATE:
                 name = at.value if isinstance(at, ast.Text) else "follow"
+                state = e.operands[1 - types.index(Type.TEXT)] if len(e.operands) == 2 else None
+                whose = text.value[state.span[0]:state.span[1]] if isinstance(state, ast.Peer) else "state"
                 self.error(text.at(at.span), f"a state is compared with a state's name, without quotes: write "
-                           f"'state == {name}'")
+                           f"'{whose} == {name}'")
             else:
                 self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
                            notes=text_note(Type.TEXT))

@@ -16,7 +16,7 @@ from typing import Protocol
 from yaml.nodes import Node
 
 from labsim.dsl.analysis.functions import known_value
-from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.builtins import VARIABLES, Type
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl
 from labsim.foundation.diagnostics import did_you_mean
@@ -150,9 +150,19 @@ def field_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
         return None
     names = readable(c)
     kind = c.kinds.get(e.attr, "")
+    whose = f"{e.robot}{'[0]' if e.indexed else ''}"
+    if e.attr in ("time", "tick", "dt"):
+        c.error(text.at(e.attr_span), f"every robot has the same '{e.attr}': write {e.attr}")
+        return None
+    if kind == "parameter" or e.attr in VARIABLES:
+        what = "parameter" if kind == "parameter" else "built-in variable"
+        c.error(text.at(e.attr_span), f"'{e.attr}' is a {what}: give it a signal, as in 'my_{e.attr}: {e.attr}', "
+                f"and read {whose}.my_{e.attr}",
+                notes=("another robot's x, y, heading, state and signals can be read: " + ", ".join(names),))
+        return None
     if "sensor" in kind or kind == "bumper":
         c.error(text.at(e.attr_span), f"another robot's sensors are not read directly: give '{e.attr}' a signal, "
-                f"as in 'seen: {e.attr}', and read {e.robot}{'[0]' if e.indexed else ''}.seen",
+                f"as in 'seen: {e.attr}', and read {whose}.seen",
                 notes=("another robot's x, y, heading, state and signals can be read: " + ", ".join(names),))
         return None
     c.error(text.at(e.attr_span), f"robot '{e.robot}' has no value '{e.attr}'{did_you_mean(e.attr, names)}",

@@ -119,6 +119,18 @@ def test_a_place_made_of_a_robots_own_parameter_is_checked_for_each_robot(write)
                                           "pioneer[2]", ("places count from 0",))]
 
 
+def test_what_every_robot_has_or_is_not_a_signal_is_told_where_to_read_it(write) -> None:
+    path = write(HEAD + "params:\n  role: 0\nlet:\n  a: leader.role + pioneer[1].time + leader.state_time\n"
+                 "  b: leader.state == 'main'\nrules:\n  - if a > 0 and b then stop()\n")
+    readable = ("another robot's x, y, heading, state and signals can be read: x, y, heading, state, a, b",)
+    assert diagnostics(path) == [
+        (10, 13, "'role' is a parameter: give it a signal, as in 'my_role: role', and read leader.my_role", readable),
+        (10, 31, "every robot has the same 'time': write time", ()),
+        (10, 45, "'state_time' is a built-in variable: give it a signal, as in 'my_state_time: state_time', and "
+                 "read leader.my_state_time", readable),
+        (11, 22, "a state is compared with a state's name, without quotes: write 'leader.state == main'", ())]
+
+
 def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
                  "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
