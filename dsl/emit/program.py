@@ -22,7 +22,7 @@ from types import CodeType
 from typing import Any, cast
 
 from labsim.backends.scene.models import Kind, RobotModel
-from labsim.backends.scene.world import World
+from labsim.backends.scene.world import World, wrap
 from labsim.dsl.analysis.placement import Start
 from labsim.dsl.library.builtins import Aggregate, Better, Type
 from labsim.dsl.library.support import (
@@ -226,7 +226,7 @@ class Program:
         state, and 0 (false) for a signal, as no tick has computed one yet."""
         out = []
         for start in self.starts:
-            pose = {"x": start.pose.x_m, "y": start.pose.y_m, "heading": start.pose.heading_rad, "state": 0}
+            pose = {"x": start.pose.x_m, "y": start.pose.y_m, "heading": wrap(start.pose.heading_rad), "state": 0}
             out.append(tuple(pose.get(f, False if self.signal_types.get(f) is Type.BOOL else 0.0)
                              for f in self.peer_fields))
         return out

@@ -209,7 +209,7 @@ rules:
     - else move(speed)
 """
 ROBOT_A = "  ra: {model: pioneer_p3dx, at: [0, 0, 0], params: {speed: 6}}"
-ROBOT_B = "  rb: {model: pioneer_p3dx, at: [0, 2, 90], params: {speed: 2}}"
+ROBOT_B = "  rb: {model: pioneer_p3dx, at: [0, 2, 450], params: {speed: 2}}"  # 90 degrees, as a heading reads
 
 
 def by_robot(rows_: list[dict[str, str]]) -> dict[str, list[dict[str, str]]]:
