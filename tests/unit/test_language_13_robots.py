@@ -324,6 +324,13 @@ def test_what_is_heard_is_kept_until_something_new_is_heard(write, tmp_path: Pat
     assert {r["h"] for r in by["a"]} == {"-1"}  # never itself
 
 
+def test_of_two_rules_that_say_on_a_channel_in_a_tick_the_later_is_sent(write, tmp_path: Path) -> None:
+    text = RADIO.replace("  - when RULE\n  - always stop()\n", "  - when k == 1 then say(ch, 5)\n"
+                         "  - if k == 1 and tick % 2 == 0 then say(ch, 7), stop()\n  - always stop()\n")
+    by = by_robot(rows(write(text), tmp_path))
+    assert [r["h"] for r in by["b"][:5]] == ["-1", "7", "5", "7", "5"]
+
+
 def test_a_value_that_is_not_finite_is_not_sent(write, tmp_path: Path) -> None:
     path = write(RADIO.replace("RULE", "k == 1 then say(ch, 1 / (tick - 2))"))
     warned: list[str] = []
