@@ -11,7 +11,10 @@ A tick is, for every robot at once:
 6. act: wheel commands are clamped to the model's limit (and counted) and sent only when they
    change; ``after_act`` observers (joint commands, the trace, the log printer, a watcher);
 7. the robot's events are cleared and its ``goto`` takes effect (the next tick uses the new
-   state); the backend steps ``dt``.
+   state); the backend steps ``dt``. When robots read each other (format 1.3), what they read
+   next tick (``RunState.peers``) is kept before anyone acts and replaced once all have, and what
+   they said is delivered (``labsim.runtime.radio``): such a run takes the fleet's path even
+   with one robot.
 
 The tick is a closure over locals, as the hot path: an attribute lookup per robot per tick
 costs as much as a rule. A fleet senses and evaluates every robot's signals before any robot
