@@ -362,3 +362,14 @@ def test_the_worked_examples_check_without_warnings_and_run_the_same_twice(name:
     assert rows(path, tmp_path) == first
     farthest = max(float(r["gap"]) for r in first if r["robot"] not in ("leader",) and int(r["tick"]) > 100)
     assert farthest < 2.5  # the others keep up with the leader
+
+
+def test_a_breakpoint_on_another_robots_value_says_to_watch_a_signal(write) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    program = compile_file(write(HEAD + "rules:\n  - always move(1)\n"))
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, "x > 1 or pioneer[1].y < 3")
+    assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
+        (1, 12, "a breakpoint sees one robot's own values, not pioneer[1].y",
+         ("read it in a signal of the file (e.g. 'let: other: pioneer[1].y') and watch the signal",))]
