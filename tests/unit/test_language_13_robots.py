@@ -369,7 +369,7 @@ def test_a_breakpoint_on_another_robots_value_says_to_watch_a_signal(write) -> N
 
     program = compile_file(write(HEAD + "rules:\n  - always move(1)\n"))
     with pytest.raises(LabsimError) as e:
-        compile_watch(program, "x > 1 or pioneer[1].y < 3")
+        compile_watch(program, "time > 1 or pioneer[1].y < 3")
     assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
-        (1, 12, "a breakpoint sees one robot's own values, not pioneer[1].y",
+        (1, 13, "a breakpoint sees one robot's own values, not pioneer[1].y",
          ("read it in a signal of the file (e.g. 'let: other: pioneer[1].y') and watch the signal",))]
