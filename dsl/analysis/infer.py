@@ -15,7 +15,7 @@ from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
-from labsim.dsl.analysis.messages import HEARD, heard_type
+from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
 from labsim.dsl.analysis.peers import Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
@@ -504,7 +504,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
                           "of booleans, as in count(front < 0.5), counts the members that hold",)
                          if e.func == "count" else ())
-            elif e.func in ACTIONS:
+            elif e.func in ACTIONS or e.func == SAY:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
             elif e.func in MEANT:
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
@@ -513,7 +513,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
                 notes = function_notes(e.func)
             self.error(text.at(e.func_span), message, notes)
-            for arg in e.args:
+            for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
                 self.infer(arg, text)
             return None
         n = len(e.args)

@@ -131,6 +131,11 @@ def test_what_every_robot_has_or_is_not_a_signal_is_told_where_to_read_it(write)
         (11, 22, "a state is compared with a state's name, without quotes: write 'leader.state == main'", ())]
 
 
+def test_say_outside_a_rule_is_an_action_in_an_expression(write) -> None:
+    path = write(HEAD + "let:\n  a: 1 + say(c, 1)\nrules:\n  - if heard(c) > a then say(c, 2)\n  - else stop()\n")
+    assert diagnostics(path) == [(8, 10, "'say' is an action: it goes after 'then', not inside an expression", ())]
+
+
 def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
                  "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
