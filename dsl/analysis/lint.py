@@ -32,7 +32,8 @@ from labsim.foundation.source import Place, Text
 CONTINUOUS_VARIABLES = frozenset({"time", "state_time"})
 _CONTINUOUS_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.JOINT, Kind.FORCE, Kind.BODY, Kind.REFLECTANCE)
 # Functions whose result is a whole number or a sign, whatever their arguments.
-_DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint"})
+# (heard: a channel carries what was said exactly, often a code: heard(mode) == 2 is meant)
+_DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint", "heard"})
 _FOLDABLE = frozenset({"abs", "min", "max", "clamp", "sqrt", "hypot", "sin", "cos", "tan", "exp",
                        "floor", "ceil", "round", "sign", "deg", "rad"})
 # Wheel actions whose every argument is a wheel speed, rad/s (drive(v, w) is turned into them).

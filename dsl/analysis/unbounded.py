@@ -102,6 +102,8 @@ class _Reach:
         if e.func in _FINITE or len(e.args) == 0:
             return None
         args = e.args[0].members if len(e.args) == 1 and isinstance(e.args[0], ast.Group) else e.args
+        if e.func == "heard":  # a channel's name, not a reading: what is heard is finite, its default may not be
+            args = e.args[1:]
         found = [self.sensor(a, guarded, depth) for a in args]
         if e.func == "min" and not all(f or self.infinite(a) for f, a in zip(found, args)):
             return None  # an argument that is never inf bounds it

@@ -136,6 +136,14 @@ def test_say_outside_a_rule_is_an_action_in_an_expression(write) -> None:
     assert diagnostics(path) == [(8, 10, "'say' is an action: it goes after 'then', not inside an expression", ())]
 
 
+def test_what_is_heard_is_no_sensor_reading_and_is_compared_exactly(write) -> None:
+    """A channel named like a sensor reads no sensor (no pid() warning); == on what is heard is meant."""
+    path = write(HEAD + "let:\n  p: pid(heard(sonar5) - 1, 1, 0, 0)\n  two: heard(sonar5) == 2\nrules:\n"
+                 "  - when two then say(sonar5, sonar5 if detected(sonar5) else 0)\n  - if p > 0 then say(mode, 2)\n"
+                 "  - else stop()\n")
+    assert compile_file(path).warnings == ()
+
+
 def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
                  "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
