@@ -144,6 +144,13 @@ def test_what_is_heard_is_no_sensor_reading_and_is_compared_exactly(write) -> No
     assert compile_file(path).warnings == ()
 
 
+def test_another_robots_heading_is_judged_on_a_headings_range(write) -> None:
+    path = write(HEAD + "let:\n  lost: sonar5 < 1\nrules:\n  - if leader.heading > 90 or leader.lost then stop()\n"
+                 "  - else move(1)\n")
+    assert [(d.line, d.col, d.message.split(":")[0]) for d in compile_file(path).warnings] == [
+        (10, 8, "'leader.heading > 90' never holds")]
+
+
 def test_a_mechanism_has_no_robots_to_say_to(write) -> None:
     path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  h: heard(c)\nrules:\n"
                  "  - always say(c, 1), set_velocity(Arm_Actuator, h)\n")
