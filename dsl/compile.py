@@ -24,11 +24,15 @@ from labsim.dsl.analysis.check import Checked, check
 from labsim.dsl.analysis.crowd import check_crowd
 from labsim.dsl.analysis.image_memory import lifetimes, peak_bytes
 from labsim.dsl.analysis.lint import lint
+from labsim.dsl.analysis.messages import heard_slot
+from labsim.dsl.analysis.peers import POSE
 from labsim.dsl.analysis.placement import Start, place
 from labsim.dsl.analysis.stop import check_stop
 from labsim.dsl.analysis.unbounded import check_unbounded
 from labsim.dsl.emit.codegen import Generated, generate
 from labsim.dsl.emit.program import FunctionText, GroupSignal, Program, RobotGroup, RuleLabel, TimelineEvent
+from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax.read import FunctionDecl, RobotDecl, read
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
@@ -147,7 +151,13 @@ def _program(c: Checked, generated: Generated, warnings: tuple[Diagnostic, ...],
         group_signals=tuple(GroupSignal(name, c.group_sizes[name], layout.members[name], parsed.text.value)
                             for name, parsed in c.lets if name in layout.members),
         functions=tuple(_function_text(d) for d in c.functions.values()),
-        lists=MappingProxyType(dict(c.lists)))
+        lists=MappingProxyType(dict(c.lists)),
+        peer_fields=c.peer_fields,
+        peer_slots=tuple(STATE if f == "state" else layout.slot_of[f] for f in c.peer_fields),
+        received=tuple((r.name, Type.STATE if r.attr == "state" else Type.NUMBER if r.attr in POSE
+                        else c.let_types.get(r.attr, Type.NUMBER)) for r in c.received)
+        + tuple((heard_slot(h), Type.NUMBER) for h in c.heard),
+        said=c.said)
 
 
 def _function_text(d: FunctionDecl) -> FunctionText:

@@ -209,8 +209,18 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                               notes=(f"read them in a signal of the file (e.g. 'let: seen: "
                                                      f"{text[ranged.span[0]:ranged.span[1]]}') and watch the "
                                                      "signal",)))
+    robots = {g.name for g in program.robots}
     for read in ast.walk(e):
         if id(read) in said:
+            continue
+        base = read.value.value if isinstance(read, ast.Attribute) and isinstance(read.value, ast.Index) else \
+            read.value if isinstance(read, ast.Attribute) else None
+        if isinstance(base, ast.Name) and base.id in robots and base.id not in checker.types:  # leader.x (1.3)
+            written = text[read.span[0]:read.span[1]]
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"a breakpoint sees one robot's own values, "
+                                              f"not {written}", notes=(f"read it in a signal of the file (e.g. 'let: "
+                                                                       f"other: {written}') and watch the signal",)))
+            checker.poisoned.add(base.id)
             continue
         if isinstance(read, ast.Name) and read.id in images and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is an image: a breakpoint "

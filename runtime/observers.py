@@ -351,6 +351,8 @@ def traced(run: RunState) -> tuple[list[int], list[int]]:
     channels = [i for i, c in enumerate(p.channels) if c not in TRACE_POSE
                 and kinds.get(c) in TRACED_KINDS and not is_lidar_beam(c)]
     lets = [p.slot_of[n] for n in p.let_names if p.signal_types.get(n) in (Type.NUMBER, Type.BOOL)]
+    # then what it read of other robots (format 1.3: 'leader.x'), but a state, which the other's row shows
+    lets += [p.slot_of[n] for n, t in p.received if t in (Type.NUMBER, Type.BOOL)]
     return channels, lets
 
 

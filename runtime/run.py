@@ -138,6 +138,8 @@ class Run:
         self.fired = [0] * len(program.rules)
         self.idle = 0
         self.trace: TraceWriter | None = None
+        # format 1.3: what each robot reads of the others, last tick's (Program.peer_start); the tick replaces it
+        self.peers: list[tuple] = program.peer_start() if program.peer_fields else []
         self.trace_error: TraceWriteError | None = None  # the OS refused a trace write: the run stopped
         # a live view shows every image signal after the tick: kept, while they fit the memory budget
         self.robots = self._robots(watch and program.image_bytes_all <= budgets.memory_mb * 1_000_000)
@@ -173,7 +175,8 @@ class Run:
         for start in p.starts:
             group = p.robots[start.group]
             program = p.robot(start.name, random.Random(f"{p.seed}/{start.name}"), self.faults, group.model,
-                              group, start.index, keep_images, start.pose)
+                              group, start.index, keep_images, start.pose,
+                              self.peers)
             robots.append(RobotRun(len(robots), start.name, group.model, program,
                                    group.model.max_wheel_speed_rad_s, start=start.pose,
                                    sent_joints=[math.nan] * len(p.targets), paths=group.paths,

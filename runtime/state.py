@@ -51,5 +51,6 @@ class RunState(Protocol):
     idle: int  # robot-ticks on which no rule held
     sense: Callable[[], list[list]]
     step: Callable[[], None]
+    peers: list[tuple]  # format 1.3: what each robot reads of the others (Program.peer_start), last tick's
 
     def send(self, r: RobotRun, left: float, right: float, rule: int) -> None: ...

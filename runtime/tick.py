@@ -11,7 +11,10 @@ A tick is, for every robot at once:
 6. act: wheel commands are clamped to the model's limit (and counted) and sent only when they
    change; ``after_act`` observers (joint commands, the trace, the log printer, a watcher);
 7. the robot's events are cleared and its ``goto`` takes effect (the next tick uses the new
-   state); the backend steps ``dt``.
+   state); the backend steps ``dt``. When robots read each other (format 1.3), what they read
+   next tick (``RunState.peers``) is kept before anyone acts and replaced once all have, and what
+   they said is delivered (``labsim.runtime.radio``): such a run takes the fleet's path even
+   with one robot.
 
 The tick is a closure over locals, as the hot path: an attribute lookup per robot per tick
 costs as much as a rule. A fleet senses and evaluates every robot's signals before any robot
@@ -26,6 +29,7 @@ from collections.abc import Callable
 
 from labsim.dsl.library.support import STATE
 from labsim.runtime.observers import Hooks
+from labsim.runtime.radio import make_delivery
 from labsim.runtime.state import RobotRun, RunState
 
 Hook = Callable[..., None]
@@ -52,7 +56,7 @@ def make_tick(run: RunState, hooks: Hooks) -> Callable[[], bool]:
                 r.program.events.clear()
         return False
 
-    if len(run.robots) == 1:
+    if len(run.robots) == 1 and not run.program.peer_fields and not run.program.said:
         return _single(run, before, act, stop, after, inline=run.robots[0].model is not None)
     return _fleet(run, before, act, stop)
 
@@ -124,6 +128,8 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
               for r in run.robots]
     sense, step = run.sense, run.step
     n, dt = len(run.program.channels), run.dt_s
+    peers, kept = run.peers, run.program.peer_slots
+    deliver = make_delivery(run)
 
     def tick() -> bool:
         if run.finished:
@@ -142,8 +148,15 @@ def _fleet(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[li
             run.stopped_by = held.name
             run.stop_part = held.program.stop_part[0]
             return stop(run.robots, readings)
+        # what the others read of each robot next tick (format 1.3): its values of this tick, before
+        # any robot acts or its goto takes effect, so that the order robots act in does not matter
+        now_kept = [tuple([r[0][i] for i in kept]) for r in robots] if kept else None
         for s, _, decide, cmd, events, r in robots:
             act(r, s, cmd, events, decide(), readings[r.index])
+        if now_kept is not None:
+            peers[:] = now_kept
+        if deliver is not None:
+            deliver()
         step()
         run.tick_index = t + 1
         return True

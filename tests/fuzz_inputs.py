@@ -324,6 +324,8 @@ def generated_13(draw: st.DrawFn) -> tuple[str, dict[str, str]]:
              "rules:", f"  - if {_quoted(draw(number))[1:-1]} > 1 then arc(wheel_left + 1, 2)", "  - else move(100)"]
     setting = draw(st.sampled_from(SETS_13)) if odd or draw(st.integers(0, 4)) == 0 else ""
     return "\n".join(lines) + "\n", ({"w": setting} if setting else {})
+
+
 # -- member by member, and slices (language 1.3) --------------------------------------------------
 
 SLICES_13 = ("front[0:4]", "front[:2]", "front[4:]", "front[:]", "front[k:k + 2]", "side[0:1]", "front[2:2]",
@@ -361,6 +363,39 @@ def generated_member_wise(draw: st.DrawFn) -> str:
              *(f"  s{i}: {_quoted(t)}" for i, t in enumerate(lets)),
              "rules:", f"  - {_quoted(rule)}", "  - else move(2)",
              "metrics:", f"  m: {_quoted(draw(number.map('maximum({})'.format)))}"]
+    return "\n".join(lines) + "\n"
+
+
+@st.composite
+def generated_13_robots(draw: st.DrawFn) -> str:
+    """A behaviour file of format 1.3 whose robots read each other and talk: names of robots and of
+    members (at places known before the run and only while running, in range or not), their
+    pose, state and signals, say on channels with and without a range, heard with and without
+    a default; and now and then a mistake (a robot, a member or a channel that is not there)."""
+    count = draw(st.sampled_from(("1", "2", "3")))
+    member = "r" if count == "1" else draw(st.sampled_from(("r[0]", "r[1]", "r[k]", "r[index + 1]", "r[index - 1]",
+                                                             "r[2]", "r[tick % 3]", "r[sonar5]")))
+    other = st.sampled_from((f"{member}.x", f"{member}.y", f"{member}.heading", f"{member}.s", f"{member}.near",
+                             "leader.x", "leader.s", "leader.heading", "heard(c)", "heard(d, -1)", "heard(c, k)",
+                             "leader.sonar5" if draw(st.integers(0, 29)) == 0 else "leader.y",
+                             "heard(e)" if draw(st.integers(0, 29)) == 0 else "leader.x"))
+    leaf = st.one_of(other, st.sampled_from(("x", "k", "time", "0.5", "sonar5", "inf")))
+    expr = st.recursive(leaf, lambda e: st.one_of(
+        st.builds("{} {} {}".format, e, st.sampled_from(("+", "-", "*", "/")), e),
+        st.builds("atan2({}, {})".format, e, e), st.builds("({})".format, e)), max_leaves=4)
+    state = draw(st.sampled_from((f"{member}.state == follow", "leader.state != wander", "leader.near")))
+    reach = draw(st.sampled_from(("", ", 2", ", k", ", inf", ", sonar5", ", 0 - k", ", x - 100")))
+    said = draw(st.sampled_from(("x", "1 / (tick - 2)", "s", "heard(c) + 1", "inf - inf")))
+    rules = [f"when {state} then say(c, {said}{reach}), say(d, {draw(expr)})",
+             f"if heard(c) > {draw(expr)} then arc(1, {draw(expr)}), say(c, tick)",
+             "if time > 0.1 then goto follow", "else move(2)"]
+    lines = ["labsim: 1.3", "name: generated", "world: walls_lab4", "seed: 3", "dt: 0.05", "stop: time >= 0.2",
+             "robots:", "  leader: {model: pioneer_p3dx, at: [0, 0, 0]}",
+             f"  r: {{model: pioneer_p3dx, at: random, count: {count}}}",
+             "params:", f"  k: {draw(st.sampled_from(('0', '1', '2', '0.5', '-1')))}",
+             "let:", f"  s: {_quoted(draw(expr))}", "  near: sonar5 < 0.5", f"  t: {_quoted(draw(expr))}",
+             "rules:", "  wander:", *(f"    - {_quoted(r)}" for r in rules), "  follow:",
+             f"    - {_quoted(f'always arc({draw(expr)}, 1)')}", "metrics:", "  m: maximum(t)"]
     return "\n".join(lines) + "\n"
 
 

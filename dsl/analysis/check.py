@@ -26,6 +26,8 @@ from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
 from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
 from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.analysis.messages import SAY, check_channels, check_say
+from labsim.dsl.analysis.peers import Received, check_later
 from labsim.dsl.analysis.wording import arity_message, log_example
 from labsim.dsl.library.builtins import (
     ACTIONS,
@@ -112,6 +114,12 @@ class Checked:
     called: frozenset[str] = frozenset()
     lists: dict[str, ListValue] = field(default_factory=dict)  # list parameters (format 1.3), after --set
     lengths: dict[int, int] = field(default_factory=dict)  # id(call) of len(...) -> its value
+    # format 1.3: what the robots read of each other (x, y, heading, state, signals), in the order first read
+    peer_fields: tuple[str, ...] = ()
+    received: tuple[Received, ...] = ()  # each value read of another robot at a place known before the run
+    received_at: dict[int, str] = field(default_factory=dict)  # id(Peer node) -> its name in ``received``
+    said: tuple[str, ...] = ()  # the channels say() sends on (format 1.3), in the order first said
+    heard: tuple[str, ...] = ()  # the channels heard() reads, each said somewhere
 
 
 def check(bf: BehaviourFile, report: Report, overrides: dict[str, str] | None = None) -> Checked:
@@ -129,6 +137,8 @@ class _Checker(ExprChecker):
         self.version = bf.version
         self.motors: dict[str, frozenset[str]] = {}  # joint -> the target modes its motor takes
         self.grader_wheels = False  # a grader's measured metric may read the wheels (read_back)
+        self.robot_counts = {r.name: r.count for r in bf.robots}  # format 1.3: leader.x reads robot 'leader'
+        self.signal_names = tuple(name for name, _, _ in bf.lets)
 
     def setting_error(self, setting: str, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem with a ``--set NAME=VALUE`` override, which has no place in the file."""
@@ -181,8 +191,7 @@ class _Checker(ExprChecker):
         if bf.stop is not None:
             self.expect(bf.stop, bf.stop.node, Type.BOOL, "the stop condition")
         self.motors = mechanism.motor_modes() if mechanism is not None else {}
-        states = self.rules()
-        binds = self.binds()
+        states, binds = self.rules(), self.binds()
         self.timeline(sliders)
         metrics = self.metrics()
         used_channels = tuple(ch for ch in channels if ch in self.used)
@@ -193,7 +202,9 @@ class _Checker(ExprChecker):
                        self.node_types, sliders, labels, binds, mechanism is not None and not models,
                        frozenset(self.used), robot_params, noise, self.expansions, self.group_sizes, self.sizes,
                        frozenset(self.self_prev), self.user_functions, frozenset(self.called), dict(self.lists),
-                       self.lengths)
+                       self.lengths,
+                       tuple(self.peer_fields), tuple(self.received.values()), self.received_at,
+                       tuple(self.said), tuple(h for h in self.heard if h in self.said))
 
     def known_values(self, params: dict[str, float | bool],
                      robot_params: dict[str, tuple[tuple[str, tuple[float | bool, ...]], ...]]) -> None:
@@ -517,6 +528,7 @@ class _Checker(ExprChecker):
             else:
                 self.poisoned.add(name)  # already reported: its uses stay quiet
         self.later = {}
+        check_later(self)  # another robot's signals read above their definitions
         return out
 
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
@@ -547,6 +559,7 @@ class _Checker(ExprChecker):
                 elif unconditional is None:
                     unconditional = decl
                 self.actions(decl, states)
+        check_channels(self)  # every channel heard is said by a rule
         return states
 
     def actions(self, decl: RuleDecl, states: dict[str, list[RuleDecl]]) -> None:
@@ -563,7 +576,11 @@ class _Checker(ExprChecker):
         for action in actions:
             if action.name == "log" or action.text is not None:
                 self.log_action(action, text)
-        actions = [a for a in actions if a.name != "log" and a.text is None]
+        said_here: set[str] = set()
+        for action in actions:
+            if action.name == SAY and action.text is None:
+                check_say(self, action, text, said_here)
+        actions = [a for a in actions if a.name not in ("log", SAY) and a.text is None]
         drives = [a for a in actions if a.name not in JOINT_ACTIONS]
         for action in actions:
             if action.name in JOINT_ACTIONS:

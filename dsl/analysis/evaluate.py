@@ -17,6 +17,9 @@ member, a reduction takes the members as ``and``/``or`` do, lazily where the lan
 argument's expression, evaluated where the body reads it (as the generated code writes the body
 in place of the call); a built-in with memory (``prev``, ``rising``, ...) keeps its state in a
 ``Memory`` that lives as long as the run, one per robot, and a ``log``'s text is ``log_text``.
+
+Over 500 lines: it is the language's meaning in one walk, each construct beside the others, so that
+the differential test compares the generated code with one reading of every node.
 """
 from __future__ import annotations
 
@@ -313,6 +316,22 @@ class _Walker(ast.Visitor[Any]):
 
     def visit_Attribute(self, e: ast.Attribute) -> Any:
         return _number(self.visit(e.value)[_FIELD[e.attr]])
+
+    def visit_Peer(self, e: ast.Peer) -> Any:
+        """Another robot's value: ``names[robot]`` holds each of its group's robots' values as they
+        were on the last tick, a mapping a robot; a place outside the group is as a group's."""
+        robots = self.names[e.robot]
+        assert isinstance(robots, tuple)
+        n = len(robots)
+        k: Any
+        try:
+            k = fold(e.member, {k: v for k, v in self.constants.items() if k not in self.env})
+        except NotConstant:
+            k = self.visit(e.member)
+        if 0 <= k < n and k == int(k):
+            return _number(robots[int(k)][e.attr])
+        self.fault(e, f"no member at the place asked of a group of {n} (places count from 0)")  # as the run counts it
+        return False if isinstance(robots[0][e.attr], bool) else NAN
 
     def visit_Index(self, e: ast.Index) -> Any:
         """A place that folds picks its member alone; any other is read after the members, and a

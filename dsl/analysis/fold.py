@@ -86,8 +86,8 @@ class _Folder(ast.Visitor[Any]):
             raise NotConstant
         return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
 
-    # a record's field, text, a group and its members are computed at run time
-    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index, ast.Slice})
+    # a record's field, text, a group and its members, another robot's value are computed at run time
+    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index, ast.Slice, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> object:
         raise NotConstant

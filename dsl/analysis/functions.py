@@ -262,9 +262,17 @@ def check_bodies(c: ExprChecker, functions: dict[str, FunctionDecl]) -> None:
     for d in functions.values():
         c.scopes.append((d, {p: (Type.NUMBER, 0) for p in d.params}, None, d.body.text))
         try:
+            # another robot's value and what a robot heard (format 1.3) are not a function's to read;
+            # a channel is not a name in scope
+            channels = set()
             for node in nodes(d.body.node):
-                if isinstance(node, ast.Name) and body_name(c, node, d.body.text) is False \
-                        and node.id not in c.types:
+                if isinstance(node, ast.Peer) or (isinstance(node, ast.Call) and node.func == "heard"
+                                                  and node.func not in functions):
+                    c.infer(node, d.body.text)
+                    channels |= {id(a) for a in node.args[:1]} if isinstance(node, ast.Call) else set()
+            for node in nodes(d.body.node):
+                if isinstance(node, ast.Name) and id(node) not in channels \
+                        and body_name(c, node, d.body.text) is False and node.id not in c.types:
                     c.name(node, d.body.text)
         finally:
             c.scopes.pop()

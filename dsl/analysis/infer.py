@@ -15,6 +15,8 @@ from yaml.nodes import Node
 
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
+from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
+from labsim.dsl.analysis.peers import Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -93,6 +95,16 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
         # a breakpoint, which has no file of its own, reads the latest
         self.version: float = VERSIONS[-1]
+        # the robots another robot's name reads (group -> robots), the file's signals, and
+        # what is read of the others (labsim.dsl.analysis.peers)
+        self.robot_counts: dict[str, int] = {}
+        self.signal_names: tuple[str, ...] = ()
+        self.peer_fields: dict[str, Type] = {}
+        self.peer_later: list[tuple[ast.Peer, Text]] = []
+        self.received: dict[str, Received] = {}  # each value read of another robot at a known place
+        self.received_at: dict[int, str] = {}  # id(Peer) -> its name in ``received``
+        self.said: dict[str, None] = {}  # the channels say() sends on, in the order first said
+        self.heard: dict[str, list[tuple[ast.Name, Text]]] = {}  # the channels heard() reads, and where
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None:
         """Report a problem at a place of the file: a YAML node, characters of an expression's
@@ -241,7 +253,17 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def visit_Call(self, e: ast.Call, text: Text) -> Type | None:
         return self.call(e, text)
 
+    def visit_Peer(self, e: ast.Peer, text: Text) -> Type | None:
+        return peer_type(self, e, text)
+
     def visit_Attribute(self, e: ast.Attribute, text: Text) -> Type | None:
+        base = e.value.value if isinstance(e.value, ast.Index) else e.value
+        if (isinstance(base, ast.Name) and self.version >= 1.3 and self.robot_counts and base.id not in self.types
+                and base.id not in self.poisoned and not self.scopes and base.id not in self.later):
+            robots = list(self.robot_counts)
+            self.error(text.at(base.span), f"unknown robot '{base.id}'{did_you_mean(base.id, robots)}",
+                       notes=("robots of this file: " + ", ".join(robots),))
+            return None
         t = self.infer(e.value, text)
         if t is None:
             return None
@@ -279,6 +301,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         if e.id in FUNCTIONS or e.id in ACTIONS:
             self.error(text.at(e.span), f"'{e.id}' is a function: call it as {e.id}(...)")
+            return None
+        if e.id in self.robot_counts:
+            if self.version < 1.3:
+                self.error(text.at(e.span), later_format(f"reading another robot ({e.id}.x)", 1.3))
+            else:
+                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in "
+                           f"{e.id}{'[0]' if self.robot_counts[e.id] > 1 else ''}.x",
+                           notes=("another robot's x, y, heading, state and signals can be read",))
             return None
         if e.id in self.metric_names:
             self.error(text.at(e.span), f"'{e.id}' is a metric: metrics are summed up over the run for the "
@@ -544,8 +574,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
             at = e.operands[types.index(Type.TEXT)]
             if other is Type.STATE:
                 name = at.value if isinstance(at, ast.Text) else "follow"
+                state = e.operands[1 - types.index(Type.TEXT)] if len(e.operands) == 2 else None
+                whose = text.value[state.span[0]:state.span[1]] if isinstance(state, ast.Peer) else "state"
                 self.error(text.at(at.span), f"a state is compared with a state's name, without quotes: write "
-                           f"'state == {name}'")
+                           f"'{whose} == {name}'")
             else:
                 self.error(text.at(at.span), "text cannot be compared: it is for a log's fields only",
                            notes=text_note(Type.TEXT))
@@ -591,6 +623,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if e.func in self.user_functions:
             self.called.add(e.func)
             return check_call(self, e, text, self.user_functions[e.func])
+        if e.func == HEARD and e.func not in self.types:
+            return heard_type(self, e, text)
         if e.func in self.poisoned:  # a function whose definition is reported: its calls stay quiet
             for arg in e.args:
                 self.infer(arg, text)
@@ -611,7 +645,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
                           "of booleans, as in count(front < 0.5), counts the members that hold",)
                          if e.func == "count" else ())
-            elif e.func in ACTIONS:
+            elif e.func in ACTIONS or e.func == SAY:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
             elif e.func in MEANT:
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
@@ -620,7 +654,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
                 notes = function_notes(e.func)
             self.error(text.at(e.func_span), message, notes)
-            for arg in e.args:
+            for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
                 self.infer(arg, text)
             return None
         return self.built_in(e, text, f)

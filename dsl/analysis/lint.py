@@ -32,7 +32,8 @@ from labsim.foundation.source import Place, Text
 CONTINUOUS_VARIABLES = frozenset({"time", "state_time"})
 _CONTINUOUS_KINDS = (Kind.DISTANCE, Kind.NUMBER, Kind.JOINT, Kind.FORCE, Kind.BODY, Kind.REFLECTANCE)
 # Functions whose result is a whole number or a sign, whatever their arguments.
-_DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint"})
+# (heard: a channel carries what was said exactly, often a code: heard(mode) == 2 is meant)
+_DISCRETE = frozenset({"floor", "ceil", "round", "sign", "randint", "heard"})
 _FOLDABLE = frozenset({"abs", "min", "max", "clamp", "sqrt", "hypot", "sin", "cos", "tan", "exp",
                        "floor", "ceil", "round", "sign", "deg", "rad"})
 # Wheel actions whose every argument is a wheel speed, rad/s (drive(v, w) is turned into them).
@@ -353,7 +354,7 @@ class Linter:
                 self.warn(sl.key, f"slider '{sl.name}' is never used", "no expression reads it, so moving it "
                           "changes nothing; bind it, as in 'bind: Joint.velocity: 0.1 * " + sl.name + "'")
         for name, parsed, node in f.lets:
-            if name not in used and not isinstance(parsed.node, ast.Name | ast.Attribute):
+            if name not in used and not isinstance(parsed.node, ast.Name | ast.Attribute | ast.Peer):
                 self.warn(node, f"signal '{name}' is computed but never used", "only the trace records it; "
                           "a signal that just names a reading (like 'rope: Hoist_Actuator.position') is not "
                           "warned about")
@@ -395,7 +396,7 @@ class _Continuous(ast.Visitor[str]):
         return ""
 
     visit_BoolOp = visit_Not = visit_Text = visit_Number = visit_Bool = visit_Compare
-    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice})
+    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> str:
         return self.first(ast.children(e))

@@ -212,6 +212,11 @@ class Ranges(ast.Visitor[Range]):
     def visit_Attribute(self, e: ast.Attribute) -> Range:
         return self.attribute(e)
 
+    def visit_Peer(self, e: ast.Peer) -> Range:
+        """Another robot's pose has the range of this one's (its start pose is in it too); its signal
+        may be the 0 of the first tick, outside the signal's own range: none."""
+        return self.name(e.attr) if e.attr in ("x", "y", "heading") else TOP
+
     # numbers known before the run are found above; booleans, text and groups have no range, nor
     # has a member of a group (its members' ranges are not followed)
     generic = frozenset({ast.Number, ast.Bool, ast.Not, ast.Compare, ast.BoolOp, ast.Text, ast.Group, ast.Index,

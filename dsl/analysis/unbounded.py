@@ -102,6 +102,8 @@ class _Reach:
         if e.func in _FINITE or len(e.args) == 0:
             return None
         args = e.args[0].members if len(e.args) == 1 and isinstance(e.args[0], ast.Group) else e.args
+        if e.func == "heard":  # a channel's name, not a reading: what is heard is finite, its default may not be
+            args = e.args[1:]
         found = [self.sensor(a, guarded, depth) for a in args]
         if e.func == "min" and not all(f or self.infinite(a) for f, a in zip(found, args)):
             return None  # an argument that is never inf bounds it
@@ -173,6 +175,7 @@ class _Sensor(ast.Visitor["str | None"]):
         return self.visit(e.value, guarded, depth)  # its bounds are places, known before the run
 
     visit_BoolOp = visit_Not = visit_Attribute = visit_Text = visit_Bool = visit_Number = visit_Compare
+    visit_Peer = visit_Compare  # another robot's value: the pid warning follows this robot's sensors
     # a number made of others (a group of them) can be inf when one of them is
     generic = frozenset({ast.Neg, ast.Group})
 

@@ -32,6 +32,7 @@ from typing import Any
 from labsim.dsl.analysis.check import Checked
 from labsim.dsl.analysis.fold import TOTAL, NotConstant, fold
 from labsim.dsl.analysis.image_memory import lifetimes
+from labsim.dsl.analysis.messages import HEARD, SAY, heard_slot
 from labsim.dsl.analysis.stop import stop_horizon
 from labsim.dsl.emit.layout import Layout, layout
 from labsim.dsl.emit.program import Code, LabelPart
@@ -122,6 +123,9 @@ class _Generator(Unroller):
         self.env: list[dict[str, str | list[str]]] = []  # inside a user function's body: its arguments' code
         self.texts: list[str] = list(self.state_names)  # _texts: state names (by index), then text values
         self.let_of = {name: parsed for name, parsed in checked.lets}
+        self.peer_robots: dict[str, tuple[int, int]] = {}  # robot group -> its first robot's index, its count
+        for decl in checked.file.robots:
+            self.peer_robots[decl.name] = (sum(n for _, n in self.peer_robots.values()), decl.count)
         self.when_rules: list[int] = []  # the index of each 'when' rule: _wf[j] counts the ticks it logged
         life = lifetimes(checked)
         self.image_drops = life.drops  # signal index -> image signals freed after it
@@ -148,6 +152,8 @@ class _Generator(Unroller):
         channels = frozenset(range(FIRST_CHANNEL, FIRST_CHANNEL + n)) | {VALUES}
         computed = {self.slot_of[name] for name, _ in c.lets}
         computed |= {self.slot_of[name] for name in (*STATE_CLOCK, *WHEELS) if name in self.slot_of}
+        computed |= {self.slot_of[r.name] for r in c.received}
+        computed |= {self.slot_of[heard_slot(h)] for h in c.heard}
         signals, stop_note, stop = self.signals()
         rules, metrics = self.decide()
         metric_reads = frozenset().union(*(m.reads for m in metrics))
@@ -208,6 +214,7 @@ class _Generator(Unroller):
         """What ``make`` takes: the robot's slots and outputs, the namespace, the guards."""
         return ["s", "cmd", "jc", "events", "m", "_inf", "_nan", "_randint", "_random", "_uniform", "_gauss",
                 "_radius", "_half_axle", "_limit", "_st", "_held", "_texts", "_argmin", "_argmax", "_wf",
+                *(["_P"] if self.c.peer_fields else []), *(["_out", "_reach", "_in"] if self.c.said else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
                 *(f"_g{i}" for i in range(len(self.sites)))]
@@ -225,6 +232,13 @@ class _Generator(Unroller):
                 w.line(" = ".join([*(f"s[{k}]" for k in self.image_kept), "None"]))
         self.state_clock(w)
         self.wheels(w)
+        for r in c.received:  # what this robot reads of the others, as they were on the last tick
+            first, _ = self.peer_robots[r.robot]
+            k = self.slot_of[r.name]
+            w.line(f"s[{k}] = v{k} = _P[{first + r.place}][{c.peer_fields.index(r.attr)}]")
+        for h in c.heard:  # what it heard after the last tick, nan when nothing yet (labsim.runtime.radio)
+            k = self.slot_of[heard_slot(h)]
+            w.line(f"s[{k}] = v{k} = _in[{c.said.index(h)}]")
         for j, (name, parsed) in enumerate(c.lets):
             slot = self.slot_of[name]
             if name in c.group_sizes:
@@ -433,12 +447,21 @@ class _Generator(Unroller):
                     if isinstance(part, tuple):
                         parts.append((len(values), part[1]))
                         value = x(part[0])
-                        values.append(f"_texts[{value}]" if self.c.node_types.get(id(part[0])) is Type.STATE
-                                      else value)
+                        if self.c.node_types.get(id(part[0])) is Type.STATE:
+                            # another robot's state at a place outside its group is nan (format 1.3)
+                            peer = any(isinstance(n, ast.Peer) for n in ast.walk(part[0]))
+                            value = f"(_texts[{value}] if {value} == {value} else _nan)" if peer else f"_texts[{value}]"
+                        values.append(value)
                     else:
                         parts.append(part)
                 self.logs.append((text.doc.position(text.index(action.span[0]))[0], tuple(parts)))
                 w.line(f"events.append(({len(self.logs) - 1}, ({''.join(v + ', ' for v in values)})))")
+            elif action.name == SAY:  # sent after the tick, to every robot in range (labsim.runtime.radio)
+                channel = action.args[0]
+                assert isinstance(channel, ast.Name)
+                k = self.c.said.index(channel.id)
+                w.line(f"_out[{k}] = {self.site(SAY, text, action.args[1].span, where)}({x(action.args[1])})")
+                w.line(f"_reach[{k}] = {x(action.args[2]) if len(action.args) == 3 else '_inf'}")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)
@@ -508,6 +531,11 @@ class _Generator(Unroller):
             body = self.inline(w, e, text, where)
             assert isinstance(body, str)
             return body
+        if e.func == HEARD and e.args and isinstance(e.args[0], ast.Name) and e.args[0].id in self.c.heard:
+            k = self.slot_of[heard_slot(e.args[0].id)]  # nan until something is heard
+            w.read(k)
+            default = self.expr(w, e.args[1], text, where) if len(e.args) == 2 else "0.0"
+            return f"(v{k} if v{k} == v{k} else {default})"
         if id(e) in self.c.self_prev:  # prev(n, initial) in n's own definition: n's slot, last tick's
             slot = self.slot_of[e.args[0].id]  # type: ignore[attr-defined]  # the checker made it a Name
             # the slot still holds the last tick's value while this tick's is computed; the
@@ -699,6 +727,20 @@ class _Emit(ast.Visitor[str]):
 
     def visit_Index(self, e: ast.Index, w: Writer, text: Text, where: str) -> str:
         return self.g.index(w, e, text, where)
+
+    def visit_Peer(self, e: ast.Peer, w: Writer, text: Text, where: str) -> str:
+        """Another robot's value on the last tick: ``_P[robot][field]``, the run's list of every robot's
+        values kept after each tick (format 1.3); a place known only while running, through a guard."""
+        g = self.g
+        if id(e) in g.c.received_at:  # at a known place: read into a slot of its own when signals() starts
+            slot = g.slot_of[g.c.received_at[id(e)]]
+            w.read(slot)
+            return f"v{slot}"
+        first, count = g.peer_robots[e.robot]
+        k = g.c.peer_fields.index(e.attr)
+        members = ", ".join(f"_P[{first + j}][{k}]" for j in range(count))
+        kind = "[]?" if g.c.node_types.get(id(e)) is Type.BOOL else "[]"
+        return f"{g.site(kind, text, e.span, where)}(({members},), {g.expr(w, e.member, text, where)})"
 
     # numbers and booleans are folded before they get here; a group is written by members()
     generic = frozenset({ast.Number, ast.Bool, ast.Group, ast.Slice})

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from labsim.dsl.analysis.check import Checked
+from labsim.dsl.analysis.messages import heard_slot
 from labsim.dsl.emit.program import LabelPart, SharedLabel
 from labsim.dsl.library.builtins import JOINT_ACTIONS, READ_BACK, STATE_CLOCK
 from labsim.dsl.library.support import FIRST_CHANNEL, STATE, TICK, TIME
@@ -94,8 +95,9 @@ def layout(c: Checked) -> Layout:
 
 
 def _per_robot(c: Checked, slot_of: dict[str, int], count: int) -> int:
-    """Slots for the per-tick variables and per-robot values a behaviour reads, from slot ``count`` on;
-    the next free slot."""
+    """Slots for the per-tick variables and per-robot values a behaviour reads, from slot ``count`` on,
+    then (format 1.3) each value read of another robot at a known place ('leader.x') and each channel
+    heard ('heard(target)'); the next free slot."""
     per_robot = {name for own in c.robot_params.values() for name, _ in own}
     # a file's own name hides a read-back one (a parameter or a state is folded, a signal has its slot)
     read_back = [name for name in READ_BACK if name not in c.params and name not in c.states]
@@ -103,6 +105,9 @@ def _per_robot(c: Checked, slot_of: dict[str, int], count: int) -> int:
         if name in c.used and name not in slot_of:
             slot_of[name] = count
             count += 1
+    for name in (*(r.name for r in c.received), *(heard_slot(channel) for channel in c.heard)):
+        slot_of[name] = count
+        count += 1
     return count
 
 

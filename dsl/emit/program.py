@@ -151,6 +151,11 @@ class RobotProgram:
     fold: Callable[[float, int, list], None] = lambda time_s, tick, values: None
     stop_part: list[int] = field(default_factory=lambda: [-1])  # the stop condition's 'or' part that held
     when_fired: list[int] = field(default_factory=list)  # per Program.when_rules: the ticks it logged
+    # format 1.3, per Program.said: what the robot said this tick (nan: nothing) and how far it carries,
+    # and what it heard last (nan: nothing yet); labsim.runtime.radio delivers after every tick
+    outbox: list[float] = field(default_factory=list)
+    reach: list[float] = field(default_factory=list)
+    inbox: list[float] = field(default_factory=list)
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,21 +214,33 @@ class Program:
     functions: tuple[FunctionText, ...] = ()
     lists: Mapping[str, tuple] = field(default_factory=dict)  # list parameters (format 1.3), after --set
     version: float = 1  # the file's format: a breakpoint is checked as the file is
+    # format 1.3: what the robots read of each other (leader.x), and the slots each robot's values of
+    # them are kept from after every tick, for the others to read on the next (``peer_start``)
+    peer_fields: tuple[str, ...] = ()
+    peer_slots: tuple[int, ...] = ()
+    # the values read of another robot at a place known before the run, as written ('leader.x'), then
+    # what is heard on each channel ('heard(target)'), and their types: each has a slot (``slot_of``)
+    # the trace and the live view read
+    received: tuple[tuple[str, Type], ...] = ()
+    said: tuple[str, ...] = ()  # the channels say() sends on (labsim.runtime.radio), as RobotProgram.outbox has them
+
+    def peer_start(self) -> list[tuple]:
+        """What the robots read of each other on the first tick: each robot's start pose, its first
+        state, and 0 (false) for a signal, as no tick has computed one yet."""
+        out = []
+        for start in self.starts:
+            pose = {"x": start.pose.x_m, "y": start.pose.y_m, "heading": wrap(start.pose.heading_rad), "state": 0}
+            out.append(tuple(pose.get(f, False if self.signal_types.get(f) is Type.BOOL else 0.0)
+                             for f in self.peer_fields))
+        return out
 
     def log_text(self, site: int, values: tuple) -> str:
         """The text of a ``log(...)`` from the values of its fields."""
         return "".join(p if isinstance(p, str) else show_field(values[p[0]], p[1]) for p in self.logs[site][1])
 
-    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
-              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False,
-              start: Pose | None = None) -> RobotProgram:
-        """Bind the generated functions to one robot's slots, generator, model and fault sink.
-
-        ``index`` is the robot's place in its ``group``, whose own parameter values it takes;
-        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them);
-        ``start`` is where the robot starts, which ``start_x``, ``start_y`` and ``start_heading`` read.
-        """
-        code = self.code
+    def first_slots(self, group: RobotGroup | None, index: int, start: Pose | None) -> Slots:
+        """A robot's slots before its first tick: its parameters (a group's own values for member
+        ``index``), its place, its start pose read back, and the sliders' first values."""
         slots = Slots([0.0] * self.slot_count)
         slots[STATE] = 0
         for param, slot in self.robot_slots.items():
@@ -241,6 +258,21 @@ class Program:
         for shared in self.shared_labels:  # the first slider's text shows until one moves
             for slot, last in shared.sliders:
                 slots[last] = slots[slot]
+        return slots
+
+    def robot(self, name: str, rng: random.Random, faults: Faults, model: RobotModel | None = None,
+              group: RobotGroup | None = None, index: int = 0, keep_images: bool = False,
+              start: Pose | None = None, peers: list[tuple] | None = None) -> RobotProgram:
+        """Bind the generated functions to one robot's slots, generator, model and fault sink.
+
+        ``index`` is the robot's place in its ``group``, whose own parameter values it takes;
+        ``keep_images`` keeps every image signal in its slot after the tick (a live view shows them);
+        ``start`` is where the robot starts, which ``start_x``, ``start_y`` and ``start_heading`` read.
+        ``peers`` is the run's list of what each robot reads of the others (``peer_start``), shared by
+        every robot of the run and replaced after each tick by the runtime.
+        """
+        code = self.code
+        slots = self.first_slots(group, index, start)
         command: list = [0.0, 0.0, 0]
         joint_command = [math.nan] * len(self.targets)
         events: list[int] = []
@@ -256,6 +288,11 @@ class Program:
                         _held=held, _texts=self.texts, _wf=when_fired)
         if code.drops:
             bindings["_drop"] = not keep_images
+        if self.peer_fields:
+            bindings["_P"] = peers if peers is not None else self.peer_start()
+        outbox, reach, inbox = [math.nan] * len(self.said), [math.inf] * len(self.said), [math.nan] * len(self.said)
+        if self.said:
+            bindings.update(_out=outbox, _reach=reach, _in=inbox)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
         show_in_tracebacks(code)
@@ -267,7 +304,7 @@ class Program:
         make = cast(Callable[..., tuple[Any, Any, Any, Any]], scope["make"])
         signals, decide, both, fold = make(**bindings)
         return RobotProgram(slots, command, signals, decide, both, metric_values, events, code.source,
-                            joint_command, fold, stop_part, when_fired)
+                            joint_command, fold, stop_part, when_fired, outbox, reach, inbox)
 
     @property
     def single_signals(self) -> tuple[str, ...]:

@@ -265,7 +265,7 @@ class MemberWriter(ast.Visitor[list[str]]):
         return self.g.slice(w, e, text, where)
 
     # one value each, never a group (the checker's types)
-    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.Attribute})
+    generic = frozenset({ast.Number, ast.Bool, ast.Text, ast.Attribute, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: object) -> list[str]:
         raise AssertionError(f"cannot compile the group {e!r}")

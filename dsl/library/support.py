@@ -201,6 +201,14 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
         return _pick_row(report, clock if clock is not None else (lambda: int(slots[TICK])))
     if kind == "pid":
         return make_pid(report)
+    if kind == "say":
+        def say(value: float) -> float:  # a value that is not finite is not sent (labsim.runtime.radio)
+            if value - value == 0.0:
+                return value
+            report(f"say() of {value}: not sent (only finite numbers are)", "say() of a value that is not finite: "
+                   "not sent")
+            return math.nan
+        return say
     name, _, since = kind.partition("@")
     if name in FUNCTIONS and FUNCTIONS[name].stateful:
         factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]

@@ -141,6 +141,20 @@ class Slice(Expr):
 
 
 @dataclass(frozen=True)
+class Peer(Expr):
+    """``leader.x`` or ``pioneer[2].state``: a value of another robot as it was on the last tick
+    (version 1.3). ``member`` is the place in the robot's group (``Number(0)`` for a robot named
+    alone, when ``indexed`` is false); ``attr`` is x, y, heading, state or one of its signals."""
+
+    robot: str
+    member: Expr
+    attr: str
+    indexed: bool = False
+    robot_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
+    attr_span: Span = field(default=(0, 0), compare=False, repr=False, kw_only=True)
+
+
+@dataclass(frozen=True)
 class Action:
     """``arc(l, r)`` in a rule's action list."""
 

@@ -55,14 +55,14 @@ def _parser() -> Lark:
                      start=["rule", "expr"], propagate_positions=True, maybe_placeholders=True)
 
 
-def parse_rule(text: str) -> ast.Rule:
-    result = _parse(text, "rule")
+def parse_rule(text: str, robots: frozenset[str] = frozenset()) -> ast.Rule:
+    result = _parse(text, "rule", robots)
     assert isinstance(result, ast.Rule)
     return result
 
 
-def parse_expr(text: str) -> ast.Expr:
-    result = _parse(text, "expr")
+def parse_expr(text: str, robots: frozenset[str] = frozenset()) -> ast.Expr:
+    result = _parse(text, "expr", robots)
     assert isinstance(result, ast.Expr)
     return result
 
@@ -97,7 +97,7 @@ def parse_printf(text: str, name: str) -> tuple[LabelPart, ...] | None:
     return tuple(parts)
 
 
-def parse_label(text: str) -> tuple[LabelPart, ...]:
+def parse_label(text: str, robots: frozenset[str] = frozenset()) -> tuple[LabelPart, ...]:
     """'Arm Speed: {0.02 * arm:.2f}': literal text and {expression:format} fields, in order.
 
     ``{{`` and ``}}`` stand for braces. The expressions' spans are offsets into the whole text.
@@ -126,7 +126,7 @@ def parse_label(text: str) -> tuple[LabelPart, ...]:
             start = i + 1 + len(expr_text) + 1
             raise ParseError(start, start + len(spec), f"'{spec}' is not a number format; use e.g. .2f, .1%, 5.1f or d")
         try:
-            expr = parse_expr(expr_text)
+            expr = parse_expr(expr_text, robots)
         except ParseError as e:
             raise ParseError(i + 1 + e.start, i + 1 + e.end, e.message, e.notes) from None
         if literal:
@@ -167,7 +167,7 @@ def _shift(e: ast.Expr, offset: int) -> ast.Expr:
     return dataclasses.replace(e, **changes)
 
 
-def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
+def _parse(text: str, start: str, robots: frozenset[str] = frozenset()) -> ast.Rule | ast.Expr:
     if not text.strip():
         what = "rule" if start == "rule" else "expression"
         raise ParseError(0, max(1, len(text)), f"empty {what}")
@@ -178,7 +178,7 @@ def _parse(text: str, start: str) -> ast.Rule | ast.Expr:
         raise _translate(e, text, start) from None
     _check_depth(tree)
     try:
-        return _ToAst().transform(tree)
+        return _ToAst(robots).transform(tree)
     except VisitError as e:  # a log text's own mistake, raised while building its action
         if isinstance(e.orig_exc, ParseError):
             raise e.orig_exc from None
@@ -399,7 +399,12 @@ def _tspan(token: Token) -> ast.Span:
 
 @v_args(meta=True)
 class _ToAst(Transformer):
-    """lark tree to frozen dataclasses; tokens become str and float here."""
+    """lark tree to frozen dataclasses; tokens become str and float here. ``leader.x`` of one of
+    ``robots``, the file's robots (format 1.3), is a ``Peer``."""
+
+    def __init__(self, robots: frozenset[str] = frozenset()) -> None:
+        super().__init__()
+        self.robots = robots
 
     def if_rule(self, meta: Meta, c: list[Any]) -> ast.Rule:
         return ast.Rule("if", c[0], c[1], span=_span(meta))
@@ -430,7 +435,7 @@ class _ToAst(Transformer):
         token = c[1]
         start = token.start_pos + 1  # inside the quotes
         try:
-            parts = parse_label(str(token)[1:-1])
+            parts = parse_label(str(token)[1:-1], self.robots)
         except ParseError as e:
             raise ParseError(start + e.start, start + e.end, e.message.replace("a label", "a log text"),
                              e.notes) from None
@@ -491,8 +496,14 @@ class _ToAst(Transformer):
         args = c[1] if c[1] is not None else ()
         return ast.Call(str(c[0]), args, span=_span(meta), func_span=_tspan(c[0]))
 
-    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute:
-        return ast.Attribute(c[0], str(c[1]), span=_span(meta), attr_span=_tspan(c[1]))
+    def attribute(self, meta: Meta, c: list[Any]) -> ast.Attribute | ast.Peer:
+        base, attr = c[0], str(c[1])
+        name = base.value if isinstance(base, ast.Index) else base
+        if isinstance(name, ast.Name) and name.id in self.robots:  # leader.x, pioneer[2].x: another robot's
+            member = base.index if isinstance(base, ast.Index) else ast.Number(0.0, span=name.span)
+            return ast.Peer(name.id, member, attr, name is not base, span=_span(meta), robot_span=name.span,
+                            attr_span=_tspan(c[1]))
+        return ast.Attribute(base, attr, span=_span(meta), attr_span=_tspan(c[1]))
 
     def text(self, meta: Meta, c: list[Any]) -> ast.Text:
         return ast.Text(str(c[0])[1:-1], span=_span(meta))

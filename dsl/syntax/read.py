@@ -256,6 +256,7 @@ class _Reader(Reader):
         super().__init__(doc, report)
         self.failed_names: set[str] = set()  # declared, but reported as wrong: uses stay quiet
         self.robots_failed = False
+        self.robot_names: frozenset[str] = frozenset()  # format 1.3: leader.x reads robot 'leader'
 
     def number_problem(self, node: Node, what: str, integer: bool) -> tuple[str, tuple[str, ...]]:
         if not isinstance(node, ScalarNode):
@@ -298,6 +299,10 @@ class _Reader(Reader):
 
     def sections(self, keys: dict[str, Node], bf: BehaviourFile) -> None:
         """Everything after the header: stop, robots, params, let, rules, metrics and the controls."""
+        robots = keys.get("robots")
+        if bf.version >= 1.3 and isinstance(robots, MappingNode):  # leader.x reads robot 'leader' (format 1.3)
+            self.robot_names = frozenset(k.value for k, _ in robots.value if isinstance(k, ScalarNode)
+                                         and isinstance(k.value, str))
         if "stop" in keys:
             bf.stop = self.expr(keys["stop"], "stop")
         if "robots" in keys:
@@ -341,7 +346,7 @@ class _Reader(Reader):
             return None
         text = self.doc.text_of(node)
         try:
-            return Parsed(parse_expr(text.value), text)
+            return Parsed(parse_expr(text.value, self.robot_names), text)
         except ParseError as e:
             self.error(text.at((e.start, e.end)), e.message, e.notes)
             return None
@@ -731,7 +736,7 @@ class _Reader(Reader):
             return None
         text = self.doc.text_of(node)
         try:
-            parts = parse_printf(text.value, slider) or parse_label(text.value)
+            parts = parse_printf(text.value, slider) or parse_label(text.value, self.robot_names)
         except ParseError as e:
             self.error(text.at((e.start, e.end)), e.message)
             return None
@@ -833,7 +838,7 @@ class _Reader(Reader):
                 continue
             text = self.doc.text_of(item)
             try:
-                out.append(RuleDecl(state, i, parse_rule(text.value), text))
+                out.append(RuleDecl(state, i, parse_rule(text.value, self.robot_names), text))
             except ParseError as e:
                 notes = e.notes
                 if text.spans_lines:

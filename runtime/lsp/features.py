@@ -114,6 +114,9 @@ def completion(ls: LabsimServer, uri: str, position: lsp.Position) -> lsp.Comple
         return lsp.CompletionList(False, [])
     if re.search(r"\bgoto\s+\w*$", before):  # only a state can follow
         return lsp.CompletionList(False, [i for i in _names(ls, found) if i.kind == KIND_ICONS["state"]])
+    robot = re.search(r"\b([A-Za-z_]\w*)(?:\[[^\]]*\])?\.\w*$", before)
+    if robot and found is not None and any(d.kind == "robot" for d in found.definitions.get(robot.group(1), ())):
+        return lsp.CompletionList(False, _peer_values(found, robot.group(1)))  # leader.x: what it can read
     if re.search(r"\bdetected\(\s*\w*$", before):  # a distance sensor's name
         return lsp.CompletionList(False, [_item(s.name, "sensor", f"sensor of {robot}", s.doc)
                                           for robot, s in _sensors(found) if "`inf`" in s.doc])
@@ -132,6 +135,15 @@ def _names(ls: LabsimServer, found: Outline | None) -> list[lsp.CompletionItem]:
     for b in ls.builtins.values():
         items.setdefault(b.name, _item(b.name, b.kind, b.signature, b.doc))
     return list(items.values())
+
+
+def _peer_values(found: Outline, robot: str) -> list[lsp.CompletionItem]:
+    """What a name of a robot reads (format 1.3): its pose, its state and the file's signals, last tick's."""
+    pose = {"x": "its x, metres", "y": "its y, metres", "heading": "its heading, radians", "state": "its state"}
+    items = [_item(name, "variable", f"{robot}.{name}", f"{doc}, as on the last tick") for name, doc in pose.items()]
+    items += [_item(name, "signal", f"{robot}.{name}", f"its signal '{name}', as on the last tick")
+              for name, defs in found.definitions.items() if defs[0].kind == "signal"]
+    return items
 
 
 def _world_files(uri: str) -> list[lsp.CompletionItem]:

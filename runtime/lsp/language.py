@@ -119,6 +119,13 @@ def builtins() -> dict[str, Builtin]:
                               "true when the distance sensor named sees something (reads less than inf)")
     for name, a in ACTIONS.items():
         out[name] = Builtin(name, "action", f"{name}({', '.join(a.params)})", a.doc)
+    # format 1.3: messages between robots (docs/language.md, "Other robots and messages")
+    out["say"] = Builtin("say", "action", "say(channel, value[, range_m])",
+                         "send a number on a channel: every other robot (within range_m metres) hears it after the "
+                         "tick; the nearest of several")
+    out["heard"] = Builtin("heard", "function", "heard(channel[, default]) -> number",
+                           "the last value this robot heard on a channel, from the tick after it was said; "
+                           "default (0) until it hears one")
     variable_docs = {"time": "simulated seconds since the start", "tick": "ticks since the start, from 0",
                      "dt": "seconds per tick", "state": "the rule state the robot is in",
                      "state_time": "seconds since the robot entered its state",

@@ -20,6 +20,8 @@ import numpy as np
 
 from labsim.backends.scene.models import Kind, RobotModel, upright
 from labsim.backends.scene.world import World
+from labsim.dsl.emit.program import Program
+from labsim.dsl.library.builtins import Type
 
 SCHEMA = 1  # the message schema version; docs/view.md describes it
 FRAME_INTERVAL_S = 1 / 30  # at most 30 frames a second, whatever the speed
@@ -149,3 +151,27 @@ def png_data_url(image: object) -> str | None:
 def message(kind: str, **fields: object) -> Json:
     """A server message: its type, the schema version, and its fields."""
     return {"type": kind, "v": SCHEMA, **fields}
+
+
+def value_slots(program: Program) -> tuple[list[int], list[bool], set[int]]:
+    """The slots of the table's signal columns, then of what the behaviour reads of other robots
+    (format 1.3: 'leader.x', 'heard(ping)'); whether each of them, then each slider, is a number
+    to chart; which of them are states (shown by their names)."""
+    names = (*program.single_signals, *(n for n, _ in program.received))
+    types = {**program.signal_types, **dict(program.received)}
+    return ([program.slot_of[n] for n in names],
+            [types.get(n) in (Type.NUMBER, Type.BOOL) for n in names] + [True] * len(program.slider_names),
+            {k for k, n in enumerate(names) if types.get(n) is Type.STATE})
+
+
+def value_columns(program: Program) -> list[Json]:
+    """The table's signal columns, then its columns of what the behaviour reads of other robots."""
+    numeric = (Type.NUMBER, Type.BOOL)
+    return ([{"name": n, "group": "signal", "numeric": program.signal_types.get(n) in numeric}
+             for n in program.single_signals]
+            + [{"name": n, "group": "other robots", "numeric": t in numeric} for n, t in program.received])
+
+
+def shown_values(slots: list, at: list[int], states: set[int], state_names: tuple[str, ...]) -> list:
+    """The values at slots ``at`` for the table: numbers, and a state (a place in ``states``) by its name."""
+    return [state_names[int(slots[s])] if k in states else number(slots[s]) for k, s in enumerate(at)]

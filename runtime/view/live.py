@@ -18,7 +18,6 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
-from labsim.dsl.library.builtins import Type
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert
@@ -36,6 +35,9 @@ from labsim.runtime.view.frames import (
     png_data_url,
     robot_doc,
     sensor_columns,
+    shown_values,
+    value_columns,
+    value_slots,
     world_doc,
 )
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
@@ -45,7 +47,6 @@ from labsim.runtime.view.peaks import Sampler
 from labsim.runtime.view.record import TickRecorder
 from labsim.runtime.view.session import BadMessage, ChangeRefused, Session, finite, name
 
-_NUMERIC = (Type.NUMBER, Type.BOOL)  # a signal of these types has a number to chart
 SAMPLE_NUMBERS = 180  # chart numbers a frame carries at most, all robots together (a frame < 4 KB with the path)
 
 
@@ -124,11 +125,9 @@ class LiveSession(Session):
         self.playing = False
         kinds = channel_kinds(program.world, self.run.robots[0].model if self.run.robots else None)
         self._sensors = sensor_columns(program.channels, kinds)
-        self._lets = [program.slot_of[n] for n in program.single_signals]
+        self._lets, numeric, self._states_read = value_slots(program)
         self._state_slot = program.slot_of["state"]
         self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
-        numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
-            [True] * len(program.slider_names)
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
         self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width)
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
@@ -212,8 +211,7 @@ class LiveSession(Session):
             return message("scene", mode="live", path=self.path, ok=False, diagnostics=problems, **self._source())
         p = self.run.program
         columns = ([{"name": c, "group": "sensor"} for c, _, _ in self._sensors]
-                   + [{"name": n, "group": "signal", "numeric": p.signal_types.get(n) in _NUMERIC}
-                      for n in p.single_signals]
+                   + value_columns(p)
                    + [{"name": n, "group": "slider"} for n in p.slider_names]
                    + [{"name": n, "group": "metric"} for n in p.metric_names])
         start = {n: v for n, v in zip(p.slider_names, self._slider_values())}
@@ -317,7 +315,7 @@ class LiveSession(Session):
         p = self.run.program if self.run is not None else None
         assert p is not None
         values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
-        values += [number(slots[s]) for s in self._lets]
+        values += shown_values(slots, self._lets, self._states_read, p.state_names)
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
 

@@ -341,3 +341,22 @@ def test_an_assignment_file_gets_the_graders_diagnostics_and_keys(tmp_path: Path
     answer = client.request("textDocument/completion", {"textDocument": {"uri": uri},
                                                          "position": {"line": 4, "character": 3}})
     assert {"timeout_s", "criteria", "budgets", "reference"} <= {i["label"] for i in answer["result"]["items"]}
+
+
+def test_a_robot_s_name_completes_what_it_can_read_and_say_heard_are_known(tmp_path: Path, client: Client) -> None:
+    """Format 1.3: after 'leader.' its pose, its state and the file's signals; say and heard have a signature."""
+    text = ("labsim: 1.3\nworld: walls_lab4\nstop: time > 1\nrobots:\n  leader: {model: pioneer_p3dx}\n"
+            "  pioneer: {model: pioneer_p3dx, count: 2}\nlet:\n  near: sonar5 < 1\n  a: pioneer[1].")
+    client.initialize(tmp_path)
+    uri = client.open(tmp_path / "r.yaml", text)
+    end = text.split("\n")
+    answer = client.request("textDocument/completion", {"textDocument": {"uri": uri},
+                                                         "position": {"line": len(end) - 1, "character": len(end[-1])}})
+    items = {i["label"]: i for i in answer["result"]["items"]}
+    assert list(items) == ["x", "y", "heading", "state", "near", "a"]
+    assert items["x"]["detail"] == "pioneer.x"
+    answer = client.request("textDocument/completion", {"textDocument": {"uri": uri},
+                                                         "position": {"line": len(end) - 1, "character": 5}})
+    items = {i["label"]: i for i in answer["result"]["items"]}
+    assert items["heard"]["detail"] == "heard(channel[, default]) -> number"
+    assert items["say"]["detail"] == "say(channel, value[, range_m])"

@@ -1123,3 +1123,50 @@ def test_the_scrubber_follows_after_a_click_and_arrow_right_goes_forward(view: A
     v.page.focus("#scrubber")
     v.page.keyboard.press("ArrowRight")
     v.wait(f"window.labsimView.frame.tick === {now + 1}")  # one row on, not back to where it was clicked
+
+
+OTHER_ROBOTS = """labsim: 1.3
+world: walls_lab4
+stop: time >= 60
+robots:
+  leader: {model: pioneer_p3dx, at: [0, 0, 0], params: {lead: true}}
+  follower: {model: pioneer_p3dx, at: [-2, 0, 0]}
+params:
+  lead: false
+let:
+  gap: hypot(leader.x - x, leader.y - y)
+  pinged: heard(ping)
+rules:
+  wait:
+    - when lead then say(ping, tick)
+    - if time >= 0.2 and leader.state == wait then goto go
+    - else move(1)
+  go:
+    - when lead then say(ping, tick)
+    - else move(2)
+"""
+
+
+def test_the_table_lists_what_a_robot_reads_of_the_others(view: Any, tmp_path: Path) -> None:
+    """Format 1.3: 'leader.x', 'leader.state' and 'heard(ping)' under "other robots", with their values."""
+    path = tmp_path / "other_robots.yaml"
+    path.write_text(OTHER_ROBOTS)
+    v = view([str(path)])
+    for _ in range(12):
+        v.page.click("#step")
+    v.wait("window.labsimView.frame.tick >= 11")
+    table = "Array.from(document.querySelectorAll('#table tbody tr')).map((tr) => tr.innerText.trim())"
+
+    def shown() -> dict[str, str]:
+        rows = v.js(table)
+        group = rows.index("other robots")
+        return dict(r.split("\t")[:2] for r in rows[group + 1:group + 5])
+    leader = shown()
+    assert list(leader) == ["leader.x", "leader.y", "leader.state", "heard(ping)"]
+    assert leader["leader.state"] == "go" and leader["heard(ping)"] == "–"  # it does not hear itself
+    v.page.select_option("#robot", "1")
+    v.wait("Array.from(document.querySelectorAll('#table tbody tr')).some((tr) => tr.innerText.includes('10'))")
+    follower = shown()
+    assert follower["leader.state"] == "go" and follower["heard(ping)"] == "10"  # said on tick 10, heard on 11
+    assert float(follower["leader.x"]) > 0 and follower["leader.x"] == leader["leader.x"]
+    v.shot("other_robots")

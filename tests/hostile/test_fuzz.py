@@ -17,6 +17,7 @@ from fuzz_inputs import (
     generated,
     generated_12,
     generated_13,
+    generated_13_robots,
     generated_member_wise,
     mutated,
     run_input,
@@ -63,6 +64,20 @@ def test_files_generated_from_the_grammar_give_diagnostics_not_exceptions(tmp_pa
 
     fuzz()
     assert outcomes.count("ran") >= len(outcomes) // 10  # many reach generated code and run
+
+
+@pytest.mark.slow
+@pytest.mark.long
+def test_files_whose_robots_read_each_other_and_talk_give_diagnostics_not_exceptions(tmp_path: Path) -> None:
+    outcomes: list[str] = []
+
+    @SHORT
+    @given(generated_13_robots())
+    def fuzz(text: str) -> None:
+        outcomes.append(run_input(tmp_path, text.encode()))
+
+    fuzz()
+    assert outcomes.count("ran") >= len(outcomes) // 3  # most reach generated code and run
 
 
 @pytest.mark.slow

@@ -62,6 +62,7 @@ GROUPS = ("ga", "gb")  # signals that are groups: a list of signals, a range of 
 ROWS = ((1.0, -2.5, 0.5), (3.0, 7.0, -1.0), (0.1, 2.0, 4.0))
 LISTED = (0.5, -1.0, 2.0)
 READ_BACK = ("wheel_left", "wheel_right", "start_x", "start_heading")  # 0 on a first tick, and without a start
+ROBOT = "r"  # the behaviour's robot, which reads its own values by name (format 1.3: r.x, r.p0)
 # functions of the file's own, over groups and numbers: their parameters stand for the arguments
 OWN_FUNCTIONS = {"scaled": (("g", "k"), "g * k - k"), "nearest": (("g", "d"), "min(g - d)"),
                  "within": (("g", "d"), "count(g < d) + g[1] / d"), "limited": (("g", "k"), "clamp(g, -k, k)"),
@@ -99,6 +100,8 @@ class Expressions:
             if self.rng.random() < 0.1:  # format 1.3: read-back, a list's length, a number of a row
                 return pick((ast.Name(pick(READ_BACK)), ast.Call("len", (ast.Name(pick(("wp", "gl"))),)),
                              ast.Index(ast.Index(ast.Name("wp"), self.place()), self.place())))
+            if self.rng.random() < 0.1:  # the robot's own values of the last tick, read by its name (1.3)
+                return ast.Peer(ROBOT, ast.Number(0.0), pick(("x", "y", "heading", *NAMES)))
             return ast.Name(pick(NAMES + NAMES + SENSORS))
         if r < 0.55:
             op = pick(("+", "-", "*", "/", "/", "%", "%", "**", "**"))
@@ -261,6 +264,10 @@ def written(e: ast.Expr, constants: Mapping[str, float] | None = None) -> tuple[
             out.append("true" if e.value else "false")
         elif isinstance(e, ast.Name):
             out.append(constant_text(constants[e.id]) if constants and e.id in constants else e.id)
+        elif isinstance(e, ast.Peer):  # r.x: the member's span is the robot's name
+            start = sum(map(len, out))
+            out.append(f"{e.robot}.{e.attr}")
+            return replace(e, member=replace(e.member, span=(start, start + len(e.robot))))
         elif isinstance(e, ast.Group):
             out.append("[")
             members = []
@@ -410,12 +417,15 @@ def check_batch(folder: Path, values: tuple[float, ...], sensors: tuple[float, .
     functions = {name: (params, parse_expr(body)) for name, (params, body) in OWN_FUNCTIONS.items()}
     exprs = [written(gen.any(), p_values if k % 2 else None) for k in range(BATCH)]
     for text, node in exprs[:6:2]:  # the texts say what the trees are, with the parser's spans
-        parsed = parse_expr(text)
+        parsed = parse_expr(text, frozenset({ROBOT}))
         assert parsed == node and spans(parsed) == spans(node), text
     lets = [(n, f"sonar{i + 1}") for i, n in enumerate(NAMES)] + [("ga", "[p0, p1, p2]"), ("gb", "sonar4..sonar6")]
     lets += [(f"e{k}", text) for k, (text, _) in enumerate(exprs)]
-    got, warned = run_tick(behaviour(folder / "b.yaml", lets),
-                           {f"sonar{i + 1}": v for i, v in enumerate(values)} | dict(zip(SENSORS, sensors)))
+    program = behaviour(folder / "b.yaml", lets)
+    pose = {"x": 1.25, "y": -0.5, "heading": 0.75}  # sensed by a robot whose name an expression reads
+    got, warned = run_tick(program, {f"sonar{i + 1}": v for i, v in enumerate(values)} | dict(zip(SENSORS, sensors))
+                           | pose)
+    names[ROBOT] = (dict(zip(program.peer_fields, program.peer_start()[0])),)  # its values before a tick: the start
     rng = random.Random(1)  # as the robot's, drawn in the same order
     listed = {**CONSTANTS, "dt": DT_S, "wp": ROWS, "gl": LISTED}  # the lists, which the code generator folds
     constants = {**listed, **p_values}

@@ -16,7 +16,8 @@ from labsim.runtime.run import Run
 def test_the_docs_have_the_worked_examples() -> None:
     assert set(examples()) == {"bump_and_turn", "remember_hit", "wait_until_calm", "three_thresholds",
                                "first_mark", "back_on_road", "walls_ahead", "distance_driven", "nearest_sonar",
-                               "log_and_drive", "keep_right", "patrol", "odometry", "lidar_sectors"}
+                               "log_and_drive", "keep_right", "patrol", "odometry", "lidar_sectors",
+                               "leader_follower", "formation_of_three"}
 
 
 def test_bump_and_turn_backs_up_for_one_second(tmp_path: Path) -> None:

@@ -69,10 +69,11 @@ def test_children_are_the_fields_that_hold_expressions() -> None:
 
 
 def test_walk_visits_every_node_in_evaluation_order() -> None:
-    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h, m[1:n], p[:q])")
+    e = parse_expr("[a, -b][k] + f(c if not d else e.x, 'text', 1 < g <= 2, true or h, m[1:n], p[:q]) + r[s].y",
+                   frozenset("r"))
     names = [n.id for n in ast.walk(e) if isinstance(n, ast.Name)]
     # the test of an 'if' before its branches
-    assert names == ["a", "b", "k", "d", "c", "e", "g", "h", "m", "n", "p", "q"]
+    assert names == ["a", "b", "k", "d", "c", "e", "g", "h", "m", "n", "p", "q", "s"]
     kinds = {type(n) for n in ast.walk(e)}
     assert kinds == set(ast.node_classes())  # this expression has one node of every kind
 
