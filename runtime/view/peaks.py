@@ -18,6 +18,7 @@ so that a signal that flips is a band and a step or a slow signal is a line.
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Sequence
 from operator import itemgetter
 
@@ -37,22 +38,30 @@ def _getter(indices: Sequence[int]) -> Callable[[Sequence[object]], tuple]:
 
 
 class Kept:
-    """One robot's chart values of the ticks since the last frame, flat in ``values``: each
-    tick's sensor channels' (``Sampler.read``) then its numeric slots' (``Sampler.keep``),
-    ``width`` values a tick, one tick after the other. The ticks are consecutive from ``first``
-    (every robot acts on every tick) but for the first ``len(ticks)``, listed once thinned. One
-    list extended twice a tick, and no tick noted, cost a tick a third less than three lists."""
+    """One robot's chart values of the ticks since the last frame, flat: each tick's sensor
+    channels' (``Sampler.read``) then its numeric slots' (``Sampler.keep``), ``width`` values a
+    tick, one tick after the other. The ticks are consecutive from ``first`` (every robot acts on
+    every tick) but for the first ``len(ticks)``, listed once thinned. One list extended twice a
+    tick, and no tick noted, cost a tick a third less than three lists.
 
-    __slots__ = ("first", "ticks", "values", "width")
+    ``packed``: the values as C doubles in ``data`` (``struct`` packed, a value that is no number
+    as nan), made while the tick's values are fresh in the cache; else Python's objects in
+    ``values`` (a joint's tuple among them). A frame turned a thousand ticks of Python floats into
+    numpy's at 40 ns a value, read back from all over memory: more than the tick's packing costs."""
 
-    def __init__(self, first: int = 0, width: int = 0) -> None:
+    __slots__ = ("data", "first", "ticks", "values", "width")
+
+    def __init__(self, first: int = 0, width: int = 0, packed: bool = False) -> None:
         self.first = first
         self.width = width
         self.values: list = []
+        self.data: bytearray | None = bytearray() if packed else None
         self.ticks: list[int] = []
 
     def __len__(self) -> int:
-        return len(self.values) // self.width if self.width else 0
+        if not self.width:
+            return 0
+        return len(self.data) // (8 * self.width) if self.data is not None else len(self.values) // self.width
 
     def tick_list(self) -> list[int]:
         """The tick of each kept row."""
@@ -65,14 +74,40 @@ class Kept:
         ticks, w = self.tick_list(), self.width
         rows = [*range(0, len(ticks) - 1, 2), len(ticks) - 1]
         self.ticks = [ticks[r] for r in rows]
-        self.values = [v for r in rows for v in self.values[r * w:(r + 1) * w]]
+        if self.data is not None:
+            m = np.frombuffer(self.data, dtype=float).reshape(len(ticks), w)[rows]  # a copy: the buffer is free
+            self.data = bytearray(m.tobytes())
+        else:
+            self.values = [v for r in rows for v in self.values[r * w:(r + 1) * w]]
 
     def drop_last(self) -> Kept:
         """These ticks but the last (the frame itself shows it), in place."""
         n = len(self)
         if n:
-            del self.values[len(self.values) - self.width:], self.ticks[n - 1:]
+            if self.data is not None:
+                del self.data[len(self.data) - 8 * self.width:]
+            else:
+                del self.values[len(self.values) - self.width:]
+            del self.ticks[n - 1:]
         return self
+
+    def numbers(self) -> np.ndarray | None:
+        """The packed values, one row a tick; None when they are Python's objects."""
+        if self.data is None:
+            return None
+        n = len(self)
+        return np.frombuffer(self.data, dtype=float, count=n * self.width).reshape(n, self.width).copy()
+
+
+PACK_ERRORS = (struct.error, OverflowError)  # what packing a value that is no number raises
+
+
+def packed(pack: Callable[..., bytes], row: Sequence[object]) -> bytes:
+    """``row`` packed as doubles, a value that is no number (None, an image, a text) as nan."""
+    try:
+        return pack(*row)
+    except PACK_ERRORS:
+        return pack(*(_float(v) for v in row))
 
 
 class Sampler:
@@ -95,6 +130,8 @@ class Sampler:
         self._flat = all(part < 0 for _, _, part in sensors)
         # the channels and slots a tick keeps, when each is a column of its own (a recorder's hook writes them out)
         self.columns = (channels, numeric_slots) if self._flat else None
+        # a tick's values packed as doubles (``Kept.data``) when each is a column of its own
+        self.pack = struct.Struct(f"{self.width}d").pack if self._flat else None
         width = len(channels) if self._flat else len(sensors)
         # where each chart column sits in a kept row (sensors, then numeric slots); -1: not a number
         order, k = [], 0
@@ -113,6 +150,9 @@ class Sampler:
         """The kept ticks' chart values, one row a column and one column a tick (the reductions
         below run along a row, several times faster than down a column)."""
         n, w, wr = len(kept), kept.width, self._wr
+        m = kept.numbers()
+        if m is not None:
+            return self._columns_of(m, n)
         try:  # the common case: every value a number (an int, a bool, a float)
             if not self._flat:
                 raise TypeError
@@ -124,6 +164,10 @@ class Sampler:
                 rows = [[r[c] if p < 0 else (r[c][p] if isinstance(r[c], tuple) and p < len(r[c]) else None)
                          for c, p in self._parts] + r[wr:] for r in rows]
             m = np.array([[_float(v) for v in row] for row in rows], dtype=float).reshape(n, -1)
+        return self._columns_of(m, n)
+
+    def _columns_of(self, m: np.ndarray, n: int) -> np.ndarray:
+        """The chart's columns of the kept rows ``m`` (a tick a row), one row a column."""
         if self._gaps:
             m = np.concatenate((m, np.full((n, 1), math.nan)), axis=1)
         return np.ascontiguousarray(m.T[self._columns])
@@ -190,7 +234,10 @@ def _monotone(m: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple[np.n
 
 def _float(v: object) -> float:
     if isinstance(v, (bool, int, float, np.integer, np.floating)):
-        return float(v)
+        try:
+            return float(v)
+        except OverflowError:  # an int beyond a double's range
+            return math.inf if v > 0 else -math.inf  # type: ignore[operator]
     return math.nan
 
 

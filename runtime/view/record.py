@@ -15,6 +15,7 @@ breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -24,7 +25,7 @@ from labsim.foundation.code_writer import Writer, render
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
-from labsim.runtime.view.peaks import Kept
+from labsim.runtime.view.peaks import PACK_ERRORS, Kept, packed
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
@@ -130,6 +131,7 @@ class TickRecorder(Watcher):
         self._inputs: Any = None  # the run's slider moves and changes by hand (``Inputs``), if any
         self.read: Any = None  # see ``chart``
         self.keep: Any = None
+        self.pack: Any = None
         self.width = 0
         self._limit = 0
 
@@ -151,11 +153,13 @@ class TickRecorder(Watcher):
     def chart(self, read: Any, keep: Any, width: int, columns: tuple[Sequence[int], Sequence[int]] | None = None) -> None:
         """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
         together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes. ``columns``, the
-        channels and slots read (when every column is a value of its own), make ``after_act`` a
-        generated function (``fast_after_act``): the run's hooks are to be collected again."""
+        channels and slots read (when every column is a value of its own), has them packed as doubles
+        (``Kept.data``) and makes ``after_act`` a generated function (``fast_after_act``): the run's
+        hooks are to be collected again."""
         self.read, self.keep, self.width = read, keep, width
+        self.pack = struct.Struct(f"{width}d").pack if columns is not None else None
         self._limit = MAX_SAMPLES_KEPT * width
-        self.samples = [Kept(self._run.tick_index if self._run is not None else 0, width) for _ in self.xy]
+        self.samples = [self._kept(self._run.tick_index if self._run is not None else 0) for _ in self.xy]
         self.__dict__.pop("after_act", None)
         if columns is not None and self.xy and all(xy == self.xy[0] for xy in self.xy):
             self.after_act = fast_after_act(self, *columns)  # type: ignore[method-assign]
@@ -185,12 +189,18 @@ class TickRecorder(Watcher):
             self.paths[i].add(values[xy[0]], values[xy[1]])
             if len(xy) > 2 and bool(values[xy[2]]) is not self.touching[i]:  # a collision begins (or ends)
                 self._touch(robot, values, xy)
-        # every tick, so that a frame's envelope misses no peak: two itemgetter calls and two extends, in C
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
         kept = self.samples[i]
-        v = kept.values
-        v.extend(self.read(values))
-        v.extend(self.keep(slots))
-        if len(v) > self._limit:  # no page took them (none is ready): every other one goes
+        if kept.data is not None:
+            d = kept.data
+            d += packed(self.pack, self.read(values) + self.keep(slots))
+            full = len(d) > 8 * self._limit
+        else:
+            v = kept.values
+            v.extend(self.read(values))
+            v.extend(self.keep(slots))
+            full = len(v) > self._limit
+        if full:  # no page took them (none is ready): every other one goes
             kept.thin()
         if self.breaks:
             self._check(robot, rule, values)
@@ -261,8 +271,11 @@ class TickRecorder(Watcher):
     def take_samples(self, robot: int) -> Kept:
         """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
         assert self._run is not None
-        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept(self._run.tick_index, self.width)
+        kept, self.samples[robot] = self.samples[robot].drop_last(), self._kept(self._run.tick_index)
         return kept
+
+    def _kept(self, first: int) -> Kept:
+        return Kept(first, self.width, packed=self.pack is not None)
 
 
 def fast_after_act(rec: TickRecorder, channels: Sequence[int], slots: Sequence[int]) -> Callable[[RobotRun, int, list], None]:
@@ -292,18 +305,25 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int], slots: Sequence[i
         w.line("last[i] = values")
         if xy is not None:
             w.line(f"paths[i].add(values[{xy[0]}], values[{xy[1]}])")
-        if values:
+        if values:  # packed while the values are fresh in the cache (``Kept``)
+            row = f"({', '.join(values)},)"
             w.line("kept = samples[i]")
-            w.line("v = kept.values")
-            w.line(f"v.extend(({', '.join(values)},))")
-            w.line("if len(v) > LIMIT:")
+            w.line("d = kept.data")
+            w.line("try:")
+            with w.indent():
+                w.line(f"d += PACK{row[:-2]})")
+            w.line("except PACK_ERRORS:")
+            with w.indent():
+                w.line(f"d += packed(PACK, {row})")
+            w.line("if len(d) > LIMIT:")
             with w.indent():
                 w.line("kept.thin()")
     source = render(w.body())[0]
     space: dict[str, Any] = {"general": TickRecorder.after_act.__get__(rec), "states": rec.states, "STATE": STATE,
                              "breaks": rec.breaks, "inputs": rec._inputs, "touching": rec.touching,
                              "last_rule": rec.last_rule, "last": rec.last, "paths": rec.paths,
-                             "samples": rec.samples, "LIMIT": rec._limit}
+                             "samples": rec.samples, "LIMIT": 8 * rec._limit, "PACK": rec.pack,
+                             "PACK_ERRORS": PACK_ERRORS, "packed": packed}
     exec(compile(source, "<labsim view tick>", "exec"), space)  # column indices only, no file text
     made: Callable[[RobotRun, int, list], None] = space["after_act"]
     return made
