@@ -19,6 +19,7 @@ from typing import Any
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
 from labsim.dsl.library.builtins import Type
+from labsim.dsl.library.support import metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert
@@ -262,7 +263,9 @@ class LiveSession(Session):
         run, obs = self.run, self.observed
         assert obs is not None
         p = run.program
-        metrics = run.result().robots if p.metric_names else {}
+        # each robot's metrics so far, as the run's result has them (not the whole result: a tenth of a frame)
+        metrics = {r.name: [number(metric_result(agg, acc, p.dt_s)) for agg, acc in
+                            zip(p.metric_aggregates, r.program.metric_values)] for r in run.robots}
         robots = []
         rec, dt = self.recorder, p.dt_s
         paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
@@ -273,7 +276,7 @@ class LiveSession(Session):
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
-            done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
+            done = metrics[r.name]
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             pose = self._pose(r.index, r.start) if r.model is not None else None
