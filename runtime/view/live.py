@@ -36,9 +36,11 @@ from labsim.runtime.view.frames import (
     channel_kinds,
     message,
     number,
+    part,
     png_data_url,
     robot_doc,
     sensor_columns,
+    short,
     world_doc,
 )
 from labsim.runtime.view.hands import block_message, blocks_doc, place_message
@@ -268,7 +270,7 @@ class LiveSession(Session):
                             zip(p.metric_aggregates, r.program.metric_values)] for r in run.robots}
         robots = []
         rec, dt = self.recorder, p.dt_s
-        paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
+        paths = [[[short(x), short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
         events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
         left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3  # chart: < 4 KB
                    - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number ~8 bytes
@@ -280,7 +282,7 @@ class LiveSession(Session):
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             pose = self._pose(r.index, r.start) if r.model is not None else None
-            hits: list = [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else []
+            hits: list = [[short(x), short(y)] for x, y in rec.hits[r.index]] if take else []
             path: list = paths[r.index]
             samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
                 if take else []
@@ -322,7 +324,7 @@ class LiveSession(Session):
         """A robot's sensor, signal and slider columns from one tick's readings and slots."""
         p = self.run.program if self.run is not None else None
         assert p is not None
-        values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
+        values = [part(read[i], k) if read is not None else None for _, i, k in self._sensors]
         values += [number(slots[s]) for s in self._lets]
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
@@ -488,19 +490,3 @@ class LiveSession(Session):
         """A change that did not compile: the page gets the diagnostics, the run goes on."""
         raise ChangeRefused([d.format() for d in self.refused])
 
-
-def _short(v: object) -> float | str | None:
-    """A path point's coordinate: a tenth of a millimetre is plenty to draw and keeps frames
-    small (``round`` is three times as fast as formatting to significant digits)."""
-    if type(v) is float and v - v == 0.0:  # finite
-        return round(v, 4)
-    n = number(v)
-    return round(n, 4) if isinstance(n, float) else n
-
-
-def _part(value: object, part: int) -> float | str | None:
-    if part < 0:
-        return number(value)
-    if isinstance(value, tuple) and part < len(value):
-        return number(value[part])
-    return None

@@ -150,7 +150,8 @@ class TickRecorder(Watcher):
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.chart(lambda _values: (), lambda _slots: (), 0)
 
-    def chart(self, read: Any, keep: Any, width: int, columns: tuple[Sequence[int], Sequence[int]] | None = None) -> None:
+    def chart(self, read: Any, keep: Any, width: int,
+              columns: tuple[Sequence[int], Sequence[int]] | None = None) -> None:
         """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
         together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes. ``columns``, the
         channels and slots read (when every column is a value of its own), has them packed as doubles
@@ -278,52 +279,59 @@ class TickRecorder(Watcher):
         return Kept(first, self.width, packed=self.pack is not None)
 
 
-def fast_after_act(rec: TickRecorder, channels: Sequence[int], slots: Sequence[int]) -> Callable[[RobotRun, int, list], None]:
+def fast_after_act(rec: TickRecorder, channels: Sequence[int],
+                   slots: Sequence[int]) -> Callable[[RobotRun, int, list], None]:
     """``rec.after_act`` as one generated function: a tick with nothing to note (no state entered,
     no event, slider move, collision begun or ended, no breakpoint set) keeps the rule, the
-    readings, the path point and the chart's values (one tuple of the columns, written out, and
-    one ``extend``); any other goes the general way. Every robot's readings put its position at
-    the same place (``rec.xy``). A tuple written out and the recorder's lists as the function's
-    globals cost a tick half the general hook's time."""
+    readings, the path point and the chart's values (the columns written out, packed in one
+    call); any other goes the general way. Every robot's readings put its position at the same
+    place (``rec.xy``); a single robot's slots and events lists are the function's globals (a
+    run keeps them for its length). Columns written out and the recorder's lists as globals cost
+    a tick half the general hook's time."""
+    assert rec._run is not None
     xy = rec.xy[0]
-    values = [f"values[{i}]" for i in channels] + [f"s[{i}]" for i in slots]
+    one = len(rec.xy) == 1
+    i = "0" if one else "i"
+    values = [f"values[{c}]" for c in channels] + [f"s[{c}]" for c in slots]
     w = Writer()
     w.line("def after_act(r, rule, values):")
     with w.indent():
-        w.line("i = r.index")
-        w.line("prog = r.program")
-        w.line("s = prog.slots")
-        unusual = ["s[STATE] != states[i]", "prog.events", "breaks"]
+        if not one:
+            w.line("i = r.index")
+            w.line("prog = r.program")
+            w.line("s, events = prog.slots, prog.events")
+        unusual = [f"s[STATE] != states[{i}]", "events", "breaks"]
         if rec._inputs is not None:
-            unusual.append("(inputs.applied and i == 0)")
-        if xy is not None and len(xy) > 2:
-            unusual.append(f"bool(values[{xy[2]}]) is not touching[i]")
+            unusual.append("inputs.applied" if one else "(inputs.applied and i == 0)")
+        if xy is not None and len(xy) > 2:  # a collision begins or ends (the general hook tells which)
+            unusual.append(f"values[{xy[2]}] != touching[{i}]")
         w.line(f"if {' or '.join(unusual)}:")
         with w.indent():
             w.line("return general(r, rule, values)")
-        w.line("last_rule[i] = rule")
-        w.line("last[i] = values")
+        w.line(f"last_rule[{i}] = rule")
+        w.line(f"last[{i}] = values")
         if xy is not None:
-            w.line(f"paths[i].add(values[{xy[0]}], values[{xy[1]}])")
+            w.line(f"paths[{i}].add(values[{xy[0]}], values[{xy[1]}])")
         if values:  # packed while the values are fresh in the cache (``Kept``)
-            row = f"({', '.join(values)},)"
-            w.line("kept = samples[i]")
+            row = ", ".join(values)
+            w.line(f"kept = samples[{i}]")
             w.line("d = kept.data")
             w.line("try:")
             with w.indent():
-                w.line(f"d += PACK{row[:-2]})")
+                w.line(f"d += PACK({row})")
             w.line("except PACK_ERRORS:")
             with w.indent():
-                w.line(f"d += packed(PACK, {row})")
+                w.line(f"d += packed(PACK, ({row},))")
             w.line("if len(d) > LIMIT:")
             with w.indent():
                 w.line("kept.thin()")
     source = render(w.body())[0]
+    first = rec._run.robots[0].program
     space: dict[str, Any] = {"general": TickRecorder.after_act.__get__(rec), "states": rec.states, "STATE": STATE,
                              "breaks": rec.breaks, "inputs": rec._inputs, "touching": rec.touching,
                              "last_rule": rec.last_rule, "last": rec.last, "paths": rec.paths,
                              "samples": rec.samples, "LIMIT": 8 * rec._limit, "PACK": rec.pack,
-                             "PACK_ERRORS": PACK_ERRORS, "packed": packed}
+                             "PACK_ERRORS": PACK_ERRORS, "packed": packed, "s": first.slots, "events": first.events}
     exec(compile(source, "<labsim view tick>", "exec"), space)  # column indices only, no file text
     made: Callable[[RobotRun, int, list], None] = space["after_act"]
     return made

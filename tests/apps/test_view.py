@@ -23,7 +23,7 @@ from labsim.runtime.trace import fmt, read_trace
 from labsim.runtime.view.frames import SCHEMA
 from labsim.runtime.view.live import ChangeRefused, LiveSession
 from labsim.runtime.view.replay import load_replay
-from labsim.runtime.view.session import BadMessage
+from labsim.runtime.view.session import CHECK_EVERY, BadMessage
 
 CRANE, ROAD, WALL = (ROOT / "behaviours" / f for f in ("crane.yaml", "road_follow.yaml", "wall_follow.yaml"))
 
@@ -118,7 +118,7 @@ def test_as_fast_as_it_goes_runs_for_most_of_a_frame_then_yields() -> None:
         return ticking(n)
     s.advance = advance  # type: ignore[method-assign]
     ran = s.catch_up(budget_s=0.025)
-    assert 25 <= ran <= 25 + 16  # checked every 16 ticks
+    assert 25 <= ran <= 25 + CHECK_EVERY  # the clock is looked at every CHECK_EVERY ticks
     s.close()
 
 
