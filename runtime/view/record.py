@@ -310,8 +310,29 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int],
             w.line("return general(r, rule, values)")
         w.line(f"last_rule[{i}] = rule")
         w.line(f"last[{i}] = values")
-        if xy is not None:
-            w.line(f"paths[{i}].add(values[{xy[0]}], values[{xy[1]}])")
+        if xy is not None:  # ``PathThinner.add``'s common case written out: a call less a tick
+            w.line(f"p = paths[{i}]")
+            w.line(f"x = values[{xy[0]}]")
+            w.line(f"y = values[{xy[1]}]")
+            w.line("if p._on:")
+            with w.indent():
+                w.line("dx = x - p._ax")
+                w.line("dy = y - p._ay")
+                w.line("tol = p.tol")
+                w.line("if -tol <= dx * p._uy - dy * p._ux <= tol and "
+                       "(along := dx * p._ux + dy * p._uy) >= p._along - tol:")
+                with w.indent():
+                    w.line("if along > p._along:")
+                    with w.indent():
+                        w.line("p._along = along")
+                    w.line("p._lx = x")
+                    w.line("p._ly = y")
+                w.line("else:")
+                with w.indent():
+                    w.line("p._add(x, y)")
+            w.line("else:")
+            with w.indent():
+                w.line("p._add(x, y)")
         if values:  # packed while the values are fresh in the cache (``Kept``)
             row = ", ".join(values)
             w.line(f"kept = samples[{i}]")

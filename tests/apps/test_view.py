@@ -474,6 +474,43 @@ def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> No
     assert after[gap + 1] == (5.0, 5.0) and all(math.isfinite(x) for x, _ in after[gap + 1:])
 
 
+def test_the_generated_tick_hook_keeps_what_the_general_one_keeps() -> None:
+    # a breakpoint that never holds sends every tick the general way: both pages must be the same
+    # (a front threshold of 5 cm: the robot bumps into walls, hundreds of collisions begun and ended)
+    sessions = [LiveSession(WALL, {"front": "0.05"}, warn=lambda m: None, clock=FakeClock(), breaks=b)
+                for b in ([], ["time:100000"])]
+    assert all(s.load() and "after_act" in vars(s.recorder) for s in sessions)
+    fast, general = sessions
+    for _ in range(10):
+        a, b = fast.advance(1009), general.advance(1009)
+        assert a == b
+        fa, fb = fast.frame(), general.frame()
+        assert fa["robots"] == fb["robots"] and fa["events"] == fb["events"]
+    assert fast.recorder.collisions[0] > 0  # the wall lab bumps: collisions were seen both ways
+    fast.close()
+    general.close()
+
+
+def test_kept_chart_values_pack_and_thin_as_the_python_ones() -> None:
+    import struct
+
+    from labsim.runtime.view.peaks import Kept, packed
+    pack = struct.Struct("3d").pack
+    as_list, as_doubles = Kept(5, 3), Kept(5, 3, packed=True)
+    for t in range(101):
+        row = (float(t), t % 2 == 0, None if t == 50 else -t)
+        as_list.values.extend(row)
+        as_doubles.data += packed(pack, row)  # type: ignore[operator]
+    for k in (as_list, as_doubles):
+        k.thin()
+    numbers = as_doubles.numbers()
+    assert numbers is not None and len(as_doubles) == len(as_list) == 51
+    assert as_doubles.tick_list() == as_list.tick_list() == [*range(5, 105, 2), 105]
+    assert numbers[25].tolist()[:2] == [50.0, 1.0] and math.isnan(numbers[25][2])
+    assert numbers[-1].tolist() == [100.0, 1.0, -100.0] and len(as_doubles.drop_last()) == 50
+    assert packed(pack, (10 ** 400, "a", -(10 ** 400))) == pack(math.inf, math.nan, -math.inf)
+
+
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
     s = live(WALL)
     sizes = []
