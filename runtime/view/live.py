@@ -136,7 +136,11 @@ class LiveSession(Session):
             [True] * len(program.slider_names)
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
         self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width, self._sampler.columns)
-        run.tick = make_tick(run, hooks(run.observers))  # the recorder's hook, generated for these columns
+        given = hooks(run.observers)
+        run.tick = make_tick(run, given)  # the recorder's hook, generated for these columns
+        # and a tick without the inputs' hook, for stretches with no move to apply (``Inputs.quiet``)
+        moves = getattr(run.inputs, "before_tick", None)
+        self._quiet = make_tick(run, replace(given, before_tick=tuple(h for h in given.before_tick if h != moves)))
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
@@ -167,6 +171,8 @@ class LiveSession(Session):
         if run is None:
             return 0
         tick, rec = run.tick, self.recorder
+        if run.inputs is not None and run.inputs.quiet(run.tick_index, n):
+            tick = self._quiet  # a call less a tick
         rec.hit = None  # Play or Step goes on from a breakpoint
         k = 0
         try:  # the run's backstop, as Run.run has it (set by ticking() when catching up)

@@ -139,6 +139,7 @@ def test_step_pause_and_the_end_of_a_run(write) -> None:  # type: ignore[no-unty
 
 def test_slider_messages_reach_the_run() -> None:
     s = live(CRANE, timeline=False)
+    s.advance(5)  # ticks with no move to apply: the move below must still land on the next tick
     s.handle({"type": "slider", "name": "arm", "value": 5})
     s.advance(20)  # one second of simulated time
     frame = s.frame()
@@ -489,6 +490,22 @@ def test_the_generated_tick_hook_keeps_what_the_general_one_keeps() -> None:
     assert fast.recorder.collisions[0] > 0  # the wall lab bumps: collisions were seen both ways
     fast.close()
     general.close()
+
+
+def test_timeline_moves_inside_a_stretch_of_ticks_land_on_their_tick(tmp_path: Path) -> None:
+    # stretches of 37 ticks: the crane's moves at 6, 8 and 14 s (ticks 120, 160, 280) fall inside
+    # them, where the view ticks with the inputs' hook; between moves it ticks without
+    viewed, ran = tmp_path / "view.csv", tmp_path / "run.csv"
+    s = live(CRANE, trace=viewed)
+    while s.tick < 330:
+        s.advance(37)
+    s.close()
+    assert main(["run", str(CRANE), "--trace", str(ran), "-q"]) == 0
+    a, b = read_trace(viewed), read_trace(ran)
+    assert a.columns == b.columns and len(a.rows) >= 330
+    assert a.rows[:330] == b.rows[:330]
+    events = ";".join(a.column("events"))
+    assert "arm=0.1" in events and "crab=0.6" in events
 
 
 def test_kept_chart_values_pack_and_thin_as_the_python_ones() -> None:
