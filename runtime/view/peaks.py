@@ -243,5 +243,5 @@ def _float(v: object) -> float:
         try:
             return float(v)
         except OverflowError:  # an int beyond a double's range
-            return math.inf if v > 0 else -math.inf  # type: ignore[operator]
+            return math.inf if v > 0 else -math.inf
     return math.nan

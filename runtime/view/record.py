@@ -163,7 +163,7 @@ class TickRecorder(Watcher):
         self.samples = [self._kept(self._run.tick_index if self._run is not None else 0) for _ in self.xy]
         self.__dict__.pop("after_act", None)
         if columns is not None and self.xy and all(xy == self.xy[0] for xy in self.xy):
-            self.after_act = fast_after_act(self, *columns)  # type: ignore[method-assign]
+            self.after_act = fast_after_act(self, *columns)  # type: ignore[method-assign,assignment]
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
