@@ -310,42 +310,10 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int],
             w.line("return general(r, rule, values)")
         w.line(f"last_rule[{i}] = rule")
         w.line(f"last[{i}] = values")
-        if xy is not None:  # ``PathThinner.add``'s common case written out: a call less a tick
-            w.line(f"p = paths[{i}]")
-            w.line(f"x = values[{xy[0]}]")
-            w.line(f"y = values[{xy[1]}]")
-            w.line("if p._on:")
-            with w.indent():
-                w.line("dx = x - p._ax")
-                w.line("dy = y - p._ay")
-                w.line("tol = p.tol")
-                w.line("if -tol <= dx * p._uy - dy * p._ux <= tol and "
-                       "(along := dx * p._ux + dy * p._uy) >= p._along - tol:")
-                with w.indent():
-                    w.line("if along > p._along:")
-                    with w.indent():
-                        w.line("p._along = along")
-                    w.line("p._lx = x")
-                    w.line("p._ly = y")
-                w.line("else:")
-                with w.indent():
-                    w.line("p._add(x, y)")
-            w.line("else:")
-            with w.indent():
-                w.line("p._add(x, y)")
-        if values:  # packed while the values are fresh in the cache (``Kept``)
-            row = ", ".join(values)
-            w.line(f"kept = samples[{i}]")
-            w.line("d = kept.data")
-            w.line("try:")
-            with w.indent():
-                w.line(f"d += PACK({row})")
-            w.line("except PACK_ERRORS:")
-            with w.indent():
-                w.line(f"d += packed(PACK, ({row},))")
-            w.line("if len(d) > LIMIT:")
-            with w.indent():
-                w.line("kept.thin()")
+        if xy is not None:
+            _path_lines(w, i, xy)
+        if values:
+            _chart_lines(w, i, ", ".join(values))
     source = render(w.body())[0]
     first = rec._run.robots[0].program
     space: dict[str, Any] = {"general": TickRecorder.after_act.__get__(rec), "states": rec.states, "STATE": STATE,
@@ -356,3 +324,45 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int],
     exec(compile(source, "<labsim view tick>", "exec"), space)  # column indices only, no file text
     made: Callable[[RobotRun, int, list], None] = space["after_act"]
     return made
+
+
+
+def _path_lines(w: Writer, i: str, xy: tuple[int, ...]) -> None:
+    """``PathThinner.add``'s common case written out (a call less a tick); the rest its own way."""
+    w.line(f"p = paths[{i}]")
+    w.line(f"x = values[{xy[0]}]")
+    w.line(f"y = values[{xy[1]}]")
+    w.line("if p._on:")
+    with w.indent():
+        w.line("dx = x - p._ax")
+        w.line("dy = y - p._ay")
+        w.line("tol = p.tol")
+        w.line("if -tol <= dx * p._uy - dy * p._ux <= tol and "
+               "(along := dx * p._ux + dy * p._uy) >= p._along - tol:")
+        with w.indent():
+            w.line("if along > p._along:")
+            with w.indent():
+                w.line("p._along = along")
+            w.line("p._lx = x")
+            w.line("p._ly = y")
+        w.line("else:")
+        with w.indent():
+            w.line("p._add(x, y)")
+    w.line("else:")
+    with w.indent():
+        w.line("p._add(x, y)")
+
+
+def _chart_lines(w: Writer, i: str, row: str) -> None:
+    """The tick's chart values packed while they are fresh in the cache (``Kept``), in one call."""
+    w.line(f"kept = samples[{i}]")
+    w.line("d = kept.data")
+    w.line("try:")
+    with w.indent():
+        w.line(f"d += PACK({row})")
+    w.line("except PACK_ERRORS:")
+    with w.indent():
+        w.line(f"d += packed(PACK, ({row},))")
+    w.line("if len(d) > LIMIT:")
+    with w.indent():
+        w.line("kept.thin()")
