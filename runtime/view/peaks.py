@@ -3,13 +3,14 @@
 At "as fast as it goes" a thousand ticks run between two frames and a frame carries a few
 dozen chart rows. Picking evenly spread ticks aliases: the line lab's ``steer``, which flips
 sign every tick or two, was drawn as slow pulses. ``Sampler`` keeps every tick's chart values
-(two C-level ``itemgetter`` calls a tick: the sensor readings and the numeric slots) and hands a
+(the sensor readings and the numeric slots: ``read`` and ``keep``, or written out) and hands a
 frame, per group of consecutive ticks, two rows: the group's first time with each column's
 least value and its last time with the greatest (the min/max envelope that PlotJuggler and
 uPlot draw per pixel column); a column that only fell over the group has its greatest first.
-A tick costs two C-level ``extend`` calls onto one flat list (``Kept``) and a frame one
-``numpy.array`` of floats: a list of per-tick tuples cost a frame three times as much, a
-microsecond a tick at "as fast as it goes".
+A tick's values are packed as doubles onto one ``bytearray`` per robot (``Kept``), in the live
+view's generated tick hook, while they are fresh in the cache, and a frame reads them with
+``numpy.frombuffer``: turning a frame's worth of Python floats into numpy's cost more than the
+packing, and a list of per-tick tuples three times that.
 The frame says, per pair and column, whether the column went both ways within the group
 (``bands``): the page's chart draws such a pair as the band it spans (per pixel column the least
 and greatest value of every row that covers it) and any other as the line between its two rows,

@@ -11,6 +11,9 @@ corner), keeps the tick's chart values (``labsim.runtime.view.peaks.Kept``), not
 collision begun, a breakpoint that held: what the page's Events list shows), and asks the
 breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
 ``take_samples`` and ``take_events`` hand what was kept to the next frame and start again.
+When every chart column is a value of its own, the hook is generated for the run's columns
+(``fast_after_act``): a tick with nothing to note is a few lines written out, the rest goes the
+general way.
 """
 from __future__ import annotations
 
