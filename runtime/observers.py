@@ -20,6 +20,7 @@ The hooks, in the order a tick calls them:
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -100,6 +101,7 @@ class Inputs(Observer):
     def __init__(self, schedule: Schedule, hands: Hands | None = None,
                  apply: Callable[[Hand], str | None] | None = None):
         self.schedule = schedule
+        self._soonest: float | None = None  # the first tick with a move (None: to be looked up)
         self.applied: list[str] = []  # this tick's moves, "name=value"
         self._slots: list[list] = []
         self.hands = dict(hands or {})  # a replayed trace's changes by hand (robots, blocks), by tick
@@ -110,15 +112,28 @@ class Inputs(Observer):
         self._slots = [r.program.slots for r in run.robots]
 
     def before_tick(self, tick: int) -> None:
-        self.applied = []
-        for slot, value, text in self.schedule.pop(tick, ()):
-            for s in self._slots:
-                s[slot] = value
-            self.applied.append(text)
+        # every tick of a run with sliders or a live view: a tick with nothing to do makes no list
+        if self.applied:
+            self.applied = []
+        if tick in self.schedule:
+            self._soonest = None
+            for slot, value, text in self.schedule.pop(tick):
+                for s in self._slots:
+                    s[slot] = value
+                self.applied.append(text)
         if self.hands and tick in self.hands:
             self._redo(tick)
         if self.notes:
             self.applied += self.notes.pop(tick, ())
+
+    def quiet(self, tick: int, n: int) -> bool:
+        """Whether ticks ``tick`` to ``tick + n - 1`` have nothing to apply or clear: a live view
+        runs them without this hook (moves arrive between its stretches of ticks)."""
+        if self.applied or self.notes or self.hands:
+            return False
+        if self._soonest is None:  # a move was applied or added since the last look
+            self._soonest = min(self.schedule, default=math.inf)
+        return self._soonest >= tick + n
 
     def _redo(self, tick: int) -> None:
         """Change the world as the replayed trace's run did by hand, before this tick senses."""
@@ -131,6 +146,7 @@ class Inputs(Observer):
     def move(self, tick: int, slot: int, value: float, text: str) -> None:
         """A move from tick ``tick`` on (a live drag lands on the next tick's signals)."""
         self.schedule.setdefault(tick, []).append((slot, value, text))
+        self._soonest = None
 
 
 class Watcher(Observer):

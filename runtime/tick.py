@@ -91,13 +91,19 @@ def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[l
     s1, cmd1, events1, both = r1.program.slots, r1.program.command, r1.program.events, r1.program.both
     sense, step, send, fired = run.sense, run.step, run.send, run.fired
     n, dt = len(run.program.channels), run.dt_s
+    # a single hook of a kind (a live view's inputs, its recorder) called as it is, not through a loop
+    before1 = before[0] if len(before) == 1 else None
+    after1 = after[0] if len(after) == 1 else None
 
     def tick_one() -> bool:
         if run.finished:
             return False
         t = run.tick_index
-        for h in before:
-            h(t)
+        if before1 is not None:
+            before1(t)
+        else:
+            for h in before:
+                h(t)
         values = sense()[0]
         rule = both(t * dt, t, values if len(values) == n else values[:n])
         if rule == -2:
@@ -110,8 +116,11 @@ def _single(run: RunState, before: tuple[Hook, ...], act: Act, stop: Callable[[l
                 send(r1, cmd1[0], cmd1[1], rule)
             if r1.clamping:
                 r1.clamped_ticks += 1
-            for h in after:
-                h(r1, rule, values)
+            if after1 is not None:
+                after1(r1, rule, values)
+            else:
+                for h in after:
+                    h(r1, rule, values)
             s1[STATE] = cmd1[2]
         else:
             act(r1, s1, cmd1, events1, rule, values)

@@ -18,13 +18,16 @@ from typing import Any
 
 from labsim.backends import load_backend
 from labsim.backends.protocol import BackendError
+from labsim.dsl.library.support import metric_result
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.files import check_output, read_text
 from labsim.foundation.inert import inert
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.memory import memory_cap, out_of_memory
 from labsim.runtime.budgets import out_of_memory_message
+from labsim.runtime.observers import hooks
 from labsim.runtime.run import Behaviour, Run, compile_behaviour
+from labsim.runtime.tick import make_tick
 from labsim.runtime.view.breaks import MAX_BREAKPOINTS, Breakpoint, parse_break
 from labsim.runtime.view.edits import edited_text, save_over, wanted_params
 from labsim.runtime.view.frames import (
@@ -32,9 +35,11 @@ from labsim.runtime.view.frames import (
     channel_kinds,
     message,
     number,
+    part,
     png_data_url,
     robot_doc,
     sensor_columns,
+    short,
     shown_values,
     value_columns,
     value_slots,
@@ -129,7 +134,12 @@ class LiveSession(Session):
         self._state_slot = program.slot_of["state"]
         self._sample_slots = self._lets + [program.slot_of[n] for n in program.slider_names]
         self._sampler = Sampler(self._sensors, [s if ok else None for s, ok in zip(self._sample_slots, numeric)])
-        self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width)
+        self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width, self._sampler.columns)
+        given = hooks(run.observers)
+        run.tick = make_tick(run, given)  # the recorder's hook, generated for these columns
+        # and a tick without the inputs' hook, for stretches with no move to apply (``Inputs.quiet``)
+        moves = getattr(run.inputs, "before_tick", None)
+        self._quiet = make_tick(run, replace(given, before_tick=tuple(h for h in given.before_tick if h != moves)))
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]
@@ -160,6 +170,8 @@ class LiveSession(Session):
         if run is None:
             return 0
         tick, rec = run.tick, self.recorder
+        if run.inputs is not None and run.inputs.quiet(run.tick_index, n):
+            tick = self._quiet  # a call less a tick
         rec.hit = None  # Play or Step goes on from a breakpoint
         k = 0
         try:  # the run's backstop, as Run.run has it (set by ticking() when catching up)
@@ -257,10 +269,12 @@ class LiveSession(Session):
         run, obs = self.run, self.observed
         assert obs is not None
         p = run.program
-        metrics = run.result().robots if p.metric_names else {}
+        # each robot's metrics so far, as the run's result has them (not the whole result: a tenth of a frame)
+        metrics = {r.name: [number(metric_result(agg, acc, p.dt_s)) for agg, acc in
+                            zip(p.metric_aggregates, r.program.metric_values)] for r in run.robots}
         robots = []
         rec, dt = self.recorder, p.dt_s
-        paths = [[[_short(x), _short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
+        paths = [[[short(x), short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
         events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
         left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3  # chart: < 4 KB
                    - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number ~8 bytes
@@ -268,11 +282,11 @@ class LiveSession(Session):
         for r in run.robots:
             slots = r.program.slots
             read = obs.last[r.index] if obs.last else None
-            done = [number(metrics[r.name].metrics[m]) for m in p.metric_names] if p.metric_names else []
+            done = metrics[r.name]
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             pose = self._pose(r.index, r.start) if r.model is not None else None
-            hits: list = [[_short(x), _short(y)] for x, y in rec.hits[r.index]] if take else []
+            hits: list = [[short(x), short(y)] for x, y in rec.hits[r.index]] if take else []
             path: list = paths[r.index]
             samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
                 if take else []
@@ -314,7 +328,7 @@ class LiveSession(Session):
         """A robot's sensor, signal and slider columns from one tick's readings and slots."""
         p = self.run.program if self.run is not None else None
         assert p is not None
-        values = [_part(read[i], k) if read is not None else None for _, i, k in self._sensors]
+        values = [part(read[i], k) if read is not None else None for _, i, k in self._sensors]
         values += shown_values(slots, self._lets, self._states_read, p.state_names)
         values += [number(slots[p.slot_of[n]]) for n in p.slider_names]
         return values
@@ -480,19 +494,3 @@ class LiveSession(Session):
         """A change that did not compile: the page gets the diagnostics, the run goes on."""
         raise ChangeRefused([d.format() for d in self.refused])
 
-
-def _short(v: object) -> float | str | None:
-    """A path point's coordinate: a tenth of a millimetre is plenty to draw and keeps frames
-    small (``round`` is three times as fast as formatting to significant digits)."""
-    if type(v) is float and v - v == 0.0:  # finite
-        return round(v, 4)
-    n = number(v)
-    return round(n, 4) if isinstance(n, float) else n
-
-
-def _part(value: object, part: int) -> float | str | None:
-    if part < 0:
-        return number(value)
-    if isinstance(value, tuple) and part < len(value):
-        return number(value[part])
-    return None

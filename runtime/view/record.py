@@ -11,18 +11,24 @@ corner), keeps the tick's chart values (``labsim.runtime.view.peaks.Kept``), not
 collision begun, a breakpoint that held: what the page's Events list shows), and asks the
 breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
 ``take_samples`` and ``take_events`` hand what was kept to the next frame and start again.
+When every chart column is a value of its own, the hook is generated for the run's columns
+(``fast_after_act``): a tick with nothing to note is a few lines written out, the rest goes the
+general way.
 """
 from __future__ import annotations
 
 import math
+import struct
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from labsim.dsl.library.builtins import Aggregate
 from labsim.dsl.library.support import STATE
+from labsim.foundation.code_writer import Writer, render
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
 from labsim.runtime.view.breaks import Breakpoint
-from labsim.runtime.view.peaks import Kept
+from labsim.runtime.view.peaks import PACK_ERRORS, Kept, packed
 
 PATH_TOLERANCE_M = 0.005  # a drawn path is never further than this from the simulated one
 MAX_PATH_POINTS = 2000  # per robot between two frames (no page connected): the oldest go
@@ -128,6 +134,7 @@ class TickRecorder(Watcher):
         self._inputs: Any = None  # the run's slider moves and changes by hand (``Inputs``), if any
         self.read: Any = None  # see ``chart``
         self.keep: Any = None
+        self.pack: Any = None
         self.width = 0
         self._limit = 0
 
@@ -146,12 +153,20 @@ class TickRecorder(Watcher):
         self.states: list[float | None] = [None] * len(xy)  # each robot's state on the last tick run (before a goto)
         self.chart(lambda _values: (), lambda _slots: (), 0)
 
-    def chart(self, read: Any, keep: Any, width: int) -> None:
+    def chart(self, read: Any, keep: Any, width: int,
+              columns: tuple[Sequence[int], Sequence[int]] | None = None) -> None:
         """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
-        together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes."""
+        together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes. ``columns``, the
+        channels and slots read (when every column is a value of its own), has them packed as doubles
+        (``Kept.data``) and makes ``after_act`` a generated function (``fast_after_act``): the run's
+        hooks are to be collected again."""
         self.read, self.keep, self.width = read, keep, width
+        self.pack = struct.Struct(f"{width}d").pack if columns is not None else None
         self._limit = MAX_SAMPLES_KEPT * width
-        self.samples = [Kept(self._run.tick_index if self._run is not None else 0, width) for _ in self.xy]
+        self.samples = [self._kept(self._run.tick_index if self._run is not None else 0) for _ in self.xy]
+        self.__dict__.pop("after_act", None)
+        if columns is not None and self.xy and all(xy == self.xy[0] for xy in self.xy):
+            self.after_act = fast_after_act(self, *columns)  # type: ignore[method-assign,assignment]
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -178,12 +193,18 @@ class TickRecorder(Watcher):
             self.paths[i].add(values[xy[0]], values[xy[1]])
             if len(xy) > 2 and bool(values[xy[2]]) is not self.touching[i]:  # a collision begins (or ends)
                 self._touch(robot, values, xy)
-        # every tick, so that a frame's envelope misses no peak: two itemgetter calls and two extends, in C
+        # every tick, so that a frame's envelope misses no peak: two itemgetter calls, in C
         kept = self.samples[i]
-        v = kept.values
-        v.extend(self.read(values))
-        v.extend(self.keep(slots))
-        if len(v) > self._limit:  # no page took them (none is ready): every other one goes
+        if kept.data is not None:
+            d = kept.data
+            d += packed(self.pack, self.read(values) + self.keep(slots))
+            full = len(d) > 8 * self._limit
+        else:
+            v = kept.values
+            v.extend(self.read(values))
+            v.extend(self.keep(slots))
+            full = len(v) > self._limit
+        if full:  # no page took them (none is ready): every other one goes
             kept.thin()
         if self.breaks:
             self._check(robot, rule, values)
@@ -254,5 +275,97 @@ class TickRecorder(Watcher):
     def take_samples(self, robot: int) -> Kept:
         """The ticks kept since the last take, the last tick left out (the frame itself shows it)."""
         assert self._run is not None
-        kept, self.samples[robot] = self.samples[robot].drop_last(), Kept(self._run.tick_index, self.width)
+        kept, self.samples[robot] = self.samples[robot].drop_last(), self._kept(self._run.tick_index)
         return kept
+
+    def _kept(self, first: int) -> Kept:
+        return Kept(first, self.width, packed=self.pack is not None)
+
+
+def fast_after_act(rec: TickRecorder, channels: Sequence[int],
+                   slots: Sequence[int]) -> Callable[[RobotRun, int, list], None]:
+    """``rec.after_act`` as one generated function: a tick with nothing to note (no state entered,
+    no event, slider move, collision begun or ended, no breakpoint set) keeps the rule, the
+    readings, the path point and the chart's values (the columns written out, packed in one
+    call); any other goes the general way. Every robot's readings put its position at the same
+    place (``rec.xy``); a single robot's slots and events lists are the function's globals (a
+    run keeps them for its length). Columns written out and the recorder's lists as globals cost
+    a tick half the general hook's time."""
+    assert rec._run is not None
+    xy = rec.xy[0]
+    one = len(rec.xy) == 1
+    i = "0" if one else "i"
+    values = [f"values[{c}]" for c in channels] + [f"s[{c}]" for c in slots]
+    w = Writer()
+    w.line("def after_act(r, rule, values):")
+    with w.indent():
+        if not one:
+            w.line("i = r.index")
+            w.line("prog = r.program")
+            w.line("s, events = prog.slots, prog.events")
+        unusual = [f"s[STATE] != states[{i}]", "events", "breaks"]
+        if rec._inputs is not None:
+            unusual.append("inputs.applied" if one else "(inputs.applied and i == 0)")
+        if xy is not None and len(xy) > 2:  # a collision begins or ends (the general hook tells which)
+            unusual.append(f"values[{xy[2]}] != touching[{i}]")
+        w.line(f"if {' or '.join(unusual)}:")
+        with w.indent():
+            w.line("return general(r, rule, values)")
+        w.line(f"last_rule[{i}] = rule")
+        w.line(f"last[{i}] = values")
+        if xy is not None:
+            _path_lines(w, i, xy)
+        if values:
+            _chart_lines(w, i, ", ".join(values))
+    source = render(w.body())[0]
+    first = rec._run.robots[0].program
+    space: dict[str, Any] = {"general": TickRecorder.after_act.__get__(rec), "states": rec.states, "STATE": STATE,
+                             "breaks": rec.breaks, "inputs": rec._inputs, "touching": rec.touching,
+                             "last_rule": rec.last_rule, "last": rec.last, "paths": rec.paths,
+                             "samples": rec.samples, "LIMIT": 8 * rec._limit, "PACK": rec.pack,
+                             "PACK_ERRORS": PACK_ERRORS, "packed": packed, "s": first.slots, "events": first.events}
+    exec(compile(source, "<labsim view tick>", "exec"), space)  # column indices only, no file text
+    made: Callable[[RobotRun, int, list], None] = space["after_act"]
+    return made
+
+
+
+def _path_lines(w: Writer, i: str, xy: tuple[int, ...]) -> None:
+    """``PathThinner.add``'s common case written out (a call less a tick); the rest its own way."""
+    w.line(f"p = paths[{i}]")
+    w.line(f"x = values[{xy[0]}]")
+    w.line(f"y = values[{xy[1]}]")
+    w.line("if p._on:")
+    with w.indent():
+        w.line("dx = x - p._ax")
+        w.line("dy = y - p._ay")
+        w.line("tol = p.tol")
+        w.line("if -tol <= dx * p._uy - dy * p._ux <= tol and "
+               "(along := dx * p._ux + dy * p._uy) >= p._along - tol:")
+        with w.indent():
+            w.line("if along > p._along:")
+            with w.indent():
+                w.line("p._along = along")
+            w.line("p._lx = x")
+            w.line("p._ly = y")
+        w.line("else:")
+        with w.indent():
+            w.line("p._add(x, y)")
+    w.line("else:")
+    with w.indent():
+        w.line("p._add(x, y)")
+
+
+def _chart_lines(w: Writer, i: str, row: str) -> None:
+    """The tick's chart values packed while they are fresh in the cache (``Kept``), in one call."""
+    w.line(f"kept = samples[{i}]")
+    w.line("d = kept.data")
+    w.line("try:")
+    with w.indent():
+        w.line(f"d += PACK({row})")
+    w.line("except PACK_ERRORS:")
+    with w.indent():
+        w.line(f"d += packed(PACK, ({row},))")
+    w.line("if len(d) > LIMIT:")
+    with w.indent():
+        w.line("kept.thin()")

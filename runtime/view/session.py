@@ -20,7 +20,9 @@ from typing import Any
 from labsim.runtime.view.frames import FRAME_INTERVAL_S, Json, message
 
 MAX_SPEED = 1000.0  # beyond this a number is not a speed anyone means; "max" is the way to ask
-CHECK_EVERY = 16  # ticks between looks at the clock while catching up
+CHECK_EVERY = 16  # ticks between looks at the clock while catching up, at first (see ``Session.catch_up``)
+CHECK_MOST = 256  # and at most, for a run whose ticks take a few microseconds
+CHECK_S = 0.002  # the time a stretch of ticks between two looks at the clock aims at
 MAX_NAME = 200  # longest slider or parameter name a message may carry
 
 
@@ -71,6 +73,7 @@ class Session:
         self.playing = False
         self._rate: deque[tuple[float, int]] = deque(maxlen=64)  # (wall s, tick) samples
         self.stop: Any = None  # the server's StopSignals: a signal caught ends a catch-up between blocks
+        self._stretch = CHECK_EVERY  # ticks run between two looks at the clock
 
     # -- what subclasses provide --------------------------------------------------------
     @property
@@ -126,26 +129,35 @@ class Session:
         """Run the ticks that are due, for at most about ``budget_s`` of wall time.
 
         A run that cannot keep up drops its backlog (re-anchors), so that a slow stretch does
-        not turn into a burst later: the real-time factor shows it instead.
+        not turn into a burst later: the real-time factor shows it instead. The clock is looked
+        at about every ``CHECK_S``: the stretch of ticks between two looks doubles while it takes
+        less than half that and halves while it takes more (16 ticks a look were a tenth of the
+        view's own cost a tick on the wall lab; 256 of a camera lab's would overrun a frame).
         """
         if not self.playing or self.finished:
             self.note_rate()
             return 0
-        start = self.clock()
+        start = last = self.clock()
         due = self.pacer.due(start, self.tick)
         ran = 0
         with self.ticking():
             while ran < due:
-                n = self.advance(min(CHECK_EVERY, due - ran))
+                n = self.advance(min(self._stretch, due - ran))
                 ran += n
                 if n == 0 or self.finished or not self.playing:  # ended, or paused on a breakpoint
                     self.playing = False
                     break
                 if self.stop is not None and self.stop.signum:  # Ctrl-C, SIGTERM: the server ends
                     break
-                if self.clock() - start >= budget_s:
+                now = self.clock()
+                if now - last < CHECK_S / 2 and n == self._stretch:
+                    self._stretch = min(CHECK_MOST, 2 * n)
+                elif now - last > CHECK_S:
+                    self._stretch = max(1, self._stretch // 2)
+                last = now
+                if now - start >= budget_s:
                     if self.pacer.speed is not None:
-                        self.pacer.anchor(self.clock(), self.tick)
+                        self.pacer.anchor(now, self.tick)
                     break
         self.note_rate()
         return ran

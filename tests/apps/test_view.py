@@ -23,7 +23,7 @@ from labsim.runtime.trace import fmt, read_trace
 from labsim.runtime.view.frames import SCHEMA
 from labsim.runtime.view.live import ChangeRefused, LiveSession
 from labsim.runtime.view.replay import load_replay
-from labsim.runtime.view.session import BadMessage
+from labsim.runtime.view.session import CHECK_EVERY, BadMessage
 
 CRANE, ROAD, WALL = (ROOT / "behaviours" / f for f in ("crane.yaml", "road_follow.yaml", "wall_follow.yaml"))
 
@@ -118,7 +118,9 @@ def test_as_fast_as_it_goes_runs_for_most_of_a_frame_then_yields() -> None:
         return ticking(n)
     s.advance = advance  # type: ignore[method-assign]
     ran = s.catch_up(budget_s=0.025)
-    assert 25 <= ran <= 25 + 16  # checked every 16 ticks
+    assert 25 <= ran <= 25 + CHECK_EVERY  # the clock is looked at every CHECK_EVERY ticks at first
+    ran = s.catch_up(budget_s=0.025)
+    assert 25 <= ran <= 27  # then about every CHECK_S: slow ticks overrun a frame's budget by little
     s.close()
 
 
@@ -139,6 +141,7 @@ def test_step_pause_and_the_end_of_a_run(write) -> None:  # type: ignore[no-unty
 
 def test_slider_messages_reach_the_run() -> None:
     s = live(CRANE, timeline=False)
+    s.advance(5)  # ticks with no move to apply: the move below must still land on the next tick
     s.handle({"type": "slider", "name": "arm", "value": 5})
     s.advance(20)  # one second of simulated time
     frame = s.frame()
@@ -472,6 +475,59 @@ def test_a_thinned_path_keeps_its_corners_and_stays_within_the_tolerance() -> No
     after = thin.take()
     gap = next(i for i, (x, _) in enumerate(after) if math.isnan(x))
     assert after[gap + 1] == (5.0, 5.0) and all(math.isfinite(x) for x, _ in after[gap + 1:])
+
+
+def test_the_generated_tick_hook_keeps_what_the_general_one_keeps() -> None:
+    # a breakpoint that never holds sends every tick the general way: both pages must be the same
+    # (a front threshold of 5 cm: the robot bumps into walls, hundreds of collisions begun and ended)
+    sessions = [LiveSession(WALL, {"front": "0.05"}, warn=lambda m: None, clock=FakeClock(), breaks=b)
+                for b in ([], ["time:100000"])]
+    assert all(s.load() and "after_act" in vars(s.recorder) for s in sessions)
+    fast, general = sessions
+    for _ in range(10):
+        a, b = fast.advance(1009), general.advance(1009)
+        assert a == b
+        fa, fb = fast.frame(), general.frame()
+        assert fa["robots"] == fb["robots"] and fa["events"] == fb["events"]
+    assert fast.recorder.collisions[0] > 0  # the wall lab bumps: collisions were seen both ways
+    fast.close()
+    general.close()
+
+
+def test_timeline_moves_inside_a_stretch_of_ticks_land_on_their_tick(tmp_path: Path) -> None:
+    # stretches of 37 ticks: the crane's moves at 6, 8 and 14 s (ticks 120, 160, 280) fall inside
+    # them, where the view ticks with the inputs' hook; between moves it ticks without
+    viewed, ran = tmp_path / "view.csv", tmp_path / "run.csv"
+    s = live(CRANE, trace=viewed)
+    while s.tick < 330:
+        s.advance(37)
+    s.close()
+    assert main(["run", str(CRANE), "--trace", str(ran), "-q"]) == 0
+    a, b = read_trace(viewed), read_trace(ran)
+    assert a.columns == b.columns and len(a.rows) >= 330
+    assert a.rows[:330] == b.rows[:330]
+    events = ";".join(a.column("events"))
+    assert "arm=0.1" in events and "crab=0.6" in events
+
+
+def test_kept_chart_values_pack_and_thin_as_the_python_ones() -> None:
+    import struct
+
+    from labsim.runtime.view.peaks import Kept, packed
+    pack = struct.Struct("3d").pack
+    as_list, as_doubles = Kept(5, 3), Kept(5, 3, packed=True)
+    for t in range(101):
+        row = (float(t), t % 2 == 0, None if t == 50 else -t)
+        as_list.values.extend(row)
+        as_doubles.data += packed(pack, row)  # type: ignore[operator]
+    for k in (as_list, as_doubles):
+        k.thin()
+    numbers = as_doubles.numbers()
+    assert numbers is not None and len(as_doubles) == len(as_list) == 51
+    assert as_doubles.tick_list() == as_list.tick_list() == [*range(5, 105, 2), 105]
+    assert numbers[25].tolist()[:2] == [50.0, 1.0] and math.isnan(numbers[25][2])
+    assert numbers[-1].tolist() == [100.0, 1.0, -100.0] and len(as_doubles.drop_last()) == 50
+    assert packed(pack, (10 ** 400, "a", -(10 ** 400))) == pack(math.inf, math.nan, -math.inf)
 
 
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:

@@ -71,6 +71,10 @@ ALLOWED: dict[tuple[str, str], str] = {
         "a trace row's format, written from column indices and fixed names only; texts are arguments",
     ("runtime/observers.py", "compile(source, '<labsim trace row>', 'exec')"):
         "see the exec above",
+    ("runtime/view/record.py", "exec(compile(source, '<labsim view tick>', 'exec'), space)"):
+        "a live view's tick hook, written from column indices and fixed names only",
+    ("runtime/view/record.py", "compile(source, '<labsim view tick>', 'exec')"):
+        "see the exec above",
     ("backends/pymunk/fleet_sense.py", "exec(compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec'), env)"):
         "code generated from the models' channel tables, no user text",
     ("backends/pymunk/fleet_sense.py", "compile('\\n'.join(lines), '<labsim pymunk sense>', 'exec')"):
