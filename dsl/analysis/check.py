@@ -283,17 +283,11 @@ class _Checker(ExprChecker):
 
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
-        if name in SHADOWABLE:
-            return False  # a version 1 file may use it for its own
-        if name in KEYWORDS:
-            why = "is a keyword of the language"
-        elif name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
-            why = "is the name of a built-in function or action"
-        elif name in TRACE_COLUMNS:
-            why = "is the name of a trace column"
-        else:
+        why = _reserved_why(name)
+        if why is None:
             return False
         self.error(node, f"{what} '{name}' {why}; choose another name")
+        self.poisoned.add(name)  # reported here: its uses say nothing more
         return True
 
     def sliders(self) -> list[SliderDecl]:
@@ -507,9 +501,12 @@ class _Checker(ExprChecker):
 
     def lets(self) -> list[tuple[str, Parsed]]:
         out = []
-        later = {name: key for name, _, key in self.bf.lets}
+        # a signal refused for its name is not one to wait for: its uses above read what else has the name
+        later = {name: key for name, _, key in self.bf.lets if _reserved_why(name) is None}
+        self.poisoned |= {name for name, _, _ in self.bf.lets if name not in later}  # reported at the name
         for name, parsed, key in self.bf.lets:
             if self.taken(name):
+                later.pop(name)  # uses read what has the name already
                 self.clash(key, "signal", name)
                 continue
             if self.reserved(name, key, "signal"):
@@ -706,3 +703,14 @@ class _Checker(ExprChecker):
         return int(value) if isinstance(current, int) and value == int(value) else value
 
 
+def _reserved_why(name: str) -> str | None:
+    """Why a name the language or the trace already uses cannot be a file's own, or None if it can."""
+    if name in SHADOWABLE:
+        return None  # a version 1 file may use it for its own
+    if name in KEYWORDS:
+        return "is a keyword of the language"
+    if name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
+        return "is the name of a built-in function or action"
+    if name in TRACE_COLUMNS:
+        return "is the name of a trace column"
+    return None

@@ -32,6 +32,7 @@ from labsim.dsl.library.builtins import (
     FIELDS,
     FUNCTIONS,
     MEANT,
+    READ_BACK,
     REDUCTIONS,
     STATEFUL,
     Function,
@@ -289,7 +290,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
                            f"e.g. '{e.id}: prev({e.id}, 0) + 1' counts ticks; for counting and summing, "
                            "counter(...) and total(...) do it for you",))
             return None
-        if e.id in self.types:
+        # a read-back name (format 1.3) a signal below takes is that signal's, here not yet computed
+        if e.id in self.types and not (e.id in self.later and e.id in READ_BACK):
             self.used.add(e.id)
             return self.types[e.id]
         if e.id in self.poisoned or self.world_failed:
