@@ -260,3 +260,16 @@ def test_a_list_of_numbers_and_a_row_hold_as_many_as_a_group_and_a_list_ten_thou
                  "  s: sum(g) + min(w[tick % 2]) + count(w[tick % 3] > 1)\n" + RULES)
     # 2,000 + 2 + 1,000 members over 1; on tick 2 there is no row 2: its members are nan, none over 1
     assert signal_rows(path, ("s",))[0][:3] == [(3002.0,), (3002.0,), (2002.0,)]
+
+
+def test_a_list_read_while_running_is_bound_once_not_written_at_each_read(write) -> None:
+    rows = ", ".join(f"[{i}, {-i}, {i / 4}, 7]" for i in range(2500))  # 10,000 numbers, the most a list holds
+    reads = " + ".join(f"w[(tick + {j}) % 2500][{j % 4}]" for j in range(40))
+    path = write(HEAD.replace("tick >= 5", "tick >= 2") + f"params:\n  w: [{rows}]\n  g: [1, 2, 3]\nlet:\n"
+                 f"  a: {reads}\n  b: g[tick % 3] + g[tick % 2]\n" + RULES)
+    code = compile_file(path).code
+    # each column once, as a tuple make() binds; the numbers of a row appear nowhere in the source
+    assert [len(c) for c in code.columns] == [2500, 2500, 2500, 2500, 3]
+    assert "1249.0" not in code.source and len(code.source) < 20_000
+    expected = [sum((t + j) % 2500 * (1, -1, 0.25, 0)[j % 4] + 7 * (j % 4 == 3) for j in range(40)) for t in range(2)]
+    assert signal_rows(path, ("a", "b"))[0] == [(float(a), float(b)) for a, b in zip(expected, (2, 4))]
