@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M
 from labsim.dsl.compile import compile_file
 from labsim.foundation.diagnostics import LabsimError
 
@@ -69,3 +70,21 @@ def test_a_list_of_poses_is_format_1_3(write) -> None:
                  + RULES)
     assert [(line, col, m) for line, col, m, _ in diagnostics(path)] == [
         (5, 42, "a list of start poses, one per robot, is format 1.3: start the file with 'labsim: 1.3'")]
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.3"])
+def test_robots_placed_at_random_keep_clear_of_every_given_pose_declared_before_or_after(write, version: str) -> None:
+    at = "[[0, 0], [1, 1], [-1, -1], [2, -2]]" if version == "1.3" else "[0, 0]"
+    path = write(HEAD.replace("1.3", version).replace("tick >= 5", "tick >= 1")
+                 + f"  b: {{model: pioneer_p3dx, count: 40, at: random}}\n"
+                 f"  a: {{model: pioneer_p3dx, count: {4 if version == '1.3' else 1}, at: {at}}}\n"
+                 "  s: {model: pioneer_p3dx, count: 2, at: spawn}\nseed: 3\n" + RULES)
+    starts = compile_file(path).starts
+    given = [s.pose for s in starts if not s.name.startswith("b")]
+    drawn = [s.pose for s in starts if s.name.startswith("b")]
+    assert len(drawn) == 40 and [s.name for s in starts][:2] == ["b[0]", "b[1]"]  # named in the file's order
+    assert min(math.hypot(p.x_m - q.x_m, p.y_m - q.y_m) for p in drawn for q in given) >= 2 * PLACEMENT_CLEARANCE_M
+    # the same draws, the later given poses only turning away the ones too near them
+    earlier = compile_file(write(HEAD.replace("1.3", version) + "  b: {model: pioneer_p3dx, count: 3, at: random}\n"
+                                 "seed: 3\n" + RULES)).starts
+    assert [s.pose for s in earlier] == drawn[:3]
