@@ -61,6 +61,7 @@ class Linter:
             varying.update(name for name, _ in pairs)
         self.constants: dict[str, Any] = {k: v for k, v in c.params.items() if k not in varying}
         self.constants.update(CONSTANTS)
+        self.constants.update(c.lists)  # len(g), g[0] and waypoints[1][0] are known before the run (format 1.3)
         self.constants["dt"] = c.file.dt_s
         self.let_exprs = {name: p.node for name, p in c.lets}
         self.sliders = {sl.name: (sl.lo, sl.hi) for sl in c.sliders}

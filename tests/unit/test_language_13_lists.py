@@ -273,3 +273,15 @@ def test_a_list_read_while_running_is_bound_once_not_written_at_each_read(write)
     assert "1249.0" not in code.source and len(code.source) < 20_000
     expected = [sum((t + j) % 2500 * (1, -1, 0.25, 0)[j % 4] + 7 * (j % 4 == 3) for j in range(40)) for t in range(2)]
     assert signal_rows(path, ("a", "b"))[0] == [(float(a), float(b)) for a, b in zip(expected, (2, 4))]
+
+
+def test_a_condition_on_a_lists_length_or_values_is_known_before_the_run(write) -> None:
+    path = write(HEAD.replace("stop: tick >= 5", "stop: len(g) < 1") + "params:\n  g: [1, 2]\n" + RULES)
+    assert diagnostics(path) == [(3, 7, "the stop condition never holds (it is always false): the run would never end",
+                                  ("e.g. 'stop: time >= 60' ends the run after a simulated minute",))]
+    path = write(HEAD + LIST + "  g: [1, 2]\nrules:\n  - if g[0] > 5 then move(4)\n"
+                 "  - if waypoints[2][1] < -3 and len(g) > 1 then move(3)\n  - else move(2)\n")
+    assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
+        (10, 8, "this condition never holds: the rule never fires"),
+        (12, 5, "this rule can never fire: the condition of the rule on line 11 always holds, and that rule fires "
+                "first")]
