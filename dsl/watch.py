@@ -29,7 +29,7 @@ from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document, Text
 
@@ -234,6 +234,16 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                               "does not read: a breakpoint sees what the behaviour reads",
                                               notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
                                                      "and watch the signal",)))
+            checker.poisoned.add(read.id)
+        elif isinstance(read, ast.Name) and read.id in READ_BACK and read.id not in checker.types:
+            what = "wheel command" if read.id.startswith("wheel") else "start pose"
+            said_how = later_format(f"'{read.id}'", 1.3) if program.version < 1.3 else (
+                f"'{read.id}' (the robot's {what}) is read back only where the behaviour reads it: a breakpoint "
+                "sees what the behaviour reads")
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], said_how,
+                                              notes=() if program.version < 1.3 else (
+                                                  f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
+                                                  "and watch the signal",)))
             checker.poisoned.add(read.id)
         elif isinstance(read, ast.Name) and read.id in unseen and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a group signal a "

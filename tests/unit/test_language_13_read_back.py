@@ -184,3 +184,24 @@ def test_each_robot_reads_its_own_models_limit_and_no_wheel_noise(write) -> None
         seen.append(tuple(r.program.slots[program.slot_of["wl"]] for r in run.robots))
     assert seen == [(0.0, 0.0), (6.24, 12.3), (6.24, 12.3)]  # the e-puck's limit and the Pioneer's; no noise
     assert run.robots[0].program.slots[program.slot_of["n"]] == 3.0  # len() of a group: its members
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.3"])
+def test_a_breakpoint_on_a_read_back_name_the_file_does_not_read_says_how_to_watch_it(write, version: str) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    program = compile_file(write(HEAD.replace("1.3", version) + "rules:\n  - always move(1)\n"))
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, "tick > 1 and start_y < wheel_left")
+    got = [(d.path, d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+    if version == "1.2":
+        assert got == [("--break", 1, 14, "'start_y' is format 1.3: start the file with 'labsim: 1.3'", ()),
+                       ("--break", 1, 24, "'wheel_left' is format 1.3: start the file with 'labsim: 1.3'", ())]
+        return
+    assert got == [
+        ("--break", 1, 14, "'start_y' (the robot's start pose) is read back only where the behaviour reads it: a "
+                           "breakpoint sees what the behaviour reads",
+         ("read it in a signal of the file (e.g. 'let: seen: start_y') and watch the signal",)),
+        ("--break", 1, 24, "'wheel_left' (the robot's wheel command) is read back only where the behaviour reads it: "
+                           "a breakpoint sees what the behaviour reads",
+         ("read it in a signal of the file (e.g. 'let: seen: wheel_left') and watch the signal",))]
