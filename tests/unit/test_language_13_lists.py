@@ -285,3 +285,19 @@ def test_a_condition_on_a_lists_length_or_values_is_known_before_the_run(write) 
         (10, 8, "this condition never holds: the rule never fires"),
         (12, 5, "this rule can never fire: the condition of the rule on line 11 always holds, and that rule fires "
                 "first")]
+
+
+def test_the_summary_and_its_json_show_the_lists_as_set_starred_and_a_long_one_shortened(write) -> None:
+    from labsim.runtime.cli.report import format_summary
+    from labsim.runtime.summary_json import summary_dict
+
+    long = ", ".join(f"[{i}, {-i / 2}]" for i in range(40))
+    path = write(HEAD + LIST + f"  long: [{long}]\n  gains: [0.5, 1, 2]\n  k: 2\n" + RULES)
+    result = Run(compile_file(path, {"waypoints": "[[1, 2.5]]"}), load_backend("pymunk"), warn=lambda _: None).run()
+    [line] = [line for line in format_summary(result).splitlines() if line.startswith("  params:")]
+    assert line == ("  params: k=2 waypoints=[[1, 2.5]]* long=[[0, 0], [1, -0.5], [2, -1], [3, -1.5], ... 40 rows] "
+                    "gains=[0.5, 1, 2]   (* set on the command line)")
+    data = summary_dict(result)
+    assert (data["params"], data["overridden"]) == ({"k": 2.0}, ["waypoints"])
+    assert data["lists"]["waypoints"] == [[1.0, 2.5]] and data["lists"]["gains"] == [0.5, 1.0, 2.0]
+    assert len(data["lists"]["long"]) == 40
