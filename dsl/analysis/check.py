@@ -427,6 +427,7 @@ class _Checker(ExprChecker):
         self.list_params()
         for name, raw in overrides.items():
             where = f"--set {name}={raw}"
+            self.settings[name] = where
             if name in self.lists:
                 listed, problem, notes = list_setting(raw, name, self.lists[name])
                 if listed is None:

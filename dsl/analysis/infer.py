@@ -41,7 +41,7 @@ from labsim.dsl.library.builtins import (
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
 from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
 
@@ -62,6 +62,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.kinds: dict[str, str] = {}  # name -> what it is, for messages
         self.used: set[str] = set()
         self.later: dict[str, Node] = {}  # lets not yet defined while checking one, for messages
+        self.settings: dict[str, str] = {}  # parameters set on the command line -> "--set NAME=VALUE"
         self.node_types: dict[int, Type] = {}  # id(AST node) -> its type
         self.distance: set[str] = set()  # distance sensors, for detected()
         self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
@@ -118,6 +119,22 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return
             self.body_errors.add(key)
         self.report.add(d)
+
+    def place_error(self, e: ast.Index, text: Text, message: str, notes: tuple[str, ...] = ()) -> None:
+        """An error about the place ``g[k]`` of a list picks, known before the run (format 1.3): at the ``--set``
+        it comes from when g or k reads a parameter set on the command line (once per setting and message), else
+        at k in the file, as for a group."""
+        setting = next((self.settings[n.id] for part in (e.value, e.index) for n in ast.walk(part)
+                        if isinstance(n, ast.Name) and n.id in self.settings and not self.scopes), None)
+        listed = isinstance(e.value, ast.Name) and e.value.id in self.lists  # a group's place stays in the file
+        if setting is None or not listed:
+            self.error(text.at(e.index.span), message, notes=notes)
+            return
+        if any((x.path, x.message) == (setting, message) for x in self.report.diagnostics):
+            return
+        d = self.doc.diagnostic(text.at(e.span), message)
+        read = text.value[e.span[0]:e.span[1]]
+        self.report.add(Diagnostic(setting, message, notes=(*notes, f"{read} reads it, on line {d.line} of {d.path}")))
 
     def declare(self, name: str, t: Type, kind: str) -> None:
         self.types[name] = t
@@ -473,14 +490,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
             fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
-            self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
-                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
-                       if fraction else (f"this group's places are 0 to {n - 1}",))
+            self.place_error(e, text, f"a member is picked by its place, a whole number from 0; {shown}",
+                             notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
+                             if fraction else (f"this group's places are 0 to {n - 1}",))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
-            self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
-                       f"{n - 1}; {shown}", notes=notes)
+            self.place_error(e, text, f"this group has {n} member{'s' if n != 1 else ''}"
+                             f", at places 0 to {n - 1}; {shown}", notes=notes)
             return None
         return t.member
 
@@ -498,8 +515,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 whole = float(place).is_integer() or place != place or abs(place) == float("inf")
                 notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "
                                                                    f"{e.value.id}[round(i)]"),)
-                self.error(text.at(e.index.span), f"list '{e.value.id}' has {n} row{'s' if n != 1 else ''}, "
-                           f"at places 0 to {n - 1}; {shown}", notes=notes)
+                self.place_error(e, text, f"list '{e.value.id}' has {n} "
+                                 f"row{'s' if n != 1 else ''}, at places 0 to {n - 1}; {shown}", notes=notes)
                 return None
         elif width > 1:  # the place is written into each value: nothing with memory or random in it
             risky = [n for n in ast.walk(e.index) if isinstance(n, ast.Call) and id(n) not in self.self_prev

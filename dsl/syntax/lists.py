@@ -118,6 +118,10 @@ def list_setting(raw: str, name: str, current: ListValue) -> tuple[ListValue | N
     if is_table(value) != is_table(current):
         want = "rows of numbers" if is_table(current) else "numbers"
         return None, f"parameter '{name}' is a list of {want} in the file, and so must be its --set", how
+    width = len(current[0]) if is_table(current) else 0  # type: ignore[arg-type]
+    if width and len(value[0]) != width:  # type: ignore[arg-type]
+        return None, (f"parameter '{name}' has rows of {width} number{_s(width)} in the file, and so must its --set; "
+                      f"these have {len(value[0])}"), how  # type: ignore[arg-type]
     return value, "", ()
 
 

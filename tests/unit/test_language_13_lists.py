@@ -150,9 +150,18 @@ def test_a_list_is_set_whole_and_the_set_value_is_checked_as_the_files(write) ->
                                                                "parsing a flow sequence)")
     assert diagnostics(path, {"waypoints": "[[1, 1e309]]"})[0][3] == (
         "parameter 'waypoints': number too large: labsim's numbers are 64-bit floats, at most about 1.8e+308")
-    # the place checked before the run is checked against the list the run takes
-    assert diagnostics(path, {"waypoints": "[[1, 2]]"})[0][:3] == (10, 17, "list 'waypoints' has 1 row, at places "
-                                                                           "0 to 0; not 1")
+    # the place checked before the run is checked against the list the run takes, and named by its --set
+    [got] = diagnostics(path, {"waypoints": "[[1, 2]]"})
+    assert got == ("--set waypoints=[[1, 2]]", 0, 0, "list 'waypoints' has 1 row, at places 0 to 0; not 1",
+                   ("its rows are at places 0 to 0", f"waypoints[1] reads it, on line 10 of {path}"))
+    # rows of another length than the file's, a place a --set number puts outside the list: at the --set, once
+    assert diagnostics(path, {"waypoints": "[[1, 2, 3]]"}) == [
+        ("--set waypoints=[[1, 2, 3]]", 0, 0, "parameter 'waypoints' has rows of 2 numbers in the file, and so must "
+                                              "its --set; these have 3", how)]
+    path = write(HEAD + LIST + "  route: 0\nlet:\n  l: waypoints[route][0]\n  r: waypoints[route][1]\n" + RULES)
+    assert diagnostics(path, {"route": "5"}) == [
+        ("--set route=5", 0, 0, "list 'waypoints' has 3 rows, at places 0 to 2; 'route' is 5",
+         ("its rows are at places 0 to 2", f"waypoints[route] reads it, on line 10 of {path}"))]
 
 
 def test_a_sweep_refuses_a_list(tmp_path: Path) -> None:
