@@ -42,7 +42,7 @@ from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
 from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
-from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.numbers import WHOLE_LIMIT, place_text
 from labsim.foundation.source import Document, Place, Text
 
 # Operations a file's groups are written out to, at most (a member of each group-typed node, and
@@ -486,7 +486,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if place is None or isinstance(place, bool) or not isinstance(place, int | float):
             return t.member  # known only while running: a place outside the group is a runtime fault
         source = text.value[e.index.span[0]:e.index.span[1]]
-        shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
+        shown = f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}" + (
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
             fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
@@ -510,7 +510,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         place = self.known(e.index)
         if isinstance(place, int | float) and not isinstance(place, bool):
             source = text.value[e.index.span[0]:e.index.span[1]]
-            shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}"
+            shown = f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}"
             if not float(place).is_integer() or not 0 <= place < n:
                 whole = float(place).is_integer() or place != place or abs(place) == float("inf")
                 notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "

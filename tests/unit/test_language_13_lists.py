@@ -310,3 +310,15 @@ def test_the_summary_and_its_json_show_the_lists_as_set_starred_and_a_long_one_s
     assert (data["params"], data["overridden"]) == ({"k": 2.0}, ["waypoints"])
     assert data["lists"]["waypoints"] == [[1.0, 2.5]] and data["lists"]["gains"] == [0.5, 1.0, 2.0]
     assert len(data["lists"]["long"]) == 40
+
+
+def test_a_place_a_hair_from_a_whole_number_is_shown_in_full(write) -> None:
+    path = write(HEAD + LIST + "  k: 2.9999999999999996\nlet:\n  b: waypoints[k][0]\n" + RULES)
+    assert diagnostics(path) == [(10, 16, "list 'waypoints' has 3 rows, at places 0 to 2; 'k' is 2.9999999999999996",
+                                  ("its rows are at places 0 to 2; round a fraction, as in waypoints[round(i)]",))]
+    path = write(HEAD + LIST + "  g: [1, 2, 3]\nlet:\n  a: waypoints[(tick * 0 + 0.1 + 0.2) * 10][0]\n"
+                 "  b: g[tick * 0 + 1 / 3]\n" + RULES)
+    _, warned = signal_rows(path, ("a", "b"))
+    assert [w.split(": warning: ")[1].split(" in ")[0] for w in warned if "no " in w][:2] == [
+        "no row at place 3.0000000000000004 of a list of 3 rows (places count from 0)",
+        "no member at place 0.333333 of a group of 3 (places count from 0)"]  # no whole place to mistake it for
