@@ -495,7 +495,7 @@ class _Checker(ExprChecker):
             if r.noise is not None:
                 self.used |= r.noise.names  # a parameter that only sets noise is used
                 members = resolve_noise(r.noise, r.name, r.count, params, dict(robot_params.get(r.name, ())),
-                                        overrides, self.bf.params, self.error)
+                                        overrides, self.bf.params, self.error, self.lists)
                 if members is not None:
                     out[r.name] = members
         return out

@@ -346,7 +346,7 @@ class Linter:
         that reading in the trace, and is not warned about."""
         used = self.c.used
         f = self.c.file
-        for name, (_, node) in f.params.items():
+        for name, (_, node) in (*f.params.items(), *f.lists.items()):  # a list parameter too (format 1.3)
             if name not in used:
                 self.warn(node, f"parameter '{name}' is never used", "no expression reads it, so setting it "
                           "(or '--set') changes nothing")

@@ -322,3 +322,14 @@ def test_a_place_a_hair_from_a_whole_number_is_shown_in_full(write) -> None:
     assert [w.split(": warning: ")[1].split(" in ")[0] for w in warned if "no " in w][:2] == [
         "no row at place 3.0000000000000004 of a list of 3 rows (places count from 0)",
         "no member at place 0.333333 of a group of 3 (places count from 0)"]  # no whole place to mistake it for
+
+
+def test_noise_naming_a_list_says_it_is_a_list_and_an_unused_list_warns_as_a_number_does(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "at: [0, 0, 0], noise: {sonar: {std_m: g}}}")
+                 + "params:\n  g: [0.1, 0.2]\nrules:\n  - always move(g[0])\n")
+    assert diagnostics(path) == [(5, 66, "sonar noise std_m must be a number, and parameter 'g' is a list",
+                                  ("name a parameter that is one number, or write the number",))]
+    path = write(HEAD + LIST + "  g: [1, 2]\n  k: 2\n" + RULES)
+    assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
+        (7, 14, "parameter 'waypoints' is never used"), (8, 6, "parameter 'g' is never used"),
+        (9, 6, "parameter 'k' is never used")]
