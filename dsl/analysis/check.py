@@ -382,7 +382,9 @@ class _Checker(ExprChecker):
                     node = r.at_node if r.at_node is not None else r.key
                     self.error(node, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
                                      f"{needed} robots placed 'at: spawn'",
-                               notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",))
+                               notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",)
+                               if self.bf.version < 1.3 else ("use 'at: random', fewer robots, or a pose for each "
+                                                              "robot: 'at: [[x, y, heading_deg], ...]'",))
                     return
 
     def world(self) -> World | None:

@@ -78,9 +78,11 @@ def _given_poses(c: Checked) -> tuple[dict[tuple[int, int], Pose], tuple[tuple[i
             if decl.at == "spawn":
                 if not spawns:
                     name = robot_name(decl.name, decl.count, k)
+                    notes = ("use 'at: random', or fewer robots",) if c.file.version < 1.3 else (
+                        "use 'at: random', fewer robots, or a pose for each robot: 'at: [[x, y, heading_deg], ...]'",)
                     return out, ((g, k), c.file.doc.diagnostic(
                         decl.key, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
-                                  f"robot '{name}'", notes=("use 'at: random', or fewer robots",)))
+                                  f"robot '{name}'", notes=notes))
                 out[g, k] = spawns.pop(0)
             elif decl.at != "random":
                 fixed = decl.start(k)
