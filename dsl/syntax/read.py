@@ -589,6 +589,8 @@ class _Reader(Reader):
                 continue
             if isinstance(value, SequenceNode):
                 self.error(value, later_format("a list parameter", 1.3))
+                if name is not None:
+                    self.failed_names.add(name)  # reported: its uses stay quiet
                 continue
             scalar = self.scalar(value, f"parameter '{key.value}'")
             if name is None:

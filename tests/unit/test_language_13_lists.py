@@ -67,7 +67,7 @@ def test_a_list_written_as_a_block_reads_as_one_on_a_line(write) -> None:
 
 
 def test_a_list_parameter_is_format_1_3(write) -> None:
-    path = write(HEAD.replace("1.3", "1.2") + LIST + RULES)
+    path = write(HEAD.replace("1.3", "1.2") + LIST + "let:\n  a: waypoints[0][0]\n" + RULES)
     assert diagnostics(path) == [(7, 14, "a list parameter is format 1.3: start the file with 'labsim: 1.3'", ())]
 
 
