@@ -47,12 +47,14 @@ def signal_rows(path: Path, names: tuple[str, ...], overrides: dict[str, str] | 
     ("[[0, -1], [3, x]]", 20, "list 'w' holds numbers, not 'x'", NUMBERS),
     ("[1, true]", 10, "list 'w' holds numbers, not 'true'", NUMBERS),
     ("[1, .inf]", 10, "list 'w' holds finite numbers, not '.inf'", ()),
-    ("[1, [2]]", 10, "list 'w' holds numbers or rows of numbers, not lists of lists",
-     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[1, [2]]", 10, "list 'w' starts with a number, so it is a list of numbers, and this is a list in it",
+     ("a list holds numbers, or rows of numbers (then every value is a row), e.g. waypoints: [[0, -1], [3, -1], "
+      "[3, -4]], or gains: [0.5, 1, 2]",)),
     ("[[1], 2]", 12, "list 'w' is a list of rows, and this is not a row: write it as [a, b, ...]", ()),
     ("[[0, 1], []]", 15, "row 1 of list 'w' is empty", ()),
-    ("[[[1]]]", 8, "list 'w' holds numbers or rows of numbers, not lists of lists",
-     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[[[1]]]", 8, "a row of list 'w' holds numbers, and this is a list in it",
+     ("a list holds numbers, or rows of numbers (then every value is a row), e.g. waypoints: [[0, -1], [3, -1], "
+      "[3, -4]], or gains: [0.5, 1, 2]",)),
 ])
 def test_a_list_of_the_wrong_shape_is_an_error_at_the_value(write, value: str, col: int, message: str,
                                                             notes: tuple[str, ...]) -> None:
