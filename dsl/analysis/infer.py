@@ -454,8 +454,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
             if t not in (Type.NUMBER, Type.BOOL) or t is not first:
                 assert t is not None and first is not None
                 also = f", and the first is {first.a}" if t in (Type.NUMBER, Type.BOOL) else ""
+                table = all(isinstance(g, ast.Group) and all(isinstance(v, ast.Number | ast.Neg) for v in g.members)
+                            for g in e.members)  # [[1, 2], [3, 4]]: numbers written out, a list parameter's
                 self.error(text.at(m.span), f"a group's members are all numbers or all booleans; this one is "
-                           f"{t.a}{also}")
+                           f"{t.a}{also}", notes=("a table of numbers is a list parameter (format 1.3): put it under "
+                                                  "'params:', as in 'params: {waypoints: [[0, -1], [3, -1]]}'",)
+                           if table and self.version >= 1.3 else ())
                 return None
         self.sizes[id(e)] = len(e.members)
         assert first is not None

@@ -335,3 +335,11 @@ def test_noise_naming_a_list_says_it_is_a_list_and_an_unused_list_warns_as_a_num
     assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
         (7, 14, "parameter 'waypoints' is never used"), (8, 6, "parameter 'g' is never used"),
         (9, 6, "parameter 'k' is never used")]
+
+
+def test_a_table_written_in_a_signal_is_told_to_be_a_list_parameter(write) -> None:
+    path = write(HEAD + "let:\n  m: [[1, 2], [3, -4]]\n  g: [[1, 2], [sonar1, 4]]\n" + RULES)
+    note = ("a table of numbers is a list parameter (format 1.3): put it under 'params:', as in 'params: {waypoints: "
+            "[[0, -1], [3, -1]]}'",)
+    message = "a group's members are all numbers or all booleans; this one is a group of numbers"
+    assert diagnostics(path) == [(7, 7, message, note), (8, 7, message, ())]
