@@ -82,6 +82,13 @@ _Loader.add_implicit_resolver(
     re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
     list("-+0123456789"),
 )
+# YAML 1.1 also reads a fraction without its leading 0 (.5 is a number) as text once signed (-.5) or with an
+# exponent (.5e1); YAML 1.2 reads both as numbers, and so does labsim, wherever a number is read.
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?$"),
+    list("-+."),
+)
 
 
 @dataclass

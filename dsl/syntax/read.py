@@ -598,11 +598,13 @@ class _Reader(Reader):
             v = scalar_value(scalar) if scalar is not None else None
             if isinstance(v, float) and not math.isfinite(v):
                 self.error(value, f"parameter '{name}' must be a finite number, not '{value.value}'")
+                self.failed_names.add(name)  # reported: its uses stay quiet
             elif isinstance(v, (int, float)):
                 out[name] = (v if isinstance(v, bool) else float(v), value)  # floats: see check.params
             elif scalar is not None:
                 self.error(value, f"parameter '{name}' must be a number or true/false, not '{value.value}'",
                            notes=("computed values belong under 'let:'",))
+                self.failed_names.add(name)
         return out
 
     def named_exprs(self, node: Node, what: str) -> list[tuple[str, Parsed, Node]]:

@@ -343,3 +343,15 @@ def test_a_table_written_in_a_signal_is_told_to_be_a_list_parameter(write) -> No
             "[[0, -1], [3, -1]]}'",)
     message = "a group's members are all numbers or all booleans; this one is a group of numbers"
     assert diagnostics(path) == [(7, 7, message, note), (8, 7, message, ())]
+
+
+def test_a_fraction_without_its_leading_0_is_a_number_wherever_a_number_is_read(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "at: [-.5, .5e1, +.5]}") + "params:\n  a: -.5\n  b: .5e1\n"
+                 "  g: [-.5, .5e1, .25]\n  q: '-.5'\nlet:\n  s: a + b + sum(g) + q\n" + RULES)
+    assert diagnostics(path) == [(10, 6, "parameter 'q' must be a number or true/false, not '-.5'",
+                                  ("computed values belong under 'let:'",))]  # quoted: text, as '0.5' is
+    program = compile_file(write(HEAD.replace("at: [0, 0, 0]}", "at: [-.5, .5e1, +.5]}") + "params:\n  a: -.5\n"
+                                 "  b: .5e1\n  g: [-.5, .5e1, .25]\nlet:\n  s: a + b + sum(g)\n" + RULES))
+    assert (program.params["a"], program.params["b"], program.lists["g"]) == (-0.5, 5.0, (-0.5, 5.0, 0.25))
+    pose = program.starts[0].pose
+    assert (pose.x_m, pose.y_m, pose.heading_rad) == (-0.5, 5.0, math.radians(0.5))
