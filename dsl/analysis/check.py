@@ -218,6 +218,11 @@ class _Checker(ExprChecker):
             (name if count == 1 else f"{name}[{k}]", {**self.constants, **params, **{
                 p: values[min(k, len(values) - 1)] for p, values in robot_params.get(name, ())}})
             for name, count in counts.items() for k in range(count)]
+        # each robot's, with its place in its group: a list's row picked by 'index' is known per robot
+        own_of = dict(self.robot_constants)
+        self.member_constants = [(who, {**own_of.get(who, self.constants), "index": float(k)})
+                                 for name, count in counts.items() for k in range(count)
+                                 for who in (name if count == 1 else f"{name}[{k}]",)]
 
     def read_back(self, models: dict[str, RobotModel], world: World | None) -> None:
         """Format 1.3: ``wheel_left``, ``wheel_right`` and the start pose, where every robot has wheels;

@@ -87,6 +87,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # shares (--set included), the constants, dt; an index made of them is checked here
         self.constants: dict[str, object] = {}
         self.robot_constants: list[tuple[str, dict[str, object]]] = []  # with a robot's own parameters
+        self.member_constants: list[tuple[str, dict[str, object]]] = []  # each robot's, with its index too
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
@@ -482,7 +483,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return self.row(e, text)
         n = self.size(e.value)
         place, robot = self.known(e.index), ""
-        for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
+        listed = isinstance(e.value, ast.Name) and e.value.id in self.lists  # format 1.3: its place per robot
+        for who, constants in (self.member_constants if listed else self.robot_constants) if place is None else ():
             value = known_value(e.index, constants, self.scopes)
             if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
                 place, robot = value, who  # the first robot whose place is outside the group
@@ -511,14 +513,22 @@ class ExprChecker(ast.Visitor["Type | None"]):
         assert isinstance(e.value, ast.Name)
         rows = self.lists[e.value.id]
         n, width = len(rows), len(rows[0])  # type: ignore[arg-type]
-        place = self.known(e.index)
+        place, robot = self.known(e.index), ""
+        for who, constants in self.member_constants if place is None else ():  # 'index', a robot's own parameters
+            value = known_value(e.index, constants, self.scopes)
+            if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
+                place, robot = value, who  # the first robot with no row at its place
+                break
         if isinstance(place, int | float) and not isinstance(place, bool):
             source = text.value[e.index.span[0]:e.index.span[1]]
-            shown = f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}"
+            shown = (f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}"
+                     + (f" for robot {robot}" if robot else ""))
             if not float(place).is_integer() or not 0 <= place < n:
                 whole = float(place).is_integer() or place != place or abs(place) == float("inf")
                 notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "
                                                                    f"{e.value.id}[round(i)]"),)
+                if robot and whole:
+                    notes += ("each robot picks the row at its own place: give the list a row for every robot",)
                 self.place_error(e, text, f"list '{e.value.id}' has {n} "
                                  f"row{'s' if n != 1 else ''}, at places 0 to {n - 1}; {shown}", notes=notes)
                 return None

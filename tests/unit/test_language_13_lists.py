@@ -355,3 +355,12 @@ def test_a_fraction_without_its_leading_0_is_a_number_wherever_a_number_is_read(
     assert (program.params["a"], program.params["b"], program.lists["g"]) == (-0.5, 5.0, (-0.5, 5.0, 0.25))
     pose = program.starts[0].pose
     assert (pose.x_m, pose.y_m, pose.heading_rad) == (-0.5, 5.0, math.radians(0.5))
+
+
+def test_a_row_each_robot_picks_by_its_index_is_checked_for_every_robot(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "count: 2, at: random}\n  q: {model: pioneer_p3dx, count: 4, "
+                              "at: random}") + LIST + "  g: [1, 2, 3, 4]\nlet:\n  a: waypoints[index][0]\n"
+                 "  b: g[index] + waypoints[min(index, 2)][1]\n" + RULES)
+    assert diagnostics(path) == [(11, 16, "list 'waypoints' has 3 rows, at places 0 to 2; 'index' is 3 for robot q[3]",
+                                  ("its rows are at places 0 to 2", "each robot picks the row at its own place: give "
+                                                                    "the list a row for every robot"))]
