@@ -236,14 +236,7 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                                      "and watch the signal",)))
             checker.poisoned.add(read.id)
         elif isinstance(read, ast.Name) and read.id in READ_BACK and read.id not in checker.types:
-            what = "wheel command" if read.id.startswith("wheel") else "start pose"
-            said_how = later_format(f"'{read.id}'", 1.3) if program.version < 1.3 else (
-                f"'{read.id}' (the robot's {what}) is read back only where the behaviour reads it: a breakpoint "
-                "sees what the behaviour reads")
-            report.add(parsed_text.diagnostic(read.span[0], read.span[1], said_how,
-                                              notes=() if program.version < 1.3 else (
-                                                  f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
-                                                  "and watch the signal",)))
+            report.add(_read_back_unseen(read, parsed_text, program.version))
             checker.poisoned.add(read.id)
         elif isinstance(read, ast.Name) and read.id in unseen and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a group signal a "
@@ -251,6 +244,17 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                               "breakpoint does not see", notes=("watch its other members one by "
                                                                                 "one",)))
             checker.poisoned.add(read.id)
+
+
+def _read_back_unseen(read: ast.Name, parsed_text: Text, version: float) -> Diagnostic:
+    """A read-back name (``wheel_left``, ``start_x``) the behaviour does not read: it has no slot to watch."""
+    if version < 1.3:
+        return parsed_text.diagnostic(read.span[0], read.span[1], later_format(f"'{read.id}'", 1.3))
+    what = "wheel command" if read.id.startswith("wheel") else "start pose"
+    return parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' (the robot's {what}) is read back only "
+                                  "where the behaviour reads it: a breakpoint sees what the behaviour reads",
+                                  notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') and watch "
+                                         "the signal",))
 
 
 def _groups(program: Program, checker: ExprChecker) -> tuple[list[tuple[str, tuple[int, ...] | None, ast.Expr]],

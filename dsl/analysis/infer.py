@@ -525,8 +525,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
                      + (f" for robot {robot}" if robot else ""))
             if not float(place).is_integer() or not 0 <= place < n:
                 whole = float(place).is_integer() or place != place or abs(place) == float("inf")
-                notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "
-                                                                   f"{e.value.id}[round(i)]"),)
+                notes: tuple[str, ...] = (f"its rows are at places 0 to {n - 1}" + (
+                    "" if whole else f"; round a fraction, as in {e.value.id}[round(i)]"),)
                 if robot and whole:
                     notes += ("each robot picks the row at its own place: give the list a row for every robot",)
                 self.place_error(e, text, f"list '{e.value.id}' has {n} "

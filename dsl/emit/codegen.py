@@ -494,7 +494,8 @@ class _Generator(Unroller):
         key = (name, j)
         if key not in self.columns:
             rows = self.c.lists[name]
-            self.columns[key] = tuple(rows) if j is None else tuple(row[j] for row in rows)  # type: ignore[index]
+            self.columns[key] = (tuple(rows) if j is None  # type: ignore[arg-type]
+                                 else tuple(row[j] for row in rows))  # type: ignore[index]
         return f"_L{list(self.columns).index(key)}"
 
     # -- the listing's comments --------------------------------------------------------------
