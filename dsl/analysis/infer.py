@@ -680,6 +680,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
                          if e.func == "count" else ())
             elif e.func in ACTIONS or e.func == SAY:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+            elif e.func == HEARD:  # the file's own name 'heard' hides the function (format 1.3)
+                message = f"'heard' is a {self.kinds.get(HEARD, 'name')} of this file, which hides heard()"
+                notes = ("give it another name to hear a channel with heard(channel)",)
             elif e.func in MEANT:
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
                 notes = function_notes(e.func, nearest=False)
@@ -687,7 +690,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
                 notes = function_notes(e.func)
             self.error(text.at(e.func_span), message, notes)
-            for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
+            for arg in e.args[1 if e.func == SAY else len(e.args) if e.func == HEARD else 0:]:  # channels
                 self.infer(arg, text)
             return None
         return self.built_in(e, text, f)
