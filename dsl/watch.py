@@ -29,7 +29,7 @@ from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document, Text
 
@@ -235,12 +235,26 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                               notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
                                                      "and watch the signal",)))
             checker.poisoned.add(read.id)
+        elif isinstance(read, ast.Name) and read.id in READ_BACK and read.id not in checker.types:
+            report.add(_read_back_unseen(read, parsed_text, program.version))
+            checker.poisoned.add(read.id)
         elif isinstance(read, ast.Name) and read.id in unseen and read.id not in checker.types:
             report.add(parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' is a group signal a "
                                               f"breakpoint cannot read: it names '{unseen[read.id]}', which a "
                                               "breakpoint does not see", notes=("watch its other members one by "
                                                                                 "one",)))
             checker.poisoned.add(read.id)
+
+
+def _read_back_unseen(read: ast.Name, parsed_text: Text, version: float) -> Diagnostic:
+    """A read-back name (``wheel_left``, ``start_x``) the behaviour does not read: it has no slot to watch."""
+    if version < 1.3:
+        return parsed_text.diagnostic(read.span[0], read.span[1], later_format(f"'{read.id}'", 1.3))
+    what = "wheel command" if read.id.startswith("wheel") else "start pose"
+    return parsed_text.diagnostic(read.span[0], read.span[1], f"'{read.id}' (the robot's {what}) is read back only "
+                                  "where the behaviour reads it: a breakpoint sees what the behaviour reads",
+                                  notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') and watch "
+                                         "the signal",))
 
 
 def _groups(program: Program, checker: ExprChecker) -> tuple[list[tuple[str, tuple[int, ...] | None, ast.Expr]],

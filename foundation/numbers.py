@@ -76,3 +76,12 @@ def yaml_number_problem(node: ScalarNode) -> str | None:
     except NumberError as e:
         return str(e)
     return None
+
+
+def place_text(k: float) -> str:
+    """A place asked of a group or a list, as a message shows it: ``:g``, unless that rounds a fraction to a
+    whole place (2.9999999999999996 is no place 3), which is shown in full."""
+    shown = f"{k:g}"
+    if math.isfinite(k) and not float(k).is_integer() and float(shown).is_integer():
+        return repr(float(k))
+    return shown

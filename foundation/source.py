@@ -76,11 +76,11 @@ class _Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
-# YAML 1.1 (PyYAML) reads 1e-3 and 1e6 as text; students write them as numbers, as YAML 1.2 does.
+# YAML 1.1 (PyYAML) reads 1e-3, 1e6, -.5 and .5e1 as text; students write them as numbers, as YAML 1.2 does.
 _Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+|\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?)$"),
+    list("-+.0123456789"),
 )
 
 

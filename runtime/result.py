@@ -80,6 +80,7 @@ class RunResult:
     logs: tuple[str, ...] = ()  # what log(...) printed, apart from the warnings
     logs_unprinted: tuple[str, ...] = ()  # "log on line L: n lines not printed (...)", per line; then the run's cap
     trace: str | None = None  # where its trace was written
+    lists: Mapping[str, tuple] = field(default_factory=dict)  # list parameters after --set (format 1.3)
 
     @property
     def interrupted(self) -> bool:

@@ -409,7 +409,7 @@ class Run:
         return RunResult(
             name=p.name, path=p.path, sha256=p.sha256, backend=getattr(self.backend, "name", "?"),
             world=p.world.name, dt_s=p.dt_s, seed=p.seed, params=dict(p.params), overridden=tuple(p.overridden),
-            metric_aggregates=dict(zip(p.metric_names, p.metric_aggregates)),
+            lists=dict(p.lists), metric_aggregates=dict(zip(p.metric_names, p.metric_aggregates)),
             metric_better=dict(zip(p.metric_names, p.metric_better)),
             ticks=self.tick_index, sim_time_s=self.tick_index * self.dt_s, wall_time_s=self.wall_time_s,
             stop_reason=self.stop_reason(), stopped_by=self.stopped_by, stop_condition=stop_condition,

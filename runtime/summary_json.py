@@ -64,6 +64,8 @@ def summary_dict(result: RunResult) -> dict[str, Any]:
         "dt_s": result.dt_s,
         "seed": result.seed,
         "params": {k: number(v) for k, v in result.params.items()},
+        "lists": {k: [[number(x) for x in v] if isinstance(v, tuple) else number(v) for v in value]
+                  for k, value in result.lists.items()},
         "overridden": sorted(result.overridden),
         "ticks": result.ticks,
         "sim_time_s": result.sim_time_s,

@@ -218,6 +218,11 @@ class _Checker(ExprChecker):
             (name if count == 1 else f"{name}[{k}]", {**self.constants, **params, **{
                 p: values[min(k, len(values) - 1)] for p, values in robot_params.get(name, ())}})
             for name, count in counts.items() for k in range(count)]
+        # each robot's, with its place in its group: a list's row picked by 'index' is known per robot
+        own_of = dict(self.robot_constants)
+        self.member_constants = [(who, {**own_of.get(who, self.constants), "index": float(k)})
+                                 for name, count in counts.items() for k in range(count)
+                                 for who in (name if count == 1 else f"{name}[{k}]",)]
 
     def read_back(self, models: dict[str, RobotModel], world: World | None) -> None:
         """Format 1.3: ``wheel_left``, ``wheel_right`` and the start pose, where every robot has wheels;
@@ -283,17 +288,11 @@ class _Checker(ExprChecker):
 
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
-        if name in SHADOWABLE:
-            return False  # a version 1 file may use it for its own
-        if name in KEYWORDS:
-            why = "is a keyword of the language"
-        elif name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
-            why = "is the name of a built-in function or action"
-        elif name in TRACE_COLUMNS:
-            why = "is the name of a trace column"
-        else:
+        why = _reserved_why(name)
+        if why is None:
             return False
         self.error(node, f"{what} '{name}' {why}; choose another name")
+        self.poisoned.add(name)  # reported here: its uses say nothing more
         return True
 
     def sliders(self) -> list[SliderDecl]:
@@ -388,7 +387,9 @@ class _Checker(ExprChecker):
                     node = r.at_node if r.at_node is not None else r.key
                     self.error(node, f"world '{world.name}' has {len(world.spawns)} spawn poses, too few for "
                                      f"{needed} robots placed 'at: spawn'",
-                               notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",))
+                               notes=("use 'at: random', give poses as [x, y, heading_deg], or fewer robots",)
+                               if self.bf.version < 1.3 else ("use 'at: random', fewer robots, or a pose for each "
+                                                              "robot: 'at: [[x, y, heading_deg], ...]'",))
                     return
 
     def world(self) -> World | None:
@@ -433,6 +434,7 @@ class _Checker(ExprChecker):
         self.list_params()
         for name, raw in overrides.items():
             where = f"--set {name}={raw}"
+            self.settings[name] = where
             if name in self.lists:
                 listed, problem, notes = list_setting(raw, name, self.lists[name])
                 if listed is None:
@@ -500,16 +502,19 @@ class _Checker(ExprChecker):
             if r.noise is not None:
                 self.used |= r.noise.names  # a parameter that only sets noise is used
                 members = resolve_noise(r.noise, r.name, r.count, params, dict(robot_params.get(r.name, ())),
-                                        overrides, self.bf.params, self.error)
+                                        overrides, self.bf.params, self.error, self.lists)
                 if members is not None:
                     out[r.name] = members
         return out
 
     def lets(self) -> list[tuple[str, Parsed]]:
         out = []
-        later = {name: key for name, _, key in self.bf.lets}
+        # a signal refused for its name is not one to wait for: its uses above read what else has the name
+        later = {name: key for name, _, key in self.bf.lets if _reserved_why(name) is None}
+        self.poisoned |= {name for name, _, _ in self.bf.lets if name not in later}  # reported at the name
         for name, parsed, key in self.bf.lets:
             if self.taken(name):
+                later.pop(name)  # uses read what has the name already
                 self.clash(key, "signal", name)
                 continue
             if self.reserved(name, key, "signal"):
@@ -706,3 +711,14 @@ class _Checker(ExprChecker):
         return int(value) if isinstance(current, int) and value == int(value) else value
 
 
+def _reserved_why(name: str) -> str | None:
+    """Why a name the language or the trace already uses cannot be a file's own, or None if it can."""
+    if name in SHADOWABLE:
+        return None  # a version 1 file may use it for its own
+    if name in KEYWORDS:
+        return "is a keyword of the language"
+    if name in FUNCTIONS or name in ACTIONS or name in AGGREGATES or name == DETECTED:
+        return "is the name of a built-in function or action"
+    if name in TRACE_COLUMNS:
+        return "is the name of a trace column"
+    return None

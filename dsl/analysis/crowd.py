@@ -41,7 +41,9 @@ def check_crowd(c: Checked, starts: tuple[Start, ...], report: Report) -> None:
             report.add(c.file.doc.diagnostic(
                 where, f"the {decl.count} robots of '{decl.name}' would all start at ({x:g}, {y:g}), "
                        "on top of each other",
-                notes=("give a group 'at: random' or 'at: spawn', or each robot its own entry and pose",)))
+                notes=("give a group 'at: random' or 'at: spawn', or each robot its own entry and pose",)
+                if c.file.version < 1.3 else (f"give each robot its own pose, as in 'at: [[{x:g}, {y:g}], "
+                                              f"[{x + 1:g}, {y:g}], ...]', or the group 'at: random' or 'at: spawn'",)))
             continue
         placed.append((x, y, reach, decl.name))
     for (x, y, reach, name), (ox, oy, other_reach, other) in _overlaps(placed):

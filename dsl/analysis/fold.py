@@ -86,8 +86,25 @@ class _Folder(ast.Visitor[Any]):
             raise NotConstant
         return FUNCTIONS[e.func].resolve()(*(self.visit(a) for a in e.args))
 
+    def visit_Index(self, e: ast.Index) -> object:
+        value = self.picked(e)
+        if isinstance(value, tuple):
+            raise NotConstant  # a row of a list is a group: written out member by member
+        return value
+
+    def picked(self, e: ast.Index) -> object:
+        """A list parameter's row or number at a place known before the run (format 1.3): ``waypoints[1][0]``."""
+        base = self.picked(e.value) if isinstance(e.value, ast.Index) else (
+            self.constants.get(e.value.id) if isinstance(e.value, ast.Name) else None)
+        if not isinstance(base, tuple):
+            raise NotConstant  # a group's member is read at run time
+        k = self.visit(e.index)
+        if isinstance(k, bool) or not isinstance(k, int | float) or not float(k).is_integer() or not 0 <= k < len(base):
+            raise NotConstant  # the checker says why there is no such row
+        return base[int(k)]
+
     # a record's field, text, a group and its members, another robot's value are computed at run time
-    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Index, ast.Slice, ast.Peer})
+    generic = frozenset({ast.Attribute, ast.Text, ast.Group, ast.Slice, ast.Peer})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> object:
         raise NotConstant

@@ -32,6 +32,7 @@ from labsim.dsl.library.builtins import (
     FIELDS,
     FUNCTIONS,
     MEANT,
+    READ_BACK,
     REDUCTIONS,
     STATEFUL,
     Function,
@@ -40,8 +41,8 @@ from labsim.dsl.library.builtins import (
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
 from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import Report, did_you_mean
-from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
+from labsim.foundation.numbers import WHOLE_LIMIT, place_text
 from labsim.foundation.source import Document, Place, Text
 
 # Operations a file's groups are written out to, at most (a member of each group-typed node, and
@@ -61,6 +62,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.kinds: dict[str, str] = {}  # name -> what it is, for messages
         self.used: set[str] = set()
         self.later: dict[str, Node] = {}  # lets not yet defined while checking one, for messages
+        self.settings: dict[str, str] = {}  # parameters set on the command line -> "--set NAME=VALUE"
         self.node_types: dict[int, Type] = {}  # id(AST node) -> its type
         self.distance: set[str] = set()  # distance sensors, for detected()
         self.poisoned: set[str] = set()  # names whose definition failed: no follow-on errors
@@ -85,6 +87,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # shares (--set included), the constants, dt; an index made of them is checked here
         self.constants: dict[str, object] = {}
         self.robot_constants: list[tuple[str, dict[str, object]]] = []  # with a robot's own parameters
+        self.member_constants: list[tuple[str, dict[str, object]]] = []  # each robot's, with its index too
         self.members_written = 0  # what the groups' operators are written out to, so far (written_out)
         self.written_out_reported = False
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
@@ -117,6 +120,22 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return
             self.body_errors.add(key)
         self.report.add(d)
+
+    def place_error(self, e: ast.Index, text: Text, message: str, notes: tuple[str, ...] = ()) -> None:
+        """An error about the place ``g[k]`` of a list picks, known before the run (format 1.3): at the ``--set``
+        it comes from when g or k reads a parameter set on the command line (once per setting and message), else
+        at k in the file, as for a group."""
+        setting = next((self.settings[n.id] for part in (e.value, e.index) for n in ast.walk(part)
+                        if isinstance(n, ast.Name) and n.id in self.settings and not self.scopes), None)
+        listed = isinstance(e.value, ast.Name) and e.value.id in self.lists  # a group's place stays in the file
+        if setting is None or not listed:
+            self.error(text.at(e.index.span), message, notes=notes)
+            return
+        if any((x.path, x.message) == (setting, message) for x in self.report.diagnostics):
+            return
+        d = self.doc.diagnostic(text.at(e.span), message)
+        read = text.value[e.span[0]:e.span[1]]
+        self.report.add(Diagnostic(setting, message, notes=(*notes, f"{read} reads it, on line {d.line} of {d.path}")))
 
     def declare(self, name: str, t: Type, kind: str) -> None:
         self.types[name] = t
@@ -289,7 +308,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
                            f"e.g. '{e.id}: prev({e.id}, 0) + 1' counts ticks; for counting and summing, "
                            "counter(...) and total(...) do it for you",))
             return None
-        if e.id in self.types:
+        # a read-back name (format 1.3) a signal below takes is that signal's, here not yet computed
+        if e.id in self.types and not (e.id in self.later and e.id in READ_BACK):
             self.used.add(e.id)
             return self.types[e.id]
         if e.id in self.poisoned or self.world_failed:
@@ -435,8 +455,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
             if t not in (Type.NUMBER, Type.BOOL) or t is not first:
                 assert t is not None and first is not None
                 also = f", and the first is {first.a}" if t in (Type.NUMBER, Type.BOOL) else ""
+                table = all(isinstance(g, ast.Group) and all(isinstance(v, ast.Number | ast.Neg) for v in g.members)
+                            for g in e.members)  # [[1, 2], [3, 4]]: numbers written out, a list parameter's
                 self.error(text.at(m.span), f"a group's members are all numbers or all booleans; this one is "
-                           f"{t.a}{also}")
+                           f"{t.a}{also}", notes=("a table of numbers is a list parameter (format 1.3): put it under "
+                                                  "'params:', as in 'params: {waypoints: [[0, -1], [3, -1]]}'",)
+                           if table and self.version >= 1.3 else ())
                 return None
         self.sizes[id(e)] = len(e.members)
         assert first is not None
@@ -459,7 +483,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return self.row(e, text)
         n = self.size(e.value)
         place, robot = self.known(e.index), ""
-        for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
+        listed = isinstance(e.value, ast.Name) and e.value.id in self.lists  # format 1.3: its place per robot
+        for who, constants in (self.member_constants if listed else self.robot_constants) if place is None else ():
             value = known_value(e.index, constants, self.scopes)
             if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
                 place, robot = value, who  # the first robot whose place is outside the group
@@ -467,18 +492,18 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if place is None or isinstance(place, bool) or not isinstance(place, int | float):
             return t.member  # known only while running: a place outside the group is a runtime fault
         source = text.value[e.index.span[0]:e.index.span[1]]
-        shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}" + (
+        shown = f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}" + (
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
             fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
-            self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
-                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
-                       if fraction else (f"this group's places are 0 to {n - 1}",))
+            self.place_error(e, text, f"a member is picked by its place, a whole number from 0; {shown}",
+                             notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
+                             if fraction else (f"this group's places are 0 to {n - 1}",))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
-            self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
-                       f"{n - 1}; {shown}", notes=notes)
+            self.place_error(e, text, f"this group has {n} member{'s' if n != 1 else ''}"
+                             f", at places 0 to {n - 1}; {shown}", notes=notes)
             return None
         return t.member
 
@@ -488,16 +513,24 @@ class ExprChecker(ast.Visitor["Type | None"]):
         assert isinstance(e.value, ast.Name)
         rows = self.lists[e.value.id]
         n, width = len(rows), len(rows[0])  # type: ignore[arg-type]
-        place = self.known(e.index)
+        place, robot = self.known(e.index), ""
+        for who, constants in self.member_constants if place is None else ():  # 'index', a robot's own parameters
+            value = known_value(e.index, constants, self.scopes)
+            if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
+                place, robot = value, who  # the first robot with no row at its place
+                break
         if isinstance(place, int | float) and not isinstance(place, bool):
             source = text.value[e.index.span[0]:e.index.span[1]]
-            shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}"
+            shown = (f"not {place_text(place)}" if literal(e.index) else f"'{source}' is {place_text(place)}"
+                     + (f" for robot {robot}" if robot else ""))
             if not float(place).is_integer() or not 0 <= place < n:
                 whole = float(place).is_integer() or place != place or abs(place) == float("inf")
-                notes = (f"its rows are at places 0 to {n - 1}" + ("" if whole else "; round a fraction, as in "
-                                                                   f"{e.value.id}[round(i)]"),)
-                self.error(text.at(e.index.span), f"list '{e.value.id}' has {n} row{'s' if n != 1 else ''}, "
-                           f"at places 0 to {n - 1}; {shown}", notes=notes)
+                notes: tuple[str, ...] = (f"its rows are at places 0 to {n - 1}" + (
+                    "" if whole else f"; round a fraction, as in {e.value.id}[round(i)]"),)
+                if robot and whole:
+                    notes += ("each robot picks the row at its own place: give the list a row for every robot",)
+                self.place_error(e, text, f"list '{e.value.id}' has {n} "
+                                 f"row{'s' if n != 1 else ''}, at places 0 to {n - 1}; {shown}", notes=notes)
                 return None
         elif width > 1:  # the place is written into each value: nothing with memory or random in it
             risky = [n for n in ast.walk(e.index) if isinstance(n, ast.Call) and id(n) not in self.self_prev
@@ -647,6 +680,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
                          if e.func == "count" else ())
             elif e.func in ACTIONS or e.func == SAY:
                 message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+            elif e.func == HEARD:  # the file's own name 'heard' hides the function (format 1.3)
+                message = f"'heard' is a {self.kinds.get(HEARD, 'name')} of this file, which hides heard()"
+                notes = ("give it another name to hear a channel with heard(channel)",)
             elif e.func in MEANT:
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
                 notes = function_notes(e.func, nearest=False)
@@ -654,7 +690,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
                 notes = function_notes(e.func)
             self.error(text.at(e.func_span), message, notes)
-            for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
+            for arg in e.args[1 if e.func == SAY else len(e.args) if e.func == HEARD else 0:]:  # channels
                 self.infer(arg, text)
             return None
         return self.built_in(e, text, f)

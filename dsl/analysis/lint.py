@@ -61,6 +61,7 @@ class Linter:
             varying.update(name for name, _ in pairs)
         self.constants: dict[str, Any] = {k: v for k, v in c.params.items() if k not in varying}
         self.constants.update(CONSTANTS)
+        self.constants.update(c.lists)  # len(g), g[0] and waypoints[1][0] are known before the run (format 1.3)
         self.constants["dt"] = c.file.dt_s
         self.let_exprs = {name: p.node for name, p in c.lets}
         self.sliders = {sl.name: (sl.lo, sl.hi) for sl in c.sliders}
@@ -345,7 +346,7 @@ class Linter:
         that reading in the trace, and is not warned about."""
         used = self.c.used
         f = self.c.file
-        for name, (_, node) in f.params.items():
+        for name, (_, node) in (*f.params.items(), *f.lists.items()):  # a list parameter too (format 1.3)
             if name not in used:
                 self.warn(node, f"parameter '{name}' is never used", "no expression reads it, so setting it "
                           "(or '--set') changes nothing")

@@ -88,7 +88,7 @@ def generate(checked: Checked, filename: str) -> Generated:
     g = _Generator(checked, slots)
     source, listing, marks = render(g.module())
     code = Code(source, listing, filename, compile(source, filename, "exec"), tuple(g.sites),
-                tuple(sorted(g.functions)), marks, bool(g.image_drops or g.image_kept))
+                tuple(sorted(g.functions)), marks, bool(g.image_drops or g.image_kept), tuple(g.columns.values()))
     return Generated(slots, code, stop_horizon(checked, g.constants), tuple(g.logs), g.stop_parts, tuple(g.texts),
                      tuple(g.when_rules))
 
@@ -114,6 +114,8 @@ class _Generator(Unroller):
         self.emitter = _Emit(self)
         self.member_writer = MemberWriter(self)
         self.sites: list[tuple[str, FaultSite]] = []
+        # (list, column or None for a list of numbers) read while running -> its values, bound as _L<n> in this order
+        self.columns: dict[tuple[str, int | None], tuple[float, ...]] = {}
         self.functions: set[str] = set()  # built-ins called directly
         # ("min" | "max", a sequence's Python) -> the slot of a signal that is that reduction
         self.extremes: dict[tuple[str, str], int] = {}
@@ -217,7 +219,7 @@ class _Generator(Unroller):
                 *(["_P"] if self.c.peer_fields else []), *(["_out", "_reach", "_in"] if self.c.said else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
-                *(f"_g{i}" for i in range(len(self.sites)))]
+                *(f"_g{i}" for i in range(len(self.sites))), *(f"_L{i}" for i in range(len(self.columns)))]
 
     def signals(self) -> tuple[Body, Note, str]:
         """The state clock, the signals and the label fields; the stop condition's note and expression.
@@ -485,6 +487,16 @@ class _Generator(Unroller):
     def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
         self.sites.append((kind, FaultSite(where, text.diagnostic(span[0], span[1], ""))))
         return f"_g{len(self.sites) - 1}"
+
+    def column(self, name: str, j: int | None) -> str:
+        """The name make() binds column ``j`` of the list parameter ``name`` to (the list itself when it is of
+        numbers, j None): made once however often it is read."""
+        key = (name, j)
+        if key not in self.columns:
+            rows = self.c.lists[name]
+            self.columns[key] = (tuple(rows) if j is None  # type: ignore[arg-type]
+                                 else tuple(row[j] for row in rows))  # type: ignore[index]
+        return f"_L{list(self.columns).index(key)}"
 
     # -- the listing's comments --------------------------------------------------------------
     def note(self, text: Text, label: str) -> Note:

@@ -124,6 +124,9 @@ class Code:
     functions: tuple[str, ...]  # built-ins the code calls directly, bound as _<name>
     marks: tuple[int, ...] = ()  # per line of the source: the behaviour file's line it comes from, 0 for none
     drops: bool = False  # make() takes ``_drop``: free image signals after their last use (codegen.drop_images)
+    # make() takes ``_L0``...: each a list parameter's column (format 1.3) read at a place known only while
+    # running, bound once rather than written into the code at every read
+    columns: tuple[tuple[float, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -295,6 +298,8 @@ class Program:
             bindings.update(_out=outbox, _reach=reach, _in=inbox)
         for i, (kind, site) in enumerate(code.sites):
             bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
+        for i, column in enumerate(code.columns):
+            bindings[f"_L{i}"] = column
         show_in_tracebacks(code)
         # Only generated text reaches exec: user names became slot indices, numbers are
         # repr(float), operators come from a fixed table (see labsim.dsl.emit.codegen). The functions

@@ -33,6 +33,9 @@ class Unroller:
     let_of: dict
     member_writer: MemberWriter
 
+    def column(self, name: str, j: int | None) -> str:
+        raise NotImplementedError
+
     def expr(self, w: Writer, e: ast.Expr, text: Text, where: str) -> str:
         raise NotImplementedError
 
@@ -110,6 +113,15 @@ class Unroller:
 
         front[2] reads only that member's locals: a member of a scan picked alone must not load
         the other 359 beams."""
+        base = e.value
+        if isinstance(base, ast.Name) and base.id in self.c.lists and not (self.env and base.id in self.env[-1]):
+            try:
+                k = fold(e.index, self.constants)
+            except NotConstant:  # a list parameter of numbers: its values bound once, not written at every read
+                k_code = self.expr(w, e.index, text, where)
+                return f"{self.site('[]', text, e.span, where)}({self.column(base.id, None)}, {k_code})"
+            assert isinstance(k, (int, float)) and float(k).is_integer()  # the checker refused other numbers
+            return number_literal(self.c.lists[base.id][int(k)])  # type: ignore[arg-type]
         scratch = Writer()
         members = self.members(scratch, e.value, text, where)
         try:
@@ -256,8 +268,7 @@ class MemberWriter(ast.Visitor[list[str]]):
         except NotConstant:
             k_code = g.expr(w, e.index, text, where)
             site = g.site("[row]", text, e.span, where)
-            columns = zip(*rows)
-            return [f"{site}(({''.join(number_literal(v) + ', ' for v in column)}), {k_code})" for column in columns]
+            return [f"{site}({g.column(e.value.id, j)}, {k_code})" for j in range(len(rows[0]))]  # type: ignore[arg-type]
         assert isinstance(k, int | float) and float(k).is_integer()  # the checker refused other places
         return [number_literal(v) for v in rows[int(k)]]  # type: ignore[union-attr]
 

@@ -24,6 +24,7 @@ from labsim.backends.scene.models import RobotModel
 from labsim.dsl.library.builtins import FUNCTIONS, SEQUENCE_FUNCTIONS, Aggregate, Type, argmax, argmin
 from labsim.dsl.library.memory import PRIMED
 from labsim.foundation.diagnostics import Diagnostic
+from labsim.foundation.numbers import place_text
 
 if TYPE_CHECKING:  # images are NumPy arrays; numpy is imported when an image function is
     import numpy as np
@@ -275,7 +276,7 @@ def _pick(report: Callable[[str, str], None], missing: object) -> Callable[[tupl
         if 0 <= k < len(members) and k == int(k):
             return members[int(k)]
         n = len(members)
-        report(f"no member at place {k:g} of a group of {n} (places count from 0)",
+        report(f"no member at place {place_text(k)} of a group of {n} (places count from 0)",
                f"no member at the place asked of a group of {n} (places count from 0)")
         return missing
     return pick
@@ -294,7 +295,7 @@ def _pick_row(report: Callable[[str, str], None], tick_now: Callable[[], int]) -
         if warned[0] != tick:
             warned[0] = tick
             n = len(column)
-            report(f"no row at place {k:g} of a list of {n} rows (places count from 0)",
+            report(f"no row at place {place_text(k)} of a list of {n} rows (places count from 0)",
                    f"no row at the place asked of a list of {n} rows (places count from 0)")
         return math.nan
     return pick

@@ -63,17 +63,19 @@ def list_value(node: SequenceNode, name: str, error: Report) -> ListValue | None
                         f"has {width}: the rows of a list have one length",
                   (f"give every row {width} value{_s(width)}, as row 0 has",))
             return None
-        row = [_number(v, name, error) for v in item.value]
+        row = [_number(v, name, error, in_row=True) for v in item.value]
         if None in row:
             return None
         rows.append(tuple(v for v in row if v is not None))
     return _small(tuple(rows), node, name, error)
 
 
-def _number(node: Node, name: str, error: Report) -> float | None:
-    """A list's value: a finite number."""
+def _number(node: Node, name: str, error: Report, in_row: bool = False) -> float | None:
+    """A list's value, or a value of one of its rows: a finite number."""
     if isinstance(node, SequenceNode):
-        error(node, f"list '{name}' holds numbers or rows of numbers, not lists of lists", (EXAMPLE,))
+        said = (f"a row of list '{name}' holds numbers, and this is a list in it" if in_row else
+                f"list '{name}' starts with a number, so it is a list of numbers, and this is a list in it")
+        error(node, said, ("a list holds numbers, or rows of numbers (then every value is a row), " + EXAMPLE,))
         return None
     value = scalar_value(node) if isinstance(node, ScalarNode) else None
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -118,6 +120,10 @@ def list_setting(raw: str, name: str, current: ListValue) -> tuple[ListValue | N
     if is_table(value) != is_table(current):
         want = "rows of numbers" if is_table(current) else "numbers"
         return None, f"parameter '{name}' is a list of {want} in the file, and so must be its --set", how
+    width = len(current[0]) if is_table(current) else 0  # type: ignore[arg-type]
+    if width and len(value[0]) != width:  # type: ignore[arg-type]
+        return None, (f"parameter '{name}' has rows of {width} number{_s(width)} in the file, and so must its --set; "
+                      f"these have {len(value[0])}"), how  # type: ignore[arg-type]
     return value, "", ()
 
 

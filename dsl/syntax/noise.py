@@ -163,14 +163,16 @@ ErrorSink = Callable[[Node, str, tuple[str, ...]], None]
 
 def resolve_noise(decl: NoiseDecl, robot: str, count: int, params: Mapping[str, float | bool],
                   own: Mapping[str, tuple[float | bool, ...]], settings: Mapping[str, str],
-                  declared: Collection[str], error: ErrorSink) -> tuple[Noise | None, ...] | None:
+                  declared: Collection[str], error: ErrorSink, lists: Collection[str] = ()
+                  ) -> tuple[Noise | None, ...] | None:
     """Each member's noise, every parameter named replaced by its value; None after a problem.
 
     ``params`` are the file's values after ``--set`` (``settings``: name -> the value as
     typed), ``own`` the group's own values, one per member, which win for its members as they
     do in expressions. Each key's range applies to the value it resolves to, reported at the
     key's value with where the number came from. ``declared`` are the names 'params:' holds,
-    some of them reported wrong already: naming one says nothing more.
+    some of them reported wrong already: naming one says nothing more; ``lists`` the list parameters
+    among them (format 1.3), which noise cannot take.
     """
     members: list[dict[str, float]] = [{} for _ in range(count)]
     failed = False
@@ -182,7 +184,10 @@ def resolve_noise(decl: NoiseDecl, robot: str, count: int, params: Mapping[str, 
         model, name = key.split(".")
         what = f"{model} noise {name}"
         if value not in params:
-            if value not in declared:
+            if value in lists:  # format 1.3: a list parameter
+                error(node, f"{what} must be a number, and parameter '{value}' is a list",
+                      ("name a parameter that is one number, or write the number",))
+            elif value not in declared:
                 shown = value if len(value) <= 40 else value[:40] + "..."  # a name can be any length
                 error(node, f"unknown parameter '{shown}'{did_you_mean(value, params)}",
                       (f"parameters: {', '.join(params)}" if params else

@@ -521,7 +521,8 @@ class _Reader(Reader):
 
     def placement(self, node: Node | None, robot: str = "", count: int = 1, version: float = FORMAT_VERSION
                   ) -> str | Pose | tuple[Pose, ...] | None:
-        if isinstance(node, SequenceNode) and node.value and isinstance(node.value[0], SequenceNode):
+        if isinstance(node, SequenceNode) and ((node.value and isinstance(node.value[0], SequenceNode))
+                                               or (not node.value and version >= 1.3)):  # [] is a list of no poses
             return self.poses(node, robot, count, version)
         return self.one_placement(node)
 
@@ -534,11 +535,14 @@ class _Reader(Reader):
         if len(node.value) != count:
             self.error(node, f"robot '{robot}' has {count} member{many}, so 'at' needs {count} pose{many}, one each, "
                              f"not {len(node.value)}",
-                       notes=(f"give one [x, y, heading_deg] per robot, or set 'count: {len(node.value)}'",))
+                       notes=(f"give one [x, y, heading_deg] per robot, or set 'count: {len(node.value)}'",)
+                       if node.value else ("give one [x, y, heading_deg] per robot, as in at: [[-3, -3, 0], "
+                                           "[0, -3, 90]]",))
             return None
         out: list[Pose] = []
         for item in node.value:
-            if not isinstance(item, SequenceNode):
+            if not isinstance(item, SequenceNode) or len(item.value) not in (2, 3) or any(
+                    not isinstance(v, ScalarNode) for v in item.value):
                 self.error(item, "each start pose of a list is [x, y] or [x, y, heading_deg]",
                            notes=("e.g. at: [[-3, -3, 0], [0, -3, 90], [3, -3, 180]]",))
                 continue
@@ -585,6 +589,8 @@ class _Reader(Reader):
                 continue
             if isinstance(value, SequenceNode):
                 self.error(value, later_format("a list parameter", 1.3))
+                if name is not None:
+                    self.failed_names.add(name)  # reported: its uses stay quiet
                 continue
             scalar = self.scalar(value, f"parameter '{key.value}'")
             if name is None:
@@ -592,11 +598,13 @@ class _Reader(Reader):
             v = scalar_value(scalar) if scalar is not None else None
             if isinstance(v, float) and not math.isfinite(v):
                 self.error(value, f"parameter '{name}' must be a finite number, not '{value.value}'")
+                self.failed_names.add(name)  # reported: its uses stay quiet
             elif isinstance(v, (int, float)):
                 out[name] = (v if isinstance(v, bool) else float(v), value)  # floats: see check.params
             elif scalar is not None:
                 self.error(value, f"parameter '{name}' must be a number or true/false, not '{value.value}'",
                            notes=("computed values belong under 'let:'",))
+                self.failed_names.add(name)
         return out
 
     def named_exprs(self, node: Node, what: str) -> list[tuple[str, Parsed, Node]]:

@@ -96,7 +96,7 @@ def format_summary(s: RunResult) -> str:
         first = next(iter(s.robots.values()), None)
         lines[-1] += (f"; stopped at tick {s.ticks} ({s.ticks * s.dt_s:.2f} s): '{inert(s.stop_condition)}' held for "
                       f"{'robot ' if first is not None and not first.mechanism else ''}{inert(s.stopped_by)}")
-    if s.params:
+    if s.params or s.lists:
         lines += _param_lines(s)
     lines += [f"  noise: {inert(r.name)}: {inert(r.noise_text)}" for r in s.robots.values() if r.noise_text]
     if s.trace:
@@ -121,10 +121,25 @@ def _param_lines(s: RunResult) -> list[str]:
     own = {k for r in robots for k, v in r.params.items() if v != s.params.get(k)}
     each = "(each robot's below)"
     line = [f"{k}={each if k in own else shown(v)}{'*' if k in s.overridden else ''}" for k, v in s.params.items()]
+    line += [f"{k}={list_text(v)}{'*' if k in s.overridden else ''}" for k, v in s.lists.items()]
     lines = ["  params: " + " ".join(line) + ("   (* set on the command line)" if s.overridden else "")]
     for k in own:
         lines.append(f"    {k}: " + " ".join(f"{inert(r.name)}={shown(r.params.get(k, s.params[k]))}" for r in robots))
     return lines
+
+
+def list_text(value: tuple, limit: int = 60) -> str:
+    """A list parameter as written (``[[0, -1], [3, -1]]``), its first values and how many when long."""
+    items = [("[" + ", ".join(format(x, "g") for x in v) + "]") if isinstance(v, tuple) else format(v, "g")
+             for v in value]
+    whole = "[" + ", ".join(items) + "]"
+    if len(whole) <= limit:
+        return whole
+    shown: list[str] = []
+    while len(", ".join([*shown, items[len(shown)]])) <= limit - 20:
+        shown.append(items[len(shown)])
+    noun = "rows" if isinstance(value[0], tuple) else "numbers"
+    return "[" + ", ".join([*shown, f"... {len(items):,} {noun}"]) + "]"
 
 
 def _rule_lines(s: RunResult) -> list[str]:

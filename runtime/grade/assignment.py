@@ -30,7 +30,7 @@ from labsim.foundation.kinds import ASSIGNMENT_VERSION_KEY, YAML_SUFFIXES, file_
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Reader, TextSpan, load, scalar_value
-from labsim.runtime.grade.readable import measurable_names, unreadable
+from labsim.runtime.grade.readable import LEN_WORDS, measurable_names, unreadable
 
 KEYS = (ASSIGNMENT_VERSION_KEY, "title", "world", "robots", "params", "measure", "metrics", "seeds", "timeout_s",
         "budgets", "criteria", "gate_score", "reference")
@@ -297,8 +297,9 @@ class _AssignmentReader(Reader):
                 continue
             bad = unreadable(tree, readable)
             for what, span in bad:
-                self.error(TextSpan(text, *span), f"measured metric '{name}' reads {what}; a measured metric reads "
-                                                  "only what the student's file cannot write",
+                why = ("a measured metric has no lists, and a group's size is known as written" if what == LEN_WORDS
+                       else "a measured metric reads only what the student's file cannot write")
+                self.error(TextSpan(text, *span), f"measured metric '{name}' reads {what}; {why}",
                            notes=("it may read the sensors, the pose (x, y, heading), collided, forward_speed, "
                                   "the wheel commands (wheel_left, wheel_right), time, tick, dt and the grader's "
                                   "params",))

@@ -15,6 +15,8 @@ from labsim.dsl.library.builtins import AGGREGATES, CONSTANTS, DETECTED, FUNCTIO
 from labsim.dsl.syntax import ast as dsl_ast
 
 MEASURE_VARIABLES = ("time", "tick", "dt")
+# len() counts a list's rows or a group's members in a behaviour file of format 1.3; a measured metric has no lists
+LEN_WORDS = "'len(...)', which counts a list of a behaviour file (format 1.3)"
 
 
 def measurable_names() -> set[str]:
@@ -34,6 +36,8 @@ def unreadable(e: dsl_ast.Expr, readable: set[str]) -> list[tuple[str, tuple[int
         node = todo.pop()
         if isinstance(node, dsl_ast.Name) and node.id not in readable:
             out.append((f"'{node.id}', which is not a sensor, the pose or a param of the grader's", node.span))
+        elif isinstance(node, dsl_ast.Call) and node.func == "len":  # behaviours' len() of a list (format 1.3)
+            out.append((LEN_WORDS, node.func_span))
         elif isinstance(node, dsl_ast.Call) and node.func not in (*FUNCTIONS, *AGGREGATES, DETECTED):
             out.append((f"'{node.func}(...)', which is not a built-in function", node.func_span))
         elif isinstance(node, dsl_ast.Attribute):

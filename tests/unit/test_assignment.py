@@ -88,6 +88,9 @@ HEAD = "labsim-assignment: 1\nworld: any\nrobots: 1\n"
      "metric reads only what the student's file cannot write"),
     (HEAD + "measure:\n  s: maximum(steer(sonar1))\ncriteria: {s: {at_most: 1}}\n", "5:14",
      "measured metric 's' reads 'steer(...)', which is not a built-in function"),
+    (HEAD + "measure:\n  s: maximum(len(sonar1..sonar4))\ncriteria: {s: {at_most: 1}}\n", "5:14",
+     "measured metric 's' reads 'len(...)', which counts a list of a behaviour file (format 1.3); a measured metric "
+     "has no lists, and a group's size is known as written"),
     (HEAD + "measure:\n  s: duration(state == follow)\ncriteria: {s: {at_most: 1}}\n", "5:15",
      "measured metric 's' reads 'state'"),
     (HEAD + "measure:\n  s: min(sonar1, sonar2)\ncriteria: {s: {at_most: 1}}\n", "5:6",

@@ -47,12 +47,14 @@ def signal_rows(path: Path, names: tuple[str, ...], overrides: dict[str, str] | 
     ("[[0, -1], [3, x]]", 20, "list 'w' holds numbers, not 'x'", NUMBERS),
     ("[1, true]", 10, "list 'w' holds numbers, not 'true'", NUMBERS),
     ("[1, .inf]", 10, "list 'w' holds finite numbers, not '.inf'", ()),
-    ("[1, [2]]", 10, "list 'w' holds numbers or rows of numbers, not lists of lists",
-     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[1, [2]]", 10, "list 'w' starts with a number, so it is a list of numbers, and this is a list in it",
+     ("a list holds numbers, or rows of numbers (then every value is a row), e.g. waypoints: [[0, -1], [3, -1], "
+      "[3, -4]], or gains: [0.5, 1, 2]",)),
     ("[[1], 2]", 12, "list 'w' is a list of rows, and this is not a row: write it as [a, b, ...]", ()),
     ("[[0, 1], []]", 15, "row 1 of list 'w' is empty", ()),
-    ("[[[1]]]", 8, "list 'w' holds numbers or rows of numbers, not lists of lists",
-     ("e.g. waypoints: [[0, -1], [3, -1], [3, -4]], or gains: [0.5, 1, 2]",)),
+    ("[[[1]]]", 8, "a row of list 'w' holds numbers, and this is a list in it",
+     ("a list holds numbers, or rows of numbers (then every value is a row), e.g. waypoints: [[0, -1], [3, -1], "
+      "[3, -4]], or gains: [0.5, 1, 2]",)),
 ])
 def test_a_list_of_the_wrong_shape_is_an_error_at_the_value(write, value: str, col: int, message: str,
                                                             notes: tuple[str, ...]) -> None:
@@ -67,7 +69,7 @@ def test_a_list_written_as_a_block_reads_as_one_on_a_line(write) -> None:
 
 
 def test_a_list_parameter_is_format_1_3(write) -> None:
-    path = write(HEAD.replace("1.3", "1.2") + LIST + RULES)
+    path = write(HEAD.replace("1.3", "1.2") + LIST + "let:\n  a: waypoints[0][0]\n" + RULES)
     assert diagnostics(path) == [(7, 14, "a list parameter is format 1.3: start the file with 'labsim: 1.3'", ())]
 
 
@@ -150,9 +152,18 @@ def test_a_list_is_set_whole_and_the_set_value_is_checked_as_the_files(write) ->
                                                                "parsing a flow sequence)")
     assert diagnostics(path, {"waypoints": "[[1, 1e309]]"})[0][3] == (
         "parameter 'waypoints': number too large: labsim's numbers are 64-bit floats, at most about 1.8e+308")
-    # the place checked before the run is checked against the list the run takes
-    assert diagnostics(path, {"waypoints": "[[1, 2]]"})[0][:3] == (10, 17, "list 'waypoints' has 1 row, at places "
-                                                                           "0 to 0; not 1")
+    # the place checked before the run is checked against the list the run takes, and named by its --set
+    [got] = diagnostics(path, {"waypoints": "[[1, 2]]"})
+    assert got == ("--set waypoints=[[1, 2]]", 0, 0, "list 'waypoints' has 1 row, at places 0 to 0; not 1",
+                   ("its rows are at places 0 to 0", f"waypoints[1] reads it, on line 10 of {path}"))
+    # rows of another length than the file's, a place a --set number puts outside the list: at the --set, once
+    assert diagnostics(path, {"waypoints": "[[1, 2, 3]]"}) == [
+        ("--set waypoints=[[1, 2, 3]]", 0, 0, "parameter 'waypoints' has rows of 2 numbers in the file, and so must "
+                                              "its --set; these have 3", how)]
+    path = write(HEAD + LIST + "  route: 0\nlet:\n  l: waypoints[route][0]\n  r: waypoints[route][1]\n" + RULES)
+    assert diagnostics(path, {"route": "5"}) == [
+        ("--set route=5", 0, 0, "list 'waypoints' has 3 rows, at places 0 to 2; 'route' is 5",
+         ("its rows are at places 0 to 2", f"waypoints[route] reads it, on line 10 of {path}"))]
 
 
 def test_a_sweep_refuses_a_list(tmp_path: Path) -> None:
@@ -260,3 +271,96 @@ def test_a_list_of_numbers_and_a_row_hold_as_many_as_a_group_and_a_list_ten_thou
                  "  s: sum(g) + min(w[tick % 2]) + count(w[tick % 3] > 1)\n" + RULES)
     # 2,000 + 2 + 1,000 members over 1; on tick 2 there is no row 2: its members are nan, none over 1
     assert signal_rows(path, ("s",))[0][:3] == [(3002.0,), (3002.0,), (2002.0,)]
+
+
+def test_a_list_read_while_running_is_bound_once_not_written_at_each_read(write) -> None:
+    rows = ", ".join(f"[{i}, {-i}, {i / 4}, 7]" for i in range(2500))  # 10,000 numbers, the most a list holds
+    reads = " + ".join(f"w[(tick + {j}) % 2500][{j % 4}]" for j in range(40))
+    path = write(HEAD.replace("tick >= 5", "tick >= 2") + f"params:\n  w: [{rows}]\n  g: [1, 2, 3]\nlet:\n"
+                 f"  a: {reads}\n  b: g[tick % 3] + g[tick % 2]\n" + RULES)
+    code = compile_file(path).code
+    # each column once, as a tuple make() binds; the numbers of a row appear nowhere in the source
+    assert [len(c) for c in code.columns] == [2500, 2500, 2500, 2500, 3]
+    assert "1249.0" not in code.source and len(code.source) < 20_000
+    expected = [sum((t + j) % 2500 * (1, -1, 0.25, 0)[j % 4] + 7 * (j % 4 == 3) for j in range(40)) for t in range(2)]
+    assert signal_rows(path, ("a", "b"))[0] == [(float(a), float(b)) for a, b in zip(expected, (2, 4))]
+
+
+def test_a_condition_on_a_lists_length_or_values_is_known_before_the_run(write) -> None:
+    path = write(HEAD.replace("stop: tick >= 5", "stop: len(g) < 1") + "params:\n  g: [1, 2]\n" + RULES)
+    assert diagnostics(path) == [(3, 7, "the stop condition never holds (it is always false): the run would never end",
+                                  ("e.g. 'stop: time >= 60' ends the run after a simulated minute",))]
+    path = write(HEAD + LIST + "  g: [1, 2]\nrules:\n  - if g[0] > 5 then move(4)\n"
+                 "  - if waypoints[2][1] < -3 and len(g) > 1 then move(3)\n  - else move(2)\n")
+    assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
+        (10, 8, "this condition never holds: the rule never fires"),
+        (12, 5, "this rule can never fire: the condition of the rule on line 11 always holds, and that rule fires "
+                "first")]
+
+
+def test_the_summary_and_its_json_show_the_lists_as_set_starred_and_a_long_one_shortened(write) -> None:
+    from labsim.runtime.cli.report import format_summary
+    from labsim.runtime.summary_json import summary_dict
+
+    long = ", ".join(f"[{i}, {-i / 2}]" for i in range(40))
+    path = write(HEAD + LIST + f"  long: [{long}]\n  gains: [0.5, 1, 2]\n  k: 2\n" + RULES)
+    result = Run(compile_file(path, {"waypoints": "[[1, 2.5]]"}), load_backend("pymunk"), warn=lambda _: None).run()
+    [line] = [line for line in format_summary(result).splitlines() if line.startswith("  params:")]
+    assert line == ("  params: k=2 waypoints=[[1, 2.5]]* long=[[0, 0], [1, -0.5], [2, -1], [3, -1.5], ... 40 rows] "
+                    "gains=[0.5, 1, 2]   (* set on the command line)")
+    data = summary_dict(result)
+    assert (data["params"], data["overridden"]) == ({"k": 2.0}, ["waypoints"])
+    assert data["lists"]["waypoints"] == [[1.0, 2.5]] and data["lists"]["gains"] == [0.5, 1.0, 2.0]
+    assert len(data["lists"]["long"]) == 40
+
+
+def test_a_place_a_hair_from_a_whole_number_is_shown_in_full(write) -> None:
+    path = write(HEAD + LIST + "  k: 2.9999999999999996\nlet:\n  b: waypoints[k][0]\n" + RULES)
+    assert diagnostics(path) == [(10, 16, "list 'waypoints' has 3 rows, at places 0 to 2; 'k' is 2.9999999999999996",
+                                  ("its rows are at places 0 to 2; round a fraction, as in waypoints[round(i)]",))]
+    path = write(HEAD + LIST + "  g: [1, 2, 3]\nlet:\n  a: waypoints[(tick * 0 + 0.1 + 0.2) * 10][0]\n"
+                 "  b: g[tick * 0 + 1 / 3]\n" + RULES)
+    _, warned = signal_rows(path, ("a", "b"))
+    assert [w.split(": warning: ")[1].split(" in ")[0] for w in warned if "no " in w][:2] == [
+        "no row at place 3.0000000000000004 of a list of 3 rows (places count from 0)",
+        "no member at place 0.333333 of a group of 3 (places count from 0)"]  # no whole place to mistake it for
+
+
+def test_noise_naming_a_list_says_it_is_a_list_and_an_unused_list_warns_as_a_number_does(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "at: [0, 0, 0], noise: {sonar: {std_m: g}}}")
+                 + "params:\n  g: [0.1, 0.2]\nrules:\n  - always move(g[0])\n")
+    assert diagnostics(path) == [(5, 66, "sonar noise std_m must be a number, and parameter 'g' is a list",
+                                  ("name a parameter that is one number, or write the number",))]
+    path = write(HEAD + LIST + "  g: [1, 2]\n  k: 2\n" + RULES)
+    assert [(d.line, d.col, d.message) for d in compile_file(path).warnings] == [
+        (7, 14, "parameter 'waypoints' is never used"), (8, 6, "parameter 'g' is never used"),
+        (9, 6, "parameter 'k' is never used")]
+
+
+def test_a_table_written_in_a_signal_is_told_to_be_a_list_parameter(write) -> None:
+    path = write(HEAD + "let:\n  m: [[1, 2], [3, -4]]\n  g: [[1, 2], [sonar1, 4]]\n" + RULES)
+    note = ("a table of numbers is a list parameter (format 1.3): put it under 'params:', as in 'params: {waypoints: "
+            "[[0, -1], [3, -1]]}'",)
+    message = "a group's members are all numbers or all booleans; this one is a group of numbers"
+    assert diagnostics(path) == [(7, 7, message, note), (8, 7, message, ())]
+
+
+def test_a_fraction_without_its_leading_0_is_a_number_wherever_a_number_is_read(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "at: [-.5, .5e1, +.5]}") + "params:\n  a: -.5\n  b: .5e1\n"
+                 "  g: [-.5, .5e1, .25]\n  q: '-.5'\nlet:\n  s: a + b + sum(g) + q\n" + RULES)
+    assert diagnostics(path) == [(10, 6, "parameter 'q' must be a number or true/false, not '-.5'",
+                                  ("computed values belong under 'let:'",))]  # quoted: text, as '0.5' is
+    program = compile_file(write(HEAD.replace("at: [0, 0, 0]}", "at: [-.5, .5e1, +.5]}") + "params:\n  a: -.5\n"
+                                 "  b: .5e1\n  g: [-.5, .5e1, .25]\nlet:\n  s: a + b + sum(g)\n" + RULES))
+    assert (program.params["a"], program.params["b"], program.lists["g"]) == (-0.5, 5.0, (-0.5, 5.0, 0.25))
+    pose = program.starts[0].pose
+    assert (pose.x_m, pose.y_m, pose.heading_rad) == (-0.5, 5.0, math.radians(0.5))
+
+
+def test_a_row_each_robot_picks_by_its_index_is_checked_for_every_robot(write) -> None:
+    path = write(HEAD.replace("at: [0, 0, 0]}", "count: 2, at: random}\n  q: {model: pioneer_p3dx, count: 4, "
+                              "at: random}") + LIST + "  g: [1, 2, 3, 4]\nlet:\n  a: waypoints[index][0]\n"
+                 "  b: g[index] + waypoints[min(index, 2)][1]\n" + RULES)
+    assert diagnostics(path) == [(11, 16, "list 'waypoints' has 3 rows, at places 0 to 2; 'index' is 3 for robot q[3]",
+                                  ("its rows are at places 0 to 2", "each robot picks the row at its own place: give "
+                                                                    "the list a row for every robot"))]

@@ -101,6 +101,24 @@ def test_a_file_of_1_3_may_name_its_own_start_heading(write) -> None:
     assert signal_rows(path, ("s",))[0] == (2.0,)
 
 
+@pytest.mark.parametrize("name", ["start_x", "start_y", "start_heading"])
+def test_a_start_name_read_above_the_signal_that_takes_it_is_used_before_it_is_defined(write, name: str) -> None:
+    # the signal below has the name: reading it above would read a value not yet computed
+    path = write(HEAD + f"let:\n  a: {name}\n  b: prev({name}, 0)\n  {name}: 5\nrules:\n  - always move(a + b)\n")
+    message = f"signal '{name}' is used before it is defined (on line 9); 'let' signals are evaluated in order"
+    assert diagnostics(path) == [(7, 6, message), (8, 11, message)]
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.3"])
+def test_a_signal_or_parameter_named_as_a_wheel_is_one_message_at_its_name(write, version: str) -> None:
+    path = write(HEAD.replace("1.3", version) + "params:\n  wheel_left: 2\n"
+                 "let:\n  a: wheel_right + wheel_left\n  wheel_right: 5\n  b: wheel_right\n"
+                 "rules:\n  - always move(a + b)\n")
+    assert diagnostics(path) == [
+        (7, 3, "parameter 'wheel_left' is the name of a trace column; choose another name"),
+        (10, 3, "signal 'wheel_right' is the name of a trace column; choose another name")]
+
+
 def test_a_file_reading_none_of_it_computes_none_of_it(write) -> None:
     code = compile_file(write(HEAD + "rules:\n  - always move(1)\n")).code.source
     assert "cmd[0]\n" not in code and "_c = " not in code
@@ -166,3 +184,24 @@ def test_each_robot_reads_its_own_models_limit_and_no_wheel_noise(write) -> None
         seen.append(tuple(r.program.slots[program.slot_of["wl"]] for r in run.robots))
     assert seen == [(0.0, 0.0), (6.24, 12.3), (6.24, 12.3)]  # the e-puck's limit and the Pioneer's; no noise
     assert run.robots[0].program.slots[program.slot_of["n"]] == 3.0  # len() of a group: its members
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.3"])
+def test_a_breakpoint_on_a_read_back_name_the_file_does_not_read_says_how_to_watch_it(write, version: str) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    program = compile_file(write(HEAD.replace("1.3", version) + "rules:\n  - always move(1)\n"))
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, "tick > 1 and start_y < wheel_left")
+    got = [(d.path, d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+    if version == "1.2":
+        assert got == [("--break", 1, 14, "'start_y' is format 1.3: start the file with 'labsim: 1.3'", ()),
+                       ("--break", 1, 24, "'wheel_left' is format 1.3: start the file with 'labsim: 1.3'", ())]
+        return
+    assert got == [
+        ("--break", 1, 14, "'start_y' (the robot's start pose) is read back only where the behaviour reads it: a "
+                           "breakpoint sees what the behaviour reads",
+         ("read it in a signal of the file (e.g. 'let: seen: start_y') and watch the signal",)),
+        ("--break", 1, 24, "'wheel_left' (the robot's wheel command) is read back only where the behaviour reads it: "
+                           "a breakpoint sees what the behaviour reads",
+         ("read it in a signal of the file (e.g. 'let: seen: wheel_left') and watch the signal",))]

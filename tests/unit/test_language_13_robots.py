@@ -393,3 +393,17 @@ def test_a_breakpoint_on_another_robots_value_says_to_watch_a_signal(write) -> N
     assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
         (1, 13, "a breakpoint sees one robot's own values, not pioneer[1].y",
          ("read it in a signal of the file (e.g. 'let: other: pioneer[1].y') and watch the signal",))]
+
+
+def test_a_signal_named_heard_hides_heard_and_a_signal_named_as_a_robot_leaves_its_values(write) -> None:
+    path = write(HEAD + "let:\n  heard: 2\n  a: heard(target) + heard\nrules:\n  - when a > 0 then say(target, 1)\n"
+                 "  - else stop()\n")
+    assert diagnostics(path) == [(9, 6, "'heard' is a signal of this file, which hides heard()",
+                                  ("give it another name to hear a channel with heard(channel)",))]
+    # 'leader' the signal and leader.x the robot's: each name keeps its meaning, whichever comes first
+    path = write(HEAD + "let:\n  a: leader.x + 1\n  leader: 5\n  b: leader.x + leader\nrules:\n  - always stop()\n")
+    program = compile_file(path)
+    run = Run(program, load_backend("pymunk"), warn=lambda _: None)
+    run.tick()
+    slots = run.robots[1].program.slots
+    assert (slots[program.slot_of["a"]], slots[program.slot_of["b"]]) == (1.0, 5.0)

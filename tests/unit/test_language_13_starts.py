@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from labsim.backends.scene.world import PLACEMENT_CLEARANCE_M
 from labsim.dsl.compile import compile_file
 from labsim.foundation.diagnostics import LabsimError
 
@@ -44,7 +45,10 @@ def test_a_group_of_one_takes_one_pose_in_a_list(write) -> None:
     ("[[-3, -3, 0], spawn]", 56, "each start pose of a list is [x, y] or [x, y, heading_deg]"),
     ("[[-3, -3, 0], [1, 30]]", 56, "(1, 30) is outside world 'walls_lab4' (-7.5..7.5 x -7.5..7.5)"),
     ("[[-3, -3, 0], [1, x]]", 60, "a coordinate must be a number, not 'x'"),
-    ("[[-3, -3, 0], [1]]", 56, "'at' is 'spawn', 'random' or [x, y, heading_deg]"),
+    ("[[-3, -3, 0], [1]]", 56, "each start pose of a list is [x, y] or [x, y, heading_deg]"),
+    ("[[-3, -3, 0], [1, 2, 3, 4]]", 56, "each start pose of a list is [x, y] or [x, y, heading_deg]"),
+    ("[[-3, -3, 0], [[1, 1]]]", 56, "each start pose of a list is [x, y] or [x, y, heading_deg]"),
+    ("[]", 42, "robot 'p' has 2 members, so 'at' needs 2 poses, one each, not 0"),
 ])
 def test_each_pose_is_checked_at_its_place(write, at: str, col: int, message: str) -> None:
     path = write(HEAD + f"  p: {{model: pioneer_p3dx, count: 2, at: {at}}}\n" + RULES)
@@ -69,3 +73,35 @@ def test_a_list_of_poses_is_format_1_3(write) -> None:
                  + RULES)
     assert [(line, col, m) for line, col, m, _ in diagnostics(path)] == [
         (5, 42, "a list of start poses, one per robot, is format 1.3: start the file with 'labsim: 1.3'")]
+
+
+@pytest.mark.parametrize("version", ["1.2", "1.3"])
+def test_robots_placed_at_random_keep_clear_of_every_given_pose_declared_before_or_after(write, version: str) -> None:
+    at = "[[0, 0], [1, 1], [-1, -1], [2, -2]]" if version == "1.3" else "[0, 0]"
+    path = write(HEAD.replace("1.3", version).replace("tick >= 5", "tick >= 1")
+                 + f"  b: {{model: pioneer_p3dx, count: 40, at: random}}\n"
+                 f"  a: {{model: pioneer_p3dx, count: {4 if version == '1.3' else 1}, at: {at}}}\n"
+                 "  s: {model: pioneer_p3dx, count: 2, at: spawn}\nseed: 3\n" + RULES)
+    starts = compile_file(path).starts
+    given = [s.pose for s in starts if not s.name.startswith("b")]
+    drawn = [s.pose for s in starts if s.name.startswith("b")]
+    assert len(drawn) == 40 and [s.name for s in starts][:2] == ["b[0]", "b[1]"]  # named in the file's order
+    assert min(math.hypot(p.x_m - q.x_m, p.y_m - q.y_m) for p in drawn for q in given) >= 2 * PLACEMENT_CLEARANCE_M
+    # the same draws, the later given poses only turning away the ones too near them
+    earlier = compile_file(write(HEAD.replace("1.3", version) + "  b: {model: pioneer_p3dx, count: 3, at: random}\n"
+                                 "seed: 3\n" + RULES)).starts
+    assert [s.pose for s in earlier] == drawn[:3]
+
+
+def test_the_hints_for_stacked_robots_and_too_few_spawn_poses_name_a_pose_for_each_robot(write) -> None:
+    path = write(HEAD + "  p: {model: pioneer_p3dx, count: 3, at: [1, 2, 0]}\n" + RULES)
+    assert diagnostics(path) == [(5, 42, "the 3 robots of 'p' would all start at (1, 2), on top of each other",
+                                  ("give each robot its own pose, as in 'at: [[1, 2], [2, 2], ...]', or the group "
+                                   "'at: random' or 'at: spawn'",))]
+    path = write(HEAD + "  p: {model: pioneer_p3dx, count: 9, at: spawn}\n" + RULES)
+    assert diagnostics(path) == [(5, 42, "world 'walls_lab4' has 5 spawn poses, too few for 9 robots placed "
+                                         "'at: spawn'",
+                                  ("use 'at: random', fewer robots, or a pose for each robot: 'at: [[x, y, "
+                                   "heading_deg], ...]'",))]
+    path = write(HEAD + "  p: {model: pioneer_p3dx, count: 2, at: []}\n" + RULES)
+    assert diagnostics(path)[0][3] == ("give one [x, y, heading_deg] per robot, as in at: [[-3, -3, 0], [0, -3, 90]]",)
