@@ -311,7 +311,8 @@ class _Reads(ast.Visitor[None]):
         self.names.append(e.id)
 
     def visit_Call(self, e: ast.Call) -> None:
-        if e.func == "heard" and e.func not in self.own and e.args and isinstance(e.args[0], ast.Name):  # a channel is no name: its slot is
+        if e.func == "heard" and e.func not in self.own and e.args and isinstance(e.args[0], ast.Name):
+            # a channel is no name: what is heard on it is read
             self.names.append(heard_slot(e.args[0].id))
             for a in e.args[1:]:
                 self.visit(a)
