@@ -24,7 +24,7 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
-from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
+from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions, claimed_in_13
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
@@ -283,6 +283,11 @@ class _Checker(ExprChecker):
 
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
+        claimed = claimed_in_13(self, name)
+        if claimed is not None:
+            self.error(node, f"{what} '{name}' {claimed[0]}; choose another name", notes=claimed[1])
+            self.poisoned.add(name)  # its uses say nothing more
+            return True
         if name in SHADOWABLE:
             return False  # a version 1 file may use it for its own
         if name in KEYWORDS:

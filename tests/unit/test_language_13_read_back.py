@@ -96,9 +96,14 @@ def test_a_file_of_1_2_keeps_its_own_start_x(write) -> None:
     assert signal_rows(path, ("s",))[0] == (3,)
 
 
-def test_a_file_of_1_3_may_name_its_own_start_heading(write) -> None:
-    path = write(HEAD + "let:\n  start_heading: 2\n  s: start_heading\nrules:\n  - always move(1)\n")
+def test_a_file_of_1_2_may_name_its_own_start_heading_and_one_of_1_3_may_not(write) -> None:
+    text = "let:\n  start_heading: 2\n  s: start_heading\nrules:\n  - always move(1)\n"
+    path = write(HEAD.replace("1.3", "1.2") + text)
     assert signal_rows(path, ("s",))[0] == (2.0,)
+    with pytest.raises(LabsimError) as e:
+        compile_file(write(HEAD + text))
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        (7, 3, "signal 'start_heading' is the name of a built-in variable of format 1.3; choose another name")]
 
 
 def test_a_file_reading_none_of_it_computes_none_of_it(write) -> None:

@@ -1,0 +1,84 @@
+"""Language 1.3: the names a file's own may not take (a robot's, and the built-ins 1.3 added), and
+what 1.0-1.2 files keep: ``leader.x`` reads robot 'leader' in 1.3, a field of signal 'leader' in 1.2."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from labsim.dsl.compile import compile_file
+from labsim.foundation.diagnostics import LabsimError
+
+HEAD = """labsim: 1.3
+world: walls_lab4
+stop: time >= 1
+robots:
+  leader: {model: pioneer_p3dx, at: [0, 0, 0]}
+  pioneer: {model: pioneer_p3dx, count: 2, at: random}
+"""
+ROBOT = ("is the name of a robot; choose another name", ("leader.x, leader.state, ... read robot 'leader' in format 1.3",))
+OLDER = ("a file of format 1.2 or earlier may keep it as its own name",)
+
+
+def diagnostics(path: Path) -> list[tuple[int, int, str, tuple[str, ...]]]:
+    with pytest.raises(LabsimError) as e:
+        compile_file(path)
+    return [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics]
+
+
+@pytest.mark.parametrize(("part", "line", "what"), [
+    ("let:\n  leader: x + 1\n  a: leader.x\n", 8, "signal"),
+    ("params:\n  leader: 2\nlet:\n  a: leader.x\n", 8, "parameter"),
+    ("sliders:\n  leader: {min: 0, max: 1}\nlet:\n  a: leader.x\n", 8, "slider"),
+    ("functions:\n  leader(v): v + 1\nlet:\n  a: leader.x\n", 8, "function"),
+])
+def test_a_name_of_the_file_s_own_that_is_a_robot_s_is_an_error_in_1_3(write, part: str, line: int,
+                                                                         what: str) -> None:
+    path = write(HEAD + part + "rules:\n  - if a > 0 then stop()\n")
+    assert diagnostics(path) == [(line, 3, f"{what} 'leader' {ROBOT[0]}", ROBOT[1])]
+
+
+def test_a_state_named_like_a_robot_is_an_error_in_1_3(write) -> None:
+    path = write(HEAD + "rules:\n  main:\n    - always goto leader\n  leader:\n    - always stop()\n")
+    assert diagnostics(path) == [(10, 3, f"state 'leader' {ROBOT[0]}", ROBOT[1])]
+
+
+def test_in_1_2_leader_x_stays_a_field_of_the_signal(write) -> None:
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  leader: {model: pioneer_p3dx, at: "
+                 "[0, 0, 0]}\n  b: {model: pioneer_p3dx, at: [2, 0, 0]}\nlet:\n  leader: centroid(threshold("
+                 "gray(camera), 20))\n  cx: leader.x\nrules:\n  - if cx > 0 then stop()\n"
+                 .replace("pioneer_p3dx,", "pioneer_p3dx, camera: {resolution: [32, 24]},"))
+    assert compile_file(path).signal_types["cx"].name == "NUMBER"
+
+
+@pytest.mark.parametrize(("part", "line", "col", "message"), [
+    ("functions:\n  heard(c): c + 1\nlet:\n  a: heard(ch)\n", 8, 3,
+     "function 'heard' is the name of a built-in function of format 1.3; choose another name"),
+    ("let:\n  heard: 5\n  say: 4\n  a: heard + say + heard(ch)\n", 8, 3,
+     "signal 'heard' is the name of a built-in function of format 1.3; choose another name"),
+    ("params:\n  len: 2\nlet:\n  a: heard(ch) + len\n", 8, 3,
+     "parameter 'len' is the name of a built-in function of format 1.3; choose another name"),
+    ("sliders:\n  start_x: {min: 0, max: 1}\nlet:\n  a: heard(ch)\n", 8, 3,
+     "slider 'start_x' is the name of a built-in variable of format 1.3; choose another name"),
+    ("let:\n  wheel_left: 1\n  a: heard(ch)\n", 8, 3,
+     "signal 'wheel_left' is the name of a built-in variable of format 1.3; choose another name"),
+    ("functions:\n  say(v): v\nlet:\n  a: heard(ch)\n", 8, 3,
+     "function 'say' is the name of a built-in action of format 1.3; choose another name"),
+])
+def test_a_name_of_the_file_s_own_that_1_3_gave_the_language_is_an_error(write, part: str, line: int, col: int,
+                                                                        message: str) -> None:
+    path = write(HEAD + part + "rules:\n  - if a > 0 then say(ch, 1)\n  - else stop()\n")
+    found = diagnostics(path)
+    assert found[0] == (line, col, message, OLDER)
+    if "say: 4" in part:  # each refused name once; its uses say nothing more
+        assert found[1:] == [(9, 3, "signal 'say' is the name of a built-in action of format 1.3; choose another name",
+                              OLDER)]
+    else:
+        assert found[1:] == []
+
+
+def test_a_state_named_heard_is_an_error_in_1_3(write) -> None:
+    path = write(HEAD + "let:\n  a: heard(ch)\nrules:\n  main:\n    - if a > 0 then goto heard\n    - else say(ch, 1)\n"
+                 "  heard:\n    - always stop()\n")
+    assert diagnostics(path) == [(13, 3, "state 'heard' is the name of a built-in function of format 1.3; choose "
+                                         "another name", OLDER)]
