@@ -25,8 +25,8 @@ from labsim.dsl.library.builtins import (
     DETECTED,
     FUNCTIONS,
     KEYWORDS,
-    STATEFUL,
     READ_BACK,
+    STATEFUL,
     TRACE_COLUMNS,
     Type,
 )

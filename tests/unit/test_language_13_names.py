@@ -16,7 +16,8 @@ robots:
   leader: {model: pioneer_p3dx, at: [0, 0, 0]}
   pioneer: {model: pioneer_p3dx, count: 2, at: random}
 """
-ROBOT = ("is the name of a robot; choose another name", ("leader.x, leader.state, ... read robot 'leader' in format 1.3",))
+ROBOT = ("is the name of a robot; choose another name",
+         ("leader.x, leader.state, ... read robot 'leader' in format 1.3",))
 OLDER = ("a file of format 1.2 or earlier may keep it as its own name",)
 
 
