@@ -602,11 +602,7 @@ class _Checker(ExprChecker):
                 self.log_action(action, text)
                 continue
             if spec is None:
-                hint = did_you_mean(action.name, ACTIONS)
-                what = "function, not an action" if action.name in FUNCTIONS else "action"
-                self.error(text.at(action.name_span), f"unknown action '{action.name}'{hint}" if what == "action"
-                           else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(
-                               f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()) + ", goto STATE",))
+                self.unknown_action(action, text)
                 continue
             if len(action.args) != len(spec.params):
                 self.error(text.at(action.span), arity_message(action.name, spec.params, len(action.args)))
@@ -620,6 +616,21 @@ class _Checker(ExprChecker):
                     notes = ("states: " + ", ".join(states),)
                 self.error(text.at(goto.state_span),
                            f"no state named '{goto.state}'{did_you_mean(goto.state, states)}", notes=notes)
+
+    def unknown_action(self, action: ast.Action, text: Text) -> None:
+        """An action that does not exist, with the nearest (say() too, format 1.3); a mistyped say's
+        channel counts as said, so that what hears on it is not reported as well."""
+        says = self.version >= 1.3
+        hint = did_you_mean(action.name, [*ACTIONS, *((SAY,) if says else ())])
+        what = "function, not an action" if action.name in FUNCTIONS else "action"
+        listed = [f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()]
+        if says:
+            listed.insert(listed.index("log(text)") if "log(text)" in listed else len(listed),
+                          "say(channel, value[, range_m])")
+        self.error(text.at(action.name_span), f"unknown action '{action.name}'{hint}" if what == "action"
+                   else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(listed) + ", goto STATE",))
+        if hint == f" (did you mean '{SAY}'?)" and action.args and isinstance(action.args[0], ast.Name):
+            self.said.setdefault(action.args[0].id, None)
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""

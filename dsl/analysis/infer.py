@@ -640,6 +640,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         f = FUNCTIONS.get(e.func)
         if f is None:
             notes: tuple[str, ...] = ()
+            messages: tuple[str, ...] = ()
+            hint = ""
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
                 notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
@@ -651,10 +653,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
                 notes = function_notes(e.func, nearest=False)
             else:
-                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
-                notes = function_notes(e.func)
+                messages = (HEARD, SAY) if self.version >= 1.3 else ()
+                hint = did_you_mean(e.func, [*FUNCTIONS, DETECTED, *messages])
+                message = f"unknown function '{e.func}'{hint}"
+                notes = function_notes(e.func, extra=messages[:1])
             self.error(text.at(e.func_span), message, notes)
-            for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
+            # say's first argument is a channel, not a value; so is that of a mistyped heard or say
+            channel = e.func == SAY or any(hint == f" (did you mean '{m}'?)" for m in messages)
+            for arg in e.args[1 if channel else 0:]:
                 self.infer(arg, text)
             return None
         return self.built_in(e, text, f)

@@ -83,3 +83,35 @@ def test_a_state_named_heard_is_an_error_in_1_3(write) -> None:
                  "  heard:\n    - always stop()\n")
     assert diagnostics(path) == [(13, 3, "state 'heard' is the name of a built-in function of format 1.3; choose "
                                          "another name", OLDER)]
+
+
+FUNCTIONS_13 = ("functions: abs, area, atan2, ceil, centroid, clamp, cos, counter, crop, deg, detected, exp, falling, "
+                "floor, gauss, gray, heard, height, held, hold, hypot, invert, log, max, mean, min, pid, prev, rad, "
+                "randint, random, rate, remember, rising, round, sign, sin, sqrt, tan, threshold, total, uniform, "
+                "width")
+ACTIONS_13 = ("actions: arc(left, right), wheels(left, right), move(speed), drive(v, w), stop(), set_velocity(joint, "
+              "velocity), set_position(joint, position), say(channel, value[, range_m]), log(text), goto STATE")
+
+
+@pytest.mark.parametrize(("condition", "message", "nearest"), [
+    ("hear(ch) > 0", "unknown function 'hear' (did you mean 'heard'?)", "the nearest: heard, mean, held; "),
+    ("heared(ch, 1) > 0", "unknown function 'heared' (did you mean 'heard'?)", "the nearest: heard, held, area; "),
+])
+def test_a_mistyped_heard_is_told_and_its_channel_is_not_an_unknown_name(write, condition: str, message: str,
+                                                                        nearest: str) -> None:
+    path = write(HEAD + f"rules:\n  - if {condition} then stop()\n  - else say(ch, 1)\n")
+    assert diagnostics(path) == [(8, 8, message, (nearest + FUNCTIONS_13,
+                                                  "each is described in docs/language.md, under 'Functions'"))]
+
+
+@pytest.mark.parametrize("action", ["sey", "Say"])
+def test_a_mistyped_say_is_told_and_what_hears_on_its_channel_is_not_reported(write, action: str) -> None:
+    path = write(HEAD + f"let:\n  h: heard(ch)\nrules:\n  - if h > 0 then stop()\n  - else {action}(ch, 1)\n")
+    assert diagnostics(path) == [(11, 10, f"unknown action '{action}' (did you mean 'say'?)", (ACTIONS_13,))]
+
+
+def test_a_1_2_file_is_not_told_of_heard(write) -> None:
+    path = write(HEAD.replace("1.3", "1.2") + "rules:\n  - if hear(ch) > 0 then stop()\n")
+    [(line, col, message, notes), unknown] = diagnostics(path)
+    assert (line, col, message) == (8, 8, "unknown function 'hear'")
+    assert "heard" not in notes[0] and unknown[2] == "unknown name 'ch'"
