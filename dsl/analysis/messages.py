@@ -32,6 +32,7 @@ class MessageChecker(Protocol):
 
     version: float
     robot_counts: dict[str, int]
+    robot_constants: list[tuple[str, dict[str, object]]]
     used: set[str]
     constants: dict[str, object]
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
@@ -82,10 +83,18 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
     if len(action.args) == 3:
         reach = action.args[2]
         if c.expect(Parsed(reach, text), reach, Type.NUMBER, "the range of say()"):
-            known = known_value(reach, c.constants, c.scopes)
-            if isinstance(known, int | float) and not isinstance(known, bool) and not known > 0:
-                c.error(text.at(reach.span), f"say()'s range is a distance in metres, more than 0; not {known:g}",
-                        notes=("leave it out to be heard at any distance",))
+            _check_reach(c, reach, text)
+
+
+def _check_reach(c: MessageChecker, reach: ast.Expr, text: Text) -> None:
+    """A range known before the run is more than 0: for every robot, when made of a robot's own
+    parameters (what only the run knows is warned about while running)."""
+    for robot, constants in [("", c.constants), *c.robot_constants]:
+        known = known_value(reach, constants, c.scopes)
+        if isinstance(known, int | float) and not isinstance(known, bool) and not known > 0:
+            c.error(text.at(reach.span), f"say()'s range is a distance in metres, more than 0; not {known:g}"
+                    + (f" for robot {robot}" if robot else ""), notes=("leave it out to be heard at any distance",))
+            return
 
 
 def heard_type(c: MessageChecker, e: ast.Call, text: Text) -> Type | None:

@@ -209,6 +209,13 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
                    "not sent")
             return math.nan
         return say
+    if kind == "say range":
+        def reach(value: float) -> float:  # no one is within a range that is not more than 0 (labsim.runtime.radio)
+            if not value > 0.0:
+                report(f"say()'s range of {value:g} m: heard by no one (a range is more than 0 metres)",
+                       "say()'s range not more than 0: heard by no one")
+            return value
+        return reach
     name, _, since = kind.partition("@")
     if name in FUNCTIONS and FUNCTIONS[name].stateful:
         factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]

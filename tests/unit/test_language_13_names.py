@@ -115,3 +115,45 @@ def test_a_1_2_file_is_not_told_of_heard(write) -> None:
     [(line, col, message, notes), unknown] = diagnostics(path)
     assert (line, col, message) == (8, 8, "unknown function 'hear'")
     assert "heard" not in notes[0] and unknown[2] == "unknown name 'ch'"
+
+
+SWARM = """labsim: 1.3
+world: walls_lab4
+stop: time >= 0.5
+robots:
+  bot: {model: pioneer_p3dx, count: 3, at: [[0, 0, 0], [2, 0, 0], [4, 0, 0]]ROBOT}
+"""
+
+
+def test_a_say_range_of_a_robot_s_own_parameter_is_checked_for_each_robot(write) -> None:
+    path = write(SWARM.replace("ROBOT", ", params: {r: [1, 0, -2]}") + "params:\n  r: 5\nlet:\n  h: heard(ch)\n"
+                 "rules:\n  - when h >= 0 then say(ch, index, r)\n  - always stop()\n")
+    assert diagnostics(path) == [(11, 37, "say()'s range is a distance in metres, more than 0; not 0 for robot bot[1]",
+                                  ("leave it out to be heard at any distance",))]
+
+
+def test_a_say_range_that_can_be_0_or_less_is_warned_about_before_and_while_running(write, tmp_path: Path) -> None:
+    from labsim.backends import load_backend
+    from labsim.runtime.run import Run
+
+    path = write(SWARM.replace("ROBOT", "") + "sliders:\n  r: {min: -5, max: 5, value: 1}\nlet:\n  h: heard(ch)\n"
+                 "  g: heard(ch2)\nrules:\n  - when true then say(ch, index, r), say(ch2, 1, tick - 2), "
+                 "say(ch3, 1, sqrt(-1))\n  - if h + g > 5 then stop()\n")
+    program = compile_file(path)
+    assert [(d.line, d.col, d.message) for d in program.warnings if "range" in d.message] == [
+        (12, 35, "say()'s range can be -5 (slider 'r' goes from -5 to 5): a message said with a range that is not "
+                 "more than 0 metres is heard by no one"),
+        (12, 51, "say()'s range can be -2 (tick counts ticks from 0): a message said with a range that is not more "
+                 "than 0 metres is heard by no one")]
+    warned: list[str] = []
+    result = Run(program, load_backend("pymunk"), trace_path=tmp_path / "t.csv", warn=warned.append).run()
+    firsts = [w.splitlines()[0].split(": warning: ", 1) for w in warned]
+    assert [(where.split(":", 1)[1], what) for where, what in firsts if "range" in what] == [
+        ("12:51", "say()'s range of -2 m: heard by no one (a range is more than 0 metres) in rule main:1, robot "
+                  "bot[0], tick 0"),
+        ("12:74", "say()'s range of nan m: heard by no one (a range is more than 0 metres) in rule main:1, robot "
+                  "bot[0], tick 0")]
+    counts = [f for f in result.faults if "range" in f]
+    assert [f.split(": ", 1)[1] for f in counts] == [
+        "say()'s range not more than 0: heard by no one: 9 times (first at tick 0, robot bot[0])",
+        "say()'s range not more than 0: heard by no one: 30 times (first at tick 0, robot bot[0])"]
