@@ -511,30 +511,51 @@ class _Checker(ExprChecker):
         return out
 
     def lets(self) -> list[tuple[str, Parsed]]:
-        out = []
-        later = {name: key for name, _, key in self.bf.lets}
-        for name, parsed, key in self.bf.lets:
-            if self.taken(name):
-                self.clash(key, "signal", name)
-                continue
-            if self.reserved(name, key, "signal"):
-                continue
-            del later[name]
-            self.later = later
-            self.current_let, self.self_prev_types = name, []
-            t = self.infer(parsed.node, parsed.text)
-            self.current_let = ""
-            t = self.self_read(name, t, parsed)
-            if t is not None:
-                self.declare(name, t, "signal")
-                if t in (Type.NUMBERS, Type.BOOLS):
-                    self.group_sizes[name] = self.size(parsed.node)
-                out.append((name, parsed))
-            else:
-                self.poisoned.add(name)  # already reported: its uses stay quiet
+        """Each signal in the file's order; one that another robot's value is read of above it
+        (``1 if leader.flag else 0`` before 'flag') is checked first, when what it reads by name
+        allows, so that its type is known there (format 1.3: the value is the last tick's)."""
+        decls = self.bf.lets
+        index = {name: i for i, (name, _, _) in enumerate(decls)}
+        self.later = {name: key for name, _, key in decls}
+        done: dict[int, tuple[str, Parsed] | None] = {}
+        busy: set[int] = set()
+
+        def check(i: int) -> None:
+            if i in done or i in busy:
+                return
+            busy.add(i)
+            for e in ast.walk(decls[i][1].node):
+                j = index.get(e.attr, -1) if isinstance(e, ast.Peer) else -1
+                for k in _hoisted(decls, index, j, set(done), busy) if j > i else ():
+                    check(k)
+            done[i] = self.let(*decls[i])
+            busy.discard(i)
+
+        for i in range(len(decls)):
+            check(i)
         self.later = {}
         check_later(self)  # another robot's signals read above their definitions
-        return out
+        return [kept for _, kept in sorted(done.items()) if kept is not None]
+
+    def let(self, name: str, parsed: Parsed, key: Node) -> tuple[str, Parsed] | None:
+        """One signal checked and declared; None if it is wrong (reported)."""
+        if self.taken(name):
+            self.clash(key, "signal", name)
+            return None
+        if self.reserved(name, key, "signal"):
+            return None
+        self.later.pop(name, None)
+        self.current_let, self.self_prev_types = name, []
+        t = self.infer(parsed.node, parsed.text)
+        self.current_let = ""
+        t = self.self_read(name, t, parsed)
+        if t is None:
+            self.poisoned.add(name)  # already reported: its uses stay quiet
+            return None
+        self.declare(name, t, "signal")
+        if t in (Type.NUMBERS, Type.BOOLS):
+            self.group_sizes[name] = self.size(parsed.node)
+        return name, parsed
 
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
         """A signal that reads itself through prev(name, initial) is of its initial value's type."""
@@ -722,3 +743,20 @@ class _Checker(ExprChecker):
         return int(value) if isinstance(current, int) and value == int(value) else value
 
 
+def _hoisted(decls: list[tuple[str, Parsed, Node]], index: dict[str, int], j: int, done: set[int],
+             busy: set[int]) -> list[int]:
+    """The signals to check, in order, so that signal j is checked before its place in the file: those
+    above it that it reads by name and are not checked yet, then j; none if j is checked already, or
+    if one of them is being checked (a same-robot read keeps the file's order)."""
+    if j in done or j in busy:
+        return []
+    plan: list[int] = []
+    for e in ast.walk(decls[j][1].node):
+        k = index.get(e.id, -1) if isinstance(e, ast.Name) else -1
+        if not 0 <= k < j or k in plan or k in done:
+            continue
+        sub = _hoisted(decls, index, k, done, busy | {j})
+        if not sub:
+            return []
+        plan += [n for n in sub if n not in plan]
+    return [*plan, j]

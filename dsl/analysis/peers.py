@@ -171,11 +171,12 @@ def field_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
 
 
 def check_later(c: PeerChecker) -> None:
-    """A signal another robot's name read before the signal was defined: it must be a number."""
+    """A signal another robot's value is read of while the signal is being checked (it reads the
+    signal that reads it, or itself): its type is not known there, and it must be a number."""
     for e, text in c.peer_later:
         t = c.types.get(e.attr)
         if t is not None and t is not Type.NUMBER:
-            c.error(text.at(e.attr_span), f"'{e.attr}' is {t.a}, and another robot's value of it is read above "
-                    "its definition, where only a number can be read so",
-                    notes=(f"define '{e.attr}' above this signal",))
+            c.error(text.at(e.attr_span), f"'{e.attr}' is {t.a}, and another robot's value of it is read where "
+                    f"'{e.attr}' is being worked out (it reads this signal): only a number can be read so",
+                    notes=(f"read a number made of it instead, as in '{e.attr}_n: 1 if {e.attr} else 0'",))
         c.peer_fields[e.attr] = t if t is not None else Type.NUMBER

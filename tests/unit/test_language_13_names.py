@@ -157,3 +157,30 @@ def test_a_say_range_that_can_be_0_or_less_is_warned_about_before_and_while_runn
     assert [f.split(": ", 1)[1] for f in counts] == [
         "say()'s range not more than 0: heard by no one: 9 times (first at tick 0, robot bot[0])",
         "say()'s range not more than 0: heard by no one: 30 times (first at tick 0, robot bot[0])"]
+
+
+def test_another_robot_s_boolean_signal_reads_whatever_the_order_of_the_signals(write, tmp_path: Path) -> None:
+    """Values are the last tick's: a signal read of another robot above its definition is checked first
+    (with what it reads by name), so its type is known; the trace is the same as in the file's order."""
+    import csv
+
+    from labsim.backends import load_backend
+    from labsim.runtime.run import Run
+
+    below = ("  lb: 1 if leader.flag else 0\n  lz: leader.z + 1\n  base: tick\n  mid: base + 1\n"
+             "  flag: mid >= 2 and leader.ok\n  z: tick * 10\n  ok: leader.mid < 3\n")
+    above = ("  base: tick\n  mid: base + 1\n  ok: leader.mid < 3\n  flag: mid >= 2 and leader.ok\n  z: tick * 10\n"
+             "  lb: 1 if leader.flag else 0\n  lz: leader.z + 1\n")
+    head = HEAD.replace("count: 2", "count: 1").replace("stop: time >= 1", "stop: time >= 0.25")
+    columns = ("tick", "robot", "lb", "lz", "flag", "ok")
+    found = []
+    for i, lets in enumerate((below, above)):
+        path = write(head + "let:\n" + lets + "rules:\n  - if lb > 0 and ok and lz > 0 then stop()\n", f"o{i}.yaml")
+        trace = tmp_path / f"o{i}.csv"
+        Run(compile_file(path), load_backend("pymunk"), trace_path=trace, warn=lambda _: None).run()
+        with trace.open() as f:
+            found.append([tuple(r[c] for c in columns) for r in csv.DictReader(x for x in f if x[0] != "#")])
+    assert found[0] == found[1]
+    assert [r[2:] for r in found[0] if r[1] == "leader"] == [
+        ("0", "1", "0", "1"), ("0", "1", "1", "1"), ("1", "11", "1", "1"), ("1", "21", "1", "0"), ("1", "31", "0", "0"),
+        ("0", "41", "0", "0")]

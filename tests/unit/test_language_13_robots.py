@@ -166,11 +166,13 @@ def test_a_log_shows_another_robots_state_and_nan_for_one_outside_the_group(writ
                     ("pioneer[2]", "log: nan main")]
 
 
-def test_a_signal_read_of_another_robot_above_its_definition_must_be_a_number(write) -> None:
+def test_a_signal_read_of_another_robot_in_a_signal_it_reads_must_be_a_number(write) -> None:
+    path = write(HEAD + "let:\n  m: leader.near + 1\n  near: sonar5 < m\nrules:\n  - if m > 0 then stop()\n")
+    assert diagnostics(path) == [(8, 13, "'near' is a boolean, and another robot's value of it is read where 'near' "
+                                         "is being worked out (it reads this signal): only a number can be read so",
+                                  ("read a number made of it instead, as in 'near_n: 1 if near else 0'",))]
     path = write(HEAD + "let:\n  m: leader.near + 1\n  near: sonar5 < 1\nrules:\n  - if m > 0 then stop()\n")
-    assert diagnostics(path) == [(8, 13, "'near' is a boolean, and another robot's value of it is read above its "
-                                         "definition, where only a number can be read so",
-                                  ("define 'near' above this signal",))]
+    assert diagnostics(path) == [(8, 6, "'+' needs a number, but this is a boolean", ())]  # its type is known
 
 
 def test_a_function_does_not_read_another_robot_or_a_channel(write) -> None:
