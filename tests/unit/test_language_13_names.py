@@ -184,3 +184,14 @@ def test_another_robot_s_boolean_signal_reads_whatever_the_order_of_the_signals(
     assert [r[2:] for r in found[0] if r[1] == "leader"] == [
         ("0", "1", "0", "1"), ("0", "1", "1", "1"), ("1", "11", "1", "1"), ("1", "21", "1", "0"), ("1", "31", "0", "0"),
         ("0", "41", "0", "0")]
+
+
+@pytest.mark.parametrize("name", ["and", "if", "not", "else", "then", "goto", "true"])
+def test_a_robot_named_after_a_keyword_is_refused_in_1_3_where_it_is_declared(write, name: str) -> None:
+    robots = f"robots:\n  {name}: {{model: pioneer_p3dx, at: [0, 0, 0]}}\nrules:\n  - always stop()\n"
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\n" + robots)
+    assert diagnostics(path) == [(5, 3, f"robot '{name}' is a keyword of the language, and a robot is read by its "
+                                        f"name ({name}.x) in format 1.3; choose another name",
+                                  ("the language's reserved words: always, and, else, false, goto, if, not, or, "
+                                   "then, true",))]
+    assert compile_file(write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\n" + robots, "old.yaml")).robots
