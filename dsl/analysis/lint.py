@@ -394,6 +394,15 @@ class _Continuous(ast.Visitor[str]):
     def visit_Call(self, e: ast.Call) -> str:
         return "" if e.func in _DISCRETE else self.first(ast.children(e))
 
+    def visit_Peer(self, e: ast.Peer) -> str:
+        """Another robot's pose, or a signal of it that is continuous, as this robot's would be."""
+        member = e.member.value if isinstance(e.member, ast.Number) else None
+        whose = e.robot + (("[...]" if member is None else f"[{member:g}]") if e.indexed else "")
+        if e.attr in ("x", "y", "heading"):
+            return f"'{whose}.{e.attr}', another robot's pose"
+        inner = self.linter.continuous_lets(e.attr) if e.attr in self.linter.let_exprs else ""
+        return f"'{whose}.{e.attr}', which reads {inner.split(',')[0]}" if inner else ""
+
     def visit_IfExp(self, e: ast.IfExp) -> str:
         return self.first((e.body, e.orelse))  # the test only chooses
 
@@ -409,7 +418,7 @@ class _Continuous(ast.Visitor[str]):
         return ""
 
     visit_BoolOp = visit_Not = visit_Text = visit_Number = visit_Bool = visit_Compare
-    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice, ast.Peer})
+    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> str:
         return self.first(ast.children(e))

@@ -195,3 +195,18 @@ def test_a_robot_named_after_a_keyword_is_refused_in_1_3_where_it_is_declared(wr
                                   ("the language's reserved words: always, and, else, false, goto, if, not, or, "
                                    "then, true",))]
     assert compile_file(write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\n" + robots, "old.yaml")).robots
+
+
+def test_eq_on_another_robot_s_continuous_value_is_warned_about_as_on_one_s_own(write) -> None:
+    path = write(HEAD + "let:\n  s5: sonar5\n  m: heard(mode, 0)\nrules:\n  - when true then say(mode, 2)\n"
+                 "  - if leader.x == 2 or pioneer[1].s5 != 0.5 then stop()\n  - if s5 == 0.5 then stop()\n"
+                 "  - if leader.m == 2 or heard(mode) == 2 or pioneer[0].state == main then stop()\n")
+    program = compile_file(path)
+    hint = "compare with '<=' or '>=' instead, e.g. 'time >= 5' rather than 'time == 5'"
+    assert [(d.line, d.col, d.message, d.notes) for d in program.warnings] == [
+        (12, 8, "'==' on 'leader.x', another robot's pose, which changes continuously: it may never be exactly "
+                "equal, and then this would never hold", (hint,)),
+        (12, 25, "'!=' on 'pioneer[1].s5', which reads 'sonar5', which changes continuously: it may never be "
+                 "exactly equal, and then this would always hold", (hint,)),
+        (13, 8, "'==' on 's5', which reads 'sonar5', which changes continuously: it may never be exactly equal, "
+                "and then this would never hold", (hint,))]
