@@ -31,7 +31,7 @@ from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import FunctionDecl, Parsed
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean, listed, quoted
 from labsim.foundation.source import Document, Text
 
 MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
@@ -257,8 +257,8 @@ def _heard(program: Program, checker: ExprChecker, parsed_text: Text) -> None:
                 notes: tuple[str, ...] = (f"read it in a signal of the file (e.g. 'let: got: heard({channel})') "
                                           "and watch the signal",)
             else:
-                message = f"nothing says on channel '{channel}'{did_you_mean(channel, list(program.said))}"
-                notes = ("channels said in this file: " + ", ".join(program.said) if program.said else
+                message = f"nothing says on channel {quoted(channel)}{did_you_mean(channel, list(program.said))}"
+                notes = ("channels said in this file: " + listed(program.said) if program.said else
                          "the file says nothing: a channel is said by an action of a rule, as in say(target, x)",)
             checker.report.add(parsed_text.diagnostic(name.span[0], name.span[1], message, notes=notes))
 

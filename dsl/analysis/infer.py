@@ -40,7 +40,7 @@ from labsim.dsl.library.builtins import (
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
 from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import Report, did_you_mean
+from labsim.foundation.diagnostics import Report, did_you_mean, quoted
 from labsim.foundation.numbers import WHOLE_LIMIT
 from labsim.foundation.source import Document, Place, Text
 
@@ -322,7 +322,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         hint = did_you_mean(e.id, self.types)
         notes = unknown_name_notes(e.id, self.types, self.distance)
-        self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
+        self.error(text.at(e.span), f"unknown name {quoted(e.id)}{hint}", notes=notes)
         return None
 
     def explained(self, e: ast.Expr) -> bool:

@@ -16,7 +16,7 @@ from labsim.dsl.analysis.wording import arity_message
 from labsim.dsl.library.builtins import Type
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import did_you_mean
+from labsim.foundation.diagnostics import did_you_mean, listed, quoted
 from labsim.foundation.source import Place, Text
 
 SAY, HEARD = "say", "heard"
@@ -67,7 +67,7 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
                 "your choice, which heard(target) reads")
         return
     if channel.id in said_here:
-        c.error(text.at(action.span), f"this rule says on channel '{channel.id}' already: a robot sends one "
+        c.error(text.at(action.span), f"this rule says on channel {quoted(channel.id)} already: a robot sends one "
                 "value a tick on a channel")
         return
     said_here.add(channel.id)
@@ -129,6 +129,6 @@ def check_channels(c: MessageChecker) -> None:
             continue
         said = list(c.said)
         for channel, text in places:
-            c.error(text.at(channel.span), f"nothing says on channel '{name}'{did_you_mean(name, said)}",
-                    notes=("channels said in this file: " + ", ".join(said) if said else
+            c.error(text.at(channel.span), f"nothing says on channel {quoted(name)}{did_you_mean(name, said)}",
+                    notes=("channels said in this file: " + listed(said) if said else
                            "a channel is said by an action of a rule, as in say(target, x)",))

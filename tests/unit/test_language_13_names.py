@@ -210,3 +210,14 @@ def test_eq_on_another_robot_s_continuous_value_is_warned_about_as_on_one_s_own(
                  "exactly equal, and then this would always hold", (hint,)),
         (13, 8, "'==' on 's5', which reads 'sonar5', which changes continuously: it may never be exactly equal, "
                 "and then this would never hold", (hint,))]
+
+
+def test_a_long_channel_or_name_is_quoted_by_its_start_and_length(write) -> None:
+    long = "c" * 5000
+    path = write(HEAD + f"let:\n  h: heard({long}x) + {long}\nrules:\n  - when true then say({long}, 1)\n"
+                 "  - if h > 0 then stop()\n")
+    start = "'" + "c" * 30 + "...'"
+    assert diagnostics(path) == [
+        (8, 12, f"nothing says on channel {start} (5,001 characters) (did you mean {start} (5,000 characters)?)",
+         (f"channels said in this file: {start} (5,000 characters)",)),
+        (8, 5017, f"unknown name {start} (5,000 characters)", ())]
