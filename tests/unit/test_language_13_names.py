@@ -221,3 +221,24 @@ def test_a_long_channel_or_name_is_quoted_by_its_start_and_length(write) -> None
         (8, 12, f"nothing says on channel {start} (5,001 characters) (did you mean {start} (5,000 characters)?)",
          (f"channels said in this file: {start} (5,000 characters)",)),
         (8, 5017, f"unknown name {start} (5,000 characters)", ())]
+
+
+def test_the_same_fault_at_several_places_of_a_rule_is_told_apart_in_the_summary(write, tmp_path: Path) -> None:
+    from labsim.backends import load_backend
+    from labsim.runtime.run import Run
+
+    path = write(HEAD.replace("stop: time >= 1", "stop: time >= 0.1") + "let:\n  v: heard(n) + heard(i)\nrules:\n"
+                 "  - when v >= 0 then say(n, 0/0), say(i, 1 / (tick - tick))\n  - if sqrt(-1) + 1/0 > 0 then stop()\n"
+                 "  - else move(1 / 0)\n")
+    result = Run(compile_file(path), load_backend("pymunk"), trace_path=tmp_path / "t.csv", warn=lambda _: None).run()
+    assert list(result.faults) == [
+        "rule main:1 at 10:29 (0/0): division by zero: 6 times (first at tick 0, robot leader)",
+        "rule main:1 at 10:29 (0/0): say() of a value that is not finite: not sent: 6 times (first at tick 0, robot "
+        "leader)",
+        "rule main:1 at 10:42 (1 / (tick - tick)): division by zero: 6 times (first at tick 0, robot leader)",
+        "rule main:1 at 10:42 (1 / (tick - tick)): say() of a value that is not finite: not sent: 6 times (first at "
+        "tick 0, robot leader)",
+        "rule main:2: sqrt(): math domain error: 6 times (first at tick 0, robot leader)",  # one place each: as before
+        "rule main:2: division by zero: 6 times (first at tick 0, robot leader)",
+        "rule main:3: division by zero: 6 times (first at tick 0, robot leader)",
+        "rule main:3: infinite wheel command (clamped to the speed limit): 6 times (first at tick 0, robot leader)"]
