@@ -147,6 +147,7 @@ class _Checker(ExprChecker):
     # -- the whole file ----------------------------------------------------------------------
     def run(self, overrides: dict[str, str]) -> Checked:
         bf = self.bf
+        self.overrides = dict(overrides)
         world = self.world()
         models = self.models()
         mechanism = world.mechanism if world is not None else None

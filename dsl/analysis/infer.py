@@ -16,7 +16,7 @@ from yaml.nodes import Node
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
-from labsim.dsl.analysis.peers import Received, peer_type
+from labsim.dsl.analysis.peers import PEER_VALUES, Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -98,6 +98,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # the robots another robot's name reads (group -> robots), the file's signals, and
         # what is read of the others (labsim.dsl.analysis.peers)
         self.robot_counts: dict[str, int] = {}
+        self.overrides: dict[str, str] = {}  # the --set values, by name: a place made of one names it
         self.signal_names: tuple[str, ...] = ()
         self.peer_fields: dict[str, Type] = {}
         self.peer_later: list[tuple[ast.Peer, Text]] = []
@@ -264,6 +265,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             self.error(text.at(base.span), f"unknown robot '{base.id}'{did_you_mean(base.id, robots)}",
                        notes=("robots of this file: " + ", ".join(robots),))
             return None
+        if (isinstance(base, ast.Name) and self.version >= 1.3 and not self.robot_counts and e.attr in PEER_VALUES
+                and base.id not in self.types and base.id not in self.poisoned and base.id not in self.later):
+            self.error(text.at(e.span), f"{base.id}.{e.attr} would read another robot's {e.attr}, and this file has "
+                       "no robots", notes=("another robot is read by its name in a file of robots, as in leader.x",))
+            return None
         t = self.infer(e.value, text)
         if t is None:
             return None
@@ -305,9 +311,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if e.id in self.robot_counts:
             if self.version < 1.3:
                 self.error(text.at(e.span), later_format(f"reading another robot ({e.id}.x)", 1.3))
+            elif self.robot_counts[e.id] > 1:
+                self.error(text.at(e.span), f"'{e.id}' is a group of {self.robot_counts[e.id]} robots: read one "
+                           f"robot's value, as in {e.id}[0].x", notes=(
+                               f"a slice or a reduction of robots ({e.id}[0:2].x, min({e.id}), len({e.id})) is not a "
+                               f"value: name each robot, as in min({e.id}[0].x, {e.id}[1].x)",))
             else:
-                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in "
-                           f"{e.id}{'[0]' if self.robot_counts[e.id] > 1 else ''}.x",
+                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in {e.id}.x",
                            notes=("another robot's x, y, heading, state and signals can be read",))
             return None
         if e.id in self.metric_names:

@@ -242,3 +242,49 @@ def test_the_same_fault_at_several_places_of_a_rule_is_told_apart_in_the_summary
         "rule main:2: division by zero: 6 times (first at tick 0, robot leader)",
         "rule main:3: division by zero: 6 times (first at tick 0, robot leader)",
         "rule main:3: infinite wheel command (clamped to the speed limit): 6 times (first at tick 0, robot leader)"]
+
+
+READABLE = ("another robot's x, y, heading, state and signals can be read: x, y, heading, state, st, a",)
+GROUP = ("a slice or a reduction of robots (pioneer[0:2].x, min(pioneer), len(pioneer)) is not a value: name each "
+         "robot, as in min(pioneer[0].x, pioneer[1].x)",)
+
+
+@pytest.mark.parametrize(("let", "col", "message", "notes"), [
+    ("pioneer[0:2].x", 6, "'pioneer' is a group of 2 robots: read one robot's value, as in pioneer[0].x", GROUP),
+    ("min(pioneer)", 10, "'pioneer' is a group of 2 robots: read one robot's value, as in pioneer[0].x", GROUP),
+    ("len(pioneer)", 10, "'pioneer' is a group of 2 robots: read one robot's value, as in pioneer[0].x", GROUP),
+    ("leader.X", 13, "robot 'leader' has no value 'X' (did you mean 'x'?)", READABLE),
+    ("leader.start_x", 13, "'start_x' is a built-in variable: give it a signal, as in 'my_start_x: start_x', and "
+                           "read leader.my_start_x", READABLE),
+    ("leader.wheel_left", 13, "'wheel_left' is a built-in variable: give it a signal, as in 'my_wheel_left: "
+                              "wheel_left', and read leader.my_wheel_left", READABLE),
+    ("pioneer[1].stat", 17, "robot 'pioneer[1]' has no value 'stat' (did you mean 'state'?)", READABLE),
+])
+def test_what_cannot_be_read_of_other_robots_says_what_can(write, let: str, col: int, message: str,
+                                                          notes: tuple[str, ...]) -> None:
+    path = write(HEAD + f"let:\n  st: 1\n  a: {let}\nrules:\n  - if a > 0 then stop()\n")
+    assert diagnostics(path) == [(9, col, message, notes)]
+
+
+def test_the_values_listed_as_readable_leave_out_a_signal_that_cannot_be_read(write) -> None:
+    path = write("labsim: 1.3\nworld: road_compact\nstop: time >= 0.1\nrobots:\n  leader: {model: pioneer_p3dx, "
+                 "camera: {resolution: [32, 24]}}\n  b: {model: pioneer_p3dx, camera: {resolution: [32, 24]}}\nlet:\n"
+                 "  blob: centroid(invert(threshold(gray(camera), 20)))\n  cx: blob.x\n  fd: 1 if leader.found else 0\n"
+                 "rules:\n  - if fd > cx then stop()\n")
+    assert diagnostics(path) == [(10, 19, "robot 'leader' has no value 'found'", (
+        "another robot's x, y, heading, state and signals can be read: x, y, heading, state, cx, fd",))]
+
+
+def test_another_robot_read_in_a_file_without_robots_says_so(write) -> None:
+    path = write("labsim: 1.3\nworld: crane\nstop: time >= 1\nlet:\n  a: leader.x\nbind:\n"
+                 "  Hoist_Actuator.position: a\n")
+    assert diagnostics(path) == [(5, 6, "leader.x would read another robot's x, and this file has no robots",
+                                  ("another robot is read by its name in a file of robots, as in leader.x",))]
+
+
+def test_a_place_outside_the_group_from_a_set_names_the_set(write) -> None:
+    path = write(HEAD + "params:\n  j: 1\nlet:\n  b: pioneer[j].x\nrules:\n  - if b > 0 then stop()\n")
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"j": "3"})
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        (10, 14, "group 'pioneer' has 2 robots, pioneer[0] to pioneer[1]; not 3 (--set j=3)")]
