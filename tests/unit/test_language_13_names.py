@@ -288,3 +288,24 @@ def test_a_place_outside_the_group_from_a_set_names_the_set(write) -> None:
         compile_file(path, {"j": "3"})
     assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
         (10, 14, "group 'pioneer' has 2 robots, pioneer[0] to pioneer[1]; not 3 (--set j=3)")]
+
+
+def test_a_robot_outside_the_group_compares_as_nan_does(write, tmp_path: Path) -> None:
+    """docs/language.md: its state is no state (== false, != true, as for a nan number); its boolean false."""
+    import csv
+
+    from labsim.backends import load_backend
+    from labsim.runtime.run import Run
+
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 0.1\nrobots:\n  bot: {model: pioneer_p3dx, count: 2, "
+                 "at: [[0, 0, 0], [2, 0, 0]]}\nlet:\n  f: tick >= 0\n  nf: 1 if bot[index + 1].f else 0\n"
+                 "  nnf: 1 if not bot[index + 1].f else 0\n  ns: 1 if bot[index + 1].state == main else 0\n"
+                 "  nns: 1 if bot[index + 1].state != main else 0\n  nx: 1 if bot[index + 1].x != 5 else 0\n"
+                 "  ex: 1 if bot[index + 1].x == 5 else 0\nrules:\n  - always stop()\n")
+    trace = tmp_path / "t.csv"
+    Run(compile_file(path), load_backend("pymunk"), trace_path=trace, warn=lambda _: None).run()
+    with trace.open() as f:
+        rows = [r for r in csv.DictReader(x for x in f if x[0] != "#") if r["tick"] == "1"]
+    columns = ("nf", "nnf", "ns", "nns", "nx", "ex")
+    assert [tuple(r[c] for c in columns) for r in rows] == [("1", "0", "1", "0", "1", "0"),
+                                                            ("0", "1", "0", "1", "1", "0")]
