@@ -651,7 +651,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if f is None:
             notes: tuple[str, ...] = ()
             messages: tuple[str, ...] = ()
-            hint = ""
+            meant = ""
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
                 notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
@@ -664,12 +664,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 notes = function_notes(e.func, nearest=False)
             else:
                 messages = (HEARD, SAY) if self.version >= 1.3 else ()
-                hint = did_you_mean(e.func, [*FUNCTIONS, DETECTED, *messages])
-                message = f"unknown function '{e.func}'{hint}"
+                meant = did_you_mean(e.func, [*FUNCTIONS, DETECTED, *messages])
+                message = f"unknown function '{e.func}'{meant}"
                 notes = function_notes(e.func, extra=messages[:1])
             self.error(text.at(e.func_span), message, notes)
             # say's first argument is a channel, not a value; so is that of a mistyped heard or say
-            channel = e.func == SAY or any(hint == f" (did you mean '{m}'?)" for m in messages)
+            channel = e.func == SAY or any(meant == f" (did you mean '{m}'?)" for m in messages)
             for arg in e.args[1 if channel else 0:]:
                 self.infer(arg, text)
             return None
