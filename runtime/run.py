@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 import random
 import time as clock
-from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -468,23 +467,7 @@ class Run:
         return out
 
     def _fault_lines(self) -> list[str]:
-        """One line per site and fault; a rule or signal with the same fault at several places names
-        each by its line, column and expression, so that no two lines read alike."""
-        out = []
-        shared = Counter((site.where, what) for site, what in self.faults.counts)
-        for (site, what), n in self.faults.counts.items():
-            tick, robot = self.faults.first[(site, what)]
-            out.append(f"{_fault_place(site) if shared[site.where, what] > 1 else site.where}: {what}: {n} "
-                       f"time{'s' if n != 1 else ''} (first at tick {tick}, robot {robot})")
-        return out
-
-
-def _fault_place(site: FaultSite) -> str:
-    """``rule main:2 at 20:49 (0/0)``: a site by its place in the file and its expression (a long one cut)."""
-    d = site.diagnostic
-    written = d.source_line[d.col - 1:d.end_col - 1] if d.col and d.end_col else ""
-    written = written if len(written) <= 40 else written[:30] + "..."
-    return f"{site.where} at {d.line}:{d.col}" + (f" ({written})" if written else "")
+        return self.faults.summary()
 
 
 def _warning_line(d: Diagnostic) -> str:

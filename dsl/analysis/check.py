@@ -147,7 +147,6 @@ class _Checker(ExprChecker):
     # -- the whole file ----------------------------------------------------------------------
     def run(self, overrides: dict[str, str]) -> Checked:
         bf = self.bf
-        self.overrides = dict(overrides)
         world = self.world()
         models = self.models()
         mechanism = world.mechanism if world is not None else None
@@ -426,6 +425,7 @@ class _Checker(ExprChecker):
         return out
 
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
+        self.overrides = dict(overrides)  # a place made of one names its --set
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
             key = self.key_of(node)
