@@ -534,6 +534,14 @@ class _Checker(ExprChecker):
 
         for i in range(len(decls)):
             check(i)
+        # the trace's columns of what is read of the others follow the signals reading them, as
+        # without the checks moved up: by the first signal reading each (a stable sort)
+        first: dict[str, int] = {}
+        for i, (_, parsed, _) in enumerate(decls):
+            for e in ast.walk(parsed.node):
+                if id(e) in self.received_at:
+                    first.setdefault(self.received_at[id(e)], i)
+        self.received = {n: self.received[n] for n in sorted(self.received, key=lambda n: first.get(n, len(decls)))}
         self.later = {}
         check_later(self)  # another robot's signals read above their definitions
         return [kept for _, kept in sorted(done.items()) if kept is not None]

@@ -173,14 +173,19 @@ def test_another_robot_s_boolean_signal_reads_whatever_the_order_of_the_signals(
              "  lb: 1 if leader.flag else 0\n  lz: leader.z + 1\n")
     head = HEAD.replace("count: 2", "count: 1").replace("stop: time >= 1", "stop: time >= 0.25")
     columns = ("tick", "robot", "lb", "lz", "flag", "ok")
-    found = []
+    found, headers = [], []
     for i, lets in enumerate((below, above)):
         path = write(head + "let:\n" + lets + "rules:\n  - if lb > 0 and ok and lz > 0 then stop()\n", f"o{i}.yaml")
         trace = tmp_path / f"o{i}.csv"
         Run(compile_file(path), load_backend("pymunk"), trace_path=trace, warn=lambda _: None).run()
         with trace.open() as f:
-            found.append([tuple(r[c] for c in columns) for r in csv.DictReader(x for x in f if x[0] != "#")])
+            reader = csv.DictReader(x for x in f if x[0] != "#")
+            found.append([tuple(r[c] for c in columns) for r in reader])
+            headers.append([c for c in reader.fieldnames or () if c.startswith("leader.")])
     assert found[0] == found[1]
+    # the columns of what is read of the other robot follow the signals reading them, in the file's order
+    assert headers == [["leader.flag", "leader.z", "leader.ok", "leader.mid"],
+                       ["leader.mid", "leader.ok", "leader.flag", "leader.z"]]
     assert [r[2:] for r in found[0] if r[1] == "leader"] == [
         ("0", "1", "0", "1"), ("0", "1", "1", "1"), ("1", "11", "1", "1"), ("1", "21", "1", "0"), ("1", "31", "0", "0"),
         ("0", "41", "0", "0")]
