@@ -107,6 +107,15 @@ class Prepared:
         return _program(checked, self._generated, warnings, seed, starts)
 
 
+def file_seed(path: str | Path) -> int:
+    """The seed a file says (``seed:``, 0 when it says none), read without checking the rest: what a
+    sweep runs a file with that does not compile under its first setting (``labsim.runtime.sweep``)."""
+    try:
+        return read(load(path), Report()).seed
+    except LabsimError:  # not YAML, or not readable: nothing of it runs, and no seed is said
+        return 0
+
+
 def _check_seed(seed: int | None) -> None:
     if seed is not None and not (isinstance(seed, int) and 0 <= seed <= WHOLE_LIMIT):
         raise LabsimError([Diagnostic("seed", f"the seed is a whole number from 0 to {WHOLE_LIMIT} (2**53), "

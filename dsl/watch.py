@@ -23,6 +23,7 @@ from yaml.nodes import ScalarNode
 from labsim.backends.scene.models import Kind
 from labsim.dsl.analysis.evaluate import Function, Members, Rows, Unsupported, evaluate
 from labsim.dsl.analysis.infer import ExprChecker
+from labsim.dsl.analysis.messages import heard_slot
 from labsim.dsl.emit.program import FunctionText, Program
 from labsim.dsl.library.builtins import CONSTANTS, FIELDS, FUNCTIONS, READ_BACK, Type
 from labsim.dsl.library.support import STATE
@@ -30,7 +31,7 @@ from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
 from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
+from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean, listed, quoted
 from labsim.foundation.source import Document, Text
 
 MAX_WATCH_CHARS = 500  # a condition typed in a page or on the command line; the rest is a mistake
@@ -120,6 +121,7 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     images, groups, unseen = _declare(program, checker)
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
+    _heard(program, checker, parsed_text)
     for call in _calls(e):
         if call.func in FUNCTIONS and FUNCTIONS[call.func].stateful:
             report.add(parsed_text.diagnostic(call.span[0], call.span[1],
@@ -127,7 +129,7 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
                                               "tick at a time", notes=("make it a signal in the file (let:) "
                                                                        "and watch the signal",)))
     report.raise_if_errors()
-    reads = _Reads()
+    reads = _Reads(set(checker.user_functions))
     reads.visit(e)
     wanted = set(reads.names)
     kept: list[tuple[str, tuple[int, ...] | None, ast.Expr]] = []
@@ -138,8 +140,8 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     return Watch(  # every name it may read (a name inside a group is read too)
         text=text, node=e,
         channels=tuple((n, i) for i, n in enumerate(program.channels) if program.channel_kinds.get(n) in _KIND_TYPES),
-        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names, *READ_BACK)
-                    if n in program.slot_of),
+        slots=tuple((n, program.slot_of[n]) for n in (*program.single_signals, *program.slider_names, *READ_BACK,
+                                                      *map(heard_slot, program.said)) if n in program.slot_of),
         constants={**{n: float(v) for n, v in program.params.items() if isinstance(v, (int, float))},
                    **{n: Rows(Members(row) for row in v) if v and isinstance(v[0], tuple) else Members(v)
                       for n, v in program.lists.items()},
@@ -257,6 +259,24 @@ def _read_back_unseen(read: ast.Name, parsed_text: Text, version: float) -> Diag
                                          "the signal",))
 
 
+def _heard(program: Program, checker: ExprChecker, parsed_text: Text) -> None:
+    """A breakpoint reads ``heard(channel)`` as the file's signals do, from the robot's inbox of the
+    tick: a channel the file hears has a slot holding it; any other channel is refused."""
+    for channel, places in checker.heard.items():
+        if heard_slot(channel) in program.slot_of:
+            continue
+        for name, _ in places:
+            if channel in program.said:
+                message = f"a breakpoint reads what the file hears, and the file never reads heard({channel})"
+                notes: tuple[str, ...] = (f"read it in a signal of the file (e.g. 'let: got: heard({channel})') "
+                                          "and watch the signal",)
+            else:
+                message = f"nothing says on channel {quoted(channel)}{did_you_mean(channel, list(program.said))}"
+                notes = ("channels said in this file: " + listed(program.said) if program.said else
+                         "the file says nothing: a channel is said by an action of a rule, as in say(target, x)",)
+            checker.report.add(parsed_text.diagnostic(name.span[0], name.span[1], message, notes=notes))
+
+
 def _groups(program: Program, checker: ExprChecker) -> tuple[list[tuple[str, tuple[int, ...] | None, ast.Expr]],
                                                                dict[str, str]]:
     """The group signals a breakpoint may read, declared to the checker; and those it may not, each
@@ -297,13 +317,20 @@ def _function(program: Program, f: FunctionText) -> FunctionDecl | None:
 class _Reads(ast.Visitor[None]):
     """The names a condition reads, in the order written; the breakpoint prints their values."""
 
-    def __init__(self) -> None:
+    def __init__(self, own: set[str]) -> None:
         self.names: list[str] = []
+        self.own = own  # the file's own functions: a 1.2 file's heard() is its own
 
     def visit_Name(self, e: ast.Name) -> None:
         self.names.append(e.id)
 
     def visit_Call(self, e: ast.Call) -> None:
+        if e.func == "heard" and e.func not in self.own and e.args and isinstance(e.args[0], ast.Name):
+            # a channel is no name: what is heard on it is read
+            self.names.append(heard_slot(e.args[0].id))
+            for a in e.args[1:]:
+                self.visit(a)
+            return
         self.generic_visit(e)  # detected(sonar5) reads sonar5, as its argument
 
     def visit_Attribute(self, e: ast.Attribute) -> None:

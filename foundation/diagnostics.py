@@ -130,4 +130,15 @@ class Report:
 def did_you_mean(word: str, candidates: Iterable[str]) -> str:
     """' (did you mean 'x'?)' for the closest candidate, or '' when nothing is close."""
     matches = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)
-    return f" (did you mean '{matches[0]}'?)" if matches else ""
+    return f" (did you mean {quoted(matches[0])}?)" if matches else ""
+
+
+def quoted(token: str) -> str:
+    """A name as a message quotes it: a long one by its first 30 characters and its length
+    (docs/language.md, "Mistakes"), so that a 5,000-character name does not fill the screen."""
+    return f"'{token}'" if len(token) <= 40 else f"'{token[:30]}...' ({len(token):,} characters)"
+
+
+def listed(names: Iterable[str]) -> str:
+    """Names as a message's list gives them, 'a, b, c': a long one as ``quoted`` gives it."""
+    return ", ".join(n if len(n) <= 40 else quoted(n) for n in names)

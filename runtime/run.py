@@ -467,12 +467,7 @@ class Run:
         return out
 
     def _fault_lines(self) -> list[str]:
-        out = []
-        for (site, what), n in self.faults.counts.items():
-            tick, robot = self.faults.first[(site, what)]
-            out.append(f"{site.where}: {what}: {n} time{'s' if n != 1 else ''} "
-                       f"(first at tick {tick}, robot {robot})")
-        return out
+        return self.faults.summary()
 
 
 def _warning_line(d: Diagnostic) -> str:

@@ -24,7 +24,7 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
-from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
+from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions, claimed_in_13
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
@@ -288,6 +288,11 @@ class _Checker(ExprChecker):
 
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
+        claimed = claimed_in_13(self, name)
+        if claimed is not None:
+            self.error(node, f"{what} '{name}' {claimed[0]}; choose another name", notes=claimed[1])
+            self.poisoned.add(name)  # its uses say nothing more
+            return True
         why = _reserved_why(name)
         if why is None:
             return False
@@ -421,6 +426,7 @@ class _Checker(ExprChecker):
         return out
 
     def params(self, overrides: dict[str, str]) -> dict[str, float | bool]:
+        self.overrides = dict(overrides)  # a place made of one names its --set
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
             key = self.key_of(node)
@@ -508,33 +514,63 @@ class _Checker(ExprChecker):
         return out
 
     def lets(self) -> list[tuple[str, Parsed]]:
-        out = []
+        """Each signal in the file's order; one that another robot's value is read of above it
+        (``1 if leader.flag else 0`` before 'flag') is checked first, when what it reads by name
+        allows, so that its type is known there (format 1.3: the value is the last tick's)."""
+        decls = self.bf.lets
+        index = {name: i for i, (name, _, _) in enumerate(decls)}
         # a signal refused for its name is not one to wait for: its uses above read what else has the name
-        later = {name: key for name, _, key in self.bf.lets if _reserved_why(name) is None}
-        self.poisoned |= {name for name, _, _ in self.bf.lets if name not in later}  # reported at the name
-        for name, parsed, key in self.bf.lets:
-            if self.taken(name):
-                later.pop(name)  # uses read what has the name already
-                self.clash(key, "signal", name)
-                continue
-            if self.reserved(name, key, "signal"):
-                continue
-            del later[name]
-            self.later = later
-            self.current_let, self.self_prev_types = name, []
-            t = self.infer(parsed.node, parsed.text)
-            self.current_let = ""
-            t = self.self_read(name, t, parsed)
-            if t is not None:
-                self.declare(name, t, "signal")
-                if t in (Type.NUMBERS, Type.BOOLS):
-                    self.group_sizes[name] = self.size(parsed.node)
-                out.append((name, parsed))
-            else:
-                self.poisoned.add(name)  # already reported: its uses stay quiet
+        self.later = {name: key for name, _, key in decls
+                      if _reserved_why(name) is None and claimed_in_13(self, name) is None}
+        self.poisoned |= {name for name, _, _ in decls if name not in self.later}  # reported at the name
+        done: dict[int, tuple[str, Parsed] | None] = {}
+        busy: set[int] = set()
+
+        def check(i: int) -> None:
+            if i in done or i in busy:
+                return
+            busy.add(i)
+            for e in ast.walk(decls[i][1].node):
+                j = index.get(e.attr, -1) if isinstance(e, ast.Peer) else -1
+                for k in _hoisted(decls, index, j, set(done), busy) if j > i else ():
+                    check(k)
+            done[i] = self.let(*decls[i])
+            busy.discard(i)
+
+        for i in range(len(decls)):
+            check(i)
+        # the trace's columns of what is read of the others follow the signals reading them, as
+        # without the checks moved up: by the first signal reading each (a stable sort)
+        first: dict[str, int] = {}
+        for i, (_, parsed, _) in enumerate(decls):
+            for e in ast.walk(parsed.node):
+                if id(e) in self.received_at:
+                    first.setdefault(self.received_at[id(e)], i)
+        self.received = {n: self.received[n] for n in sorted(self.received, key=lambda n: first.get(n, len(decls)))}
         self.later = {}
         check_later(self)  # another robot's signals read above their definitions
-        return out
+        return [kept for _, kept in sorted(done.items()) if kept is not None]
+
+    def let(self, name: str, parsed: Parsed, key: Node) -> tuple[str, Parsed] | None:
+        """One signal checked and declared; None if it is wrong (reported)."""
+        if self.taken(name):
+            self.later.pop(name, None)  # uses read what has the name already
+            self.clash(key, "signal", name)
+            return None
+        if self.reserved(name, key, "signal"):
+            return None
+        self.later.pop(name, None)
+        self.current_let, self.self_prev_types = name, []
+        t = self.infer(parsed.node, parsed.text)
+        self.current_let = ""
+        t = self.self_read(name, t, parsed)
+        if t is None:
+            self.poisoned.add(name)  # already reported: its uses stay quiet
+            return None
+        self.declare(name, t, "signal")
+        if t in (Type.NUMBERS, Type.BOOLS):
+            self.group_sizes[name] = self.size(parsed.node)
+        return name, parsed
 
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
         """A signal that reads itself through prev(name, initial) is of its initial value's type."""
@@ -602,11 +638,7 @@ class _Checker(ExprChecker):
                 self.log_action(action, text)
                 continue
             if spec is None:
-                hint = did_you_mean(action.name, ACTIONS)
-                what = "function, not an action" if action.name in FUNCTIONS else "action"
-                self.error(text.at(action.name_span), f"unknown action '{action.name}'{hint}" if what == "action"
-                           else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(
-                               f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()) + ", goto STATE",))
+                self.unknown_action(action, text)
                 continue
             if len(action.args) != len(spec.params):
                 self.error(text.at(action.span), arity_message(action.name, spec.params, len(action.args)))
@@ -620,6 +652,21 @@ class _Checker(ExprChecker):
                     notes = ("states: " + ", ".join(states),)
                 self.error(text.at(goto.state_span),
                            f"no state named '{goto.state}'{did_you_mean(goto.state, states)}", notes=notes)
+
+    def unknown_action(self, action: ast.Action, text: Text) -> None:
+        """An action that does not exist, with the nearest (say() too, format 1.3); a mistyped say's
+        channel counts as said, so that what hears on it is not reported as well."""
+        says = self.version >= 1.3
+        hint = did_you_mean(action.name, [*ACTIONS, *((SAY,) if says else ())])
+        what = "function, not an action" if action.name in FUNCTIONS else "action"
+        listed = [f"{a.name}({', '.join(a.params)})" for a in ACTIONS.values()]
+        if says:
+            listed.insert(listed.index("log(text)") if "log(text)" in listed else len(listed),
+                          "say(channel, value[, range_m])")
+        self.error(text.at(action.name_span), f"unknown action '{action.name}'{hint}" if what == "action"
+                   else f"'{action.name}' is a {what}", notes=("actions: " + ", ".join(listed) + ", goto STATE",))
+        if hint == f" (did you mean '{SAY}'?)" and action.args and isinstance(action.args[0], ast.Name):
+            self.said.setdefault(action.args[0].id, None)
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
@@ -722,3 +769,22 @@ def _reserved_why(name: str) -> str | None:
     if name in TRACE_COLUMNS:
         return "is the name of a trace column"
     return None
+
+
+def _hoisted(decls: list[tuple[str, Parsed, Node]], index: dict[str, int], j: int, done: set[int],
+             busy: set[int]) -> list[int]:
+    """The signals to check, in order, so that signal j is checked before its place in the file: those
+    above it that it reads by name and are not checked yet, then j; none if j is checked already, or
+    if one of them is being checked (a same-robot read keeps the file's order)."""
+    if j in done or j in busy:
+        return []
+    plan: list[int] = []
+    for e in ast.walk(decls[j][1].node):
+        k = index.get(e.id, -1) if isinstance(e, ast.Name) else -1
+        if not 0 <= k < j or k in plan or k in done:
+            continue
+        sub = _hoisted(decls, index, k, done, busy | {j})
+        if not sub:
+            return []
+        plan += [n for n in sub if n not in plan]
+    return [*plan, j]

@@ -361,6 +361,11 @@ class _Walker(ast.Visitor[Any]):
             arg = e.args[0]
             value = self.names.get(arg.id) if isinstance(arg, ast.Name) and arg.id not in self.env else None
             return float(len(value)) if isinstance(value, Rows) else float(self.size(arg))
+        if e.func == "heard" and e.args and isinstance(e.args[0], ast.Name) and f"heard({e.args[0].id})" in self.names:
+            heard = self.names[f"heard({e.args[0].id})"]  # what the robot heard (format 1.3): nan until anything
+            if heard == heard:
+                return heard
+            return self.visit(e.args[1]) if len(e.args) == 2 else 0.0
         if e.func == DETECTED:  # takes the sensor's name: it sees something when its reading is finite
             assert isinstance(e.args[0], ast.Name)
             return self.visit(e.args[0]) < INF

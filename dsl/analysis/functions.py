@@ -25,6 +25,7 @@ from labsim.dsl.library.builtins import (
     DETECTED,
     FUNCTIONS,
     KEYWORDS,
+    READ_BACK,
     STATEFUL,
     TRACE_COLUMNS,
     Type,
@@ -50,6 +51,8 @@ class ExprChecker(Protocol):
     expanded: int
     expanded_reported: bool
     sizes: dict[int, int]
+    version: float
+    robot_counts: dict[str, int]
 
     def error(self, place: Place, message: str, notes: tuple[str, ...] = ()) -> None: ...
 
@@ -80,6 +83,25 @@ def copy(e: ast.Expr) -> ast.Expr:
 nodes = ast.walk  # every node of an expression, e first, without recursion
 
 
+# the names format 1.3 gave the language: a 1.3 file's own names may not take them (a 1.0-1.2 file's keep theirs)
+NEW_IN_13 = {"heard": "a built-in function", "say": "a built-in action", "len": "a built-in function",
+             **dict.fromkeys(READ_BACK, "a built-in variable")}
+
+
+def claimed_in_13(c: ExprChecker, name: str) -> tuple[str, tuple[str, ...]] | None:
+    """Why a name of the file's own (a signal, parameter, state, slider or function) is refused in a
+    format 1.3 file, and a note; None if it is not. In 1.3 ``leader.x`` reads robot 'leader', and
+    ``heard(c)`` the built-in: a name of the file's own taking either would silently change them."""
+    if c.version < 1.3:
+        return None
+    if name in c.robot_counts:
+        return "is the name of a robot", (f"{name}.x, {name}.state, ... read robot '{name}' in format 1.3",)
+    if name in NEW_IN_13:
+        return (f"is the name of {NEW_IN_13[name]} of format 1.3",
+                ("a file of format 1.2 or earlier may keep it as its own name",))
+    return None
+
+
 def check_definitions(c: ExprChecker, decls: list[FunctionDecl]) -> dict[str, FunctionDecl]:
     """Each definition's name, purity and the circles of calls; the functions that may be called."""
     out: dict[str, FunctionDecl] = {}
@@ -88,6 +110,10 @@ def check_definitions(c: ExprChecker, decls: list[FunctionDecl]) -> dict[str, Fu
                 or d.name == DETECTED or d.name in TRACE_COLUMNS:
             c.error(d.key, f"function '{d.name}' has the name of a built-in function, action or trace column; "
                            "choose another name")
+            continue
+        claimed = claimed_in_13(c, d.name)
+        if claimed is not None:
+            c.error(d.key, f"function '{d.name}' {claimed[0]}; choose another name", notes=claimed[1])
             continue
         if d.name in out:
             first = out[d.name].key.start_mark.line + 1

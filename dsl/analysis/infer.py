@@ -16,7 +16,7 @@ from yaml.nodes import Node
 from labsim.dsl.analysis.fold import fold
 from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_note, check_call, known_value
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
-from labsim.dsl.analysis.peers import Received, peer_type
+from labsim.dsl.analysis.peers import PEER_VALUES, Received, peer_type
 from labsim.dsl.analysis.wording import (
     arity_message,
     function_notes,
@@ -41,7 +41,7 @@ from labsim.dsl.library.builtins import (
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lists import ListValue
 from labsim.dsl.syntax.read import VERSIONS, FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean
+from labsim.foundation.diagnostics import Diagnostic, Report, did_you_mean, quoted
 from labsim.foundation.numbers import WHOLE_LIMIT, place_text
 from labsim.foundation.source import Document, Place, Text
 
@@ -101,6 +101,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         # the robots another robot's name reads (group -> robots), the file's signals, and
         # what is read of the others (labsim.dsl.analysis.peers)
         self.robot_counts: dict[str, int] = {}
+        self.overrides: dict[str, str] = {}  # the --set values, by name: a place made of one names it
         self.signal_names: tuple[str, ...] = ()
         self.peer_fields: dict[str, Type] = {}
         self.peer_later: list[tuple[ast.Peer, Text]] = []
@@ -283,6 +284,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             self.error(text.at(base.span), f"unknown robot '{base.id}'{did_you_mean(base.id, robots)}",
                        notes=("robots of this file: " + ", ".join(robots),))
             return None
+        if (isinstance(base, ast.Name) and self.version >= 1.3 and not self.robot_counts and e.attr in PEER_VALUES
+                and base.id not in self.types and base.id not in self.poisoned and base.id not in self.later):
+            self.error(text.at(e.span), f"{base.id}.{e.attr} would read another robot's {e.attr}, and this file has "
+                       "no robots", notes=("another robot is read by its name in a file of robots, as in leader.x",))
+            return None
         t = self.infer(e.value, text)
         if t is None:
             return None
@@ -325,9 +331,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if e.id in self.robot_counts:
             if self.version < 1.3:
                 self.error(text.at(e.span), later_format(f"reading another robot ({e.id}.x)", 1.3))
+            elif self.robot_counts[e.id] > 1:
+                self.error(text.at(e.span), f"'{e.id}' is a group of {self.robot_counts[e.id]} robots: read one "
+                           f"robot's value, as in {e.id}[0].x", notes=(
+                               f"a slice or a reduction of robots ({e.id}[0:2].x, min({e.id}), len({e.id})) is not a "
+                               f"value: name each robot, as in min({e.id}[0].x, {e.id}[1].x)",))
             else:
-                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in "
-                           f"{e.id}{'[0]' if self.robot_counts[e.id] > 1 else ''}.x",
+                self.error(text.at(e.span), f"'{e.id}' is a robot: read one of its values, as in {e.id}.x",
                            notes=("another robot's x, y, heading, state and signals can be read",))
             return None
         if e.id in self.metric_names:
@@ -342,7 +352,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
             return None
         hint = did_you_mean(e.id, self.types)
         notes = unknown_name_notes(e.id, self.types, self.distance)
-        self.error(text.at(e.span), f"unknown name '{e.id}'{hint}", notes=notes)
+        self.error(text.at(e.span), f"unknown name {quoted(e.id)}{hint}", notes=notes)
         return None
 
     def explained(self, e: ast.Expr) -> bool:
@@ -672,28 +682,40 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 return reduced
         f = FUNCTIONS.get(e.func)
         if f is None:
-            notes: tuple[str, ...] = ()
-            if e.func in AGGREGATES:
-                message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
-                notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
-                          "of booleans, as in count(front < 0.5), counts the members that hold",)
-                         if e.func == "count" else ())
-            elif e.func in ACTIONS or e.func == SAY:
-                message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
-            elif e.func == HEARD:  # the file's own name 'heard' hides the function (format 1.3)
-                message = f"'heard' is a {self.kinds.get(HEARD, 'name')} of this file, which hides heard()"
-                notes = ("give it another name to hear a channel with heard(channel)",)
-            elif e.func in MEANT:
-                message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
-                notes = function_notes(e.func, nearest=False)
-            else:
-                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
-                notes = function_notes(e.func)
-            self.error(text.at(e.func_span), message, notes)
-            for arg in e.args[1 if e.func == SAY else len(e.args) if e.func == HEARD else 0:]:  # channels
-                self.infer(arg, text)
+            self.unknown_call(e, text)
             return None
         return self.built_in(e, text, f)
+
+    def unknown_call(self, e: ast.Call, text: Text) -> None:
+        """A call of no function: what the name is instead (an aggregate, an action, the file's own
+        'heard'), or the nearest names; its arguments are still checked, a channel's not."""
+        notes: tuple[str, ...] = ()
+        messages: tuple[str, ...] = ()
+        meant = ""
+        if e.func in AGGREGATES:
+            message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
+            notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
+                      "of booleans, as in count(front < 0.5), counts the members that hold",)
+                     if e.func == "count" else ())
+        elif e.func in ACTIONS or e.func == SAY:
+            message = f"'{e.func}' is an action: it goes after 'then', not inside an expression"
+        elif e.func == HEARD:  # the file's own name 'heard' hides the function (format 1.3)
+            message = f"'heard' is a {self.kinds.get(HEARD, 'name')} of this file, which hides heard()"
+            notes = ("give it another name to hear a channel with heard(channel)",)
+        elif e.func in MEANT:
+            message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
+            notes = function_notes(e.func, nearest=False)
+        else:
+            messages = (HEARD, SAY) if self.version >= 1.3 else ()
+            meant = did_you_mean(e.func, [*FUNCTIONS, DETECTED, *messages])
+            message = f"unknown function '{e.func}'{meant}"
+            notes = function_notes(e.func, extra=messages[:1])
+        self.error(text.at(e.func_span), message, notes)
+        # say's first argument is a channel, not a value; so is that of a mistyped heard or say
+        channel = e.func == SAY or any(meant == f" (did you mean '{m}'?)" for m in messages)
+        for arg in e.args[len(e.args) if e.func == HEARD else 1 if channel else 0:]:  # values, not channels
+            self.infer(arg, text)
+        return None
 
     def built_in(self, e: ast.Call, text: Text, f: Function) -> Type | None:
         """A call of a built-in function: its arguments' number and types; given groups where it takes

@@ -298,6 +298,8 @@ class Linter:
                             self.wheel_speed(arg, decl.text, wheel_max)
                     elif action.name == "drive" and len(action.args) == 2:
                         self.drive(action, decl.text, wheel_max)
+                    elif action.name == "say" and len(action.args) == 3:
+                        self.reach(action.args[2], decl.text)
 
     def wheel_speed(self, e: ast.Expr, text: Text, wheel_max: float) -> None:
         values = self.extremes(e)
@@ -308,6 +310,17 @@ class Linter:
             model = ", ".join(sorted({m.name for m in self.c.models.values()}))
             self.warn(text.at(e.span), f"{v:g} rad/s{_with(env)} is beyond the wheels' limit of {wheel_max:g} rad/s "
                       f"({model}'s max_wheel_speed): the wheels are held to it")
+
+    def reach(self, e: ast.Expr, text: Text) -> None:
+        """say()'s range, when it can go below 0 (a slider from -5): no one hears it then. A range
+        known before the run is checked (labsim.dsl.analysis.messages); the run warns of the rest."""
+        if self.known(e) is not None:
+            return
+        r = self.ranges.of(e)
+        if -math.inf < r.lo < 0 or (r.hi <= 0 and not r.nan):
+            because = f" ({'; '.join(r.facts)})" if r.facts else ""
+            self.warn(text.at(e.span), f"say()'s range can be {r.lo:g}{because}: a message said with a range "
+                      "that is not more than 0 metres is heard by no one")
 
     def drive(self, action: ast.Action, text: Text, wheel_max: float) -> None:
         """drive(v, w): the wheel speeds it asks for, (v -+ w * axle / 2) / radius."""
@@ -382,6 +395,15 @@ class _Continuous(ast.Visitor[str]):
     def visit_Call(self, e: ast.Call) -> str:
         return "" if e.func in _DISCRETE else self.first(ast.children(e))
 
+    def visit_Peer(self, e: ast.Peer) -> str:
+        """Another robot's pose, or a signal of it that is continuous, as this robot's would be."""
+        member = e.member.value if isinstance(e.member, ast.Number) else None
+        whose = e.robot + (("[...]" if member is None else f"[{member:g}]") if e.indexed else "")
+        if e.attr in ("x", "y", "heading"):
+            return f"'{whose}.{e.attr}', another robot's pose"
+        inner = self.linter.continuous_lets(e.attr) if e.attr in self.linter.let_exprs else ""
+        return f"'{whose}.{e.attr}', which reads {inner.split(',')[0]}" if inner else ""
+
     def visit_IfExp(self, e: ast.IfExp) -> str:
         return self.first((e.body, e.orelse))  # the test only chooses
 
@@ -397,7 +419,7 @@ class _Continuous(ast.Visitor[str]):
         return ""
 
     visit_BoolOp = visit_Not = visit_Text = visit_Number = visit_Bool = visit_Compare
-    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice, ast.Peer})
+    generic = frozenset({ast.Neg, ast.Binary, ast.Attribute, ast.Group, ast.Index, ast.Slice})
 
     def generic_visit(self, e: ast.Expr, *args: Any) -> str:
         return self.first(ast.children(e))

@@ -16,7 +16,7 @@ from labsim.dsl.analysis.wording import arity_message
 from labsim.dsl.library.builtins import Type
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
-from labsim.foundation.diagnostics import did_you_mean
+from labsim.foundation.diagnostics import did_you_mean, listed, quoted
 from labsim.foundation.source import Place, Text
 
 SAY, HEARD = "say", "heard"
@@ -32,6 +32,7 @@ class MessageChecker(Protocol):
 
     version: float
     robot_counts: dict[str, int]
+    robot_constants: list[tuple[str, dict[str, object]]]
     used: set[str]
     constants: dict[str, object]
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
@@ -66,7 +67,7 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
                 "your choice, which heard(target) reads")
         return
     if channel.id in said_here:
-        c.error(text.at(action.span), f"this rule says on channel '{channel.id}' already: a robot sends one "
+        c.error(text.at(action.span), f"this rule says on channel {quoted(channel.id)} already: a robot sends one "
                 "value a tick on a channel")
         return
     said_here.add(channel.id)
@@ -82,10 +83,18 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
     if len(action.args) == 3:
         reach = action.args[2]
         if c.expect(Parsed(reach, text), reach, Type.NUMBER, "the range of say()"):
-            known = known_value(reach, c.constants, c.scopes)
-            if isinstance(known, int | float) and not isinstance(known, bool) and not known > 0:
-                c.error(text.at(reach.span), f"say()'s range is a distance in metres, more than 0; not {known:g}",
-                        notes=("leave it out to be heard at any distance",))
+            _check_reach(c, reach, text)
+
+
+def _check_reach(c: MessageChecker, reach: ast.Expr, text: Text) -> None:
+    """A range known before the run is more than 0: for every robot, when made of a robot's own
+    parameters (what only the run knows is warned about while running)."""
+    for robot, constants in [("", c.constants), *c.robot_constants]:
+        known = known_value(reach, constants, c.scopes)
+        if isinstance(known, int | float) and not isinstance(known, bool) and not known > 0:
+            c.error(text.at(reach.span), f"say()'s range is a distance in metres, more than 0; not {known:g}"
+                    + (f" for robot {robot}" if robot else ""), notes=("leave it out to be heard at any distance",))
+            return
 
 
 def heard_type(c: MessageChecker, e: ast.Call, text: Text) -> Type | None:
@@ -120,6 +129,6 @@ def check_channels(c: MessageChecker) -> None:
             continue
         said = list(c.said)
         for channel, text in places:
-            c.error(text.at(channel.span), f"nothing says on channel '{name}'{did_you_mean(name, said)}",
-                    notes=("channels said in this file: " + ", ".join(said) if said else
+            c.error(text.at(channel.span), f"nothing says on channel {quoted(name)}{did_you_mean(name, said)}",
+                    notes=("channels said in this file: " + listed(said) if said else
                            "a channel is said by an action of a rule, as in say(target, x)",))

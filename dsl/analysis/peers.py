@@ -16,10 +16,10 @@ from typing import Protocol
 from yaml.nodes import Node
 
 from labsim.dsl.analysis.functions import known_value
-from labsim.dsl.library.builtins import VARIABLES, Type
+from labsim.dsl.library.builtins import READ_BACK, VARIABLES, Type
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl
-from labsim.foundation.diagnostics import did_you_mean
+from labsim.foundation.diagnostics import did_you_mean, listed, quoted
 from labsim.foundation.source import Place, Text
 
 POSE = ("x", "y", "heading")  # readable of every robot, besides its state and signals
@@ -49,6 +49,7 @@ class PeerChecker(Protocol):
     scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]
     constants: dict[str, object]
     robot_constants: list[tuple[str, dict[str, object]]]
+    overrides: dict[str, str]
     robot_counts: dict[str, int]
     signal_names: tuple[str, ...]
     peer_fields: dict[str, Type]
@@ -62,9 +63,14 @@ class PeerChecker(Protocol):
     def infer(self, e: ast.Expr, text: Text) -> Type | None: ...
 
 
+PEER_VALUES = (*POSE, "state")  # what every robot has for the others to read, besides its signals
+
+
 def readable(c: PeerChecker) -> tuple[str, ...]:
-    """What another robot's name reads: its pose, its state and the file's signals."""
-    return (*POSE, "state", *c.signal_names)
+    """What another robot's name reads: its pose, its state and the file's signals that are a number
+    or a boolean (or not checked yet); a signal refused or of another type is left out."""
+    return (*POSE, "state", *(n for n in c.signal_names if n not in c.poisoned
+                               and c.types.get(n, Type.NUMBER) in (Type.NUMBER, Type.BOOL)))
 
 
 def peer_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
@@ -118,8 +124,10 @@ def member_ok(c: PeerChecker, e: ast.Peer, text: Text, count: int) -> bool:
     if place is None or isinstance(place, bool) or not isinstance(place, int | float):
         return True  # known only while running: a place outside the group is a runtime fault
     if not (float(place).is_integer() and 0 <= place < count):
+        source = text.value[e.member.span[0]:e.member.span[1]]
+        given = f" (--set {source}={c.overrides[source]})" if source in c.overrides else ""
         c.error(text.at(e.member.span), f"group '{e.robot}' has {count} robots, {e.robot}[0] to "
-                f"{e.robot}[{count - 1}]; not {place:g}{who}", notes=("places count from 0",))
+                f"{e.robot}[{count - 1}]; not {place:g}{who}{given}", notes=("places count from 0",))
         return False
     return True
 
@@ -154,7 +162,7 @@ def field_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
     if e.attr in ("time", "tick", "dt"):
         c.error(text.at(e.attr_span), f"every robot has the same '{e.attr}': write {e.attr}")
         return None
-    if kind == "parameter" or e.attr in VARIABLES:
+    if kind == "parameter" or e.attr in VARIABLES or e.attr in READ_BACK:
         what = "parameter" if kind == "parameter" else "built-in variable"
         c.error(text.at(e.attr_span), f"'{e.attr}' is a {what}: give it a signal, as in 'my_{e.attr}: {e.attr}', "
                 f"and read {whose}.my_{e.attr}",
@@ -165,17 +173,21 @@ def field_type(c: PeerChecker, e: ast.Peer, text: Text) -> Type | None:
                 f"as in 'seen: {e.attr}', and read {whose}.seen",
                 notes=("another robot's x, y, heading, state and signals can be read: " + ", ".join(names),))
         return None
-    c.error(text.at(e.attr_span), f"robot '{e.robot}' has no value '{e.attr}'{did_you_mean(e.attr, names)}",
-            notes=("another robot's x, y, heading, state and signals can be read: " + ", ".join(names),))
+    same = {n.lower(): n for n in names}.get(e.attr.lower())  # leader.X: leader.x
+    hint = f" (did you mean '{same}'?)" if same else did_you_mean(e.attr, names)
+    written = text.value[e.span[0]:e.attr_span[0] - 1].strip()  # pioneer[1], as written
+    c.error(text.at(e.attr_span), f"robot {quoted(written)} has no value {quoted(e.attr)}{hint}",
+            notes=("another robot's x, y, heading, state and signals can be read: " + listed(names),))
     return None
 
 
 def check_later(c: PeerChecker) -> None:
-    """A signal another robot's name read before the signal was defined: it must be a number."""
+    """A signal another robot's value is read of while the signal is being checked (it reads the
+    signal that reads it, or itself): its type is not known there, and it must be a number."""
     for e, text in c.peer_later:
         t = c.types.get(e.attr)
         if t is not None and t is not Type.NUMBER:
-            c.error(text.at(e.attr_span), f"'{e.attr}' is {t.a}, and another robot's value of it is read above "
-                    "its definition, where only a number can be read so",
-                    notes=(f"define '{e.attr}' above this signal",))
+            c.error(text.at(e.attr_span), f"'{e.attr}' is {t.a}, and another robot's value of it is read where "
+                    f"'{e.attr}' is being worked out (it reads this signal): only a number can be read so",
+                    notes=(f"read a number made of it instead, as in '{e.attr}_n: 1 if {e.attr} else 0'",))
         c.peer_fields[e.attr] = t if t is not None else Type.NUMBER

@@ -50,9 +50,10 @@ def log_example(action: ast.Action, text: Text) -> str:
     return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
 
 
-def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:
-    """What an unknown function's message lists: the nearest functions, and where they are all."""
-    names = sorted([*FUNCTIONS, DETECTED])
+def function_notes(name: str, nearest: bool = True, extra: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """What an unknown function's message lists: the nearest functions, and where they are all;
+    ``extra``: the file's version's functions the table of built-ins does not hold (heard, format 1.3)."""
+    names = sorted([*FUNCTIONS, DETECTED, *extra])
     close = difflib.get_close_matches(name, names, n=3, cutoff=0.4) if nearest else []
     return ((f"the nearest: {', '.join(close)}; " if close else "")
             + "functions: " + ", ".join(names),

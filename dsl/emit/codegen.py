@@ -463,7 +463,13 @@ class _Generator(Unroller):
                 assert isinstance(channel, ast.Name)
                 k = self.c.said.index(channel.id)
                 w.line(f"_out[{k}] = {self.site(SAY, text, action.args[1].span, where)}({x(action.args[1])})")
-                w.line(f"_reach[{k}] = {x(action.args[2]) if len(action.args) == 3 else '_inf'}")
+                reach = action.args[2] if len(action.args) == 3 else None
+                if reach is None:
+                    w.line(f"_reach[{k}] = _inf")
+                elif isinstance(reach, ast.Number):  # checked: more than 0
+                    w.line(f"_reach[{k}] = {x(reach)}")
+                else:  # known only while running: one not more than 0 is warned about where it is
+                    w.line(f"_reach[{k}] = {self.site('say range', text, reach.span, where)}({x(reach)})")
             elif action.name in JOINT_ACTIONS:
                 joint = action.args[0]
                 assert isinstance(joint, ast.Name)

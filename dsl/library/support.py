@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -72,6 +73,17 @@ class Faults:
             if self.emit is not None:
                 self.emit(self.describe(site, what, tick, robot))
 
+    def summary(self) -> list[str]:
+        """One line per site and fault, for the run's summary; a rule or signal with the same fault
+        at several places names each by its line, column and expression, so that no two read alike."""
+        out = []
+        shared = Counter((site.where, what) for site, what in self.counts)
+        for (site, what), n in self.counts.items():
+            tick, robot = self.first[(site, what)]
+            out.append(f"{_fault_place(site) if shared[site.where, what] > 1 else site.where}: {what}: {n} "
+                       f"time{'s' if n != 1 else ''} (first at tick {tick}, robot {robot})")
+        return out
+
     @staticmethod
     def describe(site: FaultSite, what: str, tick: int, robot: str) -> str:
         d = site.diagnostic
@@ -79,6 +91,14 @@ class Faults:
                           d.end_col, "warning", d.source_line,
                           ("the run goes on with the result above; later occurrences are counted in the summary",))
         return head.format()
+
+
+def _fault_place(site: FaultSite) -> str:
+    """``rule main:2 at 20:49 (0/0)``: a site by its place in the file and its expression (a long one cut)."""
+    d = site.diagnostic
+    written = d.source_line[d.col - 1:d.end_col - 1] if d.col and d.end_col else ""
+    written = written if len(written) <= 40 else written[:30] + "..."
+    return f"{site.where} at {d.line}:{d.col}" + (f" ({written})" if written else "")
 
 
 # -- metric accumulators: what decide() folds each tick (codegen's METRIC_CODE) ----------------
@@ -210,6 +230,13 @@ def guard(kind: str, site: FaultSite, faults: Faults, slots: Slots, robot: str,
                    "not sent")
             return math.nan
         return say
+    if kind == "say range":
+        def reach(value: float) -> float:  # no one is within a range that is not more than 0 (labsim.runtime.radio)
+            if not value > 0.0:
+                report(f"say()'s range of {value:g} m: heard by no one (a range is more than 0 metres)",
+                       "say()'s range not more than 0: heard by no one")
+            return value
+        return reach
     name, _, since = kind.partition("@")
     if name in FUNCTIONS and FUNCTIONS[name].stateful:
         factory: Callable[..., Callable[..., object]] = FUNCTIONS[name].resolve()  # type: ignore[assignment]

@@ -22,7 +22,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from labsim.backends.scene import object_paths
 from labsim.backends.scene.models import Camera, Lidar
 from labsim.backends.scene.world_names import builtin_copy
-from labsim.dsl.library.builtins import Better
+from labsim.dsl.library.builtins import KEYWORDS, Better
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.lidar import MAX_BEAMS, beam_names, read_lidar
 from labsim.dsl.syntax.lists import ListValue, list_value
@@ -395,6 +395,10 @@ class _Reader(Reader):
             if name is None:
                 self.robots_failed = True
                 continue
+            if version >= 1.3 and name in KEYWORDS:  # it could not be read: 'and.x' is no expression
+                self.error(key, f"robot '{name}' is a keyword of the language, and a robot is read by its name "
+                           f"({name}.x) in format 1.3; choose another name",
+                           notes=("the language's reserved words: " + ", ".join(sorted(KEYWORDS)),))
             fields = self.known_keys(value, ROBOT_KEYS, "robot", f"robot '{name}'")
             if "model" not in fields:
                 self.error(key, f"robot '{name}' needs a 'model:' (e.g. model: pioneer_p3dx)")

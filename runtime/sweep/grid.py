@@ -23,9 +23,12 @@ from typing import Any
 
 from labsim.backends import DEFAULT, load_backend
 from labsim.backends.scene.world_names import builtin_name
+from labsim.dsl.compile import file_seed
+from labsim.dsl.emit.program import Program
 from labsim.foundation.diagnostics import Diagnostic, LabsimError
 from labsim.foundation.limits import DEFAULT_BUDGETS, Budgets
 from labsim.foundation.numbers import WHOLE_LIMIT
+from labsim.runtime.labs import behaviour_path
 from labsim.runtime.result import RunResult
 from labsim.runtime.run import Behaviour, compile_behaviour
 
@@ -35,6 +38,7 @@ STATUSES = (OK, COMPILE_ERROR, RUNTIME_ERROR, TIMEOUT, INTERRUPTED)
 # runs in one sweep (docs/sweep.md, "Limits"): days of runs on a class's machines, and a grid of
 # tasks that fits in memory (about 30 MB); a typo such as 0:1000:0.00001 is caught before it starts
 MAX_GRID = 100_000
+MAX_INSPECTED = 8  # combinations of the settings a file is compiled with before the sweep, until one compiles
 
 
 @dataclass(frozen=True)
@@ -196,14 +200,13 @@ def inspect_files(files: list[str], settings: list[Setting],
     for f in files:
         if f in out:
             continue
-        overrides = {s.name: s.values[0] for s in settings}
-        try:
-            program = compile_behaviour(f, overrides, budget=budgets).program
-        except LabsimError as e:
-            bad = [d for d in e.diagnostics if d.path.startswith("--set ")]
-            if bad and not [d for d in e.diagnostics if d.severity == "error" and d not in bad]:
+        program, error = _first_compiled(f, settings, budgets)
+        if program is None:
+            assert error is not None
+            bad = [d for d in error.diagnostics if d.path.startswith("--set ")]
+            if bad and not [d for d in error.diagnostics if d.severity == "error" and d not in bad]:
                 usage += [Diagnostic(f"{_short(d.path)} (in {f})", d.message, notes=d.notes) for d in bad]
-            out[f] = FileInfo(f, error=first_error(e))
+            out[f] = FileInfo(f, file_seed(behaviour_path(f)), error=first_error(error))
             continue
         world = Path(program.world.source)
         out[f] = FileInfo(f, program.seed, tuple(program.params), tuple(program.metric_names),
@@ -212,6 +215,24 @@ def inspect_files(files: list[str], settings: list[Setting],
     if usage:
         raise LabsimError(usage)
     return out
+
+
+def _first_compiled(f: str, settings: list[Setting], budgets: Budgets) -> tuple[Program | None, LabsimError | None]:
+    """The file compiled with the first combination of the settings that compiles, of the first
+    MAX_INSPECTED in the grid's order (a value that fails, as ``--set r=-1,2,3`` with a range that
+    must be more than 0, fails its own rows only: the others run with the file's seed); else None
+    and the first combination's errors."""
+    first: LabsimError | None = None
+    combos = itertools.product(*[[(s.name, v) for v in s.values] for s in settings])
+    for combo in itertools.islice(combos, MAX_INSPECTED):
+        try:
+            return compile_behaviour(f, dict(combo), budget=budgets).program, None
+        except LabsimError as e:
+            if first is None:
+                first = e
+            if any(d.path.startswith("--set ") for d in e.diagnostics):  # a --set the file lacks: so do all
+                break
+    return None, first
 
 
 def _short(where: str, at_most: int = 80) -> str:

@@ -438,3 +438,44 @@ def test_workers_are_forked_from_the_sweep_only_while_it_runs_no_other_thread() 
         release.set()
         other.join()
     assert fork_here() == (sys.platform.startswith("linux") and threading.active_count() == 1)
+
+
+SAYS = """labsim: {version}
+world: walls_lab4
+seed: 5
+stop: time >= 1
+robots:
+  a: {{model: pioneer_p3dx, at: random}}
+  b: {{model: pioneer_p3dx, at: random}}
+params:
+  r: 3
+let:
+  sx: x
+rules:
+  - {say}
+  - always move(2)
+metrics:
+  fx: final(sx)
+"""
+
+
+@pytest.mark.parametrize(("version", "say", "name", "values"), [
+    ("1.3", "when true then say(p, x, r)", "r", ("-1,2,3", "2,3", "-1,-2")),
+    ("1.2", "if x > 100 + r then stop()\n  - if [sonar1, sonar2][r] > 9 then stop()", "r", ("7,1,0", "1,0", "7,8")),
+])
+def test_every_row_of_a_sweep_runs_with_the_file_s_seed_whatever_setting_fails(
+        capsys, tmp_path: Path, write, version: str, say: str, name: str, values: tuple[str, ...]) -> None:
+    """A first value that does not compile fails its own rows; the others run, with the file's seed 5."""
+    path = write(SAYS.format(version=version, say=say))
+    found = []
+    for i, given in enumerate(values):
+        out_csv = tmp_path / f"r{i}.csv"
+        cli(capsys, "sweep", str(path), "--set", f"{name}={given}", "-j", "1", "-o", str(out_csv))
+        with open(out_csv, newline="") as f:
+            found.append([(r[name], r["seed"], r["status"], r.get("fx", "")) for r in csv.DictReader(f)])
+    first, second = values[1].split(",")
+    assert {row[1] for rows in found for row in rows} == {"5"}
+    assert found[0][0] == (values[0].split(",")[0], "5", "compile error", "")
+    assert found[0][1:] == found[1]  # the rows that compile are the same, the failing value first or not
+    assert [row[:3] for row in found[1]] == [(first, "5", "ok"), (second, "5", "ok")]
+    assert [row[2] for row in found[2]] == ["compile error", "compile error"]  # none compiles: the file's seed too

@@ -239,3 +239,54 @@ def test_an_image_in_a_breakpoint_is_said_to_be_one(when: str, col: int, name: s
     assert (d.line, d.col, d.message, d.notes) == (
         1, col, f"'{name}' is an image: a breakpoint reads numbers and booleans",
         (f"make a number of it a signal of the file (e.g. 'let: seen: mean({name})') and watch the signal",))
+
+
+RELAY = """labsim: 1.3
+world: walls_lab4
+seed: 1
+stop: time >= 0.5
+robots:
+  a: {model: pioneer_p3dx, at: [0, 0, 0], params: {role: 0}}
+  b: {model: pioneer_p3dx, at: [1, 0, 0], params: {role: 1}}
+params:
+  role: 0
+let:
+  h1: heard(ch1, -1)
+rules:
+  - when role == 0 then say(ch1, tick), say(ch3, 1)
+  - when role == 1 then say(ch2, h1)
+  - always stop()
+"""
+
+
+def test_a_breakpoint_reads_heard_as_the_file_s_signals_do(write) -> None:
+    """heard(ch1) in a breakpoint is the robot's inbox of the tick: b hears a's tick 1 on tick 2, as h1 does."""
+    path = write(RELAY)
+    for when, head, values in [
+        ("heard(ch1) == 1", "'heard(ch1) == 1' held at tick 2 (0.10 s) for robot b", ["  heard(ch1) = 1"]),
+        ("heard(ch1, 7) == 7 and role == 0", "'heard(ch1, 7) == 7 and role == 0' held at tick 0 (0.00 s) for robot a",
+         ["  heard(ch1) = nan"]),
+        ("h1 == 3 and heard(ch1) == h1", "'h1 == 3 and heard(ch1) == h1' held at tick 4 (0.20 s) for robot b",
+         ["  h1         = 3", "  heard(ch1) = 3"])]:
+        proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(path), "--break", when],
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stdout.splitlines()[0] == "--break: " + head
+        assert proc.stdout.splitlines()[3:3 + len(values)] == values
+
+
+@pytest.mark.parametrize(("when", "message", "notes"), [
+    ("heard(zz) == 1", "--break:1:7: nothing says on channel 'zz'", ("channels said in this file: ch1, ch3, ch2",)),
+    ("heard(ch1x) == 1", "--break:1:7: nothing says on channel 'ch1x' (did you mean 'ch1'?)",
+     ("channels said in this file: ch1, ch3, ch2",)),
+    ("1 < heard(ch3)", "--break:1:11: a breakpoint reads what the file hears, and the file never reads heard(ch3)",
+     ("read it in a signal of the file (e.g. 'let: got: heard(ch3)') and watch the signal",)),
+])
+def test_a_breakpoint_refuses_a_channel_the_file_does_not_hear(write, when: str, message: str,
+                                                               notes: tuple[str, ...]) -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(write(RELAY)), when)
+    assert [(f"{d.path}:{d.line}:{d.col}: {d.message}", d.notes) for d in e.value.diagnostics] == [(message, notes)]
+    proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(write(RELAY)), "--break", when],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and message.replace(": ", ": error: ", 1) in proc.stderr

@@ -96,17 +96,25 @@ def test_a_file_of_1_2_keeps_its_own_start_x(write) -> None:
     assert signal_rows(path, ("s",))[0] == (3,)
 
 
-def test_a_file_of_1_3_may_name_its_own_start_heading(write) -> None:
-    path = write(HEAD + "let:\n  start_heading: 2\n  s: start_heading\nrules:\n  - always move(1)\n")
+def test_a_file_of_1_2_may_name_its_own_start_heading_and_one_of_1_3_may_not(write) -> None:
+    text = "let:\n  start_heading: 2\n  s: start_heading\nrules:\n  - always move(1)\n"
+    path = write(HEAD.replace("1.3", "1.2") + text)
     assert signal_rows(path, ("s",))[0] == (2.0,)
+    with pytest.raises(LabsimError) as e:
+        compile_file(write(HEAD + text))
+    assert [(d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        (7, 3, "signal 'start_heading' is the name of a built-in variable of format 1.3; choose another name")]
 
 
 @pytest.mark.parametrize("name", ["start_x", "start_y", "start_heading"])
 def test_a_start_name_read_above_the_signal_that_takes_it_is_used_before_it_is_defined(write, name: str) -> None:
-    # the signal below has the name: reading it above would read a value not yet computed
-    path = write(HEAD + f"let:\n  a: {name}\n  b: prev({name}, 0)\n  {name}: 5\nrules:\n  - always move(a + b)\n")
+    # format 1.2: the signal below has the name, and reading it above would read a value not yet computed
+    text = f"let:\n  a: {name}\n  b: prev({name}, 0)\n  {name}: 5\nrules:\n  - always move(a + b)\n"
     message = f"signal '{name}' is used before it is defined (on line 9); 'let' signals are evaluated in order"
-    assert diagnostics(path) == [(7, 6, message), (8, 11, message)]
+    assert diagnostics(write(HEAD.replace("1.3", "1.2") + text)) == [(7, 6, message), (8, 11, message)]
+    # format 1.3: the name is the built-in's, refused once where the file takes it
+    assert diagnostics(write(HEAD + text)) == [
+        (9, 3, f"signal '{name}' is the name of a built-in variable of format 1.3; choose another name")]
 
 
 @pytest.mark.parametrize("version", ["1.2", "1.3"])
@@ -114,9 +122,10 @@ def test_a_signal_or_parameter_named_as_a_wheel_is_one_message_at_its_name(write
     path = write(HEAD.replace("1.3", version) + "params:\n  wheel_left: 2\n"
                  "let:\n  a: wheel_right + wheel_left\n  wheel_right: 5\n  b: wheel_right\n"
                  "rules:\n  - always move(a + b)\n")
+    why = "a trace column" if version == "1.2" else "a built-in variable of format 1.3"
     assert diagnostics(path) == [
-        (7, 3, "parameter 'wheel_left' is the name of a trace column; choose another name"),
-        (10, 3, "signal 'wheel_right' is the name of a trace column; choose another name")]
+        (7, 3, f"parameter 'wheel_left' is the name of {why}; choose another name"),
+        (10, 3, f"signal 'wheel_right' is the name of {why}; choose another name")]
 
 
 def test_a_file_reading_none_of_it_computes_none_of_it(write) -> None:
