@@ -305,6 +305,8 @@ LOCAL = re.compile(r"\bv(\d+)\b")
 SEQUENCE_READ = re.compile(r"\bvalues\b")
 # A slot's local or a plain literal: safe to name more than once in an expression.
 PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
+# A call in generated Python: a guard or memory site (``_g3(``), a random draw, a helper.
+CALL = re.compile(r"\b_\w+\(")
 
 
 def reduce(func: str, members: list[str]) -> str:
@@ -323,6 +325,10 @@ def reduce(func: str, members: list[str]) -> str:
         return f"_{func}({', '.join(members)})"
     if func == "count":
         return "(0.0 + " + " + ".join(members) + ")"
+    if any(CALL.search(m) for m in members):
+        # a member with memory, a random draw or a checked operation runs on every tick, whatever
+        # the members before it decided: the tuple holds them all before the test (members are bools)
+        return f"({'True in' if func == 'any' else 'False not in'} ({''.join(m + ', ' for m in members)}))"
     return "(" + f" {'or' if func == 'any' else 'and'} ".join(members) + ")"
 
 

@@ -324,3 +324,24 @@ def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
 def test_a_slice_s_syntax_error_is_at_its_line_and_column(write, expr: str, col: int, message: str) -> None:
     path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
     assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(13, col, message)]
+
+
+def test_a_reduction_runs_every_member_s_memory_and_draw_on_every_tick(write) -> None:
+    """any(rising(c)): the second member's rising() runs on tick 3 though the first decided, so it
+    does not rise again on tick 4; all() likewise; every member draws its random number."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nseed: 2\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  c: '[tick >= 3, tick >= 3]'\n  inline: any(rising(c))\n  both: all(rising(c))\n"
+                 "  first: any(uniform([0, 0, 0], 1) > -1)\n  after: random()\n"
+                 "rules:\n  - always stop()\n")
+    program = compile_file(path)
+    robot = program.robot("p", random.Random(2), Faults())
+    seen = []
+    for tick in range(6):
+        robot.signals(tick * 0.05, tick, [math.inf] * len(program.channels))
+        seen.append(tuple(robot.slots[program.slot_of[n]] for n in ("inline", "both", "first", "after")))
+    assert [s[:3] for s in seen] == [(False, False, True)] * 3 + [(True, True, True)] + [(False, False, True)] * 2
+    draws = random.Random(2)
+    for s in seen:  # three draws for the group, then random()'s: the fourth of the tick
+        for _ in range(3):
+            draws.uniform(0, 1)
+        assert s[3] == draws.random()
