@@ -520,6 +520,12 @@ class _Checker(ExprChecker):
             t = self.infer(parsed.node, parsed.text)
             self.current_let = ""
             t = self.self_read(name, t, parsed)
+            if t is Type.LIST:  # v: wp; its uses name the list itself
+                assert isinstance(parsed.node, ast.Name)
+                lst = parsed.node.id
+                self.error(parsed.text.at(parsed.node.span), f"a signal cannot hold the list of rows '{lst}': name "
+                           f"'{lst}' where it is used, as in {lst}[i], {lst}[i][0] or len({lst})")
+                t = None
             if t is not None:
                 self.declare(name, t, "signal")
                 if t in (Type.NUMBERS, Type.BOOLS):

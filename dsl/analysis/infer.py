@@ -151,11 +151,26 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def infer(self, e: ast.Expr, text: Text) -> Type | None:
         """The type of an expression, or None after reporting why it has none."""
         t = self._infer(e, text)
+        if t is Type.LIST and not isinstance(e, ast.Name):  # wp if c else wp, a function returning wp
+            self.list_by_name(e, text)
+            return None
         if t is not None:
             self.node_types[id(e)] = t
             if t in (Type.NUMBERS, Type.BOOLS) and not self.written_out(e, text):
                 return None
         return t
+
+    def list_by_name(self, e: ast.Expr, text: Text) -> None:
+        """A list of rows is a parameter of the file, read where it is named (format 1.3): one computed
+        (chosen by 'if ... else', a function's result) is refused at the expression that computes it."""
+        expansion = self.expansions.get(id(e)) if isinstance(e, ast.Call) else None
+        found = [e] if expansion is None else [e, expansion.body]
+        name = next((n.id for f in found for n in ast.walk(f) if isinstance(n, ast.Name) and n.id in self.lists),
+                    "waypoints")
+        what = "this is a list of rows" if expansion is None else f"{expansion.decl.name}() gives the list of rows"
+        self.error(text.at(e.span), f"{what} '{name}', which is read only where it is named: write {name}[i] for "
+                   f"a row, {name}[i][0] for a number of it, or len({name})",
+                   notes=("a signal, an 'if ... else' or a function's result is a number, a boolean or a group",))
 
     def written_out(self, e: ast.Expr, text: Text) -> bool:
         """Count what a group-typed node is written out to (a member each, and its operands that are
