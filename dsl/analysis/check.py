@@ -540,13 +540,21 @@ class _Checker(ExprChecker):
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
         """A signal that reads itself through prev(name, initial) is of its initial value's type."""
         for call, initial in self.self_prev_types:
+            if t in (Type.NUMBERS, Type.BOOLS) and initial is t.member:  # smooth: 0.8 * prev(smooth, 1) + ...
+                n, start = self.size(parsed.node), parsed.text.value[call.args[1].span[0]:call.args[1].span[1]]
+                example = f"[{', '.join([start] * n)}]" if n <= 8 and len(start) <= 6 else "a group of as many"
+                self.error(parsed.text.at(call.args[1].span), f"signal '{name}' is a group of {n} {t.member}s, so "
+                           f"prev({name}, ...) starts from a group of {n} too, a value for each member; this is "
+                           f"{initial.a}",
+                           notes=(f"start each member from its own value, as in prev({name}, {example})",))
+                return None
             if t is not None and initial is not None and initial is not t:
                 self.error(parsed.text.at(call.args[1].span), f"signal '{name}' is {t.a}, so prev({name}, ...) "
                            f"starts from {t.a} too; this is {initial.a}")
                 return None
-            if t in (Type.NUMBERS, Type.BOOLS):
-                self.error(parsed.text.at(call.span), f"prev({name}, ...) keeps a number or a boolean, and "
-                           f"'{name}' is {t.a}")
+            if t in (Type.NUMBERS, Type.BOOLS) and self.size(call) != self.size(parsed.node):
+                self.error(parsed.text.at(call.args[1].span), f"signal '{name}' has {self.size(parsed.node)} "
+                           f"members, so prev({name}, ...) starts from as many; this has {self.size(call)}")
                 return None
         return t
 

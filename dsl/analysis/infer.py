@@ -399,8 +399,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         calls a function with memory or a random one: each member would call it again, advancing
         its memory or drawing anew once per member."""
         for n in ast.walk(value):
-            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)):
-                continue
+            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)) or id(n) in self.self_prev:
+                continue  # a signal's own last value is read, not kept: the same for every member
             if id(n) in self.per_member_reported:
                 return False  # said at the operator it is paired by first
             self.per_member_reported.add(id(n))
@@ -764,9 +764,16 @@ class ExprChecker(ast.Visitor["Type | None"]):
         x = e.args[0]
         if isinstance(x, ast.Name) and x.id == self.current_let and not self.scopes and x.id not in self.types:
             b = self.infer(e.args[1], text)
-            if b is not None and b not in (Type.NUMBER, Type.BOOL):
-                self.error(text.at(e.args[1].span), f"prev() keeps a number or a boolean, not {b.a}")
+            group = b in (Type.NUMBERS, Type.BOOLS) and self.version >= 1.3  # a group signal: each member's own
+            if b is not None and b not in (Type.NUMBER, Type.BOOL) and not group:
+                later = ((later_format("a group signal reading its own members", 1.3),)
+                         if b in (Type.NUMBERS, Type.BOOLS) else ())
+                self.error(text.at(e.args[1].span), f"prev({x.id}, ...) keeps a number or a boolean, or in format "
+                           f"1.3 a group, not {b.a}" if not later else f"prev() keeps a number or a boolean, not {b.a}",
+                           notes=later)
                 return None
+            if group:
+                self.sizes[id(e)] = self.size(e.args[1])
             self.self_prev.add(id(e))
             self.self_prev_types.append((e, b))
             return b

@@ -279,7 +279,14 @@ class _Generator(Unroller):
         if slots is None:
             return
         with w.source(self.note(parsed.text, f"{name}: ")):
-            for k, code in zip(slots, self.members(w, parsed.node, parsed.text, "signal " + repr(name))):
+            codes = self.members(w, parsed.node, parsed.text, "signal " + repr(name))
+            if any(id(n) in self.c.self_prev for n in ast.walk(parsed.node)):
+                # it reads its own members' last values (any of them, as in min(prev(g, ...))): all are
+                # computed before one is stored
+                w.line(f"{''.join(f's[{k}], ' for k in slots)}= {''.join(f'v{k}, ' for k in slots)}= "
+                       f"{', '.join(codes)},")
+                return
+            for k, code in zip(slots, codes):
                 w.line(f"s[{k}] = v{k} = {code}")
 
     def state_clock(self, w: Writer) -> None:

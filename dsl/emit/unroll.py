@@ -17,7 +17,7 @@ from labsim.dsl.analysis.check import Checked
 from labsim.dsl.analysis.fold import NotConstant, fold
 from labsim.dsl.emit.layout import Layout
 from labsim.dsl.library.builtins import Type
-from labsim.dsl.library.support import FIRST_CHANNEL
+from labsim.dsl.library.support import FIRST_CHANNEL, TICK
 from labsim.dsl.syntax import ast
 from labsim.foundation.code_writer import Writer
 from labsim.foundation.source import Text
@@ -238,6 +238,13 @@ class MemberWriter(ast.Visitor[list[str]]):
         return [f"({a} if {c} else {b})" for c, a, b in rows]
 
     def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
+        if id(e) in self.g.c.self_prev:  # prev(g, initial) in group g's own definition: each member's slot
+            assert isinstance(e.args[0], ast.Name)  # the checker made it the signal's name
+            slots = self.g.layout.members[e.args[0].id]
+            assert slots is not None  # a group computed by a call has slots of its own
+            # the slots still hold the last tick's values: group_signal stores the members all at once
+            return [f"(s[{k}] if v{TICK} else {start})" for k, start in
+                    zip(slots, self.spread(e, e.args[1], w, text, where))]
         if id(e) not in self.g.c.expansions:
             return self.g.member_call(w, e, text, where)
         body = self.g.inline(w, e, text, where)

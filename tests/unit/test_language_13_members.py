@@ -345,3 +345,54 @@ def test_a_reduction_runs_every_member_s_memory_and_draw_on_every_tick(write) ->
         for _ in range(3):
             draws.uniform(0, 1)
         assert s[3] == draws.random()
+
+
+def _self_reading(write, lets: str) -> tuple[Program, object]:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+                 "let:\n  g: sonar1..sonar3\n" + lets + "rules:\n  - if min(smooth) < 0.3 then stop()\n"
+                 "  - else move(1)\n")
+    program = compile_file(path)
+    return program, program.robot("p", random.Random(7), Faults())
+
+
+def test_a_group_signal_reads_each_member_s_own_last_value(write) -> None:
+    """smooth: 0.5 * prev(smooth, g) + 0.5 * g, member by member, from the first tick's readings; and one
+    reading all of its last members (the largest of them): every member is computed from the last tick's."""
+    program, robot = _self_reading(write, "  smooth: 0.5 * prev(smooth, g) + 0.5 * g\n"
+                                          "  top: prev(top, [0, 0, 0]) + max(prev(top, [0, 0, 0])) + 1\n")
+    seen: dict[str, list[tuple[object, ...]]] = {"smooth": [], "top": []}
+    for tick, readings in enumerate(READINGS[:4]):
+        robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])  # type: ignore
+        for name in seen:
+            seen[name].append(_members(program, robot.slots, name, readings))  # type: ignore[attr-defined]
+    last = READINGS[0]
+    for tick, readings in enumerate(READINGS[:4]):  # each member from its own: 0.5 * last + 0.5 * reading
+        last = tuple(0.5 * a + 0.5 * b for a, b in zip(last, readings))
+        assert seen["smooth"][tick] == last
+    assert seen["smooth"][:2] == [(0.9, 0.1, 0.3), (0.5, 0.5, 0.3)]
+    assert seen["top"] == [(1.0, 1.0, 1.0), (3.0, 3.0, 3.0), (7.0, 7.0, 7.0), (15.0, 15.0, 15.0)]
+
+
+@pytest.mark.parametrize(("let", "col", "message", "notes"), [
+    ("0.8 * prev(smooth, 1) + 0.2 * g", 30, "signal 'smooth' is a group of 3 numbers, so prev(smooth, ...) starts "
+     "from a group of 3 too, a value for each member; this is a number",
+     ("start each member from its own value, as in prev(smooth, [1, 1, 1])",)),
+    ("prev(smooth, [0, 0, 0])[0:2]", 24, "signal 'smooth' has 2 members, so prev(smooth, ...) starts from as many; "
+     "this has 3", ()),
+    ("prev(smooth, g) < 1", 24, "signal 'smooth' is a group of booleans, so prev(smooth, ...) starts from a group "
+     "of booleans too; this is a group of numbers", ()),
+])
+def test_a_group_signal_reading_itself_from_the_wrong_start_is_said_at_the_start(write, let: str, col: int,
+                                                                                 message: str,
+                                                                                 notes: tuple[str, ...]) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 f"let:\n  g: sonar1..sonar3\n  smooth: {let}\nrules:\n  - if any(smooth < 1) then stop()\n")
+    assert diagnostics(path) == [(8, col, message, notes)]
+
+
+def test_a_group_signal_reading_itself_is_format_1_3(write) -> None:
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  g: sonar1..sonar3\n  smooth: prev(smooth, g) + g\n"
+                 "rules:\n  - if min(smooth) < 1 then stop()\n")
+    assert diagnostics(path) == [(8, 24, "prev() keeps a number or a boolean, not a group of numbers",
+                                  (later("a group signal reading its own members"),))]
