@@ -473,9 +473,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if t is Type.LIST:
             return self.row(e, text)
         n = self.size(e.value)
-        place, robot = self.known(e.index), ""
+        place, robot = self.place(e.index), ""
         for who, constants in self.robot_constants if place is None else ():  # a robot's own parameters
-            value = known_value(e.index, constants, self.scopes)
+            value = self.place(e.index, constants)
             if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
                 place, robot = value, who  # the first robot whose place is outside the group
                 break
@@ -503,7 +503,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         assert isinstance(e.value, ast.Name)
         rows = self.lists[e.value.id]
         n, width = len(rows), len(rows[0])  # type: ignore[arg-type]
-        place = self.known(e.index)
+        place = self.place(e.index)
         if isinstance(place, int | float) and not isinstance(place, bool):
             source = text.value[e.index.span[0]:e.index.span[1]]
             shown = f"not {place:g}" if literal(e.index) else f"'{source}' is {place:g}"
@@ -545,9 +545,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 assert k is not None  # None in kinds returned above
                 self.error(text.at(b.span), f"a slice's bound is a place, a number from 0; this is {k.a}")
                 return None
-            place = self.known(b)
+            place = self.place(b)
             if not isinstance(place, int | float) or isinstance(place, bool):
-                own = self.robot_constants and all(known_value(b, constants, self.scopes) is not None
+                own = self.robot_constants and all(self.place(b, constants) is not None
                                                    for _, constants in self.robot_constants)
                 why = "reads a parameter each robot sets for itself" if own else "is known only while running"
                 self.error(text.at(b.span), f"a slice's bounds are known before the run, the same for every robot: "
@@ -578,6 +578,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
         return known_value(e, self.constants, self.scopes)
+
+    def place(self, e: ast.Expr, constants: dict[str, object] | None = None) -> object | None:
+        """A member's place or a slice's bound known before the run: as ``known``, and also a group's
+        ``len()`` and a rounding of what is known (front[round(k)], front[1:len(front)]) in format 1.3
+        (before it, front[round(k)] outside the group stays a fault while running)."""
+        return known_value(e, self.constants if constants is None else constants, self.scopes,
+                           self.lengths if self.version >= 1.3 else None)
 
     def compare(self, e: ast.Compare, text: Text) -> Type | None:
         inferred = [self.infer(o, text) for o in e.operands]

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 
 from labsim.dsl.analysis.check import Checked
-from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.analysis.fold import PLACES, NotConstant, fold
 from labsim.dsl.emit.layout import Layout
 from labsim.dsl.library.builtins import Type
 from labsim.dsl.library.support import FIRST_CHANNEL, TICK
@@ -95,8 +95,8 @@ class Unroller:
     def bounds(self, e: ast.Slice, n: int) -> tuple[int, int]:
         """A slice's places in a group of n, from lower up to upper (the checker made them whole numbers
         known before the run, within the group)."""
-        lower = 0 if e.lower is None else int(fold(e.lower, self.constants))  # type: ignore[call-overload]
-        upper = n if e.upper is None else int(fold(e.upper, self.constants))  # type: ignore[call-overload]
+        lower = 0 if e.lower is None else int(fold(e.lower, self.constants, PLACES, self.c.lengths))  # type: ignore
+        upper = n if e.upper is None else int(fold(e.upper, self.constants, PLACES, self.c.lengths))  # type: ignore
         return lower, upper
 
     def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:

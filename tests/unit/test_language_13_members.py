@@ -396,3 +396,31 @@ def test_a_group_signal_reading_itself_is_format_1_3(write) -> None:
                  "rules:\n  - if min(smooth) < 1 then stop()\n")
     assert diagnostics(path) == [(8, 24, "prev() keeps a number or a boolean, not a group of numbers",
                                   (later("a group signal reading its own members"),))]
+
+
+def test_len_of_a_group_and_a_rounding_of_what_is_known_are_known_before_the_run(write) -> None:
+    """front[1:len(front)], a function's d[1:len(d)] for groups of two sizes, front[round(k)]: sliced and
+    picked by the places they fold to; each sonar reads its number, so the values say which members."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "params:\n  k: 2.2\n  wp: [[1, 2], [3, 4], [5, 6]]\nfunctions:\n  tail(d): d[1:len(d)]\n"
+                 "  last(d): d[len(d) - 1]\nlet:\n  front: sonar1..sonar8\n  side: [sonar8, sonar9]\n"
+                 "  a: min(front[1:len(front)])\n  b: sum(tail(front)) + 100 * min(tail(side)) + 1000 * last(side)\n"
+                 "  c: front[round(k)] + 10 * front[floor(k):ceil(k)][0] + 100 * wp[round(k)][1]\n"
+                 "  d: min(front[round(k + 3):])\nrules:\n  - if a + b + c + d > 1 then stop()\n")
+    program = compile_file(path)
+    robot = program.robot("p", random.Random(1), Faults())
+    robot.signals(0.0, 0, [float(ch[5:]) if ch.startswith("sonar") else 0.0 for ch in program.channels])
+    assert [robot.slots[program.slot_of[n]] for n in "abcd"] == [2.0, 35.0 + 900.0 + 9000.0, 3.0 + 30.0 + 600.0, 6.0]
+
+
+@pytest.mark.parametrize(("expr", "col", "message"), [
+    ("front[len(front)]", 12, "this group has 8 members, at places 0 to 7; 'len(front)' is 8"),
+    ("front[round(k)]", 12, "this group has 8 members, at places 0 to 7; 'round(k)' is 9"),
+    ("min(front[2:len(front) + 1])", 18, "this group has 8 members, so a slice's bound is at most 8; "
+                                         "'len(front) + 1' is 9"),
+])
+def test_a_place_from_len_or_a_rounding_outside_the_group_is_an_error_before_the_run(write, expr: str, col: int,
+                                                                                   message: str) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 f"params:\n  k: 9.2\nlet:\n  front: sonar1..sonar8\n  a: {expr}\nrules:\n  - if a > 1 then stop()\n")
+    assert [d[:3] for d in diagnostics(path)] == [(10, col, message)]
