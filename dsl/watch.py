@@ -29,7 +29,7 @@ from labsim.dsl.library.support import STATE
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.ast import walk
 from labsim.dsl.syntax.parse import ParseError, parse_expr
-from labsim.dsl.syntax.read import FunctionDecl, Parsed
+from labsim.dsl.syntax.read import FunctionDecl, Parsed, later_format
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report
 from labsim.foundation.source import Document, Text
 
@@ -118,6 +118,8 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     own = {name for group in program.robots for name, _ in group.params}  # a robot's own: known while running
     checker.constants = {**CONSTANTS, "dt": program.dt_s, **{k: v for k, v in program.params.items() if k not in own}}
     images, groups, unseen = _declare(program, checker)
+    if program.version < 1.3:  # wheel_left, start_x, ...: as the file itself would be told
+        checker.unavailable.update({name: later_format(f"'{name}'", 1.3) for name in READ_BACK})
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
     for call in _calls(e):

@@ -18,10 +18,12 @@ from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_not
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
 from labsim.dsl.analysis.peers import Received, peer_type
 from labsim.dsl.analysis.wording import (
+    FUNCTION_NAMES,
     arity_message,
     function_notes,
     literal,
     range_text,
+    reduction_arity,
     text_note,
     unknown_name_notes,
 )
@@ -660,8 +662,14 @@ class ExprChecker(ast.Visitor["Type | None"]):
             if not isinstance(reduced, bool):
                 return reduced
         f = FUNCTIONS.get(e.func)
+        if e.func in REDUCTIONS and len(e.args) != 1 and (f is None or e.func == "mean"):
+            message, notes = reduction_arity(e.func, len(e.args))  # sum(front, 1), any(a, b)
+            self.error(text.at(e.span), message, notes)
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
         if f is None:
-            notes: tuple[str, ...] = ()
+            notes = ()
             if e.func in AGGREGATES:
                 message = f"'{e.func}' is a metric aggregate: it can only be the outer call of a 'metrics:' entry"
                 notes = (("in a signal, counter(c) counts how many times c became true; count(...) of a group "
@@ -673,7 +681,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 message = f"unknown function '{e.func}' (did you mean {MEANT[e.func]}?)"
                 notes = function_notes(e.func, nearest=False)
             else:
-                message = f"unknown function '{e.func}'{did_you_mean(e.func, list(FUNCTIONS) + [DETECTED])}"
+                message = f"unknown function '{e.func}'{did_you_mean(e.func, FUNCTION_NAMES)}"
                 notes = function_notes(e.func)
             self.error(text.at(e.func_span), message, notes)
             for arg in e.args[1 if e.func == SAY else 0:]:  # say's first argument is a channel, not a value
@@ -686,6 +694,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         one value (format 1.3), it applies member by member and is a group."""
         n = len(e.args)
         fixed = len(f.params) - f.optional
+        if n == 0 and e.func in REDUCTIONS:  # min(): a group, or numbers
+            self.error(text.at(e.span), *reduction_arity(e.func, n))
+            return None
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
             self.error(text.at(e.span),
                        arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))

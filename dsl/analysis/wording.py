@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-from labsim.dsl.library.builtins import DETECTED, FUNCTIONS, Type
+from labsim.dsl.library.builtins import DETECTED, FUNCTIONS, REDUCTIONS, Type
 from labsim.dsl.syntax import ast
 from labsim.foundation.source import Text
 
@@ -50,9 +50,29 @@ def log_example(action: ast.Action, text: Text) -> str:
     return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
 
 
+# every function a file may call: the built-ins of values, detected(), len() and a group's reductions
+FUNCTION_NAMES = sorted({*FUNCTIONS, DETECTED, "len", *REDUCTIONS})
+
+
+def reduction_arity(name: str, given: int) -> tuple[str, tuple[str, ...]]:
+    """The message and hint for a group's reduction given other than its one group (sum(front, 1),
+    any(a, b)); min, max and mean, which also take values, say both."""
+    r = REDUCTIONS[name]
+    takes = {"min": "a group, or at least 2 numbers", "max": "a group, or at least 2 numbers",
+             "mean": "a group of numbers or an image"}.get(name, r.takes.a)
+    example = f"{name}(front < 0.5)" if r.takes is Type.BOOLS else f"{name}(front)"
+    hints = {"sum": "to add values, write a + b", "any": "of two conditions, write a or b",
+             "all": "of two conditions, write a and b", "count": "counter(c) counts the ticks c became true on",
+             "argmin": "to pick the smaller of values, write min(a, b)",
+             "argmax": "to pick the larger of values, write max(a, b)"}
+    count = f"1 argument, {takes}" if name not in ("min", "max") else takes
+    notes = (f"{name}() of a group: {example} is {r.doc}",) + ((hints[name],) if name in hints else ())
+    return f"{name}() takes {count}, given {given}", notes
+
+
 def function_notes(name: str, nearest: bool = True) -> tuple[str, ...]:
     """What an unknown function's message lists: the nearest functions, and where they are all."""
-    names = sorted([*FUNCTIONS, DETECTED])
+    names = FUNCTION_NAMES
     close = difflib.get_close_matches(name, names, n=3, cutoff=0.4) if nearest else []
     return ((f"the nearest: {', '.join(close)}; " if close else "")
             + "functions: " + ", ".join(names),

@@ -424,3 +424,44 @@ def test_a_place_from_len_or_a_rounding_outside_the_group_is_an_error_before_the
     path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
                  f"params:\n  k: 9.2\nlet:\n  front: sonar1..sonar8\n  a: {expr}\nrules:\n  - if a > 1 then stop()\n")
     assert [d[:3] for d in diagnostics(path)] == [(10, col, message)]
+
+
+@pytest.mark.parametrize(("expr", "message", "notes"), [
+    ("sum(front, 1)", "sum() takes 1 argument, a group of numbers, given 2",
+     ("sum() of a group: sum(front) is the members added up", "to add values, write a + b")),
+    ("any(a, b)", "any() takes 1 argument, a group of booleans, given 2",
+     ("any() of a group: any(front < 0.5) is true if a member is true", "of two conditions, write a or b")),
+    ("argmin(front, 1)", "argmin() takes 1 argument, a group of numbers, given 2",
+     ("argmin() of a group: argmin(front) is where the smallest member is, counted from 0 (the first of equals)",
+      "to pick the smaller of values, write min(a, b)")),
+    ("mean(front, front)", "mean() takes 1 argument, a group of numbers or an image, given 2",
+     ("mean() of a group: mean(front) is the members' mean",)),
+    ("min()", "min() takes a group, or at least 2 numbers, given 0",
+     ("min() of a group: min(front) is the smallest member; nan if one is nan",)),
+    ("count(front < 1, 2)", "count() takes 1 argument, a group of booleans, given 2",
+     ("count() of a group: count(front < 0.5) is how many members are true",
+      "counter(c) counts the ticks c became true on")),
+])
+def test_a_reduction_given_other_than_one_group_says_what_it_takes(write, expr: str, message: str,
+                                                                   notes: tuple[str, ...]) -> None:
+    path = write(HEAD.format(v="1.3") + f"  a: sonar1 < 1\n  b: sonar2 < 1\n  v: {expr}\n{RULES}")
+    assert diagnostics(path) == [(15, 6, message, notes)]
+
+
+def test_an_unknown_function_is_told_the_names_len_and_the_reductions_among_them(write) -> None:
+    path = write(HEAD.format(v="1.3") + f"  v: lenx(front)\n{RULES}")
+    [(line, col, message, notes)] = diagnostics(path)
+    assert (line, col, message) == (13, 6, "unknown function 'lenx' (did you mean 'len'?)")
+    assert notes[0].startswith("the nearest: len, exp, mean; functions: abs, all, any, area, argmax, argmin, ")
+    assert ", len, " in notes[0] and ", sum, " in notes[0] and ", count, " in notes[0]
+
+
+@pytest.mark.parametrize("name", ["wheel_left", "start_heading"])
+def test_a_breakpoint_reading_back_in_a_format_12_file_says_it_is_13(write, name: str) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    program = compile_file(write(HEAD.format(v="1.2") + RULES))
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, f"sonar1 < 1 and {name} >= 0")
+    assert [(d.path, d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        ("--break", 1, 16, later(f"'{name}'"))]
