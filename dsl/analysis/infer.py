@@ -50,6 +50,10 @@ from labsim.foundation.source import Document, Place, Text
 # each node of a value paired with every member, once per member): a few hundred thousand lines
 # of Python take the compiler seconds and gigabytes.
 MAX_WRITTEN_OUT = 200_000
+# What each member of a built-in with memory given a group (format 1.3) counts besides: its memory is a
+# guard of its own, made for every robot and compiled as a call (a lidar's 1000 beams through total()
+# are 1000 memories)
+MEMORY_WEIGHT = 4
 
 
 class ExprChecker(ast.Visitor["Type | None"]):
@@ -181,14 +185,16 @@ class ExprChecker(ast.Visitor["Type | None"]):
         member_wise = isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp) or (
             isinstance(e, ast.Call) and id(e) not in self.expansions)  # a built-in given a group (format 1.3)
         paired = ast.children(e) if member_wise else ()
-        self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
-                                             if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
+        memory = MEMORY_WEIGHT if isinstance(e, ast.Call) and e.func in STATEFUL and member_wise else 0
+        self.members_written += n * (1 + memory + sum(sum(1 for _ in ast.walk(c)) for c in paired
+                                                      if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
         if self.members_written <= MAX_WRITTEN_OUT:
             return True
         if not self.written_out_reported:
             self.written_out_reported = True
             self.error(text.at(e.span), f"the groups of this file are written out to more than {MAX_WRITTEN_OUT:,} "
-                       "operations, one per member of each (a call of a function, once per call)",
+                       "operations, one per member of each (a call of a function, once per call; a function "
+                       f"with memory, {1 + MEMORY_WEIGHT} per member)",
                        notes=("reduce a group once, in a 'let' signal, and use the signal; a function called "
                               "many times on a large group is written out for each call",))
         return False

@@ -35,7 +35,7 @@ from labsim.dsl.analysis.image_memory import lifetimes
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_slot
 from labsim.dsl.analysis.stop import stop_horizon
 from labsim.dsl.emit.layout import Layout, layout
-from labsim.dsl.emit.program import Code, LabelPart
+from labsim.dsl.emit.program import NAMED_SITES, Code, LabelPart
 from labsim.dsl.emit.unroll import (
     LOCAL,
     ON_SEQUENCE,
@@ -217,7 +217,8 @@ class _Generator(Unroller):
                 *(["_P"] if self.c.peer_fields else []), *(["_out", "_reach", "_in"] if self.c.said else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
-                *(f"_g{i}" for i in range(len(self.sites)))]
+                *(f"_g{i}" for i in range(min(len(self.sites), NAMED_SITES))),
+                *(["_G"] if len(self.sites) > NAMED_SITES else [])]
 
     def signals(self) -> tuple[Body, Note, str]:
         """The state clock, the signals and the label fields; the stop condition's note and expression.
@@ -491,7 +492,8 @@ class _Generator(Unroller):
 
     def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
         self.sites.append((kind, FaultSite(where, text.diagnostic(span[0], span[1], ""))))
-        return f"_g{len(self.sites) - 1}"
+        k = len(self.sites) - 1
+        return f"_g{k}" if k < NAMED_SITES else f"_G[{k}]"
 
     # -- the listing's comments --------------------------------------------------------------
     def note(self, text: Text, label: str) -> Note:

@@ -313,7 +313,7 @@ SEQUENCE_READ = re.compile(r"\bvalues\b")
 # A slot's local or a plain literal: safe to name more than once in an expression.
 PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
 # A call in generated Python: a guard or memory site (``_g3(``), a random draw, a helper.
-CALL = re.compile(r"\b_\w+\(")
+CALL = re.compile(r"\b_\w+(\[\d+\])?\(")
 
 
 def reduce(func: str, members: list[str]) -> str:

@@ -465,3 +465,35 @@ def test_a_breakpoint_reading_back_in_a_format_12_file_says_it_is_13(write, name
         compile_watch(program, f"sonar1 < 1 and {name} >= 0")
     assert [(d.path, d.line, d.col, d.message) for d in e.value.diagnostics] == [
         ("--break", 1, 16, later(f"'{name}'"))]
+
+
+def test_a_memory_for_each_of_many_members_is_kept_past_the_guards_named_one_by_one(write) -> None:
+    """300 beams through total() and rising(): 600 memories, past the guards bound by name (the rest are
+    read from one tuple); each member's memory is its own, tick by tick."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "lidar: {beams: 300, fov_deg: 360, range_m: 3}}\nlet:\n  scan: lidar1..lidar300\n"
+                 "  sums: total(scan)\n  up: rising(scan < 1)\n  last: sums[299] + 1000 * count(up)\n"
+                 "  early: any(rising(scan < 2))\nrules:\n  - if last > 1 or early then stop()\n")
+    program = compile_file(path)
+    assert "_G[599](" in program.code.source and "_g255(" in program.code.source and "_g256" not in program.code.source
+    robot = program.robot("p", random.Random(1), Faults())
+    seen = []
+    for tick in range(3):
+        beams = [0.5 + 0.01 * k if (k + tick) % 2 else 2.5 for k in range(300)]
+        robot.signals(tick * 0.05, tick, [*beams, *[math.inf] * (len(program.channels) - 300)])
+        seen.append(tuple(robot.slots[program.slot_of[n]] for n in ("last", "early")))
+    # beam 299: 3.49 (tick 0: odd), then 2.5, then 3.49; beams 0..49 are the near ones: the 25 even ones
+    # come near on tick 1, the 25 odd ones on tick 2
+    assert seen == [(3.49, False), (3.49 + 2.5 + 25_000, True), (3.49 + 2.5 + 3.49 + 25_000, True)]
+
+
+def test_the_operation_budget_counts_each_member_s_memory(write) -> None:
+    lets = "".join(f"  v{k}: total(clamp(scan, 0, {k}))\n" for k in range(26))
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "lidar: {beams: 1000, fov_deg: 360, range_m: 3}}\nlet:\n  scan: lidar1..lidar1000\n" + lets
+                 + "rules:\n  - if v0 > 1 then stop()\n")
+    assert diagnostics(path) == [(30, 14, "the groups of this file are written out to more than 200,000 operations, "
+                                          "one per member of each (a call of a function, once per call; a function "
+                                          "with memory, 5 per member)",
+                                  ("reduce a group once, in a 'let' signal, and use the signal; a function called "
+                                   "many times on a large group is written out for each call",))]
