@@ -28,7 +28,7 @@ from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definit
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
-from labsim.dsl.analysis.wording import arity_message, log_example
+from labsim.dsl.analysis.wording import arity_message, log_example, shown_setting
 from labsim.dsl.library.builtins import (
     ACTIONS,
     AGGREGATES,
@@ -431,8 +431,9 @@ class _Checker(ExprChecker):
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
         self.list_params()
+        self.set_values = dict(overrides)  # a message about a value known before the run names them
         for name, raw in overrides.items():
-            where = f"--set {name}={raw}"
+            where = shown_setting(name, raw)
             if name in self.lists:
                 listed, problem, notes = list_setting(raw, name, self.lists[name])
                 if listed is None:
@@ -701,8 +702,8 @@ class _Checker(ExprChecker):
 
     def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:
         """A parameter's value given by ``--set`` (setting: 'NAME=VALUE'); the current one if wrong."""
-        several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} --set {name}={raw[:40]}",) \
-            if "," in raw else ()
+        several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} "
+                   f"{shown_setting(name, raw)}",) if "," in raw else ()
         if isinstance(current, bool):
             if raw.lower() in ("true", "false"):
                 return raw.lower() == "true"

@@ -24,6 +24,7 @@ from labsim.dsl.analysis.wording import (
     literal,
     range_text,
     reduction_arity,
+    shown_setting,
     text_note,
     unknown_name_notes,
 )
@@ -96,6 +97,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
         self.unavailable_notes: dict[str, tuple[str, ...]] = {}  # and the hint
+        self.set_values: dict[str, str] = {}  # the --set NAME=VALUE of the command line, as given
         self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
         self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
         # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
@@ -495,13 +497,13 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if not float(place).is_integer():
             fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
             self.error(text.at(e.index.span), f"a member is picked by its place, a whole number from 0; {shown}",
-                       notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
-                       if fraction else (f"this group's places are 0 to {n - 1}",))
+                       notes=(("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
+                              if fraction else (f"this group's places are 0 to {n - 1}",)) + self.set_note(e.index))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
             self.error(text.at(e.index.span), f"this group has {n} member{'s' if n != 1 else ''}, at places 0 to "
-                       f"{n - 1}; {shown}", notes=notes)
+                       f"{n - 1}; {shown}", notes=notes + self.set_note(e.index))
             return None
         return t.member
 
@@ -571,7 +573,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                            if place < 0 else f"this group has {members}, so a slice's bound is at most {n}; {shown}")
                 self.error(text.at(b.span), message, notes=(
                     f"a slice [a:b] takes the places from a up to b, not including b: this group's [0:{n}] is all "
-                    f"of its {members}",))
+                    f"of its {members}", *self.set_note(b)))
                 return None
             places.append(int(place))
         lower = places[0] if e.lower is not None else 0
@@ -586,6 +588,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
         return known_value(e, self.constants, self.scopes)
+
+    def set_note(self, e: ast.Expr) -> tuple[str, ...]:
+        """Where a value known before the run comes from the command line: '--set k=7', for its message."""
+        names = dict.fromkeys(n.id for n in ast.walk(e) if isinstance(n, ast.Name) and n.id in self.set_values)
+        settings = ", ".join(shown_setting(name, self.set_values[name]) for name in names)
+        return (f"with {settings} of the command line",) if names else ()
 
     def place(self, e: ast.Expr, constants: dict[str, object] | None = None) -> object | None:
         """A member's place or a slice's bound known before the run: as ``known``, and also a group's

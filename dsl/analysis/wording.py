@@ -117,3 +117,8 @@ def unknown_name_notes(name: str, types: Iterable[str], distance: Iterable[str])
 def literal(e: ast.Expr) -> bool:
     """A number written as one, or its negative (``-1`` is ``Neg(1)``): shown as written."""
     return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))
+
+
+def shown_setting(name: str, raw: str, at_most: int = 60) -> str:
+    """'--set NAME=VALUE' as a message shows it: a value of thousands of characters by its start."""
+    return f"--set {name}={raw if len(raw) <= at_most else raw[:at_most] + '...'}"

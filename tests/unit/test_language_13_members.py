@@ -497,3 +497,18 @@ def test_the_operation_budget_counts_each_member_s_memory(write) -> None:
                                           "with memory, 5 per member)",
                                   ("reduce a group once, in a 'let' signal, and use the signal; a function called "
                                    "many times on a large group is written out for each call",))]
+
+
+def test_a_place_out_of_the_group_because_of_a_set_names_the_set(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\nparams:\n"
+                 "  k: 2\nlet:\n  front: sonar1..sonar8\n  a: min(front[0:k + 2])\n  b: front[k]\n"
+                 "rules:\n  - if a < b then stop()\n")
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"k": "7"})
+    assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
+        (10, 18, "this group has 8 members, so a slice's bound is at most 8; 'k + 2' is 9",
+         (SPAN, "with --set k=7 of the command line"))]
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"k": "7" + "0" * 20_000})
+    [d] = e.value.diagnostics
+    assert d.path == "--set k=7" + "0" * 59 + "..." and len(d.message) < 200
