@@ -104,6 +104,8 @@ def yaml_number_problem(node: ScalarNode) -> str | None:
         return f"'{node.value}' is not a number YAML can read: write digits, such as 10 or 0.5"
     if isinstance(value, float) and math.isinf(value):
         return None if node.value.lstrip("+-").lower() == ".inf" else TOO_LARGE
+    if not isinstance(value, int | float):  # an int or float tag gives one of them
+        return None
     try:
         to_float(value)
     except NumberError as e:

@@ -95,9 +95,11 @@ class Unroller:
     def bounds(self, e: ast.Slice, n: int) -> tuple[int, int]:
         """A slice's places in a group of n, from lower up to upper (the checker made them whole numbers
         known before the run, within the group)."""
-        lower = 0 if e.lower is None else int(fold(e.lower, self.constants, PLACES, self.c.lengths))  # type: ignore
-        upper = n if e.upper is None else int(fold(e.upper, self.constants, PLACES, self.c.lengths))  # type: ignore
-        return lower, upper
+        def place(bound: ast.Expr) -> int:
+            value = fold(bound, self.constants, PLACES, self.c.lengths)
+            assert isinstance(value, int | float)  # the checker made it a number
+            return int(value)
+        return 0 if e.lower is None else place(e.lower), n if e.upper is None else place(e.upper)
 
     def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
         """An operand of an operator on groups: its members, or its value once per member."""
