@@ -24,7 +24,7 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
-from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions
+from labsim.dsl.analysis.functions import RANDOM, Expansion, check_bodies, check_definitions
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
@@ -40,6 +40,7 @@ from labsim.dsl.library.builtins import (
     PRINTS,
     READ_BACK,
     SHADOWABLE,
+    STATEFUL,
     TRACE_COLUMNS,
     VARIABLES,
     WHEELS,
@@ -518,7 +519,10 @@ class _Checker(ExprChecker):
             del later[name]
             self.later = later
             self.current_let, self.self_prev_types = name, []
+            written, said = self.members_written, len(self.report.diagnostics)
             t = self.infer(parsed.node, parsed.text)
+            if self.starts_each_member(t, parsed) and len(self.report.diagnostics) == said:
+                t = self.each_member_reads_itself(t, parsed, written)
             self.current_let = ""
             t = self.self_read(name, t, parsed)
             if t is Type.LIST:  # v: wp; its uses name the list itself
@@ -537,6 +541,28 @@ class _Checker(ExprChecker):
         self.later = {}
         check_later(self)  # another robot's signals read above their definitions
         return out
+
+    def starts_each_member(self, t: Type | None, parsed: Parsed) -> bool:
+        """Whether a group signal reads itself from one start for every member, as in prev(smooth, 1)."""
+        return t in (Type.NUMBERS, Type.BOOLS) and bool(self.self_prev_types) and all(
+            initial is t.member and not any(isinstance(n, ast.Call) and n.func in STATEFUL | RANDOM
+                                            for n in ast.walk(call.args[1]))
+            for call, initial in self.self_prev_types)
+
+    def each_member_reads_itself(self, t: Type | None, parsed: Parsed, written: int) -> Type | None:
+        """smooth: 0.8 * prev(smooth, 1) + 0.2 * front is a group, each member from that start: read again
+        with prev(smooth, 1) a group of smooth's size; as first read if that is wrong ([prev(f, 0) + 1, 2])."""
+        first = (t, self.self_prev_types, self.members_written)
+        report, self.report = self.report, Report()
+        self.members_written, self.self_prev_types, self.group_self = written, [], self.size(parsed.node)
+        try:
+            again = self.infer(parsed.node, parsed.text)
+        finally:
+            self.report, self.group_self, scratch = report, 0, self.report
+        if again is None or scratch.diagnostics:
+            t, self.self_prev_types, self.members_written = first
+            return t
+        return again
 
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
         """A signal that reads itself through prev(name, initial) is of its initial value's type."""

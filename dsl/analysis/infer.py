@@ -98,6 +98,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
         self.unavailable_notes: dict[str, tuple[str, ...]] = {}  # and the hint
         self.set_values: dict[str, str] = {}  # the --set NAME=VALUE of the command line, as given
+        self.group_self = 0  # while a group signal reading itself from one start is read again: its size
         self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
         self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
         # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
@@ -807,6 +808,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
             if group:
                 self.sizes[id(e)] = self.size(e.args[1])
             self.self_prev.add(id(e))
+            if self.group_self and b in (Type.NUMBER, Type.BOOL):  # each member starts from b (lets())
+                self.sizes[id(e)] = self.group_self
+                b = b.grouped
             self.self_prev_types.append((e, b))
             return b
         a, b = (self.infer(arg, text) for arg in e.args)

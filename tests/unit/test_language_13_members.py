@@ -359,8 +359,9 @@ def test_a_group_signal_reads_each_member_s_own_last_value(write) -> None:
     """smooth: 0.5 * prev(smooth, g) + 0.5 * g, member by member, from the first tick's readings; and one
     reading all of its last members (the largest of them): every member is computed from the last tick's."""
     program, robot = _self_reading(write, "  smooth: 0.5 * prev(smooth, g) + 0.5 * g\n"
-                                          "  top: prev(top, [0, 0, 0]) + max(prev(top, [0, 0, 0])) + 1\n")
-    seen: dict[str, list[tuple[object, ...]]] = {"smooth": [], "top": []}
+                                          "  top: prev(top, [0, 0, 0]) + max(prev(top, [0, 0, 0])) + 1\n"
+                                          "  one: 0.5 * prev(one, 1) + 0.5 * g\n")  # every member from 1
+    seen: dict[str, list[tuple[object, ...]]] = {"smooth": [], "top": [], "one": []}
     for tick, readings in enumerate(READINGS[:4]):
         robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])  # type: ignore
         for name in seen:
@@ -370,11 +371,13 @@ def test_a_group_signal_reads_each_member_s_own_last_value(write) -> None:
         last = tuple(0.5 * a + 0.5 * b for a, b in zip(last, readings))
         assert seen["smooth"][tick] == last
     assert seen["smooth"][:2] == [(0.9, 0.1, 0.3), (0.5, 0.5, 0.3)]
+    assert seen["one"][0] == (0.5 * 1.0 + 0.5 * 0.9, 0.5 * 1.0 + 0.5 * 0.1, 0.5 * 1.0 + 0.5 * 0.3)
+    assert seen["one"][1] == tuple(0.5 * a + 0.5 * b for a, b in zip(seen["one"][0], READINGS[1]))
     assert seen["top"] == [(1.0, 1.0, 1.0), (3.0, 3.0, 3.0), (7.0, 7.0, 7.0), (15.0, 15.0, 15.0)]
 
 
 @pytest.mark.parametrize(("let", "col", "message", "notes"), [
-    ("0.8 * prev(smooth, 1) + 0.2 * g", 30, "signal 'smooth' is a group of 3 numbers, so prev(smooth, ...) starts "
+    ("[prev(smooth, 1) + 1, 2, 3]", 25, "signal 'smooth' is a group of 3 numbers, so prev(smooth, ...) starts "
      "from a group of 3 too, a value for each member; this is a number",
      ("start each member from its own value, as in prev(smooth, [1, 1, 1])",)),
     ("prev(smooth, [0, 0, 0])[0:2]", 24, "signal 'smooth' has 2 members, so prev(smooth, ...) starts from as many; "
