@@ -544,7 +544,7 @@ class _Checker(ExprChecker):
 
     def starts_each_member(self, t: Type | None, parsed: Parsed) -> bool:
         """Whether a group signal reads itself from one start for every member, as in prev(smooth, 1)."""
-        return t in (Type.NUMBERS, Type.BOOLS) and bool(self.self_prev_types) and all(
+        return self.version >= 1.3 and t in (Type.NUMBERS, Type.BOOLS) and bool(self.self_prev_types) and all(
             initial is t.member and not any(isinstance(n, ast.Call) and n.func in STATEFUL | RANDOM
                                             for n in ast.walk(call.args[1]))
             for call, initial in self.self_prev_types)

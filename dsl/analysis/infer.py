@@ -410,8 +410,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         calls a function with memory or a random one: each member would call it again, advancing
         its memory or drawing anew once per member."""
         for n in ast.walk(value):
-            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)) or id(n) in self.self_prev:
-                continue  # a signal's own last value is read, not kept: the same for every member
+            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)) or (
+                    id(n) in self.self_prev and self.version >= 1.3):
+                continue  # a signal's own last value is read, not kept: each member's own (format 1.3)
             if id(n) in self.per_member_reported:
                 return False  # said at the operator it is paired by first
             self.per_member_reported.add(id(n))

@@ -515,3 +515,12 @@ def test_a_place_out_of_the_group_because_of_a_set_names_the_set(write) -> None:
         compile_file(path, {"k": "7" + "0" * 20_000})
     [d] = e.value.diagnostics
     assert d.path == "--set k=7" + "0" * 59 + "..." and len(d.message) < 200
+
+
+def test_a_group_signal_reading_itself_from_one_start_is_refused_in_format_12_as_before(write) -> None:
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  g: sonar1..sonar3\n  smooth: 0.8 * prev(smooth, 1) + 0.2 * g\n"
+                 "rules:\n  - if min(smooth) < 1 then stop()\n")
+    assert [d[:3] for d in diagnostics(path)] == [(8, 17, "prev() keeps memory from tick to tick, but here it is "
+                                                          "paired with every member of a group, so it would run once "
+                                                          "per member")]
