@@ -196,8 +196,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if not self.written_out_reported:
             self.written_out_reported = True
             self.error(text.at(e.span), f"the groups of this file are written out to more than {MAX_WRITTEN_OUT:,} "
-                       "operations, one per member of each (a call of a function, once per call; a function "
-                       f"with memory, {1 + MEMORY_WEIGHT} per member)",
+                       "operations, one per member of each (a call of a function, once per call"
+                       + (f"; a function with memory, {1 + MEMORY_WEIGHT} per member)" if self.version >= 1.3 else ")"),
                        notes=("reduce a group once, in a 'let' signal, and use the signal; a function called "
                               "many times on a large group is written out for each call",))
         return False
