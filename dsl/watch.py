@@ -119,6 +119,8 @@ def compile_watch(program: Program, text: str, where: str = "--break") -> Watch:
     own = {name for group in program.robots for name, _ in group.params}  # a robot's own: known while running
     checker.constants = {**CONSTANTS, "dt": program.dt_s, **{k: v for k, v in program.params.items() if k not in own}}
     images, groups, unseen = _declare(program, checker)
+    if program.version < 1.3:  # wheel_left, start_x, ...: as the file itself would be told
+        checker.unavailable.update({name: later_format(f"'{name}'", 1.3) for name in READ_BACK})
     _unseen(e, parsed_text, program, checker, images, unseen)
     checker.expect(Parsed(e, parsed_text), e, Type.BOOL, "a breakpoint's condition")
     _heard(program, checker, parsed_text)

@@ -13,6 +13,7 @@ The language keeps a few values as whole numbers (a robot's ``count``, the ``see
 from __future__ import annotations
 
 import math
+import re
 import sys
 
 import yaml
@@ -24,6 +25,24 @@ MAX_DIGITS = 4300  # Python's own limit for reading an integer from text (sys.ge
 TOO_LARGE = f"number too large: labsim's numbers are 64-bit floats, at most about {FLOAT_MAX:.1e}"
 
 _INFINITY = {"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity", ".inf", "+.inf", "-.inf"}
+
+
+# YAML 1.2's core schema: an integer is decimal (017 is 17), 0o17 octal or 0x1f hexadecimal; a float has a
+# point or an exponent (1e-3), or is .inf or .nan. PyYAML reads YAML 1.1, where 017 is octal 15, 1:30 is 90
+# (base 60) and 1e-3 is text: labsim.foundation.source gives its reader these instead.
+YAML12_INT = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+YAML12_FLOAT = re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:inf|Inf|INF)"
+                          r"|\.(?:nan|NaN|NAN))$")
+
+
+def yaml12_numbers(loader: type[yaml.SafeLoader]) -> None:
+    """Make ``loader`` tag numbers as YAML 1.2's core schema does (YAML12_INT, YAML12_FLOAT)."""
+    core = "tag:yaml.org,2002:"
+    loader.yaml_implicit_resolvers = {
+        first: [(tag, regexp) for tag, regexp in resolvers if tag not in (core + "int", core + "float")]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+    loader.add_implicit_resolver(core + "int", YAML12_INT, list("-+0123456789"))  # before the float's: 17 is both
+    loader.add_implicit_resolver(core + "float", YAML12_FLOAT, list("-+0123456789."))
 
 
 class NumberError(ValueError):
@@ -55,6 +74,20 @@ def to_float(value: int | float | str) -> float:
     return number
 
 
+def yaml_scalar(node: ScalarNode) -> object:
+    """A scalar's Python value as YAML 1.2's core schema reads it (the composer's resolvers,
+    ``labsim.foundation.source``, tag it so): an integer is decimal (``017`` is 17), ``0o17`` octal or
+    ``0x1f`` hexadecimal, where YAML 1.1 read ``017`` as octal 15; ValueError if it is none."""
+    if node.tag == "tag:yaml.org,2002:int":
+        text = node.value
+        sign, body = (-1, text[1:]) if text[:1] == "-" else (1, text.lstrip("+"))
+        if len(body) > MAX_DIGITS:
+            raise ValueError(TOO_LARGE)
+        base = {"0o": 8, "0x": 16}.get(body[:2], 10)
+        return sign * int(body[2:] if base != 10 else body, base)
+    return yaml.SafeLoader("").construct_object(node, deep=False)
+
+
 def yaml_number_problem(node: ScalarNode) -> str | None:
     """Why a scalar that YAML reads as a number is no number labsim can hold, if it is not.
 
@@ -64,13 +97,15 @@ def yaml_number_problem(node: ScalarNode) -> str | None:
     digits), are refused where they are written, so that no reader meets them.
     """
     try:
-        value = yaml.SafeLoader("").construct_object(node, deep=False)
+        value = yaml_scalar(node)
     except ValueError:
         if len(node.value) > MAX_DIGITS:
             return f"{TOO_LARGE} ({len(node.value)} digits)"
         return f"'{node.value}' is not a number YAML can read: write digits, such as 10 or 0.5"
     if isinstance(value, float) and math.isinf(value):
         return None if node.value.lstrip("+-").lower() == ".inf" else TOO_LARGE
+    if not isinstance(value, int | float):  # an int or float tag gives one of them
+        return None
     try:
         to_float(value)
     except NumberError as e:
@@ -85,3 +120,34 @@ def place_text(k: float) -> str:
     if math.isfinite(k) and not float(k).is_integer() and float(shown).is_integer():
         return repr(float(k))
     return shown
+
+
+# What YAML 1.1 read as a number and YAML 1.2 reads as text: base 60 (1:30), digits with '_' (1_000),
+# binary (0b101), and malformed hexadecimal or octal; none is an expression's text either
+_YAML11_NUMBER = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?|[0-9][0-9]*_[0-9_]*(?:\.[0-9_]*)?"
+                            r"|0b[01_]+|0x[0-9a-fA-F_]*|0o[0-7_]*)$")
+
+
+def yaml11_number(node: ScalarNode) -> tuple[str, str] | None:
+    """For a plain scalar YAML 1.1 read as a number and YAML 1.2 as text (1:30): the message, and a hint
+    with what YAML 1.1 read it as (90); None for any other."""
+    if not _YAML11_NUMBER.match(node.value):
+        return None
+    message = (f"'{node.value}' is no number: labsim files read numbers as YAML 1.2 does, without base 60 (1:30), "
+               "'_' between digits or 0b")
+    tag = "tag:yaml.org,2002:" + ("float" if "." in node.value else "int")
+    try:
+        value = yaml.SafeLoader("").construct_object(ScalarNode(tag, node.value), deep=False)
+    except ValueError:
+        return message, "write the number in decimal digits"
+    return message, f"YAML 1.1 read it as {value!r}: write {value!r} if that is meant"
+
+
+def scalar_problem(node: ScalarNode) -> tuple[str, tuple[str, ...]] | None:
+    """Why a scalar of a file is refused as it is composed, with a hint: a number no float holds, or a
+    plain scalar YAML 1.1 read as a number (1:30); None for any other."""
+    if node.tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float"):
+        problem = yaml_number_problem(node)
+        return (problem, ()) if problem else None
+    old = yaml11_number(node) if node.tag == "tag:yaml.org,2002:str" and node.style is None else None
+    return (old[0], (old[1],)) if old else None

@@ -29,7 +29,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from labsim.foundation.diagnostics import Diagnostic, LabsimError, Report, did_you_mean
 from labsim.foundation.files import read_text
-from labsim.foundation.numbers import NumberError, to_float, yaml_number_problem
+from labsim.foundation.numbers import NumberError, scalar_problem, to_float, yaml12_numbers, yaml_scalar
 
 MAX_BYTES = 1 << 20  # a behaviour file is hand-written; anything larger is a mistake
 # Lists and mappings nested deeper than this are refused as they are composed, before PyYAML's
@@ -76,12 +76,7 @@ class _Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
-# YAML 1.1 (PyYAML) reads 1e-3, 1e6, -.5 and .5e1 as text; students write them as numbers, as YAML 1.2 does.
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+|\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?)$"),
-    list("-+.0123456789"),
-)
+yaml12_numbers(_Loader)  # 017 is 17, 1:30 text, 1e-3 a number (labsim.foundation.numbers)
 
 
 @dataclass
@@ -300,10 +295,8 @@ def _node_problems(doc: Document, node: Node) -> Iterator[Diagnostic]:
     if node.tag not in _ALLOWED_TAGS:
         tag = node.tag.replace(_CORE, "!!")
         yield doc.diagnostic(node, f"YAML tag '{tag}' is not allowed: labsim files hold plain data")
-    elif isinstance(node, ScalarNode) and node.tag in (_CORE + "int", _CORE + "float"):
-        problem = yaml_number_problem(node)
-        if problem:
-            yield doc.diagnostic(node, problem)
+    elif isinstance(node, ScalarNode) and (problem := scalar_problem(node)) is not None:
+        yield doc.diagnostic(node, problem[0], notes=problem[1])
     if isinstance(node, MappingNode):
         seen: dict[str, Node] = {}
         for key, _ in node.value:
@@ -325,7 +318,7 @@ def scalar_value(node: ScalarNode) -> object:
     reads as its text, which every reader refuses as no number.
     """
     try:
-        value = yaml.SafeLoader("").construct_object(node, deep=False)
+        value = yaml_scalar(node)
     except ValueError:
         return str(node.value)
     if isinstance(value, int) and not isinstance(value, bool):

@@ -24,11 +24,11 @@ from labsim.backends.scene.mechanism import Mechanism
 from labsim.backends.scene.models import MODELS, Kind, RobotModel
 from labsim.backends.scene.world import World, world_channels
 from labsim.backends.scene.world_names import find_world
-from labsim.dsl.analysis.functions import Expansion, check_bodies, check_definitions, claimed_in_13
+from labsim.dsl.analysis.functions import RANDOM, Expansion, check_bodies, check_definitions, claimed_in_13
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
-from labsim.dsl.analysis.wording import arity_message, log_example
+from labsim.dsl.analysis.wording import arity_message, log_example, shown_setting
 from labsim.dsl.library.builtins import (
     ACTIONS,
     AGGREGATES,
@@ -40,6 +40,7 @@ from labsim.dsl.library.builtins import (
     PRINTS,
     READ_BACK,
     SHADOWABLE,
+    STATEFUL,
     TRACE_COLUMNS,
     VARIABLES,
     WHEELS,
@@ -438,8 +439,9 @@ class _Checker(ExprChecker):
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
         self.list_params()
+        self.set_values = dict(overrides)  # a message about a value known before the run names them
         for name, raw in overrides.items():
-            where = f"--set {name}={raw}"
+            where = shown_setting(name, raw)
             self.settings[name] = where
             if name in self.lists:
                 listed, problem, notes = list_setting(raw, name, self.lists[name])
@@ -561,9 +563,18 @@ class _Checker(ExprChecker):
             return None
         self.later.pop(name, None)
         self.current_let, self.self_prev_types = name, []
+        written, said = self.members_written, len(self.report.diagnostics)
         t = self.infer(parsed.node, parsed.text)
+        if self.starts_each_member(t, parsed) and len(self.report.diagnostics) == said:
+            t = self.each_member_reads_itself(t, parsed, written)
         self.current_let = ""
         t = self.self_read(name, t, parsed)
+        if t is Type.LIST:  # v: wp; its uses name the list itself
+            assert isinstance(parsed.node, ast.Name)
+            lst = parsed.node.id
+            self.error(parsed.text.at(parsed.node.span), f"a signal cannot hold the list of rows '{lst}': name "
+                       f"'{lst}' where it is used, as in {lst}[i], {lst}[i][0] or len({lst})")
+            t = None
         if t is None:
             self.poisoned.add(name)  # already reported: its uses stay quiet
             return None
@@ -572,16 +583,46 @@ class _Checker(ExprChecker):
             self.group_sizes[name] = self.size(parsed.node)
         return name, parsed
 
+    def starts_each_member(self, t: Type | None, parsed: Parsed) -> bool:
+        """Whether a group signal reads itself from one start for every member, as in prev(smooth, 1)."""
+        return self.version >= 1.3 and t in (Type.NUMBERS, Type.BOOLS) and bool(self.self_prev_types) and all(
+            initial is t.member and not any(isinstance(n, ast.Call) and n.func in STATEFUL | RANDOM
+                                            for n in ast.walk(call.args[1]))
+            for call, initial in self.self_prev_types)
+
+    def each_member_reads_itself(self, t: Type | None, parsed: Parsed, written: int) -> Type | None:
+        """smooth: 0.8 * prev(smooth, 1) + 0.2 * front is a group, each member from that start: read again
+        with prev(smooth, 1) a group of smooth's size; as first read if that is wrong ([prev(f, 0) + 1, 2])."""
+        first = (t, self.self_prev_types, self.members_written)
+        report, self.report = self.report, Report()
+        self.members_written, self.self_prev_types, self.group_self = written, [], self.size(parsed.node)
+        try:
+            again = self.infer(parsed.node, parsed.text)
+        finally:
+            self.report, self.group_self, scratch = report, 0, self.report
+        if again is None or scratch.diagnostics:
+            t, self.self_prev_types, self.members_written = first
+            return t
+        return again
+
     def self_read(self, name: str, t: Type | None, parsed: Parsed) -> Type | None:
         """A signal that reads itself through prev(name, initial) is of its initial value's type."""
         for call, initial in self.self_prev_types:
+            if t in (Type.NUMBERS, Type.BOOLS) and initial is t.member:  # smooth: 0.8 * prev(smooth, 1) + ...
+                n, start = self.size(parsed.node), parsed.text.value[call.args[1].span[0]:call.args[1].span[1]]
+                example = f"[{', '.join([start] * n)}]" if n <= 8 and len(start) <= 6 else "a group of as many"
+                self.error(parsed.text.at(call.args[1].span), f"signal '{name}' is a group of {n} {t.member}s, so "
+                           f"prev({name}, ...) starts from a group of {n} too, a value for each member; this is "
+                           f"{initial.a}",
+                           notes=(f"start each member from its own value, as in prev({name}, {example})",))
+                return None
             if t is not None and initial is not None and initial is not t:
                 self.error(parsed.text.at(call.args[1].span), f"signal '{name}' is {t.a}, so prev({name}, ...) "
                            f"starts from {t.a} too; this is {initial.a}")
                 return None
-            if t in (Type.NUMBERS, Type.BOOLS):
-                self.error(parsed.text.at(call.span), f"prev({name}, ...) keeps a number or a boolean, and "
-                           f"'{name}' is {t.a}")
+            if t in (Type.NUMBERS, Type.BOOLS) and self.size(call) != self.size(parsed.node):
+                self.error(parsed.text.at(call.args[1].span), f"signal '{name}' has {self.size(parsed.node)} "
+                           f"members, so prev({name}, ...) starts from as many; this has {self.size(call)}")
                 return None
         return t
 
@@ -739,8 +780,8 @@ class _Checker(ExprChecker):
 
     def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:
         """A parameter's value given by ``--set`` (setting: 'NAME=VALUE'); the current one if wrong."""
-        several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} --set {name}={raw[:40]}",) \
-            if "," in raw else ()
+        several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} "
+                   f"{shown_setting(name, raw)}",) if "," in raw else ()
         if isinstance(current, bool):
             if raw.lower() in ("true", "false"):
                 return raw.lower() == "true"

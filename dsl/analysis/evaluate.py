@@ -398,15 +398,13 @@ class _Walker(ast.Visitor[Any]):
             return NAN
 
     def reduce(self, func: str, group: ast.Expr) -> Any:
-        """A reduction of a group (docs/language.md, "Groups"); any() and all() stop where decided."""
+        """A reduction of a group (docs/language.md, "Groups"): every member is computed first, so each
+        member's memory and random draw runs on every tick, whatever the members before it decided."""
         n = self.size(group)
+        values = self.members(group)
         if func in ("any", "all"):
             decides = func == "any"
-            for i in range(n):
-                if bool(self.member(group, i)) == decides:
-                    return decides
-            return not decides
-        values = self.members(group)
+            return decides if any(bool(v) == decides for v in values) else not decides
         if func == "count":
             return float(sum(1 for v in values if v))
         if func in ("min", "max"):

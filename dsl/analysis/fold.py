@@ -23,19 +23,24 @@ TOTAL = frozenset({"abs", "min", "max", "clamp", "hypot", "atan2",
                    "sign", "deg", "rad", "random", "uniform", "gauss",
                    "gray", "threshold", "invert", "area", "width", "height"})
 FOLDABLE = frozenset(f for f in TOTAL if callable(FUNCTIONS[f].impl) and not FUNCTIONS[f].uses_rng)
+# What a place or a slice's bound known before the run may call besides (format 1.3: front[round(k)],
+# front[1:len(front)]): a rounding that raises (round(nan)) leaves the place to run time
+PLACES = FOLDABLE | {"round", "floor", "ceil"}
 
 
 class NotConstant(Exception):
     """The expression reads something at run time, or faults: it is computed at run time."""
 
 
-def fold(e: ast.Expr, constants: Mapping[str, object], functions: frozenset[str] | None = None) -> object:
+def fold(e: ast.Expr, constants: Mapping[str, object], functions: frozenset[str] | None = None,
+         lengths: Mapping[int, int] | None = None) -> object:
     """The value of ``e``, whose names other than ``constants`` are read at run time; NotConstant if it has one.
 
     ``functions`` are the built-ins computed here (FOLDABLE by default; the linter, which
-    only reads the value, takes more of them)."""
+    only reads the value, takes more of them); ``lengths`` the checker's sizes of ``len(...)``
+    calls by id (``len(front)``: a group's size is known before the run)."""
     try:
-        return _Folder(constants, FOLDABLE if functions is None else functions).visit(e)
+        return _Folder(constants, FOLDABLE if functions is None else functions, lengths or {}).visit(e)
     except (ArithmeticError, ValueError, TypeError):
         raise NotConstant from None  # left to run time, where it warns at its site
 
@@ -43,9 +48,10 @@ def fold(e: ast.Expr, constants: Mapping[str, object], functions: frozenset[str]
 class _Folder(ast.Visitor[Any]):
     """A constant expression's value; NotConstant at the first node that reads something at run time."""
 
-    def __init__(self, constants: Mapping[str, object], functions: frozenset[str]) -> None:
+    def __init__(self, constants: Mapping[str, object], functions: frozenset[str], lengths: Mapping[int, int]) -> None:
         self.constants = constants
         self.functions = functions
+        self.lengths = lengths
 
     def visit_Number(self, e: ast.Number) -> object:
         return e.value
@@ -78,6 +84,8 @@ class _Folder(ast.Visitor[Any]):
         return self.visit(e.body) if self.visit(e.test) else self.visit(e.orelse)
 
     def visit_Call(self, e: ast.Call) -> object:
+        if id(e) in self.lengths:
+            return float(self.lengths[id(e)])
         if e.func == "len" and len(e.args) == 1 and isinstance(e.args[0], ast.Name):
             value = self.constants.get(e.args[0].id)
             if isinstance(value, tuple):  # a list parameter (format 1.3): its rows or numbers

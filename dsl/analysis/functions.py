@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.analysis.fold import PLACES, NotConstant, fold
 from labsim.dsl.library.builtins import (
     ACTIONS,
     AGGREGATES,
@@ -255,7 +256,8 @@ def body_name(c: ExprChecker, e: ast.Name, text: Text) -> Type | bool | None:
 
 
 def known_value(e: ast.Expr, constants: dict[str, object],
-                scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]]) -> object | None:
+                scopes: list[tuple[FunctionDecl, dict[str, tuple[Type, int]], ast.Call | None, Text]],
+                lengths: Mapping[int, int] | None = None) -> object | None:
     """The value of e known before the run, as the code generator folds it; None if it is not.
 
     Inside a function's body, a parameter whose argument folds is that constant (and one that
@@ -267,7 +269,7 @@ def known_value(e: ast.Expr, constants: dict[str, object],
                 inner[name] = fold(arg, constants)
         constants = inner
     try:
-        return fold(e, constants)
+        return fold(e, constants, PLACES if lengths is not None else None, lengths)
     except NotConstant:
         return None
 

@@ -18,10 +18,13 @@ from labsim.dsl.analysis.functions import RANDOM, Expansion, body_name, body_not
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_type
 from labsim.dsl.analysis.peers import PEER_VALUES, Received, peer_type
 from labsim.dsl.analysis.wording import (
+    FUNCTION_NAMES,
     arity_message,
     function_notes,
     literal,
     range_text,
+    reduction_arity,
+    shown_setting,
     text_note,
     unknown_name_notes,
 )
@@ -49,6 +52,10 @@ from labsim.foundation.source import Document, Place, Text
 # each node of a value paired with every member, once per member): a few hundred thousand lines
 # of Python take the compiler seconds and gigabytes.
 MAX_WRITTEN_OUT = 200_000
+# What each member of a built-in with memory given a group (format 1.3) counts besides: its memory is a
+# guard of its own, made for every robot and compiled as a call (a lidar's 1000 beams through total()
+# are 1000 memories)
+MEMORY_WEIGHT = 4
 
 
 class ExprChecker(ast.Visitor["Type | None"]):
@@ -93,6 +100,8 @@ class ExprChecker(ast.Visitor["Type | None"]):
         self.per_member_reported: set[int] = set()  # id(call) of a value paired with every member, reported
         self.unavailable: dict[str, str] = {}  # built-in names this file cannot read, and why (check.read_back)
         self.unavailable_notes: dict[str, tuple[str, ...]] = {}  # and the hint
+        self.set_values: dict[str, str] = {}  # the --set NAME=VALUE of the command line, as given
+        self.group_self = 0  # while a group signal reading itself from one start is read again: its size
         self.lists: dict[str, ListValue] = {}  # list parameters (format 1.3)
         self.lengths: dict[int, int] = {}  # id(call) of len(...) -> its value
         # the file's format: a built-in given a group applies member by member, and a slice, from 1.3 on;
@@ -171,11 +180,26 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def infer(self, e: ast.Expr, text: Text) -> Type | None:
         """The type of an expression, or None after reporting why it has none."""
         t = self._infer(e, text)
+        if t is Type.LIST and not isinstance(e, ast.Name):  # wp if c else wp, a function returning wp
+            self.list_by_name(e, text)
+            return None
         if t is not None:
             self.node_types[id(e)] = t
             if t in (Type.NUMBERS, Type.BOOLS) and not self.written_out(e, text):
                 return None
         return t
+
+    def list_by_name(self, e: ast.Expr, text: Text) -> None:
+        """A list of rows is a parameter of the file, read where it is named (format 1.3): one computed
+        (chosen by 'if ... else', a function's result) is refused at the expression that computes it."""
+        expansion = self.expansions.get(id(e)) if isinstance(e, ast.Call) else None
+        found = [e] if expansion is None else [e, expansion.body]
+        name = next((n.id for f in found for n in ast.walk(f) if isinstance(n, ast.Name) and n.id in self.lists),
+                    "waypoints")
+        what = "this is a list of rows" if expansion is None else f"{expansion.decl.name}() gives the list of rows"
+        self.error(text.at(e.span), f"{what} '{name}', which is read only where it is named: write {name}[i] for "
+                   f"a row, {name}[i][0] for a number of it, or len({name})",
+                   notes=("a signal, an 'if ... else' or a function's result is a number, a boolean or a group",))
 
     def written_out(self, e: ast.Expr, text: Text) -> bool:
         """Count what a group-typed node is written out to (a member each, and its operands that are
@@ -184,14 +208,16 @@ class ExprChecker(ast.Visitor["Type | None"]):
         member_wise = isinstance(e, ast.Neg | ast.Not | ast.Binary | ast.Compare | ast.BoolOp | ast.IfExp) or (
             isinstance(e, ast.Call) and id(e) not in self.expansions)  # a built-in given a group (format 1.3)
         paired = ast.children(e) if member_wise else ()
-        self.members_written += n * (1 + sum(sum(1 for _ in ast.walk(c)) for c in paired
-                                             if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
+        memory = MEMORY_WEIGHT if isinstance(e, ast.Call) and e.func in STATEFUL and member_wise else 0
+        self.members_written += n * (1 + memory + sum(sum(1 for _ in ast.walk(c)) for c in paired
+                                                      if self.node_types.get(id(c)) not in (Type.NUMBERS, Type.BOOLS)))
         if self.members_written <= MAX_WRITTEN_OUT:
             return True
         if not self.written_out_reported:
             self.written_out_reported = True
             self.error(text.at(e.span), f"the groups of this file are written out to more than {MAX_WRITTEN_OUT:,} "
-                       "operations, one per member of each (a call of a function, once per call)",
+                       "operations, one per member of each (a call of a function, once per call"
+                       + (f"; a function with memory, {1 + MEMORY_WEIGHT} per member)" if self.version >= 1.3 else ")"),
                        notes=("reduce a group once, in a 'let' signal, and use the signal; a function called "
                               "many times on a large group is written out for each call",))
         return False
@@ -414,8 +440,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         calls a function with memory or a random one: each member would call it again, advancing
         its memory or drawing anew once per member."""
         for n in ast.walk(value):
-            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)):
-                continue
+            if not (isinstance(n, ast.Call) and (n.func in STATEFUL or n.func in RANDOM)) or (
+                    id(n) in self.self_prev and self.version >= 1.3):
+                continue  # a signal's own last value is read, not kept: each member's own (format 1.3)
             if id(n) in self.per_member_reported:
                 return False  # said at the operator it is paired by first
             self.per_member_reported.add(id(n))
@@ -492,10 +519,10 @@ class ExprChecker(ast.Visitor["Type | None"]):
         if t is Type.LIST:
             return self.row(e, text)
         n = self.size(e.value)
-        place, robot = self.known(e.index), ""
+        place, robot = self.place(e.index), ""
         listed = isinstance(e.value, ast.Name) and e.value.id in self.lists  # format 1.3: its place per robot
         for who, constants in (self.member_constants if listed else self.robot_constants) if place is None else ():
-            value = known_value(e.index, constants, self.scopes)
+            value = self.place(e.index, constants)
             if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
                 place, robot = value, who  # the first robot whose place is outside the group
                 break
@@ -506,14 +533,15 @@ class ExprChecker(ast.Visitor["Type | None"]):
             f" for robot {robot}" if robot else "")
         if not float(place).is_integer():
             fraction = place == place and abs(place) != float("inf")  # round(inf) is inf: no hint to round
+            hint = (("round it, as in front[round(x)], if a fraction is meant to pick the nearest",) if fraction
+                    else (f"this group's places are 0 to {n - 1}",))
             self.place_error(e, text, f"a member is picked by its place, a whole number from 0; {shown}",
-                             notes=("round it, as in front[round(x)], if a fraction is meant to pick the nearest",)
-                             if fraction else (f"this group's places are 0 to {n - 1}",))
+                             notes=hint + self.set_note(e.index))
             return None
         if not 0 <= place < n:
             notes = ("places count from 0: the first member is [0]" + (f", the last [{n - 1}]" if place < 0 else ""),)
             self.place_error(e, text, f"this group has {n} member{'s' if n != 1 else ''}"
-                             f", at places 0 to {n - 1}; {shown}", notes=notes)
+                             f", at places 0 to {n - 1}; {shown}", notes=notes + self.set_note(e.index))
             return None
         return t.member
 
@@ -523,9 +551,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         assert isinstance(e.value, ast.Name)
         rows = self.lists[e.value.id]
         n, width = len(rows), len(rows[0])  # type: ignore[arg-type]
-        place, robot = self.known(e.index), ""
+        place, robot = self.place(e.index), ""
         for who, constants in self.member_constants if place is None else ():  # 'index', a robot's own parameters
-            value = known_value(e.index, constants, self.scopes)
+            value = self.place(e.index, constants)
             if isinstance(value, int | float) and not (float(value).is_integer() and 0 <= value < n):
                 place, robot = value, who  # the first robot with no row at its place
                 break
@@ -573,9 +601,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
                 assert k is not None  # None in kinds returned above
                 self.error(text.at(b.span), f"a slice's bound is a place, a number from 0; this is {k.a}")
                 return None
-            place = self.known(b)
+            place = self.place(b)
             if not isinstance(place, int | float) or isinstance(place, bool):
-                own = self.robot_constants and all(known_value(b, constants, self.scopes) is not None
+                own = self.robot_constants and all(self.place(b, constants) is not None
                                                    for _, constants in self.robot_constants)
                 why = "reads a parameter each robot sets for itself" if own else "is known only while running"
                 self.error(text.at(b.span), f"a slice's bounds are known before the run, the same for every robot: "
@@ -591,7 +619,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
                            if place < 0 else f"this group has {members}, so a slice's bound is at most {n}; {shown}")
                 self.error(text.at(b.span), message, notes=(
                     f"a slice [a:b] takes the places from a up to b, not including b: this group's [0:{n}] is all "
-                    f"of its {members}",))
+                    f"of its {members}", *self.set_note(b)))
                 return None
             places.append(int(place))
         lower = places[0] if e.lower is not None else 0
@@ -606,6 +634,19 @@ class ExprChecker(ast.Visitor["Type | None"]):
     def known(self, e: ast.Expr) -> object | None:
         """The value of e known before the run, as the code generator folds it; None if it is not."""
         return known_value(e, self.constants, self.scopes)
+
+    def set_note(self, e: ast.Expr) -> tuple[str, ...]:
+        """Where a value known before the run comes from the command line: '--set k=7', for its message."""
+        names = dict.fromkeys(n.id for n in ast.walk(e) if isinstance(n, ast.Name) and n.id in self.set_values)
+        settings = ", ".join(shown_setting(name, self.set_values[name]) for name in names)
+        return (f"with {settings} of the command line",) if names else ()
+
+    def place(self, e: ast.Expr, constants: dict[str, object] | None = None) -> object | None:
+        """A member's place or a slice's bound known before the run: as ``known``, and also a group's
+        ``len()`` and a rounding of what is known (front[round(k)], front[1:len(front)]) in format 1.3
+        (before it, front[round(k)] outside the group stays a fault while running)."""
+        return known_value(e, self.constants if constants is None else constants, self.scopes,
+                           self.lengths if self.version >= 1.3 else None)
 
     def compare(self, e: ast.Compare, text: Text) -> Type | None:
         inferred = [self.infer(o, text) for o in e.operands]
@@ -681,6 +722,12 @@ class ExprChecker(ast.Visitor["Type | None"]):
             if not isinstance(reduced, bool):
                 return reduced
         f = FUNCTIONS.get(e.func)
+        if e.func in REDUCTIONS and len(e.args) != 1 and (f is None or e.func == "mean"):
+            message, notes = reduction_arity(e.func, len(e.args))  # sum(front, 1), any(a, b)
+            self.error(text.at(e.span), message, notes)
+            for arg in e.args:
+                self.infer(arg, text)
+            return None
         if f is None:
             self.unknown_call(e, text)
             return None
@@ -707,7 +754,7 @@ class ExprChecker(ast.Visitor["Type | None"]):
             notes = function_notes(e.func, nearest=False)
         else:
             messages = (HEARD, SAY) if self.version >= 1.3 else ()
-            meant = did_you_mean(e.func, [*FUNCTIONS, DETECTED, *messages])
+            meant = did_you_mean(e.func, [*FUNCTION_NAMES, *messages])
             message = f"unknown function '{e.func}'{meant}"
             notes = function_notes(e.func, extra=messages[:1])
         self.error(text.at(e.func_span), message, notes)
@@ -722,6 +769,9 @@ class ExprChecker(ast.Visitor["Type | None"]):
         one value (format 1.3), it applies member by member and is a group."""
         n = len(e.args)
         fixed = len(f.params) - f.optional
+        if n == 0 and e.func in REDUCTIONS:  # min(): a group, or numbers
+            self.error(text.at(e.span), *reduction_arity(e.func, n))
+            return None
         if (not fixed <= n <= len(f.params) and not f.variadic) or (f.variadic and n < len(f.params)):
             self.error(text.at(e.span),
                        arity_message(f.name, f.names or tuple(str(p) for p in f.params), n, f.variadic, f.optional))
@@ -807,10 +857,20 @@ class ExprChecker(ast.Visitor["Type | None"]):
         x = e.args[0]
         if isinstance(x, ast.Name) and x.id == self.current_let and not self.scopes and x.id not in self.types:
             b = self.infer(e.args[1], text)
-            if b is not None and b not in (Type.NUMBER, Type.BOOL):
-                self.error(text.at(e.args[1].span), f"prev() keeps a number or a boolean, not {b.a}")
+            group = b in (Type.NUMBERS, Type.BOOLS) and self.version >= 1.3  # a group signal: each member's own
+            if b is not None and b not in (Type.NUMBER, Type.BOOL) and not group:
+                later = ((later_format("a group signal reading its own members", 1.3),)
+                         if b in (Type.NUMBERS, Type.BOOLS) else ())
+                self.error(text.at(e.args[1].span), f"prev({x.id}, ...) keeps a number or a boolean, or in format "
+                           f"1.3 a group, not {b.a}" if not later else f"prev() keeps a number or a boolean, not {b.a}",
+                           notes=later)
                 return None
+            if group:
+                self.sizes[id(e)] = self.size(e.args[1])
             self.self_prev.add(id(e))
+            if self.group_self and b in (Type.NUMBER, Type.BOOL):  # each member starts from b (lets())
+                self.sizes[id(e)] = self.group_self
+                b = b.grouped
             self.self_prev_types.append((e, b))
             return b
         a, b = (self.infer(arg, text) for arg in e.args)

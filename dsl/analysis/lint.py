@@ -238,7 +238,8 @@ class Linter:
                 fires_always = every_tick and rule.condition is None
                 for action in rule.actions:
                     if isinstance(action, ast.Action):
-                        for arg in action.args:
+                        fields = [part[0] for part in action.text or () if isinstance(part, tuple)]  # log("{...}")
+                        for arg in [*action.args, *fields]:
                             self.stateful_in(arg, decl.text, None if fires_always else
                                              "is in a rule's action, evaluated only on the ticks the rule fires")
         for e, text in [(p.node, p.text) for _, p in c.lets] + [(m.expr, m.text) for m in c.metrics]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-from labsim.dsl.library.builtins import DETECTED, FUNCTIONS, Type
+from labsim.dsl.library.builtins import DETECTED, FUNCTIONS, REDUCTIONS, Type
 from labsim.dsl.syntax import ast
 from labsim.foundation.source import Text
 
@@ -50,10 +50,30 @@ def log_example(action: ast.Action, text: Text) -> str:
     return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
 
 
+# every function a file may call: the built-ins of values, detected(), len() and a group's reductions
+FUNCTION_NAMES = sorted({*FUNCTIONS, DETECTED, "len", *REDUCTIONS})
+
+
+def reduction_arity(name: str, given: int) -> tuple[str, tuple[str, ...]]:
+    """The message and hint for a group's reduction given other than its one group (sum(front, 1),
+    any(a, b)); min, max and mean, which also take values, say both."""
+    r = REDUCTIONS[name]
+    takes = {"min": "a group, or at least 2 numbers", "max": "a group, or at least 2 numbers",
+             "mean": "a group of numbers or an image"}.get(name, r.takes.a)
+    example = f"{name}(front < 0.5)" if r.takes is Type.BOOLS else f"{name}(front)"
+    hints = {"sum": "to add values, write a + b", "any": "of two conditions, write a or b",
+             "all": "of two conditions, write a and b", "count": "counter(c) counts the ticks c became true on",
+             "argmin": "to pick the smaller of values, write min(a, b)",
+             "argmax": "to pick the larger of values, write max(a, b)"}
+    count = f"1 argument, {takes}" if name not in ("min", "max") else takes
+    notes = (f"{name}() of a group: {example} is {r.doc}",) + ((hints[name],) if name in hints else ())
+    return f"{name}() takes {count}, given {given}", notes
+
+
 def function_notes(name: str, nearest: bool = True, extra: tuple[str, ...] = ()) -> tuple[str, ...]:
     """What an unknown function's message lists: the nearest functions, and where they are all;
     ``extra``: the file's version's functions the table of built-ins does not hold (heard, format 1.3)."""
-    names = sorted([*FUNCTIONS, DETECTED, *extra])
+    names = sorted([*FUNCTION_NAMES, *extra])
     close = difflib.get_close_matches(name, names, n=3, cutoff=0.4) if nearest else []
     return ((f"the nearest: {', '.join(close)}; " if close else "")
             + "functions: " + ", ".join(names),
@@ -98,3 +118,8 @@ def unknown_name_notes(name: str, types: Iterable[str], distance: Iterable[str])
 def literal(e: ast.Expr) -> bool:
     """A number written as one, or its negative (``-1`` is ``Neg(1)``): shown as written."""
     return isinstance(e, ast.Number) or (isinstance(e, ast.Neg) and isinstance(e.operand, ast.Number))
+
+
+def shown_setting(name: str, raw: str, at_most: int = 60) -> str:
+    """'--set NAME=VALUE' as a message shows it: a value of thousands of characters by its start."""
+    return f"--set {name}={raw if len(raw) <= at_most else raw[:at_most] + '...'}"

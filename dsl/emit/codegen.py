@@ -35,7 +35,7 @@ from labsim.dsl.analysis.image_memory import lifetimes
 from labsim.dsl.analysis.messages import HEARD, SAY, heard_slot
 from labsim.dsl.analysis.stop import stop_horizon
 from labsim.dsl.emit.layout import Layout, layout
-from labsim.dsl.emit.program import Code, LabelPart
+from labsim.dsl.emit.program import NAMED_SITES, Code, LabelPart
 from labsim.dsl.emit.unroll import (
     LOCAL,
     ON_SEQUENCE,
@@ -219,7 +219,8 @@ class _Generator(Unroller):
                 *(["_P"] if self.c.peer_fields else []), *(["_out", "_reach", "_in"] if self.c.said else []),
                 *(["_drop"] if self.image_drops or self.image_kept else []),
                 *("_" + f for f in sorted(self.functions)),
-                *(f"_g{i}" for i in range(len(self.sites))), *(f"_L{i}" for i in range(len(self.columns)))]
+                *(f"_g{i}" for i in range(min(len(self.sites), NAMED_SITES))),
+                *(["_G"] if len(self.sites) > NAMED_SITES else []), *(f"_L{i}" for i in range(len(self.columns)))]
 
     def signals(self) -> tuple[Body, Note, str]:
         """The state clock, the signals and the label fields; the stop condition's note and expression.
@@ -281,7 +282,14 @@ class _Generator(Unroller):
         if slots is None:
             return
         with w.source(self.note(parsed.text, f"{name}: ")):
-            for k, code in zip(slots, self.members(w, parsed.node, parsed.text, "signal " + repr(name))):
+            codes = self.members(w, parsed.node, parsed.text, "signal " + repr(name))
+            if any(id(n) in self.c.self_prev for n in ast.walk(parsed.node)):
+                # it reads its own members' last values (any of them, as in min(prev(g, ...))): all are
+                # computed before one is stored
+                w.line(f"{''.join(f's[{k}], ' for k in slots)}= {''.join(f'v{k}, ' for k in slots)}= "
+                       f"{', '.join(codes)},")
+                return
+            for k, code in zip(slots, codes):
                 w.line(f"s[{k}] = v{k} = {code}")
 
     def state_clock(self, w: Writer) -> None:
@@ -492,7 +500,8 @@ class _Generator(Unroller):
 
     def site(self, kind: str, text: Text, span: ast.Span, where: str) -> str:
         self.sites.append((kind, FaultSite(where, text.diagnostic(span[0], span[1], ""))))
-        return f"_g{len(self.sites) - 1}"
+        k = len(self.sites) - 1
+        return f"_g{k}" if k < NAMED_SITES else f"_G[{k}]"
 
     def column(self, name: str, j: int | None) -> str:
         """The name make() binds column ``j`` of the list parameter ``name`` to (the list itself when it is of

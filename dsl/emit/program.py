@@ -43,6 +43,11 @@ TimelineEvent = tuple[float, tuple[Setting, ...]]  # at time_s, these settings
 LabelPart = str | tuple[int, str]  # literal text, or (slot, format spec) of a field
 
 
+# Guards bound to make()'s parameters by name, each a local of the generated functions; past them (a
+# lidar's thousand beams member by member, a memory each) they are read from one tuple, _G[k]: Python's
+# compiler and a call's keyword matching take time quadratic in the number of names
+NAMED_SITES = 256
+
 @dataclass(frozen=True)
 class SharedLabel:
     """A label several sliders write (``label_name``, format 1.2): it shows the text of the slider
@@ -296,8 +301,10 @@ class Program:
         outbox, reach, inbox = [math.nan] * len(self.said), [math.inf] * len(self.said), [math.nan] * len(self.said)
         if self.said:
             bindings.update(_out=outbox, _reach=reach, _in=inbox)
-        for i, (kind, site) in enumerate(code.sites):
-            bindings[f"_g{i}"] = guard(kind, site, faults, slots, name, rng, self.dt_s)
+        guards = [guard(kind, site, faults, slots, name, rng, self.dt_s) for kind, site in code.sites]
+        bindings.update(zip((f"_g{i}" for i in range(NAMED_SITES)), guards))
+        if len(guards) > NAMED_SITES:  # the others, as one tuple (codegen.NAMED_SITES)
+            bindings["_G"] = tuple(guards)
         for i, column in enumerate(code.columns):
             bindings[f"_L{i}"] = column
         show_in_tracebacks(code)

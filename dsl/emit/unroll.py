@@ -14,10 +14,10 @@ from __future__ import annotations
 import re
 
 from labsim.dsl.analysis.check import Checked
-from labsim.dsl.analysis.fold import NotConstant, fold
+from labsim.dsl.analysis.fold import PLACES, NotConstant, fold
 from labsim.dsl.emit.layout import Layout
 from labsim.dsl.library.builtins import Type
-from labsim.dsl.library.support import FIRST_CHANNEL
+from labsim.dsl.library.support import FIRST_CHANNEL, TICK
 from labsim.dsl.syntax import ast
 from labsim.foundation.code_writer import Writer
 from labsim.foundation.source import Text
@@ -98,9 +98,11 @@ class Unroller:
     def bounds(self, e: ast.Slice, n: int) -> tuple[int, int]:
         """A slice's places in a group of n, from lower up to upper (the checker made them whole numbers
         known before the run, within the group)."""
-        lower = 0 if e.lower is None else int(fold(e.lower, self.constants))  # type: ignore[call-overload]
-        upper = n if e.upper is None else int(fold(e.upper, self.constants))  # type: ignore[call-overload]
-        return lower, upper
+        def place(bound: ast.Expr) -> int:
+            value = fold(bound, self.constants, PLACES, self.c.lengths)
+            assert isinstance(value, int | float)  # the checker made it a number
+            return int(value)
+        return 0 if e.lower is None else place(e.lower), n if e.upper is None else place(e.upper)
 
     def spread(self, w: Writer, e: ast.Expr, n: int, text: Text, where: str) -> list[str]:
         """An operand of an operator on groups: its members, or its value once per member."""
@@ -250,6 +252,13 @@ class MemberWriter(ast.Visitor[list[str]]):
         return [f"({a} if {c} else {b})" for c, a, b in rows]
 
     def visit_Call(self, e: ast.Call, w: Writer, text: Text, where: str) -> list[str]:
+        if id(e) in self.g.c.self_prev:  # prev(g, initial) in group g's own definition: each member's slot
+            assert isinstance(e.args[0], ast.Name)  # the checker made it the signal's name
+            slots = self.g.layout.members[e.args[0].id]
+            assert slots is not None  # a group computed by a call has slots of its own
+            # the slots still hold the last tick's values: group_signal stores the members all at once
+            return [f"(s[{k}] if v{TICK} else {start})" for k, start in
+                    zip(slots, self.spread(e, e.args[1], w, text, where))]
         if id(e) not in self.g.c.expansions:
             return self.g.member_call(w, e, text, where)
         body = self.g.inline(w, e, text, where)
@@ -316,6 +325,8 @@ LOCAL = re.compile(r"\bv(\d+)\b")
 SEQUENCE_READ = re.compile(r"\bvalues\b")
 # A slot's local or a plain literal: safe to name more than once in an expression.
 PLAIN = re.compile(r"^(v\d+|\d+\.\d+(e[+-]?\d+)?|_inf)$")
+# A call in generated Python: a guard or memory site (``_g3(``), a random draw, a helper.
+CALL = re.compile(r"\b_\w+(\[\d+\])?\(")
 
 
 def reduce(func: str, members: list[str]) -> str:
@@ -334,6 +345,10 @@ def reduce(func: str, members: list[str]) -> str:
         return f"_{func}({', '.join(members)})"
     if func == "count":
         return "(0.0 + " + " + ".join(members) + ")"
+    if any(CALL.search(m) for m in members):
+        # a member with memory, a random draw or a checked operation runs on every tick, whatever
+        # the members before it decided: the tuple holds them all before the test (members are bools)
+        return f"({'True in' if func == 'any' else 'False not in'} ({''.join(m + ', ' for m in members)}))"
     return "(" + f" {'or' if func == 'any' else 'and'} ".join(members) + ")"
 
 

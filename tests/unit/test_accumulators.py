@@ -266,3 +266,18 @@ def test_a_pid_given_inf_warns_once_with_its_signal_robot_and_tick(write) -> Non
     (line,) = printed
     assert "b.yaml:6:8: warning: " + PID_NOT_FINITE + " in signal 'out', robot p, tick 2\n" in line
     assert list(faults.counts.values()) == [3]
+
+
+def test_memory_in_a_log_field_warns_as_in_an_action(write) -> None:
+    """log("{count(rising(g > 1))}") runs its fields only on the ticks the rule fires, as an action's arguments."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 0.3\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  g: '[tick, tick * 2]'\nrules:\n"
+                 '  - when tick == 3 then log("edges={count(rising(g > 1))} sum={sum(total(g))} {prev(tick, 0)}")\n'
+                 '  - always log("{rising(tick > 2)}")\n')
+    warned = [(d.line, d.col, d.message) for d in compile_file(path).warnings]
+    assert warned == [(9, 43, "rising() is in a rule's action, evaluated only on the ticks the rule fires: its memory "
+                              "misses the other ticks"),
+                      (9, 68, "total() is in a rule's action, evaluated only on the ticks the rule fires: its memory "
+                              "misses the other ticks"),
+                      (9, 80, "prev() is in a rule's action, evaluated only on the ticks the rule fires: its memory "
+                              "misses the other ticks")]

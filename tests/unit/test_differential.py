@@ -485,3 +485,68 @@ def test_the_evaluator_follows_the_documented_faults() -> None:
         assert [f.what for f in faults] == warnings, (text, faults)
     value, faults = evaluate(parse_expr("1 > 2 > 1 / 0 or true and (false or 0 < 1)"), {})
     assert value is True and faults == ()  # a chain and 'and'/'or' stop where they are decided
+
+
+# -- every member runs on every tick under a reduction (memory and random draws) -----------------
+TICKS = 9
+REDUCTIONS_OF_BOOLS = ("any", "all", "count")
+
+
+def _bools(rng: random.Random) -> str:
+    """A group of three conditions on the tick, each its own pattern of ticks."""
+    return "[" + ", ".join(rng.choice((f"tick % {rng.randrange(2, 5)} == {rng.randrange(2)}",
+                                       f"tick >= {rng.randrange(5)}", f"tick < {rng.randrange(1, 6)}"))
+                           for _ in range(GROUP)) + "]"
+
+
+def _remembering(rng: random.Random) -> str:
+    """A group of booleans made member by member by built-ins with memory or random draws, and/or'ed."""
+    b, n = _bools(rng), "[tick % 3, tick * 0.5, 2 - tick]"
+    part = rng.choice((f"rising({b})", f"falling({b})", f"held({b}) > 0.1", f"total({n}) > {rng.randrange(6)}",
+                       f"rate({n}) > 0", f"prev({n}, 1) > 0.5", f"counter({b}, {b}) > 1", f"uniform({n}, 3) > 1.5",
+                       f"gauss({n}, 1) > 0.5", f"hold({b}, {b})"))
+    if rng.random() < 0.4:  # member by member: and/or stop where decided, as for single values
+        op = rng.choice(("and", "or"))
+        part = f"{b} {op} {part}" if rng.random() < 0.5 else f"{part} {op} {b}"
+    return part
+
+
+def test_every_member_of_a_reduction_runs_on_every_tick(tmp_path: Path) -> None:
+    """any(rising(c)) and its kind over ticks: a member's memory or random draw after the member that
+    decides still runs. The generated code agrees tick by tick with the evaluator (its memory kept
+    between ticks, the same random generator), and, without random draws (the signal draws its own),
+    with the reduction of a signal holding the same members (which computes every member before any
+    reduction sees them)."""
+    from labsim.dsl.analysis.evaluate import Memory
+
+    rng = random.Random(42)
+    lets: list[tuple[str, str]] = []
+    checked: list[str] = []
+    for k in range(60):
+        inner = _remembering(rng)
+        red = rng.choice(REDUCTIONS_OF_BOOLS)
+        lets += [(f"e{k}", f"{red}({inner})"), (f"m{k}", inner), (f"n{k}", f"{red}(m{k})")]
+        checked.append(f"e{k}")
+        if rng.random() < 0.3:  # a single and/or of two reductions stops where decided, as documented
+            op = rng.choice(("and", "or"))
+            lets.append((f"o{k}", f"any({_remembering(rng)}) {op} all({_remembering(rng)})"))
+            checked.append(f"o{k}")
+    program = behaviour(tmp_path / "b.yaml", lets)
+    robot = program.robot("r", random.Random(7), Faults(), program.models["r"])
+    memory, draws = Memory(dt_s=DT_S, version=1.3), random.Random(7)
+    nodes = {name: parse_expr(text) for name, text in lets}
+    for tick in range(TICKS):
+        time_s = tick * DT_S
+        robot.signals(time_s, tick, [0.5] * len(program.channels))
+        names: dict[str, object] = {"tick": float(tick), "time": time_s, "dt": DT_S}
+        for name, _ in lets:  # in the file's order: the random draws come in the same order
+            names[name], faults = evaluate(nodes[name], names, draws, memory=memory)
+            assert faults == ()
+        for name in checked:
+            got = robot.slots[program.slot_of[name]]
+            assert same(got, names[name]), f"tick {tick}, {name}: {dict(lets)[name]}: generated {got!r}, " \
+                                           f"evaluator {names[name]!r}"
+            if name[0] == "e" and "uniform" not in dict(lets)[name] and "gauss" not in dict(lets)[name]:
+                signal = robot.slots[program.slot_of["n" + name[1:]]]
+                assert same(got, signal), f"tick {tick}, {name}: {dict(lets)[name]}: {got!r}, through a signal " \
+                                          f"{signal!r}"

@@ -324,3 +324,203 @@ def test_a_signal_that_slices_a_scan_is_read_where_it_is_used(write) -> None:
 def test_a_slice_s_syntax_error_is_at_its_line_and_column(write, expr: str, col: int, message: str) -> None:
     path = write(HEAD.format(v="1.3") + f"  t: {expr}\n" + RULES)
     assert [(line, c, m) for line, c, m, _ in diagnostics(path)] == [(13, col, message)]
+
+
+def test_a_reduction_runs_every_member_s_memory_and_draw_on_every_tick(write) -> None:
+    """any(rising(c)): the second member's rising() runs on tick 3 though the first decided, so it
+    does not rise again on tick 4; all() likewise; every member draws its random number."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nseed: 2\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  c: '[tick >= 3, tick >= 3]'\n  inline: any(rising(c))\n  both: all(rising(c))\n"
+                 "  first: any(uniform([0, 0, 0], 1) > -1)\n  after: random()\n"
+                 "rules:\n  - always stop()\n")
+    program = compile_file(path)
+    robot = program.robot("p", random.Random(2), Faults())
+    seen = []
+    for tick in range(6):
+        robot.signals(tick * 0.05, tick, [math.inf] * len(program.channels))
+        seen.append(tuple(robot.slots[program.slot_of[n]] for n in ("inline", "both", "first", "after")))
+    assert [s[:3] for s in seen] == [(False, False, True)] * 3 + [(True, True, True)] + [(False, False, True)] * 2
+    draws = random.Random(2)
+    for s in seen:  # three draws for the group, then random()'s: the fourth of the tick
+        for _ in range(3):
+            draws.uniform(0, 1)
+        assert s[3] == draws.random()
+
+
+def _self_reading(write, lets: str) -> tuple[Program, object]:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, at: [0, 0, 0]}\n"
+                 "let:\n  g: sonar1..sonar3\n" + lets + "rules:\n  - if min(smooth) < 0.3 then stop()\n"
+                 "  - else move(1)\n")
+    program = compile_file(path)
+    return program, program.robot("p", random.Random(7), Faults())
+
+
+def test_a_group_signal_reads_each_member_s_own_last_value(write) -> None:
+    """smooth: 0.5 * prev(smooth, g) + 0.5 * g, member by member, from the first tick's readings; and one
+    reading all of its last members (the largest of them): every member is computed from the last tick's."""
+    program, robot = _self_reading(write, "  smooth: 0.5 * prev(smooth, g) + 0.5 * g\n"
+                                          "  top: prev(top, [0, 0, 0]) + max(prev(top, [0, 0, 0])) + 1\n"
+                                          "  one: 0.5 * prev(one, 1) + 0.5 * g\n")  # every member from 1
+    seen: dict[str, list[tuple[object, ...]]] = {"smooth": [], "top": [], "one": []}
+    for tick, readings in enumerate(READINGS[:4]):
+        robot.signals(tick * 0.05, tick, [*readings, *[math.inf] * (len(program.channels) - 3)])  # type: ignore
+        for name in seen:
+            seen[name].append(_members(program, robot.slots, name, readings))  # type: ignore[attr-defined]
+    last = READINGS[0]
+    for tick, readings in enumerate(READINGS[:4]):  # each member from its own: 0.5 * last + 0.5 * reading
+        last = tuple(0.5 * a + 0.5 * b for a, b in zip(last, readings))
+        assert seen["smooth"][tick] == last
+    assert seen["smooth"][:2] == [(0.9, 0.1, 0.3), (0.5, 0.5, 0.3)]
+    assert seen["one"][0] == (0.5 * 1.0 + 0.5 * 0.9, 0.5 * 1.0 + 0.5 * 0.1, 0.5 * 1.0 + 0.5 * 0.3)
+    assert seen["one"][1] == tuple(0.5 * a + 0.5 * b for a, b in zip(seen["one"][0], READINGS[1]))
+    assert seen["top"] == [(1.0, 1.0, 1.0), (3.0, 3.0, 3.0), (7.0, 7.0, 7.0), (15.0, 15.0, 15.0)]
+
+
+@pytest.mark.parametrize(("let", "col", "message", "notes"), [
+    ("[prev(smooth, 1) + 1, 2, 3]", 25, "signal 'smooth' is a group of 3 numbers, so prev(smooth, ...) starts "
+     "from a group of 3 too, a value for each member; this is a number",
+     ("start each member from its own value, as in prev(smooth, [1, 1, 1])",)),
+    ("prev(smooth, [0, 0, 0])[0:2]", 24, "signal 'smooth' has 2 members, so prev(smooth, ...) starts from as many; "
+     "this has 3", ()),
+    ("prev(smooth, g) < 1", 24, "signal 'smooth' is a group of booleans, so prev(smooth, ...) starts from a group "
+     "of booleans too; this is a group of numbers", ()),
+])
+def test_a_group_signal_reading_itself_from_the_wrong_start_is_said_at_the_start(write, let: str, col: int,
+                                                                                 message: str,
+                                                                                 notes: tuple[str, ...]) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 f"let:\n  g: sonar1..sonar3\n  smooth: {let}\nrules:\n  - if any(smooth < 1) then stop()\n")
+    assert diagnostics(path) == [(8, col, message, notes)]
+
+
+def test_a_group_signal_reading_itself_is_format_1_3(write) -> None:
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  g: sonar1..sonar3\n  smooth: prev(smooth, g) + g\n"
+                 "rules:\n  - if min(smooth) < 1 then stop()\n")
+    assert diagnostics(path) == [(8, 24, "prev() keeps a number or a boolean, not a group of numbers",
+                                  (later("a group signal reading its own members"),))]
+
+
+def test_len_of_a_group_and_a_rounding_of_what_is_known_are_known_before_the_run(write) -> None:
+    """front[1:len(front)], a function's d[1:len(d)] for groups of two sizes, front[round(k)]: sliced and
+    picked by the places they fold to; each sonar reads its number, so the values say which members."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "params:\n  k: 2.2\n  wp: [[1, 2], [3, 4], [5, 6]]\nfunctions:\n  tail(d): d[1:len(d)]\n"
+                 "  last(d): d[len(d) - 1]\nlet:\n  front: sonar1..sonar8\n  side: [sonar8, sonar9]\n"
+                 "  a: min(front[1:len(front)])\n  b: sum(tail(front)) + 100 * min(tail(side)) + 1000 * last(side)\n"
+                 "  c: front[round(k)] + 10 * front[floor(k):ceil(k)][0] + 100 * wp[round(k)][1]\n"
+                 "  d: min(front[round(k + 3):])\nrules:\n  - if a + b + c + d > 1 then stop()\n")
+    program = compile_file(path)
+    robot = program.robot("p", random.Random(1), Faults())
+    robot.signals(0.0, 0, [float(ch[5:]) if ch.startswith("sonar") else 0.0 for ch in program.channels])
+    assert [robot.slots[program.slot_of[n]] for n in "abcd"] == [2.0, 35.0 + 900.0 + 9000.0, 3.0 + 30.0 + 600.0, 6.0]
+
+
+@pytest.mark.parametrize(("expr", "col", "message"), [
+    ("front[len(front)]", 12, "this group has 8 members, at places 0 to 7; 'len(front)' is 8"),
+    ("front[round(k)]", 12, "this group has 8 members, at places 0 to 7; 'round(k)' is 9"),
+    ("min(front[2:len(front) + 1])", 18, "this group has 8 members, so a slice's bound is at most 8; "
+                                         "'len(front) + 1' is 9"),
+])
+def test_a_place_from_len_or_a_rounding_outside_the_group_is_an_error_before_the_run(write, expr: str, col: int,
+                                                                                   message: str) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 f"params:\n  k: 9.2\nlet:\n  front: sonar1..sonar8\n  a: {expr}\nrules:\n  - if a > 1 then stop()\n")
+    assert [d[:3] for d in diagnostics(path)] == [(10, col, message)]
+
+
+@pytest.mark.parametrize(("expr", "message", "notes"), [
+    ("sum(front, 1)", "sum() takes 1 argument, a group of numbers, given 2",
+     ("sum() of a group: sum(front) is the members added up", "to add values, write a + b")),
+    ("any(a, b)", "any() takes 1 argument, a group of booleans, given 2",
+     ("any() of a group: any(front < 0.5) is true if a member is true", "of two conditions, write a or b")),
+    ("argmin(front, 1)", "argmin() takes 1 argument, a group of numbers, given 2",
+     ("argmin() of a group: argmin(front) is where the smallest member is, counted from 0 (the first of equals)",
+      "to pick the smaller of values, write min(a, b)")),
+    ("mean(front, front)", "mean() takes 1 argument, a group of numbers or an image, given 2",
+     ("mean() of a group: mean(front) is the members' mean",)),
+    ("min()", "min() takes a group, or at least 2 numbers, given 0",
+     ("min() of a group: min(front) is the smallest member; nan if one is nan",)),
+    ("count(front < 1, 2)", "count() takes 1 argument, a group of booleans, given 2",
+     ("count() of a group: count(front < 0.5) is how many members are true",
+      "counter(c) counts the ticks c became true on")),
+])
+def test_a_reduction_given_other_than_one_group_says_what_it_takes(write, expr: str, message: str,
+                                                                   notes: tuple[str, ...]) -> None:
+    path = write(HEAD.format(v="1.3") + f"  a: sonar1 < 1\n  b: sonar2 < 1\n  v: {expr}\n{RULES}")
+    assert diagnostics(path) == [(15, 6, message, notes)]
+
+
+def test_an_unknown_function_is_told_the_names_len_and_the_reductions_among_them(write) -> None:
+    path = write(HEAD.format(v="1.3") + f"  v: lenx(front)\n{RULES}")
+    [(line, col, message, notes)] = diagnostics(path)
+    assert (line, col, message) == (13, 6, "unknown function 'lenx' (did you mean 'len'?)")
+    assert notes[0].startswith("the nearest: len, exp, mean; functions: abs, all, any, area, argmax, argmin, ")
+    assert ", len, " in notes[0] and ", sum, " in notes[0] and ", count, " in notes[0]
+
+
+@pytest.mark.parametrize("name", ["wheel_left", "start_heading"])
+def test_a_breakpoint_reading_back_in_a_format_12_file_says_it_is_13(write, name: str) -> None:
+    from labsim.dsl.watch import compile_watch
+
+    program = compile_file(write(HEAD.format(v="1.2") + RULES))
+    with pytest.raises(LabsimError) as e:
+        compile_watch(program, f"sonar1 < 1 and {name} >= 0")
+    assert [(d.path, d.line, d.col, d.message) for d in e.value.diagnostics] == [
+        ("--break", 1, 16, later(f"'{name}'"))]
+
+
+def test_a_memory_for_each_of_many_members_is_kept_past_the_guards_named_one_by_one(write) -> None:
+    """300 beams through total() and rising(): 600 memories, past the guards bound by name (the rest are
+    read from one tuple); each member's memory is its own, tick by tick."""
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "lidar: {beams: 300, fov_deg: 360, range_m: 3}}\nlet:\n  scan: lidar1..lidar300\n"
+                 "  sums: total(scan)\n  up: rising(scan < 1)\n  last: sums[299] + 1000 * count(up)\n"
+                 "  early: any(rising(scan < 2))\nrules:\n  - if last > 1 or early then stop()\n")
+    program = compile_file(path)
+    assert "_G[599](" in program.code.source and "_g255(" in program.code.source and "_g256" not in program.code.source
+    robot = program.robot("p", random.Random(1), Faults())
+    seen = []
+    for tick in range(3):
+        beams = [0.5 + 0.01 * k if (k + tick) % 2 else 2.5 for k in range(300)]
+        robot.signals(tick * 0.05, tick, [*beams, *[math.inf] * (len(program.channels) - 300)])
+        seen.append(tuple(robot.slots[program.slot_of[n]] for n in ("last", "early")))
+    # beam 299: 3.49 (tick 0: odd), then 2.5, then 3.49; beams 0..49 are the near ones: the 25 even ones
+    # come near on tick 1, the 25 odd ones on tick 2
+    assert seen == [(3.49, False), (3.49 + 2.5 + 25_000, True), (3.49 + 2.5 + 3.49 + 25_000, True)]
+
+
+def test_the_operation_budget_counts_each_member_s_memory(write) -> None:
+    lets = "".join(f"  v{k}: total(clamp(scan, 0, {k}))\n" for k in range(26))
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx, "
+                 "lidar: {beams: 1000, fov_deg: 360, range_m: 3}}\nlet:\n  scan: lidar1..lidar1000\n" + lets
+                 + "rules:\n  - if v0 > 1 then stop()\n")
+    assert diagnostics(path) == [(30, 14, "the groups of this file are written out to more than 200,000 operations, "
+                                          "one per member of each (a call of a function, once per call; a function "
+                                          "with memory, 5 per member)",
+                                  ("reduce a group once, in a 'let' signal, and use the signal; a function called "
+                                   "many times on a large group is written out for each call",))]
+
+
+def test_a_place_out_of_the_group_because_of_a_set_names_the_set(write) -> None:
+    path = write("labsim: 1.3\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\nparams:\n"
+                 "  k: 2\nlet:\n  front: sonar1..sonar8\n  a: min(front[0:k + 2])\n  b: front[k]\n"
+                 "rules:\n  - if a < b then stop()\n")
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"k": "7"})
+    assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
+        (10, 18, "this group has 8 members, so a slice's bound is at most 8; 'k + 2' is 9",
+         (SPAN, "with --set k=7 of the command line"))]
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"k": "7" + "0" * 20_000})
+    [d] = e.value.diagnostics
+    assert d.path == "--set k=7" + "0" * 59 + "..." and len(d.message) < 200
+
+
+def test_a_group_signal_reading_itself_from_one_start_is_refused_in_format_12_as_before(write) -> None:
+    path = write("labsim: 1.2\nworld: walls_lab4\nstop: time >= 1\nrobots:\n  p: {model: pioneer_p3dx}\n"
+                 "let:\n  g: sonar1..sonar3\n  smooth: 0.8 * prev(smooth, 1) + 0.2 * g\n"
+                 "rules:\n  - if min(smooth) < 1 then stop()\n")
+    assert [d[:3] for d in diagnostics(path)] == [(8, 17, "prev() keeps memory from tick to tick, but here it is "
+                                                          "paired with every member of a group, so it would run once "
+                                                          "per member")]

@@ -85,10 +85,10 @@ def test_a_state_named_heard_is_an_error_in_1_3(write) -> None:
                                          "another name", OLDER)]
 
 
-FUNCTIONS_13 = ("functions: abs, area, atan2, ceil, centroid, clamp, cos, counter, crop, deg, detected, exp, falling, "
-                "floor, gauss, gray, heard, height, held, hold, hypot, invert, log, max, mean, min, pid, prev, rad, "
-                "randint, random, rate, remember, rising, round, sign, sin, sqrt, tan, threshold, total, uniform, "
-                "width")
+FUNCTIONS_13 = ("functions: abs, all, any, area, argmax, argmin, atan2, ceil, centroid, clamp, cos, count, counter, "
+                "crop, deg, detected, exp, falling, floor, gauss, gray, heard, height, held, hold, hypot, invert, len, "
+                "log, max, mean, min, pid, prev, rad, randint, random, rate, remember, rising, round, sign, sin, sqrt, "
+                "sum, tan, threshold, total, uniform, width")
 ACTIONS_13 = ("actions: arc(left, right), wheels(left, right), move(speed), drive(v, w), stop(), set_velocity(joint, "
               "velocity), set_position(joint, position), say(channel, value[, range_m]), log(text), goto STATE")
 

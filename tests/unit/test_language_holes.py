@@ -48,7 +48,8 @@ def diagnostics(path: Path, overrides: dict[str, str] | None = None) -> list[tup
 def test_an_index_known_before_the_run_is_checked_at_its_place(write, index: str, overrides: dict[str, str] | None,
                                                                message: str, note: str) -> None:
     path = write(PICK.replace("{index}", index))
-    assert diagnostics(path, overrides) == [(10, 15, message, (note,))]
+    named = tuple(f"with --set {k}={v} of the command line" for k, v in (overrides or {}).items())
+    assert diagnostics(path, overrides) == [(10, 15, message, (note, *named))]
 
 
 def test_an_index_that_is_a_place_runs(write) -> None:
