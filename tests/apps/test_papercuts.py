@@ -42,6 +42,14 @@ def test_several_values_for_run_point_at_sweep(capsys) -> None:
         f"      = a run takes one value; to try several, use labsim sweep {LAB} --set front=1,3,8"]
 
 
+def test_a_list_for_a_run_points_at_sweep_with_comma_separated_values(capsys) -> None:
+    code, _, err = cli(capsys, "run", str(LAB), "--set", "front=[1, 3]")
+    assert code == 2
+    assert err.splitlines() == [
+        "--set front=[1, 3]: error: parameter 'front' is a number, not '[1, 3]'",
+        f"      = a run takes one value; to try several, use labsim sweep {LAB} --set front=1,3"]
+
+
 def test_a_behaviour_given_as_a_trace_says_to_run_it_with_trace_first(capsys, tmp_path: Path) -> None:
     wanted = (f"{LAB}: error: not a labsim trace (no '# labsim-trace' header line): it is a behaviour file; run it "
               f"with --trace first (labsim run {LAB} --trace run.csv), then give run.csv")
