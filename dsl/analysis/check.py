@@ -28,7 +28,7 @@ from labsim.dsl.analysis.functions import RANDOM, Expansion, check_bodies, check
 from labsim.dsl.analysis.infer import ExprChecker
 from labsim.dsl.analysis.messages import SAY, check_channels, check_say
 from labsim.dsl.analysis.peers import Received, check_later
-from labsim.dsl.analysis.wording import arity_message, log_example, shown_setting
+from labsim.dsl.analysis.wording import arity_message, log_example, say_example, shown_setting
 from labsim.dsl.library.builtins import (
     ACTIONS,
     AGGREGATES,
@@ -711,7 +711,14 @@ class _Checker(ExprChecker):
 
     def log_action(self, action: ast.Action, text: Text) -> None:
         """log("text {expr:.2f}"): quoted text whose fields are numbers or booleans."""
-        if action.name not in ACTIONS:  # print("..."), say("hi", 2): an action that does not exist
+        if action.name == SAY and self.version >= 1.3:  # say("pos", 2): the channel is a name, not text
+            self.error(text.at(action.name_span),
+                       f"a channel is a name written without quotes: {say_example(action, text)}")
+            words = "".join(p for p in action.text or () if isinstance(p, str)).strip()
+            if words.isidentifier():  # what hears on it is not reported as well
+                self.said.setdefault(words, None)
+            return
+        if action.name not in ACTIONS:  # print("..."), say("hi", 2) before 1.3: an action that does not exist
             self.error(text.at(action.name_span), f"unknown action '{action.name}' (to print text, use "
                        f'log("...")' + ")", notes=(f"e.g. {log_example(action, text)}: printed with the time and "
                                                   "the robot, and recorded in the trace",))

@@ -50,6 +50,15 @@ def log_example(action: ast.Action, text: Text) -> str:
     return 'log("' + " ".join(w for w in (words.rstrip(), fields) if w) + '")'
 
 
+def say_example(action: ast.Action, text: Text) -> str:
+    """say("pos", 2) as it is written: its channel a name without quotes, say(pos, 2)."""
+    words = "".join(p for p in action.text or () if isinstance(p, str)).strip()
+    channel = words if words.isidentifier() and len(words) <= 40 and len(action.text or ()) == 1 else "channel"
+    values = [text.value[a.span[0]:a.span[1]] for a in action.args] or ["value"]
+    values = [v if len(v) <= 40 else "value" for v in values]
+    return f"say({channel}, {', '.join(values)})"
+
+
 # every function a file may call: the built-ins of values, detected(), len() and a group's reductions
 FUNCTION_NAMES = sorted({*FUNCTIONS, DETECTED, "len", *REDUCTIONS})
 

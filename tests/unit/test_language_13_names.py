@@ -110,6 +110,22 @@ def test_a_mistyped_say_is_told_and_what_hears_on_its_channel_is_not_reported(wr
     assert diagnostics(path) == [(11, 10, f"unknown action '{action}' (did you mean 'say'?)", (ACTIONS_13,))]
 
 
+@pytest.mark.parametrize(("action", "example"), [
+    ('say("ch", 2)', "say(ch, 2)"), ('say("ch")', "say(ch, value)"), ('say("ch", x + 1, 3)', "say(ch, x + 1, 3)"),
+])
+def test_a_quoted_channel_is_told_to_be_a_name_and_what_hears_on_it_is_not_reported(write, action: str,
+                                                                                   example: str) -> None:
+    path = write(HEAD + f"let:\n  h: heard(ch)\nrules:\n  - if h > 0 then stop()\n  - else {action}\n")
+    assert diagnostics(path) == [(11, 10, f"a channel is a name written without quotes: {example}", ())]
+
+
+def test_a_quoted_channel_in_1_2_is_an_unknown_action_as_print_is(write) -> None:
+    path = write(HEAD.replace("1.3", "1.2") + 'rules:\n  - always say("hi", 2)\n')
+    assert diagnostics(path) == [(8, 12, "unknown action 'say' (to print text, use log(\"...\"))",
+                                  ('e.g. log("hi {2:.2f}"): printed with the time and the robot, and recorded in the '
+                                   "trace",))]
+
+
 def test_a_1_2_file_is_not_told_of_heard(write) -> None:
     path = write(HEAD.replace("1.3", "1.2") + "rules:\n  - if hear(ch) > 0 then stop()\n")
     [(line, col, message, notes), unknown] = diagnostics(path)
