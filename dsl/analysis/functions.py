@@ -291,10 +291,10 @@ def check_bodies(c: ExprChecker, functions: dict[str, FunctionDecl]) -> None:
         c.scopes.append((d, {p: (Type.NUMBER, 0) for p in d.params}, None, d.body.text))
         try:
             # another robot's value and what a robot heard (format 1.3) are not a function's to read;
-            # a channel is not a name in scope
+            # a channel is not a name in scope, nor is say()'s: say is an action, told so where it is
             channels = set()
             for node in nodes(d.body.node):
-                if isinstance(node, ast.Peer) or (isinstance(node, ast.Call) and node.func == "heard"
+                if isinstance(node, ast.Peer) or (isinstance(node, ast.Call) and node.func in ("heard", "say")
                                                   and node.func not in functions):
                     c.infer(node, d.body.text)
                     channels |= {id(a) for a in node.args[:1]} if isinstance(node, ast.Call) else set()

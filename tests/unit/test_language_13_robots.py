@@ -136,6 +136,13 @@ def test_say_outside_a_rule_is_an_action_in_an_expression(write) -> None:
     assert diagnostics(path) == [(8, 10, "'say' is an action: it goes after 'then', not inside an expression", ())]
 
 
+@pytest.mark.parametrize("let", ["", "let:\n  a: tell(1)\n"])
+def test_say_in_a_function_body_is_an_action_in_an_expression_not_an_unknown_channel(write, let: str) -> None:
+    path = write(HEAD + "functions:\n  tell(v): say(c, v)\n" + let + "rules:\n  - if heard(c) > 0 then say(c, 2)\n"
+                 "  - else stop()\n")
+    assert diagnostics(path) == [(8, 12, "'say' is an action: it goes after 'then', not inside an expression", ())]
+
+
 def test_what_is_heard_is_no_sensor_reading_and_is_compared_exactly(write) -> None:
     """A channel named like a sensor reads no sensor (no pid() warning); == on what is heard is meant."""
     path = write(HEAD + "let:\n  p: pid(heard(sonar5) - 1, 1, 0, 0)\n  two: heard(sonar5) == 2\nrules:\n"
