@@ -653,6 +653,10 @@ class _Checker(ExprChecker):
                                f"{'switch states' if isinstance(a, ast.Goto) else 'drive'}, write an 'if' rule",
                                notes=("e.g. 'when rising(collided) then log(\"hit\")', then "
                                       "'if collided then move(-2)'",))
+                    for said in decl.rule.actions:  # what hears on its channels says nothing more
+                        if isinstance(said, ast.Action) and said.name == SAY and said.args \
+                                and isinstance(said.args[0], ast.Name) and self.version >= 1.3:
+                            self.said.setdefault(said.args[0].id, None)
                     return
         actions = [a for a in decl.rule.actions if isinstance(a, ast.Action)]
         for action in actions:

@@ -54,6 +54,8 @@ def check_say(c: MessageChecker, action: ast.Action, text: Text, said_here: set[
     if not 2 <= len(action.args) <= 3:
         c.error(text.at(action.span), arity_message(SAY, ("channel", "value", "range_m"), len(action.args),
                                                     optional=1))
+        if action.args and isinstance(action.args[0], ast.Name):
+            c.said.setdefault(action.args[0].id, None)  # its heard() says nothing more
         return
     channel, value = action.args[0], action.args[1]
     if not c.robot_counts:

@@ -143,6 +143,22 @@ def test_say_in_a_function_body_is_an_action_in_an_expression_not_an_unknown_cha
     assert diagnostics(path) == [(8, 12, "'say' is an action: it goes after 'then', not inside an expression", ())]
 
 
+WHEN = ("a 'when' rule only logs, and the rules below it go on; to drive, write an 'if' rule",
+        ("e.g. 'when rising(collided) then log(\"hit\")', then 'if collided then move(-2)'",))
+
+
+@pytest.mark.parametrize(("rule", "expected"), [
+    ("when time > 0 then say(c, 1), move(2)", (9, 35, *WHEN)),
+    ("if time > 0 then say(c)", (9, 22, "say() takes 2 or 3 arguments (channel, value[, range_m]), given 1", ())),
+    ("if time > 0 then say(c, 1, 2, 3)",
+     (9, 22, "say() takes 2 or 3 arguments (channel, value[, range_m]), given 4", ())),
+])
+def test_a_say_in_a_rule_with_an_error_still_counts_its_channel_as_said(write, rule: str,
+                                                                       expected: tuple[object, ...]) -> None:
+    path = write(HEAD + f"rules:\n  - if heard(c) > 0 then stop()\n  - {rule}\n  - always move(1)\n")
+    assert diagnostics(path) == [expected]
+
+
 def test_what_is_heard_is_no_sensor_reading_and_is_compared_exactly(write) -> None:
     """A channel named like a sensor reads no sensor (no pid() warning); == on what is heard is meant."""
     path = write(HEAD + "let:\n  p: pid(heard(sonar5) - 1, 1, 0, 0)\n  two: heard(sonar5) == 2\nrules:\n"
