@@ -649,7 +649,8 @@ class _Checker(ExprChecker):
         if decl.rule.kind == "when":
             for a in decl.rule.actions:
                 if isinstance(a, ast.Goto) or (a.name != "log" and a.text is None and a.name in ACTIONS):
-                    self.error(text.at(a.span), "a 'when' rule only logs, and the rules below it go on; to "
+                    logs = "logs and says" if self.version >= 1.3 else "logs"
+                    self.error(text.at(a.span), f"a 'when' rule only {logs}, and the rules below it go on; to "
                                f"{'switch states' if isinstance(a, ast.Goto) else 'drive'}, write an 'if' rule",
                                notes=("e.g. 'when rising(collided) then log(\"hit\")', then "
                                       "'if collided then move(-2)'",))

@@ -143,7 +143,7 @@ def test_say_in_a_function_body_is_an_action_in_an_expression_not_an_unknown_cha
     assert diagnostics(path) == [(8, 12, "'say' is an action: it goes after 'then', not inside an expression", ())]
 
 
-WHEN = ("a 'when' rule only logs, and the rules below it go on; to drive, write an 'if' rule",
+WHEN = ("a 'when' rule only logs and says, and the rules below it go on; to drive, write an 'if' rule",
         ("e.g. 'when rising(collided) then log(\"hit\")', then 'if collided then move(-2)'",))
 
 
