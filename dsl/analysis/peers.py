@@ -10,12 +10,14 @@ order first read: the code generator keeps each robot's values of them after eve
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
 from yaml.nodes import Node
 
 from labsim.dsl.analysis.functions import known_value
+from labsim.dsl.analysis.wording import literal
 from labsim.dsl.library.builtins import READ_BACK, VARIABLES, Type
 from labsim.dsl.syntax import ast
 from labsim.dsl.syntax.read import FunctionDecl
@@ -126,6 +128,13 @@ def member_ok(c: PeerChecker, e: ast.Peer, text: Text, count: int) -> bool:
     if not (float(place).is_integer() and 0 <= place < count):
         source = text.value[e.member.span[0]:e.member.span[1]]
         given = f" (--set {source}={c.overrides[source]})" if source in c.overrides else ""
+        if math.isfinite(place) and not float(place).is_integer():  # bot[0.5]: as gains[0.5] is told
+            shown = f"not {place:g}" if literal(e.member) else f"{quoted(source)} is {place:g}"
+            short = source if len(source) <= 30 else "k"
+            c.error(text.at(e.member.span), f"a robot of a group is named by its place, a whole number from 0; "
+                    f"{shown}{who}{given}", notes=(f"round it, as in {e.robot}[round({short})].{e.attr}, if a "
+                                                   "fraction is meant to pick the nearest",))
+            return False
         c.error(text.at(e.member.span), f"group '{e.robot}' has {count} robots, {e.robot}[0] to "
                 f"{e.robot}[{count - 1}]; not {place:g}{who}{given}", notes=("places count from 0",))
         return False

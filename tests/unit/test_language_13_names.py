@@ -311,6 +311,15 @@ def test_a_place_outside_the_group_from_a_set_names_the_set(write) -> None:
         (10, 14, "group 'pioneer' has 2 robots, pioneer[0] to pioneer[1]; not 3 (--set j=3)")]
 
 
+def test_a_fractional_place_from_a_set_is_told_a_place_is_a_whole_number(write) -> None:
+    path = write(HEAD + "params:\n  j: 1\nlet:\n  b: pioneer[j].heading\nrules:\n  - if b > 0 then stop()\n")
+    with pytest.raises(LabsimError) as e:
+        compile_file(path, {"j": "1.5"})
+    assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
+        (10, 14, "a robot of a group is named by its place, a whole number from 0; 'j' is 1.5 (--set j=1.5)",
+         ("round it, as in pioneer[round(j)].heading, if a fraction is meant to pick the nearest",))]
+
+
 def test_a_robot_outside_the_group_compares_as_nan_does(write, tmp_path: Path) -> None:
     """docs/language.md: its state is no state (== false, != true, as for a nan number); its boolean false."""
     import csv

@@ -78,6 +78,8 @@ def test_say_and_heard_parse_as_an_action_and_a_call() -> None:
     ("leadr.x", 6, "unknown robot 'leadr' (did you mean 'leader'?)", ("robots of this file: leader, pioneer",)),
     ("pioneer[3].x", 14, "group 'pioneer' has 3 robots, pioneer[0] to pioneer[2]; not 3", ("places count from 0",)),
     ("pioneer[-1].x", 14, "group 'pioneer' has 3 robots, pioneer[0] to pioneer[2]; not -1", ("places count from 0",)),
+    ("pioneer[0.5].x", 14, "a robot of a group is named by its place, a whole number from 0; not 0.5",
+     ("round it, as in pioneer[round(0.5)].x, if a fraction is meant to pick the nearest",)),
     ("pioneer.x", 6, "'pioneer' is a group of 3 robots: name one by its place, as in pioneer[0].x",
      ("its robots are pioneer[0] to pioneer[2]",)),
     ("leader[0].x", 6, "'leader' is one robot, not a group: write leader.x", ()),
