@@ -624,9 +624,11 @@ class ExprChecker(ast.Visitor["Type | None"]):
             places.append(int(place))
         lower = places[0] if e.lower is not None else 0
         upper = places[-1] if e.upper is not None else n
-        if lower >= upper:
+        if lower >= upper:  # the example fits the group: [0:4] of 8 sonars, [2:3] of 3 members
+            first = min(lower, n - 1)
+            example = "[0:4] takes places 0, 1, 2 and 3" if n >= 4 else f"[{first}:{first + 1}] takes place {first}"
             self.error(text.at(e.span), f"this slice is empty: [{lower}:{upper}] takes the places from {lower} up to "
-                       f"{upper}, not including {upper}", notes=("[0:4] takes places 0, 1, 2 and 3",))
+                       f"{upper}, not including {upper}", notes=(example,))
             return None
         self.sizes[id(e)] = upper - lower
         return t

@@ -95,6 +95,10 @@ def test_a_misplaced_colon_is_said_where_it_is(text: str, start: int, message: s
      ("[0:4] takes places 0, 1, 2 and 3",)),
     ("front[5:2][0]", 6, "this slice is empty: [5:2] takes the places from 5 up to 2, not including 2",
      ("[0:4] takes places 0, 1, 2 and 3",)),
+    ("side[1:1][0]", 6, "this slice is empty: [1:1] takes the places from 1 up to 1, not including 1",
+     ("[1:2] takes place 1",)),
+    ("side[2:2][0]", 6, "this slice is empty: [2:2] takes the places from 2 up to 2, not including 2",
+     ("[1:2] takes place 1",)),
     ("front[sonar1:3][0]", 12, "a slice's bounds are known before the run, the same for every robot: 'sonar1' is "
      "known only while running",
      ("a group's size is fixed when the file is compiled: write numbers or parameters every robot shares; to pick "
