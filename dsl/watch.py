@@ -214,8 +214,17 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                                      f"{text[ranged.span[0]:ranged.span[1]]}') and watch the "
                                                      "signal",)))
     robots = {g.name for g in program.robots}
+    if program.version >= 1.3 and "heard" not in checker.user_functions:  # heard(x): a channel, not a name read
+        said |= {id(c.args[0]) for c in ast.walk(e) if isinstance(c, ast.Call) and c.func == "heard" and c.args}
     for read in ast.walk(e):
         if id(read) in said:
+            continue
+        if isinstance(read, ast.Name) and read.id == "index" and read.id not in checker.types:
+            report.add(parsed_text.diagnostic(read.span[0], read.span[1], "'index' (the robot's place in its group) "
+                                              "is not readable by a breakpoint",
+                                              notes=("read it in a signal of the file (e.g. 'let: place: index') "
+                                                     "and watch the signal",)))
+            checker.poisoned.add(read.id)
             continue
         base = read.value.value if isinstance(read, ast.Attribute) and isinstance(read.value, ast.Index) else \
             read.value if isinstance(read, ast.Attribute) else None

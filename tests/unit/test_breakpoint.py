@@ -290,3 +290,12 @@ def test_a_breakpoint_refuses_a_channel_the_file_does_not_hear(write, when: str,
     proc = subprocess.run([sys.executable, "-m", "labsim", "run", str(write(RELAY)), "--break", when],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2 and message.replace(": ", ": error: ", 1) in proc.stderr
+
+
+def test_a_breakpoint_s_channel_is_no_name_it_reads_and_index_is_not_readable(write) -> None:
+    with pytest.raises(LabsimError) as e:
+        compile_watch(compile_file(write(RELAY)), "heard(sonar16) > 0 and index == 1")
+    assert [(d.line, d.col, d.message, d.notes) for d in e.value.diagnostics] == [
+        (1, 7, "nothing says on channel 'sonar16'", ("channels said in this file: ch1, ch3, ch2",)),
+        (1, 24, "'index' (the robot's place in its group) is not readable by a breakpoint",
+         ("read it in a signal of the file (e.g. 'let: place: index') and watch the signal",))]
