@@ -219,13 +219,6 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
     for read in ast.walk(e):
         if id(read) in said:
             continue
-        if isinstance(read, ast.Name) and read.id == "index" and read.id not in checker.types:
-            report.add(parsed_text.diagnostic(read.span[0], read.span[1], "'index' (the robot's place in its group) "
-                                              "is not readable by a breakpoint",
-                                              notes=("read it in a signal of the file (e.g. 'let: place: index') "
-                                                     "and watch the signal",)))
-            checker.poisoned.add(read.id)
-            continue
         base = read.value.value if isinstance(read, ast.Attribute) and isinstance(read.value, ast.Index) else \
             read.value if isinstance(read, ast.Attribute) else None
         if isinstance(base, ast.Name) and base.id in robots and base.id not in checker.types:  # leader.x (1.3)
@@ -248,7 +241,7 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
                                               notes=(f"read it in a signal of the file (e.g. 'let: seen: {read.id}') "
                                                      "and watch the signal",)))
             checker.poisoned.add(read.id)
-        elif isinstance(read, ast.Name) and read.id in READ_BACK and read.id not in checker.types:
+        elif isinstance(read, ast.Name) and read.id in (*READ_BACK, "index") and read.id not in checker.types:
             report.add(_read_back_unseen(read, parsed_text, program.version))
             checker.poisoned.add(read.id)
         elif isinstance(read, ast.Name) and read.id in unseen and read.id not in checker.types:
@@ -260,7 +253,12 @@ def _unseen(e: ast.Expr, parsed_text: Text, program: Program, checker: ExprCheck
 
 
 def _read_back_unseen(read: ast.Name, parsed_text: Text, version: float) -> Diagnostic:
-    """A read-back name (``wheel_left``, ``start_x``) the behaviour does not read: it has no slot to watch."""
+    """A read-back name (``wheel_left``, ``start_x``) the behaviour does not read: it has no slot to watch;
+    nor has ``index``, a robot's place in its group."""
+    if read.id == "index":
+        return parsed_text.diagnostic(read.span[0], read.span[1], "'index' (the robot's place in its group) is not "
+                                      "readable by a breakpoint", notes=("read it in a signal of the file (e.g. "
+                                                                         "'let: place: index') and watch the signal",))
     if version < 1.3:
         return parsed_text.diagnostic(read.span[0], read.span[1], later_format(f"'{read.id}'", 1.3))
     what = "wheel command" if read.id.startswith("wheel") else "start pose"
