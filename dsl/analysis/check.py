@@ -793,8 +793,7 @@ class _Checker(ExprChecker):
     def override(self, name: str, raw: str, current: float | bool, setting: str) -> float | bool:
         """A parameter's value given by ``--set`` (setting: 'NAME=VALUE'); the current one if wrong."""
         # sweep takes a list as comma-separated values: --set keep=[1,2] is pointed at --set keep=1,2
-        listed = ",".join(v.strip() for v in raw.strip()[1:-1].split(",")) \
-            if raw.strip().startswith("[") and raw.strip().endswith("]") else raw
+        listed = ",".join(v.strip() for v in raw.strip().strip("[]").split(",")) if "[" in raw or "]" in raw else raw
         several = (f"a run takes one value; to try several, use labsim sweep {self.bf.path} "
                    f"{shown_setting(name, listed)}",) if "," in raw else ()
         if isinstance(current, bool):
