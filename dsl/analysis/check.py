@@ -287,6 +287,16 @@ class _Checker(ExprChecker):
                 return next((k for k, v in node.value if v is value), value)
         return value
 
+    def free(self, name: str, node: Node, what: str) -> bool:
+        """Whether the file may take a name for its own: not the language's or the trace's, and not
+        declared already (each reported at the name)."""
+        if self.reserved(name, node, what):
+            return False
+        if self.taken(name):
+            self.clash(node, what, name)
+            return False
+        return True
+
     def reserved(self, name: str, node: Node, what: str) -> bool:
         """Report a name the language or the trace already uses; True if it was one."""
         claimed = claimed_in_13(self, name)
@@ -304,10 +314,7 @@ class _Checker(ExprChecker):
     def sliders(self) -> list[SliderDecl]:
         out = []
         for slider in self.bf.sliders:
-            if self.reserved(slider.name, slider.key, "slider"):
-                continue
-            if self.taken(slider.name):
-                self.clash(slider.key, "slider", slider.name)
+            if not self.free(slider.name, slider.key, "slider"):
                 continue
             self.declare(slider.name, Type.NUMBER, "slider")
             out.append(slider)
@@ -431,10 +438,7 @@ class _Checker(ExprChecker):
         values: dict[str, float | bool] = {}
         for name, (value, node) in self.bf.params.items():
             key = self.key_of(node)
-            if self.reserved(name, key, "parameter"):
-                continue
-            if self.taken(name):
-                self.clash(key, "parameter", name)
+            if not self.free(name, key, "parameter"):
                 continue
             values[name] = value
             self.declare(name, Type.BOOL if isinstance(value, bool) else Type.NUMBER, "parameter")
@@ -465,10 +469,7 @@ class _Checker(ExprChecker):
         """Format 1.3: each list parameter, a group of numbers (``gains: [0.5, 1, 2]``) or a list of rows."""
         for name, (value, node) in self.bf.lists.items():
             key = self.key_of(node)
-            if self.reserved(name, key, "parameter"):
-                continue
-            if self.taken(name):
-                self.clash(key, "parameter", name)
+            if not self.free(name, key, "parameter"):
                 continue
             self.lists[name] = value
             if is_table(value):
