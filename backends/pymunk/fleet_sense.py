@@ -141,8 +141,17 @@ def compile_sense(
     for r, plan in enumerate(robots):
         _add_robot_names(space, r, plan, env)
         values = _robot_lines(r, plan.specs, env, lines, half_width)
-        # a robot that reads only its rays, in the caster's order: the caster's new list is the row
-        rows.append(f"sv{r}" if values == _rays_alone(r, plan.specs) else f"[{', '.join(values)}]")
+        # a robot that reads only its rays, in the caster's order: the caster's new list is the row;
+        # its rays then a few values more (a live view's pose, a trace's): the list, extended
+        alone = _rays_alone(r, plan.specs)
+        more = values[len(alone):]
+        if values == alone:
+            rows.append(f"sv{r}")
+        elif alone != [""] and values[:len(alone)] == alone and not any(v.startswith("*") for v in more):
+            lines.append(f"    sv{r} += ({', '.join(more)},)")
+            rows.append(f"sv{r}")
+        else:
+            rows.append(f"[{', '.join(values)}]")
     lines.append(f"    return [{', '.join(rows)}]")
     exec(compile("\n".join(lines), "<labsim pymunk sense>", "exec"), env)
     return cast(SenseFn, env["sense"])
