@@ -139,7 +139,11 @@ class LiveSession(Session):
         run.tick = make_tick(run, given)  # the recorder's hook, generated for these columns
         # and a tick without the inputs' hook, for stretches with no move to apply (``Inputs.quiet``)
         moves = getattr(run.inputs, "before_tick", None)
-        self._quiet = make_tick(run, replace(given, before_tick=tuple(h for h in given.before_tick if h != moves)))
+        # and its recorder's hook that need not look for one (``TickRecorder.quiet_act``)
+        rec = self.recorder
+        self._quiet = make_tick(run, replace(given, before_tick=tuple(h for h in given.before_tick if h != moves),
+                                             after_act=tuple(rec.quiet_act if h == rec.after_act else h
+                                                             for h in given.after_act)))
         self._sonars = [[program.channels.index(s.name) for s in r.model.rays() if s.name in program.channels]
                         if r.model is not None else [] for r in self.run.robots]
         self._cameras = [[program.channels.index(c.name) for c in r.model.cameras if c.name in program.channels]

@@ -25,6 +25,16 @@ from operator import itemgetter
 
 import numpy as np
 
+try:
+    from labsim.runtime.view import _tap
+except ImportError:  # no C compiler at install time: numpy's envelope, the Python hook and path
+    _tap = None  # type: ignore[assignment]
+
+# which does the view's work a tick and a frame: "c", the extension runtime/view/_tap.c (the
+# tick hook and path of ``labsim.runtime.view.record``, the envelope here), else "python"; a test
+# may set "python" before a session loads
+KERNEL = "c" if _tap is not None else "python"
+
 Row = list  # [time, value, ...]
 
 
@@ -77,7 +87,7 @@ class Kept:
         self.ticks = [ticks[r] for r in rows]
         if self.data is not None:
             m = np.frombuffer(self.data, dtype=float).reshape(len(ticks), w)[rows]  # a copy: the buffer is free
-            self.data = bytearray(m.tobytes())
+            self.data[:] = m.tobytes()  # in place: the C hook holds this bytearray (runtime/view/_tap.c)
         else:
             self.values = [v for r in rows for v in self.values[r * w:(r + 1) * w]]
 
@@ -92,12 +102,16 @@ class Kept:
             del self.ticks[n - 1:]
         return self
 
-    def numbers(self) -> np.ndarray | None:
-        """The packed values, one row a tick; None when they are Python's objects."""
+    def numbers(self, copy: bool = True) -> np.ndarray | None:
+        """The packed values, one row a tick; None when they are Python's objects. ``copy`` False:
+        a view of ``data``, which cannot grow or shrink while the view lives (for a caller that
+        gathers the columns into an array of its own at once: a copy of a frame's 6,000 ticks
+        touched 600 KB of fresh memory, a quarter of the frame's time)."""
         if self.data is None:
             return None
         n = len(self)
-        return np.frombuffer(self.data, dtype=float, count=n * self.width).reshape(n, self.width).copy()
+        view = np.frombuffer(self.data, dtype=float, count=n * self.width).reshape(n, self.width)
+        return view.copy() if copy else view
 
 
 PACK_ERRORS = (struct.error, OverflowError)  # what packing a value that is no number raises
@@ -143,6 +157,8 @@ class Sampler:
                                + order, dtype=np.intp)
         nan = width + len(numeric_slots)  # the column of nans a missing number reads from
         self._gaps = bool((self._order < 0).any())
+        self._c_columns = np.ascontiguousarray(self._order, dtype=np.intp)  # -1: no number (the C envelope's)
+        self.kernel = KERNEL  # as the session's recorder was made
         self._columns = np.where(self._order >= 0, self._order, nan)
         self.paired = False  # whether the last ``rows`` were least/greatest pairs of groups of ticks
         self.bands: list[str] = []  # then per pair, per column "1": it went up and down within the group
@@ -151,9 +167,9 @@ class Sampler:
         """The kept ticks' chart values, one row a column and one column a tick (the reductions
         below run along a row, several times faster than down a column)."""
         n, w, wr = len(kept), kept.width, self._wr
-        m = kept.numbers()
+        m = kept.numbers(copy=False)
         if m is not None:
-            return self._columns_of(m, n)
+            return self._columns_of(m, n)  # its own array: the view goes with this call
         try:  # the common case: every value a number (an int, a bool, a float)
             if not self._flat:
                 raise TypeError
@@ -175,17 +191,35 @@ class Sampler:
 
     def rows(self, kept: Kept, dt_s: float, at_most: int) -> list[Row]:
         """At most ``at_most`` chart rows for the kept ticks: as they are when they fit, else
-        least/greatest pairs of consecutive groups; four decimals, ``"inf"`` and None as sent."""
+        least/greatest pairs of consecutive groups; four decimals, ``"inf"`` and None as sent.
+        Packed ticks that do not fit go to the C extension's ``envelope`` where ``KERNEL`` was "c"
+        when the sampler was made (the same rows as numpy's, without its copies of the ticks)."""
         n = len(kept)
         if not n:
             self.paired = False
             return []
-        m = self._numbers(kept)  # columns x ticks
         ticks = np.array(kept.tick_list(), dtype=float) if kept.ticks else \
             np.arange(kept.first, kept.first + n, dtype=float)
-        out, bands = pairs(np.round(ticks * dt_s, 9), m, at_most)
+        if kept.data is not None and self.kernel == "c" and n > max(2, at_most):
+            starts, ends = groups_of(n, at_most)
+            low, high, fell, rose = _tap.envelope(kept.data, kept.width, self._c_columns, starts, n)
+            shape = (len(starts), len(self._c_columns))
+            out, flags = paired_rows(np.round(ticks[starts] * dt_s, 9), np.round(ticks[ends] * dt_s, 9),
+                                     np.frombuffer(low).reshape(shape), np.frombuffer(high).reshape(shape),
+                                     np.frombuffer(fell, dtype=np.bool_).reshape(shape) == 0,
+                                     np.frombuffer(rose, dtype=np.bool_).reshape(shape) == 0)
+            bands: list[str] | None = flags
+        else:
+            out, bands = pairs(np.round(ticks * dt_s, 9), self._numbers(kept), at_most)
         self.paired, self.bands = bands is not None, bands or []
         return out
+
+
+def groups_of(n: int, at_most: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first and last row of each of ``at_most // 2`` consecutive groups of ``n`` rows."""
+    groups = max(1, at_most // 2)
+    edges = np.linspace(0, n, groups + 1).astype(np.intp)
+    return edges[:-1], edges[1:] - 1
 
 
 def pairs(times: np.ndarray, m: np.ndarray, at_most: int) -> tuple[list[Row], list[str] | None]:
@@ -194,37 +228,56 @@ def pairs(times: np.ndarray, m: np.ndarray, at_most: int) -> tuple[list[Row], li
     least and greatest row, with per pair the columns that went both ways in it (``bands``);
     four decimals, ``"inf"`` and None as sent."""
     n = m.shape[1]
-    bands = None
     if n <= max(2, at_most):
-        values = m.T
-    else:
-        groups = max(1, at_most // 2)
-        edges = np.linspace(0, n, groups + 1).astype(np.intp)
-        starts, ends = edges[:-1], edges[1:] - 1
-        with np.errstate(invalid="ignore"):
-            low = np.fmin.reduceat(m, starts, axis=1).T
-            high = np.fmax.reduceat(m, starts, axis=1).T
-        rising, falling = _monotone(m, starts, ends)
-        values = np.empty((2 * groups, m.shape[0]))
-        # a column that only fell over the group: its greatest first, so that the line falls
-        down = falling & ~rising
-        values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
-        # a column that went both ways within the group is a band over it; one way, a line
-        bands = ["".join("0" if ok else "1" for ok in row) for row in (rising | falling)]
-        picked = np.empty(2 * groups)
-        picked[0::2], picked[1::2] = times[starts], times[ends]
-        times = picked
-    values = np.round(values, 4)
+        return _table(times, m.T), None
+    starts, ends = groups_of(n, at_most)
+    with np.errstate(invalid="ignore"):
+        low = np.fmin.reduceat(m, starts, axis=1).T
+        high = np.fmax.reduceat(m, starts, axis=1).T
+    rising, falling = _monotone(m, starts, ends)
+    return paired_rows(times[starts], times[ends], low, high, rising, falling)
+
+
+def paired_rows(first: np.ndarray, last: np.ndarray, low: np.ndarray, high: np.ndarray, rising: np.ndarray,
+                falling: np.ndarray) -> tuple[list[Row], list[str]]:
+    """Each group's two rows (at its ``first`` and ``last`` time) from its least and greatest
+    values and whether each column never fell (``rising``) and never rose (``falling``), groups x
+    columns, and the bands (``pairs``)."""
+    groups = len(first)
+    values = np.empty((2 * groups, low.shape[1]))
+    # a column that only fell over the group: its greatest first, so that the line falls
+    down = falling & ~rising
+    values[0::2], values[1::2] = np.where(down, high, low), np.where(down, low, high)
+    picked = np.empty(2 * groups)
+    picked[0::2], picked[1::2] = first, last
+    # a column that went both ways within the group is a band over it; one way, a line
+    return _table(picked, values), _flags(~(rising | falling))
+
+
+def _table(times: np.ndarray, values: np.ndarray) -> list[Row]:
+    """Rows ``[time, value, ...]``: four decimals (no -0.0), ``"inf"`` and None as sent."""
+    values = np.round(values, 4) + 0.0
     table = np.hstack([times[:, None], values])
     if np.isfinite(values).all():
-        return table.tolist(), bands
+        return table.tolist()
     # "inf", "-inf" and None (nan) as sent, set by masks: a cell at a time cost a frame a tenth of its time
     cells = table.astype(object)
     body = cells[:, 1:]
     body[np.isnan(values)] = None
     body[values == math.inf] = "inf"
     body[values == -math.inf] = "-inf"
-    return cells.tolist(), bands
+    return cells.tolist()
+
+
+def _flags(both_ways: np.ndarray) -> list[str]:
+    """Per group (a row of ``both_ways``, groups x columns) a text of "1" (the column went both
+    ways in it) and "0", one character a column: made as bytes by numpy, a row at a time in
+    Python cost the frame a third of its envelope's time."""
+    groups, columns = both_ways.shape
+    if not columns:
+        return [""] * groups
+    codes = np.where(both_ways, ord("1"), ord("0")).astype(np.uint8)
+    return np.ascontiguousarray(codes).view(f"S{columns}").ravel().astype(f"U{columns}").tolist()
 
 
 def _monotone(m: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -11,9 +11,10 @@ corner), keeps the tick's chart values (``labsim.runtime.view.peaks.Kept``), not
 collision begun, a breakpoint that held: what the page's Events list shows), and asks the
 breakpoints (``labsim.runtime.view.breaks``) whether the run pauses here. ``take_path``,
 ``take_samples`` and ``take_events`` hand what was kept to the next frame and start again.
-When every chart column is a value of its own, the hook is generated for the run's columns
-(``fast_after_act``): a tick with nothing to note is a few lines written out, the rest goes the
-general way.
+When every chart column is a value of its own, a tick with nothing to note goes a shorter way:
+one call of the C extension ``runtime/view/_tap.c`` (``Tap``, with the paths as its ``Path``) where
+the install built it, else a hook generated for the run's columns (``fast_after_act``); anything
+else goes the general way. ``labsim.runtime.view.peaks.KERNEL`` says which: "c" or "python".
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from labsim.dsl.library.support import STATE
 from labsim.foundation.code_writer import Writer, render
 from labsim.runtime.observers import Watcher, events_cell
 from labsim.runtime.state import RobotRun, RunState
+from labsim.runtime.view import peaks
 from labsim.runtime.view.breaks import Breakpoint
 from labsim.runtime.view.peaks import PACK_ERRORS, Kept, packed
 
@@ -79,7 +81,7 @@ class PathThinner:
             return
         dx, dy = x - self._ax, y - self._ay
         if not self._on:  # still within the tolerance of the anchor: no direction yet
-            dist = math.hypot(dx, dy)
+            dist = math.sqrt(dx * dx + dy * dy)  # as the C twin (_tap.c's Path) rounds it
             if dist >= self.tol:
                 self._on, self._ux, self._uy, self._along = True, dx / dist, dy / dist, dist
             self._seen, self._lx, self._ly = True, x, y
@@ -124,7 +126,7 @@ class TickRecorder(Watcher):
 
     def __init__(self) -> None:
         self.xy: list[tuple[int, ...] | None] = []
-        self.paths: list[PathThinner] = []
+        self.paths: list[Any] = []  # PathThinner, or its C twin
         self.samples: list[Kept] = []
         self.breaks: list[Breakpoint] = []
         self.hit: dict[str, object] | None = None  # the breakpoint that held on the last tick run
@@ -143,7 +145,7 @@ class TickRecorder(Watcher):
         ``last[i]`` gets robot i's readings each tick."""
         self.xy = xy
         self.last = last
-        self.paths = [PathThinner() for _ in xy]
+        self.paths = [new_path() for _ in xy]
         self.touching = [False] * len(xy)  # per robot, whether it collided on the last tick
         self.collisions = [0] * len(xy)  # collisions begun so far
         self.hits: list[list[tuple[float, float]]] = [[] for _ in xy]  # where, since the last frame
@@ -158,15 +160,20 @@ class TickRecorder(Watcher):
         """What a tick keeps for the chart: ``read(values)`` and ``keep(slots)``, ``width`` values
         together (``labsim.runtime.view.peaks.Sampler``); what was kept before goes. ``columns``, the
         channels and slots read (when every column is a value of its own), has them packed as doubles
-        (``Kept.data``) and makes ``after_act`` a generated function (``fast_after_act``): the run's
-        hooks are to be collected again."""
+        (``Kept.data``) and makes ``after_act`` one call of the C extension (``tap``) or a generated
+        function (``fast_after_act``), and ``quiet_act`` the same for ticks with no slider move (the
+        live session's quiet tick): the run's hooks are to be collected again."""
         self.read, self.keep, self.width = read, keep, width
         self.pack = struct.Struct(f"{width}d").pack if columns is not None else None
         self._limit = MAX_SAMPLES_KEPT * width
         self.samples = [self._kept(self._run.tick_index if self._run is not None else 0) for _ in self.xy]
         self.__dict__.pop("after_act", None)
+        self.quiet_act: Callable[[RobotRun, int, list], None] = self.after_act
         if columns is not None and self.xy and all(xy == self.xy[0] for xy in self.xy):
-            self.after_act = fast_after_act(self, *columns)  # type: ignore[method-assign,assignment]
+            make = tap if peaks.KERNEL == "c" else fast_after_act
+            self.after_act = make(self, *columns, self._inputs)  # type: ignore[method-assign,assignment]
+            # for a stretch of ticks with no slider move to apply (``Inputs.quiet``): no look at them
+            self.quiet_act = make(self, *columns, None) if self._inputs is not None else self.after_act
 
     def bind(self, run: RunState) -> None:
         super().bind(run)
@@ -282,8 +289,41 @@ class TickRecorder(Watcher):
         return Kept(first, self.width, packed=self.pack is not None)
 
 
-def fast_after_act(rec: TickRecorder, channels: Sequence[int],
-                   slots: Sequence[int]) -> Callable[[RobotRun, int, list], None]:
+def new_path() -> Any:
+    """A robot's ``PathThinner``: the C twin where ``peaks.KERNEL`` is "c"."""
+    return peaks._tap.Path(PATH_TOLERANCE_M, MAX_PATH_POINTS) if peaks.KERNEL == "c" else PathThinner()
+
+
+def tap(rec: TickRecorder, channels: Sequence[int], slots: Sequence[int],
+        inputs: Any) -> Callable[[RobotRun, int, list], None]:
+    """``fast_after_act``'s hook as one call of the C extension (``_tap.Tap``): the same checks
+    for a tick with something to note (which it hands to the general hook), then the rule, the
+    readings, the path point and the chart's values packed, in one call. The recorder's paths
+    are the extension's ``Path``; a chart of more columns than it keeps goes the Python way.
+    ``inputs`` None: ticks with no slider move to apply, which it need not look for."""
+    assert rec._run is not None
+    if len(channels) + len(slots) > peaks._tap.MOST_COLUMNS:
+        return fast_after_act(rec, channels, slots, inputs)
+    xy = rec.xy[0] or ()
+    first = rec._run.robots[0].program
+    one = len(rec.xy) == 1
+    limit, pack = 8 * rec._limit, rec.pack
+
+    def slow(kept: Kept, row: tuple) -> None:  # a value that is no number: packed as nan
+        assert kept.data is not None
+        kept.data += packed(pack, row)
+        if len(kept.data) > limit:
+            kept.thin()
+
+    made: Callable[[RobotRun, int, list], None] = peaks._tap.Tap(
+        TickRecorder.after_act.__get__(rec), slow, rec.states, rec.touching, rec.last_rule, rec.last, rec.paths,
+        rec.samples, rec.breaks, inputs, first.slots if one else None, first.events if one else None, STATE,
+        xy[0] if xy else -1, xy[1] if xy else -1, xy[2] if len(xy) > 2 else -1, limit, channels, slots)
+    return made
+
+
+def fast_after_act(rec: TickRecorder, channels: Sequence[int], slots: Sequence[int],
+                   inputs: Any) -> Callable[[RobotRun, int, list], None]:
     """``rec.after_act`` as one generated function: a tick with nothing to note (no state entered,
     no event, slider move, collision begun or ended, no breakpoint set) keeps the rule, the
     readings, the path point and the chart's values (the columns written out, packed in one
@@ -304,7 +344,7 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int],
             w.line("prog = r.program")
             w.line("s, events = prog.slots, prog.events")
         unusual = [f"s[STATE] != states[{i}]", "events", "breaks"]
-        if rec._inputs is not None:
+        if inputs is not None:  # (None: a quiet tick, with no slider move)
             unusual.append("inputs.applied" if one else "(inputs.applied and i == 0)")
         if xy is not None and len(xy) > 2:  # a collision begins or ends (the general hook tells which)
             unusual.append(f"values[{xy[2]}] != touching[{i}]")
@@ -320,7 +360,7 @@ def fast_after_act(rec: TickRecorder, channels: Sequence[int],
     source = render(w.body())[0]
     first = rec._run.robots[0].program
     space: dict[str, Any] = {"general": TickRecorder.after_act.__get__(rec), "states": rec.states, "STATE": STATE,
-                             "breaks": rec.breaks, "inputs": rec._inputs, "touching": rec.touching,
+                             "breaks": rec.breaks, "inputs": inputs, "touching": rec.touching,
                              "last_rule": rec.last_rule, "last": rec.last, "paths": rec.paths,
                              "samples": rec.samples, "LIMIT": 8 * rec._limit, "PACK": rec.pack,
                              "PACK_ERRORS": PACK_ERRORS, "packed": packed, "s": first.slots, "events": first.events}
