@@ -1,6 +1,6 @@
 """The cost of watching: the wall lab at "as fast as it goes" with a page connected, against `labsim run`.
 
-    python benchmarks/bench_view.py [--repeat 5]
+    python benchmarks/bench_view.py [--repeat 5] [--rays python]
 
 Both sides run behaviours/wall_follow.yaml (30,000 ticks, no trace) on the pymunk backend.
 The view side serves it as `labsim view` does (the aiohttp server, the pacing loop, a
@@ -9,7 +9,9 @@ images) and plays it at "max" until the run ends. It prints the median CPU times
 alternated in random order, the median of the per-round ratios of ticks a second, the view's
 over labsim run's (goal >= 0.8), the frames a second the page received (goal <= 30), the
 bytes a frame averaged with its full path and chart samples (goal < 4096), and checks that
-both ended at the same pose.
+both ended at the same pose. ``--rays python`` has both sides cast the sonars with the Python
+rays, not the C kernel: a simulator three times slower, against which the same cost of watching
+weighs a third as much.
 """
 from __future__ import annotations
 
@@ -77,7 +79,13 @@ async def _watched() -> tuple[float, list[Pose], float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--rays", choices=("c", "python"), default="c",
+                        help="the sonars' caster on both sides (c: the kernel where built)")
     args = parser.parse_args()
+    if args.rays == "python":
+        from labsim.backends.pymunk import ray_cast
+
+        ray_cast._kernel = None
     poses: dict[str, list[Pose]] = {}
     rates: list[float] = []
     sizes: list[float] = []
@@ -93,6 +101,7 @@ def main() -> None:
         return t
 
     print(machine())
+    print(f"sonars cast by: {'the Python rays' if args.rays == 'python' else 'the C kernel'}")
     times = alternate({"labsim run": plain, "labsim view + page": watched}, args.repeat)
     same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
                for p, q in zip(poses["run"], poses["view"]) for a, b in zip(p, q))
