@@ -292,7 +292,10 @@ class LiveSession(Session):
             pose = self._pose(r.index, r.start) if r.model is not None else None
             hits: list = [[short(x), short(y)] for x, y in rec.hits[r.index]] if take else []
             path: list = paths[r.index]
-            samples: list = [[*row, *done] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
+            # the chart's rows carry four decimals, the metrics' columns too (five robots' full
+            # digits took a frame past 4 KB)
+            charted = [short(v) for v in done]
+            samples: list = [[*row, *charted] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
                 if take else []
             robots.append({
                 "pose": pose,

@@ -530,6 +530,20 @@ def test_kept_chart_values_pack_and_thin_as_the_python_ones() -> None:
     assert packed(pack, (10 ** 400, "a", -(10 ** 400))) == pack(math.inf, math.nan, -math.inf)
 
 
+@pytest.mark.parametrize("path", [CRANE, ROAD, WALL, ROOT / "behaviours" / "line_follow.yaml"], ids=lambda p: p.stem)
+def test_every_frame_of_every_lab_stays_under_4_kb(path: Path) -> None:
+    # from a few ticks a frame (a set speed) to hundreds (as fast as it goes); the road lab's five
+    # robots, each with its chart rows and metrics, are the largest
+    for stride in (1, 6, 37, 150):
+        s = live(path)
+        for _ in range(min(60, 3000 // stride)):
+            if not s.advance(stride):
+                break
+            size = len(json.dumps(s.frame(), separators=(",", ":"), allow_nan=False))
+            assert size < 4096, (stride, s.tick, size)
+        s.close()
+
+
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
     s = live(WALL)
     sizes = []
