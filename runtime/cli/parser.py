@@ -10,6 +10,7 @@ only when they are the command. Shell completion asks for every command's option
 from __future__ import annotations
 
 import argparse
+import importlib.machinery
 import importlib.util
 import sys
 from collections.abc import Callable, Sequence
@@ -71,8 +72,20 @@ def ray_caster() -> str:
     return "C kernel" if ray_cast.KERNEL == "c" else "Python"
 
 
+def view_hook() -> str:
+    """Which records a live view's ticks: "C" where ``pip install`` built ``runtime/view/_tap.c``,
+    else "Python" (``labsim.runtime.view.peaks.KERNEL``); the file looked for, not imported (the
+    view's package imports numpy)."""
+    runtime = importlib.util.find_spec("labsim.runtime")
+    folders = runtime.submodule_search_locations if runtime is not None else None
+    built = any((Path(folder) / "view" / f"_tap{suffix}").is_file()
+                for folder in folders or () for suffix in importlib.machinery.EXTENSION_SUFFIXES)
+    return "C" if built else "Python"
+
+
 class _Version(argparse.Action):
-    """``--version``: labsim's version, and which ray caster runs (``ray_caster``)."""
+    """``--version``: labsim's version, which ray caster runs (``ray_caster``) and which records a
+    live view's ticks (``view_hook``)."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
                  default: str = argparse.SUPPRESS, help: str | None = None) -> None:
@@ -80,7 +93,7 @@ class _Version(argparse.Action):
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
                  option_string: str | None = None) -> None:
-        print(f"labsim {version()} (ray caster: {ray_caster()})")
+        print(f"labsim {version()} (ray caster: {ray_caster()}; live view's tick hook: {view_hook()})")
         parser.exit()
 
 

@@ -1,5 +1,6 @@
-"""What the command line says about the ray caster: ``labsim --version`` names it, and the
-first ``labsim run`` of an install without the C kernel says so once (backends/pymunk/ray_cast.py)."""
+"""What the command line says about the ray caster: ``labsim --version`` names it (and the live
+view's tick hook), and the first ``labsim run`` of an install without the C kernel says so once
+(backends/pymunk/ray_cast.py)."""
 from __future__ import annotations
 
 import subprocess
@@ -12,15 +13,18 @@ from helpers import BEHAVIOURS
 from labsim.backends.pymunk import ray_cast
 from labsim.runtime.cli import parser
 from labsim.runtime.cli.main import main
+from labsim.runtime.view import peaks
 
 NOTE = ("note: the ray sensors cast without labsim's C kernel (no C compiler at install): the same readings, "
         "slower; `labsim --version` says which caster runs")
 
 
-def test_version_names_the_caster_that_runs() -> None:
+def test_version_names_the_caster_and_the_view_hook_that_run() -> None:
     result = subprocess.run([sys.executable, "-m", "labsim", "--version"], capture_output=True, text=True)
     caster = "C kernel" if ray_cast.KERNEL == "c" else "Python"
-    assert result.returncode == 0 and result.stdout.endswith(f" (ray caster: {caster})\n")
+    hook = "C" if peaks.KERNEL == "c" else "Python"
+    assert result.returncode == 0
+    assert result.stdout.endswith(f" (ray caster: {caster}; live view's tick hook: {hook})\n")
 
 
 def _run(capsys: pytest.CaptureFixture[str], *extra: str) -> str:
