@@ -1154,7 +1154,8 @@ def test_the_table_lists_what_a_robot_reads_of_the_others(view: Any, tmp_path: P
     v = view([str(path)])
     for _ in range(12):
         v.page.click("#step")
-    v.wait("window.labsimView.frame.tick >= 11")
+    # the frame of tick 11 drawn (its table is filled on the animation frame after it arrives)
+    v.wait("window.labsimView.frame.tick >= 11 && !window.labsimView.unacked")
     table = "Array.from(document.querySelectorAll('#table tbody tr')).map((tr) => tr.innerText.trim())"
 
     def shown() -> dict[str, str]:
