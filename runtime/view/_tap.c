@@ -238,8 +238,6 @@ static PyTypeObject PathType = {
 
 /* ------------------------------------------------------------------------------------- Tap */
 
-#define MOST_COLUMNS 256  /* a chart of more columns goes the Python way (record.fast_after_act) */
-
 typedef struct {
     PyObject_HEAD
     vectorcallfunc vectorcall;
@@ -251,7 +249,8 @@ typedef struct {
     Py_ssize_t state, x, y, hit;  /* STATE's slot; x, y and collided in the readings (-1: none) */
     Py_ssize_t limit;       /* Kept.data's bytes past which it is thinned */
     Py_ssize_t nchan, nslot, width;
-    Py_ssize_t columns[MOST_COLUMNS];  /* channels, then slots */
+    Py_ssize_t *columns;    /* width of them: the channels read, then the slots */
+    double *row;            /* width of them: the tick's values, before they are packed */
     /* per robot, the Kept last packed onto and its data (Kept.data is one bytearray for the Kept's
      * life): an attribute read a tick less */
     Py_ssize_t robots;
@@ -349,7 +348,7 @@ static int tap_room(PyObject *data, Py_ssize_t need) {
 static int tap_chart(Tap *t, Py_ssize_t i, PyObject *values, PyObject *s) {
     if (i >= PyList_GET_SIZE(t->samples) || i >= t->robots) return 0;
     PyObject *kept = PyList_GET_ITEM(t->samples, i);
-    double row[MOST_COLUMNS];
+    double *row = t->row;  /* filled and packed before any call into Python */
     if (kept != t->kept_at[i]) {  /* a frame took the last one: a new Kept */
         PyObject *data = PyObject_GetAttr(kept, s_data);
         if (data == NULL) return -1;
@@ -394,6 +393,10 @@ static int tap_path(Tap *t, Py_ssize_t i, PyObject *values) {
 static PyObject *tap_call(Tap *t, PyObject *const *args, size_t nargsf, PyObject *kwnames) {
     if (PyVectorcall_NARGS(nargsf) != 3 || kwnames != NULL) {
         PyErr_SetString(PyExc_TypeError, "a tap is called with (robot, rule, values)");
+        return NULL;
+    }
+    if (t->general == NULL) {
+        PyErr_SetString(PyExc_TypeError, "a tap is made with Tap(...) before it is called");
         return NULL;
     }
     PyObject *r = args[0], *rule = args[1], *values = args[2];
@@ -450,26 +453,28 @@ static void tap_forget(Tap *t) {
     t->robots = 0;
 }
 
-static int columns_of(Tap *t, PyObject *seq, Py_ssize_t *n, Py_ssize_t from) {
+/* the column places of `seq` (ints >= 0) into a new array; its length in *n */
+static Py_ssize_t *columns_of(PyObject *seq, Py_ssize_t *n) {
     PyObject *fast = PySequence_Fast(seq, "the columns are a sequence of int");
-    if (fast == NULL) return -1;
+    if (fast == NULL) return NULL;
     *n = PySequence_Fast_GET_SIZE(fast);
-    if (from + *n > MOST_COLUMNS) {
+    Py_ssize_t *out = PyMem_Malloc((*n ? *n : 1) * sizeof(Py_ssize_t));
+    if (out == NULL) {
         Py_DECREF(fast);
-        PyErr_Format(PyExc_ValueError, "a tap keeps at most %d columns", MOST_COLUMNS);
-        return -1;
+        PyErr_NoMemory();
+        return NULL;
     }
     for (Py_ssize_t k = 0; k < *n; k++) {
-        Py_ssize_t at = PyLong_AsSsize_t(PySequence_Fast_GET_ITEM(fast, k));
-        if (at < 0) {
-            Py_DECREF(fast);
+        out[k] = PyLong_AsSsize_t(PySequence_Fast_GET_ITEM(fast, k));
+        if (out[k] < 0) {
             if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "a column is an index >= 0");
-            return -1;
+            Py_DECREF(fast);
+            PyMem_Free(out);
+            return NULL;
         }
-        t->columns[from + k] = at;
     }
     Py_DECREF(fast);
-    return 0;
+    return out;
 }
 
 static int tap_init(Tap *t, PyObject *args, PyObject *kwds) {
@@ -485,8 +490,32 @@ static int tap_init(Tap *t, PyObject *args, PyObject *kwds) {
                                      &PyList_Type, &breaks, &inputs, &slots, &events, &state, &x, &y, &hit,
                                      &limit, &channels, &kept_slots))
         return -1;
-    if (columns_of(t, channels, &t->nchan, 0) < 0 || columns_of(t, kept_slots, &t->nslot, t->nchan) < 0) return -1;
-    t->width = t->nchan + t->nslot;
+    if (state < 0 || x < -1 || y < -1 || hit < -1 || (x < 0) != (y < 0)) {
+        PyErr_SetString(PyExc_ValueError, "a tap's state slot is >= 0, and x, y and hit places >= 0 (-1: none)");
+        return -1;
+    }
+    Py_ssize_t nchan, nslot;
+    Py_ssize_t *chan = columns_of(channels, &nchan), *slot = chan == NULL ? NULL : columns_of(kept_slots, &nslot);
+    Py_ssize_t *columns = slot == NULL ? NULL : PyMem_Malloc((nchan + nslot ? nchan + nslot : 1) * sizeof(Py_ssize_t));
+    double *row = columns == NULL ? NULL : PyMem_Malloc((nchan + nslot ? nchan + nslot : 1) * sizeof(double));
+    if (row == NULL) {
+        if (slot != NULL && !PyErr_Occurred()) PyErr_NoMemory();
+        PyMem_Free(chan);
+        PyMem_Free(slot);
+        PyMem_Free(columns);
+        return -1;
+    }
+    memcpy(columns, chan, nchan * sizeof(Py_ssize_t));
+    memcpy(columns + nchan, slot, nslot * sizeof(Py_ssize_t));
+    PyMem_Free(chan);
+    PyMem_Free(slot);
+    PyMem_Free(t->columns);
+    PyMem_Free(t->row);
+    t->columns = columns;
+    t->row = row;
+    t->nchan = nchan;
+    t->nslot = nslot;
+    t->width = nchan + nslot;
     PyObject **fields[] = {&t->general, &t->slow, &t->states, &t->touching, &t->last_rule, &t->last, &t->paths,
                            &t->samples, &t->breaks, &t->inputs, &t->slots, &t->events};
     PyObject *given[] = {general, slow, states, touching, last_rule, last, paths, samples, breaks, inputs, slots,
@@ -557,6 +586,8 @@ static int tap_clear(Tap *t) {
 static void tap_dealloc(Tap *t) {
     PyObject_GC_UnTrack(t);
     tap_clear(t);
+    PyMem_Free(t->columns);
+    PyMem_Free(t->row);
     Py_TYPE(t)->tp_free((PyObject *)t);
 }
 
@@ -708,8 +739,7 @@ PyMODINIT_FUNC PyInit__tap(void) {
     if (m == NULL) return NULL;
     Py_INCREF(&PathType);
     Py_INCREF(&TapType);
-    if (PyModule_AddObject(m, "Path", (PyObject *)&PathType) < 0 || PyModule_AddObject(m, "Tap", (PyObject *)&TapType) < 0
-        || PyModule_AddIntConstant(m, "MOST_COLUMNS", MOST_COLUMNS) < 0) {
+    if (PyModule_AddObject(m, "Path", (PyObject *)&PathType) < 0 || PyModule_AddObject(m, "Tap", (PyObject *)&TapType) < 0) {
         Py_DECREF(m);
         return NULL;
     }

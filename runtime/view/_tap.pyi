@@ -2,8 +2,6 @@
 # built only where a compiler was.
 from collections.abc import Callable, Sequence
 
-MOST_COLUMNS: int
-
 class Path:
     tol: float
     points: list[tuple[float, float]]

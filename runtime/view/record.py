@@ -299,11 +299,9 @@ def tap(rec: TickRecorder, channels: Sequence[int], slots: Sequence[int],
     """``fast_after_act``'s hook as one call of the C extension (``_tap.Tap``): the same checks
     for a tick with something to note (which it hands to the general hook), then the rule, the
     readings, the path point and the chart's values packed, in one call. The recorder's paths
-    are the extension's ``Path``; a chart of more columns than it keeps goes the Python way.
-    ``inputs`` None: ticks with no slider move to apply, which it need not look for."""
+    are the extension's ``Path``. ``inputs`` None: ticks with no slider move to apply, which it
+    need not look for."""
     assert rec._run is not None
-    if len(channels) + len(slots) > peaks._tap.MOST_COLUMNS:
-        return fast_after_act(rec, channels, slots, inputs)
     xy = rec.xy[0] or ()
     first = rec._run.robots[0].program
     one = len(rec.xy) == 1

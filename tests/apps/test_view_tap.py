@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT
+from helpers import ROOT, examples
 
 from labsim.runtime.view import peaks, record
 from labsim.runtime.view.live import LiveSession
@@ -118,15 +118,21 @@ def _sessions(path: Path, monkeypatch: pytest.MonkeyPatch) -> list[LiveSession]:
     return out
 
 
-@pytest.mark.parametrize("path", LABS, ids=lambda p: p.stem)
-def test_each_tick_hook_gives_the_page_the_same_frames(path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("name", [p.stem for p in LABS] + ["lidar_sectors", "formation_of_three"])
+def test_each_tick_hook_gives_the_page_the_same_frames(name: str, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     # the wall lab at a 5 cm threshold bumps into walls: collisions begun and ended; the road lab
     # is five robots; the crane's timeline moves its sliders, and its chart columns are parts of
-    # joints' readings, which go the general way whichever hook is built
+    # joints' readings, which go the general way whichever hook is built; docs/language.md's
+    # lidar example charts its 360 beams, and the formation's three robots read each other
     tap_built()
+    path = ROOT / "behaviours" / f"{name}.yaml"
+    if not path.exists():
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(examples()[name])
     sessions = _sessions(path, monkeypatch)
     c, generated, general = sessions
-    fast = path.stem != "crane"
+    fast = name != "crane"
     assert isinstance(c.recorder.after_act, peaks._tap.Tap) is fast
     assert ("after_act" in vars(generated.recorder)) is fast
     assert not isinstance(generated.recorder.after_act, peaks._tap.Tap)
@@ -138,7 +144,7 @@ def test_each_tick_hook_gives_the_page_the_same_frames(path: Path, monkeypatch: 
         for f in frames[1:]:
             assert f["robots"] == frames[0]["robots"], stretch
             assert f["events"] == frames[0]["events"], stretch
-    if path.stem == "wall_follow":
+    if name == "wall_follow":
         assert c.recorder.collisions[0] > 0
     for s in sessions:
         s.close()
@@ -212,3 +218,18 @@ def test_the_c_envelope_refuses_what_disagrees() -> None:
                                         (3, [0], starts, 4)):
         with pytest.raises(ValueError):
             peaks._tap.envelope(data, width, np.array(columns, dtype=np.intp), first, rows)
+
+
+def test_a_tap_refuses_what_it_cannot_use() -> None:
+    tap_built()
+    tap = peaks._tap.Tap.__new__(peaks._tap.Tap)
+    with pytest.raises(TypeError, match="made with Tap"):
+        tap(None, 0, [])  # made but not set up: no crash
+    lists = [[] for _ in range(7)]
+
+    def made(state: int = 2, x: int = -1, y: int = -1, hit: int = -1, columns: object = ()) -> object:
+        return peaks._tap.Tap(print, print, *lists[:6], lists[6], None, [], [], state, x, y, hit, 800, columns, ())
+    for bad in ({"state": -1}, {"x": 3}, {"x": -2, "y": -2}, {"hit": -5}, {"columns": [1, -1]}, {"columns": ["a"]}):
+        with pytest.raises((ValueError, TypeError)):
+            made(**bad)  # type: ignore[arg-type]
+    assert callable(made())
