@@ -8,8 +8,9 @@ mapped already plus the budget plus ``HEADROOM_MB``, and puts the old limit back
 so a notebook that runs a behaviour keeps its own limit. An allocation past the cap fails
 with ``MemoryError`` (or OpenCV's "insufficient memory"), which ``out_of_memory`` recognises
 and the tick loop reports as labsim's own message. ``limit_memory`` is the one-way form a
-sweep's worker process applies to itself. Where the platform has no ``RLIMIT_AS`` (Windows;
-macOS does not enforce it) both do nothing and say so by returning False: docs/security.md.
+sweep's worker process applies to itself (what it has mapped plus the run's megabytes). Where
+the platform has no ``RLIMIT_AS`` (Windows; macOS does not enforce it) both do nothing and say
+so by returning False: docs/security.md.
 """
 from __future__ import annotations
 
@@ -25,11 +26,15 @@ HEADROOM_MB = 1024
 
 
 def limit_memory(memory_mb: int) -> bool:
-    """Cap this process's address space at memory_mb for good (RLIMIT_AS), where the platform
-    has it; 0 leaves it alone. What a sweep's local worker does first."""
+    """Cap this process's address space for good (RLIMIT_AS), where the platform has it, at what
+    it has mapped now plus memory_mb; 0 leaves it alone. What a sweep's local worker does first.
+    A worker forked from a large process (a notebook's kernel, a test runner with its libraries
+    and threads) has mapped more than a run's memory_mb already: capped at memory_mb itself, its
+    stack could no longer grow and it crashed in the middle of Python code."""
     if memory_mb <= 0:
         return False
-    return _set_soft(memory_mb * MB) is not None
+    mapped = _mapped_bytes()
+    return _set_soft((mapped or 0) + memory_mb * MB) is not None
 
 
 @contextmanager

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
-from helpers import cases
+from helpers import BEHAVIOURS, cases
 
 pytestmark = pytest.mark.slow  # every case is a labsim process of its own, a few of them seconds of work
 
@@ -213,6 +213,23 @@ def test_a_sweep_applies_the_budgets_to_every_run(tmp_path: Path) -> None:
                            "--budget", "ticks=500"], cwd=tmp_path, capture_output=True, text=True, timeout=TIMEOUT_S)
     assert proc.returncode == 1, proc.stdout + proc.stderr  # runs failed; the sweep completed
     assert proc.stdout.count("runtime error: the run reached its budget of 500 ticks") == 2
+
+
+def test_a_worker_of_a_large_process_still_runs_under_its_limit() -> None:
+    # forked from a process that has mapped more than a run's megabytes already (a notebook's
+    # kernel, a test runner): the limit counts from what it has, so its stack still grows and a
+    # run compiles; capped at the megabytes themselves, it crashed inside the checker
+    code = ("import mmap\n"
+            "big = mmap.mmap(-1, 3 * 1024 ** 3)  # 3 GB mapped, never touched\n"
+            "from labsim.foundation.memory import limit_memory\n"
+            "assert limit_memory(1024)\n"
+            "from labsim.runtime.run import compile_behaviour\n"
+            f"compile_behaviour({str(BEHAVIOURS / 'wall_follow.yaml')!r}, {{}})\n"
+            "def deep(n):\n    return 0 if n == 0 else 1 + deep(n - 1)\n"
+            "print(deep(900))\n"
+            "try:\n    bytearray(4 * 1024 ** 3)\nexcept MemoryError:\n    print('MemoryError')\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=TIMEOUT_S)
+    assert proc.returncode == 0 and proc.stdout.split() == ["900", "MemoryError"], proc.stderr[-2000:]
 
 
 def test_a_sweep_worker_has_a_memory_limit() -> None:
