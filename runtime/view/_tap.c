@@ -25,6 +25,7 @@
 #include <Python.h>
 #include <structmember.h>
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 /* ------------------------------------------------------------------------------------ Path */
@@ -123,6 +124,19 @@ static int path_init(Path *p, PyObject *args, PyObject *kwds) {
     p->on = p->seen = 0;
     p->ux = p->uy = p->along = p->lx = p->ly = 0.0;
     return 0;
+}
+
+static PyObject *path_new(PyTypeObject *type, PyObject *args, PyObject *kwds) {
+    Path *p = (Path *)PyType_GenericNew(type, args, kwds);
+    if (p == NULL) return NULL;
+    if ((p->points = PyList_New(0)) == NULL) {  /* usable before __init__ too */
+        Py_DECREF(p);
+        return NULL;
+    }
+    p->tol = 0.005;
+    p->most = PY_SSIZE_T_MAX;
+    p->ax = p->ay = Py_NAN;
+    return (PyObject *)p;
 }
 
 static int path_traverse(Path *p, visitproc visit, void *arg) {
@@ -226,7 +240,7 @@ static PyTypeObject PathType = {
     .tp_basicsize = sizeof(Path),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_doc = "Path(tolerance_m=0.005, most=...): a path as the points where it bends (record.PathThinner).",
-    .tp_new = PyType_GenericNew,
+    .tp_new = path_new,
     .tp_init = (initproc)path_init,
     .tp_dealloc = (destructor)path_dealloc,
     .tp_traverse = (traverseproc)path_traverse,
@@ -356,25 +370,32 @@ static int tap_chart(Tap *t, Py_ssize_t i, PyObject *values, PyObject *s) {
         Py_XSETREF(t->kept_at[i], kept);
         Py_XSETREF(t->data_at[i], data);
     }
+    /* both held while Python code may run (a value's __float__, thin()) */
     PyObject *data = t->data_at[i];
+    Py_INCREF(kept);
+    Py_INCREF(data);
+    int failed = -1;
     if (!PyByteArray_CheckExact(data) || tap_row(t, values, s, row)) {
         PyObject *done = tap_packed_slowly(t, kept, values, s);
-        if (done == NULL) return -1;
-        Py_DECREF(done);
-        return 0;
+        if (done != NULL) {
+            Py_DECREF(done);
+            failed = 0;
+        }
+        goto out;
     }
     Py_ssize_t n = PyByteArray_GET_SIZE(data), bytes = t->width * (Py_ssize_t)sizeof(double);
-    if (tap_room(data, n + bytes) < 0) return -1;
+    if (tap_room(data, n + bytes) < 0) goto out;
     memcpy(PyByteArray_AS_STRING(data) + n, row, bytes);
     if (n + bytes > t->limit) {
-        PyObject *kept_ = kept;  /* thin() may be the last to hold it: held across the call */
-        Py_INCREF(kept_);
-        PyObject *thinned = PyObject_CallMethodNoArgs(kept_, s_thin);
-        Py_DECREF(kept_);
-        if (thinned == NULL) return -1;
+        PyObject *thinned = PyObject_CallMethodNoArgs(kept, s_thin);
+        if (thinned == NULL) goto out;
         Py_DECREF(thinned);
     }
-    return 0;
+    failed = 0;
+out:
+    Py_DECREF(data);
+    Py_DECREF(kept);
+    return failed;
 }
 
 static int tap_path(Tap *t, Py_ssize_t i, PyObject *values) {
@@ -490,6 +511,10 @@ static int tap_init(Tap *t, PyObject *args, PyObject *kwds) {
                                      &PyList_Type, &breaks, &inputs, &slots, &events, &state, &x, &y, &hit,
                                      &limit, &channels, &kept_slots))
         return -1;
+    if (t->general != NULL) {  /* its lists and columns may be in use by a call under way */
+        PyErr_SetString(PyExc_TypeError, "a tap is made once");
+        return -1;
+    }
     if (state < 0 || x < -1 || y < -1 || hit < -1 || (x < 0) != (y < 0)) {
         PyErr_SetString(PyExc_ValueError, "a tap's state slot is >= 0, and x, y and hit places >= 0 (-1: none)");
         return -1;
@@ -651,7 +676,12 @@ static PyObject *envelope(PyObject *module, PyObject *const *args, Py_ssize_t na
     const Py_ssize_t *col = cols.buf, *start = starts.buf;
     const double *m = data.buf;
     if (PyErr_Occurred()) goto done;
-    if (width < 0 || rows < 0 || (width && rows > data.len / width / (Py_ssize_t)sizeof(double))
+    if (((uintptr_t)data.buf % sizeof(double)) || ((uintptr_t)cols.buf % sizeof(Py_ssize_t))
+        || ((uintptr_t)starts.buf % sizeof(Py_ssize_t))) {
+        PyErr_SetString(PyExc_ValueError, "envelope: a buffer not aligned for its numbers");
+        goto done;
+    }
+    if (width <= 0 || rows < 0 || rows > data.len / width / (Py_ssize_t)sizeof(double)
         || (groups && start[0] != 0)) {
         PyErr_SetString(PyExc_ValueError, "envelope: rows, width and data disagree");
         goto done;

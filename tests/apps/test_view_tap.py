@@ -215,9 +215,11 @@ def test_the_c_envelope_refuses_what_disagrees() -> None:
     data = np.zeros((4, 2)).tobytes()
     starts = np.array([0, 2], dtype=np.intp)
     for width, columns, first, rows in ((2, [2], starts, 4), (2, [0], starts, 5), (2, [0], starts[::-1].copy(), 4),
-                                        (3, [0], starts, 4)):
+                                        (3, [0], starts, 4), (0, [-1], starts, 10 ** 15)):
         with pytest.raises(ValueError):
             peaks._tap.envelope(data, width, np.array(columns, dtype=np.intp), first, rows)
+    with pytest.raises(ValueError, match="aligned"):
+        peaks._tap.envelope(memoryview(b"x" + data)[1:], 2, np.array([0], dtype=np.intp), starts, 4)
 
 
 def test_a_tap_refuses_what_it_cannot_use() -> None:
@@ -232,4 +234,12 @@ def test_a_tap_refuses_what_it_cannot_use() -> None:
     for bad in ({"state": -1}, {"x": 3}, {"x": -2, "y": -2}, {"hit": -5}, {"columns": [1, -1]}, {"columns": ["a"]}):
         with pytest.raises((ValueError, TypeError)):
             made(**bad)  # type: ignore[arg-type]
-    assert callable(made())
+    tap = made()
+    with pytest.raises(TypeError, match="made once"):
+        tap.__init__(print, print, *lists[:6], lists[6], None, [], [], 2, -1, -1, -1, 800, (), ())
+    path = peaks._tap.Path.__new__(peaks._tap.Path)  # not set up: still a path, not a crash
+    path.add(1.0, 2.0)
+    path.jump(3.0, 4.0)
+    kept = path.take()
+    assert path.pending() is None and kept[0] == (1.0, 2.0) and math.isnan(kept[1][0]) and kept[2] == (3.0, 4.0)
+    assert path.points == []
