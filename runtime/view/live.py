@@ -137,10 +137,9 @@ class LiveSession(Session):
         self.recorder.chart(self._sampler.read, self._sampler.keep, self._sampler.width, self._sampler.columns)
         given = hooks(run.observers)
         run.tick = make_tick(run, given)  # the recorder's hook, generated for these columns
-        # and a tick without the inputs' hook, for stretches with no move to apply (``Inputs.quiet``)
-        moves = getattr(run.inputs, "before_tick", None)
-        # and its recorder's hook that need not look for one (``TickRecorder.quiet_act``)
-        rec = self.recorder
+        # and a tick without the inputs' hook, for stretches with no move to apply (``Inputs.quiet``),
+        # its recorder's hook one that does not look for one (``TickRecorder.quiet_act``)
+        moves, rec = getattr(run.inputs, "before_tick", None), self.recorder
         self._quiet = make_tick(run, replace(given, before_tick=tuple(h for h in given.before_tick if h != moves),
                                              after_act=tuple(rec.quiet_act if h == rec.after_act else h
                                                              for h in given.after_act)))
@@ -292,9 +291,7 @@ class LiveSession(Session):
             pose = self._pose(r.index, r.start) if r.model is not None else None
             hits: list = [[short(x), short(y)] for x, y in rec.hits[r.index]] if take else []
             path: list = paths[r.index]
-            # the chart's rows carry four decimals, the metrics' columns too (five robots' full
-            # digits took a frame past 4 KB)
-            charted = [short(v) for v in done]
+            charted = [short(v) for v in done]  # four decimals as the rest of a chart row (5 robots: < 4 KB)
             samples: list = [[*row, *charted] for row in self._sampler.rows(rec.take_samples(r.index), dt, per)] \
                 if take else []
             robots.append({
