@@ -1,6 +1,6 @@
 """The cost of watching: the wall lab at "as fast as it goes" with a page connected, against `labsim run`.
 
-    python benchmarks/bench_view.py [--repeat 5] [--rays python]
+    python benchmarks/bench_view.py [--repeat 5] [--rays python] [--view python]
 
 Both sides run behaviours/wall_follow.yaml (30,000 ticks, no trace) on the pymunk backend.
 The view side serves it as `labsim view` does (the aiohttp server, the pacing loop, a
@@ -11,7 +11,8 @@ over labsim run's (goal >= 0.8), the frames a second the page received (goal <= 
 bytes a frame averaged with its full path and chart samples (goal < 4096), and checks that
 both ended at the same pose. ``--rays python`` has both sides cast the sonars with the Python
 rays, not the C kernel: a simulator three times slower, against which the same cost of watching
-weighs a third as much.
+weighs a third as much. ``--view python`` has the view record its ticks and make its chart's
+envelope in Python, as an install without a C compiler does (runtime/view/_tap.c not built).
 """
 from __future__ import annotations
 
@@ -81,7 +82,13 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--rays", choices=("c", "python"), default="c",
                         help="the sonars' caster on both sides (c: the kernel where built)")
+    parser.add_argument("--view", choices=("c", "python"), default="c",
+                        help="what records the view's ticks (c: the extension where built)")
     args = parser.parse_args()
+    if args.view == "python":
+        from labsim.runtime.view import peaks
+
+        peaks.KERNEL = "python"
     if args.rays == "python":
         from labsim.backends.pymunk import ray_cast
 
@@ -101,7 +108,8 @@ def main() -> None:
         return t
 
     print(machine())
-    print(f"sonars cast by: {'the Python rays' if args.rays == 'python' else 'the C kernel'}")
+    print(f"sonars cast by: {'the Python rays' if args.rays == 'python' else 'the C kernel'}; "
+          f"the view's ticks recorded in {'Python' if args.view == 'python' else 'C'}")
     times = alternate({"labsim run": plain, "labsim view + page": watched}, args.repeat)
     same = all(math.isclose(a, b, rel_tol=0, abs_tol=1e-12)
                for p, q in zip(poses["run"], poses["view"]) for a, b in zip(p, q))
