@@ -200,17 +200,11 @@ class Sampler:
             return []
         ticks = np.array(kept.tick_list(), dtype=float) if kept.ticks else \
             np.arange(kept.first, kept.first + n, dtype=float)
+        times = np.round(ticks * dt_s, 9)
         if kept.data is not None and self.kernel == "c" and n > max(2, at_most):
-            starts, ends = groups_of(n, at_most)
-            low, high, fell, rose = _tap.envelope(kept.data, kept.width, self._c_columns, starts, n)
-            shape = (len(starts), len(self._c_columns))
-            out, flags = paired_rows(np.round(ticks[starts] * dt_s, 9), np.round(ticks[ends] * dt_s, 9),
-                                     np.frombuffer(low).reshape(shape), np.frombuffer(high).reshape(shape),
-                                     np.frombuffer(fell, dtype=np.bool_).reshape(shape) == 0,
-                                     np.frombuffer(rose, dtype=np.bool_).reshape(shape) == 0)
-            bands: list[str] | None = flags
+            out, bands = packed_pairs(kept.data, kept.width, self._c_columns, times, at_most)
         else:
-            out, bands = pairs(np.round(ticks * dt_s, 9), self._numbers(kept), at_most)
+            out, bands = pairs(times, self._numbers(kept), at_most)
         self.paired, self.bands = bands is not None, bands or []
         return out
 
@@ -236,6 +230,22 @@ def pairs(times: np.ndarray, m: np.ndarray, at_most: int) -> tuple[list[Row], li
         high = np.fmax.reduceat(m, starts, axis=1).T
     rising, falling = _monotone(m, starts, ends)
     return paired_rows(times[starts], times[ends], low, high, rising, falling)
+
+
+def packed_pairs(data: bytearray | bytes, width: int, columns: np.ndarray, times: np.ndarray,
+                 at_most: int) -> tuple[list[Row], list[str] | None]:
+    """``pairs`` of rows packed as doubles, ``width`` a row (``Kept.data``), by the C extension's
+    ``envelope``: ``columns`` (intp) each chart column's place in a row, -1 for none (nan)."""
+    n = len(times)
+    if n <= max(2, at_most):
+        m = np.frombuffer(data, dtype=float, count=n * width).reshape(n, width)
+        return _table(times, np.where(columns >= 0, m[:, np.maximum(columns, 0)], math.nan)), None
+    starts, ends = groups_of(n, at_most)
+    low, high, fell, rose = _tap.envelope(data, width, columns, starts, n)
+    shape = (len(starts), len(columns))
+    return paired_rows(times[starts], times[ends], np.frombuffer(low).reshape(shape),
+                       np.frombuffer(high).reshape(shape), np.frombuffer(fell, dtype=np.bool_).reshape(shape) == 0,
+                       np.frombuffer(rose, dtype=np.bool_).reshape(shape) == 0)
 
 
 def paired_rows(first: np.ndarray, last: np.ndarray, low: np.ndarray, high: np.ndarray, rising: np.ndarray,
