@@ -315,7 +315,8 @@ def _crossings(path: list, walls: list) -> list:
 
 
 def test_the_path_drawn_at_full_speed_never_crosses_a_wall(view: Any) -> None:
-    v = view(["behaviours/wall_follow.yaml"])
+    # ten hours: at top speed the lab's own 25 minutes can end before the pause lands
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=600"])
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("window.labsimView.frame.tick >= 9000", timeout_ms=60000)
@@ -675,7 +676,7 @@ def test_a_crane_replay_seek_holds_the_sliders_at_their_recorded_values(view: An
 
 
 def test_a_second_tab_receives_the_run_so_far(view: Any) -> None:
-    v = view(["behaviours/wall_follow.yaml"])
+    v = view(["behaviours/wall_follow.yaml", "--set", "minutes=600"])  # still running when paused
     v.page.select_option("#speed", "max")
     v.page.click("#play")
     v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
@@ -796,8 +797,8 @@ def _pairs_are_the_trace_s_least_and_greatest(trace: Path, t: list[float], steer
 
 def test_a_15_hz_flip_is_drawn_as_an_envelope_and_every_axis_has_three_ticks(view: Any, tmp_path: Path) -> None:
     trace = tmp_path / "line.csv"
-    v = view(["behaviours/line_follow.yaml", "--trace", str(trace)], "?chart=steer,laps")
-    v.page.select_option("#speed", "max")
+    v = view(["behaviours/line_follow.yaml", "--trace", str(trace), "--set", "minutes=60"], "?chart=steer,laps")
+    v.page.select_option("#speed", "max")  # an hour: still running when paused
     v.page.click("#play")
     v.wait("window.labsimView.frame.tick >= 3000", timeout_ms=60000)
     v.page.click("#play")  # pause
