@@ -384,6 +384,11 @@ class Run:
         except TraceWriteError as e:
             self.trace_error = self.trace_error or e
 
+    def end_trace(self) -> None:
+        """The trace's footer once a live view's run has ended: interrupted only if a budget
+        ended it, as ``run`` writes it."""
+        self._close_trace(bool(self.over_budget))
+
     def close(self) -> None:
         self._close_trace(True)  # closed already unless the run never started
         self.backend.close()

@@ -182,7 +182,7 @@ class LiveSession(Session):
                 for k in range(n):
                     if not tick():
                         if run.trace is not None:
-                            run.trace.close()  # the stop condition held: the trace is complete
+                            run.end_trace()  # the stop condition held: the trace is complete
                         return k
                     if rec.hit is not None:  # a breakpoint held on this tick: pause on it
                         self.playing = False

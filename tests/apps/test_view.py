@@ -544,6 +544,18 @@ def test_every_frame_of_every_lab_stays_under_4_kb(path: Path) -> None:
         s.close()
 
 
+def test_a_live_run_its_stop_condition_ended_has_the_footer_labsim_run_writes(tmp_path: Path) -> None:
+    viewed, ran = tmp_path / "view.csv", tmp_path / "run.csv"
+    s = LiveSession(WALL, {"minutes": "0.5"}, warn=lambda m: None, clock=FakeClock(), trace=viewed)
+    assert s.load()
+    while s.advance(500):
+        pass
+    s.close()  # the server stopping after the end
+    assert main(["run", str(WALL), "--set", "minutes=0.5", "--trace", str(ran), "-q"]) == 0
+    assert viewed.read_text().splitlines()[-1] == ran.read_text().splitlines()[-1]
+    assert '"interrupted": false' in viewed.read_text().splitlines()[-1]
+
+
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
     s = live(WALL)
     sizes = []
