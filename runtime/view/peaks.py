@@ -265,8 +265,11 @@ def paired_rows(first: np.ndarray, last: np.ndarray, low: np.ndarray, high: np.n
 
 
 def _table(times: np.ndarray, values: np.ndarray) -> list[Row]:
-    """Rows ``[time, value, ...]``: four decimals (no -0.0), ``"inf"`` and None as sent."""
-    values = np.round(values, 4) + 0.0
+    """Rows ``[time, value, ...]``: four decimals (no -0.0), ``"inf"`` and None as sent. A value of
+    1e15 or more is sent as it is (rounding it to four decimals changes nothing; beyond 1.8e304 it
+    overflowed to inf)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        values = np.where(np.abs(values) < 1e15, np.round(values, 4), values) + 0.0
     table = np.hstack([times[:, None], values])
     if np.isfinite(values).all():
         return table.tolist()

@@ -236,3 +236,11 @@ def test_a_tap_refuses_what_it_cannot_use() -> None:
     kept = path.take()
     assert path.pending() is None and kept[0] == (1.0, 2.0) and math.isnan(kept[1][0]) and kept[2] == (3.0, 4.0)
     assert path.points == []
+
+
+def test_huge_finite_values_are_charted_as_they_are() -> None:
+    # 4 decimals by multiplying by 10^4 overflowed beyond 1.8e304: finite values sent as "inf"
+    m = np.array([[-1e308, 1e308, 2.5e306, -0.00004, 1.23456789]])
+    rows, _ = peaks.pairs(np.arange(5.0), m, 10)
+    assert [r[1] for r in rows] == [-1e308, 1e308, 2.5e306, 0.0, 1.2346]
+    assert str(rows[3][1]) == "0.0"  # no -0.0
