@@ -650,9 +650,9 @@ static PyTypeObject TapType = {
  * them, each touching fresh memory). `columns` (bytes of Py_ssize_t) picks each chart column's
  * place in a row (-1: none, nan), `starts` (bytes of Py_ssize_t, rising, the first 0) begins
  * each group of consecutive rows. Per group and column, group after group: the least and the
- * greatest value, nan ignored as numpy's fmin and fmax do (doubles, in `low` and `high`); and
- * whether a step between two rows of the group fell or rose (bytes of 0 and 1: a nan step
- * neither, the step into the next group's first row not counted). */
+ * greatest finite value, nan and inf passed over (doubles, in `low` and `high`; nan: none); and
+ * whether a step between two finite values of consecutive rows of the group fell or rose (bytes
+ * of 0 and 1; the step into the next group's first row not counted). */
 static PyObject *envelope(PyObject *module, PyObject *const *args, Py_ssize_t nargs) {
     if (nargs != 5) {
         PyErr_SetString(PyExc_TypeError, "envelope(data, width, columns, starts, rows)");
@@ -720,14 +720,14 @@ static PyObject *envelope(PyObject *module, PyObject *const *args, Py_ssize_t na
             for (Py_ssize_t j = 0; j < k; j++) {
                 if (col[j] < 0) continue;
                 double v = row[col[j]];
-                if (v == v) {  /* numpy's fmin and fmax: a nan is passed over */
+                if (isfinite(v)) {  /* numpy's fmin and fmax: a nan is passed over, and so is an inf */
                     if (!(l[j] <= v)) l[j] = v;  /* a nan so far, or greater */
                     if (!(h[j] >= v)) h[j] = v;
-                }
-                if (t > first) {
-                    double d = v - prev[j];
-                    if (d < 0) f[j] = 1;
-                    else if (d > 0) r[j] = 1;
+                    if (t > first && isfinite(prev[j])) {  /* a step between two finite values */
+                        double d = v - prev[j];
+                        if (d < 0) f[j] = 1;
+                        else if (d > 0) r[j] = 1;
+                    }
                 }
                 prev[j] = v;
             }

@@ -225,6 +225,9 @@ def pairs(times: np.ndarray, m: np.ndarray, at_most: int) -> tuple[list[Row], li
     if n <= max(2, at_most):
         return _table(times, m.T), None
     starts, ends = groups_of(n, at_most)
+    # an inf or -inf tick (a gap on the page) is passed over as nan is: the group's finite values
+    # make its pair, and only a group of nothing else is a gap
+    m = np.where(np.isfinite(m), m, math.nan)
     with np.errstate(invalid="ignore"):
         low = np.fmin.reduceat(m, starts, axis=1).T
         high = np.fmax.reduceat(m, starts, axis=1).T

@@ -244,3 +244,16 @@ def test_huge_finite_values_are_charted_as_they_are() -> None:
     rows, _ = peaks.pairs(np.arange(5.0), m, 10)
     assert [r[1] for r in rows] == [-1e308, 1e308, 2.5e306, 0.0, 1.2346]
     assert str(rows[3][1]) == "0.0"  # no -0.0
+
+
+def test_an_inf_tick_in_a_group_leaves_its_finite_range_drawn() -> None:
+    # a ramp down with inf every fifth tick (a gap on the page): each group's pair is the ramp's
+    # least and greatest there, not the ramp's least and a gap; a group of infs alone is a gap
+    ramp = np.array([[math.inf if k % 5 == 0 else -float(k) for k in range(1, 121)] + [math.inf] * 20])
+    times = np.arange(140.0)
+    for rows, bands in (peaks.pairs(times, ramp, 28),
+                        peaks.packed_pairs(np.ascontiguousarray(ramp.T).tobytes(), 1, np.array([0], dtype=np.intp),
+                                           times, 28)):
+        values = [r[1] for r in rows]
+        assert values[:2] == [-1.0, -9.0] and values[-2:] == [None, None]
+        assert all(v is None or v < 0 for v in values) and bands[0] == "0"  # a line: it only fell
