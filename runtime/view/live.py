@@ -276,16 +276,16 @@ class LiveSession(Session):
         metrics = {r.name: [number(metric_result(agg, acc, p.dt_s)) for agg, acc in
                             zip(p.metric_aggregates, r.program.metric_values)] for r in run.robots}
         robots = []
-        rec, dt = self.recorder, p.dt_s
+        rec, dt, ended = self.recorder, p.dt_s, take and run.finished and run.stopped_by is not None
         paths = [[[short(x), short(y)] for x, y in rec.take_path(r.index)] if take else [] for r in run.robots]
         events = self.history_kept.frame_events(rec.take_events()) if take else {"events": []}
         left = max(SAMPLE_NUMBERS // 2, SAMPLE_NUMBERS - 2 * sum(len(q) for q in paths) // 3  # chart: < 4 KB
                    - sum(len(e[2]) + len(e[3]) + 24 for e in events["events"]) // 8)  # a number ~8 bytes
         per = max(2, left // max(1, len(run.robots) * (len(self._sensors) + len(self._lets) + 1)))
-        for r in run.robots:
-            slots = r.program.slots
-            read = obs.last[r.index] if obs.last else None
-            done = metrics[r.name]
+        for r in run.robots:  # once stopped, the last tick that acted: its signals, not the stopping tick's
+            slots = self._sampler.as_of(rec.samples[r.index], r.program.slots, self.shown_tick) \
+                if ended else r.program.slots
+            read, done = (obs.last[r.index] if obs.last else None), metrics[r.name]
             values = self._values(read, slots) + done
             rule = run.last_rule[r.index]
             pose = self._pose(r.index, r.start) if r.model is not None else None

@@ -556,6 +556,31 @@ def test_a_live_run_its_stop_condition_ended_has_the_footer_labsim_run_writes(tm
     assert '"interrupted": false' in viewed.read_text().splitlines()[-1]
 
 
+@pytest.mark.parametrize("path", [WALL, ROAD, ROOT / "behaviours" / "line_follow.yaml"], ids=lambda p: p.stem)
+def test_the_last_frame_shows_the_last_tick_that_acted_with_its_own_signals(path: Path, tmp_path: Path) -> None:
+    # the stop condition is read from the stopping tick's signals, which no rule acts on: the last
+    # frame names the tick before and must show that tick's signals, as the trace's row has them
+    trace = tmp_path / "t.csv"
+    s = LiveSession(path, {"minutes": "0.3"} if path != ROAD else {}, warn=lambda m: None, clock=FakeClock(),
+                    trace=trace)
+    assert s.load()
+    while s.advance(97):
+        pass
+    frame, scene = s.frame(), s.scene()
+    columns, names = [c["name"] for c in scene["columns"]], [r["name"] for r in scene["robots"]]
+    s.close()
+    rows = read_trace(trace)
+    checked = 0
+    for k, robot in enumerate(frame["robots"]):
+        row = next(r for r in rows.rows if int(r[rows.columns.index("tick")]) == frame["tick"]
+                   and ("robot" not in rows.columns or r[rows.columns.index("robot")] == names[k]))
+        for name, value in zip(columns, robot["values"]):
+            checked += name in rows.columns and isinstance(value, float)
+            if name in rows.columns and isinstance(value, float):
+                assert fmt(value) == row[rows.columns.index(name)], (name, frame["tick"])
+    assert checked > 5 and frame["finished"]
+
+
 def test_frames_carry_the_path_and_chart_samples_of_the_ticks_between_them() -> None:
     s = live(WALL)
     sizes = []
